@@ -1,0 +1,481 @@
+//! `strata`: render, compare and benchmark multi-fragment methods from the command line.
+
+mod bench;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+use strata::error::{Error, Result};
+use strata::gpu::Gpu;
+use strata::methods;
+use strata::render::{save_png, Effect, FrameStats, LinearImage, RenderOptions, Renderer};
+use strata::scene::{loaders, Background, Scene, Shading};
+
+#[derive(Parser)]
+#[command(
+    name = "strata",
+    version,
+    about = "Multi-fragment rendering on the GPU: order-independent transparency, translucency, depth complexity"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene on the GPU with one method.
+    Render(RenderArgs),
+    /// Render a scene with the exact CPU reference.
+    Reference(ReferenceArgs),
+    /// Compare two PNG images: RMSE, PSNR, max abs diff, FLIP mean, % pixels over 2/255.
+    Compare(CompareArgs),
+    /// List every method with its family, exactness, geometry passes and memory.
+    Methods {
+        #[arg(long)]
+        json: bool,
+    },
+    /// Report the GPU adapter, backend, driver, features and limits.
+    Info {
+        #[arg(long)]
+        json: bool,
+    },
+    /// Depth-complexity histogram of a scene (number of pixels per fragment count).
+    Histogram(HistogramArgs),
+    /// Benchmark methods: median GPU ms per pass after warm-up.
+    Bench(bench::BenchArgs),
+}
+
+/// Options shared by everything that makes a picture.
+#[derive(Args, Clone, Debug)]
+pub struct PictureArgs {
+    /// A scene file (.toml, .obj, .ply, .gltf, .glb) or builtin:NAME?key=value&...
+    #[arg(default_value = "builtin:demo")]
+    pub scene: String,
+    /// Image size, WxH (default: the scene's, else 512x512).
+    #[arg(long)]
+    pub size: Option<String>,
+    /// transparency | translucency | complexity
+    #[arg(long, default_value = "transparency")]
+    pub effect: String,
+    /// unlit | lit: overrides every material's shading.
+    #[arg(long)]
+    pub shading: Option<String>,
+    /// checker | #rrggbb (sRGB)
+    #[arg(long)]
+    pub background: Option<String>,
+    /// Sets every material's opacity.
+    #[arg(long)]
+    pub alpha: Option<f32>,
+    /// Per-pixel capacity for k-buffer methods; for `reference`, keep each pixel's k nearest.
+    #[arg(long)]
+    pub k: Option<String>,
+    /// Animation time for animated scenes.
+    #[arg(long)]
+    pub frame: Option<f32>,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    picture: PictureArgs,
+    /// Method id (see `strata methods`).
+    #[arg(long, default_value = "abuffer-ll")]
+    method: String,
+    /// hw (the GPU's rasterizer) | compute (the compute-shader rasterizer, not built yet)
+    #[arg(long, default_value = "hw")]
+    raster: String,
+    /// Memory a method may allocate, MiB.
+    #[arg(long)]
+    budget_mb: Option<f64>,
+    /// Robustness ratio for --k auto (k-buffer methods, not built yet).
+    #[arg(long)]
+    robustness: Option<f64>,
+    /// drop | blend: fragments beyond k (k-buffer methods, not built yet).
+    #[arg(long)]
+    tail: Option<String>,
+    /// forward | deferred (the deferred pipeline is not built yet).
+    #[arg(long, default_value = "forward")]
+    pipeline: String,
+    /// Number of lights for the deferred pipeline (not built yet).
+    #[arg(long)]
+    lights: Option<u32>,
+    #[arg(short, long, default_value = "out.png")]
+    output: PathBuf,
+    /// Write the frame's statistics as JSON.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct ReferenceArgs {
+    #[command(flatten)]
+    picture: PictureArgs,
+    #[arg(short, long, default_value = "reference.png")]
+    output: PathBuf,
+    #[arg(long)]
+    stats: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    a: PathBuf,
+    b: PathBuf,
+    /// Write a heatmap of per-pixel differences.
+    #[arg(long)]
+    diff: Option<PathBuf>,
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct HistogramArgs {
+    #[arg(default_value = "builtin:demo")]
+    scene: String,
+    #[arg(long)]
+    size: Option<String>,
+    /// Write the histogram as a bar chart PNG.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[arg(long)]
+    json: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            match e {
+                Error::Input(_) | Error::Unsupported(_) => ExitCode::from(2),
+                Error::Runtime(_) => ExitCode::from(1),
+            }
+        }
+    }
+}
+
+fn run(command: Command) -> Result<()> {
+    match command {
+        Command::Render(a) => render(a),
+        Command::Reference(a) => reference(a),
+        Command::Compare(a) => compare(a),
+        Command::Methods { json } => list_methods(json),
+        Command::Info { json } => info(json),
+        Command::Histogram(a) => histogram(a),
+        Command::Bench(a) => bench::run(a),
+    }
+}
+
+pub fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let bad = || {
+        Error::input(format!(
+            "--size '{s}' is not WxH with positive integers (e.g. 512x512)"
+        ))
+    };
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+/// Loads the scene and applies the picture options to it; returns the render options.
+pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
+    let effect: Effect = p.effect.parse()?;
+    let k = match p.k.as_deref() {
+        None => None,
+        Some("auto") => {
+            return Err(Error::unsupported(
+                "--k auto needs the k-buffer methods' k prediction, which is not built yet",
+            ))
+        }
+        Some(s) => Some(s.parse::<u32>().ok().filter(|&k| k > 0).ok_or_else(|| {
+            Error::input(format!("--k '{s}' is not a positive integer or 'auto'"))
+        })?),
+    };
+    if let Some(a) = p.alpha {
+        if !(0.0..=1.0).contains(&a) {
+            return Err(Error::input(format!("--alpha {a} is outside [0, 1]")));
+        }
+    }
+    let mut scene_spec = p.scene.clone();
+    if let Some(f) = p.frame {
+        if !f.is_finite() || f < 0.0 {
+            return Err(Error::input(format!(
+                "--frame {f} must be a non-negative number"
+            )));
+        }
+        if scene_spec.starts_with("builtin:balls") {
+            scene_spec.push(if scene_spec.contains('?') { '&' } else { '?' });
+            scene_spec.push_str(&format!("frame={}", f as u32));
+        }
+    }
+    let mut scene = loaders::load_scene(&scene_spec)?;
+    if let Some(a) = p.alpha {
+        scene.override_alpha(a);
+    }
+    let shading = p
+        .shading
+        .as_deref()
+        .map(str::parse::<Shading>)
+        .transpose()?
+        .or(scene.defaults.shading);
+    if let Some(s) = shading {
+        scene.override_shading(s);
+    }
+    let background = match p.background.as_deref() {
+        Some(b) => b.parse::<Background>()?,
+        None => scene.defaults.background.unwrap_or_default(),
+    };
+    let (width, height) = match p.size.as_deref() {
+        Some(s) => parse_size(s)?,
+        None => scene
+            .defaults
+            .size
+            .map(|[w, h]| (w, h))
+            .unwrap_or((512, 512)),
+    };
+    let options = RenderOptions {
+        width,
+        height,
+        effect,
+        background,
+        k,
+        ..Default::default()
+    };
+    options.validate()?;
+    Ok((scene, options))
+}
+
+fn write_outputs(
+    image: &LinearImage,
+    stats: &FrameStats,
+    effect: Effect,
+    output: &Path,
+    stats_path: Option<&Path>,
+) -> Result<()> {
+    save_png(&image.to_rgba8(effect), output)?;
+    if let Some(path) = stats_path {
+        write_json(path, stats)?;
+    }
+    Ok(())
+}
+
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| Error::runtime(e.to_string()))?;
+    std::fs::write(path, text + "\n")
+        .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))
+}
+
+fn summary(stats: &FrameStats, output: &Path) {
+    let ms = stats
+        .gpu_ms_total
+        .map(|t| format!("{t:.2} ms GPU"))
+        .unwrap_or_else(|| "untimed".into());
+    eprintln!(
+        "{}: {}x{} {} — {} geometry pass(es), {} fragments, max depth {}, {ms} → {}",
+        stats.method,
+        stats.width,
+        stats.height,
+        stats.effect,
+        stats.geometry_passes.unwrap_or(0),
+        stats.fragments_generated.unwrap_or(0),
+        stats.max_depth_complexity.unwrap_or(0),
+        output.display()
+    );
+    if stats.fragments_dropped.unwrap_or(0) > 0 {
+        eprintln!(
+            "warning: {} fragments dropped",
+            stats.fragments_dropped.unwrap_or(0)
+        );
+    }
+    if stats.overflow == Some(true) {
+        eprintln!("note: the fragment pool overflowed; it was grown and the frame re-rendered (output exact)");
+    }
+}
+
+fn render(a: RenderArgs) -> Result<()> {
+    if a.raster != "hw" {
+        return Err(if a.raster == "compute" {
+            Error::unsupported(
+                "--raster compute: the compute-shader rasterizer is not built yet; use --raster hw",
+            )
+        } else {
+            Error::input(format!("--raster '{}' is not hw or compute", a.raster))
+        });
+    }
+    if a.pipeline != "forward" {
+        return Err(if a.pipeline == "deferred" {
+            Error::unsupported(
+                "--pipeline deferred: the deferred-shading pipeline is not built yet",
+            )
+        } else {
+            Error::input(format!(
+                "--pipeline '{}' is not forward or deferred",
+                a.pipeline
+            ))
+        });
+    }
+    for (flag, given) in [
+        ("--robustness", a.robustness.is_some()),
+        ("--tail", a.tail.is_some()),
+        ("--lights", a.lights.is_some()),
+    ] {
+        if given {
+            return Err(Error::unsupported(format!(
+                "{flag} applies to methods that are not built yet"
+            )));
+        }
+    }
+    if methods::info(&a.method).is_none() {
+        return Err(methods::unknown_method(&a.method));
+    }
+    let (scene, mut options) = prepare(&a.picture)?;
+    options.budget_mb = a.budget_mb;
+    options.validate()?;
+    let (image, stats) = if a.method == "reference" {
+        strata::reference::render(&scene, &options)?
+    } else {
+        let gpu = Gpu::new()?;
+        let mut renderer = Renderer::new(&gpu, &scene, &options)?;
+        renderer.render(&a.method)?
+    };
+    write_outputs(
+        &image,
+        &stats,
+        options.effect,
+        &a.output,
+        a.stats.as_deref(),
+    )?;
+    summary(&stats, &a.output);
+    Ok(())
+}
+
+fn reference(a: ReferenceArgs) -> Result<()> {
+    let (scene, options) = prepare(&a.picture)?;
+    let (image, stats) = strata::reference::render(&scene, &options)?;
+    write_outputs(
+        &image,
+        &stats,
+        options.effect,
+        &a.output,
+        a.stats.as_deref(),
+    )?;
+    summary(&stats, &a.output);
+    Ok(())
+}
+
+fn compare(a: CompareArgs) -> Result<()> {
+    let ia = strata::metrics::load_png(&a.a)?;
+    let ib = strata::metrics::load_png(&a.b)?;
+    let c = strata::metrics::compare(&ia, &ib)?;
+    if let Some(d) = &a.diff {
+        save_png(&strata::metrics::diff_heatmap(&ia, &ib), d)?;
+    }
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&c).map_err(|e| Error::runtime(e.to_string()))?
+        );
+    } else {
+        println!("RMSE            {:.6}", c.rmse);
+        println!(
+            "PSNR            {}",
+            if c.psnr.is_finite() {
+                format!("{:.2} dB", c.psnr)
+            } else {
+                "inf (identical)".into()
+            }
+        );
+        println!("max abs diff    {}/255", c.max_abs_diff);
+        println!("FLIP mean       {:.6}", c.flip_mean);
+        println!("pixels > 2/255  {:.4}%", c.pct_over_2);
+    }
+    Ok(())
+}
+
+fn list_methods(json: bool) -> Result<()> {
+    let all = methods::catalogue();
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&all).map_err(|e| Error::runtime(e.to_string()))?
+        );
+        return Ok(());
+    }
+    println!(
+        "{:<12} {:<10} {:<6} {:<36} {:<28} summary",
+        "id", "family", "exact", "geometry passes", "memory (bytes)"
+    );
+    for m in all {
+        println!(
+            "{:<12} {:<10} {:<6} {:<36} {:<28} {}",
+            m.id,
+            m.family,
+            if m.exact { "yes" } else { "no" },
+            m.geometry_passes,
+            m.memory,
+            m.summary
+        );
+    }
+    Ok(())
+}
+
+fn info(json: bool) -> Result<()> {
+    let gpu = Gpu::new()?;
+    let r = gpu.report();
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&r).map_err(|e| Error::runtime(e.to_string()))?
+        );
+        return Ok(());
+    }
+    println!("adapter   {}", r.adapter);
+    println!("backend   {}", r.backend);
+    println!("type      {}", r.device_type);
+    println!("driver    {} {}", r.driver, r.driver_info);
+    println!(
+        "timestamp {}",
+        r.timestamp_period_ns
+            .map(|p| format!("{p} ns/tick"))
+            .unwrap_or_else(|| "unsupported".into())
+    );
+    println!("features  {}", r.features.join(", "));
+    println!("limits    {}", r.limits);
+    Ok(())
+}
+
+fn histogram(a: HistogramArgs) -> Result<()> {
+    let picture = PictureArgs {
+        scene: a.scene,
+        size: a.size,
+        effect: "complexity".into(),
+        shading: None,
+        background: None,
+        alpha: None,
+        k: None,
+        frame: None,
+    };
+    let (scene, options) = prepare(&picture)?;
+    let (image, _) = strata::reference::render(&scene, &options)?;
+    let hist = strata::metrics::depth_complexity_histogram(&image.counts());
+    if let Some(out) = &a.out {
+        save_png(&bench::histogram_chart(&hist), out)?;
+    }
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string(&hist).map_err(|e| Error::runtime(e.to_string()))?
+        );
+    } else {
+        for (count, pixels) in hist.iter().enumerate().filter(|(_, &p)| p > 0) {
+            println!("{count:>5} fragments: {pixels} pixels");
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,169 @@
+// Scene bindings (group 0), the vertex stage every capture pass shares, and shading.
+// Keep in sync with `FrameUniforms`, `GpuVertex`, `GpuMaterial`, `GpuLight` in Rust
+// (crates/strata/src/render/uniforms.rs and scene/mod.rs).
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    view: mat4x4<f32>,
+    eye: vec4<f32>,
+    // Direction from the scene towards the camera (orthographic views use it for every point).
+    to_camera: vec4<f32>,
+    background: vec4<f32>,
+    checker_light: vec4<f32>,
+    checker_dark: vec4<f32>,
+    ambient: vec4<f32>,
+    size: vec2<u32>,
+    effect: u32,
+    light_count: u32,
+    near: f32,
+    far: f32,
+    orthographic: u32,
+    headlight: u32,
+    checker: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+struct Vertex {
+    position: vec3<f32>,
+    material: u32,
+    normal: vec3<f32>,
+    _pad: u32,
+}
+
+struct Material {
+    color: vec3<f32>,
+    opacity: f32,
+    absorption: f32,
+    ior: f32,
+    shading: u32,
+    _pad: u32,
+}
+
+struct Light {
+    position: vec3<f32>,
+    kind: u32,
+    direction: vec3<f32>,
+    cos_outer: f32,
+    radiance: vec3<f32>,
+    range: f32,
+    cos_inner: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+const EFFECT_TRANSPARENCY: u32 = 0u;
+const EFFECT_TRANSLUCENCY: u32 = 1u;
+const EFFECT_COMPLEXITY: u32 = 2u;
+const SHADING_UNLIT: u32 = 0u;
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPOT: u32 = 1u;
+const LIGHT_DIRECTIONAL: u32 = 2u;
+const SPECULAR: f32 = 0.3;
+const SHININESS: f32 = 48.0;
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var<storage, read> vertices: array<Vertex>;
+@group(0) @binding(2) var<storage, read> materials: array<Material>;
+@group(0) @binding(3) var<storage, read> lights: array<Light>;
+@group(0) @binding(4) var<storage, read> draw_order: array<u32>;
+@group(0) @binding(5) var opaque_depth: texture_depth_2d;
+
+struct SceneVarying {
+    @builtin(position) position: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) @interpolate(flat) prim: u32,
+    @location(3) @interpolate(flat) material: u32,
+}
+
+@vertex
+fn vs_scene(@builtin(vertex_index) vertex_index: u32) -> SceneVarying {
+    let prim = draw_order[vertex_index / 3u];
+    let v = vertices[prim * 3u + vertex_index % 3u];
+    var out: SceneVarying;
+    out.position = frame.view_proj * vec4<f32>(v.position, 1.0);
+    out.world = v.position;
+    out.normal = v.normal;
+    out.prim = prim;
+    out.material = v.material;
+    return out;
+}
+
+fn pixel_of(position: vec4<f32>) -> vec2<u32> {
+    return vec2<u32>(position.xy);
+}
+
+fn pixel_index(pixel: vec2<u32>) -> u32 {
+    return pixel.y * frame.size.x + pixel.x;
+}
+
+// True when an opaque surface in front hides this fragment.
+fn behind_opaque(position: vec4<f32>) -> bool {
+    return position.z >= textureLoad(opaque_depth, vec2<i32>(position.xy), 0);
+}
+
+fn background_at(pixel: vec2<u32>) -> vec3<f32> {
+    if frame.checker == 0u {
+        return frame.background.rgb;
+    }
+    if ((pixel.x / 16u + pixel.y / 16u) % 2u) == 0u {
+        return frame.checker_light.rgb;
+    }
+    return frame.checker_dark.rgb;
+}
+
+fn blinn_phong(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+    let hv = l + v;
+    let h = hv / max(length(hv), 1e-6);
+    return albedo * max(dot(n, l), 0.0) + vec3<f32>(SPECULAR * pow(max(dot(n, h), 0.0), SHININESS));
+}
+
+// Color and opacity of a surface point: unlit or two-sided Blinn–Phong, with Schlick Fresnel
+// folded into the opacity for the translucency effect.
+fn shade(world: vec3<f32>, normal: vec3<f32>, material_index: u32) -> vec4<f32> {
+    let m = materials[material_index];
+    var v = frame.to_camera.xyz;
+    if frame.orthographic == 0u {
+        v = normalize(frame.eye.xyz - world);
+    }
+    var n = normal / max(length(normal), 1e-12);
+    if dot(n, v) < 0.0 {
+        n = -n;
+    }
+    var color = m.color;
+    if m.shading != SHADING_UNLIT {
+        color = frame.ambient.rgb * m.color;
+        if frame.headlight != 0u {
+            color += blinn_phong(n, v, v, m.color);
+        }
+        for (var i = 0u; i < frame.light_count; i++) {
+            let light = lights[i];
+            var l = -normalize(light.direction);
+            var attenuation = 1.0;
+            if light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT {
+                let to_light = light.position - world;
+                let d = length(to_light);
+                l = to_light / max(d, 1e-12);
+                let falloff = clamp(1.0 - (d / light.range) * (d / light.range), 0.0, 1.0);
+                attenuation = falloff * falloff;
+                if light.kind == LIGHT_SPOT {
+                    let c = dot(-l, normalize(light.direction));
+                    attenuation *= clamp((c - light.cos_outer) / max(light.cos_inner - light.cos_outer, 1e-6), 0.0, 1.0);
+                }
+            } else if light.kind != LIGHT_DIRECTIONAL {
+                continue;
+            }
+            color += light.radiance * attenuation * blinn_phong(n, v, l, m.color);
+        }
+    }
+    var alpha = m.opacity;
+    if frame.effect == EFFECT_TRANSLUCENCY {
+        let f0 = ((m.ior - 1.0) / (m.ior + 1.0)) * ((m.ior - 1.0) / (m.ior + 1.0));
+        let fresnel = f0 + (1.0 - f0) * pow(1.0 - clamp(abs(dot(n, v)), 0.0, 1.0), 5.0);
+        alpha = fresnel + (1.0 - fresnel) * alpha;
+    }
+    return vec4<f32>(color, alpha);
+}

@@ -1,0 +1,31 @@
+//! The library's error type. Every error is one line naming what is wrong; the CLI maps
+//! [`Error::Input`] and [`Error::Unsupported`] to exit status 2.
+
+use thiserror::Error;
+
+pub type Result<T> = std::result::Result<T, Error>;
+
+#[derive(Debug, Error)]
+pub enum Error {
+    /// Bad input: a missing or malformed file, a bad option value, an impossible budget.
+    #[error("{0}")]
+    Input(String),
+    /// The GPU lacks what the request needs (adapter, feature, limit).
+    #[error("{0}")]
+    Unsupported(String),
+    /// Something failed on the GPU or in I/O while rendering.
+    #[error("{0}")]
+    Runtime(String),
+}
+
+impl Error {
+    pub fn input(msg: impl Into<String>) -> Self {
+        Error::Input(msg.into())
+    }
+    pub fn unsupported(msg: impl Into<String>) -> Self {
+        Error::Unsupported(msg.into())
+    }
+    pub fn runtime(msg: impl Into<String>) -> Self {
+        Error::Runtime(msg.into())
+    }
+}

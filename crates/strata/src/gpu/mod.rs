@@ -1,0 +1,199 @@
+//! GPU context: adapter and device selection, optional features and limits, and the small
+//! pieces every method uses (bindings, shader composition, timing, readback).
+//!
+//! The device is headless. Vulkan is the default backend; `WGPU_BACKEND` picks another and
+//! `WGPU_ADAPTER_NAME` picks an adapter by a case-insensitive substring of its name.
+
+pub mod binding;
+pub mod readback;
+pub mod shader;
+pub mod timing;
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+
+/// Optional features the methods use when the adapter has them.
+pub fn wanted_features() -> wgpu::Features {
+    wgpu::Features::SHADER_INT64
+        | wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS
+        | wgpu::Features::TIMESTAMP_QUERY
+        | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
+        | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES
+        | wgpu::Features::PIPELINE_STATISTICS_QUERY
+}
+
+/// A headless device with the features and limits it was created with.
+pub struct Gpu {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    pub features: wgpu::Features,
+    pub limits: wgpu::Limits,
+}
+
+/// What `strata info` reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct GpuReport {
+    pub adapter: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+    pub vendor: u32,
+    pub device: u32,
+    pub features: Vec<String>,
+    pub limits: serde_json::Value,
+    pub timestamp_period_ns: Option<f32>,
+}
+
+impl Gpu {
+    /// Opens the adapter chosen by `WGPU_BACKEND` / `WGPU_ADAPTER_NAME` (default: Vulkan, the
+    /// first adapter, preferring hardware).
+    pub fn new() -> Result<Gpu> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<Gpu> {
+        let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::VULKAN);
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        let adapters = instance.enumerate_adapters(backends).await;
+        let wanted_name = std::env::var("WGPU_ADAPTER_NAME")
+            .ok()
+            .map(|s| s.to_lowercase());
+        let adapter = match &wanted_name {
+            Some(name) => adapters
+                .into_iter()
+                .find(|a| a.get_info().name.to_lowercase().contains(name))
+                .ok_or_else(|| {
+                    Error::unsupported(format!(
+                        "no GPU adapter matches WGPU_ADAPTER_NAME='{name}' on backend(s) {backends:?}"
+                    ))
+                })?,
+            None => {
+                let mut adapters = adapters;
+                // Prefer real GPUs over software rasterizers when both exist.
+                adapters.sort_by_key(|a| match a.get_info().device_type {
+                    wgpu::DeviceType::DiscreteGpu => 0,
+                    wgpu::DeviceType::IntegratedGpu => 1,
+                    wgpu::DeviceType::VirtualGpu => 2,
+                    wgpu::DeviceType::Other => 3,
+                    wgpu::DeviceType::Cpu => 4,
+                });
+                adapters.into_iter().next().ok_or_else(|| {
+                    Error::unsupported(format!(
+                        "no GPU adapter found on backend(s) {backends:?} (on Linux without a GPU, install Mesa's software Vulkan driver: apt-get install mesa-vulkan-drivers)"
+                    ))
+                })?
+            }
+        };
+        let info = adapter.get_info();
+        let features = adapter.features() & wanted_features();
+        let limits = adapter.limits();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("strata.device"),
+                required_features: features,
+                required_limits: limits.clone(),
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| {
+                Error::unsupported(format!("cannot open device on '{}': {e}", info.name))
+            })?;
+        Ok(Gpu {
+            adapter,
+            device,
+            queue,
+            info,
+            features,
+            limits,
+        })
+    }
+
+    pub fn has(&self, f: wgpu::Features) -> bool {
+        self.features.contains(f)
+    }
+
+    pub fn backend_name(&self) -> String {
+        self.info.backend.to_string().to_lowercase()
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::runtime(format!("GPU wait failed: {e}")))
+    }
+
+    /// Largest single storage buffer binding the device allows.
+    pub fn max_storage_binding(&self) -> u64 {
+        (self.limits.max_storage_buffer_binding_size as u64).min(self.limits.max_buffer_size)
+    }
+
+    pub fn report(&self) -> GpuReport {
+        let features = self
+            .adapter
+            .features()
+            .iter_names()
+            .map(|(n, _)| n.to_string())
+            .collect();
+        GpuReport {
+            adapter: self.info.name.clone(),
+            backend: self.backend_name(),
+            device_type: format!("{:?}", self.info.device_type),
+            driver: self.info.driver.clone(),
+            driver_info: self.info.driver_info.clone(),
+            vendor: self.info.vendor,
+            device: self.info.device,
+            features,
+            limits: limits_json(&self.limits),
+            timestamp_period_ns: self
+                .has(wgpu::Features::TIMESTAMP_QUERY)
+                .then(|| self.queue.get_timestamp_period()),
+        }
+    }
+
+    /// A storage buffer with a `strata.` label, checked against the device's binding limit.
+    pub fn storage_buffer(
+        &self,
+        label: &str,
+        size: u64,
+        extra: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer> {
+        let size = size.max(16).next_multiple_of(4);
+        if size > self.max_storage_binding() {
+            return Err(Error::unsupported(format!(
+                "{label}: needs a {:.1} MiB buffer but the device binds at most {:.1} MiB",
+                size as f64 / 1048576.0,
+                self.max_storage_binding() as f64 / 1048576.0
+            )));
+        }
+        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+            mapped_at_creation: false,
+        }))
+    }
+}
+
+fn limits_json(l: &wgpu::Limits) -> serde_json::Value {
+    serde_json::json!({
+        "max_texture_dimension_2d": l.max_texture_dimension_2d,
+        "max_storage_buffer_binding_size": l.max_storage_buffer_binding_size,
+        "max_buffer_size": l.max_buffer_size,
+        "max_storage_buffers_per_shader_stage": l.max_storage_buffers_per_shader_stage,
+        "max_storage_textures_per_shader_stage": l.max_storage_textures_per_shader_stage,
+        "max_bind_groups": l.max_bind_groups,
+        "max_color_attachments": l.max_color_attachments,
+        "max_compute_workgroup_size_x": l.max_compute_workgroup_size_x,
+        "max_compute_invocations_per_workgroup": l.max_compute_invocations_per_workgroup,
+        "max_compute_workgroups_per_dimension": l.max_compute_workgroups_per_dimension,
+        "max_uniform_buffer_binding_size": l.max_uniform_buffer_binding_size,
+    })
+}

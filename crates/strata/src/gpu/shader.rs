@@ -1,0 +1,34 @@
+//! WGSL composition. WGSL has no includes, so a stage's module is the shared sources it names
+//! followed by the stage file; naga validates the result in tests.
+
+/// Shared WGSL, in dependency order. Keep the Rust twins in sync (see each file's header).
+pub const SCENE: &str = include_str!("../../shaders/shared/scene.wgsl");
+pub const FRAGMENT: &str = include_str!("../../shaders/shared/fragment.wgsl");
+pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
+
+/// Everything a capture or resolve stage may call: scene bindings (group 0), the vertex stage,
+/// shading, the fragment record and the compositing state machine.
+pub fn with_shared(stage: &str) -> String {
+    [SCENE, FRAGMENT, COMPOSITE, stage].join("\n")
+}
+
+pub fn module(device: &wgpu::Device, label: &str, stage: &str) -> wgpu::ShaderModule {
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(with_shared(stage).into()),
+    })
+}
+
+/// Validates a composed module with naga (used by tests, so shader errors fail without a GPU).
+#[cfg(test)]
+pub fn validate(label: &str, stage: &str) {
+    let src = with_shared(stage);
+    let module = naga::front::wgsl::parse_str(&src)
+        .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(&src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(&src)));
+}

@@ -1,0 +1,17 @@
+//! strata — multi-fragment rendering on the GPU with wgpu.
+//!
+//! See `ARCHITECTURE.md` at the repository root for the layout and the path of a frame.
+
+pub mod error;
+pub mod gpu;
+pub mod methods;
+pub mod metrics;
+pub mod reference;
+pub mod render;
+pub mod resolve;
+pub mod scene;
+#[cfg(test)]
+pub(crate) mod testing;
+
+pub use error::{Error, Result};
+pub use render::{Effect, FrameStats, LinearImage, RenderOptions, Renderer};

@@ -1,0 +1,176 @@
+//! Baselines without order independence: `unsorted` (alpha blending in submission order) and
+//! `sorted` (the same after sorting triangles back to front by centroid view depth on the CPU).
+//!
+//! Passes: blend (1 geometry pass, premultiplied over-blending into an Rgba16Float target, with an
+//! atomic per-pixel fragment count), finish (compute: over the background, into the output).
+//! Memory: 8 bytes (Rgba16Float) + 4 bytes (count) per pixel, plus 4 bytes per triangle for
+//! `sorted`'s draw order. Limits: wrong wherever triangles overlap out of order (that is the
+//! point); translucency gets Fresnel opacity but no absorption, which needs ordered neighbours.
+
+use crate::error::Result;
+use crate::gpu::binding::{self, Slot};
+use crate::gpu::{shader, Gpu};
+use crate::methods::{
+    attachment, capture_pipeline, compute_pipeline, dispatch_pixels, texture_2d, Method,
+    MethodStats,
+};
+use crate::render::{FrameContext, SceneGpu};
+
+const BLEND_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+pub struct Blend {
+    sort: bool,
+    blend_layout: wgpu::BindGroupLayout,
+    finish_layout: wgpu::BindGroupLayout,
+    blend: wgpu::RenderPipeline,
+    finish: wgpu::ComputePipeline,
+    order: Option<wgpu::Buffer>,
+}
+
+impl Blend {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, sort: bool) -> Blend {
+        let blend_layout = binding::layout(&gpu.device, "strata.blend.layout", &[Slot::StorageRw]);
+        let finish_layout = binding::layout(
+            &gpu.device,
+            "strata.blend.finish.layout",
+            &[Slot::StorageRw, Slot::TextureFloat, Slot::StorageRw],
+        );
+        let module = shader::module(&gpu.device, "strata.blend", include_str!("blend.wgsl"));
+        let blend = capture_pipeline(
+            gpu,
+            "strata.blend",
+            &module,
+            "fs_blend",
+            &[&scene.frame_layout, &blend_layout],
+            &[Some(wgpu::ColorTargetState {
+                format: BLEND_FORMAT,
+                blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+            None,
+        );
+        let module = shader::module(
+            &gpu.device,
+            "strata.blend.finish",
+            include_str!("finish.wgsl"),
+        );
+        let finish = compute_pipeline(
+            gpu,
+            "strata.blend.finish",
+            &module,
+            "cs_finish",
+            &[&scene.frame_layout, &finish_layout],
+        );
+        Blend {
+            sort,
+            blend_layout,
+            finish_layout,
+            blend,
+            finish,
+            order: None,
+        }
+    }
+
+    /// Triangles from farthest to nearest centroid along the view axis.
+    fn back_to_front(scene: &SceneGpu) -> Vec<u32> {
+        let view = scene.camera.view();
+        let depth: Vec<f32> = scene
+            .cpu_positions
+            .chunks_exact(3)
+            .map(|t| {
+                let c = (glam::Vec3::from(t[0]) + glam::Vec3::from(t[1]) + glam::Vec3::from(t[2]))
+                    / 3.0;
+                view.transform_point3(c).z
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..depth.len() as u32).collect();
+        // View space looks down −z: the farthest centroid has the most negative z.
+        order.sort_by(|&a, &b| depth[a as usize].total_cmp(&depth[b as usize]));
+        order
+    }
+}
+
+impl Method for Blend {
+    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
+        let gpu = ctx.gpu;
+        let (w, h) = (ctx.options.width, ctx.options.height);
+        let target = texture_2d(
+            gpu,
+            "strata.blend.target",
+            w,
+            h,
+            BLEND_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let target_view = target.create_view(&Default::default());
+        let counts = gpu.storage_buffer(
+            "strata.blend.counts",
+            ctx.pixels() * 4,
+            wgpu::BufferUsages::empty(),
+        )?;
+        let mut bytes = ctx.pixels() * 12;
+        let sorted_group;
+        let frame_group = if self.sort {
+            let order = Self::back_to_front(ctx.scene);
+            let buffer = self.order.get_or_insert_with(|| {
+                gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("strata.sorted.order"),
+                    size: order.len() as u64 * 4,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            });
+            gpu.queue
+                .write_buffer(buffer, 0, bytemuck::cast_slice(&order));
+            bytes += order.len() as u64 * 4;
+            sorted_group = ctx.scene.frame_group(gpu, ctx.opaque_depth, Some(buffer));
+            &sorted_group
+        } else {
+            ctx.frame_group
+        };
+        let blend_group = binding::group(
+            &gpu.device,
+            "strata.blend.group",
+            &self.blend_layout,
+            &[counts.as_entire_binding()],
+        );
+        let finish_group = binding::group(
+            &gpu.device,
+            "strata.blend.finish.group",
+            &self.finish_layout,
+            &[
+                counts.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&target_view),
+                ctx.output.as_entire_binding(),
+            ],
+        );
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("strata.blend"),
+                color_attachments: &[attachment(&target_view, wgpu::Color::TRANSPARENT)],
+                depth_stencil_attachment: None,
+                timestamp_writes: ctx.timer.render_pass("blend"),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.blend);
+            pass.set_bind_group(0, Some(frame_group), &[]);
+            pass.set_bind_group(1, Some(&blend_group), &[]);
+            ctx.draw_geometry(&mut pass);
+        }
+        dispatch_pixels(
+            ctx,
+            &mut enc,
+            "finish",
+            &self.finish,
+            &[ctx.frame_group, &finish_group],
+        );
+        gpu.queue.submit([enc.finish()]);
+        Ok(MethodStats {
+            geometry_passes: 1,
+            bytes_allocated: bytes,
+            ..Default::default()
+        })
+    }
+}

@@ -1,0 +1,308 @@
+//! The multi-fragment methods, one folder per family, and the catalogue `strata methods` prints.
+//!
+//! A [`Method`] renders one frame into the shared output buffer (`vec4(rgb, count)` per pixel)
+//! through its own passes. Pipelines are built once when the method is created; per-pixel
+//! buffers are (re)allocated when a frame needs more.
+
+pub mod abuffer;
+pub mod baseline;
+pub mod peeling;
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::gpu::binding;
+use crate::gpu::Gpu;
+use crate::render::{FrameContext, RenderOptions, SceneGpu};
+
+/// What a method reports about its frame; the renderer fills in the rest of `FrameStats`.
+#[derive(Clone, Debug, Default)]
+pub struct MethodStats {
+    pub geometry_passes: u32,
+    pub k: Option<u32>,
+    /// `None`: every composited fragment (the output counts) plus the dropped ones.
+    pub fragments_generated: Option<u64>,
+    /// `None`: the composited fragments.
+    pub fragments_stored: Option<u64>,
+    pub fragments_dropped: Option<u64>,
+    /// `None`: the largest per-pixel count composited.
+    pub max_depth_complexity: Option<u32>,
+    pub bytes_allocated: u64,
+    pub overflow: Option<bool>,
+    pub lock_failures: Option<u64>,
+}
+
+pub trait Method {
+    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats>;
+}
+
+/// A catalogue entry.
+#[derive(Clone, Debug, Serialize)]
+pub struct MethodInfo {
+    pub id: &'static str,
+    pub family: &'static str,
+    pub exact: bool,
+    /// Geometry passes, N being the scene's depth complexity.
+    pub geometry_passes: &'static str,
+    /// Bytes the method allocates, W·H pixels, F fragments in the frame.
+    pub memory: &'static str,
+    pub summary: &'static str,
+}
+
+pub fn catalogue() -> Vec<MethodInfo> {
+    vec![
+        MethodInfo {
+            id: "reference",
+            family: "reference",
+            exact: true,
+            geometry_passes: "0 (CPU)",
+            memory: "host memory: 24·F",
+            summary: "CPU exact renderer: every fragment, sorted by depth then primitive, composited in f64",
+        },
+        MethodInfo {
+            id: "unsorted",
+            family: "baseline",
+            exact: false,
+            geometry_passes: "1",
+            memory: "10·W·H",
+            summary: "alpha blending in submission order (no OIT)",
+        },
+        MethodInfo {
+            id: "sorted",
+            family: "baseline",
+            exact: false,
+            geometry_passes: "1",
+            memory: "10·W·H + 4·triangles",
+            summary: "alpha blending after a back-to-front sort of triangle centroids",
+        },
+        MethodInfo {
+            id: "f2b",
+            family: "peeling",
+            exact: true,
+            geometry_passes: "N+1",
+            memory: "48·W·H",
+            summary: "front-to-back depth peeling, one layer per geometry pass",
+        },
+        MethodInfo {
+            id: "dual",
+            family: "peeling",
+            exact: true,
+            geometry_passes: "ceil(N/2)+1",
+            memory: "112·W·H",
+            summary: "dual depth peeling: nearest and farthest layer per pass (fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
+        },
+        MethodInfo {
+            id: "abuffer-ll",
+            family: "abuffer",
+            exact: true,
+            geometry_passes: "1 (+1 when the node pool overflows)",
+            memory: "4·W·H + 20·nodes (nodes ≥ F, sized from the last frame)",
+            summary: "A-buffer of per-pixel linked lists; overflow is detected, the pool grown and the frame re-rendered",
+        },
+    ]
+}
+
+pub fn info(id: &str) -> Option<MethodInfo> {
+    catalogue().into_iter().find(|m| m.id == id)
+}
+
+pub fn unknown_method(id: &str) -> Error {
+    let ids: Vec<_> = catalogue().iter().map(|m| m.id).collect();
+    Error::input(format!(
+        "unknown method '{id}' (available: {})",
+        ids.join(", ")
+    ))
+}
+
+/// Creates a GPU method by id.
+pub fn create(
+    id: &str,
+    gpu: &Gpu,
+    scene: &SceneGpu,
+    options: &RenderOptions,
+) -> Result<Box<dyn Method>> {
+    Ok(match id {
+        "unsorted" => Box::new(baseline::Blend::new(gpu, scene, false)),
+        "sorted" => Box::new(baseline::Blend::new(gpu, scene, true)),
+        "f2b" => Box::new(peeling::FrontToBack::new(gpu, scene)),
+        "dual" => Box::new(peeling::Dual::new(gpu, scene)),
+        "abuffer-ll" => Box::new(abuffer::LinkedLists::new(gpu, scene, options)),
+        "reference" => {
+            return Err(Error::input(
+                "method 'reference' runs on the CPU: use strata::reference::render",
+            ))
+        }
+        _ => return Err(unknown_method(id)),
+    })
+}
+
+/// A render pipeline drawing the scene with `vs_scene` and the stage's fragment entry point,
+/// with no culling (every surface layer counts).
+pub fn capture_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    fragment_entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
+    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
+    gpu.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_scene"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: depth,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(fragment_entry),
+                compilation_options: Default::default(),
+                targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+pub fn compute_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> wgpu::ComputePipeline {
+    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
+    gpu.device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+}
+
+pub fn texture_2d(
+    gpu: &Gpu,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+/// A color attachment the pass clears to `clear` and keeps.
+pub fn attachment(
+    view: &wgpu::TextureView,
+    clear: wgpu::Color,
+) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Clear(clear),
+            store: wgpu::StoreOp::Store,
+        },
+    })
+}
+
+/// Runs a compute pipeline over every pixel (8×8 workgroups) in its own timed pass.
+pub fn dispatch_pixels(
+    ctx: &mut FrameContext<'_>,
+    enc: &mut wgpu::CommandEncoder,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+) {
+    let (x, y) = ctx.pixel_workgroups();
+    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(name),
+        timestamp_writes: ctx.timer.compute_pass(name),
+    });
+    pass.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*g), &[]);
+    }
+    pass.dispatch_workgroups(x, y, 1);
+}
+
+/// A render pass over a throwaway color target, for capture passes whose output goes to
+/// storage buffers (WebGPU needs at least one attachment).
+pub struct NullTarget {
+    view: wgpu::TextureView,
+    size: (u32, u32),
+}
+
+impl NullTarget {
+    pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
+
+    pub fn new(gpu: &Gpu, label: &str, width: u32, height: u32) -> NullTarget {
+        let t = texture_2d(
+            gpu,
+            label,
+            width,
+            height,
+            Self::FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        NullTarget {
+            view: t.create_view(&Default::default()),
+            size: (width, height),
+        }
+    }
+
+    pub fn fits(&self, width: u32, height: u32) -> bool {
+        self.size == (width, height)
+    }
+
+    pub fn target_state() -> Option<wgpu::ColorTargetState> {
+        Some(wgpu::ColorTargetState {
+            format: Self::FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::empty(),
+        })
+    }
+
+    pub fn attachment(&self) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+        Some(wgpu::RenderPassColorAttachment {
+            view: &self.view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                store: wgpu::StoreOp::Discard,
+            },
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;

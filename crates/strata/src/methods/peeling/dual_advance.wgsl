@@ -1,0 +1,72 @@
+// dual peeling between passes: composites the peeled front layer front-to-back and the back
+// layer back-to-front, then makes the next bounds current and counts pixels with layers left.
+
+struct Counters {
+    pending: atomic<u32>,
+    dropped: atomic<u32>,
+}
+
+@group(1) @binding(0) var<storage, read_write> bounds: array<vec2<u32>>;
+@group(1) @binding(1) var<storage, read_write> next_bounds: array<vec2<u32>>;
+@group(1) @binding(2) var<storage, read_write> layers: array<Fragment>;
+@group(1) @binding(3) var<storage, read_write> hits: array<u32>;
+@group(1) @binding(4) var<storage, read_write> front: array<Composite>;
+@group(1) @binding(5) var<storage, read_write> back: array<Composite>;
+@group(1) @binding(6) var<storage, read_write> counters: Counters;
+@group(1) @binding(7) var<storage, read_write> output: array<vec4<f32>>;
+
+const NO_BOUNDS: vec2<u32> = vec2<u32>(0xffffffffu, 0u);
+
+@compute @workgroup_size(8, 8)
+fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let i = pixel_index(id.xy);
+    front[i] = composite_new();
+    back[i] = composite_back_new(background_at(id.xy));
+    next_bounds[i] = NO_BOUNDS;
+    hits[2u * i] = 0u;
+    hits[2u * i + 1u] = 0u;
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let i = pixel_index(id.xy);
+    let front_hits = hits[2u * i];
+    if front_hits > 0u {
+        var s = front[i];
+        composite_front(&s, layers[2u * i]);
+        front[i] = s;
+    }
+    let back_hits = hits[2u * i + 1u];
+    if back_hits > 0u {
+        var s = back[i];
+        composite_back(&s, layers[2u * i + 1u]);
+        back[i] = s;
+    }
+    let dropped = max(front_hits, 1u) - 1u + max(back_hits, 1u) - 1u;
+    if dropped > 0u {
+        atomicAdd(&counters.dropped, dropped);
+    }
+    hits[2u * i] = 0u;
+    hits[2u * i + 1u] = 0u;
+    let b = next_bounds[i];
+    bounds[i] = b;
+    next_bounds[i] = NO_BOUNDS;
+    if b.x <= b.y {
+        atomicAdd(&counters.pending, 1u);
+    }
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let i = pixel_index(id.xy);
+    output[i] = composite_join(front[i], back[i]);
+}

@@ -1,0 +1,28 @@
+// f2b peel pass: keeps fragments strictly after the last captured one in (depth, primitive)
+// order; the depth test (LESS, primitive order among equals) picks the nearest of them.
+
+@group(1) @binding(0) var<storage, read> state: array<Composite>;
+
+struct PeelOut {
+    @location(0) color: vec4<f32>,
+    @location(1) tag: u32,
+    @location(2) depth: f32,
+}
+
+@fragment
+fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOut {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let s = state[pixel_index(pixel_of(v.position))];
+    let tag = (v.prim << 1u) | select(0u, 1u, front_facing);
+    let z = v.position.z;
+    if s.count > 0u && !(z > s.last_depth || (z == s.last_depth && tag > s.last_tag)) {
+        discard;
+    }
+    var out: PeelOut;
+    out.color = shade(v.world, v.normal, v.material);
+    out.tag = tag;
+    out.depth = z;
+    return out;
+}

@@ -1,0 +1,232 @@
+//! Triangle setup and coverage for the CPU reference, following the GPU's rules: clipping at the
+//! near plane (z ≥ 0 in clip space), window coordinates snapped to 1/256 pixel (the subpixel
+//! precision of the software Vulkan driver tests run on), pixel-center sampling with the top-left
+//! rule in exact integer arithmetic, screen-linear depth, perspective-correct attributes.
+
+use glam::{DMat4, DVec3, DVec4};
+
+/// Subpixel steps per pixel.
+pub const SUBPIXEL: f64 = 256.0;
+
+/// A triangle ready to rasterize: snapped window positions and, per corner, what interpolation
+/// needs. A near-clipped triangle becomes several of these with the same primitive index.
+#[derive(Clone, Debug)]
+pub struct SetupTriangle {
+    pub prim: u32,
+    /// Snapped window x, y in subpixel units (y down).
+    pub xy: [[i64; 2]; 3],
+    /// Window depth per corner.
+    pub z: [f64; 3],
+    /// 1/w per corner (1 for orthographic).
+    pub inv_w: [f64; 3],
+    /// Barycentric weights of each corner in the original triangle (clipping makes new corners).
+    pub weights: [DVec3; 3],
+    /// Signed doubled area in subpixel² units, y down; negative means counter-clockwise on screen
+    /// (front-facing).
+    pub area2: i64,
+    /// Pixel bounds, inclusive, clamped to the viewport.
+    pub min: [u32; 2],
+    pub max: [u32; 2],
+}
+
+/// Projects and clips triangle `prim` with corners `p` (world space).
+pub fn setup(
+    prim: u32,
+    p: [DVec3; 3],
+    view_proj: &DMat4,
+    width: u32,
+    height: u32,
+    out: &mut Vec<SetupTriangle>,
+) {
+    let clip: Vec<(DVec4, DVec3)> = (0..3)
+        .map(|i| {
+            (
+                *view_proj * p[i].extend(1.0),
+                DVec3::from_array(std::array::from_fn(|j| (i == j) as u32 as f64)),
+            )
+        })
+        .collect();
+    // Clip the polygon against z >= 0 (wgpu's near plane), keeping barycentric weights.
+    let mut poly: Vec<(DVec4, DVec3)> = Vec::with_capacity(4);
+    for i in 0..3 {
+        let (a, wa) = clip[i];
+        let (b, wb) = clip[(i + 1) % 3];
+        if a.z >= 0.0 {
+            poly.push((a, wa));
+        }
+        if (a.z >= 0.0) != (b.z >= 0.0) {
+            let t = a.z / (a.z - b.z);
+            poly.push((a + (b - a) * t, wa + (wb - wa) * t));
+        }
+    }
+    if poly.len() < 3 {
+        return;
+    }
+    let project = |(c, w): (DVec4, DVec3)| {
+        let inv_w = 1.0 / c.w;
+        let x = (c.x * inv_w + 1.0) * 0.5 * width as f64;
+        let y = (1.0 - c.y * inv_w) * 0.5 * height as f64;
+        (
+            [(x * SUBPIXEL).round() as i64, (y * SUBPIXEL).round() as i64],
+            c.z * inv_w,
+            inv_w,
+            w,
+        )
+    };
+    let corners: Vec<_> = poly.into_iter().map(project).collect();
+    for i in 1..corners.len() - 1 {
+        let tri = [corners[0], corners[i], corners[i + 1]];
+        let xy = tri.map(|c| c.0);
+        let area2 = (xy[1][0] - xy[0][0]) * (xy[2][1] - xy[0][1])
+            - (xy[2][0] - xy[0][0]) * (xy[1][1] - xy[0][1]);
+        if area2 == 0 || tri.iter().any(|c| !c.2.is_finite() || c.2 <= 0.0) {
+            continue;
+        }
+        let lo = |k: usize| xy.iter().map(|v| v[k]).min().unwrap();
+        let hi = |k: usize| xy.iter().map(|v| v[k]).max().unwrap();
+        // Pixel centers at (p + 0.5): pixel p is a candidate if its center lies in [lo, hi].
+        let first = |v: i64| ((v - SUBPIXEL as i64 / 2) as f64 / SUBPIXEL).ceil() as i64;
+        let last = |v: i64| ((v - SUBPIXEL as i64 / 2) as f64 / SUBPIXEL).floor() as i64;
+        let (x0, x1) = (first(lo(0)).max(0), last(hi(0)).min(width as i64 - 1));
+        let (y0, y1) = (first(lo(1)).max(0), last(hi(1)).min(height as i64 - 1));
+        if x0 > x1 || y0 > y1 {
+            continue;
+        }
+        out.push(SetupTriangle {
+            prim,
+            xy,
+            z: tri.map(|c| c.1),
+            inv_w: tri.map(|c| c.2),
+            weights: tri.map(|c| c.3),
+            area2,
+            min: [x0 as u32, y0 as u32],
+            max: [x1 as u32, y1 as u32],
+        });
+    }
+}
+
+/// A covered pixel: window depth and perspective-correct barycentric weights of the original
+/// triangle's corners.
+pub struct Sample {
+    pub x: u32,
+    pub y: u32,
+    pub depth: f64,
+    pub weights: DVec3,
+}
+
+/// Visits the pixels of rows `rows` that `t` covers under the top-left rule.
+pub fn cover(t: &SetupTriangle, rows: std::ops::Range<u32>, mut visit: impl FnMut(Sample)) {
+    // Orient so the interior is where all edge functions are positive.
+    let (order, area2) = if t.area2 > 0 {
+        ([0, 1, 2], t.area2)
+    } else {
+        ([0, 2, 1], -t.area2)
+    };
+    let v = order.map(|i| t.xy[i]);
+    // Edge i runs from v[i] to v[i+1]; its function is positive inside and the bias makes a pixel
+    // center exactly on it count only for top edges (horizontal, interior below) and left edges
+    // (going up the screen, y down).
+    let edges: [(i64, i64, i64); 3] = std::array::from_fn(|i| {
+        let a = v[i];
+        let b = v[(i + 1) % 3];
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let top_left = dy < 0 || (dy == 0 && dx > 0);
+        (dx, dy, if top_left { 0 } else { -1 })
+    });
+    let half = SUBPIXEL as i64 / 2;
+    let y_start = t.min[1].max(rows.start);
+    let y_end = (t.max[1] + 1).min(rows.end);
+    for py in y_start..y_end {
+        let sy = py as i64 * SUBPIXEL as i64 + half;
+        for px in t.min[0]..=t.max[0] {
+            let sx = px as i64 * SUBPIXEL as i64 + half;
+            let mut e = [0i64; 3];
+            let mut inside = true;
+            for i in 0..3 {
+                let a = v[i];
+                let (dx, dy, bias) = edges[i];
+                e[i] = dx * (sy - a[1]) - dy * (sx - a[0]);
+                if e[i] + bias < 0 {
+                    inside = false;
+                    break;
+                }
+            }
+            if !inside {
+                continue;
+            }
+            // e[i] is the doubled area opposite corner v[i+2].
+            let mut l = [0.0f64; 3];
+            for i in 0..3 {
+                l[order[(i + 2) % 3]] = e[i] as f64 / area2 as f64;
+            }
+            let depth = l[0] * t.z[0] + l[1] * t.z[1] + l[2] * t.z[2];
+            let pw = [l[0] * t.inv_w[0], l[1] * t.inv_w[1], l[2] * t.inv_w[2]];
+            let sum = pw[0] + pw[1] + pw[2];
+            let weights =
+                (t.weights[0] * pw[0] + t.weights[1] * pw[1] + t.weights[2] * pw[2]) / sum;
+            visit(Sample {
+                x: px,
+                y: py,
+                depth,
+                weights,
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ortho_setup(corners: [[f64; 2]; 3], w: u32, h: u32) -> Vec<SetupTriangle> {
+        // Identity view-projection: corners are NDC.
+        let p = corners.map(|c| DVec3::new(c[0], c[1], 0.5));
+        let mut out = Vec::new();
+        setup(0, p, &DMat4::IDENTITY, w, h, &mut out);
+        out
+    }
+
+    fn covered(ts: &[SetupTriangle], h: u32) -> Vec<(u32, u32)> {
+        let mut v = Vec::new();
+        for t in ts {
+            cover(t, 0..h, |s| v.push((s.x, s.y)));
+        }
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn two_triangles_sharing_an_edge_cover_each_pixel_once() {
+        // A full-screen quad split on its diagonal, both windings: 16×16 pixels, each once.
+        let a = ortho_setup([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0]], 16, 16);
+        let b = ortho_setup([[-1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]], 16, 16);
+        let mut all = covered(&a, 16);
+        all.extend(covered(&b, 16));
+        all.sort();
+        let before = all.len();
+        all.dedup();
+        assert_eq!(before, all.len(), "a pixel was covered twice");
+        assert_eq!(all.len(), 256);
+    }
+
+    #[test]
+    fn edges_through_pixel_centers_follow_the_top_left_rule() {
+        // A 4×4 viewport; a square whose edges pass exactly through pixel centers 1.5 and 2.5.
+        // Left and top edges are in, right and bottom out: pixels x=1, y=1 only.
+        let to_ndc = |x: f64, y: f64| [x / 2.0 - 1.0, 1.0 - y / 2.0];
+        let (l, r, t, b) = (1.5, 2.5, 1.5, 2.5);
+        let a = ortho_setup([to_ndc(l, t), to_ndc(l, b), to_ndc(r, b)], 4, 4);
+        let c = ortho_setup([to_ndc(l, t), to_ndc(r, b), to_ndc(r, t)], 4, 4);
+        let mut all = covered(&a, 4);
+        all.extend(covered(&c, 4));
+        all.sort();
+        assert_eq!(all, vec![(1, 1)]);
+    }
+
+    #[test]
+    fn ccw_on_screen_is_negative_area() {
+        // CCW in NDC (y up) is CCW on screen: front-facing.
+        let t = ortho_setup([[-1.0, -1.0], [1.0, -1.0], [0.0, 1.0]], 8, 8);
+        assert!(t[0].area2 < 0);
+    }
+}

@@ -1,0 +1,198 @@
+//! Rust twins of the GPU structs in `shaders/shared/scene.wgsl`. Keep in sync with it; the
+//! layout tests below pin sizes and offsets.
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+
+use crate::render::{Effect, RenderOptions};
+use crate::scene::{
+    srgb_to_linear, Background, Camera, LightKind, Material, Projection, Scene, Shading,
+};
+
+/// Keep in sync with `Frame` in scene.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FrameUniforms {
+    pub view_proj: [[f32; 4]; 4],
+    pub view: [[f32; 4]; 4],
+    pub eye: [f32; 4],
+    pub to_camera: [f32; 4],
+    pub background: [f32; 4],
+    pub checker_light: [f32; 4],
+    pub checker_dark: [f32; 4],
+    pub ambient: [f32; 4],
+    pub size: [u32; 2],
+    pub effect: u32,
+    pub light_count: u32,
+    pub near: f32,
+    pub far: f32,
+    pub orthographic: u32,
+    pub headlight: u32,
+    pub checker: u32,
+    pub _pad: [u32; 3],
+}
+
+/// Keep in sync with `Material` in scene.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub color: [f32; 3],
+    pub opacity: f32,
+    pub absorption: f32,
+    pub ior: f32,
+    pub shading: u32,
+    pub _pad: u32,
+}
+
+/// Keep in sync with `Light` in scene.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuLight {
+    pub position: [f32; 3],
+    pub kind: u32,
+    pub direction: [f32; 3],
+    pub cos_outer: f32,
+    pub radiance: [f32; 3],
+    pub range: f32,
+    pub cos_inner: f32,
+    pub _pad: [f32; 3],
+}
+
+/// The shading parameters both the GPU and the CPU reference derive from a scene.
+#[derive(Clone, Debug)]
+pub struct LightingSetup {
+    pub ambient: [f32; 3],
+    pub headlight: bool,
+    pub lights: Vec<GpuLight>,
+}
+
+/// Ambient term when the scene has no ambient light of its own.
+pub const DEFAULT_AMBIENT: f32 = 0.1;
+/// Spot lights fade from full at this fraction of their angle to zero at the angle.
+pub const SPOT_INNER_FRACTION: f32 = 0.8;
+
+pub fn lighting(scene: &Scene) -> LightingSetup {
+    let mut ambient = [0.0f32; 3];
+    let mut has_ambient = false;
+    let mut lights = Vec::new();
+    for l in &scene.lights {
+        let radiance = l.color.map(|c| c * l.intensity);
+        if l.kind == LightKind::Ambient {
+            has_ambient = true;
+            for (a, r) in ambient.iter_mut().zip(radiance) {
+                *a += r;
+            }
+            continue;
+        }
+        lights.push(GpuLight {
+            position: l.position.to_array(),
+            kind: match l.kind {
+                LightKind::Point => 0,
+                LightKind::Spot => 1,
+                _ => 2,
+            },
+            direction: l.direction.normalize_or(Vec3::NEG_Y).to_array(),
+            cos_outer: l.angle_deg.to_radians().cos(),
+            radiance,
+            range: l.range.max(1e-6),
+            cos_inner: (l.angle_deg * SPOT_INNER_FRACTION).to_radians().cos(),
+            _pad: [0.0; 3],
+        });
+    }
+    if !has_ambient {
+        ambient = [DEFAULT_AMBIENT; 3];
+    }
+    LightingSetup {
+        ambient,
+        headlight: scene.lights.is_empty(),
+        lights,
+    }
+}
+
+pub fn gpu_material(m: &Material) -> GpuMaterial {
+    GpuMaterial {
+        color: m.color,
+        opacity: m.opacity,
+        absorption: m.absorption,
+        ior: m.ior,
+        shading: match m.shading {
+            Shading::Unlit => 0,
+            Shading::Lit => 1,
+        },
+        _pad: 0,
+    }
+}
+
+/// sRGB greys of the default checkerboard, in linear RGB.
+pub fn checker_colors() -> ([f32; 3], [f32; 3]) {
+    let light = srgb_to_linear(0xcc as f32 / 255.0);
+    let dark = srgb_to_linear(0x99 as f32 / 255.0);
+    ([light; 3], [dark; 3])
+}
+
+pub fn frame_uniforms(
+    camera: &Camera,
+    options: &RenderOptions,
+    setup: &LightingSetup,
+) -> FrameUniforms {
+    let aspect = options.width as f32 / options.height as f32;
+    let view = camera.view();
+    let view_proj: Mat4 = camera.view_projection(aspect);
+    let (light, dark) = checker_colors();
+    let (checker, background) = match options.background {
+        Background::Checker => (1, [0.0; 3]),
+        Background::Color(c) => (0, c),
+    };
+    let to_camera = (camera.eye - camera.target).normalize_or(Vec3::Z);
+    FrameUniforms {
+        view_proj: view_proj.to_cols_array_2d(),
+        view: view.to_cols_array_2d(),
+        eye: camera.eye.extend(1.0).to_array(),
+        to_camera: to_camera.extend(0.0).to_array(),
+        background: [background[0], background[1], background[2], 1.0],
+        checker_light: [light[0], light[1], light[2], 1.0],
+        checker_dark: [dark[0], dark[1], dark[2], 1.0],
+        ambient: [setup.ambient[0], setup.ambient[1], setup.ambient[2], 0.0],
+        size: [options.width, options.height],
+        effect: match options.effect {
+            Effect::Transparency => 0,
+            Effect::Translucency => 1,
+            Effect::Complexity => 2,
+        },
+        light_count: setup.lights.len() as u32,
+        near: camera.near,
+        far: camera.far,
+        orthographic: matches!(camera.projection, Projection::Orthographic { .. }) as u32,
+        headlight: setup.headlight as u32,
+        checker,
+        _pad: [0; 3],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn frame_uniforms_layout_matches_wgsl() {
+        assert_eq!(size_of::<FrameUniforms>(), 272);
+        assert_eq!(offset_of!(FrameUniforms, eye), 128);
+        assert_eq!(offset_of!(FrameUniforms, ambient), 208);
+        assert_eq!(offset_of!(FrameUniforms, size), 224);
+        assert_eq!(offset_of!(FrameUniforms, effect), 232);
+        assert_eq!(offset_of!(FrameUniforms, near), 240);
+        assert_eq!(offset_of!(FrameUniforms, checker), 256);
+    }
+
+    #[test]
+    fn material_and_light_layout_match_wgsl() {
+        assert_eq!(size_of::<GpuMaterial>(), 32);
+        assert_eq!(offset_of!(GpuMaterial, absorption), 16);
+        assert_eq!(offset_of!(GpuMaterial, shading), 24);
+        assert_eq!(size_of::<GpuLight>(), 64);
+        assert_eq!(offset_of!(GpuLight, direction), 16);
+        assert_eq!(offset_of!(GpuLight, radiance), 32);
+        assert_eq!(offset_of!(GpuLight, cos_inner), 48);
+    }
+}

@@ -1,0 +1,175 @@
+//! Scene loaders: TOML scene files, bare model files (OBJ, PLY, glTF/GLB) and `builtin:` specs.
+//!
+//! Every error is one line naming the file (and element) and what is wrong; recoverable problems
+//! (a missing `.mtl`, skipped glTF primitives) are printed to stderr as one-line warnings.
+
+pub(crate) mod gltf;
+pub(crate) mod obj;
+pub(crate) mod ply;
+pub(crate) mod toml;
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::scene::{builtin, Material, Mesh, Object, Scene};
+
+/// One piece of a model file: its name, its mesh (valid, with normals, in the file's
+/// coordinates) and the material the file gives it, if any.
+pub type Part = (String, Mesh, Option<Material>);
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Toml,
+    Obj,
+    Ply,
+    Gltf,
+}
+
+fn kind_of(path: &Path) -> Option<Kind> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    Some(match ext.as_str() {
+        "toml" => Kind::Toml,
+        "obj" => Kind::Obj,
+        "ply" => Kind::Ply,
+        "gltf" | "glb" => Kind::Gltf,
+        _ => return None,
+    })
+}
+
+/// Loads a scene from `spec`: a `.toml` scene file, a model file (`.obj`, `.ply`, `.gltf`,
+/// `.glb`: auto-framed camera, headlight, the file's materials or the default one), or
+/// `builtin:NAME?key=value&...`. The result has passed [`Scene::validate`].
+pub fn load_scene(spec: &str) -> Result<Scene> {
+    if let Some(rest) = spec.strip_prefix("builtin:") {
+        let scene = builtin::build(rest)?;
+        scene
+            .validate()
+            .map_err(|e| Error::input(format!("{spec}: {e}")))?;
+        return Ok(scene);
+    }
+    let path = Path::new(spec);
+    let kind = kind_of(path).ok_or_else(|| {
+        Error::input(format!(
+            "scene '{spec}': unsupported file type (expected .toml, .obj, .ply, .gltf, .glb or builtin:NAME)"
+        ))
+    })?;
+    check_file(path, "scene file")?;
+    let scene = match kind {
+        Kind::Toml => {
+            let mut warnings = Vec::new();
+            let scene = toml::load(path, &mut warnings);
+            print_warnings(&warnings);
+            scene?
+        }
+        _ => scene_from_parts(load_model(path)?),
+    };
+    scene
+        .validate()
+        .map_err(|e| Error::input(format!("{spec}: {e}")))?;
+    Ok(scene)
+}
+
+/// Loads the meshes (and materials) of a model file: `.obj` (with its `.mtl`), `.ply`, `.gltf`
+/// or `.glb`. Warnings go to stderr. Fails when the file holds no triangles.
+pub fn load_model(path: &Path) -> Result<Vec<(String, Mesh, Option<Material>)>> {
+    let mut warnings = Vec::new();
+    let parts = load_model_with_warnings(path, &mut warnings);
+    print_warnings(&warnings);
+    parts
+}
+
+fn print_warnings(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// [`load_model`], collecting warnings instead of printing them.
+pub(crate) fn load_model_with_warnings(
+    path: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Part>> {
+    let kind = kind_of(path).filter(|k| *k != Kind::Toml).ok_or_else(|| {
+        Error::input(format!(
+            "model '{}': unsupported file type (expected .obj, .ply, .gltf or .glb)",
+            path.display()
+        ))
+    })?;
+    check_file(path, "model file")?;
+    let parts = match kind {
+        Kind::Obj => obj::load(path, warnings)?,
+        Kind::Ply => ply::load(path)?,
+        Kind::Gltf => gltf::load(path, warnings)?,
+        Kind::Toml => unreachable!(),
+    };
+    if parts.is_empty() {
+        return Err(Error::input(format!(
+            "{}: no triangles found",
+            path.display()
+        )));
+    }
+    Ok(parts)
+}
+
+/// A scene of the parts, identical materials shared, the default material for parts without
+/// one; no camera (auto-framed), no lights.
+fn scene_from_parts(parts: Vec<Part>) -> Scene {
+    let mut scene = Scene::default();
+    for (name, mesh, material) in parts {
+        let material = intern_material(&mut scene, material.unwrap_or_default());
+        scene.objects.push(Object {
+            name,
+            mesh,
+            material,
+        });
+    }
+    scene
+}
+
+/// Index of `m` in the scene's materials, adding it unless an identical one is there.
+pub(crate) fn intern_material(scene: &mut Scene, m: Material) -> usize {
+    match scene.materials.iter().position(|x| *x == m) {
+        Some(i) => i,
+        None => scene.add_material(m),
+    }
+}
+
+/// One-line errors for a path that is missing or not a file.
+fn check_file(path: &Path, role: &str) -> Result<()> {
+    match std::fs::metadata(path) {
+        Ok(md) if md.is_file() => Ok(()),
+        Ok(_) => Err(Error::input(format!(
+            "{role} '{}' is not a file",
+            path.display()
+        ))),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(Error::input(format!(
+            "{role} '{}' not found",
+            path.display()
+        ))),
+        Err(e) => Err(Error::input(format!("{role} '{}': {e}", path.display()))),
+    }
+}
+
+pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| Error::input(format!("{}: cannot read: {e}", path.display())))
+}
+
+/// Gives a mesh normals when it has none (or unusable ones) and validates it.
+pub(crate) fn finish_mesh(mut mesh: Mesh, what: &str) -> Result<Mesh> {
+    let usable = mesh.normals.len() == mesh.positions.len()
+        && mesh
+            .normals
+            .iter()
+            .all(|n| n.iter().all(|c| c.is_finite()) && n.iter().any(|c| *c != 0.0));
+    if !usable {
+        mesh.normals.clear();
+    }
+    mesh.validate(what)?;
+    if !usable {
+        mesh.compute_normals();
+    }
+    Ok(mesh)
+}
+
+#[cfg(test)]
+mod tests;

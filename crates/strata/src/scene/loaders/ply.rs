@@ -1,0 +1,332 @@
+//! Stanford PLY (ascii, binary little and big endian) through `ply-rs`.
+//!
+//! Reads the `vertex` element's `x`, `y`, `z` (any numeric type) and, when all three are present,
+//! `nx`, `ny`, `nz`; and the `face` element's `vertex_indices` (or `vertex_index`) integer list,
+//! fan-triangulating polygons. Other elements and properties are skipped. Vertex colors
+//! (`red`, `green`, `blue`: 8-bit, 16-bit or float in [0, 1], taken as sRGB) are averaged (in
+//! linear RGB) into the part's material color, since strata colors whole objects; without them
+//! the part has no material of its own. The whole file is one part named after the file stem.
+
+use std::io::BufRead;
+use std::path::Path;
+
+use ply_rs::parser::Parser;
+use ply_rs::ply::{Encoding, Header, Property, PropertyAccess, PropertyType, ScalarType};
+
+use super::{finish_mesh, Part};
+use crate::error::{Error, Result};
+use crate::scene::{srgb_to_linear, Material, Mesh};
+
+#[derive(Default)]
+struct Vertex {
+    position: [f64; 3],
+    normal: [f64; 3],
+    color: [f64; 3],
+}
+
+fn scalar(p: &Property) -> Option<f64> {
+    Some(match *p {
+        Property::Char(v) => v as f64,
+        Property::UChar(v) => v as f64,
+        Property::Short(v) => v as f64,
+        Property::UShort(v) => v as f64,
+        Property::Int(v) => v as f64,
+        Property::UInt(v) => v as f64,
+        Property::Float(v) => v as f64,
+        Property::Double(v) => v,
+        _ => return None,
+    })
+}
+
+impl PropertyAccess for Vertex {
+    fn new() -> Self {
+        Vertex::default()
+    }
+    fn set_property(&mut self, name: String, p: Property) {
+        let Some(v) = scalar(&p) else { return };
+        // Colors to [0, 1] by their type's range.
+        let unit = match p {
+            Property::UChar(_) | Property::Char(_) => v / 255.0,
+            Property::UShort(_) | Property::Short(_) => v / 65535.0,
+            _ => v,
+        };
+        match name.as_str() {
+            "x" => self.position[0] = v,
+            "y" => self.position[1] = v,
+            "z" => self.position[2] = v,
+            "nx" => self.normal[0] = v,
+            "ny" => self.normal[1] = v,
+            "nz" => self.normal[2] = v,
+            "red" => self.color[0] = unit,
+            "green" => self.color[1] = unit,
+            "blue" => self.color[2] = unit,
+            _ => {}
+        }
+    }
+}
+
+#[derive(Default)]
+struct Face {
+    indices: Vec<i64>,
+}
+
+impl PropertyAccess for Face {
+    fn new() -> Self {
+        Face::default()
+    }
+    fn set_property(&mut self, name: String, p: Property) {
+        if name != "vertex_indices" && name != "vertex_index" {
+            return;
+        }
+        self.indices = match p {
+            Property::ListChar(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListUChar(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListShort(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListUShort(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListInt(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListUInt(v) => v.into_iter().map(i64::from).collect(),
+            _ => return,
+        };
+    }
+}
+
+/// Elements we do not use.
+struct Skip;
+
+impl PropertyAccess for Skip {
+    fn new() -> Self {
+        Skip
+    }
+}
+
+/// ply-rs errors span several lines (`Line 3: ...\n\tString: ...`): one line for ours.
+fn one_line(e: impl std::fmt::Display) -> String {
+    e.to_string()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Rejects header numbers `ply-rs` would panic on (it unwraps a u64 parse).
+fn check_header(bytes: &[u8], what: &str) -> Result<()> {
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        if line.trim() == "end_header" {
+            break;
+        }
+        let too_long = line
+            .split(|c: char| !c.is_ascii_digit())
+            .any(|digits| digits.len() > 18);
+        if too_long {
+            return Err(Error::input(format!(
+                "{what}: header line {}: number too large",
+                i + 1
+            )));
+        }
+    }
+    Ok(())
+}
+
+pub(super) fn load(path: &Path) -> Result<Vec<Part>> {
+    let bytes = super::read_file(path)?;
+    let what = path.display().to_string();
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| what.clone());
+    parse(&bytes, &what, &stem)
+}
+
+pub(super) fn parse(bytes: &[u8], what: &str, name: &str) -> Result<Vec<Part>> {
+    if !bytes.starts_with(b"ply") {
+        return Err(Error::input(format!(
+            "{what}: not a PLY file (it does not start with 'ply')"
+        )));
+    }
+    check_header(bytes, what)?;
+    let mut reader = std::io::BufReader::new(bytes);
+    let header: Header = Parser::<Skip>::new()
+        .read_header(&mut reader)
+        .map_err(|e| Error::input(format!("{what}: bad header: {}", one_line(e))))?;
+
+    let vertex_def = header
+        .elements
+        .get("vertex")
+        .ok_or_else(|| Error::input(format!("{what}: no 'vertex' element")))?;
+    for axis in ["x", "y", "z"] {
+        if !vertex_def.properties.contains_key(axis) {
+            return Err(Error::input(format!(
+                "{what}: vertex element has no '{axis}' property"
+            )));
+        }
+    }
+    let has_normals = ["nx", "ny", "nz"]
+        .iter()
+        .all(|n| vertex_def.properties.contains_key(*n));
+    let has_colors = ["red", "green", "blue"]
+        .iter()
+        .all(|n| vertex_def.properties.contains_key(*n));
+    let face_def = header.elements.get("face").ok_or_else(|| {
+        Error::input(format!(
+            "{what}: no 'face' element (point clouds are not supported)"
+        ))
+    })?;
+    let list = ["vertex_indices", "vertex_index"]
+        .iter()
+        .find_map(|n| face_def.properties.get(*n))
+        .ok_or_else(|| {
+            Error::input(format!("{what}: face element has no 'vertex_indices' list"))
+        })?;
+    match &list.data_type {
+        PropertyType::List(_, ScalarType::Float | ScalarType::Double) | PropertyType::Scalar(_) => {
+            return Err(Error::input(format!(
+                "{what}: face '{}' must be a list of integers",
+                list.name
+            )))
+        }
+        PropertyType::List(..) => {}
+    }
+
+    let mut vertices: Vec<Vertex> = Vec::new();
+    let mut faces: Vec<Face> = Vec::new();
+    for (name, def) in &header.elements {
+        let read_err = |e: std::io::Error| {
+            let kind = match header.encoding {
+                Encoding::Ascii => "ascii",
+                Encoding::BinaryLittleEndian => "binary little-endian",
+                Encoding::BinaryBigEndian => "binary big-endian",
+            };
+            Error::input(format!(
+                "{what}: bad {kind} data in element '{name}': {}",
+                one_line(e)
+            ))
+        };
+        match name.as_str() {
+            "vertex" => {
+                vertices = Parser::<Vertex>::new()
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(read_err)?
+            }
+            "face" => {
+                faces = Parser::<Face>::new()
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(read_err)?
+            }
+            _ => {
+                Parser::<Skip>::new()
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(read_err)?;
+            }
+        }
+    }
+    if header.encoding == Encoding::Ascii {
+        // Anything but whitespace after the declared elements means the counts are wrong.
+        let mut rest = String::new();
+        while reader.read_line(&mut rest).unwrap_or(0) > 0 {}
+        if !rest.trim().is_empty() {
+            return Err(Error::input(format!(
+                "{what}: more data than the header declares"
+            )));
+        }
+    }
+
+    let mut mesh = Mesh {
+        positions: vertices
+            .iter()
+            .map(|v| v.position.map(|c| c as f32))
+            .collect(),
+        normals: if has_normals {
+            vertices
+                .iter()
+                .map(|v| v.normal.map(|c| c as f32))
+                .collect()
+        } else {
+            Vec::new()
+        },
+        indices: Vec::new(),
+    };
+    let n = vertices.len() as i64;
+    for (f, face) in faces.iter().enumerate() {
+        if let Some(&bad) = face.indices.iter().find(|&&i| i < 0 || i >= n) {
+            return Err(Error::input(format!(
+                "{what}: face {f}: vertex index {bad} is out of range ({n} vertices)"
+            )));
+        }
+        for k in 2..face.indices.len() {
+            mesh.indices.extend_from_slice(&[
+                face.indices[0] as u32,
+                face.indices[k - 1] as u32,
+                face.indices[k] as u32,
+            ]);
+        }
+    }
+    let mesh = finish_mesh(mesh, what)?;
+    let material = (has_colors && !vertices.is_empty()).then(|| {
+        let mut sum = [0.0f64; 3];
+        for v in &vertices {
+            for (s, c) in sum.iter_mut().zip(v.color) {
+                *s += srgb_to_linear(c.clamp(0.0, 1.0) as f32) as f64;
+            }
+        }
+        Material {
+            name: name.to_string(),
+            color: sum.map(|s| (s / vertices.len() as f64) as f32),
+            ..Material::default()
+        }
+    });
+    Ok(vec![(name.to_string(), mesh, material)])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ASCII: &str = "ply\nformat ascii 1.0\ncomment tiny\nelement vertex 4\n\
+        property float x\nproperty float y\nproperty float z\n\
+        element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+        0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+
+    #[test]
+    fn ascii_quad_is_fanned() {
+        let parts = parse(ASCII.as_bytes(), "q.ply", "q").unwrap();
+        let (name, mesh, mat) = &parts[0];
+        assert_eq!(name, "q");
+        assert!(mat.is_none());
+        assert_eq!(mesh.indices, vec![0, 1, 2, 0, 2, 3]);
+        assert_eq!(mesh.normals.len(), 4);
+    }
+
+    #[test]
+    fn malformed_inputs_are_one_line_errors() {
+        let cases: [(&[u8], &str); 7] = [
+            (b"hello", "not a PLY file"),
+            (b"ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\nend_header\n", "number too large"),
+            (b"ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n", "no 'vertex' element"),
+            (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n", "no 'z' property"),
+            (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "vertex index 7 is out of range"),
+            (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n", "bad ascii data"),
+            (b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\x00\x00", "bad binary little-endian data"),
+        ];
+        for (src, needle) in cases {
+            let e = parse(src, "bad.ply", "bad").unwrap_err().to_string();
+            assert!(
+                e.starts_with("bad.ply: ") && e.contains(needle),
+                "{needle}: {e}"
+            );
+            assert!(!e.contains('\n'), "{e}");
+        }
+    }
+
+    #[test]
+    fn colors_average_to_material() {
+        let src = "ply\nformat ascii 1.0\nelement vertex 3\n\
+            property double x\nproperty double y\nproperty double z\n\
+            property uchar red\nproperty uchar green\nproperty uchar blue\n\
+            element face 1\nproperty list uchar uint vertex_index\nend_header\n\
+            0 0 0 255 0 0\n1 0 0 255 0 0\n0 1 0 255 0 255\n3 0 1 2\n";
+        let parts = parse(src.as_bytes(), "c.ply", "c").unwrap();
+        let m = parts[0].2.as_ref().unwrap();
+        assert!((m.color[0] - 1.0).abs() < 1e-6 && m.color[1] == 0.0);
+        assert!((m.color[2] - 1.0 / 3.0).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,529 @@
+//! TOML scene files (DESIGN.md, "Scene file (TOML)").
+//!
+//! Unknown keys are errors (typos must not pass silently). Errors name the file, the element —
+//! `render`, `camera`, `material N`, `object N`, `light N`, counted from 1 in file order — and the
+//! element's line, e.g. `scene.toml: object 2 (line 14): unknown material 'glas'`.
+//!
+//! Objects: `mesh` is a model file relative to the scene file's directory, or `builtin:quad`,
+//! `builtin:cube`, `builtin:sphere?segments=N`. The transform is M = T · Rz · Ry · Rx · S
+//! (`scale` first, then rotations about X, Y, Z in degrees, then `translate`); meshes are stored
+//! in world space. Materials: `material = "name"` picks a `[[material]]`, replacing any
+//! materials of the model file; the inline fields (`color`, `opacity`, `absorption`, `ior`,
+//! `shading`) override single fields of the base material — the named one if given, else each
+//! of the model's own materials, else the default material.
+//!
+//! Defaults: camera `target` [0,0,0], `up` [0,1,0], perspective, `fov_y_deg` 45, `height` 2,
+//! `near` 0.1, `far` 100 (`eye` is required); materials and lights take the fields they omit
+//! from [`Material::default`] and [`Light::default`]; `[camera]` omitted means auto-framed.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use ::toml::{Spanned, Table, Value};
+use glam::{Mat4, Vec3};
+use serde::de::DeserializeOwned;
+use serde::Deserialize;
+
+use super::{intern_material, Part};
+use crate::error::{Error, Result};
+use crate::scene::{
+    builtin, Background, Camera, Light, LightKind, Material, Object, Projection, RenderDefaults,
+    Scene, Shading,
+};
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileDef {
+    render: Option<Spanned<Table>>,
+    camera: Option<Spanned<Table>>,
+    #[serde(default)]
+    material: Vec<Spanned<Table>>,
+    #[serde(default)]
+    object: Vec<Spanned<Table>>,
+    #[serde(default)]
+    light: Vec<Spanned<Table>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderDef {
+    size: Option<[u32; 2]>,
+    background: Option<String>,
+    shading: Option<Shading>,
+}
+
+#[derive(Deserialize, Default, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum ProjectionKind {
+    #[default]
+    Perspective,
+    Orthographic,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraDef {
+    eye: [f32; 3],
+    #[serde(default)]
+    target: [f32; 3],
+    #[serde(default = "y_up")]
+    up: [f32; 3],
+    #[serde(default)]
+    projection: ProjectionKind,
+    #[serde(default = "default_fov")]
+    fov_y_deg: f32,
+    #[serde(default = "default_height")]
+    height: f32,
+    #[serde(default = "default_near")]
+    near: f32,
+    #[serde(default = "default_far")]
+    far: f32,
+}
+
+fn y_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f32 {
+    45.0
+}
+fn default_height() -> f32 {
+    2.0
+}
+fn default_near() -> f32 {
+    0.1
+}
+fn default_far() -> f32 {
+    100.0
+}
+
+/// The material fields shared by `[[material]]` and inline object materials.
+#[derive(Default)]
+struct MaterialFields {
+    color: Option<[f32; 3]>,
+    opacity: Option<f32>,
+    absorption: Option<f32>,
+    ior: Option<f32>,
+    shading: Option<Shading>,
+}
+
+impl MaterialFields {
+    fn is_empty(&self) -> bool {
+        self.color.is_none()
+            && self.opacity.is_none()
+            && self.absorption.is_none()
+            && self.ior.is_none()
+            && self.shading.is_none()
+    }
+
+    fn apply(&self, base: &Material) -> Material {
+        Material {
+            name: base.name.clone(),
+            color: self.color.unwrap_or(base.color),
+            opacity: self.opacity.unwrap_or(base.opacity),
+            absorption: self.absorption.unwrap_or(base.absorption),
+            ior: self.ior.unwrap_or(base.ior),
+            shading: self.shading.unwrap_or(base.shading),
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialDef {
+    name: String,
+    color: Option<[f32; 3]>,
+    opacity: Option<f32>,
+    absorption: Option<f32>,
+    ior: Option<f32>,
+    shading: Option<Shading>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ObjectDef {
+    mesh: String,
+    material: Option<String>,
+    color: Option<[f32; 3]>,
+    opacity: Option<f32>,
+    absorption: Option<f32>,
+    ior: Option<f32>,
+    shading: Option<Shading>,
+    translate: Option<[f32; 3]>,
+    rotate_deg: Option<[f32; 3]>,
+    scale: Option<Value>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightDef {
+    kind: Option<LightKind>,
+    position: Option<[f32; 3]>,
+    direction: Option<[f32; 3]>,
+    angle_deg: Option<f32>,
+    color: Option<[f32; 3]>,
+    intensity: Option<f32>,
+    range: Option<f32>,
+}
+
+/// Where an element came from, for error messages.
+struct Ctx<'a> {
+    file: &'a str,
+    text: &'a str,
+}
+
+impl Ctx<'_> {
+    fn line_of(&self, offset: usize) -> usize {
+        let offset = offset.min(self.text.len());
+        self.text.as_bytes()[..offset]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1
+    }
+
+    /// `object 2 (line 14)`.
+    fn label<T>(&self, kind: &str, index: Option<usize>, spanned: &Spanned<T>) -> String {
+        let line = self.line_of(spanned.span().start);
+        match index {
+            Some(i) => format!("{kind} {} (line {line})", i + 1),
+            None => format!("{kind} (line {line})"),
+        }
+    }
+
+    fn err(&self, label: &str, msg: impl std::fmt::Display) -> Error {
+        Error::input(format!(
+            "{}: {label}: {}",
+            self.file,
+            one_line(&msg.to_string())
+        ))
+    }
+
+    fn parse<T: DeserializeOwned>(&self, label: &str, table: Table) -> Result<T> {
+        Value::Table(table)
+            .try_into()
+            .map_err(|e: ::toml::de::Error| self.err(label, e.message()))
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+fn finite3(v: [f32; 3]) -> bool {
+    v.iter().all(|c| c.is_finite())
+}
+
+/// Loads a TOML scene file (the path is known to exist).
+pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Scene> {
+    let file = path.display().to_string();
+    let bytes = super::read_file(path)?;
+    let text =
+        String::from_utf8(bytes).map_err(|_| Error::input(format!("{file}: not UTF-8 text")))?;
+    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    parse(&text, &file, &dir, warnings)
+}
+
+/// Parses scene text; `file` names it in errors, `dir` resolves mesh paths.
+pub(crate) fn parse(
+    text: &str,
+    file: &str,
+    dir: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<Scene> {
+    let ctx = Ctx { file, text };
+    let def: FileDef = ::toml::from_str(text).map_err(|e| {
+        let at = e
+            .span()
+            .map(|s| {
+                let line = ctx.line_of(s.start);
+                let line_start = text[..s.start.min(text.len())]
+                    .rfind('\n')
+                    .map_or(0, |i| i + 1);
+                let column = text[line_start..s.start.min(text.len())].chars().count() + 1;
+                format!("line {line}, column {column}: ")
+            })
+            .unwrap_or_default();
+        Error::input(format!("{file}: {at}{}", one_line(e.message())))
+    })?;
+
+    let mut scene = Scene::default();
+
+    if let Some(t) = def.render {
+        let label = ctx.label("render", None, &t);
+        let r: RenderDef = ctx.parse(&label, t.into_inner())?;
+        if let Some([w, h]) = r.size {
+            if w == 0 || h == 0 {
+                return Err(ctx.err(&label, format!("size [{w}, {h}] must be positive")));
+            }
+        }
+        let background = r
+            .background
+            .map(|b| b.parse::<Background>())
+            .transpose()
+            .map_err(|e| ctx.err(&label, e))?;
+        scene.defaults = RenderDefaults {
+            size: r.size,
+            background,
+            shading: r.shading,
+        };
+    }
+
+    if let Some(t) = def.camera {
+        let label = ctx.label("camera", None, &t);
+        let c: CameraDef = ctx.parse(&label, t.into_inner())?;
+        scene.camera = Some(camera(c).map_err(|msg| ctx.err(&label, msg))?);
+    }
+
+    let mut named: HashMap<String, usize> = HashMap::new();
+    for (i, t) in def.material.into_iter().enumerate() {
+        let label = ctx.label("material", Some(i), &t);
+        let m: MaterialDef = ctx.parse(&label, t.into_inner())?;
+        if named.contains_key(&m.name) {
+            return Err(ctx.err(&label, format!("material '{}' is defined twice", m.name)));
+        }
+        let base = Material {
+            name: m.name.clone(),
+            ..Material::default()
+        };
+        let fields = MaterialFields {
+            color: m.color,
+            opacity: m.opacity,
+            absorption: m.absorption,
+            ior: m.ior,
+            shading: m.shading,
+        };
+        let material = fields.apply(&base);
+        check_material(&material).map_err(|msg| ctx.err(&label, msg))?;
+        named.insert(m.name, scene.add_material(material));
+    }
+
+    let mut models: HashMap<PathBuf, Vec<Part>> = HashMap::new();
+    for (i, t) in def.object.into_iter().enumerate() {
+        let label = ctx.label("object", Some(i), &t);
+        let o: ObjectDef = ctx.parse(&label, t.into_inner())?;
+        let err = |msg: String| ctx.err(&label, msg);
+
+        let parts: Vec<Part> = if let Some(spec) = o.mesh.strip_prefix("builtin:") {
+            let mesh = builtin::primitive(spec).map_err(|e| err(e.to_string()))?;
+            let name = spec.split('?').next().unwrap_or(spec).to_string();
+            vec![(name, mesh, None)]
+        } else {
+            let p = dir.join(&o.mesh);
+            if !models.contains_key(&p) {
+                let loaded = super::load_model_with_warnings(&p, warnings)
+                    .map_err(|e| err(e.to_string()))?;
+                models.insert(p.clone(), loaded);
+            }
+            models[&p].clone()
+        };
+
+        let inline = MaterialFields {
+            color: o.color,
+            opacity: o.opacity,
+            absorption: o.absorption,
+            ior: o.ior,
+            shading: o.shading,
+        };
+        let base_named = match &o.material {
+            None => None,
+            Some(name) => Some(
+                *named
+                    .get(name)
+                    .ok_or_else(|| err(format!("unknown material '{name}'")))?,
+            ),
+        };
+        let transform = transform(&o).map_err(err)?;
+        let flip = transform.determinant() < 0.0;
+
+        for (part_name, mesh, part_material) in parts {
+            let material = match (base_named, inline.is_empty()) {
+                (Some(m), true) => m,
+                (base, _) => {
+                    let base = match base {
+                        Some(m) => scene.materials[m].clone(),
+                        None => part_material.unwrap_or_default(),
+                    };
+                    let mut m = inline.apply(&base);
+                    if !inline.is_empty() {
+                        m.name = if base.name == Material::default().name {
+                            format!("object {}", i + 1)
+                        } else {
+                            format!("{} (object {})", base.name, i + 1)
+                        };
+                    }
+                    check_material(&m).map_err(err)?;
+                    intern_material(&mut scene, m)
+                }
+            };
+            let mut mesh = mesh.transformed(transform);
+            if flip {
+                for t in mesh.indices.chunks_exact_mut(3) {
+                    t.swap(1, 2);
+                }
+            }
+            scene.objects.push(Object {
+                name: part_name,
+                mesh,
+                material,
+            });
+        }
+    }
+
+    for (i, t) in def.light.into_iter().enumerate() {
+        let label = ctx.label("light", Some(i), &t);
+        let l: LightDef = ctx.parse(&label, t.into_inner())?;
+        scene
+            .lights
+            .push(light(l).map_err(|msg| ctx.err(&label, msg))?);
+    }
+
+    if scene.objects.is_empty() {
+        return Err(Error::input(format!("{file}: no [[object]] in the scene")));
+    }
+    Ok(scene)
+}
+
+fn camera(c: CameraDef) -> std::result::Result<Camera, String> {
+    if !(finite3(c.eye) && finite3(c.target) && finite3(c.up)) {
+        return Err("eye, target and up must be finite".into());
+    }
+    let (eye, target, up) = (Vec3::from(c.eye), Vec3::from(c.target), Vec3::from(c.up));
+    if (target - eye).length() < 1e-6 {
+        return Err("eye and target are the same point".into());
+    }
+    if (target - eye).normalize().cross(up).length() < 1e-6 {
+        return Err("up is parallel to the view direction (or zero)".into());
+    }
+    if !(c.near > 0.0 && c.far > c.near && c.far.is_finite()) {
+        return Err(format!(
+            "near {} and far {} must satisfy 0 < near < far",
+            c.near, c.far
+        ));
+    }
+    let projection = match c.projection {
+        ProjectionKind::Perspective => {
+            if !(c.fov_y_deg > 0.0 && c.fov_y_deg < 180.0) {
+                return Err(format!("fov_y_deg {} must be in (0, 180)", c.fov_y_deg));
+            }
+            Projection::Perspective {
+                fov_y_deg: c.fov_y_deg,
+            }
+        }
+        ProjectionKind::Orthographic => {
+            if !(c.height > 0.0 && c.height.is_finite()) {
+                return Err(format!("height {} must be positive", c.height));
+            }
+            Projection::Orthographic { height: c.height }
+        }
+    };
+    Ok(Camera {
+        eye,
+        target,
+        up,
+        projection,
+        near: c.near,
+        far: c.far,
+    })
+}
+
+fn check_material(m: &Material) -> std::result::Result<(), String> {
+    if !m.color.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        return Err(format!(
+            "color {:?} must be finite and non-negative",
+            m.color
+        ));
+    }
+    if !(0.0..=1.0).contains(&m.opacity) {
+        return Err(format!("opacity {} is outside [0, 1]", m.opacity));
+    }
+    if !(m.absorption.is_finite() && m.absorption >= 0.0) {
+        return Err(format!("absorption {} must be ≥ 0", m.absorption));
+    }
+    if !(m.ior.is_finite() && m.ior >= 1.0) {
+        return Err(format!("ior {} must be ≥ 1", m.ior));
+    }
+    Ok(())
+}
+
+fn transform(o: &ObjectDef) -> std::result::Result<Mat4, String> {
+    let scale = match &o.scale {
+        None => Vec3::ONE,
+        Some(v) => {
+            let num = |v: &Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+            match v {
+                Value::Array(a) if a.len() == 3 => {
+                    let c: Vec<f64> = a.iter().filter_map(num).collect();
+                    if c.len() != 3 {
+                        return Err("scale must be a number or [sx, sy, sz]".into());
+                    }
+                    Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)
+                }
+                v => Vec3::splat(num(v).ok_or("scale must be a number or [sx, sy, sz]")? as f32),
+            }
+        }
+    };
+    if !scale.is_finite() || scale.x == 0.0 || scale.y == 0.0 || scale.z == 0.0 {
+        return Err(format!(
+            "scale {:?} must be finite and non-zero",
+            scale.to_array()
+        ));
+    }
+    let t = o.translate.unwrap_or([0.0; 3]);
+    let r = o.rotate_deg.unwrap_or([0.0; 3]);
+    if !finite3(t) || !finite3(r) {
+        return Err("translate and rotate_deg must be finite".into());
+    }
+    Ok(Mat4::from_translation(Vec3::from(t))
+        * Mat4::from_rotation_z(r[2].to_radians())
+        * Mat4::from_rotation_y(r[1].to_radians())
+        * Mat4::from_rotation_x(r[0].to_radians())
+        * Mat4::from_scale(scale))
+}
+
+fn light(l: LightDef) -> std::result::Result<Light, String> {
+    let d = Light::default();
+    let kind = l.kind.unwrap_or(d.kind);
+    let position = l.position.unwrap_or(d.position.to_array());
+    let direction = l.direction.unwrap_or(d.direction.to_array());
+    let color = l.color.unwrap_or(d.color);
+    let (angle_deg, intensity, range) = (
+        l.angle_deg.unwrap_or(d.angle_deg),
+        l.intensity.unwrap_or(d.intensity),
+        l.range.unwrap_or(d.range),
+    );
+    if !(finite3(position) && finite3(direction)) {
+        return Err("position and direction must be finite".into());
+    }
+    if !color.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        return Err(format!("color {color:?} must be finite and non-negative"));
+    }
+    if !(intensity.is_finite() && intensity >= 0.0) {
+        return Err(format!("intensity {intensity} must be ≥ 0"));
+    }
+    if !(range.is_finite() && range > 0.0) {
+        return Err(format!("range {range} must be positive"));
+    }
+    if !(angle_deg > 0.0 && angle_deg < 180.0) {
+        return Err(format!("angle_deg {angle_deg} must be in (0, 180)"));
+    }
+    let direction = Vec3::from(direction);
+    let direction = match kind {
+        LightKind::Spot | LightKind::Directional => direction
+            .try_normalize()
+            .ok_or("direction must be non-zero")?,
+        _ => direction.try_normalize().unwrap_or(d.direction),
+    };
+    Ok(Light {
+        kind,
+        position: Vec3::from(position),
+        direction,
+        angle_deg,
+        color,
+        intensity,
+        range,
+    })
+}

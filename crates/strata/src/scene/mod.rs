@@ -1,0 +1,528 @@
+//! Scenes: meshes, materials, camera, lights and background, and the loaders and built-in
+//! generators that produce them.
+//!
+//! A [`Scene`] keeps objects in world space. Rendering flattens it into one triangle list
+//! ([`Scene::triangles`]) whose order is the *primitive index* every method and the CPU reference
+//! use to break depth ties.
+
+pub mod builtin;
+pub mod loaders;
+
+use glam::{Mat4, Vec3};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// How a fragment's color is computed from its material.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Shading {
+    /// Fragment color = material color.
+    Unlit,
+    /// Two-sided Blinn–Phong with the scene's lights (a headlight when there are none).
+    #[default]
+    Lit,
+}
+
+impl std::str::FromStr for Shading {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "unlit" => Ok(Shading::Unlit),
+            "lit" => Ok(Shading::Lit),
+            _ => Err(Error::input(format!(
+                "unknown shading '{s}' (expected unlit or lit)"
+            ))),
+        }
+    }
+}
+
+/// Surface appearance of one object.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGB.
+    pub color: [f32; 3],
+    /// Opacity α in [0, 1].
+    pub opacity: f32,
+    /// Beer–Lambert absorption σ per scene unit (translucency effect).
+    pub absorption: f32,
+    /// Index of refraction for Schlick Fresnel (translucency effect).
+    pub ior: f32,
+    pub shading: Shading,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: "default".into(),
+            color: [0.8, 0.8, 0.8],
+            opacity: 0.5,
+            absorption: 0.0,
+            ior: 1.5,
+            shading: Shading::Lit,
+        }
+    }
+}
+
+/// An indexed triangle mesh. Normals are per vertex; when a loader finds none they are computed.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Vec<[f32; 3]>,
+    pub indices: Vec<u32>,
+}
+
+impl Mesh {
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Checks what every renderer relies on: finite coordinates, indices in range, at least one
+    /// triangle. `what` names the mesh in the error.
+    pub fn validate(&self, what: &str) -> Result<()> {
+        if self.indices.is_empty() {
+            return Err(Error::input(format!("{what}: mesh has no triangles")));
+        }
+        if self.indices.len() % 3 != 0 {
+            return Err(Error::input(format!(
+                "{what}: index count {} is not a multiple of 3",
+                self.indices.len()
+            )));
+        }
+        if let Some((i, p)) = self
+            .positions
+            .iter()
+            .enumerate()
+            .find(|(_, p)| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(Error::input(format!(
+                "{what}: vertex {i} has a non-finite coordinate {p:?}"
+            )));
+        }
+        let n = self.positions.len();
+        if let Some((i, &idx)) = self
+            .indices
+            .iter()
+            .enumerate()
+            .find(|(_, &idx)| idx as usize >= n)
+        {
+            return Err(Error::input(format!(
+                "{what}: index {idx} at position {i} is out of range ({n} vertices)"
+            )));
+        }
+        if !self.normals.is_empty() && self.normals.len() != n {
+            return Err(Error::input(format!(
+                "{what}: {} normals for {n} vertices",
+                self.normals.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Area-weighted vertex normals (replaces any existing ones).
+    pub fn compute_normals(&mut self) {
+        let mut acc = vec![Vec3::ZERO; self.positions.len()];
+        for t in self.indices.chunks_exact(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from(self.positions[i as usize]));
+            let n = (b - a).cross(c - a);
+            for &i in t {
+                acc[i as usize] += n;
+            }
+        }
+        self.normals = acc
+            .into_iter()
+            .map(|n| n.try_normalize().unwrap_or(Vec3::Z).to_array())
+            .collect();
+    }
+
+    /// Returns the mesh transformed by `m` (normals by its inverse transpose).
+    pub fn transformed(&self, m: Mat4) -> Mesh {
+        let nm = m.inverse().transpose();
+        Mesh {
+            positions: self
+                .positions
+                .iter()
+                .map(|&p| m.transform_point3(Vec3::from(p)).to_array())
+                .collect(),
+            normals: self
+                .normals
+                .iter()
+                .map(|&n| {
+                    nm.transform_vector3(Vec3::from(n))
+                        .try_normalize()
+                        .unwrap_or(Vec3::Z)
+                        .to_array()
+                })
+                .collect(),
+            indices: self.indices.clone(),
+        }
+    }
+
+    /// Axis-aligned bounds (min, max).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.positions.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(Vec3::from(p)), hi.max(Vec3::from(p))),
+        )
+    }
+}
+
+/// A mesh placed in the world with a material (index into [`Scene::materials`]).
+#[derive(Clone, Debug)]
+pub struct Object {
+    pub name: String,
+    /// World-space mesh.
+    pub mesh: Mesh,
+    pub material: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    Perspective {
+        fov_y_deg: f32,
+    },
+    /// `height` is the world-space height of the view.
+    Orthographic {
+        height: f32,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub projection: Projection,
+    pub near: f32,
+    pub far: f32,
+}
+
+impl Camera {
+    pub fn view(&self) -> Mat4 {
+        Mat4::look_at_rh(self.eye, self.target, self.up)
+    }
+
+    /// wgpu convention: right-handed view space, depth in [0, 1].
+    pub fn projection(&self, aspect: f32) -> Mat4 {
+        match self.projection {
+            Projection::Perspective { fov_y_deg } => {
+                Mat4::perspective_rh(fov_y_deg.to_radians(), aspect, self.near, self.far)
+            }
+            Projection::Orthographic { height } => {
+                let h = height * 0.5;
+                let w = h * aspect;
+                Mat4::orthographic_rh(-w, w, -h, h, self.near, self.far)
+            }
+        }
+    }
+
+    pub fn view_projection(&self, aspect: f32) -> Mat4 {
+        self.projection(aspect) * self.view()
+    }
+
+    /// A perspective camera looking at the bounding box from the front (+Z), slightly above,
+    /// so that the whole box is in view.
+    pub fn framing(lo: Vec3, hi: Vec3) -> Camera {
+        let center = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-3);
+        let fov_y_deg = 40.0f32;
+        let dist = radius / (fov_y_deg.to_radians() * 0.5).sin() * 1.05;
+        let dir = Vec3::new(0.0, 0.35, 1.0).normalize();
+        Camera {
+            eye: center + dir * dist,
+            target: center,
+            up: Vec3::Y,
+            projection: Projection::Perspective { fov_y_deg },
+            near: (dist - radius * 1.5).max(dist * 0.01),
+            far: dist + radius * 1.5,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LightKind {
+    Point,
+    Spot,
+    Directional,
+    Ambient,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    pub kind: LightKind,
+    pub position: Vec3,
+    pub direction: Vec3,
+    pub angle_deg: f32,
+    /// Linear RGB.
+    pub color: [f32; 3],
+    pub intensity: f32,
+    /// Radius of the light volume (point, spot); also where attenuation reaches zero.
+    pub range: f32,
+}
+
+impl Default for Light {
+    fn default() -> Self {
+        Light {
+            kind: LightKind::Point,
+            position: Vec3::new(2.0, 3.0, 4.0),
+            direction: Vec3::NEG_Y,
+            angle_deg: 30.0,
+            color: [1.0; 3],
+            intensity: 1.0,
+            range: 10.0,
+        }
+    }
+}
+
+/// What shows through where the fragments leave transmittance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Background {
+    /// 16-pixel cells of sRGB greys #cccccc and #999999.
+    Checker,
+    /// Linear RGB.
+    Color([f32; 3]),
+}
+
+impl Default for Background {
+    fn default() -> Self {
+        Background::Checker
+    }
+}
+
+impl std::str::FromStr for Background {
+    type Err = Error;
+    /// `checker` or a CSS-like sRGB hex color `#rrggbb`.
+    fn from_str(s: &str) -> Result<Self> {
+        if s == "checker" {
+            return Ok(Background::Checker);
+        }
+        let hex = s.strip_prefix('#').filter(|h| h.len() == 6);
+        let parsed = hex.and_then(|h| {
+            let v = u32::from_str_radix(h, 16).ok()?;
+            Some(
+                [(v >> 16) & 255, (v >> 8) & 255, v & 255]
+                    .map(|c| srgb_to_linear(c as f32 / 255.0)),
+            )
+        });
+        parsed.map(Background::Color).ok_or_else(|| {
+            Error::input(format!(
+                "background '{s}' is neither 'checker' nor a color '#rrggbb'"
+            ))
+        })
+    }
+}
+
+impl Background {
+    /// Linear RGB of the background at pixel (x, y).
+    pub fn at(&self, x: u32, y: u32) -> [f32; 3] {
+        match *self {
+            Background::Color(c) => c,
+            Background::Checker => {
+                let light = ((x / 16) + (y / 16)) % 2 == 0;
+                let g = if light { 0xcc } else { 0x99 };
+                [srgb_to_linear(g as f32 / 255.0); 3]
+            }
+        }
+    }
+}
+
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Picture defaults a scene file may carry (`[render]`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderDefaults {
+    pub size: Option<[u32; 2]>,
+    pub background: Option<Background>,
+    pub shading: Option<Shading>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub objects: Vec<Object>,
+    pub materials: Vec<Material>,
+    /// `None`: auto-framed from the bounds.
+    pub camera: Option<Camera>,
+    pub lights: Vec<Light>,
+    pub defaults: RenderDefaults,
+    /// Animation time of the scene (seconds or frame number, per scene).
+    pub time: f32,
+}
+
+/// One vertex of the flattened triangle list, as the GPU reads it.
+/// Keep in sync with `Vertex` in `shaders/shared/scene.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuVertex {
+    pub position: [f32; 3],
+    pub material: u32,
+    pub normal: [f32; 3],
+    pub _pad: u32,
+}
+
+impl Scene {
+    pub fn add_material(&mut self, m: Material) -> usize {
+        self.materials.push(m);
+        self.materials.len() - 1
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.objects.iter().map(|o| o.mesh.triangle_count()).sum()
+    }
+
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.objects.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), o| {
+                let (a, b) = o.mesh.bounds();
+                (lo.min(a), hi.max(b))
+            },
+        )
+    }
+
+    /// The scene's camera, or one framing its bounds.
+    pub fn camera_or_framing(&self) -> Camera {
+        self.camera.unwrap_or_else(|| {
+            let (lo, hi) = self.bounds();
+            Camera::framing(lo, hi)
+        })
+    }
+
+    /// Sets every material's opacity (`--alpha`).
+    pub fn override_alpha(&mut self, alpha: f32) {
+        for m in &mut self.materials {
+            m.opacity = alpha;
+        }
+    }
+
+    /// Sets every material's shading (`--shading`).
+    pub fn override_shading(&mut self, shading: Shading) {
+        for m in &mut self.materials {
+            m.shading = shading;
+        }
+    }
+
+    /// Validates every object and material.
+    pub fn validate(&self) -> Result<()> {
+        if self.objects.is_empty() {
+            return Err(Error::input("scene has no objects".to_string()));
+        }
+        for o in &self.objects {
+            o.mesh.validate(&o.name)?;
+            if o.material >= self.materials.len() {
+                return Err(Error::input(format!(
+                    "{}: material index {} out of range",
+                    o.name, o.material
+                )));
+            }
+        }
+        for m in &self.materials {
+            if !(0.0..=1.0).contains(&m.opacity) {
+                return Err(Error::input(format!(
+                    "material '{}': opacity {} is outside [0, 1]",
+                    m.name, m.opacity
+                )));
+            }
+            if !m.color.iter().all(|c| c.is_finite())
+                || !m.absorption.is_finite()
+                || m.absorption < 0.0
+                || !(m.ior >= 1.0)
+            {
+                return Err(Error::input(format!(
+                    "material '{}': color must be finite, absorption ≥ 0 and ior ≥ 1",
+                    m.name
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The flattened triangle list: three vertices per triangle in primitive order.
+    pub fn triangles(&self) -> Vec<GpuVertex> {
+        let mut out = Vec::with_capacity(self.triangle_count() * 3);
+        for o in &self.objects {
+            let has_normals = o.mesh.normals.len() == o.mesh.positions.len();
+            for t in o.mesh.indices.chunks_exact(3) {
+                let flat = {
+                    let [a, b, c] =
+                        [t[0], t[1], t[2]].map(|i| Vec3::from(o.mesh.positions[i as usize]));
+                    (b - a)
+                        .cross(c - a)
+                        .try_normalize()
+                        .unwrap_or(Vec3::Z)
+                        .to_array()
+                };
+                for &i in t {
+                    out.push(GpuVertex {
+                        position: o.mesh.positions[i as usize],
+                        material: o.material as u32,
+                        normal: if has_normals {
+                            o.mesh.normals[i as usize]
+                        } else {
+                            flat
+                        },
+                        _pad: 0,
+                    });
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gpu_vertex_layout() {
+        assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
+        assert_eq!(std::mem::offset_of!(GpuVertex, material), 12);
+        assert_eq!(std::mem::offset_of!(GpuVertex, normal), 16);
+    }
+
+    #[test]
+    fn background_parses_srgb_hex() {
+        let b: Background = "#ffffff".parse().unwrap();
+        assert_eq!(b, Background::Color([1.0; 3]));
+        assert!("#12345".parse::<Background>().is_err());
+        assert!("blue".parse::<Background>().is_err());
+    }
+
+    #[test]
+    fn mesh_validation_names_the_problem() {
+        let mut m = Mesh {
+            positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, f32::NAN, 0.0]],
+            normals: vec![],
+            indices: vec![0, 1, 2],
+        };
+        let e = m.validate("bad.obj").unwrap_err().to_string();
+        assert!(e.contains("bad.obj") && e.contains("non-finite"), "{e}");
+        m.positions[2] = [0.0, 1.0, 0.0];
+        m.indices[2] = 7;
+        let e = m.validate("bad.obj").unwrap_err().to_string();
+        assert!(e.contains("out of range"), "{e}");
+        m.indices.clear();
+        assert!(m
+            .validate("x")
+            .unwrap_err()
+            .to_string()
+            .contains("no triangles"));
+    }
+}
