@@ -72,3 +72,255 @@ fn every_stage_validates() {
         crate::gpu::shader::validate(label, src);
     }
 }
+
+fn scene(spec: &str) -> Scene {
+    loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
+}
+
+fn fixture(name: &str) -> String {
+    format!("{}/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn exact_methods_match_reference_on_nested_spheres() {
+    check_exact(
+        "spheres",
+        &scene("builtin:spheres?layers=16"),
+        &options(96, Effect::Transparency),
+    );
+}
+
+#[test]
+fn exact_methods_match_reference_on_spheres_with_translucency() {
+    check_exact(
+        "spheres",
+        &scene("builtin:spheres?layers=8"),
+        &options(96, Effect::Translucency),
+    );
+}
+
+#[test]
+fn exact_methods_match_reference_on_nvpro() {
+    check_exact(
+        "nvpro",
+        &scene("builtin:nvpro?objects=96&subdiv=12&seed=2"),
+        &options(96, Effect::Transparency),
+    );
+}
+
+#[test]
+fn exact_methods_match_reference_on_nvpro_complexity() {
+    check_exact(
+        "nvpro",
+        &scene("builtin:nvpro?objects=96&subdiv=12&seed=5"),
+        &options(80, Effect::Complexity),
+    );
+}
+
+#[test]
+fn exact_methods_match_reference_on_the_dragon() {
+    let mut s = scene("builtin:dragon");
+    s.override_alpha(0.5);
+    check_exact("dragon", &s, &options(128, Effect::Transparency));
+}
+
+#[test]
+fn exact_methods_match_reference_on_gltf_alpha_blend() {
+    let s = scene(&fixture("two_nodes.gltf"));
+    assert!(
+        s.materials.iter().any(|m| m.opacity < 1.0),
+        "fixture has a BLEND material"
+    );
+    check_exact("gltf-blend", &s, &options(64, Effect::Translucency));
+}
+
+/// Unlit screen-covering layers in shuffled order under an orthographic camera have a closed
+/// form. Tolerance 1/255: the only error left is f16 fragment storage and 8-bit rounding.
+#[test]
+fn layers_composite_to_the_closed_form() {
+    let n = 12;
+    let s = scene(&format!(
+        "builtin:layers?n={n}&coverage=1&order=random&seed=7"
+    ));
+    let background = [0.2f64, 0.3, 0.4];
+    let mut opts = options(32, Effect::Transparency);
+    opts.background = crate::scene::Background::Color(background.map(|c| c as f32));
+    let mut expected = [0.0f64; 3];
+    let mut t = 1.0f64;
+    for (color, alpha) in crate::scene::builtin::layer_colors(n) {
+        for c in 0..3 {
+            expected[c] += t * alpha as f64 * color[c] as f64;
+        }
+        t *= 1.0 - alpha as f64;
+    }
+    let expected: Vec<u8> = (0..3)
+        .map(|c| {
+            (crate::scene::linear_to_srgb((expected[c] + t * background[c]) as f32) * 255.0).round()
+                as u8
+        })
+        .collect();
+    let mut pictures = vec![("reference", render_reference(&s, &opts))];
+    for m in EXACT_METHODS {
+        pictures.push((m, render_gpu(&s, &opts, m).0));
+    }
+    for (method, image) in pictures {
+        let rgba = image.to_rgba8(Effect::Transparency);
+        for p in rgba.pixels() {
+            for c in 0..3 {
+                assert!(
+                    (p[c] as i32 - expected[c] as i32).abs() <= 1,
+                    "{method}: pixel {:?} vs closed form {expected:?}",
+                    p
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn exact_methods_are_deterministic() {
+    let s = scene("builtin:nvpro?objects=64&subdiv=10&seed=9");
+    let opts = options(64, Effect::Translucency);
+    for method in EXACT_METHODS {
+        let a = render_gpu(&s, &opts, method).0;
+        let b = render_gpu(&s, &opts, method).0;
+        assert!(a == b, "{method}: two renders differ");
+    }
+}
+
+#[test]
+fn abuffer_pool_overflow_is_detected_and_the_image_stays_exact() {
+    let s = scene("builtin:spheres?layers=12");
+    let mut opts = options(64, Effect::Transparency);
+    opts.abuffer_initial_nodes = Some(16);
+    let (actual, stats) = render_gpu(&s, &opts, "abuffer-ll");
+    assert_eq!(stats.overflow, Some(true));
+    assert_eq!(stats.geometry_passes, Some(2));
+    assert_eq!(stats.fragments_dropped, Some(0));
+    let expected = render_reference(&s, &opts);
+    assert_close(
+        "overflow-abuffer-ll",
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    // A pool that fits reports no overflow.
+    opts.abuffer_initial_nodes = None;
+    assert_eq!(render_gpu(&s, &opts, "abuffer-ll").1.overflow, Some(false));
+}
+
+#[test]
+fn abuffer_budget_too_small_is_a_clear_error() {
+    let s = scene("builtin:spheres?layers=12");
+    let mut opts = options(64, Effect::Transparency);
+    opts.budget_mb = Some(0.02);
+    opts.abuffer_initial_nodes = Some(16);
+    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let e = r.render("abuffer-ll").unwrap_err();
+    assert!(matches!(e, crate::Error::Input(_)), "{e}");
+    assert!(e.to_string().contains("--budget-mb"), "{e}");
+}
+
+/// Where no triangles overlap out of order the baselines are exact: screen-aligned layers sort
+/// correctly by centroid, and back-to-front submission needs no sort.
+#[test]
+fn baselines_are_exact_where_order_is_trivial() {
+    let opts = options(48, Effect::Transparency);
+    let shuffled = scene("builtin:layers?n=10&coverage=0.5&order=random&seed=4");
+    let expected = render_reference(&shuffled, &opts);
+    let (sorted, _) = render_gpu(&shuffled, &opts, "sorted");
+    assert_close(
+        "layers-sorted",
+        &sorted,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    let back = scene("builtin:layers?n=10&coverage=0.5&order=back&seed=4");
+    let (unsorted, _) = render_gpu(&back, &opts, "unsorted");
+    assert_close(
+        "layers-unsorted",
+        &unsorted,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    // And out of order, unsorted blending is visibly wrong: the reason OIT exists.
+    let (wrong, _) = render_gpu(&shuffled, &opts, "unsorted");
+    let c = crate::metrics::compare(
+        &wrong.to_rgba8(opts.effect),
+        &expected.to_rgba8(opts.effect),
+    )
+    .unwrap();
+    assert!(
+        c.pct_over_2 > 10.0,
+        "unsorted on shuffled layers should differ: {c:?}"
+    );
+}
+
+/// Fragments behind a supplied opaque depth are rejected by every method: layers behind the
+/// opaque depth vanish, as if they were not in the scene.
+#[test]
+fn opaque_depth_rejects_fragments_behind_it() {
+    let n = 10;
+    let keep = 6;
+    let full = scene(&format!(
+        "builtin:layers?n={n}&coverage=1&order=random&seed=2"
+    ));
+    let mut front_only = full.clone();
+    front_only.objects.retain(|o| {
+        let i: usize = o.name.trim_start_matches("layer ").parse().unwrap();
+        i < keep
+    });
+    let opts = options(32, Effect::Transparency);
+    let expected = render_reference(&front_only, &opts);
+    // Window depth halfway between layer keep−1 and layer keep (orthographic: linear in distance).
+    let cam = full.camera.unwrap();
+    let z = |i: usize| {
+        let d = cam.eye.z - crate::scene::builtin::layer_depth(i, n);
+        (d - cam.near) / (cam.far - cam.near)
+    };
+    let between = 0.5 * (z(keep - 1) + z(keep));
+    for method in ["f2b", "dual", "abuffer-ll", "unsorted"] {
+        let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
+        crate::render::clear_depth(
+            crate::testing::gpu(),
+            &r.opaque_depth().create_view(&Default::default()),
+            between,
+        );
+        let (actual, _) = r.render(method).unwrap();
+        if method == "unsorted" {
+            // Shuffled submission: only the count is order independent.
+            assert_eq!(actual.max_count(), keep as u32);
+            continue;
+        }
+        assert_close(
+            &format!("opaque-{method}"),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+    }
+}
+
+#[test]
+fn unknown_method_is_an_input_error() {
+    let s = scene("builtin:layers?n=2");
+    let mut r = crate::Renderer::new(
+        crate::testing::gpu(),
+        &s,
+        &options(16, Effect::Transparency),
+    )
+    .unwrap();
+    let e = r.render("nope").err().expect("unknown method fails");
+    assert!(
+        matches!(e, crate::Error::Input(_)) && e.to_string().contains("unknown method 'nope'"),
+        "{e}"
+    );
+}

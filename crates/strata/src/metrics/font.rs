@@ -54,9 +54,9 @@ mod tests {
 
     #[test]
     fn glyphs_are_distinct_and_sized() {
-        for a in 0..10 {
-            for b in (a + 1)..10 {
-                assert_ne!(DIGITS[a], DIGITS[b], "digits {a} and {b} look alike");
+        for (a, ga) in DIGITS.iter().enumerate() {
+            for (b, gb) in DIGITS.iter().enumerate().skip(a + 1) {
+                assert_ne!(ga, gb, "digits {a} and {b} look alike");
             }
         }
         assert_eq!(text_width(""), 0);

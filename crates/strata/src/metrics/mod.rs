@@ -254,7 +254,7 @@ mod tests {
         assert_eq!(c.max_abs_diff, 5);
         assert_eq!(c.pixels, 16);
         assert_eq!(c.pct_over_2, 100.0 / 16.0);
-        let rmse = ((25.0 + 9.0) / (16.0 * 3.0) as f64).sqrt() / 255.0;
+        let rmse = ((25.0_f64 + 9.0) / (16.0 * 3.0)).sqrt() / 255.0;
         assert!((c.rmse - rmse).abs() < 1e-12, "{} vs {rmse}", c.rmse);
         assert!((c.psnr - (-20.0 * rmse.log10())).abs() < 1e-9);
         assert!(c.psnr > 40.0 && c.psnr < 60.0, "psnr {}", c.psnr);

@@ -1,12 +1,12 @@
 //! The built-in scene generators.
 
-use std::f32::consts::{FRAC_PI_2, TAU};
+use std::f32::consts::TAU;
 
 use glam::{Mat4, Quat, Vec3};
 
 use super::models::model_mesh;
 use super::params::Params;
-use super::primitives::{quad, uv_sphere};
+use super::primitives::uv_sphere;
 use super::rng::SplitMix64;
 use crate::error::{Error, Result};
 use crate::scene::{
@@ -190,7 +190,7 @@ pub(super) fn spheres(p: &Params) -> Result<Scene> {
 /// `nvpro?objects=1024&subdiv=16&seed=0`: `objects` UV spheres (`subdiv` segments) centred
 /// uniformly in [-1,1]³, radius uniform in [0.05, 0.25)·∛(1024/objects) (so the density stays
 /// alike), random linear colors in [0.05, 1)³ and opacity in [0.3, 0.8); one object and one
-/// material per sphere; lit by two point lights; a perspective camera framing the cube.
+/// material per sphere; lit by two point lights; a perspective camera at (0, 1, 4.8) looking at the centre.
 pub(super) fn nvpro(p: &Params) -> Result<Scene> {
     let objects = p.int("objects", 1024, 1, 100_000)? as usize;
     let subdiv = p.int("subdiv", 16, 3, 256)? as u32;
@@ -219,8 +219,14 @@ pub(super) fn nvpro(p: &Params) -> Result<Scene> {
             material: m,
         });
     }
-    let r = 1.0 + 0.25 * scale;
-    scene.camera = Some(Camera::framing(Vec3::splat(-r), Vec3::splat(r)));
+    scene.camera = Some(Camera {
+        eye: Vec3::new(0.0, 1.0, 4.8),
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        projection: Projection::Perspective { fov_y_deg: 45.0 },
+        near: 0.1,
+        far: 20.0,
+    });
     scene.lights = vec![
         point_light(Vec3::new(3.0, 4.0, 5.0), [1.0, 1.0, 1.0], 1.0, 20.0),
         point_light(Vec3::new(-4.0, -2.0, 3.0), [0.8, 0.85, 1.0], 0.6, 20.0),
@@ -237,7 +243,8 @@ pub(crate) const BALLS_FPS: f32 = 30.0;
 /// `balls?count=1000&frame=0`: `count` spheres (12 segments, radius 0.04·∛(1000/count)) each on
 /// its own seeded circular orbit (centre in [-0.7,0.7]³, orbit radius in [0.1, 0.5), random
 /// axis, angular speed ±[0.5, 2) rad/s, random phase); positions at time frame/30 s. Random hue,
-/// opacity 0.5, lit; a fixed perspective camera framing [-1.25,1.25]³. `scene.time` = frame.
+/// opacity 0.5, lit; a fixed perspective camera at (0, 0.7, 3.8) looking at the centre.
+/// `scene.time` = frame.
 pub(super) fn balls(p: &Params) -> Result<Scene> {
     let count = p.int("count", 1000, 1, 100_000)? as usize;
     let frame = p.float("frame", 0.0, -1.0e6, 1.0e6)?;
@@ -275,7 +282,14 @@ pub(super) fn balls(p: &Params) -> Result<Scene> {
             material: m,
         });
     }
-    scene.camera = Some(Camera::framing(Vec3::splat(-1.25), Vec3::splat(1.25)));
+    scene.camera = Some(Camera {
+        eye: Vec3::new(0.0, 0.7, 3.8),
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        projection: Projection::Perspective { fov_y_deg: 45.0 },
+        near: 0.1,
+        far: 20.0,
+    });
     scene.lights = vec![
         point_light(Vec3::new(3.0, 4.0, 5.0), [1.0, 0.95, 0.9], 1.0, 20.0),
         point_light(Vec3::new(-4.0, 1.0, -3.0), [0.7, 0.8, 1.0], 0.6, 20.0),
@@ -312,31 +326,62 @@ fn place_on_floor(mesh: &Mesh, size: f32, yaw_deg: f32, x: f32, z: f32) -> Mesh 
     turned.transformed(Mat4::from_translation(Vec3::new(x, -lo.y, z)))
 }
 
+/// A checkerboard floor at y = 0: `cells`×`cells` unit squares centred on the origin, as two
+/// meshes (light cells, dark cells) facing +Y.
+fn checker_floor(cells: i32) -> [Mesh; 2] {
+    let mut out = [Mesh::default(), Mesh::default()];
+    let h = cells as f32 / 2.0;
+    for i in 0..cells {
+        for j in 0..cells {
+            let m = &mut out[((i + j) % 2) as usize];
+            let (x0, z0) = (i as f32 - h, j as f32 - h);
+            let base = m.positions.len() as u32;
+            // CCW seen from +Y.
+            m.positions.extend_from_slice(&[
+                [x0, 0.0, z0 + 1.0],
+                [x0 + 1.0, 0.0, z0 + 1.0],
+                [x0 + 1.0, 0.0, z0],
+                [x0, 0.0, z0],
+            ]);
+            m.normals.extend_from_slice(&[[0.0, 1.0, 0.0]; 4]);
+            m.indices
+                .extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    out
+}
+
 /// The default scene: spot (orange), the teapot (teal) and suzanne (magenta), translucent
-/// (opacity 0.45–0.55, absorption 0.8, ior 1.5), standing on an opaque grey floor
-/// (10×10 units at y = 0), three point lights (warm key, cool fill, rim), a perspective camera
-/// looking slightly down. About 24K triangles.
+/// (opacity 0.35–0.45, absorption 0.8, ior 1.5) and overlapping in view, standing on an opaque
+/// checkerboard floor (12×12 unit cells at y = 0, so the see-through shows), three point lights
+/// (warm key, cool fill, rim), a perspective camera looking slightly down. About 24K triangles.
 pub(super) fn demo() -> Result<Scene> {
     let mut scene = Scene::default();
-    let floor = scene.add_material(Material {
-        name: "floor".into(),
-        color: [0.45, 0.45, 0.45],
-        opacity: 1.0,
-        absorption: 0.0,
-        ior: 1.5,
-        shading: Shading::Lit,
-    });
-    scene.objects.push(Object {
-        name: "floor".into(),
-        mesh: quad()
-            .transformed(Mat4::from_scale(Vec3::splat(5.0)) * Mat4::from_rotation_x(-FRAC_PI_2)),
-        material: floor,
-    });
+    for (name, grey, mesh) in ["floor light", "floor dark"]
+        .into_iter()
+        .zip([0.5, 0.25])
+        .zip(checker_floor(12))
+        .map(|((n, g), m)| (n, g, m))
+    {
+        let m = scene.add_material(Material {
+            name: name.into(),
+            color: [grey; 3],
+            opacity: 1.0,
+            absorption: 0.0,
+            ior: 1.5,
+            shading: Shading::Lit,
+        });
+        scene.objects.push(Object {
+            name: name.into(),
+            mesh,
+            material: m,
+        });
+    }
     // (model, color, opacity, size, yaw, x, z)
     let models = [
-        ("spot", [0.95, 0.45, 0.12], 0.5, 1.1, -35.0, -1.3, 0.1),
-        ("teapot", [0.1, 0.65, 0.7], 0.45, 1.15, 20.0, 0.0, -0.3),
-        ("suzanne", [0.75, 0.22, 0.65], 0.55, 1.0, -15.0, 1.3, 0.1),
+        ("teapot", [0.1, 0.65, 0.7], 0.35, 1.5, 25.0, 0.1, -0.9),
+        ("spot", [0.95, 0.45, 0.12], 0.4, 1.3, -140.0, -0.9, 0.25),
+        ("suzanne", [0.75, 0.22, 0.65], 0.45, 1.2, -20.0, 0.9, 0.35),
     ];
     for (name, color, opacity, size, yaw, x, z) in models {
         let m = scene.add_material(Material {
@@ -354,8 +399,8 @@ pub(super) fn demo() -> Result<Scene> {
         });
     }
     scene.camera = Some(Camera {
-        eye: Vec3::new(0.0, 1.7, 5.2),
-        target: Vec3::new(0.0, 0.4, 0.0),
+        eye: Vec3::new(0.0, 1.8, 5.0),
+        target: Vec3::new(0.0, 0.5, -0.1),
         up: Vec3::Y,
         projection: Projection::Perspective { fov_y_deg: 40.0 },
         near: 0.1,
@@ -395,7 +440,7 @@ mod tests {
         assert!(s.lights.len() >= 2);
         let cam = s.camera.unwrap();
         let vp = cam.view_projection(1.0);
-        for o in &s.objects[1..] {
+        for o in &s.objects[2..] {
             let (lo, _) = o.mesh.bounds();
             assert!(lo.y.abs() < 1e-4, "{} floats: {lo}", o.name);
             // Every vertex inside the view of a square image, with a margin.
@@ -409,6 +454,7 @@ mod tests {
             }
         }
         assert_eq!(s.materials[s.objects[0].material].opacity, 1.0);
+        assert_eq!(s.materials[s.objects[1].material].opacity, 1.0);
     }
 
     #[test]
