@@ -150,9 +150,9 @@ fn try_layout(width: u32, height: u32, max: u32, s: u32, with_mid: bool) -> Opti
     let bar_h = 4 * s;
     let tick_len = s;
     let text_gap = s;
-    let label_gap = 2 * s;
+    let label_gap = 4 * s;
     let text_h = GLYPH_H * s;
-    let min_bar_w = 24 * s;
+    let min_bar_w = 32 * s;
 
     let mut values = vec![0];
     if with_mid {

@@ -84,7 +84,7 @@ impl Mesh {
         if self.indices.is_empty() {
             return Err(Error::input(format!("{what}: mesh has no triangles")));
         }
-        if self.indices.len() % 3 != 0 {
+        if !self.indices.len().is_multiple_of(3) {
             return Err(Error::input(format!(
                 "{what}: index count {} is not a multiple of 3",
                 self.indices.len()
@@ -277,18 +277,13 @@ impl Default for Light {
 }
 
 /// What shows through where the fragments leave transmittance.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum Background {
     /// 16-pixel cells of sRGB greys #cccccc and #999999.
+    #[default]
     Checker,
     /// Linear RGB.
     Color([f32; 3]),
-}
-
-impl Default for Background {
-    fn default() -> Self {
-        Background::Checker
-    }
 }
 
 impl std::str::FromStr for Background {
@@ -320,7 +315,7 @@ impl Background {
         match *self {
             Background::Color(c) => c,
             Background::Checker => {
-                let light = ((x / 16) + (y / 16)) % 2 == 0;
+                let light = ((x / 16) + (y / 16)).is_multiple_of(2);
                 let g = if light { 0xcc } else { 0x99 };
                 [srgb_to_linear(g as f32 / 255.0); 3]
             }
@@ -442,7 +437,8 @@ impl Scene {
             if !m.color.iter().all(|c| c.is_finite())
                 || !m.absorption.is_finite()
                 || m.absorption < 0.0
-                || !(m.ior >= 1.0)
+                || m.ior.is_nan()
+                || m.ior < 1.0
             {
                 return Err(Error::input(format!(
                     "material '{}': color must be finite, absorption ≥ 0 and ior ≥ 1",

@@ -30,7 +30,7 @@ impl SplitMix64 {
 
     /// Uniform integer in [0, n) (n > 0), by the multiply-shift method.
     pub(crate) fn below(&mut self, n: usize) -> usize {
-        ((self.next_u64() >> 32) * n as u64 >> 32) as usize
+        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
     }
 
     /// Fisher–Yates shuffle.

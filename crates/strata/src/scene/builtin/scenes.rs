@@ -560,36 +560,3 @@ mod tests {
         assert_eq!(hsv(2.0 / 3.0, 1.0, 1.0), [0.0, 0.0, 1.0]);
     }
 }
-
-#[cfg(test)]
-mod scratch_render {
-    #[test]
-    #[ignore]
-    fn scratch_render_builtins() {
-        use crate::render::{Effect, RenderOptions};
-        for (spec, file) in [
-            ("builtin:demo", "demo"),
-            ("builtin:spheres", "spheres"),
-            ("builtin:nvpro?objects=256", "nvpro"),
-            ("builtin:balls?count=300", "balls"),
-            ("builtin:layers?n=8", "layers"),
-            ("builtin:bunny", "bunny"),
-        ] {
-            let mut scene = crate::scene::loaders::load_scene(spec).unwrap();
-            if let Some(s) = scene.defaults.shading {
-                scene.override_shading(s);
-            }
-            for effect in [Effect::Transparency, Effect::Translucency] {
-                let opts = RenderOptions {
-                    width: 384,
-                    height: 384,
-                    effect,
-                    ..Default::default()
-                };
-                let (img, _) = crate::reference::render(&scene, &opts).unwrap();
-                let path = std::path::PathBuf::from(format!("/tmp/strata_{file}_{effect:?}.png"));
-                crate::render::save_png(&img.to_rgba8(effect), &path).unwrap();
-            }
-        }
-    }
-}

@@ -75,7 +75,6 @@ pub(crate) fn parse_obj_text(
         single_index: true,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let mut reader = LineCounter::new(text.as_bytes());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, loader)

@@ -515,3 +515,20 @@ fn load_scene_builds_builtins() {
     let s = load_scene("builtin:layers?n=4&order=front").unwrap();
     assert_eq!(s.objects.len(), 4);
 }
+
+#[test]
+#[ignore]
+fn scratch_print_errors() {
+    for f in ["malformed.obj", "nan.obj", "out_of_range.obj", "empty.obj", "malformed.ply", "malformed.gltf", "malformed.toml", "unknown_material.toml", "unknown_field.toml"] {
+        eprintln!("{}", load_scene(&format!("tests/fixtures/{f}")).unwrap_err());
+    }
+    for s in ["x.obj", "builtin:foo", "builtin:layers?n=abc", "builtin:layers?x=1", "builtin:spheres?layers=5"] {
+        eprintln!("{}", load_scene(s).unwrap_err());
+    }
+    let mut w = Vec::new();
+    load_model_with_warnings(Path::new("tests/fixtures/cube_missing_mtl.obj"), &mut w).unwrap();
+    eprintln!("{w:?}");
+    for t in ["[[object]]\nmesh = \"builtin:cube\"\ntranslate = [1, 2]\n", "[[object]]\nmesh = \"builtin:cube\"\nopacity = \"x\"\n", "objects = 1\n"] {
+        eprintln!("{}", toml::parse(t, "t.toml", Path::new("."), &mut Vec::new()).unwrap_err());
+    }
+}

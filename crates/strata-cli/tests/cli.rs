@@ -1,0 +1,142 @@
+//! The `strata` binary end to end: the commands users and scripts rely on, and bad input —
+//! one clear error line, exit status 2, no panic, no output file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn strata(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_strata"))
+        .args(args)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .expect("run strata")
+}
+
+fn workdir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn fixture(name: &str) -> String {
+    format!("{}/../strata/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn render_writes_png_and_stats() {
+    let dir = workdir("render");
+    let png = dir.join("demo.png");
+    let stats = dir.join("stats.json");
+    let o = strata(&["render", "--size", "96x64", "-o", png.to_str().unwrap(), "--stats", stats.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = image::open(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (96, 64));
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    for key in [
+        "method", "width", "height", "k", "effect", "geometry_passes", "gpu_ms", "gpu_ms_total", "fragments_generated",
+        "fragments_stored", "fragments_dropped", "max_depth_complexity", "bytes_allocated", "overflow", "lock_failures",
+        "adapter", "backend",
+    ] {
+        assert!(v.get(key).is_some(), "stats lack '{key}': {v}");
+    }
+    assert_eq!(v["method"], "abuffer-ll");
+    assert_eq!(v["width"], 96);
+}
+
+#[test]
+fn reference_and_gpu_render_compare_close() {
+    let dir = workdir("compare");
+    let a = dir.join("gpu.png");
+    let b = dir.join("ref.png");
+    let diff = dir.join("diff.png");
+    let scene = "builtin:spheres?layers=6";
+    assert!(strata(&["render", scene, "--method", "f2b", "--size", "64x64", "-o", a.to_str().unwrap()]).status.success());
+    assert!(strata(&["reference", scene, "--size", "64x64", "-o", b.to_str().unwrap()]).status.success());
+    let o = strata(&["compare", a.to_str().unwrap(), b.to_str().unwrap(), "--diff", diff.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["max_abs_diff"].as_u64().unwrap() <= 2, "{v}");
+    assert!(diff.exists());
+    let o = strata(&["compare", a.to_str().unwrap(), a.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("PSNR"));
+}
+
+#[test]
+fn methods_and_info_report_json() {
+    let o = strata(&["methods", "--json"]);
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let ids: Vec<_> = v.as_array().unwrap().iter().map(|m| m["id"].as_str().unwrap().to_string()).collect();
+    for id in ["reference", "unsorted", "sorted", "f2b", "dual", "abuffer-ll"] {
+        assert!(ids.contains(&id.to_string()), "{ids:?}");
+    }
+    let o = strata(&["info", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["adapter"].is_string() && v["limits"].is_object(), "{v}");
+}
+
+#[test]
+fn bench_writes_json_and_csv() {
+    let dir = workdir("bench");
+    let o = strata(&[
+        "bench", "--scene", "builtin:layers?n=4", "--methods", "f2b,abuffer-ll,reference", "--frames", "2", "--warmup", "1", "--size",
+        "32x32", "--out", dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("adhoc.json")).unwrap()).unwrap();
+    assert_eq!(v["results"].as_array().unwrap().len(), 3);
+    assert_eq!(v["results"][0]["geometry_passes"], 5);
+    assert!(dir.join("adhoc.csv").exists());
+}
+
+/// Bad input: exit status 2, one line naming the problem, no panic, no output file.
+fn assert_bad_input(args: &[&str], expect_in_message: &str) {
+    let dir = workdir(&format!("bad-{}", expect_in_message.replace(|c: char| !c.is_alphanumeric(), "_")));
+    let out = dir.join("out.png");
+    let mut all: Vec<&str> = args.to_vec();
+    let out_s = out.to_str().unwrap().to_string();
+    all.extend(["-o", &out_s, "--size", "32x32"]);
+    let o = strata(&all);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    let lines: Vec<_> = err.lines().filter(|l| !l.trim().is_empty() && !l.starts_with("warning:") && !l.contains("XDG_RUNTIME_DIR")).collect();
+    assert_eq!(lines.len(), 1, "{args:?}: expected one error line, got {lines:?}");
+    assert!(lines[0].starts_with("error: ") && lines[0].contains(expect_in_message), "{args:?}: {}", lines[0]);
+    assert!(!out.exists(), "{args:?}: wrote an output file");
+}
+
+#[test]
+fn bad_input_is_one_line_and_exit_2() {
+    assert_bad_input(&["render", "no/such/model.obj"], "not found");
+    assert_bad_input(&["render", &fixture("malformed.obj")], "malformed.obj");
+    assert_bad_input(&["render", &fixture("malformed.ply")], "malformed.ply");
+    assert_bad_input(&["render", &fixture("malformed.gltf")], "malformed.gltf");
+    assert_bad_input(&["render", &fixture("malformed.toml")], "malformed.toml");
+    assert_bad_input(&["render", &fixture("nan.obj")], "non-finite");
+    assert_bad_input(&["render", &fixture("out_of_range.obj")], "out of range");
+    assert_bad_input(&["render", &fixture("empty.obj")], "no triangles");
+    assert_bad_input(&["render", &fixture("unknown_material.toml")], "unknown material");
+    assert_bad_input(&["render", "--method", "nope"], "unknown method 'nope'");
+    assert_bad_input(&["render", "builtin:nope"], "unknown builtin");
+    assert_bad_input(&["render", "builtin:layers?n=abc"], "n");
+    assert_bad_input(&["render", "--effect", "glow"], "unknown effect");
+    assert_bad_input(&["render", "--alpha", "2"], "--alpha");
+    assert_bad_input(&["render", "--background", "#zz0000"], "background");
+    assert_bad_input(&["render", "--raster", "compute"], "--raster compute");
+    assert_bad_input(&["reference", &fixture("nan.obj")], "non-finite");
+    assert_bad_input(&["render", "builtin:spheres", "--budget-mb", "0.001"], "--budget-mb");
+}
+
+#[test]
+fn bad_size_is_rejected() {
+    let o = strata(&["render", "--size", "0x10", "-o", "/nonexistent/never.png"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--size"));
+}
