@@ -13,14 +13,19 @@ fn strata(args: &[&str]) -> Output {
 }
 
 fn workdir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli").join(name);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("cli")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
 
 fn fixture(name: &str) -> String {
-    format!("{}/../strata/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+    format!(
+        "{}/../strata/tests/fixtures/{name}",
+        env!("CARGO_MANIFEST_DIR")
+    )
 }
 
 fn stderr(o: &Output) -> String {
@@ -32,15 +37,38 @@ fn render_writes_png_and_stats() {
     let dir = workdir("render");
     let png = dir.join("demo.png");
     let stats = dir.join("stats.json");
-    let o = strata(&["render", "--size", "96x64", "-o", png.to_str().unwrap(), "--stats", stats.to_str().unwrap()]);
+    let o = strata(&[
+        "render",
+        "--size",
+        "96x64",
+        "-o",
+        png.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (96, 64));
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     for key in [
-        "method", "width", "height", "k", "effect", "geometry_passes", "gpu_ms", "gpu_ms_total", "fragments_generated",
-        "fragments_stored", "fragments_dropped", "max_depth_complexity", "bytes_allocated", "overflow", "lock_failures",
-        "adapter", "backend",
+        "method",
+        "width",
+        "height",
+        "k",
+        "effect",
+        "geometry_passes",
+        "gpu_ms",
+        "gpu_ms_total",
+        "fragments_generated",
+        "fragments_stored",
+        "fragments_dropped",
+        "max_depth_complexity",
+        "bytes_allocated",
+        "overflow",
+        "lock_failures",
+        "adapter",
+        "backend",
     ] {
         assert!(v.get(key).is_some(), "stats lack '{key}': {v}");
     }
@@ -55,9 +83,36 @@ fn reference_and_gpu_render_compare_close() {
     let b = dir.join("ref.png");
     let diff = dir.join("diff.png");
     let scene = "builtin:spheres?layers=6";
-    assert!(strata(&["render", scene, "--method", "f2b", "--size", "64x64", "-o", a.to_str().unwrap()]).status.success());
-    assert!(strata(&["reference", scene, "--size", "64x64", "-o", b.to_str().unwrap()]).status.success());
-    let o = strata(&["compare", a.to_str().unwrap(), b.to_str().unwrap(), "--diff", diff.to_str().unwrap(), "--json"]);
+    assert!(strata(&[
+        "render",
+        scene,
+        "--method",
+        "f2b",
+        "--size",
+        "64x64",
+        "-o",
+        a.to_str().unwrap()
+    ])
+    .status
+    .success());
+    assert!(strata(&[
+        "reference",
+        scene,
+        "--size",
+        "64x64",
+        "-o",
+        b.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let o = strata(&[
+        "compare",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--diff",
+        diff.to_str().unwrap(),
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["max_abs_diff"].as_u64().unwrap() <= 2, "{v}");
@@ -71,8 +126,20 @@ fn methods_and_info_report_json() {
     let o = strata(&["methods", "--json"]);
     assert!(o.status.success());
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let ids: Vec<_> = v.as_array().unwrap().iter().map(|m| m["id"].as_str().unwrap().to_string()).collect();
-    for id in ["reference", "unsorted", "sorted", "f2b", "dual", "abuffer-ll"] {
+    let ids: Vec<_> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["id"].as_str().unwrap().to_string())
+        .collect();
+    for id in [
+        "reference",
+        "unsorted",
+        "sorted",
+        "f2b",
+        "dual",
+        "abuffer-ll",
+    ] {
         assert!(ids.contains(&id.to_string()), "{ids:?}");
     }
     let o = strata(&["info", "--json"]);
@@ -85,11 +152,23 @@ fn methods_and_info_report_json() {
 fn bench_writes_json_and_csv() {
     let dir = workdir("bench");
     let o = strata(&[
-        "bench", "--scene", "builtin:layers?n=4", "--methods", "f2b,abuffer-ll,reference", "--frames", "2", "--warmup", "1", "--size",
-        "32x32", "--out", dir.to_str().unwrap(),
+        "bench",
+        "--scene",
+        "builtin:layers?n=4",
+        "--methods",
+        "f2b,abuffer-ll,reference",
+        "--frames",
+        "2",
+        "--warmup",
+        "1",
+        "--size",
+        "32x32",
+        "--out",
+        dir.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("adhoc.json")).unwrap()).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("adhoc.json")).unwrap()).unwrap();
     assert_eq!(v["results"].as_array().unwrap().len(), 3);
     assert_eq!(v["results"][0]["geometry_passes"], 5);
     assert!(dir.join("adhoc.csv").exists());
@@ -97,7 +176,10 @@ fn bench_writes_json_and_csv() {
 
 /// Bad input: exit status 2, one line naming the problem, no panic, no output file.
 fn assert_bad_input(args: &[&str], expect_in_message: &str) {
-    let dir = workdir(&format!("bad-{}", expect_in_message.replace(|c: char| !c.is_alphanumeric(), "_")));
+    let dir = workdir(&format!(
+        "bad-{}",
+        expect_in_message.replace(|c: char| !c.is_alphanumeric(), "_")
+    ));
     let out = dir.join("out.png");
     let mut all: Vec<&str> = args.to_vec();
     let out_s = out.to_str().unwrap().to_string();
@@ -106,9 +188,22 @@ fn assert_bad_input(args: &[&str], expect_in_message: &str) {
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
     assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
-    let lines: Vec<_> = err.lines().filter(|l| !l.trim().is_empty() && !l.starts_with("warning:") && !l.contains("XDG_RUNTIME_DIR")).collect();
-    assert_eq!(lines.len(), 1, "{args:?}: expected one error line, got {lines:?}");
-    assert!(lines[0].starts_with("error: ") && lines[0].contains(expect_in_message), "{args:?}: {}", lines[0]);
+    let lines: Vec<_> = err
+        .lines()
+        .filter(|l| {
+            !l.trim().is_empty() && !l.starts_with("warning:") && !l.contains("XDG_RUNTIME_DIR")
+        })
+        .collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "{args:?}: expected one error line, got {lines:?}"
+    );
+    assert!(
+        lines[0].starts_with("error: ") && lines[0].contains(expect_in_message),
+        "{args:?}: {}",
+        lines[0]
+    );
     assert!(!out.exists(), "{args:?}: wrote an output file");
 }
 
@@ -122,7 +217,10 @@ fn bad_input_is_one_line_and_exit_2() {
     assert_bad_input(&["render", &fixture("nan.obj")], "non-finite");
     assert_bad_input(&["render", &fixture("out_of_range.obj")], "out of range");
     assert_bad_input(&["render", &fixture("empty.obj")], "no triangles");
-    assert_bad_input(&["render", &fixture("unknown_material.toml")], "unknown material");
+    assert_bad_input(
+        &["render", &fixture("unknown_material.toml")],
+        "unknown material",
+    );
     assert_bad_input(&["render", "--method", "nope"], "unknown method 'nope'");
     assert_bad_input(&["render", "builtin:nope"], "unknown builtin");
     assert_bad_input(&["render", "builtin:layers?n=abc"], "n");
@@ -131,7 +229,10 @@ fn bad_input_is_one_line_and_exit_2() {
     assert_bad_input(&["render", "--background", "#zz0000"], "background");
     assert_bad_input(&["render", "--raster", "compute"], "--raster compute");
     assert_bad_input(&["reference", &fixture("nan.obj")], "non-finite");
-    assert_bad_input(&["render", "builtin:spheres", "--budget-mb", "0.001"], "--budget-mb");
+    assert_bad_input(
+        &["render", "builtin:spheres", "--budget-mb", "0.001"],
+        "--budget-mb",
+    );
 }
 
 #[test]

@@ -132,7 +132,9 @@ impl Gpu {
 
     /// Largest single storage buffer binding the device allows.
     pub fn max_storage_binding(&self) -> u64 {
-        (self.limits.max_storage_buffer_binding_size as u64).min(self.limits.max_buffer_size)
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
     }
 
     pub fn report(&self) -> GpuReport {

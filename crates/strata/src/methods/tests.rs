@@ -318,7 +318,7 @@ fn unknown_method_is_an_input_error() {
         &options(16, Effect::Transparency),
     )
     .unwrap();
-    let e = r.render("nope").err().expect("unknown method fails");
+    let e = r.render("nope").expect_err("unknown method fails");
     assert!(
         matches!(e, crate::Error::Input(_)) && e.to_string().contains("unknown method 'nope'"),
         "{e}"

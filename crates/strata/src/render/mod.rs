@@ -102,7 +102,7 @@ impl RenderOptions {
             )));
         }
         if let Some(b) = self.budget_mb {
-            if !(b > 0.0) {
+            if b.is_nan() || b <= 0.0 {
                 return Err(Error::input(format!("--budget-mb {b} must be positive")));
             }
         }

@@ -519,16 +519,65 @@ fn load_scene_builds_builtins() {
 #[test]
 #[ignore]
 fn scratch_print_errors() {
-    for f in ["malformed.obj", "nan.obj", "out_of_range.obj", "empty.obj", "malformed.ply", "malformed.gltf", "malformed.toml", "unknown_material.toml", "unknown_field.toml"] {
-        eprintln!("{}", load_scene(&format!("tests/fixtures/{f}")).unwrap_err());
+    for f in [
+        "malformed.obj",
+        "nan.obj",
+        "out_of_range.obj",
+        "empty.obj",
+        "malformed.ply",
+        "malformed.gltf",
+        "malformed.toml",
+        "unknown_material.toml",
+        "unknown_field.toml",
+    ] {
+        eprintln!(
+            "{}",
+            load_scene(&format!("tests/fixtures/{f}")).unwrap_err()
+        );
     }
-    for s in ["x.obj", "builtin:foo", "builtin:layers?n=abc", "builtin:layers?x=1", "builtin:spheres?layers=5"] {
+    for s in [
+        "x.obj",
+        "builtin:foo",
+        "builtin:layers?n=abc",
+        "builtin:layers?x=1",
+        "builtin:spheres?layers=5",
+    ] {
         eprintln!("{}", load_scene(s).unwrap_err());
     }
     let mut w = Vec::new();
     load_model_with_warnings(Path::new("tests/fixtures/cube_missing_mtl.obj"), &mut w).unwrap();
     eprintln!("{w:?}");
-    for t in ["[[object]]\nmesh = \"builtin:cube\"\ntranslate = [1, 2]\n", "[[object]]\nmesh = \"builtin:cube\"\nopacity = \"x\"\n", "objects = 1\n"] {
-        eprintln!("{}", toml::parse(t, "t.toml", Path::new("."), &mut Vec::new()).unwrap_err());
+    for t in [
+        "[[object]]\nmesh = \"builtin:cube\"\ntranslate = [1, 2]\n",
+        "[[object]]\nmesh = \"builtin:cube\"\nopacity = \"x\"\n",
+        "objects = 1\n",
+    ] {
+        eprintln!(
+            "{}",
+            toml::parse(t, "t.toml", Path::new("."), &mut Vec::new()).unwrap_err()
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn scratch_spans() {
+    #[derive(serde::Deserialize, Debug)]
+    struct F {
+        #[serde(default)]
+        object: Vec<::toml::Spanned<::toml::Table>>,
+        camera: Option<::toml::Spanned<::toml::Table>>,
+    }
+    let text = "[camera]\neye = [0, 0, 1]\n\n[[object]]\nmesh = \"a\"\nx = 1\n\n# c\n[[object]]\nmesh = \"b\"\n";
+    let f: F = ::toml::from_str(text).unwrap();
+    for o in &f.object {
+        eprintln!("{:?} {:?}", o.span(), &text[o.span()]);
+    }
+    let c = f.camera.unwrap();
+    eprintln!("{:?} {:?}", c.span(), &text[c.span()]);
+    let text2 = "object = [{ mesh = \"a\" }, { mesh = \"b\", opacity = \"x\" }]\n";
+    let f: F = ::toml::from_str(text2).unwrap();
+    for o in &f.object {
+        eprintln!("{:?} {:?}", o.span(), &text2[o.span()]);
     }
 }
