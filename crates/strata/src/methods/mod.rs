@@ -56,7 +56,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "reference",
             exact: true,
             geometry_passes: "0 (CPU)",
-            memory: "host memory: 24·F",
+            memory: "host: 72·F",
             summary: "CPU exact renderer: every fragment, sorted by depth then primitive, composited in f64",
         },
         MethodInfo {
@@ -64,7 +64,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "baseline",
             exact: false,
             geometry_passes: "1",
-            memory: "10·W·H",
+            memory: "12·W·H",
             summary: "alpha blending in submission order (no OIT)",
         },
         MethodInfo {
@@ -72,7 +72,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "baseline",
             exact: false,
             geometry_passes: "1",
-            memory: "10·W·H + 4·triangles",
+            memory: "12·W·H + 4·triangles",
             summary: "alpha blending after a back-to-front sort of triangle centroids",
         },
         MethodInfo {
@@ -80,7 +80,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "peeling",
             exact: true,
             geometry_passes: "N+1",
-            memory: "48·W·H",
+            memory: "52·W·H",
             summary: "front-to-back depth peeling, one layer per geometry pass",
         },
         MethodInfo {
@@ -88,7 +88,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "peeling",
             exact: true,
             geometry_passes: "ceil(N/2)+1",
-            memory: "112·W·H",
+            memory: "120·W·H",
             summary: "dual depth peeling: nearest and farthest layer per pass (fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
         },
         MethodInfo {
@@ -96,7 +96,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "abuffer",
             exact: true,
             geometry_passes: "1 (+1 when the node pool overflows)",
-            memory: "4·W·H + 20·nodes (nodes ≥ F, sized from the last frame)",
+            memory: "4·W·H + 20·nodes + 4 (nodes ≥ F)",
             summary: "A-buffer of per-pixel linked lists; overflow is detected, the pool grown and the frame re-rendered",
         },
     ]

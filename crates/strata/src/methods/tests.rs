@@ -324,3 +324,19 @@ fn unknown_method_is_an_input_error() {
         "{e}"
     );
 }
+
+/// `bytes_allocated` follows the formula `strata methods` prints.
+#[test]
+fn bytes_allocated_follow_the_catalogue_formulas() {
+    let s = scene("builtin:spheres?layers=4");
+    let opts = options(40, Effect::Transparency);
+    let px = 40 * 40;
+    let tris = s.triangle_count() as u64;
+    for (method, expected) in [("unsorted", 12 * px), ("sorted", 12 * px + 4 * tris), ("f2b", 52 * px), ("dual", 120 * px)] {
+        assert_eq!(render_gpu(&s, &opts, method).1.bytes_allocated, Some(expected), "{method}");
+    }
+    let mut opts = opts;
+    opts.abuffer_initial_nodes = Some(5000);
+    assert_eq!(render_gpu(&s, &opts, "abuffer-ll").1.bytes_allocated, Some(4 * px + 20 * 5000 + 4));
+    assert_eq!(std::mem::size_of::<crate::resolve::RefFragment>(), 72);
+}

@@ -29,11 +29,38 @@ use crate::scene::{Material, Mesh};
 const MAX_DEPTH: usize = 256;
 
 pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Part>> {
-    let what = path.display().to_string();
-    let gltf_err = |e: ::gltf::Error| Error::input(format!("{what}: {}", one_line(e)));
     let bytes = super::read_file(path)?;
-    let Gltf { document, blob } = Gltf::from_slice(&bytes).map_err(gltf_err)?;
     let base = path.parent().unwrap_or(Path::new(""));
+    parse(&bytes, base, &path.display().to_string(), warnings)
+}
+
+/// Parses `.gltf` or `.glb` bytes; external buffers are looked up under `base`.
+pub(super) fn parse(
+    bytes: &[u8],
+    base: &Path,
+    what: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Part>> {
+    let gltf_err = |e: ::gltf::Error| Error::input(format!("{what}: {}", one_line(e)));
+    let Gltf { document, blob } = Gltf::from_slice_without_validation(bytes).map_err(gltf_err)?;
+    // gltf-json's validator indexes the POSITION accessor unchecked: check references first.
+    let json = document.into_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(bad) = prim
+                .attributes
+                .values()
+                .map(|a| a.value())
+                .find(|&a| a >= json.accessors.len())
+            {
+                return Err(Error::input(format!(
+                    "{what}: mesh {m} primitive {p} refers to accessor {bad}, but there are {}",
+                    json.accessors.len()
+                )));
+            }
+        }
+    }
+    let document = ::gltf::Document::from_json(json).map_err(gltf_err)?;
     let buffers = ::gltf::import_buffers(&document, Some(base), blob).map_err(gltf_err)?;
     let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b.0[..]).collect();
 
@@ -42,7 +69,7 @@ pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Part>>
         None => document.scenes().flat_map(|s| s.nodes()).collect(),
     };
     let mut ctx = Ctx {
-        what: &what,
+        what,
         buffers: &buffers,
         parts: Vec::new(),
         materials: HashMap::new(),

@@ -162,6 +162,7 @@ fn convert_material(m: &tobj::Material, what: &str, warnings: &mut Vec<String>) 
 fn check_face_indices(text: &str, what: &str) -> Result<()> {
     let mut counts = [0i64; 3];
     const KINDS: [&str; 3] = ["vertex", "texcoord", "normal"];
+    const PLURALS: [&str; 3] = ["vertices", "texcoords", "normals"];
     for (line_no, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         match words.next() {
@@ -183,10 +184,10 @@ fn check_face_indices(text: &str, what: &str) -> Result<()> {
                         let resolved = if x < 0 { n + x } else { x - 1 };
                         if x == 0 || resolved < 0 || resolved >= n {
                             return Err(Error::input(format!(
-                                "{what}: line {}: face {} index {x} is out of range ({n} {}s defined before it)",
+                                "{what}: line {}: face {} index {x} is out of range ({n} {} defined before it)",
                                 line_no + 1,
                                 KINDS[k],
-                                KINDS[k]
+                                PLURALS[k]
                             )));
                         }
                     }

@@ -11,7 +11,9 @@ use std::io::BufRead;
 use std::path::Path;
 
 use ply_rs::parser::Parser;
-use ply_rs::ply::{Encoding, Header, Property, PropertyAccess, PropertyType, ScalarType};
+use ply_rs::ply::{
+    ElementDef, Encoding, Header, Property, PropertyAccess, PropertyType, ScalarType,
+};
 
 use super::{finish_mesh, Part};
 use crate::error::{Error, Result};
@@ -127,6 +129,79 @@ fn check_header(bytes: &[u8], what: &str) -> Result<()> {
     Ok(())
 }
 
+/// Reads the elements of one kind, one by one, so an error says which element (and, in an
+/// ascii file, which line) is bad.
+struct ElementReader<'a, 'b> {
+    what: &'a str,
+    reader: &'a mut &'b [u8],
+    encoding: &'a Encoding,
+    /// Lines read so far (ascii).
+    line: &'a mut usize,
+}
+
+impl ElementReader<'_, '_> {
+    fn read<E: PropertyAccess>(&mut self, def: &ElementDef) -> Result<Vec<E>> {
+        let parser = Parser::<E>::new();
+        let what = self.what;
+        let name = &def.name;
+        let mut out = Vec::new();
+        for i in 0..def.count {
+            let element = match self.encoding {
+                Encoding::Ascii => {
+                    let mut text = String::new();
+                    let n = self.reader.read_line(&mut text).map_err(|e| {
+                        Error::input(format!("{what}: line {}: {e}", *self.line + 1))
+                    })?;
+                    *self.line += 1;
+                    if n == 0 {
+                        return Err(Error::input(format!(
+                            "{what}: file ends at {name} {i} of {} declared",
+                            def.count
+                        )));
+                    }
+                    parser.read_ascii_element(&text, def).map_err(|_| {
+                        Error::input(format!(
+                            "{what}: line {}: {name} {i}: cannot read '{}' as {}",
+                            *self.line,
+                            text.trim(),
+                            property_list(def)
+                        ))
+                    })?
+                }
+                Encoding::BinaryLittleEndian | Encoding::BinaryBigEndian => {
+                    let read = if *self.encoding == Encoding::BinaryLittleEndian {
+                        parser.read_little_endian_element(self.reader, def)
+                    } else {
+                        parser.read_big_endian_element(self.reader, def)
+                    };
+                    read.map_err(|e| {
+                        let why = if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                            "the file ends early".to_string()
+                        } else {
+                            one_line(e)
+                        };
+                        Error::input(format!("{what}: binary {name} {i} of {}: {why}", def.count))
+                    })?
+                }
+            };
+            out.push(element);
+        }
+        Ok(out)
+    }
+}
+
+/// `x y z (list vertex_indices)`, the properties an element line holds.
+fn property_list(def: &ElementDef) -> String {
+    def.properties
+        .values()
+        .map(|p| match p.data_type {
+            PropertyType::Scalar(_) => p.name.clone(),
+            PropertyType::List(..) => format!("(list {})", p.name),
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 pub(super) fn load(path: &Path) -> Result<Vec<Part>> {
     let bytes = super::read_file(path)?;
     let what = path.display().to_string();
@@ -144,7 +219,7 @@ pub(super) fn parse(bytes: &[u8], what: &str, name: &str) -> Result<Vec<Part>> {
         )));
     }
     check_header(bytes, what)?;
-    let mut reader = std::io::BufReader::new(bytes);
+    let mut reader: &[u8] = bytes;
     let header: Header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| Error::input(format!("{what}: bad header: {}", one_line(e))))?;
@@ -187,45 +262,34 @@ pub(super) fn parse(bytes: &[u8], what: &str, name: &str) -> Result<Vec<Part>> {
         PropertyType::List(..) => {}
     }
 
+    // File line of the first data line (ascii).
+    let mut line = bytes[..bytes.len() - reader.len()]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count();
     let mut vertices: Vec<Vertex> = Vec::new();
     let mut faces: Vec<Face> = Vec::new();
     for (name, def) in &header.elements {
-        let read_err = |e: std::io::Error| {
-            let kind = match header.encoding {
-                Encoding::Ascii => "ascii",
-                Encoding::BinaryLittleEndian => "binary little-endian",
-                Encoding::BinaryBigEndian => "binary big-endian",
-            };
-            Error::input(format!(
-                "{what}: bad {kind} data in element '{name}': {}",
-                one_line(e)
-            ))
+        let mut r = ElementReader {
+            what,
+            reader: &mut reader,
+            encoding: &header.encoding,
+            line: &mut line,
         };
         match name.as_str() {
-            "vertex" => {
-                vertices = Parser::<Vertex>::new()
-                    .read_payload_for_element(&mut reader, def, &header)
-                    .map_err(read_err)?
-            }
-            "face" => {
-                faces = Parser::<Face>::new()
-                    .read_payload_for_element(&mut reader, def, &header)
-                    .map_err(read_err)?
-            }
+            "vertex" => vertices = r.read(def)?,
+            "face" => faces = r.read(def)?,
             _ => {
-                Parser::<Skip>::new()
-                    .read_payload_for_element(&mut reader, def, &header)
-                    .map_err(read_err)?;
+                r.read::<Skip>(def)?;
             }
         }
     }
     if header.encoding == Encoding::Ascii {
         // Anything but whitespace after the declared elements means the counts are wrong.
-        let mut rest = String::new();
-        while reader.read_line(&mut rest).unwrap_or(0) > 0 {}
-        if !rest.trim().is_empty() {
+        if !String::from_utf8_lossy(reader).trim().is_empty() {
             return Err(Error::input(format!(
-                "{what}: more data than the header declares"
+                "{what}: line {}: more data than the header declares",
+                line + 1
             )));
         }
     }
@@ -304,8 +368,8 @@ mod tests {
             (b"ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n", "no 'vertex' element"),
             (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n", "no 'z' property"),
             (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "vertex index 7 is out of range"),
-            (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n", "bad ascii data"),
-            (b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\x00\x00", "bad binary little-endian data"),
+            (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n", "file ends at vertex 2 of 3 declared"),
+            (b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\x00\x00", "binary vertex 0 of 3: the file ends early"),
         ];
         for (src, needle) in cases {
             let e = parse(src, "bad.ply", "bad").unwrap_err().to_string();

@@ -21,7 +21,6 @@ use std::path::{Path, PathBuf};
 
 use ::toml::{Spanned, Table, Value};
 use glam::{Mat4, Vec3};
-use serde::de::DeserializeOwned;
 use serde::Deserialize;
 
 use super::{intern_material, Part};
@@ -42,6 +41,20 @@ struct FileDef {
     object: Vec<Spanned<Table>>,
     #[serde(default)]
     light: Vec<Spanned<Table>>,
+}
+
+/// The same file, typed (parsed second, so field errors carry their own line and column).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TypedFileDef {
+    render: Option<RenderDef>,
+    camera: Option<CameraDef>,
+    #[serde(default)]
+    material: Vec<MaterialDef>,
+    #[serde(default)]
+    object: Vec<ObjectDef>,
+    #[serde(default)]
+    light: Vec<LightDef>,
 }
 
 #[derive(Deserialize)]
@@ -169,6 +182,8 @@ struct LightDef {
 struct Ctx<'a> {
     file: &'a str,
     text: &'a str,
+    /// (offset where the element starts, `object 2`), in file order.
+    elements: Vec<(usize, String)>,
 }
 
 impl Ctx<'_> {
@@ -179,6 +194,23 @@ impl Ctx<'_> {
             .filter(|&&b| b == b'\n')
             .count()
             + 1
+    }
+
+    /// `line 3, column 11 (opacity = "x")`.
+    fn position(&self, offset: usize) -> String {
+        let offset = offset.min(self.text.len());
+        let line_start = self.text[..offset].rfind('\n').map_or(0, |i| i + 1);
+        let line_end = self.text[offset..]
+            .find('\n')
+            .map_or(self.text.len(), |i| offset + i);
+        let column = self.text[line_start..offset].chars().count() + 1;
+        let source = self.text[line_start..line_end].trim();
+        let source = if source.is_empty() || source.chars().count() > 60 {
+            String::new()
+        } else {
+            format!(" ({source})")
+        };
+        format!("line {}, column {column}{source}", self.line_of(offset))
     }
 
     /// `object 2 (line 14)`.
@@ -198,10 +230,22 @@ impl Ctx<'_> {
         ))
     }
 
-    fn parse<T: DeserializeOwned>(&self, label: &str, table: Table) -> Result<T> {
-        Value::Table(table)
-            .try_into()
-            .map_err(|e: ::toml::de::Error| self.err(label, e.message()))
+    /// A `toml` error as one line: the element it falls in, line, column, message.
+    fn toml_err(&self, e: ::toml::de::Error) -> Error {
+        let at = match e.span() {
+            None => String::new(),
+            Some(span) => {
+                let element = self
+                    .elements
+                    .iter()
+                    .rev()
+                    .find(|(start, _)| *start <= span.start)
+                    .map(|(_, name)| format!("{name}: "))
+                    .unwrap_or_default();
+                format!("{element}{}: ", self.position(span.start))
+            }
+        };
+        Error::input(format!("{}: {at}{}", self.file, one_line(e.message())))
     }
 }
 
@@ -234,27 +278,47 @@ pub(crate) fn parse(
     dir: &Path,
     warnings: &mut Vec<String>,
 ) -> Result<Scene> {
-    let ctx = Ctx { file, text };
-    let def: FileDef = ::toml::from_str(text).map_err(|e| {
-        let at = e
-            .span()
-            .map(|s| {
-                let line = ctx.line_of(s.start);
-                let line_start = text[..s.start.min(text.len())]
-                    .rfind('\n')
-                    .map_or(0, |i| i + 1);
-                let column = text[line_start..s.start.min(text.len())].chars().count() + 1;
-                format!("line {line}, column {column}: ")
-            })
-            .unwrap_or_default();
-        Error::input(format!("{file}: {at}{}", one_line(e.message())))
-    })?;
+    let mut ctx = Ctx {
+        file,
+        text,
+        elements: Vec::new(),
+    };
+    // First pass: syntax, top-level keys, and where each element starts.
+    let spans: FileDef = ::toml::from_str(text).map_err(|e| ctx.toml_err(e))?;
+    let render_label = spans.render.as_ref().map(|t| ctx.label("render", None, t));
+    let camera_label = spans.camera.as_ref().map(|t| ctx.label("camera", None, t));
+    let labels = |kind: &str, v: &[Spanned<Table>]| -> Vec<String> {
+        v.iter()
+            .enumerate()
+            .map(|(i, t)| ctx.label(kind, Some(i), t))
+            .collect()
+    };
+    let material_labels = labels("material", &spans.material);
+    let object_labels = labels("object", &spans.object);
+    let light_labels = labels("light", &spans.light);
+    let mut elements: Vec<(usize, String)> = Vec::new();
+    for (name, t) in [("render", &spans.render), ("camera", &spans.camera)] {
+        if let Some(t) = t {
+            elements.push((t.span().start, name.to_string()));
+        }
+    }
+    for (kind, v) in [
+        ("material", &spans.material),
+        ("object", &spans.object),
+        ("light", &spans.light),
+    ] {
+        for (i, t) in v.iter().enumerate() {
+            elements.push((t.span().start, format!("{kind} {}", i + 1)));
+        }
+    }
+    elements.sort_by_key(|(start, _)| *start);
+    ctx.elements = elements;
+    // Second pass: the typed elements.
+    let def: TypedFileDef = ::toml::from_str(text).map_err(|e| ctx.toml_err(e))?;
 
     let mut scene = Scene::default();
 
-    if let Some(t) = def.render {
-        let label = ctx.label("render", None, &t);
-        let r: RenderDef = ctx.parse(&label, t.into_inner())?;
+    if let (Some(r), Some(label)) = (def.render, render_label) {
         if let Some([w, h]) = r.size {
             if w == 0 || h == 0 {
                 return Err(ctx.err(&label, format!("size [{w}, {h}] must be positive")));
@@ -272,16 +336,12 @@ pub(crate) fn parse(
         };
     }
 
-    if let Some(t) = def.camera {
-        let label = ctx.label("camera", None, &t);
-        let c: CameraDef = ctx.parse(&label, t.into_inner())?;
+    if let (Some(c), Some(label)) = (def.camera, camera_label) {
         scene.camera = Some(camera(c).map_err(|msg| ctx.err(&label, msg))?);
     }
 
     let mut named: HashMap<String, usize> = HashMap::new();
-    for (i, t) in def.material.into_iter().enumerate() {
-        let label = ctx.label("material", Some(i), &t);
-        let m: MaterialDef = ctx.parse(&label, t.into_inner())?;
+    for (m, label) in def.material.into_iter().zip(material_labels) {
         if named.contains_key(&m.name) {
             return Err(ctx.err(&label, format!("material '{}' is defined twice", m.name)));
         }
@@ -302,9 +362,7 @@ pub(crate) fn parse(
     }
 
     let mut models: HashMap<PathBuf, Vec<Part>> = HashMap::new();
-    for (i, t) in def.object.into_iter().enumerate() {
-        let label = ctx.label("object", Some(i), &t);
-        let o: ObjectDef = ctx.parse(&label, t.into_inner())?;
+    for (i, (o, label)) in def.object.into_iter().zip(object_labels).enumerate() {
         let err = |msg: String| ctx.err(&label, msg);
 
         let parts: Vec<Part> = if let Some(spec) = o.mesh.strip_prefix("builtin:") {
@@ -373,9 +431,7 @@ pub(crate) fn parse(
         }
     }
 
-    for (i, t) in def.light.into_iter().enumerate() {
-        let label = ctx.label("light", Some(i), &t);
-        let l: LightDef = ctx.parse(&label, t.into_inner())?;
+    for (l, label) in def.light.into_iter().zip(light_labels) {
         scene
             .lights
             .push(light(l).map_err(|msg| ctx.err(&label, msg))?);
