@@ -56,7 +56,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "reference",
             exact: true,
             geometry_passes: "0 (CPU)",
-            memory: "host: 72·F",
+            memory: "host: 64·F",
             summary: "CPU exact renderer: every fragment, sorted by depth then primitive, composited in f64",
         },
         MethodInfo {

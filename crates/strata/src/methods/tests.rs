@@ -338,5 +338,5 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
     let mut opts = opts;
     opts.abuffer_initial_nodes = Some(5000);
     assert_eq!(render_gpu(&s, &opts, "abuffer-ll").1.bytes_allocated, Some(4 * px + 20 * 5000 + 4));
-    assert_eq!(std::mem::size_of::<crate::resolve::RefFragment>(), 72);
+    assert_eq!(std::mem::size_of::<crate::resolve::RefFragment>(), 64);
 }
