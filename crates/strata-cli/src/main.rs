@@ -143,6 +143,10 @@ struct HistogramArgs {
 }
 
 fn main() -> ExitCode {
+    // Mesa's drivers complain on stderr when this is unset; keep errors to one line.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
     let cli = Cli::parse();
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
@@ -211,7 +215,7 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
         }
         if scene_spec.starts_with("builtin:balls") {
             scene_spec.push(if scene_spec.contains('?') { '&' } else { '?' });
-            scene_spec.push_str(&format!("frame={}", f as u32));
+            scene_spec.push_str(&format!("frame={f}"));
         }
     }
     let mut scene = loaders::load_scene(&scene_spec)?;

@@ -248,3 +248,65 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         stats,
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::loaders::load_scene;
+
+    fn opts(k: Option<u32>) -> RenderOptions {
+        RenderOptions {
+            width: 48,
+            height: 48,
+            k,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn k_at_depth_complexity_changes_nothing_and_smaller_k_keeps_the_nearest() {
+        let scene = load_scene("builtin:spheres?layers=8").unwrap();
+        let (all, stats) = render(&scene, &opts(None)).unwrap();
+        let n = stats.max_depth_complexity.unwrap();
+        assert_eq!(n, 8);
+        let (same, _) = render(&scene, &opts(Some(n))).unwrap();
+        assert_eq!(all, same);
+        let (two, s2) = render(&scene, &opts(Some(2))).unwrap();
+        assert_eq!(two.max_count(), 2);
+        assert_eq!(
+            s2.fragments_dropped.unwrap() + s2.fragments_stored.unwrap(),
+            s2.fragments_generated.unwrap()
+        );
+        // k = 2 composites exactly the two nearest fragments of each pixel.
+        let lists = fragments(&scene, &opts(None)).unwrap();
+        let center = (24 * 48 + 24) as usize;
+        let bg = RenderOptions::default()
+            .background
+            .at(24, 24)
+            .map(|c| c as f64);
+        let expect = composite(&lists[center][..2], bg, false);
+        for c in 0..3 {
+            assert!((two.pixels[center][c] as f64 - expect[c]).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn fragments_are_in_depth_then_primitive_order() {
+        let scene = load_scene("builtin:nvpro?objects=40&subdiv=8").unwrap();
+        for list in fragments(&scene, &opts(None)).unwrap() {
+            assert!(list
+                .windows(2)
+                .all(|w| RefFragment::order(&w[0], &w[1]).is_lt()));
+        }
+    }
+
+    #[test]
+    fn closed_spheres_are_entered_front_facing_and_left_back_facing() {
+        let scene = load_scene("builtin:spheres?layers=6").unwrap();
+        let lists = fragments(&scene, &opts(None)).unwrap();
+        let center = &lists[24 * 48 + 24];
+        assert_eq!(center.len(), 6);
+        let facing: Vec<bool> = center.iter().map(|f| f.front_facing).collect();
+        assert_eq!(facing, [true, true, true, false, false, false]);
+    }
+}
