@@ -285,8 +285,8 @@ mod tests {
             .at(24, 24)
             .map(|c| c as f64);
         let expect = composite(&lists[center][..2], bg, false);
-        for c in 0..3 {
-            assert!((two.pixels[center][c] as f64 - expect[c]).abs() < 1e-6);
+        for (got, want) in two.pixels[center].iter().zip(expect) {
+            assert!((*got as f64 - want).abs() < 1e-6);
         }
     }
 

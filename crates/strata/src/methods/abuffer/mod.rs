@@ -6,7 +6,8 @@
 //! counter keeps counting past the pool, so an overflowing frame is detected, the pool grown to
 //! the measured count (+25%), and the frame rendered again: the output is always exact and
 //! `overflow` says it happened. The pool is bounded by `--budget-mb` and the device's largest
-//! storage binding; a frame needing more is an error, never a silently truncated picture.
+//! storage binding; a frame needing more is an error, never a silently truncated picture. A pool
+//! more than twice the last frame's need shrinks to it (+25%) for the next frame.
 
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
@@ -20,6 +21,8 @@ use crate::render::{FrameContext, RenderOptions, SceneGpu};
 pub const NODE_BYTES: u64 = 20;
 /// Without history or a hint, the first frame assumes this many fragments per pixel.
 const FIRST_GUESS_PER_PIXEL: u64 = 4;
+/// The pool never shrinks below this many nodes.
+const MIN_NODES: u64 = 1024;
 
 pub struct LinkedLists {
     capture_layout: wgpu::BindGroupLayout,
@@ -193,12 +196,19 @@ impl Method for LinkedLists {
                     &[frame_group, &resolve_group],
                 );
                 gpu.queue.submit([enc.finish()]);
+                let bytes_allocated = ctx.pixels() * 4 + self.capacity * NODE_BYTES + 4;
+                // Track the measured need: a pool more than twice what this frame needed shrinks
+                // for the next frame (the one just rendered keeps its buffer until then).
+                let fitted = (needed + needed / 4).max(MIN_NODES);
+                if self.capacity > 2 * fitted {
+                    self.capacity = fitted;
+                }
                 return Ok(MethodStats {
                     geometry_passes: passes,
                     fragments_generated: Some(needed),
                     fragments_stored: Some(needed),
                     fragments_dropped: Some(0),
-                    bytes_allocated: ctx.pixels() * 4 + self.capacity * NODE_BYTES + 4,
+                    bytes_allocated,
                     overflow: Some(overflowed),
                     ..Default::default()
                 });
