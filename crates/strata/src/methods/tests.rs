@@ -407,3 +407,29 @@ fn golden_demo_translucency() {
         panic!("{m}");
     }
 }
+
+/// An application's draw callback replaces the default draw: drawing only the first half of the
+/// layers' triangles gives the picture of a scene holding only those layers.
+#[test]
+fn draw_callback_issues_the_geometry() {
+    let full = scene("builtin:layers?n=8&coverage=1&order=front");
+    let mut half = full.clone();
+    half.objects.truncate(4);
+    let opts = options(24, Effect::Transparency);
+    let expected = render_reference(&half, &opts);
+    let vertices = half.triangle_count() as u32 * 3;
+    for method in EXACT_METHODS {
+        let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
+        let (actual, _) = r
+            .render_with(method, &|pass| pass.draw(0..vertices, 0..1))
+            .unwrap();
+        assert_close(
+            &format!("callback-{method}"),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+    }
+}

@@ -301,12 +301,22 @@ pub struct FrameContext<'a> {
     pub opaque_depth: &'a wgpu::TextureView,
     /// Per pixel `vec4<f32>(rgb, fragment count)`, the method's result.
     pub output: &'a wgpu::Buffer,
+    /// Issues the geometry's draw calls; `None` draws every triangle of the scene.
+    pub draw: Option<&'a DrawCallback<'a>>,
 }
 
+/// Issues draw calls into a geometry pass whose pipeline and bind groups the method has set: the
+/// vertex stage pulls triangle `t` as vertices 3t..3t+3 of the scene's triangle list, so a
+/// callback draws any ranges (culled subsets, chunks) of it.
+pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
+
 impl FrameContext<'_> {
-    /// Records the scene's draw into a render pass whose group 0 is already set.
+    /// Records the geometry's draws into a pass whose pipeline and bind groups are set.
     pub fn draw_geometry(&self, pass: &mut wgpu::RenderPass<'_>) {
-        pass.draw(0..self.scene.triangle_count * 3, 0..1);
+        match self.draw {
+            Some(draw) => draw(pass),
+            None => pass.draw(0..self.scene.triangle_count * 3, 0..1),
+        }
     }
 
     pub fn pixels(&self) -> u64 {
@@ -388,6 +398,24 @@ impl<'g> Renderer<'g> {
 
     /// Renders one frame with `method_id` and reads it back.
     pub fn render(&mut self, method_id: &str) -> Result<(LinearImage, FrameStats)> {
+        self.render_frame(method_id, None)
+    }
+
+    /// Like [`Renderer::render`], with the application issuing the draw calls of every geometry
+    /// pass (see [`DrawCallback`]).
+    pub fn render_with(
+        &mut self,
+        method_id: &str,
+        draw: &DrawCallback<'_>,
+    ) -> Result<(LinearImage, FrameStats)> {
+        self.render_frame(method_id, Some(draw))
+    }
+
+    fn render_frame(
+        &mut self,
+        method_id: &str,
+        draw: Option<&DrawCallback<'_>>,
+    ) -> Result<(LinearImage, FrameStats)> {
         if !self.methods.contains_key(method_id) {
             let m = methods::create(method_id, self.gpu, &self.scene, &self.options)?;
             self.methods.insert(method_id.to_string(), m);
@@ -404,6 +432,7 @@ impl<'g> Renderer<'g> {
             frame_group: &frame_group,
             opaque_depth: &opaque_view,
             output: &self.output,
+            draw,
         };
         let ms: MethodStats = method.render(&mut ctx)?;
         let bytes = readback::read_buffer(self.gpu, &self.output, self.options.pixels() * 16)?;
