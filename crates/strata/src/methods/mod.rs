@@ -254,6 +254,42 @@ pub fn dispatch_pixels(
     pass.dispatch_workgroups(x, y, 1);
 }
 
+/// Records and submits one timed compute pass over every pixel.
+pub fn submit_pixels(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+) {
+    let mut enc = ctx.gpu.device.create_command_encoder(&Default::default());
+    dispatch_pixels(ctx, &mut enc, name, pipeline, groups);
+    ctx.gpu.queue.submit([enc.finish()]);
+}
+
+/// Records a timed geometry pass drawing into storage buffers only (over a [`NullTarget`]).
+pub fn storage_geometry_pass(
+    ctx: &mut FrameContext<'_>,
+    enc: &mut wgpu::CommandEncoder,
+    name: &'static str,
+    target: &NullTarget,
+    pipeline: &wgpu::RenderPipeline,
+    groups: &[&wgpu::BindGroup],
+) {
+    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(name),
+        color_attachments: &[target.attachment()],
+        depth_stencil_attachment: None,
+        timestamp_writes: ctx.timer.render_pass(name),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*g), &[]);
+    }
+    ctx.draw_geometry(&mut pass);
+}
+
 /// A render pass over a throwaway color target, for capture passes whose output goes to
 /// storage buffers (WebGPU needs at least one attachment).
 pub struct NullTarget {
@@ -279,8 +315,18 @@ impl NullTarget {
         }
     }
 
-    pub fn fits(&self, width: u32, height: u32) -> bool {
-        self.size == (width, height)
+    /// The target in `slot`, (re)created when the frame size changed.
+    pub fn ensure<'s>(
+        slot: &'s mut Option<NullTarget>,
+        gpu: &Gpu,
+        label: &str,
+        width: u32,
+        height: u32,
+    ) -> &'s NullTarget {
+        if !slot.as_ref().is_some_and(|t| t.size == (width, height)) {
+            *slot = Some(NullTarget::new(gpu, label, width, height));
+        }
+        slot.as_ref().expect("set above")
     }
 
     pub fn target_state() -> Option<wgpu::ColorTargetState> {

@@ -13,7 +13,8 @@ use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::{readback, shader, Gpu};
 use crate::methods::{
-    capture_pipeline, compute_pipeline, dispatch_pixels, Method, MethodStats, NullTarget,
+    capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
+    NullTarget,
 };
 use crate::render::{FrameContext, RenderOptions, SceneGpu};
 
@@ -127,9 +128,13 @@ impl Method for LinkedLists {
             )));
         }
         self.capacity = self.capacity.min(max_nodes);
-        if !self.null_target.as_ref().is_some_and(|t| t.fits(w, h)) {
-            self.null_target = Some(NullTarget::new(gpu, "strata.abuffer_ll.null_target", w, h));
-        }
+        NullTarget::ensure(
+            &mut self.null_target,
+            gpu,
+            "strata.abuffer_ll.null_target",
+            w,
+            h,
+        );
         let heads = gpu.storage_buffer(
             "strata.abuffer_ll.heads",
             ctx.pixels() * 4,
@@ -159,21 +164,15 @@ impl Method for LinkedLists {
             let mut enc = gpu.device.create_command_encoder(&Default::default());
             enc.clear_buffer(&heads, 0, None);
             enc.clear_buffer(&allocated, 0, None);
-            {
-                let null_target = self.null_target.as_ref().expect("created above");
-                let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("strata.abuffer_ll.capture"),
-                    color_attachments: &[null_target.attachment()],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: ctx.timer.render_pass("capture"),
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                pass.set_pipeline(&self.capture);
-                pass.set_bind_group(0, Some(frame_group), &[]);
-                pass.set_bind_group(1, Some(&capture_group), &[]);
-                ctx.draw_geometry(&mut pass);
-            }
+            let null_target = self.null_target.as_ref().expect("ensured above");
+            storage_geometry_pass(
+                ctx,
+                &mut enc,
+                "capture",
+                null_target,
+                &self.capture,
+                &[frame_group, &capture_group],
+            );
             gpu.queue.submit([enc.finish()]);
             let needed = readback::read_u32s(gpu, &allocated, 1)?[0] as u64;
             if needed <= self.capacity {
@@ -187,15 +186,12 @@ impl Method for LinkedLists {
                         ctx.output.as_entire_binding(),
                     ],
                 );
-                let mut enc = gpu.device.create_command_encoder(&Default::default());
-                dispatch_pixels(
+                submit_pixels(
                     ctx,
-                    &mut enc,
                     "resolve",
                     &self.resolve,
                     &[frame_group, &resolve_group],
                 );
-                gpu.queue.submit([enc.finish()]);
                 let bytes_allocated = ctx.pixels() * 4 + self.capacity * NODE_BYTES + 4;
                 // Track the measured need: a pool more than twice what this frame needed shrinks
                 // for the next frame (the one just rendered keeps its buffer until then).

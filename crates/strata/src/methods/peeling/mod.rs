@@ -25,8 +25,8 @@ use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::{readback, shader, Gpu};
 use crate::methods::{
-    attachment, capture_pipeline, compute_pipeline, dispatch_pixels, texture_2d, Method,
-    MethodStats, NullTarget,
+    attachment, capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass,
+    submit_pixels, texture_2d, Method, MethodStats, NullTarget,
 };
 use crate::render::{FrameContext, SceneGpu};
 
@@ -241,15 +241,7 @@ impl Method for FrontToBack {
             }
         }
 
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        dispatch_pixels(
-            ctx,
-            &mut enc,
-            "finish",
-            &self.finish,
-            &[frame_group, &acc_group],
-        );
-        gpu.queue.submit([enc.finish()]);
+        submit_pixels(ctx, "finish", &self.finish, &[frame_group, &acc_group]);
         Ok(MethodStats {
             geometry_passes: passes,
             fragments_dropped: Some(0),
@@ -329,10 +321,8 @@ impl Method for Dual {
     fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
         let gpu = ctx.gpu;
         let (w, h) = (ctx.options.width, ctx.options.height);
-        if !self.null_target.as_ref().is_some_and(|t| t.fits(w, h)) {
-            self.null_target = Some(NullTarget::new(gpu, "strata.dual.null_target", w, h));
-        }
-        let null_target = self.null_target.as_ref().expect("created above");
+        let null_target =
+            NullTarget::ensure(&mut self.null_target, gpu, "strata.dual.null_target", w, h);
         let px = ctx.pixels();
         let none = wgpu::BufferUsages::empty();
         let bounds = gpu.storage_buffer("strata.dual.bounds", px * 8, none)?;
@@ -370,23 +360,6 @@ impl Method for Dual {
             ],
         );
         let frame_group = ctx.frame_group;
-        let geometry_pass = |ctx: &mut FrameContext<'_>,
-                             enc: &mut wgpu::CommandEncoder,
-                             name: &'static str,
-                             pipeline: &wgpu::RenderPipeline| {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(name),
-                color_attachments: &[null_target.attachment()],
-                depth_stencil_attachment: None,
-                timestamp_writes: ctx.timer.render_pass(name),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, Some(frame_group), &[]);
-            pass.set_bind_group(1, Some(&peel_group), &[]);
-            ctx.draw_geometry(&mut pass);
-        };
 
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         dispatch_pixels(
@@ -396,7 +369,14 @@ impl Method for Dual {
             &self.init,
             &[frame_group, &advance_group],
         );
-        geometry_pass(ctx, &mut enc, "bounds", &self.bounds);
+        storage_geometry_pass(
+            ctx,
+            &mut enc,
+            "bounds",
+            null_target,
+            &self.bounds,
+            &[frame_group, &peel_group],
+        );
         gpu.queue.submit([enc.finish()]);
         let mut passes = 1;
         let mut dropped = 0u64;
@@ -422,19 +402,18 @@ impl Method for Dual {
             }
             passes += 1;
             let mut enc = gpu.device.create_command_encoder(&Default::default());
-            geometry_pass(ctx, &mut enc, "peel", &self.peel);
+            storage_geometry_pass(
+                ctx,
+                &mut enc,
+                "peel",
+                null_target,
+                &self.peel,
+                &[frame_group, &peel_group],
+            );
             gpu.queue.submit([enc.finish()]);
         }
 
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        dispatch_pixels(
-            ctx,
-            &mut enc,
-            "finish",
-            &self.finish,
-            &[frame_group, &advance_group],
-        );
-        gpu.queue.submit([enc.finish()]);
+        submit_pixels(ctx, "finish", &self.finish, &[frame_group, &advance_group]);
         Ok(MethodStats {
             geometry_passes: passes,
             fragments_dropped: Some(dropped),
