@@ -323,7 +323,7 @@ impl NullTarget {
         width: u32,
         height: u32,
     ) -> &'s NullTarget {
-        if !slot.as_ref().is_some_and(|t| t.size == (width, height)) {
+        if slot.as_ref().is_none_or(|t| t.size != (width, height)) {
             *slot = Some(NullTarget::new(gpu, label, width, height));
         }
         slot.as_ref().expect("set above")
