@@ -14,4 +14,4 @@ pub mod scene;
 pub(crate) mod testing;
 
 pub use error::{Error, Result};
-pub use render::{Effect, FrameStats, LinearImage, RenderOptions, Renderer};
+pub use render::{Effect, FrameStats, LinearImage, RenderOptions, Renderer, Tail};

@@ -6,6 +6,7 @@
 
 pub mod abuffer;
 pub mod baseline;
+pub mod kbuffer;
 pub mod peeling;
 
 use serde::Serialize;
@@ -99,8 +100,67 @@ pub fn catalogue() -> Vec<MethodInfo> {
             memory: "4·W·H + 20·nodes + 4 (nodes ≥ F)",
             summary: "A-buffer of per-pixel linked lists; overflow is detected, the pool grown and the frame re-rendered",
         },
+        MethodInfo {
+            id: "abuffer-fixed",
+            family: "abuffer",
+            exact: false,
+            geometry_passes: "1",
+            memory: KB_MEMORY,
+            summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
+        },
+        MethodInfo {
+            id: "kb",
+            family: "kbuffer",
+            exact: false,
+            geometry_passes: "1",
+            memory: KB_MEMORY,
+            summary: "original k-buffer: sorted insertion with no lock (read-modify-write hazards between fragments of a pixel)",
+        },
+        MethodInfo {
+            id: "kb-ps",
+            family: "kbuffer",
+            exact: true,
+            geometry_passes: "1",
+            memory: KB_MEMORY,
+            summary: "k-buffer with sorted insertion inside a per-pixel spin lock (pixel synchronisation emulated)",
+        },
+        MethodInfo {
+            id: "kb-ab-fixed",
+            family: "kbuffer",
+            exact: true,
+            geometry_passes: "1 (+1 when the array overflows)",
+            memory: "16·(n+1)·W·H + 64 + 20·(W·H with --tail blend, else 1); n: max depth complexity",
+            summary: "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
+        },
+        MethodInfo {
+            id: "kplus-array",
+            family: "kplus",
+            exact: true,
+            geometry_passes: "1",
+            memory: KB_MEMORY,
+            summary: "k+-buffer max-array: k nearest captured unsorted under a spin lock, max in slot 0, culling",
+        },
+        MethodInfo {
+            id: "kplus-array-r",
+            family: "kplus",
+            exact: true,
+            geometry_passes: "1",
+            memory: KB_MEMORY,
+            summary: "k+-buffer revised max-array: the first k fragments stored without the lock",
+        },
+        MethodInfo {
+            id: "kplus-heap",
+            family: "kplus",
+            exact: true,
+            geometry_passes: "1",
+            memory: KB_MEMORY,
+            summary: "k+-buffer max-heap: sift-up while filling, replace-root and sift-down when full, culling",
+        },
     ]
 }
+
+/// Memory of the k-slot methods; `kbuffer::SLOT_BYTES` etc. keep it true.
+const KB_MEMORY: &str = "16·(k+1)·W·H + 64 + 20·(W·H with --tail blend, else 1)";
 
 pub fn info(id: &str) -> Option<MethodInfo> {
     catalogue().into_iter().find(|m| m.id == id)
@@ -127,6 +187,15 @@ pub fn create(
         "f2b" => Box::new(peeling::FrontToBack::new(gpu, scene)),
         "dual" => Box::new(peeling::Dual::new(gpu, scene)),
         "abuffer-ll" => Box::new(abuffer::LinkedLists::new(gpu, scene, options)),
+        id if kbuffer::Variant::from_id(id).is_some() => {
+            let info = info(id).expect("catalogued");
+            Box::new(kbuffer::SlotKBuffer::new(
+                gpu,
+                scene,
+                info.id,
+                kbuffer::Variant::from_id(id).expect("checked"),
+            ))
+        }
         "reference" => {
             return Err(Error::input(
                 "method 'reference' runs on the CPU: use strata::reference::render",

@@ -1,7 +1,10 @@
 //! Triangle setup and coverage for the CPU reference, following the GPU's rules: clipping at the
 //! near plane (z ≥ 0 in clip space), window coordinates snapped to 1/256 pixel (the subpixel
 //! precision of the software Vulkan driver tests run on), pixel-center sampling with the top-left
-//! rule in exact integer arithmetic, screen-linear depth, perspective-correct attributes.
+//! rule in exact integer arithmetic; depth (screen-linear) and attributes (perspective-correct)
+//! interpolated from the *unsnapped* window positions, as lavapipe's attribute planes are — at
+//! near edge-on triangles, where depth changes fast across a pixel, this decides the order of
+//! fragments that are almost at the same depth.
 
 use glam::{DMat4, DVec3, DVec4};
 
@@ -13,8 +16,10 @@ pub const SUBPIXEL: f64 = 256.0;
 #[derive(Clone, Debug)]
 pub struct SetupTriangle {
     pub prim: u32,
-    /// Snapped window x, y in subpixel units (y down).
+    /// Snapped window x, y in subpixel units (y down): coverage.
     pub xy: [[i64; 2]; 3],
+    /// Unsnapped window x, y in pixels: interpolation (as lavapipe's attribute planes use them).
+    pub window: [[f64; 2]; 3],
     /// Window depth per corner.
     pub z: [f64; 3],
     /// 1/w per corner (1 for orthographic).
@@ -71,6 +76,7 @@ pub fn setup(
             c.z * inv_w,
             inv_w,
             w,
+            [x, y],
         )
     };
     let corners: Vec<_> = poly.into_iter().map(project).collect();
@@ -98,11 +104,21 @@ pub fn setup(
             z: tri.map(|c| c.1),
             inv_w: tri.map(|c| c.2),
             weights: tri.map(|c| c.3),
+            window: tri.map(|c| c.4),
             area2,
             min: [x0 as u32, y0 as u32],
             max: [x1 as u32, y1 as u32],
         });
     }
+}
+
+/// Barycentric coordinates of (x, y) in the triangle `w` (any orientation).
+fn barycentrics(w: &[[f64; 2]; 3], x: f64, y: f64) -> [f64; 3] {
+    let area =
+        (w[1][0] - w[0][0]) * (w[2][1] - w[0][1]) - (w[2][0] - w[0][0]) * (w[1][1] - w[0][1]);
+    let l1 = ((x - w[0][0]) * (w[2][1] - w[0][1]) - (w[2][0] - w[0][0]) * (y - w[0][1])) / area;
+    let l2 = ((w[1][0] - w[0][0]) * (y - w[0][1]) - (x - w[0][0]) * (w[1][1] - w[0][1])) / area;
+    [1.0 - l1 - l2, l1, l2]
 }
 
 /// A covered pixel: window depth and perspective-correct barycentric weights of the original
@@ -117,11 +133,7 @@ pub struct Sample {
 /// Visits the pixels of rows `rows` that `t` covers under the top-left rule.
 pub fn cover(t: &SetupTriangle, rows: std::ops::Range<u32>, mut visit: impl FnMut(Sample)) {
     // Orient so the interior is where all edge functions are positive.
-    let (order, area2) = if t.area2 > 0 {
-        ([0, 1, 2], t.area2)
-    } else {
-        ([0, 2, 1], -t.area2)
-    };
+    let order = if t.area2 > 0 { [0, 1, 2] } else { [0, 2, 1] };
     let v = order.map(|i| t.xy[i]);
     // Edge i runs from v[i] to v[i+1]; its function is positive inside and the bias makes a pixel
     // center exactly on it count only for top edges (horizontal, interior below) and left edges
@@ -154,11 +166,7 @@ pub fn cover(t: &SetupTriangle, rows: std::ops::Range<u32>, mut visit: impl FnMu
             if !inside {
                 continue;
             }
-            // e[i] is the doubled area opposite corner v[i+2].
-            let mut l = [0.0f64; 3];
-            for i in 0..3 {
-                l[order[(i + 2) % 3]] = e[i] as f64 / area2 as f64;
-            }
+            let l = barycentrics(&t.window, px as f64 + 0.5, py as f64 + 0.5);
             let depth = l[0] * t.z[0] + l[1] * t.z[1] + l[2] * t.z[2];
             let pw = [l[0] * t.inv_w[0], l[1] * t.inv_w[1], l[2] * t.inv_w[2]];
             let sum = pw[0] + pw[1] + pw[2];

@@ -56,6 +56,29 @@ impl Effect {
     }
 }
 
+/// What k-buffer methods do with fragments beyond the k nearest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Tail {
+    /// Discard them (counted in `fragments_dropped`).
+    #[default]
+    Drop,
+    /// Blend them, unsorted, into one tail term behind the k nearest (weighted average color,
+    /// opacity from the sum of their optical depths), as engines do.
+    Blend,
+}
+
+impl FromStr for Tail {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "drop" => Ok(Tail::Drop),
+            "blend" => Ok(Tail::Blend),
+            _ => Err(Error::input(format!("--tail '{s}' is not drop or blend"))),
+        }
+    }
+}
+
 /// Everything about a picture that is not the scene.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -69,6 +92,12 @@ pub struct RenderOptions {
     pub budget_mb: Option<f64>,
     /// Initial node pool of `abuffer-ll` (nodes); by default sized from the previous frame.
     pub abuffer_initial_nodes: Option<u64>,
+    /// k-buffers: fragments beyond k.
+    pub tail: Tail,
+    /// k-buffers: cull fragments behind a full pixel's maximum before taking the lock.
+    pub culling: bool,
+    /// k-buffers: spin-lock tries per fragment (default 4096).
+    pub max_tries: Option<u32>,
 }
 
 impl Default for RenderOptions {
@@ -81,6 +110,9 @@ impl Default for RenderOptions {
             k: None,
             budget_mb: None,
             abuffer_initial_nodes: None,
+            tail: Tail::Drop,
+            culling: true,
+            max_tries: None,
         }
     }
 }

@@ -1,0 +1,71 @@
+// The k-buffer with sorted insertion (Bavoil et al. 2007): slots kept in (depth, primitive)
+// order, a new fragment shifts the farther ones back and the last falls out.
+// `kb` does it with no lock: concurrent fragments of one pixel read, modify and write the same
+// slots, and the hazard's artifacts are the method's known flaw, kept as they are.
+// `kb-ps` does the same inside the per-pixel spin lock, standing in for pixel synchronisation.
+
+fn sorted_insert(p: u32, f: Fragment) {
+    let n = atomicLoad(&pixels[pixel_word(p, FILLED)]);
+    var i = n;
+    if n >= kp.k {
+        let last = load_slot(p, kp.k - 1u);
+        if !fragment_before(f, last) {
+            tail_add(p, f);
+            return;
+        }
+        tail_add(p, last);
+        i = kp.k - 1u;
+    } else {
+        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
+    }
+    while i > 0u {
+        let prev = load_slot(p, i - 1u);
+        if !fragment_before(f, prev) {
+            break;
+        }
+        store_slot(p, i, prev);
+        i -= 1u;
+    }
+    store_slot(p, i, f);
+}
+
+fn culled_sorted(p: u32, f: Fragment) -> bool {
+    return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && !fragment_before(f, load_key(p, kp.k - 1u));
+}
+
+@fragment
+fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    let f = scene_fragment(v, front_facing);
+    count_seen(p);
+    if culled_sorted(p, f) {
+        tail_add(p, f);
+        return;
+    }
+    sorted_insert(p, f);
+}
+
+@fragment
+fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    let f = scene_fragment(v, front_facing);
+    count_seen(p);
+    if culled_sorted(p, f) {
+        tail_add(p, f);
+        return;
+    }
+    for (var t = 0u; t < kp.max_tries; t++) {
+        if try_lock(p) {
+            sorted_insert(p, f);
+            unlock(p);
+            return;
+        }
+    }
+    lock_failed(p, f);
+}

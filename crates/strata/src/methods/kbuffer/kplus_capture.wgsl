@@ -1,0 +1,186 @@
+// k+-buffer capture (Vasilakis et al. 2015): the k nearest fragments, unsorted, in one pass.
+// max-array keeps the farthest stored fragment in slot 0; max-heap keeps a binary max-heap.
+// Fragments not before the current maximum of a full pixel are culled before taking the lock,
+// and the test is repeated inside it. Order is (depth, primitive): exact with ties.
+
+// Inserts into a max-array holding `n` fragments (lock held).
+fn array_insert(p: u32, n: u32, f: Fragment) {
+    if n < kp.k {
+        if n > 0u {
+            let m = load_slot(p, 0u);
+            if fragment_before(m, f) {
+                store_slot(p, n, m);
+                store_slot(p, 0u, f);
+            } else {
+                store_slot(p, n, f);
+            }
+        } else {
+            store_slot(p, 0u, f);
+        }
+        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
+        return;
+    }
+    let m = load_slot(p, 0u);
+    if !fragment_before(f, m) {
+        tail_add(p, f);
+        return;
+    }
+    tail_add(p, m);
+    array_replace_max(p, f);
+}
+
+// Puts `f` in place of the maximum of a full max-array and moves the new maximum to slot 0.
+fn array_replace_max(p: u32, f: Fragment) {
+    var max_key = f;
+    var max_i = 0u;
+    for (var i = 1u; i < kp.k; i++) {
+        let c = load_key(p, i);
+        if fragment_before(max_key, c) {
+            max_key = c;
+            max_i = i;
+        }
+    }
+    if max_i == 0u {
+        store_slot(p, 0u, f);
+    } else {
+        store_slot(p, 0u, load_slot(p, max_i));
+        store_slot(p, max_i, f);
+    }
+}
+
+fn heap_insert(p: u32, n: u32, f: Fragment) {
+    if n < kp.k {
+        var i = n;
+        while i > 0u {
+            let parent = (i - 1u) / 2u;
+            let pf = load_slot(p, parent);
+            if !fragment_before(pf, f) {
+                break;
+            }
+            store_slot(p, i, pf);
+            i = parent;
+        }
+        store_slot(p, i, f);
+        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
+        return;
+    }
+    let root = load_slot(p, 0u);
+    if !fragment_before(f, root) {
+        tail_add(p, f);
+        return;
+    }
+    tail_add(p, root);
+    var i = 0u;
+    loop {
+        let left = 2u * i + 1u;
+        if left >= kp.k {
+            break;
+        }
+        var child = left;
+        var cf = load_slot(p, left);
+        if left + 1u < kp.k {
+            let rf = load_slot(p, left + 1u);
+            if fragment_before(cf, rf) {
+                child = left + 1u;
+                cf = rf;
+            }
+        }
+        if !fragment_before(f, cf) {
+            break;
+        }
+        store_slot(p, i, cf);
+        i = child;
+    }
+    store_slot(p, i, f);
+}
+
+// True when a full pixel's maximum (slot 0) is not after `f`: the fragment cannot enter.
+fn culled(p: u32, f: Fragment) -> bool {
+    return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && !fragment_before(f, load_key(p, 0u));
+}
+
+const VARIANT_ARRAY: u32 = 0u;
+const VARIANT_HEAP: u32 = 1u;
+
+fn capture_locked(p: u32, f: Fragment, variant: u32) {
+    count_seen(p);
+    if culled(p, f) {
+        tail_add(p, f);
+        return;
+    }
+    for (var t = 0u; t < kp.max_tries; t++) {
+        if try_lock(p) {
+            let n = atomicLoad(&pixels[pixel_word(p, FILLED)]);
+            if variant == VARIANT_ARRAY {
+                array_insert(p, n, f);
+            } else {
+                heap_insert(p, n, f);
+            }
+            unlock(p);
+            return;
+        }
+    }
+    lock_failed(p, f);
+}
+
+@fragment
+fn fs_kplus_array(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_locked(pixel_index(pixel_of(v.position)), scene_fragment(v, front_facing), VARIANT_ARRAY);
+}
+
+@fragment
+fn fs_kplus_heap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_locked(pixel_index(pixel_of(v.position)), scene_fragment(v, front_facing), VARIANT_HEAP);
+}
+
+// Revised max-array: the first k fragments take slots from the seen counter without the lock
+// ("fast store") and publish themselves in FILLED; later fragments take the lock, wait (within
+// the try bound) until all k slots are published, find the maximum once (AUX marks it found),
+// then replace as the max-array does.
+@fragment
+fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    let f = scene_fragment(v, front_facing);
+    let s = count_seen(p);
+    if s < kp.k {
+        store_slot(p, s, f);
+        atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+        return;
+    }
+    if kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, AUX)]) != 0u && !fragment_before(f, load_key(p, 0u)) {
+        tail_add(p, f);
+        return;
+    }
+    for (var t = 0u; t < kp.max_tries; t++) {
+        if try_lock(p) {
+            if atomicLoad(&pixels[pixel_word(p, FILLED)]) < kp.k {
+                // A fast store is still being written: let it finish.
+                unlock(p);
+                continue;
+            }
+            if atomicLoad(&pixels[pixel_word(p, AUX)]) == 0u {
+                array_replace_max(p, load_slot(p, 0u));
+                atomicStore(&pixels[pixel_word(p, AUX)], 1u);
+            }
+            let m = load_slot(p, 0u);
+            if fragment_before(f, m) {
+                tail_add(p, m);
+                array_replace_max(p, f);
+            } else {
+                tail_add(p, f);
+            }
+            unlock(p);
+            return;
+        }
+    }
+    lock_failed(p, f);
+}

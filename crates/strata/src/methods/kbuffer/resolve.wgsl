@@ -1,0 +1,176 @@
+// k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
+// Up to LOCAL_CAPACITY stored fragments are copied to a local array and sorted — insertion sort
+// up to 16, shell sort above; longer lists use the k-depth sort (seed 003, Algorithm 4): chunks
+// of CHUNK nearest fragments selected with a max-array, sorted and composited, the last one
+// composited bounding the next selection. Fragments beyond k join the tail (--tail blend).
+// The storage file prepended to this one defines `stored_count(p)` and `stored_fragment(p, i)`.
+
+@group(1) @binding(5) var<storage, read_write> output: array<vec4<f32>>;
+
+const LOCAL_CAPACITY: u32 = 64u;
+const CHUNK: u32 = 32u;
+
+struct Tail {
+    sum: vec4<f32>,
+    optical_depth: f32,
+}
+
+fn tail_sums(p: u32) -> Tail {
+    let w = p * 5u;
+    let s = vec4<f32>(
+        f32(atomicLoad(&tail[w])),
+        f32(atomicLoad(&tail[w + 1u])),
+        f32(atomicLoad(&tail[w + 2u])),
+        f32(atomicLoad(&tail[w + 3u])),
+    ) / TAIL_SCALE;
+    return Tail(s, f32(atomicLoad(&tail[w + 4u])) / TAIL_SCALE);
+}
+
+fn tail_add_local(t: ptr<function, Tail>, f: Fragment) {
+    let c = fragment_color(f);
+    let a = clamp(c.a, 0.0, 0.999);
+    (*t).sum += vec4<f32>(a * c.rgb, a);
+    (*t).optical_depth += -log(1.0 - a);
+}
+
+fn sort_local(a: ptr<function, array<Fragment, LOCAL_CAPACITY>>, n: u32) {
+    if n <= 16u {
+        for (var i = 1u; i < n; i++) {
+            let f = (*a)[i];
+            var j = i;
+            while j > 0u && fragment_before(f, (*a)[j - 1u]) {
+                (*a)[j] = (*a)[j - 1u];
+                j -= 1u;
+            }
+            (*a)[j] = f;
+        }
+        return;
+    }
+    // Shell sort with Knuth's gaps 1, 4, 13, 40.
+    var gap = 1u;
+    while gap * 3u + 1u < n {
+        gap = gap * 3u + 1u;
+    }
+    loop {
+        for (var i = gap; i < n; i++) {
+            let f = (*a)[i];
+            var j = i;
+            while j >= gap && fragment_before(f, (*a)[j - gap]) {
+                (*a)[j] = (*a)[j - gap];
+                j -= gap;
+            }
+            (*a)[j] = f;
+        }
+        if gap == 1u {
+            break;
+        }
+        gap = (gap - 1u) / 3u;
+    }
+}
+
+// k-depth sort: composites the `limit` nearest of `n` stored fragments, CHUNK at a time.
+fn k_depth_sort(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) {
+    var chunk: array<Fragment, LOCAL_CAPACITY>;
+    var done = 0u;
+    var bound = Fragment(-1.0, 0u, 0u, 0u);
+    loop {
+        // Select the CHUNK nearest fragments after `bound` with a max-array (max in slot 0).
+        var m = 0u;
+        for (var i = 0u; i < n; i++) {
+            let f = stored_fragment(p, i);
+            if !fragment_before(bound, f) {
+                continue;
+            }
+            if m < CHUNK {
+                if m > 0u && fragment_before(chunk[0], f) {
+                    chunk[m] = chunk[0];
+                    chunk[0] = f;
+                } else {
+                    chunk[m] = f;
+                }
+                m += 1u;
+            } else if fragment_before(f, chunk[0]) {
+                chunk[0] = f;
+                var max_i = 0u;
+                for (var j = 1u; j < CHUNK; j++) {
+                    if fragment_before(chunk[max_i], chunk[j]) {
+                        max_i = j;
+                    }
+                }
+                let mx = chunk[max_i];
+                chunk[max_i] = chunk[0];
+                chunk[0] = mx;
+            }
+        }
+        if m == 0u {
+            break;
+        }
+        sort_local(&chunk, m);
+        for (var j = 0u; j < m; j++) {
+            if done < limit {
+                composite_front(s, chunk[j]);
+                done += 1u;
+            } else {
+                tail_add_local(t, chunk[j]);
+            }
+        }
+        bound = chunk[m - 1u];
+        if m < CHUNK || (done >= limit && kp.tail_blend == 0u) {
+            break;
+        }
+    }
+}
+
+// Composites the tail behind the sorted fragments: the weighted average color of the tail
+// fragments over the opacity 1 − exp(−Σ −ln(1 − α)) they have together.
+fn composite_tail(s: ptr<function, Composite>, t: Tail) {
+    if t.sum.w <= 0.0 {
+        return;
+    }
+    let opacity = 1.0 - exp(-t.optical_depth);
+    (*s).color += (*s).transmittance * opacity * t.sum.rgb / t.sum.w;
+    (*s).transmittance *= 1.0 - opacity;
+}
+
+fn resolve_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
+    let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
+    let n = stored_count(p);
+    let limit = min(n, kp.k);
+    var s = composite_new();
+    var t = Tail(vec4<f32>(0.0), 0.0);
+    if kp.tail_blend != 0u {
+        t = tail_sums(p);
+    }
+    if n <= LOCAL_CAPACITY {
+        var local: array<Fragment, LOCAL_CAPACITY>;
+        for (var i = 0u; i < n; i++) {
+            local[i] = stored_fragment(p, i);
+        }
+        sort_local(&local, n);
+        for (var i = 0u; i < limit; i++) {
+            composite_front(&s, local[i]);
+        }
+        if kp.tail_blend != 0u {
+            for (var i = limit; i < n; i++) {
+                tail_add_local(&t, local[i]);
+            }
+        }
+    } else {
+        k_depth_sort(p, n, limit, &s, &t);
+    }
+    composite_tail(&s, t);
+    output[p] = composite_finish(s, pixel);
+    if seen > limit {
+        atomicAdd(&counters[COUNTER_DROPPED], seen - limit);
+    }
+    atomicMax(&counters[COUNTER_MAX_SEEN], seen);
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    resolve_pixel(id.xy);
+}

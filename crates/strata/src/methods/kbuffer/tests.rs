@@ -1,0 +1,262 @@
+//! k-buffer methods against `strata reference --k N` on lavapipe.
+//!
+//! Tolerance as for the foundation's exact methods (see methods/tests.rs): max |Δ| ≤ 2/255 on
+//! ≥ 99.9% of pixels; coverage at edges may differ between lavapipe's f32 setup and the
+//! reference's exact integers.
+
+use crate::render::{Effect, RenderOptions, Tail};
+use crate::scene::{loaders, Scene};
+use crate::testing::{assert_close, render_gpu, render_reference};
+
+const EXACT_K_METHODS: [&str; 5] = [
+    "kplus-array",
+    "kplus-heap",
+    "kplus-array-r",
+    "kb-ps",
+    "kb-ab-fixed",
+];
+const MAX_DIFF: u8 = 2;
+const MAX_FRACTION: f64 = 0.001;
+
+fn scene(spec: &str) -> Scene {
+    loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
+}
+
+fn options(size: u32, k: u32) -> RenderOptions {
+    RenderOptions {
+        width: size,
+        height: size,
+        k: Some(k),
+        ..Default::default()
+    }
+}
+
+fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
+    let expected = render_reference(s, opts);
+    for method in methods {
+        let (actual, stats) = render_gpu(s, opts, method);
+        assert_close(
+            &format!("{name}-{method}-k{}", opts.k.unwrap()),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        assert_eq!(
+            stats.lock_failures.unwrap_or(0),
+            0,
+            "{method}: lock failures"
+        );
+        assert_eq!(stats.k, opts.k);
+    }
+}
+
+#[test]
+fn k_methods_with_k_at_depth_complexity_equal_the_full_reference() {
+    let s = scene("builtin:layers?n=12&coverage=0.75&order=random&seed=5");
+    let mut opts = options(48, 12);
+    let full = render_reference(
+        &s,
+        &RenderOptions {
+            k: None,
+            ..opts.clone()
+        },
+    );
+    for method in EXACT_K_METHODS.iter().chain(["abuffer-fixed", "kb"].iter()) {
+        let (actual, stats) = render_gpu(&s, &opts, method);
+        assert_close(
+            &format!("layers-full-{method}"),
+            &actual,
+            &full,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        assert_eq!(stats.fragments_dropped, Some(0), "{method}");
+        assert_eq!(stats.max_depth_complexity, Some(12), "{method}");
+    }
+    opts.k = Some(40);
+    check_k("layers-k40", &s, &opts, &EXACT_K_METHODS);
+}
+
+#[test]
+fn k_methods_keep_the_k_nearest_on_shuffled_layers() {
+    let s = scene("builtin:layers?n=24&coverage=0.5&order=random&seed=11");
+    for k in [4, 8, 16] {
+        check_k("layers", &s, &options(48, k), &EXACT_K_METHODS);
+    }
+}
+
+#[test]
+fn k_methods_keep_the_k_nearest_on_nvpro() {
+    let s = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
+    for k in [4, 16] {
+        check_k("nvpro", &s, &options(64, k), &EXACT_K_METHODS);
+    }
+}
+
+#[test]
+fn k_methods_keep_the_k_nearest_on_the_dragon_with_translucency() {
+    let mut s = scene("builtin:dragon");
+    s.override_alpha(0.5);
+    let mut opts = options(96, 4);
+    opts.effect = Effect::Translucency;
+    check_k("dragon", &s, &opts, &EXACT_K_METHODS);
+}
+
+/// Many fragments per pixel: k = 96 stored and sorted through the k-depth sort (above the
+/// 64-fragment local array), and kb-ab-fixed holding 150 per pixel.
+#[test]
+fn large_k_uses_the_k_depth_sort_and_stays_exact() {
+    let s = scene("builtin:layers?n=150&coverage=1&order=random&seed=2");
+    check_k(
+        "layers150",
+        &s,
+        &options(16, 96),
+        &["kplus-heap", "kb-ab-fixed"],
+    );
+    check_k("layers150", &s, &options(16, 20), &["kb-ab-fixed"]);
+}
+
+#[test]
+fn culling_off_gives_the_same_picture() {
+    let s = scene("builtin:nvpro?objects=96&subdiv=10&seed=8");
+    let mut opts = options(48, 8);
+    let expected = render_reference(&s, &opts);
+    opts.culling = false;
+    for method in ["kplus-array", "kplus-heap", "kplus-array-r", "kb-ps"] {
+        let (actual, _) = render_gpu(&s, &opts, method);
+        assert_close(
+            &format!("noculling-{method}"),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+    }
+}
+
+/// --tail blend puts the fragments beyond k behind the k nearest: on layers where every pixel
+/// has the same n layers, the tail term's closed form is known.
+#[test]
+fn tail_blend_composites_the_rest_as_one_term() {
+    let n = 10;
+    let k = 4;
+    let s = scene(&format!(
+        "builtin:layers?n={n}&coverage=1&order=random&seed=4"
+    ));
+    let mut opts = options(16, k as u32);
+    opts.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
+    opts.tail = Tail::Blend;
+    let layers = crate::scene::builtin::layer_colors(n);
+    let mut color = [0.0f64; 3];
+    let mut t = 1.0f64;
+    for (c, a) in &layers[..k] {
+        for i in 0..3 {
+            color[i] += t * *a as f64 * c[i] as f64;
+        }
+        t *= 1.0 - *a as f64;
+    }
+    let (mut sum, mut weight, mut depth) = ([0.0f64; 3], 0.0f64, 0.0f64);
+    for (c, a) in &layers[k..] {
+        for i in 0..3 {
+            sum[i] += *a as f64 * c[i] as f64;
+        }
+        weight += *a as f64;
+        depth += -(1.0 - *a as f64).ln();
+    }
+    let opacity = 1.0 - (-depth).exp();
+    let expected: Vec<f64> = (0..3)
+        .map(|i| color[i] + t * opacity * sum[i] / weight)
+        .collect();
+    for method in ["kplus-array", "kplus-heap", "kb-ps", "kb-ab-fixed"] {
+        let (img, stats) = render_gpu(&s, &opts, method);
+        assert_eq!(
+            stats.fragments_dropped,
+            Some(((n - k) * 16 * 16) as u64),
+            "{method}"
+        );
+        for p in &img.pixels {
+            for i in 0..3 {
+                // Fixed-point tail sums (1/65536) and f16 colors: 1e-3 linear.
+                assert!(
+                    (p[i] as f64 - expected[i]).abs() < 1e-3,
+                    "{method}: {:?} vs {expected:?}",
+                    p
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn memory_follows_the_catalogue_formula() {
+    let s = scene("builtin:layers?n=6");
+    let k = 5u64;
+    let mut opts = options(20, k as u32);
+    let px = 400u64;
+    for method in [
+        "kplus-array",
+        "kplus-heap",
+        "kplus-array-r",
+        "kb",
+        "kb-ps",
+        "abuffer-fixed",
+    ] {
+        assert_eq!(
+            render_gpu(&s, &opts, method).1.bytes_allocated,
+            Some(16 * (k + 1) * px + 64 + 20),
+            "{method}"
+        );
+    }
+    opts.tail = Tail::Blend;
+    assert_eq!(
+        render_gpu(&s, &opts, "kplus-heap").1.bytes_allocated,
+        Some(16 * (k + 1) * px + 64 + 20 * px)
+    );
+    // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
+    opts.tail = Tail::Drop;
+    let (_, stats) = render_gpu(&s, &opts, "kb-ab-fixed");
+    assert_eq!(stats.bytes_allocated, Some(16 * 7 * px + 64 + 20));
+}
+
+#[test]
+fn impossible_budget_is_a_clear_error() {
+    let s = scene("builtin:layers?n=6");
+    let mut opts = options(64, 64);
+    opts.budget_mb = Some(1.0);
+    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let e = r.render("kplus-heap").expect_err("budget too small");
+    assert!(
+        matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
+        "{e}"
+    );
+}
+
+#[test]
+fn kbuffer_stages_validate() {
+    use super::*;
+    let stages = [
+        (
+            "kplus.capture",
+            [STORAGE_WGSL, include_str!("kplus_capture.wgsl")].join("\n"),
+        ),
+        (
+            "kb.capture",
+            [STORAGE_WGSL, include_str!("kb_capture.wgsl")].join("\n"),
+        ),
+        (
+            "fixed.capture",
+            [STORAGE_WGSL, include_str!("fixed_capture.wgsl")].join("\n"),
+        ),
+        (
+            "slots.resolve",
+            [STORAGE_WGSL, SLOTS_WGSL, RESOLVE_WGSL].join("\n"),
+        ),
+    ];
+    for (label, src) in stages {
+        crate::gpu::shader::validate(label, &src);
+    }
+}
