@@ -156,6 +156,30 @@ pub fn catalogue() -> Vec<MethodInfo> {
             memory: KB_MEMORY,
             summary: "k+-buffer max-heap: sift-up while filling, replace-root and sift-down when full, culling",
         },
+        MethodInfo {
+            id: "kb-mdt32",
+            family: "kbuffer",
+            exact: true,
+            geometry_passes: "2",
+            memory: "20·k·W·H + 16·W·H + 64 + 20·(W·H with --tail blend, else 1)",
+            summary: "multi-depth test: atomicMax cascade of depth keys, colors fetched in a second geometry pass (ties beyond k share keys)",
+        },
+        MethodInfo {
+            id: "kb-mdt64",
+            family: "kbuffer",
+            exact: false,
+            geometry_passes: "1",
+            memory: "8·k·W·H + 16·W·H + 64 + 20·(W·H with --tail blend, else 1)",
+            summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
+        },
+        MethodInfo {
+            id: "kb-mdt-pack",
+            family: "kbuffer",
+            exact: false,
+            geometry_passes: "1",
+            memory: "8·k·W·H + 16·W·H + 84",
+            summary: "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
+        },
     ]
 }
 
@@ -187,6 +211,15 @@ pub fn create(
         "f2b" => Box::new(peeling::FrontToBack::new(gpu, scene)),
         "dual" => Box::new(peeling::Dual::new(gpu, scene)),
         "abuffer-ll" => Box::new(abuffer::LinkedLists::new(gpu, scene, options)),
+        id if kbuffer::mdt::Mdt::from_id(id).is_some() => {
+            let info = info(id).expect("catalogued");
+            Box::new(kbuffer::mdt::MdtKBuffer::new(
+                gpu,
+                scene,
+                info.id,
+                kbuffer::mdt::Mdt::from_id(id).expect("checked"),
+            )?)
+        }
         id if kbuffer::Variant::from_id(id).is_some() => {
             let info = info(id).expect("catalogued");
             Box::new(kbuffer::SlotKBuffer::new(

@@ -29,6 +29,10 @@
 //! scheduling. Each fragment tries at most `max_tries` times; a fragment that never gets the lock
 //! is counted in `lock_failures` (and joins the tail), never silently lost.
 
+pub mod mdt;
+
+pub mod cpu;
+
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
@@ -124,7 +128,8 @@ impl Variant {
 
 pub const STORAGE_WGSL: &str = include_str!("storage.wgsl");
 pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
-pub const SLOTS_WGSL: &str = include_str!("slots_storage.wgsl");
+pub const SLOTS_WGSL: &str = include_str!("slots.wgsl");
+pub const SLOTS_RESOLVE_WGSL: &str = include_str!("slots_resolve.wgsl");
 
 /// The k the options ask for, checked.
 pub fn k_of(options: &RenderOptions) -> Result<u32> {
@@ -301,7 +306,7 @@ impl SlotKBuffer {
         let module = shader::module(
             &gpu.device,
             &format!("strata.{family}.capture"),
-            &[STORAGE_WGSL, stage].join("\n"),
+            &[STORAGE_WGSL, SLOTS_WGSL, stage].join("\n"),
         );
         let capture = capture_pipeline(
             gpu,
@@ -315,7 +320,7 @@ impl SlotKBuffer {
         let module = shader::module(
             &gpu.device,
             "strata.kbuffer.resolve",
-            &[STORAGE_WGSL, SLOTS_WGSL, RESOLVE_WGSL].join("\n"),
+            &[STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
         );
         let resolve = compute_pipeline(
             gpu,

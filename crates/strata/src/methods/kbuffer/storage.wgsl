@@ -1,8 +1,7 @@
 // k-buffer family storage, shared by its capture and resolve stages.
 // Keep `KParams` in sync with `KParams` in kbuffer/mod.rs.
 //
-// slots: per pixel `stride` fragment records of 4 words (depth bits, tag, rg, ba), every word an
-// atomic so that reads inside a spin lock see the last holder's writes (WGSL has no @coherent).
+// Binding 1 is the method's fragment storage (slots.wgsl for slot arrays, mdt.wgsl for keys).
 // pixels: 4 words per pixel — seen (every fragment that reached the pixel), filled (slots in use),
 // lock, and aux (a per-method flag). tail: 5 words per pixel of fixed-point sums for --tail blend.
 
@@ -19,7 +18,6 @@ struct KParams {
 }
 
 @group(1) @binding(0) var<uniform> kp: KParams;
-@group(1) @binding(1) var<storage, read_write> slots: array<atomic<u32>>;
 @group(1) @binding(2) var<storage, read_write> pixels: array<atomic<u32>>;
 @group(1) @binding(3) var<storage, read_write> counters: array<atomic<u32>>;
 @group(1) @binding(4) var<storage, read_write> tail: array<atomic<u32>>;
@@ -40,34 +38,6 @@ const TAIL_SCALE: f32 = 65536.0;
 
 fn pixel_word(p: u32, word: u32) -> u32 {
     return p * 4u + word;
-}
-
-fn slot_word(p: u32, i: u32) -> u32 {
-    return (p * kp.stride + i) * 4u;
-}
-
-fn load_slot(p: u32, i: u32) -> Fragment {
-    let w = slot_word(p, i);
-    return Fragment(
-        bitcast<f32>(atomicLoad(&slots[w])),
-        atomicLoad(&slots[w + 1u]),
-        atomicLoad(&slots[w + 2u]),
-        atomicLoad(&slots[w + 3u]),
-    );
-}
-
-// Depth and tag only: what ordering needs.
-fn load_key(p: u32, i: u32) -> Fragment {
-    let w = slot_word(p, i);
-    return Fragment(bitcast<f32>(atomicLoad(&slots[w])), atomicLoad(&slots[w + 1u]), 0u, 0u);
-}
-
-fn store_slot(p: u32, i: u32, f: Fragment) {
-    let w = slot_word(p, i);
-    atomicStore(&slots[w], bitcast<u32>(f.depth));
-    atomicStore(&slots[w + 1u], f.tag);
-    atomicStore(&slots[w + 2u], f.rg);
-    atomicStore(&slots[w + 3u], f.ba);
 }
 
 // Blends a fragment beyond the k nearest into the pixel's unsorted tail (--tail blend).

@@ -1,0 +1,145 @@
+// Multi-depth-test k-buffers (seed 002's MDTS) with 32-bit keys: each fragment runs an atomicMax
+// cascade over its pixel's k keys — the key displaced from a slot carries on to the next — so
+// the keys stay sorted with no lock. Keys are stored inverted (0xffffffff − key) so that 0 marks
+// an empty slot and atomicMax keeps the nearest.
+// kb-mdt32: key = the depth's bits; a second geometry pass finds each fragment's key and writes
+//   its color (ties claim equal keys one by one); layout: keys, claims, colors (3 words) per slot.
+// kb-mdt-pack: depth mapped to [0.5, 1) so sign and exponent are constant, its top 20 mantissa
+//   bits above 12 bits of color in two keys (R6 G6 | B6 A6, sRGB-encoded): two cascades whose
+//   slot i belong to the same fragment unless two keys tie in the top 20 bits.
+
+@group(1) @binding(1) var<storage, read_write> keys: array<atomic<u32>>;
+
+fn slots_in_frame() -> u32 {
+    return frame.size.x * frame.size.y * kp.k;
+}
+
+fn depth_key(depth: f32) -> u32 {
+    return 0xffffffffu - bitcast<u32>(depth);
+}
+
+fn key_depth(key: u32) -> f32 {
+    return bitcast<f32>(0xffffffffu - key);
+}
+
+// Returns the key displaced past the last slot, 0 when it found a place.
+fn cascade(base: u32, key_in: u32) -> u32 {
+    var key = key_in;
+    for (var i = 0u; i < kp.k; i++) {
+        let old = atomicMax(&keys[base + i], key);
+        if old == 0u {
+            return 0u;
+        }
+        key = min(old, key);
+    }
+    return key;
+}
+
+// Culling: the pixel is full and the key is not nearer than its farthest.
+fn cascade_culled(base: u32, key: u32) -> bool {
+    if kp.culling == 0u {
+        return false;
+    }
+    let last = atomicLoad(&keys[base + kp.k - 1u]);
+    return last != 0u && key <= last;
+}
+
+fn linear_to_srgb(c: f32) -> f32 {
+    let x = clamp(c, 0.0, 1.0);
+    return select(1.055 * pow(x, 1.0 / 2.4) - 0.055, x * 12.92, x <= 0.0031308);
+}
+
+fn srgb_to_linear(c: f32) -> f32 {
+    return select(pow((c + 0.055) / 1.055, 2.4), c / 12.92, c <= 0.04045);
+}
+
+@fragment
+fn fs_mdt32_depth(v: SceneVarying) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    count_seen(p);
+    let key = depth_key(v.position.z);
+    let base = p * kp.k;
+    if cascade_culled(base, key) {
+        return;
+    }
+    cascade(base, key);
+}
+
+@fragment
+fn fs_mdt32_color(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    let f = scene_fragment(v, front_facing);
+    let key = depth_key(f.depth);
+    let base = p * kp.k;
+    let n = slots_in_frame();
+    for (var i = 0u; i < kp.k; i++) {
+        let stored = atomicLoad(&keys[base + i]);
+        if stored < key {
+            break;
+        }
+        if stored == key && atomicExchange(&keys[n + base + i], 1u) == 0u {
+            let c = 2u * n + 3u * (base + i);
+            atomicStore(&keys[c], f.tag);
+            atomicStore(&keys[c + 1u], f.rg);
+            atomicStore(&keys[c + 2u], f.ba);
+            return;
+        }
+    }
+    tail_add(p, f);
+}
+
+fn depth20(depth: f32) -> u32 {
+    let mapped = min(0.5 + 0.5 * clamp(depth, 0.0, 1.0), bitcast<f32>(0x3f7fffffu));
+    return (bitcast<u32>(mapped) & 0x7fffffu) >> 3u;
+}
+
+fn depth_of20(top20: u32) -> f32 {
+    return (bitcast<f32>(0x3f000000u | (top20 << 3u)) - 0.5) * 2.0;
+}
+
+fn six_bits(x: f32) -> u32 {
+    return u32(round(clamp(x, 0.0, 1.0) * 63.0));
+}
+
+// The two inverted keys of a fragment.
+fn pack_keys(depth: f32, color: vec4<f32>) -> vec2<u32> {
+    let top = depth20(depth) << 12u;
+    let a = top | (six_bits(linear_to_srgb(color.r)) << 6u) | six_bits(linear_to_srgb(color.g));
+    let b = top | (six_bits(linear_to_srgb(color.b)) << 6u) | six_bits(color.a);
+    return vec2<u32>(0xffffffffu - min(a, 0xfffffffeu), 0xffffffffu - min(b, 0xfffffffeu));
+}
+
+fn unpack_keys(inv_a: u32, inv_b: u32) -> Fragment {
+    let a = 0xffffffffu - inv_a;
+    let b = 0xffffffffu - inv_b;
+    let c = vec4<f32>(
+        srgb_to_linear(f32((a >> 6u) & 63u) / 63.0),
+        srgb_to_linear(f32(a & 63u) / 63.0),
+        srgb_to_linear(f32((b >> 6u) & 63u) / 63.0),
+        f32(b & 63u) / 63.0,
+    );
+    return fragment_new(depth_of20(a >> 12u), 0u, false, c);
+}
+
+@fragment
+fn fs_mdt_pack(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    count_seen(p);
+    let f = scene_fragment(v, front_facing);
+    let k2 = pack_keys(f.depth, fragment_color(f));
+    let base = p * kp.k;
+    if cascade_culled(base, k2.x) {
+        return;
+    }
+    cascade(base, k2.x);
+    cascade(slots_in_frame() + base, k2.y);
+}

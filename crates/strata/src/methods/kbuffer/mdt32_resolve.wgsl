@@ -1,0 +1,16 @@
+// Resolve access to kb-mdt32's keys and colors. A slot whose color no fragment claimed (a depth
+// tie lost in the color pass) has zero color and opacity.
+
+fn stored_count(p: u32) -> u32 {
+    var n = 0u;
+    while n < kp.k && atomicLoad(&keys[p * kp.k + n]) != 0u {
+        n += 1u;
+    }
+    return n;
+}
+
+fn stored_fragment(p: u32, i: u32) -> Fragment {
+    let s = p * kp.k + i;
+    let c = 2u * slots_in_frame() + 3u * s;
+    return Fragment(key_depth(atomicLoad(&keys[s])), atomicLoad(&keys[c]), atomicLoad(&keys[c + 1u]), atomicLoad(&keys[c + 2u]));
+}

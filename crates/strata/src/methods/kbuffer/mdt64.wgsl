@@ -1,0 +1,65 @@
+// kb-mdt64: one atomicMax cascade on 64-bit keys — inverted depth bits above 32 bits of color
+// (sRGB-encoded RGB and alpha, 8 bits each) — so one geometry pass keeps the k nearest with their
+// colors (needs SHADER_INT64_ATOMIC_ALL_OPS). 0 marks an empty slot.
+
+@group(1) @binding(1) var<storage, read_write> keys64: array<atomic<u64>>;
+
+fn srgb8(c: f32) -> u32 {
+    let x = clamp(c, 0.0, 1.0);
+    return u32(round(select(1.055 * pow(x, 1.0 / 2.4) - 0.055, x * 12.92, x <= 0.0031308) * 255.0));
+}
+
+fn linear_of8(v: u32) -> f32 {
+    let c = f32(v) / 255.0;
+    return select(pow((c + 0.055) / 1.055, 2.4), c / 12.92, c <= 0.04045);
+}
+
+fn key64(f: Fragment) -> u64 {
+    let c = fragment_color(f);
+    let color = srgb8(c.r) | (srgb8(c.g) << 8u) | (srgb8(c.b) << 16u) | (u32(round(clamp(c.a, 0.0, 1.0) * 255.0)) << 24u);
+    return (u64(0xffffffffu - bitcast<u32>(f.depth)) << 32u) | u64(color);
+}
+
+fn fragment_of64(key: u64) -> Fragment {
+    let color = u32(key & u64(0xffffffffu));
+    let c = vec4<f32>(linear_of8(color & 255u), linear_of8((color >> 8u) & 255u), linear_of8((color >> 16u) & 255u), f32(color >> 24u) / 255.0);
+    return fragment_new(bitcast<f32>(0xffffffffu - u32(key >> 32u)), 0u, false, c);
+}
+
+@fragment
+fn fs_mdt64(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    count_seen(p);
+    var key = key64(scene_fragment(v, front_facing));
+    let base = p * kp.k;
+    if kp.culling != 0u {
+        let last = atomicLoad(&keys64[base + kp.k - 1u]);
+        if last != u64(0u) && key <= last {
+            tail_add(p, fragment_of64(key));
+            return;
+        }
+    }
+    for (var i = 0u; i < kp.k; i++) {
+        let old = atomicMax(&keys64[base + i], key);
+        if old == u64(0u) {
+            return;
+        }
+        key = min(old, key);
+    }
+    tail_add(p, fragment_of64(key));
+}
+
+fn stored_count(p: u32) -> u32 {
+    var n = 0u;
+    while n < kp.k && atomicLoad(&keys64[p * kp.k + n]) != u64(0u) {
+        n += 1u;
+    }
+    return n;
+}
+
+fn stored_fragment(p: u32, i: u32) -> Fragment {
+    return fragment_of64(atomicLoad(&keys64[p * kp.k + i]));
+}
