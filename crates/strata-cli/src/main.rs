@@ -92,9 +92,15 @@ struct RenderArgs {
     /// Robustness ratio for --k auto (k-buffer methods, not built yet).
     #[arg(long)]
     robustness: Option<f64>,
-    /// drop | blend: fragments beyond k (k-buffer methods, not built yet).
+    /// drop | blend: fragments beyond k (k-buffer methods).
+    #[arg(long, default_value = "drop")]
+    tail: String,
+    /// on | off: k-buffers cull fragments behind a full pixel's farthest before taking the lock.
+    #[arg(long, default_value = "on")]
+    culling: String,
+    /// Spin-lock tries per fragment for the locking k-buffers.
     #[arg(long)]
-    tail: Option<String>,
+    max_tries: Option<u32>,
     /// forward | deferred (the deferred pipeline is not built yet).
     #[arg(long, default_value = "forward")]
     pipeline: String,
@@ -326,7 +332,6 @@ fn render(a: RenderArgs) -> Result<()> {
     }
     for (flag, given) in [
         ("--robustness", a.robustness.is_some()),
-        ("--tail", a.tail.is_some()),
         ("--lights", a.lights.is_some()),
     ] {
         if given {
@@ -340,6 +345,20 @@ fn render(a: RenderArgs) -> Result<()> {
     }
     let (scene, mut options) = prepare(&a.picture)?;
     options.budget_mb = a.budget_mb;
+    options.tail = a.tail.parse()?;
+    options.culling = match a.culling.as_str() {
+        "on" => true,
+        "off" => false,
+        other => {
+            return Err(Error::input(format!(
+                "--culling '{other}' is not on or off"
+            )))
+        }
+    };
+    if a.max_tries == Some(0) {
+        return Err(Error::input("--max-tries must be at least 1"));
+    }
+    options.max_tries = a.max_tries;
     options.validate()?;
     let (image, stats) = if a.method == "reference" {
         strata::reference::render(&scene, &options)?

@@ -180,6 +180,22 @@ pub fn catalogue() -> Vec<MethodInfo> {
             memory: "8·k·W·H + 16·W·H + 84",
             summary: "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
         },
+        MethodInfo {
+            id: "kb-ab-ll",
+            family: "kbuffer",
+            exact: true,
+            geometry_passes: "1 (+1 when the node pool overflows)",
+            memory: "20·nodes + 16·W·H + 64 + 20·(W·H with --tail blend, else 1); nodes ≥ F",
+            summary: "A-buffer linked lists, the k nearest selected in resolve",
+        },
+        MethodInfo {
+            id: "kb-ll",
+            family: "kbuffer",
+            exact: false,
+            geometry_passes: "1 (+1 when the node pool overflows)",
+            memory: "20·nodes + 16·W·H + 64 + 20·(W·H with --tail blend, else 1); nodes ≤ F",
+            summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",
+        },
     ]
 }
 
@@ -211,6 +227,17 @@ pub fn create(
         "f2b" => Box::new(peeling::FrontToBack::new(gpu, scene)),
         "dual" => Box::new(peeling::Dual::new(gpu, scene)),
         "abuffer-ll" => Box::new(abuffer::LinkedLists::new(gpu, scene, options)),
+        "kb-ab-ll" | "kb-ll" => {
+            let info = info(id).expect("catalogued");
+            Box::new(kbuffer::list::ListKBuffer::new(
+                gpu,
+                scene,
+                info.id,
+                id == "kb-ll",
+                options.abuffer_initial_nodes,
+                options.pixels(),
+            ))
+        }
         id if kbuffer::mdt::Mdt::from_id(id).is_some() => {
             let info = info(id).expect("catalogued");
             Box::new(kbuffer::mdt::MdtKBuffer::new(

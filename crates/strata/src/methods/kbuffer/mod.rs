@@ -29,6 +29,7 @@
 //! scheduling. Each fragment tries at most `max_tries` times; a fragment that never gets the lock
 //! is counted in `lock_failures` (and joins the tail), never silently lost.
 
+pub mod list;
 pub mod mdt;
 
 pub mod cpu;

@@ -248,6 +248,8 @@ fn kbuffer_stages_validate() {
             [STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
         ),
         ("mdt.capture", mdt::capture_source(mdt::Mdt::Mdt32)),
+        ("list.capture", list::capture_source()),
+        ("list.resolve", list::resolve_source()),
         ("mdt64.capture", mdt::capture_source(mdt::Mdt::Mdt64)),
         ("mdt32.resolve", mdt::resolve_source(mdt::Mdt::Mdt32)),
         ("mdt64.resolve", mdt::resolve_source(mdt::Mdt::Mdt64)),

@@ -1,0 +1,170 @@
+//! k-buffers on per-pixel linked lists (seed 003 Table 1): `kb-ab-ll` (the A-buffer's lists, k
+//! nearest selected in resolve) and `kb-ll` (sorted insertion by compare-exchange with bounded
+//! retries; losses are counted in `lock_failures` and `fragments_dropped`).
+//!
+//! Passes: clear; capture (1 geometry pass, +1 when the node pool overflows: the pool is sized
+//! from measured need and the frame re-rendered, as `abuffer-ll` does); the shared k resolve.
+//! Memory: 20 bytes per node, 16 per pixel of counters and head, 20 per pixel of tail sums with
+//! `--tail blend`.
+
+use super::{
+    check_memory, group_layout, k_of, params_for, stats_from_counters, FrameBuffers, RESOLVE_WGSL,
+    STORAGE_WGSL,
+};
+use crate::error::{Error, Result};
+use crate::gpu::{shader, Gpu};
+use crate::methods::{
+    capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
+    NullTarget,
+};
+use crate::render::{FrameContext, SceneGpu};
+
+pub const NODE_BYTES: u64 = 20;
+const COUNTER_ALLOCATED: usize = 3;
+const COUNTER_LOST: usize = 4;
+const FIRST_GUESS_PER_PIXEL: u64 = 4;
+const MIN_NODES: u64 = 1024;
+
+const LIST_WGSL: &str = include_str!("list.wgsl");
+
+pub fn capture_source() -> String {
+    [STORAGE_WGSL, LIST_WGSL].join("\n")
+}
+
+pub fn resolve_source() -> String {
+    [
+        STORAGE_WGSL,
+        LIST_WGSL,
+        include_str!("list_resolve.wgsl"),
+        RESOLVE_WGSL,
+    ]
+    .join("\n")
+}
+
+pub struct ListKBuffer {
+    id: &'static str,
+    sorted: bool,
+    layout: wgpu::BindGroupLayout,
+    capture: wgpu::RenderPipeline,
+    resolve: wgpu::ComputePipeline,
+    capacity: u64,
+    null_target: Option<NullTarget>,
+}
+
+impl ListKBuffer {
+    pub fn new(
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        id: &'static str,
+        sorted: bool,
+        initial_nodes: Option<u64>,
+        pixels: u64,
+    ) -> ListKBuffer {
+        let layout = group_layout(gpu);
+        let layouts = [&scene.frame_layout, &layout];
+        let module = shader::module(
+            &gpu.device,
+            &format!("strata.{id}.capture"),
+            &capture_source(),
+        );
+        let entry = if sorted { "fs_sorted_ll" } else { "fs_ab_ll" };
+        let capture = capture_pipeline(
+            gpu,
+            &format!("strata.{id}.capture"),
+            &module,
+            entry,
+            &layouts,
+            &[NullTarget::target_state()],
+            None,
+        );
+        let module = shader::module(
+            &gpu.device,
+            &format!("strata.{id}.resolve"),
+            &resolve_source(),
+        );
+        let resolve = compute_pipeline(
+            gpu,
+            &format!("strata.{id}.resolve"),
+            &module,
+            "cs_resolve",
+            &layouts,
+        );
+        ListKBuffer {
+            id,
+            sorted,
+            layout,
+            capture,
+            resolve,
+            capacity: initial_nodes
+                .unwrap_or(pixels * FIRST_GUESS_PER_PIXEL)
+                .max(1),
+            null_target: None,
+        }
+    }
+}
+
+impl Method for ListKBuffer {
+    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
+        let k = k_of(ctx.options)?;
+        let gpu = ctx.gpu;
+        let max_nodes = gpu.max_storage_binding() / NODE_BYTES;
+        let mut passes = 0;
+        let mut overflowed = false;
+        loop {
+            passes += 1;
+            let pool_bytes = self.capacity * NODE_BYTES;
+            let shared = FrameBuffers::new(ctx, params_for(ctx.options, k, k, false))?;
+            let total = pool_bytes + shared.bytes;
+            check_memory(ctx, self.id, pool_bytes, total)?;
+            let pool = gpu.storage_buffer(
+                "strata.kbuffer.nodes",
+                pool_bytes,
+                wgpu::BufferUsages::empty(),
+            )?;
+            let group = shared.group(gpu, &self.layout, &pool, ctx.output);
+            let target = NullTarget::ensure(
+                &mut self.null_target,
+                gpu,
+                "strata.kbuffer.null_target",
+                ctx.options.width,
+                ctx.options.height,
+            );
+            let frame_group = ctx.frame_group;
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            shared.clear(&mut enc);
+            storage_geometry_pass(
+                ctx,
+                &mut enc,
+                "capture",
+                target,
+                &self.capture,
+                &[frame_group, &group],
+            );
+            gpu.queue.submit([enc.finish()]);
+            submit_pixels(ctx, "resolve", &self.resolve, &[frame_group, &group]);
+            let c = shared.read_counters(gpu)?;
+            let needed = c[COUNTER_ALLOCATED] as u64;
+            if needed <= self.capacity {
+                let fitted = (needed + needed / 4).max(MIN_NODES);
+                if self.capacity > 2 * fitted {
+                    self.capacity = fitted;
+                }
+                let mut stats = stats_from_counters(&c, k, passes, total);
+                stats.overflow = Some(overflowed);
+                if self.sorted {
+                    stats.lock_failures = Some(c[COUNTER_LOST] as u64);
+                }
+                return Ok(stats);
+            }
+            overflowed = true;
+            if needed > max_nodes {
+                return Err(Error::unsupported(format!(
+                    "{}: the frame needs {needed} nodes ({:.1} MiB), more than the device binds in one buffer",
+                    self.id,
+                    (needed * NODE_BYTES) as f64 / 1048576.0
+                )));
+            }
+            self.capacity = (needed + needed / 4).min(max_nodes);
+        }
+    }
+}

@@ -1,0 +1,98 @@
+// Per-pixel linked lists for the k-buffer family: nodes of 5 atomic words (depth bits, tag, rg,
+// ba, next) in one pool; a pixel's HEAD word (pixels[.., FILLED]) and every `next` hold node
+// index + 1, 0 ending the list. counters[COUNTER_ALLOCATED] hands out nodes and keeps counting
+// past the pool, so an overflowing frame knows what it needed.
+// kb-ab-ll: the A-buffer's unsorted push, the k nearest selected in resolve.
+// kb-ll: sorted insertion — walk to the fragment's place, link it with a compare-exchange on the
+//   predecessor's link, retry from the head when another fragment got there first; after
+//   `max_tries` failed exchanges the fragment is lost and counted. A place beyond the k-th node
+//   means the fragment is not among the k nearest: it is culled without taking a node.
+
+@group(1) @binding(1) var<storage, read_write> nodes: array<atomic<u32>>;
+
+const HEAD: u32 = 1u;
+
+fn node_word(link: u32) -> u32 {
+    return (link - 1u) * 5u;
+}
+
+fn node_fragment(link: u32) -> Fragment {
+    let w = node_word(link);
+    return Fragment(bitcast<f32>(atomicLoad(&nodes[w])), atomicLoad(&nodes[w + 1u]), atomicLoad(&nodes[w + 2u]), atomicLoad(&nodes[w + 3u]));
+}
+
+fn node_next(link: u32) -> u32 {
+    return atomicLoad(&nodes[node_word(link) + 4u]);
+}
+
+// Takes a node and writes the fragment into it; 0 when the pool is full.
+fn new_node(f: Fragment) -> u32 {
+    let node = atomicAdd(&counters[COUNTER_ALLOCATED], 1u);
+    if node >= arrayLength(&nodes) / 5u {
+        return 0u;
+    }
+    let w = node * 5u;
+    atomicStore(&nodes[w], bitcast<u32>(f.depth));
+    atomicStore(&nodes[w + 1u], f.tag);
+    atomicStore(&nodes[w + 2u], f.rg);
+    atomicStore(&nodes[w + 3u], f.ba);
+    return node + 1u;
+}
+
+@fragment
+fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    count_seen(p);
+    let link = new_node(scene_fragment(v, front_facing));
+    if link == 0u {
+        return;
+    }
+    atomicStore(&nodes[node_word(link) + 4u], atomicExchange(&pixels[pixel_word(p, HEAD)], link));
+}
+
+@fragment
+fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    count_seen(p);
+    let f = scene_fragment(v, front_facing);
+    var link = 0u;
+    for (var t = 0u; t < kp.max_tries; t++) {
+        // Walk to the first node not before f; `prev` is the predecessor's link (0: the head).
+        var prev = 0u;
+        var cur = atomicLoad(&pixels[pixel_word(p, HEAD)]);
+        var position = 0u;
+        while cur != 0u && fragment_before(node_fragment(cur), f) {
+            prev = cur;
+            cur = node_next(cur);
+            position += 1u;
+        }
+        if position >= kp.k {
+            tail_add(p, f);
+            return;
+        }
+        if link == 0u {
+            link = new_node(f);
+            if link == 0u {
+                return;
+            }
+        }
+        atomicStore(&nodes[node_word(link) + 4u], cur);
+        var swapped = false;
+        if prev == 0u {
+            swapped = atomicCompareExchangeWeak(&pixels[pixel_word(p, HEAD)], cur, link).exchanged;
+        } else {
+            swapped = atomicCompareExchangeWeak(&nodes[node_word(prev) + 4u], cur, link).exchanged;
+        }
+        if swapped {
+            return;
+        }
+    }
+    atomicAdd(&counters[COUNTER_LOST], 1u);
+    tail_add(p, f);
+}

@@ -1,0 +1,28 @@
+// Resolve access to the linked lists: sequential reads follow a cursor, so visiting a list in
+// order costs one step per fragment.
+
+var<private> cursor_index: u32 = 0xffffffffu;
+var<private> cursor_link: u32 = 0u;
+
+fn stored_count(p: u32) -> u32 {
+    var n = 0u;
+    var at = atomicLoad(&pixels[pixel_word(p, HEAD)]);
+    while at != 0u {
+        n += 1u;
+        at = node_next(at);
+    }
+    return n;
+}
+
+fn stored_fragment(p: u32, i: u32) -> Fragment {
+    if i == cursor_index + 1u && cursor_index != 0xffffffffu {
+        cursor_link = node_next(cursor_link);
+    } else {
+        cursor_link = atomicLoad(&pixels[pixel_word(p, HEAD)]);
+        for (var j = 0u; j < i; j++) {
+            cursor_link = node_next(cursor_link);
+        }
+    }
+    cursor_index = i;
+    return node_fragment(cursor_link);
+}
