@@ -34,6 +34,9 @@ pub struct BenchArgs {
     /// Untimed frames before them.
     #[arg(long, default_value_t = 2)]
     warmup: u32,
+    /// k for the methods of an ad-hoc run.
+    #[arg(long)]
+    k: Option<u32>,
     #[arg(long)]
     size: Option<String>,
     #[arg(long)]
@@ -45,29 +48,133 @@ pub struct BenchArgs {
     out: Option<PathBuf>,
 }
 
+/// One configuration measured in an experiment.
+#[derive(Clone, Debug)]
+pub struct Run {
+    label: String,
+    method: String,
+    k: Option<u32>,
+    culling: bool,
+}
+
+impl Run {
+    fn plain(method: &str) -> Run {
+        Run {
+            label: method.into(),
+            method: method.into(),
+            k: None,
+            culling: true,
+        }
+    }
+
+    fn with_k(method: &str, k: u32, culling: bool) -> Run {
+        Run {
+            label: format!("{method} k={k}{}", if culling { "" } else { " no-culling" }),
+            method: method.into(),
+            k: Some(k),
+            culling,
+        }
+    }
+}
+
 struct Experiment {
     name: &'static str,
     description: &'static str,
     scene: &'static str,
-    methods: &'static [&'static str],
-    size: &'static str,
+    /// Size on a GPU, and on a CPU adapter (lavapipe), where the full size would take hours.
+    size_gpu: &'static str,
+    size_cpu: &'static str,
     alpha: Option<f32>,
     frames: u32,
+    runs: fn() -> Vec<Run>,
+    /// Also measure each run's image error against the reference (full and --k).
+    quality: bool,
 }
 
-const EXPERIMENTS: &[Experiment] = &[Experiment {
-    name: "foundation",
-    description: "exact baselines on the dragon (opacity 0.5) at 512x512: f2b, dual, abuffer-ll, sorted and the CPU reference",
-    scene: "builtin:dragon",
-    methods: &["f2b", "dual", "abuffer-ll", "sorted", "reference"],
-    size: "512x512",
-    alpha: Some(0.5),
-    frames: 5,
-}];
+/// Every k-buffer method of the k+-buffer paper's comparison (kb-mdt64 where the adapter has
+/// 64-bit atomics).
+const K_METHODS: &[&str] = &[
+    "kplus-array",
+    "kplus-array-r",
+    "kplus-heap",
+    "kb",
+    "kb-ps",
+    "kb-mdt32",
+    "kb-mdt64",
+    "kb-mdt-pack",
+    "kb-ab-fixed",
+    "kb-ab-ll",
+    "kb-ll",
+    "abuffer-fixed",
+];
+
+const EXPERIMENTS: &[Experiment] = &[
+    Experiment {
+        name: "foundation",
+        description: "exact baselines on the dragon (opacity 0.5): f2b, dual, abuffer-ll, sorted and the CPU reference",
+        scene: "builtin:dragon",
+        size_gpu: "512x512",
+        size_cpu: "512x512",
+        alpha: Some(0.5),
+        frames: 5,
+        runs: || ["f2b", "dual", "abuffer-ll", "sorted", "reference"].iter().map(|m| Run::plain(m)).collect(),
+        quality: false,
+    },
+    Experiment {
+        name: "kbuffer-k",
+        description: "seed 003 Fig. 6: 128 layers over 75% of the screen, k = 4..64, every k-buffer method",
+        scene: "builtin:layers?n=128&coverage=0.75&order=random&seed=1",
+        size_gpu: "1024x1024",
+        size_cpu: "128x128",
+        alpha: None,
+        frames: 5,
+        runs: || {
+            [4, 8, 16, 32, 64]
+                .iter()
+                .flat_map(|&k| K_METHODS.iter().map(move |m| Run::with_k(m, k, true)))
+                .collect()
+        },
+        quality: false,
+    },
+    Experiment {
+        name: "kbuffer-culling",
+        description: "seed 003 Fig. 7: culling on and off for kplus-array, kplus-heap, kb-ps, kb-mdt32 at k = 4, 16, 64",
+        scene: "builtin:layers?n=128&coverage=0.75&order=random&seed=1",
+        size_gpu: "1024x1024",
+        size_cpu: "128x128",
+        alpha: None,
+        frames: 5,
+        runs: || {
+            let mut runs = Vec::new();
+            for k in [4, 16, 64] {
+                for m in ["kplus-array", "kplus-heap", "kb-ps", "kb-mdt32"] {
+                    runs.push(Run::with_k(m, k, true));
+                    runs.push(Run::with_k(m, k, false));
+                }
+            }
+            runs
+        },
+        quality: false,
+    },
+    Experiment {
+        name: "kbuffer-quality",
+        description: "seed 003 Fig. 10: image error of every k-buffer method at k = 16 against the exact reference, with heatmaps",
+        scene: "builtin:nvpro?objects=1024&subdiv=16&seed=0",
+        size_gpu: "1024x1024",
+        size_cpu: "256x256",
+        alpha: None,
+        frames: 3,
+        runs: || K_METHODS.iter().map(|m| Run::with_k(m, 16, true)).collect(),
+        quality: true,
+    },
+];
 
 #[derive(Serialize)]
 struct MethodResult {
+    label: String,
     method: String,
+    k: Option<u32>,
+    culling: bool,
     frames: u32,
     /// Median over frames of the sum of all passes' GPU time; null without timestamps.
     median_gpu_ms: Option<f64>,
@@ -77,8 +184,16 @@ struct MethodResult {
     median_wall_ms: f64,
     geometry_passes: Option<u32>,
     fragments: Option<u64>,
+    fragments_dropped: Option<u64>,
     max_depth_complexity: Option<u32>,
     bytes_allocated: Option<u64>,
+    lock_failures: Option<u64>,
+    /// Quality experiments: error against the exact reference with every fragment.
+    error_vs_reference: Option<strata::metrics::Comparison>,
+    /// Quality experiments: error against the reference keeping each pixel's k nearest.
+    error_vs_reference_k: Option<strata::metrics::Comparison>,
+    /// Why the run could not be measured (an unsupported feature, say); null when it was.
+    skipped: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -142,11 +257,14 @@ pub fn device_slug(gpu: &Gpu) -> String {
 pub fn run(a: BenchArgs) -> Result<()> {
     if a.list {
         for e in EXPERIMENTS {
-            println!("{:<12} {}", e.name, e.description);
+            println!("{:<16} {}", e.name, e.description);
         }
         return Ok(());
     }
-    let (name, scene, methods, size, alpha, frames) = match &a.experiment {
+    let gpu = Gpu::new()?;
+    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let k_flag = a.k;
+    let (name, scene, runs, size, alpha, frames, quality) = match &a.experiment {
         Some(n) => {
             let e = EXPERIMENTS.iter().find(|e| e.name == n).ok_or_else(|| {
                 let names: Vec<_> = EXPERIMENTS.iter().map(|e| e.name).collect();
@@ -155,13 +273,20 @@ pub fn run(a: BenchArgs) -> Result<()> {
                     names.join(", ")
                 ))
             })?;
+            if a.methods.is_some() {
+                return Err(Error::input(
+                    "--methods applies to ad-hoc runs (--scene), not to named experiments",
+                ));
+            }
+            let default_size = if cpu_figures { e.size_cpu } else { e.size_gpu };
             (
                 e.name.to_string(),
                 a.scene.clone().unwrap_or(e.scene.into()),
-                a.methods.clone().unwrap_or(e.methods.join(",")),
-                a.size.clone().unwrap_or(e.size.into()),
+                (e.runs)(),
+                a.size.clone().unwrap_or(default_size.into()),
                 a.alpha.or(e.alpha),
                 a.frames.unwrap_or(e.frames),
+                e.quality,
             )
         }
         None => {
@@ -172,27 +297,32 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 .methods
                 .clone()
                 .ok_or_else(|| Error::input("bench --scene needs --methods a,b,c"))?;
+            let runs = methods
+                .split(',')
+                .map(str::trim)
+                .filter(|m| !m.is_empty())
+                .map(|m| match k_flag {
+                    Some(k) => Run::with_k(m, k, true),
+                    None => Run::plain(m),
+                })
+                .collect();
             (
                 "adhoc".to_string(),
                 scene,
-                methods,
+                runs,
                 a.size.clone().unwrap_or("512x512".into()),
                 a.alpha,
                 a.frames.unwrap_or(10),
+                false,
             )
         }
     };
     if frames == 0 {
         return Err(Error::input("--frames must be at least 1"));
     }
-    let method_ids: Vec<String> = methods
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .collect();
-    for m in &method_ids {
-        if strata::methods::info(m).is_none() {
-            return Err(strata::methods::unknown_method(m));
+    for r in &runs {
+        if strata::methods::info(&r.method).is_none() {
+            return Err(strata::methods::unknown_method(&r.method));
         }
     }
     let picture = PictureArgs {
@@ -205,65 +335,64 @@ pub fn run(a: BenchArgs) -> Result<()> {
         k: None,
         frame: None,
     };
-    let (scene_data, options) = prepare(&picture)?;
-    let gpu = Gpu::new()?;
-    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    let bar = ProgressBar::new(method_ids.len() as u64 * (a.warmup + frames) as u64);
+    let (scene_data, base_options) = prepare(&picture)?;
+    let dir = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
+    let full_reference = if quality {
+        Some(strata::reference::render(&scene_data, &base_options)?.0)
+    } else {
+        None
+    };
+    let bar = ProgressBar::new(runs.len() as u64 * (a.warmup + frames) as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}").expect("valid template"),
     );
     let mut results = Vec::new();
-    for id in &method_ids {
-        bar.set_message(id.clone());
-        let mut renderer = if id == "reference" {
-            None
-        } else {
-            Some(Renderer::new(&gpu, &scene_data, &options)?)
-        };
-        let mut totals = Vec::new();
-        let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
-        let mut walls = Vec::new();
-        let mut last = None;
-        for f in 0..a.warmup + frames {
-            let start = Instant::now();
-            let (_, stats) = match renderer.as_mut() {
-                Some(r) => r.render(id)?,
-                None => strata::reference::render(&scene_data, &options)?,
-            };
-            let wall = start.elapsed().as_secs_f64() * 1e3;
-            if f >= a.warmup {
-                walls.push(wall);
-                if let Some(t) = stats.gpu_ms_total {
-                    totals.push(t);
+    for run in &runs {
+        bar.set_message(run.label.clone());
+        let mut options = base_options.clone();
+        options.k = run.k;
+        options.culling = run.culling;
+        match measure(&gpu, &scene_data, &options, run, a.warmup, frames, &bar) {
+            Ok((mut result, image)) => {
+                if let Some(full) = &full_reference {
+                    let effect = options.effect;
+                    let picture = image.to_rgba8(effect);
+                    let truth = full.to_rgba8(effect);
+                    let with_k = strata::reference::render(&scene_data, &options)?
+                        .0
+                        .to_rgba8(effect);
+                    result.error_vs_reference = Some(strata::metrics::compare(&truth, &picture)?);
+                    result.error_vs_reference_k =
+                        Some(strata::metrics::compare(&with_k, &picture)?);
+                    let stem = format!("{name}-{}", run.label.replace([' ', '='], "-"));
+                    strata::render::save_png(&picture, &dir.join(format!("{stem}.png")))?;
+                    strata::render::save_png(
+                        &strata::metrics::diff_heatmap(&truth, &picture),
+                        &dir.join(format!("{stem}-diff.png")),
+                    )?;
                 }
-                for (k, v) in stats.gpu_ms.iter().flatten() {
-                    per_pass.entry(k.clone()).or_default().push(*v);
-                }
+                results.push(result);
             }
-            last = Some(stats);
-            bar.inc(1);
+            // A method the adapter cannot run is recorded as skipped, with the reason.
+            Err(Error::Unsupported(why)) => {
+                bar.inc((a.warmup + frames) as u64);
+                results.push(skipped(run, frames, why));
+            }
+            Err(e) => return Err(e),
         }
-        let stats = last.expect("at least one frame");
-        results.push(MethodResult {
-            method: id.clone(),
-            frames,
-            median_gpu_ms: (!totals.is_empty()).then(|| median(totals)),
-            median_gpu_ms_per_pass: (!per_pass.is_empty())
-                .then(|| per_pass.into_iter().map(|(k, v)| (k, median(v))).collect()),
-            median_wall_ms: median(walls),
-            geometry_passes: stats.geometry_passes,
-            fragments: stats.fragments_generated,
-            max_depth_complexity: stats.max_depth_complexity,
-            bytes_allocated: stats.bytes_allocated,
-        });
     }
     bar.finish_and_clear();
     let report = BenchReport {
         experiment: name.clone(),
         scene,
-        width: options.width,
-        height: options.height,
-        effect: options.effect.name().into(),
+        width: base_options.width,
+        height: base_options.height,
+        effect: base_options.effect.name().into(),
         alpha,
         adapter: gpu.info.name.clone(),
         backend: gpu.backend_name(),
@@ -281,18 +410,98 @@ pub fn run(a: BenchArgs) -> Result<()> {
         results,
     };
     print_table(&report);
-    let dir = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
-    std::fs::create_dir_all(&dir)
-        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
     let base = dir.join(&name);
     write_json(&base.with_extension("json"), &report)?;
     std::fs::write(base.with_extension("csv"), csv(&report))
         .map_err(|e| Error::runtime(format!("cannot write CSV: {e}")))?;
     eprintln!("wrote {}.json and .csv", base.display());
     Ok(())
+}
+
+fn skipped(run: &Run, frames: u32, why: String) -> MethodResult {
+    MethodResult {
+        label: run.label.clone(),
+        method: run.method.clone(),
+        k: run.k,
+        culling: run.culling,
+        frames,
+        median_gpu_ms: None,
+        median_gpu_ms_per_pass: None,
+        median_wall_ms: f64::NAN,
+        geometry_passes: None,
+        fragments: None,
+        fragments_dropped: None,
+        max_depth_complexity: None,
+        bytes_allocated: None,
+        lock_failures: None,
+        error_vs_reference: None,
+        error_vs_reference_k: None,
+        skipped: Some(why),
+    }
+}
+
+/// Renders warm-up then timed frames of one run; returns its medians and the last picture.
+fn measure(
+    gpu: &Gpu,
+    scene: &strata::scene::Scene,
+    options: &strata::RenderOptions,
+    run: &Run,
+    warmup: u32,
+    frames: u32,
+    bar: &ProgressBar,
+) -> Result<(MethodResult, strata::LinearImage)> {
+    let mut renderer = if run.method == "reference" {
+        None
+    } else {
+        Some(Renderer::new(gpu, scene, options)?)
+    };
+    let mut totals = Vec::new();
+    let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    let mut walls = Vec::new();
+    let mut last = None;
+    for f in 0..warmup + frames {
+        let start = Instant::now();
+        let (image, stats) = match renderer.as_mut() {
+            Some(r) => r.render(&run.method)?,
+            None => strata::reference::render(scene, options)?,
+        };
+        let wall = start.elapsed().as_secs_f64() * 1e3;
+        if f >= warmup {
+            walls.push(wall);
+            if let Some(t) = stats.gpu_ms_total {
+                totals.push(t);
+            }
+            for (k, v) in stats.gpu_ms.iter().flatten() {
+                per_pass.entry(k.clone()).or_default().push(*v);
+            }
+        }
+        last = Some((image, stats));
+        bar.inc(1);
+    }
+    let (image, stats) = last.expect("at least one frame");
+    Ok((
+        MethodResult {
+            label: run.label.clone(),
+            method: run.method.clone(),
+            k: run.k,
+            culling: run.culling,
+            frames,
+            median_gpu_ms: (!totals.is_empty()).then(|| median(totals)),
+            median_gpu_ms_per_pass: (!per_pass.is_empty())
+                .then(|| per_pass.into_iter().map(|(k, v)| (k, median(v))).collect()),
+            median_wall_ms: median(walls),
+            geometry_passes: stats.geometry_passes,
+            fragments: stats.fragments_generated,
+            fragments_dropped: stats.fragments_dropped,
+            max_depth_complexity: stats.max_depth_complexity,
+            bytes_allocated: stats.bytes_allocated,
+            lock_failures: stats.lock_failures,
+            error_vs_reference: None,
+            error_vs_reference_k: None,
+            skipped: None,
+        },
+        image,
+    ))
 }
 
 fn fmt_ms(v: Option<f64>) -> String {
@@ -317,49 +526,82 @@ fn print_table(r: &BenchReport) {
         }
     );
     println!(
-        "{:<12} {:>12} {:>12} {:>8} {:>12} {:>10} {:>12}",
-        "method", "gpu ms", "wall ms", "passes", "fragments", "max depth", "MiB"
+        "{:<28} {:>10} {:>10} {:>7} {:>10} {:>8} {:>9} {:>8} {:>9} {:>8}",
+        "run",
+        "gpu ms",
+        "wall ms",
+        "passes",
+        "fragments",
+        "dropped",
+        "max depth",
+        "MiB",
+        "locks",
+        "RMSE"
     );
     for m in &r.results {
+        if let Some(why) = &m.skipped {
+            println!("{:<28} skipped: {why}", m.label);
+            continue;
+        }
+        let opt = |v: Option<u64>| v.map(|p| p.to_string()).unwrap_or_default();
         println!(
-            "{:<12} {:>12} {:>12.2} {:>8} {:>12} {:>10} {:>12.1}",
-            m.method,
+            "{:<28} {:>10} {:>10.2} {:>7} {:>10} {:>8} {:>9} {:>8.1} {:>9} {:>8}",
+            m.label,
             fmt_ms(m.median_gpu_ms),
             m.median_wall_ms,
-            m.geometry_passes.map(|p| p.to_string()).unwrap_or_default(),
-            m.fragments.map(|p| p.to_string()).unwrap_or_default(),
-            m.max_depth_complexity
-                .map(|p| p.to_string())
+            opt(m.geometry_passes.map(u64::from)),
+            opt(m.fragments),
+            opt(m.fragments_dropped),
+            opt(m.max_depth_complexity.map(u64::from)),
+            m.bytes_allocated.unwrap_or(0) as f64 / 1048576.0,
+            opt(m.lock_failures),
+            m.error_vs_reference
+                .map(|c| format!("{:.4}", c.rmse))
                 .unwrap_or_default(),
-            m.bytes_allocated.unwrap_or(0) as f64 / 1048576.0
         );
     }
 }
 
 fn csv(r: &BenchReport) -> String {
-    let mut s = String::from("experiment,scene,width,height,adapter,cpu_figures,commit,method,median_gpu_ms,median_wall_ms,geometry_passes,fragments,max_depth_complexity,bytes_allocated\n");
+    let mut s = String::from(
+        "experiment,scene,width,height,adapter,cpu_figures,commit,label,method,k,culling,median_gpu_ms,median_wall_ms,geometry_passes,fragments,fragments_dropped,max_depth_complexity,bytes_allocated,lock_failures,rmse,flip_mean,pct_over_2,rmse_vs_k,flip_vs_k,pct_over_2_vs_k,skipped\n",
+    );
+    let opt = |v: Option<String>| v.unwrap_or_default();
     for m in &r.results {
-        s += &format!(
-            "{},{},{},{},{},{},{},{},{},{:.3},{},{},{},{}\n",
-            r.experiment,
-            r.scene,
-            r.width,
-            r.height,
+        let err = |c: Option<strata::metrics::Comparison>| match c {
+            Some(c) => format!("{:.6},{:.6},{:.4}", c.rmse, c.flip_mean, c.pct_over_2),
+            None => ",,".into(),
+        };
+        s += &[
+            r.experiment.clone(),
+            r.scene.clone(),
+            r.width.to_string(),
+            r.height.to_string(),
             r.adapter.replace(',', " "),
-            r.cpu_figures,
-            r.commit.clone().unwrap_or_default(),
-            m.method,
-            m.median_gpu_ms
-                .map(|v| format!("{v:.3}"))
-                .unwrap_or_default(),
-            m.median_wall_ms,
-            m.geometry_passes.map(|v| v.to_string()).unwrap_or_default(),
-            m.fragments.map(|v| v.to_string()).unwrap_or_default(),
-            m.max_depth_complexity
-                .map(|v| v.to_string())
-                .unwrap_or_default(),
-            m.bytes_allocated.map(|v| v.to_string()).unwrap_or_default()
-        );
+            r.cpu_figures.to_string(),
+            opt(r.commit.clone()),
+            m.label.clone(),
+            m.method.clone(),
+            opt(m.k.map(|k| k.to_string())),
+            m.culling.to_string(),
+            opt(m.median_gpu_ms.map(|v| format!("{v:.3}"))),
+            if m.median_wall_ms.is_finite() {
+                format!("{:.3}", m.median_wall_ms)
+            } else {
+                String::new()
+            },
+            opt(m.geometry_passes.map(|v| v.to_string())),
+            opt(m.fragments.map(|v| v.to_string())),
+            opt(m.fragments_dropped.map(|v| v.to_string())),
+            opt(m.max_depth_complexity.map(|v| v.to_string())),
+            opt(m.bytes_allocated.map(|v| v.to_string())),
+            opt(m.lock_failures.map(|v| v.to_string())),
+            err(m.error_vs_reference),
+            err(m.error_vs_reference_k),
+            opt(m.skipped.clone().map(|w| w.replace(',', ";"))),
+        ]
+        .join(",");
+        s.push('\n');
     }
     s
 }

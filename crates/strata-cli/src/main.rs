@@ -430,13 +430,20 @@ fn list_methods(json: bool) -> Result<()> {
         );
         return Ok(());
     }
-    println!(
-        "{:<12} {:<10} {:<6} {:<36} {:<28} summary",
-        "id", "family", "exact", "geometry passes", "memory (bytes)"
+    let width = |f: &dyn Fn(&methods::MethodInfo) -> usize| all.iter().map(f).max().unwrap_or(0);
+    let (wi, wf, wp, wm) = (
+        width(&|m| m.id.len()),
+        width(&|m| m.family.len()),
+        width(&|m| m.geometry_passes.chars().count()),
+        width(&|m| m.memory.chars().count()),
     );
-    for m in all {
+    println!(
+        "{:<wi$}  {:<wf$}  exact  {:<wp$}  {:<wm$}  summary",
+        "id", "family", "geometry passes", "memory (bytes)"
+    );
+    for m in &all {
         println!(
-            "{:<12} {:<10} {:<6} {:<36} {:<28} {}",
+            "{:<wi$}  {:<wf$}  {:<5}  {:<wp$}  {:<wm$}  {}",
             m.id,
             m.family,
             if m.exact { "yes" } else { "no" },

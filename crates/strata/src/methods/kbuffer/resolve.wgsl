@@ -165,6 +165,7 @@ fn resolve_pixel(pixel: vec2<u32>) {
         atomicAdd(&counters[COUNTER_DROPPED], seen - limit);
     }
     atomicMax(&counters[COUNTER_MAX_SEEN], seen);
+    atomicAdd(&counters[COUNTER_SEEN_TOTAL], seen);
 }
 
 @compute @workgroup_size(8, 8)

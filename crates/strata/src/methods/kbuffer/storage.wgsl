@@ -32,6 +32,7 @@ const COUNTER_DROPPED: u32 = 1u;
 const COUNTER_MAX_SEEN: u32 = 2u;
 const COUNTER_ALLOCATED: u32 = 3u;
 const COUNTER_LOST: u32 = 4u;
+const COUNTER_SEEN_TOTAL: u32 = 5u;
 
 // Fixed-point scale of the tail sums.
 const TAIL_SCALE: f32 = 65536.0;

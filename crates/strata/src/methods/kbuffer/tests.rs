@@ -32,7 +32,7 @@ fn options(size: u32, k: u32) -> RenderOptions {
 }
 
 fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
-    let expected = render_reference(s, opts);
+    let (expected, reference_stats) = crate::reference::render(s, opts).unwrap();
     for method in methods {
         let (actual, stats) = render_gpu(s, opts, method);
         assert_close(
@@ -216,6 +216,27 @@ fn memory_follows_the_catalogue_formula() {
         render_gpu(&s, &opts, "kplus-heap").1.bytes_allocated,
         Some(16 * (k + 1) * px + 64 + 20 * px)
     );
+    opts.tail = Tail::Drop;
+    assert_eq!(
+        render_gpu(&s, &opts, "kb-mdt32").1.bytes_allocated,
+        Some(20 * k * px + 16 * px + 84)
+    );
+    for method in ["kb-mdt64", "kb-mdt-pack"] {
+        assert_eq!(
+            render_gpu(&s, &opts, method).1.bytes_allocated,
+            Some(8 * k * px + 16 * px + 84),
+            "{method}"
+        );
+    }
+    opts.abuffer_initial_nodes = Some(3000);
+    for method in ["kb-ab-ll", "kb-ll"] {
+        assert_eq!(
+            render_gpu(&s, &opts, method).1.bytes_allocated,
+            Some(20 * 3000 + 16 * px + 84),
+            "{method}"
+        );
+    }
+    opts.abuffer_initial_nodes = None;
     // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
     opts.tail = Tail::Drop;
     let (_, stats) = render_gpu(&s, &opts, "kb-ab-fixed");
