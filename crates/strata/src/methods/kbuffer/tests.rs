@@ -49,6 +49,18 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
             "{method}: lock failures"
         );
         assert_eq!(stats.k, opts.k);
+        // Counts are exact too (coverage may differ on the few edge pixels the image bar allows).
+        let generated = stats.fragments_generated.unwrap() as f64;
+        let truth = reference_stats.fragments_generated.unwrap() as f64;
+        assert!(
+            (generated - truth).abs() <= truth * MAX_FRACTION,
+            "{method}: {generated} fragments, reference {truth}"
+        );
+        assert_eq!(
+            stats.fragments_stored.unwrap() + stats.fragments_dropped.unwrap(),
+            stats.fragments_generated.unwrap(),
+            "{method}"
+        );
     }
 }
 
