@@ -184,6 +184,90 @@ impl Gpu {
     }
 }
 
+/// Buffers and textures a method keeps between frames, keyed by label and re-created only when
+/// their size changes, so a steady frame allocates nothing.
+#[derive(Default)]
+pub struct ResourceCache {
+    buffers: std::collections::HashMap<&'static str, wgpu::Buffer>,
+    textures: std::collections::HashMap<&'static str, wgpu::Texture>,
+}
+
+impl ResourceCache {
+    /// A storage buffer (see [`Gpu::storage_buffer`]).
+    pub fn storage(
+        &mut self,
+        gpu: &Gpu,
+        label: &'static str,
+        size: u64,
+        extra: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer> {
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra;
+        if let Some(b) = self.buffers.get(label) {
+            if b.size() == size.max(16).next_multiple_of(4) && b.usage() == usage {
+                return Ok(b.clone());
+            }
+        }
+        let b = gpu.storage_buffer(label, size, extra)?;
+        self.buffers.insert(label, b.clone());
+        Ok(b)
+    }
+
+    /// A uniform buffer holding `contents`, written on every call.
+    pub fn uniform(&mut self, gpu: &Gpu, label: &'static str, contents: &[u8]) -> wgpu::Buffer {
+        let size = contents.len() as u64;
+        let b = match self.buffers.get(label) {
+            Some(b) if b.size() == size => b.clone(),
+            _ => {
+                let b = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                self.buffers.insert(label, b.clone());
+                b
+            }
+        };
+        gpu.queue.write_buffer(&b, 0, contents);
+        b
+    }
+
+    /// A 2D texture of one mip level and sample.
+    pub fn texture(
+        &mut self,
+        gpu: &Gpu,
+        label: &'static str,
+        (width, height): (u32, u32),
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        if let Some(t) = self.textures.get(label) {
+            if (t.width(), t.height()) == (width, height)
+                && t.format() == format
+                && t.usage() == usage
+            {
+                return t.clone();
+            }
+        }
+        let t = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        });
+        self.textures.insert(label, t.clone());
+        t
+    }
+}
+
 fn limits_json(l: &wgpu::Limits) -> serde_json::Value {
     serde_json::json!({
         "max_texture_dimension_2d": l.max_texture_dimension_2d,

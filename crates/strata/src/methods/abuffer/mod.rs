@@ -11,7 +11,7 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{readback, shader, Gpu};
+use crate::gpu::{readback, shader, Gpu, ResourceCache};
 use crate::methods::{
     capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
     NullTarget,
@@ -34,6 +34,7 @@ pub struct LinkedLists {
     capacity: u64,
     pool: Option<wgpu::Buffer>,
     null_target: Option<NullTarget>,
+    cache: ResourceCache,
 }
 
 impl LinkedLists {
@@ -86,6 +87,7 @@ impl LinkedLists {
                 .max(1),
             pool: None,
             null_target: None,
+            cache: ResourceCache::default(),
         }
     }
 
@@ -135,12 +137,14 @@ impl Method for LinkedLists {
             w,
             h,
         );
-        let heads = gpu.storage_buffer(
+        let heads = self.cache.storage(
+            gpu,
             "strata.abuffer_ll.heads",
             ctx.pixels() * 4,
             wgpu::BufferUsages::empty(),
         )?;
-        let allocated = gpu.storage_buffer(
+        let allocated = self.cache.storage(
+            gpu,
             "strata.abuffer_ll.allocated",
             4,
             wgpu::BufferUsages::COPY_SRC,

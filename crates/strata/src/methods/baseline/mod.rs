@@ -9,10 +9,9 @@
 
 use crate::error::Result;
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu};
+use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::{
-    attachment, capture_pipeline, compute_pipeline, dispatch_pixels, texture_2d, Method,
-    MethodStats,
+    attachment, capture_pipeline, compute_pipeline, dispatch_pixels, Method, MethodStats,
 };
 use crate::render::{FrameContext, SceneGpu};
 
@@ -25,6 +24,7 @@ pub struct Blend {
     blend: wgpu::RenderPipeline,
     finish: wgpu::ComputePipeline,
     order: Option<wgpu::Buffer>,
+    cache: ResourceCache,
 }
 
 impl Blend {
@@ -68,6 +68,7 @@ impl Blend {
             blend,
             finish,
             order: None,
+            cache: ResourceCache::default(),
         }
     }
 
@@ -94,16 +95,16 @@ impl Method for Blend {
     fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
         let gpu = ctx.gpu;
         let (w, h) = (ctx.options.width, ctx.options.height);
-        let target = texture_2d(
+        let target = self.cache.texture(
             gpu,
             "strata.blend.target",
-            w,
-            h,
+            (w, h),
             BLEND_FORMAT,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         );
         let target_view = target.create_view(&Default::default());
-        let counts = gpu.storage_buffer(
+        let counts = self.cache.storage(
+            gpu,
             "strata.blend.counts",
             ctx.pixels() * 4,
             wgpu::BufferUsages::empty(),
@@ -145,6 +146,7 @@ impl Method for Blend {
             ],
         );
         let mut enc = gpu.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&counts, 0, None);
         {
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("strata.blend"),

@@ -12,7 +12,7 @@ use super::{
     STORAGE_WGSL,
 };
 use crate::error::{Error, Result};
-use crate::gpu::{shader, Gpu};
+use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::{
     capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
     NullTarget,
@@ -49,6 +49,7 @@ pub struct ListKBuffer {
     resolve: wgpu::ComputePipeline,
     capacity: u64,
     null_target: Option<NullTarget>,
+    cache: ResourceCache,
 }
 
 impl ListKBuffer {
@@ -99,6 +100,7 @@ impl ListKBuffer {
                 .unwrap_or(pixels * FIRST_GUESS_PER_PIXEL)
                 .max(1),
             null_target: None,
+            cache: ResourceCache::default(),
         }
     }
 }
@@ -113,10 +115,12 @@ impl Method for ListKBuffer {
         loop {
             passes += 1;
             let pool_bytes = self.capacity * NODE_BYTES;
-            let shared = FrameBuffers::new(ctx, params_for(ctx.options, k, k, false))?;
+            let shared =
+                FrameBuffers::new(ctx, &mut self.cache, params_for(ctx.options, k, k, false))?;
             let total = pool_bytes + shared.bytes;
             check_memory(ctx, self.id, pool_bytes, total)?;
-            let pool = gpu.storage_buffer(
+            let pool = self.cache.storage(
+                gpu,
                 "strata.kbuffer.nodes",
                 pool_bytes,
                 wgpu::BufferUsages::empty(),

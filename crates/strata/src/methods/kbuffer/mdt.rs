@@ -21,7 +21,7 @@ use super::{
     STORAGE_WGSL,
 };
 use crate::error::{Error, Result};
-use crate::gpu::{shader, Gpu};
+use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::{
     capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
     NullTarget,
@@ -92,6 +92,7 @@ pub struct MdtKBuffer {
     passes: Vec<(&'static str, wgpu::RenderPipeline)>,
     resolve: wgpu::ComputePipeline,
     null_target: Option<NullTarget>,
+    cache: ResourceCache,
 }
 
 impl MdtKBuffer {
@@ -148,6 +149,7 @@ impl MdtKBuffer {
             passes,
             resolve,
             null_target: None,
+            cache: ResourceCache::default(),
         })
     }
 }
@@ -166,10 +168,11 @@ impl Method for MdtKBuffer {
         let k = k_of(ctx.options)?;
         let gpu = ctx.gpu;
         let key_bytes = ctx.pixels() * k as u64 * self.mdt.slot_bytes();
-        let shared = FrameBuffers::new(ctx, params_for(ctx.options, k, k, false))?;
+        let shared = FrameBuffers::new(ctx, &mut self.cache, params_for(ctx.options, k, k, false))?;
         let total = key_bytes + shared.bytes;
         check_memory(ctx, self.id, key_bytes, total)?;
-        let keys = gpu.storage_buffer(
+        let keys = self.cache.storage(
+            gpu,
             "strata.kbuffer.keys",
             key_bytes,
             wgpu::BufferUsages::empty(),

@@ -38,7 +38,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{readback, shader, Gpu};
+use crate::gpu::{readback, shader, Gpu, ResourceCache};
 use crate::methods::{
     capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
     NullTarget,
@@ -180,17 +180,15 @@ pub struct FrameBuffers {
 }
 
 impl FrameBuffers {
-    pub fn new(ctx: &FrameContext<'_>, params: KParams) -> Result<FrameBuffers> {
+    pub fn new(
+        ctx: &FrameContext<'_>,
+        cache: &mut ResourceCache,
+        params: KParams,
+    ) -> Result<FrameBuffers> {
         let gpu = ctx.gpu;
         let px = ctx.pixels();
-        let params_buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("strata.kbuffer.params"),
-            size: 32,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        gpu.queue
-            .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
+        let params_buffer =
+            cache.uniform(gpu, "strata.kbuffer.params", bytemuck::bytes_of(&params));
         let tail_bytes = if params.tail_blend != 0 {
             px * TAIL_BYTES
         } else {
@@ -199,13 +197,14 @@ impl FrameBuffers {
         let none = wgpu::BufferUsages::empty();
         Ok(FrameBuffers {
             params: params_buffer,
-            pixels: gpu.storage_buffer("strata.kbuffer.pixels", px * PIXEL_BYTES, none)?,
-            counters: gpu.storage_buffer(
+            pixels: cache.storage(gpu, "strata.kbuffer.pixels", px * PIXEL_BYTES, none)?,
+            counters: cache.storage(
+                gpu,
                 "strata.kbuffer.counters",
                 COUNTERS * 4,
                 wgpu::BufferUsages::COPY_SRC,
             )?,
-            tail: gpu.storage_buffer("strata.kbuffer.tail", tail_bytes, none)?,
+            tail: cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, none)?,
             bytes: px * PIXEL_BYTES + tail_bytes + 64,
         })
     }
@@ -298,6 +297,7 @@ pub struct SlotKBuffer {
     null_target: Option<NullTarget>,
     /// kb-ab-fixed: slots per pixel the next frame starts with (measured need).
     measured_stride: u32,
+    cache: ResourceCache,
 }
 
 impl SlotKBuffer {
@@ -338,6 +338,7 @@ impl SlotKBuffer {
             resolve,
             null_target: None,
             measured_stride: 0,
+            cache: ResourceCache::default(),
         }
     }
 
@@ -351,10 +352,11 @@ impl SlotKBuffer {
         let px = ctx.pixels();
         let slot_bytes = px * stride as u64 * SLOT_BYTES;
         let params = params_for(ctx.options, k, stride, self.variant.fixed());
-        let shared = FrameBuffers::new(ctx, params)?;
+        let shared = FrameBuffers::new(ctx, &mut self.cache, params)?;
         let total = slot_bytes + shared.bytes;
         check_memory(ctx, self.id, slot_bytes, total)?;
-        let slots = gpu.storage_buffer(
+        let slots = self.cache.storage(
+            gpu,
             "strata.kbuffer.slots",
             slot_bytes,
             wgpu::BufferUsages::empty(),

@@ -23,10 +23,10 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{readback, shader, Gpu};
+use crate::gpu::{readback, shader, Gpu, ResourceCache};
 use crate::methods::{
     attachment, capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass,
-    submit_pixels, texture_2d, Method, MethodStats, NullTarget,
+    submit_pixels, Method, MethodStats, NullTarget,
 };
 use crate::render::{FrameContext, SceneGpu};
 
@@ -54,6 +54,7 @@ pub struct FrontToBack {
     init: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
+    cache: ResourceCache,
 }
 
 impl FrontToBack {
@@ -118,6 +119,7 @@ impl FrontToBack {
             peel,
             peel_layout,
             accumulate_layout,
+            cache: ResourceCache::default(),
         }
     }
 }
@@ -127,35 +129,43 @@ impl Method for FrontToBack {
         let gpu = ctx.gpu;
         let (w, h) = (ctx.options.width, ctx.options.height);
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let color = texture_2d(gpu, "strata.f2b.layer.color", w, h, COLOR_FORMAT, usage)
+        let color = self
+            .cache
+            .texture(gpu, "strata.f2b.layer.color", (w, h), COLOR_FORMAT, usage)
             .create_view(&Default::default());
-        let tag = texture_2d(gpu, "strata.f2b.layer.tag", w, h, TAG_FORMAT, usage)
+        let tag = self
+            .cache
+            .texture(gpu, "strata.f2b.layer.tag", (w, h), TAG_FORMAT, usage)
             .create_view(&Default::default());
-        let depth_copy = texture_2d(
+        let depth_copy = self
+            .cache
+            .texture(
+                gpu,
+                "strata.f2b.layer.depth",
+                (w, h),
+                DEPTH_COPY_FORMAT,
+                usage,
+            )
+            .create_view(&Default::default());
+        let depth = self
+            .cache
+            .texture(
+                gpu,
+                "strata.f2b.depth",
+                (w, h),
+                wgpu::TextureFormat::Depth32Float,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            )
+            .create_view(&Default::default());
+        let state = self.cache.storage(
             gpu,
-            "strata.f2b.layer.depth",
-            w,
-            h,
-            DEPTH_COPY_FORMAT,
-            usage,
-        )
-        .create_view(&Default::default());
-        let depth = texture_2d(
-            gpu,
-            "strata.f2b.depth",
-            w,
-            h,
-            wgpu::TextureFormat::Depth32Float,
-            wgpu::TextureUsages::RENDER_ATTACHMENT,
-        )
-        .create_view(&Default::default());
-        let state = gpu.storage_buffer(
             "strata.f2b.state",
             ctx.pixels() * 32,
             wgpu::BufferUsages::empty(),
         )?;
         let captured =
-            gpu.storage_buffer("strata.f2b.captured", 4, wgpu::BufferUsages::COPY_SRC)?;
+            self.cache
+                .storage(gpu, "strata.f2b.captured", 4, wgpu::BufferUsages::COPY_SRC)?;
         let peel_group = binding::group(
             &gpu.device,
             "strata.f2b.peel.group",
@@ -260,6 +270,7 @@ pub struct Dual {
     advance: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     null_target: Option<NullTarget>,
+    cache: ResourceCache,
 }
 
 impl Dual {
@@ -313,6 +324,7 @@ impl Dual {
             peel_layout,
             advance_layout,
             null_target: None,
+            cache: ResourceCache::default(),
         }
     }
 }
@@ -325,14 +337,23 @@ impl Method for Dual {
             NullTarget::ensure(&mut self.null_target, gpu, "strata.dual.null_target", w, h);
         let px = ctx.pixels();
         let none = wgpu::BufferUsages::empty();
-        let bounds = gpu.storage_buffer("strata.dual.bounds", px * 8, none)?;
-        let next_bounds = gpu.storage_buffer("strata.dual.next_bounds", px * 8, none)?;
-        let layers = gpu.storage_buffer("strata.dual.layers", px * 32, none)?;
-        let hits = gpu.storage_buffer("strata.dual.hits", px * 8, none)?;
-        let front = gpu.storage_buffer("strata.dual.front", px * 32, none)?;
-        let back = gpu.storage_buffer("strata.dual.back", px * 32, none)?;
+        let bounds = self
+            .cache
+            .storage(gpu, "strata.dual.bounds", px * 8, none)?;
+        let next_bounds = self
+            .cache
+            .storage(gpu, "strata.dual.next_bounds", px * 8, none)?;
+        let layers = self
+            .cache
+            .storage(gpu, "strata.dual.layers", px * 32, none)?;
+        let hits = self.cache.storage(gpu, "strata.dual.hits", px * 8, none)?;
+        let front = self
+            .cache
+            .storage(gpu, "strata.dual.front", px * 32, none)?;
+        let back = self.cache.storage(gpu, "strata.dual.back", px * 32, none)?;
         let counters =
-            gpu.storage_buffer("strata.dual.counters", 8, wgpu::BufferUsages::COPY_SRC)?;
+            self.cache
+                .storage(gpu, "strata.dual.counters", 8, wgpu::BufferUsages::COPY_SRC)?;
         let peel_group = binding::group(
             &gpu.device,
             "strata.dual.peel.group",
