@@ -9,7 +9,7 @@ use clap::{Args, Parser, Subcommand};
 use strata::error::{Error, Result};
 use strata::gpu::Gpu;
 use strata::methods;
-use strata::render::{save_png, Effect, FrameStats, LinearImage, RenderOptions, Renderer};
+use strata::render::{save_png, Effect, FrameStats, LinearImage, RenderOptions, Renderer, Tail};
 use strata::scene::{loaders, Background, Scene, Shading};
 
 #[derive(Parser)]
@@ -281,7 +281,7 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
         .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))
 }
 
-fn summary(stats: &FrameStats, output: &Path) {
+fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     let ms = stats
         .gpu_ms_total
         .map(|t| format!("{t:.2} ms GPU"))
@@ -297,11 +297,13 @@ fn summary(stats: &FrameStats, output: &Path) {
         stats.max_depth_complexity.unwrap_or(0),
         output.display()
     );
-    if stats.fragments_dropped.unwrap_or(0) > 0 {
-        eprintln!(
-            "warning: {} fragments dropped",
-            stats.fragments_dropped.unwrap_or(0)
-        );
+    let dropped = stats.fragments_dropped.unwrap_or(0);
+    if dropped > 0 {
+        match (stats.k, tail) {
+            (Some(k), Tail::Blend) => eprintln!("note: {dropped} fragments beyond k={k} were blended into the tail"),
+            (Some(k), Tail::Drop) => eprintln!("note: {dropped} fragments beyond k={k} were dropped (--tail blend keeps them as one term)"),
+            (None, _) => eprintln!("warning: {dropped} fragments dropped"),
+        }
     }
     if stats.overflow == Some(true) {
         eprintln!("note: the fragment pool overflowed; it was grown and the frame re-rendered (output exact)");
@@ -374,7 +376,7 @@ fn render(a: RenderArgs) -> Result<()> {
         &a.output,
         a.stats.as_deref(),
     )?;
-    summary(&stats, &a.output);
+    summary(&stats, &a.output, options.tail);
     Ok(())
 }
 
@@ -388,7 +390,7 @@ fn reference(a: ReferenceArgs) -> Result<()> {
         &a.output,
         a.stats.as_deref(),
     )?;
-    summary(&stats, &a.output);
+    summary(&stats, &a.output, options.tail);
     Ok(())
 }
 
