@@ -114,6 +114,30 @@ impl Gpu {
         })
     }
 
+    /// A 2D texture of one mip level and sample.
+    pub fn texture_2d(
+        &self,
+        label: &str,
+        (width, height): (u32, u32),
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    }
+
     pub fn has(&self, f: wgpu::Features) -> bool {
         self.features.contains(f)
     }
@@ -249,20 +273,7 @@ impl ResourceCache {
                 return t.clone();
             }
         }
-        let t = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage,
-            view_formats: &[],
-        });
+        let t = gpu.texture_2d(label, (width, height), format, usage);
         self.textures.insert(label, t.clone());
         t
     }

@@ -323,30 +323,6 @@ pub fn compute_pipeline(
         })
 }
 
-pub fn texture_2d(
-    gpu: &Gpu,
-    label: &str,
-    width: u32,
-    height: u32,
-    format: wgpu::TextureFormat,
-    usage: wgpu::TextureUsages,
-) -> wgpu::Texture {
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage,
-        view_formats: &[],
-    })
-}
-
 /// A color attachment the pass clears to `clear` and keeps.
 pub fn attachment(
     view: &wgpu::TextureView,
@@ -430,11 +406,9 @@ impl NullTarget {
     pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
 
     pub fn new(gpu: &Gpu, label: &str, width: u32, height: u32) -> NullTarget {
-        let t = texture_2d(
-            gpu,
+        let t = gpu.texture_2d(
             label,
-            width,
-            height,
+            (width, height),
             Self::FORMAT,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
         );

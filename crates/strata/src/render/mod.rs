@@ -387,20 +387,12 @@ impl<'g> Renderer<'g> {
             )));
         }
         let scene_gpu = SceneGpu::new(gpu, scene, options)?;
-        let opaque = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("strata.opaque_depth"),
-            size: wgpu::Extent3d {
-                width: options.width,
-                height: options.height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Depth32Float,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+        let opaque = gpu.texture_2d(
+            "strata.opaque_depth",
+            (options.width, options.height),
+            wgpu::TextureFormat::Depth32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
         clear_depth(gpu, &opaque.create_view(&Default::default()), 1.0);
         let output = gpu.storage_buffer(
             "strata.output",

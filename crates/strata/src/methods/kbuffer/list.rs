@@ -7,16 +7,10 @@
 //! Memory: 20 bytes per node, 16 per pixel of counters and head, 20 per pixel of tail sums with
 //! `--tail blend`.
 
-use super::{
-    check_memory, group_layout, k_of, params_for, stats_from_counters, FrameBuffers, RESOLVE_WGSL,
-    STORAGE_WGSL,
-};
+use super::{k_of, params_for, stats_from_counters, KFrame, Storage, RESOLVE_WGSL, STORAGE_WGSL};
 use crate::error::{Error, Result};
-use crate::gpu::{shader, Gpu, ResourceCache};
-use crate::methods::{
-    capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
-    NullTarget,
-};
+use crate::gpu::{shader, Gpu};
+use crate::methods::{Method, MethodStats};
 use crate::render::{FrameContext, SceneGpu};
 
 pub const NODE_BYTES: u64 = 20;
@@ -42,14 +36,10 @@ pub fn resolve_source() -> String {
 }
 
 pub struct ListKBuffer {
-    id: &'static str,
     sorted: bool,
-    layout: wgpu::BindGroupLayout,
+    frame: KFrame,
     capture: wgpu::RenderPipeline,
-    resolve: wgpu::ComputePipeline,
     capacity: u64,
-    null_target: Option<NullTarget>,
-    cache: ResourceCache,
 }
 
 impl ListKBuffer {
@@ -61,46 +51,25 @@ impl ListKBuffer {
         initial_nodes: Option<u64>,
         pixels: u64,
     ) -> ListKBuffer {
-        let layout = group_layout(gpu);
-        let layouts = [&scene.frame_layout, &layout];
+        let frame = KFrame::new(gpu, scene, id, &resolve_source());
         let module = shader::module(
             &gpu.device,
             &format!("strata.{id}.capture"),
             &capture_source(),
         );
-        let entry = if sorted { "fs_sorted_ll" } else { "fs_ab_ll" };
-        let capture = capture_pipeline(
+        let capture = frame.capture_pipeline(
             gpu,
-            &format!("strata.{id}.capture"),
+            scene,
             &module,
-            entry,
-            &layouts,
-            &[NullTarget::target_state()],
-            None,
-        );
-        let module = shader::module(
-            &gpu.device,
-            &format!("strata.{id}.resolve"),
-            &resolve_source(),
-        );
-        let resolve = compute_pipeline(
-            gpu,
-            &format!("strata.{id}.resolve"),
-            &module,
-            "cs_resolve",
-            &layouts,
+            if sorted { "fs_sorted_ll" } else { "fs_ab_ll" },
         );
         ListKBuffer {
-            id,
             sorted,
-            layout,
+            frame,
             capture,
-            resolve,
             capacity: initial_nodes
                 .unwrap_or(pixels * FIRST_GUESS_PER_PIXEL)
                 .max(1),
-            null_target: None,
-            cache: ResourceCache::default(),
         }
     }
 }
@@ -114,39 +83,17 @@ impl Method for ListKBuffer {
         let mut overflowed = false;
         loop {
             passes += 1;
-            let pool_bytes = self.capacity * NODE_BYTES;
-            let shared =
-                FrameBuffers::new(ctx, &mut self.cache, params_for(ctx.options, k, k, false))?;
-            let total = pool_bytes + shared.bytes;
-            check_memory(ctx, self.id, pool_bytes, total)?;
-            let pool = self.cache.storage(
-                gpu,
-                "strata.kbuffer.nodes",
-                pool_bytes,
-                wgpu::BufferUsages::empty(),
-            )?;
-            let group = shared.group(gpu, &self.layout, &pool, ctx.output);
-            let target = NullTarget::ensure(
-                &mut self.null_target,
-                gpu,
-                "strata.kbuffer.null_target",
-                ctx.options.width,
-                ctx.options.height,
-            );
-            let frame_group = ctx.frame_group;
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            shared.clear(&mut enc);
-            storage_geometry_pass(
+            let storage = Storage {
+                label: "strata.kbuffer.nodes",
+                bytes: self.capacity * NODE_BYTES,
+                clear: false,
+            };
+            let (c, total) = self.frame.run(
                 ctx,
-                &mut enc,
-                "capture",
-                target,
-                &self.capture,
-                &[frame_group, &group],
-            );
-            gpu.queue.submit([enc.finish()]);
-            submit_pixels(ctx, "resolve", &self.resolve, &[frame_group, &group]);
-            let c = shared.read_counters(gpu)?;
+                params_for(ctx.options, k, k, false),
+                storage,
+                &[("capture", &self.capture)],
+            )?;
             let needed = c[COUNTER_ALLOCATED] as u64;
             if needed <= self.capacity {
                 let fitted = (needed + needed / 4).max(MIN_NODES);
@@ -164,7 +111,7 @@ impl Method for ListKBuffer {
             if needed > max_nodes {
                 return Err(Error::unsupported(format!(
                     "{}: the frame needs {needed} nodes ({:.1} MiB), more than the device binds in one buffer",
-                    self.id,
+                    self.frame.id,
                     (needed * NODE_BYTES) as f64 / 1048576.0
                 )));
             }

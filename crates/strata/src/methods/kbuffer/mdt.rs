@@ -16,16 +16,10 @@
 //! Passes: clear; capture (1 or 2 geometry passes); the shared k resolve. Per pixel 16 bytes of
 //! counters and 20 of tail sums with `--tail blend`, as the other k-buffers.
 
-use super::{
-    check_memory, group_layout, k_of, params_for, stats_from_counters, FrameBuffers, RESOLVE_WGSL,
-    STORAGE_WGSL,
-};
+use super::{k_of, params_for, stats_from_counters, KFrame, Storage, RESOLVE_WGSL, STORAGE_WGSL};
 use crate::error::{Error, Result};
-use crate::gpu::{shader, Gpu, ResourceCache};
-use crate::methods::{
-    capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
-    NullTarget,
-};
+use crate::gpu::{shader, Gpu};
+use crate::methods::{Method, MethodStats};
 use crate::render::{Effect, FrameContext, SceneGpu, Tail};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,14 +79,10 @@ pub fn resolve_source(mdt: Mdt) -> String {
 }
 
 pub struct MdtKBuffer {
-    id: &'static str,
     mdt: Mdt,
-    layout: wgpu::BindGroupLayout,
+    frame: KFrame,
     /// Geometry passes in order: (pass name, pipeline).
     passes: Vec<(&'static str, wgpu::RenderPipeline)>,
-    resolve: wgpu::ComputePipeline,
-    null_target: Option<NullTarget>,
-    cache: ResourceCache,
 }
 
 impl MdtKBuffer {
@@ -103,25 +93,13 @@ impl MdtKBuffer {
                 gpu.info.name
             )));
         }
-        let layout = group_layout(gpu);
+        let frame = KFrame::new(gpu, scene, id, &resolve_source(mdt));
         let module = shader::module(
             &gpu.device,
             &format!("strata.{id}.capture"),
             &capture_source(mdt),
         );
-        let layouts = [&scene.frame_layout, &layout];
-        let targets = [NullTarget::target_state()];
-        let pipeline = |entry: &str| {
-            capture_pipeline(
-                gpu,
-                &format!("strata.{id}.{entry}"),
-                &module,
-                entry,
-                &layouts,
-                &targets,
-                None,
-            )
-        };
+        let pipeline = |entry: &str| frame.capture_pipeline(gpu, scene, &module, entry);
         let passes = match mdt {
             Mdt::Mdt32 => vec![
                 ("capture_depth", pipeline("fs_mdt32_depth")),
@@ -130,27 +108,7 @@ impl MdtKBuffer {
             Mdt::Mdt64 => vec![("capture", pipeline("fs_mdt64"))],
             Mdt::Pack => vec![("capture", pipeline("fs_mdt_pack"))],
         };
-        let module = shader::module(
-            &gpu.device,
-            &format!("strata.{id}.resolve"),
-            &resolve_source(mdt),
-        );
-        let resolve = compute_pipeline(
-            gpu,
-            &format!("strata.{id}.resolve"),
-            &module,
-            "cs_resolve",
-            &layouts,
-        );
-        Ok(MdtKBuffer {
-            id,
-            mdt,
-            layout,
-            passes,
-            resolve,
-            null_target: None,
-            cache: ResourceCache::default(),
-        })
+        Ok(MdtKBuffer { mdt, frame, passes })
     }
 }
 
@@ -159,53 +117,27 @@ impl Method for MdtKBuffer {
         if self.mdt != Mdt::Mdt32 && ctx.options.effect == Effect::Translucency {
             return Err(Error::unsupported(format!(
                 "{} keeps no primitive or facing per fragment, which translucency needs; use kb-mdt32",
-                self.id
+                self.frame.id
             )));
         }
         if self.mdt == Mdt::Pack && ctx.options.tail == Tail::Blend {
             return Err(Error::unsupported("kb-mdt-pack cannot blend a tail: a displaced key carries half a color; use --tail drop"));
         }
         let k = k_of(ctx.options)?;
-        let gpu = ctx.gpu;
-        let key_bytes = ctx.pixels() * k as u64 * self.mdt.slot_bytes();
-        let shared = FrameBuffers::new(ctx, &mut self.cache, params_for(ctx.options, k, k, false))?;
-        let total = key_bytes + shared.bytes;
-        check_memory(ctx, self.id, key_bytes, total)?;
-        let keys = self.cache.storage(
-            gpu,
-            "strata.kbuffer.keys",
-            key_bytes,
-            wgpu::BufferUsages::empty(),
-        )?;
-        let group = shared.group(gpu, &self.layout, &keys, ctx.output);
-        let target = NullTarget::ensure(
-            &mut self.null_target,
-            gpu,
-            "strata.kbuffer.null_target",
-            ctx.options.width,
-            ctx.options.height,
-        );
-        let frame_group = ctx.frame_group;
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        shared.clear(&mut enc);
-        enc.clear_buffer(&keys, 0, None);
-        for (name, pipeline) in &self.passes {
-            storage_geometry_pass(
-                ctx,
-                &mut enc,
-                name,
-                target,
-                pipeline,
-                &[frame_group, &group],
-            );
-        }
-        gpu.queue.submit([enc.finish()]);
-        submit_pixels(ctx, "resolve", &self.resolve, &[frame_group, &group]);
+        let storage = Storage {
+            label: "strata.kbuffer.keys",
+            bytes: ctx.pixels() * k as u64 * self.mdt.slot_bytes(),
+            clear: true,
+        };
+        let passes: Vec<_> = self.passes.iter().map(|(name, p)| (*name, p)).collect();
+        let (counters, bytes) =
+            self.frame
+                .run(ctx, params_for(ctx.options, k, k, false), storage, &passes)?;
         Ok(stats_from_counters(
-            &shared.read_counters(gpu)?,
+            &counters,
             k,
             self.passes.len() as u32,
-            total,
+            bytes,
         ))
     }
 }

@@ -287,42 +287,28 @@ pub fn params_for(options: &RenderOptions, k: u32, stride: u32, count_by_seen: b
     }
 }
 
-/// Methods over fixed per-pixel slot arrays.
-pub struct SlotKBuffer {
-    id: &'static str,
-    variant: Variant,
-    layout: wgpu::BindGroupLayout,
-    capture: wgpu::RenderPipeline,
-    resolve: wgpu::ComputePipeline,
-    null_target: Option<NullTarget>,
-    /// kb-ab-fixed: slots per pixel the next frame starts with (measured need).
-    measured_stride: u32,
-    cache: ResourceCache,
+/// The fragment storage of a k-buffer frame.
+pub struct Storage {
+    pub label: &'static str,
+    pub bytes: u64,
+    /// Zeroed before capture (cascades and their empty-slot marker need it).
+    pub clear: bool,
 }
 
-impl SlotKBuffer {
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: &'static str, variant: Variant) -> SlotKBuffer {
+/// What every k-buffer method runs the same way: the group-1 layout, the resolve pipeline, the
+/// buffers kept between frames, and a frame — clear, capture passes, resolve, counters.
+pub struct KFrame {
+    pub id: &'static str,
+    pub layout: wgpu::BindGroupLayout,
+    resolve: wgpu::ComputePipeline,
+    cache: ResourceCache,
+    null_target: Option<NullTarget>,
+}
+
+impl KFrame {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: &'static str, resolve_source: &str) -> KFrame {
         let layout = group_layout(gpu);
-        let (family, stage, entry) = variant.capture();
-        let module = shader::module(
-            &gpu.device,
-            &format!("strata.{family}.capture"),
-            &[STORAGE_WGSL, SLOTS_WGSL, stage].join("\n"),
-        );
-        let capture = capture_pipeline(
-            gpu,
-            &format!("strata.{id}.capture"),
-            &module,
-            entry,
-            &[&scene.frame_layout, &layout],
-            &[NullTarget::target_state()],
-            None,
-        );
-        let module = shader::module(
-            &gpu.device,
-            "strata.kbuffer.resolve",
-            &[STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
-        );
+        let module = shader::module(&gpu.device, &format!("strata.{id}.resolve"), resolve_source);
         let resolve = compute_pipeline(
             gpu,
             &format!("strata.{id}.resolve"),
@@ -330,38 +316,53 @@ impl SlotKBuffer {
             "cs_resolve",
             &[&scene.frame_layout, &layout],
         );
-        SlotKBuffer {
+        KFrame {
             id,
-            variant,
             layout,
-            capture,
             resolve,
-            null_target: None,
-            measured_stride: 0,
             cache: ResourceCache::default(),
+            null_target: None,
         }
     }
 
-    fn frame(
+    /// A capture pipeline of this method over `source`'s fragment entry point.
+    pub fn capture_pipeline(
+        &self,
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        module: &wgpu::ShaderModule,
+        entry: &str,
+    ) -> wgpu::RenderPipeline {
+        capture_pipeline(
+            gpu,
+            &format!("strata.{}.{entry}", self.id),
+            module,
+            entry,
+            &[&scene.frame_layout, &self.layout],
+            &[NullTarget::target_state()],
+            None,
+        )
+    }
+
+    /// Runs one frame; returns the counters and the bytes allocated.
+    pub fn run(
         &mut self,
         ctx: &mut FrameContext<'_>,
-        k: u32,
-        stride: u32,
+        params: KParams,
+        storage: Storage,
+        passes: &[(&'static str, &wgpu::RenderPipeline)],
     ) -> Result<(Vec<u32>, u64)> {
         let gpu = ctx.gpu;
-        let px = ctx.pixels();
-        let slot_bytes = px * stride as u64 * SLOT_BYTES;
-        let params = params_for(ctx.options, k, stride, self.variant.fixed());
         let shared = FrameBuffers::new(ctx, &mut self.cache, params)?;
-        let total = slot_bytes + shared.bytes;
-        check_memory(ctx, self.id, slot_bytes, total)?;
-        let slots = self.cache.storage(
+        let total = storage.bytes + shared.bytes;
+        check_memory(ctx, self.id, storage.bytes, total)?;
+        let buffer = self.cache.storage(
             gpu,
-            "strata.kbuffer.slots",
-            slot_bytes,
+            storage.label,
+            storage.bytes,
             wgpu::BufferUsages::empty(),
         )?;
-        let group = shared.group(gpu, &self.layout, &slots, ctx.output);
+        let group = shared.group(gpu, &self.layout, &buffer, ctx.output);
         let target = NullTarget::ensure(
             &mut self.null_target,
             gpu,
@@ -372,17 +373,70 @@ impl SlotKBuffer {
         let frame_group = ctx.frame_group;
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         shared.clear(&mut enc);
-        storage_geometry_pass(
-            ctx,
-            &mut enc,
-            "capture",
-            target,
-            &self.capture,
-            &[frame_group, &group],
-        );
+        if storage.clear {
+            enc.clear_buffer(&buffer, 0, None);
+        }
+        for (name, pipeline) in passes {
+            storage_geometry_pass(
+                ctx,
+                &mut enc,
+                name,
+                target,
+                pipeline,
+                &[frame_group, &group],
+            );
+        }
         gpu.queue.submit([enc.finish()]);
         submit_pixels(ctx, "resolve", &self.resolve, &[frame_group, &group]);
         Ok((shared.read_counters(gpu)?, total))
+    }
+}
+
+/// Methods over fixed per-pixel slot arrays.
+pub struct SlotKBuffer {
+    variant: Variant,
+    frame: KFrame,
+    capture: wgpu::RenderPipeline,
+    /// kb-ab-fixed: slots per pixel the next frame starts with (measured need).
+    measured_stride: u32,
+}
+
+impl SlotKBuffer {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: &'static str, variant: Variant) -> SlotKBuffer {
+        let frame = KFrame::new(
+            gpu,
+            scene,
+            id,
+            &[STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
+        );
+        let (family, stage, entry) = variant.capture();
+        let module = shader::module(
+            &gpu.device,
+            &format!("strata.{family}.capture"),
+            &[STORAGE_WGSL, SLOTS_WGSL, stage].join("\n"),
+        );
+        SlotKBuffer {
+            variant,
+            capture: frame.capture_pipeline(gpu, scene, &module, entry),
+            frame,
+            measured_stride: 0,
+        }
+    }
+
+    fn frame(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        k: u32,
+        stride: u32,
+    ) -> Result<(Vec<u32>, u64)> {
+        let storage = Storage {
+            label: "strata.kbuffer.slots",
+            bytes: ctx.pixels() * stride as u64 * SLOT_BYTES,
+            clear: false,
+        };
+        let params = params_for(ctx.options, k, stride, self.variant.fixed());
+        self.frame
+            .run(ctx, params, storage, &[("capture", &self.capture)])
     }
 }
 
