@@ -241,3 +241,111 @@ fn bad_size_is_rejected() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--size"));
 }
+
+#[test]
+fn k_buffer_render_matches_reference_k_and_reports_k() {
+    let dir = workdir("kbuffer");
+    let scene = "builtin:layers?n=12&coverage=0.75&order=random&seed=3";
+    let gpu = dir.join("kplus.png");
+    let reference = dir.join("ref.png");
+    let stats = dir.join("stats.json");
+    let o = strata(&[
+        "render",
+        scene,
+        "--method",
+        "kplus-heap",
+        "--k",
+        "5",
+        "--size",
+        "48x48",
+        "-o",
+        gpu.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("beyond k=5 were dropped"),
+        "{}",
+        stderr(&o)
+    );
+    let o = strata(&[
+        "reference",
+        scene,
+        "--k",
+        "5",
+        "--size",
+        "48x48",
+        "-o",
+        reference.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = strata(&[
+        "compare",
+        gpu.to_str().unwrap(),
+        reference.to_str().unwrap(),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["max_abs_diff"].as_u64().unwrap() <= 2, "{v}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(s["k"], 5);
+    assert_eq!(s["lock_failures"], 0);
+    assert_eq!(s["max_depth_complexity"], 12);
+    let blend = dir.join("blend.png");
+    let o = strata(&[
+        "render",
+        scene,
+        "--method",
+        "kb-ps",
+        "--k",
+        "5",
+        "--tail",
+        "blend",
+        "--size",
+        "48x48",
+        "-o",
+        blend.to_str().unwrap(),
+    ]);
+    assert!(
+        o.status.success() && stderr(&o).contains("blended into the tail"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn k_buffer_bad_options_are_one_line_and_exit_2() {
+    assert_bad_input(&["render", "--method", "kplus-array", "--k", "0"], "--k");
+    assert_bad_input(
+        &["render", "--method", "kplus-array", "--tail", "keep"],
+        "--tail",
+    );
+    assert_bad_input(
+        &["render", "--method", "kplus-array", "--culling", "maybe"],
+        "--culling",
+    );
+    assert_bad_input(
+        &[
+            "render",
+            "--method",
+            "kb-mdt-pack",
+            "--effect",
+            "translucency",
+        ],
+        "translucency",
+    );
+    assert_bad_input(
+        &[
+            "render",
+            "--method",
+            "kplus-heap",
+            "--k",
+            "64",
+            "--budget-mb",
+            "0.05",
+        ],
+        "--budget-mb",
+    );
+}

@@ -27,7 +27,11 @@
 //! SIMD lane that wins the lock finishes and releases it within the same iteration: no lane waits
 //! on another lane of its own group, and progress does not depend on independent thread
 //! scheduling. Each fragment tries at most `max_tries` times; a fragment that never gets the lock
-//! is counted in `lock_failures` (and joins the tail), never silently lost.
+//! is counted in `lock_failures` (and joins the tail), never silently lost. One exception to
+//! scheduling independence: `kplus-array-r`'s slow path waits, within the try bound, for the
+//! fast stores of its pixel to be published; on a GPU without independent thread scheduling a
+//! fast store diverged in the same SIMD group may only run after that wait, and the slow
+//! fragment then counts as a lock failure.
 
 pub mod list;
 pub mod mdt;
