@@ -71,8 +71,10 @@ const SHININESS: f32 = 48.0;
 @group(0) @binding(4) var<storage, read> draw_order: array<u32>;
 @group(0) @binding(5) var opaque_depth: texture_depth_2d;
 
+// `position` is invariant: passes of different pipelines compare its depth for equality
+// (kb-mdt32's color pass, dual peeling's bounds and peel passes).
 struct SceneVarying {
-    @builtin(position) position: vec4<f32>,
+    @builtin(position) @invariant position: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) @interpolate(flat) prim: u32,

@@ -41,9 +41,10 @@ impl MaxArray {
         self.slots.len() >= self.k
     }
 
-    /// `culled`: a full array whose maximum is not after `f` — `f` cannot enter.
+    /// `culled`: `f` strictly behind the depth of a full array's maximum — it cannot enter.
+    /// (Depth only: the GPU reads one word outside the lock; ties go through the lock.)
     pub fn culled(&self, f: &Fragment) -> bool {
-        self.k == 0 || (self.is_full() && !before(f, &self.slots[0]))
+        self.k == 0 || (self.is_full() && f.depth > self.slots[0].depth)
     }
 
     /// `array_insert`: returns the fragment that fell out — `f` itself when it is not before
@@ -116,9 +117,9 @@ impl MaxHeap {
         self.slots.len() >= self.k
     }
 
-    /// `culled`: a full heap whose root is not after `f` — `f` cannot enter.
+    /// `culled`: `f` strictly behind the depth of a full heap's root — it cannot enter.
     pub fn culled(&self, f: &Fragment) -> bool {
-        self.k == 0 || (self.is_full() && !before(f, &self.slots[0]))
+        self.k == 0 || (self.is_full() && f.depth > self.slots[0].depth)
     }
 
     /// `heap_insert`: sift-up while filling; when full, `f` replaces the root and sifts down.
@@ -195,9 +196,9 @@ impl SortedArray {
         self.slots.len() >= self.k
     }
 
-    /// `culled_sorted`: a full array whose last fragment is not after `f`.
+    /// `culled_sorted`: `f` strictly behind the depth of a full array's last fragment.
     pub fn culled(&self, f: &Fragment) -> bool {
-        self.k == 0 || (self.is_full() && !before(f, &self.slots[self.k - 1]))
+        self.k == 0 || (self.is_full() && f.depth > self.slots[self.k - 1].depth)
     }
 
     /// `sorted_insert`: shifts the fragments after `f` back by one; when full the last falls
@@ -270,15 +271,19 @@ pub fn sort_local(a: &mut [Fragment]) {
     }
 }
 
+/// `ordered_before`: [`before`], exact duplicates by their storage index.
+fn ordered_before(a: (&Fragment, usize), b: (&Fragment, usize)) -> bool {
+    before(a.0, b.0) || (!before(b.0, a.0) && a.1 < b.1)
+}
+
 /// `k_depth_sort` with `tail_blend` off (the resolve's default): returns the first `limit`
-/// fragments of `stored` in [`before`] order (composited), and the fragments the selection
-/// went through past `limit` — the rest of the last chunk, which the GPU adds to the local tail.
+/// fragments of `stored` in [`before`] order (composited) and an empty tail.
 ///
-/// The selection is the GPU's: chunks of `chunk` nearest fragments after `bound` picked with a
-/// max-array, sorted with [`sort_local`]; `bound` is the last fragment of the previous chunk;
-/// the loop ends on an empty chunk, on a chunk shorter than `chunk`, or once `limit` fragments
-/// are composited. Fragments equal to a bound in depth and tag are selected once only, as on
-/// the GPU. Panics when `chunk` is 0.
+/// The selection is the GPU's: chunks of `chunk` nearest fragments after the bound picked with a
+/// max-array over (fragment, storage index), sorted with [`sort_local`]; the bound is the
+/// largest (fragment, index) of the previous chunk, so exact duplicates are all visited; the loop
+/// ends on an empty chunk, on a chunk shorter than `chunk`, or once `limit` fragments are
+/// composited. Panics when `chunk` is 0.
 pub fn k_depth_sort(
     stored: &[Fragment],
     limit: usize,
@@ -299,33 +304,29 @@ pub fn k_depth_sort_with(
     assert!(chunk > 0, "k_depth_sort: chunk must be at least 1");
     let mut composited = Vec::with_capacity(limit.min(stored.len()));
     let mut tail = Vec::new();
-    let mut sel: Vec<Fragment> = Vec::with_capacity(chunk.min(stored.len()));
-    let mut bound = Fragment {
-        depth: -1.0,
-        tag: 0,
-        rg: 0,
-        ba: 0,
-    };
+    let mut sel: Vec<(Fragment, usize)> = Vec::with_capacity(chunk.min(stored.len()));
+    let mut bound: Option<(Fragment, usize)> = None;
     loop {
-        // Select the `chunk` nearest fragments after `bound` with a max-array (max in slot 0).
         sel.clear();
-        for f in stored {
-            if !before(&bound, f) {
-                continue;
+        for (i, f) in stored.iter().enumerate() {
+            if let Some((b, bi)) = &bound {
+                if !ordered_before((b, *bi), (f, i)) {
+                    continue;
+                }
             }
             if sel.len() < chunk {
-                if !sel.is_empty() && before(&sel[0], f) {
+                if !sel.is_empty() && ordered_before((&sel[0].0, sel[0].1), (f, i)) {
                     let m = sel[0];
                     sel.push(m);
-                    sel[0] = *f;
+                    sel[0] = (*f, i);
                 } else {
-                    sel.push(*f);
+                    sel.push((*f, i));
                 }
-            } else if before(f, &sel[0]) {
-                sel[0] = *f;
+            } else if ordered_before((f, i), (&sel[0].0, sel[0].1)) {
+                sel[0] = (*f, i);
                 let mut max_i = 0;
-                for (j, c) in sel.iter().enumerate().skip(1) {
-                    if before(&sel[max_i], c) {
+                for j in 1..sel.len() {
+                    if ordered_before((&sel[max_i].0, sel[max_i].1), (&sel[j].0, sel[j].1)) {
                         max_i = j;
                     }
                 }
@@ -336,15 +337,16 @@ pub fn k_depth_sort_with(
         if m == 0 {
             break;
         }
-        sort_local(&mut sel);
-        for f in &sel {
+        bound = Some(sel[0]);
+        let mut frags: Vec<Fragment> = sel.iter().map(|s| s.0).collect();
+        sort_local(&mut frags);
+        for f in frags {
             if composited.len() < limit {
-                composited.push(*f);
-            } else {
-                tail.push(*f);
+                composited.push(f);
+            } else if tail_blend {
+                tail.push(f);
             }
         }
-        bound = sel[m - 1];
         if m < chunk || (composited.len() >= limit && !tail_blend) {
             break;
         }
@@ -700,14 +702,35 @@ mod tests {
             let first = limit.min(n);
             let (composited, tail) = k_depth_sort(&frags, limit, chunk);
             prop_assert_eq!(&composited, &all[..first].to_vec());
-            // Whole chunks are selected until `limit` is reached (at least one chunk).
-            let chunks = limit.div_ceil(chunk).max(1);
-            let end = (chunks * chunk).min(n);
-            prop_assert_eq!(&tail, &all[first.min(end)..end].to_vec());
+            // With the tail dropped nothing past `limit` is kept.
+            prop_assert!(tail.is_empty());
 
             let (composited, tail) = k_depth_sort_with(&frags, limit, chunk, true);
             prop_assert_eq!(&composited, &all[..first].to_vec());
             prop_assert_eq!(&tail, &all[first..].to_vec());
+        }
+
+        /// Storages that keep no primitive (kb-mdt64, kb-mdt-pack) give exact duplicates: every
+        /// one is still visited once, in order.
+        #[test]
+        fn k_depth_sort_keeps_exact_duplicates(
+            depths in prop::collection::vec(0u8..4, 0..150),
+            limit in 0usize..=150,
+            chunk in 1usize..40,
+        ) {
+            let frags: Vec<Fragment> = depths
+                .iter()
+                .enumerate()
+                .map(|(i, &d)| Fragment { depth: d as f32 * 0.1, tag: 0, rg: i as u32, ba: 0 })
+                .collect();
+            let (composited, tail) = k_depth_sort_with(&frags, limit, chunk, true);
+            let all: Vec<_> = composited.iter().chain(&tail).collect();
+            prop_assert_eq!(all.len(), frags.len());
+            prop_assert!(all.windows(2).all(|w| w[0].depth <= w[1].depth));
+            let mut seen: Vec<u32> = all.iter().map(|f| f.rg).collect();
+            seen.sort_unstable();
+            prop_assert_eq!(seen, (0..frags.len() as u32).collect::<Vec<_>>());
+            prop_assert_eq!(composited.len(), limit.min(frags.len()));
         }
 
         #[test]

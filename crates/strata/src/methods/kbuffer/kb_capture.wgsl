@@ -15,8 +15,6 @@ fn sorted_insert(p: u32, f: Fragment) {
         }
         tail_add(p, last);
         i = kp.k - 1u;
-    } else {
-        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
     }
     while i > 0u {
         let prev = load_slot(p, i - 1u);
@@ -27,10 +25,14 @@ fn sorted_insert(p: u32, f: Fragment) {
         i -= 1u;
     }
     store_slot(p, i, f);
+    // Published only once the slots are written: the culling test outside the lock reads them.
+    if n < kp.k {
+        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
+    }
 }
 
 fn culled_sorted(p: u32, f: Fragment) -> bool {
-    return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && !fragment_before(f, load_key(p, kp.k - 1u));
+    return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && f.depth > load_depth(p, kp.k - 1u);
 }
 
 @fragment

@@ -1,7 +1,8 @@
 // k+-buffer capture (Vasilakis et al. 2015): the k nearest fragments, unsorted, in one pass.
 // max-array keeps the farthest stored fragment in slot 0; max-heap keeps a binary max-heap.
-// Fragments not before the current maximum of a full pixel are culled before taking the lock,
-// and the test is repeated inside it. Order is (depth, primitive): exact with ties.
+// Fragments strictly behind the farthest depth of a full pixel are culled before taking the
+// lock (one atomic word, which cannot tear), and the full test is repeated inside it. Order is
+// (depth, primitive): exact with ties.
 
 // Inserts into a max-array holding `n` fragments (lock held).
 fn array_insert(p: u32, n: u32, f: Fragment) {
@@ -94,9 +95,10 @@ fn heap_insert(p: u32, n: u32, f: Fragment) {
     store_slot(p, i, f);
 }
 
-// True when a full pixel's maximum (slot 0) is not after `f`: the fragment cannot enter.
+// True when `f` is strictly behind a full pixel's farthest depth (slot 0): it cannot enter.
+// Ties go through the lock, whose test also orders by primitive.
 fn culled(p: u32, f: Fragment) -> bool {
-    return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && !fragment_before(f, load_key(p, 0u));
+    return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && f.depth > load_depth(p, 0u);
 }
 
 const VARIANT_ARRAY: u32 = 0u;
@@ -156,7 +158,7 @@ fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) 
         atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
         return;
     }
-    if kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, AUX)]) != 0u && !fragment_before(f, load_key(p, 0u)) {
+    if kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, AUX)]) != 0u && f.depth > load_depth(p, 0u) {
         tail_add(p, f);
         return;
     }

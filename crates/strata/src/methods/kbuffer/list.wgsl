@@ -67,7 +67,7 @@ fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
         var prev = 0u;
         var cur = atomicLoad(&pixels[pixel_word(p, HEAD)]);
         var position = 0u;
-        while cur != 0u && fragment_before(node_fragment(cur), f) {
+        while cur != 0u && position < kp.k && fragment_before(node_fragment(cur), f) {
             prev = cur;
             cur = node_next(cur);
             position += 1u;

@@ -21,8 +21,12 @@
 //! 16 per pixel of counters and lock, 20 per pixel of tail sums with `--tail blend`, 84 bytes of
 //! parameters and counters.
 //!
-//! Spin lock guarantees: every word a critical section touches is accessed atomically, so a
-//! holder sees the previous holder's writes without `@coherent` (which WGSL lacks). The lock is
+//! Spin lock guarantees: every word a critical section touches is accessed atomically, so no
+//! holder reads a stale cached copy of the previous holder's writes (WGSL has no `@coherent`).
+//! WGSL atomics are relaxed, though, and fragment shaders have no fences: that the previous
+//! holder's slot stores are visible before its unlock is what GPUs do in practice (atomics go to
+//! the coherent cache level), not something the WGSL memory model guarantees; the same holds for
+//! `kplus-array-r`'s publication count and `kb-ll`'s node links. Every walk is bounded. The lock is
 //! taken with atomicExchange inside a loop whose body runs the critical section and breaks, so a
 //! SIMD lane that wins the lock finishes and releases it within the same iteration: no lane waits
 //! on another lane of its own group, and progress does not depend on independent thread

@@ -68,53 +68,72 @@ fn sort_local(a: ptr<function, array<Fragment, LOCAL_CAPACITY>>, n: u32) {
     }
 }
 
-// k-depth sort: composites the `limit` nearest of `n` stored fragments, CHUNK at a time.
+// The k-depth sort's total order: fragments by (depth, tag), exact duplicates (storages that
+// keep no primitive give equal keys) by their storage index.
+fn ordered_before(a: Fragment, ia: u32, b: Fragment, ib: u32) -> bool {
+    return fragment_before(a, b) || (!fragment_before(b, a) && ia < ib);
+}
+
+// k-depth sort: composites the `limit` nearest of `n` stored fragments, CHUNK at a time. With
+// --tail blend the selection goes on past `limit` and the rest joins the tail.
 fn k_depth_sort(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) {
     var chunk: array<Fragment, LOCAL_CAPACITY>;
+    var chunk_at: array<u32, LOCAL_CAPACITY>;
     var done = 0u;
-    var bound = Fragment(-1.0, 0u, 0u, 0u);
+    var bound = Fragment(0.0, 0u, 0u, 0u);
+    var bound_at = 0u;
+    var has_bound = false;
     loop {
-        // Select the CHUNK nearest fragments after `bound` with a max-array (max in slot 0).
+        // Select the CHUNK nearest fragments after the bound with a max-array (max in slot 0).
         var m = 0u;
         for (var i = 0u; i < n; i++) {
             let f = stored_fragment(p, i);
-            if !fragment_before(bound, f) {
+            if has_bound && !ordered_before(bound, bound_at, f, i) {
                 continue;
             }
             if m < CHUNK {
-                if m > 0u && fragment_before(chunk[0], f) {
+                if m > 0u && ordered_before(chunk[0], chunk_at[0], f, i) {
                     chunk[m] = chunk[0];
+                    chunk_at[m] = chunk_at[0];
                     chunk[0] = f;
+                    chunk_at[0] = i;
                 } else {
                     chunk[m] = f;
+                    chunk_at[m] = i;
                 }
                 m += 1u;
-            } else if fragment_before(f, chunk[0]) {
+            } else if ordered_before(f, i, chunk[0], chunk_at[0]) {
                 chunk[0] = f;
+                chunk_at[0] = i;
                 var max_i = 0u;
                 for (var j = 1u; j < CHUNK; j++) {
-                    if fragment_before(chunk[max_i], chunk[j]) {
+                    if ordered_before(chunk[max_i], chunk_at[max_i], chunk[j], chunk_at[j]) {
                         max_i = j;
                     }
                 }
                 let mx = chunk[max_i];
+                let mx_at = chunk_at[max_i];
                 chunk[max_i] = chunk[0];
+                chunk_at[max_i] = chunk_at[0];
                 chunk[0] = mx;
+                chunk_at[0] = mx_at;
             }
         }
         if m == 0u {
             break;
         }
+        bound = chunk[0];
+        bound_at = chunk_at[0];
+        has_bound = true;
         sort_local(&chunk, m);
         for (var j = 0u; j < m; j++) {
             if done < limit {
                 composite_front(s, chunk[j]);
                 done += 1u;
-            } else {
+            } else if kp.tail_blend != 0u {
                 tail_add_local(t, chunk[j]);
             }
         }
-        bound = chunk[m - 1u];
         if m < CHUNK || (done >= limit && kp.tail_blend == 0u) {
             break;
         }

@@ -353,3 +353,23 @@ fn packed_mdt_reject_translucency_with_a_clear_error() {
         );
     }
 }
+
+/// Long lists (more than the 64-fragment local array) with low opacity and the tail dropped:
+/// only the k nearest may be composited — anything more would show through 95% transmittance.
+#[test]
+fn long_lists_with_the_tail_dropped_composite_only_k() {
+    let mut s = scene("builtin:layers?n=150&coverage=1&order=random&seed=6");
+    s.override_alpha(0.05);
+    check_k(
+        "thin150",
+        &s,
+        &options(16, 20),
+        &["kb-ab-fixed", "kb-ab-ll", "kb-ll"],
+    );
+    check_k(
+        "thin150",
+        &s,
+        &options(16, 96),
+        &["kplus-heap", "kb-ab-ll", "kb-mdt32"],
+    );
+}
