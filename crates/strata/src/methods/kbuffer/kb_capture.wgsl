@@ -35,31 +35,17 @@ fn culled_sorted(p: u32, f: Fragment) -> bool {
     return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && f.depth > load_depth(p, kp.k - 1u);
 }
 
-@fragment
-fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let p = pixel_index(pixel_of(v.position));
-    let f = scene_fragment(v, front_facing);
+const UNLOCKED: u32 = 0u;
+const LOCKED: u32 = 1u;
+
+fn capture_sorted(p: u32, f: Fragment, locking: u32) {
     count_seen(p);
     if culled_sorted(p, f) {
         tail_add(p, f);
         return;
     }
-    sorted_insert(p, f);
-}
-
-@fragment
-fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let p = pixel_index(pixel_of(v.position));
-    let f = scene_fragment(v, front_facing);
-    count_seen(p);
-    if culled_sorted(p, f) {
-        tail_add(p, f);
+    if locking == UNLOCKED {
+        sorted_insert(p, f);
         return;
     }
     for (var t = 0u; t < kp.max_tries; t++) {
@@ -70,4 +56,20 @@ fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
         }
     }
     lock_failed(p, f);
+}
+
+@fragment
+fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_sorted(pixel_index(pixel_of(v.position)), scene_fragment(v, front_facing), UNLOCKED);
+}
+
+@fragment
+fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_sorted(pixel_index(pixel_of(v.position)), scene_fragment(v, front_facing), LOCKED);
 }

@@ -35,6 +35,15 @@ fn cascade(base: u32, key_in: u32) -> u32 {
     return key;
 }
 
+// Filled slots form a prefix: count up to the first empty one.
+fn key_count(p: u32) -> u32 {
+    var n = 0u;
+    while n < kp.k && atomicLoad(&keys[p * kp.k + n]) != 0u {
+        n += 1u;
+    }
+    return n;
+}
+
 // Culling: the pixel is full and the key is not nearer than its farthest.
 fn cascade_culled(base: u32, key: u32) -> bool {
     if kp.culling == 0u {

@@ -2,11 +2,7 @@
 // tie lost in the color pass) has zero color and opacity.
 
 fn stored_count(p: u32) -> u32 {
-    var n = 0u;
-    while n < kp.k && atomicLoad(&keys[p * kp.k + n]) != 0u {
-        n += 1u;
-    }
-    return n;
+    return key_count(p);
 }
 
 fn stored_fragment(p: u32, i: u32) -> Fragment {

@@ -1,11 +1,7 @@
 // Resolve access to kb-mdt-pack's two key arrays: slot i of each is taken as one fragment.
 
 fn stored_count(p: u32) -> u32 {
-    var n = 0u;
-    while n < kp.k && atomicLoad(&keys[p * kp.k + n]) != 0u {
-        n += 1u;
-    }
-    return n;
+    return key_count(p);
 }
 
 fn stored_fragment(p: u32, i: u32) -> Fragment {
