@@ -310,6 +310,14 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     }
 }
 
+/// A spinner on stderr while long work runs (hidden when stderr is not a terminal).
+fn spinner(message: String) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_message(message);
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    bar
+}
+
 fn render(a: RenderArgs) -> Result<()> {
     if a.raster != "hw" {
         return Err(if a.raster == "compute" {
@@ -362,13 +370,17 @@ fn render(a: RenderArgs) -> Result<()> {
     }
     options.max_tries = a.max_tries;
     options.validate()?;
-    let (image, stats) = if a.method == "reference" {
-        strata::reference::render(&scene, &options)?
+    let busy = spinner(format!(
+        "rendering {}x{} with {}",
+        options.width, options.height, a.method
+    ));
+    let rendered = if a.method == "reference" {
+        strata::reference::render(&scene, &options)
     } else {
-        let gpu = Gpu::new()?;
-        let mut renderer = Renderer::new(&gpu, &scene, &options)?;
-        renderer.render(&a.method)?
+        Gpu::new().and_then(|gpu| Renderer::new(&gpu, &scene, &options)?.render(&a.method))
     };
+    busy.finish_and_clear();
+    let (image, stats) = rendered?;
     write_outputs(
         &image,
         &stats,
@@ -382,7 +394,13 @@ fn render(a: RenderArgs) -> Result<()> {
 
 fn reference(a: ReferenceArgs) -> Result<()> {
     let (scene, options) = prepare(&a.picture)?;
-    let (image, stats) = strata::reference::render(&scene, &options)?;
+    let busy = spinner(format!(
+        "rendering {}x{} with the CPU reference",
+        options.width, options.height
+    ));
+    let rendered = strata::reference::render(&scene, &options);
+    busy.finish_and_clear();
+    let (image, stats) = rendered?;
     write_outputs(
         &image,
         &stats,
