@@ -34,7 +34,8 @@ const COUNTER_ALLOCATED: u32 = 3u;
 const COUNTER_LOST: u32 = 4u;
 const COUNTER_SEEN_TOTAL: u32 = 5u;
 
-// Fixed-point scale of the tail sums.
+// Fixed-point scale of the tail sums. A pixel's sums wrap past about a thousand bright tail
+// fragments (colors are clamped at 64) or ten thousand nearly opaque ones.
 const TAIL_SCALE: f32 = 65536.0;
 
 fn pixel_word(p: u32, word: u32) -> u32 {
