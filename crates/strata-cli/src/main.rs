@@ -9,7 +9,8 @@ use clap::{Args, Parser, Subcommand};
 use strata::error::{Error, Result};
 use strata::gpu::Gpu;
 use strata::methods;
-use strata::render::{save_png, Effect, FrameStats, LinearImage, RenderOptions, Renderer, Tail};
+use strata::frame::{Effect, FrameStats, RenderOptions, Tail};
+use strata::render::{save_png, LinearImage, Renderer};
 use strata::scene::{loaders, Background, Scene, Shading};
 
 #[derive(Parser)]

@@ -3,6 +3,7 @@
 //! See `ARCHITECTURE.md` at the repository root for the layout and the path of a frame.
 
 pub mod error;
+pub mod frame;
 pub mod gpu;
 pub mod methods;
 pub mod metrics;
@@ -14,4 +15,6 @@ pub mod scene;
 pub(crate) mod testing;
 
 pub use error::{Error, Result};
-pub use render::{Effect, FrameStats, LinearImage, RenderOptions, Renderer, Tail};
+pub use frame::{Effect, FrameRecorder, FrameStats, FrameTargets, RenderOptions, Tail};
+pub use methods::MethodId;
+pub use render::{LinearImage, Renderer};

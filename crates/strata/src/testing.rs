@@ -5,7 +5,8 @@
 use std::sync::OnceLock;
 
 use crate::gpu::Gpu;
-use crate::render::{LinearImage, RenderOptions, Renderer};
+use crate::frame::RenderOptions;
+use crate::render::{LinearImage, Renderer};
 use crate::scene::Scene;
 
 pub fn gpu() -> &'static Gpu {

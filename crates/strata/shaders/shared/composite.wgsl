@@ -1,8 +1,19 @@
 // The shared resolve: turns a pixel's fragments, visited in depth order, into a color.
 // Front-to-back:  C += T·α·c; T *= (1 − α), with Beer–Lambert attenuation exp(−σ·d) over each
 // gap between consecutive fragments for the translucency effect. Back-to-front (dual peeling's
-// back layers) computes the same sum with the over operator. The output is (rgb, fragment count).
-// Keep `Composite` in sync with `CompositeState` in crates/strata/src/resolve/mod.rs.
+// back layers) computes the same sum with the over operator. The output is `Resolved`:
+// premultiplied color and alpha = 1 − transmittance, to be blended OVER whatever is behind (the
+// application's target, or the CLI's background), and the fragment count.
+// Keep `Composite` in sync with `CompositeState` in crates/strata/src/resolve/mod.rs and
+// `Resolved` with `Resolved` in crates/strata/src/frame/mod.rs.
+
+struct Resolved {
+    color: vec4<f32>,
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
 
 struct Composite {
     color: vec3<f32>,
@@ -68,36 +79,44 @@ fn composite_front(s: ptr<function, Composite>, f: Fragment) {
     (*s).last_distance = distance;
 }
 
-// Back-to-front state: `color` already includes everything behind (starting with the background).
-fn composite_back_new(background: vec3<f32>) -> Composite {
-    return Composite(background, 1.0, 0u, 0.0, 0u, 0.0);
+// Back-to-front state: `color` and `transmittance` are those of everything visited so far.
+fn composite_back_new() -> Composite {
+    return Composite(vec3<f32>(0.0), 1.0, 0u, 0.0, 0u, 0.0);
 }
 
 // Adds the next fragment in front of everything visited so far (over operator).
 fn composite_back(s: ptr<function, Composite>, f: Fragment) {
     let distance = view_distance(f.depth);
     var behind = (*s).color;
+    var behind_t = (*s).transmittance;
     if (*s).count > 0u {
-        behind *= gap_transmittance(f.tag, distance, (*s).last_tag, (*s).last_distance);
+        let g = gap_transmittance(f.tag, distance, (*s).last_tag, (*s).last_distance);
+        behind *= g;
+        behind_t *= g;
     }
     let c = fragment_color(f);
     (*s).color = c.a * c.rgb + (1.0 - c.a) * behind;
+    (*s).transmittance = (1.0 - c.a) * behind_t;
     (*s).count += 1u;
     (*s).last_depth = f.depth;
     (*s).last_tag = f.tag;
     (*s).last_distance = distance;
 }
 
-// Joins a front-to-back state with the background.
-fn composite_finish(s: Composite, pixel: vec2<u32>) -> vec4<f32> {
-    return vec4<f32>(s.color + s.transmittance * background_at(pixel), f32(s.count));
+// The pixel's result from a front-to-back state.
+fn composite_finish(s: Composite) -> Resolved {
+    return Resolved(vec4<f32>(s.color, 1.0 - s.transmittance), s.count, 0u, 0u, 0u);
 }
 
-// Joins a front-to-back state with a back-to-front state that already holds the background.
-fn composite_join(front: Composite, back: Composite) -> vec4<f32> {
+// Joins a front-to-back state with a back-to-front state behind it.
+fn composite_join(front: Composite, back: Composite) -> Resolved {
     var behind = back.color;
+    var behind_t = back.transmittance;
     if front.count > 0u && back.count > 0u {
-        behind *= gap_transmittance(front.last_tag, front.last_distance, back.last_tag, back.last_distance);
+        let g = gap_transmittance(front.last_tag, front.last_distance, back.last_tag, back.last_distance);
+        behind *= g;
+        behind_t *= g;
     }
-    return vec4<f32>(front.color + front.transmittance * behind, f32(front.count + back.count));
+    let t = front.transmittance * behind_t;
+    return Resolved(vec4<f32>(front.color + front.transmittance * behind, 1.0 - t), front.count + back.count, 0u, 0u, 0u);
 }

@@ -70,6 +70,35 @@ const SHININESS: f32 = 48.0;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read> draw_order: array<u32>;
 @group(0) @binding(5) var opaque_depth: texture_depth_2d;
+// Frame totals every resolve adds its pixels to; cleared before each frame. Keep the TOTAL_
+// indices in sync with `Totals` in crates/strata/src/frame/mod.rs.
+@group(0) @binding(6) var<storage, read_write> totals: array<atomic<u32>>;
+
+const TOTAL_GENERATED: u32 = 0u;
+const TOTAL_STORED: u32 = 2u;
+const TOTAL_DROPPED: u32 = 4u;
+const TOTAL_MAX_DEPTH: u32 = 6u;
+
+// Adds `n` to the 64-bit total at words (at, at + 1): the low word wraps into a carry, so frame
+// totals never wrap at 2^32.
+fn total_add(at: u32, n: u32) {
+    if n == 0u {
+        return;
+    }
+    let old = atomicAdd(&totals[at], n);
+    if old > 0xffffffffu - n {
+        atomicAdd(&totals[at + 1u], 1u);
+    }
+}
+
+// A resolve's account of one pixel: `generated` fragments reached it, `stored` of them were
+// composited (the rest were dropped, or blended into a tail).
+fn report_pixel(generated: u32, stored: u32) {
+    total_add(TOTAL_GENERATED, generated);
+    total_add(TOTAL_STORED, stored);
+    total_add(TOTAL_DROPPED, generated - min(stored, generated));
+    atomicMax(&totals[TOTAL_MAX_DEPTH], generated);
+}
 
 // `position` is invariant: passes of different pipelines compare its depth for equality
 // (kb-mdt32's color pass, dual peeling's bounds and peel passes).

@@ -5,6 +5,7 @@
 //! `WGPU_ADAPTER_NAME` picks an adapter by a case-insensitive substring of its name.
 
 pub mod binding;
+pub mod passes;
 pub mod readback;
 pub mod shader;
 pub mod timing;
@@ -21,11 +22,16 @@ pub fn wanted_features() -> wgpu::Features {
         | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
         | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES
         | wgpu::Features::PIPELINE_STATISTICS_QUERY
+        | wgpu::Features::MEMORY_DECORATION_COHERENT
 }
 
-/// A headless device with the features and limits it was created with.
+/// A device and queue with the features and limits they were created with: strata's own
+/// headless device ([`Gpu::new`]) or the application's ([`Gpu::from_device`]). Cloning shares
+/// the device.
+#[derive(Clone)]
 pub struct Gpu {
-    pub adapter: wgpu::Adapter,
+    /// The adapter, when strata opened the device itself.
+    pub adapter: Option<wgpu::Adapter>,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
@@ -105,13 +111,28 @@ impl Gpu {
                 Error::unsupported(format!("cannot open device on '{}': {e}", info.name))
             })?;
         Ok(Gpu {
-            adapter,
+            adapter: Some(adapter),
             device,
             queue,
             info,
             features,
             limits,
         })
+    }
+
+    /// Wraps the application's device and queue. Methods use the features and limits the
+    /// device was created with: request SHADER_INT64_ATOMIC_ALL_OPS for `kb-mdt64`,
+    /// TIMESTAMP_QUERY (and _INSIDE_ENCODERS) for pass timings, MEMORY_DECORATION_COHERENT for
+    /// coherent k-buffer storage, and the adapter's storage-buffer limits for large frames.
+    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue) -> Gpu {
+        Gpu {
+            adapter: None,
+            info: device.adapter_info(),
+            features: device.features(),
+            limits: device.limits(),
+            device,
+            queue,
+        }
     }
 
     /// A 2D texture of one mip level and sample.
@@ -164,7 +185,8 @@ impl Gpu {
     pub fn report(&self) -> GpuReport {
         let features = self
             .adapter
-            .features()
+            .as_ref()
+            .map_or(self.features, |a| a.features())
             .iter_names()
             .map(|(n, _)| n.to_string())
             .collect();

@@ -5,8 +5,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::error::Result;
-use crate::gpu::{readback, Gpu};
+use crate::gpu::Gpu;
 
 /// WebGPU's largest query set.
 const MAX_QUERIES: u32 = 4096;
@@ -87,33 +86,38 @@ impl Timer {
             })
     }
 
-    /// Reads this frame's timestamps: pass name → milliseconds. `None` when the adapter cannot
-    /// time or more passes ran than the query set holds.
-    pub fn collect(&mut self, gpu: &Gpu) -> Result<Option<BTreeMap<String, f64>>> {
+    /// Resolves this frame's timestamps into the resolve buffer (inside `encoder`) and returns
+    /// the range to read back with the frame's statistics and the pass names, or `None` when
+    /// the adapter cannot time or more passes ran than the query set holds.
+    pub fn resolve(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Option<((wgpu::Buffer, u64, u64), Vec<&'static str>)> {
         let (Some(set), Some(resolve)) = (&self.set, &self.resolve) else {
-            return Ok(None);
+            return None;
         };
         if self.overflowed {
-            return Ok(None);
-        }
-        let mut out = BTreeMap::new();
-        if self.names.is_empty() {
-            return Ok(Some(out));
+            return None;
         }
         let count = self.names.len() as u32 * 2;
-        let mut enc = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("strata.timestamps.resolve"),
-            });
-        enc.resolve_query_set(set, 0..count, resolve, 0);
-        gpu.queue.submit([enc.finish()]);
-        let ticks: Vec<u64> =
-            bytemuck::pod_collect_to_vec(&readback::read_buffer(gpu, resolve, count as u64 * 8)?);
-        for (i, name) in self.names.iter().enumerate() {
-            let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * self.period_ns / 1e6;
+        if count > 0 {
+            encoder.resolve_query_set(set, 0..count, resolve, 0);
+        }
+        Some((
+            (resolve.clone(), 0, count as u64 * 2),
+            std::mem::take(&mut self.names),
+        ))
+    }
+
+    /// Pass name → milliseconds from the resolved ticks (two u32 words per tick), same-named
+    /// passes adding up.
+    pub fn decode(&self, names: &[&'static str], words: &[u32]) -> BTreeMap<String, f64> {
+        let tick = |i: usize| words[2 * i] as u64 | (words[2 * i + 1] as u64) << 32;
+        let mut out = BTreeMap::new();
+        for (i, name) in names.iter().enumerate() {
+            let dt = tick(2 * i + 1).saturating_sub(tick(2 * i)) as f64 * self.period_ns / 1e6;
             *out.entry(name.to_string()).or_insert(0.0) += dt;
         }
-        Ok(Some(out))
+        out
     }
 }

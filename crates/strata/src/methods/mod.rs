@@ -1,40 +1,143 @@
-//! The multi-fragment methods, one folder per family, and the catalogue `strata methods` prints.
+//! The multi-fragment methods, one folder per family, their typed registry ([`MethodId`]) and
+//! the catalogue `strata methods` prints.
 //!
-//! A [`Method`] renders one frame into the shared output buffer (`vec4(rgb, count)` per pixel)
-//! through its own passes. Pipelines are built once when the method is created; per-pixel
+//! A [`Method`] records one frame into the caller's encoder (see [`crate::frame`]): its capture
+//! and resolve passes, each pixel's [`crate::frame::Resolved`] value, the frame totals, and the
+//! counters it wants back. It never submits and never waits: its counters come back a frame or
+//! more later through [`Method::stats`], where feedback (a pool that overflowed, a layer count)
+//! is applied to the next frame. Pipelines are built once when the method is created; per-pixel
 //! buffers are (re)allocated when a frame needs more.
 
-pub mod abuffer;
 pub mod baseline;
 pub mod kbuffer;
 pub mod peeling;
 
+use std::fmt;
+use std::str::FromStr;
+
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::gpu::binding;
-use crate::gpu::Gpu;
-use crate::render::{FrameContext, RenderOptions, SceneGpu};
+use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
+use crate::gpu::{Gpu, ResourceCache};
 
-/// What a method reports about its frame; the renderer fills in the rest of `FrameStats`.
-#[derive(Clone, Debug, Default)]
-pub struct MethodStats {
-    pub geometry_passes: u32,
-    pub k: Option<u32>,
-    /// `None`: every composited fragment (the output counts) plus the dropped ones.
-    pub fragments_generated: Option<u64>,
-    /// `None`: the composited fragments.
-    pub fragments_stored: Option<u64>,
-    pub fragments_dropped: Option<u64>,
-    /// `None`: the largest per-pixel count composited.
-    pub max_depth_complexity: Option<u32>,
-    pub bytes_allocated: u64,
-    pub overflow: Option<bool>,
-    pub lock_failures: Option<u64>,
+/// Every method id of the catalogue.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum MethodId {
+    Reference,
+    Unsorted,
+    Sorted,
+    F2b,
+    Dual,
+    AbufferLl,
+    AbufferFixed,
+    Kb,
+    KbPs,
+    KbAbFixed,
+    KplusArray,
+    KplusArrayR,
+    KplusHeap,
+    KbMdt32,
+    KbMdt64,
+    KbMdtPack,
+    KbAbLl,
+    KbLl,
 }
 
+impl MethodId {
+    pub const ALL: [MethodId; 18] = [
+        MethodId::Reference,
+        MethodId::Unsorted,
+        MethodId::Sorted,
+        MethodId::F2b,
+        MethodId::Dual,
+        MethodId::AbufferLl,
+        MethodId::AbufferFixed,
+        MethodId::Kb,
+        MethodId::KbPs,
+        MethodId::KbAbFixed,
+        MethodId::KplusArray,
+        MethodId::KplusArrayR,
+        MethodId::KplusHeap,
+        MethodId::KbMdt32,
+        MethodId::KbMdt64,
+        MethodId::KbMdtPack,
+        MethodId::KbAbLl,
+        MethodId::KbLl,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MethodId::Reference => "reference",
+            MethodId::Unsorted => "unsorted",
+            MethodId::Sorted => "sorted",
+            MethodId::F2b => "f2b",
+            MethodId::Dual => "dual",
+            MethodId::AbufferLl => "abuffer-ll",
+            MethodId::AbufferFixed => "abuffer-fixed",
+            MethodId::Kb => "kb",
+            MethodId::KbPs => "kb-ps",
+            MethodId::KbAbFixed => "kb-ab-fixed",
+            MethodId::KplusArray => "kplus-array",
+            MethodId::KplusArrayR => "kplus-array-r",
+            MethodId::KplusHeap => "kplus-heap",
+            MethodId::KbMdt32 => "kb-mdt32",
+            MethodId::KbMdt64 => "kb-mdt64",
+            MethodId::KbMdtPack => "kb-mdt-pack",
+            MethodId::KbAbLl => "kb-ab-ll",
+            MethodId::KbLl => "kb-ll",
+        }
+    }
+
+    /// The catalogue entry.
+    pub fn info(self) -> MethodInfo {
+        catalogue()
+            .into_iter()
+            .find(|m| m.id == self.as_str())
+            .expect("every id is catalogued")
+    }
+
+    /// Every method that runs on the GPU.
+    pub fn gpu_methods() -> impl Iterator<Item = MethodId> {
+        Self::ALL.into_iter().filter(|m| *m != MethodId::Reference)
+    }
+}
+
+impl fmt::Display for MethodId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl FromStr for MethodId {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<MethodId> {
+        MethodId::ALL
+            .into_iter()
+            .find(|m| m.as_str() == s)
+            .ok_or_else(|| unknown_method(s))
+    }
+}
+
+impl Serialize for MethodId {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}
+
+/// One multi-fragment technique, recording frames into the caller's encoder.
 pub trait Method {
-    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats>;
+    /// Records a frame: every pass into `ctx.encoder`, counters to read back into
+    /// `ctx.readback`. Never submits, never waits.
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded>;
+
+    /// Reads the counters a frame asked for (`None` when its statistics were skipped), with
+    /// the frame totals, and applies feedback to the next frame.
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: Option<&[u32]>)
+        -> MethodStats;
+
+    /// The buffers kept between frames (tests poison them).
+    fn resources(&self) -> Vec<&ResourceCache>;
 }
 
 /// A catalogue entry.
@@ -214,243 +317,40 @@ pub fn unknown_method(id: &str) -> Error {
     ))
 }
 
-/// Creates a GPU method by id.
+/// Creates a GPU method.
 pub fn create(
-    id: &str,
+    id: MethodId,
     gpu: &Gpu,
     scene: &SceneGpu,
     options: &RenderOptions,
 ) -> Result<Box<dyn Method>> {
+    use kbuffer::{list::ListKBuffer, mdt::Mdt, mdt::MdtKBuffer, SlotKBuffer, Variant};
     Ok(match id {
-        "unsorted" => Box::new(baseline::Blend::new(gpu, scene, false)),
-        "sorted" => Box::new(baseline::Blend::new(gpu, scene, true)),
-        "f2b" => Box::new(peeling::FrontToBack::new(gpu, scene)),
-        "dual" => Box::new(peeling::Dual::new(gpu, scene)),
-        "abuffer-ll" => Box::new(abuffer::LinkedLists::new(gpu, scene, options)),
-        "kb-ab-ll" | "kb-ll" => {
-            let info = info(id).expect("catalogued");
-            Box::new(kbuffer::list::ListKBuffer::new(
-                gpu,
-                scene,
-                info.id,
-                id == "kb-ll",
-                options.abuffer_initial_nodes,
-                options.pixels(),
-            ))
+        MethodId::Unsorted => Box::new(baseline::Blend::new(gpu, scene, false)),
+        MethodId::Sorted => Box::new(baseline::Blend::new(gpu, scene, true)),
+        MethodId::F2b => Box::new(peeling::FrontToBack::new(gpu, scene)),
+        MethodId::Dual => Box::new(peeling::Dual::new(gpu, scene)),
+        MethodId::AbufferLl | MethodId::KbAbLl | MethodId::KbLl => {
+            Box::new(ListKBuffer::new(gpu, scene, id, options))
         }
-        id if kbuffer::mdt::Mdt::from_id(id).is_some() => {
-            let info = info(id).expect("catalogued");
-            Box::new(kbuffer::mdt::MdtKBuffer::new(
-                gpu,
-                scene,
-                info.id,
-                kbuffer::mdt::Mdt::from_id(id).expect("checked"),
-            )?)
+        MethodId::KbMdt32 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt32)?),
+        MethodId::KbMdt64 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt64)?),
+        MethodId::KbMdtPack => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Pack)?),
+        MethodId::KplusArray => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusArray)),
+        MethodId::KplusHeap => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusHeap)),
+        MethodId::KplusArrayR => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusArrayR)),
+        MethodId::Kb => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::Kb)),
+        MethodId::KbPs => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KbPs)),
+        MethodId::AbufferFixed => {
+            Box::new(SlotKBuffer::new(gpu, scene, id, Variant::AbufferFixed))
         }
-        id if kbuffer::Variant::from_id(id).is_some() => {
-            let info = info(id).expect("catalogued");
-            Box::new(kbuffer::SlotKBuffer::new(
-                gpu,
-                scene,
-                info.id,
-                kbuffer::Variant::from_id(id).expect("checked"),
-            ))
-        }
-        "reference" => {
+        MethodId::KbAbFixed => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KbAbFixed)),
+        MethodId::Reference => {
             return Err(Error::input(
                 "method 'reference' runs on the CPU: use strata::reference::render",
             ))
         }
-        _ => return Err(unknown_method(id)),
     })
-}
-
-/// A render pipeline drawing the scene with `vs_scene` and the stage's fragment entry point,
-/// with no culling (every surface layer counts).
-pub fn capture_pipeline(
-    gpu: &Gpu,
-    label: &str,
-    module: &wgpu::ShaderModule,
-    fragment_entry: &str,
-    layouts: &[&wgpu::BindGroupLayout],
-    targets: &[Option<wgpu::ColorTargetState>],
-    depth: Option<wgpu::DepthStencilState>,
-) -> wgpu::RenderPipeline {
-    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
-    gpu.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(label),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs_scene"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: depth,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some(fragment_entry),
-                compilation_options: Default::default(),
-                targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
-}
-
-pub fn compute_pipeline(
-    gpu: &Gpu,
-    label: &str,
-    module: &wgpu::ShaderModule,
-    entry: &str,
-    layouts: &[&wgpu::BindGroupLayout],
-) -> wgpu::ComputePipeline {
-    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
-    gpu.device
-        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(label),
-            layout: Some(&layout),
-            module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        })
-}
-
-/// A color attachment the pass clears to `clear` and keeps.
-pub fn attachment(
-    view: &wgpu::TextureView,
-    clear: wgpu::Color,
-) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-    Some(wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Clear(clear),
-            store: wgpu::StoreOp::Store,
-        },
-    })
-}
-
-/// Runs a compute pipeline over every pixel (8×8 workgroups) in its own timed pass.
-pub fn dispatch_pixels(
-    ctx: &mut FrameContext<'_>,
-    enc: &mut wgpu::CommandEncoder,
-    name: &'static str,
-    pipeline: &wgpu::ComputePipeline,
-    groups: &[&wgpu::BindGroup],
-) {
-    let (x, y) = ctx.pixel_workgroups();
-    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some(name),
-        timestamp_writes: ctx.timer.compute_pass(name),
-    });
-    pass.set_pipeline(pipeline);
-    for (i, g) in groups.iter().enumerate() {
-        pass.set_bind_group(i as u32, Some(*g), &[]);
-    }
-    pass.dispatch_workgroups(x, y, 1);
-}
-
-/// Records and submits one timed compute pass over every pixel.
-pub fn submit_pixels(
-    ctx: &mut FrameContext<'_>,
-    name: &'static str,
-    pipeline: &wgpu::ComputePipeline,
-    groups: &[&wgpu::BindGroup],
-) {
-    let mut enc = ctx.gpu.device.create_command_encoder(&Default::default());
-    dispatch_pixels(ctx, &mut enc, name, pipeline, groups);
-    ctx.gpu.queue.submit([enc.finish()]);
-}
-
-/// Records a timed geometry pass drawing into storage buffers only (over a [`NullTarget`]).
-pub fn storage_geometry_pass(
-    ctx: &mut FrameContext<'_>,
-    enc: &mut wgpu::CommandEncoder,
-    name: &'static str,
-    target: &NullTarget,
-    pipeline: &wgpu::RenderPipeline,
-    groups: &[&wgpu::BindGroup],
-) {
-    let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(name),
-        color_attachments: &[target.attachment()],
-        depth_stencil_attachment: None,
-        timestamp_writes: ctx.timer.render_pass(name),
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
-    pass.set_pipeline(pipeline);
-    for (i, g) in groups.iter().enumerate() {
-        pass.set_bind_group(i as u32, Some(*g), &[]);
-    }
-    ctx.draw_geometry(&mut pass);
-}
-
-/// A render pass over a throwaway color target, for capture passes whose output goes to
-/// storage buffers (WebGPU needs at least one attachment).
-pub struct NullTarget {
-    view: wgpu::TextureView,
-    size: (u32, u32),
-}
-
-impl NullTarget {
-    pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
-
-    pub fn new(gpu: &Gpu, label: &str, width: u32, height: u32) -> NullTarget {
-        let t = gpu.texture_2d(
-            label,
-            (width, height),
-            Self::FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT,
-        );
-        NullTarget {
-            view: t.create_view(&Default::default()),
-            size: (width, height),
-        }
-    }
-
-    /// The target in `slot`, (re)created when the frame size changed.
-    pub fn ensure<'s>(
-        slot: &'s mut Option<NullTarget>,
-        gpu: &Gpu,
-        label: &str,
-        width: u32,
-        height: u32,
-    ) -> &'s NullTarget {
-        if slot.as_ref().is_none_or(|t| t.size != (width, height)) {
-            *slot = Some(NullTarget::new(gpu, label, width, height));
-        }
-        slot.as_ref().expect("set above")
-    }
-
-    pub fn target_state() -> Option<wgpu::ColorTargetState> {
-        Some(wgpu::ColorTargetState {
-            format: Self::FORMAT,
-            blend: None,
-            write_mask: wgpu::ColorWrites::empty(),
-        })
-    }
-
-    pub fn attachment(&self) -> Option<wgpu::RenderPassColorAttachment<'_>> {
-        Some(wgpu::RenderPassColorAttachment {
-            view: &self.view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                store: wgpu::StoreOp::Discard,
-            },
-        })
-    }
 }
 
 #[cfg(test)]

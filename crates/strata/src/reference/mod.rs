@@ -12,8 +12,9 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::render::uniforms::{self, LightingSetup};
-use crate::render::{Effect, FrameStats, LinearImage, RenderOptions};
+use crate::frame::uniforms::{self, LightingSetup};
+use crate::frame::{Effect, FrameStats, RenderOptions};
+use crate::render::LinearImage;
 use crate::resolve::{composite, RefFragment};
 use crate::scene::{Camera, Material, Projection, Scene, Shading};
 
@@ -236,6 +237,9 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         bytes_allocated: Some(generated * std::mem::size_of::<RefFragment>() as u64),
         overflow: None,
         lock_failures: None,
+        blocking_readbacks: 0,
+        submits: 0,
+        frame: 0,
         adapter: Some("cpu".into()),
         backend: Some("cpu".into()),
     };

@@ -1,168 +1,21 @@
-//! The frame: options, GPU scene buffers, the method-independent parts of a frame (uniforms,
-//! output, timing, readback) and the statistics every frame reports.
-//!
-//! A frame reads as a short script:
-//! 1. upload the frame uniforms (camera, lights, effect, background);
-//! 2. the method runs its passes — capture (one or more geometry passes) and resolve — and writes
-//!    each pixel's `(rgb, fragment count)` into the shared output buffer;
-//! 3. the output and the pass timestamps are read back, and [`FrameStats`] filled in.
-
-pub mod uniforms;
-
-use std::collections::BTreeMap;
-use std::str::FromStr;
-
-use serde::Serialize;
-use wgpu::util::DeviceExt;
+//! The batch renderer the CLI and the tests use, on top of [`crate::frame::FrameRecorder`]:
+//! *exact mode*. A picture is recorded and submitted, its statistics waited for, and the frame
+//! rendered again while a method reports it incomplete (a fragment pool that overflowed, too few
+//! peeling layers) — the method has grown from the measured need by then, so the second frame is
+//! complete. The resolved frame is read back and composited over the picture's background on
+//! the CPU. `FrameStats` count the submits and blocking readbacks this takes.
 
 use crate::error::{Error, Result};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::timing::Timer;
+use crate::frame::{DrawCallback, FrameRecorder, FrameStats, FrameTargets, Resolved};
 use crate::gpu::{readback, Gpu};
-use crate::methods::{self, Method, MethodStats};
-use crate::scene::{linear_to_srgb, Background, Camera, Scene};
+use crate::methods::MethodId;
+use crate::scene::{linear_to_srgb, Scene};
 
-/// How a pixel's depth-ordered fragments become a color.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Effect {
-    #[default]
-    Transparency,
-    Translucency,
-    Complexity,
-}
+pub use crate::frame::{Effect, RenderOptions, Tail};
 
-impl FromStr for Effect {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "transparency" => Ok(Effect::Transparency),
-            "translucency" => Ok(Effect::Translucency),
-            "complexity" => Ok(Effect::Complexity),
-            _ => Err(Error::input(format!(
-                "unknown effect '{s}' (expected transparency, translucency or complexity)"
-            ))),
-        }
-    }
-}
-
-impl Effect {
-    pub fn name(self) -> &'static str {
-        match self {
-            Effect::Transparency => "transparency",
-            Effect::Translucency => "translucency",
-            Effect::Complexity => "complexity",
-        }
-    }
-}
-
-/// What k-buffer methods do with fragments beyond the k nearest.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Tail {
-    /// Discard them (counted in `fragments_dropped`).
-    #[default]
-    Drop,
-    /// Blend them, unsorted, into one tail term behind the k nearest (weighted average color,
-    /// opacity from the sum of their optical depths), as engines do.
-    Blend,
-}
-
-impl FromStr for Tail {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "drop" => Ok(Tail::Drop),
-            "blend" => Ok(Tail::Blend),
-            _ => Err(Error::input(format!("--tail '{s}' is not drop or blend"))),
-        }
-    }
-}
-
-/// Everything about a picture that is not the scene.
-#[derive(Clone, Debug)]
-pub struct RenderOptions {
-    pub width: u32,
-    pub height: u32,
-    pub effect: Effect,
-    pub background: Background,
-    /// Per-pixel capacity for k-buffer methods, and the reference's `--k`.
-    pub k: Option<u32>,
-    /// Memory a method may allocate, in MiB.
-    pub budget_mb: Option<f64>,
-    /// Initial node pool of `abuffer-ll` (nodes); by default sized from the previous frame.
-    pub abuffer_initial_nodes: Option<u64>,
-    /// k-buffers: fragments beyond k.
-    pub tail: Tail,
-    /// k-buffers: cull fragments behind a full pixel's maximum before taking the lock.
-    pub culling: bool,
-    /// k-buffers: spin-lock tries per fragment (default 4096).
-    pub max_tries: Option<u32>,
-}
-
-impl Default for RenderOptions {
-    fn default() -> Self {
-        RenderOptions {
-            width: 512,
-            height: 512,
-            effect: Effect::Transparency,
-            background: Background::Checker,
-            k: None,
-            budget_mb: None,
-            abuffer_initial_nodes: None,
-            tail: Tail::Drop,
-            culling: true,
-            max_tries: None,
-        }
-    }
-}
-
-impl RenderOptions {
-    pub fn pixels(&self) -> u64 {
-        self.width as u64 * self.height as u64
-    }
-
-    pub fn budget_bytes(&self) -> Option<u64> {
-        self.budget_mb.map(|m| (m * 1048576.0) as u64)
-    }
-
-    pub fn validate(&self) -> Result<()> {
-        if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
-            return Err(Error::input(format!(
-                "size {}x{} is out of range (1..16384 per side)",
-                self.width, self.height
-            )));
-        }
-        if let Some(b) = self.budget_mb {
-            if b.is_nan() || b <= 0.0 {
-                return Err(Error::input(format!("--budget-mb {b} must be positive")));
-            }
-        }
-        Ok(())
-    }
-}
-
-/// What every frame reports (`--stats FILE.json`). Unknown values are `None` (`null`).
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct FrameStats {
-    pub method: String,
-    pub width: u32,
-    pub height: u32,
-    pub k: Option<u32>,
-    pub effect: String,
-    pub geometry_passes: Option<u32>,
-    pub gpu_ms: Option<BTreeMap<String, f64>>,
-    pub gpu_ms_total: Option<f64>,
-    pub fragments_generated: Option<u64>,
-    pub fragments_stored: Option<u64>,
-    pub fragments_dropped: Option<u64>,
-    pub max_depth_complexity: Option<u32>,
-    pub bytes_allocated: Option<u64>,
-    pub overflow: Option<bool>,
-    pub lock_failures: Option<u64>,
-    pub adapter: Option<String>,
-    pub backend: Option<String>,
-}
+/// Exact mode gives up after this many frames of one picture (each one grows what overflowed,
+/// so two suffice unless the scene changed in between).
+pub const MAX_EXACT_FRAMES: u32 = 4;
 
 /// A rendered frame before encoding: per pixel linear RGB and the number of fragments composited.
 #[derive(Clone, Debug, PartialEq)]
@@ -215,165 +68,14 @@ pub fn save_png(img: &image::RgbaImage, path: &std::path::Path) -> Result<()> {
         .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))
 }
 
-/// The scene on the GPU: the flattened triangles, materials, lights and the frame uniforms,
-/// with the group-0 layout every method's pipelines start with.
-pub struct SceneGpu {
-    pub triangle_count: u32,
-    pub vertices: wgpu::Buffer,
-    pub materials: wgpu::Buffer,
-    pub lights: wgpu::Buffer,
-    pub identity_order: wgpu::Buffer,
-    pub uniforms: wgpu::Buffer,
-    pub frame_layout: wgpu::BindGroupLayout,
-    pub camera: Camera,
-    /// Positions of every triangle's vertices, for methods that order triangles on the CPU.
-    pub cpu_positions: Vec<[f32; 3]>,
-}
-
-pub const FRAME_SLOTS: [Slot; 6] = [
-    Slot::Uniform,
-    Slot::Storage,
-    Slot::Storage,
-    Slot::Storage,
-    Slot::Storage,
-    Slot::TextureDepth,
-];
-
-impl SceneGpu {
-    pub fn new(gpu: &Gpu, scene: &Scene, options: &RenderOptions) -> Result<SceneGpu> {
-        scene.validate()?;
-        let tris = scene.triangles();
-        let triangle_count = (tris.len() / 3) as u32;
-        let vertex_bytes = (tris.len() * std::mem::size_of::<crate::scene::GpuVertex>()) as u64;
-        if vertex_bytes > gpu.max_storage_binding() {
-            return Err(Error::unsupported(format!(
-                "scene has {triangle_count} triangles ({:.0} MiB), more than the device binds in one buffer",
-                vertex_bytes as f64 / 1048576.0
-            )));
-        }
-        let init = |label: &str, contents: &[u8], usage| {
-            gpu.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage,
-                })
-        };
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let materials: Vec<_> = scene.materials.iter().map(uniforms::gpu_material).collect();
-        let setup = uniforms::lighting(scene);
-        let mut lights = setup.lights.clone();
-        if lights.is_empty() {
-            lights.push(bytemuck::Zeroable::zeroed()); // bindings cannot be empty
-        }
-        let camera = scene.camera_or_framing();
-        let order: Vec<u32> = (0..triangle_count).collect();
-        let u = uniforms::frame_uniforms(&camera, options, &setup);
-        Ok(SceneGpu {
-            triangle_count,
-            vertices: init(
-                "strata.scene.vertices",
-                bytemuck::cast_slice(&tris),
-                storage,
-            ),
-            materials: init(
-                "strata.scene.materials",
-                bytemuck::cast_slice(&materials),
-                storage,
-            ),
-            lights: init(
-                "strata.scene.lights",
-                bytemuck::cast_slice(&lights),
-                storage,
-            ),
-            identity_order: init("strata.scene.order", bytemuck::cast_slice(&order), storage),
-            uniforms: init(
-                "strata.frame.uniforms",
-                bytemuck::bytes_of(&u),
-                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            ),
-            frame_layout: binding::layout(&gpu.device, "strata.frame.layout", &FRAME_SLOTS),
-            camera,
-            cpu_positions: tris.iter().map(|v| v.position).collect(),
-        })
-    }
-
-    /// Group 0 for a frame, drawing triangles in `order` (default: primitive order).
-    pub fn frame_group(
-        &self,
-        gpu: &Gpu,
-        opaque_depth: &wgpu::TextureView,
-        order: Option<&wgpu::Buffer>,
-    ) -> wgpu::BindGroup {
-        binding::group(
-            &gpu.device,
-            "strata.frame.group",
-            &self.frame_layout,
-            &[
-                self.uniforms.as_entire_binding(),
-                self.vertices.as_entire_binding(),
-                self.materials.as_entire_binding(),
-                self.lights.as_entire_binding(),
-                order.unwrap_or(&self.identity_order).as_entire_binding(),
-                wgpu::BindingResource::TextureView(opaque_depth),
-            ],
-        )
-    }
-}
-
-/// What a method gets for one frame.
-pub struct FrameContext<'a> {
-    pub gpu: &'a Gpu,
-    pub scene: &'a SceneGpu,
-    pub options: &'a RenderOptions,
-    pub timer: &'a mut Timer,
-    /// Group 0 bound to the scene in primitive order.
-    pub frame_group: &'a wgpu::BindGroup,
-    /// The depth of opaque surfaces (cleared to 1.0 when there are none).
-    pub opaque_depth: &'a wgpu::TextureView,
-    /// Per pixel `vec4<f32>(rgb, fragment count)`, the method's result.
-    pub output: &'a wgpu::Buffer,
-    /// Issues the geometry's draw calls; `None` draws every triangle of the scene.
-    pub draw: Option<&'a DrawCallback<'a>>,
-}
-
-/// Issues draw calls into a geometry pass whose pipeline and bind groups the method has set: the
-/// vertex stage pulls triangle `t` as vertices 3t..3t+3 of the scene's triangle list, so a
-/// callback draws any ranges (culled subsets, chunks) of it.
-pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
-
-impl FrameContext<'_> {
-    /// Records the geometry's draws into a pass whose pipeline and bind groups are set.
-    pub fn draw_geometry(&self, pass: &mut wgpu::RenderPass<'_>) {
-        match self.draw {
-            Some(draw) => draw(pass),
-            None => pass.draw(0..self.scene.triangle_count * 3, 0..1),
-        }
-    }
-
-    pub fn pixels(&self) -> u64 {
-        self.options.pixels()
-    }
-
-    /// Workgroups of 8×8 covering the image.
-    pub fn pixel_workgroups(&self) -> (u32, u32) {
-        (
-            self.options.width.div_ceil(8),
-            self.options.height.div_ceil(8),
-        )
-    }
-}
-
-/// Renders a scene with the GPU methods. Holds the scene buffers and each method's resources
-/// between frames, so a second frame reuses what the first sized.
+/// Renders a scene with the GPU methods in exact mode. Holds one [`FrameRecorder`] (the scene
+/// buffers and each method's resources), so a second picture reuses what the first sized.
 pub struct Renderer<'g> {
     gpu: &'g Gpu,
-    scene: SceneGpu,
+    scene: Scene,
     options: RenderOptions,
-    timer: Timer,
     opaque: wgpu::Texture,
-    output: wgpu::Buffer,
-    methods: BTreeMap<String, Box<dyn Method>>,
+    recorder: Option<FrameRecorder>,
 }
 
 impl<'g> Renderer<'g> {
@@ -386,7 +88,7 @@ impl<'g> Renderer<'g> {
                 options.width, options.height
             )));
         }
-        let scene_gpu = SceneGpu::new(gpu, scene, options)?;
+        scene.validate()?;
         let opaque = gpu.texture_2d(
             "strata.opaque_depth",
             (options.width, options.height),
@@ -394,19 +96,12 @@ impl<'g> Renderer<'g> {
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         );
         clear_depth(gpu, &opaque.create_view(&Default::default()), 1.0);
-        let output = gpu.storage_buffer(
-            "strata.output",
-            options.pixels() * 16,
-            wgpu::BufferUsages::COPY_SRC,
-        )?;
         Ok(Renderer {
             gpu,
-            scene: scene_gpu,
+            scene: scene.clone(),
             options: options.clone(),
-            timer: Timer::new(gpu),
             opaque,
-            output,
-            methods: BTreeMap::new(),
+            recorder: None,
         })
     }
 
@@ -420,100 +115,132 @@ impl<'g> Renderer<'g> {
         &self.opaque
     }
 
-    /// Renders one frame with `method_id` and reads it back.
-    pub fn render(&mut self, method_id: &str) -> Result<(LinearImage, FrameStats)> {
-        self.render_frame(method_id, None)
+    /// The recorder behind the renderer, once a picture was rendered (tests poison its buffers).
+    pub fn recorder(&self) -> Option<&FrameRecorder> {
+        self.recorder.as_ref()
+    }
+
+    /// Renders one picture with `method` (an id of the catalogue) and reads it back.
+    pub fn render(&mut self, method: &str) -> Result<(LinearImage, FrameStats)> {
+        self.render_frame(method.parse()?, None)
     }
 
     /// Like [`Renderer::render`], with the application issuing the draw calls of every geometry
     /// pass (see [`DrawCallback`]).
     pub fn render_with(
         &mut self,
-        method_id: &str,
+        method: &str,
         draw: &DrawCallback<'_>,
     ) -> Result<(LinearImage, FrameStats)> {
-        self.render_frame(method_id, Some(draw))
+        self.render_frame(method.parse()?, Some(draw))
+    }
+
+    /// Renders with a typed method id.
+    pub fn render_method(
+        &mut self,
+        method: MethodId,
+        draw: Option<&DrawCallback<'_>>,
+    ) -> Result<(LinearImage, FrameStats)> {
+        self.render_frame(method, draw)
     }
 
     fn render_frame(
         &mut self,
-        method_id: &str,
+        method: MethodId,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<(LinearImage, FrameStats)> {
-        if !self.methods.contains_key(method_id) {
-            let m = methods::create(method_id, self.gpu, &self.scene, &self.options)?;
-            self.methods.insert(method_id.to_string(), m);
+        let recorder = match &mut self.recorder {
+            Some(r) => {
+                r.set_method(method)?;
+                r
+            }
+            None => self.recorder.insert(FrameRecorder::new(
+                self.gpu,
+                &self.scene,
+                method,
+                &self.options,
+            )?),
+        };
+        let opaque = self.opaque.create_view(&Default::default());
+        let targets = FrameTargets {
+            color: None,
+            opaque_depth: Some(&opaque),
+        };
+        let (mut submits, mut blocking, mut passes, mut overflowed) = (0, 0, 0, false);
+        let mut report = None;
+        for _ in 0..MAX_EXACT_FRAMES {
+            let mut encoder = self
+                .gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("strata.exact_frame"),
+                });
+            recorder.record(&mut encoder, &targets, draw)?;
+            self.gpu.queue.submit([encoder.finish()]);
+            submits += 1;
+            let r = recorder.wait_stats()?;
+            blocking += 1;
+            passes += r.stats.geometry_passes.unwrap_or(0);
+            overflowed |= r.stats.overflow == Some(true) || r.incomplete;
+            let incomplete = r.incomplete;
+            if incomplete {
+                if let Some(why) = r.cannot_complete {
+                    return Err(Error::input(why));
+                }
+            }
+            report = Some(r.stats);
+            if !incomplete {
+                break;
+            }
         }
-        let method = self.methods.get_mut(method_id).expect("inserted above");
-        self.timer.reset();
-        let opaque_view = self.opaque.create_view(&Default::default());
-        let frame_group = self.scene.frame_group(self.gpu, &opaque_view, None);
-        let mut ctx = FrameContext {
-            gpu: self.gpu,
-            scene: &self.scene,
-            options: &self.options,
-            timer: &mut self.timer,
-            frame_group: &frame_group,
-            opaque_depth: &opaque_view,
-            output: &self.output,
-            draw,
-        };
-        let ms: MethodStats = method.render(&mut ctx)?;
-        let bytes = readback::read_buffer(self.gpu, &self.output, self.options.pixels() * 16)?;
-        let pixels: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        let image = LinearImage {
-            width: self.options.width,
-            height: self.options.height,
-            pixels,
-        };
-        let gpu_ms = self.timer.collect(self.gpu)?;
-        let composited: u64 = image.counts().iter().map(|&c| c as u64).sum();
-        let stats = FrameStats {
-            method: method_id.to_string(),
-            width: self.options.width,
-            height: self.options.height,
-            k: ms.k,
-            effect: self.options.effect.name().to_string(),
-            geometry_passes: Some(ms.geometry_passes),
-            gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
-            gpu_ms,
-            fragments_generated: Some(
-                ms.fragments_generated
-                    .unwrap_or(composited + ms.fragments_dropped.unwrap_or(0)),
-            ),
-            fragments_stored: Some(ms.fragments_stored.unwrap_or(composited)),
-            fragments_dropped: ms.fragments_dropped,
-            max_depth_complexity: ms.max_depth_complexity.or(Some(image.max_count())),
-            bytes_allocated: Some(ms.bytes_allocated),
-            overflow: ms.overflow,
-            lock_failures: ms.lock_failures,
-            adapter: Some(self.gpu.info.name.clone()),
-            backend: Some(self.gpu.backend_name()),
-        };
-        Ok((image, stats))
+        let mut stats = report.expect("at least one frame");
+        if let Some(s) = stats.overflow.as_mut() {
+            *s = overflowed;
+        }
+        stats.geometry_passes = Some(passes);
+        let bytes = readback::read_buffer(
+            self.gpu,
+            recorder.resolved(),
+            self.options.pixels() * crate::frame::RESOLVED_BYTES,
+        )?;
+        blocking += 1;
+        stats.submits = submits + 1;
+        stats.blocking_readbacks = blocking;
+        let resolved: Vec<Resolved> = bytemuck::pod_collect_to_vec(&bytes);
+        let (w, h) = (self.options.width, self.options.height);
+        let background = self.options.background;
+        let pixels = resolved
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let bg = background.at(i as u32 % w, i as u32 / w);
+                let t = 1.0 - r.color[3];
+                [
+                    r.color[0] + t * bg[0],
+                    r.color[1] + t * bg[1],
+                    r.color[2] + t * bg[2],
+                    r.count as f32,
+                ]
+            })
+            .collect();
+        Ok((
+            LinearImage {
+                width: w,
+                height: h,
+                pixels,
+            },
+            stats,
+        ))
     }
 }
 
+/// Clears a depth texture to `value` (a setup step, submitted on its own).
 pub fn clear_depth(gpu: &Gpu, view: &wgpu::TextureView, value: f32) {
     let mut enc = gpu
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("strata.clear_depth"),
         });
-    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("strata.clear_depth"),
-        color_attachments: &[],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view,
-            depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Clear(value),
-                store: wgpu::StoreOp::Store,
-            }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
+    crate::frame::recorder::clear_depth_pass(&mut enc, view, value);
     gpu.queue.submit([enc.finish()]);
 }

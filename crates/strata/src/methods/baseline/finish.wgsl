@@ -1,8 +1,9 @@
-// Puts the blended color over the background and writes (rgb, count) to the output.
+// The blended color is already premultiplied with alpha = 1 − transmittance: it becomes the
+// pixel's result as it is, with the fragment count.
 
 @group(1) @binding(0) var<storage, read_write> counts: array<u32>;
 @group(1) @binding(1) var blended: texture_2d<f32>;
-@group(1) @binding(2) var<storage, read_write> output: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read_write> output: array<Resolved>;
 
 @compute @workgroup_size(8, 8)
 fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -10,7 +11,8 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let pixel = id.xy;
-    let c = textureLoad(blended, vec2<i32>(pixel), 0);
     let i = pixel_index(pixel);
-    output[i] = vec4<f32>(c.rgb + (1.0 - c.a) * background_at(pixel), f32(counts[i]));
+    let count = counts[i];
+    output[i] = Resolved(textureLoad(blended, vec2<i32>(pixel), 0), count, 0u, 0u, 0u);
+    report_pixel(count, count);
 }

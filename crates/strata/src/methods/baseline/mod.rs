@@ -8,12 +8,11 @@
 //! point); translucency gets Fresnel opacity but no absorption, which needs ordered neighbours.
 
 use crate::error::Result;
+use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
+use crate::gpu::passes::{attachment, capture_pipeline, compute_pipeline, dispatch_pixels};
 use crate::gpu::{shader, Gpu, ResourceCache};
-use crate::methods::{
-    attachment, capture_pipeline, compute_pipeline, dispatch_pixels, Method, MethodStats,
-};
-use crate::render::{FrameContext, SceneGpu};
+use crate::methods::Method;
 
 const BLEND_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
@@ -92,7 +91,7 @@ impl Blend {
 }
 
 impl Method for Blend {
-    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let (w, h) = (ctx.options.width, ctx.options.height);
         let target = self.cache.texture(
@@ -145,11 +144,13 @@ impl Method for Blend {
                 ctx.output.as_entire_binding(),
             ],
         );
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        enc.clear_buffer(&counts, 0, None);
+        ctx.encoder.clear_buffer(&counts, 0, None);
         {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("strata.blend"),
+            let label = ctx.label("blend");
+            let draw = ctx.draw;
+            let triangles = ctx.scene.triangle_count;
+            let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(&label),
                 color_attachments: &[attachment(&target_view, wgpu::Color::TRANSPARENT)],
                 depth_stencil_attachment: None,
                 timestamp_writes: ctx.timer.render_pass("blend"),
@@ -159,20 +160,25 @@ impl Method for Blend {
             pass.set_pipeline(&self.blend);
             pass.set_bind_group(0, Some(frame_group), &[]);
             pass.set_bind_group(1, Some(&blend_group), &[]);
-            ctx.draw_geometry(&mut pass);
+            match draw {
+                Some(draw) => draw(&mut pass),
+                None => pass.draw(0..triangles * 3, 0..1),
+            }
         }
-        dispatch_pixels(
-            ctx,
-            &mut enc,
-            "finish",
-            &self.finish,
-            &[ctx.frame_group, &finish_group],
-        );
-        gpu.queue.submit([enc.finish()]);
-        Ok(MethodStats {
+        let frame_group = ctx.frame_group;
+        dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &finish_group]);
+        Ok(Recorded {
             geometry_passes: 1,
             bytes_allocated: bytes,
             ..Default::default()
         })
+    }
+
+    fn stats(&mut self, _: &Recorded, _: &Totals, _: Option<&[u32]>) -> MethodStats {
+        MethodStats::default()
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        vec![&self.cache]
     }
 }

@@ -3,17 +3,20 @@
 // the tail with --tail blend. Used by `abuffer-fixed` (stride k) and `kb-ab-fixed` (stride sized
 // from measured need, the k nearest selected in resolve).
 
-@fragment
-fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let p = pixel_index(pixel_of(v.position));
-    let f = scene_fragment(v, front_facing);
+// The capture step: a slot from the pixel's counter, or the tail.
+fn capture_fixed(p: u32, f: Fragment) {
     let s = count_seen(p);
     if s < kp.stride {
         store_slot(p, s, f);
     } else {
         tail_add(p, f);
     }
+}
+
+@fragment
+fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_fixed(kpixel(v.position), scene_fragment(v, front_facing));
 }

@@ -25,22 +25,21 @@ fn sorted_insert(p: u32, f: Fragment) {
         i -= 1u;
     }
     store_slot(p, i, f);
-    // Published only once the slots are written: the culling test outside the lock reads them.
     if n < kp.k {
         atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
     }
-}
-
-fn culled_sorted(p: u32, f: Fragment) -> bool {
-    return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && f.depth > load_depth(p, kp.k - 1u);
+    if n + 1u >= kp.k {
+        publish_bound(p, load_slot(p, kp.k - 1u).depth);
+    }
 }
 
 const UNLOCKED: u32 = 0u;
 const LOCKED: u32 = 1u;
 
+// The capture step of kb (UNLOCKED) and kb-ps (LOCKED).
 fn capture_sorted(p: u32, f: Fragment, locking: u32) {
     count_seen(p);
-    if culled_sorted(p, f) {
+    if culled(p, f) {
         tail_add(p, f);
         return;
     }
@@ -63,7 +62,7 @@ fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
-    capture_sorted(pixel_index(pixel_of(v.position)), scene_fragment(v, front_facing), UNLOCKED);
+    capture_sorted(kpixel(v.position), scene_fragment(v, front_facing), UNLOCKED);
 }
 
 @fragment
@@ -71,5 +70,5 @@ fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
-    capture_sorted(pixel_index(pixel_of(v.position)), scene_fragment(v, front_facing), LOCKED);
+    capture_sorted(kpixel(v.position), scene_fragment(v, front_facing), LOCKED);
 }

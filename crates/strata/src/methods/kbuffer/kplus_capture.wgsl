@@ -1,8 +1,8 @@
 // k+-buffer capture (Vasilakis et al. 2015): the k nearest fragments, unsorted, in one pass.
 // max-array keeps the farthest stored fragment in slot 0; max-heap keeps a binary max-heap.
-// Fragments strictly behind the farthest depth of a full pixel are culled before taking the
-// lock (one atomic word, which cannot tear), and the full test is repeated inside it. Order is
-// (depth, primitive): exact with ties.
+// Fragments strictly behind the published bound of a full pixel (storage.wgsl) are culled before
+// taking the lock, and the full test is repeated inside it. Order is (depth, primitive): exact
+// with ties.
 
 // Inserts into a max-array holding `n` fragments (lock held).
 fn array_insert(p: u32, n: u32, f: Fragment) {
@@ -19,6 +19,9 @@ fn array_insert(p: u32, n: u32, f: Fragment) {
             store_slot(p, 0u, f);
         }
         atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
+        if n + 1u == kp.k {
+            publish_bound(p, load_slot(p, 0u).depth);
+        }
         return;
     }
     let m = load_slot(p, 0u);
@@ -28,6 +31,7 @@ fn array_insert(p: u32, n: u32, f: Fragment) {
     }
     tail_add(p, m);
     array_replace_max(p, f);
+    publish_bound(p, load_slot(p, 0u).depth);
 }
 
 // Puts `f` in place of the maximum of a full max-array and moves the new maximum to slot 0.
@@ -63,6 +67,9 @@ fn heap_insert(p: u32, n: u32, f: Fragment) {
         }
         store_slot(p, i, f);
         atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
+        if n + 1u == kp.k {
+            publish_bound(p, load_slot(p, 0u).depth);
+        }
         return;
     }
     let root = load_slot(p, 0u);
@@ -93,17 +100,14 @@ fn heap_insert(p: u32, n: u32, f: Fragment) {
         i = child;
     }
     store_slot(p, i, f);
-}
-
-// True when `f` is strictly behind a full pixel's farthest depth (slot 0): it cannot enter.
-// Ties go through the lock, whose test also orders by primitive.
-fn culled(p: u32, f: Fragment) -> bool {
-    return kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k && f.depth > load_depth(p, 0u);
+    publish_bound(p, load_slot(p, 0u).depth);
 }
 
 const VARIANT_ARRAY: u32 = 0u;
 const VARIANT_HEAP: u32 = 1u;
 
+// The capture step of kplus-array (variant 0) and kplus-heap (variant 1): any fragment shader
+// with these bindings can call it with its pixel (`kpixel`) and its fragment.
 fn capture_locked(p: u32, f: Fragment, variant: u32) {
     count_seen(p);
     if culled(p, f) {
@@ -130,7 +134,7 @@ fn fs_kplus_array(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
-    capture_locked(pixel_index(pixel_of(v.position)), scene_fragment(v, front_facing), VARIANT_ARRAY);
+    capture_locked(kpixel(v.position), scene_fragment(v, front_facing), VARIANT_ARRAY);
 }
 
 @fragment
@@ -138,27 +142,21 @@ fn fs_kplus_heap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
-    capture_locked(pixel_index(pixel_of(v.position)), scene_fragment(v, front_facing), VARIANT_HEAP);
+    capture_locked(kpixel(v.position), scene_fragment(v, front_facing), VARIANT_HEAP);
 }
 
 // Revised max-array: the first k fragments take slots from the seen counter without the lock
 // ("fast store") and publish themselves in FILLED; later fragments take the lock, wait (within
-// the try bound) until all k slots are published, find the maximum once (AUX marks it found),
-// then replace as the max-array does.
-@fragment
-fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let p = pixel_index(pixel_of(v.position));
-    let f = scene_fragment(v, front_facing);
+// the try bound) until all k slots are published, find the maximum once (a published bound marks
+// it found), then replace as the max-array does.
+fn capture_array_r(p: u32, f: Fragment) {
     let s = count_seen(p);
     if s < kp.k {
         store_slot(p, s, f);
         atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
         return;
     }
-    if kp.culling != 0u && atomicLoad(&pixels[pixel_word(p, AUX)]) != 0u && f.depth > load_depth(p, 0u) {
+    if culled(p, f) {
         tail_add(p, f);
         return;
     }
@@ -169,14 +167,15 @@ fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) 
                 unlock(p);
                 continue;
             }
-            if atomicLoad(&pixels[pixel_word(p, AUX)]) == 0u {
+            if atomicLoad(&pixels[pixel_word(p, BOUND)]) == 0u {
                 array_replace_max(p, load_slot(p, 0u));
-                atomicStore(&pixels[pixel_word(p, AUX)], 1u);
+                publish_bound(p, load_slot(p, 0u).depth);
             }
             let m = load_slot(p, 0u);
             if fragment_before(f, m) {
                 tail_add(p, m);
                 array_replace_max(p, f);
+                publish_bound(p, load_slot(p, 0u).depth);
             } else {
                 tail_add(p, f);
             }
@@ -185,4 +184,12 @@ fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) 
         }
     }
     lock_failed(p, f);
+}
+
+@fragment
+fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_array_r(kpixel(v.position), scene_fragment(v, front_facing));
 }

@@ -1,21 +1,25 @@
-//! k-buffers on per-pixel linked lists (seed 003 Table 1): `kb-ab-ll` (the A-buffer's lists, k
-//! nearest selected in resolve) and `kb-ll` (sorted insertion by compare-exchange with bounded
-//! retries; losses are counted in `lock_failures` and `fragments_dropped`).
+//! Per-pixel linked lists in one node pool (Yang et al. 2010), shared by `abuffer-ll` (every
+//! fragment composited), `kb-ab-ll` (the k nearest selected in the resolve) and `kb-ll` (sorted
+//! insertion by compare-exchange with bounded retries; losses are counted in `lock_failures` and
+//! `fragments_dropped`).
 //!
-//! Passes: clear; capture (1 geometry pass, +1 when the node pool overflows: the pool is sized
-//! from measured need and the frame re-rendered, as `abuffer-ll` does); the shared k resolve.
-//! Memory: 20 bytes per node, 16 per pixel of counters and head, 20 per pixel of tail sums with
-//! `--tail blend`.
-
-use super::{k_of, params_for, stats_from_counters, KFrame, Storage, RESOLVE_WGSL, STORAGE_WGSL};
+//! Passes: clear; capture (1 geometry pass); the shared k resolve. The pool is sized from
+//! measured need: a frame whose pool ran out keeps what fit, counts the rest (dropped,
+//! `overflow`), grows the pool to the need + 25% for the next frame and reports itself
+//! incomplete, so exact mode renders it again (2 geometry passes). A pool more than twice the
+//! need shrinks to it (+25%). The pool is bounded by `--budget-mb` and the device's largest
+//! storage binding; a frame needing more is an error in exact mode. Memory: 20 bytes per node,
+//! 16 per pixel of counters and head, 40 per pixel of tail sums with `--tail blend`.
+use super::{
+    k_of, lock_failures, params_for, KFrame, Storage, COUNTER_ALLOCATED, COUNTER_LOST,
+    COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL, STORAGE_WGSL,
+};
 use crate::error::{Error, Result};
-use crate::gpu::{shader, Gpu};
-use crate::methods::{Method, MethodStats};
-use crate::render::{FrameContext, SceneGpu};
+use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
+use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::{Method, MethodId};
 
 pub const NODE_BYTES: u64 = 20;
-const COUNTER_ALLOCATED: usize = 3;
-const COUNTER_LOST: usize = 4;
 const FIRST_GUESS_PER_PIXEL: u64 = 4;
 const MIN_NODES: u64 = 1024;
 
@@ -36,86 +40,125 @@ pub fn resolve_source() -> String {
 }
 
 pub struct ListKBuffer {
-    sorted: bool,
+    id: MethodId,
     frame: KFrame,
     capture: wgpu::RenderPipeline,
+    /// Nodes the next frame's pool holds.
     capacity: u64,
+    /// The most nodes memory allowed when the last frame was recorded, and whether the limit
+    /// is the budget.
+    max_nodes: (u64, bool),
 }
 
 impl ListKBuffer {
-    pub fn new(
-        gpu: &Gpu,
-        scene: &SceneGpu,
-        id: &'static str,
-        sorted: bool,
-        initial_nodes: Option<u64>,
-        pixels: u64,
-    ) -> ListKBuffer {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> ListKBuffer {
         let frame = KFrame::new(gpu, scene, id, &resolve_source());
-        let module = shader::module(
-            &gpu.device,
-            &format!("strata.{id}.capture"),
-            &capture_source(),
-        );
-        let capture = frame.capture_pipeline(
-            gpu,
-            scene,
-            &module,
-            if sorted { "fs_sorted_ll" } else { "fs_ab_ll" },
-        );
+        let module = frame.capture_module(gpu, capture_source());
+        let entry = if id == MethodId::KbLl {
+            "fs_sorted_ll"
+        } else {
+            "fs_ab_ll"
+        };
         ListKBuffer {
-            sorted,
+            id,
+            capture: frame.capture_pipeline(gpu, scene, &module, entry),
             frame,
-            capture,
-            capacity: initial_nodes
-                .unwrap_or(pixels * FIRST_GUESS_PER_PIXEL)
+            capacity: options
+                .abuffer_initial_nodes
+                .unwrap_or(options.pixels() * FIRST_GUESS_PER_PIXEL)
                 .max(1),
+            max_nodes: (u64::MAX, false),
         }
+    }
+
+    /// The most nodes memory allows: the budget (less the per-pixel words) and the binding limit.
+    fn max_nodes(ctx: &FrameContext<'_>) -> u64 {
+        let by_binding = ctx.gpu.max_storage_binding() / NODE_BYTES;
+        let by_budget = ctx
+            .options
+            .budget_bytes()
+            .map(|b| {
+                b.saturating_sub(ctx.pixels() * PIXEL_BYTES + super::CONSTANT_BYTES) / NODE_BYTES
+            })
+            .unwrap_or(u64::MAX);
+        by_binding.min(by_budget).min(u32::MAX as u64 / 2)
     }
 }
 
 impl Method for ListKBuffer {
-    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
-        let k = k_of(ctx.options)?;
-        let gpu = ctx.gpu;
-        let max_nodes = gpu.max_storage_binding() / NODE_BYTES;
-        let mut passes = 0;
-        let mut overflowed = false;
-        loop {
-            passes += 1;
-            let storage = Storage {
-                label: "strata.kbuffer.nodes",
-                bytes: self.capacity * NODE_BYTES,
-                clear: false,
-            };
-            let (c, total) = self.frame.run(
-                ctx,
-                params_for(ctx.options, k, k, false),
-                storage,
-                &[("capture", &self.capture)],
-            )?;
-            let needed = c[COUNTER_ALLOCATED] as u64;
-            if needed <= self.capacity {
-                let fitted = (needed + needed / 4).max(MIN_NODES);
-                if self.capacity > 2 * fitted {
-                    self.capacity = fitted;
-                }
-                let mut stats = stats_from_counters(&c, k, passes, total);
-                stats.overflow = Some(overflowed);
-                if self.sorted {
-                    stats.lock_failures = Some(c[COUNTER_LOST] as u64);
-                }
-                return Ok(stats);
-            }
-            overflowed = true;
-            if needed > max_nodes {
-                return Err(Error::unsupported(format!(
-                    "{}: the frame needs {needed} nodes ({:.1} MiB), more than the device binds in one buffer",
-                    self.frame.id,
-                    (needed * NODE_BYTES) as f64 / 1048576.0
-                )));
-            }
-            self.capacity = (needed + needed / 4).min(max_nodes);
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        // abuffer-ll composites every fragment: its k is unbounded.
+        let k = if self.id == MethodId::AbufferLl {
+            u32::MAX
+        } else {
+            k_of(ctx.options, self.id)?
+        };
+        let max_nodes = Self::max_nodes(ctx);
+        if max_nodes == 0 {
+            return Err(Error::input(format!(
+                "{}: --budget-mb {} cannot even hold the {}x{} per-pixel words ({} bytes)",
+                self.id,
+                ctx.options.budget_mb.unwrap_or(0.0),
+                ctx.options.width,
+                ctx.options.height,
+                ctx.pixels() * PIXEL_BYTES
+            )));
         }
+        self.max_nodes = (max_nodes, ctx.options.budget_mb.is_some());
+        self.capacity = self.capacity.clamp(1, max_nodes);
+        let storage = Storage {
+            label: "strata.kbuffer.nodes",
+            bytes: self.capacity * NODE_BYTES,
+            clear: false,
+        };
+        let params = params_for(ctx, k, k, false);
+        let bytes = self
+            .frame
+            .record(ctx, params, storage, &[("capture", &self.capture)])?;
+        Ok(Recorded {
+            geometry_passes: 1,
+            k: (self.id != MethodId::AbufferLl).then_some(k),
+            bytes_allocated: bytes,
+            capacity: self.capacity,
+        })
+    }
+
+    fn stats(&mut self, recorded: &Recorded, _: &Totals, words: Option<&[u32]>) -> MethodStats {
+        let Some(words) = words else {
+            return MethodStats::default();
+        };
+        let overflowed = wide(words, COUNTER_OVERFLOWED);
+        let allocated = (words[COUNTER_ALLOCATED] as u64).min(recorded.capacity);
+        let needed = allocated + overflowed;
+        let fitted = (needed + needed / 4).max(MIN_NODES);
+        if overflowed > 0 {
+            // Grow for the next frame; the limit applies when it is recorded.
+            self.capacity = fitted.max(recorded.capacity + 1);
+        } else if self.capacity > 2 * fitted {
+            self.capacity = fitted;
+        }
+        let mut stats = MethodStats {
+            overflow: Some(overflowed > 0),
+            incomplete: overflowed > 0,
+            ..Default::default()
+        };
+        let (max_nodes, by_budget) = self.max_nodes;
+        if needed > max_nodes {
+            stats.cannot_complete = Some(format!(
+                "{}: the frame has {needed} fragments ({:.1} MiB of nodes), more than {} allows ({:.1} MiB)",
+                self.id,
+                (needed * NODE_BYTES) as f64 / 1048576.0,
+                if by_budget { "--budget-mb" } else { "the device's largest storage buffer" },
+                (max_nodes * NODE_BYTES) as f64 / 1048576.0
+            ));
+        }
+        if self.id == MethodId::KbLl {
+            stats.lock_failures = Some(wide(words, COUNTER_LOST) + lock_failures(words));
+        }
+        stats
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        self.frame.resources()
     }
 }

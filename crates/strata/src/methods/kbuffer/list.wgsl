@@ -1,8 +1,12 @@
 // Per-pixel linked lists for the k-buffer family: nodes of 5 atomic words (depth bits, tag, rg,
 // ba, next) in one pool; a pixel's HEAD word (pixels[.., FILLED]) and every `next` hold node
-// index + 1, 0 ending the list. counters[COUNTER_ALLOCATED] hands out nodes and keeps counting
-// past the pool, so an overflowing frame knows what it needed.
-// kb-ab-ll: the A-buffer's unsorted push, the k nearest selected in resolve.
+// index + 1, 0 ending the list. counters[COUNTER_ALLOCATED] hands out nodes; once it reaches the
+// pool's size no fragment increments it again (it can pass the size only by the fragments in
+// flight at that moment, so it never wraps and no node is handed out twice), and the fragments
+// that found the pool full are counted in COUNTER_OVERFLOWED: the frame knows what it needed.
+// Every walk is bounded by the pool's size.
+// abuffer-ll, kb-ab-ll: the A-buffer's unsorted push, the k nearest (abuffer-ll: all) selected in
+//   resolve.
 // kb-ll: sorted insertion — walk to the fragment's place, link it with a compare-exchange on the
 //   predecessor's link, retry from the head when another fragment got there first; after
 //   `max_tries` failed exchanges the fragment is lost and counted. A place beyond the k-th node
@@ -25,10 +29,19 @@ fn node_next(link: u32) -> u32 {
     return atomicLoad(&nodes[node_word(link) + 4u]);
 }
 
-// Takes a node and writes the fragment into it; 0 when the pool is full.
+fn pool_nodes() -> u32 {
+    return arrayLength(&nodes) / 5u;
+}
+
+// Takes a node and writes the fragment into it; 0 when the pool is full (counted).
 fn new_node(f: Fragment) -> u32 {
+    if atomicLoad(&counters[COUNTER_ALLOCATED]) >= pool_nodes() {
+        counter_add(COUNTER_OVERFLOWED, 1u);
+        return 0u;
+    }
     let node = atomicAdd(&counters[COUNTER_ALLOCATED], 1u);
-    if node >= arrayLength(&nodes) / 5u {
+    if node >= pool_nodes() {
+        counter_add(COUNTER_OVERFLOWED, 1u);
         return 0u;
     }
     let w = node * 5u;
@@ -39,14 +52,10 @@ fn new_node(f: Fragment) -> u32 {
     return node + 1u;
 }
 
-@fragment
-fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let p = pixel_index(pixel_of(v.position));
+// The A-buffer's capture step: any fragment shader with these bindings can call it.
+fn capture_list(p: u32, f: Fragment) {
     count_seen(p);
-    let link = new_node(scene_fragment(v, front_facing));
+    let link = new_node(f);
     if link == 0u {
         return;
     }
@@ -54,13 +63,24 @@ fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
 }
 
 @fragment
+fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_list(kpixel(v.position), scene_fragment(v, front_facing));
+}
+
+@fragment
 fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
-    let p = pixel_index(pixel_of(v.position));
+    capture_sorted_list(kpixel(v.position), scene_fragment(v, front_facing));
+}
+
+// kb-ll's capture step.
+fn capture_sorted_list(p: u32, f: Fragment) {
     count_seen(p);
-    let f = scene_fragment(v, front_facing);
     var link = 0u;
     for (var t = 0u; t < kp.max_tries; t++) {
         // Walk to the first node not before f; `prev` is the predecessor's link (0: the head).
@@ -93,6 +113,6 @@ fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
             return;
         }
     }
-    atomicAdd(&counters[COUNTER_LOST], 1u);
+    counter_add(COUNTER_LOST, 1u);
     tail_add(p, f);
 }

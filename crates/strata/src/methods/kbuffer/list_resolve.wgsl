@@ -1,5 +1,5 @@
 // Resolve access to the linked lists: sequential reads follow a cursor, so visiting a list in
-// order costs one step per fragment.
+// order costs one step per fragment. Walks stop after the pool's size in nodes.
 
 var<private> cursor_index: u32 = 0xffffffffu;
 var<private> cursor_link: u32 = 0u;
@@ -7,7 +7,8 @@ var<private> cursor_link: u32 = 0u;
 fn stored_count(p: u32) -> u32 {
     var n = 0u;
     var at = atomicLoad(&pixels[pixel_word(p, HEAD)]);
-    while at != 0u {
+    let limit = pool_nodes();
+    while at != 0u && n < limit {
         n += 1u;
         at = node_next(at);
     }

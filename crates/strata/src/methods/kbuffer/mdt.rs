@@ -16,11 +16,11 @@
 //! Passes: clear; capture (1 or 2 geometry passes); the shared k resolve. Per pixel 16 bytes of
 //! counters and 20 of tail sums with `--tail blend`, as the other k-buffers.
 
-use super::{k_of, params_for, stats_from_counters, KFrame, Storage, RESOLVE_WGSL, STORAGE_WGSL};
+use super::{k_of, lock_failures, params_for, KFrame, Storage, RESOLVE_WGSL, STORAGE_WGSL};
 use crate::error::{Error, Result};
-use crate::gpu::{shader, Gpu};
-use crate::methods::{Method, MethodStats};
-use crate::render::{Effect, FrameContext, SceneGpu, Tail};
+use crate::frame::{Effect, FrameContext, MethodStats, Recorded, SceneGpu, Tail, Totals};
+use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::{Method, MethodId};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mdt {
@@ -30,15 +30,6 @@ pub enum Mdt {
 }
 
 impl Mdt {
-    pub fn from_id(id: &str) -> Option<Mdt> {
-        Some(match id {
-            "kb-mdt32" => Mdt::Mdt32,
-            "kb-mdt64" => Mdt::Mdt64,
-            "kb-mdt-pack" => Mdt::Pack,
-            _ => return None,
-        })
-    }
-
     /// Bytes per slot.
     pub fn slot_bytes(self) -> u64 {
         match self {
@@ -86,7 +77,7 @@ pub struct MdtKBuffer {
 }
 
 impl MdtKBuffer {
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: &'static str, mdt: Mdt) -> Result<MdtKBuffer> {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, mdt: Mdt) -> Result<MdtKBuffer> {
         if mdt == Mdt::Mdt64 && !gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) {
             return Err(Error::unsupported(format!(
                 "kb-mdt64 needs 64-bit storage atomics (SHADER_INT64_ATOMIC_ALL_OPS), which '{}' lacks; use kb-mdt32 or kb-mdt-pack",
@@ -94,11 +85,7 @@ impl MdtKBuffer {
             )));
         }
         let frame = KFrame::new(gpu, scene, id, &resolve_source(mdt));
-        let module = shader::module(
-            &gpu.device,
-            &format!("strata.{id}.capture"),
-            &capture_source(mdt),
-        );
+        let module = frame.capture_module(gpu, capture_source(mdt));
         let pipeline = |entry: &str| frame.capture_pipeline(gpu, scene, &module, entry);
         let passes = match mdt {
             Mdt::Mdt32 => vec![
@@ -113,7 +100,7 @@ impl MdtKBuffer {
 }
 
 impl Method for MdtKBuffer {
-    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         if self.mdt != Mdt::Mdt32 && ctx.options.effect == Effect::Translucency {
             return Err(Error::unsupported(format!(
                 "{} keeps no primitive or facing per fragment, which translucency needs; use kb-mdt32",
@@ -123,21 +110,31 @@ impl Method for MdtKBuffer {
         if self.mdt == Mdt::Pack && ctx.options.tail == Tail::Blend {
             return Err(Error::unsupported("kb-mdt-pack cannot blend a tail: a displaced key carries half a color; use --tail drop"));
         }
-        let k = k_of(ctx.options)?;
+        let k = k_of(ctx.options, self.frame.id)?;
         let storage = Storage {
             label: "strata.kbuffer.keys",
             bytes: ctx.pixels() * k as u64 * self.mdt.slot_bytes(),
             clear: true,
         };
         let passes: Vec<_> = self.passes.iter().map(|(name, p)| (*name, p)).collect();
-        let (counters, bytes) =
-            self.frame
-                .run(ctx, params_for(ctx.options, k, k, false), storage, &passes)?;
-        Ok(stats_from_counters(
-            &counters,
-            k,
-            self.passes.len() as u32,
-            bytes,
-        ))
+        let params = params_for(ctx, k, k, false);
+        let bytes = self.frame.record(ctx, params, storage, &passes)?;
+        Ok(Recorded {
+            geometry_passes: self.passes.len() as u32,
+            k: Some(k),
+            bytes_allocated: bytes,
+            capacity: k as u64,
+        })
+    }
+
+    fn stats(&mut self, _: &Recorded, _: &Totals, words: Option<&[u32]>) -> MethodStats {
+        MethodStats {
+            lock_failures: words.map(lock_failures),
+            ..Default::default()
+        }
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        self.frame.resources()
     }
 }

@@ -11,7 +11,7 @@
 @group(1) @binding(1) var<storage, read_write> keys: array<atomic<u32>>;
 
 fn slots_in_frame() -> u32 {
-    return frame.size.x * frame.size.y * kp.k;
+    return kp.pixels * kp.k;
 }
 
 fn depth_key(depth: f32) -> u32 {
@@ -67,7 +67,7 @@ fn fs_mdt32_depth(v: SceneVarying) {
     if behind_opaque(v.position) {
         discard;
     }
-    let p = pixel_index(pixel_of(v.position));
+    let p = kpixel(v.position);
     count_seen(p);
     let key = depth_key(v.position.z);
     let base = p * kp.k;
@@ -82,7 +82,7 @@ fn fs_mdt32_color(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
-    let p = pixel_index(pixel_of(v.position));
+    let p = kpixel(v.position);
     let f = scene_fragment(v, front_facing);
     let key = depth_key(f.depth);
     let base = p * kp.k;
@@ -141,7 +141,7 @@ fn fs_mdt_pack(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
-    let p = pixel_index(pixel_of(v.position));
+    let p = kpixel(v.position);
     count_seen(p);
     let f = scene_fragment(v, front_facing);
     let k2 = pack_keys(f.depth, fragment_color(f));

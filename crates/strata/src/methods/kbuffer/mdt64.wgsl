@@ -31,7 +31,7 @@ fn fs_mdt64(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
-    let p = pixel_index(pixel_of(v.position));
+    let p = kpixel(v.position);
     count_seen(p);
     var key = key64(scene_fragment(v, front_facing));
     let base = p * kp.k;

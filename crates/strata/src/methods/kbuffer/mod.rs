@@ -16,17 +16,34 @@
 //! - `kb-ab-fixed`: the same with the array sized from measured need (an overflowing frame is
 //!   re-rendered with a larger array) and the k nearest selected in the resolve.
 //!
-//! Passes: clear; capture (1 geometry pass); resolve (compute: insertion sort ≤ 16, shell sort
-//! ≤ 64, k-depth sort beyond, composite the k nearest, then the tail). Memory: 16 bytes per slot,
-//! 16 per pixel of counters and lock, 20 per pixel of tail sums with `--tail blend`, 84 bytes of
-//! parameters and counters.
+//! Passes: clear (per-pixel words, counters, tail); capture (1 geometry pass); resolve (compute:
+//! insertion sort ≤ 16, shell sort ≤ 64, k-depth sort beyond, composite the k nearest, then the
+//! tail). Memory: 16 bytes per slot, 16 per pixel of counters, lock and culling bound, 40 per
+//! pixel of tail sums with `--tail blend`, 136 bytes of parameters and counters.
+//!
+//! Frames: nothing is read back while recording. The counters (lock failures, losses, pool use)
+//! come back with the frame's statistics; `kb-ab-fixed` and the linked lists grow from the
+//! measured need for the next frame and report the frame incomplete, which exact mode renders
+//! again. Every per-pixel word a concurrent reader may see is cleared before each frame; slots
+//! and nodes are read only after this frame published them, so garbage left in them (tests
+//! poison them) never shows. Counters saturate or carry into a second word: none wraps.
+//!
+//! Limits on k: work under a per-pixel lock is serialized across all fragments of the pixel, and
+//! a GPU that runs too long loses the device. The O(k) critical sections (`kplus-array`,
+//! `kplus-array-r`, `kb-ps`, and `kb`'s unlocked equivalent) accept k ≤ 256, `kplus-heap`'s O(log k)
+//! one k ≤ 1024, the MDT cascades (O(k) atomics per fragment) k ≤ 512, `kb-ll`'s walks k ≤ 256;
+//! the A-buffers select k ≤ 4096 in the resolve. These are conservative bounds, not measured
+//! GPU limits: no GPU was available to measure them.
 //!
 //! Spin lock guarantees: every word a critical section touches is accessed atomically, so no
-//! holder reads a stale cached copy of the previous holder's writes (WGSL has no `@coherent`).
-//! WGSL atomics are relaxed, though, and fragment shaders have no fences: that the previous
-//! holder's slot stores are visible before its unlock is what GPUs do in practice (atomics go to
-//! the coherent cache level), not something the WGSL memory model guarantees; the same holds for
-//! `kplus-array-r`'s publication count and `kb-ll`'s node links. Every walk is bounded. The lock is
+//! holder reads a stale cached copy of the previous holder's writes. Where the adapter offers
+//! MEMORY_DECORATION_COHERENT the storage is also declared `@coherent` (SPIR-V Coherent), which
+//! makes plain accesses bypass incoherent caches; WGSL atomics stay relaxed either way and
+//! fragment shaders have no fences, so that the previous holder's slot stores are visible before
+//! its unlock is what GPUs do in practice (atomics go to the coherent cache level), not something
+//! the WGSL memory model guarantees; the same holds for `kplus-array-r`'s publication count and
+//! `kb-ll`'s node links. The locking methods are exact when `lock_failures` is 0. Every walk is
+//! bounded. The lock is
 //! taken with atomicExchange inside a loop whose body runs the critical section and breaks, so a
 //! SIMD lane that wins the lock finishes and releases it within the same iteration: no lane waits
 //! on another lane of its own group, and progress does not depend on independent thread
@@ -45,13 +62,13 @@ pub mod cpu;
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
+use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Tail, Totals};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{readback, shader, Gpu, ResourceCache};
-use crate::methods::{
-    capture_pipeline, compute_pipeline, storage_geometry_pass, submit_pixels, Method, MethodStats,
-    NullTarget,
+use crate::gpu::passes::{
+    capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass, NullTarget,
 };
-use crate::render::{FrameContext, RenderOptions, SceneGpu, Tail};
+use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::methods::{Method, MethodId};
 
 /// Keep in sync with `KParams` in storage.wgsl.
 #[repr(C)]
@@ -63,22 +80,23 @@ pub struct KParams {
     pub culling: u32,
     pub tail_blend: u32,
     pub count_by_seen: u32,
-    pub _pad: [u32; 2],
+    pub width: u32,
+    pub pixels: u32,
 }
 
-/// Counter words, in the order of storage.wgsl's COUNTER_ constants.
-const COUNTERS: u64 = 8;
-const COUNTER_LOCK_FAILURES: usize = 0;
-const COUNTER_DROPPED: usize = 1;
-const COUNTER_MAX_SEEN: usize = 2;
-const COUNTER_SEEN_TOTAL: usize = 5;
+/// Counter words, as storage.wgsl's COUNTER_ constants (64-bit counters take two words).
+pub const COUNTERS: u64 = 8;
+pub const COUNTER_LOCK_FAILURES: usize = 0;
+pub const COUNTER_ALLOCATED: usize = 2;
+pub const COUNTER_LOST: usize = 4;
+pub const COUNTER_OVERFLOWED: usize = 6;
 
-/// Bytes of per-frame constants: parameters (32), counters (32), the tail stub (20) when the
-/// tail is dropped.
-pub const CONSTANT_BYTES: u64 = 84;
+/// Bytes of per-frame constants: parameters (32), counters and their initial values (2 × 32),
+/// the tail stub (40) when the tail is dropped.
+pub const CONSTANT_BYTES: u64 = 136;
 pub const SLOT_BYTES: u64 = 16;
 pub const PIXEL_BYTES: u64 = 16;
-pub const TAIL_BYTES: u64 = 20;
+pub const TAIL_BYTES: u64 = 40;
 
 pub const DEFAULT_K: u32 = 16;
 /// Spin-lock tries per fragment before it counts as a lock failure.
@@ -96,19 +114,6 @@ pub enum Variant {
 }
 
 impl Variant {
-    pub fn from_id(id: &str) -> Option<Variant> {
-        Some(match id {
-            "kplus-array" => Variant::KplusArray,
-            "kplus-heap" => Variant::KplusHeap,
-            "kplus-array-r" => Variant::KplusArrayR,
-            "kb" => Variant::Kb,
-            "kb-ps" => Variant::KbPs,
-            "abuffer-fixed" => Variant::AbufferFixed,
-            "kb-ab-fixed" => Variant::KbAbFixed,
-            _ => return None,
-        })
-    }
-
     fn capture(self) -> (&'static str, &'static str, &'static str) {
         match self {
             Variant::KplusArray => (
@@ -140,11 +145,25 @@ pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
 pub const SLOTS_WGSL: &str = include_str!("slots.wgsl");
 pub const SLOTS_RESOLVE_WGSL: &str = include_str!("slots_resolve.wgsl");
 
-/// The k the options ask for, checked.
-pub fn k_of(options: &RenderOptions) -> Result<u32> {
+/// The largest k a method accepts (see the module docs).
+pub fn max_k(id: MethodId) -> u32 {
+    match id {
+        MethodId::KplusArray | MethodId::KplusArrayR | MethodId::KbPs | MethodId::Kb => 256,
+        MethodId::KbLl => 256,
+        MethodId::KplusHeap => 1024,
+        MethodId::KbMdt32 | MethodId::KbMdt64 | MethodId::KbMdtPack => 512,
+        _ => 4096,
+    }
+}
+
+/// The k the options ask for, checked against the method's limit.
+pub fn k_of(options: &RenderOptions, id: MethodId) -> Result<u32> {
     let k = options.k.unwrap_or(DEFAULT_K);
-    if k == 0 || k > 4096 {
-        return Err(Error::input(format!("--k {k} is outside 1..4096")));
+    let max = max_k(id);
+    if k == 0 || k > max {
+        return Err(Error::input(format!(
+            "--k {k} is outside 1..{max} for {id} (longer critical sections risk a GPU timeout)"
+        )));
     }
     Ok(k)
 }
@@ -178,79 +197,6 @@ pub fn check_memory(
     Ok(())
 }
 
-/// The parts every k-buffer frame shares: parameters, per-pixel words, counters, tail.
-pub struct FrameBuffers {
-    pub params: wgpu::Buffer,
-    pub pixels: wgpu::Buffer,
-    pub counters: wgpu::Buffer,
-    pub tail: wgpu::Buffer,
-    pub bytes: u64,
-}
-
-impl FrameBuffers {
-    pub fn new(
-        ctx: &FrameContext<'_>,
-        cache: &mut ResourceCache,
-        params: KParams,
-    ) -> Result<FrameBuffers> {
-        let gpu = ctx.gpu;
-        let px = ctx.pixels();
-        let params_buffer =
-            cache.uniform(gpu, "strata.kbuffer.params", bytemuck::bytes_of(&params));
-        let tail_bytes = if params.tail_blend != 0 {
-            px * TAIL_BYTES
-        } else {
-            TAIL_BYTES
-        };
-        let none = wgpu::BufferUsages::empty();
-        Ok(FrameBuffers {
-            params: params_buffer,
-            pixels: cache.storage(gpu, "strata.kbuffer.pixels", px * PIXEL_BYTES, none)?,
-            counters: cache.storage(
-                gpu,
-                "strata.kbuffer.counters",
-                COUNTERS * 4,
-                wgpu::BufferUsages::COPY_SRC,
-            )?,
-            tail: cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, none)?,
-            bytes: px * PIXEL_BYTES + tail_bytes + 64,
-        })
-    }
-
-    pub fn clear(&self, enc: &mut wgpu::CommandEncoder) {
-        enc.clear_buffer(&self.pixels, 0, None);
-        enc.clear_buffer(&self.counters, 0, None);
-        enc.clear_buffer(&self.tail, 0, None);
-    }
-
-    /// Group 1: parameters, the method's storage, pixels, counters, tail, output.
-    pub fn group(
-        &self,
-        gpu: &Gpu,
-        layout: &wgpu::BindGroupLayout,
-        storage: &wgpu::Buffer,
-        output: &wgpu::Buffer,
-    ) -> wgpu::BindGroup {
-        binding::group(
-            &gpu.device,
-            "strata.kbuffer.group",
-            layout,
-            &[
-                self.params.as_entire_binding(),
-                storage.as_entire_binding(),
-                self.pixels.as_entire_binding(),
-                self.counters.as_entire_binding(),
-                self.tail.as_entire_binding(),
-                output.as_entire_binding(),
-            ],
-        )
-    }
-
-    pub fn read_counters(&self, gpu: &Gpu) -> Result<Vec<u32>> {
-        readback::read_u32s(gpu, &self.counters, COUNTERS)
-    }
-}
-
 pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     binding::layout(
         &gpu.device,
@@ -266,24 +212,13 @@ pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     )
 }
 
-/// Stats from the resolve's counters.
-pub fn stats_from_counters(c: &[u32], k: u32, passes: u32, bytes: u64) -> MethodStats {
-    let seen = c[COUNTER_SEEN_TOTAL] as u64;
-    let dropped = c[COUNTER_DROPPED] as u64;
-    MethodStats {
-        geometry_passes: passes,
-        k: Some(k),
-        fragments_generated: Some(seen),
-        fragments_stored: Some(seen - dropped.min(seen)),
-        fragments_dropped: Some(dropped),
-        max_depth_complexity: Some(c[COUNTER_MAX_SEEN]),
-        bytes_allocated: bytes,
-        overflow: None,
-        lock_failures: Some(c[COUNTER_LOCK_FAILURES] as u64),
-    }
-}
-
-pub fn params_for(options: &RenderOptions, k: u32, stride: u32, count_by_seen: bool) -> KParams {
+pub fn params_for(
+    ctx: &FrameContext<'_>,
+    k: u32,
+    stride: u32,
+    count_by_seen: bool,
+) -> KParams {
+    let options = ctx.options;
     KParams {
         k,
         stride,
@@ -291,8 +226,14 @@ pub fn params_for(options: &RenderOptions, k: u32, stride: u32, count_by_seen: b
         culling: options.culling as u32,
         tail_blend: (options.tail == Tail::Blend) as u32,
         count_by_seen: count_by_seen as u32,
-        _pad: [0; 2],
+        width: options.width,
+        pixels: (ctx.pixels()).min(u32::MAX as u64) as u32,
     }
+}
+
+/// The lock failures (or compare-exchange losses) a frame counted.
+pub fn lock_failures(words: &[u32]) -> u64 {
+    crate::frame::wide(words, COUNTER_LOCK_FAILURES)
 }
 
 /// The fragment storage of a k-buffer frame.
@@ -303,23 +244,41 @@ pub struct Storage {
     pub clear: bool,
 }
 
-/// What every k-buffer method runs the same way: the group-1 layout, the resolve pipeline, the
-/// buffers kept between frames, and a frame — clear, capture passes, resolve, counters.
+/// Declares a method's storage as `@coherent` where the adapter supports it (see module docs).
+pub fn coherent(gpu: &Gpu, source: String) -> String {
+    if !gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT) {
+        return source;
+    }
+    source
+        .replace(
+            "@group(1) @binding(1) var<storage, read_write>",
+            "@group(1) @binding(1) @coherent var<storage, read_write>",
+        )
+        .replace(
+            "@group(1) @binding(2) var<storage, read_write>",
+            "@group(1) @binding(2) @coherent var<storage, read_write>",
+        )
+}
+
+/// What every k-buffer method records the same way: the group-1 layout, the resolve pipeline,
+/// the buffers kept between frames, and a frame — clear, capture passes, resolve, counters.
 pub struct KFrame {
-    pub id: &'static str,
+    pub id: MethodId,
     pub layout: wgpu::BindGroupLayout,
     resolve: wgpu::ComputePipeline,
     cache: ResourceCache,
     null_target: Option<NullTarget>,
+    counter_start: Option<u32>,
 }
 
 impl KFrame {
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: &'static str, resolve_source: &str) -> KFrame {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, resolve_source: &str) -> KFrame {
         let layout = group_layout(gpu);
-        let module = shader::module(&gpu.device, &format!("strata.{id}.resolve"), resolve_source);
+        let label = format!("strata.{id}.resolve");
+        let module = shader::module(&gpu.device, &label, &coherent(gpu, resolve_source.into()));
         let resolve = compute_pipeline(
             gpu,
-            &format!("strata.{id}.resolve"),
+            &label,
             &module,
             "cs_resolve",
             &[&scene.frame_layout, &layout],
@@ -330,10 +289,11 @@ impl KFrame {
             resolve,
             cache: ResourceCache::default(),
             null_target: None,
+            counter_start: None,
         }
     }
 
-    /// A capture pipeline of this method over `source`'s fragment entry point.
+    /// A capture pipeline of this method over `module`'s fragment entry point.
     pub fn capture_pipeline(
         &self,
         gpu: &Gpu,
@@ -352,25 +312,75 @@ impl KFrame {
         )
     }
 
-    /// Runs one frame; returns the counters and the bytes allocated.
-    pub fn run(
+    /// A capture module for `source` (made coherent where the adapter can).
+    pub fn capture_module(&self, gpu: &Gpu, source: String) -> wgpu::ShaderModule {
+        shader::module(
+            &gpu.device,
+            &format!("strata.{}.capture", self.id),
+            &coherent(gpu, source),
+        )
+    }
+
+    pub fn resources(&self) -> Vec<&ResourceCache> {
+        vec![&self.cache]
+    }
+
+    /// Records one frame and asks for the counters; returns the bytes allocated.
+    pub fn record(
         &mut self,
         ctx: &mut FrameContext<'_>,
         params: KParams,
         storage: Storage,
         passes: &[(&'static str, &wgpu::RenderPipeline)],
-    ) -> Result<(Vec<u32>, u64)> {
+    ) -> Result<u64> {
         let gpu = ctx.gpu;
-        let shared = FrameBuffers::new(ctx, &mut self.cache, params)?;
-        let total = storage.bytes + shared.bytes;
-        check_memory(ctx, self.id, storage.bytes, total)?;
-        let buffer = self.cache.storage(
+        let px = ctx.pixels();
+        let tail_bytes = if params.tail_blend != 0 {
+            px * TAIL_BYTES
+        } else {
+            TAIL_BYTES
+        };
+        let total = storage.bytes + px * PIXEL_BYTES + tail_bytes + CONSTANT_BYTES - TAIL_BYTES;
+        check_memory(ctx, self.id.as_str(), storage.bytes, total)?;
+        let none = wgpu::BufferUsages::empty();
+        let cache = &mut self.cache;
+        let params_buffer = cache.uniform(gpu, "strata.kbuffer.params", bytemuck::bytes_of(&params));
+        let pixels = cache.storage(gpu, "strata.kbuffer.pixels", px * PIXEL_BYTES, none)?;
+        let counters = cache.storage(
             gpu,
-            storage.label,
-            storage.bytes,
-            wgpu::BufferUsages::empty(),
+            "strata.kbuffer.counters",
+            COUNTERS * 4,
+            wgpu::BufferUsages::COPY_SRC,
         )?;
-        let group = shared.group(gpu, &self.layout, &buffer, ctx.output);
+        let counters_init = cache.storage(
+            gpu,
+            "strata.kbuffer.counters_init",
+            COUNTERS * 4,
+            wgpu::BufferUsages::COPY_SRC,
+        )?;
+        let start = ctx.options.allocation_counter_start;
+        if self.counter_start != Some(start) {
+            let mut init = [0u32; COUNTERS as usize];
+            init[COUNTER_ALLOCATED] = start;
+            gpu.queue
+                .write_buffer(&counters_init, 0, bytemuck::cast_slice(&init));
+            self.counter_start = Some(start);
+        }
+        let tail = cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, none)?;
+        let buffer = cache.storage(gpu, storage.label, storage.bytes, none)?;
+        let group = binding::group(
+            &gpu.device,
+            "strata.kbuffer.group",
+            &self.layout,
+            &[
+                params_buffer.as_entire_binding(),
+                buffer.as_entire_binding(),
+                pixels.as_entire_binding(),
+                counters.as_entire_binding(),
+                tail.as_entire_binding(),
+                ctx.output.as_entire_binding(),
+            ],
+        );
         let target = NullTarget::ensure(
             &mut self.null_target,
             gpu,
@@ -379,24 +389,19 @@ impl KFrame {
             ctx.options.height,
         );
         let frame_group = ctx.frame_group;
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        shared.clear(&mut enc);
+        ctx.encoder.clear_buffer(&pixels, 0, None);
+        ctx.encoder.clear_buffer(&tail, 0, None);
+        ctx.encoder
+            .copy_buffer_to_buffer(&counters_init, 0, &counters, 0, COUNTERS * 4);
         if storage.clear {
-            enc.clear_buffer(&buffer, 0, None);
+            ctx.encoder.clear_buffer(&buffer, 0, None);
         }
         for (name, pipeline) in passes {
-            storage_geometry_pass(
-                ctx,
-                &mut enc,
-                name,
-                target,
-                pipeline,
-                &[frame_group, &group],
-            );
+            storage_geometry_pass(ctx, name, target, pipeline, &[frame_group, &group]);
         }
-        gpu.queue.submit([enc.finish()]);
-        submit_pixels(ctx, "resolve", &self.resolve, &[frame_group, &group]);
-        Ok((shared.read_counters(gpu)?, total))
+        dispatch_pixels(ctx, "resolve", &self.resolve, &[frame_group, &group]);
+        ctx.readback.words(&counters, 0, COUNTERS);
+        Ok(total)
     }
 }
 
@@ -410,19 +415,15 @@ pub struct SlotKBuffer {
 }
 
 impl SlotKBuffer {
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: &'static str, variant: Variant) -> SlotKBuffer {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, variant: Variant) -> SlotKBuffer {
         let frame = KFrame::new(
             gpu,
             scene,
             id,
             &[STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
         );
-        let (family, stage, entry) = variant.capture();
-        let module = shader::module(
-            &gpu.device,
-            &format!("strata.{family}.capture"),
-            &[STORAGE_WGSL, SLOTS_WGSL, stage].join("\n"),
-        );
+        let (_, stage, entry) = variant.capture();
+        let module = frame.capture_module(gpu, [STORAGE_WGSL, SLOTS_WGSL, stage].join("\n"));
         SlotKBuffer {
             variant,
             capture: frame.capture_pipeline(gpu, scene, &module, entry),
@@ -430,53 +431,58 @@ impl SlotKBuffer {
             measured_stride: 0,
         }
     }
+}
 
-    fn frame(
-        &mut self,
-        ctx: &mut FrameContext<'_>,
-        k: u32,
-        stride: u32,
-    ) -> Result<(Vec<u32>, u64)> {
+impl Method for SlotKBuffer {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let k = k_of(ctx.options, self.frame.id)?;
+        // kb-ab-fixed stores every fragment: its array takes the depth complexity the last
+        // frame measured (at least k).
+        let stride = if self.variant == Variant::KbAbFixed {
+            self.measured_stride.max(k)
+        } else {
+            k
+        };
         let storage = Storage {
             label: "strata.kbuffer.slots",
             bytes: ctx.pixels() * stride as u64 * SLOT_BYTES,
             clear: false,
         };
-        let params = params_for(ctx.options, k, stride, self.variant.fixed());
-        self.frame
-            .run(ctx, params, storage, &[("capture", &self.capture)])
+        let params = params_for(ctx, k, stride, self.variant.fixed());
+        let bytes = self
+            .frame
+            .record(ctx, params, storage, &[("capture", &self.capture)])?;
+        Ok(Recorded {
+            geometry_passes: 1,
+            k: Some(k),
+            bytes_allocated: bytes,
+            capacity: stride as u64,
+        })
     }
-}
 
-impl Method for SlotKBuffer {
-    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
-        let k = k_of(ctx.options)?;
-        if self.variant != Variant::KbAbFixed {
-            let (c, bytes) = self.frame(ctx, k, k)?;
-            let mut stats = stats_from_counters(&c, k, 1, bytes);
-            if self.variant == Variant::AbufferFixed {
-                stats.overflow = Some(c[COUNTER_MAX_SEEN] > k);
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: Option<&[u32]>) -> MethodStats {
+        let Some(words) = words else {
+            return MethodStats::default();
+        };
+        let over = totals.max_depth as u64 > recorded.capacity;
+        let mut stats = MethodStats {
+            lock_failures: Some(lock_failures(words)),
+            ..Default::default()
+        };
+        match self.variant {
+            Variant::AbufferFixed => stats.overflow = Some(over),
+            Variant::KbAbFixed => {
+                self.measured_stride = totals.max_depth;
+                stats.overflow = Some(over);
+                stats.incomplete = over;
             }
-            return Ok(stats);
+            _ => {}
         }
-        // kb-ab-fixed stores every fragment: an array too small for the deepest pixel is found
-        // by the resolve (max seen), grown, and the frame rendered again.
-        let mut stride = self.measured_stride.max(k);
-        let mut passes = 0;
-        let mut overflowed = false;
-        loop {
-            passes += 1;
-            let (c, bytes) = self.frame(ctx, k, stride)?;
-            let need = c[COUNTER_MAX_SEEN];
-            if need <= stride {
-                self.measured_stride = need;
-                let mut stats = stats_from_counters(&c, k, passes, bytes);
-                stats.overflow = Some(overflowed);
-                return Ok(stats);
-            }
-            overflowed = true;
-            stride = need;
-        }
+        stats
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        self.frame.resources()
     }
 }
 

@@ -5,7 +5,7 @@
 // composited bounding the next selection. Fragments beyond k join the tail (--tail blend).
 // The storage file prepended to this one defines `stored_count(p)` and `stored_fragment(p, i)`.
 
-@group(1) @binding(5) var<storage, read_write> output: array<vec4<f32>>;
+@group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 
 const LOCAL_CAPACITY: u32 = 64u;
 const CHUNK: u32 = 32u;
@@ -16,14 +16,9 @@ struct Tail {
 }
 
 fn tail_sums(p: u32) -> Tail {
-    let w = p * 5u;
-    let s = vec4<f32>(
-        f32(atomicLoad(&tail[w])),
-        f32(atomicLoad(&tail[w + 1u])),
-        f32(atomicLoad(&tail[w + 2u])),
-        f32(atomicLoad(&tail[w + 3u])),
-    ) / TAIL_SCALE;
-    return Tail(s, f32(atomicLoad(&tail[w + 4u])) / TAIL_SCALE);
+    let w = p * TAIL_WORDS;
+    let s = vec4<f32>(tail_word(w), tail_word(w + 2u), tail_word(w + 4u), tail_word(w + 6u));
+    return Tail(s, tail_word(w + 8u));
 }
 
 fn tail_add_local(t: ptr<function, Tail>, f: Fragment) {
@@ -83,7 +78,8 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<
     var bound = Fragment(0.0, 0u, 0u, 0u);
     var bound_at = 0u;
     var has_bound = false;
-    loop {
+    // Each round composites at least one fragment: n / CHUNK + 1 rounds visit them all.
+    for (var round = 0u; round <= n / CHUNK; round++) {
         // Select the CHUNK nearest fragments after the bound with a max-array (max in slot 0).
         var m = 0u;
         for (var i = 0u; i < n; i++) {
@@ -152,7 +148,7 @@ fn composite_tail(s: ptr<function, Composite>, t: Tail) {
 }
 
 fn resolve_pixel(pixel: vec2<u32>) {
-    let p = pixel_index(pixel);
+    let p = pixel.y * kp.width + pixel.x;
     let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
     let n = stored_count(p);
     let limit = min(n, kp.k);
@@ -179,12 +175,8 @@ fn resolve_pixel(pixel: vec2<u32>) {
         k_depth_sort(p, n, limit, &s, &t);
     }
     composite_tail(&s, t);
-    output[p] = composite_finish(s, pixel);
-    if seen > limit {
-        atomicAdd(&counters[COUNTER_DROPPED], seen - limit);
-    }
-    atomicMax(&counters[COUNTER_MAX_SEEN], seen);
-    atomicAdd(&counters[COUNTER_SEEN_TOTAL], seen);
+    output[p] = composite_finish(s);
+    report_pixel(seen, limit);
 }
 
 @compute @workgroup_size(8, 8)

@@ -18,12 +18,6 @@ fn load_slot(p: u32, i: u32) -> Fragment {
     );
 }
 
-// The depth alone, one word that cannot tear: what culling outside the lock compares. The
-// farthest kept depth only ever decreases, so a fragment strictly behind it never belongs.
-fn load_depth(p: u32, i: u32) -> f32 {
-    return bitcast<f32>(atomicLoad(&slots[slot_word(p, i)]));
-}
-
 // Depth and tag only: what ordering needs.
 fn load_key(p: u32, i: u32) -> Fragment {
     let w = slot_word(p, i);

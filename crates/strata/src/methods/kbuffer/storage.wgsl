@@ -1,9 +1,13 @@
 // k-buffer family storage, shared by its capture and resolve stages.
-// Keep `KParams` in sync with `KParams` in kbuffer/mod.rs.
+// Keep `KParams` in sync with `KParams` in kbuffer/mod.rs and the COUNTER_ indices with
+// `Counters` there.
 //
-// Binding 1 is the method's fragment storage (slots.wgsl for slot arrays, mdt.wgsl for keys).
-// pixels: 4 words per pixel — seen (every fragment that reached the pixel), filled (slots in use),
-// lock, and aux (a per-method flag). tail: 5 words per pixel of fixed-point sums for --tail blend.
+// Binding 1 is the method's fragment storage (slots.wgsl for slot arrays, mdt.wgsl for keys,
+// list.wgsl for node pools). pixels: 4 words per pixel — seen (every fragment that reached the
+// pixel), filled (slots in use; a list's head), lock, and bound (the culling bound: the farthest
+// kept depth of a full pixel, as depth bits + 1; 0 while the pixel is not full). tail: 5 sums of
+// 2 words (64-bit fixed point) per pixel for --tail blend. Every per-pixel word is cleared before
+// each frame; slots and nodes are read only where this frame's writers published them.
 
 struct KParams {
     k: u32,
@@ -13,8 +17,8 @@ struct KParams {
     tail_blend: u32,
     // Fixed A-buffers keep no FILLED count: their stored count is min(seen, stride).
     count_by_seen: u32,
-    _pad0: u32,
-    _pad1: u32,
+    width: u32,
+    pixels: u32,
 }
 
 @group(1) @binding(0) var<uniform> kp: KParams;
@@ -25,21 +29,45 @@ struct KParams {
 const SEEN: u32 = 0u;
 const FILLED: u32 = 1u;
 const LOCK: u32 = 2u;
-const AUX: u32 = 3u;
+const BOUND: u32 = 3u;
 
+// 64-bit counters are two words, low first.
 const COUNTER_LOCK_FAILURES: u32 = 0u;
-const COUNTER_DROPPED: u32 = 1u;
-const COUNTER_MAX_SEEN: u32 = 2u;
-const COUNTER_ALLOCATED: u32 = 3u;
+const COUNTER_ALLOCATED: u32 = 2u;
 const COUNTER_LOST: u32 = 4u;
-const COUNTER_SEEN_TOTAL: u32 = 5u;
+const COUNTER_OVERFLOWED: u32 = 6u;
 
-// Fixed-point scale of the tail sums. A pixel's sums wrap past about a thousand bright tail
-// fragments (colors are clamped at 64) or ten thousand nearly opaque ones.
+// Fixed-point scale of the tail sums (64-bit: a pixel would need about 2^42 tail fragments to
+// wrap them).
 const TAIL_SCALE: f32 = 65536.0;
+const TAIL_WORDS: u32 = 10u;
 
 fn pixel_word(p: u32, word: u32) -> u32 {
     return p * 4u + word;
+}
+
+// The pixel index of a fragment position, from the k-buffer's own width (no scene bindings).
+fn kpixel(position: vec4<f32>) -> u32 {
+    return u32(position.y) * kp.width + u32(position.x);
+}
+
+// Adds n to the 64-bit counter at words (at, at + 1), carrying out of the low word.
+fn counter_add(at: u32, n: u32) {
+    let old = atomicAdd(&counters[at], n);
+    if old > 0xffffffffu - n {
+        atomicAdd(&counters[at + 1u], 1u);
+    }
+}
+
+fn tail_add_wide(at: u32, n: u32) {
+    let old = atomicAdd(&tail[at], n);
+    if old > 0xffffffffu - n {
+        atomicAdd(&tail[at + 1u], 1u);
+    }
+}
+
+fn tail_word(at: u32) -> f32 {
+    return (f32(atomicLoad(&tail[at])) + f32(atomicLoad(&tail[at + 1u])) * 4294967296.0) / TAIL_SCALE;
 }
 
 // Blends a fragment beyond the k nearest into the pixel's unsorted tail (--tail blend).
@@ -49,12 +77,12 @@ fn tail_add(p: u32, f: Fragment) {
     }
     let c = fragment_color(f);
     let a = clamp(c.a, 0.0, 0.999);
-    let w = p * 5u;
-    atomicAdd(&tail[w], u32(a * clamp(c.r, 0.0, 64.0) * TAIL_SCALE));
-    atomicAdd(&tail[w + 1u], u32(a * clamp(c.g, 0.0, 64.0) * TAIL_SCALE));
-    atomicAdd(&tail[w + 2u], u32(a * clamp(c.b, 0.0, 64.0) * TAIL_SCALE));
-    atomicAdd(&tail[w + 3u], u32(a * TAIL_SCALE));
-    atomicAdd(&tail[w + 4u], u32(-log(1.0 - a) * TAIL_SCALE));
+    let w = p * TAIL_WORDS;
+    tail_add_wide(w, u32(a * clamp(c.r, 0.0, 64.0) * TAIL_SCALE));
+    tail_add_wide(w + 2u, u32(a * clamp(c.g, 0.0, 64.0) * TAIL_SCALE));
+    tail_add_wide(w + 4u, u32(a * clamp(c.b, 0.0, 64.0) * TAIL_SCALE));
+    tail_add_wide(w + 6u, u32(a * TAIL_SCALE));
+    tail_add_wide(w + 8u, u32(-log(1.0 - a) * TAIL_SCALE));
 }
 
 // Test-and-set on the pixel's lock word. Callers loop with a bounded number of tries and do the
@@ -69,11 +97,29 @@ fn unlock(p: u32) {
 }
 
 fn lock_failed(p: u32, f: Fragment) {
-    atomicAdd(&counters[COUNTER_LOCK_FAILURES], 1u);
+    counter_add(COUNTER_LOCK_FAILURES, 1u);
     tail_add(p, f);
 }
 
 // Counts the fragment at its pixel; returns how many came before it.
 fn count_seen(p: u32) -> u32 {
     return atomicAdd(&pixels[pixel_word(p, SEEN)], 1u);
+}
+
+// Publishes the farthest kept depth of a full pixel (lock held). Once a pixel is full this only
+// decreases, so a reader outside the lock that sees any published bound never culls what the
+// test inside the lock would keep.
+fn publish_bound(p: u32, farthest: f32) {
+    atomicStore(&pixels[pixel_word(p, BOUND)], bitcast<u32>(farthest) + 1u);
+}
+
+// True when `f` is strictly behind the published bound of a full pixel: it cannot enter. Ties
+// go through the lock, whose test also orders by primitive. One word: it cannot tear, and it was
+// cleared before the frame, so no reader sees last frame's bound.
+fn culled(p: u32, f: Fragment) -> bool {
+    if kp.culling == 0u {
+        return false;
+    }
+    let bound = atomicLoad(&pixels[pixel_word(p, BOUND)]);
+    return bound != 0u && f.depth > bitcast<f32>(bound - 1u);
 }

@@ -4,7 +4,7 @@
 //! ≥ 99.9% of pixels; coverage at edges may differ between lavapipe's f32 setup and the
 //! reference's exact integers.
 
-use crate::render::{Effect, RenderOptions, Tail};
+use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference};
 
@@ -219,24 +219,24 @@ fn memory_follows_the_catalogue_formula() {
     ] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(16 * (k + 1) * px + 64 + 20),
+            Some(16 * (k + 1) * px + 96 + 40),
             "{method}"
         );
     }
     opts.tail = Tail::Blend;
     assert_eq!(
         render_gpu(&s, &opts, "kplus-heap").1.bytes_allocated,
-        Some(16 * (k + 1) * px + 64 + 20 * px)
+        Some(16 * (k + 1) * px + 96 + 40 * px)
     );
     opts.tail = Tail::Drop;
     assert_eq!(
         render_gpu(&s, &opts, "kb-mdt32").1.bytes_allocated,
-        Some(20 * k * px + 16 * px + 84)
+        Some(20 * k * px + 16 * px + 136)
     );
     for method in ["kb-mdt64", "kb-mdt-pack"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(8 * k * px + 16 * px + 84),
+            Some(8 * k * px + 16 * px + 136),
             "{method}"
         );
     }
@@ -244,7 +244,7 @@ fn memory_follows_the_catalogue_formula() {
     for method in ["kb-ab-ll", "kb-ll"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(20 * 3000 + 16 * px + 84),
+            Some(20 * 3000 + 16 * px + 136),
             "{method}"
         );
     }
@@ -252,7 +252,7 @@ fn memory_follows_the_catalogue_formula() {
     // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
     opts.tail = Tail::Drop;
     let (_, stats) = render_gpu(&s, &opts, "kb-ab-fixed");
-    assert_eq!(stats.bytes_allocated, Some(16 * 7 * px + 64 + 20));
+    assert_eq!(stats.bytes_allocated, Some(16 * 7 * px + 96 + 40));
 }
 
 #[test]

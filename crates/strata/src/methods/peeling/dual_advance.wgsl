@@ -13,7 +13,7 @@ struct Counters {
 @group(1) @binding(4) var<storage, read_write> front: array<Composite>;
 @group(1) @binding(5) var<storage, read_write> back: array<Composite>;
 @group(1) @binding(6) var<storage, read_write> counters: Counters;
-@group(1) @binding(7) var<storage, read_write> output: array<vec4<f32>>;
+@group(1) @binding(7) var<storage, read_write> output: array<Resolved>;
 
 const NO_BOUNDS: vec2<u32> = vec2<u32>(0xffffffffu, 0u);
 
@@ -24,10 +24,11 @@ fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let i = pixel_index(id.xy);
     front[i] = composite_new();
-    back[i] = composite_back_new(background_at(id.xy));
+    back[i] = composite_back_new();
     next_bounds[i] = NO_BOUNDS;
-    hits[2u * i] = 0u;
-    hits[2u * i + 1u] = 0u;
+    hits[3u * i] = 0u;
+    hits[3u * i + 1u] = 0u;
+    hits[3u * i + 2u] = 0u;
 }
 
 @compute @workgroup_size(8, 8)
@@ -36,13 +37,13 @@ fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = pixel_index(id.xy);
-    let front_hits = hits[2u * i];
+    let front_hits = hits[3u * i];
     if front_hits > 0u {
         var s = front[i];
         composite_front(&s, layers[2u * i]);
         front[i] = s;
     }
-    let back_hits = hits[2u * i + 1u];
+    let back_hits = hits[3u * i + 1u];
     if back_hits > 0u {
         var s = back[i];
         composite_back(&s, layers[2u * i + 1u]);
@@ -52,8 +53,8 @@ fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
     if dropped > 0u {
         atomicAdd(&counters.dropped, dropped);
     }
-    hits[2u * i] = 0u;
-    hits[2u * i + 1u] = 0u;
+    hits[3u * i] = 0u;
+    hits[3u * i + 1u] = 0u;
     let b = next_bounds[i];
     bounds[i] = b;
     next_bounds[i] = NO_BOUNDS;
@@ -68,5 +69,7 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = pixel_index(id.xy);
-    output[i] = composite_join(front[i], back[i]);
+    let r = composite_join(front[i], back[i]);
+    output[i] = r;
+    report_pixel(hits[3u * i + 2u], r.count);
 }

@@ -1,7 +1,8 @@
 // dual peeling capture passes. Depths compare as the bits of non-negative floats.
 // bounds: nearest and farthest depth per pixel. peel: the fragment at the current nearest depth
 // goes to the front slot, the one at the farthest to the back slot, everything between bounds
-// the next pass.
+// the next pass. hits: per pixel the front and back slots' claims and (third word) every
+// fragment of the pixel, counted by the bounds pass.
 
 @group(1) @binding(0) var<storage, read> bounds: array<vec2<u32>>;
 @group(1) @binding(1) var<storage, read_write> next_bounds: array<atomic<u32>>;
@@ -18,7 +19,9 @@ fn fs_bounds(v: SceneVarying) {
     if behind_opaque(v.position) {
         discard;
     }
-    widen_next(pixel_index(pixel_of(v.position)), bitcast<u32>(v.position.z));
+    let i = pixel_index(pixel_of(v.position));
+    atomicAdd(&hits[3u * i + 2u], 1u);
+    widen_next(i, bitcast<u32>(v.position.z));
 }
 
 @fragment
@@ -33,14 +36,16 @@ fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
         return;
     }
     var slot = 2u * i;
+    var claim = 3u * i;
     if bits == b.y && bits != b.x {
         slot += 1u;
+        claim += 1u;
     } else if bits != b.x {
         widen_next(i, bits);
         return;
     }
     // Fragments at exactly the same depth share a slot: the first keeps it, the rest are counted.
-    if atomicAdd(&hits[slot], 1u) == 0u {
+    if atomicAdd(&hits[claim], 1u) == 0u {
         layers[slot] = scene_fragment(v, front_facing);
     }
 }

@@ -1,5 +1,5 @@
-// f2b accumulate pass: composites the layer just peeled behind the pixel's running result and
-// counts the pixels that captured something (zero ends the peeling).
+// f2b accumulate pass: composites the layer just peeled behind the pixel's running result.
+// finish: the result, and the pixel's account (its fragment count from the first peel pass).
 
 const EMPTY: u32 = 0xffffffffu;
 
@@ -7,8 +7,8 @@ const EMPTY: u32 = 0xffffffffu;
 @group(1) @binding(1) var layer_color: texture_2d<f32>;
 @group(1) @binding(2) var layer_tag: texture_2d<u32>;
 @group(1) @binding(3) var layer_depth: texture_2d<f32>;
-@group(1) @binding(4) var<storage, read_write> captured: array<atomic<u32>>;
-@group(1) @binding(5) var<storage, read_write> output: array<vec4<f32>>;
+@group(1) @binding(4) var<storage, read_write> counts: array<u32>;
+@group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -34,7 +34,6 @@ fn cs_accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     var s = state[i];
     composite_front(&s, f);
     state[i] = s;
-    atomicAdd(&captured[0], 1u);
 }
 
 @compute @workgroup_size(8, 8)
@@ -43,5 +42,7 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = pixel_index(id.xy);
-    output[i] = composite_finish(state[i], id.xy);
+    let s = state[i];
+    output[i] = composite_finish(s);
+    report_pixel(counts[i], s.count);
 }

@@ -2,6 +2,8 @@
 // order; the depth test (LESS, primitive order among equals) picks the nearest of them.
 
 @group(1) @binding(0) var<storage, read> state: array<Composite>;
+// Every fragment of the pixel, counted by the first peel pass.
+@group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
 
 struct PeelOut {
     @location(0) color: vec4<f32>,
@@ -10,10 +12,23 @@ struct PeelOut {
 }
 
 @fragment
+fn fs_peel_first(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOut {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
+    return peel(v, front_facing);
+}
+
+@fragment
 fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOut {
     if behind_opaque(v.position) {
         discard;
     }
+    return peel(v, front_facing);
+}
+
+fn peel(v: SceneVarying, front_facing: bool) -> PeelOut {
     let s = state[pixel_index(pixel_of(v.position))];
     let tag = (v.prim << 1u) | select(0u, 1u, front_facing);
     let z = v.position.z;

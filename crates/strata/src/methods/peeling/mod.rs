@@ -1,13 +1,18 @@
 //! Depth peeling: `f2b` (front-to-back, Everitt 2001) and `dual` (Bavoil & Myers 2008).
 //!
-//! **f2b** passes: init (compute: empty running composite per pixel); then per layer a *peel*
+//! The number of layers L a frame peels is fixed when it is recorded: `--layers N`, else the
+//! depth complexity the previous frame measured (8 for a first frame). Each frame counts every
+//! pixel's fragments on the GPU, so a frame with fewer layers than its depth complexity knows
+//! it: its missing fragments are reported as dropped, the next frame peels enough, and exact
+//! mode renders such a frame again. Nothing waits on the GPU between passes.
+//!
+//! **f2b** passes: init (compute: empty running composite per pixel); then L times a *peel*
 //! geometry pass — fragments not strictly after the pixel's last captured (depth, primitive) are
 //! discarded and a LESS depth test keeps the nearest of the rest (the first drawn among equal
-//! depths, so ties follow primitive order exactly) — and an *accumulate* compute pass that
-//! composites the layer and counts capturing pixels; peeling stops after a pass that captured
-//! nothing (N layers → N+1 geometry passes); finish (compute: over the background).
-//! Memory per pixel: 32 B running composite, 8 B color, 4 B tag, 4 B depth copy, 4 B depth
-//! buffer = 52·W·H. Exact, including ties.
+//! depths, so ties follow primitive order exactly); the first one also counts every fragment of
+//! the pixel — and an *accumulate* compute pass that composites the layer; finish (compute).
+//! N layers → N geometry passes. Memory per pixel: 32 B running composite, 8 B color, 4 B tag,
+//! 4 B depth copy, 4 B depth buffer, 4 B count = 56·W·H. Exact, including ties.
 //!
 //! **dual** passes: init; *bounds* (one geometry pass: nearest and farthest depth per pixel with
 //! atomicMin/atomicMax on the depth bits); then per pair of layers a *peel* geometry pass that
@@ -16,31 +21,40 @@
 //! that composites the front slot front-to-back and the back slot back-to-front (the over
 //! operator, with the same absorption rule) and counts pixels with layers left; finish joins the
 //! two. N layers → ⌈N/2⌉+1 geometry passes. Memory per pixel: 16 B bounds, 64 B two composites,
-//! 32 B two slots, 8 B hit counters = 120·W·H. Limit: fragments at exactly the same depth in one
+//! 32 B two slots, 12 B hit counters and count = 124·W·H. Limit: fragments at exactly the same depth in one
 //! pixel share a slot; one is kept, the others are counted in `fragments_dropped` (never
 //! silently lost). Classic dual peeling's min/max blending needs RG32F blending, which core
 //! WebGPU lacks, hence the storage atomics.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{readback, shader, Gpu, ResourceCache};
-use crate::methods::{
+use crate::gpu::passes::{
     attachment, capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass,
-    submit_pixels, Method, MethodStats, NullTarget,
+    NullTarget,
 };
-use crate::render::{FrameContext, SceneGpu};
+use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::methods::Method;
 
-/// Peeling gives up past this many geometry passes (a runaway scene, not a real depth).
-pub const MAX_PEEL_PASSES: u32 = 4096;
+/// Layers a first frame peels before it has measured its depth complexity.
+pub const FIRST_GUESS_LAYERS: u32 = 8;
 
-fn too_many_passes(method: &str) -> Error {
-    Error::runtime(format!(
-        "{method}: still capturing after {MAX_PEEL_PASSES} geometry passes"
-    ))
+/// Layers for the next frame: fixed by the options, else the last measured depth complexity.
+fn layers_for(ctx: &FrameContext<'_>, measured: Option<u32>) -> u32 {
+    ctx.options
+        .layers
+        .or(measured)
+        .unwrap_or(FIRST_GUESS_LAYERS)
+        .clamp(1, MAX_LAYERS)
 }
 
-fn read_counter(gpu: &Gpu, buffer: &wgpu::Buffer, count: u64) -> Result<Vec<u32>> {
-    readback::read_u32s(gpu, buffer, count)
+/// Feedback of a peeling frame: the depth complexity it measured, and whether it peeled enough.
+fn peel_feedback(measured: &mut Option<u32>, recorded: &Recorded, totals: &Totals) -> MethodStats {
+    *measured = Some(totals.max_depth.max(1));
+    MethodStats {
+        incomplete: totals.max_depth as u64 > recorded.capacity,
+        ..Default::default()
+    }
 }
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -50,17 +64,23 @@ const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 pub struct FrontToBack {
     peel_layout: wgpu::BindGroupLayout,
     accumulate_layout: wgpu::BindGroupLayout,
+    peel_first: wgpu::RenderPipeline,
     peel: wgpu::RenderPipeline,
     init: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
+    measured: Option<u32>,
     cache: ResourceCache,
 }
 
 impl FrontToBack {
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> FrontToBack {
         let device = &gpu.device;
-        let peel_layout = binding::layout(device, "strata.f2b.peel.layout", &[Slot::Storage]);
+        let peel_layout = binding::layout(
+            device,
+            "strata.f2b.peel.layout",
+            &[Slot::Storage, Slot::StorageRw],
+        );
         let accumulate_layout = binding::layout(
             device,
             "strata.f2b.accumulate.layout",
@@ -81,25 +101,29 @@ impl FrontToBack {
                 write_mask: wgpu::ColorWrites::ALL,
             })
         };
-        let peel = capture_pipeline(
-            gpu,
-            "strata.f2b.peel",
-            &module,
-            "fs_peel",
-            &[&scene.frame_layout, &peel_layout],
-            &[
-                target(COLOR_FORMAT),
-                target(TAG_FORMAT),
-                target(DEPTH_COPY_FORMAT),
-            ],
-            Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-        );
+        let peel_pipeline = |entry: &str| {
+            capture_pipeline(
+                gpu,
+                &format!("strata.f2b.{entry}"),
+                &module,
+                entry,
+                &[&scene.frame_layout, &peel_layout],
+                &[
+                    target(COLOR_FORMAT),
+                    target(TAG_FORMAT),
+                    target(DEPTH_COPY_FORMAT),
+                ],
+                Some(wgpu::DepthStencilState {
+                    format: wgpu::TextureFormat::Depth32Float,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+            )
+        };
+        let peel_first = peel_pipeline("fs_peel_first");
+        let peel = peel_pipeline("fs_peel");
         let module = shader::module(
             device,
             "strata.f2b.accumulate",
@@ -116,18 +140,21 @@ impl FrontToBack {
                 &layouts,
             ),
             finish: compute_pipeline(gpu, "strata.f2b.finish", &module, "cs_finish", &layouts),
+            peel_first,
             peel,
             peel_layout,
             accumulate_layout,
+            measured: None,
             cache: ResourceCache::default(),
         }
     }
 }
 
 impl Method for FrontToBack {
-    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let (w, h) = (ctx.options.width, ctx.options.height);
+        let (w, h) = ctx.size();
+        let layers = layers_for(ctx, self.measured);
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let color = self
             .cache
@@ -157,20 +184,18 @@ impl Method for FrontToBack {
                 wgpu::TextureUsages::RENDER_ATTACHMENT,
             )
             .create_view(&Default::default());
-        let state = self.cache.storage(
-            gpu,
-            "strata.f2b.state",
-            ctx.pixels() * 32,
-            wgpu::BufferUsages::empty(),
-        )?;
-        let captured =
-            self.cache
-                .storage(gpu, "strata.f2b.captured", 4, wgpu::BufferUsages::COPY_SRC)?;
+        let none = wgpu::BufferUsages::empty();
+        let state = self
+            .cache
+            .storage(gpu, "strata.f2b.state", ctx.pixels() * 32, none)?;
+        let counts = self
+            .cache
+            .storage(gpu, "strata.f2b.counts", ctx.pixels() * 4, none)?;
         let peel_group = binding::group(
             &gpu.device,
             "strata.f2b.peel.group",
             &self.peel_layout,
-            &[state.as_entire_binding()],
+            &[state.as_entire_binding(), counts.as_entire_binding()],
         );
         let acc_group = binding::group(
             &gpu.device,
@@ -181,83 +206,81 @@ impl Method for FrontToBack {
                 wgpu::BindingResource::TextureView(&color),
                 wgpu::BindingResource::TextureView(&tag),
                 wgpu::BindingResource::TextureView(&depth_copy),
-                captured.as_entire_binding(),
+                counts.as_entire_binding(),
                 ctx.output.as_entire_binding(),
             ],
         );
         let frame_group = ctx.frame_group;
-
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        dispatch_pixels(
-            ctx,
-            &mut enc,
-            "init",
-            &self.init,
-            &[frame_group, &acc_group],
-        );
-        gpu.queue.submit([enc.finish()]);
-
-        let mut passes = 0;
-        loop {
-            if passes == MAX_PEEL_PASSES {
-                return Err(too_many_passes("f2b"));
-            }
-            passes += 1;
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            enc.clear_buffer(&captured, 0, None);
-            {
-                let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("strata.f2b.peel"),
-                    color_attachments: &[
-                        attachment(&color, wgpu::Color::TRANSPARENT),
-                        attachment(
-                            &tag,
-                            wgpu::Color {
-                                r: u32::MAX as f64,
-                                g: 0.0,
-                                b: 0.0,
-                                a: 0.0,
-                            },
-                        ),
-                        attachment(&depth_copy, wgpu::Color::TRANSPARENT),
-                    ],
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: &depth,
-                        depth_ops: Some(wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(1.0),
-                            store: wgpu::StoreOp::Discard,
-                        }),
-                        stencil_ops: None,
+        ctx.encoder.clear_buffer(&counts, 0, None);
+        dispatch_pixels(ctx, "init", &self.init, &[frame_group, &acc_group]);
+        for layer in 0..layers {
+            let label = ctx.label("peel");
+            let draw = ctx.draw;
+            let triangles = ctx.scene.triangle_count;
+            let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(&label),
+                color_attachments: &[
+                    attachment(&color, wgpu::Color::TRANSPARENT),
+                    attachment(
+                        &tag,
+                        wgpu::Color {
+                            r: u32::MAX as f64,
+                            g: 0.0,
+                            b: 0.0,
+                            a: 0.0,
+                        },
+                    ),
+                    attachment(&depth_copy, wgpu::Color::TRANSPARENT),
+                ],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
                     }),
-                    timestamp_writes: ctx.timer.render_pass("peel"),
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                pass.set_pipeline(&self.peel);
-                pass.set_bind_group(0, Some(frame_group), &[]);
-                pass.set_bind_group(1, Some(&peel_group), &[]);
-                ctx.draw_geometry(&mut pass);
+                    stencil_ops: None,
+                }),
+                timestamp_writes: ctx.timer.render_pass("peel"),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(if layer == 0 {
+                &self.peel_first
+            } else {
+                &self.peel
+            });
+            pass.set_bind_group(0, Some(frame_group), &[]);
+            pass.set_bind_group(1, Some(&peel_group), &[]);
+            match draw {
+                Some(draw) => draw(&mut pass),
+                None => pass.draw(0..triangles * 3, 0..1),
             }
+            drop(pass);
             dispatch_pixels(
                 ctx,
-                &mut enc,
                 "accumulate",
                 &self.accumulate,
                 &[frame_group, &acc_group],
             );
-            gpu.queue.submit([enc.finish()]);
-            if read_counter(gpu, &captured, 1)?[0] == 0 {
-                break;
-            }
         }
-
-        submit_pixels(ctx, "finish", &self.finish, &[frame_group, &acc_group]);
-        Ok(MethodStats {
-            geometry_passes: passes,
-            fragments_dropped: Some(0),
-            bytes_allocated: ctx.pixels() * 52,
+        dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &acc_group]);
+        Ok(Recorded {
+            geometry_passes: layers,
+            bytes_allocated: ctx.pixels() * 56,
+            capacity: layers as u64,
             ..Default::default()
         })
+    }
+
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: Option<&[u32]>) -> MethodStats {
+        if words.is_none() {
+            return MethodStats::default();
+        }
+        peel_feedback(&mut self.measured, recorded, totals)
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        vec![&self.cache]
     }
 }
 
@@ -270,6 +293,7 @@ pub struct Dual {
     advance: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     null_target: Option<NullTarget>,
+    measured: Option<u32>,
     cache: ResourceCache,
 }
 
@@ -324,15 +348,17 @@ impl Dual {
             peel_layout,
             advance_layout,
             null_target: None,
+            measured: None,
             cache: ResourceCache::default(),
         }
     }
 }
 
 impl Method for Dual {
-    fn render(&mut self, ctx: &mut FrameContext<'_>) -> Result<MethodStats> {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let (w, h) = (ctx.options.width, ctx.options.height);
+        let (w, h) = ctx.size();
+        let layers = layers_for(ctx, self.measured);
         let null_target =
             NullTarget::ensure(&mut self.null_target, gpu, "strata.dual.null_target", w, h);
         let px = ctx.pixels();
@@ -343,10 +369,10 @@ impl Method for Dual {
         let next_bounds = self
             .cache
             .storage(gpu, "strata.dual.next_bounds", px * 8, none)?;
-        let layers = self
+        let layers_buffer = self
             .cache
             .storage(gpu, "strata.dual.layers", px * 32, none)?;
-        let hits = self.cache.storage(gpu, "strata.dual.hits", px * 8, none)?;
+        let hits = self.cache.storage(gpu, "strata.dual.hits", px * 12, none)?;
         let front = self
             .cache
             .storage(gpu, "strata.dual.front", px * 32, none)?;
@@ -361,7 +387,7 @@ impl Method for Dual {
             &[
                 bounds.as_entire_binding(),
                 next_bounds.as_entire_binding(),
-                layers.as_entire_binding(),
+                layers_buffer.as_entire_binding(),
                 hits.as_entire_binding(),
             ],
         );
@@ -372,7 +398,7 @@ impl Method for Dual {
             &[
                 bounds.as_entire_binding(),
                 next_bounds.as_entire_binding(),
-                layers.as_entire_binding(),
+                layers_buffer.as_entire_binding(),
                 hits.as_entire_binding(),
                 front.as_entire_binding(),
                 back.as_entire_binding(),
@@ -381,65 +407,57 @@ impl Method for Dual {
             ],
         );
         let frame_group = ctx.frame_group;
-
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        dispatch_pixels(
-            ctx,
-            &mut enc,
-            "init",
-            &self.init,
-            &[frame_group, &advance_group],
-        );
+        let null_target = &*null_target;
+        dispatch_pixels(ctx, "init", &self.init, &[frame_group, &advance_group]);
         storage_geometry_pass(
             ctx,
-            &mut enc,
             "bounds",
             null_target,
             &self.bounds,
             &[frame_group, &peel_group],
         );
-        gpu.queue.submit([enc.finish()]);
-        let mut passes = 1;
-        let mut dropped = 0u64;
-        loop {
-            // Promote the bounds just computed; the slots are empty on the first round.
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            enc.clear_buffer(&counters, 0, None);
+        // Promote the bounds just computed (the slots are empty on the first round), then peel a
+        // front and a back layer per pass.
+        let peel_passes = layers.div_ceil(2);
+        for pass in 0..=peel_passes {
+            if pass > 0 {
+                storage_geometry_pass(
+                    ctx,
+                    "peel",
+                    null_target,
+                    &self.peel,
+                    &[frame_group, &peel_group],
+                );
+            }
+            ctx.encoder.clear_buffer(&counters, 0, None);
             dispatch_pixels(
                 ctx,
-                &mut enc,
                 "advance",
                 &self.advance,
                 &[frame_group, &advance_group],
             );
-            gpu.queue.submit([enc.finish()]);
-            let c = read_counter(gpu, &counters, 2)?;
-            dropped += c[1] as u64;
-            if c[0] == 0 {
-                break;
-            }
-            if passes == MAX_PEEL_PASSES {
-                return Err(too_many_passes("dual"));
-            }
-            passes += 1;
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            storage_geometry_pass(
-                ctx,
-                &mut enc,
-                "peel",
-                null_target,
-                &self.peel,
-                &[frame_group, &peel_group],
-            );
-            gpu.queue.submit([enc.finish()]);
         }
-
-        submit_pixels(ctx, "finish", &self.finish, &[frame_group, &advance_group]);
-        Ok(MethodStats {
-            geometry_passes: passes,
-            fragments_dropped: Some(dropped),
-            bytes_allocated: px * 120,
+        dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &advance_group]);
+        ctx.readback.words(&counters, 0, 1);
+        Ok(Recorded {
+            geometry_passes: peel_passes + 1,
+            bytes_allocated: px * 124,
+            capacity: layers as u64,
             ..Default::default()
         })
+    }
+
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: Option<&[u32]>) -> MethodStats {
+        let Some(words) = words else {
+            return MethodStats::default();
+        };
+        let mut stats = peel_feedback(&mut self.measured, recorded, totals);
+        // Pixels with layers left after the last pass.
+        stats.incomplete |= words[0] > 0;
+        stats
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        vec![&self.cache]
     }
 }

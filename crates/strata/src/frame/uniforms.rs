@@ -4,7 +4,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 
-use crate::render::{Effect, RenderOptions};
+use crate::frame::{Effect, RenderOptions};
 use crate::scene::{
     srgb_to_linear, Background, Camera, LightKind, Material, Projection, Scene, Shading,
 };

@@ -1,0 +1,343 @@
+//! What a method records a frame with, below both `methods` and `render`: the options of a
+//! picture, the scene on the GPU, the frame context a method records into, the per-pixel result
+//! every resolve writes, the frame totals and the statistics a frame reports.
+//!
+//! A frame is a recording into a [`wgpu::CommandEncoder`] the caller owns:
+//! 1. the frame uniforms (camera, effect) are written with `queue.write_buffer`;
+//! 2. the method records its passes — capture (one or more geometry passes) and resolve — and
+//!    writes each pixel's [`Resolved`] value (premultiplied color, alpha = 1 − transmittance,
+//!    fragment count) and the frame totals;
+//! 3. the present pass blends the resolved colors OVER the caller's color target;
+//! 4. the totals, the method's counters and the pass timestamps are copied to a staging slot
+//!    that is mapped when the GPU has finished the submission: [`FrameStats`] arrive a frame or
+//!    more later, tagged with their frame number. Nothing in steady state waits on the GPU.
+//!
+//! [`recorder::FrameRecorder`] drives this for an application; [`crate::Renderer`] is the
+//! batch renderer on top of it that the CLI and the tests use.
+
+pub mod present;
+pub mod recorder;
+pub mod scene_gpu;
+pub mod stats;
+pub mod uniforms;
+
+use std::collections::BTreeMap;
+use std::str::FromStr;
+
+use bytemuck::{Pod, Zeroable};
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::gpu::timing::Timer;
+use crate::gpu::Gpu;
+
+pub use recorder::{FrameRecorder, FrameTargets};
+pub use scene_gpu::SceneGpu;
+
+/// How a pixel's depth-ordered fragments become a color.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Effect {
+    #[default]
+    Transparency,
+    Translucency,
+    Complexity,
+}
+
+impl FromStr for Effect {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "transparency" => Ok(Effect::Transparency),
+            "translucency" => Ok(Effect::Translucency),
+            "complexity" => Ok(Effect::Complexity),
+            _ => Err(Error::input(format!(
+                "unknown effect '{s}' (expected transparency, translucency or complexity)"
+            ))),
+        }
+    }
+}
+
+impl Effect {
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::Transparency => "transparency",
+            Effect::Translucency => "translucency",
+            Effect::Complexity => "complexity",
+        }
+    }
+}
+
+/// What k-buffer methods do with fragments beyond the k nearest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Tail {
+    /// Discard them (counted in `fragments_dropped`).
+    #[default]
+    Drop,
+    /// Blend them, unsorted, into one tail term behind the k nearest (weighted average color,
+    /// opacity from the sum of their optical depths), as engines do.
+    Blend,
+}
+
+impl FromStr for Tail {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "drop" => Ok(Tail::Drop),
+            "blend" => Ok(Tail::Blend),
+            _ => Err(Error::input(format!("--tail '{s}' is not drop or blend"))),
+        }
+    }
+}
+
+/// Everything about a picture that is not the scene.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    pub width: u32,
+    pub height: u32,
+    pub effect: Effect,
+    pub background: crate::scene::Background,
+    /// Per-pixel capacity for k-buffer methods, and the reference's `--k`.
+    pub k: Option<u32>,
+    /// Memory a method may allocate, in MiB.
+    pub budget_mb: Option<f64>,
+    /// Initial node pool of the linked-list methods (nodes); by default sized from the last
+    /// frame's measured need.
+    pub abuffer_initial_nodes: Option<u64>,
+    /// k-buffers: fragments beyond k.
+    pub tail: Tail,
+    /// k-buffers: cull fragments behind a full pixel's maximum before taking the lock.
+    pub culling: bool,
+    /// k-buffers: spin-lock tries per fragment (default 4096).
+    pub max_tries: Option<u32>,
+    /// Depth peeling: a fixed number of layers per frame; by default the last frame's depth
+    /// complexity.
+    pub layers: Option<u32>,
+    /// Value the fragment-pool allocation counters start from each frame (normally 0). Tests
+    /// start them near 2³² to show that they saturate instead of wrapping.
+    pub allocation_counter_start: u32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 512,
+            height: 512,
+            effect: Effect::Transparency,
+            background: crate::scene::Background::Checker,
+            k: None,
+            budget_mb: None,
+            abuffer_initial_nodes: None,
+            tail: Tail::Drop,
+            culling: true,
+            max_tries: None,
+            layers: None,
+            allocation_counter_start: 0,
+        }
+    }
+}
+
+impl RenderOptions {
+    pub fn pixels(&self) -> u64 {
+        self.width as u64 * self.height as u64
+    }
+
+    pub fn budget_bytes(&self) -> Option<u64> {
+        self.budget_mb.map(|m| (m * 1048576.0) as u64)
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
+            return Err(Error::input(format!(
+                "size {}x{} is out of range (1..16384 per side)",
+                self.width, self.height
+            )));
+        }
+        if let Some(b) = self.budget_mb {
+            if b.is_nan() || b <= 0.0 {
+                return Err(Error::input(format!("--budget-mb {b} must be positive")));
+            }
+        }
+        if let Some(l) = self.layers {
+            if l == 0 || l > MAX_LAYERS {
+                return Err(Error::input(format!(
+                    "--layers {l} is outside 1..{MAX_LAYERS}"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Peeling never records more layers than this in one frame.
+pub const MAX_LAYERS: u32 = 1024;
+
+/// What every frame reports (`--stats FILE.json`). Unknown values are `None` (`null`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FrameStats {
+    /// The frame these statistics belong to (frames count from 0 per recorder).
+    pub frame: u64,
+    pub method: String,
+    pub width: u32,
+    pub height: u32,
+    pub k: Option<u32>,
+    pub effect: String,
+    pub geometry_passes: Option<u32>,
+    pub gpu_ms: Option<BTreeMap<String, f64>>,
+    pub gpu_ms_total: Option<f64>,
+    pub fragments_generated: Option<u64>,
+    pub fragments_stored: Option<u64>,
+    pub fragments_dropped: Option<u64>,
+    pub max_depth_complexity: Option<u32>,
+    pub bytes_allocated: Option<u64>,
+    pub overflow: Option<bool>,
+    pub lock_failures: Option<u64>,
+    /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
+    pub blocking_readbacks: u32,
+    /// Command buffers strata submitted itself for this picture (0 in real-time frames: the
+    /// application submits).
+    pub submits: u32,
+    pub adapter: Option<String>,
+    pub backend: Option<String>,
+}
+
+/// What a method reports about its frame once its counters are back.
+#[derive(Clone, Debug, Default)]
+pub struct MethodStats {
+    pub overflow: Option<bool>,
+    pub lock_failures: Option<u64>,
+    /// The frame is missing fragments that a larger pool or more layers would have kept; the
+    /// method has already grown for the next frame. Exact mode renders again.
+    pub incomplete: bool,
+    /// Why no later frame can be complete either (memory limits): exact mode's error.
+    pub cannot_complete: Option<String>,
+}
+
+/// What a method recorded: known on the CPU when the frame is recorded.
+#[derive(Clone, Debug, Default)]
+pub struct Recorded {
+    pub geometry_passes: u32,
+    pub k: Option<u32>,
+    pub bytes_allocated: u64,
+    /// The size this frame ran with where it is fed back (pool nodes, array stride, layers).
+    pub capacity: u64,
+}
+
+/// Frame totals every resolve adds each pixel to (`report_pixel` in composite.wgsl); 64-bit
+/// sums are two words, low first, carried on overflow of the low word.
+/// Keep in sync with the TOTAL_ constants in shaders/shared/scene.wgsl.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Totals {
+    pub generated: u64,
+    pub stored: u64,
+    pub dropped: u64,
+    pub max_depth: u32,
+}
+
+/// Words of the totals buffer.
+pub const TOTAL_WORDS: u64 = 8;
+
+impl Totals {
+    pub fn from_words(w: &[u32]) -> Totals {
+        let wide = |i: usize| w[i] as u64 | (w[i + 1] as u64) << 32;
+        Totals {
+            generated: wide(0),
+            stored: wide(2),
+            dropped: wide(4),
+            max_depth: w[6],
+        }
+    }
+}
+
+/// A 64-bit counter kept as two u32 words (low, high) by `wide_add` in WGSL.
+pub fn wide(words: &[u32], at: usize) -> u64 {
+    words[at] as u64 | (words[at + 1] as u64) << 32
+}
+
+/// The per-pixel result of every resolve. Keep in sync with `Resolved` in composite.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct Resolved {
+    /// Premultiplied linear RGB and alpha = 1 − transmittance.
+    pub color: [f32; 4],
+    pub count: u32,
+    pub _pad: [u32; 3],
+}
+
+pub const RESOLVED_BYTES: u64 = std::mem::size_of::<Resolved>() as u64;
+
+/// Issues draw calls into a geometry pass whose pipeline and bind groups the method has set: the
+/// vertex stage pulls triangle `t` as vertices 3t..3t+3 of the scene's triangle list, so a
+/// callback draws any ranges (culled subsets, chunks) of it.
+pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
+
+/// Buffer ranges a method asks to have read back with its frame's statistics, in order.
+#[derive(Default)]
+pub struct ReadbackList {
+    pub(crate) entries: Vec<(wgpu::Buffer, u64, u64)>,
+}
+
+impl ReadbackList {
+    /// Reads `words` u32 words of `buffer` (which needs COPY_SRC) from byte `offset`.
+    pub fn words(&mut self, buffer: &wgpu::Buffer, offset: u64, words: u64) {
+        self.entries.push((buffer.clone(), offset, words));
+    }
+
+    pub fn total_words(&self) -> u64 {
+        self.entries.iter().map(|e| e.2).sum()
+    }
+}
+
+/// What a method gets to record one frame.
+pub struct FrameContext<'a> {
+    /// The method's id, which labels its passes `strata.<method>.<pass>`.
+    pub method: &'static str,
+    pub gpu: &'a Gpu,
+    pub scene: &'a SceneGpu,
+    pub options: &'a RenderOptions,
+    /// The caller's encoder: every pass of the frame goes here; nothing is submitted.
+    pub encoder: &'a mut wgpu::CommandEncoder,
+    pub timer: &'a mut Timer,
+    /// Group 0 bound to the scene in primitive order.
+    pub frame_group: &'a wgpu::BindGroup,
+    /// The depth of opaque surfaces (1.0 where there are none).
+    pub opaque_depth: &'a wgpu::TextureView,
+    /// Per pixel [`Resolved`], the method's result.
+    pub output: &'a wgpu::Buffer,
+    /// Issues the geometry's draw calls; `None` draws every triangle of the scene.
+    pub draw: Option<&'a DrawCallback<'a>>,
+    /// The method's counters to read back with the frame's statistics.
+    pub readback: &'a mut ReadbackList,
+}
+
+impl FrameContext<'_> {
+    /// Records the geometry's draws into a pass whose pipeline and bind groups are set.
+    pub fn draw_geometry(&self, pass: &mut wgpu::RenderPass<'_>) {
+        match self.draw {
+            Some(draw) => draw(pass),
+            None => pass.draw(0..self.scene.triangle_count * 3, 0..1),
+        }
+    }
+
+    pub fn pixels(&self) -> u64 {
+        self.options.pixels()
+    }
+
+    /// The label of one of the method's passes.
+    pub fn label(&self, pass: &str) -> String {
+        format!("strata.{}.{pass}", self.method)
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.options.width, self.options.height)
+    }
+
+    /// Workgroups of 8×8 covering the image.
+    pub fn pixel_workgroups(&self) -> (u32, u32) {
+        (
+            self.options.width.div_ceil(8),
+            self.options.height.div_ceil(8),
+        )
+    }
+}

@@ -1,0 +1,54 @@
+// The present pass: one full-screen triangle that blends each pixel's resolved color OVER the
+// application's color target (premultiplied "over": src + (1 − src.a)·dst, in linear space; an
+// sRGB target encodes after blending). The complexity effect draws an opaque heatmap instead.
+// Keep `PresentParams` in sync with `PresentParams` in present.rs.
+
+struct Resolved {
+    color: vec4<f32>,
+    count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+struct PresentParams {
+    size: vec2<u32>,
+    complexity: u32,
+    // Fragment count drawn at the top of the heatmap's scale.
+    complexity_full: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: PresentParams;
+@group(0) @binding(1) var<storage, read> resolved: array<Resolved>;
+// The crate's heatmap colormap, 256 entries of packed sRGB8 (r | g << 8 | b << 16).
+@group(0) @binding(2) var<storage, read> colormap: array<u32>;
+
+@vertex
+fn vs_present(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+fn srgb_to_linear(c: f32) -> f32 {
+    return select(pow((c + 0.055) / 1.055, 2.4), c / 12.92, c <= 0.04045);
+}
+
+@fragment
+fn fs_present(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let pixel = vec2<u32>(position.xy);
+    if pixel.x >= params.size.x || pixel.y >= params.size.y {
+        discard;
+    }
+    let r = resolved[pixel.y * params.size.x + pixel.x];
+    if params.complexity == 0u {
+        return r.color;
+    }
+    if r.count == 0u {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    // 1..full onto the upper 80% of the colormap, as metrics::colormap::ramp does.
+    let t = 0.2 + 0.8 * f32(min(r.count, params.complexity_full)) / f32(max(params.complexity_full, 1u));
+    let c = colormap[u32(round(t * 255.0))];
+    let rgb = vec3<f32>(f32(c & 255u), f32((c >> 8u) & 255u), f32((c >> 16u) & 255u)) / 255.0;
+    return vec4<f32>(srgb_to_linear(rgb.r), srgb_to_linear(rgb.g), srgb_to_linear(rgb.b), 1.0);
+}

@@ -1,0 +1,401 @@
+//! [`FrameRecorder`]: real-time frames on the application's device, queue and encoder.
+//!
+//! ```no_run
+//! # fn demo(device: wgpu::Device, queue: wgpu::Queue, color: &wgpu::TextureView,
+//! #         depth: &wgpu::TextureView) -> strata::Result<()> {
+//! use strata::frame::{FrameRecorder, FrameTargets};
+//! use strata::{gpu::Gpu, methods::MethodId, scene::loaders, RenderOptions};
+//!
+//! let gpu = Gpu::from_device(device, queue);
+//! let scene = loaders::load_scene("builtin:spheres?layers=8")?;
+//! let options = RenderOptions { width: 1280, height: 720, ..Default::default() };
+//! let mut oit = FrameRecorder::new(&gpu, &scene, MethodId::KplusHeap, &options)?;
+//! loop {
+//!     // oit.set_camera(&camera) when the view moves; oit.resize(w, h) with the window.
+//!     let mut encoder = gpu.device.create_command_encoder(&Default::default());
+//!     // ... the application's opaque pass writes `color` and `depth` ...
+//!     let targets = FrameTargets {
+//!         color: Some((color, wgpu::TextureFormat::Rgba8UnormSrgb)),
+//!         opaque_depth: Some(depth),
+//!     };
+//!     oit.record(&mut encoder, &targets, None)?;
+//!     gpu.queue.submit([encoder.finish()]);
+//!     for stats in oit.poll_stats() {
+//!         // a frame or more late, tagged with stats.frame
+//!         let _ = stats.gpu_ms_total;
+//!     }
+//! #   break;
+//! }
+//! # Ok(()) }
+//! ```
+//!
+//! `record` adds the method's passes and the present pass to the encoder and schedules the
+//! statistics readback for after its submission; it never submits and never waits. Feedback
+//! (a pool that overflowed, a depth complexity for peeling) applies to the next frame.
+
+use std::collections::BTreeMap;
+
+use super::present::{Present, PresentParams};
+use super::stats::StatsRing;
+use super::{
+    DrawCallback, Effect, FrameContext, FrameStats, MethodStats, ReadbackList, Recorded,
+    RenderOptions, SceneGpu, Totals, RESOLVED_BYTES, TOTAL_WORDS,
+};
+use crate::error::{Error, Result};
+use crate::gpu::timing::Timer;
+use crate::gpu::Gpu;
+use crate::methods::{self, Method, MethodId};
+use crate::scene::{Camera, Scene};
+
+/// Where a frame goes: the application's color target (the resolve is blended OVER it; `None`
+/// leaves the result in [`FrameRecorder::resolved`] only) and the depth of its opaque surfaces
+/// (Depth32Float, the frame's size; fragments at or behind it are rejected; `None`: nothing
+/// opaque).
+#[derive(Clone, Copy, Default)]
+pub struct FrameTargets<'a> {
+    pub color: Option<(&'a wgpu::TextureView, wgpu::TextureFormat)>,
+    pub opaque_depth: Option<&'a wgpu::TextureView>,
+}
+
+/// A frame waiting for its statistics.
+struct Pending {
+    frame: u64,
+    method: MethodId,
+    recorded: Recorded,
+    timestamps: Option<(u64, Vec<&'static str>)>,
+    method_words: (u64, u64),
+}
+
+/// Statistics of one frame, with whether exact mode must render it again.
+pub struct FrameReport {
+    pub stats: FrameStats,
+    pub incomplete: bool,
+    /// Why no later frame can be complete either.
+    pub cannot_complete: Option<String>,
+}
+
+/// Records frames of one scene with one method (switchable) into the application's encoders.
+pub struct FrameRecorder {
+    gpu: Gpu,
+    scene: SceneGpu,
+    options: RenderOptions,
+    method: MethodId,
+    methods: BTreeMap<MethodId, Box<dyn Method>>,
+    timer: Timer,
+    output: wgpu::Buffer,
+    present: Present,
+    ring: StatsRing<Pending>,
+    frame: u64,
+    /// Depth cleared to 1.0 for frames without an opaque depth, and whether it still needs the
+    /// clear.
+    no_opaque: (wgpu::Texture, bool),
+}
+
+impl FrameRecorder {
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        method: MethodId,
+        options: &RenderOptions,
+    ) -> Result<FrameRecorder> {
+        options.validate()?;
+        check_size(gpu, options)?;
+        let scene_gpu = SceneGpu::new(gpu, scene, options)?;
+        let mut recorder = FrameRecorder {
+            output: output_buffer(gpu, options)?,
+            no_opaque: (no_opaque_depth(gpu, options), true),
+            gpu: gpu.clone(),
+            scene: scene_gpu,
+            options: options.clone(),
+            method,
+            methods: BTreeMap::new(),
+            timer: Timer::new(gpu),
+            present: Present::new(gpu),
+            ring: StatsRing::default(),
+            frame: 0,
+        };
+        recorder.set_method(method)?;
+        Ok(recorder)
+    }
+
+    pub fn options(&self) -> &RenderOptions {
+        &self.options
+    }
+
+    pub fn method(&self) -> MethodId {
+        self.method
+    }
+
+    /// The frame number the next `record` gets.
+    pub fn next_frame(&self) -> u64 {
+        self.frame
+    }
+
+    /// Switches method; its pipelines are built on first use and kept.
+    pub fn set_method(&mut self, method: MethodId) -> Result<()> {
+        if !self.methods.contains_key(&method) {
+            let m = methods::create(method, &self.gpu, &self.scene, &self.options)?;
+            self.methods.insert(method, m);
+        }
+        self.method = method;
+        Ok(())
+    }
+
+    /// Moves the camera for the next frames.
+    pub fn set_camera(&mut self, camera: &Camera) {
+        self.scene.update(&self.gpu, camera, &self.options);
+    }
+
+    /// Changes the frame size; pipelines are kept and per-pixel buffers follow on the next frame.
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
+        let mut options = self.options.clone();
+        options.width = width;
+        options.height = height;
+        options.validate()?;
+        check_size(&self.gpu, &options)?;
+        self.output = output_buffer(&self.gpu, &options)?;
+        self.no_opaque = (no_opaque_depth(&self.gpu, &options), true);
+        self.options = options;
+        let camera = self.scene.camera;
+        self.scene.update(&self.gpu, &camera, &self.options);
+        Ok(())
+    }
+
+    /// Per-pixel options that need no new pipelines (k, tail, culling, tries, layers, effect);
+    /// the size changes through [`FrameRecorder::resize`].
+    pub fn set_options(&mut self, options: &RenderOptions) -> Result<()> {
+        options.validate()?;
+        if (options.width, options.height) != (self.options.width, self.options.height) {
+            self.resize(options.width, options.height)?;
+        }
+        self.options = options.clone();
+        let camera = self.scene.camera;
+        self.scene.update(&self.gpu, &camera, &self.options);
+        Ok(())
+    }
+
+    /// The per-pixel result of the last recorded frame ([`super::Resolved`]; COPY_SRC).
+    pub fn resolved(&self) -> &wgpu::Buffer {
+        &self.output
+    }
+
+    /// The buffers the current method keeps between frames (for tests that poison them).
+    pub fn method_resources(&self) -> Vec<&crate::gpu::ResourceCache> {
+        self.methods[&self.method].resources()
+    }
+
+    /// Records one frame into `encoder`; returns its frame number.
+    pub fn record(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        targets: &FrameTargets<'_>,
+        draw: Option<&DrawCallback<'_>>,
+    ) -> Result<u64> {
+        let gpu = &self.gpu;
+        let no_opaque_view;
+        let opaque = match targets.opaque_depth {
+            Some(v) => v,
+            None => {
+                no_opaque_view = self.no_opaque.0.create_view(&Default::default());
+                if self.no_opaque.1 {
+                    clear_depth_pass(encoder, &no_opaque_view, 1.0);
+                    self.no_opaque.1 = false;
+                }
+                &no_opaque_view
+            }
+        };
+        encoder.clear_buffer(&self.scene.totals, 0, None);
+        self.timer.reset();
+        let frame_group = self.scene.frame_group(gpu, opaque, None);
+        let mut readback = ReadbackList::default();
+        let method = self
+            .methods
+            .get_mut(&self.method)
+            .expect("set_method created it");
+        let recorded = {
+            let mut ctx = FrameContext {
+                method: self.method.as_str(),
+                gpu,
+                scene: &self.scene,
+                options: &self.options,
+                encoder,
+                timer: &mut self.timer,
+                frame_group: &frame_group,
+                opaque_depth: opaque,
+                output: &self.output,
+                draw,
+                readback: &mut readback,
+            };
+            method.record(&mut ctx)?
+        };
+        if let Some((view, format)) = targets.color {
+            let params = PresentParams {
+                size: [self.options.width, self.options.height],
+                complexity: (self.options.effect == Effect::Complexity) as u32,
+                complexity_full: recorded.k.unwrap_or(64).max(1),
+            };
+            let stamps = self.timer.render_pass("present");
+            self.present
+                .record(gpu, encoder, view, format, &self.output, params, stamps);
+        }
+        let mut sources = vec![(self.scene.totals.clone(), 0, TOTAL_WORDS)];
+        let mut at = TOTAL_WORDS;
+        let timestamps = self.timer.resolve(encoder).map(|(range, names)| {
+            let start = at;
+            at += range.2;
+            sources.push(range);
+            (start, names)
+        });
+        let method_words = (at, readback.total_words());
+        sources.extend(readback.entries);
+        let frame = self.frame;
+        self.frame += 1;
+        self.ring.record(
+            gpu,
+            encoder,
+            &sources,
+            Pending {
+                frame,
+                method: self.method,
+                recorded,
+                timestamps,
+                method_words,
+            },
+        );
+        Ok(frame)
+    }
+
+    /// Statistics of every frame whose readback has completed, oldest first. Never blocks.
+    pub fn poll_stats(&mut self) -> Vec<FrameStats> {
+        let done = self.ring.poll(&self.gpu);
+        self.decode(done)
+            .into_iter()
+            .map(|r| r.stats)
+            .collect()
+    }
+
+    /// Frames that recorded no statistics because every readback slot was still in flight.
+    pub fn skipped_stats(&self) -> u64 {
+        self.ring.skipped
+    }
+
+    /// Waits for every submitted frame's statistics and returns the last one (exact mode and
+    /// tests; the wait is a blocking readback).
+    pub fn wait_stats(&mut self) -> Result<FrameReport> {
+        let mut last = None;
+        for _ in 0..super::stats::SLOTS + 1 {
+            self.gpu.wait()?;
+            let done = self.ring.poll(&self.gpu);
+            if let Some(r) = self.decode(done).pop() {
+                last = Some(r);
+            }
+            if !self.ring.pending() {
+                break;
+            }
+        }
+        last.ok_or_else(|| Error::runtime("the frame's statistics never arrived"))
+    }
+
+    fn decode(&mut self, mut done: Vec<(Pending, Option<Vec<u32>>)>) -> Vec<FrameReport> {
+        done.sort_by_key(|(p, _)| p.frame);
+        done.into_iter()
+            .map(|(pending, words)| self.report(pending, words))
+            .collect()
+    }
+
+    fn report(&mut self, p: Pending, words: Option<Vec<u32>>) -> FrameReport {
+        let totals = words.as_ref().map(|w| Totals::from_words(w));
+        let gpu_ms = match (&words, &p.timestamps) {
+            (Some(w), Some((start, names))) => {
+                let n = names.len() * 4;
+                Some(
+                    self.timer
+                        .decode(names, &w[*start as usize..*start as usize + n]),
+                )
+            }
+            _ => None,
+        };
+        let method_words = words.as_ref().map(|w| {
+            let (start, n) = p.method_words;
+            &w[start as usize..(start + n) as usize]
+        });
+        let ms: MethodStats = match self.methods.get_mut(&p.method) {
+            Some(m) => m.stats(&p.recorded, &totals.unwrap_or_default(), method_words),
+            None => MethodStats::default(),
+        };
+        let stats = FrameStats {
+            frame: p.frame,
+            method: p.method.as_str().to_string(),
+            width: self.options.width,
+            height: self.options.height,
+            k: p.recorded.k,
+            effect: self.options.effect.name().to_string(),
+            geometry_passes: Some(p.recorded.geometry_passes),
+            gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
+            gpu_ms,
+            fragments_generated: totals.map(|t| t.generated),
+            fragments_stored: totals.map(|t| t.stored),
+            fragments_dropped: totals.map(|t| t.dropped),
+            max_depth_complexity: totals.map(|t| t.max_depth),
+            bytes_allocated: Some(p.recorded.bytes_allocated),
+            overflow: ms.overflow,
+            lock_failures: ms.lock_failures,
+            blocking_readbacks: 0,
+            submits: 0,
+            adapter: Some(self.gpu.info.name.clone()),
+            backend: Some(self.gpu.backend_name()),
+        };
+        FrameReport {
+            stats,
+            incomplete: ms.incomplete,
+            cannot_complete: ms.cannot_complete,
+        }
+    }
+}
+
+fn check_size(gpu: &Gpu, options: &RenderOptions) -> Result<()> {
+    let max_dim = gpu.limits.max_texture_dimension_2d;
+    if options.width > max_dim || options.height > max_dim {
+        return Err(Error::unsupported(format!(
+            "size {}x{} exceeds the device's texture limit {max_dim}",
+            options.width, options.height
+        )));
+    }
+    Ok(())
+}
+
+fn output_buffer(gpu: &Gpu, options: &RenderOptions) -> Result<wgpu::Buffer> {
+    gpu.storage_buffer(
+        "strata.frame.resolved",
+        options.pixels() * RESOLVED_BYTES,
+        wgpu::BufferUsages::COPY_SRC,
+    )
+}
+
+fn no_opaque_depth(gpu: &Gpu, options: &RenderOptions) -> wgpu::Texture {
+    gpu.texture_2d(
+        "strata.frame.no_opaque_depth",
+        (options.width, options.height),
+        wgpu::TextureFormat::Depth32Float,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+    )
+}
+
+/// Records a pass that clears a depth view to `value`.
+pub fn clear_depth_pass(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, value: f32) {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("strata.clear_depth"),
+        color_attachments: &[],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(value),
+                store: wgpu::StoreOp::Store,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+}

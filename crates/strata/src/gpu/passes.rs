@@ -1,0 +1,188 @@
+//! Pass plumbing every method uses: capture and compute pipelines over the scene's group 0,
+//! timed pixel dispatches and storage-only geometry passes recorded into the frame's encoder,
+//! and the throwaway color target such passes need.
+
+use crate::frame::FrameContext;
+use crate::gpu::{binding, Gpu};
+
+/// A render pipeline drawing the scene with `vs_scene` and the stage's fragment entry point,
+/// with no culling (every surface layer counts).
+pub fn capture_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    fragment_entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
+    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
+    gpu.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_scene"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: depth,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(fragment_entry),
+                compilation_options: Default::default(),
+                targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+pub fn compute_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> wgpu::ComputePipeline {
+    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
+    gpu.device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+}
+
+/// A color attachment the pass clears to `clear` and keeps.
+pub fn attachment(
+    view: &wgpu::TextureView,
+    clear: wgpu::Color,
+) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Clear(clear),
+            store: wgpu::StoreOp::Store,
+        },
+    })
+}
+
+/// Runs a compute pipeline over every pixel (8×8 workgroups) in its own timed pass.
+pub fn dispatch_pixels(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+) {
+    let (x, y) = ctx.pixel_workgroups();
+    let label = ctx.label(name);
+    let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(&label),
+        timestamp_writes: ctx.timer.compute_pass(name),
+    });
+    pass.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*g), &[]);
+    }
+    pass.dispatch_workgroups(x, y, 1);
+}
+
+/// Records a timed geometry pass drawing into storage buffers only (over a [`NullTarget`]).
+pub fn storage_geometry_pass(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    target: &NullTarget,
+    pipeline: &wgpu::RenderPipeline,
+    groups: &[&wgpu::BindGroup],
+) {
+    let draw = ctx.draw;
+    let triangles = ctx.scene.triangle_count;
+    let label = ctx.label(name);
+    let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(&label),
+        color_attachments: &[target.attachment()],
+        depth_stencil_attachment: None,
+        timestamp_writes: ctx.timer.render_pass(name),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*g), &[]);
+    }
+    match draw {
+        Some(draw) => draw(&mut pass),
+        None => pass.draw(0..triangles * 3, 0..1),
+    }
+}
+
+/// A render pass over a throwaway color target, for capture passes whose output goes to
+/// storage buffers (WebGPU needs at least one attachment).
+pub struct NullTarget {
+    view: wgpu::TextureView,
+    size: (u32, u32),
+}
+
+impl NullTarget {
+    pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
+
+    pub fn new(gpu: &Gpu, label: &str, width: u32, height: u32) -> NullTarget {
+        let t = gpu.texture_2d(
+            label,
+            (width, height),
+            Self::FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        NullTarget {
+            view: t.create_view(&Default::default()),
+            size: (width, height),
+        }
+    }
+
+    /// The target in `slot`, (re)created when the frame size changed.
+    pub fn ensure<'s>(
+        slot: &'s mut Option<NullTarget>,
+        gpu: &Gpu,
+        label: &str,
+        width: u32,
+        height: u32,
+    ) -> &'s NullTarget {
+        if slot.as_ref().is_none_or(|t| t.size != (width, height)) {
+            *slot = Some(NullTarget::new(gpu, label, width, height));
+        }
+        slot.as_ref().expect("set above")
+    }
+
+    pub fn target_state() -> Option<wgpu::ColorTargetState> {
+        Some(wgpu::ColorTargetState {
+            format: Self::FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::empty(),
+        })
+    }
+
+    pub fn attachment(&self) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+        Some(wgpu::RenderPassColorAttachment {
+            view: &self.view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                store: wgpu::StoreOp::Discard,
+            },
+        })
+    }
+}
+
