@@ -7,9 +7,9 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 use strata::error::{Error, Result};
+use strata::frame::{Effect, FrameStats, RenderOptions, Tail};
 use strata::gpu::Gpu;
 use strata::methods;
-use strata::frame::{Effect, FrameStats, RenderOptions, Tail};
 use strata::render::{save_png, LinearImage, Renderer};
 use strata::scene::{loaders, Background, Scene, Shading};
 

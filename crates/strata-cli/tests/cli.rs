@@ -170,7 +170,8 @@ fn bench_writes_json_and_csv() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("adhoc.json")).unwrap()).unwrap();
     assert_eq!(v["results"].as_array().unwrap().len(), 3);
-    assert_eq!(v["results"][0]["geometry_passes"], 5);
+    // f2b peels exactly the depth complexity the previous frame measured.
+    assert_eq!(v["results"][0]["geometry_passes"], 4);
     assert!(dir.join("adhoc.csv").exists());
 }
 

@@ -4,8 +4,8 @@
 
 use std::sync::OnceLock;
 
-use crate::gpu::Gpu;
 use crate::frame::RenderOptions;
+use crate::gpu::Gpu;
 use crate::render::{LinearImage, Renderer};
 use crate::scene::Scene;
 

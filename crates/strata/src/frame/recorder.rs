@@ -184,6 +184,19 @@ impl FrameRecorder {
         self.methods[&self.method].resources()
     }
 
+    /// Fills the current method's buffers, the resolved frame and the totals with garbage
+    /// before the next frame (tests: a correct frame reads nothing it did not write).
+    pub fn poison(&self) {
+        for cache in self.method_resources() {
+            cache.poison(&self.gpu);
+        }
+        for b in [&self.output, &self.scene.totals] {
+            self.gpu
+                .queue
+                .write_buffer(b, 0, &crate::gpu::garbage(b.size()));
+        }
+    }
+
     /// Records one frame into `encoder`; returns its frame number.
     pub fn record(
         &mut self,
@@ -268,10 +281,7 @@ impl FrameRecorder {
     /// Statistics of every frame whose readback has completed, oldest first. Never blocks.
     pub fn poll_stats(&mut self) -> Vec<FrameStats> {
         let done = self.ring.poll(&self.gpu);
-        self.decode(done)
-            .into_iter()
-            .map(|r| r.stats)
-            .collect()
+        self.decode(done).into_iter().map(|r| r.stats).collect()
     }
 
     /// Frames that recorded no statistics because every readback slot was still in flight.

@@ -278,6 +278,18 @@ impl ResourceCache {
         b
     }
 
+    /// Fills every storage buffer the cache holds with garbage (a fixed pseudo-random stream
+    /// with NaN, infinity and all-ones words mixed in), as memory left by another frame or
+    /// another application would be. Uniform buffers are left alone. Takes effect at the next
+    /// submission.
+    pub fn poison(&self, gpu: &Gpu) {
+        for b in self.buffers.values() {
+            if !b.usage().contains(wgpu::BufferUsages::UNIFORM) {
+                gpu.queue.write_buffer(b, 0, &garbage(b.size()));
+            }
+        }
+    }
+
     /// A 2D texture of one mip level and sample.
     pub fn texture(
         &mut self,
@@ -299,6 +311,25 @@ impl ResourceCache {
         self.textures.insert(label, t.clone());
         t
     }
+}
+
+/// `size` bytes of deterministic garbage.
+pub fn garbage(size: u64) -> Vec<u8> {
+    let mut x = 0x9e37_79b9u32;
+    (0..size / 4)
+        .flat_map(|i| {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let word = match i % 7 {
+                0 => f32::NAN.to_bits(),
+                1 => u32::MAX,
+                2 => f32::INFINITY.to_bits(),
+                _ => x,
+            };
+            word.to_le_bytes()
+        })
+        .collect()
 }
 
 fn limits_json(l: &wgpu::Limits) -> serde_json::Value {

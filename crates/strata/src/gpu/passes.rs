@@ -88,10 +88,12 @@ pub fn dispatch_pixels(
 ) {
     let (x, y) = ctx.pixel_workgroups();
     let label = ctx.label(name);
-    let mut pass = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some(&label),
-        timestamp_writes: ctx.timer.compute_pass(name),
-    });
+    let mut pass = ctx
+        .encoder
+        .begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(&label),
+            timestamp_writes: ctx.timer.compute_pass(name),
+        });
     pass.set_pipeline(pipeline);
     for (i, g) in groups.iter().enumerate() {
         pass.set_bind_group(i as u32, Some(*g), &[]);
@@ -185,4 +187,3 @@ impl NullTarget {
         })
     }
 }
-

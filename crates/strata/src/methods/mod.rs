@@ -183,16 +183,16 @@ pub fn catalogue() -> Vec<MethodInfo> {
             id: "f2b",
             family: "peeling",
             exact: true,
-            geometry_passes: "N+1",
-            memory: "52·W·H",
+            geometry_passes: "N (the last frame's depth complexity, or --layers)",
+            memory: "56·W·H",
             summary: "front-to-back depth peeling, one layer per geometry pass",
         },
         MethodInfo {
             id: "dual",
             family: "peeling",
             exact: true,
-            geometry_passes: "ceil(N/2)+1",
-            memory: "120·W·H",
+            geometry_passes: "ceil(N/2)+1 (N: the last frame's depth complexity, or --layers)",
+            memory: "124·W·H",
             summary: "dual depth peeling: nearest and farthest layer per pass (fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
         },
         MethodInfo {
@@ -200,8 +200,8 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "abuffer",
             exact: true,
             geometry_passes: "1 (+1 when the node pool overflows)",
-            memory: "4·W·H + 20·nodes + 4 (nodes ≥ F)",
-            summary: "A-buffer of per-pixel linked lists; overflow is detected, the pool grown and the frame re-rendered",
+            memory: "20·nodes + 16·W·H + 136 (nodes ≥ F)",
+            summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
         },
         MethodInfo {
             id: "abuffer-fixed",
@@ -232,7 +232,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: true,
             geometry_passes: "1 (+1 when the array overflows)",
-            memory: "16·(n+1)·W·H + 64 + 20·(W·H with --tail blend, else 1); n: max depth complexity",
+            memory: "16·(n+1)·W·H + 96 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
             summary: "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
         },
         MethodInfo {
@@ -264,7 +264,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: true,
             geometry_passes: "2",
-            memory: "20·k·W·H + 16·W·H + 64 + 20·(W·H with --tail blend, else 1)",
+            memory: "20·k·W·H + 16·W·H + 96 + 40·(W·H with --tail blend, else 1)",
             summary: "multi-depth test: atomicMax cascade of depth keys, colors fetched in a second geometry pass (ties beyond k share keys)",
         },
         MethodInfo {
@@ -272,7 +272,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: false,
             geometry_passes: "1",
-            memory: "8·k·W·H + 16·W·H + 64 + 20·(W·H with --tail blend, else 1)",
+            memory: "8·k·W·H + 16·W·H + 96 + 40·(W·H with --tail blend, else 1)",
             summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
         },
         MethodInfo {
@@ -280,7 +280,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: false,
             geometry_passes: "1",
-            memory: "8·k·W·H + 16·W·H + 84",
+            memory: "8·k·W·H + 16·W·H + 136",
             summary: "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
         },
         MethodInfo {
@@ -288,7 +288,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: true,
             geometry_passes: "1 (+1 when the node pool overflows)",
-            memory: "20·nodes + 16·W·H + 64 + 20·(W·H with --tail blend, else 1); nodes ≥ F",
+            memory: "20·nodes + 16·W·H + 96 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
             summary: "A-buffer linked lists, the k nearest selected in resolve",
         },
         MethodInfo {
@@ -296,14 +296,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: false,
             geometry_passes: "1 (+1 when the node pool overflows)",
-            memory: "20·nodes + 16·W·H + 64 + 20·(W·H with --tail blend, else 1); nodes ≤ F",
+            memory: "20·nodes + 16·W·H + 96 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
             summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",
         },
     ]
 }
 
 /// Memory of the k-slot methods; `kbuffer::SLOT_BYTES` etc. keep it true.
-const KB_MEMORY: &str = "16·(k+1)·W·H + 64 + 20·(W·H with --tail blend, else 1)";
+const KB_MEMORY: &str = "16·(k+1)·W·H + 96 + 40·(W·H with --tail blend, else 1)";
 
 pub fn info(id: &str) -> Option<MethodInfo> {
     catalogue().into_iter().find(|m| m.id == id)
@@ -341,9 +341,7 @@ pub fn create(
         MethodId::KplusArrayR => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusArrayR)),
         MethodId::Kb => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::Kb)),
         MethodId::KbPs => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KbPs)),
-        MethodId::AbufferFixed => {
-            Box::new(SlotKBuffer::new(gpu, scene, id, Variant::AbufferFixed))
-        }
+        MethodId::AbufferFixed => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::AbufferFixed)),
         MethodId::KbAbFixed => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KbAbFixed)),
         MethodId::Reference => {
             return Err(Error::input(

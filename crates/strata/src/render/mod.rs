@@ -169,12 +169,12 @@ impl<'g> Renderer<'g> {
         let (mut submits, mut blocking, mut passes, mut overflowed) = (0, 0, 0, false);
         let mut report = None;
         for _ in 0..MAX_EXACT_FRAMES {
-            let mut encoder = self
-                .gpu
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("strata.exact_frame"),
-                });
+            let mut encoder =
+                self.gpu
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("strata.exact_frame"),
+                    });
             recorder.record(&mut encoder, &targets, draw)?;
             self.gpu.queue.submit([encoder.finish()]);
             submits += 1;

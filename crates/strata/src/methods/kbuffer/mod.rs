@@ -212,12 +212,7 @@ pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     )
 }
 
-pub fn params_for(
-    ctx: &FrameContext<'_>,
-    k: u32,
-    stride: u32,
-    count_by_seen: bool,
-) -> KParams {
+pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bool) -> KParams {
     let options = ctx.options;
     KParams {
         k,
@@ -268,6 +263,9 @@ pub struct KFrame {
     resolve: wgpu::ComputePipeline,
     cache: ResourceCache,
     null_target: Option<NullTarget>,
+    /// The counters' values at the start of a frame (not per-pixel storage: outside the cache)
+    /// and the allocation start they were written for.
+    counters_init: wgpu::Buffer,
     counter_start: Option<u32>,
 }
 
@@ -289,6 +287,12 @@ impl KFrame {
             resolve,
             cache: ResourceCache::default(),
             null_target: None,
+            counters_init: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("strata.kbuffer.counters_init"),
+                size: COUNTERS * 4,
+                usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
             counter_start: None,
         }
     }
@@ -344,7 +348,8 @@ impl KFrame {
         check_memory(ctx, self.id.as_str(), storage.bytes, total)?;
         let none = wgpu::BufferUsages::empty();
         let cache = &mut self.cache;
-        let params_buffer = cache.uniform(gpu, "strata.kbuffer.params", bytemuck::bytes_of(&params));
+        let params_buffer =
+            cache.uniform(gpu, "strata.kbuffer.params", bytemuck::bytes_of(&params));
         let pixels = cache.storage(gpu, "strata.kbuffer.pixels", px * PIXEL_BYTES, none)?;
         let counters = cache.storage(
             gpu,
@@ -352,18 +357,13 @@ impl KFrame {
             COUNTERS * 4,
             wgpu::BufferUsages::COPY_SRC,
         )?;
-        let counters_init = cache.storage(
-            gpu,
-            "strata.kbuffer.counters_init",
-            COUNTERS * 4,
-            wgpu::BufferUsages::COPY_SRC,
-        )?;
+        let counters_init = &self.counters_init;
         let start = ctx.options.allocation_counter_start;
         if self.counter_start != Some(start) {
             let mut init = [0u32; COUNTERS as usize];
             init[COUNTER_ALLOCATED] = start;
             gpu.queue
-                .write_buffer(&counters_init, 0, bytemuck::cast_slice(&init));
+                .write_buffer(counters_init, 0, bytemuck::cast_slice(&init));
             self.counter_start = Some(start);
         }
         let tail = cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, none)?;
@@ -389,10 +389,10 @@ impl KFrame {
             ctx.options.height,
         );
         let frame_group = ctx.frame_group;
-        ctx.encoder.clear_buffer(&pixels, 0, None);
+        //MUT ctx.encoder.clear_buffer(&pixels, 0, None);
         ctx.encoder.clear_buffer(&tail, 0, None);
         ctx.encoder
-            .copy_buffer_to_buffer(&counters_init, 0, &counters, 0, COUNTERS * 4);
+            .copy_buffer_to_buffer(counters_init, 0, &counters, 0, COUNTERS * 4);
         if storage.clear {
             ctx.encoder.clear_buffer(&buffer, 0, None);
         }
@@ -460,7 +460,12 @@ impl Method for SlotKBuffer {
         })
     }
 
-    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: Option<&[u32]>) -> MethodStats {
+    fn stats(
+        &mut self,
+        recorded: &Recorded,
+        totals: &Totals,
+        words: Option<&[u32]>,
+    ) -> MethodStats {
         let Some(words) = words else {
             return MethodStats::default();
         };

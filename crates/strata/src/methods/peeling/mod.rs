@@ -272,7 +272,12 @@ impl Method for FrontToBack {
         })
     }
 
-    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: Option<&[u32]>) -> MethodStats {
+    fn stats(
+        &mut self,
+        recorded: &Recorded,
+        totals: &Totals,
+        words: Option<&[u32]>,
+    ) -> MethodStats {
         if words.is_none() {
             return MethodStats::default();
         }
@@ -447,7 +452,12 @@ impl Method for Dual {
         })
     }
 
-    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: Option<&[u32]>) -> MethodStats {
+    fn stats(
+        &mut self,
+        recorded: &Recorded,
+        totals: &Totals,
+        words: Option<&[u32]>,
+    ) -> MethodStats {
         let Some(words) = words else {
             return MethodStats::default();
         };
