@@ -1,6 +1,7 @@
 // The fragment record every multi-fragment method stores: 16 bytes.
 // depth: window-space z; tag: primitive index << 1 | front-facing bit; color as two f16 pairs.
-// Keep in sync with `Fragment` in crates/strata/src/resolve/mod.rs.
+// Keep in sync with `Fragment` in crates/strata/src/resolve/mod.rs. No bindings: applications'
+// capture modules include this file.
 
 struct Fragment {
     depth: f32,
@@ -11,11 +12,6 @@ struct Fragment {
 
 fn fragment_new(depth: f32, prim: u32, front_facing: bool, color: vec4<f32>) -> Fragment {
     return Fragment(depth, (prim << 1u) | select(0u, 1u, front_facing), pack2x16float(color.rg), pack2x16float(color.ba));
-}
-
-// Shades a rasterized scene fragment into a record.
-fn scene_fragment(v: SceneVarying, front_facing: bool) -> Fragment {
-    return fragment_new(v.position.z, v.prim, front_facing, shade(v.world, v.normal, v.material));
 }
 
 fn fragment_color(f: Fragment) -> vec4<f32> {

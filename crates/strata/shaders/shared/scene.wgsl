@@ -123,6 +123,11 @@ fn vs_scene(@builtin(vertex_index) vertex_index: u32) -> SceneVarying {
     return out;
 }
 
+// Shades a rasterized scene fragment into a record.
+fn scene_fragment(v: SceneVarying, front_facing: bool) -> Fragment {
+    return fragment_new(v.position.z, v.prim, front_facing, shade(v.world, v.normal, v.material));
+}
+
 fn pixel_of(position: vec4<f32>) -> vec2<u32> {
     return vec2<u32>(position.xy);
 }

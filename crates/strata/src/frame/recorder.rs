@@ -89,6 +89,14 @@ pub struct FrameRecorder {
     /// Depth cleared to 1.0 for frames without an opaque depth, and whether it still needs the
     /// clear.
     no_opaque: (wgpu::Texture, bool),
+    /// Between `begin_capture` and `end_capture`: group 0 and the readbacks asked for.
+    open_capture: Option<(OpenFrame, ReadbackList)>,
+}
+
+/// Group 0 of a frame being recorded and the opaque depth it binds.
+struct OpenFrame {
+    group: wgpu::BindGroup,
+    opaque: wgpu::TextureView,
 }
 
 impl FrameRecorder {
@@ -113,6 +121,7 @@ impl FrameRecorder {
             present: Present::new(gpu),
             ring: StatsRing::default(),
             frame: 0,
+            open_capture: None,
         };
         recorder.set_method(method)?;
         Ok(recorder)
@@ -204,44 +213,122 @@ impl FrameRecorder {
         targets: &FrameTargets<'_>,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<u64> {
-        let gpu = &self.gpu;
-        let no_opaque_view;
-        let opaque = match targets.opaque_depth {
-            Some(v) => v,
+        let frame = self.start_frame(encoder, targets.opaque_depth);
+        let mut readback = ReadbackList::default();
+        let recorded =
+            self.with_method(encoder, &frame, &mut readback, draw, |m, ctx| m.record(ctx))?;
+        Ok(self.finish_frame(encoder, targets.color, recorded, readback))
+    }
+
+    /// WGSL defining `strata_capture` for the current method, its bindings at `@group(group)`
+    /// (see [`crate::methods::capture`]).
+    pub fn capture_wgsl(&self, group: u32) -> Result<String> {
+        crate::methods::capture::wgsl(self.method, group)
+    }
+
+    /// The layout of the bind group an application's capture pipeline places.
+    pub fn capture_layout(&self) -> Result<&wgpu::BindGroupLayout> {
+        self.methods[&self.method].capture_layout().ok_or_else(|| {
+            Error::unsupported(format!(
+                "{} has no capture an application's shader can call",
+                self.method
+            ))
+        })
+    }
+
+    /// Starts a frame whose capture pass the application records itself: records the clears
+    /// and returns the bind group its capture pipeline places. The application's pass follows
+    /// in the same encoder, then [`FrameRecorder::end_capture`].
+    pub fn begin_capture(&mut self, encoder: &mut wgpu::CommandEncoder) -> Result<wgpu::BindGroup> {
+        let frame = self.start_frame(encoder, None);
+        let mut readback = ReadbackList::default();
+        let group = self.with_method(encoder, &frame, &mut readback, None, |m, ctx| {
+            m.begin_capture(ctx)
+        })?;
+        self.open_capture = Some((frame, readback));
+        Ok(group)
+    }
+
+    /// Resolves the application's capture and blends it OVER `color`; returns the frame number.
+    pub fn end_capture(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        color: Option<(&wgpu::TextureView, wgpu::TextureFormat)>,
+    ) -> Result<u64> {
+        let (frame, mut readback) = self
+            .open_capture
+            .take()
+            .ok_or_else(|| Error::runtime("end_capture without begin_capture"))?;
+        let recorded = self.with_method(encoder, &frame, &mut readback, None, |m, ctx| {
+            m.end_capture(ctx)
+        })?;
+        Ok(self.finish_frame(encoder, color, recorded, readback))
+    }
+
+    /// Clears the totals, starts the timer and binds group 0 for a frame.
+    fn start_frame(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        opaque_depth: Option<&wgpu::TextureView>,
+    ) -> OpenFrame {
+        let opaque = match opaque_depth {
+            Some(v) => v.clone(),
             None => {
-                no_opaque_view = self.no_opaque.0.create_view(&Default::default());
+                let own = self.no_opaque.0.create_view(&Default::default());
                 if self.no_opaque.1 {
-                    clear_depth_pass(encoder, &no_opaque_view, 1.0);
+                    clear_depth_pass(encoder, &own, 1.0);
                     self.no_opaque.1 = false;
                 }
-                &no_opaque_view
+                own
             }
         };
         encoder.clear_buffer(&self.scene.totals, 0, None);
         self.timer.reset();
-        let frame_group = self.scene.frame_group(gpu, opaque, None);
-        let mut readback = ReadbackList::default();
+        OpenFrame {
+            group: self.scene.frame_group(&self.gpu, &opaque, None),
+            opaque,
+        }
+    }
+
+    /// Runs `f` on the current method with a frame context.
+    fn with_method<R>(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &OpenFrame,
+        readback: &mut ReadbackList,
+        draw: Option<&DrawCallback<'_>>,
+        f: impl FnOnce(&mut dyn Method, &mut FrameContext<'_>) -> Result<R>,
+    ) -> Result<R> {
         let method = self
             .methods
             .get_mut(&self.method)
             .expect("set_method created it");
-        let recorded = {
-            let mut ctx = FrameContext {
-                method: self.method.as_str(),
-                gpu,
-                scene: &self.scene,
-                options: &self.options,
-                encoder,
-                timer: &mut self.timer,
-                frame_group: &frame_group,
-                opaque_depth: opaque,
-                output: &self.output,
-                draw,
-                readback: &mut readback,
-            };
-            method.record(&mut ctx)?
+        let mut ctx = FrameContext {
+            method: self.method.as_str(),
+            gpu: &self.gpu,
+            scene: &self.scene,
+            options: &self.options,
+            encoder,
+            timer: &mut self.timer,
+            frame_group: &frame.group,
+            opaque_depth: &frame.opaque,
+            output: &self.output,
+            draw,
+            readback,
         };
-        if let Some((view, format)) = targets.color {
+        f(method.as_mut(), &mut ctx)
+    }
+
+    /// Records the present pass and the statistics readback; returns the frame number.
+    fn finish_frame(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        color: Option<(&wgpu::TextureView, wgpu::TextureFormat)>,
+        recorded: Recorded,
+        readback: ReadbackList,
+    ) -> u64 {
+        let gpu = &self.gpu;
+        if let Some((view, format)) = color {
             let params = PresentParams {
                 size: [self.options.width, self.options.height],
                 complexity: (self.options.effect == Effect::Complexity) as u32,
@@ -275,7 +362,7 @@ impl FrameRecorder {
                 method_words,
             },
         );
-        Ok(frame)
+        frame
     }
 
     /// Statistics of every frame whose readback has completed, oldest first. Never blocks.

@@ -12,11 +12,3 @@ fn capture_fixed(p: u32, f: Fragment) {
         tail_add(p, f);
     }
 }
-
-@fragment
-fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    capture_fixed(kpixel(v.position), scene_fragment(v, front_facing));
-}

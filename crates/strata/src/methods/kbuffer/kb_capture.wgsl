@@ -56,19 +56,3 @@ fn capture_sorted(p: u32, f: Fragment, locking: u32) {
     }
     lock_failed(p, f);
 }
-
-@fragment
-fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    capture_sorted(kpixel(v.position), scene_fragment(v, front_facing), UNLOCKED);
-}
-
-@fragment
-fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    capture_sorted(kpixel(v.position), scene_fragment(v, front_facing), LOCKED);
-}

@@ -129,22 +129,6 @@ fn capture_locked(p: u32, f: Fragment, variant: u32) {
     lock_failed(p, f);
 }
 
-@fragment
-fn fs_kplus_array(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    capture_locked(kpixel(v.position), scene_fragment(v, front_facing), VARIANT_ARRAY);
-}
-
-@fragment
-fn fs_kplus_heap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    capture_locked(kpixel(v.position), scene_fragment(v, front_facing), VARIANT_HEAP);
-}
-
 // Revised max-array: the first k fragments take slots from the seen counter without the lock
 // ("fast store") and publish themselves in FILLED; later fragments take the lock, wait (within
 // the try bound) until all k slots are published, find the maximum once (a published bound marks
@@ -184,12 +168,4 @@ fn capture_array_r(p: u32, f: Fragment) {
         }
     }
     lock_failed(p, f);
-}
-
-@fragment
-fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    capture_array_r(kpixel(v.position), scene_fragment(v, front_facing));
 }

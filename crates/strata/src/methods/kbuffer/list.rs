@@ -11,7 +11,7 @@
 //! storage binding; a frame needing more is an error in exact mode. Memory: 20 bytes per node,
 //! 16 per pixel of counters and head, 40 per pixel of tail sums with `--tail blend`.
 use super::{
-    k_of, lock_failures, params_for, KFrame, Storage, COUNTER_ALLOCATED, COUNTER_LOST,
+    k_of, lock_failures, params_for, KFrame, KParams, Storage, COUNTER_ALLOCATED, COUNTER_LOST,
     COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL, STORAGE_WGSL,
 };
 use crate::error::{Error, Result};
@@ -25,8 +25,17 @@ const MIN_NODES: u64 = 1024;
 
 const LIST_WGSL: &str = include_str!("list.wgsl");
 
-pub fn capture_source() -> String {
+/// The capture steps of the list methods, without entry points or scene bindings.
+pub fn capture_functions() -> String {
     [STORAGE_WGSL, LIST_WGSL].join("\n")
+}
+
+pub fn capture_source() -> String {
+    [
+        capture_functions().as_str(),
+        include_str!("list_entries.wgsl"),
+    ]
+    .join("\n")
 }
 
 pub fn resolve_source() -> String {
@@ -48,6 +57,8 @@ pub struct ListKBuffer {
     /// The most nodes memory allowed when the last frame was recorded, and whether the limit
     /// is the budget.
     max_nodes: (u64, bool),
+    /// Between `begin_capture` and `end_capture`: the group and what the frame records.
+    external: Option<(wgpu::BindGroup, Recorded)>,
 }
 
 impl ListKBuffer {
@@ -68,6 +79,7 @@ impl ListKBuffer {
                 .unwrap_or(options.pixels() * FIRST_GUESS_PER_PIXEL)
                 .max(1),
             max_nodes: (u64::MAX, false),
+            external: None,
         }
     }
 
@@ -85,8 +97,9 @@ impl ListKBuffer {
     }
 }
 
-impl Method for ListKBuffer {
-    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+impl ListKBuffer {
+    /// The frame's k, pool and parameters.
+    fn plan(&mut self, ctx: &FrameContext<'_>) -> Result<(KParams, Storage, Recorded)> {
         // abuffer-ll composites every fragment: its k is unbounded.
         let k = if self.id == MethodId::AbufferLl {
             u32::MAX
@@ -111,16 +124,44 @@ impl Method for ListKBuffer {
             bytes: self.capacity * NODE_BYTES,
             clear: false,
         };
-        let params = params_for(ctx, k, k, false);
-        let bytes = self
-            .frame
-            .record(ctx, params, storage, &[("capture", &self.capture)])?;
-        Ok(Recorded {
+        let recorded = Recorded {
             geometry_passes: 1,
             k: (self.id != MethodId::AbufferLl).then_some(k),
-            bytes_allocated: bytes,
+            bytes_allocated: 0,
             capacity: self.capacity,
-        })
+        };
+        Ok((params_for(ctx, k, k, false), storage, recorded))
+    }
+}
+
+impl Method for ListKBuffer {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let (params, storage, mut recorded) = self.plan(ctx)?;
+        recorded.bytes_allocated =
+            self.frame
+                .record(ctx, params, storage, &[("capture", &self.capture)])?;
+        Ok(recorded)
+    }
+
+    fn capture_layout(&self) -> Option<&wgpu::BindGroupLayout> {
+        Some(&self.frame.layout)
+    }
+
+    fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
+        let (params, storage, mut recorded) = self.plan(ctx)?;
+        let (group, bytes) = self.frame.begin(ctx, params, storage)?;
+        recorded.bytes_allocated = bytes;
+        self.external = Some((group.clone(), recorded));
+        Ok(group)
+    }
+
+    fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let (group, recorded) = self
+            .external
+            .take()
+            .ok_or_else(|| Error::runtime("end_capture without begin_capture"))?;
+        self.frame.end(ctx, &group);
+        Ok(recorded)
     }
 
     fn stats(&mut self, recorded: &Recorded, _: &Totals, words: Option<&[u32]>) -> MethodStats {

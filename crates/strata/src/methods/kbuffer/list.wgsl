@@ -62,22 +62,6 @@ fn capture_list(p: u32, f: Fragment) {
     atomicStore(&nodes[node_word(link) + 4u], atomicExchange(&pixels[pixel_word(p, HEAD)], link));
 }
 
-@fragment
-fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    capture_list(kpixel(v.position), scene_fragment(v, front_facing));
-}
-
-@fragment
-fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    capture_sorted_list(kpixel(v.position), scene_fragment(v, front_facing));
-}
-
 // kb-ll's capture step.
 fn capture_sorted_list(p: u32, f: Fragment) {
     count_seen(p);

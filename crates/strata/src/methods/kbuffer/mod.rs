@@ -114,29 +114,33 @@ pub enum Variant {
 }
 
 impl Variant {
-    fn capture(self) -> (&'static str, &'static str, &'static str) {
+    /// The fragment entry point of the built-in capture.
+    fn entry(self) -> &'static str {
         match self {
-            Variant::KplusArray => (
-                "kplus",
-                include_str!("kplus_capture.wgsl"),
-                "fs_kplus_array",
-            ),
-            Variant::KplusHeap => ("kplus", include_str!("kplus_capture.wgsl"), "fs_kplus_heap"),
-            Variant::KplusArrayR => (
-                "kplus",
-                include_str!("kplus_capture.wgsl"),
-                "fs_kplus_array_r",
-            ),
-            Variant::Kb => ("kb", include_str!("kb_capture.wgsl"), "fs_kb"),
-            Variant::KbPs => ("kb", include_str!("kb_capture.wgsl"), "fs_kb_ps"),
-            Variant::AbufferFixed | Variant::KbAbFixed => {
-                ("fixed", include_str!("fixed_capture.wgsl"), "fs_fixed")
-            }
+            Variant::KplusArray => "fs_kplus_array",
+            Variant::KplusHeap => "fs_kplus_heap",
+            Variant::KplusArrayR => "fs_kplus_array_r",
+            Variant::Kb => "fs_kb",
+            Variant::KbPs => "fs_kb_ps",
+            Variant::AbufferFixed | Variant::KbAbFixed => "fs_fixed",
         }
     }
 
     fn fixed(self) -> bool {
         matches!(self, Variant::AbufferFixed | Variant::KbAbFixed)
+    }
+
+    pub fn of(id: MethodId) -> Option<Variant> {
+        Some(match id {
+            MethodId::KplusArray => Variant::KplusArray,
+            MethodId::KplusHeap => Variant::KplusHeap,
+            MethodId::KplusArrayR => Variant::KplusArrayR,
+            MethodId::Kb => Variant::Kb,
+            MethodId::KbPs => Variant::KbPs,
+            MethodId::AbufferFixed => Variant::AbufferFixed,
+            MethodId::KbAbFixed => Variant::KbAbFixed,
+            _ => return None,
+        })
     }
 }
 
@@ -144,6 +148,31 @@ pub const STORAGE_WGSL: &str = include_str!("storage.wgsl");
 pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
 pub const SLOTS_WGSL: &str = include_str!("slots.wgsl");
 pub const SLOTS_RESOLVE_WGSL: &str = include_str!("slots_resolve.wgsl");
+pub const KPLUS_CAPTURE_WGSL: &str = include_str!("kplus_capture.wgsl");
+pub const KB_CAPTURE_WGSL: &str = include_str!("kb_capture.wgsl");
+pub const FIXED_CAPTURE_WGSL: &str = include_str!("fixed_capture.wgsl");
+
+/// The capture steps of every slot method, without entry points or scene bindings: what an
+/// application's fragment shader includes (see `methods::capture`).
+pub fn slots_capture_functions() -> String {
+    [
+        STORAGE_WGSL,
+        SLOTS_WGSL,
+        KPLUS_CAPTURE_WGSL,
+        KB_CAPTURE_WGSL,
+        FIXED_CAPTURE_WGSL,
+    ]
+    .join("\n")
+}
+
+/// The built-in capture module of the slot methods.
+pub fn slots_capture_source() -> String {
+    [
+        slots_capture_functions().as_str(),
+        include_str!("slots_entries.wgsl"),
+    ]
+    .join("\n")
+}
 
 /// The largest k a method accepts (see the module docs).
 pub fn max_k(id: MethodId) -> u32 {
@@ -267,6 +296,7 @@ pub struct KFrame {
     /// and the allocation start they were written for.
     counters_init: wgpu::Buffer,
     counter_start: Option<u32>,
+    counters: Option<wgpu::Buffer>,
 }
 
 impl KFrame {
@@ -294,6 +324,7 @@ impl KFrame {
                 mapped_at_creation: false,
             }),
             counter_start: None,
+            counters: None,
         }
     }
 
@@ -337,6 +368,30 @@ impl KFrame {
         storage: Storage,
         passes: &[(&'static str, &wgpu::RenderPipeline)],
     ) -> Result<u64> {
+        let (group, total) = self.begin(ctx, params, storage)?;
+        let frame_group = ctx.frame_group;
+        let target = NullTarget::ensure(
+            &mut self.null_target,
+            ctx.gpu,
+            "strata.kbuffer.null_target",
+            ctx.options.width,
+            ctx.options.height,
+        );
+        for (name, pipeline) in passes {
+            storage_geometry_pass(ctx, name, target, pipeline, &[frame_group, &group]);
+        }
+        self.end(ctx, &group);
+        Ok(total)
+    }
+
+    /// Allocates and clears the frame's storage; returns the group-1 bind group (which an
+    /// application's capture pass may place) and the bytes allocated.
+    pub fn begin(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        params: KParams,
+        storage: Storage,
+    ) -> Result<(wgpu::BindGroup, u64)> {
         let gpu = ctx.gpu;
         let px = ctx.pixels();
         let tail_bytes = if params.tail_blend != 0 {
@@ -381,27 +436,24 @@ impl KFrame {
                 ctx.output.as_entire_binding(),
             ],
         );
-        let target = NullTarget::ensure(
-            &mut self.null_target,
-            gpu,
-            "strata.kbuffer.null_target",
-            ctx.options.width,
-            ctx.options.height,
-        );
-        let frame_group = ctx.frame_group;
-        //MUT ctx.encoder.clear_buffer(&pixels, 0, None);
+        ctx.encoder.clear_buffer(&pixels, 0, None);
         ctx.encoder.clear_buffer(&tail, 0, None);
         ctx.encoder
             .copy_buffer_to_buffer(counters_init, 0, &counters, 0, COUNTERS * 4);
         if storage.clear {
             ctx.encoder.clear_buffer(&buffer, 0, None);
         }
-        for (name, pipeline) in passes {
-            storage_geometry_pass(ctx, name, target, pipeline, &[frame_group, &group]);
+        self.counters = Some(counters);
+        Ok((group, total))
+    }
+
+    /// Records the resolve and asks for the counters.
+    pub fn end(&mut self, ctx: &mut FrameContext<'_>, group: &wgpu::BindGroup) {
+        let frame_group = ctx.frame_group;
+        dispatch_pixels(ctx, "resolve", &self.resolve, &[frame_group, group]);
+        if let Some(counters) = &self.counters {
+            ctx.readback.words(counters, 0, COUNTERS);
         }
-        dispatch_pixels(ctx, "resolve", &self.resolve, &[frame_group, &group]);
-        ctx.readback.words(&counters, 0, COUNTERS);
-        Ok(total)
     }
 }
 
@@ -412,6 +464,8 @@ pub struct SlotKBuffer {
     capture: wgpu::RenderPipeline,
     /// kb-ab-fixed: slots per pixel the next frame starts with (measured need).
     measured_stride: u32,
+    /// Between `begin_capture` and `end_capture`: the group and what the frame records.
+    external: Option<(wgpu::BindGroup, Recorded)>,
 }
 
 impl SlotKBuffer {
@@ -422,19 +476,18 @@ impl SlotKBuffer {
             id,
             &[STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
         );
-        let (_, stage, entry) = variant.capture();
-        let module = frame.capture_module(gpu, [STORAGE_WGSL, SLOTS_WGSL, stage].join("\n"));
+        let module = frame.capture_module(gpu, slots_capture_source());
         SlotKBuffer {
             variant,
-            capture: frame.capture_pipeline(gpu, scene, &module, entry),
+            capture: frame.capture_pipeline(gpu, scene, &module, variant.entry()),
             frame,
             measured_stride: 0,
+            external: None,
         }
     }
-}
 
-impl Method for SlotKBuffer {
-    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+    /// The frame's k, storage and parameters.
+    fn plan(&self, ctx: &FrameContext<'_>) -> Result<(KParams, Storage, Recorded)> {
         let k = k_of(ctx.options, self.frame.id)?;
         // kb-ab-fixed stores every fragment: its array takes the depth complexity the last
         // frame measured (at least k).
@@ -448,16 +501,48 @@ impl Method for SlotKBuffer {
             bytes: ctx.pixels() * stride as u64 * SLOT_BYTES,
             clear: false,
         };
-        let params = params_for(ctx, k, stride, self.variant.fixed());
-        let bytes = self
-            .frame
-            .record(ctx, params, storage, &[("capture", &self.capture)])?;
-        Ok(Recorded {
+        let recorded = Recorded {
             geometry_passes: 1,
             k: Some(k),
-            bytes_allocated: bytes,
+            bytes_allocated: 0,
             capacity: stride as u64,
-        })
+        };
+        Ok((
+            params_for(ctx, k, stride, self.variant.fixed()),
+            storage,
+            recorded,
+        ))
+    }
+}
+
+impl Method for SlotKBuffer {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let (params, storage, mut recorded) = self.plan(ctx)?;
+        recorded.bytes_allocated =
+            self.frame
+                .record(ctx, params, storage, &[("capture", &self.capture)])?;
+        Ok(recorded)
+    }
+
+    fn capture_layout(&self) -> Option<&wgpu::BindGroupLayout> {
+        Some(&self.frame.layout)
+    }
+
+    fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
+        let (params, storage, mut recorded) = self.plan(ctx)?;
+        let (group, bytes) = self.frame.begin(ctx, params, storage)?;
+        recorded.bytes_allocated = bytes;
+        self.external = Some((group.clone(), recorded));
+        Ok(group)
+    }
+
+    fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let (group, recorded) = self
+            .external
+            .take()
+            .ok_or_else(|| Error::runtime("end_capture without begin_capture"))?;
+        self.frame.end(ctx, &group);
+        Ok(recorded)
     }
 
     fn stats(

@@ -271,11 +271,8 @@ fn impossible_budget_is_a_clear_error() {
 #[test]
 fn kbuffer_stages_validate() {
     use super::*;
-    let slots = |stage: &str| [STORAGE_WGSL, SLOTS_WGSL, stage].join("\n");
     let stages = [
-        ("kplus.capture", slots(include_str!("kplus_capture.wgsl"))),
-        ("kb.capture", slots(include_str!("kb_capture.wgsl"))),
-        ("fixed.capture", slots(include_str!("fixed_capture.wgsl"))),
+        ("slots.capture", slots_capture_source()),
         (
             "slots.resolve",
             [STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),

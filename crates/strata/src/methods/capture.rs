@@ -1,0 +1,112 @@
+//! Capture from the application's own fragment shaders.
+//!
+//! Every single-pass method over slot arrays or linked lists exposes its capture step as WGSL
+//! that an application's fragment shader calls — its own vertex layout, pipeline and render
+//! pass, with strata's bind group placed at a group index of its choosing:
+//!
+//! ```wgsl
+//! // strata::methods::capture::wgsl(MethodId::KplusHeap, 1) is appended to the application's
+//! // shader source (plain concatenation); it declares @group(1) bindings 0..5 and defines:
+//! fn strata_capture(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_facing: bool)
+//! ```
+//!
+//! - `position`: the fragment's `@builtin(position)` (window coordinates and depth);
+//! - `premultiplied`: its color with premultiplied alpha (linear);
+//! - `id`: the tie-break among fragments at exactly equal depth (use the triangle's index; with
+//!   strata's scene order the result equals the CPU reference's);
+//! - `front_facing`: the `@builtin(front_facing)` flag (the translucency effect's entering and
+//!   leaving rule; tags must then be strata scene primitives).
+//!
+//! The fragment shader must not write a color (use a color target with an empty write mask, or
+//! none): the capture stores into storage buffers. Test against the opaque depth with the
+//! pipeline's depth test (LESS, no depth writes). The bindings are the method's group-1 layout
+//! ([`crate::FrameRecorder::capture_layout`]); the bind group comes from
+//! [`crate::FrameRecorder::begin_capture`], and [`crate::FrameRecorder::end_capture`] resolves.
+//! `kb-mdt32` (two geometry passes), the peeling methods and the baselines have no application
+//! capture.
+
+use crate::error::{Error, Result};
+use crate::gpu::shader;
+use crate::methods::kbuffer::{list, slots_capture_functions, Variant};
+use crate::methods::MethodId;
+
+/// The methods whose capture an application's shader can call.
+pub fn supported(method: MethodId) -> bool {
+    call(method).is_some()
+}
+
+/// The capture step each method's `strata_capture` calls, on pixel `p` and fragment `f`.
+fn call(method: MethodId) -> Option<&'static str> {
+    Some(match method {
+        MethodId::KplusArray => "capture_locked(p, f, VARIANT_ARRAY)",
+        MethodId::KplusHeap => "capture_locked(p, f, VARIANT_HEAP)",
+        MethodId::KplusArrayR => "capture_array_r(p, f)",
+        MethodId::Kb => "capture_sorted(p, f, UNLOCKED)",
+        MethodId::KbPs => "capture_sorted(p, f, LOCKED)",
+        MethodId::AbufferFixed | MethodId::KbAbFixed => "capture_fixed(p, f)",
+        MethodId::AbufferLl | MethodId::KbAbLl => "capture_list(p, f)",
+        MethodId::KbLl => "capture_sorted_list(p, f)",
+        _ => return None,
+    })
+}
+
+/// WGSL defining `strata_capture` for `method`, its bindings at `@group(group)`.
+pub fn wgsl(method: MethodId, group: u32) -> Result<String> {
+    let step = call(method).ok_or_else(|| {
+        Error::unsupported(format!(
+            "{method} has no capture an application's shader can call (single-pass slot and list methods do)"
+        ))
+    })?;
+    let functions = if Variant::of(method).is_some() {
+        slots_capture_functions()
+    } else {
+        list::capture_functions()
+    };
+    let source = [
+        shader::FRAGMENT,
+        &functions,
+        &format!(
+            "
+// The application's entry into strata's capture.
+fn strata_capture(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_facing: bool) {{
+    let a = premultiplied.a;
+    let rgb = select(vec3<f32>(0.0), premultiplied.rgb / a, a > 0.0);
+    let f = fragment_new(position.z, id, front_facing, vec4<f32>(rgb, a));
+    let p = kpixel(position);
+    {step};
+}}
+"
+        ),
+    ]
+    .join("\n");
+    Ok(source.replace("@group(1)", &format!("@group({group})")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each module validates on its own with an application entry point calling it.
+    #[test]
+    fn capture_modules_validate_for_every_supported_method() {
+        for m in MethodId::gpu_methods().filter(|m| supported(*m)) {
+            let src = wgsl(m, 2).unwrap()
+                + "
+@fragment
+fn fs_app(@builtin(position) p: vec4<f32>, @builtin(front_facing) ff: bool) {
+    strata_capture(p, vec4<f32>(0.25, 0.5, 0.125, 0.5), 7u, ff);
+}
+";
+            let module = naga::front::wgsl::parse_str(&src)
+                .unwrap_or_else(|e| panic!("{m}: {}", e.emit_to_string(&src)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{m}: {}", e.emit_to_string(&src)));
+            assert!(!src.contains("@group(1)"), "{m}: group not replaced");
+        }
+        assert!(wgsl(MethodId::KbMdt32, 1).is_err());
+    }
+}

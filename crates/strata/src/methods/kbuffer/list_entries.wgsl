@@ -1,0 +1,17 @@
+// The built-in capture entry points of the linked-list methods.
+
+@fragment
+fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_list(kpixel(v.position), scene_fragment(v, front_facing));
+}
+
+@fragment
+fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_sorted_list(kpixel(v.position), scene_fragment(v, front_facing));
+}

@@ -1,0 +1,423 @@
+//! A minimal application that uses strata inside its own renderer: its own device and queue,
+//! its own opaque pipeline and depth buffer, its own transparent meshes and vertex layout whose
+//! fragment shader calls strata's capture, and strata resolving OVER its color target. Headless:
+//! it renders a few frames into an offscreen texture and writes the last one as a PNG.
+//!
+//! ```sh
+//! cargo run --release -p strata --example host -- host.png kplus-heap
+//! ```
+//!
+//! The scene is `builtin:demo` with unlit materials (the application's shader does no
+//! lighting): its opaque floor goes through the application's opaque pipeline, its transparent
+//! models through the application's transparent pipeline. `tests/host.rs` compares the picture
+//! with strata's CPU reference of the same scene.
+
+use std::borrow::Cow;
+
+use strata::frame::FrameRecorder;
+use strata::gpu::Gpu;
+use strata::scene::{loaders, Background, Scene, Shading};
+use strata::{FrameStats, MethodId, RenderOptions};
+use wgpu::util::DeviceExt;
+
+/// The application's color target.
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// The application's background, sRGB `#203040`.
+pub const BACKGROUND_SRGB: [u8; 3] = [0x20, 0x30, 0x40];
+
+/// What a run produces: the application's picture, the last frame's statistics, and the scene
+/// it drew (for the reference).
+pub struct HostRun {
+    pub picture: image::RgbaImage,
+    pub stats: FrameStats,
+    pub scene: Scene,
+    pub background: Background,
+}
+
+/// The application's own vertex: position, straight (not premultiplied) linear color, and the
+/// triangle's index in the scene (the tie-break strata's capture takes).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct AppVertex {
+    position: [f32; 3],
+    color: [f32; 4],
+    triangle: u32,
+}
+
+const APP_SHADER: &str = "
+struct Camera { view_proj: mat4x4<f32> }
+@group(0) @binding(0) var<uniform> camera: Camera;
+
+struct Varying {
+    @builtin(position) position: vec4<f32>,
+    @location(0) color: vec4<f32>,
+    @location(1) @interpolate(flat) triangle: u32,
+}
+
+@vertex
+fn vs_main(@location(0) position: vec3<f32>, @location(1) color: vec4<f32>, @location(2) triangle: u32) -> Varying {
+    var out: Varying;
+    out.position = camera.view_proj * vec4<f32>(position, 1.0);
+    out.color = color;
+    out.triangle = triangle;
+    return out;
+}
+
+@fragment
+fn fs_opaque(v: Varying) -> @location(0) vec4<f32> {
+    return vec4<f32>(v.color.rgb, 1.0);
+}
+
+// The transparent surfaces: strata's capture stores them; nothing is written to the target.
+@fragment
+fn fs_transparent(v: Varying, @builtin(front_facing) front_facing: bool) {
+    strata_capture(v.position, vec4<f32>(v.color.rgb * v.color.a, v.color.a), v.triangle, front_facing);
+}
+";
+
+/// Renders `frames` frames of the demo at `size`² with `method`; returns the last picture.
+pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> {
+    let runtime = |e: String| strata::Error::runtime(e);
+    // The application's own device: any adapter, the features it wants for timing.
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::from_env().unwrap_or(wgpu::Backends::VULKAN),
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapter = pollster::block_on(instance.request_adapter(&Default::default()))
+        .map_err(|e| strata::Error::unsupported(format!("no adapter: {e}")))?;
+    let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("host.device"),
+        required_features: adapter.features() & wanted,
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }))
+    .map_err(|e| runtime(format!("cannot open the device: {e}")))?;
+
+    // The scene, split into what the application draws opaque and what goes through strata.
+    let mut scene = loaders::load_scene("builtin:demo")?;
+    scene.override_shading(Shading::Unlit);
+    let camera = scene.camera_or_framing();
+    scene.camera = Some(camera);
+    let mut opaque_vertices = Vec::new();
+    let mut transparent_vertices = Vec::new();
+    let mut transparent = scene.clone();
+    transparent.objects.clear();
+    let mut triangle = 0u32;
+    for object in &scene.objects {
+        let m = &scene.materials[object.material];
+        let color = [m.color[0], m.color[1], m.color[2], m.opacity];
+        let out = if m.opacity >= 1.0 {
+            &mut opaque_vertices
+        } else {
+            transparent.objects.push(object.clone());
+            &mut transparent_vertices
+        };
+        for t in object.mesh.indices.chunks_exact(3) {
+            for &i in t {
+                out.push(AppVertex {
+                    position: object.mesh.positions[i as usize],
+                    color,
+                    triangle,
+                });
+            }
+            triangle += 1;
+        }
+    }
+
+    let gpu = Gpu::from_device(device.clone(), queue.clone());
+    let background =
+        Background::Color(BACKGROUND_SRGB.map(|c| strata::scene::srgb_to_linear(c as f32 / 255.0)));
+    let options = RenderOptions {
+        width: size,
+        height: size,
+        background,
+        ..Default::default()
+    };
+    let mut oit = FrameRecorder::new(&gpu, &transparent, method, &options)?;
+
+    // The application's resources: camera, vertex buffers, target and depth, two pipelines.
+    let view_proj = camera.view_projection(1.0).to_cols_array();
+    let camera_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("host.camera"),
+        contents: bytemuck::cast_slice(&view_proj),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let buffer = |label: &str, v: &[AppVertex]| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::cast_slice(v),
+            usage: wgpu::BufferUsages::VERTEX,
+        })
+    };
+    let opaque_buffer = buffer("host.opaque", &opaque_vertices);
+    let transparent_buffer = buffer("host.transparent", &transparent_vertices);
+    let texture = |label: &str, format, usage| {
+        device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width: size,
+                height: size,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    };
+    let color = texture(
+        "host.color",
+        COLOR_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+    );
+    let color_view = color.create_view(&Default::default());
+    let depth = texture(
+        "host.depth",
+        wgpu::TextureFormat::Depth32Float,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    );
+    let depth_view = depth.create_view(&Default::default());
+
+    let camera_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("host.camera"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }],
+    });
+    let camera_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("host.camera"),
+        layout: &camera_layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: camera_buffer.as_entire_binding(),
+        }],
+    });
+    // Plain concatenation: the application's shader, then strata's capture at group 1.
+    let source = format!("{APP_SHADER}\n{}", oit.capture_wgsl(1)?);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("host.shader"),
+        source: wgpu::ShaderSource::Wgsl(Cow::Owned(source)),
+    });
+    let vertex_layout = wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<AppVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4, 2 => Uint32],
+    };
+    let pipeline =
+        |label: &str, layouts: &[Option<&wgpu::BindGroupLayout>], entry: &str, write: bool| {
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: layouts,
+                immediate_size: 0,
+            });
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(vertex_layout.clone())],
+                },
+                primitive: wgpu::PrimitiveState {
+                    cull_mode: None,
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: wgpu::TextureFormat::Depth32Float,
+                    depth_write_enabled: Some(write),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: COLOR_FORMAT,
+                        blend: None,
+                        write_mask: if write {
+                            wgpu::ColorWrites::ALL
+                        } else {
+                            wgpu::ColorWrites::empty()
+                        },
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+    let opaque_pipeline = pipeline("host.opaque", &[Some(&camera_layout)], "fs_opaque", true);
+    let transparent_pipeline = pipeline(
+        "host.transparent",
+        &[Some(&camera_layout), Some(oit.capture_layout()?)],
+        "fs_transparent",
+        false,
+    );
+
+    let bg = background_linear(background);
+    let mut stats = Vec::new();
+    for _ in 0..frames {
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("host.opaque"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: bg[0] as f64,
+                            g: bg[1] as f64,
+                            b: bg[2] as f64,
+                            a: 1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                ..Default::default()
+            });
+            pass.set_pipeline(&opaque_pipeline);
+            pass.set_bind_group(0, Some(&camera_group), &[]);
+            pass.set_vertex_buffer(0, opaque_buffer.slice(..));
+            pass.draw(0..opaque_vertices.len() as u32, 0..1);
+        }
+        // strata clears its storage, the application draws its transparent meshes through
+        // strata's capture, then strata resolves OVER the target.
+        let strata_group = oit.begin_capture(&mut encoder)?;
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("host.transparent"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                ..Default::default()
+            });
+            pass.set_pipeline(&transparent_pipeline);
+            pass.set_bind_group(0, Some(&camera_group), &[]);
+            pass.set_bind_group(1, Some(&strata_group), &[]);
+            pass.set_vertex_buffer(0, transparent_buffer.slice(..));
+            pass.draw(0..transparent_vertices.len() as u32, 0..1);
+        }
+        oit.end_capture(&mut encoder, Some((&color_view, COLOR_FORMAT)))?;
+        queue.submit([encoder.finish()]);
+        stats.extend(oit.poll_stats());
+    }
+
+    // The application's own readback of its target (rows padded to 256 bytes).
+    let row = (size * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("host.readback"),
+        size: (row * size) as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        color.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &staging,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(size),
+            },
+        },
+        color.size(),
+    );
+    queue.submit([encoder.finish()]);
+    staging.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| runtime(format!("GPU wait failed: {e}")))?;
+    let data = staging
+        .slice(..)
+        .get_mapped_range()
+        .map_err(|e| runtime(format!("readback failed: {e}")))?
+        .to_vec();
+    let mut picture = image::RgbaImage::new(size, size);
+    for y in 0..size {
+        let start = (y * row) as usize;
+        for x in 0..size {
+            let p = &data[start + 4 * x as usize..start + 4 * x as usize + 4];
+            picture.put_pixel(x, y, image::Rgba([p[0], p[1], p[2], 255]));
+        }
+    }
+    let last = oit.wait_stats()?.stats;
+    stats.push(last);
+    Ok(HostRun {
+        picture,
+        stats: stats.pop().expect("pushed above"),
+        scene,
+        background,
+    })
+}
+
+fn background_linear(b: Background) -> [f32; 3] {
+    b.at(0, 0)
+}
+
+#[allow(dead_code)]
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let out = args.next().unwrap_or_else(|| "host.png".into());
+    let method = args.next().unwrap_or_else(|| "kplus-heap".into());
+    let result = method
+        .parse::<MethodId>()
+        .and_then(|m| run(m, 512, 3))
+        .and_then(|r| {
+            strata::render::save_png(&r.picture, std::path::Path::new(&out))?;
+            Ok(r.stats)
+        });
+    match result {
+        Ok(stats) => eprintln!(
+            "{}: frame {}, {} fragments, {} ms GPU → {out}",
+            stats.method,
+            stats.frame,
+            stats.fragments_generated.unwrap_or(0),
+            stats
+                .gpu_ms_total
+                .map(|t| format!("{t:.2}"))
+                .unwrap_or_else(|| "untimed".into())
+        ),
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(2);
+        }
+    }
+}
