@@ -1,7 +1,11 @@
-//! `strata bench`: named experiments and ad-hoc runs. Each method renders warm-up frames, then
-//! N timed frames; the median of each pass's GPU time (timestamp queries) and of the wall-clock
-//! frame time are reported, and written as JSON and CSV with the device, driver, size and commit.
-//! Figures from a CPU adapter (lavapipe) are CPU figures and are labelled so.
+//! `strata bench`: named experiments and ad-hoc runs, measured as an application runs strata:
+//! a steady-state loop of real-time frames (one submit per frame, each frame resolved OVER an
+//! offscreen color target, statistics read asynchronously, at most two frames in flight as a
+//! swap chain would allow), after warm-up frames. Reported: the median GPU time per frame and
+//! per pass (timestamp queries, from the frames' own statistics), wall-clock frames per second
+//! over the timed loop, and the frames' counters; `blocking_readbacks` stays 0 inside the loop.
+//! Written as JSON and CSV with the device, driver, size and commit. Figures from a CPU adapter
+//! (lavapipe) are CPU figures and are labelled so.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -11,8 +15,10 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use strata::error::{Error, Result};
+use strata::frame::{FrameRecorder, FrameStats, FrameTargets};
 use strata::gpu::Gpu;
 use strata::render::Renderer;
+use strata::MethodId;
 
 use crate::{prepare, write_json, PictureArgs};
 
@@ -80,7 +86,8 @@ impl Run {
 struct Experiment {
     name: &'static str,
     description: &'static str,
-    scene: &'static str,
+    /// The scenes, each run with every configuration.
+    scenes: &'static [&'static str],
     /// Size on a GPU, and on a CPU adapter (lavapipe), where the full size would take hours.
     size_gpu: &'static str,
     size_cpu: &'static str,
@@ -110,9 +117,25 @@ const K_METHODS: &[&str] = &[
 
 const EXPERIMENTS: &[Experiment] = &[
     Experiment {
+        name: "realtime",
+        description: "real-time frames of every GPU method on the dragon (opacity 0.5) and nvpro: GPU ms and frames per second, no blocking readback",
+        scenes: &["builtin:dragon", "builtin:nvpro?objects=1024&subdiv=16&seed=0"],
+        size_gpu: "1024x1024",
+        size_cpu: "192x192",
+        alpha: Some(0.5),
+        frames: 10,
+        runs: || {
+            MethodId::gpu_methods()
+                .map(|m| Run::plain(m.as_str()))
+                .chain(std::iter::once(Run::plain("reference")))
+                .collect()
+        },
+        quality: false,
+    },
+    Experiment {
         name: "foundation",
         description: "exact baselines on the dragon (opacity 0.5): f2b, dual, abuffer-ll, sorted and the CPU reference",
-        scene: "builtin:dragon",
+        scenes: &["builtin:dragon"],
         size_gpu: "512x512",
         size_cpu: "512x512",
         alpha: Some(0.5),
@@ -123,7 +146,7 @@ const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "kbuffer-k",
         description: "seed 003 Fig. 6: 128 layers over 75% of the screen, k = 4..64, every k-buffer method",
-        scene: "builtin:layers?n=128&coverage=0.75&order=random&seed=1",
+        scenes: &["builtin:layers?n=128&coverage=0.75&order=random&seed=1"],
         size_gpu: "1024x1024",
         size_cpu: "128x128",
         alpha: None,
@@ -139,7 +162,7 @@ const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "kbuffer-culling",
         description: "seed 003 Fig. 7: culling on and off for kplus-array, kplus-heap, kb-ps, kb-mdt32 at k = 4, 16, 64",
-        scene: "builtin:layers?n=128&coverage=0.75&order=random&seed=1",
+        scenes: &["builtin:layers?n=128&coverage=0.75&order=random&seed=1"],
         size_gpu: "1024x1024",
         size_cpu: "128x128",
         alpha: None,
@@ -159,7 +182,7 @@ const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "kbuffer-quality",
         description: "seed 003 Fig. 10: image error of every k-buffer method at k = 16 against the exact reference, with heatmaps",
-        scene: "builtin:nvpro?objects=1024&subdiv=16&seed=0",
+        scenes: &["builtin:nvpro?objects=1024&subdiv=16&seed=0"],
         size_gpu: "1024x1024",
         size_cpu: "256x256",
         alpha: None,
@@ -171,6 +194,7 @@ const EXPERIMENTS: &[Experiment] = &[
 
 #[derive(Serialize)]
 struct MethodResult {
+    scene: String,
     label: String,
     method: String,
     k: Option<u32>,
@@ -180,8 +204,14 @@ struct MethodResult {
     median_gpu_ms: Option<f64>,
     /// Median GPU ms per pass name.
     median_gpu_ms_per_pass: Option<BTreeMap<String, f64>>,
-    /// Median wall-clock ms per frame, readback included (for `reference`: the CPU render).
+    /// Wall-clock ms per frame over the timed loop (for `reference`: the median CPU render).
     median_wall_ms: f64,
+    /// Frames per second over the timed loop; null for `reference`.
+    fps: Option<f64>,
+    /// Timed frames whose statistics arrived (the rest found every readback slot in flight).
+    frames_with_stats: Option<u32>,
+    /// Blocking readbacks inside the timed loop, summed over frames (0: real-time).
+    blocking_readbacks: Option<u32>,
     geometry_passes: Option<u32>,
     fragments: Option<u64>,
     fragments_dropped: Option<u64>,
@@ -264,7 +294,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     let gpu = Gpu::new()?;
     let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
     let k_flag = a.k;
-    let (name, scene, runs, size, alpha, frames, quality) = match &a.experiment {
+    let (name, scenes, runs, size, alpha, frames, quality) = match &a.experiment {
         Some(n) => {
             let e = EXPERIMENTS.iter().find(|e| e.name == n).ok_or_else(|| {
                 let names: Vec<_> = EXPERIMENTS.iter().map(|e| e.name).collect();
@@ -281,7 +311,10 @@ pub fn run(a: BenchArgs) -> Result<()> {
             let default_size = if cpu_figures { e.size_cpu } else { e.size_gpu };
             (
                 e.name.to_string(),
-                a.scene.clone().unwrap_or(e.scene.into()),
+                match &a.scene {
+                    Some(s) => vec![s.clone()],
+                    None => e.scenes.iter().map(|s| s.to_string()).collect(),
+                },
                 (e.runs)(),
                 a.size.clone().unwrap_or(default_size.into()),
                 a.alpha.or(e.alpha),
@@ -308,7 +341,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 .collect();
             (
                 "adhoc".to_string(),
-                scene,
+                vec![scene],
                 runs,
                 a.size.clone().unwrap_or("512x512".into()),
                 a.alpha,
@@ -325,67 +358,80 @@ pub fn run(a: BenchArgs) -> Result<()> {
             return Err(strata::methods::unknown_method(&r.method));
         }
     }
-    let picture = PictureArgs {
-        scene: scene.clone(),
-        size: Some(size),
-        effect: a.effect.clone(),
-        shading: None,
-        background: None,
-        alpha,
-        k: None,
-        frame: None,
-    };
-    let (scene_data, base_options) = prepare(&picture)?;
     let dir = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
     std::fs::create_dir_all(&dir)
         .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
-    let full_reference = if quality {
-        Some(strata::reference::render(&scene_data, &base_options)?.0)
-    } else {
-        None
-    };
-    let bar = ProgressBar::new(runs.len() as u64 * (a.warmup + frames) as u64);
+    let bar = ProgressBar::new((scenes.len() * runs.len()) as u64 * (a.warmup + frames) as u64);
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}").expect("valid template"),
+        ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  (eta {eta})")
+            .expect("valid template"),
     );
     let mut results = Vec::new();
-    for run in &runs {
-        bar.set_message(run.label.clone());
-        let mut options = base_options.clone();
-        options.k = run.k;
-        options.culling = run.culling;
-        match measure(&gpu, &scene_data, &options, run, a.warmup, frames, &bar) {
-            Ok((mut result, image)) => {
-                if let Some(full) = &full_reference {
-                    let effect = options.effect;
-                    let picture = image.to_rgba8(effect);
-                    let truth = full.to_rgba8(effect);
-                    let with_k = strata::reference::render(&scene_data, &options)?
-                        .0
-                        .to_rgba8(effect);
-                    result.error_vs_reference = Some(strata::metrics::compare(&truth, &picture)?);
-                    result.error_vs_reference_k =
-                        Some(strata::metrics::compare(&with_k, &picture)?);
-                    let stem = format!("{name}-{}", run.label.replace([' ', '='], "-"));
-                    strata::render::save_png(&picture, &dir.join(format!("{stem}.png")))?;
-                    strata::render::save_png(
-                        &strata::metrics::diff_heatmap(&truth, &picture),
-                        &dir.join(format!("{stem}-diff.png")),
-                    )?;
+    let mut base_options = None;
+    for scene in &scenes {
+        let picture = PictureArgs {
+            scene: scene.clone(),
+            size: Some(size.clone()),
+            effect: a.effect.clone(),
+            shading: None,
+            background: None,
+            alpha,
+            k: None,
+            frame: None,
+        };
+        let (scene_data, options) = prepare(&picture)?;
+        let full_reference = if quality {
+            Some(strata::reference::render(&scene_data, &options)?.0)
+        } else {
+            None
+        };
+        for run in &runs {
+            bar.set_message(format!("{} {}", short_scene(scene), run.label));
+            let mut options = options.clone();
+            options.k = run.k;
+            options.culling = run.culling;
+            match measure(&gpu, &scene_data, &options, run, a.warmup, frames, &bar) {
+                Ok(mut result) => {
+                    result.scene = scene.clone();
+                    if let Some(full) = &full_reference {
+                        let effect = options.effect;
+                        let (image, _) =
+                            Renderer::new(&gpu, &scene_data, &options)?.render(&run.method)?;
+                        let picture = image.to_rgba8(effect);
+                        let truth = full.to_rgba8(effect);
+                        let with_k = strata::reference::render(&scene_data, &options)?
+                            .0
+                            .to_rgba8(effect);
+                        result.error_vs_reference =
+                            Some(strata::metrics::compare(&truth, &picture)?);
+                        result.error_vs_reference_k =
+                            Some(strata::metrics::compare(&with_k, &picture)?);
+                        let stem = format!("{name}-{}", run.label.replace([' ', '='], "-"));
+                        strata::render::save_png(&picture, &dir.join(format!("{stem}.png")))?;
+                        strata::render::save_png(
+                            &strata::metrics::diff_heatmap(&truth, &picture),
+                            &dir.join(format!("{stem}-diff.png")),
+                        )?;
+                    }
+                    results.push(result);
                 }
-                results.push(result);
+                // A method the adapter cannot run is recorded as skipped, with the reason.
+                Err(Error::Unsupported(why)) => {
+                    bar.inc((a.warmup + frames) as u64);
+                    let mut r = skipped(run, frames, why);
+                    r.scene = scene.clone();
+                    results.push(r);
+                }
+                Err(e) => return Err(e),
             }
-            // A method the adapter cannot run is recorded as skipped, with the reason.
-            Err(Error::Unsupported(why)) => {
-                bar.inc((a.warmup + frames) as u64);
-                results.push(skipped(run, frames, why));
-            }
-            Err(e) => return Err(e),
         }
+        base_options = Some(options);
     }
+    let base_options = base_options.expect("at least one scene");
+    let scene = scenes.join(", ");
     bar.finish_and_clear();
     let report = BenchReport {
         experiment: name.clone(),
@@ -418,8 +464,14 @@ pub fn run(a: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// A scene spec without its parameters, for progress messages.
+fn short_scene(spec: &str) -> &str {
+    spec.split('?').next().unwrap_or(spec)
+}
+
 fn skipped(run: &Run, frames: u32, why: String) -> MethodResult {
     MethodResult {
+        scene: String::new(),
         label: run.label.clone(),
         method: run.method.clone(),
         k: run.k,
@@ -428,6 +480,9 @@ fn skipped(run: &Run, frames: u32, why: String) -> MethodResult {
         median_gpu_ms: None,
         median_gpu_ms_per_pass: None,
         median_wall_ms: f64::NAN,
+        fps: None,
+        frames_with_stats: None,
+        blocking_readbacks: None,
         geometry_passes: None,
         fragments: None,
         fragments_dropped: None,
@@ -440,7 +495,10 @@ fn skipped(run: &Run, frames: u32, why: String) -> MethodResult {
     }
 }
 
-/// Renders warm-up then timed frames of one run; returns its medians and the last picture.
+/// Frames in flight in the timed loop, as a swap chain of two would allow.
+const FRAMES_IN_FLIGHT: usize = 2;
+
+/// Renders warm-up then timed real-time frames of one run; returns its medians.
 fn measure(
     gpu: &Gpu,
     scene: &strata::scene::Scene,
@@ -449,59 +507,116 @@ fn measure(
     warmup: u32,
     frames: u32,
     bar: &ProgressBar,
-) -> Result<(MethodResult, strata::LinearImage)> {
-    let mut renderer = if run.method == "reference" {
-        None
-    } else {
-        Some(Renderer::new(gpu, scene, options)?)
+) -> Result<MethodResult> {
+    let mut result = MethodResult {
+        scene: String::new(),
+        label: run.label.clone(),
+        method: run.method.clone(),
+        k: run.k,
+        culling: run.culling,
+        frames,
+        median_gpu_ms: None,
+        median_gpu_ms_per_pass: None,
+        median_wall_ms: f64::NAN,
+        fps: None,
+        frames_with_stats: None,
+        blocking_readbacks: None,
+        geometry_passes: None,
+        fragments: None,
+        fragments_dropped: None,
+        max_depth_complexity: None,
+        bytes_allocated: None,
+        lock_failures: None,
+        error_vs_reference: None,
+        error_vs_reference_k: None,
+        skipped: None,
     };
-    let mut totals = Vec::new();
-    let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
-    let mut walls = Vec::new();
-    let mut last = None;
-    for f in 0..warmup + frames {
-        let start = Instant::now();
-        let (image, stats) = match renderer.as_mut() {
-            Some(r) => r.render(&run.method)?,
-            None => strata::reference::render(scene, options)?,
-        };
-        let wall = start.elapsed().as_secs_f64() * 1e3;
-        if f >= warmup {
-            walls.push(wall);
-            if let Some(t) = stats.gpu_ms_total {
-                totals.push(t);
+    let method: MethodId = run.method.parse()?;
+    if method == MethodId::Reference {
+        let mut walls = Vec::new();
+        let mut last = None;
+        for f in 0..warmup + frames {
+            let start = Instant::now();
+            let (_, stats) = strata::reference::render(scene, options)?;
+            if f >= warmup {
+                walls.push(start.elapsed().as_secs_f64() * 1e3);
             }
-            for (k, v) in stats.gpu_ms.iter().flatten() {
-                per_pass.entry(k.clone()).or_default().push(*v);
-            }
+            last = Some(stats);
+            bar.inc(1);
         }
-        last = Some((image, stats));
+        result.median_wall_ms = median(walls);
+        fill_counts(&mut result, &last.expect("at least one frame"));
+        return Ok(result);
+    }
+    let mut recorder = FrameRecorder::new(gpu, scene, method, options)?;
+    let target = gpu.texture_2d(
+        "strata.bench.target",
+        (options.width, options.height),
+        wgpu::TextureFormat::Rgba8UnormSrgb,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    );
+    let view = target.create_view(&Default::default());
+    let targets = FrameTargets {
+        color: Some((&view, wgpu::TextureFormat::Rgba8UnormSrgb)),
+        opaque_depth: None,
+    };
+    let mut in_flight = std::collections::VecDeque::new();
+    let mut stats: Vec<FrameStats> = Vec::new();
+    let mut start = Instant::now();
+    for f in 0..warmup + frames {
+        if f == warmup {
+            // The timed loop starts with the warm-up frames finished.
+            gpu.wait()?;
+            stats.extend(recorder.poll_stats());
+            in_flight.clear();
+            start = Instant::now();
+        }
+        if in_flight.len() >= FRAMES_IN_FLIGHT {
+            let oldest = in_flight.pop_front().expect("non-empty");
+            gpu.device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: Some(oldest),
+                    timeout: None,
+                })
+                .map_err(|e| Error::runtime(format!("GPU wait failed: {e}")))?;
+        }
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        recorder.record(&mut encoder, &targets, None)?;
+        in_flight.push_back(gpu.queue.submit([encoder.finish()]));
+        stats.extend(recorder.poll_stats());
         bar.inc(1);
     }
-    let (image, stats) = last.expect("at least one frame");
-    Ok((
-        MethodResult {
-            label: run.label.clone(),
-            method: run.method.clone(),
-            k: run.k,
-            culling: run.culling,
-            frames,
-            median_gpu_ms: (!totals.is_empty()).then(|| median(totals)),
-            median_gpu_ms_per_pass: (!per_pass.is_empty())
-                .then(|| per_pass.into_iter().map(|(k, v)| (k, median(v))).collect()),
-            median_wall_ms: median(walls),
-            geometry_passes: stats.geometry_passes,
-            fragments: stats.fragments_generated,
-            fragments_dropped: stats.fragments_dropped,
-            max_depth_complexity: stats.max_depth_complexity,
-            bytes_allocated: stats.bytes_allocated,
-            lock_failures: stats.lock_failures,
-            error_vs_reference: None,
-            error_vs_reference_k: None,
-            skipped: None,
-        },
-        image,
-    ))
+    gpu.wait()?;
+    let elapsed = start.elapsed().as_secs_f64();
+    stats.extend(recorder.poll_stats());
+    let timed: Vec<&FrameStats> = stats.iter().filter(|s| s.frame >= warmup as u64).collect();
+    result.median_wall_ms = elapsed * 1e3 / frames as f64;
+    result.fps = Some(frames as f64 / elapsed);
+    result.frames_with_stats = Some(timed.len() as u32);
+    result.blocking_readbacks = Some(timed.iter().map(|s| s.blocking_readbacks).sum());
+    let totals: Vec<f64> = timed.iter().filter_map(|s| s.gpu_ms_total).collect();
+    result.median_gpu_ms = (!totals.is_empty()).then(|| median(totals));
+    let mut per_pass: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    for s in &timed {
+        for (k, v) in s.gpu_ms.iter().flatten() {
+            per_pass.entry(k.clone()).or_default().push(*v);
+        }
+    }
+    result.median_gpu_ms_per_pass =
+        (!per_pass.is_empty()).then(|| per_pass.into_iter().map(|(k, v)| (k, median(v))).collect());
+    if let Some(last) = timed.last() {
+        fill_counts(&mut result, last);
+    }
+    Ok(result)
+}
+
+fn fill_counts(result: &mut MethodResult, stats: &FrameStats) {
+    result.geometry_passes = stats.geometry_passes;
+    result.fragments = stats.fragments_generated;
+    result.fragments_dropped = stats.fragments_dropped;
+    result.max_depth_complexity = stats.max_depth_complexity;
+    result.bytes_allocated = stats.bytes_allocated;
+    result.lock_failures = stats.lock_failures;
 }
 
 fn fmt_ms(v: Option<f64>) -> String {
@@ -525,11 +640,13 @@ fn print_table(r: &BenchReport) {
             ""
         }
     );
+    let multi_scene = r.results.iter().any(|m| m.scene != r.results[0].scene);
     println!(
-        "{:<28} {:>10} {:>10} {:>7} {:>10} {:>8} {:>9} {:>8} {:>9} {:>8}",
+        "{:<28} {:>10} {:>10} {:>8} {:>7} {:>10} {:>8} {:>9} {:>8} {:>9} {:>8}",
         "run",
         "gpu ms",
         "wall ms",
+        "fps",
         "passes",
         "fragments",
         "dropped",
@@ -539,16 +656,26 @@ fn print_table(r: &BenchReport) {
         "RMSE"
     );
     for m in &r.results {
+        let label = if multi_scene {
+            format!(
+                "{} {}",
+                short_scene(&m.scene).trim_start_matches("builtin:"),
+                m.label
+            )
+        } else {
+            m.label.clone()
+        };
         if let Some(why) = &m.skipped {
-            println!("{:<28} skipped: {why}", m.label);
+            println!("{label:<28} skipped: {why}");
             continue;
         }
         let opt = |v: Option<u64>| v.map(|p| p.to_string()).unwrap_or_default();
         println!(
-            "{:<28} {:>10} {:>10.2} {:>7} {:>10} {:>8} {:>9} {:>8.1} {:>9} {:>8}",
-            m.label,
+            "{:<28} {:>10} {:>10.2} {:>8} {:>7} {:>10} {:>8} {:>9} {:>8.1} {:>9} {:>8}",
+            label,
             fmt_ms(m.median_gpu_ms),
             m.median_wall_ms,
+            m.fps.map(|f| format!("{f:.1}")).unwrap_or_default(),
             opt(m.geometry_passes.map(u64::from)),
             opt(m.fragments),
             opt(m.fragments_dropped),
@@ -564,7 +691,7 @@ fn print_table(r: &BenchReport) {
 
 fn csv(r: &BenchReport) -> String {
     let mut s = String::from(
-        "experiment,scene,width,height,adapter,cpu_figures,commit,label,method,k,culling,median_gpu_ms,median_wall_ms,geometry_passes,fragments,fragments_dropped,max_depth_complexity,bytes_allocated,lock_failures,rmse,flip_mean,pct_over_2,rmse_vs_k,flip_vs_k,pct_over_2_vs_k,skipped\n",
+        "experiment,scene,width,height,adapter,cpu_figures,commit,label,method,k,culling,median_gpu_ms,median_wall_ms,fps,blocking_readbacks,geometry_passes,fragments,fragments_dropped,max_depth_complexity,bytes_allocated,lock_failures,rmse,flip_mean,pct_over_2,rmse_vs_k,flip_vs_k,pct_over_2_vs_k,skipped\n",
     );
     let opt = |v: Option<String>| v.unwrap_or_default();
     for m in &r.results {
@@ -574,7 +701,7 @@ fn csv(r: &BenchReport) -> String {
         };
         s += &[
             r.experiment.clone(),
-            r.scene.clone(),
+            m.scene.clone(),
             r.width.to_string(),
             r.height.to_string(),
             r.adapter.replace(',', " "),
@@ -590,6 +717,8 @@ fn csv(r: &BenchReport) -> String {
             } else {
                 String::new()
             },
+            opt(m.fps.map(|v| format!("{v:.2}"))),
+            opt(m.blocking_readbacks.map(|v| v.to_string())),
             opt(m.geometry_passes.map(|v| v.to_string())),
             opt(m.fragments.map(|v| v.to_string())),
             opt(m.fragments_dropped.map(|v| v.to_string())),

@@ -102,6 +102,10 @@ struct RenderArgs {
     /// Spin-lock tries per fragment for the locking k-buffers.
     #[arg(long)]
     max_tries: Option<u32>,
+    /// Depth peeling (f2b, dual): peel this many layers (default: the scene's depth complexity,
+    /// measured by the frame itself).
+    #[arg(long)]
+    layers: Option<u32>,
     /// forward | deferred (the deferred pipeline is not built yet).
     #[arg(long, default_value = "forward")]
     pipeline: String,
@@ -309,6 +313,12 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     if stats.overflow == Some(true) {
         eprintln!("note: the fragment pool overflowed; it was grown and the frame re-rendered (output exact)");
     }
+    if stats.lock_failures.unwrap_or(0) > 0 {
+        eprintln!(
+            "warning: {} fragments failed to take their pixel's lock (--max-tries); the picture is not exact",
+            stats.lock_failures.unwrap_or(0)
+        );
+    }
 }
 
 /// A spinner on stderr while long work runs (hidden when stderr is not a terminal).
@@ -370,6 +380,7 @@ fn render(a: RenderArgs) -> Result<()> {
         return Err(Error::input("--max-tries must be at least 1"));
     }
     options.max_tries = a.max_tries;
+    options.layers = a.layers;
     options.validate()?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",

@@ -341,3 +341,26 @@ impl FrameContext<'_> {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn resolved_layout_matches_wgsl() {
+        assert_eq!(size_of::<Resolved>(), 32);
+        assert_eq!(offset_of!(Resolved, count), 16);
+        assert_eq!(RESOLVED_BYTES, 32);
+    }
+
+    #[test]
+    fn wide_counters_join_low_and_high_words() {
+        let w = [u32::MAX, 1, 5, 0, 7, 2, 9, 0];
+        let t = Totals::from_words(&w);
+        assert_eq!(t.generated, (1u64 << 33) - 1);
+        assert_eq!(t.stored, 5);
+        assert_eq!(t.dropped, 7 + (2u64 << 32));
+        assert_eq!(t.max_depth, 9);
+    }
+}

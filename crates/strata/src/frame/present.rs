@@ -158,3 +158,147 @@ mod tests {
         assert_eq!(std::mem::size_of::<super::PresentParams>(), 16);
     }
 }
+
+/// The present pass blends the resolved frame OVER an application's target of every tested
+/// format and matches the exact renderer's picture over the same background.
+#[cfg(test)]
+mod format_tests {
+    use super::TESTED_FORMATS;
+    use crate::frame::{FrameRecorder, FrameTargets};
+    use crate::scene::{loaders, Background};
+    use crate::testing::gpu;
+    use crate::{Effect, MethodId, RenderOptions, Renderer};
+
+    /// Reads a 4-channel texture back as 8-bit sRGB.
+    fn read_target(texture: &wgpu::Texture) -> image::RgbaImage {
+        let g = gpu();
+        let (w, h) = (texture.width(), texture.height());
+        let texel = texture.format().block_copy_size(None).unwrap();
+        let row = (w * texel).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let staging = g.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("strata.test.target"),
+            size: (row * h) as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut enc = g.device.create_command_encoder(&Default::default());
+        enc.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: Some(h),
+                },
+            },
+            texture.size(),
+        );
+        g.queue.submit([enc.finish()]);
+        let data = crate::gpu::readback::map_and_read(g, &staging).unwrap();
+        let mut img = image::RgbaImage::new(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                let at = (y * row + x * texel) as usize;
+                let px = match texture.format() {
+                    wgpu::TextureFormat::Rgba16Float => {
+                        let c: Vec<f32> = (0..4)
+                            .map(|i| {
+                                half_to_f32(u16::from_le_bytes([
+                                    data[at + 2 * i],
+                                    data[at + 2 * i + 1],
+                                ]))
+                            })
+                            .collect();
+                        let e = |v: f32| (crate::scene::linear_to_srgb(v) * 255.0).round() as u8;
+                        [e(c[0]), e(c[1]), e(c[2]), 255]
+                    }
+                    wgpu::TextureFormat::Bgra8UnormSrgb => {
+                        [data[at + 2], data[at + 1], data[at], 255]
+                    }
+                    _ => [data[at], data[at + 1], data[at + 2], 255],
+                };
+                img.put_pixel(x, y, image::Rgba(px));
+            }
+        }
+        img
+    }
+
+    fn half_to_f32(h: u16) -> f32 {
+        let sign = if h >> 15 == 1 { -1.0 } else { 1.0 };
+        let exp = ((h >> 10) & 0x1f) as i32;
+        let mant = (h & 0x3ff) as f32;
+        sign * match exp {
+            0 => mant * 2f32.powi(-24),
+            31 => f32::INFINITY,
+            _ => (1.0 + mant / 1024.0) * 2f32.powi(exp - 15),
+        }
+    }
+
+    #[test]
+    fn present_blends_over_every_tested_format() {
+        let g = gpu();
+        let scene = loaders::load_scene("builtin:spheres?layers=6").unwrap();
+        let bg = [0.05f32, 0.2, 0.4];
+        let options = RenderOptions {
+            width: 48,
+            height: 40,
+            effect: Effect::Transparency,
+            background: Background::Color(bg),
+            ..Default::default()
+        };
+        let (expected, _) = Renderer::new(g, &scene, &options)
+            .unwrap()
+            .render("kplus-heap")
+            .unwrap();
+        let expected = expected.to_rgba8(Effect::Transparency);
+        for format in TESTED_FORMATS {
+            let target = g.texture_2d(
+                "strata.test.target",
+                (options.width, options.height),
+                format,
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            );
+            let view = target.create_view(&Default::default());
+            let mut rec = FrameRecorder::new(g, &scene, MethodId::KplusHeap, &options).unwrap();
+            let mut enc = g.device.create_command_encoder(&Default::default());
+            // The application's background: its own clear of its own target.
+            enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("strata.test.clear"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: bg[0] as f64,
+                            g: bg[1] as f64,
+                            b: bg[2] as f64,
+                            a: 1.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                ..Default::default()
+            });
+            let targets = FrameTargets {
+                color: Some((&view, format)),
+                opaque_depth: None,
+            };
+            rec.record(&mut enc, &targets, None).unwrap();
+            g.queue.submit([enc.finish()]);
+            let actual = read_target(&target);
+            // The exact-method bar (see methods/tests.rs): both pictures come from the same GPU
+            // resolve, so only the target's storage precision separates them.
+            if let Err(m) = crate::metrics::testing::check_image(
+                &format!("present-{format:?}"),
+                &actual,
+                &expected,
+                2,
+                0.001,
+            ) {
+                panic!("{m}");
+            }
+        }
+    }
+}

@@ -370,3 +370,26 @@ fn long_lists_with_the_tail_dropped_composite_only_k() {
         &["kplus-heap", "kb-ab-ll", "kb-mdt32"],
     );
 }
+
+#[test]
+fn kparams_layout_matches_wgsl() {
+    use std::mem::{offset_of, size_of};
+    assert_eq!(size_of::<super::KParams>(), 32);
+    assert_eq!(offset_of!(super::KParams, count_by_seen), 20);
+    assert_eq!(offset_of!(super::KParams, width), 24);
+    assert_eq!(offset_of!(super::KParams, pixels), 28);
+}
+
+/// Locking methods refuse a k whose critical section could run past a GPU timeout.
+#[test]
+fn k_beyond_a_methods_cap_is_a_clear_error() {
+    let s = scene("builtin:layers?n=2");
+    let opts = options(8, 257);
+    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let e = r.render("kplus-array").expect_err("k above the cap");
+    assert!(
+        matches!(e, crate::Error::Input(_)) && e.to_string().contains("1..256"),
+        "{e}"
+    );
+    assert!(r.render("kplus-heap").is_ok());
+}
