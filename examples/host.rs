@@ -14,9 +14,9 @@
 
 use std::borrow::Cow;
 
-use strata::frame::FrameRecorder;
 use strata::gpu::Gpu;
 use strata::scene::{loaders, Background, Scene, Shading};
+use strata::FrameRecorder;
 use strata::{FrameStats, MethodId, RenderOptions};
 use wgpu::util::DeviceExt;
 

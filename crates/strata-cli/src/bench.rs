@@ -15,9 +15,10 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use strata::error::{Error, Result};
-use strata::frame::{FrameRecorder, FrameStats, FrameTargets};
+use strata::frame::{FrameStats, FrameTargets};
 use strata::gpu::Gpu;
 use strata::render::Renderer;
+use strata::FrameRecorder;
 use strata::MethodId;
 
 use crate::{prepare, write_json, PictureArgs};

@@ -12,11 +12,10 @@
 //!    that is mapped when the GPU has finished the submission: [`FrameStats`] arrive a frame or
 //!    more later, tagged with their frame number. Nothing in steady state waits on the GPU.
 //!
-//! [`recorder::FrameRecorder`] drives this for an application; [`crate::Renderer`] is the
-//! batch renderer on top of it that the CLI and the tests use.
+//! [`crate::FrameRecorder`] (in `render`, above the methods) drives this for an application;
+//! [`crate::Renderer`] is the batch renderer on top of it that the CLI and the tests use.
 
 pub mod present;
-pub mod recorder;
 pub mod scene_gpu;
 pub mod stats;
 pub mod uniforms;
@@ -31,7 +30,6 @@ use crate::error::{Error, Result};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 
-pub use recorder::{FrameRecorder, FrameTargets};
 pub use scene_gpu::SceneGpu;
 
 /// How a pixel's depth-ordered fragments become a color.
@@ -271,6 +269,16 @@ pub const RESOLVED_BYTES: u64 = std::mem::size_of::<Resolved>() as u64;
 /// vertex stage pulls triangle `t` as vertices 3t..3t+3 of the scene's triangle list, so a
 /// callback draws any ranges (culled subsets, chunks) of it.
 pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
+
+/// Where a frame goes: the application's color target (the resolve is blended OVER it; `None`
+/// leaves the result in [`crate::FrameRecorder::resolved`] only) and the depth of its opaque
+/// surfaces (Depth32Float, the frame's size, with TEXTURE_BINDING usage; fragments at or behind
+/// it are rejected; `None`: nothing opaque).
+#[derive(Clone, Copy, Default)]
+pub struct FrameTargets<'a> {
+    pub color: Option<(&'a wgpu::TextureView, wgpu::TextureFormat)>,
+    pub opaque_depth: Option<&'a wgpu::TextureView>,
+}
 
 /// Buffer ranges a method asks to have read back with its frame's statistics, in order.
 #[derive(Default)]

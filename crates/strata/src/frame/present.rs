@@ -164,9 +164,10 @@ mod tests {
 #[cfg(test)]
 mod format_tests {
     use super::TESTED_FORMATS;
-    use crate::frame::{FrameRecorder, FrameTargets};
+    use crate::frame::FrameTargets;
     use crate::scene::{loaders, Background};
     use crate::testing::gpu;
+    use crate::FrameRecorder;
     use crate::{Effect, MethodId, RenderOptions, Renderer};
 
     /// Reads a 4-channel texture back as 8-bit sRGB.

@@ -119,12 +119,11 @@ impl<T> StatsRing<T> {
             }
             let buffer = slot.buffer.as_ref().expect("a recorded slot has a buffer");
             let words = (state == MAPPED).then(|| {
-                let range = buffer.slice(..slot.words * 4);
-                let data = range
+                buffer
+                    .slice(..slot.words * 4)
                     .get_mapped_range()
                     .map(|m| bytemuck::pod_collect_to_vec::<u8, u32>(&m))
-                    .ok();
-                data
+                    .ok()
             });
             if state == MAPPED {
                 buffer.unmap();

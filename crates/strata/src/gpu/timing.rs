@@ -10,6 +10,9 @@ use crate::gpu::Gpu;
 /// WebGPU's largest query set.
 const MAX_QUERIES: u32 = 4096;
 
+/// A range of a buffer to read back: (buffer, byte offset, u32 words).
+pub type ReadRange = (wgpu::Buffer, u64, u64);
+
 pub struct Timer {
     set: Option<wgpu::QuerySet>,
     resolve: Option<wgpu::Buffer>,
@@ -92,7 +95,7 @@ impl Timer {
     pub fn resolve(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
-    ) -> Option<((wgpu::Buffer, u64, u64), Vec<&'static str>)> {
+    ) -> Option<(ReadRange, Vec<&'static str>)> {
         let (Some(set), Some(resolve)) = (&self.set, &self.resolve) else {
             return None;
         };

@@ -1,12 +1,17 @@
-//! The batch renderer the CLI and the tests use, on top of [`crate::frame::FrameRecorder`]:
+//! Frames for applications ([`FrameRecorder`]) and the batch renderer the CLI and the tests
+//! use on top of it ([`Renderer`]):
 //! *exact mode*. A picture is recorded and submitted, its statistics waited for, and the frame
 //! rendered again while a method reports it incomplete (a fragment pool that overflowed, too few
 //! peeling layers) — the method has grown from the measured need by then, so the second frame is
 //! complete. The resolved frame is read back and composited over the picture's background on
 //! the CPU. `FrameStats` count the submits and blocking readbacks this takes.
 
+pub mod recorder;
+
+pub use recorder::FrameRecorder;
+
 use crate::error::{Error, Result};
-use crate::frame::{DrawCallback, FrameRecorder, FrameStats, FrameTargets, Resolved};
+use crate::frame::{DrawCallback, FrameStats, FrameTargets, Resolved};
 use crate::gpu::{readback, Gpu};
 use crate::methods::MethodId;
 use crate::scene::{linear_to_srgb, Scene};
@@ -241,6 +246,6 @@ pub fn clear_depth(gpu: &Gpu, view: &wgpu::TextureView, value: f32) {
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("strata.clear_depth"),
         });
-    crate::frame::recorder::clear_depth_pass(&mut enc, view, value);
+    recorder::clear_depth_pass(&mut enc, view, value);
     gpu.queue.submit([enc.finish()]);
 }

@@ -412,7 +412,6 @@ impl Method for Dual {
             ],
         );
         let frame_group = ctx.frame_group;
-        let null_target = &*null_target;
         dispatch_pixels(ctx, "init", &self.init, &[frame_group, &advance_group]);
         storage_geometry_pass(
             ctx,

@@ -3,8 +3,8 @@
 //! ```no_run
 //! # fn demo(device: wgpu::Device, queue: wgpu::Queue, color: &wgpu::TextureView,
 //! #         depth: &wgpu::TextureView) -> strata::Result<()> {
-//! use strata::frame::{FrameRecorder, FrameTargets};
-//! use strata::{gpu::Gpu, methods::MethodId, scene::loaders, RenderOptions};
+//! use strata::frame::FrameTargets;
+//! use strata::{gpu::Gpu, methods::MethodId, scene::loaders, FrameRecorder, RenderOptions};
 //!
 //! let gpu = Gpu::from_device(device, queue);
 //! let scene = loaders::load_scene("builtin:spheres?layers=8")?;
@@ -35,27 +35,17 @@
 
 use std::collections::BTreeMap;
 
-use super::present::{Present, PresentParams};
-use super::stats::StatsRing;
-use super::{
-    DrawCallback, Effect, FrameContext, FrameStats, MethodStats, ReadbackList, Recorded,
-    RenderOptions, SceneGpu, Totals, RESOLVED_BYTES, TOTAL_WORDS,
-};
 use crate::error::{Error, Result};
+use crate::frame::present::{Present, PresentParams};
+use crate::frame::stats::{self, StatsRing};
+use crate::frame::{
+    DrawCallback, Effect, FrameContext, FrameStats, FrameTargets, MethodStats, ReadbackList,
+    Recorded, RenderOptions, SceneGpu, Totals, RESOLVED_BYTES, TOTAL_WORDS,
+};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::methods::{self, Method, MethodId};
 use crate::scene::{Camera, Scene};
-
-/// Where a frame goes: the application's color target (the resolve is blended OVER it; `None`
-/// leaves the result in [`FrameRecorder::resolved`] only) and the depth of its opaque surfaces
-/// (Depth32Float, the frame's size; fragments at or behind it are rejected; `None`: nothing
-/// opaque).
-#[derive(Clone, Copy, Default)]
-pub struct FrameTargets<'a> {
-    pub color: Option<(&'a wgpu::TextureView, wgpu::TextureFormat)>,
-    pub opaque_depth: Option<&'a wgpu::TextureView>,
-}
 
 /// A frame waiting for its statistics.
 struct Pending {
@@ -183,7 +173,7 @@ impl FrameRecorder {
         Ok(())
     }
 
-    /// The per-pixel result of the last recorded frame ([`super::Resolved`]; COPY_SRC).
+    /// The per-pixel result of the last recorded frame ([`crate::frame::Resolved`]; COPY_SRC).
     pub fn resolved(&self) -> &wgpu::Buffer {
         &self.output
     }
@@ -380,7 +370,7 @@ impl FrameRecorder {
     /// tests; the wait is a blocking readback).
     pub fn wait_stats(&mut self) -> Result<FrameReport> {
         let mut last = None;
-        for _ in 0..super::stats::SLOTS + 1 {
+        for _ in 0..stats::SLOTS + 1 {
             self.gpu.wait()?;
             let done = self.ring.poll(&self.gpu);
             if let Some(r) = self.decode(done).pop() {
