@@ -378,11 +378,15 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
             picture.put_pixel(x, y, image::Rgba([p[0], p[1], p[2], 255]));
         }
     }
-    let last = oit.wait_stats()?.stats;
-    stats.push(last);
+    // The last frame's statistics, unless an earlier poll already collected them.
+    if let Ok(report) = oit.wait_stats() {
+        stats.push(report.stats);
+    }
     Ok(HostRun {
         picture,
-        stats: stats.pop().expect("pushed above"),
+        stats: stats
+            .pop()
+            .ok_or_else(|| runtime("no frame statistics arrived".into()))?,
         scene,
         background,
     })

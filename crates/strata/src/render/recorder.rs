@@ -37,7 +37,7 @@ use std::collections::BTreeMap;
 
 use crate::error::{Error, Result};
 use crate::frame::present::{Present, PresentParams};
-use crate::frame::stats::{self, StatsRing};
+use crate::frame::stats::StatsRing;
 use crate::frame::{
     DrawCallback, Effect, FrameContext, FrameStats, FrameTargets, MethodStats, ReadbackList,
     Recorded, RenderOptions, SceneGpu, Totals, RESOLVED_BYTES, TOTAL_WORDS,
@@ -46,6 +46,9 @@ use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::methods::{self, Method, MethodId};
 use crate::scene::{Camera, Scene};
+
+/// How long `wait_stats` waits for mapping callbacks once the GPU is idle.
+const STATS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
 
 /// A frame waiting for its statistics.
 struct Pending {
@@ -369,8 +372,11 @@ impl FrameRecorder {
     /// Waits for every submitted frame's statistics and returns the last one (exact mode and
     /// tests; the wait is a blocking readback).
     pub fn wait_stats(&mut self) -> Result<FrameReport> {
+        // Another thread polling the same device may be running the mapping callbacks when the
+        // wait returns: give them a bounded time to land.
+        let deadline = std::time::Instant::now() + STATS_TIMEOUT;
         let mut last = None;
-        for _ in 0..stats::SLOTS + 1 {
+        loop {
             self.gpu.wait()?;
             let done = self.ring.poll(&self.gpu);
             if let Some(r) = self.decode(done).pop() {
@@ -379,8 +385,15 @@ impl FrameRecorder {
             if !self.ring.pending() {
                 break;
             }
+            if std::time::Instant::now() > deadline {
+                return Err(Error::runtime(format!(
+                    "the frame's statistics did not arrive within {} s",
+                    STATS_TIMEOUT.as_secs()
+                )));
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
         }
-        last.ok_or_else(|| Error::runtime("the frame's statistics never arrived"))
+        last.ok_or_else(|| Error::runtime("the frame recorded no statistics"))
     }
 
     fn decode(&mut self, mut done: Vec<(Pending, Option<Vec<u32>>)>) -> Vec<FrameReport> {
