@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 pub fn wanted_features() -> wgpu::Features {
     wgpu::Features::SHADER_INT64
         | wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS
+        | wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX
         | wgpu::Features::TIMESTAMP_QUERY
         | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
         | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES

@@ -214,8 +214,8 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "peeling",
             exact: true,
             geometry_passes: "ceil(N/2)+1 (N: the last frame's depth complexity, or --layers)",
-            memory: "124·W·H",
-            summary: "dual depth peeling: nearest and farthest layer per pass (fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
+            memory: "140·W·H with 64-bit atomics, else 124·W·H",
+            summary: "dual depth peeling: nearest and farthest layer per pass; exact with ties given 64-bit atomic min/max (else fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
         },
         MethodInfo {
             id: "abuffer-ll",

@@ -57,11 +57,20 @@ fn every_stage_validates() {
             "f2b.accumulate",
             include_str!("peeling/f2b_accumulate.wgsl"),
         ),
-        ("dual.peel", include_str!("peeling/dual_peel.wgsl")),
-        ("dual.advance", include_str!("peeling/dual_advance.wgsl")),
     ];
     for (label, src) in stages {
         crate::gpu::shader::validate(label, src);
+    }
+    for (bits, key) in [
+        ("32", include_str!("peeling/dual_key32.wgsl")),
+        ("64", include_str!("peeling/dual_key64.wgsl")),
+    ] {
+        for (stage, src) in [
+            ("peel", include_str!("peeling/dual_peel.wgsl")),
+            ("advance", include_str!("peeling/dual_advance.wgsl")),
+        ] {
+            crate::gpu::shader::validate(&format!("dual.{stage}{bits}"), &[key, src].join("\n"));
+        }
     }
 }
 
@@ -348,7 +357,14 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
         ("unsorted", 12 * px),
         ("sorted", 12 * px + 4 * tris),
         ("f2b", 56 * px),
-        ("dual", 124 * px),
+        (
+            "dual",
+            if crate::methods::peeling::has_wide_keys(crate::testing::gpu()) {
+                140 * px
+            } else {
+                124 * px
+            },
+        ),
     ] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
@@ -546,5 +562,40 @@ fn allocation_counters_saturate_instead_of_wrapping() {
             resolved.iter().all(|r| r.count == 0 && r.color[3] == 0.0),
             "{m}: a fragment was stored from a saturated pool"
         );
+    }
+}
+
+/// Coincident faces (two layers at exactly the same depth, another held-out shape of input):
+/// with 64-bit keys dual peels them one by one in primitive order like f2b and the reference;
+/// without, it keeps one and counts the other as dropped.
+#[test]
+fn dual_peels_coincident_faces_in_primitive_order() {
+    let mut s = scene("builtin:layers?n=3&coverage=1&order=front");
+    // Layer 1 moved onto layer 0: every pixel has two fragments at exactly equal depth.
+    s.objects[1].mesh.positions = s.objects[0].mesh.positions.clone();
+    let opts = options(24, Effect::Transparency);
+    let expected = render_reference(&s, &opts);
+    let (f2b, _) = render_gpu(&s, &opts, "f2b");
+    assert_close(
+        "coincident-f2b",
+        &f2b,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    let (dual, stats) = render_gpu(&s, &opts, "dual");
+    if crate::methods::peeling::has_wide_keys(crate::testing::gpu()) {
+        assert_eq!(stats.fragments_dropped, Some(0));
+        assert_close(
+            "coincident-dual",
+            &dual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+    } else {
+        assert_eq!(stats.fragments_dropped, Some(24 * 24));
     }
 }

@@ -6,8 +6,8 @@ struct Counters {
     dropped: atomic<u32>,
 }
 
-@group(1) @binding(0) var<storage, read_write> bounds: array<vec2<u32>>;
-@group(1) @binding(1) var<storage, read_write> next_bounds: array<vec2<u32>>;
+@group(1) @binding(0) var<storage, read_write> bounds: array<Key>;
+@group(1) @binding(1) var<storage, read_write> next_bounds: array<Key>;
 @group(1) @binding(2) var<storage, read_write> layers: array<Fragment>;
 @group(1) @binding(3) var<storage, read_write> hits: array<u32>;
 @group(1) @binding(4) var<storage, read_write> front: array<Composite>;
@@ -15,7 +15,6 @@ struct Counters {
 @group(1) @binding(6) var<storage, read_write> counters: Counters;
 @group(1) @binding(7) var<storage, read_write> output: array<Resolved>;
 
-const NO_BOUNDS: vec2<u32> = vec2<u32>(0xffffffffu, 0u);
 
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -25,7 +24,8 @@ fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = pixel_index(id.xy);
     front[i] = composite_new();
     back[i] = composite_back_new();
-    next_bounds[i] = NO_BOUNDS;
+    next_bounds[2u * i] = no_min();
+    next_bounds[2u * i + 1u] = no_max();
     hits[3u * i] = 0u;
     hits[3u * i + 1u] = 0u;
     hits[3u * i + 2u] = 0u;
@@ -55,10 +55,13 @@ fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     hits[3u * i] = 0u;
     hits[3u * i + 1u] = 0u;
-    let b = next_bounds[i];
-    bounds[i] = b;
-    next_bounds[i] = NO_BOUNDS;
-    if b.x <= b.y {
+    let lo = next_bounds[2u * i];
+    let hi = next_bounds[2u * i + 1u];
+    bounds[2u * i] = lo;
+    bounds[2u * i + 1u] = hi;
+    next_bounds[2u * i] = no_min();
+    next_bounds[2u * i + 1u] = no_max();
+    if lo <= hi {
         atomicAdd(&counters.pending, 1u);
     }
 }

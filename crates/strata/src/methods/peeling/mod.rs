@@ -20,10 +20,14 @@
 //! slot while the fragments between them compute the next bounds, and an *advance* compute pass
 //! that composites the front slot front-to-back and the back slot back-to-front (the over
 //! operator, with the same absorption rule) and counts pixels with layers left; finish joins the
-//! two. N layers → ⌈N/2⌉+1 geometry passes. Memory per pixel: 16 B bounds, 64 B two composites,
-//! 32 B two slots, 12 B hit counters and count = 124·W·H. Limit: fragments at exactly the same depth in one
-//! pixel share a slot; one is kept, the others are counted in `fragments_dropped` (never
-//! silently lost). Classic dual peeling's min/max blending needs RG32F blending, which core
+//! two. N layers → ⌈N/2⌉+1 geometry passes. Keys: with 64-bit atomic min/max
+//! (SHADER_INT64_ATOMIC_MIN_MAX) a fragment's key is its depth bits above its tag (primitive and
+//! facing), unique per pixel, so fragments at exactly equal depth peel one by one in primitive
+//! order and dual is exact with ties; without it the key is the depth alone, and fragments at
+//! exactly the same depth in one pixel share a slot — one is kept, the others are counted in
+//! `fragments_dropped` (never silently lost). Memory per pixel: bounds 16 B (32 B with 64-bit
+//! keys), 64 B two composites, 32 B two slots, 12 B hit counters and count = 124·W·H
+//! (140·W·H). Classic dual peeling's min/max blending needs RG32F blending, which core
 //! WebGPU lacks, hence the storage atomics.
 
 use crate::error::Result;
@@ -299,12 +303,26 @@ pub struct Dual {
     finish: wgpu::ComputePipeline,
     null_target: Option<NullTarget>,
     measured: Option<u32>,
+    /// Bytes per key: 8 with 64-bit atomics (exact with ties), else 4.
+    key_bytes: u64,
     cache: ResourceCache,
+}
+
+/// Whether the adapter has the 64-bit atomic min/max dual peeling's exact keys need.
+pub fn has_wide_keys(gpu: &Gpu) -> bool {
+    gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX)
+        || gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS)
 }
 
 impl Dual {
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Dual {
         let device = &gpu.device;
+        let wide = has_wide_keys(gpu);
+        let key = if wide {
+            include_str!("dual_key64.wgsl")
+        } else {
+            include_str!("dual_key32.wgsl")
+        };
         let peel_layout = binding::layout(
             device,
             "strata.dual.peel.layout",
@@ -317,7 +335,11 @@ impl Dual {
         );
         let advance_layout =
             binding::layout(device, "strata.dual.advance.layout", &[Slot::StorageRw; 8]);
-        let module = shader::module(device, "strata.dual.peel", include_str!("dual_peel.wgsl"));
+        let module = shader::module(
+            device,
+            "strata.dual.peel",
+            &[key, include_str!("dual_peel.wgsl")].join("\n"),
+        );
         let layouts = [&scene.frame_layout, &peel_layout];
         let targets = [NullTarget::target_state()];
         let bounds = capture_pipeline(
@@ -341,7 +363,7 @@ impl Dual {
         let module = shader::module(
             device,
             "strata.dual.advance",
-            include_str!("dual_advance.wgsl"),
+            &[key, include_str!("dual_advance.wgsl")].join("\n"),
         );
         let layouts = [&scene.frame_layout, &advance_layout];
         Dual {
@@ -354,6 +376,7 @@ impl Dual {
             advance_layout,
             null_target: None,
             measured: None,
+            key_bytes: if wide { 8 } else { 4 },
             cache: ResourceCache::default(),
         }
     }
@@ -368,12 +391,13 @@ impl Method for Dual {
             NullTarget::ensure(&mut self.null_target, gpu, "strata.dual.null_target", w, h);
         let px = ctx.pixels();
         let none = wgpu::BufferUsages::empty();
+        let key_bytes = self.key_bytes;
         let bounds = self
             .cache
-            .storage(gpu, "strata.dual.bounds", px * 8, none)?;
-        let next_bounds = self
-            .cache
-            .storage(gpu, "strata.dual.next_bounds", px * 8, none)?;
+            .storage(gpu, "strata.dual.bounds", px * 2 * key_bytes, none)?;
+        let next_bounds =
+            self.cache
+                .storage(gpu, "strata.dual.next_bounds", px * 2 * key_bytes, none)?;
         let layers_buffer = self
             .cache
             .storage(gpu, "strata.dual.layers", px * 32, none)?;
@@ -445,7 +469,7 @@ impl Method for Dual {
         ctx.readback.words(&counters, 0, 1);
         Ok(Recorded {
             geometry_passes: peel_passes + 1,
-            bytes_allocated: px * 124,
+            bytes_allocated: px * (108 + 4 * self.key_bytes),
             capacity: layers as u64,
             ..Default::default()
         })
