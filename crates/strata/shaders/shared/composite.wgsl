@@ -4,16 +4,8 @@
 // back layers) computes the same sum with the over operator. The output is `Resolved`:
 // premultiplied color and alpha = 1 − transmittance, to be blended OVER whatever is behind (the
 // application's target, or the CLI's background), and the fragment count.
-// Keep `Composite` in sync with `CompositeState` in crates/strata/src/resolve/mod.rs and
-// `Resolved` with `Resolved` in crates/strata/src/frame/mod.rs.
-
-struct Resolved {
-    color: vec4<f32>,
-    count: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
+// Keep `Composite` in sync with `CompositeState` in crates/strata/src/resolve/mod.rs. `Resolved`
+// is in color.wgsl.
 
 struct Composite {
     color: vec3<f32>,

@@ -7,7 +7,7 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::Gpu;
+use crate::gpu::{shader, Gpu};
 
 /// Keep in sync with `PresentParams` in present.wgsl.
 #[repr(C)]
@@ -43,7 +43,11 @@ impl Present {
         );
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("strata.present"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("present.wgsl").into()),
+            source: wgpu::ShaderSource::Wgsl(
+                [shader::COLOR, include_str!("present.wgsl")]
+                    .join("\n")
+                    .into(),
+            ),
         });
         let lut: Vec<u32> = (0..256)
             .map(|i| {

@@ -1,15 +1,7 @@
 // The present pass: one full-screen triangle that blends each pixel's resolved color OVER the
 // application's color target (premultiplied "over": src + (1 − src.a)·dst, in linear space; an
 // sRGB target encodes after blending). The complexity effect draws an opaque heatmap instead.
-// Keep `PresentParams` in sync with `PresentParams` in present.rs.
-
-struct Resolved {
-    color: vec4<f32>,
-    count: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
+// Keep `PresentParams` in sync with `PresentParams` in present.rs. color.wgsl is prepended.
 
 struct PresentParams {
     size: vec2<u32>,
@@ -27,10 +19,6 @@ struct PresentParams {
 fn vs_present(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
     return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}
-
-fn srgb_to_linear(c: f32) -> f32 {
-    return select(pow((c + 0.055) / 1.055, 2.4), c / 12.92, c <= 0.04045);
 }
 
 @fragment

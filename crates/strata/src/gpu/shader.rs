@@ -3,13 +3,14 @@
 
 /// Shared WGSL, in dependency order. Keep the Rust twins in sync (see each file's header).
 pub const SCENE: &str = include_str!("../../shaders/shared/scene.wgsl");
+pub const COLOR: &str = include_str!("../../shaders/shared/color.wgsl");
 pub const FRAGMENT: &str = include_str!("../../shaders/shared/fragment.wgsl");
 pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
 
 /// Everything a capture or resolve stage may call: scene bindings (group 0), the vertex stage,
 /// shading, the fragment record and the compositing state machine.
 pub fn with_shared(stage: &str) -> String {
-    [SCENE, FRAGMENT, COMPOSITE, stage].join("\n")
+    [SCENE, COLOR, FRAGMENT, COMPOSITE, stage].join("\n")
 }
 
 pub fn module(device: &wgpu::Device, label: &str, stage: &str) -> wgpu::ShaderModule {

@@ -190,13 +190,24 @@ pub fn load_png(path: &Path) -> Result<RgbaImage> {
     Ok(img.into_rgba8())
 }
 
-/// Writes `img` as an 8-bit RGBA PNG.
+/// Writes `img` as an 8-bit RGBA PNG, creating `path` only once the image is complete (no
+/// partial file on error).
 ///
 /// Errors with [`Error::Input`] naming the path if it cannot be written (for example a missing
 /// directory).
-pub fn save_png(path: &Path, img: &RgbaImage) -> Result<()> {
-    img.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| Error::input(format!("{}: cannot write PNG: {e}", path.display())))
+pub fn save_png(img: &RgbaImage, path: &Path) -> Result<()> {
+    let bad = |e: &dyn std::fmt::Display| {
+        Error::input(format!("{}: cannot write PNG: {e}", path.display()))
+    };
+    let tmp = path.with_extension("png.partial");
+    if let Err(e) = img.save_with_format(&tmp, image::ImageFormat::Png) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(bad(&e));
+    }
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        bad(&e)
+    })
 }
 
 /// Depth-complexity histogram: bin `i` counts the pixels with exactly `i` fragments. The result
@@ -329,7 +340,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let img = pattern(5, 3);
         let path = dir.join("round-trip.png");
-        save_png(&path, &img).unwrap();
+        save_png(&img, &path).unwrap();
         assert_eq!(load_png(&path).unwrap(), img);
 
         let missing = dir.join("does-not-exist.png");
@@ -359,7 +370,7 @@ mod tests {
         );
         assert!(!err.contains('\n'), "{err}");
 
-        let err = save_png(&dir.join("no-such-dir").join("x.png"), &img).unwrap_err();
+        let err = save_png(&img, &dir.join("no-such-dir").join("x.png")).unwrap_err();
         assert!(err.to_string().contains("x.png"));
         std::fs::remove_dir_all(&dir).ok();
     }

@@ -75,7 +75,7 @@ fn write_failure_images(name: &str, actual: &RgbaImage, expected: &RgbaImage) ->
     ];
     let mut errors = Vec::new();
     for (file, img) in &files {
-        if let Err(e) = save_png(&dir.join(file), img) {
+        if let Err(e) = save_png(img, &dir.join(file)) {
             errors.push(e.to_string());
         }
     }

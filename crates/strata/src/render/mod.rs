@@ -64,14 +64,7 @@ impl LinearImage {
     }
 }
 
-/// Writes a PNG, creating it only once the image is complete (no partial file on error).
-pub fn save_png(img: &image::RgbaImage, path: &std::path::Path) -> Result<()> {
-    let tmp = path.with_extension("png.partial");
-    img.save_with_format(&tmp, image::ImageFormat::Png)
-        .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))?;
-    std::fs::rename(&tmp, path)
-        .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))
-}
+pub use crate::metrics::save_png;
 
 /// Renders a scene with the GPU methods in exact mode. Holds one [`FrameRecorder`] (the scene
 /// buffers and each method's resources), so a second picture reuses what the first sized.

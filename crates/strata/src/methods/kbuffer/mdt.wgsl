@@ -53,15 +53,6 @@ fn cascade_culled(base: u32, key: u32) -> bool {
     return last != 0u && key <= last;
 }
 
-fn linear_to_srgb(c: f32) -> f32 {
-    let x = clamp(c, 0.0, 1.0);
-    return select(1.055 * pow(x, 1.0 / 2.4) - 0.055, x * 12.92, x <= 0.0031308);
-}
-
-fn srgb_to_linear(c: f32) -> f32 {
-    return select(pow((c + 0.055) / 1.055, 2.4), c / 12.92, c <= 0.04045);
-}
-
 @fragment
 fn fs_mdt32_depth(v: SceneVarying) {
     if behind_opaque(v.position) {

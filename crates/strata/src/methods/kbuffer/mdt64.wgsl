@@ -5,13 +5,11 @@
 @group(1) @binding(1) var<storage, read_write> keys64: array<atomic<u64>>;
 
 fn srgb8(c: f32) -> u32 {
-    let x = clamp(c, 0.0, 1.0);
-    return u32(round(select(1.055 * pow(x, 1.0 / 2.4) - 0.055, x * 12.92, x <= 0.0031308) * 255.0));
+    return u32(round(linear_to_srgb(c) * 255.0));
 }
 
 fn linear_of8(v: u32) -> f32 {
-    let c = f32(v) / 255.0;
-    return select(pow((c + 0.055) / 1.055, 2.4), c / 12.92, c <= 0.04045);
+    return srgb_to_linear(f32(v) / 255.0);
 }
 
 fn key64(f: Fragment) -> u64 {

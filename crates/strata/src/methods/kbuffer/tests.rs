@@ -393,3 +393,36 @@ fn k_beyond_a_methods_cap_is_a_clear_error() {
     );
     assert!(r.render("kplus-heap").is_ok());
 }
+
+/// A tail of 2047 bright (HDR 64, α = 0.9) fragments per pixel: each adds 0.9·64·2¹⁶ ≈ 3.8·10⁶
+/// to the pixel's fixed-point sums, 7.7·10⁹ in all — past 2³², where 32-bit sums wrapped. With
+/// 64-bit sums the tail's average color is exact: the pixel is 64 in every channel.
+#[test]
+fn bright_tails_do_not_wrap_their_sums() {
+    let mut s = scene("builtin:layers?n=1024&coverage=1&order=random&seed=6");
+    // Every layer twice: 2048 fragments per pixel.
+    let copies = s.objects.clone();
+    s.objects.extend(copies);
+    let n = s.objects.len();
+    for m in &mut s.materials {
+        m.color = [64.0; 3];
+        m.opacity = 0.9;
+        m.shading = crate::scene::Shading::Unlit;
+    }
+    let mut opts = options(4, 1);
+    opts.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
+    opts.tail = Tail::Blend;
+    for method in ["kplus-heap", "kplus-array", "abuffer-fixed"] {
+        let (img, stats) = render_gpu(&s, &opts, method);
+        assert_eq!(
+            stats.fragments_dropped,
+            Some(((n - 1) * 16) as u64),
+            "{method}"
+        );
+        for p in &img.pixels {
+            for c in &p[..3] {
+                assert!((c - 64.0).abs() < 0.5, "{method}: {p:?}, expected 64");
+            }
+        }
+    }
+}
