@@ -472,27 +472,37 @@ fn short_scene(spec: &str) -> &str {
 
 fn skipped(run: &Run, frames: u32, why: String) -> MethodResult {
     MethodResult {
-        scene: String::new(),
-        label: run.label.clone(),
-        method: run.method.clone(),
-        k: run.k,
-        culling: run.culling,
-        frames,
-        median_gpu_ms: None,
-        median_gpu_ms_per_pass: None,
-        median_wall_ms: f64::NAN,
-        fps: None,
-        frames_with_stats: None,
-        blocking_readbacks: None,
-        geometry_passes: None,
-        fragments: None,
-        fragments_dropped: None,
-        max_depth_complexity: None,
-        bytes_allocated: None,
-        lock_failures: None,
-        error_vs_reference: None,
-        error_vs_reference_k: None,
         skipped: Some(why),
+        ..MethodResult::new(run, frames)
+    }
+}
+
+impl MethodResult {
+    /// A run with nothing measured yet.
+    fn new(run: &Run, frames: u32) -> MethodResult {
+        MethodResult {
+            scene: String::new(),
+            label: run.label.clone(),
+            method: run.method.clone(),
+            k: run.k,
+            culling: run.culling,
+            frames,
+            median_gpu_ms: None,
+            median_gpu_ms_per_pass: None,
+            median_wall_ms: f64::NAN,
+            fps: None,
+            frames_with_stats: None,
+            blocking_readbacks: None,
+            geometry_passes: None,
+            fragments: None,
+            fragments_dropped: None,
+            max_depth_complexity: None,
+            bytes_allocated: None,
+            lock_failures: None,
+            error_vs_reference: None,
+            error_vs_reference_k: None,
+            skipped: None,
+        }
     }
 }
 
@@ -509,29 +519,7 @@ fn measure(
     frames: u32,
     bar: &ProgressBar,
 ) -> Result<MethodResult> {
-    let mut result = MethodResult {
-        scene: String::new(),
-        label: run.label.clone(),
-        method: run.method.clone(),
-        k: run.k,
-        culling: run.culling,
-        frames,
-        median_gpu_ms: None,
-        median_gpu_ms_per_pass: None,
-        median_wall_ms: f64::NAN,
-        fps: None,
-        frames_with_stats: None,
-        blocking_readbacks: None,
-        geometry_passes: None,
-        fragments: None,
-        fragments_dropped: None,
-        max_depth_complexity: None,
-        bytes_allocated: None,
-        lock_failures: None,
-        error_vs_reference: None,
-        error_vs_reference_k: None,
-        skipped: None,
-    };
+    let mut result = MethodResult::new(run, frames);
     let method: MethodId = run.method.parse()?;
     if method == MethodId::Reference {
         let mut walls = Vec::new();

@@ -57,8 +57,6 @@ pub struct ListKBuffer {
     /// The most nodes memory allowed when the last frame was recorded, and whether the limit
     /// is the budget.
     max_nodes: (u64, bool),
-    /// Between `begin_capture` and `end_capture`: the group and what the frame records.
-    external: Option<(wgpu::BindGroup, Recorded)>,
 }
 
 impl ListKBuffer {
@@ -79,7 +77,6 @@ impl ListKBuffer {
                 .unwrap_or(options.pixels() * FIRST_GUESS_PER_PIXEL)
                 .max(1),
             max_nodes: (u64::MAX, false),
-            external: None,
         }
     }
 
@@ -148,20 +145,12 @@ impl Method for ListKBuffer {
     }
 
     fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
-        let (params, storage, mut recorded) = self.plan(ctx)?;
-        let (group, bytes) = self.frame.begin(ctx, params, storage)?;
-        recorded.bytes_allocated = bytes;
-        self.external = Some((group.clone(), recorded));
-        Ok(group)
+        let plan = self.plan(ctx)?;
+        self.frame.begin_capture(ctx, plan)
     }
 
     fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        let (group, recorded) = self
-            .external
-            .take()
-            .ok_or_else(|| Error::runtime("end_capture without begin_capture"))?;
-        self.frame.end(ctx, &group);
-        Ok(recorded)
+        self.frame.end_capture(ctx)
     }
 
     fn stats(&mut self, recorded: &Recorded, _: &Totals, words: Option<&[u32]>) -> MethodStats {

@@ -297,6 +297,8 @@ pub struct KFrame {
     counters_init: wgpu::Buffer,
     counter_start: Option<u32>,
     counters: Option<wgpu::Buffer>,
+    /// Between `begin_capture` and `end_capture`: the group and what the frame records.
+    external: Option<(wgpu::BindGroup, Recorded)>,
 }
 
 impl KFrame {
@@ -325,6 +327,7 @@ impl KFrame {
             }),
             counter_start: None,
             counters: None,
+            external: None,
         }
     }
 
@@ -447,6 +450,29 @@ impl KFrame {
         Ok((group, total))
     }
 
+    /// [`KFrame::begin`] for an application's capture pass; `plan` is the frame's parameters,
+    /// storage and record.
+    pub fn begin_capture(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        (params, storage, mut recorded): (KParams, Storage, Recorded),
+    ) -> Result<wgpu::BindGroup> {
+        let (group, bytes) = self.begin(ctx, params, storage)?;
+        recorded.bytes_allocated = bytes;
+        self.external = Some((group.clone(), recorded));
+        Ok(group)
+    }
+
+    /// [`KFrame::end`] after an application's capture pass.
+    pub fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let (group, recorded) = self
+            .external
+            .take()
+            .ok_or_else(|| Error::runtime("end_capture without begin_capture"))?;
+        self.end(ctx, &group);
+        Ok(recorded)
+    }
+
     /// Records the resolve and asks for the counters.
     pub fn end(&mut self, ctx: &mut FrameContext<'_>, group: &wgpu::BindGroup) {
         let frame_group = ctx.frame_group;
@@ -464,8 +490,6 @@ pub struct SlotKBuffer {
     capture: wgpu::RenderPipeline,
     /// kb-ab-fixed: slots per pixel the next frame starts with (measured need).
     measured_stride: u32,
-    /// Between `begin_capture` and `end_capture`: the group and what the frame records.
-    external: Option<(wgpu::BindGroup, Recorded)>,
 }
 
 impl SlotKBuffer {
@@ -482,7 +506,6 @@ impl SlotKBuffer {
             capture: frame.capture_pipeline(gpu, scene, &module, variant.entry()),
             frame,
             measured_stride: 0,
-            external: None,
         }
     }
 
@@ -529,20 +552,12 @@ impl Method for SlotKBuffer {
     }
 
     fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
-        let (params, storage, mut recorded) = self.plan(ctx)?;
-        let (group, bytes) = self.frame.begin(ctx, params, storage)?;
-        recorded.bytes_allocated = bytes;
-        self.external = Some((group.clone(), recorded));
-        Ok(group)
+        let plan = self.plan(ctx)?;
+        self.frame.begin_capture(ctx, plan)
     }
 
     fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        let (group, recorded) = self
-            .external
-            .take()
-            .ok_or_else(|| Error::runtime("end_capture without begin_capture"))?;
-        self.frame.end(ctx, &group);
-        Ok(recorded)
+        self.frame.end_capture(ctx)
     }
 
     fn stats(

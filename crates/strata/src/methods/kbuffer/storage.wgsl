@@ -60,7 +60,10 @@ fn counter_add(at: u32, n: u32) {
 }
 
 fn tail_add_wide(at: u32, n: u32) {
-    atomicAdd(&tail[at], n);
+    let old = atomicAdd(&tail[at], n);
+    if old > 0xffffffffu - n {
+        atomicAdd(&tail[at + 1u], 1u);
+    }
 }
 
 fn tail_word(at: u32) -> f32 {
