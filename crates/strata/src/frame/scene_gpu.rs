@@ -116,6 +116,20 @@ impl SceneGpu {
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
     }
 
+    /// Replaces the triangles with those of `scene` (an animation's next frame) when it has as
+    /// many; returns false, changing nothing, when the count differs.
+    pub fn update_geometry(&mut self, gpu: &Gpu, scene: &Scene) -> Result<bool> {
+        if scene.triangle_count() as u64 != self.triangle_count as u64 {
+            return Ok(false);
+        }
+        scene.validate()?;
+        let tris = scene.triangles();
+        gpu.queue
+            .write_buffer(&self.vertices, 0, bytemuck::cast_slice(&tris));
+        self.cpu_positions = tris.iter().map(|v| v.position).collect();
+        Ok(true)
+    }
+
     /// Group 0 for a frame, drawing triangles in `order` (default: primitive order).
     pub fn frame_group(
         &self,
