@@ -48,8 +48,8 @@ pub struct BenchArgs {
     size: Option<String>,
     #[arg(long)]
     alpha: Option<f32>,
-    #[arg(long, default_value = "transparency")]
-    effect: String,
+    #[arg(long, value_enum, default_value = "transparency")]
+    effect: strata::Effect,
     /// Output folder (default: bench/results/<device>/).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -376,7 +376,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         let picture = PictureArgs {
             scene: scene.clone(),
             size: Some(size.clone()),
-            effect: a.effect.clone(),
+            effect: a.effect,
             shading: None,
             background: None,
             alpha,

@@ -5,11 +5,11 @@ mod bench;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use strata::error::{Error, Result};
 use strata::frame::{Effect, FrameStats, RenderOptions, Tail};
 use strata::gpu::Gpu;
-use strata::methods;
+use strata::methods::{self, MethodId};
 use strata::render::{save_png, LinearImage, Renderer};
 use strata::scene::{loaders, Background, Scene, Shading};
 
@@ -57,9 +57,8 @@ pub struct PictureArgs {
     /// Image size, WxH (default: the scene's, else 512x512).
     #[arg(long)]
     pub size: Option<String>,
-    /// transparency | translucency | complexity
-    #[arg(long, default_value = "transparency")]
-    pub effect: String,
+    #[arg(long, value_enum, default_value = "transparency")]
+    pub effect: Effect,
     /// unlit | lit: overrides every material's shading.
     #[arg(long)]
     pub shading: Option<String>,
@@ -82,23 +81,28 @@ struct RenderArgs {
     #[command(flatten)]
     picture: PictureArgs,
     /// Method id (see `strata methods`).
-    #[arg(long, default_value = "abuffer-ll")]
-    method: String,
-    /// hw (the GPU's rasterizer) | compute (the compute-shader rasterizer, not built yet)
-    #[arg(long, default_value = "hw")]
-    raster: String,
+    #[arg(
+        long,
+        value_enum,
+        default_value = "abuffer-ll",
+        hide_possible_values = true
+    )]
+    method: MethodId,
+    /// hw: the GPU's rasterizer; compute: the compute-shader rasterizer (not built yet).
+    #[arg(long, value_enum, default_value = "hw")]
+    raster: Raster,
     /// Memory a method may allocate, MiB.
     #[arg(long)]
     budget_mb: Option<f64>,
     /// Robustness ratio for --k auto (k-buffer methods, not built yet).
     #[arg(long)]
     robustness: Option<f64>,
-    /// drop | blend: fragments beyond k (k-buffer methods).
-    #[arg(long, default_value = "drop")]
-    tail: String,
-    /// on | off: k-buffers cull fragments behind a full pixel's farthest before taking the lock.
-    #[arg(long, default_value = "on")]
-    culling: String,
+    /// Fragments beyond k (k-buffer methods).
+    #[arg(long, value_enum, default_value = "drop")]
+    tail: Tail,
+    /// k-buffers cull fragments behind a full pixel's farthest before taking the lock.
+    #[arg(long, value_enum, default_value = "on")]
+    culling: Toggle,
     /// Spin-lock tries per fragment for the locking k-buffers.
     #[arg(long)]
     max_tries: Option<u32>,
@@ -106,9 +110,9 @@ struct RenderArgs {
     /// measured by the frame itself).
     #[arg(long)]
     layers: Option<u32>,
-    /// forward | deferred (the deferred pipeline is not built yet).
-    #[arg(long, default_value = "forward")]
-    pipeline: String,
+    /// forward, or deferred (the deferred pipeline is not built yet).
+    #[arg(long, value_enum, default_value = "forward")]
+    pipeline: Pipeline,
     /// Number of lights for the deferred pipeline (not built yet).
     #[arg(long)]
     lights: Option<u32>,
@@ -153,12 +157,56 @@ struct HistogramArgs {
     json: bool,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Toggle {
+    On,
+    Off,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Raster {
+    Hw,
+    Compute,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Pipeline {
+    Forward,
+    Deferred,
+}
+
+/// A command-line error as one line: clap's first line, with the valid values where it names
+/// them (its own rendering spreads over several lines).
+fn one_line(e: &clap::Error) -> String {
+    use clap::error::{ContextKind, ContextValue};
+    let rendered = e.render().to_string();
+    let first = rendered
+        .lines()
+        .next()
+        .unwrap_or("invalid command line")
+        .trim_start_matches("error: ")
+        .to_string();
+    match e.get(ContextKind::ValidValue) {
+        Some(ContextValue::Strings(values)) => {
+            format!("{first} (expected one of: {})", values.join(", "))
+        }
+        _ => first,
+    }
+}
+
 fn main() -> ExitCode {
     // Mesa's drivers complain on stderr when this is unset; keep errors to one line.
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => e.exit(), // --help, --version
+        Err(e) => {
+            eprintln!("error: {}", one_line(&e));
+            return ExitCode::from(2);
+        }
+    };
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -200,7 +248,7 @@ pub fn parse_size(s: &str) -> Result<(u32, u32)> {
 
 /// Loads the scene and applies the picture options to it; returns the render options.
 pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
-    let effect: Effect = p.effect.parse()?;
+    let effect = p.effect;
     let k = match p.k.as_deref() {
         None => None,
         Some("auto") => {
@@ -330,26 +378,15 @@ fn spinner(message: String) -> indicatif::ProgressBar {
 }
 
 fn render(a: RenderArgs) -> Result<()> {
-    if a.raster != "hw" {
-        return Err(if a.raster == "compute" {
-            Error::unsupported(
-                "--raster compute: the compute-shader rasterizer is not built yet; use --raster hw",
-            )
-        } else {
-            Error::input(format!("--raster '{}' is not hw or compute", a.raster))
-        });
+    if a.raster == Raster::Compute {
+        return Err(Error::unsupported(
+            "--raster compute: the compute-shader rasterizer is not built yet; use --raster hw",
+        ));
     }
-    if a.pipeline != "forward" {
-        return Err(if a.pipeline == "deferred" {
-            Error::unsupported(
-                "--pipeline deferred: the deferred-shading pipeline is not built yet",
-            )
-        } else {
-            Error::input(format!(
-                "--pipeline '{}' is not forward or deferred",
-                a.pipeline
-            ))
-        });
+    if a.pipeline == Pipeline::Deferred {
+        return Err(Error::unsupported(
+            "--pipeline deferred: the deferred-shading pipeline is not built yet",
+        ));
     }
     for (flag, given) in [
         ("--robustness", a.robustness.is_some()),
@@ -361,21 +398,10 @@ fn render(a: RenderArgs) -> Result<()> {
             )));
         }
     }
-    if methods::info(&a.method).is_none() {
-        return Err(methods::unknown_method(&a.method));
-    }
     let (scene, mut options) = prepare(&a.picture)?;
     options.budget_mb = a.budget_mb;
-    options.tail = a.tail.parse()?;
-    options.culling = match a.culling.as_str() {
-        "on" => true,
-        "off" => false,
-        other => {
-            return Err(Error::input(format!(
-                "--culling '{other}' is not on or off"
-            )))
-        }
-    };
+    options.tail = a.tail;
+    options.culling = a.culling == Toggle::On;
     if a.max_tries == Some(0) {
         return Err(Error::input("--max-tries must be at least 1"));
     }
@@ -386,10 +412,11 @@ fn render(a: RenderArgs) -> Result<()> {
         "rendering {}x{} with {}",
         options.width, options.height, a.method
     ));
-    let rendered = if a.method == "reference" {
+    let rendered = if a.method == MethodId::Reference {
         strata::reference::render(&scene, &options)
     } else {
-        Gpu::new().and_then(|gpu| Renderer::new(&gpu, &scene, &options)?.render(&a.method))
+        Gpu::new()
+            .and_then(|gpu| Renderer::new(&gpu, &scene, &options)?.render_method(a.method, None))
     };
     busy.finish_and_clear();
     let (image, stats) = rendered?;
@@ -516,7 +543,7 @@ fn histogram(a: HistogramArgs) -> Result<()> {
     let picture = PictureArgs {
         scene: a.scene,
         size: a.size,
-        effect: "complexity".into(),
+        effect: Effect::Complexity,
         shading: None,
         background: None,
         alpha: None,

@@ -222,10 +222,17 @@ fn bad_input_is_one_line_and_exit_2() {
         &["render", &fixture("unknown_material.toml")],
         "unknown material",
     );
-    assert_bad_input(&["render", "--method", "nope"], "unknown method 'nope'");
+    assert_bad_input(
+        &["render", "--method", "nope"],
+        "invalid value 'nope' for '--method",
+    );
     assert_bad_input(&["render", "builtin:nope"], "unknown builtin");
     assert_bad_input(&["render", "builtin:layers?n=abc"], "n");
-    assert_bad_input(&["render", "--effect", "glow"], "unknown effect");
+    assert_bad_input(
+        &["render", "--effect", "glow"],
+        "expected one of: transparency",
+    );
+    assert_bad_input(&["render", "--no-such-flag"], "--no-such-flag");
     assert_bad_input(&["render", "--alpha", "2"], "--alpha");
     assert_bad_input(&["render", "--background", "#zz0000"], "background");
     assert_bad_input(&["render", "--raster", "compute"], "--raster compute");

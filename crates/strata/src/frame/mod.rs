@@ -34,6 +34,7 @@ pub use scene_gpu::SceneGpu;
 
 /// How a pixel's depth-ordered fragments become a color.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Effect {
     #[default]
@@ -68,6 +69,7 @@ impl Effect {
 
 /// What k-buffer methods do with fragments beyond the k nearest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Tail {
     /// Discard them (counted in `fragments_dropped`).

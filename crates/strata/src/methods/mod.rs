@@ -22,8 +22,10 @@ use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::{Gpu, ResourceCache};
 
-/// Every method id of the catalogue.
+/// Every method id of the catalogue (with the `clap` feature, a `clap::ValueEnum` whose names
+/// are the ids).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MethodId {
     Reference,
     Unsorted,

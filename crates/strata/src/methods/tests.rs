@@ -599,3 +599,13 @@ fn dual_peels_coincident_faces_in_primitive_order() {
         assert_eq!(stats.fragments_dropped, Some(24 * 24));
     }
 }
+
+/// The command line's names for methods (clap's `ValueEnum`) are the catalogue's ids.
+#[cfg(feature = "clap")]
+#[test]
+fn value_enum_names_are_the_ids() {
+    use clap::ValueEnum;
+    for m in super::MethodId::ALL {
+        assert_eq!(m.to_possible_value().unwrap().get_name(), m.as_str());
+    }
+}
