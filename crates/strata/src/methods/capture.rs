@@ -82,6 +82,32 @@ fn strata_capture(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_
     Ok(source.replace("@group(1)", &format!("@group({group})")))
 }
 
+/// Adds the capture of `method` to a naga_oil composer as the module `strata::capture`, its
+/// bindings at `@group(group)`: an application's shader then writes
+/// `#import strata::capture::strata_capture` and calls it.
+#[cfg(feature = "naga_oil")]
+pub fn add_to_composer(
+    composer: &mut naga_oil::compose::Composer,
+    method: MethodId,
+    group: u32,
+) -> Result<()> {
+    let source = format!(
+        "#define_import_path strata::capture\n{}",
+        wgsl(method, group)?
+    );
+    composer
+        .add_composable_module(naga_oil::compose::ComposableModuleDescriptor {
+            source: &source,
+            file_path: "strata/capture.wgsl",
+            language: naga_oil::compose::ShaderLanguage::Wgsl,
+            as_name: None,
+            additional_imports: &[],
+            shader_defs: Default::default(),
+        })
+        .map(|_| ())
+        .map_err(|e| Error::runtime(format!("naga_oil: {e}")))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -108,5 +134,37 @@ fn fs_app(@builtin(position) p: vec4<f32>, @builtin(front_facing) ff: bool) {
             assert!(!src.contains("@group(1)"), "{m}: group not replaced");
         }
         assert!(wgsl(MethodId::KbMdt32, 1).is_err());
+    }
+
+    /// An application shader composed with naga_oil imports the capture and validates.
+    #[cfg(feature = "naga_oil")]
+    #[test]
+    fn naga_oil_composes_the_capture() {
+        use naga_oil::compose::{Composer, NagaModuleDescriptor, ShaderType};
+        for m in [MethodId::KplusHeap, MethodId::AbufferLl] {
+            let mut composer =
+                Composer::default().with_capabilities(naga::valid::Capabilities::all());
+            add_to_composer(&mut composer, m, 1).unwrap();
+            let app = "
+#import strata::capture::strata_capture
+
+@fragment
+fn fs_app(@builtin(position) p: vec4<f32>, @builtin(front_facing) ff: bool) {
+    strata_capture(p, vec4<f32>(0.25, 0.5, 0.125, 0.5), 7u, ff);
+}
+";
+            let module = composer
+                .make_naga_module(NagaModuleDescriptor {
+                    source: app,
+                    file_path: "app.wgsl",
+                    shader_type: ShaderType::Wgsl,
+                    ..Default::default()
+                })
+                .unwrap_or_else(|e| panic!("{m}: {e:?}"));
+            assert!(
+                module.entry_points.iter().any(|e| e.name == "fs_app"),
+                "{m}"
+            );
+        }
     }
 }
