@@ -358,7 +358,7 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
             (None, _) => eprintln!("warning: {dropped} fragments dropped"),
         }
     }
-    if stats.overflow == Some(true) {
+    if stats.overflow == Some(true) && stats.geometry_passes > Some(1) && dropped == 0 {
         eprintln!("note: the fragment pool overflowed; it was grown and the frame re-rendered (output exact)");
     }
     if stats.lock_failures.unwrap_or(0) > 0 {

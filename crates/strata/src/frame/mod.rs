@@ -193,6 +193,9 @@ pub struct FrameStats {
     pub bytes_allocated: Option<u64>,
     pub overflow: Option<bool>,
     pub lock_failures: Option<u64>,
+    /// How the capture's atomics are ordered on this adapter (k-buffer methods): "acquire-release
+    /// (SPIR-V passthrough)", or "relaxed" with or without coherent storage.
+    pub memory_ordering: Option<String>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the
@@ -222,6 +225,8 @@ pub struct Recorded {
     pub bytes_allocated: u64,
     /// The size this frame ran with where it is fed back (pool nodes, array stride, layers).
     pub capacity: u64,
+    /// How the capture's atomics are ordered (k-buffer methods).
+    pub memory_ordering: Option<&'static str>,
 }
 
 /// Frame totals every resolve adds each pixel to (`report_pixel` in composite.wgsl); 64-bit

@@ -5,6 +5,7 @@
 //! `WGPU_ADAPTER_NAME` picks an adapter by a case-insensitive substring of its name.
 
 pub mod binding;
+pub mod ordered;
 pub mod passes;
 pub mod readback;
 pub mod shader;
@@ -24,6 +25,7 @@ pub fn wanted_features() -> wgpu::Features {
         | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES
         | wgpu::Features::PIPELINE_STATISTICS_QUERY
         | wgpu::Features::MEMORY_DECORATION_COHERENT
+        | wgpu::Features::PASSTHROUGH_SHADERS
 }
 
 /// A device and queue with the features and limits they were created with: strata's own

@@ -16,6 +16,27 @@ pub fn capture_pipeline(
     targets: &[Option<wgpu::ColorTargetState>],
     depth: Option<wgpu::DepthStencilState>,
 ) -> wgpu::RenderPipeline {
+    capture_pipeline_with(
+        gpu,
+        label,
+        (module, module),
+        fragment_entry,
+        layouts,
+        targets,
+        depth,
+    )
+}
+
+/// [`capture_pipeline`] with the fragment stage from its own module (a passthrough one).
+pub fn capture_pipeline_with(
+    gpu: &Gpu,
+    label: &str,
+    (module, fragment_module): (&wgpu::ShaderModule, &wgpu::ShaderModule),
+    fragment_entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
     let layout = binding::pipeline_layout(&gpu.device, label, layouts);
     gpu.device
         .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -34,7 +55,7 @@ pub fn capture_pipeline(
             depth_stencil: depth,
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
-                module,
+                module: fragment_module,
                 entry_point: Some(fragment_entry),
                 compilation_options: Default::default(),
                 targets,

@@ -237,6 +237,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         bytes_allocated: Some(generated * std::mem::size_of::<RefFragment>() as u64),
         overflow: None,
         lock_failures: None,
+        memory_ordering: None,
         blocking_readbacks: 0,
         submits: 0,
         frame: 0,

@@ -456,6 +456,7 @@ impl FrameRecorder {
             bytes_allocated: Some(p.recorded.bytes_allocated),
             overflow: ms.overflow,
             lock_failures: ms.lock_failures,
+            memory_ordering: p.recorded.memory_ordering.map(String::from),
             blocking_readbacks: 0,
             submits: 0,
             adapter: Some(self.gpu.info.name.clone()),

@@ -61,8 +61,8 @@ pub struct ListKBuffer {
 
 impl ListKBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> ListKBuffer {
-        let frame = KFrame::new(gpu, scene, id, &resolve_source());
-        let module = frame.capture_module(gpu, capture_source());
+        let mut frame = KFrame::new(gpu, scene, id, &resolve_source());
+        let module = frame.capture_module(gpu, capture_source(), true);
         let entry = if id == MethodId::KbLl {
             "fs_sorted_ll"
         } else {
@@ -126,6 +126,7 @@ impl ListKBuffer {
             k: (self.id != MethodId::AbufferLl).then_some(k),
             bytes_allocated: 0,
             capacity: self.capacity,
+            memory_ordering: Some(self.frame.memory_ordering()),
         };
         Ok((params_for(ctx, k, k, false), storage, recorded))
     }

@@ -84,8 +84,9 @@ impl MdtKBuffer {
                 gpu.info.name
             )));
         }
-        let frame = KFrame::new(gpu, scene, id, &resolve_source(mdt));
-        let module = frame.capture_module(gpu, capture_source(mdt));
+        let mut frame = KFrame::new(gpu, scene, id, &resolve_source(mdt));
+        // No lock and no publication: the cascades need no ordering beyond atomicity.
+        let module = frame.capture_module(gpu, capture_source(mdt), false);
         let pipeline = |entry: &str| frame.capture_pipeline(gpu, scene, &module, entry);
         let passes = match mdt {
             Mdt::Mdt32 => vec![
@@ -124,6 +125,7 @@ impl Method for MdtKBuffer {
             k: Some(k),
             bytes_allocated: bytes,
             capacity: k as u64,
+            memory_ordering: Some(self.frame.memory_ordering()),
         })
     }
 

@@ -37,12 +37,13 @@
 //!
 //! Spin lock guarantees: every word a critical section touches is accessed atomically, so no
 //! holder reads a stale cached copy of the previous holder's writes. Where the adapter offers
-//! MEMORY_DECORATION_COHERENT the storage is also declared `@coherent` (SPIR-V Coherent), which
-//! makes plain accesses bypass incoherent caches; WGSL atomics stay relaxed either way and
-//! fragment shaders have no fences, so that the previous holder's slot stores are visible before
-//! its unlock is what GPUs do in practice (atomics go to the coherent cache level), not something
-//! the WGSL memory model guarantees; the same holds for `kplus-array-r`'s publication count and
-//! `kb-ll`'s node links. The locking methods are exact when `lock_failures` is 0. Every walk is
+//! MEMORY_DECORATION_COHERENT the storage is also declared `@coherent` (SPIR-V Coherent). Where
+//! it takes SPIR-V passthrough shaders (Vulkan), the slot and list captures run with
+//! acquire/release atomics (`gpu::ordered`): the lock, `kplus-array-r`'s publication count and
+//! the list links then order the stores they protect by the SPIR-V memory model. Elsewhere WGSL
+//! atomics are relaxed and fragment shaders have no fences, so that ordering is what GPUs do in
+//! practice (atomics go to the coherent cache level), not a guarantee. `FrameStats.memory_ordering`
+//! reports which. The locking methods are exact when `lock_failures` is 0. Every walk is
 //! bounded. The lock is
 //! taken with atomicExchange inside a loop whose body runs the critical section and breaks, so a
 //! SIMD lane that wins the lock finishes and releases it within the same iteration: no lane waits
@@ -65,7 +66,7 @@ use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Tail, Totals};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass, NullTarget,
+    capture_pipeline_with, compute_pipeline, dispatch_pixels, storage_geometry_pass, NullTarget,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
@@ -284,6 +285,13 @@ pub fn coherent(gpu: &Gpu, source: String) -> String {
         )
 }
 
+/// A capture stage: the WGSL module (vertex stage, and fragment stage without ordering) and,
+/// where the adapter takes it, the fragment stage with acquire/release atomics.
+pub struct CaptureModule {
+    pub wgsl: wgpu::ShaderModule,
+    pub ordered: Option<wgpu::ShaderModule>,
+}
+
 /// What every k-buffer method records the same way: the group-1 layout, the resolve pipeline,
 /// the buffers kept between frames, and a frame — clear, capture passes, resolve, counters.
 pub struct KFrame {
@@ -299,6 +307,7 @@ pub struct KFrame {
     counters: Option<wgpu::Buffer>,
     /// Between `begin_capture` and `end_capture`: the group and what the frame records.
     external: Option<(wgpu::BindGroup, Recorded)>,
+    memory_ordering: &'static str,
 }
 
 impl KFrame {
@@ -328,6 +337,7 @@ impl KFrame {
             counter_start: None,
             counters: None,
             external: None,
+            memory_ordering: "relaxed",
         }
     }
 
@@ -336,13 +346,16 @@ impl KFrame {
         &self,
         gpu: &Gpu,
         scene: &SceneGpu,
-        module: &wgpu::ShaderModule,
+        module: &CaptureModule,
         entry: &str,
     ) -> wgpu::RenderPipeline {
-        capture_pipeline(
+        capture_pipeline_with(
             gpu,
             &format!("strata.{}.{entry}", self.id),
-            module,
+            (
+                &module.wgsl,
+                module.ordered.as_ref().unwrap_or(&module.wgsl),
+            ),
             entry,
             &[&scene.frame_layout, &self.layout],
             &[NullTarget::target_state()],
@@ -350,13 +363,33 @@ impl KFrame {
         )
     }
 
-    /// A capture module for `source` (made coherent where the adapter can).
-    pub fn capture_module(&self, gpu: &Gpu, source: String) -> wgpu::ShaderModule {
-        shader::module(
-            &gpu.device,
-            &format!("strata.{}.capture", self.id),
-            &coherent(gpu, source),
-        )
+    /// A capture module for `source` (made coherent where the adapter can); with `ordered`, its
+    /// fragment stages also get acquire/release atomics where the adapter can
+    /// ([`crate::gpu::ordered`]).
+    pub fn capture_module(&mut self, gpu: &Gpu, source: String, ordered: bool) -> CaptureModule {
+        let label = format!("strata.{}.capture", self.id);
+        let source = coherent(gpu, source);
+        let ordered = if ordered {
+            crate::gpu::ordered::module(gpu, &label, &shader::with_shared(&source))
+        } else {
+            None
+        };
+        self.memory_ordering = if ordered.is_some() {
+            "acquire-release (SPIR-V passthrough), coherent storage"
+        } else if gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT) {
+            "relaxed, coherent storage"
+        } else {
+            "relaxed"
+        };
+        CaptureModule {
+            wgsl: shader::module(&gpu.device, &label, &source),
+            ordered,
+        }
+    }
+
+    /// How the capture's atomics are ordered on this adapter.
+    pub fn memory_ordering(&self) -> &'static str {
+        self.memory_ordering
     }
 
     pub fn resources(&self) -> Vec<&ResourceCache> {
@@ -494,13 +527,13 @@ pub struct SlotKBuffer {
 
 impl SlotKBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, variant: Variant) -> SlotKBuffer {
-        let frame = KFrame::new(
+        let mut frame = KFrame::new(
             gpu,
             scene,
             id,
             &[STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
         );
-        let module = frame.capture_module(gpu, slots_capture_source());
+        let module = frame.capture_module(gpu, slots_capture_source(), true);
         SlotKBuffer {
             variant,
             capture: frame.capture_pipeline(gpu, scene, &module, variant.entry()),
@@ -529,6 +562,7 @@ impl SlotKBuffer {
             k: Some(k),
             bytes_allocated: 0,
             capacity: stride as u64,
+            memory_ordering: Some(self.frame.memory_ordering()),
         };
         Ok((
             params_for(ctx, k, stride, self.variant.fixed()),

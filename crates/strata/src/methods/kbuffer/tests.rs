@@ -426,3 +426,31 @@ fn bright_tails_do_not_wrap_their_sums() {
         }
     }
 }
+
+/// Where the adapter takes SPIR-V passthrough shaders (lavapipe does), the locking and
+/// publishing captures run with acquire/release atomics — a silent fallback to relaxed atomics
+/// fails here — and every exact k-buffer test above ran through them.
+#[test]
+fn locking_methods_use_acquire_release_where_the_adapter_can() {
+    let s = scene("builtin:layers?n=6");
+    let opts = options(16, 4);
+    let ordered = crate::gpu::ordered::available(crate::testing::gpu());
+    for method in [
+        "kplus-array",
+        "kplus-heap",
+        "kplus-array-r",
+        "kb-ps",
+        "kb-ll",
+        "abuffer-ll",
+        "kb-ab-fixed",
+    ] {
+        let ordering = render_gpu(&s, &opts, method).1.memory_ordering.unwrap();
+        assert_eq!(
+            ordering.starts_with("acquire-release"),
+            ordered,
+            "{method}: {ordering}"
+        );
+    }
+    let mdt = render_gpu(&s, &opts, "kb-mdt32").1.memory_ordering.unwrap();
+    assert!(mdt.starts_with("relaxed"), "{mdt}");
+}
