@@ -326,6 +326,12 @@ fn k_buffer_render_matches_reference_k_and_reports_k() {
 #[test]
 fn k_buffer_bad_options_are_one_line_and_exit_2() {
     assert_bad_input(&["render", "--method", "kplus-array", "--k", "0"], "--k");
+    // Beyond the locking methods' cap (a pixel's fragments serialize on its lock).
+    assert_bad_input(
+        &["render", "--method", "kplus-array", "--k", "300"],
+        "--k 300",
+    );
+    assert_bad_input(&["render", "--method", "f2b", "--layers", "0"], "--layers");
     assert_bad_input(
         &["render", "--method", "kplus-array", "--tail", "keep"],
         "--tail",
