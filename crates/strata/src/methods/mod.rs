@@ -45,10 +45,12 @@ pub enum MethodId {
     KbMdtPack,
     KbAbLl,
     KbLl,
+    Sbuffer,
+    KbSbuffer,
 }
 
 impl MethodId {
-    pub const ALL: [MethodId; 18] = [
+    pub const ALL: [MethodId; 20] = [
         MethodId::Reference,
         MethodId::Unsorted,
         MethodId::Sorted,
@@ -67,6 +69,8 @@ impl MethodId {
         MethodId::KbMdtPack,
         MethodId::KbAbLl,
         MethodId::KbLl,
+        MethodId::Sbuffer,
+        MethodId::KbSbuffer,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -89,6 +93,8 @@ impl MethodId {
             MethodId::KbMdtPack => "kb-mdt-pack",
             MethodId::KbAbLl => "kb-ab-ll",
             MethodId::KbLl => "kb-ll",
+            MethodId::Sbuffer => "sbuffer",
+            MethodId::KbSbuffer => "kb-sbuffer",
         }
     }
 
@@ -228,6 +234,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
         },
         MethodInfo {
+            id: "sbuffer",
+            family: "abuffer",
+            exact: true,
+            geometry_passes: "2 (+2 when the pool overflows)",
+            memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 136",
+            summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
+        },
+        MethodInfo {
             id: "abuffer-fixed",
             family: "abuffer",
             exact: false,
@@ -316,6 +330,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             summary: "A-buffer linked lists, the k nearest selected in resolve",
         },
         MethodInfo {
+            id: "kb-sbuffer",
+            family: "kbuffer",
+            exact: true,
+            geometry_passes: "2 (+2 when the pool overflows)",
+            memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 96 + 40·(W·H with --tail blend, else 1)",
+            summary: "every fragment in S-buffer regions, the k nearest selected in resolve",
+        },
+        MethodInfo {
             id: "kb-ll",
             family: "kbuffer",
             exact: false,
@@ -356,6 +378,9 @@ pub fn create(
         MethodId::Dual => Box::new(peeling::Dual::new(gpu, scene)),
         MethodId::AbufferLl | MethodId::KbAbLl | MethodId::KbLl => {
             Box::new(ListKBuffer::new(gpu, scene, id, options))
+        }
+        MethodId::Sbuffer | MethodId::KbSbuffer => {
+            Box::new(kbuffer::sbuffer::SBuffer::new(gpu, scene, id, options))
         }
         MethodId::KbMdt32 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt32)?),
         MethodId::KbMdt64 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt64)?),

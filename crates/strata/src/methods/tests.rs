@@ -10,7 +10,7 @@ use crate::frame::{Effect, RenderOptions};
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference};
 
-const EXACT_METHODS: [&str; 3] = ["f2b", "dual", "abuffer-ll"];
+const EXACT_METHODS: [&str; 4] = ["f2b", "dual", "abuffer-ll", "sbuffer"];
 const MAX_DIFF: u8 = 2;
 const MAX_FRACTION: f64 = 0.001;
 
@@ -608,4 +608,60 @@ fn value_enum_names_are_the_ids() {
     for m in super::MethodId::ALL {
         assert_eq!(m.to_possible_value().unwrap().get_name(), m.as_str());
     }
+}
+
+/// The S-buffer's pool sized below the frame's fragments: the frame keeps the regions that fit,
+/// reports the overflow, and exact mode renders again with the grown pool (2 + 2 passes); the
+/// picture is exact.
+#[test]
+fn sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
+    let s = scene("builtin:spheres?layers=12");
+    let mut opts = options(64, Effect::Transparency);
+    opts.abuffer_initial_nodes = Some(16);
+    let (actual, stats) = render_gpu(&s, &opts, "sbuffer");
+    assert_eq!(stats.overflow, Some(true));
+    assert_eq!(stats.geometry_passes, Some(4));
+    assert_eq!(stats.fragments_dropped, Some(0));
+    let expected = render_reference(&s, &opts);
+    assert_close(
+        "overflow-sbuffer",
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    opts.budget_mb = Some(0.2);
+    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let e = r.render("sbuffer").unwrap_err();
+    assert!(
+        matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
+        "{e}"
+    );
+}
+
+/// Over 65,536 pixels the prefix sum takes three levels (96,000 → 375 → 2): the S-buffer is
+/// still exact.
+#[test]
+fn sbuffer_is_exact_with_a_three_level_prefix_sum() {
+    let s = scene("builtin:layers?n=6&coverage=0.7&order=random&seed=8");
+    let mut opts = options(320, Effect::Transparency);
+    opts.height = 300;
+    assert_eq!(
+        crate::methods::kbuffer::sbuffer::scan_levels(opts.pixels())
+            .0
+            .len(),
+        3
+    );
+    let expected = render_reference(&s, &opts);
+    let (actual, stats) = render_gpu(&s, &opts, "sbuffer");
+    assert_close(
+        "sbuffer-3-levels",
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    assert_eq!(stats.fragments_dropped, Some(0));
 }

@@ -57,6 +57,7 @@
 
 pub mod list;
 pub mod mdt;
+pub mod sbuffer;
 
 pub mod cpu;
 

@@ -8,12 +8,13 @@ use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference};
 
-const EXACT_K_METHODS: [&str; 5] = [
+const EXACT_K_METHODS: [&str; 6] = [
     "kplus-array",
     "kplus-heap",
     "kplus-array-r",
     "kb-ps",
     "kb-ab-fixed",
+    "kb-sbuffer",
 ];
 const MAX_DIFF: u8 = 2;
 const MAX_FRACTION: f64 = 0.001;
@@ -248,6 +249,14 @@ fn memory_follows_the_catalogue_formula() {
             "{method}"
         );
     }
+    // The S-buffer: the pool, the per-pixel words and the prefix sum's levels (400 + 2 + 1).
+    for method in ["sbuffer", "kb-sbuffer"] {
+        assert_eq!(
+            render_gpu(&s, &opts, method).1.bytes_allocated,
+            Some(16 * 3000 + 16 * px + 4 * 403 + 136),
+            "{method}"
+        );
+    }
     opts.abuffer_initial_nodes = None;
     // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
     opts.tail = Tail::Drop;
@@ -284,6 +293,8 @@ fn kbuffer_stages_validate() {
         ("mdt32.resolve", mdt::resolve_source(mdt::Mdt::Mdt32)),
         ("mdt64.resolve", mdt::resolve_source(mdt::Mdt::Mdt64)),
         ("mdt_pack.resolve", mdt::resolve_source(mdt::Mdt::Pack)),
+        ("sbuffer.capture", sbuffer::capture_source()),
+        ("sbuffer.resolve", sbuffer::resolve_source()),
     ];
     for (label, src) in stages {
         crate::gpu::shader::validate(label, &src);

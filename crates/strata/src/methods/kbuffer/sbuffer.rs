@@ -1,0 +1,354 @@
+//! The S-buffer (seed 003 §4): an A-buffer in variable contiguous regions. `sbuffer` composites
+//! every fragment (exact); `kb-sbuffer` stores every fragment and selects the k nearest in the
+//! resolve (exact, equal to `reference --k N`).
+//!
+//! Passes: clear; *count* (geometry pass: per-pixel counts); *scan* (compute: exclusive prefix
+//! sum of the counts over the pixels in levels of 256 — gather, scan each level's blocks, add the
+//! blocks' offsets back down, scatter to the pixels' region starts); *store* (geometry pass: each
+//! fragment at its pixel's region start + an atomic fill count); the shared k resolve.
+//! Memory: 16 bytes per pooled fragment (no per-pixel slack: pixels without fragments take none),
+//! 16 per pixel of counters and region start, 4·(W·H + W·H/256 + …) of scan levels, 136 of
+//! parameters and counters. Real-time frames size the pool from the previous frame's fragment
+//! count (+25%); a frame whose fragments do not fit keeps the regions that do, counts the rest as
+//! dropped, reports `overflow` and grows the pool for the next frame; exact mode renders again
+//! (2 + 2 geometry passes). Frames over the memory limits (`--budget-mb`, the largest storage
+//! binding) are an error in exact mode.
+
+use bytemuck::{Pod, Zeroable};
+
+use super::{
+    k_of, params_for, KFrame, Storage, COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL, STORAGE_WGSL,
+};
+use crate::error::{Error, Result};
+use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
+use crate::gpu::binding::{self, Slot};
+use crate::gpu::passes::{compute_pipeline, storage_geometry_pass, NullTarget};
+use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::{Method, MethodId};
+
+/// Bytes per pooled fragment.
+pub const FRAGMENT_BYTES: u64 = 16;
+const FIRST_GUESS_PER_PIXEL: u64 = 4;
+const MIN_FRAGMENTS: u64 = 1024;
+const SCAN_BLOCK: u64 = 256;
+const MAX_GROUPS_X: u64 = 65535;
+
+const SBUFFER_WGSL: &str = include_str!("sbuffer.wgsl");
+const SCAN_WGSL: &str = include_str!("sbuffer_scan.wgsl");
+
+/// Keep in sync with `ScanLevel` in sbuffer_scan.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Eq)]
+pub struct ScanLevel {
+    pub offset: u32,
+    pub len: u32,
+    pub sums: u32,
+    pub groups_x: u32,
+}
+
+impl ScanLevel {
+    fn groups(&self) -> (u32, u32) {
+        let groups = (self.len as u64).div_ceil(SCAN_BLOCK).max(1);
+        (self.groups_x, groups.div_ceil(self.groups_x as u64) as u32)
+    }
+}
+
+/// The levels of a prefix sum over `n` values and the scan buffer's length in words: level 0
+/// holds the values, each next level its blocks' totals, up to a level of one block.
+pub fn scan_levels(n: u64) -> (Vec<ScanLevel>, u64) {
+    let mut levels = Vec::new();
+    let (mut offset, mut len) = (0u64, n.max(1));
+    loop {
+        let groups = len.div_ceil(SCAN_BLOCK);
+        levels.push(ScanLevel {
+            offset: offset as u32,
+            len: len as u32,
+            sums: (offset + len) as u32,
+            groups_x: groups.min(MAX_GROUPS_X) as u32,
+        });
+        if groups == 1 {
+            return (levels, offset + len + 1);
+        }
+        offset += len;
+        len = groups;
+    }
+}
+
+pub fn resolve_source() -> String {
+    [
+        STORAGE_WGSL,
+        SBUFFER_WGSL,
+        include_str!("sbuffer_resolve.wgsl"),
+        RESOLVE_WGSL,
+    ]
+    .join("\n")
+}
+
+pub fn capture_source() -> String {
+    [STORAGE_WGSL, SBUFFER_WGSL, SCAN_WGSL].join("\n")
+}
+
+pub struct SBuffer {
+    id: MethodId,
+    frame: KFrame,
+    count: wgpu::RenderPipeline,
+    store: wgpu::RenderPipeline,
+    gather: wgpu::ComputePipeline,
+    scan_blocks: wgpu::ComputePipeline,
+    add_block_offsets: wgpu::ComputePipeline,
+    scatter: wgpu::ComputePipeline,
+    scan_layout: wgpu::BindGroupLayout,
+    /// The scan's level parameters and bind groups, for the pixel count they were made for.
+    scan: Option<(u64, Vec<(ScanLevel, wgpu::BindGroup)>, u64)>,
+    /// Fragments the next frame's pool holds.
+    capacity: u64,
+    /// The most fragments memory allowed when the last frame was recorded, and whether the
+    /// limit is the budget.
+    max_fragments: (u64, bool),
+    null_target: Option<NullTarget>,
+    cache: ResourceCache,
+}
+
+impl SBuffer {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> SBuffer {
+        let mut frame = KFrame::new(gpu, scene, id, &resolve_source());
+        let module = frame.capture_module(gpu, capture_source(), false);
+        let scan_layout = binding::layout(
+            &gpu.device,
+            "strata.sbuffer.scan.layout",
+            &[Slot::Uniform, Slot::StorageRw],
+        );
+        let layouts = [&scene.frame_layout, &frame.layout, &scan_layout];
+        let compute = |entry: &str| {
+            compute_pipeline(
+                gpu,
+                &format!("strata.{id}.{entry}"),
+                &module.wgsl,
+                entry,
+                &layouts,
+            )
+        };
+        SBuffer {
+            id,
+            count: frame.capture_pipeline(gpu, scene, &module, "fs_sbuffer_count"),
+            store: frame.capture_pipeline(gpu, scene, &module, "fs_sbuffer_store"),
+            gather: compute("cs_gather"),
+            scan_blocks: compute("cs_scan_blocks"),
+            add_block_offsets: compute("cs_add_block_offsets"),
+            scatter: compute("cs_scatter"),
+            frame,
+            scan_layout,
+            scan: None,
+            capacity: options
+                .abuffer_initial_nodes
+                .unwrap_or(options.pixels() * FIRST_GUESS_PER_PIXEL)
+                .max(1),
+            max_fragments: (u64::MAX, false),
+            null_target: None,
+            cache: ResourceCache::default(),
+        }
+    }
+
+    /// The most fragments memory allows: the budget (less the per-pixel words and scan) and the
+    /// binding limit.
+    fn max_fragments(ctx: &FrameContext<'_>, scan_words: u64) -> u64 {
+        let by_binding = ctx.gpu.max_storage_binding() / FRAGMENT_BYTES;
+        let fixed = ctx.pixels() * PIXEL_BYTES + scan_words * 4 + super::CONSTANT_BYTES;
+        let by_budget = ctx
+            .options
+            .budget_bytes()
+            .map(|b| b.saturating_sub(fixed) / FRAGMENT_BYTES)
+            .unwrap_or(u64::MAX);
+        by_binding.min(by_budget).min(u32::MAX as u64 / 2)
+    }
+
+    /// The scan's levels for this frame size: uniforms and bind groups, made once per size.
+    fn scan_levels(&mut self, gpu: &Gpu, pixels: u64) -> Result<(Vec<ScanLevel>, u64)> {
+        if self.scan.as_ref().is_none_or(|s| s.0 != pixels) {
+            let (levels, words) = scan_levels(pixels);
+            let buffer = self.cache.storage(
+                gpu,
+                "strata.sbuffer.scan",
+                words * 4,
+                wgpu::BufferUsages::empty(),
+            )?;
+            let groups = levels
+                .iter()
+                .map(|level| {
+                    let uniform = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("strata.sbuffer.scan.level"),
+                        size: std::mem::size_of::<ScanLevel>() as u64,
+                        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                    gpu.queue
+                        .write_buffer(&uniform, 0, bytemuck::bytes_of(level));
+                    let group = binding::group(
+                        &gpu.device,
+                        "strata.sbuffer.scan.group",
+                        &self.scan_layout,
+                        &[uniform.as_entire_binding(), buffer.as_entire_binding()],
+                    );
+                    (*level, group)
+                })
+                .collect();
+            self.scan = Some((pixels, groups, words));
+        }
+        let (_, groups, words) = self.scan.as_ref().expect("made above");
+        Ok((groups.iter().map(|g| g.0).collect(), *words))
+    }
+
+    /// One timed compute pass of a scan kernel over `level`.
+    fn dispatch(
+        ctx: &mut FrameContext<'_>,
+        name: &'static str,
+        pipeline: &wgpu::ComputePipeline,
+        groups: [&wgpu::BindGroup; 3],
+        level: &ScanLevel,
+    ) {
+        let label = ctx.label(name);
+        let mut pass = ctx
+            .encoder
+            .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(&label),
+                timestamp_writes: ctx.timer.compute_pass(name),
+            });
+        pass.set_pipeline(pipeline);
+        for (i, g) in groups.iter().enumerate() {
+            pass.set_bind_group(i as u32, Some(*g), &[]);
+        }
+        let (x, y) = level.groups();
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
+impl Method for SBuffer {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        // sbuffer composites every fragment: its k is unbounded.
+        let k = if self.id == MethodId::Sbuffer {
+            u32::MAX
+        } else {
+            k_of(ctx.options, self.id)?
+        };
+        let gpu = ctx.gpu;
+        let pixels = ctx.pixels();
+        let (levels, scan_words) = self.scan_levels(gpu, pixels)?;
+        let max_fragments = Self::max_fragments(ctx, scan_words);
+        if max_fragments == 0 {
+            return Err(Error::input(format!(
+                "{}: --budget-mb {} cannot even hold the {}x{} per-pixel words and scan",
+                self.id,
+                ctx.options.budget_mb.unwrap_or(0.0),
+                ctx.options.width,
+                ctx.options.height,
+            )));
+        }
+        self.max_fragments = (max_fragments, ctx.options.budget_mb.is_some());
+        self.capacity = self.capacity.clamp(1, max_fragments);
+        let storage = Storage {
+            label: "strata.sbuffer.pool",
+            bytes: self.capacity * FRAGMENT_BYTES,
+            clear: false,
+        };
+        let params = params_for(ctx, k, k, false);
+        let (group, bytes) = self.frame.begin(ctx, params, storage)?;
+        let (w, h) = ctx.size();
+        let target = NullTarget::ensure(
+            &mut self.null_target,
+            gpu,
+            "strata.sbuffer.null_target",
+            w,
+            h,
+        );
+        let frame_group = ctx.frame_group;
+        storage_geometry_pass(ctx, "count", target, &self.count, &[frame_group, &group]);
+        let scan = &self.scan.as_ref().expect("made by scan_levels").1;
+        let bind = |i: usize| [frame_group, &group, &scan[i].1];
+        let top = levels.len() - 1;
+        Self::dispatch(ctx, "scan", &self.gather, bind(0), &levels[0]);
+        for (i, level) in levels.iter().enumerate() {
+            Self::dispatch(ctx, "scan", &self.scan_blocks, bind(i), level);
+        }
+        for i in (0..top).rev() {
+            Self::dispatch(ctx, "scan", &self.add_block_offsets, bind(i), &levels[i]);
+        }
+        Self::dispatch(ctx, "scan", &self.scatter, bind(0), &levels[0]);
+        storage_geometry_pass(ctx, "store", target, &self.store, &[frame_group, &group]);
+        self.frame.end(ctx, &group);
+        Ok(Recorded {
+            geometry_passes: 2,
+            k: (self.id != MethodId::Sbuffer).then_some(k),
+            bytes_allocated: bytes + scan_words * 4,
+            capacity: self.capacity,
+            memory_ordering: Some(self.frame.memory_ordering()),
+        })
+    }
+
+    fn stats(
+        &mut self,
+        recorded: &Recorded,
+        totals: &Totals,
+        words: Option<&[u32]>,
+    ) -> MethodStats {
+        let Some(words) = words else {
+            return MethodStats::default();
+        };
+        let needed = totals.generated;
+        let overflowed = wide(words, COUNTER_OVERFLOWED) > 0 || needed > recorded.capacity;
+        let fitted = (needed + needed / 4).max(MIN_FRAGMENTS);
+        if overflowed {
+            self.capacity = fitted.max(recorded.capacity + 1);
+        } else if self.capacity > 2 * fitted {
+            self.capacity = fitted;
+        }
+        let (max, by_budget) = self.max_fragments;
+        MethodStats {
+            overflow: Some(overflowed),
+            incomplete: overflowed,
+            cannot_complete: (needed > max).then(|| {
+                format!(
+                    "{}: the frame has {needed} fragments ({:.1} MiB of pool), more than {} allows ({:.1} MiB)",
+                    self.id,
+                    (needed * FRAGMENT_BYTES) as f64 / 1048576.0,
+                    if by_budget { "--budget-mb" } else { "the device's largest storage buffer" },
+                    (max * FRAGMENT_BYTES) as f64 / 1048576.0
+                )
+            }),
+            ..Default::default()
+        }
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        let mut r = self.frame.resources();
+        r.push(&self.cache);
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scan_level_layout_matches_wgsl() {
+        assert_eq!(std::mem::size_of::<ScanLevel>(), 16);
+    }
+
+    /// Levels shrink by 256 to one block; the buffer holds every level and the top's total.
+    #[test]
+    fn scan_levels_cover_every_size() {
+        let (levels, words) = scan_levels(1);
+        assert_eq!(levels.len(), 1);
+        assert_eq!(words, 2);
+        let n = 1u64 << 24; // 4096²
+        let (levels, words) = scan_levels(n);
+        let lens: Vec<u32> = levels.iter().map(|l| l.len).collect();
+        assert_eq!(lens, [1 << 24, 1 << 16, 1 << 8]);
+        assert_eq!(levels[0].groups(), (65535, 2));
+        assert_eq!(levels[1].offset, 1 << 24);
+        assert_eq!(words, (1 << 24) + (1 << 16) + (1 << 8) + 1);
+        for pair in levels.windows(2) {
+            assert_eq!(pair[0].sums, pair[1].offset);
+        }
+    }
+}

@@ -1,0 +1,36 @@
+// The S-buffer (seed 003 §4): every pixel's fragments in one contiguous region of a shared pool.
+// A count pass counts each pixel's fragments (SEEN); an exclusive prefix sum over the pixels
+// (sbuffer_scan.wgsl) gives each pixel its region's start (OFFSET, the lock word, which no
+// S-buffer pass takes); a store pass writes fragment FILLED++ of the pixel at OFFSET + FILLED.
+// Pixels without fragments take no memory. A region past the pool's end (a pool sized from an
+// earlier frame's need) is cut there, and its lost fragments are counted (COUNTER_OVERFLOWED).
+
+@group(1) @binding(1) var<storage, read_write> pool: array<Fragment>;
+
+const OFFSET: u32 = 2u;
+
+fn region_start(p: u32) -> u32 {
+    return atomicLoad(&pixels[pixel_word(p, OFFSET)]);
+}
+
+@fragment
+fn fs_sbuffer_count(v: SceneVarying) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    count_seen(kpixel(v.position));
+}
+
+@fragment
+fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = kpixel(v.position);
+    let slot = region_start(p) + atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+    if slot < arrayLength(&pool) {
+        pool[slot] = scene_fragment(v, front_facing);
+    } else {
+        counter_add(COUNTER_OVERFLOWED, 1u);
+    }
+}

@@ -1,0 +1,79 @@
+// The S-buffer's exclusive prefix sum over the pixels' counts, in levels of 256: `gather` copies
+// the counts into level 0 of `scan`; `scan_blocks` replaces each block of 256 values of a level by
+// its exclusive prefix sums and writes the block's total into the next level; `add_block_offsets`
+// adds each block's scanned total back, top level down; `scatter` writes the results to the
+// pixels' OFFSET words. Keep `ScanLevel` in sync with `ScanLevel` in sbuffer.rs.
+
+struct ScanLevel {
+    // Where this level's values start in `scan`, how many there are, and where its block
+    // totals (the next level) start.
+    offset: u32,
+    len: u32,
+    sums: u32,
+    // Workgroups along x of a dispatch (dispatches wider than 65535 groups wrap into y).
+    groups_x: u32,
+}
+
+@group(2) @binding(0) var<uniform> level: ScanLevel;
+@group(2) @binding(1) var<storage, read_write> scan: array<u32>;
+
+const SCAN_BLOCK: u32 = 256u;
+
+var<workgroup> tile: array<u32, 256>;
+
+fn scan_index(wid: vec3<u32>, lid: vec3<u32>) -> u32 {
+    return (wid.y * level.groups_x + wid.x) * SCAN_BLOCK + lid.x;
+}
+
+@compute @workgroup_size(256)
+fn cs_gather(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let i = scan_index(wid, lid);
+    if i < level.len {
+        scan[level.offset + i] = atomicLoad(&pixels[pixel_word(i, SEEN)]);
+    }
+}
+
+@compute @workgroup_size(256)
+fn cs_scan_blocks(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let i = scan_index(wid, lid);
+    var v = 0u;
+    if i < level.len {
+        v = scan[level.offset + i];
+    }
+    tile[lid.x] = v;
+    workgroupBarrier();
+    // Hillis–Steele inclusive scan of the tile: 8 steps for 256 values.
+    for (var d = 1u; d < SCAN_BLOCK; d = d << 1u) {
+        var t = 0u;
+        if lid.x >= d {
+            t = tile[lid.x - d];
+        }
+        workgroupBarrier();
+        tile[lid.x] += t;
+        workgroupBarrier();
+    }
+    if i < level.len {
+        scan[level.offset + i] = tile[lid.x] - v;
+    }
+    // Dispatches wrapped into y may run groups past the level's end: they write nothing.
+    let group = wid.y * level.groups_x + wid.x;
+    if lid.x == SCAN_BLOCK - 1u && group * SCAN_BLOCK < level.len {
+        scan[level.sums + group] = tile[lid.x];
+    }
+}
+
+@compute @workgroup_size(256)
+fn cs_add_block_offsets(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let i = scan_index(wid, lid);
+    if i < level.len {
+        scan[level.offset + i] += scan[level.sums + wid.y * level.groups_x + wid.x];
+    }
+}
+
+@compute @workgroup_size(256)
+fn cs_scatter(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let i = scan_index(wid, lid);
+    if i < level.len {
+        atomicStore(&pixels[pixel_word(i, OFFSET)], scan[level.offset + i]);
+    }
+}
