@@ -88,6 +88,14 @@ pub fn capture_source() -> String {
     [STORAGE_WGSL, SBUFFER_WGSL, SCAN_WGSL].join("\n")
 }
 
+/// A prefix sum's levels for one frame size: each level's parameters and bind group, and the
+/// scan buffer's length in words.
+struct ScanPlan {
+    pixels: u64,
+    levels: Vec<(ScanLevel, wgpu::BindGroup)>,
+    words: u64,
+}
+
 pub struct SBuffer {
     id: MethodId,
     frame: KFrame,
@@ -98,8 +106,8 @@ pub struct SBuffer {
     add_block_offsets: wgpu::ComputePipeline,
     scatter: wgpu::ComputePipeline,
     scan_layout: wgpu::BindGroupLayout,
-    /// The scan's level parameters and bind groups, for the pixel count they were made for.
-    scan: Option<(u64, Vec<(ScanLevel, wgpu::BindGroup)>, u64)>,
+    /// The scan's levels for the frame size they were made for.
+    scan: Option<ScanPlan>,
     /// Fragments the next frame's pool holds.
     capacity: u64,
     /// The most fragments memory allowed when the last frame was recorded, and whether the
@@ -164,7 +172,7 @@ impl SBuffer {
 
     /// The scan's levels for this frame size: uniforms and bind groups, made once per size.
     fn scan_levels(&mut self, gpu: &Gpu, pixels: u64) -> Result<(Vec<ScanLevel>, u64)> {
-        if self.scan.as_ref().is_none_or(|s| s.0 != pixels) {
+        if self.scan.as_ref().is_none_or(|s| s.pixels != pixels) {
             let (levels, words) = scan_levels(pixels);
             let buffer = self.cache.storage(
                 gpu,
@@ -192,10 +200,14 @@ impl SBuffer {
                     (*level, group)
                 })
                 .collect();
-            self.scan = Some((pixels, groups, words));
+            self.scan = Some(ScanPlan {
+                pixels,
+                levels: groups,
+                words,
+            });
         }
-        let (_, groups, words) = self.scan.as_ref().expect("made above");
-        Ok((groups.iter().map(|g| g.0).collect(), *words))
+        let plan = self.scan.as_ref().expect("made above");
+        Ok((plan.levels.iter().map(|g| g.0).collect(), plan.words))
     }
 
     /// One timed compute pass of a scan kernel over `level`.
@@ -262,7 +274,7 @@ impl Method for SBuffer {
         );
         let frame_group = ctx.frame_group;
         storage_geometry_pass(ctx, "count", target, &self.count, &[frame_group, &group]);
-        let scan = &self.scan.as_ref().expect("made by scan_levels").1;
+        let scan = &self.scan.as_ref().expect("made by scan_levels").levels;
         let bind = |i: usize| [frame_group, &group, &scan[i].1];
         let top = levels.len() - 1;
         Self::dispatch(ctx, "scan", &self.gather, bind(0), &levels[0]);
