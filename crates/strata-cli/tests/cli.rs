@@ -67,6 +67,10 @@ fn render_writes_png_and_stats() {
         "bytes_allocated",
         "overflow",
         "lock_failures",
+        "memory_ordering",
+        "blocking_readbacks",
+        "submits",
+        "frame",
         "adapter",
         "backend",
     ] {
@@ -74,6 +78,9 @@ fn render_writes_png_and_stats() {
     }
     assert_eq!(v["method"], "abuffer-ll");
     assert_eq!(v["width"], 96);
+    // Exact mode: at least one submit and the waits for the statistics and the picture.
+    assert!(v["submits"].as_u64().unwrap() >= 1);
+    assert!(v["blocking_readbacks"].as_u64().unwrap() >= 2);
 }
 
 #[test]
