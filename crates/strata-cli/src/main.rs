@@ -150,11 +150,14 @@ struct HistogramArgs {
     scene: String,
     #[arg(long)]
     size: Option<String>,
-    /// Write the histogram as a bar chart PNG.
+    /// Write the histogram as a bar chart PNG (log scale).
     #[arg(long)]
     out: Option<PathBuf>,
     #[arg(long)]
     json: bool,
+    /// Count with the CPU reference instead of the GPU (the GPU's check).
+    #[arg(long)]
+    cpu: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -539,6 +542,28 @@ fn info(json: bool) -> Result<()> {
     Ok(())
 }
 
+/// One frame with the GPU histogram on (a count pass and a binning pass, read back with the
+/// frame's statistics).
+fn gpu_histogram(scene: &Scene, options: &RenderOptions) -> Result<Vec<u64>> {
+    let gpu = Gpu::new()?;
+    let mut recorder = strata::FrameRecorder::new(&gpu, scene, MethodId::Unsorted, options)?;
+    recorder.set_histogram(true);
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    recorder.record(&mut encoder, &Default::default(), None)?;
+    gpu.queue.submit([encoder.finish()]);
+    let stats = recorder.wait_stats()?.stats;
+    let clipped = stats.depth_histogram_clipped.unwrap_or(0);
+    if clipped > 0 {
+        eprintln!(
+            "note: {clipped} pixels have {} or more fragments; the last bin counts them together (--cpu counts them exactly)",
+            strata::metrics::gpu_histogram::HISTOGRAM_BINS - 1
+        );
+    }
+    stats
+        .depth_histogram
+        .ok_or_else(|| Error::runtime("the GPU histogram did not arrive"))
+}
+
 fn histogram(a: HistogramArgs) -> Result<()> {
     let picture = PictureArgs {
         scene: a.scene,
@@ -551,8 +576,12 @@ fn histogram(a: HistogramArgs) -> Result<()> {
         frame: None,
     };
     let (scene, options) = prepare(&picture)?;
-    let (image, _) = strata::reference::render(&scene, &options)?;
-    let hist = strata::metrics::depth_complexity_histogram(&image.counts());
+    let hist = if a.cpu {
+        let (image, _) = strata::reference::render(&scene, &options)?;
+        strata::metrics::depth_complexity_histogram(&image.counts())
+    } else {
+        gpu_histogram(&scene, &options)?
+    };
     if let Some(out) = &a.out {
         save_png(&bench::histogram_chart(&hist), out)?;
     }

@@ -196,6 +196,13 @@ pub struct FrameStats {
     /// How the capture's atomics are ordered on this adapter (k-buffer methods): "acquire-release
     /// (SPIR-V passthrough)", or "relaxed" with or without coherent storage.
     pub memory_ordering: Option<String>,
+    /// With the GPU histogram on ([`crate::FrameRecorder::set_histogram`]): pixels per fragment
+    /// count, bin i = exactly i fragments, up to the last non-empty bin.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub depth_histogram: Option<Vec<u64>>,
+    /// Pixels with 1023 or more fragments: the histogram's last bin, which counts them together.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub depth_histogram_clipped: Option<u64>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the

@@ -6,6 +6,7 @@
 
 pub mod colormap;
 mod font;
+pub mod gpu_histogram;
 mod heatmap;
 pub mod testing;
 

@@ -238,6 +238,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         overflow: None,
         lock_failures: None,
         memory_ordering: None,
+        depth_histogram: None,
+        depth_histogram_clipped: None,
         blocking_readbacks: 0,
         submits: 0,
         frame: 0,

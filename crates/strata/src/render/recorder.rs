@@ -30,7 +30,10 @@
 //! ```
 //!
 //! `record` adds the method's passes and the present pass to the encoder and schedules the
-//! statistics readback for after its submission; it never submits and never waits. Feedback
+//! statistics readback for after its submission; it never submits and never waits. Submit every
+//! encoder a frame was recorded into: a dropped one keeps its statistics slot in flight, and
+//! once all four are, frames go without statistics. Construction and `resize` submit one clear
+//! of the internal "nothing opaque" depth (setup, not steady state). Feedback
 //! (a pool that overflowed, a depth complexity for peeling) applies to the next frame.
 
 use std::collections::BTreeMap;
@@ -45,6 +48,7 @@ use crate::frame::{
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::methods::{self, Method, MethodId};
+use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
 use crate::scene::{Camera, Scene};
 
 /// How long `wait_stats` waits for mapping callbacks once the GPU is idle.
@@ -57,6 +61,7 @@ struct Pending {
     recorded: Recorded,
     timestamps: Option<(u64, Vec<&'static str>)>,
     method_words: (u64, u64),
+    histogram_words: Option<(u64, u64)>,
 }
 
 /// Statistics of one frame, with whether exact mode must render it again.
@@ -79,11 +84,12 @@ pub struct FrameRecorder {
     present: Present,
     ring: StatsRing<Pending>,
     frame: u64,
-    /// Depth cleared to 1.0 for frames without an opaque depth, and whether it still needs the
-    /// clear.
-    no_opaque: (wgpu::Texture, bool),
+    /// Depth cleared to 1.0 (once, when made) for frames without an opaque depth.
+    no_opaque: wgpu::Texture,
     /// Between `begin_capture` and `end_capture`: group 0 and the readbacks asked for.
     open_capture: Option<(OpenFrame, ReadbackList)>,
+    /// The GPU depth-complexity histogram, when it is on.
+    histogram: Option<GpuHistogram>,
 }
 
 /// Group 0 of a frame being recorded and the opaque depth it binds.
@@ -104,7 +110,7 @@ impl FrameRecorder {
         let scene_gpu = SceneGpu::new(gpu, scene, options)?;
         let mut recorder = FrameRecorder {
             output: output_buffer(gpu, options)?,
-            no_opaque: (no_opaque_depth(gpu, options), true),
+            no_opaque: no_opaque_depth(gpu, options),
             gpu: gpu.clone(),
             scene: scene_gpu,
             options: options.clone(),
@@ -115,6 +121,7 @@ impl FrameRecorder {
             ring: StatsRing::default(),
             frame: 0,
             open_capture: None,
+            histogram: None,
         };
         recorder.set_method(method)?;
         Ok(recorder)
@@ -159,6 +166,17 @@ impl FrameRecorder {
         Ok(())
     }
 
+    /// Turns the GPU depth-complexity histogram on or off for the next frames: one more count
+    /// geometry pass and a binning pass per frame; the bins arrive with the frame's statistics
+    /// (`FrameStats::depth_histogram`).
+    pub fn set_histogram(&mut self, on: bool) {
+        if !on {
+            self.histogram = None;
+        } else if self.histogram.is_none() {
+            self.histogram = Some(GpuHistogram::new(&self.gpu, &self.scene));
+        }
+    }
+
     /// Moves the camera for the next frames.
     pub fn set_camera(&mut self, camera: &Camera) {
         self.scene.update(&self.gpu, camera, &self.options);
@@ -172,7 +190,7 @@ impl FrameRecorder {
         options.validate()?;
         check_size(&self.gpu, &options)?;
         self.output = output_buffer(&self.gpu, &options)?;
-        self.no_opaque = (no_opaque_depth(&self.gpu, &options), true);
+        self.no_opaque = no_opaque_depth(&self.gpu, &options);
         self.options = options;
         let camera = self.scene.camera;
         self.scene.update(&self.gpu, &camera, &self.options);
@@ -226,7 +244,37 @@ impl FrameRecorder {
         let mut readback = ReadbackList::default();
         let recorded =
             self.with_method(encoder, &frame, &mut readback, draw, |m, ctx| m.record(ctx))?;
-        Ok(self.finish_frame(encoder, targets.color, recorded, readback))
+        let histogram = self.record_histogram(encoder, &frame, &mut readback, draw)?;
+        Ok(self.finish_frame(encoder, targets.color, recorded, readback, histogram))
+    }
+
+    /// The histogram's passes, when it is on (returns whether it ran); its bins are the last
+    /// words read back.
+    fn record_histogram(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &OpenFrame,
+        readback: &mut ReadbackList,
+        draw: Option<&DrawCallback<'_>>,
+    ) -> Result<bool> {
+        let Some(histogram) = self.histogram.as_mut() else {
+            return Ok(false);
+        };
+        let mut ctx = FrameContext {
+            method: "histogram",
+            gpu: &self.gpu,
+            scene: &self.scene,
+            options: &self.options,
+            encoder,
+            timer: &mut self.timer,
+            frame_group: &frame.group,
+            opaque_depth: &frame.opaque,
+            output: &self.output,
+            draw,
+            readback,
+        };
+        histogram.record(&mut ctx)?;
+        Ok(true)
     }
 
     /// WGSL defining `strata_capture` for the current method, its bindings at `@group(group)`
@@ -271,7 +319,7 @@ impl FrameRecorder {
         let recorded = self.with_method(encoder, &frame, &mut readback, None, |m, ctx| {
             m.end_capture(ctx)
         })?;
-        Ok(self.finish_frame(encoder, color, recorded, readback))
+        Ok(self.finish_frame(encoder, color, recorded, readback, false))
     }
 
     /// Clears the totals, starts the timer and binds group 0 for a frame.
@@ -282,14 +330,7 @@ impl FrameRecorder {
     ) -> OpenFrame {
         let opaque = match opaque_depth {
             Some(v) => v.clone(),
-            None => {
-                let own = self.no_opaque.0.create_view(&Default::default());
-                if self.no_opaque.1 {
-                    clear_depth_pass(encoder, &own, 1.0);
-                    self.no_opaque.1 = false;
-                }
-                own
-            }
+            None => self.no_opaque.create_view(&Default::default()),
         };
         encoder.clear_buffer(&self.scene.totals, 0, None);
         self.timer.reset();
@@ -335,6 +376,7 @@ impl FrameRecorder {
         color: Option<(&wgpu::TextureView, wgpu::TextureFormat)>,
         recorded: Recorded,
         readback: ReadbackList,
+        histogram_ran: bool,
     ) -> u64 {
         let gpu = &self.gpu;
         if let Some((view, format)) = color {
@@ -355,7 +397,10 @@ impl FrameRecorder {
             sources.push(range);
             (start, names)
         });
-        let method_words = (at, readback.total_words());
+        // The histogram's bins, when it ran, are the last words of the readback.
+        let histogram_bins = if histogram_ran { HISTOGRAM_BINS } else { 0 };
+        let method_words = (at, readback.total_words() - histogram_bins);
+        let histogram_words = (histogram_bins > 0).then(|| (at + method_words.1, histogram_bins));
         sources.extend(readback.entries);
         let frame = self.frame;
         self.frame += 1;
@@ -369,6 +414,7 @@ impl FrameRecorder {
                 recorded,
                 timestamps,
                 method_words,
+                histogram_words,
             },
         );
         frame
@@ -435,6 +481,10 @@ impl FrameRecorder {
             let (start, n) = p.method_words;
             &w[start as usize..(start + n) as usize]
         });
+        let histogram = match (&words, p.histogram_words) {
+            (Some(w), Some((start, n))) => Some(w[start as usize..(start + n) as usize].to_vec()),
+            _ => None,
+        };
         let ms: MethodStats = match self.methods.get_mut(&p.method) {
             Some(m) => m.stats(&p.recorded, &totals.unwrap_or_default(), method_words),
             None => MethodStats::default(),
@@ -457,6 +507,8 @@ impl FrameRecorder {
             overflow: ms.overflow,
             lock_failures: ms.lock_failures,
             memory_ordering: p.recorded.memory_ordering.map(String::from),
+            depth_histogram: histogram.as_deref().map(gpu_histogram::trim),
+            depth_histogram_clipped: histogram.map(|h| h[h.len() - 1] as u64),
             blocking_readbacks: 0,
             submits: 0,
             adapter: Some(self.gpu.info.name.clone()),
@@ -489,13 +541,16 @@ fn output_buffer(gpu: &Gpu, options: &RenderOptions) -> Result<wgpu::Buffer> {
     )
 }
 
+/// The depth of "nothing opaque": cleared once when it is made (a setup step, not a frame).
 fn no_opaque_depth(gpu: &Gpu, options: &RenderOptions) -> wgpu::Texture {
-    gpu.texture_2d(
+    let texture = gpu.texture_2d(
         "strata.frame.no_opaque_depth",
         (options.width, options.height),
         wgpu::TextureFormat::Depth32Float,
         wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-    )
+    );
+    super::clear_depth(gpu, &texture.create_view(&Default::default()), 1.0);
+    texture
 }
 
 /// Records a pass that clears a depth view to `value`.

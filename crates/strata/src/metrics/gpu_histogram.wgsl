@@ -1,0 +1,27 @@
+// The GPU depth-complexity histogram: a count pass (every fragment of a pixel, as the frame's
+// methods see them: tested against the opaque depth, no culling) and a binning pass over the
+// pixels. Bin i counts the pixels with exactly i fragments; the last bin, the pixels with
+// HISTOGRAM_BINS − 1 or more (so they are reported, never lost). Keep HISTOGRAM_BINS in sync with
+// metrics/gpu_histogram.rs.
+
+const HISTOGRAM_BINS: u32 = 1024u;
+
+@group(1) @binding(0) var<storage, read_write> pixel_counts: array<atomic<u32>>;
+@group(1) @binding(1) var<storage, read_write> bins: array<atomic<u32>>;
+
+@fragment
+fn fs_histogram_count(v: SceneVarying) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    atomicAdd(&pixel_counts[pixel_index(pixel_of(v.position))], 1u);
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_histogram_bins(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let count = atomicLoad(&pixel_counts[pixel_index(id.xy)]);
+    atomicAdd(&bins[min(count, HISTOGRAM_BINS - 1u)], 1u);
+}
