@@ -107,7 +107,18 @@ pub fn dispatch_pixels(
     pipeline: &wgpu::ComputePipeline,
     groups: &[&wgpu::BindGroup],
 ) {
-    let (x, y) = ctx.pixel_workgroups();
+    let workgroups = ctx.pixel_workgroups();
+    dispatch(ctx, name, pipeline, groups, workgroups);
+}
+
+/// Runs a compute pipeline over `(x, y)` workgroups in its own timed pass.
+pub fn dispatch(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    (x, y): (u32, u32),
+) {
     let label = ctx.label(name);
     let mut pass = ctx
         .encoder

@@ -11,17 +11,15 @@
 //! storage binding; a frame needing more is an error in exact mode. Memory: 20 bytes per node,
 //! 16 per pixel of counters and head, 40 per pixel of tail sums with `--tail blend`.
 use super::{
-    k_of, lock_failures, params_for, KFrame, KParams, Storage, COUNTER_ALLOCATED, COUNTER_LOST,
-    COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL, STORAGE_WGSL,
+    k_of, lock_failures, params_for, KFrame, KParams, Pool, Storage, COUNTER_ALLOCATED,
+    COUNTER_LOST, COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL, STORAGE_WGSL,
 };
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
 pub const NODE_BYTES: u64 = 20;
-const FIRST_GUESS_PER_PIXEL: u64 = 4;
-const MIN_NODES: u64 = 1024;
 
 const LIST_WGSL: &str = include_str!("list.wgsl");
 
@@ -52,11 +50,8 @@ pub struct ListKBuffer {
     id: MethodId,
     frame: KFrame,
     capture: wgpu::RenderPipeline,
-    /// Nodes the next frame's pool holds.
-    capacity: u64,
-    /// The most nodes memory allowed when the last frame was recorded, and whether the limit
-    /// is the budget.
-    max_nodes: (u64, bool),
+    /// The node pool, sized from measured need.
+    pool: Pool,
 }
 
 impl ListKBuffer {
@@ -72,25 +67,8 @@ impl ListKBuffer {
             id,
             capture: frame.capture_pipeline(gpu, scene, &module, entry),
             frame,
-            capacity: options
-                .abuffer_initial_nodes
-                .unwrap_or(options.pixels() * FIRST_GUESS_PER_PIXEL)
-                .max(1),
-            max_nodes: (u64::MAX, false),
+            pool: Pool::new(options, NODE_BYTES),
         }
-    }
-
-    /// The most nodes memory allows: the budget (less the per-pixel words) and the binding limit.
-    fn max_nodes(ctx: &FrameContext<'_>) -> u64 {
-        let by_binding = ctx.gpu.max_storage_binding() / NODE_BYTES;
-        let by_budget = ctx
-            .options
-            .budget_bytes()
-            .map(|b| {
-                b.saturating_sub(ctx.pixels() * PIXEL_BYTES + super::CONSTANT_BYTES) / NODE_BYTES
-            })
-            .unwrap_or(u64::MAX);
-        by_binding.min(by_budget).min(u32::MAX as u64 / 2)
     }
 }
 
@@ -103,29 +81,21 @@ impl ListKBuffer {
         } else {
             k_of(ctx.options, self.id)?
         };
-        let max_nodes = Self::max_nodes(ctx);
-        if max_nodes == 0 {
-            return Err(Error::input(format!(
-                "{}: --budget-mb {} cannot even hold the {}x{} per-pixel words ({} bytes)",
-                self.id,
-                ctx.options.budget_mb.unwrap_or(0.0),
-                ctx.options.width,
-                ctx.options.height,
-                ctx.pixels() * PIXEL_BYTES
-            )));
-        }
-        self.max_nodes = (max_nodes, ctx.options.budget_mb.is_some());
-        self.capacity = self.capacity.clamp(1, max_nodes);
+        let bytes = self.pool.fit(
+            ctx,
+            self.id,
+            ctx.pixels() * PIXEL_BYTES + super::CONSTANT_BYTES,
+        )?;
         let storage = Storage {
             label: "strata.kbuffer.nodes",
-            bytes: self.capacity * NODE_BYTES,
+            bytes,
             clear: false,
         };
         let recorded = Recorded {
             geometry_passes: 1,
             k: (self.id != MethodId::AbufferLl).then_some(k),
             bytes_allocated: 0,
-            capacity: self.capacity,
+            capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
         };
         Ok((params_for(ctx, k, k, false), storage, recorded))
@@ -160,29 +130,12 @@ impl Method for ListKBuffer {
         };
         let overflowed = wide(words, COUNTER_OVERFLOWED);
         let allocated = (words[COUNTER_ALLOCATED] as u64).min(recorded.capacity);
-        let needed = allocated + overflowed;
-        let fitted = (needed + needed / 4).max(MIN_NODES);
-        if overflowed > 0 {
-            // Grow for the next frame; the limit applies when it is recorded.
-            self.capacity = fitted.max(recorded.capacity + 1);
-        } else if self.capacity > 2 * fitted {
-            self.capacity = fitted;
-        }
-        let mut stats = MethodStats {
-            overflow: Some(overflowed > 0),
-            incomplete: overflowed > 0,
-            ..Default::default()
-        };
-        let (max_nodes, by_budget) = self.max_nodes;
-        if needed > max_nodes {
-            stats.cannot_complete = Some(format!(
-                "{}: the frame has {needed} fragments ({:.1} MiB of nodes), more than {} allows ({:.1} MiB)",
-                self.id,
-                (needed * NODE_BYTES) as f64 / 1048576.0,
-                if by_budget { "--budget-mb" } else { "the device's largest storage buffer" },
-                (max_nodes * NODE_BYTES) as f64 / 1048576.0
-            ));
-        }
+        let mut stats = self.pool.feedback(
+            self.id,
+            allocated + overflowed,
+            overflowed > 0,
+            recorded.capacity,
+        );
         if self.id == MethodId::KbLl {
             stats.lock_failures = Some(wide(words, COUNTER_LOST) + lock_failures(words));
         }

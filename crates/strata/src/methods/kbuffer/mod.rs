@@ -262,6 +262,91 @@ pub fn lock_failures(words: &[u32]) -> u64 {
     crate::frame::wide(words, COUNTER_LOCK_FAILURES)
 }
 
+/// A fragment pool sized from measured need (the linked lists and the S-buffer): it starts at
+/// `--abuffer-initial-nodes` or 4 per pixel, grows to the need + 25% after a frame that
+/// overflowed, shrinks to it when more than twice too large, and is bounded by `--budget-mb` and
+/// the device's largest storage binding.
+pub struct Pool {
+    /// Items the next frame's pool holds.
+    pub capacity: u64,
+    item_bytes: u64,
+    /// The most items memory allowed when the last frame was recorded, and whether the budget
+    /// set that limit.
+    limit: (u64, bool),
+}
+
+impl Pool {
+    const FIRST_GUESS_PER_PIXEL: u64 = 4;
+    const MIN_ITEMS: u64 = 1024;
+
+    pub fn new(options: &RenderOptions, item_bytes: u64) -> Pool {
+        Pool {
+            capacity: options
+                .abuffer_initial_nodes
+                .unwrap_or(options.pixels() * Self::FIRST_GUESS_PER_PIXEL)
+                .max(1),
+            item_bytes,
+            limit: (u64::MAX, false),
+        }
+    }
+
+    /// Fits the capacity to what memory allows besides the frame's `fixed_bytes`; returns the
+    /// pool's bytes. An error when not one item fits.
+    pub fn fit(&mut self, ctx: &FrameContext<'_>, id: MethodId, fixed_bytes: u64) -> Result<u64> {
+        let by_binding = ctx.gpu.max_storage_binding() / self.item_bytes;
+        let by_budget = ctx
+            .options
+            .budget_bytes()
+            .map(|b| b.saturating_sub(fixed_bytes) / self.item_bytes)
+            .unwrap_or(u64::MAX);
+        let max = by_binding.min(by_budget).min(u32::MAX as u64 / 2);
+        if max == 0 {
+            return Err(Error::input(format!(
+                "{id}: --budget-mb {} cannot even hold the {}x{} per-pixel words ({fixed_bytes} bytes)",
+                ctx.options.budget_mb.unwrap_or(0.0),
+                ctx.options.width,
+                ctx.options.height,
+            )));
+        }
+        self.limit = (max, ctx.options.budget_mb.is_some());
+        self.capacity = self.capacity.clamp(1, max);
+        Ok(self.capacity * self.item_bytes)
+    }
+
+    /// Feedback from a frame recorded with `recorded` items that needed `needed`: grows after an
+    /// overflow, shrinks a pool more than twice too large, and says when no frame can fit.
+    pub fn feedback(
+        &mut self,
+        id: MethodId,
+        needed: u64,
+        overflowed: bool,
+        recorded: u64,
+    ) -> MethodStats {
+        let fitted = (needed + needed / 4).max(Self::MIN_ITEMS);
+        if overflowed {
+            // The limit applies when the next frame is recorded.
+            self.capacity = fitted.max(recorded + 1);
+        } else if self.capacity > 2 * fitted {
+            self.capacity = fitted;
+        }
+        let (max, by_budget) = self.limit;
+        let mib = |items: u64| (items * self.item_bytes) as f64 / 1048576.0;
+        MethodStats {
+            overflow: Some(overflowed),
+            incomplete: overflowed,
+            cannot_complete: (needed > max).then(|| {
+                format!(
+                    "{id}: the frame has {needed} fragments ({:.1} MiB of pool), more than {} allows ({:.1} MiB)",
+                    mib(needed),
+                    if by_budget { "--budget-mb" } else { "the device's largest storage buffer" },
+                    mib(max)
+                )
+            }),
+            ..Default::default()
+        }
+    }
+}
+
 /// The fragment storage of a k-buffer frame.
 pub struct Storage {
     pub label: &'static str,

@@ -17,19 +17,18 @@
 use bytemuck::{Pod, Zeroable};
 
 use super::{
-    k_of, params_for, KFrame, Storage, COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL, STORAGE_WGSL,
+    k_of, params_for, KFrame, Pool, Storage, COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL,
+    STORAGE_WGSL,
 };
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{compute_pipeline, storage_geometry_pass, NullTarget};
+use crate::gpu::passes::{compute_pipeline, dispatch, storage_geometry_pass, NullTarget};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
 /// Bytes per pooled fragment.
 pub const FRAGMENT_BYTES: u64 = 16;
-const FIRST_GUESS_PER_PIXEL: u64 = 4;
-const MIN_FRAGMENTS: u64 = 1024;
 const SCAN_BLOCK: u64 = 256;
 const MAX_GROUPS_X: u64 = 65535;
 
@@ -108,11 +107,8 @@ pub struct SBuffer {
     scan_layout: wgpu::BindGroupLayout,
     /// The scan's levels for the frame size they were made for.
     scan: Option<ScanPlan>,
-    /// Fragments the next frame's pool holds.
-    capacity: u64,
-    /// The most fragments memory allowed when the last frame was recorded, and whether the
-    /// limit is the budget.
-    max_fragments: (u64, bool),
+    /// The fragment pool, sized from measured need.
+    pool: Pool,
     null_target: Option<NullTarget>,
     cache: ResourceCache,
 }
@@ -147,27 +143,10 @@ impl SBuffer {
             frame,
             scan_layout,
             scan: None,
-            capacity: options
-                .abuffer_initial_nodes
-                .unwrap_or(options.pixels() * FIRST_GUESS_PER_PIXEL)
-                .max(1),
-            max_fragments: (u64::MAX, false),
+            pool: Pool::new(options, FRAGMENT_BYTES),
             null_target: None,
             cache: ResourceCache::default(),
         }
-    }
-
-    /// The most fragments memory allows: the budget (less the per-pixel words and scan) and the
-    /// binding limit.
-    fn max_fragments(ctx: &FrameContext<'_>, scan_words: u64) -> u64 {
-        let by_binding = ctx.gpu.max_storage_binding() / FRAGMENT_BYTES;
-        let fixed = ctx.pixels() * PIXEL_BYTES + scan_words * 4 + super::CONSTANT_BYTES;
-        let by_budget = ctx
-            .options
-            .budget_bytes()
-            .map(|b| b.saturating_sub(fixed) / FRAGMENT_BYTES)
-            .unwrap_or(u64::MAX);
-        by_binding.min(by_budget).min(u32::MAX as u64 / 2)
     }
 
     /// The scan's levels for this frame size: uniforms and bind groups, made once per size.
@@ -209,29 +188,6 @@ impl SBuffer {
         let plan = self.scan.as_ref().expect("made above");
         Ok((plan.levels.iter().map(|g| g.0).collect(), plan.words))
     }
-
-    /// One timed compute pass of a scan kernel over `level`.
-    fn dispatch(
-        ctx: &mut FrameContext<'_>,
-        name: &'static str,
-        pipeline: &wgpu::ComputePipeline,
-        groups: [&wgpu::BindGroup; 3],
-        level: &ScanLevel,
-    ) {
-        let label = ctx.label(name);
-        let mut pass = ctx
-            .encoder
-            .begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(&label),
-                timestamp_writes: ctx.timer.compute_pass(name),
-            });
-        pass.set_pipeline(pipeline);
-        for (i, g) in groups.iter().enumerate() {
-            pass.set_bind_group(i as u32, Some(*g), &[]);
-        }
-        let (x, y) = level.groups();
-        pass.dispatch_workgroups(x, y, 1);
-    }
 }
 
 impl Method for SBuffer {
@@ -245,21 +201,11 @@ impl Method for SBuffer {
         let gpu = ctx.gpu;
         let pixels = ctx.pixels();
         let (levels, scan_words) = self.scan_levels(gpu, pixels)?;
-        let max_fragments = Self::max_fragments(ctx, scan_words);
-        if max_fragments == 0 {
-            return Err(Error::input(format!(
-                "{}: --budget-mb {} cannot even hold the {}x{} per-pixel words and scan",
-                self.id,
-                ctx.options.budget_mb.unwrap_or(0.0),
-                ctx.options.width,
-                ctx.options.height,
-            )));
-        }
-        self.max_fragments = (max_fragments, ctx.options.budget_mb.is_some());
-        self.capacity = self.capacity.clamp(1, max_fragments);
+        let fixed = pixels * PIXEL_BYTES + scan_words * 4 + super::CONSTANT_BYTES;
+        let pool_bytes = self.pool.fit(ctx, self.id, fixed)?;
         let storage = Storage {
             label: "strata.sbuffer.pool",
-            bytes: self.capacity * FRAGMENT_BYTES,
+            bytes: pool_bytes,
             clear: false,
         };
         let params = params_for(ctx, k, k, false);
@@ -277,21 +223,27 @@ impl Method for SBuffer {
         let scan = &self.scan.as_ref().expect("made by scan_levels").levels;
         let bind = |i: usize| [frame_group, &group, &scan[i].1];
         let top = levels.len() - 1;
-        Self::dispatch(ctx, "scan", &self.gather, bind(0), &levels[0]);
+        dispatch(ctx, "scan", &self.gather, &bind(0), levels[0].groups());
         for (i, level) in levels.iter().enumerate() {
-            Self::dispatch(ctx, "scan", &self.scan_blocks, bind(i), level);
+            dispatch(ctx, "scan", &self.scan_blocks, &bind(i), level.groups());
         }
         for i in (0..top).rev() {
-            Self::dispatch(ctx, "scan", &self.add_block_offsets, bind(i), &levels[i]);
+            dispatch(
+                ctx,
+                "scan",
+                &self.add_block_offsets,
+                &bind(i),
+                levels[i].groups(),
+            );
         }
-        Self::dispatch(ctx, "scan", &self.scatter, bind(0), &levels[0]);
+        dispatch(ctx, "scan", &self.scatter, &bind(0), levels[0].groups());
         storage_geometry_pass(ctx, "store", target, &self.store, &[frame_group, &group]);
         self.frame.end(ctx, &group);
         Ok(Recorded {
             geometry_passes: 2,
             k: (self.id != MethodId::Sbuffer).then_some(k),
             bytes_allocated: bytes + scan_words * 4,
-            capacity: self.capacity,
+            capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
         })
     }
@@ -307,27 +259,8 @@ impl Method for SBuffer {
         };
         let needed = totals.generated;
         let overflowed = wide(words, COUNTER_OVERFLOWED) > 0 || needed > recorded.capacity;
-        let fitted = (needed + needed / 4).max(MIN_FRAGMENTS);
-        if overflowed {
-            self.capacity = fitted.max(recorded.capacity + 1);
-        } else if self.capacity > 2 * fitted {
-            self.capacity = fitted;
-        }
-        let (max, by_budget) = self.max_fragments;
-        MethodStats {
-            overflow: Some(overflowed),
-            incomplete: overflowed,
-            cannot_complete: (needed > max).then(|| {
-                format!(
-                    "{}: the frame has {needed} fragments ({:.1} MiB of pool), more than {} allows ({:.1} MiB)",
-                    self.id,
-                    (needed * FRAGMENT_BYTES) as f64 / 1048576.0,
-                    if by_budget { "--budget-mb" } else { "the device's largest storage buffer" },
-                    (max * FRAGMENT_BYTES) as f64 / 1048576.0
-                )
-            }),
-            ..Default::default()
-        }
+        self.pool
+            .feedback(self.id, needed, overflowed, recorded.capacity)
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {
