@@ -47,10 +47,11 @@ pub enum MethodId {
     KbLl,
     Sbuffer,
     KbSbuffer,
+    KplusSbuffer,
 }
 
 impl MethodId {
-    pub const ALL: [MethodId; 20] = [
+    pub const ALL: [MethodId; 21] = [
         MethodId::Reference,
         MethodId::Unsorted,
         MethodId::Sorted,
@@ -71,6 +72,7 @@ impl MethodId {
         MethodId::KbLl,
         MethodId::Sbuffer,
         MethodId::KbSbuffer,
+        MethodId::KplusSbuffer,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -95,6 +97,7 @@ impl MethodId {
             MethodId::KbLl => "kb-ll",
             MethodId::Sbuffer => "sbuffer",
             MethodId::KbSbuffer => "kb-sbuffer",
+            MethodId::KplusSbuffer => "kplus-sbuffer",
         }
     }
 
@@ -298,6 +301,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             summary: "k+-buffer max-heap: sift-up while filling, replace-root and sift-down when full, culling",
         },
         MethodInfo {
+            id: "kplus-sbuffer",
+            family: "kplus",
+            exact: true,
+            geometry_passes: "2 (+2 when the pool overflows)",
+            memory: "16·Σmin(f,k) + 20·W·H + 4·(W·H + W·H/256 + …) + 96 + 40·(W·H with --tail blend, else 1); f: a pixel's fragments",
+            summary: "memory-aware k+-buffer: a count pass, a GPU prefix sum giving each pixel exactly min(f, k) slots, then lock-free appends (f ≤ k) or a max-array (k ≤ 16) / max-heap under a spin lock",
+        },
+        MethodInfo {
             id: "kb-mdt32",
             family: "kbuffer",
             exact: true,
@@ -379,7 +390,7 @@ pub fn create(
         MethodId::AbufferLl | MethodId::KbAbLl | MethodId::KbLl => {
             Box::new(ListKBuffer::new(gpu, scene, id, options))
         }
-        MethodId::Sbuffer | MethodId::KbSbuffer => {
+        MethodId::Sbuffer | MethodId::KbSbuffer | MethodId::KplusSbuffer => {
             Box::new(kbuffer::sbuffer::SBuffer::new(gpu, scene, id, options))
         }
         MethodId::KbMdt32 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt32)?),

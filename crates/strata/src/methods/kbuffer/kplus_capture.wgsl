@@ -110,6 +110,11 @@ const VARIANT_HEAP: u32 = 1u;
 // with these bindings can call it with its pixel (`kpixel`) and its fragment.
 fn capture_locked(p: u32, f: Fragment, variant: u32) {
     count_seen(p);
+    insert_locked(p, f, variant);
+}
+
+// Culling, then the insertion under the pixel's lock (the fragment is already counted).
+fn insert_locked(p: u32, f: Fragment, variant: u32) {
     if culled(p, f) {
         tail_add(p, f);
         return;

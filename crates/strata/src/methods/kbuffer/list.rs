@@ -85,6 +85,7 @@ impl ListKBuffer {
             ctx,
             self.id,
             ctx.pixels() * PIXEL_BYTES + super::CONSTANT_BYTES,
+            0,
         )?;
         let storage = Storage {
             label: "strata.kbuffer.nodes",

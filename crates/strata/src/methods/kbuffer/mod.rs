@@ -148,7 +148,13 @@ impl Variant {
 
 pub const STORAGE_WGSL: &str = include_str!("storage.wgsl");
 pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
-pub const SLOTS_WGSL: &str = include_str!("slots.wgsl");
+/// Fixed per-pixel slot arrays and their accessors.
+pub const SLOTS_WGSL: &str = concat!(
+    include_str!("slots.wgsl"),
+    "\n",
+    include_str!("slot_access.wgsl")
+);
+pub const SLOT_ACCESS_WGSL: &str = include_str!("slot_access.wgsl");
 pub const SLOTS_RESOLVE_WGSL: &str = include_str!("slots_resolve.wgsl");
 pub const KPLUS_CAPTURE_WGSL: &str = include_str!("kplus_capture.wgsl");
 pub const KB_CAPTURE_WGSL: &str = include_str!("kb_capture.wgsl");
@@ -181,7 +187,7 @@ pub fn max_k(id: MethodId) -> u32 {
     match id {
         MethodId::KplusArray | MethodId::KplusArrayR | MethodId::KbPs | MethodId::Kb => 256,
         MethodId::KbLl => 256,
-        MethodId::KplusHeap => 1024,
+        MethodId::KplusHeap | MethodId::KplusSbuffer => 1024,
         MethodId::KbMdt32 | MethodId::KbMdt64 | MethodId::KbMdtPack => 512,
         _ => 4096,
     }
@@ -290,10 +296,18 @@ impl Pool {
         }
     }
 
-    /// Fits the capacity to what memory allows besides the frame's `fixed_bytes`; returns the
-    /// pool's bytes. An error when not one item fits.
-    pub fn fit(&mut self, ctx: &FrameContext<'_>, id: MethodId, fixed_bytes: u64) -> Result<u64> {
-        let by_binding = ctx.gpu.max_storage_binding() / self.item_bytes;
+    /// Fits the capacity to what memory allows besides the frame's `fixed_bytes`, of which
+    /// `header_bytes` share the pool's buffer; returns the pool's bytes. An error when not one
+    /// item fits.
+    pub fn fit(
+        &mut self,
+        ctx: &FrameContext<'_>,
+        id: MethodId,
+        fixed_bytes: u64,
+        header_bytes: u64,
+    ) -> Result<u64> {
+        let by_binding =
+            ctx.gpu.max_storage_binding().saturating_sub(header_bytes) / self.item_bytes;
         let by_budget = ctx
             .options
             .budget_bytes()

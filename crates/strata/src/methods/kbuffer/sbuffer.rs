@@ -1,24 +1,31 @@
-//! The S-buffer (seed 003 §4): an A-buffer in variable contiguous regions. `sbuffer` composites
-//! every fragment (exact); `kb-sbuffer` stores every fragment and selects the k nearest in the
-//! resolve (exact, equal to `reference --k N`).
+//! The S-buffer (seed 003 §4): per-pixel regions of one shared pool, sized by a count pass and a
+//! GPU prefix sum. `sbuffer` stores and composites every fragment (exact); `kb-sbuffer` stores
+//! every fragment and selects the k nearest in the resolve; `kplus-sbuffer`, the memory-aware
+//! k+-buffer (§4.1), gives each pixel exactly min(f, k) slots and keeps its k nearest there (both
+//! exact, equal to `reference --k N`).
 //!
 //! Passes: clear; *count* (geometry pass: per-pixel counts); *scan* (compute: exclusive prefix
-//! sum of the counts over the pixels in levels of 256 — gather, scan each level's blocks, add the
-//! blocks' offsets back down, scatter to the pixels' region starts); *store* (geometry pass: each
-//! fragment at its pixel's region start + an atomic fill count); the shared k resolve.
-//! Memory: 16 bytes per pooled fragment (no per-pixel slack: pixels without fragments take none),
-//! 16 per pixel of counters and region start, 4·(W·H + W·H/256 + …) of scan levels, 136 of
-//! parameters and counters. Real-time frames size the pool from the previous frame's fragment
-//! count (+25%); a frame whose fragments do not fit keeps the regions that do, counts the rest as
-//! dropped, reports `overflow` and grows the pool for the next frame; exact mode renders again
-//! (2 + 2 geometry passes). Frames over the memory limits (`--budget-mb`, the largest storage
-//! binding) are an error in exact mode.
+//! sum of the region sizes over the pixels in levels of 256 — gather, scan each level's blocks,
+//! add the blocks' offsets back down, scatter to the pixels' region starts); *store* (geometry
+//! pass: `sbuffer`/`kb-sbuffer` put each fragment at its region start + an atomic fill count;
+//! `kplus-sbuffer` appends without a lock in pixels with f ≤ k and keeps the k nearest of deeper
+//! pixels under the k+-buffer's spin lock, in a max-array for k ≤ 16 and a max-heap above); the
+//! shared k resolve.
+//! Memory: 16 bytes per pooled fragment (no per-pixel slack: pixels without fragments take
+//! none), 16 per pixel of counters and region start (`kplus-sbuffer`: 20, its starts beside the
+//! lock), 4·(W·H + W·H/256 + …) of scan levels, 136 of parameters and counters. Real-time frames
+//! size the pool from the previous frame's need plus a quarter (the need is Σ region sizes, read
+//! back with the counters); a frame whose regions do not fit keeps those that do, counts the rest
+//! as overflowed (dropped), reports `overflow` and grows the pool for the next frame; exact mode
+//! renders again (2 + 2 geometry passes). Frames over the memory limits (`--budget-mb`, the largest
+//! storage
+//! binding) are an error in exact mode. Prefix sums saturate rather than wrap.
 
 use bytemuck::{Pod, Zeroable};
 
 use super::{
-    k_of, params_for, KFrame, Pool, Storage, COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL,
-    STORAGE_WGSL,
+    k_of, params_for, KFrame, Pool, Storage, COUNTERS, COUNTER_OVERFLOWED, KPLUS_CAPTURE_WGSL,
+    PIXEL_BYTES, RESOLVE_WGSL, SLOT_ACCESS_WGSL, STORAGE_WGSL,
 };
 use crate::error::Result;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
@@ -73,18 +80,36 @@ pub fn scan_levels(n: u64) -> (Vec<ScanLevel>, u64) {
     }
 }
 
-pub fn resolve_source() -> String {
-    [
-        STORAGE_WGSL,
-        SBUFFER_WGSL,
-        include_str!("sbuffer_resolve.wgsl"),
-        RESOLVE_WGSL,
-    ]
-    .join("\n")
+const KPLUS_SBUFFER_WGSL: &str = include_str!("kplus_sbuffer.wgsl");
+
+/// The storage and region access of `id` (sbuffer.wgsl, or kplus_sbuffer.wgsl and the slots).
+fn storage_source(id: MethodId) -> Vec<&'static str> {
+    if id == MethodId::KplusSbuffer {
+        vec![STORAGE_WGSL, KPLUS_SBUFFER_WGSL, SLOT_ACCESS_WGSL]
+    } else {
+        vec![STORAGE_WGSL, SBUFFER_WGSL]
+    }
 }
 
-pub fn capture_source() -> String {
-    [STORAGE_WGSL, SBUFFER_WGSL, SCAN_WGSL].join("\n")
+pub fn resolve_source(id: MethodId) -> String {
+    let mut parts = storage_source(id);
+    if id != MethodId::KplusSbuffer {
+        parts.push(include_str!("sbuffer_resolve.wgsl"));
+    }
+    parts.push(RESOLVE_WGSL);
+    parts.join("\n")
+}
+
+pub fn capture_source(id: MethodId) -> String {
+    let mut parts = storage_source(id);
+    if id == MethodId::KplusSbuffer {
+        parts.extend([
+            KPLUS_CAPTURE_WGSL,
+            include_str!("kplus_sbuffer_entries.wgsl"),
+        ]);
+    }
+    parts.push(SCAN_WGSL);
+    parts.join("\n")
 }
 
 /// A prefix sum's levels for one frame size: each level's parameters and bind group, and the
@@ -93,6 +118,7 @@ struct ScanPlan {
     pixels: u64,
     levels: Vec<(ScanLevel, wgpu::BindGroup)>,
     words: u64,
+    buffer: wgpu::Buffer,
 }
 
 pub struct SBuffer {
@@ -115,8 +141,15 @@ pub struct SBuffer {
 
 impl SBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> SBuffer {
-        let mut frame = KFrame::new(gpu, scene, id, &resolve_source());
-        let module = frame.capture_module(gpu, capture_source(), false);
+        let kplus = id == MethodId::KplusSbuffer;
+        let mut frame = KFrame::new(gpu, scene, id, &resolve_source(id));
+        // The k+-buffer's spin lock wants acquire/release ordering where the adapter has it.
+        let module = frame.capture_module(gpu, capture_source(id), kplus);
+        let (count, store) = if kplus {
+            ("fs_kplus_sbuffer_count", "fs_kplus_sbuffer_store")
+        } else {
+            ("fs_sbuffer_count", "fs_sbuffer_store")
+        };
         let scan_layout = binding::layout(
             &gpu.device,
             "strata.sbuffer.scan.layout",
@@ -134,8 +167,8 @@ impl SBuffer {
         };
         SBuffer {
             id,
-            count: frame.capture_pipeline(gpu, scene, &module, "fs_sbuffer_count"),
-            store: frame.capture_pipeline(gpu, scene, &module, "fs_sbuffer_store"),
+            count: frame.capture_pipeline(gpu, scene, &module, count),
+            store: frame.capture_pipeline(gpu, scene, &module, store),
             gather: compute("cs_gather"),
             scan_blocks: compute("cs_scan_blocks"),
             add_block_offsets: compute("cs_add_block_offsets"),
@@ -157,7 +190,7 @@ impl SBuffer {
                 gpu,
                 "strata.sbuffer.scan",
                 words * 4,
-                wgpu::BufferUsages::empty(),
+                wgpu::BufferUsages::COPY_SRC,
             )?;
             let groups = levels
                 .iter()
@@ -183,6 +216,7 @@ impl SBuffer {
                 pixels,
                 levels: groups,
                 words,
+                buffer,
             });
         }
         let plan = self.scan.as_ref().expect("made above");
@@ -201,11 +235,17 @@ impl Method for SBuffer {
         let gpu = ctx.gpu;
         let pixels = ctx.pixels();
         let (levels, scan_words) = self.scan_levels(gpu, pixels)?;
-        let fixed = pixels * PIXEL_BYTES + scan_words * 4 + super::CONSTANT_BYTES;
-        let pool_bytes = self.pool.fit(ctx, self.id, fixed)?;
+        // kplus-sbuffer's region starts share the pool's buffer.
+        let header = if self.id == MethodId::KplusSbuffer {
+            pixels * 4
+        } else {
+            0
+        };
+        let fixed = pixels * PIXEL_BYTES + header + scan_words * 4 + super::CONSTANT_BYTES;
+        let pool_bytes = self.pool.fit(ctx, self.id, fixed, header)?;
         let storage = Storage {
             label: "strata.sbuffer.pool",
-            bytes: pool_bytes,
+            bytes: header + pool_bytes,
             clear: false,
         };
         let params = params_for(ctx, k, k, false);
@@ -239,6 +279,9 @@ impl Method for SBuffer {
         dispatch(ctx, "scan", &self.scatter, &bind(0), levels[0].groups());
         storage_geometry_pass(ctx, "store", target, &self.store, &[frame_group, &group]);
         self.frame.end(ctx, &group);
+        // The scan's total, Σ region sizes: the pool the frame needed.
+        let scan = self.scan.as_ref().expect("made by scan_levels");
+        ctx.readback.words(&scan.buffer, (scan_words - 1) * 4, 1);
         Ok(Recorded {
             geometry_passes: 2,
             k: (self.id != MethodId::Sbuffer).then_some(k),
@@ -257,7 +300,11 @@ impl Method for SBuffer {
         let Some(words) = words else {
             return MethodStats::default();
         };
-        let needed = totals.generated;
+        // A saturated total (2³² − 1 or more slots) needs more than any pool holds.
+        let needed = match words.get(COUNTERS as usize) {
+            Some(&u32::MAX) | None => totals.generated.max(u32::MAX as u64),
+            Some(&total) => total as u64,
+        };
         let overflowed = wide(words, COUNTER_OVERFLOWED) > 0 || needed > recorded.capacity;
         self.pool
             .feedback(self.id, needed, overflowed, recorded.capacity)

@@ -13,6 +13,15 @@ fn region_start(p: u32) -> u32 {
     return atomicLoad(&pixels[pixel_word(p, OFFSET)]);
 }
 
+// The prefix sum's hooks (sbuffer_scan.wgsl): a region per fragment, its start in OFFSET.
+fn region_size(p: u32) -> u32 {
+    return atomicLoad(&pixels[pixel_word(p, SEEN)]);
+}
+
+fn set_region_start(p: u32, start: u32) {
+    atomicStore(&pixels[pixel_word(p, OFFSET)], start);
+}
+
 @fragment
 fn fs_sbuffer_count(v: SceneVarying) {
     if behind_opaque(v.position) {
@@ -27,9 +36,10 @@ fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool) 
         discard;
     }
     let p = kpixel(v.position);
-    let slot = region_start(p) + atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
-    if slot < arrayLength(&pool) {
-        pool[slot] = scene_fragment(v, front_facing);
+    let start = region_start(p);
+    let n = atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+    if start < arrayLength(&pool) && n < arrayLength(&pool) - start {
+        pool[start + n] = scene_fragment(v, front_facing);
     } else {
         counter_add(COUNTER_OVERFLOWED, 1u);
     }

@@ -1,8 +1,10 @@
-// The S-buffer's exclusive prefix sum over the pixels' counts, in levels of 256: `gather` copies
-// the counts into level 0 of `scan`; `scan_blocks` replaces each block of 256 values of a level by
+// The S-buffer's exclusive prefix sum over the pixels' region sizes, in levels of 256: `gather`
+// copies each pixel's `region_size` into level 0 of `scan`; `scan_blocks` replaces each block of 256 values of a level by
 // its exclusive prefix sums and writes the block's total into the next level; `add_block_offsets`
-// adds each block's scanned total back, top level down; `scatter` writes the results to the
-// pixels' OFFSET words. Keep `ScanLevel` in sync with `ScanLevel` in sbuffer.rs.
+// adds each block's scanned total back, top level down; `scatter` hands the results to
+// `set_region_start`. The storage file before this one defines both. Sums saturate at 2³² − 1
+// instead of wrapping, so a frame with more fragments than a u32 counts gets starts past any pool
+// (its regions then count as overflowed) rather than starts that overlap other regions. Keep `ScanLevel` in sync with `ScanLevel` in sbuffer.rs.
 
 struct ScanLevel {
     // Where this level's values start in `scan`, how many there are, and where its block
@@ -21,6 +23,10 @@ const SCAN_BLOCK: u32 = 256u;
 
 var<workgroup> tile: array<u32, 256>;
 
+fn saturating_add(a: u32, b: u32) -> u32 {
+    return select(a + b, 0xffffffffu, a > 0xffffffffu - b);
+}
+
 fn scan_index(wid: vec3<u32>, lid: vec3<u32>) -> u32 {
     return (wid.y * level.groups_x + wid.x) * SCAN_BLOCK + lid.x;
 }
@@ -29,7 +35,7 @@ fn scan_index(wid: vec3<u32>, lid: vec3<u32>) -> u32 {
 fn cs_gather(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let i = scan_index(wid, lid);
     if i < level.len {
-        scan[level.offset + i] = atomicLoad(&pixels[pixel_word(i, SEEN)]);
+        scan[level.offset + i] = region_size(i);
     }
 }
 
@@ -49,11 +55,12 @@ fn cs_scan_blocks(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocati
             t = tile[lid.x - d];
         }
         workgroupBarrier();
-        tile[lid.x] += t;
+        tile[lid.x] = saturating_add(tile[lid.x], t);
         workgroupBarrier();
     }
     if i < level.len {
-        scan[level.offset + i] = tile[lid.x] - v;
+        // A saturated inclusive sum leaves the exclusive one unknown: saturated too.
+        scan[level.offset + i] = select(tile[lid.x] - v, 0xffffffffu, tile[lid.x] == 0xffffffffu);
     }
     // Dispatches wrapped into y may run groups past the level's end: they write nothing.
     let group = wid.y * level.groups_x + wid.x;
@@ -66,7 +73,7 @@ fn cs_scan_blocks(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocati
 fn cs_add_block_offsets(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let i = scan_index(wid, lid);
     if i < level.len {
-        scan[level.offset + i] += scan[level.sums + wid.y * level.groups_x + wid.x];
+        scan[level.offset + i] = saturating_add(scan[level.offset + i], scan[level.sums + wid.y * level.groups_x + wid.x]);
     }
 }
 
@@ -74,6 +81,6 @@ fn cs_add_block_offsets(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_in
 fn cs_scatter(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let i = scan_index(wid, lid);
     if i < level.len {
-        atomicStore(&pixels[pixel_word(i, OFFSET)], scan[level.offset + i]);
+        set_region_start(i, scan[level.offset + i]);
     }
 }

@@ -8,13 +8,14 @@ use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference};
 
-const EXACT_K_METHODS: [&str; 6] = [
+const EXACT_K_METHODS: [&str; 7] = [
     "kplus-array",
     "kplus-heap",
     "kplus-array-r",
     "kb-ps",
     "kb-ab-fixed",
     "kb-sbuffer",
+    "kplus-sbuffer",
 ];
 const MAX_DIFF: u8 = 2;
 const MAX_FRACTION: f64 = 0.001;
@@ -127,7 +128,7 @@ fn large_k_uses_the_k_depth_sort_and_stays_exact() {
         "layers150",
         &s,
         &options(16, 96),
-        &["kplus-heap", "kb-ab-fixed"],
+        &["kplus-heap", "kb-ab-fixed", "kplus-sbuffer"],
     );
     check_k("layers150", &s, &options(16, 20), &["kb-ab-fixed"]);
 }
@@ -138,7 +139,13 @@ fn culling_off_gives_the_same_picture() {
     let mut opts = options(48, 8);
     let expected = render_reference(&s, &opts);
     opts.culling = false;
-    for method in ["kplus-array", "kplus-heap", "kplus-array-r", "kb-ps"] {
+    for method in [
+        "kplus-array",
+        "kplus-heap",
+        "kplus-array-r",
+        "kb-ps",
+        "kplus-sbuffer",
+    ] {
         let (actual, _) = render_gpu(&s, &opts, method);
         assert_close(
             &format!("noculling-{method}"),
@@ -184,7 +191,13 @@ fn tail_blend_composites_the_rest_as_one_term() {
     let expected: Vec<f64> = (0..3)
         .map(|i| color[i] + t * opacity * sum[i] / weight)
         .collect();
-    for method in ["kplus-array", "kplus-heap", "kb-ps", "kb-ab-fixed"] {
+    for method in [
+        "kplus-array",
+        "kplus-heap",
+        "kb-ps",
+        "kb-ab-fixed",
+        "kplus-sbuffer",
+    ] {
         let (img, stats) = render_gpu(&s, &opts, method);
         assert_eq!(
             stats.fragments_dropped,
@@ -257,11 +270,66 @@ fn memory_follows_the_catalogue_formula() {
             "{method}"
         );
     }
+    // kplus-sbuffer: the region starts (4 per pixel) share the pool's buffer.
+    assert_eq!(
+        render_gpu(&s, &opts, "kplus-sbuffer").1.bytes_allocated,
+        Some(16 * 3000 + 20 * px + 4 * 403 + 136)
+    );
     opts.abuffer_initial_nodes = None;
     // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
     opts.tail = Tail::Drop;
     let (_, stats) = render_gpu(&s, &opts, "kb-ab-fixed");
     assert_eq!(stats.bytes_allocated, Some(16 * 7 * px + 96 + 40));
+}
+
+/// kplus-sbuffer's three store paths in one frame: pixels with f ≤ k append without the lock,
+/// deeper ones keep a max-array (k ≤ 16) or a max-heap (k > 16); the frame needs exactly
+/// Σ min(f, k) slots, which the prefix sum measures and feeds back.
+#[test]
+fn kplus_sbuffer_regions_hold_exactly_min_f_k() {
+    // Pixels of 0 to 38 fragments.
+    let s = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
+    for k in [6, 20] {
+        let mut opts = options(48, k);
+        check_k("nvpro-kplus-sbuffer", &s, &opts, &["kplus-sbuffer"]);
+        let counts: Vec<u32> = crate::reference::fragments(&s, &opts)
+            .unwrap()
+            .iter()
+            .map(|f| f.len() as u32)
+            .collect();
+        let need: u64 = counts.iter().map(|&f| f.min(k) as u64).sum();
+        assert!(counts.iter().any(|&f| f > 0 && f <= k) && counts.iter().any(|&f| f > k));
+        // A pool too small at first: the next frame's is the measured need + 25%.
+        opts.abuffer_initial_nodes = Some(16);
+        let (_, stats) = render_gpu(&s, &opts, "kplus-sbuffer");
+        assert_eq!(stats.geometry_passes, Some(4));
+        let px = opts.pixels();
+        let scan_words = super::sbuffer::scan_levels(px).1;
+        let expected_pool = (need + need / 4).max(1024);
+        assert_eq!(
+            stats.bytes_allocated,
+            Some(16 * expected_pool + 20 * px + 4 * scan_words + 136),
+            "k={k}"
+        );
+    }
+}
+
+/// A pool too small for the regions: those that do not fit store nothing and count as
+/// overflowed, the pool grows, and exact mode's second frame is exact.
+#[test]
+fn kplus_sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
+    let s = scene("builtin:layers?n=12&coverage=0.75&order=random&seed=5");
+    let mut opts = options(48, 8);
+    opts.abuffer_initial_nodes = Some(64);
+    let (_, stats) = render_gpu(&s, &opts, "kplus-sbuffer");
+    assert_eq!(stats.overflow, Some(true));
+    assert_eq!(stats.geometry_passes, Some(4));
+    check_k(
+        "layers-kplus-sbuffer-overflow",
+        &s,
+        &opts,
+        &["kplus-sbuffer"],
+    );
 }
 
 #[test]
@@ -280,6 +348,7 @@ fn impossible_budget_is_a_clear_error() {
 #[test]
 fn kbuffer_stages_validate() {
     use super::*;
+    use crate::methods::MethodId;
     let stages = [
         ("slots.capture", slots_capture_source()),
         (
@@ -293,8 +362,22 @@ fn kbuffer_stages_validate() {
         ("mdt32.resolve", mdt::resolve_source(mdt::Mdt::Mdt32)),
         ("mdt64.resolve", mdt::resolve_source(mdt::Mdt::Mdt64)),
         ("mdt_pack.resolve", mdt::resolve_source(mdt::Mdt::Pack)),
-        ("sbuffer.capture", sbuffer::capture_source()),
-        ("sbuffer.resolve", sbuffer::resolve_source()),
+        (
+            "sbuffer.capture",
+            sbuffer::capture_source(MethodId::Sbuffer),
+        ),
+        (
+            "sbuffer.resolve",
+            sbuffer::resolve_source(MethodId::Sbuffer),
+        ),
+        (
+            "kplus-sbuffer.capture",
+            sbuffer::capture_source(MethodId::KplusSbuffer),
+        ),
+        (
+            "kplus-sbuffer.resolve",
+            sbuffer::resolve_source(MethodId::KplusSbuffer),
+        ),
     ];
     for (label, src) in stages {
         crate::gpu::shader::validate(label, &src);

@@ -1,0 +1,38 @@
+// The memory-aware k+-buffer's geometry passes (storage in kplus_sbuffer.wgsl).
+
+// Above this k a full pixel keeps a max-heap (O(log k) per replacement), else a max-array.
+const ARRAY_MAX_K: u32 = 16u;
+
+@fragment
+fn fs_kplus_sbuffer_count(v: SceneVarying) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    count_seen(kpixel(v.position));
+}
+
+// A pixel with at most k fragments appends them without the lock (its region holds them all);
+// a pixel with more keeps its k nearest under the lock, by max-array or max-heap.
+@fragment
+fn fs_kplus_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = kpixel(v.position);
+    let f = scene_fragment(v, front_facing);
+    if !region_fits(p) {
+        counter_add(COUNTER_OVERFLOWED, 1u);
+        return;
+    }
+    if atomicLoad(&pixels[pixel_word(p, SEEN)]) <= kp.k {
+        let n = atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+        if n < region_size(p) {
+            store_slot(p, n, f);
+        } else {
+            // More fragments than the count pass saw: not from the same draws.
+            counter_add(COUNTER_OVERFLOWED, 1u);
+        }
+        return;
+    }
+    insert_locked(p, f, select(VARIANT_HEAP, VARIANT_ARRAY, kp.k <= ARRAY_MAX_K));
+}
