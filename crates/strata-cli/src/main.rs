@@ -94,7 +94,8 @@ struct RenderArgs {
     /// Memory a method may allocate, MiB.
     #[arg(long)]
     budget_mb: Option<f64>,
-    /// Robustness ratio for --k auto (k-buffer methods, not built yet).
+    /// With --k auto: the fraction of the fragments k must capture, in (0, 1] (default 0.95);
+    /// k is the smallest that does within --budget-mb.
     #[arg(long)]
     robustness: Option<f64>,
     /// Fragments beyond k (k-buffer methods).
@@ -252,16 +253,18 @@ pub fn parse_size(s: &str) -> Result<(u32, u32)> {
 /// Loads the scene and applies the picture options to it; returns the render options.
 pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     let effect = p.effect;
-    let k = match p.k.as_deref() {
-        None => None,
-        Some("auto") => {
-            return Err(Error::unsupported(
-                "--k auto needs the k-buffer methods' k prediction, which is not built yet",
-            ))
+    let (k, k_auto) = match p.k.as_deref() {
+        None => (None, None),
+        Some("auto") => (
+            None,
+            Some(strata::methods::kbuffer::predict::DEFAULT_ROBUSTNESS),
+        ),
+        Some(s) => {
+            let k = s.parse::<u32>().ok().filter(|&k| k > 0).ok_or_else(|| {
+                Error::input(format!("--k '{s}' is not a positive integer or 'auto'"))
+            })?;
+            (Some(k), None)
         }
-        Some(s) => Some(s.parse::<u32>().ok().filter(|&k| k > 0).ok_or_else(|| {
-            Error::input(format!("--k '{s}' is not a positive integer or 'auto'"))
-        })?),
     };
     if let Some(a) = p.alpha {
         if !(0.0..=1.0).contains(&a) {
@@ -311,6 +314,7 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
         effect,
         background,
         k,
+        k_auto,
         ..Default::default()
     };
     options.validate()?;
@@ -353,6 +357,19 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
         stats.max_depth_complexity.unwrap_or(0),
         output.display()
     );
+    if let (Some(a), Some(k)) = (&stats.k_auto, stats.k) {
+        let percent = |r: Option<f64>| {
+            r.map(|r| format!("{:.2}%", 100.0 * r))
+                .unwrap_or_else(|| "unknown".into())
+        };
+        eprintln!(
+            "k auto: k={k} (the budget holds k ≤ {}), target {:.2}%, predicted {}, achieved {}",
+            a.k_budget,
+            100.0 * a.robustness_target,
+            percent(a.predicted_robustness),
+            percent(a.achieved_robustness)
+        );
+    }
     let dropped = stats.fragments_dropped.unwrap_or(0);
     if dropped > 0 {
         match (stats.k, tail) {
@@ -391,17 +408,18 @@ fn render(a: RenderArgs) -> Result<()> {
             "--pipeline deferred: the deferred-shading pipeline is not built yet",
         ));
     }
-    for (flag, given) in [
-        ("--robustness", a.robustness.is_some()),
-        ("--lights", a.lights.is_some()),
-    ] {
-        if given {
-            return Err(Error::unsupported(format!(
-                "{flag} applies to methods that are not built yet"
-            )));
-        }
+    if a.lights.is_some() {
+        return Err(Error::unsupported(
+            "--lights applies to methods that are not built yet",
+        ));
     }
     let (scene, mut options) = prepare(&a.picture)?;
+    if let Some(r) = a.robustness {
+        if options.k_auto.is_none() {
+            return Err(Error::input("--robustness applies to --k auto"));
+        }
+        options.k_auto = Some(r);
+    }
     options.budget_mb = a.budget_mb;
     options.tail = a.tail;
     options.culling = a.culling == Toggle::On;

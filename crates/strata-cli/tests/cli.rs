@@ -369,6 +369,74 @@ fn k_buffer_bad_options_are_one_line_and_exit_2() {
         ],
         "--budget-mb",
     );
+    assert_bad_input(
+        &[
+            "render",
+            "--method",
+            "kplus-heap",
+            "--k",
+            "auto",
+            "--budget-mb",
+            "0.01",
+        ],
+        "cannot hold even k = 1",
+    );
+    assert_bad_input(
+        &["render", "--method", "kplus-heap", "--robustness", "0.9"],
+        "--robustness applies to --k auto",
+    );
+    assert_bad_input(
+        &[
+            "render",
+            "--method",
+            "kplus-heap",
+            "--k",
+            "auto",
+            "--robustness",
+            "1.5",
+        ],
+        "--robustness 1.5",
+    );
+    assert_bad_input(
+        &["render", "--method", "dual", "--k", "auto"],
+        "k-buffer methods",
+    );
+}
+
+/// `--k auto` picks k from the GPU histogram; the stats name it with the predicted and
+/// achieved robustness, and the summary says so.
+#[test]
+fn auto_k_reports_the_chosen_k() {
+    let dir = workdir("auto-k");
+    let stats = dir.join("stats.json");
+    let out = dir.join("auto.png");
+    let o = strata(&[
+        "render",
+        "builtin:nvpro?objects=160&subdiv=10&seed=3",
+        "--method",
+        "kplus-sbuffer",
+        "--k",
+        "auto",
+        "--robustness",
+        "0.9",
+        "--budget-mb",
+        "1",
+        "--size",
+        "64x64",
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("k auto: k="), "{}", stderr(&o));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let auto = &s["k_auto"];
+    assert_eq!(auto["robustness_target"], 0.9);
+    assert!(auto["achieved_robustness"].as_f64().unwrap() >= 0.9, "{s}");
+    assert!(s["bytes_allocated"].as_u64().unwrap() <= 1 << 20, "{s}");
+    assert!(s["k"].as_u64().unwrap() >= 1);
 }
 
 /// `strata histogram` counts on the GPU; `--cpu` (the reference) agrees but for the few edge

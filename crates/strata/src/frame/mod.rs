@@ -114,6 +114,10 @@ pub struct RenderOptions {
     /// Depth peeling: a fixed number of layers per frame; by default the last frame's depth
     /// complexity.
     pub layers: Option<u32>,
+    /// `--k auto --robustness R`: each frame's k is chosen from the last depth-complexity
+    /// histogram to capture the fraction R of the fragments within `budget_mb` (see
+    /// [`crate::methods::kbuffer::predict`]); `k` is then ignored.
+    pub k_auto: Option<f64>,
     /// Value the fragment-pool allocation counters start from each frame (normally 0). Tests
     /// start them near 2³² to show that they saturate instead of wrapping.
     pub allocation_counter_start: u32,
@@ -133,6 +137,7 @@ impl Default for RenderOptions {
             culling: true,
             max_tries: None,
             layers: None,
+            k_auto: None,
             allocation_counter_start: 0,
         }
     }
@@ -157,6 +162,13 @@ impl RenderOptions {
         if let Some(b) = self.budget_mb {
             if b.is_nan() || b <= 0.0 {
                 return Err(Error::input(format!("--budget-mb {b} must be positive")));
+            }
+        }
+        if let Some(r) = self.k_auto {
+            if !(r > 0.0 && r <= 1.0) {
+                return Err(Error::input(format!(
+                    "--robustness {r} is outside (0, 1] (the fraction of fragments to capture)"
+                )));
             }
         }
         if let Some(l) = self.layers {
@@ -203,6 +215,9 @@ pub struct FrameStats {
     /// Pixels with 1023 or more fragments: the histogram's last bin, which counts them together.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub depth_histogram_clipped: Option<u64>,
+    /// With `--k auto`: how this frame's k (`k`) was chosen and what it captured.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k_auto: Option<AutoKStats>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the
@@ -210,6 +225,22 @@ pub struct FrameStats {
     pub submits: u32,
     pub adapter: Option<String>,
     pub backend: Option<String>,
+}
+
+/// How `--k auto` chose a frame's k.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct AutoKStats {
+    /// The robustness ratio R asked for.
+    pub robustness_target: f64,
+    pub budget_mb: Option<f64>,
+    /// The largest k the budget holds by the method's memory formula.
+    pub k_budget: u32,
+    /// The frame whose depth-complexity histogram chose k (`None`: a first frame's guess).
+    pub histogram_frame: Option<u64>,
+    /// The fraction of that histogram's fragments k captures (`None` for a guess).
+    pub predicted_robustness: Option<f64>,
+    /// The fraction of this frame's fragments it kept: stored / generated.
+    pub achieved_robustness: Option<f64>,
 }
 
 /// What a method reports about its frame once its counters are back.

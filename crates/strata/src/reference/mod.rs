@@ -207,6 +207,11 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
     let lists = fragments(scene, options)?;
     let (w, h) = (options.width, options.height);
     let translucency = options.effect == Effect::Translucency;
+    if options.k_auto.is_some() {
+        return Err(crate::Error::input(
+            "the reference takes --k N, not --k auto (a GPU frame's stats name the k it chose)",
+        ));
+    }
     let keep = options.k.map(|k| k as usize).unwrap_or(usize::MAX);
     let pixels: Vec<[f32; 4]> = lists
         .par_iter()
@@ -240,6 +245,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         memory_ordering: None,
         depth_histogram: None,
         depth_histogram_clipped: None,
+        k_auto: None,
         blocking_readbacks: 0,
         submits: 0,
         frame: 0,

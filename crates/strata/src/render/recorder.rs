@@ -42,11 +42,12 @@ use crate::error::{Error, Result};
 use crate::frame::present::{Present, PresentParams};
 use crate::frame::stats::StatsRing;
 use crate::frame::{
-    DrawCallback, Effect, FrameContext, FrameStats, FrameTargets, MethodStats, ReadbackList,
-    Recorded, RenderOptions, SceneGpu, Totals, RESOLVED_BYTES, TOTAL_WORDS,
+    AutoKStats, DrawCallback, Effect, FrameContext, FrameStats, FrameTargets, MethodStats,
+    ReadbackList, Recorded, RenderOptions, SceneGpu, Totals, RESOLVED_BYTES, TOTAL_WORDS,
 };
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
+use crate::methods::kbuffer::{predict, DEFAULT_K};
 use crate::methods::{self, Method, MethodId};
 use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
 use crate::scene::{Camera, Scene};
@@ -62,6 +63,7 @@ struct Pending {
     timestamps: Option<(u64, Vec<&'static str>)>,
     method_words: (u64, u64),
     histogram_words: Option<(u64, u64)>,
+    auto_k: Option<AutoKStats>,
 }
 
 /// Statistics of one frame, with whether exact mode must render it again.
@@ -90,6 +92,8 @@ pub struct FrameRecorder {
     open_capture: Option<(OpenFrame, ReadbackList)>,
     /// The GPU depth-complexity histogram, when it is on.
     histogram: Option<GpuHistogram>,
+    /// The latest histogram that came back (its frame and bins), which `--k auto` picks from.
+    last_histogram: Option<(u64, Vec<u64>)>,
 }
 
 /// Group 0 of a frame being recorded and the opaque depth it binds.
@@ -122,6 +126,7 @@ impl FrameRecorder {
             frame: 0,
             open_capture: None,
             histogram: None,
+            last_histogram: None,
         };
         recorder.set_method(method)?;
         Ok(recorder)
@@ -240,12 +245,47 @@ impl FrameRecorder {
         targets: &FrameTargets<'_>,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<u64> {
+        let auto_k = self.choose_k()?;
         let frame = self.start_frame(encoder, targets.opaque_depth);
         let mut readback = ReadbackList::default();
         let recorded =
             self.with_method(encoder, &frame, &mut readback, draw, |m, ctx| m.record(ctx))?;
         let histogram = self.record_histogram(encoder, &frame, &mut readback, draw)?;
-        Ok(self.finish_frame(encoder, targets.color, recorded, readback, histogram))
+        Ok(self.finish_frame(
+            encoder,
+            targets.color,
+            (recorded, auto_k),
+            readback,
+            histogram,
+        ))
+    }
+
+    /// With `--k auto`: sets the frame's k from the latest histogram that came back (the first
+    /// frame guesses within the budget) and keeps the histogram on.
+    fn choose_k(&mut self) -> Result<Option<AutoKStats>> {
+        let Some(robustness) = self.options.k_auto else {
+            return Ok(None);
+        };
+        if self.histogram.is_none() {
+            self.histogram = Some(GpuHistogram::new(&self.gpu, &self.scene));
+        }
+        let last = self.last_histogram.as_ref();
+        let choice = predict::choose_k(
+            self.method,
+            last.map(|h| h.1.as_slice()),
+            robustness,
+            DEFAULT_K,
+            &self.options,
+        )?;
+        self.options.k = Some(choice.k);
+        Ok(Some(AutoKStats {
+            robustness_target: robustness,
+            budget_mb: self.options.budget_mb,
+            k_budget: choice.k_budget,
+            histogram_frame: last.map(|h| h.0),
+            predicted_robustness: last.map(|_| choice.predicted_robustness),
+            achieved_robustness: None,
+        }))
     }
 
     /// The histogram's passes, when it is on (returns whether it ran); its bins are the last
@@ -297,6 +337,11 @@ impl FrameRecorder {
     /// and returns the bind group its capture pipeline places. The application's pass follows
     /// in the same encoder, then [`FrameRecorder::end_capture`].
     pub fn begin_capture(&mut self, encoder: &mut wgpu::CommandEncoder) -> Result<wgpu::BindGroup> {
+        if self.options.k_auto.is_some() {
+            return Err(Error::unsupported(
+                "--k auto counts fragments with strata's own geometry pass, which an application's capture replaces: set k",
+            ));
+        }
         let frame = self.start_frame(encoder, None);
         let mut readback = ReadbackList::default();
         let group = self.with_method(encoder, &frame, &mut readback, None, |m, ctx| {
@@ -319,7 +364,7 @@ impl FrameRecorder {
         let recorded = self.with_method(encoder, &frame, &mut readback, None, |m, ctx| {
             m.end_capture(ctx)
         })?;
-        Ok(self.finish_frame(encoder, color, recorded, readback, false))
+        Ok(self.finish_frame(encoder, color, (recorded, None), readback, false))
     }
 
     /// Clears the totals, starts the timer and binds group 0 for a frame.
@@ -374,7 +419,7 @@ impl FrameRecorder {
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         color: Option<(&wgpu::TextureView, wgpu::TextureFormat)>,
-        recorded: Recorded,
+        (recorded, auto_k): (Recorded, Option<AutoKStats>),
         readback: ReadbackList,
         histogram_ran: bool,
     ) -> u64 {
@@ -415,6 +460,7 @@ impl FrameRecorder {
                 timestamps,
                 method_words,
                 histogram_words,
+                auto_k,
             },
         );
         frame
@@ -489,6 +535,39 @@ impl FrameRecorder {
             Some(m) => m.stats(&p.recorded, &totals.unwrap_or_default(), method_words),
             None => MethodStats::default(),
         };
+        let mut incomplete = ms.incomplete;
+        let mut auto_k = p.auto_k.map(|mut a| {
+            a.achieved_robustness = totals.map(|t| match t.generated {
+                0 => 1.0,
+                n => t.stored as f64 / n as f64,
+            });
+            a
+        });
+        if let Some(bins) = &histogram {
+            let bins = gpu_histogram::trim(bins);
+            if let Some(a) = &mut auto_k {
+                // Exact mode renders again when the frame's own histogram picks another k; a
+                // guess it confirms gets its prediction from it.
+                let again = predict::choose_k(
+                    p.method,
+                    Some(&bins),
+                    a.robustness_target,
+                    DEFAULT_K,
+                    &self.options,
+                );
+                match again {
+                    Ok(c) if Some(c.k) != p.recorded.k => incomplete = true,
+                    Ok(c) if a.predicted_robustness.is_none() => {
+                        a.predicted_robustness = Some(c.predicted_robustness);
+                        a.histogram_frame = Some(p.frame);
+                    }
+                    _ => {}
+                }
+            }
+            if self.last_histogram.as_ref().is_none_or(|h| h.0 < p.frame) {
+                self.last_histogram = Some((p.frame, bins));
+            }
+        }
         let stats = FrameStats {
             frame: p.frame,
             method: p.method.as_str().to_string(),
@@ -509,6 +588,7 @@ impl FrameRecorder {
             memory_ordering: p.recorded.memory_ordering.map(String::from),
             depth_histogram: histogram.as_deref().map(gpu_histogram::trim),
             depth_histogram_clipped: histogram.map(|h| h[h.len() - 1] as u64),
+            k_auto: auto_k,
             blocking_readbacks: 0,
             submits: 0,
             adapter: Some(self.gpu.info.name.clone()),
@@ -516,7 +596,7 @@ impl FrameRecorder {
         };
         FrameReport {
             stats,
-            incomplete: ms.incomplete,
+            incomplete,
             cannot_complete: ms.cannot_complete,
         }
     }
@@ -607,5 +687,52 @@ mod tests {
         let mut fresh = FrameRecorder::new(gpu(), &s1, MethodId::KplusHeap, &options).unwrap();
         fresh.set_camera(&s0.camera_or_framing());
         assert!(moved == resolved_after_one_frame(&mut fresh));
+    }
+
+    /// Real-time `--k auto`: the first frame guesses within the budget; each later frame takes
+    /// its k from the latest histogram back (frame t's for frame t + 1 when the application
+    /// waits a frame), and the k follows the animation's depth complexity.
+    #[test]
+    fn auto_k_follows_the_last_histogram() {
+        let g = gpu();
+        let sparse = loaders::load_scene("builtin:balls?count=6&frame=0").unwrap();
+        let dense = loaders::load_scene("builtin:balls?count=120&frame=0").unwrap();
+        let options = RenderOptions {
+            width: 48,
+            height: 48,
+            k_auto: Some(1.0),
+            ..Default::default()
+        };
+        let mut rec = FrameRecorder::new(g, &sparse, MethodId::KplusSbuffer, &options).unwrap();
+        let frame = |rec: &mut FrameRecorder| {
+            let mut enc = g.device.create_command_encoder(&Default::default());
+            rec.record(&mut enc, &Default::default(), None).unwrap();
+            g.queue.submit([enc.finish()]);
+            rec.wait_stats().unwrap().stats
+        };
+        let first = frame(&mut rec);
+        let auto = first.k_auto.clone().unwrap();
+        assert_eq!(first.k, Some(DEFAULT_K));
+        assert_eq!(auto.histogram_frame, None);
+        let depth = first.max_depth_complexity.unwrap();
+        let second = frame(&mut rec);
+        let auto = second.k_auto.clone().unwrap();
+        assert_eq!(auto.histogram_frame, Some(0));
+        assert_eq!(
+            second.k,
+            Some(depth.max(1)),
+            "R = 1 keeps the deepest pixel"
+        );
+        assert_eq!(auto.achieved_robustness, Some(1.0));
+        rec.set_geometry(&dense).unwrap();
+        let third = frame(&mut rec);
+        assert_eq!(
+            third.k, second.k,
+            "frame 2's k comes from frame 1's histogram"
+        );
+        let fourth = frame(&mut rec);
+        assert_eq!(fourth.k_auto.unwrap().histogram_frame, Some(2));
+        assert_eq!(fourth.k, third.max_depth_complexity);
+        assert!(fourth.k > second.k, "more balls, deeper pixels");
     }
 }

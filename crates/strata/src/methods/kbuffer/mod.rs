@@ -57,6 +57,7 @@
 
 pub mod list;
 pub mod mdt;
+pub mod predict;
 pub mod sbuffer;
 
 pub mod cpu;

@@ -18,8 +18,7 @@
 //! back with the counters); a frame whose regions do not fit keeps those that do, counts the rest
 //! as overflowed (dropped), reports `overflow` and grows the pool for the next frame; exact mode
 //! renders again (2 + 2 geometry passes). Frames over the memory limits (`--budget-mb`, the largest
-//! storage
-//! binding) are an error in exact mode. Prefix sums saturate rather than wrap.
+//! storage binding) are an error in exact mode. Prefix sums saturate rather than wrap.
 
 use bytemuck::{Pod, Zeroable};
 

@@ -548,3 +548,93 @@ fn locking_methods_use_acquire_release_where_the_adapter_can() {
     let mdt = render_gpu(&s, &opts, "kb-mdt32").1.memory_ordering.unwrap();
     assert!(mdt.starts_with("relaxed"), "{mdt}");
 }
+
+/// `--k auto`: the chosen k fits the budget by the method's formula and the frame's allocation,
+/// reaches R whenever the budget allows (the achieved robustness is the frame's own
+/// stored / generated), takes the whole budget otherwise, and the picture is `reference --k` of
+/// the chosen k.
+#[test]
+fn auto_k_reaches_the_robustness_the_budget_allows() {
+    let s = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
+    let cases = [
+        ("kplus-heap", 0.9, None),
+        ("kplus-heap", 0.9, Some(0.5)),
+        ("kplus-sbuffer", 0.99, Some(0.5)),
+        ("kplus-sbuffer", 1.0, None),
+        ("kplus-array", 0.5, Some(0.4)),
+        ("kb-mdt32", 0.9, Some(0.45)),
+    ];
+    for (method, robustness, budget_mb) in cases {
+        let mut opts = options(64, 1);
+        opts.k = None;
+        opts.k_auto = Some(robustness);
+        opts.budget_mb = budget_mb;
+        let (actual, stats) = render_gpu(&s, &opts, method);
+        let label = format!("{method} R={robustness} budget={budget_mb:?}");
+        let auto = stats.k_auto.clone().expect("k_auto stats");
+        let k = stats.k.expect("a chosen k");
+        let achieved = auto.achieved_robustness.unwrap();
+        assert_eq!(auto.predicted_robustness, Some(achieved), "{label}");
+        assert_eq!(
+            achieved,
+            stats.fragments_stored.unwrap() as f64 / stats.fragments_generated.unwrap() as f64
+        );
+        if let Some(budget) = opts.budget_bytes() {
+            assert!(
+                stats.bytes_allocated.unwrap() <= budget,
+                "{label}: {stats:?}"
+            );
+        }
+        if k < auto.k_budget {
+            assert!(
+                achieved >= robustness,
+                "{label}: k={k}, achieved {achieved}"
+            );
+        } else {
+            assert!(budget_mb.is_some(), "{label}: k at the method's limit");
+        }
+        // Minimal: k − 1 would not have reached R.
+        let mut fewer = opts.clone();
+        fewer.k_auto = None;
+        if k > 1 && achieved >= robustness {
+            fewer.k = Some(k - 1);
+            let (_, st) = crate::reference::render(&s, &fewer).unwrap();
+            let r = st.fragments_stored.unwrap() as f64 / st.fragments_generated.unwrap() as f64;
+            assert!(r < robustness, "{label}: k−1 reaches {r}");
+        }
+        fewer.k = Some(k);
+        let expected = render_reference(&s, &fewer);
+        assert_close(
+            &format!("auto-k-{method}"),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+    }
+    // One budget cuts k below what R asks for: reported, not hidden.
+    let mut opts = options(64, 1);
+    opts.k_auto = Some(0.99);
+    opts.budget_mb = Some(0.4);
+    let (_, stats) = render_gpu(&s, &opts, "kplus-array");
+    let auto = stats.k_auto.unwrap();
+    assert_eq!(stats.k, Some(auto.k_budget));
+    assert!(auto.achieved_robustness.unwrap() < 0.99);
+}
+
+#[test]
+fn auto_k_errors_are_clear() {
+    let s = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
+    let mut opts = options(64, 1);
+    opts.k_auto = Some(0.9);
+    opts.budget_mb = Some(0.05);
+    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let e = r.render("kplus-heap").unwrap_err();
+    assert!(e.to_string().contains("cannot hold even k = 1"), "{e}");
+    opts.budget_mb = None;
+    let e = r.render("f2b").unwrap_err();
+    assert!(e.to_string().contains("k-buffer methods"), "{e}");
+    opts.k_auto = Some(0.0);
+    assert!(crate::Renderer::new(crate::testing::gpu(), &s, &opts).is_err());
+}
