@@ -261,6 +261,11 @@ impl ResourceCache {
         Ok(b)
     }
 
+    /// The buffer made under `label`, if any.
+    pub fn get(&self, label: &str) -> Option<&wgpu::Buffer> {
+        self.buffers.get(label)
+    }
+
     /// A uniform buffer holding `contents`, written on every call.
     pub fn uniform(&mut self, gpu: &Gpu, label: &'static str, contents: &[u8]) -> wgpu::Buffer {
         let size = contents.len() as u64;

@@ -48,10 +48,11 @@ pub enum MethodId {
     Sbuffer,
     KbSbuffer,
     KplusSbuffer,
+    Kpeel,
 }
 
 impl MethodId {
-    pub const ALL: [MethodId; 21] = [
+    pub const ALL: [MethodId; 22] = [
         MethodId::Reference,
         MethodId::Unsorted,
         MethodId::Sorted,
@@ -73,6 +74,7 @@ impl MethodId {
         MethodId::Sbuffer,
         MethodId::KbSbuffer,
         MethodId::KplusSbuffer,
+        MethodId::Kpeel,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -98,6 +100,7 @@ impl MethodId {
             MethodId::Sbuffer => "sbuffer",
             MethodId::KbSbuffer => "kb-sbuffer",
             MethodId::KplusSbuffer => "kplus-sbuffer",
+            MethodId::Kpeel => "kpeel",
         }
     }
 
@@ -243,6 +246,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             geometry_passes: "2 (+2 when the pool overflows)",
             memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 136",
             summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
+        },
+        MethodInfo {
+            id: "kpeel",
+            family: "peeling",
+            exact: true,
+            geometry_passes: "ceil(N/k) (N: the last frame's depth complexity, or --layers)",
+            memory: "16·(k+1)·W·H + 136",
+            summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per geometry pass, by a k+-buffer capture; A-buffer results in bounded memory, equal-depth fragments included",
         },
         MethodInfo {
             id: "abuffer-fixed",
@@ -393,6 +404,7 @@ pub fn create(
         MethodId::Sbuffer | MethodId::KbSbuffer | MethodId::KplusSbuffer => {
             Box::new(kbuffer::sbuffer::SBuffer::new(gpu, scene, id, options))
         }
+        MethodId::Kpeel => Box::new(kbuffer::kpeel::KPeel::new(gpu, scene)),
         MethodId::KbMdt32 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt32)?),
         MethodId::KbMdt64 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt64)?),
         MethodId::KbMdtPack => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Pack)?),

@@ -55,6 +55,7 @@
 //! fast store diverged in the same SIMD group may only run after that wait, and the slow
 //! fragment then counts as a lock failure.
 
+pub mod kpeel;
 pub mod list;
 pub mod mdt;
 pub mod predict;
@@ -188,7 +189,7 @@ pub fn max_k(id: MethodId) -> u32 {
     match id {
         MethodId::KplusArray | MethodId::KplusArrayR | MethodId::KbPs | MethodId::Kb => 256,
         MethodId::KbLl => 256,
-        MethodId::KplusHeap | MethodId::KplusSbuffer => 1024,
+        MethodId::KplusHeap | MethodId::KplusSbuffer | MethodId::Kpeel => 1024,
         MethodId::KbMdt32 | MethodId::KbMdt64 | MethodId::KbMdtPack => 512,
         _ => 4096,
     }
@@ -413,16 +414,22 @@ pub struct KFrame {
 
 impl KFrame {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, resolve_source: &str) -> KFrame {
+        Self::with_resolve(gpu, scene, id, resolve_source, "cs_resolve")
+    }
+
+    /// A frame whose resolve is the entry point `entry` of `resolve_source`.
+    pub fn with_resolve(
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        id: MethodId,
+        resolve_source: &str,
+        entry: &str,
+    ) -> KFrame {
         let layout = group_layout(gpu);
         let label = format!("strata.{id}.resolve");
         let module = shader::module(&gpu.device, &label, &coherent(gpu, resolve_source.into()));
-        let resolve = compute_pipeline(
-            gpu,
-            &label,
-            &module,
-            "cs_resolve",
-            &[&scene.frame_layout, &layout],
-        );
+        let resolve =
+            compute_pipeline(gpu, &label, &module, entry, &[&scene.frame_layout, &layout]);
         KFrame {
             id,
             layout,
@@ -609,10 +616,27 @@ impl KFrame {
 
     /// Records the resolve and asks for the counters.
     pub fn end(&mut self, ctx: &mut FrameContext<'_>, group: &wgpu::BindGroup) {
+        self.resolve(ctx, group);
+        self.read_counters(ctx);
+    }
+
+    /// Records the resolve pass.
+    pub fn resolve(&self, ctx: &mut FrameContext<'_>, group: &wgpu::BindGroup) {
         let frame_group = ctx.frame_group;
         dispatch_pixels(ctx, "resolve", &self.resolve, &[frame_group, group]);
+    }
+
+    /// Asks for the frame's counters.
+    pub fn read_counters(&self, ctx: &mut FrameContext<'_>) {
         if let Some(counters) = &self.counters {
             ctx.readback.words(counters, 0, COUNTERS);
+        }
+    }
+
+    /// Clears the per-pixel words again (between the passes of a multi-pass frame).
+    pub fn clear_pixels(&self, ctx: &mut FrameContext<'_>) {
+        if let Some(pixels) = self.cache.get("strata.kbuffer.pixels") {
+            ctx.encoder.clear_buffer(pixels, 0, None);
         }
     }
 }

@@ -147,6 +147,28 @@ fn composite_tail(s: ptr<function, Composite>, t: Tail) {
     (*s).transmittance *= 1.0 - opacity;
 }
 
+// Composites the `limit` nearest of the pixel's `n` stored fragments onto `s`, in order; with
+// --tail blend the rest join `t`.
+fn composite_stored(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) {
+    if n <= LOCAL_CAPACITY {
+        var local: array<Fragment, LOCAL_CAPACITY>;
+        for (var i = 0u; i < n; i++) {
+            local[i] = stored_fragment(p, i);
+        }
+        sort_local(&local, n);
+        for (var i = 0u; i < limit; i++) {
+            composite_front(s, local[i]);
+        }
+        if kp.tail_blend != 0u {
+            for (var i = limit; i < n; i++) {
+                tail_add_local(t, local[i]);
+            }
+        }
+    } else {
+        k_depth_sort(p, n, limit, s, t);
+    }
+}
+
 fn resolve_pixel(pixel: vec2<u32>) {
     let p = pixel.y * kp.width + pixel.x;
     let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
@@ -157,23 +179,7 @@ fn resolve_pixel(pixel: vec2<u32>) {
     if kp.tail_blend != 0u {
         t = tail_sums(p);
     }
-    if n <= LOCAL_CAPACITY {
-        var local: array<Fragment, LOCAL_CAPACITY>;
-        for (var i = 0u; i < n; i++) {
-            local[i] = stored_fragment(p, i);
-        }
-        sort_local(&local, n);
-        for (var i = 0u; i < limit; i++) {
-            composite_front(&s, local[i]);
-        }
-        if kp.tail_blend != 0u {
-            for (var i = limit; i < n; i++) {
-                tail_add_local(&t, local[i]);
-            }
-        }
-    } else {
-        k_depth_sort(p, n, limit, &s, &t);
-    }
+    composite_stored(p, n, limit, &s, &t);
     composite_tail(&s, t);
     output[p] = composite_finish(s);
     report_pixel(seen, limit);

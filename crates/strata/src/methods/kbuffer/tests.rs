@@ -33,6 +33,14 @@ fn options(size: u32, k: u32) -> RenderOptions {
     }
 }
 
+/// Options for the whole A-buffer picture (no k).
+fn all_fragments(size: u32) -> RenderOptions {
+    RenderOptions {
+        k: None,
+        ..options(size, 1)
+    }
+}
+
 fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
     let (expected, reference_stats) = crate::reference::render(s, opts).unwrap();
     for method in methods {
@@ -378,6 +386,8 @@ fn kbuffer_stages_validate() {
             "kplus-sbuffer.resolve",
             sbuffer::resolve_source(MethodId::KplusSbuffer),
         ),
+        ("kpeel.capture", kpeel::capture_source()),
+        ("kpeel.resolve", kpeel::resolve_source()),
     ];
     for (label, src) in stages {
         crate::gpu::shader::validate(label, &src);
@@ -637,4 +647,71 @@ fn auto_k_errors_are_clear() {
     assert!(e.to_string().contains("k-buffer methods"), "{e}");
     opts.k_auto = Some(0.0);
     assert!(crate::Renderer::new(crate::testing::gpu(), &s, &opts).is_err());
+}
+
+/// k-depth peeling equals the A-buffer for every k: ⌈N/k⌉ passes of the k nearest behind the
+/// last composited fragment (k = 1 is front-to-back peeling, k ≥ N one k+-buffer pass).
+#[test]
+fn kpeel_equals_the_full_reference_for_every_k() {
+    let s = scene("builtin:layers?n=24&coverage=0.5&order=random&seed=11");
+    let full = render_reference(&s, &all_fragments(48));
+    for k in [1, 3, 8, 32] {
+        let mut opts = options(48, k);
+        // Exact mode's first frame peels 8 layers, learns N = 24, and renders again.
+        let (actual, stats) = render_gpu(&s, &opts, "kpeel");
+        assert_close(
+            &format!("kpeel-k{k}"),
+            &actual,
+            &full,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        assert_eq!(stats.fragments_dropped, Some(0), "k={k}");
+        assert_eq!(stats.max_depth_complexity, Some(24));
+        assert_eq!(stats.lock_failures, Some(0));
+        // --layers fixes the passes: ⌈24/k⌉ in one frame.
+        opts.layers = Some(24);
+        let (_, stats) = render_gpu(&s, &opts, "kpeel");
+        assert_eq!(stats.geometry_passes, Some(24u32.div_ceil(k)), "k={k}");
+        assert_eq!(
+            stats.bytes_allocated,
+            Some(16 * (k as u64 + 1) * 48 * 48 + 136)
+        );
+        // Too few layers: what was not reached is reported as dropped.
+        opts.layers = Some(k);
+        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let (_, stats) = r.render("kpeel").unwrap();
+        if k < 24 {
+            let covered = (48 * 48 / 2) as u64;
+            assert_eq!(
+                stats.fragments_dropped,
+                Some(covered * (24 - k as u64)),
+                "k={k}"
+            );
+        }
+    }
+}
+
+/// Four coincident layers (exactly equal depth in every pixel) peeled two at a time: a bound on
+/// depth alone (the paper's) would lose two of them; the (depth, primitive) bound loses none.
+#[test]
+fn kpeel_loses_nothing_at_equal_depths() {
+    let mut s = scene("builtin:layers?n=6&coverage=1&order=front");
+    for i in 1..4 {
+        s.objects[i].mesh.positions = s.objects[0].mesh.positions.clone();
+    }
+    let opts = options(24, 2);
+    let expected = render_reference(&s, &all_fragments(24));
+    let (actual, stats) = render_gpu(&s, &opts, "kpeel");
+    assert_close(
+        "kpeel-coincident",
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    assert_eq!(stats.fragments_dropped, Some(0));
+    assert_eq!(stats.fragments_generated, Some(6 * 24 * 24));
 }

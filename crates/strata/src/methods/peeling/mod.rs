@@ -44,7 +44,7 @@ use crate::methods::Method;
 pub const FIRST_GUESS_LAYERS: u32 = 8;
 
 /// Layers for the next frame: fixed by the options, else the last measured depth complexity.
-fn layers_for(ctx: &FrameContext<'_>, measured: Option<u32>) -> u32 {
+pub(crate) fn layers_for(ctx: &FrameContext<'_>, measured: Option<u32>) -> u32 {
     ctx.options
         .layers
         .or(measured)
@@ -53,7 +53,11 @@ fn layers_for(ctx: &FrameContext<'_>, measured: Option<u32>) -> u32 {
 }
 
 /// Feedback of a peeling frame: the depth complexity it measured, and whether it peeled enough.
-fn peel_feedback(measured: &mut Option<u32>, recorded: &Recorded, totals: &Totals) -> MethodStats {
+pub(crate) fn peel_feedback(
+    measured: &mut Option<u32>,
+    recorded: &Recorded,
+    totals: &Totals,
+) -> MethodStats {
     *measured = Some(totals.max_depth.max(1));
     MethodStats {
         incomplete: totals.max_depth as u64 > recorded.capacity,

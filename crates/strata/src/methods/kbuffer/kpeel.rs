@@ -1,0 +1,161 @@
+//! `kpeel`: k-depth peeling (seed 003 §4.3), the unified buffer used as a multi-pass A-buffer in
+//! bounded memory.
+//!
+//! Passes: clear; init (compute: an empty running composite per pixel, kept in the frame's
+//! output); then P times a *capture* geometry pass — the k+-buffer capture (max-array for
+//! k ≤ 16, max-heap above, culling against a full pixel's maximum) of the fragments strictly
+//! after the pixel's last composited fragment in (depth, primitive) order — and a *resolve*
+//! (compute: sort the captured fragments, composite them behind the running result, whose last
+//! fragment becomes the next pass's bound); finish (compute: the accounting of pixels still
+//! unfinished). P = ⌈N/k⌉ with N `--layers`, else the depth complexity the previous frame
+//! measured (8 for a first frame); a frame whose depth complexity exceeds P·k reports the
+//! fragments it did not reach as dropped, the next frame peels enough, and exact mode renders
+//! again.
+//!
+//! The paper bounds each pass by the previous pass's farthest depth, so fragments at exactly that
+//! depth beyond the k captured are lost. The bound here is the (depth, primitive) pair, unique per
+//! fragment of a pixel, so nothing is lost at equal depths: exact, equal to the A-buffer (k = 1
+//! is front-to-back peeling one layer per pass; k ≥ N is a one-pass k+-buffer).
+//!
+//! Memory: 16 bytes per slot (k per pixel), 16 per pixel of counters, lock and culling bound,
+//! 136 of parameters and counters; the running composite lives in the frame's own output, so
+//! memory does not grow with the depth complexity. Limits: k ≤ 1024 (the max-heap's lock).
+
+use super::{
+    k_of, params_for, slots_capture_functions, KFrame, Storage, RESOLVE_WGSL, SLOTS_RESOLVE_WGSL,
+    SLOTS_WGSL, SLOT_BYTES, STORAGE_WGSL,
+};
+use crate::error::Result;
+use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::gpu::passes::{compute_pipeline, dispatch_pixels, storage_geometry_pass, NullTarget};
+use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::peeling::{layers_for, peel_feedback};
+use crate::methods::{Method, MethodId};
+
+const STATE_WGSL: &str = include_str!("kpeel_state.wgsl");
+
+pub fn capture_source() -> String {
+    [
+        slots_capture_functions().as_str(),
+        STATE_WGSL,
+        include_str!("kpeel_capture.wgsl"),
+    ]
+    .join("\n")
+}
+
+pub fn resolve_source() -> String {
+    [
+        STORAGE_WGSL,
+        SLOTS_WGSL,
+        SLOTS_RESOLVE_WGSL,
+        RESOLVE_WGSL,
+        STATE_WGSL,
+        include_str!("kpeel_resolve.wgsl"),
+    ]
+    .join("\n")
+}
+
+pub struct KPeel {
+    frame: KFrame,
+    capture: wgpu::RenderPipeline,
+    init: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
+    /// The depth complexity the last frame measured.
+    measured: Option<u32>,
+    null_target: Option<NullTarget>,
+}
+
+impl KPeel {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> KPeel {
+        let id = MethodId::Kpeel;
+        let source = resolve_source();
+        let mut frame = KFrame::with_resolve(gpu, scene, id, &source, "cs_kpeel_resolve");
+        let module = frame.capture_module(gpu, capture_source(), true);
+        let compute = crate::gpu::shader::module(&gpu.device, "strata.kpeel.compute", &source);
+        let layouts = [&scene.frame_layout, &frame.layout];
+        let pipeline = |entry: &str| {
+            compute_pipeline(
+                gpu,
+                &format!("strata.kpeel.{entry}"),
+                &compute,
+                entry,
+                &layouts,
+            )
+        };
+        KPeel {
+            capture: frame.capture_pipeline(gpu, scene, &module, "fs_kpeel"),
+            init: pipeline("cs_kpeel_init"),
+            finish: pipeline("cs_kpeel_finish"),
+            frame,
+            measured: None,
+            null_target: None,
+        }
+    }
+}
+
+impl Method for KPeel {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let k = k_of(ctx.options, MethodId::Kpeel)?;
+        let layers = layers_for(ctx, self.measured);
+        let passes = layers.div_ceil(k);
+        let storage = Storage {
+            label: "strata.kbuffer.slots",
+            bytes: ctx.pixels() * k as u64 * SLOT_BYTES,
+            clear: false,
+        };
+        // Every fragment is composited in order: no tail.
+        let mut params = params_for(ctx, k, k, false);
+        params.tail_blend = 0;
+        let (group, bytes) = self.frame.begin(ctx, params, storage)?;
+        let (w, h) = ctx.size();
+        let target = NullTarget::ensure(
+            &mut self.null_target,
+            ctx.gpu,
+            "strata.kpeel.null_target",
+            w,
+            h,
+        );
+        let frame_group = ctx.frame_group;
+        dispatch_pixels(ctx, "init", &self.init, &[frame_group, &group]);
+        for pass in 0..passes {
+            if pass > 0 {
+                self.frame.clear_pixels(ctx);
+            }
+            storage_geometry_pass(
+                ctx,
+                "capture",
+                target,
+                &self.capture,
+                &[frame_group, &group],
+            );
+            self.frame.resolve(ctx, &group);
+        }
+        dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &group]);
+        self.frame.read_counters(ctx);
+        Ok(Recorded {
+            geometry_passes: passes,
+            k: Some(k),
+            bytes_allocated: bytes,
+            capacity: passes as u64 * k as u64,
+            memory_ordering: Some(self.frame.memory_ordering()),
+        })
+    }
+
+    fn stats(
+        &mut self,
+        recorded: &Recorded,
+        totals: &Totals,
+        words: Option<&[u32]>,
+    ) -> MethodStats {
+        let Some(words) = words else {
+            return MethodStats::default();
+        };
+        let mut stats = peel_feedback(&mut self.measured, recorded, totals);
+        stats.lock_failures = Some(super::lock_failures(words));
+        stats
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        self.frame.resources()
+    }
+}
