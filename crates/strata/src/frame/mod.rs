@@ -386,6 +386,26 @@ impl FrameContext<'_> {
         (self.options.width, self.options.height)
     }
 
+    /// The memory ledger's rule: a method allocating `bytes` for this frame stays within
+    /// `--budget-mb`, checked before it allocates.
+    pub fn check_budget(&self, bytes: u64) -> Result<()> {
+        match self.options.budget_bytes() {
+            Some(budget) if bytes > budget => Err(Error::input(format!(
+                "{}: needs {:.2} MiB at {}x{}{}, more than --budget-mb {}",
+                self.method,
+                bytes as f64 / 1048576.0,
+                self.options.width,
+                self.options.height,
+                self.options
+                    .k
+                    .map(|k| format!(" and k={k}"))
+                    .unwrap_or_default(),
+                self.options.budget_mb.unwrap_or(0.0)
+            ))),
+            _ => Ok(()),
+        }
+    }
+
     /// Workgroups of 8×8 covering the image.
     pub fn pixel_workgroups(&self) -> (u32, u32) {
         (

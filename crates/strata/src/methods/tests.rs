@@ -665,3 +665,54 @@ fn sbuffer_is_exact_with_a_three_level_prefix_sum() {
     );
     assert_eq!(stats.fragments_dropped, Some(0));
 }
+
+/// The memory ledger: every method reports what it allocates, fits a budget of exactly that,
+/// and refuses a budget one byte smaller (pool methods may shrink their pool into it instead)
+/// or far too small with one clear error naming --budget-mb.
+#[test]
+fn every_method_keeps_within_the_budget() {
+    let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
+    let mut opts = options(32, Effect::Transparency);
+    opts.k = Some(4);
+    let mib = |bytes: u64| bytes as f64 / 1048576.0;
+    for m in super::MethodId::gpu_methods() {
+        let (_, stats) = render_gpu(&s, &opts, m.as_str());
+        let bytes = stats.bytes_allocated.unwrap();
+        assert!(bytes > 0, "{m}: reports no allocation");
+        for budget in [bytes, bytes - 1] {
+            let mut tight = opts.clone();
+            tight.budget_mb = Some(mib(budget));
+            let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &tight).unwrap();
+            match r.render(m.as_str()) {
+                Ok((_, st)) => {
+                    assert!(st.bytes_allocated.unwrap() <= budget, "{m}: over budget");
+                    assert!(
+                        budget == bytes || pool_method(m),
+                        "{m}: took {budget} < {bytes}"
+                    );
+                }
+                Err(e) => {
+                    assert!(budget < bytes, "{m}: refused its own size: {e}");
+                    assert!(e.to_string().contains("--budget-mb"), "{m}: {e}");
+                }
+            }
+        }
+        opts.budget_mb = Some(0.001);
+        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let e = r.render(m.as_str()).expect_err("1 KiB holds no method");
+        assert!(
+            matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
+            "{m}: {e}"
+        );
+        opts.budget_mb = None;
+    }
+}
+
+/// Methods whose fragment pool is sized from measured need (it shrinks into a budget).
+fn pool_method(m: super::MethodId) -> bool {
+    use super::MethodId::*;
+    matches!(
+        m,
+        AbufferLl | KbAbLl | KbLl | Sbuffer | KbSbuffer | KplusSbuffer
+    )
+}

@@ -248,8 +248,12 @@ impl FrameRecorder {
         let auto_k = self.choose_k()?;
         let frame = self.start_frame(encoder, targets.opaque_depth);
         let mut readback = ReadbackList::default();
-        let recorded =
-            self.with_method(encoder, &frame, &mut readback, draw, |m, ctx| m.record(ctx))?;
+        let recorded = self.with_method(encoder, &frame, &mut readback, draw, |m, ctx| {
+            let recorded = m.record(ctx)?;
+            // The ledger's backstop: every method checks before it allocates.
+            ctx.check_budget(recorded.bytes_allocated)?;
+            Ok(recorded)
+        })?;
         let histogram = self.record_histogram(encoder, &frame, &mut readback, draw)?;
         Ok(self.finish_frame(
             encoder,

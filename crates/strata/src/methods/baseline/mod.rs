@@ -94,6 +94,12 @@ impl Method for Blend {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let (w, h) = (ctx.options.width, ctx.options.height);
+        let order_bytes = if self.sort {
+            ctx.scene.triangle_count as u64 * 4
+        } else {
+            0
+        };
+        ctx.check_budget(ctx.pixels() * 12 + order_bytes)?;
         let target = self.cache.texture(
             gpu,
             "strata.blend.target",

@@ -12,7 +12,7 @@
 //! 16 per pixel of counters and head, 40 per pixel of tail sums with `--tail blend`.
 use super::{
     k_of, lock_failures, params_for, KFrame, KParams, Pool, Storage, COUNTER_ALLOCATED,
-    COUNTER_LOST, COUNTER_OVERFLOWED, PIXEL_BYTES, RESOLVE_WGSL, STORAGE_WGSL,
+    COUNTER_LOST, COUNTER_OVERFLOWED, RESOLVE_WGSL, STORAGE_WGSL,
 };
 use crate::error::Result;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
@@ -84,7 +84,10 @@ impl ListKBuffer {
         let bytes = self.pool.fit(
             ctx,
             self.id,
-            ctx.pixels() * PIXEL_BYTES + super::CONSTANT_BYTES,
+            super::frame_bytes_besides_storage(
+                ctx.pixels(),
+                ctx.options.tail == crate::Tail::Blend,
+            ),
             0,
         )?;
         let storage = Storage {

@@ -207,6 +207,21 @@ pub fn k_of(options: &RenderOptions, id: MethodId) -> Result<u32> {
     Ok(k)
 }
 
+/// Bytes of the tail sums: per pixel with `--tail blend`, else one stub.
+pub fn tail_bytes(pixels: u64, blend: bool) -> u64 {
+    if blend {
+        pixels * TAIL_BYTES
+    } else {
+        TAIL_BYTES
+    }
+}
+
+/// What a k-buffer frame allocates besides its fragment storage: per-pixel words, tail sums,
+/// parameters and counters.
+pub fn frame_bytes_besides_storage(pixels: u64, tail_blend: bool) -> u64 {
+    pixels * PIXEL_BYTES + tail_bytes(pixels, tail_blend) + CONSTANT_BYTES - TAIL_BYTES
+}
+
 /// Checks a per-pixel allocation against the budget and the device's binding limit.
 pub fn check_memory(
     ctx: &FrameContext<'_>,
@@ -214,18 +229,7 @@ pub fn check_memory(
     buffer_bytes: u64,
     total_bytes: u64,
 ) -> Result<()> {
-    if let Some(budget) = ctx.options.budget_bytes() {
-        if total_bytes > budget {
-            return Err(Error::input(format!(
-                "{method}: needs {:.1} MiB at k={} and {}x{}, more than --budget-mb {}",
-                total_bytes as f64 / 1048576.0,
-                ctx.options.k.unwrap_or(DEFAULT_K),
-                ctx.options.width,
-                ctx.options.height,
-                ctx.options.budget_mb.unwrap_or(0.0)
-            )));
-        }
-    }
+    ctx.check_budget(total_bytes)?;
     if buffer_bytes > ctx.gpu.max_storage_binding() {
         return Err(Error::unsupported(format!(
             "{method}: needs a {:.1} MiB buffer, more than the device binds ({:.1} MiB); lower --k or --size",
@@ -538,12 +542,8 @@ impl KFrame {
     ) -> Result<(wgpu::BindGroup, u64)> {
         let gpu = ctx.gpu;
         let px = ctx.pixels();
-        let tail_bytes = if params.tail_blend != 0 {
-            px * TAIL_BYTES
-        } else {
-            TAIL_BYTES
-        };
-        let total = storage.bytes + px * PIXEL_BYTES + tail_bytes + CONSTANT_BYTES - TAIL_BYTES;
+        let tail_bytes = tail_bytes(px, params.tail_blend != 0);
+        let total = storage.bytes + frame_bytes_besides_storage(px, params.tail_blend != 0);
         check_memory(ctx, self.id.as_str(), storage.bytes, total)?;
         let none = wgpu::BufferUsages::empty();
         let cache = &mut self.cache;

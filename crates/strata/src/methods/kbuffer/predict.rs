@@ -13,9 +13,7 @@
 //! for such scenes the prediction is an estimate (the achieved robustness, measured on the frame,
 //! is not).
 
-use super::{
-    max_k, mdt::Mdt, sbuffer::scan_levels, CONSTANT_BYTES, PIXEL_BYTES, SLOT_BYTES, TAIL_BYTES,
-};
+use super::{frame_bytes_besides_storage, max_k, mdt::Mdt, sbuffer::scan_levels, SLOT_BYTES};
 use crate::error::{Error, Result};
 use crate::frame::{RenderOptions, Tail};
 use crate::methods::MethodId;
@@ -51,12 +49,7 @@ pub fn frame_bytes(
     options: &RenderOptions,
 ) -> Option<u64> {
     let px = options.pixels();
-    let tail = if options.tail == Tail::Blend {
-        px * TAIL_BYTES
-    } else {
-        TAIL_BYTES
-    };
-    let fixed = px * PIXEL_BYTES + tail + CONSTANT_BYTES - TAIL_BYTES;
+    let fixed = frame_bytes_besides_storage(px, options.tail == Tail::Blend);
     let k = k as u64;
     let per_pixel = |bytes: u64| Some(fixed + bytes * k * px);
     match id {

@@ -24,7 +24,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::{
     k_of, params_for, KFrame, Pool, Storage, COUNTERS, COUNTER_OVERFLOWED, KPLUS_CAPTURE_WGSL,
-    PIXEL_BYTES, RESOLVE_WGSL, SLOT_ACCESS_WGSL, STORAGE_WGSL,
+    RESOLVE_WGSL, SLOT_ACCESS_WGSL, STORAGE_WGSL,
 };
 use crate::error::Result;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
@@ -240,7 +240,10 @@ impl Method for SBuffer {
         } else {
             0
         };
-        let fixed = pixels * PIXEL_BYTES + header + scan_words * 4 + super::CONSTANT_BYTES;
+        let fixed =
+            super::frame_bytes_besides_storage(pixels, ctx.options.tail == crate::Tail::Blend)
+                + header
+                + scan_words * 4;
         let pool_bytes = self.pool.fit(ctx, self.id, fixed, header)?;
         let storage = Storage {
             label: "strata.sbuffer.pool",

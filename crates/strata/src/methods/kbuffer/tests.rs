@@ -715,3 +715,30 @@ fn kpeel_loses_nothing_at_equal_depths() {
     assert_eq!(stats.fragments_dropped, Some(0));
     assert_eq!(stats.fragments_generated, Some(6 * 24 * 24));
 }
+
+/// The unified buffer (seed 003 §4.3) through one method: k = 1 is the nearest-surface image
+/// (a z-buffer of the transparent surfaces), k ≥ N the A-buffer image.
+#[test]
+fn unified_buffer_spans_z_buffer_to_a_buffer() {
+    let s = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
+    let nearest = options(48, 1);
+    let full = all_fragments(48);
+    let depth = crate::reference::render(&s, &full)
+        .unwrap()
+        .1
+        .max_depth_complexity
+        .unwrap();
+    for method in ["kplus-sbuffer", "kplus-heap"] {
+        check_k("unified-k1", &s, &nearest, &[method]);
+        let (actual, stats) = render_gpu(&s, &options(48, depth), method);
+        assert_eq!(stats.fragments_dropped, Some(0), "{method}");
+        assert_close(
+            &format!("unified-a-buffer-{method}"),
+            &actual,
+            &render_reference(&s, &full),
+            full.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+    }
+}

@@ -65,6 +65,9 @@ pub(crate) fn peel_feedback(
     }
 }
 
+/// f2b's bytes per pixel (see the module docs).
+const F2B_PIXEL_BYTES: u64 = 56;
+
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const TAG_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
@@ -163,6 +166,7 @@ impl Method for FrontToBack {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
+        ctx.check_budget(ctx.pixels() * F2B_PIXEL_BYTES)?;
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let color = self
             .cache
@@ -274,7 +278,7 @@ impl Method for FrontToBack {
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &acc_group]);
         Ok(Recorded {
             geometry_passes: layers,
-            bytes_allocated: ctx.pixels() * 56,
+            bytes_allocated: ctx.pixels() * F2B_PIXEL_BYTES,
             capacity: layers as u64,
             ..Default::default()
         })
@@ -394,6 +398,7 @@ impl Method for Dual {
         let null_target =
             NullTarget::ensure(&mut self.null_target, gpu, "strata.dual.null_target", w, h);
         let px = ctx.pixels();
+        ctx.check_budget(px * (108 + 4 * self.key_bytes))?;
         let none = wgpu::BufferUsages::empty();
         let key_bytes = self.key_bytes;
         let bounds = self
