@@ -181,6 +181,57 @@ const EXPERIMENTS: &[Experiment] = &[
         quality: false,
     },
     Experiment {
+        name: "memory-density",
+        description: "seed 003 Fig. 8: GPU ms per MiB of the bounded methods at k = 16 as coverage (25, 50, 100%) and fragments per pixel (16, 64) grow",
+        scenes: &[
+            "builtin:layers?n=16&coverage=0.25&order=random&seed=1",
+            "builtin:layers?n=16&coverage=0.5&order=random&seed=1",
+            "builtin:layers?n=16&coverage=1&order=random&seed=1",
+            "builtin:layers?n=64&coverage=0.25&order=random&seed=1",
+            "builtin:layers?n=64&coverage=0.5&order=random&seed=1",
+            "builtin:layers?n=64&coverage=1&order=random&seed=1",
+        ],
+        size_gpu: "1024x1024",
+        size_cpu: "128x128",
+        alpha: None,
+        frames: 5,
+        runs: || {
+            ["kplus-array", "kplus-heap", "kplus-sbuffer", "kb-sbuffer", "kb-mdt32", "abuffer-fixed"]
+                .iter()
+                .map(|m| Run::with_k(m, 16, true))
+                .collect()
+        },
+        quality: false,
+    },
+    Experiment {
+        name: "peel-vs-abuffer",
+        description: "seed 003 Fig. 9 right: kpeel (k = 8, 32), f2b, dual, abuffer-ll, abuffer-fixed, sbuffer, kplus-sbuffer (k = 128: every fragment) over depth complexity 8..128",
+        scenes: &[
+            "builtin:layers?n=8&coverage=1&order=random&seed=1",
+            "builtin:layers?n=16&coverage=1&order=random&seed=1",
+            "builtin:layers?n=32&coverage=1&order=random&seed=1",
+            "builtin:layers?n=64&coverage=1&order=random&seed=1",
+            "builtin:layers?n=128&coverage=1&order=random&seed=1",
+        ],
+        size_gpu: "1024x1024",
+        size_cpu: "96x96",
+        alpha: None,
+        frames: 5,
+        runs: || {
+            vec![
+                Run::with_k("kpeel", 8, true),
+                Run::with_k("kpeel", 32, true),
+                Run::plain("f2b"),
+                Run::plain("dual"),
+                Run::plain("abuffer-ll"),
+                Run::with_k("abuffer-fixed", 128, true),
+                Run::plain("sbuffer"),
+                Run::with_k("kplus-sbuffer", 128, true),
+            ]
+        },
+        quality: false,
+    },
+    Experiment {
         name: "kbuffer-quality",
         description: "seed 003 Fig. 10: image error of every k-buffer method at k = 16 against the exact reference, with heatmaps",
         scenes: &["builtin:nvpro?objects=1024&subdiv=16&seed=0"],
@@ -218,6 +269,8 @@ struct MethodResult {
     fragments_dropped: Option<u64>,
     max_depth_complexity: Option<u32>,
     bytes_allocated: Option<u64>,
+    /// Median GPU ms per MiB allocated (seed 003 Fig. 8's measure).
+    gpu_ms_per_mib: Option<f64>,
     lock_failures: Option<u64>,
     /// Quality experiments: error against the exact reference with every fragment.
     error_vs_reference: Option<strata::metrics::Comparison>,
@@ -290,15 +343,27 @@ pub fn run(a: BenchArgs) -> Result<()> {
         for e in EXPERIMENTS {
             println!("{:<16} {}", e.name, e.description);
         }
+        println!("{:<16} {}", "auto-k", crate::auto_k::DESCRIPTION);
         return Ok(());
     }
     let gpu = Gpu::new()?;
     let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    if a.experiment.as_deref() == Some("auto-k") {
+        let dir = a
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
+        return crate::auto_k::run(&gpu, a.size.as_deref(), a.frames, &dir);
+    }
     let k_flag = a.k;
     let (name, scenes, runs, size, alpha, frames, quality) = match &a.experiment {
         Some(n) => {
             let e = EXPERIMENTS.iter().find(|e| e.name == n).ok_or_else(|| {
-                let names: Vec<_> = EXPERIMENTS.iter().map(|e| e.name).collect();
+                let names: Vec<_> = EXPERIMENTS
+                    .iter()
+                    .map(|e| e.name)
+                    .chain(["auto-k"])
+                    .collect();
                 Error::input(format!(
                     "unknown experiment '{n}' (available: {})",
                     names.join(", ")
@@ -498,6 +563,7 @@ impl MethodResult {
             fragments_dropped: None,
             max_depth_complexity: None,
             bytes_allocated: None,
+            gpu_ms_per_mib: None,
             lock_failures: None,
             error_vs_reference: None,
             error_vs_reference_k: None,
@@ -596,6 +662,10 @@ fn measure(
     if let Some(last) = timed.last() {
         fill_counts(&mut result, last);
     }
+    result.gpu_ms_per_mib = match (result.median_gpu_ms, result.bytes_allocated) {
+        (Some(ms), Some(bytes)) if bytes > 0 => Some(ms / (bytes as f64 / 1048576.0)),
+        _ => None,
+    };
     Ok(result)
 }
 
@@ -680,7 +750,7 @@ fn print_table(r: &BenchReport) {
 
 fn csv(r: &BenchReport) -> String {
     let mut s = String::from(
-        "experiment,scene,width,height,adapter,cpu_figures,commit,label,method,k,culling,median_gpu_ms,median_wall_ms,fps,blocking_readbacks,geometry_passes,fragments,fragments_dropped,max_depth_complexity,bytes_allocated,lock_failures,rmse,flip_mean,pct_over_2,rmse_vs_k,flip_vs_k,pct_over_2_vs_k,skipped\n",
+        "experiment,scene,width,height,adapter,cpu_figures,commit,label,method,k,culling,median_gpu_ms,median_wall_ms,fps,blocking_readbacks,geometry_passes,fragments,fragments_dropped,max_depth_complexity,bytes_allocated,gpu_ms_per_mib,lock_failures,rmse,flip_mean,pct_over_2,rmse_vs_k,flip_vs_k,pct_over_2_vs_k,skipped\n",
     );
     let opt = |v: Option<String>| v.unwrap_or_default();
     for m in &r.results {
@@ -713,6 +783,7 @@ fn csv(r: &BenchReport) -> String {
             opt(m.fragments_dropped.map(|v| v.to_string())),
             opt(m.max_depth_complexity.map(|v| v.to_string())),
             opt(m.bytes_allocated.map(|v| v.to_string())),
+            opt(m.gpu_ms_per_mib.map(|v| format!("{v:.4}"))),
             opt(m.lock_failures.map(|v| v.to_string())),
             err(m.error_vs_reference),
             err(m.error_vs_reference_k),

@@ -1,5 +1,6 @@
 //! `strata`: render, compare and benchmark multi-fragment methods from the command line.
 
+mod auto_k;
 mod bench;
 
 use std::path::{Path, PathBuf};

@@ -134,6 +134,8 @@ pub struct SBuffer {
     scan: Option<ScanPlan>,
     /// The fragment pool, sized from measured need.
     pool: Pool,
+    /// kplus-sbuffer: the k of the last frame whose need came back, and that need.
+    need_at_k: Option<(u32, u64)>,
     null_target: Option<NullTarget>,
     cache: ResourceCache,
 }
@@ -176,6 +178,7 @@ impl SBuffer {
             scan_layout,
             scan: None,
             pool: Pool::new(options, FRAGMENT_BYTES),
+            need_at_k: None,
             null_target: None,
             cache: ResourceCache::default(),
         }
@@ -244,6 +247,13 @@ impl Method for SBuffer {
             super::frame_bytes_besides_storage(pixels, ctx.options.tail == crate::Tail::Blend)
                 + header
                 + scan_words * 4;
+        // A larger k than the need was measured at (--k auto following the scene) needs at most
+        // k/k₀ times the slots, since min(f, k) ≤ (k/k₀)·min(f, k₀): grow to that bound rather
+        // than overflow a frame.
+        if let Some((k0, need)) = self.need_at_k.filter(|&(k0, _)| k > k0) {
+            let bound = need.saturating_mul(k as u64).div_ceil(k0 as u64);
+            self.pool.capacity = self.pool.capacity.max(bound + bound / 4);
+        }
         let pool_bytes = self.pool.fit(ctx, self.id, fixed, header)?;
         let storage = Storage {
             label: "strata.sbuffer.pool",
@@ -308,8 +318,14 @@ impl Method for SBuffer {
             Some(&total) => total as u64,
         };
         let overflowed = wide(words, COUNTER_OVERFLOWED) > 0 || needed > recorded.capacity;
-        self.pool
-            .feedback(self.id, needed, overflowed, recorded.capacity)
+        let mut stats = self
+            .pool
+            .feedback(self.id, needed, overflowed, recorded.capacity);
+        if self.id == MethodId::KplusSbuffer {
+            self.need_at_k = recorded.k.map(|k| (k, needed));
+            stats.lock_failures = Some(super::lock_failures(words));
+        }
+        stats
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {

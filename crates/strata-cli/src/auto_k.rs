@@ -1,0 +1,251 @@
+//! `strata bench auto-k` (seed 003 Figs. 3–4): the k that `--k auto` chooses, frame after frame,
+//! as the view orbits a model and as an animation runs, under two memory budgets.
+//!
+//! Each sequence runs as an application would: one recorder, frame t's depth-complexity
+//! histogram choosing frame t + 1's k. The experiment waits for each frame's statistics before
+//! recording the next, since it measures the choice (k, predicted and achieved robustness),
+//! not speed; its GPU times are those of single frames, not of a steady loop.
+
+use std::path::Path;
+
+use serde::Serialize;
+use strata::error::{Error, Result};
+use strata::frame::FrameStats;
+use strata::gpu::Gpu;
+use strata::scene::{loaders, Camera};
+use strata::{FrameRecorder, MethodId, RenderOptions};
+
+pub const DESCRIPTION: &str = "seed 003 Figs. 3-4: the k --k auto picks (R = 0.95) per view of a dragon orbit and per frame of balls, kplus-heap and kplus-sbuffer, budgets of 64 and 256 bytes per pixel";
+
+const ROBUSTNESS: f64 = 0.95;
+const BUDGET_BYTES_PER_PIXEL: [f64; 2] = [64.0, 256.0];
+const METHODS: [MethodId; 2] = [MethodId::KplusHeap, MethodId::KplusSbuffer];
+const DEFAULT_STEPS: u32 = 12;
+
+#[derive(Serialize)]
+struct Row {
+    sequence: &'static str,
+    step: u32,
+    method: MethodId,
+    budget_mb: f64,
+    k: Option<u32>,
+    k_budget: Option<u32>,
+    histogram_frame: Option<u64>,
+    predicted_robustness: Option<f64>,
+    achieved_robustness: Option<f64>,
+    max_depth_complexity: Option<u32>,
+    fragments: Option<u64>,
+    bytes_allocated: Option<u64>,
+    /// The fragment pool (kplus-sbuffer) was smaller than the frame's regions.
+    overflow: Option<bool>,
+    gpu_ms: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    experiment: &'static str,
+    adapter: String,
+    backend: String,
+    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
+    cpu_figures: bool,
+    width: u32,
+    height: u32,
+    robustness: f64,
+    rows: Vec<Row>,
+}
+
+/// The camera `step` of `steps` around the model's vertical axis.
+fn orbit(base: &Camera, step: u32, steps: u32) -> Camera {
+    let angle = std::f32::consts::TAU * step as f32 / steps as f32;
+    let turn = glam::Quat::from_axis_angle(base.up.normalize(), angle);
+    Camera {
+        eye: base.target + turn * (base.eye - base.target),
+        ..*base
+    }
+}
+
+fn row(sequence: &'static str, step: u32, method: MethodId, budget_mb: f64, s: FrameStats) -> Row {
+    let auto = s.k_auto.as_ref();
+    Row {
+        sequence,
+        step,
+        method,
+        budget_mb,
+        k: s.k,
+        k_budget: auto.map(|a| a.k_budget),
+        histogram_frame: auto.and_then(|a| a.histogram_frame),
+        predicted_robustness: auto.and_then(|a| a.predicted_robustness),
+        achieved_robustness: auto.and_then(|a| a.achieved_robustness),
+        max_depth_complexity: s.max_depth_complexity,
+        fragments: s.fragments_generated,
+        bytes_allocated: s.bytes_allocated,
+        overflow: s.overflow,
+        gpu_ms: s.gpu_ms_total,
+    }
+}
+
+/// Records one frame and waits for its statistics.
+fn frame(gpu: &Gpu, recorder: &mut FrameRecorder) -> Result<FrameStats> {
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    recorder.record(&mut encoder, &Default::default(), None)?;
+    gpu.queue.submit([encoder.finish()]);
+    Ok(recorder.wait_stats()?.stats)
+}
+
+pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Result<()> {
+    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let (width, height) = match size {
+        Some(s) => crate::parse_size(s)?,
+        None if cpu_figures => (256, 256),
+        None => (1024, 1024),
+    };
+    let steps = steps.unwrap_or(DEFAULT_STEPS);
+    if steps == 0 {
+        return Err(Error::input("--frames must be at least 1"));
+    }
+    let mut dragon = loaders::load_scene("builtin:dragon")?;
+    dragon.override_alpha(0.5);
+    let base_camera = dragon.camera_or_framing();
+    let pixels = width as f64 * height as f64;
+    let bar = indicatif::ProgressBar::new(
+        (2 * METHODS.len() * BUDGET_BYTES_PER_PIXEL.len()) as u64 * steps as u64,
+    );
+    let mut rows = Vec::new();
+    for method in METHODS {
+        for bytes_per_pixel in BUDGET_BYTES_PER_PIXEL {
+            let budget_mb = bytes_per_pixel * pixels / 1048576.0;
+            let options = RenderOptions {
+                width,
+                height,
+                k_auto: Some(ROBUSTNESS),
+                budget_mb: Some(budget_mb),
+                ..Default::default()
+            };
+            bar.set_message(format!("{method} {budget_mb:.1} MiB orbit"));
+            let mut recorder = FrameRecorder::new(gpu, &dragon, method, &options)?;
+            for step in 0..steps {
+                recorder.set_camera(&orbit(&base_camera, step, steps));
+                rows.push(row(
+                    "dragon-orbit",
+                    step,
+                    method,
+                    budget_mb,
+                    frame(gpu, &mut recorder)?,
+                ));
+                bar.inc(1);
+            }
+            bar.set_message(format!("{method} {budget_mb:.1} MiB balls"));
+            let balls = |t: u32| loaders::load_scene(&format!("builtin:balls?frame={t}"));
+            let mut recorder = FrameRecorder::new(gpu, &balls(0)?, method, &options)?;
+            for step in 0..steps {
+                if step > 0 {
+                    recorder.set_geometry(&balls(step)?)?;
+                }
+                rows.push(row(
+                    "balls",
+                    step,
+                    method,
+                    budget_mb,
+                    frame(gpu, &mut recorder)?,
+                ));
+                bar.inc(1);
+            }
+        }
+    }
+    bar.finish_and_clear();
+    let report = Report {
+        experiment: "auto-k",
+        adapter: gpu.info.name.clone(),
+        backend: gpu.backend_name(),
+        cpu_figures,
+        width,
+        height,
+        robustness: ROBUSTNESS,
+        rows,
+    };
+    print(&report);
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
+    let base = dir.join("auto-k");
+    crate::write_json(&base.with_extension("json"), &report)?;
+    std::fs::write(base.with_extension("csv"), csv(&report))
+        .map_err(|e| Error::runtime(format!("cannot write CSV: {e}")))?;
+    eprintln!("wrote {}.json and .csv", base.display());
+    Ok(())
+}
+
+fn opt<T: ToString>(v: Option<T>) -> String {
+    v.map(|v| v.to_string()).unwrap_or_default()
+}
+
+fn csv(r: &Report) -> String {
+    let mut s = String::from("sequence,step,method,budget_mb,k,k_budget,histogram_frame,predicted_robustness,achieved_robustness,max_depth_complexity,fragments,bytes_allocated,overflow,gpu_ms\n");
+    for row in &r.rows {
+        s += &[
+            row.sequence.to_string(),
+            row.step.to_string(),
+            row.method.to_string(),
+            format!("{:.3}", row.budget_mb),
+            opt(row.k),
+            opt(row.k_budget),
+            opt(row.histogram_frame),
+            opt(row.predicted_robustness.map(|v| format!("{v:.4}"))),
+            opt(row.achieved_robustness.map(|v| format!("{v:.4}"))),
+            opt(row.max_depth_complexity),
+            opt(row.fragments),
+            opt(row.bytes_allocated),
+            opt(row.overflow),
+            opt(row.gpu_ms.map(|v| format!("{v:.3}"))),
+        ]
+        .join(",");
+        s.push('\n');
+    }
+    s
+}
+
+fn print(r: &Report) {
+    println!(
+        "auto-k — {}x{} R = {} on {} ({}){}",
+        r.width,
+        r.height,
+        r.robustness,
+        r.adapter,
+        r.backend,
+        if r.cpu_figures {
+            " — CPU FIGURES"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "{:<13} {:>4} {:<14} {:>9} {:>4} {:>8} {:>9} {:>9} {:>6}",
+        "sequence",
+        "step",
+        "method",
+        "budget MiB",
+        "k",
+        "k_budget",
+        "predicted",
+        "achieved",
+        "depth"
+    );
+    for row in &r.rows {
+        let pct = |v: Option<f64>| {
+            v.map(|v| format!("{:.1}%", 100.0 * v))
+                .unwrap_or("-".into())
+        };
+        println!(
+            "{:<13} {:>4} {:<14} {:>9.2} {:>4} {:>8} {:>9} {:>9} {:>6} {:>8}",
+            row.sequence,
+            row.step,
+            row.method.as_str(),
+            row.budget_mb,
+            opt(row.k),
+            opt(row.k_budget),
+            pct(row.predicted_robustness),
+            pct(row.achieved_robustness),
+            opt(row.max_depth_complexity),
+            opt(row.overflow)
+        );
+    }
+}
