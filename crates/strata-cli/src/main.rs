@@ -99,6 +99,13 @@ struct RenderArgs {
     /// k is the smallest that does within --budget-mb.
     #[arg(long)]
     robustness: Option<f64>,
+    /// wboit: the weight function (McGuire & Bavoil 2013, equations 7-10).
+    #[arg(long, value_enum, default_value = "eq7")]
+    weight: strata::Weight,
+    /// wboit: multiplies view-space distances before the weight function (its constants assume
+    /// distances of 0.1 to 500 units).
+    #[arg(long, default_value_t = 1.0)]
+    depth_scale: f64,
     /// Fragments beyond k (k-buffer methods).
     #[arg(long, value_enum, default_value = "drop")]
     tail: Tail,
@@ -429,6 +436,8 @@ fn render(a: RenderArgs) -> Result<()> {
     }
     options.max_tries = a.max_tries;
     options.layers = a.layers;
+    options.weight = a.weight;
+    options.depth_scale = a.depth_scale;
     options.validate()?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",

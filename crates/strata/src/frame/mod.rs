@@ -80,6 +80,37 @@ pub enum Tail {
     Blend,
 }
 
+/// The weight function of weighted blended OIT: McGuire & Bavoil 2013, equations 7–10.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Weight {
+    /// α·clamp(10 / (10⁻⁵ + (|z|/5)² + (|z|/200)⁶), 10⁻², 3·10³).
+    #[default]
+    Eq7,
+    /// α·clamp(10 / (10⁻⁵ + (|z|/10)³ + (|z|/200)⁶), 10⁻², 3·10³).
+    Eq8,
+    /// α·clamp(0.03 / (10⁻⁵ + (|z|/200)⁴), 10⁻², 3·10³).
+    Eq9,
+    /// α·max(10⁻², 3·10³·(1 − d)³), d the window depth.
+    Eq10,
+}
+
+impl Weight {
+    pub fn index(self) -> u32 {
+        self as u32
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Weight::Eq7 => "eq7",
+            Weight::Eq8 => "eq8",
+            Weight::Eq9 => "eq9",
+            Weight::Eq10 => "eq10",
+        }
+    }
+}
+
 impl FromStr for Tail {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
@@ -114,6 +145,11 @@ pub struct RenderOptions {
     /// Depth peeling: a fixed number of layers per frame; by default the last frame's depth
     /// complexity.
     pub layers: Option<u32>,
+    /// wboit: the weight function.
+    pub weight: Weight,
+    /// wboit: view-space distances are multiplied by this before the weight function, whose
+    /// constants assume distances of 0.1 to 500 units.
+    pub depth_scale: f64,
     /// `--k auto --robustness R`: each frame's k is chosen from the last depth-complexity
     /// histogram to capture the fraction R of the fragments within `budget_mb` (see
     /// [`crate::methods::kbuffer::predict`]); `k` is then ignored.
@@ -138,6 +174,8 @@ impl Default for RenderOptions {
             max_tries: None,
             layers: None,
             k_auto: None,
+            weight: Weight::Eq7,
+            depth_scale: 1.0,
             allocation_counter_start: 0,
         }
     }
@@ -163,6 +201,12 @@ impl RenderOptions {
             if b.is_nan() || b <= 0.0 {
                 return Err(Error::input(format!("--budget-mb {b} must be positive")));
             }
+        }
+        if !(self.depth_scale.is_finite() && self.depth_scale > 0.0) {
+            return Err(Error::input(format!(
+                "--depth-scale {} must be a positive number",
+                self.depth_scale
+            )));
         }
         if let Some(r) = self.k_auto {
             if !(r > 0.0 && r <= 1.0) {

@@ -12,6 +12,7 @@ pub mod baseline;
 pub mod capture;
 pub mod kbuffer;
 pub mod peeling;
+pub mod weighted;
 
 use std::fmt;
 use std::str::FromStr;
@@ -49,10 +50,11 @@ pub enum MethodId {
     KbSbuffer,
     KplusSbuffer,
     Kpeel,
+    Wboit,
 }
 
 impl MethodId {
-    pub const ALL: [MethodId; 22] = [
+    pub const ALL: [MethodId; 23] = [
         MethodId::Reference,
         MethodId::Unsorted,
         MethodId::Sorted,
@@ -75,6 +77,7 @@ impl MethodId {
         MethodId::KbSbuffer,
         MethodId::KplusSbuffer,
         MethodId::Kpeel,
+        MethodId::Wboit,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -101,6 +104,7 @@ impl MethodId {
             MethodId::KbSbuffer => "kb-sbuffer",
             MethodId::KplusSbuffer => "kplus-sbuffer",
             MethodId::Kpeel => "kpeel",
+            MethodId::Wboit => "wboit",
         }
     }
 
@@ -214,6 +218,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             geometry_passes: "1",
             memory: "12·W·H + 4·triangles",
             summary: "alpha blending after a back-to-front sort of triangle centroids",
+        },
+        MethodInfo {
+            id: "wboit",
+            family: "weighted",
+            exact: false,
+            geometry_passes: "1",
+            memory: "14·W·H",
+            summary: "weighted blended OIT (McGuire & Bavoil 2013): weighted average color over exact coverage, weights of eqs. 7-10 (--weight, --depth-scale); what engines ship",
         },
         MethodInfo {
             id: "f2b",
@@ -397,6 +409,7 @@ pub fn create(
         MethodId::Unsorted => Box::new(baseline::Blend::new(gpu, scene, false)),
         MethodId::Sorted => Box::new(baseline::Blend::new(gpu, scene, true)),
         MethodId::F2b => Box::new(peeling::FrontToBack::new(gpu, scene)),
+        MethodId::Wboit => Box::new(weighted::Wboit::new(gpu, scene)),
         MethodId::Dual => Box::new(peeling::Dual::new(gpu, scene)),
         MethodId::AbufferLl | MethodId::KbAbLl | MethodId::KbLl => {
             Box::new(ListKBuffer::new(gpu, scene, id, options))

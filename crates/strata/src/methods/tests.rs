@@ -57,6 +57,14 @@ fn every_stage_validates() {
             "f2b.accumulate",
             include_str!("peeling/f2b_accumulate.wgsl"),
         ),
+        (
+            "wboit.accumulate",
+            include_str!("weighted/wboit_accumulate.wgsl"),
+        ),
+        (
+            "wboit.composite",
+            include_str!("weighted/wboit_composite.wgsl"),
+        ),
     ];
     for (label, src) in stages {
         crate::gpu::shader::validate(label, src);

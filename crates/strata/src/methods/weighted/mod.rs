@@ -1,0 +1,237 @@
+//! Approximate OIT as engines ship it: `wboit`, weighted blended order-independent transparency
+//! (McGuire & Bavoil 2013, JCGT 2(2)).
+//!
+//! Passes: accumulate (1 geometry pass into two targets: Rgba16Float Σ w·α·c and Σ w·α with
+//! additive blending, R16Float revealage Π(1 − α) by multiplicative blending, and an atomic
+//! per-pixel fragment count); composite (compute: the weighted average color times the coverage
+//! 1 − Π(1 − α), into the output). The weight w(z, α) is one of the paper's equations 7–10
+//! (`--weight`), of the view-space distance times `--depth-scale` (the constants assume 0.1–500
+//! units) or, for equation 10, of the window depth. Memory: 8 + 2 + 4 = 14 bytes per pixel.
+//!
+//! Not exact, by design: the coverage is exact, the color a weighted average that approaches
+//! the ordered composite only when the weights fall steeply with depth. Its error against the
+//! reference is measured (`strata bench approx-quality`), and its own closed form is tested
+//! (`cpu::wboit`). Translucency gets Fresnel opacity but no absorption between surfaces, which
+//! needs ordered neighbours; the complexity effect counts every fragment.
+
+pub mod cpu;
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::error::Result;
+use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::gpu::binding::{self, Slot};
+use crate::gpu::passes::{attachment, capture_pipeline, compute_pipeline, dispatch_pixels};
+use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::methods::Method;
+
+const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const REVEALAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
+/// Bytes per pixel: the two targets and the fragment count.
+pub const WBOIT_PIXEL_BYTES: u64 = 8 + 2 + 4;
+
+/// Keep in sync with `WboitParams` in wboit_accumulate.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct WboitParams {
+    pub weight: u32,
+    pub depth_scale: f32,
+    pub _pad: [u32; 2],
+}
+
+pub struct Wboit {
+    accumulate_layout: wgpu::BindGroupLayout,
+    composite_layout: wgpu::BindGroupLayout,
+    accumulate: wgpu::RenderPipeline,
+    composite: wgpu::ComputePipeline,
+    cache: ResourceCache,
+}
+
+impl Wboit {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Wboit {
+        let device = &gpu.device;
+        let accumulate_layout = binding::layout(
+            device,
+            "strata.wboit.accumulate.layout",
+            &[Slot::Uniform, Slot::StorageRw],
+        );
+        let composite_layout = binding::layout(
+            device,
+            "strata.wboit.composite.layout",
+            &[
+                Slot::StorageRw,
+                Slot::TextureFloat,
+                Slot::TextureFloat,
+                Slot::StorageRw,
+            ],
+        );
+        let module = shader::module(
+            device,
+            "strata.wboit.accumulate",
+            include_str!("wboit_accumulate.wgsl"),
+        );
+        let additive = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let reveal = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::Zero,
+            dst_factor: wgpu::BlendFactor::OneMinusSrc,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let accumulate = capture_pipeline(
+            gpu,
+            "strata.wboit.accumulate",
+            &module,
+            "fs_wboit",
+            &[&scene.frame_layout, &accumulate_layout],
+            &[
+                Some(wgpu::ColorTargetState {
+                    format: ACCUMULATION_FORMAT,
+                    blend: Some(wgpu::BlendState {
+                        color: additive,
+                        alpha: additive,
+                    }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                }),
+                Some(wgpu::ColorTargetState {
+                    format: REVEALAGE_FORMAT,
+                    blend: Some(wgpu::BlendState {
+                        color: reveal,
+                        alpha: reveal,
+                    }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                }),
+            ],
+            None,
+        );
+        let module = shader::module(
+            device,
+            "strata.wboit.composite",
+            include_str!("wboit_composite.wgsl"),
+        );
+        let composite = compute_pipeline(
+            gpu,
+            "strata.wboit.composite",
+            &module,
+            "cs_composite",
+            &[&scene.frame_layout, &composite_layout],
+        );
+        Wboit {
+            accumulate_layout,
+            composite_layout,
+            accumulate,
+            composite,
+            cache: ResourceCache::default(),
+        }
+    }
+}
+
+impl Method for Wboit {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let gpu = ctx.gpu;
+        let bytes = ctx.pixels() * WBOIT_PIXEL_BYTES;
+        ctx.check_budget(bytes)?;
+        let (w, h) = ctx.size();
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let accumulation = self
+            .cache
+            .texture(
+                gpu,
+                "strata.wboit.accumulation",
+                (w, h),
+                ACCUMULATION_FORMAT,
+                usage,
+            )
+            .create_view(&Default::default());
+        let revealage = self
+            .cache
+            .texture(
+                gpu,
+                "strata.wboit.revealage",
+                (w, h),
+                REVEALAGE_FORMAT,
+                usage,
+            )
+            .create_view(&Default::default());
+        let counts = self.cache.storage(
+            gpu,
+            "strata.wboit.counts",
+            ctx.pixels() * 4,
+            wgpu::BufferUsages::empty(),
+        )?;
+        let params = WboitParams {
+            weight: ctx.options.weight.index(),
+            depth_scale: ctx.options.depth_scale as f32,
+            _pad: [0; 2],
+        };
+        let params = self
+            .cache
+            .uniform(gpu, "strata.wboit.params", bytemuck::bytes_of(&params));
+        let accumulate_group = binding::group(
+            &gpu.device,
+            "strata.wboit.accumulate.group",
+            &self.accumulate_layout,
+            &[params.as_entire_binding(), counts.as_entire_binding()],
+        );
+        let composite_group = binding::group(
+            &gpu.device,
+            "strata.wboit.composite.group",
+            &self.composite_layout,
+            &[
+                counts.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&accumulation),
+                wgpu::BindingResource::TextureView(&revealage),
+                ctx.output.as_entire_binding(),
+            ],
+        );
+        ctx.encoder.clear_buffer(&counts, 0, None);
+        let frame_group = ctx.frame_group;
+        {
+            let label = ctx.label("accumulate");
+            let draw = ctx.draw;
+            let triangles = ctx.scene.triangle_count;
+            let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(&label),
+                color_attachments: &[
+                    attachment(&accumulation, wgpu::Color::TRANSPARENT),
+                    attachment(&revealage, wgpu::Color::WHITE),
+                ],
+                depth_stencil_attachment: None,
+                timestamp_writes: ctx.timer.render_pass("accumulate"),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.accumulate);
+            pass.set_bind_group(0, Some(frame_group), &[]);
+            pass.set_bind_group(1, Some(&accumulate_group), &[]);
+            match draw {
+                Some(draw) => draw(&mut pass),
+                None => pass.draw(0..triangles * 3, 0..1),
+            }
+        }
+        dispatch_pixels(
+            ctx,
+            "composite",
+            &self.composite,
+            &[frame_group, &composite_group],
+        );
+        Ok(Recorded {
+            geometry_passes: 1,
+            bytes_allocated: bytes,
+            ..Default::default()
+        })
+    }
+
+    fn stats(&mut self, _: &Recorded, _: &Totals, _: Option<&[u32]>) -> MethodStats {
+        MethodStats::default()
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        vec![&self.cache]
+    }
+}
+
+#[cfg(test)]
+mod tests;
