@@ -62,6 +62,9 @@ pub struct Run {
     method: String,
     k: Option<u32>,
     culling: bool,
+    /// wboit's weight function and depth scale.
+    weight: strata::Weight,
+    depth_scale: f64,
 }
 
 impl Run {
@@ -71,15 +74,26 @@ impl Run {
             method: method.into(),
             k: None,
             culling: true,
+            weight: strata::Weight::default(),
+            depth_scale: 1.0,
+        }
+    }
+
+    fn wboit(weight: strata::Weight, depth_scale: f64) -> Run {
+        Run {
+            label: format!("wboit {} scale={depth_scale}", weight.name()),
+            weight,
+            depth_scale,
+            ..Run::plain("wboit")
         }
     }
 
     fn with_k(method: &str, k: u32, culling: bool) -> Run {
         Run {
             label: format!("{method} k={k}{}", if culling { "" } else { " no-culling" }),
-            method: method.into(),
             k: Some(k),
             culling,
+            ..Run::plain(method)
         }
     }
 }
@@ -117,6 +131,36 @@ const K_METHODS: &[&str] = &[
 ];
 
 const EXPERIMENTS: &[Experiment] = &[
+    Experiment {
+        name: "approx-quality",
+        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), unsorted, sorted, kplus-heap k=8 and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
+        scenes: &[
+            "builtin:nvpro?objects=1024&subdiv=16&seed=0",
+            "builtin:dragon",
+            "builtin:demo",
+            "builtin:balls",
+        ],
+        size_gpu: "1024x1024",
+        size_cpu: "192x192",
+        alpha: None,
+        frames: 5,
+        runs: || {
+            use strata::Weight;
+            let mut runs: Vec<Run> = [Weight::Eq7, Weight::Eq8, Weight::Eq9, Weight::Eq10]
+                .into_iter()
+                .flat_map(|w| [Run::wboit(w, 1.0), Run::wboit(w, 50.0)])
+                .collect();
+            runs.extend([
+                Run::plain("unsorted"),
+                Run::plain("sorted"),
+                Run::with_k("kplus-heap", 8, true),
+                Run::plain("abuffer-ll"),
+                Run::with_k("kpeel", 8, true),
+            ]);
+            runs
+        },
+        quality: true,
+    },
     Experiment {
         name: "realtime",
         description: "real-time frames of every GPU method on the dragon (opacity 0.5) and nvpro: GPU ms and frames per second, no blocking readback",
@@ -459,6 +503,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
             let mut options = options.clone();
             options.k = run.k;
             options.culling = run.culling;
+            options.weight = run.weight;
+            options.depth_scale = run.depth_scale;
             match measure(&gpu, &scene_data, &options, run, a.warmup, frames, &bar) {
                 Ok(mut result) => {
                     result.scene = scene.clone();
@@ -475,7 +521,11 @@ pub fn run(a: BenchArgs) -> Result<()> {
                             Some(strata::metrics::compare(&truth, &picture)?);
                         result.error_vs_reference_k =
                             Some(strata::metrics::compare(&with_k, &picture)?);
-                        let stem = format!("{name}-{}", run.label.replace([' ', '='], "-"));
+                        let stem = format!(
+                            "{name}-{}-{}",
+                            short_scene(scene).trim_start_matches("builtin:"),
+                            run.label.replace([' ', '='], "-")
+                        );
                         strata::render::save_png(&picture, &dir.join(format!("{stem}.png")))?;
                         strata::render::save_png(
                             &strata::metrics::diff_heatmap(&truth, &picture),
