@@ -133,7 +133,7 @@ const K_METHODS: &[&str] = &[
 const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "approx-quality",
-        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), unsorted, sorted, kplus-heap k=8 and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
+        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit, unsorted, sorted, kplus-heap k=8 and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
         scenes: &[
             "builtin:nvpro?objects=1024&subdiv=16&seed=0",
             "builtin:dragon",
@@ -151,6 +151,7 @@ const EXPERIMENTS: &[Experiment] = &[
                 .flat_map(|w| [Run::wboit(w, 1.0), Run::wboit(w, 50.0)])
                 .collect();
             runs.extend([
+                Run::plain("mboit"),
                 Run::plain("unsorted"),
                 Run::plain("sorted"),
                 Run::with_k("kplus-heap", 8, true),

@@ -26,6 +26,7 @@ pub fn wanted_features() -> wgpu::Features {
         | wgpu::Features::PIPELINE_STATISTICS_QUERY
         | wgpu::Features::MEMORY_DECORATION_COHERENT
         | wgpu::Features::PASSTHROUGH_SHADERS
+        | wgpu::Features::FLOAT32_BLENDABLE
 }
 
 /// A device and queue with the features and limits they were created with: strata's own

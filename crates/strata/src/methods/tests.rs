@@ -65,6 +65,12 @@ fn every_stage_validates() {
             "wboit.composite",
             include_str!("weighted/wboit_composite.wgsl"),
         ),
+        ("mboit.moments", &super::weighted::mboit::moments_source()),
+        ("mboit.shade", &super::weighted::mboit::shade_source()),
+        (
+            "mboit.composite",
+            include_str!("weighted/mboit_composite.wgsl"),
+        ),
     ];
     for (label, src) in stages {
         crate::gpu::shader::validate(label, src);

@@ -1,8 +1,11 @@
-//! The CPU closed form of weighted blended OIT (McGuire & Bavoil 2013, eq. 6 with the weights of
-//! eqs. 7–10), in f64: what `wboit` computes, up to its f16 targets.
+//! The CPU closed forms of the approximate methods, in f64: weighted blended OIT (McGuire & Bavoil
+//! 2013, eq. 6 with the weights of eqs. 7–10), what `wboit` computes up to its f16 targets, and
+//! moment-based OIT with four power moments (Münstermann et al. 2018), what `mboit` computes up to
+//! its f32 moments and f16 accumulation.
 
 use crate::frame::{RenderOptions, Weight};
 use crate::resolve::RefFragment;
+use crate::scene::{Camera, Projection};
 
 /// w(z, α) of the paper's equations 7–10; `distance` in view-space units (before the scale),
 /// `depth` the window depth.
@@ -37,4 +40,88 @@ pub fn wboit(fragments: &[RefFragment], background: [f64; 3], options: &RenderOp
     }
     let weights = weights.clamp(1e-4, 5e4);
     [0, 1, 2].map(|i| sum[i] / weights * (1.0 - revealage) + background[i] * revealage)
+}
+
+/// The moment bias vector of four power moments.
+const BIAS_MOMENTS: [f64; 4] = [0.0, 0.375, 0.0, 0.375];
+const MAX_ALPHA: f64 = 0.9999;
+
+/// A view distance warped to [−1, 1] as `mboit_depth` does: logarithmic between the camera's
+/// near and far planes (linear for orthographic cameras).
+pub fn mboit_depth(camera: &Camera, distance: f64) -> f64 {
+    let (n, f) = (camera.near as f64, camera.far as f64);
+    match camera.projection {
+        Projection::Orthographic { .. } => 2.0 * (distance - n) / (f - n) - 1.0,
+        Projection::Perspective { .. } => 2.0 * (distance / n).ln() / (f / n).ln() - 1.0,
+    }
+}
+
+/// The fraction of the absorbance in front of warped depth `z` from normalized moments
+/// (E[z], E[z²], E[z³], E[z⁴]), biased by `bias` toward [`BIAS_MOMENTS`], with weight
+/// `overestimation` at `z`: the quadratic through `z` and the two other points of support of the
+/// canonical representation, integrated against the moments.
+pub fn absorbance_fraction(moments: [f64; 4], z: f64, bias: f64, overestimation: f64) -> f64 {
+    let m: [f64; 4] = std::array::from_fn(|i| moments[i] + (BIAS_MOMENTS[i] - moments[i]) * bias);
+    // L·D·Lᵀ of the Hankel matrix, then the solution of B·c = (1, z, z²).
+    let d2 = m[1] - m[0] * m[0];
+    let l32 = (m[2] - m[0] * m[1]) / d2;
+    let d3 = m[3] - m[1] * m[1] - l32 * l32 * d2;
+    let y2 = (z - m[0]) / d2;
+    let y3 = (z * z - m[1] - l32 * (z - m[0])) / d3;
+    let c3 = y3;
+    let c2 = y2 - l32 * c3;
+    let c1 = 1.0 - m[0] * c2 - m[1] * c3;
+    let (p, q) = (c2 / c3, c1 / c3);
+    let r = (p * p * 0.25 - q).max(0.0).sqrt();
+    let (z1, z2) = (-0.5 * p - r, -0.5 * p + r);
+    let step = |x: f64| if x < z { 1.0 } else { 0.0 };
+    let (f0, f1, f2) = (overestimation, step(z1), step(z2));
+    let f01 = (f1 - f0) / (z1 - z);
+    let f12 = (f2 - f1) / (z2 - z1);
+    let f012 = (f12 - f01) / (z2 - z);
+    let a2 = f012;
+    let a1 = f01 - f012 * (z + z1);
+    let a0 = f0 - f01 * z + f012 * z * z1;
+    a0 + a1 * m[0] + a2 * m[1]
+}
+
+/// One pixel of `mboit` over `background`, from its fragments in any order.
+pub fn mboit(
+    fragments: &[RefFragment],
+    background: [f64; 3],
+    camera: &Camera,
+    bias: f64,
+    overestimation: f64,
+) -> [f64; 3] {
+    let mut b0 = 0.0;
+    let mut b = [0.0f64; 4];
+    for f in fragments {
+        let a = -(1.0 - f.alpha.min(MAX_ALPHA)).ln();
+        let z = mboit_depth(camera, f.distance);
+        b0 += a;
+        for (k, bk) in b.iter_mut().enumerate() {
+            *bk += a * z.powi(k as i32 + 1);
+        }
+    }
+    if b0 <= 0.0 {
+        return background;
+    }
+    let moments = b.map(|x| x / b0);
+    let (mut sum, mut weights) = ([0.0f64; 3], 0.0f64);
+    for f in fragments {
+        let z = mboit_depth(camera, f.distance);
+        let t = (-b0 * absorbance_fraction(moments, z, bias, overestimation))
+            .exp()
+            .clamp(0.0, 1.0);
+        let alpha = f.alpha.min(MAX_ALPHA);
+        for (s, c) in sum.iter_mut().zip(f.color) {
+            *s += c * alpha * t;
+        }
+        weights += alpha * t;
+    }
+    let coverage = 1.0 - (-b0).exp();
+    [0, 1, 2].map(|i| {
+        let color = if weights > 0.0 { sum[i] / weights } else { 0.0 };
+        color * coverage + background[i] * (1.0 - coverage)
+    })
 }

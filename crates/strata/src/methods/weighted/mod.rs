@@ -1,5 +1,5 @@
 //! Approximate OIT as engines ship it: `wboit`, weighted blended order-independent transparency
-//! (McGuire & Bavoil 2013, JCGT 2(2)).
+//! (McGuire & Bavoil 2013, JCGT 2(2)), here, and `mboit`, moment-based OIT ([`mboit`]).
 //!
 //! Passes: accumulate (1 geometry pass into two targets: Rgba16Float Σ w·α·c and Σ w·α with
 //! additive blending, R16Float revealage Π(1 − α) by multiplicative blending, and an atomic
@@ -15,6 +15,7 @@
 //! needs ordered neighbours; the complexity effect counts every fragment.
 
 pub mod cpu;
+pub mod mboit;
 
 use bytemuck::{Pod, Zeroable};
 
@@ -128,6 +129,40 @@ impl Wboit {
     }
 }
 
+/// Records a geometry pass of `pipeline` (group 1: `group`) into `targets`, each cleared to its
+/// color first.
+fn geometry_pass(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::RenderPipeline,
+    group: &wgpu::BindGroup,
+    targets: &[(&wgpu::TextureView, wgpu::Color)],
+) {
+    let label = ctx.label(name);
+    let draw = ctx.draw;
+    let triangles = ctx.scene.triangle_count;
+    let frame_group = ctx.frame_group;
+    let attachments: Vec<_> = targets
+        .iter()
+        .map(|(view, clear)| attachment(view, *clear))
+        .collect();
+    let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(&label),
+        color_attachments: &attachments,
+        depth_stencil_attachment: None,
+        timestamp_writes: ctx.timer.render_pass(name),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, Some(frame_group), &[]);
+    pass.set_bind_group(1, Some(group), &[]);
+    match draw {
+        Some(draw) => draw(&mut pass),
+        None => pass.draw(0..triangles * 3, 0..1),
+    }
+}
+
 impl Method for Wboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
@@ -187,30 +222,17 @@ impl Method for Wboit {
             ],
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
+        geometry_pass(
+            ctx,
+            "accumulate",
+            &self.accumulate,
+            &accumulate_group,
+            &[
+                (&accumulation, wgpu::Color::TRANSPARENT),
+                (&revealage, wgpu::Color::WHITE),
+            ],
+        );
         let frame_group = ctx.frame_group;
-        {
-            let label = ctx.label("accumulate");
-            let draw = ctx.draw;
-            let triangles = ctx.scene.triangle_count;
-            let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(&label),
-                color_attachments: &[
-                    attachment(&accumulation, wgpu::Color::TRANSPARENT),
-                    attachment(&revealage, wgpu::Color::WHITE),
-                ],
-                depth_stencil_attachment: None,
-                timestamp_writes: ctx.timer.render_pass("accumulate"),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.accumulate);
-            pass.set_bind_group(0, Some(frame_group), &[]);
-            pass.set_bind_group(1, Some(&accumulate_group), &[]);
-            match draw {
-                Some(draw) => draw(&mut pass),
-                None => pass.draw(0..triangles * 3, 0..1),
-            }
-        }
         dispatch_pixels(
             ctx,
             "composite",

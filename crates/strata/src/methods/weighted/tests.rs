@@ -10,6 +10,15 @@ use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu};
 
 fn closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
+    per_pixel(scene, options, |l, bg| cpu::wboit(l, bg, options))
+}
+
+/// A picture of `pixel(fragments, background)` over the reference's fragments.
+fn per_pixel(
+    scene: &Scene,
+    options: &RenderOptions,
+    pixel: impl Fn(&[crate::resolve::RefFragment], [f64; 3]) -> [f64; 3],
+) -> LinearImage {
     let lists = crate::reference::fragments(scene, options).unwrap();
     let w = options.width;
     let pixels = lists
@@ -18,7 +27,7 @@ fn closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
         .map(|(i, l)| {
             let bg = options.background.at(i as u32 % w, i as u32 / w);
             let bg = [bg[0] as f64, bg[1] as f64, bg[2] as f64];
-            let c = cpu::wboit(l, bg, options);
+            let c = pixel(l, bg);
             [c[0] as f32, c[1] as f32, c[2] as f32, l.len() as f32]
         })
         .collect();
@@ -93,4 +102,115 @@ fn wboit_weights_differ_and_the_depth_scale_matters() {
 fn wboit_params_layout_matches_wgsl() {
     assert_eq!(std::mem::size_of::<super::WboitParams>(), 16);
     assert_eq!(std::mem::offset_of!(super::WboitParams, depth_scale), 4);
+}
+
+fn mboit_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
+    let camera = scene.camera_or_framing();
+    per_pixel(scene, options, |l, bg| {
+        cpu::mboit(
+            l,
+            bg,
+            &camera,
+            super::mboit::MOMENT_BIAS as f64,
+            super::mboit::OVERESTIMATION as f64,
+        )
+    })
+}
+
+/// mboit against its f64 closed form: the same moments, the same reconstruction per fragment.
+#[test]
+fn mboit_equals_its_closed_form() {
+    for spec in [
+        "builtin:layers?n=6&coverage=0.75&order=random&seed=3",
+        "builtin:nvpro?objects=96&subdiv=10&seed=8",
+        "builtin:nvpro?objects=400&subdiv=10&seed=3",
+        "builtin:dragon",
+    ] {
+        let mut scene = loaders::load_scene(spec).unwrap();
+        scene.override_alpha(0.4);
+        let opts = RenderOptions {
+            width: 40,
+            height: 40,
+            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+            ..Default::default()
+        };
+        let expected = mboit_closed_form(&scene, &opts);
+        let (actual, stats) = render_gpu(&scene, &opts, "mboit");
+        assert_close(
+            &format!(
+                "mboit-{}",
+                spec.split('?')
+                    .next()
+                    .unwrap()
+                    .trim_start_matches("builtin:")
+            ),
+            &actual,
+            &expected,
+            Effect::Transparency,
+            2,
+            0.001,
+        );
+        assert_eq!(stats.geometry_passes, Some(2));
+        assert_eq!(stats.fragments_dropped, Some(0));
+    }
+}
+
+/// The reconstruction's limits: a lone fragment is in front of nothing but η of itself; a depth in
+/// front of every fragment sees almost nothing of them, the far end nearly all (the weight the
+/// canonical representation puts at the depth itself counts only η).
+#[test]
+fn mboit_reconstruction_limits() {
+    let single = fraction_of(&[(0.1, 1.0)], 0.1, 0.25);
+    assert!((single - 0.25).abs() < 1e-3, "{single}");
+    let zs = [(-0.5, 1.0), (-0.1, 1.0), (0.3, 1.0), (0.6, 1.0)];
+    assert!(fraction_of(&zs, -0.9, 0.25) < 0.01);
+    assert!(fraction_of(&zs, 1.0, 0.25) > 0.95);
+    let mut last = 0.0;
+    for i in 0..=20 {
+        let f = fraction_of(&zs, -1.0 + 0.1 * i as f64, 0.25);
+        assert!(f >= last - 1e-9, "not monotone at {i}: {f} < {last}");
+        last = f;
+    }
+}
+
+/// The fraction of `support` (depth, absorbance) in front of `z` that the four moments give.
+fn fraction_of(support: &[(f64, f64)], z: f64, overestimation: f64) -> f64 {
+    let total: f64 = support.iter().map(|s| s.1).sum();
+    let m: [f64; 4] = std::array::from_fn(|k| {
+        support
+            .iter()
+            .map(|(x, a)| a * x.powi(k as i32 + 1))
+            .sum::<f64>()
+            / total
+    });
+    cpu::absorbance_fraction(m, z, 5e-7, overestimation)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+
+    /// The moment bound brackets the truth: with η = 0 the fraction is at most the absorbance
+    /// strictly in front of z, with η = 1 at least the absorbance at or in front of it.
+    #[test]
+    fn mboit_bounds_bracket_the_true_fraction(
+        support in proptest::collection::vec((-0.95f64..0.95, 0.05f64..3.0), 3..7),
+        z in -1.0f64..1.0,
+    ) {
+        let total: f64 = support.iter().map(|s| s.1).sum();
+        let before: f64 = support.iter().filter(|s| s.0 < z).map(|s| s.1).sum::<f64>() / total;
+        let upto: f64 = support.iter().filter(|s| s.0 <= z).map(|s| s.1).sum::<f64>() / total;
+        let lower = fraction_of(&support, z, 0.0);
+        let upper = fraction_of(&support, z, 1.0);
+        proptest::prop_assert!(lower <= before + 1e-3, "lower {lower} > {before}");
+        proptest::prop_assert!(upper >= upto - 1e-3, "upper {upper} < {upto}");
+    }
+}
+
+#[test]
+fn mboit_params_layout_matches_wgsl() {
+    assert_eq!(std::mem::size_of::<super::mboit::MboitParams>(), 16);
+    assert_eq!(
+        std::mem::offset_of!(super::mboit::MboitParams, overestimation),
+        4
+    );
 }
