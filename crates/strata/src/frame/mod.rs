@@ -240,6 +240,10 @@ pub struct FrameStats {
     pub k: Option<u32>,
     pub effect: String,
     pub geometry_passes: Option<u32>,
+    /// Whether the method is exact by design (the catalogue's flag; a k-buffer's exactness is
+    /// that of its k nearest). Approximate methods (wboit, mboit, unsorted, ...) say false: their
+    /// error is measured against the reference, never hidden.
+    pub exact: Option<bool>,
     pub gpu_ms: Option<BTreeMap<String, f64>>,
     pub gpu_ms_total: Option<f64>,
     pub fragments_generated: Option<u64>,

@@ -233,6 +233,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         k: options.k,
         effect: options.effect.name().into(),
         geometry_passes: Some(0),
+        exact: Some(true),
         gpu_ms: None,
         gpu_ms_total: None,
         fragments_generated: Some(generated),

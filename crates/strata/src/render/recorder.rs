@@ -580,6 +580,7 @@ impl FrameRecorder {
             k: p.recorded.k,
             effect: self.options.effect.name().to_string(),
             geometry_passes: Some(p.recorded.geometry_passes),
+            exact: Some(p.method.info().exact),
             gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
             gpu_ms,
             fragments_generated: totals.map(|t| t.generated),

@@ -151,6 +151,7 @@ fn mboit_equals_its_closed_form() {
             0.001,
         );
         assert_eq!(stats.geometry_passes, Some(2));
+        assert_eq!(stats.exact, Some(false));
         assert_eq!(stats.fragments_dropped, Some(0));
     }
 }
