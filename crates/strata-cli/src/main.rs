@@ -99,6 +99,10 @@ struct RenderArgs {
     /// k is the smallest that does within --budget-mb.
     #[arg(long)]
     robustness: Option<f64>,
+    /// kplus-semiheap: slots of its max-heap (default 1, the paper's); the other k - h are
+    /// unordered.
+    #[arg(long)]
+    heap_size: Option<u32>,
     /// wboit: the weight function (McGuire & Bavoil 2013, equations 7-10).
     #[arg(long, value_enum, default_value = "eq7")]
     weight: strata::Weight,
@@ -436,6 +440,7 @@ fn render(a: RenderArgs) -> Result<()> {
     }
     options.max_tries = a.max_tries;
     options.layers = a.layers;
+    options.heap_size = a.heap_size;
     options.weight = a.weight;
     options.depth_scale = a.depth_scale;
     options.validate()?;

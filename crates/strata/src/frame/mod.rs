@@ -145,6 +145,8 @@ pub struct RenderOptions {
     /// Depth peeling: a fixed number of layers per frame; by default the last frame's depth
     /// complexity.
     pub layers: Option<u32>,
+    /// kplus-semiheap: slots of the max-heap H (default 1, the paper's), the rest unordered.
+    pub heap_size: Option<u32>,
     /// wboit: the weight function.
     pub weight: Weight,
     /// wboit: view-space distances are multiplied by this before the weight function, whose
@@ -174,6 +176,7 @@ impl Default for RenderOptions {
             max_tries: None,
             layers: None,
             k_auto: None,
+            heap_size: None,
             weight: Weight::Eq7,
             depth_scale: 1.0,
             allocation_counter_start: 0,

@@ -41,6 +41,7 @@ fn call(method: MethodId) -> Option<&'static str> {
         MethodId::KplusArray => "capture_locked(p, f, VARIANT_ARRAY)",
         MethodId::KplusHeap => "capture_locked(p, f, VARIANT_HEAP)",
         MethodId::KplusArrayR => "capture_array_r(p, f)",
+        MethodId::KplusSemiheap => "capture_semiheap(p, f)",
         MethodId::Kb => "capture_sorted(p, f, UNLOCKED)",
         MethodId::KbPs => "capture_sorted(p, f, LOCKED)",
         MethodId::AbufferFixed | MethodId::KbAbFixed => "capture_fixed(p, f)",

@@ -52,10 +52,11 @@ pub enum MethodId {
     Kpeel,
     Wboit,
     Mboit,
+    KplusSemiheap,
 }
 
 impl MethodId {
-    pub const ALL: [MethodId; 24] = [
+    pub const ALL: [MethodId; 25] = [
         MethodId::Reference,
         MethodId::Unsorted,
         MethodId::Sorted,
@@ -80,6 +81,7 @@ impl MethodId {
         MethodId::Kpeel,
         MethodId::Wboit,
         MethodId::Mboit,
+        MethodId::KplusSemiheap,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -108,6 +110,7 @@ impl MethodId {
             MethodId::Kpeel => "kpeel",
             MethodId::Wboit => "wboit",
             MethodId::Mboit => "mboit",
+            MethodId::KplusSemiheap => "kplus-semiheap",
         }
     }
 
@@ -343,6 +346,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             summary: "memory-aware k+-buffer: a count pass, a GPU prefix sum giving each pixel exactly min(f, k) slots, then lock-free appends (f ≤ k) or a max-array (k ≤ 16) / max-heap under a spin lock",
         },
         MethodInfo {
+            id: "kplus-semiheap",
+            family: "kplus",
+            exact: true,
+            geometry_passes: "1",
+            memory: KB_MEMORY,
+            summary: "semi-heap k-buffer (seed 000): a max-heap of the h farthest (--heap-size, default 1) and an unordered rest; the first k - h fragments stored without the lock, culling against the heap top",
+        },
+        MethodInfo {
             id: "kb-mdt32",
             family: "kbuffer",
             exact: true,
@@ -436,6 +447,9 @@ pub fn create(
         MethodId::KplusArray => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusArray)),
         MethodId::KplusHeap => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusHeap)),
         MethodId::KplusArrayR => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusArrayR)),
+        MethodId::KplusSemiheap => {
+            Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusSemiheap))
+        }
         MethodId::Kb => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::Kb)),
         MethodId::KbPs => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KbPs)),
         MethodId::AbufferFixed => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::AbufferFixed)),

@@ -5,6 +5,8 @@
 //!   fragment in slot 0, the others unordered; [`MaxArray::culled`]: `culled`.
 //! - [`MaxHeap`]: `heap_insert` (`kplus_capture.wgsl`), a binary max-heap in slot order.
 //! - [`SortedArray`]: `sorted_insert` + `culled_sorted` (`kb_capture.wgsl`, `kb` / `kb-ps`).
+//! - [`SemiHeap`]: `capture_semiheap` + `semiheap_insert` (`semiheap_capture.wgsl`), run one
+//!   fragment at a time: H a max-heap of h slots, S the rest, unordered.
 //! - [`sort_local`], [`k_depth_sort`]: the functions of the same names in `resolve.wgsl`.
 //! - The MDT packings ([`mdt32_key`], [`mdt64_key`], [`mdt_pack_keys`] and their inverses,
 //!   [`mdt_cascade`]): written here first as the specification the GPU code follows.
@@ -122,6 +124,44 @@ impl MaxHeap {
         self.k == 0 || (self.is_full() && f.depth > self.slots[0].depth)
     }
 
+    /// `heap_sift_up` while filling, else `f` in place of the root (`heap_sift_down`) whatever
+    /// their order; returns the old root when full.
+    pub fn insert_or_replace_root(&mut self, f: Fragment) -> Option<Fragment> {
+        if self.is_full() && self.k > 0 {
+            let root = self.slots[0];
+            self.sift_down(f);
+            return Some(root);
+        }
+        self.insert(f)
+    }
+
+    /// `heap_sift_down` from the root of a full heap.
+    fn sift_down(&mut self, f: Fragment) {
+        let k = self.k;
+        let mut i = 0;
+        loop {
+            let left = 2 * i + 1;
+            if left >= k {
+                break;
+            }
+            let mut child = left;
+            let mut cf = self.slots[left];
+            if left + 1 < k {
+                let rf = self.slots[left + 1];
+                if before(&cf, &rf) {
+                    child = left + 1;
+                    cf = rf;
+                }
+            }
+            if !before(&f, &cf) {
+                break;
+            }
+            self.slots[i] = cf;
+            i = child;
+        }
+        self.slots[i] = f;
+    }
+
     /// `heap_insert`: sift-up while filling; when full, `f` replaces the root and sifts down.
     /// Returns the fragment that fell out (`f`, or the old root), `None` while filling.
     pub fn insert(&mut self, f: Fragment) -> Option<Fragment> {
@@ -149,30 +189,75 @@ impl MaxHeap {
         if !before(&f, &root) {
             return Some(f);
         }
-        let k = self.k;
-        let mut i = 0;
-        loop {
-            let left = 2 * i + 1;
-            if left >= k {
-                break;
-            }
-            let mut child = left;
-            let mut cf = self.slots[left];
-            if left + 1 < k {
-                let rf = self.slots[left + 1];
-                if before(&cf, &rf) {
-                    child = left + 1;
-                    cf = rf;
-                }
-            }
-            if !before(&f, &cf) {
-                break;
-            }
-            self.slots[i] = cf;
-            i = child;
-        }
-        self.slots[i] = f;
+        self.sift_down(f);
         Some(root)
+    }
+}
+
+/// The semi-heap k-buffer (`kplus-semiheap`): `heap`, a max-heap of up to `h` fragments (the h
+/// farthest of those cached once the pixel is full), and `rest`, up to k − h fragments unordered.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SemiHeap {
+    pub k: usize,
+    pub h: usize,
+    pub heap: MaxHeap,
+    pub rest: Vec<Fragment>,
+}
+
+impl SemiHeap {
+    /// `h` in 1..=k.
+    pub fn new(k: usize, h: usize) -> Self {
+        assert!((1..=k).contains(&h), "heap size {h} outside 1..={k}");
+        Self {
+            k,
+            h,
+            heap: MaxHeap::new(h),
+            rest: Vec::with_capacity(k - h),
+        }
+    }
+
+    pub fn is_full(&self) -> bool {
+        self.heap.is_full() && self.rest.len() == self.k - self.h
+    }
+
+    /// `culled`: strictly behind the depth of a full cache's heap top.
+    pub fn culled(&self, f: &Fragment) -> bool {
+        self.is_full() && f.depth > self.heap.slots[0].depth
+    }
+
+    /// `capture_semiheap` without the lock (one fragment at a time): returns the fragment that
+    /// fell out, `None` while filling.
+    pub fn insert(&mut self, f: Fragment) -> Option<Fragment> {
+        if self.rest.len() < self.k - self.h {
+            self.rest.push(f);
+            return None;
+        }
+        let mut fallen = None;
+        if self.heap.is_full() {
+            let root = self.heap.slots[0];
+            if !before(&f, &root) {
+                return Some(f);
+            }
+            fallen = Some(root);
+        }
+        // b: the farthest of S and f; f takes b's place.
+        let farthest = (0..self.rest.len()).fold(None::<usize>, |best, i| match best {
+            Some(j) if !before(&self.rest[j], &self.rest[i]) => Some(j),
+            _ => Some(i),
+        });
+        let b = match farthest {
+            Some(j) if before(&f, &self.rest[j]) => std::mem::replace(&mut self.rest[j], f),
+            _ => f,
+        };
+        // Filling H sifts b up; a full H takes b in place of the evicted root.
+        let out = self.heap.insert_or_replace_root(b);
+        debug_assert_eq!(out.is_some(), fallen.is_some());
+        fallen
+    }
+
+    /// Every cached fragment.
+    pub fn kept(&self) -> Vec<Fragment> {
+        self.heap.slots.iter().chain(&self.rest).copied().collect()
     }
 }
 
@@ -538,7 +623,7 @@ mod tests {
         fn make(k: usize) -> Self;
         fn put(&mut self, f: Fragment) -> Option<Fragment>;
         fn cull(&self, f: &Fragment) -> bool;
-        fn kept(&self) -> &[Fragment];
+        fn kept(&self) -> Vec<Fragment>;
         fn invariant(&self) -> bool;
     }
 
@@ -552,8 +637,8 @@ mod tests {
         fn cull(&self, f: &Fragment) -> bool {
             self.culled(f)
         }
-        fn kept(&self) -> &[Fragment] {
-            &self.slots
+        fn kept(&self) -> Vec<Fragment> {
+            self.slots.clone()
         }
         fn invariant(&self) -> bool {
             self.slots.iter().all(|c| !before(&self.slots[0], c))
@@ -570,11 +655,34 @@ mod tests {
         fn cull(&self, f: &Fragment) -> bool {
             self.culled(f)
         }
-        fn kept(&self) -> &[Fragment] {
-            &self.slots
+        fn kept(&self) -> Vec<Fragment> {
+            self.slots.clone()
         }
         fn invariant(&self) -> bool {
             (1..self.slots.len()).all(|i| !before(&self.slots[(i - 1) / 2], &self.slots[i]))
+        }
+    }
+
+    impl Store for SemiHeap {
+        fn make(k: usize) -> Self {
+            Self::new(k, 1)
+        }
+        fn put(&mut self, f: Fragment) -> Option<Fragment> {
+            self.insert(f)
+        }
+        fn cull(&self, f: &Fragment) -> bool {
+            self.culled(f)
+        }
+        fn kept(&self) -> Vec<Fragment> {
+            SemiHeap::kept(self)
+        }
+        fn invariant(&self) -> bool {
+            let heap = &self.heap.slots;
+            let heap_ok = (1..heap.len()).all(|i| !before(&heap[(i - 1) / 2], &heap[i]));
+            // A full H holds the h farthest: nothing in S is after H's least.
+            let top_ok = !self.heap.is_full()
+                || self.rest.iter().all(|r| heap.iter().all(|x| !before(x, r)));
+            heap_ok && top_ok
         }
     }
 
@@ -588,8 +696,8 @@ mod tests {
         fn cull(&self, f: &Fragment) -> bool {
             self.culled(f)
         }
-        fn kept(&self) -> &[Fragment] {
-            &self.slots
+        fn kept(&self) -> Vec<Fragment> {
+            self.slots.clone()
         }
         fn invariant(&self) -> bool {
             self.slots.windows(2).all(|w| before(&w[0], &w[1]))
@@ -604,7 +712,15 @@ mod tests {
         frags: &[Fragment],
         culling: bool,
     ) -> Result<(), TestCaseError> {
-        let mut s = S::make(k);
+        check_store_with(S::make(k), k, frags, culling)
+    }
+
+    fn check_store_with<S: Store>(
+        mut s: S,
+        k: usize,
+        frags: &[Fragment],
+        culling: bool,
+    ) -> Result<(), TestCaseError> {
         let mut fallen = Vec::new();
         for (step, f) in frags.iter().enumerate() {
             let is_culled = s.cull(f);
@@ -634,11 +750,11 @@ mod tests {
             );
             // At every step the kept set is the k nearest so far.
             let so_far = sorted(&frags[..=step]);
-            prop_assert_eq!(sorted(s.kept()), so_far[..so_far.len().min(k)].to_vec());
+            prop_assert_eq!(sorted(&s.kept()), so_far[..so_far.len().min(k)].to_vec());
         }
         let all = sorted(frags);
-        prop_assert_eq!(sorted(s.kept()), all[..all.len().min(k)].to_vec());
-        let mut union = s.kept().to_vec();
+        prop_assert_eq!(sorted(&s.kept()), all[..all.len().min(k)].to_vec());
+        let mut union = s.kept();
         union.extend(fallen);
         prop_assert_eq!(sorted(&union), all);
         Ok(())
@@ -657,6 +773,17 @@ mod tests {
         #[test]
         fn max_heap_keeps_k_nearest(k in 1usize..=24, frags in fragments(80), culling in any::<bool>()) {
             check_store::<MaxHeap>(k, &frags, culling)?;
+        }
+
+        #[test]
+        fn semi_heap_keeps_k_nearest(
+            k in 1usize..=24,
+            h_pick in 0usize..24,
+            frags in fragments(80),
+            culling in any::<bool>(),
+        ) {
+            let h = 1 + h_pick % k;
+            check_store_with(SemiHeap::new(k, h), k, &frags, culling)?;
         }
 
         #[test]

@@ -53,40 +53,32 @@ fn array_replace_max(p: u32, f: Fragment) {
     }
 }
 
-fn heap_insert(p: u32, n: u32, f: Fragment) {
-    if n < kp.k {
-        var i = n;
-        while i > 0u {
-            let parent = (i - 1u) / 2u;
-            let pf = load_slot(p, parent);
-            if !fragment_before(pf, f) {
-                break;
-            }
-            store_slot(p, i, pf);
-            i = parent;
+// Puts `f` at index `i` of a max-heap in the pixel's slots 0.. and sifts it up (lock held).
+fn heap_sift_up(p: u32, start: u32, f: Fragment) {
+    var i = start;
+    while i > 0u {
+        let parent = (i - 1u) / 2u;
+        let pf = load_slot(p, parent);
+        if !fragment_before(pf, f) {
+            break;
         }
-        store_slot(p, i, f);
-        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
-        if n + 1u == kp.k {
-            publish_bound(p, load_slot(p, 0u).depth);
-        }
-        return;
+        store_slot(p, i, pf);
+        i = parent;
     }
-    let root = load_slot(p, 0u);
-    if !fragment_before(f, root) {
-        tail_add(p, f);
-        return;
-    }
-    tail_add(p, root);
+    store_slot(p, i, f);
+}
+
+// Puts `f` in place of the root of a full max-heap of `size` slots and sifts it down (lock held).
+fn heap_sift_down(p: u32, size: u32, f: Fragment) {
     var i = 0u;
     loop {
         let left = 2u * i + 1u;
-        if left >= kp.k {
+        if left >= size {
             break;
         }
         var child = left;
         var cf = load_slot(p, left);
-        if left + 1u < kp.k {
+        if left + 1u < size {
             let rf = load_slot(p, left + 1u);
             if fragment_before(cf, rf) {
                 child = left + 1u;
@@ -100,6 +92,24 @@ fn heap_insert(p: u32, n: u32, f: Fragment) {
         i = child;
     }
     store_slot(p, i, f);
+}
+
+fn heap_insert(p: u32, n: u32, f: Fragment) {
+    if n < kp.k {
+        heap_sift_up(p, n, f);
+        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
+        if n + 1u == kp.k {
+            publish_bound(p, load_slot(p, 0u).depth);
+        }
+        return;
+    }
+    let root = load_slot(p, 0u);
+    if !fragment_before(f, root) {
+        tail_add(p, f);
+        return;
+    }
+    tail_add(p, root);
+    heap_sift_down(p, kp.k, f);
     publish_bound(p, load_slot(p, 0u).depth);
 }
 

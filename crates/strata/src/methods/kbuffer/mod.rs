@@ -8,6 +8,9 @@
 //!   before taking the lock, and the test is repeated inside it.
 //! - `kplus-array-r`: the revised max-array — the first k fragments take slots from a counter
 //!   without the lock.
+//! - `kplus-semiheap`: the semi-heap (seed 000) — a max-heap of the h farthest (`--heap-size`,
+//!   default 1) and an unordered rest; the first k − h fragments take slots without the lock, the
+//!   later ones move the farthest of the rest and themselves into the heap under it.
 //! - `kb-ps`: sorted insertion inside the lock (pixel synchronisation emulated as the paper did);
 //!   `kb`: the original k-buffer, sorted insertion with no lock — its read-modify-write hazards
 //!   between concurrent fragments of a pixel are its known flaw and are left as they are.
@@ -50,10 +53,10 @@
 //! on another lane of its own group, and progress does not depend on independent thread
 //! scheduling. Each fragment tries at most `max_tries` times; a fragment that never gets the lock
 //! is counted in `lock_failures` (and joins the tail), never silently lost. One exception to
-//! scheduling independence: `kplus-array-r`'s slow path waits, within the try bound, for the
-//! fast stores of its pixel to be published; on a GPU without independent thread scheduling a
-//! fast store diverged in the same SIMD group may only run after that wait, and the slow
-//! fragment then counts as a lock failure.
+//! scheduling independence: `kplus-array-r`'s and `kplus-semiheap`'s slow paths wait, within the
+//! try bound, for the fast stores of their pixel to be published; on a GPU without independent
+//! thread scheduling a fast store diverged in the same SIMD group may only run after that wait,
+//! and the slow fragment then counts as a lock failure.
 
 pub mod kpeel;
 pub mod list;
@@ -83,7 +86,9 @@ pub struct KParams {
     pub max_tries: u32,
     pub culling: u32,
     pub tail_blend: u32,
-    pub count_by_seen: u32,
+    /// A method's own parameter: fixed A-buffers 1 when their stored count is min(seen, stride);
+    /// kplus-semiheap its heap size h.
+    pub aux: u32,
     pub width: u32,
     pub pixels: u32,
 }
@@ -115,6 +120,7 @@ pub enum Variant {
     KbPs,
     AbufferFixed,
     KbAbFixed,
+    KplusSemiheap,
 }
 
 impl Variant {
@@ -127,6 +133,7 @@ impl Variant {
             Variant::Kb => "fs_kb",
             Variant::KbPs => "fs_kb_ps",
             Variant::AbufferFixed | Variant::KbAbFixed => "fs_fixed",
+            Variant::KplusSemiheap => "fs_kplus_semiheap",
         }
     }
 
@@ -143,6 +150,7 @@ impl Variant {
             MethodId::KbPs => Variant::KbPs,
             MethodId::AbufferFixed => Variant::AbufferFixed,
             MethodId::KbAbFixed => Variant::KbAbFixed,
+            MethodId::KplusSemiheap => Variant::KplusSemiheap,
             _ => return None,
         })
     }
@@ -161,6 +169,7 @@ pub const SLOTS_RESOLVE_WGSL: &str = include_str!("slots_resolve.wgsl");
 pub const KPLUS_CAPTURE_WGSL: &str = include_str!("kplus_capture.wgsl");
 pub const KB_CAPTURE_WGSL: &str = include_str!("kb_capture.wgsl");
 pub const FIXED_CAPTURE_WGSL: &str = include_str!("fixed_capture.wgsl");
+pub const SEMIHEAP_CAPTURE_WGSL: &str = include_str!("semiheap_capture.wgsl");
 
 /// The capture steps of every slot method, without entry points or scene bindings: what an
 /// application's fragment shader includes (see `methods::capture`).
@@ -171,6 +180,7 @@ pub fn slots_capture_functions() -> String {
         KPLUS_CAPTURE_WGSL,
         KB_CAPTURE_WGSL,
         FIXED_CAPTURE_WGSL,
+        SEMIHEAP_CAPTURE_WGSL,
     ]
     .join("\n")
 }
@@ -187,7 +197,11 @@ pub fn slots_capture_source() -> String {
 /// The largest k a method accepts (see the module docs).
 pub fn max_k(id: MethodId) -> u32 {
     match id {
-        MethodId::KplusArray | MethodId::KplusArrayR | MethodId::KbPs | MethodId::Kb => 256,
+        MethodId::KplusArray
+        | MethodId::KplusArrayR
+        | MethodId::KbPs
+        | MethodId::Kb
+        | MethodId::KplusSemiheap => 256,
         MethodId::KbLl => 256,
         MethodId::KplusHeap | MethodId::KplusSbuffer | MethodId::Kpeel => 1024,
         MethodId::KbMdt32 | MethodId::KbMdt64 | MethodId::KbMdtPack => 512,
@@ -220,6 +234,17 @@ pub fn tail_bytes(pixels: u64, blend: bool) -> u64 {
 /// parameters and counters.
 pub fn frame_bytes_besides_storage(pixels: u64, tail_blend: bool) -> u64 {
     pixels * PIXEL_BYTES + tail_bytes(pixels, tail_blend) + CONSTANT_BYTES - TAIL_BYTES
+}
+
+/// kplus-semiheap's |H|: `--heap-size`, default 1 (the paper's), at most k.
+pub fn heap_size(options: &RenderOptions, k: u32) -> Result<u32> {
+    let h = options.heap_size.unwrap_or(1);
+    if h == 0 || h > k {
+        return Err(Error::input(format!(
+            "--heap-size {h} is outside 1..{k} (k)"
+        )));
+    }
+    Ok(h)
 }
 
 /// Checks a per-pixel allocation against the budget and the device's binding limit.
@@ -263,7 +288,7 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
         max_tries: options.max_tries.unwrap_or(DEFAULT_MAX_TRIES).max(1),
         culling: options.culling as u32,
         tail_blend: (options.tail == Tail::Blend) as u32,
-        count_by_seen: count_by_seen as u32,
+        aux: count_by_seen as u32,
         width: options.width,
         pixels: (ctx.pixels()).min(u32::MAX as u64) as u32,
     }
@@ -652,11 +677,16 @@ pub struct SlotKBuffer {
 
 impl SlotKBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, variant: Variant) -> SlotKBuffer {
+        let access = if variant == Variant::KplusSemiheap {
+            include_str!("semiheap_resolve.wgsl")
+        } else {
+            SLOTS_RESOLVE_WGSL
+        };
         let mut frame = KFrame::new(
             gpu,
             scene,
             id,
-            &[STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
+            &[STORAGE_WGSL, SLOTS_WGSL, access, RESOLVE_WGSL].join("\n"),
         );
         let module = frame.capture_module(gpu, slots_capture_source(), true);
         SlotKBuffer {
@@ -689,11 +719,11 @@ impl SlotKBuffer {
             capacity: stride as u64,
             memory_ordering: Some(self.frame.memory_ordering()),
         };
-        Ok((
-            params_for(ctx, k, stride, self.variant.fixed()),
-            storage,
-            recorded,
-        ))
+        let mut params = params_for(ctx, k, stride, self.variant.fixed());
+        if self.variant == Variant::KplusSemiheap {
+            params.aux = heap_size(ctx.options, k)?;
+        }
+        Ok((params, storage, recorded))
     }
 }
 

@@ -48,3 +48,11 @@ fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     }
     capture_fixed(kpixel(v.position), scene_fragment(v, front_facing));
 }
+
+@fragment
+fn fs_kplus_semiheap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    capture_semiheap(kpixel(v.position), scene_fragment(v, front_facing));
+}

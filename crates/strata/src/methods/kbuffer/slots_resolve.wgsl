@@ -1,7 +1,7 @@
 // Resolve access to fixed per-pixel slot arrays (k+-buffers, kb, kb-ps, the fixed A-buffers).
 
 fn stored_count(p: u32) -> u32 {
-    if kp.count_by_seen != 0u {
+    if kp.aux != 0u {
         return min(atomicLoad(&pixels[pixel_word(p, SEEN)]), kp.stride);
     }
     return atomicLoad(&pixels[pixel_word(p, FILLED)]);

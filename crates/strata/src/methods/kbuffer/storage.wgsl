@@ -15,8 +15,9 @@ struct KParams {
     max_tries: u32,
     culling: u32,
     tail_blend: u32,
-    // Fixed A-buffers keep no FILLED count: their stored count is min(seen, stride).
-    count_by_seen: u32,
+    // A method's own parameter: fixed A-buffers 1 when their stored count is min(seen, stride)
+    // (they keep no FILLED count); kplus-semiheap its heap size h.
+    aux: u32,
     width: u32,
     pixels: u32,
 }

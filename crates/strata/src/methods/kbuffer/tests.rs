@@ -8,7 +8,7 @@ use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference};
 
-const EXACT_K_METHODS: [&str; 7] = [
+const EXACT_K_METHODS: [&str; 8] = [
     "kplus-array",
     "kplus-heap",
     "kplus-array-r",
@@ -16,6 +16,7 @@ const EXACT_K_METHODS: [&str; 7] = [
     "kb-ab-fixed",
     "kb-sbuffer",
     "kplus-sbuffer",
+    "kplus-semiheap",
 ];
 const MAX_DIFF: u8 = 2;
 const MAX_FRACTION: f64 = 0.001;
@@ -479,7 +480,7 @@ fn long_lists_with_the_tail_dropped_composite_only_k() {
 fn kparams_layout_matches_wgsl() {
     use std::mem::{offset_of, size_of};
     assert_eq!(size_of::<super::KParams>(), 32);
-    assert_eq!(offset_of!(super::KParams, count_by_seen), 20);
+    assert_eq!(offset_of!(super::KParams, aux), 20);
     assert_eq!(offset_of!(super::KParams, width), 24);
     assert_eq!(offset_of!(super::KParams, pixels), 28);
 }
@@ -741,4 +742,37 @@ fn unified_buffer_spans_z_buffer_to_a_buffer() {
             MAX_FRACTION,
         );
     }
+}
+
+/// kplus-semiheap for several k and heap sizes (1, the paper's; a few; k, a plain max-heap),
+/// including coincident layers (ties ordered by primitive).
+#[test]
+fn semiheap_keeps_the_k_nearest_for_every_heap_size() {
+    let layers = scene("builtin:layers?n=24&coverage=0.5&order=random&seed=11");
+    let nvpro = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
+    let mut ties = scene("builtin:layers?n=8&coverage=1&order=back");
+    for i in 1..4 {
+        ties.objects[i].mesh.positions = ties.objects[0].mesh.positions.clone();
+    }
+    for (name, s, size) in [
+        ("layers", &layers, 48),
+        ("nvpro", &nvpro, 64),
+        ("ties", &ties, 24),
+    ] {
+        for (k, h) in [(4, 1), (4, 4), (16, 1), (16, 5)] {
+            let mut opts = options(size, k);
+            opts.heap_size = Some(h);
+            check_k(
+                &format!("{name}-semiheap-h{h}"),
+                s,
+                &opts,
+                &["kplus-semiheap"],
+            );
+        }
+    }
+    let mut opts = options(16, 4);
+    opts.heap_size = Some(5);
+    let mut r = crate::Renderer::new(crate::testing::gpu(), &layers, &opts).unwrap();
+    let e = r.render("kplus-semiheap").unwrap_err();
+    assert!(e.to_string().contains("--heap-size 5"), "{e}");
 }

@@ -1,0 +1,76 @@
+// The semi-heap k-buffer (seed 000, `kplus-semiheap`): each pixel's k slots are a max-heap H of
+// |H| = h slots (0..h), holding the h farthest of the cached fragments, and an unordered
+// sequence S (h..k) with the rest. The first k − h fragments take S's slots from the seen counter
+// without the lock (it starts past the heap). Later fragments are culled against the published
+// bound (H's root, once H is full) before the lock and tested again inside it; inside, the
+// farthest b of S and the incoming fragment moves into H (sift-up while H fills, in place of the
+// evicted root and sift-down once full) and the incoming fragment takes b's slot. FILLED counts
+// S's published fast stores in its low 16 bits and H's size in its high 16 (k ≤ 256). `kp.aux`
+// is h. Exact: H always holds the h farthest of the k nearest.
+
+const SEMIHEAP_H_ONE: u32 = 0x10000u;
+
+fn semiheap_insert(p: u32, heap_size: u32, f: Fragment) {
+    let h = kp.aux;
+    if heap_size == h {
+        let root = load_slot(p, 0u);
+        if !fragment_before(f, root) {
+            tail_add(p, f);
+            return;
+        }
+        tail_add(p, root);
+    }
+    // b: the farthest of S and f.
+    var b = f;
+    var b_at = kp.k;
+    for (var i = h; i < kp.k; i++) {
+        let c = load_key(p, i);
+        if fragment_before(b, c) {
+            b = c;
+            b_at = i;
+        }
+    }
+    if b_at < kp.k {
+        b = load_slot(p, b_at);
+        store_slot(p, b_at, f);
+    }
+    if heap_size < h {
+        heap_sift_up(p, heap_size, b);
+        atomicAdd(&pixels[pixel_word(p, FILLED)], SEMIHEAP_H_ONE);
+        if heap_size + 1u < h {
+            return;
+        }
+    } else {
+        heap_sift_down(p, h, b);
+    }
+    publish_bound(p, load_slot(p, 0u).depth);
+}
+
+// The capture step of kplus-semiheap.
+fn capture_semiheap(p: u32, f: Fragment) {
+    let direct = kp.k - kp.aux;
+    let s = count_seen(p);
+    if s < direct {
+        store_slot(p, kp.aux + s, f);
+        atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+        return;
+    }
+    if culled(p, f) {
+        tail_add(p, f);
+        return;
+    }
+    for (var t = 0u; t < kp.max_tries; t++) {
+        if try_lock(p) {
+            let filled = atomicLoad(&pixels[pixel_word(p, FILLED)]);
+            if (filled & 0xffffu) < direct {
+                // A direct store of this pixel is still being written: let it finish.
+                unlock(p);
+                continue;
+            }
+            semiheap_insert(p, filled >> 16u, f);
+            unlock(p);
+            return;
+        }
+    }
+    lock_failed(p, f);
+}
