@@ -131,9 +131,13 @@ struct RenderArgs {
     lights: Option<u32>,
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
-    /// Write the frame's statistics as JSON.
+    /// Write the frame's statistics as JSON (with --frames: one JSON line per frame).
     #[arg(long)]
     stats: Option<PathBuf>,
+    /// Render the animation's frames A..B (B excluded) or A..=B, each to -o with its number in a
+    /// %d or %0Nd pattern (e.g. -o frame_%04d.png); one renderer for the whole sequence.
+    #[arg(long)]
+    frames: Option<String>,
 }
 
 #[derive(Args)]
@@ -425,25 +429,10 @@ fn render(a: RenderArgs) -> Result<()> {
             "--lights applies to methods that are not built yet",
         ));
     }
-    let (scene, mut options) = prepare(&a.picture)?;
-    if let Some(r) = a.robustness {
-        if options.k_auto.is_none() {
-            return Err(Error::input("--robustness applies to --k auto"));
-        }
-        options.k_auto = Some(r);
+    if let Some(range) = a.frames.clone() {
+        return render_sequence(a, &range);
     }
-    options.budget_mb = a.budget_mb;
-    options.tail = a.tail;
-    options.culling = a.culling == Toggle::On;
-    if a.max_tries == Some(0) {
-        return Err(Error::input("--max-tries must be at least 1"));
-    }
-    options.max_tries = a.max_tries;
-    options.layers = a.layers;
-    options.heap_size = a.heap_size;
-    options.weight = a.weight;
-    options.depth_scale = a.depth_scale;
-    options.validate()?;
+    let (scene, options) = prepare_render(&a, &a.picture)?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",
         options.width, options.height, a.method
@@ -464,6 +453,140 @@ fn render(a: RenderArgs) -> Result<()> {
         a.stats.as_deref(),
     )?;
     summary(&stats, &a.output, options.tail);
+    Ok(())
+}
+
+/// The scene and options of a render: the picture's, then the method options.
+fn prepare_render(a: &RenderArgs, picture: &PictureArgs) -> Result<(Scene, RenderOptions)> {
+    let (scene, mut options) = prepare(picture)?;
+    if let Some(r) = a.robustness {
+        if options.k_auto.is_none() {
+            return Err(Error::input("--robustness applies to --k auto"));
+        }
+        options.k_auto = Some(r);
+    }
+    options.budget_mb = a.budget_mb;
+    options.tail = a.tail;
+    options.culling = a.culling == Toggle::On;
+    if a.max_tries == Some(0) {
+        return Err(Error::input("--max-tries must be at least 1"));
+    }
+    options.max_tries = a.max_tries;
+    options.layers = a.layers;
+    options.heap_size = a.heap_size;
+    options.weight = a.weight;
+    options.depth_scale = a.depth_scale;
+    options.validate()?;
+    Ok((scene, options))
+}
+
+/// The frames of `--frames A..B` or `A..=B`.
+fn parse_frames(range: &str) -> Result<std::ops::Range<u32>> {
+    let bad = || {
+        Error::input(format!(
+            "--frames '{range}' is not A..B or A..=B with A <= B"
+        ))
+    };
+    let (a, b, inclusive) = match range.split_once("..=") {
+        Some((a, b)) => (a, b, true),
+        None => range
+            .split_once("..")
+            .map(|(a, b)| (a, b, false))
+            .ok_or_else(bad)?,
+    };
+    let a: u32 = a.trim().parse().map_err(|_| bad())?;
+    let b: u32 = b.trim().parse().map_err(|_| bad())?;
+    let end = if inclusive {
+        b.checked_add(1).ok_or_else(bad)?
+    } else {
+        b
+    };
+    if end <= a {
+        return Err(bad());
+    }
+    Ok(a..end)
+}
+
+/// `pattern` with its %d or %0Nd replaced by `n`.
+fn frame_path(pattern: &Path, n: u32) -> Result<PathBuf> {
+    let text = pattern.to_string_lossy();
+    let bad = || {
+        Error::input(format!(
+            "-o '{text}' needs a %d or %0Nd for the frame number with --frames (e.g. frame_%04d.png)"
+        ))
+    };
+    let at = text.find('%').ok_or_else(bad)?;
+    let rest = &text[at + 1..];
+    let d = rest.find('d').ok_or_else(bad)?;
+    let width = &rest[..d];
+    let digits = if width.is_empty() {
+        0
+    } else if width.starts_with('0') && width.len() <= 2 {
+        width.parse::<usize>().map_err(|_| bad())?
+    } else {
+        return Err(bad());
+    };
+    Ok(PathBuf::from(format!(
+        "{}{n:0digits$}{}",
+        &text[..at],
+        &rest[d + 1..]
+    )))
+}
+
+/// `strata render --frames`: each time step of the animation with one renderer, PNGs by
+/// pattern, statistics as JSON lines.
+fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
+    let frames = parse_frames(range)?;
+    if a.picture.frame.is_some() {
+        return Err(Error::input("--frame and --frames exclude each other"));
+    }
+    frame_path(&a.output, frames.start)?;
+    let gpu = if a.method == MethodId::Reference {
+        None
+    } else {
+        Some(Gpu::new()?)
+    };
+    let bar = indicatif::ProgressBar::new(frames.len() as u64);
+    let mut renderer: Option<Renderer> = None;
+    let mut lines = String::new();
+    let mut last = None;
+    for n in frames.clone() {
+        let picture = PictureArgs {
+            frame: Some(n as f32),
+            ..a.picture.clone()
+        };
+        let (scene, options) = prepare_render(&a, &picture)?;
+        let (image, stats) = match &gpu {
+            None => strata::reference::render(&scene, &options)?,
+            Some(gpu) => {
+                let r = match renderer.as_mut() {
+                    Some(r) => {
+                        r.set_geometry(&scene)?;
+                        r
+                    }
+                    None => renderer.insert(Renderer::new(gpu, &scene, &options)?),
+                };
+                r.render_method(a.method, None)?
+            }
+        };
+        let path = frame_path(&a.output, n)?;
+        save_png(&image.to_rgba8(options.effect), &path)?;
+        let mut stats = stats;
+        stats.frame = n as u64;
+        lines += &serde_json::to_string(&stats).map_err(|e| Error::runtime(e.to_string()))?;
+        lines.push('\n');
+        last = Some((stats, path, options.tail));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    if let Some(path) = &a.stats {
+        std::fs::write(path, lines)
+            .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))?;
+    }
+    if let Some((stats, path, tail)) = last {
+        summary(&stats, &path, tail);
+        eprintln!("{} frames written", frames.len());
+    }
     Ok(())
 }
 

@@ -466,3 +466,58 @@ fn histogram_on_the_gpu_agrees_with_the_cpu() {
         "{gpu:?} vs {cpu:?}"
     );
 }
+
+/// `--frames` renders an animation's time steps with one renderer: each PNG equals the
+/// single-frame render of its step, and the statistics come as one JSON line per frame.
+#[test]
+fn frame_sequences_match_single_frames() {
+    let dir = workdir("frames");
+    let pattern = dir.join("frame_%03d.png");
+    let stats = dir.join("frames.jsonl");
+    let scene = "builtin:balls?count=60";
+    let o = strata(&[
+        "render",
+        scene,
+        "--method",
+        "kplus-heap",
+        "--size",
+        "48x48",
+        "--frames",
+        "1..=3",
+        "-o",
+        pattern.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&stats)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 3);
+    assert_eq!(lines[2]["frame"], 3);
+    let single = dir.join("single.png");
+    let o = strata(&[
+        "render",
+        scene,
+        "--method",
+        "kplus-heap",
+        "--size",
+        "48x48",
+        "--frame",
+        "3",
+        "-o",
+        single.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = image::open(dir.join("frame_003.png")).unwrap().to_rgba8();
+    let b = image::open(&single).unwrap().to_rgba8();
+    assert!(
+        a == b,
+        "frame 3 of the sequence differs from the single render"
+    );
+    let first = image::open(dir.join("frame_001.png")).unwrap().to_rgba8();
+    assert!(first != a, "the balls move between frames");
+    assert_bad_input(&["render", "--frames", "3..1"], "--frames");
+}

@@ -133,6 +133,16 @@ impl<'g> Renderer<'g> {
         self.render_frame(method.parse()?, Some(draw))
     }
 
+    /// The next time step of an animated scene (same triangle count; the camera stays): the
+    /// next picture renders it, reusing every pipeline and buffer.
+    pub fn set_geometry(&mut self, scene: &Scene) -> Result<()> {
+        if let Some(recorder) = &mut self.recorder {
+            recorder.set_geometry(scene)?;
+        }
+        self.scene = scene.clone();
+        Ok(())
+    }
+
     /// Renders with a typed method id.
     pub fn render_method(
         &mut self,
