@@ -84,6 +84,38 @@ pub fn compute_pipeline(
         })
 }
 
+/// Records a geometry pass of `pipeline` with `groups` bound from index 0 into color `targets`,
+/// each cleared to its color first, drawing the frame's geometry.
+pub fn color_geometry_pass(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::RenderPipeline,
+    groups: &[&wgpu::BindGroup],
+    targets: &[(&wgpu::TextureView, wgpu::Color)],
+) {
+    let label = ctx.label(name);
+    let attachments: Vec<_> = targets
+        .iter()
+        .map(|(view, clear)| attachment(view, *clear))
+        .collect();
+    let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(&label),
+        color_attachments: &attachments,
+        depth_stencil_attachment: None,
+        timestamp_writes: ctx.timer.render_pass(name),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    for (i, group) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*group), &[]);
+    }
+    match ctx.draw {
+        Some(draw) => draw(&mut pass),
+        None => pass.draw(0..ctx.scene.triangle_count * 3, 0..1),
+    }
+}
+
 /// A color attachment the pass clears to `clear` and keeps.
 pub fn attachment(
     view: &wgpu::TextureView,

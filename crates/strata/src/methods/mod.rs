@@ -158,8 +158,16 @@ pub trait Method {
 
     /// Reads the counters a frame asked for (`None` when its statistics were skipped), with
     /// the frame totals, and applies feedback to the next frame.
-    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: Option<&[u32]>)
-        -> MethodStats;
+    /// Methods without counters or feedback report nothing beyond the frame totals.
+    fn stats(
+        &mut self,
+        recorded: &Recorded,
+        totals: &Totals,
+        words: Option<&[u32]>,
+    ) -> MethodStats {
+        let _ = (recorded, totals, words);
+        MethodStats::default()
+    }
 
     /// The buffers kept between frames (tests poison them).
     fn resources(&self) -> Vec<&ResourceCache>;

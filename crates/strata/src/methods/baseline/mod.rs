@@ -8,9 +8,11 @@
 //! point); translucency gets Fresnel opacity but no absorption, which needs ordered neighbours.
 
 use crate::error::Result;
-use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{attachment, capture_pipeline, compute_pipeline, dispatch_pixels};
+use crate::gpu::passes::{
+    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
+};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
 
@@ -151,26 +153,13 @@ impl Method for Blend {
             ],
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
-        {
-            let label = ctx.label("blend");
-            let draw = ctx.draw;
-            let triangles = ctx.scene.triangle_count;
-            let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(&label),
-                color_attachments: &[attachment(&target_view, wgpu::Color::TRANSPARENT)],
-                depth_stencil_attachment: None,
-                timestamp_writes: ctx.timer.render_pass("blend"),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.blend);
-            pass.set_bind_group(0, Some(frame_group), &[]);
-            pass.set_bind_group(1, Some(&blend_group), &[]);
-            match draw {
-                Some(draw) => draw(&mut pass),
-                None => pass.draw(0..triangles * 3, 0..1),
-            }
-        }
+        color_geometry_pass(
+            ctx,
+            "blend",
+            &self.blend,
+            &[frame_group, &blend_group],
+            &[(&target_view, wgpu::Color::TRANSPARENT)],
+        );
         let frame_group = ctx.frame_group;
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &finish_group]);
         Ok(Recorded {
@@ -178,10 +167,6 @@ impl Method for Blend {
             bytes_allocated: bytes,
             ..Default::default()
         })
-    }
-
-    fn stats(&mut self, _: &Recorded, _: &Totals, _: Option<&[u32]>) -> MethodStats {
-        MethodStats::default()
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {

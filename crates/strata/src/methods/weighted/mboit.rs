@@ -18,11 +18,12 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use super::geometry_pass;
 use crate::error::{Error, Result};
-use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{capture_pipeline, compute_pipeline, dispatch_pixels};
+use crate::gpu::passes::{
+    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
+};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
 
@@ -212,21 +213,21 @@ impl Method for Mboit {
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
         let zero = wgpu::Color::TRANSPARENT;
-        geometry_pass(
+        let frame_group = ctx.frame_group;
+        color_geometry_pass(
             ctx,
             "moments",
             &self.moments,
-            &moments_group,
+            &[frame_group, &moments_group],
             &[(&b0, zero), (&moments, zero)],
         );
-        geometry_pass(
+        color_geometry_pass(
             ctx,
             "shade",
             &self.shade,
-            &shade_group,
+            &[frame_group, &shade_group],
             &[(&accumulation, zero)],
         );
-        let frame_group = ctx.frame_group;
         dispatch_pixels(
             ctx,
             "composite",
@@ -238,10 +239,6 @@ impl Method for Mboit {
             bytes_allocated: bytes,
             ..Default::default()
         })
-    }
-
-    fn stats(&mut self, _: &Recorded, _: &Totals, _: Option<&[u32]>) -> MethodStats {
-        MethodStats::default()
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {

@@ -20,9 +20,11 @@ pub mod mboit;
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::Result;
-use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{attachment, capture_pipeline, compute_pipeline, dispatch_pixels};
+use crate::gpu::passes::{
+    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
+};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
 
@@ -129,40 +131,6 @@ impl Wboit {
     }
 }
 
-/// Records a geometry pass of `pipeline` (group 1: `group`) into `targets`, each cleared to its
-/// color first.
-fn geometry_pass(
-    ctx: &mut FrameContext<'_>,
-    name: &'static str,
-    pipeline: &wgpu::RenderPipeline,
-    group: &wgpu::BindGroup,
-    targets: &[(&wgpu::TextureView, wgpu::Color)],
-) {
-    let label = ctx.label(name);
-    let draw = ctx.draw;
-    let triangles = ctx.scene.triangle_count;
-    let frame_group = ctx.frame_group;
-    let attachments: Vec<_> = targets
-        .iter()
-        .map(|(view, clear)| attachment(view, *clear))
-        .collect();
-    let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(&label),
-        color_attachments: &attachments,
-        depth_stencil_attachment: None,
-        timestamp_writes: ctx.timer.render_pass(name),
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, Some(frame_group), &[]);
-    pass.set_bind_group(1, Some(group), &[]);
-    match draw {
-        Some(draw) => draw(&mut pass),
-        None => pass.draw(0..triangles * 3, 0..1),
-    }
-}
-
 impl Method for Wboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
@@ -222,11 +190,12 @@ impl Method for Wboit {
             ],
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
-        geometry_pass(
+        let frame_group = ctx.frame_group;
+        color_geometry_pass(
             ctx,
             "accumulate",
             &self.accumulate,
-            &accumulate_group,
+            &[frame_group, &accumulate_group],
             &[
                 (&accumulation, wgpu::Color::TRANSPARENT),
                 (&revealage, wgpu::Color::WHITE),
@@ -244,10 +213,6 @@ impl Method for Wboit {
             bytes_allocated: bytes,
             ..Default::default()
         })
-    }
-
-    fn stats(&mut self, _: &Recorded, _: &Totals, _: Option<&[u32]>) -> MethodStats {
-        MethodStats::default()
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {
