@@ -492,6 +492,9 @@ pub fn run(a: BenchArgs) -> Result<()> {
             alpha,
             k: None,
             frame: None,
+            pipeline: None,
+            lights: None,
+            tonemap: Default::default(),
         };
         let (scene_data, options) = prepare(&picture)?;
         let full_reference = if quality {

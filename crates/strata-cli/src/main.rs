@@ -75,6 +75,17 @@ pub struct PictureArgs {
     /// Animation time for animated scenes.
     #[arg(long)]
     pub frame: Option<f32>,
+    /// Light opaque objects forward (every light per fragment) or deferred (G-buffer and light
+    /// volumes), the method drawing only the transparent ones over them; unset: every surface
+    /// through the method.
+    #[arg(long, value_enum)]
+    pub pipeline: Option<strata::frame::Pipeline>,
+    /// Add N coloured point lights, a deterministic field over the scene's bounds.
+    #[arg(long)]
+    pub lights: Option<u32>,
+    /// The lit pipelines' tone map (neutral: colors below 0.8 unchanged, highlights roll off).
+    #[arg(long, value_enum, default_value = "neutral")]
+    pub tonemap: strata::frame::Tonemap,
 }
 
 #[derive(Args)]
@@ -123,12 +134,15 @@ struct RenderArgs {
     /// measured by the frame itself).
     #[arg(long)]
     layers: Option<u32>,
-    /// forward, or deferred (the deferred pipeline is not built yet).
-    #[arg(long, value_enum, default_value = "forward")]
-    pipeline: Pipeline,
-    /// Number of lights for the deferred pipeline (not built yet).
+    /// --pipeline deferred: screen-space ambient occlusion on the ambient term.
     #[arg(long)]
-    lights: Option<u32>,
+    ssao: bool,
+    /// --pipeline deferred: the G-buffer's normal encoding.
+    #[arg(long, value_enum, default_value = "spheremap")]
+    normal_encoding: strata::frame::NormalEncoding,
+    /// --pipeline deferred: write a G-buffer view instead of the picture.
+    #[arg(long, value_enum)]
+    gbuffer_debug: Option<strata::frame::GbufferView>,
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
     /// Write the frame's statistics as JSON (with --frames: one JSON line per frame).
@@ -189,12 +203,6 @@ enum Raster {
     Compute,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Pipeline {
-    Forward,
-    Deferred,
-}
-
 /// A command-line error as one line: clap's first line, with the valid values where it names
 /// them (its own rendering spreads over several lines).
 fn one_line(e: &clap::Error) -> String {
@@ -251,6 +259,11 @@ fn run(command: Command) -> Result<()> {
     }
 }
 
+/// `--lights` stops here: every transparent fragment loops over the whole list.
+const MAX_LIGHTS: u32 = 65536;
+/// The light field is the same for every run.
+const LIGHT_FIELD_SEED: u64 = 1;
+
 pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     let bad = || {
         Error::input(format!(
@@ -303,6 +316,14 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     if let Some(a) = p.alpha {
         scene.override_alpha(a);
     }
+    if let Some(n) = p.lights {
+        if n > MAX_LIGHTS {
+            return Err(Error::input(format!(
+                "--lights {n} is more than {MAX_LIGHTS}"
+            )));
+        }
+        scene.add_light_field(n, LIGHT_FIELD_SEED);
+    }
     let shading = p
         .shading
         .as_deref()
@@ -331,6 +352,8 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
         background,
         k,
         k_auto,
+        pipeline: p.pipeline,
+        tonemap: p.tonemap,
         ..Default::default()
     };
     options.validate()?;
@@ -419,16 +442,6 @@ fn render(a: RenderArgs) -> Result<()> {
             "--raster compute: the compute-shader rasterizer is not built yet; use --raster hw",
         ));
     }
-    if a.pipeline == Pipeline::Deferred {
-        return Err(Error::unsupported(
-            "--pipeline deferred: the deferred-shading pipeline is not built yet",
-        ));
-    }
-    if a.lights.is_some() {
-        return Err(Error::unsupported(
-            "--lights applies to methods that are not built yet",
-        ));
-    }
     if let Some(range) = a.frames.clone() {
         return render_sequence(a, &range);
     }
@@ -476,6 +489,9 @@ fn prepare_render(a: &RenderArgs, picture: &PictureArgs) -> Result<(Scene, Rende
     options.heap_size = a.heap_size;
     options.weight = a.weight;
     options.depth_scale = a.depth_scale;
+    options.ssao = a.ssao;
+    options.normal_encoding = a.normal_encoding;
+    options.gbuffer_debug = a.gbuffer_debug;
     options.validate()?;
     Ok((scene, options))
 }
@@ -730,6 +746,9 @@ fn histogram(a: HistogramArgs) -> Result<()> {
         alpha: None,
         k: None,
         frame: None,
+        pipeline: None,
+        lights: None,
+        tonemap: Default::default(),
     };
     let (scene, options) = prepare(&picture)?;
     let hist = if a.cpu {

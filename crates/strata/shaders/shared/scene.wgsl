@@ -38,7 +38,7 @@ struct Material {
     absorption: f32,
     ior: f32,
     shading: u32,
-    _pad: u32,
+    shininess: f32,
 }
 
 struct Light {
@@ -49,9 +49,10 @@ struct Light {
     radiance: vec3<f32>,
     range: f32,
     cos_inner: f32,
-    _pad0: f32,
-    _pad1: f32,
-    _pad2: f32,
+    // Attenuation 1 / (a + b·d + c·d²), windowed to zero at `range`.
+    attenuation_a: f32,
+    attenuation_b: f32,
+    attenuation_c: f32,
 }
 
 const EFFECT_TRANSPARENCY: u32 = 0u;
@@ -62,7 +63,6 @@ const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
 const LIGHT_DIRECTIONAL: u32 = 2u;
 const SPECULAR: f32 = 0.3;
-const SHININESS: f32 = 48.0;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> vertices: array<Vertex>;
@@ -151,49 +151,81 @@ fn background_at(pixel: vec2<u32>) -> vec3<f32> {
     return frame.checker_dark.rgb;
 }
 
-fn blinn_phong(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+// What a surface point receives from one light: `diffuse` multiplies the albedo, `specular` is
+// added. Shared by every pipeline (forward per fragment, deferred light volumes) so their
+// lighting is one formula.
+struct LightTerms {
+    diffuse: vec3<f32>,
+    specular: vec3<f32>,
+}
+
+// Blinn–Phong from direction `l`, unit radiance.
+fn blinn_phong_terms(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, shininess: f32) -> LightTerms {
     let hv = l + v;
     let h = hv / max(length(hv), 1e-6);
-    return albedo * max(dot(n, l), 0.0) + vec3<f32>(SPECULAR * pow(max(dot(n, h), 0.0), SHININESS));
+    return LightTerms(vec3<f32>(max(dot(n, l), 0.0)), vec3<f32>(SPECULAR * pow(max(dot(n, h), 0.0), shininess)));
+}
+
+// One light at a surface point (unit normal `n` facing the viewer `v`): Blinn–Phong times the
+// light's radiance and attenuation — seed 004's 1 / (a + b·d + c·d²), times a window
+// (1 − (d/range)²)² that reaches zero at the light volume's radius, so a volume bounds the light
+// exactly — and, for spots, the cone's fade.
+fn light_terms(light: Light, world: vec3<f32>, n: vec3<f32>, v: vec3<f32>, shininess: f32) -> LightTerms {
+    var l = -normalize(light.direction);
+    var attenuation = 1.0;
+    if light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT {
+        let to_light = light.position - world;
+        let d = length(to_light);
+        l = to_light / max(d, 1e-12);
+        let window = clamp(1.0 - (d / light.range) * (d / light.range), 0.0, 1.0);
+        attenuation = window * window / (light.attenuation_a + d * (light.attenuation_b + d * light.attenuation_c));
+        if light.kind == LIGHT_SPOT {
+            let c = dot(-l, normalize(light.direction));
+            attenuation *= clamp((c - light.cos_outer) / max(light.cos_inner - light.cos_outer, 1e-6), 0.0, 1.0);
+        }
+    } else if light.kind != LIGHT_DIRECTIONAL {
+        return LightTerms(vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    let t = blinn_phong_terms(n, v, l, shininess);
+    let radiance = light.radiance * attenuation;
+    return LightTerms(radiance * t.diffuse, radiance * t.specular);
+}
+
+// Direction towards the viewer from a surface point.
+fn view_direction(world: vec3<f32>) -> vec3<f32> {
+    if frame.orthographic == 0u {
+        return normalize(frame.eye.xyz - world);
+    }
+    return frame.to_camera.xyz;
+}
+
+// The unit normal turned towards the viewer (two-sided lighting).
+fn facing_normal(normal: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    let n = normal / max(length(normal), 1e-12);
+    return select(n, -n, dot(n, v) < 0.0);
 }
 
 // Color and opacity of a surface point: unlit or two-sided Blinn–Phong, with Schlick Fresnel
 // folded into the opacity for the translucency effect.
 fn shade(world: vec3<f32>, normal: vec3<f32>, material_index: u32) -> vec4<f32> {
     let m = materials[material_index];
-    var v = frame.to_camera.xyz;
-    if frame.orthographic == 0u {
-        v = normalize(frame.eye.xyz - world);
-    }
-    var n = normal / max(length(normal), 1e-12);
-    if dot(n, v) < 0.0 {
-        n = -n;
-    }
+    let v = view_direction(world);
+    let n = facing_normal(normal, v);
     var color = m.color;
     if m.shading != SHADING_UNLIT {
-        color = frame.ambient.rgb * m.color;
+        var diffuse = frame.ambient.rgb;
+        var specular = vec3<f32>(0.0);
         if frame.headlight != 0u {
-            color += blinn_phong(n, v, v, m.color);
+            let t = blinn_phong_terms(n, v, v, m.shininess);
+            diffuse += t.diffuse;
+            specular += t.specular;
         }
         for (var i = 0u; i < frame.light_count; i++) {
-            let light = lights[i];
-            var l = -normalize(light.direction);
-            var attenuation = 1.0;
-            if light.kind == LIGHT_POINT || light.kind == LIGHT_SPOT {
-                let to_light = light.position - world;
-                let d = length(to_light);
-                l = to_light / max(d, 1e-12);
-                let falloff = clamp(1.0 - (d / light.range) * (d / light.range), 0.0, 1.0);
-                attenuation = falloff * falloff;
-                if light.kind == LIGHT_SPOT {
-                    let c = dot(-l, normalize(light.direction));
-                    attenuation *= clamp((c - light.cos_outer) / max(light.cos_inner - light.cos_outer, 1e-6), 0.0, 1.0);
-                }
-            } else if light.kind != LIGHT_DIRECTIONAL {
-                continue;
-            }
-            color += light.radiance * attenuation * blinn_phong(n, v, l, m.color);
+            let t = light_terms(lights[i], world, n, v, m.shininess);
+            diffuse += t.diffuse;
+            specular += t.specular;
         }
+        color = m.color * diffuse + specular;
     }
     var alpha = m.opacity;
     if frame.effect == EFFECT_TRANSLUCENCY {

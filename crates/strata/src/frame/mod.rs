@@ -26,6 +26,7 @@ use std::str::FromStr;
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
+pub use crate::deferred::{GbufferView, LightingStats, NormalEncoding, Pipeline, Tonemap};
 use crate::error::{Error, Result};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
@@ -159,6 +160,17 @@ pub struct RenderOptions {
     /// Value the fragment-pool allocation counters start from each frame (normally 0). Tests
     /// start them near 2³² to show that they saturate instead of wrapping.
     pub allocation_counter_start: u32,
+    /// `--pipeline`: opaque objects lit forward or deferred, the method over them (see
+    /// [`crate::deferred`]); `None`: every surface, opaque ones too, goes through the method.
+    pub pipeline: Option<Pipeline>,
+    /// The lit pipelines' tone map.
+    pub tonemap: Tonemap,
+    /// Deferred: screen-space ambient occlusion.
+    pub ssao: bool,
+    /// Deferred: how the G-buffer stores normals.
+    pub normal_encoding: NormalEncoding,
+    /// Deferred: write a G-buffer view instead of the picture.
+    pub gbuffer_debug: Option<GbufferView>,
 }
 
 impl Default for RenderOptions {
@@ -180,6 +192,11 @@ impl Default for RenderOptions {
             weight: Weight::Eq7,
             depth_scale: 1.0,
             allocation_counter_start: 0,
+            pipeline: None,
+            tonemap: Tonemap::default(),
+            ssao: false,
+            normal_encoding: NormalEncoding::default(),
+            gbuffer_debug: None,
         }
     }
 }
@@ -215,6 +232,18 @@ impl RenderOptions {
             if !(r > 0.0 && r <= 1.0) {
                 return Err(Error::input(format!(
                     "--robustness {r} is outside (0, 1] (the fraction of fragments to capture)"
+                )));
+            }
+        }
+        if self.pipeline != Some(Pipeline::Deferred) {
+            if self.ssao {
+                return Err(Error::input("--ssao needs --pipeline deferred (it reads the G-buffer)"));
+            }
+            if let Some(v) = self.gbuffer_debug {
+                let name = serde_json::to_value(v).unwrap_or_default();
+                return Err(Error::input(format!(
+                    "--gbuffer-debug {} needs --pipeline deferred",
+                    name.as_str().unwrap_or("view")
                 )));
             }
         }
@@ -269,6 +298,9 @@ pub struct FrameStats {
     /// With `--k auto`: how this frame's k (`k`) was chosen and what it captured.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub k_auto: Option<AutoKStats>,
+    /// With `--pipeline`: the lit opaque frame (pipeline, lights drawn and culled, G-buffer
+    /// bytes).
+    pub lighting: Option<LightingStats>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the

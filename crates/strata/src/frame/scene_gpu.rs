@@ -44,6 +44,15 @@ pub struct SceneGpu {
 impl SceneGpu {
     pub fn new(gpu: &Gpu, scene: &Scene, options: &RenderOptions) -> Result<SceneGpu> {
         scene.validate()?;
+        Self::new_allow_empty(gpu, scene, options)
+    }
+
+    /// Like [`SceneGpu::new`], for a scene that may have no objects (one side of a scene split
+    /// by opacity): it then draws nothing.
+    pub fn new_allow_empty(gpu: &Gpu, scene: &Scene, options: &RenderOptions) -> Result<SceneGpu> {
+        if !scene.objects.is_empty() {
+            scene.validate()?;
+        }
         let triangles = scene.triangle_count() as u64;
         let vertex_bytes = triangles * 3 * std::mem::size_of::<GpuVertex>() as u64;
         if triangles >= MAX_TRIANGLES || vertex_bytes > gpu.max_storage_binding() {
@@ -52,8 +61,11 @@ impl SceneGpu {
                 vertex_bytes as f64 / 1048576.0
             )));
         }
-        let tris = scene.triangles();
+        let mut tris = scene.triangles();
         let triangle_count = (tris.len() / 3) as u32;
+        if tris.is_empty() {
+            tris.push(GpuVertex::default()); // bindings cannot be empty
+        }
         let init = |label: &str, contents: &[u8], usage| {
             gpu.device
                 .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -63,14 +75,17 @@ impl SceneGpu {
                 })
         };
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let materials: Vec<_> = scene.materials.iter().map(uniforms::gpu_material).collect();
+        let mut materials: Vec<_> = scene.materials.iter().map(uniforms::gpu_material).collect();
+        if materials.is_empty() {
+            materials.push(bytemuck::Zeroable::zeroed());
+        }
         let lighting = uniforms::lighting(scene);
         let mut lights = lighting.lights.clone();
         if lights.is_empty() {
             lights.push(bytemuck::Zeroable::zeroed()); // bindings cannot be empty
         }
         let camera = scene.camera_or_framing();
-        let order: Vec<u32> = (0..triangle_count).collect();
+        let order: Vec<u32> = (0..triangle_count.max(1)).collect();
         let u = uniforms::frame_uniforms(&camera, options, &lighting);
         Ok(SceneGpu {
             triangle_count,
@@ -103,7 +118,10 @@ impl SceneGpu {
             frame_layout: binding::layout(&gpu.device, "strata.frame.layout", &FRAME_SLOTS),
             camera,
             lighting,
-            cpu_positions: tris.iter().map(|v| v.position).collect(),
+            cpu_positions: tris[..triangle_count as usize * 3]
+                .iter()
+                .map(|v| v.position)
+                .collect(),
         })
     }
 

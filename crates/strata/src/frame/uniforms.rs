@@ -41,7 +41,8 @@ pub struct GpuMaterial {
     pub absorption: f32,
     pub ior: f32,
     pub shading: u32,
-    pub _pad: u32,
+    /// The specular exponent ([`Material::exponent`]).
+    pub shininess: f32,
 }
 
 /// Keep in sync with `Light` in scene.wgsl.
@@ -55,7 +56,8 @@ pub struct GpuLight {
     pub radiance: [f32; 3],
     pub range: f32,
     pub cos_inner: f32,
-    pub _pad: [f32; 3],
+    /// a, b, c of the attenuation 1 / (a + b·d + c·d²).
+    pub attenuation: [f32; 3],
 }
 
 /// The shading parameters both the GPU and the CPU reference derive from a scene.
@@ -96,7 +98,7 @@ pub fn lighting(scene: &Scene) -> LightingSetup {
             radiance,
             range: l.range.max(1e-6),
             cos_inner: (l.angle_deg * SPOT_INNER_FRACTION).to_radians().cos(),
-            _pad: [0.0; 3],
+            attenuation: l.attenuation,
         });
     }
     if !has_ambient {
@@ -119,7 +121,7 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             Shading::Unlit => 0,
             Shading::Lit => 1,
         },
-        _pad: 0,
+        shininess: m.exponent(),
     }
 }
 
@@ -190,9 +192,11 @@ mod tests {
         assert_eq!(size_of::<GpuMaterial>(), 32);
         assert_eq!(offset_of!(GpuMaterial, absorption), 16);
         assert_eq!(offset_of!(GpuMaterial, shading), 24);
+        assert_eq!(offset_of!(GpuMaterial, shininess), 28);
         assert_eq!(size_of::<GpuLight>(), 64);
         assert_eq!(offset_of!(GpuLight, direction), 16);
         assert_eq!(offset_of!(GpuLight, radiance), 32);
         assert_eq!(offset_of!(GpuLight, cos_inner), 48);
+        assert_eq!(offset_of!(GpuLight, attenuation), 52);
     }
 }

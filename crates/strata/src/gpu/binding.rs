@@ -83,6 +83,41 @@ pub fn layout(device: &wgpu::Device, label: &str, slots: &[Slot]) -> wgpu::BindG
     })
 }
 
+/// A layout with the given binding indices, which need not be dense (passes that read a
+/// subset of a shared WGSL binding list).
+pub fn layout_at(
+    device: &wgpu::Device,
+    label: &str,
+    slots: &[(u32, Slot)],
+) -> wgpu::BindGroupLayout {
+    let entries: Vec<_> = slots.iter().map(|&(i, s)| entry(i, s)).collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    })
+}
+
+/// Bind group with the given (binding index, resource) entries, for [`layout_at`] layouts.
+pub fn group_at(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    resources: &[(u32, wgpu::BindingResource<'_>)],
+) -> wgpu::BindGroup {
+    let entries: Vec<_> = resources
+        .iter()
+        .map(|(i, r)| wgpu::BindGroupEntry {
+            binding: *i,
+            resource: r.clone(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 /// Bind group whose entry `i` is `resources[i]`.
 pub fn group(
     device: &wgpu::Device,

@@ -47,3 +47,59 @@ pub fn read_u32s(gpu: &Gpu, src: &wgpu::Buffer, count: u64) -> Result<Vec<u32>> 
         count * 4,
     )?))
 }
+
+/// Reads a texture back, rows unpadded: `bytes_per_texel` bytes per texel, row-major.
+pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>> {
+    let (w, h) = (texture.width(), texture.height());
+    let texel = texture
+        .format()
+        .block_copy_size(Some(wgpu::TextureAspect::All))
+        .ok_or_else(|| Error::runtime("texture format has no single copy size"))?;
+    let row = (w * texel).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("strata.readback.texture"),
+        size: (row * h) as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut enc = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("strata.readback.texture"),
+        });
+    enc.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &staging,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(h),
+            },
+        },
+        texture.size(),
+    );
+    gpu.queue.submit([enc.finish()]);
+    let data = map_and_read(gpu, &staging)?;
+    let tight = (w * texel) as usize;
+    Ok(data
+        .chunks(row as usize)
+        .take(h as usize)
+        .flat_map(|r| r[..tight].iter().copied())
+        .collect())
+}
+
+/// Reads an Rgba16Float texture back as f32 RGBA per texel, row-major.
+pub fn read_rgba16f(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<[f32; 4]>> {
+    if texture.format() != wgpu::TextureFormat::Rgba16Float {
+        return Err(Error::runtime("read_rgba16f needs an Rgba16Float texture"));
+    }
+    let bytes = read_texture(gpu, texture)?;
+    Ok(bytes
+        .chunks_exact(8)
+        .map(|t| {
+            let c = |i: usize| half::f16::from_le_bytes([t[2 * i], t[2 * i + 1]]).to_f32();
+            [c(0), c(1), c(2), c(3)]
+        })
+        .collect())
+}

@@ -12,16 +12,15 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::frame::uniforms::{self, LightingSetup};
+use crate::frame::uniforms::{self, GpuLight, LightingSetup};
 use crate::frame::{Effect, FrameStats, RenderOptions};
 use crate::render::LinearImage;
 use crate::resolve::{composite, RefFragment};
 use crate::scene::{Camera, Material, Projection, Scene, Shading};
 
 const BAND_ROWS: u32 = 8;
-/// Shading constants shared with scene.wgsl.
+/// Shading constant shared with scene.wgsl.
 const SPECULAR: f64 = 0.3;
-const SHININESS: f64 = 48.0;
 
 struct Shader<'a> {
     materials: &'a [Material],
@@ -36,10 +35,37 @@ fn v3(a: [f32; 3]) -> DVec3 {
     DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64)
 }
 
-fn blinn_phong(n: DVec3, v: DVec3, l: DVec3, albedo: DVec3) -> DVec3 {
+/// Diffuse (times the albedo) and specular from direction `l` with unit radiance; the twin of
+/// `blinn_phong_terms` in scene.wgsl.
+fn blinn_phong(n: DVec3, v: DVec3, l: DVec3, shininess: f64) -> (f64, f64) {
     let hv = l + v;
     let h = hv / hv.length().max(1e-6);
-    albedo * n.dot(l).max(0.0) + DVec3::splat(SPECULAR * n.dot(h).max(0.0).powf(SHININESS))
+    (
+        n.dot(l).max(0.0),
+        SPECULAR * n.dot(h).max(0.0).powf(shininess),
+    )
+}
+
+/// Direction to the light and the light's attenuation at `world` (window, 1 / (a + b·d + c·d²),
+/// spot cone); the twin of `light_terms` in scene.wgsl.
+fn light_direction(light: &GpuLight, world: DVec3) -> (DVec3, f64) {
+    let dir = v3(light.direction);
+    if light.kind == 2 {
+        return (-dir.normalize(), 1.0);
+    }
+    let to_light = v3(light.position) - world;
+    let d = to_light.length();
+    let l = to_light / d.max(1e-12);
+    let r = d / light.range as f64;
+    let window = (1.0 - r * r).clamp(0.0, 1.0);
+    let [a, b, c] = light.attenuation.map(|x| x as f64);
+    let mut attenuation = window * window / (a + d * (b + d * c));
+    if light.kind == 1 {
+        let cos = (-l).dot(dir.normalize());
+        let (outer, inner) = (light.cos_outer as f64, light.cos_inner as f64);
+        attenuation *= ((cos - outer) / (inner - outer).max(1e-6)).clamp(0.0, 1.0);
+    }
+    (l, attenuation)
 }
 
 impl Shader<'_> {
@@ -58,30 +84,22 @@ impl Shader<'_> {
         let albedo = v3(m.color);
         let mut color = albedo;
         if m.shading != Shading::Unlit {
-            color = v3(self.setup.ambient) * albedo;
+            let shininess = m.exponent() as f64;
+            let mut diffuse = v3(self.setup.ambient);
+            let mut specular = DVec3::ZERO;
             if self.setup.headlight {
-                color += blinn_phong(n, v, v, albedo);
+                let (d, s) = blinn_phong(n, v, v, shininess);
+                diffuse += DVec3::splat(d);
+                specular += DVec3::splat(s);
             }
             for light in &self.setup.lights {
-                let dir = v3(light.direction);
-                let (l, attenuation) = if light.kind == 2 {
-                    (-dir.normalize(), 1.0)
-                } else {
-                    let to_light = v3(light.position) - world;
-                    let d = to_light.length();
-                    let l = to_light / d.max(1e-12);
-                    let r = d / light.range as f64;
-                    let falloff = (1.0 - r * r).clamp(0.0, 1.0);
-                    let mut a = falloff * falloff;
-                    if light.kind == 1 {
-                        let c = (-l).dot(dir.normalize());
-                        let (outer, inner) = (light.cos_outer as f64, light.cos_inner as f64);
-                        a *= ((c - outer) / (inner - outer).max(1e-6)).clamp(0.0, 1.0);
-                    }
-                    (l, a)
-                };
-                color += v3(light.radiance) * attenuation * blinn_phong(n, v, l, albedo);
+                let (l, attenuation) = light_direction(light, world);
+                let (d, s) = blinn_phong(n, v, l, shininess);
+                let radiance = v3(light.radiance) * attenuation;
+                diffuse += radiance * d;
+                specular += radiance * s;
             }
+            color = albedo * diffuse + specular;
         }
         let mut alpha = m.opacity as f64;
         if self.translucency {
@@ -203,8 +221,11 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
 use raster::cover;
 
 /// Renders the exact picture. `options.k` keeps each pixel's k nearest fragments.
+///
+/// With `options.pipeline` the scene splits by opacity as the GPU pipelines split it: each
+/// pixel's nearest opaque surface, shaded, replaces the background, the transparent fragments in
+/// front of it (strictly nearer) are composited over it, and the result is tone-mapped.
 pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, FrameStats)> {
-    let lists = fragments(scene, options)?;
     let (w, h) = (options.width, options.height);
     let translucency = options.effect == Effect::Translucency;
     if options.k_auto.is_some() {
@@ -212,15 +233,51 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
             "the reference takes --k N, not --k auto (a GPU frame's stats name the k it chose)",
         ));
     }
+    if options.ssao || options.gbuffer_debug.is_some() {
+        return Err(crate::Error::input(
+            "the reference has no G-buffer: --ssao and --gbuffer-debug are GPU-only",
+        ));
+    }
+    let (lists, opaque) = match options.pipeline {
+        None => (fragments(scene, options)?, None),
+        Some(_) => {
+            scene.validate()?;
+            let (opaque, transparent) = scene.split_by_opacity();
+            let part = |s: &Scene| -> Result<Vec<Vec<RefFragment>>> {
+                if s.objects.is_empty() {
+                    Ok(vec![Vec::new(); options.pixels() as usize])
+                } else {
+                    fragments(s, options)
+                }
+            };
+            let nearest: Vec<Option<RefFragment>> =
+                part(&opaque)?.into_iter().map(|l| l.into_iter().next()).collect();
+            let lists = part(&transparent)?
+                .into_iter()
+                .zip(&nearest)
+                .map(|(list, o)| match o {
+                    Some(o) => list.into_iter().filter(|f| f.depth < o.depth).collect(),
+                    None => list,
+                })
+                .collect();
+            (lists, Some(nearest))
+        }
+    };
     let keep = options.k.map(|k| k as usize).unwrap_or(usize::MAX);
     let pixels: Vec<[f32; 4]> = lists
         .par_iter()
         .enumerate()
         .map(|(i, list)| {
             let (x, y) = (i as u32 % w, i as u32 / w);
-            let bg = options.background.at(x, y).map(|c| c as f64);
+            let mut bg = options.background.at(x, y).map(|c| c as f64);
+            if let Some(Some(o)) = opaque.as_ref().map(|o| &o[i]) {
+                bg = o.color;
+            }
             let kept = &list[..list.len().min(keep)];
-            let c = composite(kept, bg, translucency);
+            let mut c = composite(kept, bg, translucency);
+            if opaque.is_some() {
+                c = crate::deferred::encoding::tone_map(options.tonemap, c);
+            }
             [c[0] as f32, c[1] as f32, c[2] as f32, kept.len() as f32]
         })
         .collect();
@@ -247,6 +304,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         depth_histogram: None,
         depth_histogram_clipped: None,
         k_auto: None,
+        lighting: None,
         blocking_readbacks: 0,
         submits: 0,
         frame: 0,

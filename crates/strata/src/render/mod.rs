@@ -14,7 +14,8 @@ use crate::error::{Error, Result};
 use crate::frame::{DrawCallback, FrameStats, FrameTargets, Resolved};
 use crate::gpu::{readback, Gpu};
 use crate::methods::MethodId;
-use crate::scene::{linear_to_srgb, Scene};
+use crate::frame::GbufferView;
+use crate::scene::{linear_to_srgb, srgb_to_linear, Scene};
 
 pub use crate::frame::{Effect, RenderOptions, Tail};
 
@@ -170,9 +171,10 @@ impl<'g> Renderer<'g> {
             )?),
         };
         let opaque = self.opaque.create_view(&Default::default());
+        // A pipeline draws the opaque objects and their depth itself.
         let targets = FrameTargets {
             color: None,
-            opaque_depth: Some(&opaque),
+            opaque_depth: self.options.pipeline.is_none().then_some(&opaque),
         };
         let (mut submits, mut blocking, mut passes, mut overflowed) = (0, 0, 0, false);
         let mut report = None;
@@ -217,6 +219,20 @@ impl<'g> Renderer<'g> {
         let resolved: Vec<Resolved> = bytemuck::pod_collect_to_vec(&bytes);
         let (w, h) = (self.options.width, self.options.height);
         let background = self.options.background;
+        if let Some(lit) = recorder.lit() {
+            let hdr = readback::read_rgba16f(self.gpu, lit.hdr())?;
+            stats.blocking_readbacks += 1;
+            stats.submits += 1;
+            let pixels = lit_pixels(&self.options, &hdr, &resolved);
+            return Ok((
+                LinearImage {
+                    width: w,
+                    height: h,
+                    pixels,
+                },
+                stats,
+            ));
+        }
         let pixels = resolved
             .iter()
             .enumerate()
@@ -239,6 +255,40 @@ impl<'g> Renderer<'g> {
             },
             stats,
         ))
+    }
+}
+
+/// The picture of a lit frame from its HDR image (the method presented over the opaque
+/// surfaces): over the background, tone-mapped; a G-buffer view as it is (the normal error as a
+/// heatmap in hundredths of a degree).
+fn lit_pixels(options: &RenderOptions, hdr: &[[f32; 4]], resolved: &[Resolved]) -> Vec<[f32; 4]> {
+    let w = options.width;
+    let counts = resolved.iter().map(|r| r.count as f32);
+    match options.gbuffer_debug {
+        Some(GbufferView::NormalError) => {
+            let centidegrees: Vec<u32> = hdr.iter().map(|p| (p[0] * 100.0).round() as u32).collect();
+            let map = crate::metrics::complexity_heatmap(&centidegrees, w, options.height, None);
+            map.pixels()
+                .zip(counts)
+                .map(|(p, n)| {
+                    let c = |i: usize| srgb_to_linear(p[i] as f32 / 255.0);
+                    [c(0), c(1), c(2), n]
+                })
+                .collect()
+        }
+        Some(_) => hdr.iter().zip(counts).map(|(p, n)| [p[0], p[1], p[2], n]).collect(),
+        None => hdr
+            .iter()
+            .zip(counts)
+            .enumerate()
+            .map(|(i, (p, n))| {
+                let bg = options.background.at(i as u32 % w, i as u32 / w);
+                let t = 1.0 - p[3] as f64;
+                let over = [0, 1, 2].map(|c| p[c] as f64 + t * bg[c] as f64);
+                let [r, g, b] = crate::deferred::encoding::tone_map(options.tonemap, over);
+                [r as f32, g as f32, b as f32, n]
+            })
+            .collect(),
     }
 }
 

@@ -38,6 +38,7 @@
 
 use std::collections::BTreeMap;
 
+use crate::deferred::LitFrame;
 use crate::error::{Error, Result};
 use crate::frame::present::{Present, PresentParams};
 use crate::frame::stats::StatsRing;
@@ -94,6 +95,8 @@ pub struct FrameRecorder {
     histogram: Option<GpuHistogram>,
     /// The latest histogram that came back (its frame and bins), which `--k auto` picks from.
     last_histogram: Option<(u64, Vec<u64>)>,
+    /// With `options.pipeline`: the lit opaque objects (the method's scene holds the rest).
+    lit: Option<LitFrame>,
 }
 
 /// Group 0 of a frame being recorded and the opaque depth it binds.
@@ -111,7 +114,17 @@ impl FrameRecorder {
     ) -> Result<FrameRecorder> {
         options.validate()?;
         check_size(gpu, options)?;
-        let scene_gpu = SceneGpu::new(gpu, scene, options)?;
+        let (scene_gpu, lit) = match options.pipeline {
+            None => (SceneGpu::new(gpu, scene, options)?, None),
+            Some(pipeline) => {
+                scene.validate()?;
+                let (opaque, transparent) = scene.split_by_opacity();
+                (
+                    SceneGpu::new_allow_empty(gpu, &transparent, options)?,
+                    Some(LitFrame::new(gpu, pipeline, &opaque, options)?),
+                )
+            }
+        };
         let mut recorder = FrameRecorder {
             output: output_buffer(gpu, options)?,
             no_opaque: no_opaque_depth(gpu, options),
@@ -127,6 +140,7 @@ impl FrameRecorder {
             open_capture: None,
             histogram: None,
             last_histogram: None,
+            lit,
         };
         recorder.set_method(method)?;
         Ok(recorder)
@@ -160,9 +174,18 @@ impl FrameRecorder {
     /// rebuilt (pipelines are kept either way). Materials and lights stay those of the first
     /// scene when the count is unchanged.
     pub fn set_geometry(&mut self, scene: &Scene) -> Result<()> {
+        let split;
+        let scene = match &mut self.lit {
+            None => scene,
+            Some(lit) => {
+                split = scene.split_by_opacity();
+                lit.set_geometry(&split.0)?;
+                &split.1
+            }
+        };
         if !self.scene.update_geometry(&self.gpu, scene)? {
             let camera = self.scene.camera;
-            let mut rebuilt = SceneGpu::new(&self.gpu, scene, &self.options)?;
+            let mut rebuilt = SceneGpu::new_allow_empty(&self.gpu, scene, &self.options)?;
             // The pipelines were made with the first layout: keep binding through it.
             rebuilt.frame_layout = self.scene.frame_layout.clone();
             rebuilt.update(&self.gpu, &camera, &self.options);
@@ -185,6 +208,14 @@ impl FrameRecorder {
     /// Moves the camera for the next frames.
     pub fn set_camera(&mut self, camera: &Camera) {
         self.scene.update(&self.gpu, camera, &self.options);
+        if let Some(lit) = &mut self.lit {
+            lit.set_camera(camera, &self.options);
+        }
+    }
+
+    /// The lit opaque frame, with `options.pipeline` (its HDR image and depth).
+    pub fn lit(&self) -> Option<&LitFrame> {
+        self.lit.as_ref()
     }
 
     /// Changes the frame size; pipelines are kept and per-pixel buffers follow on the next frame.
@@ -198,7 +229,7 @@ impl FrameRecorder {
         self.no_opaque = no_opaque_depth(&self.gpu, &options);
         self.options = options;
         let camera = self.scene.camera;
-        self.scene.update(&self.gpu, &camera, &self.options);
+        self.set_camera(&camera);
         Ok(())
     }
 
@@ -206,12 +237,17 @@ impl FrameRecorder {
     /// the size changes through [`FrameRecorder::resize`].
     pub fn set_options(&mut self, options: &RenderOptions) -> Result<()> {
         options.validate()?;
+        if options.pipeline != self.options.pipeline {
+            return Err(Error::input(
+                "the pipeline is chosen when the recorder is made; make another for another pipeline",
+            ));
+        }
         if (options.width, options.height) != (self.options.width, self.options.height) {
             self.resize(options.width, options.height)?;
         }
         self.options = options.clone();
         let camera = self.scene.camera;
-        self.scene.update(&self.gpu, &camera, &self.options);
+        self.set_camera(&camera);
         Ok(())
     }
 
@@ -246,7 +282,19 @@ impl FrameRecorder {
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<u64> {
         let auto_k = self.choose_k()?;
-        let frame = self.start_frame(encoder, targets.opaque_depth);
+        let lit_depth = match (&self.lit, targets.opaque_depth) {
+            (Some(_), Some(_)) => {
+                return Err(Error::input(
+                    "with a pipeline strata draws the opaque objects and their depth itself: pass no opaque depth",
+                ))
+            }
+            (Some(lit), None) => Some(lit.depth().create_view(&Default::default())),
+            (None, _) => None,
+        };
+        let frame = self.start_frame(encoder, lit_depth.as_ref().or(targets.opaque_depth));
+        if let Some(lit) = &mut self.lit {
+            lit.record(encoder, &mut self.timer);
+        }
         let mut readback = ReadbackList::default();
         let recorded = self.with_method(encoder, &frame, &mut readback, draw, |m, ctx| {
             let recorded = m.record(ctx)?;
@@ -346,6 +394,11 @@ impl FrameRecorder {
                 "--k auto counts fragments with strata's own geometry pass, which an application's capture replaces: set k",
             ));
         }
+        if self.lit.is_some() {
+            return Err(Error::unsupported(
+                "an application's capture with a pipeline: the pipeline draws strata's own opaque pass; use record",
+            ));
+        }
         let frame = self.start_frame(encoder, None);
         let mut readback = ReadbackList::default();
         let group = self.with_method(encoder, &frame, &mut readback, None, |m, ctx| {
@@ -428,7 +481,20 @@ impl FrameRecorder {
         histogram_ran: bool,
     ) -> u64 {
         let gpu = &self.gpu;
-        if let Some((view, format)) = color {
+        // With a pipeline the method presents over the lit image (not over a G-buffer view),
+        // and the tone map writes the application's target.
+        let hdr = self.lit.as_ref().map(|lit| {
+            (
+                lit.hdr().create_view(&Default::default()),
+                lit.hdr().format(),
+            )
+        });
+        let present_to = match &hdr {
+            Some(_) if self.options.gbuffer_debug.is_some() => None,
+            Some((view, format)) => Some((view, *format)),
+            None => color,
+        };
+        if let Some((view, format)) = present_to {
             let params = PresentParams {
                 size: [self.options.width, self.options.height],
                 complexity: (self.options.effect == Effect::Complexity) as u32,
@@ -437,6 +503,9 @@ impl FrameRecorder {
             let stamps = self.timer.render_pass("present");
             self.present
                 .record(gpu, encoder, view, format, &self.output, params, stamps);
+        }
+        if let (Some(lit), Some((view, format))) = (&mut self.lit, color) {
+            lit.tonemap(encoder, &mut self.timer, view, format);
         }
         let mut sources = vec![(self.scene.totals.clone(), 0, TOTAL_WORDS)];
         let mut at = TOTAL_WORDS;
@@ -594,6 +663,7 @@ impl FrameRecorder {
             depth_histogram: histogram.as_deref().map(gpu_histogram::trim),
             depth_histogram_clipped: histogram.map(|h| h[h.len() - 1] as u64),
             k_auto: auto_k,
+            lighting: self.lit.as_ref().map(LitFrame::stats),
             blocking_readbacks: 0,
             submits: 0,
             adapter: Some(self.gpu.info.name.clone()),

@@ -50,6 +50,21 @@ pub struct Material {
     /// Index of refraction for Schlick Fresnel (translucency effect).
     pub ior: f32,
     pub shading: Shading,
+    /// Blinn–Phong specular exponent, an integer in 1..=1023 (the deferred G-buffer stores it in
+    /// 10 bits, so every pipeline uses the rounded value; see [`Material::exponent`]).
+    pub shininess: f32,
+}
+
+/// Specular exponent of materials that do not set one.
+pub const DEFAULT_SHININESS: f32 = 48.0;
+/// Largest specular exponent: the G-buffer keeps it in 10 bits.
+pub const MAX_SHININESS: f32 = 1023.0;
+
+impl Material {
+    /// The specular exponent every pipeline shades with: `shininess` rounded into 1..=1023.
+    pub fn exponent(&self) -> f32 {
+        self.shininess.round().clamp(1.0, MAX_SHININESS)
+    }
 }
 
 impl Default for Material {
@@ -61,6 +76,7 @@ impl Default for Material {
             absorption: 0.0,
             ior: 1.5,
             shading: Shading::Lit,
+            shininess: DEFAULT_SHININESS,
         }
     }
 }
@@ -260,6 +276,9 @@ pub struct Light {
     pub intensity: f32,
     /// Radius of the light volume (point, spot); also where attenuation reaches zero.
     pub range: f32,
+    /// Point and spot lights: the constant, linear and quadratic terms of the distance
+    /// attenuation 1 / (a + b·d + c·d²) (seed 004's form), windowed to zero at `range`.
+    pub attenuation: [f32; 3],
 }
 
 impl Default for Light {
@@ -272,6 +291,7 @@ impl Default for Light {
             color: [1.0; 3],
             intensity: 1.0,
             range: 10.0,
+            attenuation: [1.0, 0.0, 0.0],
         }
     }
 }
@@ -371,6 +391,15 @@ pub struct GpuVertex {
     pub _pad: u32,
 }
 
+/// A linear RGB color of full value with the given hue in [0, 1) and saturation.
+fn hue_color(hue: f32, saturation: f32) -> [f32; 3] {
+    let channel = |offset: f32| {
+        let x = ((hue + offset).fract() * 6.0 - 3.0).abs() - 1.0;
+        1.0 - saturation + saturation * x.clamp(0.0, 1.0)
+    };
+    [channel(0.0), channel(2.0 / 3.0), channel(1.0 / 3.0)]
+}
+
 impl Scene {
     pub fn add_material(&mut self, m: Material) -> usize {
         self.materials.push(m);
@@ -397,6 +426,71 @@ impl Scene {
             let (lo, hi) = self.bounds();
             Camera::framing(lo, hi)
         })
+    }
+
+    /// The opaque objects (material opacity 1) and the rest, as two scenes with the full scene's
+    /// camera and lights, each with only the materials it uses. Objects keep their order, so
+    /// depth ties among the transparent ones break as in the full scene.
+    pub fn split_by_opacity(&self) -> (Scene, Scene) {
+        let camera = Some(self.camera_or_framing());
+        let part = |opaque: bool| {
+            let mut out = Scene {
+                objects: Vec::new(),
+                materials: Vec::new(),
+                camera,
+                lights: self.lights.clone(),
+                defaults: self.defaults.clone(),
+                time: self.time,
+            };
+            let mut remap: Vec<Option<usize>> = vec![None; self.materials.len()];
+            for o in &self.objects {
+                if (self.materials[o.material].opacity >= 1.0) != opaque {
+                    continue;
+                }
+                let material = *remap[o.material]
+                    .get_or_insert_with(|| out.add_material(self.materials[o.material].clone()));
+                out.objects.push(Object {
+                    material,
+                    ..o.clone()
+                });
+            }
+            out
+        };
+        (part(true), part(false))
+    }
+
+    /// Adds `count` coloured point lights, a deterministic field for `seed`, spread over the
+    /// scene's bounds (`--lights N`): ranges shrink as the field grows so that each point stays
+    /// reached by a similar number of lights, and the intensity falls with that overlap so the
+    /// picture keeps its brightness. Attenuation is 1 / (1 + 25 d² / range²), windowed to 0 at
+    /// the range.
+    pub fn add_light_field(&mut self, count: u32, seed: u64) {
+        if count == 0 {
+            return;
+        }
+        let (lo, hi) = self.bounds();
+        let size = (hi - lo).max(Vec3::splat(1e-3));
+        let diagonal = size.length();
+        let range = diagonal * (0.5 / (count as f32).cbrt()).max(0.06);
+        // Lights hover over the scene: the box grows upwards by a tenth of its diagonal.
+        let (box_lo, box_hi) = (lo, hi + Vec3::new(0.0, 0.1 * diagonal, 0.0));
+        let volume = (box_hi - box_lo).max(Vec3::splat(range * 0.5)).element_product();
+        let overlap = count as f32 * 4.0 / 3.0 * std::f32::consts::PI * range.powi(3) / volume;
+        let intensity = 1.5 / overlap.max(1.0).sqrt();
+        let mut rng = builtin::rng::SplitMix64::new(seed ^ 0x6c69_6768_7473);
+        for _ in 0..count {
+            let t = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let hue = rng.next_f32();
+            self.lights.push(Light {
+                kind: LightKind::Point,
+                position: box_lo + (box_hi - box_lo) * t,
+                color: hue_color(hue, 0.75),
+                intensity,
+                range,
+                attenuation: [1.0, 0.0, 25.0 / (range * range)],
+                ..Light::default()
+            });
+        }
     }
 
     /// Sets every material's opacity (`--alpha`).
@@ -439,9 +533,10 @@ impl Scene {
                 || m.absorption < 0.0
                 || m.ior.is_nan()
                 || m.ior < 1.0
+                || !(m.shininess.is_finite() && m.shininess > 0.0)
             {
                 return Err(Error::input(format!(
-                    "material '{}': color must be finite, absorption ≥ 0 and ior ≥ 1",
+                    "material '{}': color must be finite, absorption ≥ 0, ior ≥ 1 and shininess positive",
                     m.name
                 )));
             }

@@ -14,7 +14,7 @@
 mod models;
 mod params;
 mod primitives;
-mod rng;
+pub(crate) mod rng;
 mod scenes;
 
 pub use primitives::{cube, quad, uv_sphere};

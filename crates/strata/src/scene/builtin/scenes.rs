@@ -370,6 +370,7 @@ pub(super) fn demo() -> Result<Scene> {
             absorption: 0.0,
             ior: 1.5,
             shading: Shading::Lit,
+            ..Material::default()
         });
         scene.objects.push(Object {
             name: name.into(),
@@ -391,6 +392,7 @@ pub(super) fn demo() -> Result<Scene> {
             absorption: 0.8,
             ior: 1.5,
             shading: Shading::Lit,
+            ..Material::default()
         });
         scene.objects.push(Object {
             name: name.into(),

@@ -9,7 +9,7 @@
 //! (`scale` first, then rotations about X, Y, Z in degrees, then `translate`); meshes are stored
 //! in world space. Materials: `material = "name"` picks a `[[material]]`, replacing any
 //! materials of the model file; the inline fields (`color`, `opacity`, `absorption`, `ior`,
-//! `shading`) override single fields of the base material — the named one if given, else each
+//! `shading`, `shininess`) override single fields of the base material — the named one if given, else each
 //! of the model's own materials, else the default material.
 //!
 //! Defaults: camera `target` [0,0,0], `up` [0,1,0], perspective, `fov_y_deg` 45, `height` 2,
@@ -117,6 +117,7 @@ struct MaterialFields {
     absorption: Option<f32>,
     ior: Option<f32>,
     shading: Option<Shading>,
+    shininess: Option<f32>,
 }
 
 impl MaterialFields {
@@ -126,6 +127,7 @@ impl MaterialFields {
             && self.absorption.is_none()
             && self.ior.is_none()
             && self.shading.is_none()
+            && self.shininess.is_none()
     }
 
     fn apply(&self, base: &Material) -> Material {
@@ -136,6 +138,7 @@ impl MaterialFields {
             absorption: self.absorption.unwrap_or(base.absorption),
             ior: self.ior.unwrap_or(base.ior),
             shading: self.shading.unwrap_or(base.shading),
+            shininess: self.shininess.unwrap_or(base.shininess),
         }
     }
 }
@@ -149,6 +152,7 @@ struct MaterialDef {
     absorption: Option<f32>,
     ior: Option<f32>,
     shading: Option<Shading>,
+    shininess: Option<f32>,
 }
 
 #[derive(Deserialize)]
@@ -161,6 +165,7 @@ struct ObjectDef {
     absorption: Option<f32>,
     ior: Option<f32>,
     shading: Option<Shading>,
+    shininess: Option<f32>,
     translate: Option<[f32; 3]>,
     rotate_deg: Option<[f32; 3]>,
     scale: Option<Value>,
@@ -176,6 +181,7 @@ struct LightDef {
     color: Option<[f32; 3]>,
     intensity: Option<f32>,
     range: Option<f32>,
+    attenuation: Option<[f32; 3]>,
 }
 
 /// Where an element came from, for error messages.
@@ -355,6 +361,7 @@ pub(crate) fn parse(
             absorption: m.absorption,
             ior: m.ior,
             shading: m.shading,
+            shininess: m.shininess,
         };
         let material = fields.apply(&base);
         check_material(&material).map_err(|msg| ctx.err(&label, msg))?;
@@ -385,6 +392,7 @@ pub(crate) fn parse(
             absorption: o.absorption,
             ior: o.ior,
             shading: o.shading,
+            shininess: o.shininess,
         };
         let base_named = match &o.material {
             None => None,
@@ -502,6 +510,9 @@ fn check_material(m: &Material) -> std::result::Result<(), String> {
     if !(m.ior.is_finite() && m.ior >= 1.0) {
         return Err(format!("ior {} must be ≥ 1", m.ior));
     }
+    if !(m.shininess.is_finite() && m.shininess > 0.0) {
+        return Err(format!("shininess {} must be positive", m.shininess));
+    }
     Ok(())
 }
 
@@ -566,6 +577,13 @@ fn light(l: LightDef) -> std::result::Result<Light, String> {
     if !(angle_deg > 0.0 && angle_deg < 180.0) {
         return Err(format!("angle_deg {angle_deg} must be in (0, 180)"));
     }
+    let attenuation = l.attenuation.unwrap_or(d.attenuation);
+    let [a, b, c] = attenuation;
+    if !(finite3(attenuation) && a > 0.0 && b >= 0.0 && c >= 0.0) {
+        return Err(format!(
+            "attenuation {attenuation:?} must be [a, b, c] with a > 0 and b, c ≥ 0 (1 / (a + b·d + c·d²))"
+        ));
+    }
     let direction = Vec3::from(direction);
     let direction = match kind {
         LightKind::Spot | LightKind::Directional => direction
@@ -581,5 +599,6 @@ fn light(l: LightDef) -> std::result::Result<Light, String> {
         color,
         intensity,
         range,
+        attenuation,
     })
 }

@@ -1,0 +1,937 @@
+//! Lit opaque surfaces under many lights (seed 004), and the full frame around a transparent
+//! method: `--pipeline forward|deferred`.
+//!
+//! With a pipeline, a scene splits by opacity ([`Scene::split_by_opacity`]): opaque objects are
+//! drawn here into a lit HDR image and a depth buffer; the transparent ones go through the
+//! multi-fragment method, which rejects fragments behind that depth and presents OVER the lit
+//! image; the tone map then composites the result over the picture's background.
+//!
+//! Passes of the **deferred** pipeline:
+//! 1. `deferred.gbuffer` — geometry pass, depth test LESS, into seed 004's compressed layout:
+//!    RGBA8 sRGB (albedo RGB + 8-bit material id: 256 materials), RGB10A2 (view-space normal in
+//!    two 10-bit channels by the spheremap transform, or octahedral; the specular exponent / 1023
+//!    in the third), Depth32Float. No position target: world positions come back from depth and
+//!    the inverse view-projection.
+//! 2. `deferred.ssao` and `deferred.ssao_blur` (with `--ssao`): 16-sample hemisphere occlusion
+//!    from depth and normals, a 4×4 blur; it scales the ambient term.
+//! 3. `deferred.lighting` — one instanced draw per volume kind: spheres (point lights, and spots
+//!    wider than 75°), cones (spots), full-screen triangles (directional lights, and volumes that
+//!    reach past the far plane). Frustum culling on the CPU when the camera moves. Back faces,
+//!    depth GREATER_EQUAL against the G-buffer depth (correct with the camera inside a volume);
+//!    diffuse and specular added into two Rgba16Float light buffers.
+//! 4. `deferred.composite` — albedo × (ambient·AO + diffuse) + specular; unlit materials show
+//!    their albedo; a scene without lights gets the headlight here.
+//! 5. `deferred.debug` (with `--gbuffer-debug VIEW`) — a G-buffer view over the frame.
+//!
+//! The **forward** pipeline draws the opaque objects once with depth test LESS and shades every
+//! fragment with every light (`shade`, the loop the transparent methods use too) — seed 004's
+//! comparison. Both use one lighting formula (`light_terms` in scene.wgsl): Blinn–Phong with
+//! attenuation 1 / (a + b·d + c·d²) windowed to zero at the light's range. Transparent surfaces
+//! are lit per fragment with the whole light list by the method's own shading: every method
+//! already shades in its capture stage, the list is the same buffer, and the answer stays exact
+//! against the reference (a clustered light list would cut the cost with thousands of lights; it
+//! is not built).
+//!
+//! Memory per pixel: deferred 12 B of G-buffer (4 + 4 + 4 with Depth32Float; seed 004's layout
+//! with 24-bit depth is 11 B), 16 B of light buffers, 8 B of HDR color, 4 B of ambient
+//! occlusion when on; forward 8 B of HDR color and 4 B of depth. The traditional layout seed 004
+//! compares with (three RGBA16 targets and depth) is 28 B. See [`gbuffer_bytes_per_pixel`].
+//!
+//! Differences deferred vs forward come only from the G-buffer's quantization: albedo in 8-bit
+//! sRGB (clamped to [0, 1]), the normal in 10-bit channels (at most 0.12° on surfaces facing
+//! the camera, 0.25° at grazing view angles; `encoding.rs` bounds both encodings), and world
+//! positions rebuilt from f32 depth. Specular exponents are integers 1–1023 in both pipelines.
+
+pub mod encoding;
+pub mod volumes;
+
+use std::collections::HashMap;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::frame::scene_gpu::SceneGpu;
+use crate::frame::uniforms::{self, GpuLight};
+use crate::frame::RenderOptions;
+use crate::gpu::binding::{self, Slot};
+use crate::gpu::timing::Timer;
+use crate::gpu::{passes, shader, Gpu};
+use crate::scene::{Camera, Scene};
+
+/// How opaque surfaces are lit (`--pipeline`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Pipeline {
+    /// One depth-tested pass shading every fragment with every light.
+    Forward,
+    /// G-buffer, light volumes, composite (seed 004).
+    Deferred,
+}
+
+/// The display transform of the lit pipelines (`--tonemap`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Tonemap {
+    /// Clamp only.
+    None,
+    /// Khronos PBR Neutral's highlight compression without its toe: channels below 0.8 pass
+    /// unchanged, brighter colors roll off towards 1 and desaturate (see `encoding::tone_map`).
+    #[default]
+    Neutral,
+    /// c / (1 + c) per channel.
+    Reinhard,
+}
+
+/// How the G-buffer stores normals (`--normal-encoding`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum NormalEncoding {
+    /// Seed 004's spheremap transform of the view-space normal.
+    #[default]
+    Spheremap,
+    /// Octahedral mapping (bounded error over every direction).
+    Octahedral,
+}
+
+/// A G-buffer view (`--gbuffer-debug`), written instead of the picture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum GbufferView {
+    Albedo,
+    Normal,
+    Specular,
+    Material,
+    Depth,
+    Lights,
+    /// The normal encoding's angular error per pixel: a heatmap in hundredths of a degree.
+    NormalError,
+}
+
+impl GbufferView {
+    fn index(self) -> u32 {
+        self as u32
+    }
+}
+
+/// G-buffer layouts for the bandwidth comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GbufferLayout {
+    /// Seed 004's Table 2, with Depth32Float: RGBA8 + RGB10A2 + depth.
+    Compressed,
+    /// Seed 004's Table 1: three RGBA16 targets (position, normal, albedo) + depth.
+    Traditional,
+}
+
+/// Bytes per pixel of a G-buffer layout (depth as 4 bytes).
+pub fn gbuffer_bytes_per_pixel(layout: GbufferLayout) -> u64 {
+    match layout {
+        GbufferLayout::Compressed => 4 + 4 + 4,
+        GbufferLayout::Traditional => 3 * 8 + 4,
+    }
+}
+
+/// What a lit frame reports (`FrameStats::lighting`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct LightingStats {
+    pub pipeline: String,
+    /// Lights of the scene (ambient ones excluded: they are a term of the composite).
+    pub lights: u32,
+    /// Deferred: lights drawn as spheres, cones and full-screen triangles, and culled.
+    pub sphere_volumes: Option<u32>,
+    pub cone_volumes: Option<u32>,
+    pub full_screen_lights: Option<u32>,
+    pub culled_lights: Option<u32>,
+    /// Deferred: G-buffer bytes per pixel (compressed layout).
+    pub gbuffer_bytes_per_pixel: Option<u64>,
+    /// Bytes of the pipeline's targets.
+    pub bytes_allocated: u64,
+    pub tonemap: Tonemap,
+    pub ssao: bool,
+}
+
+/// Keep in sync with `DeferredParams` in deferred_common.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct DeferredParams {
+    pub inv_view_proj: [[f32; 4]; 4],
+    pub normal_encoding: u32,
+    pub ssao: u32,
+    pub debug_view: u32,
+    pub tonemap: u32,
+    pub ssao_radius: f32,
+    pub ssao_strength: f32,
+    pub cone_first: u32,
+    pub _pad: u32,
+}
+
+const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgb10a2Unorm;
+const EXACT_NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+const LIGHT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const AO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
+
+/// SSAO radius as a fraction of the opaque scene's bounding diagonal.
+const SSAO_RADIUS_FRACTION: f32 = 0.03;
+const SSAO_STRENGTH: f32 = 1.0;
+
+/// The G-buffer bindings each pass reads (indices in deferred_common.wgsl).
+const GBUFFER_SLOTS: [(u32, Slot); 1] = [(0, Slot::Uniform)];
+const SSAO_SLOTS: [(u32, Slot); 4] = [
+    (0, Slot::Uniform),
+    (1, Slot::TextureFloat),
+    (2, Slot::TextureFloat),
+    (3, Slot::TextureDepth),
+];
+const SSAO_BLUR_SLOTS: [(u32, Slot); 2] = [(0, Slot::Uniform), (7, Slot::TextureFloat)];
+const LIGHTING_SLOTS: [(u32, Slot); 6] = [
+    (0, Slot::Uniform),
+    (1, Slot::TextureFloat),
+    (2, Slot::TextureFloat),
+    (3, Slot::TextureDepth),
+    (8, Slot::Storage),
+    (9, Slot::Storage),
+];
+const COMPOSITE_SLOTS: [(u32, Slot); 7] = [
+    (0, Slot::Uniform),
+    (1, Slot::TextureFloat),
+    (2, Slot::TextureFloat),
+    (3, Slot::TextureDepth),
+    (4, Slot::TextureFloat),
+    (5, Slot::TextureFloat),
+    (6, Slot::TextureFloat),
+];
+const DEBUG_SLOTS: [(u32, Slot); 8] = [
+    (0, Slot::Uniform),
+    (1, Slot::TextureFloat),
+    (2, Slot::TextureFloat),
+    (3, Slot::TextureDepth),
+    (4, Slot::TextureFloat),
+    (5, Slot::TextureFloat),
+    (6, Slot::TextureFloat),
+    (10, Slot::TextureFloat),
+];
+const TONEMAP_SLOTS: [(u32, Slot); 2] = [(0, Slot::Uniform), (11, Slot::TextureFloat)];
+
+/// A stage's WGSL: the shared files, the deferred bindings and helpers, the stage.
+pub fn stage_source(stage: &str) -> String {
+    [include_str!("deferred_common.wgsl"), stage].join("\n")
+}
+
+pub const STAGES: [(&str, &str); 7] = [
+    ("strata.deferred.gbuffer", include_str!("gbuffer.wgsl")),
+    ("strata.forward.opaque", include_str!("forward.wgsl")),
+    ("strata.deferred.lighting", include_str!("lighting.wgsl")),
+    ("strata.deferred.composite", include_str!("composite.wgsl")),
+    ("strata.deferred.ssao", include_str!("ssao.wgsl")),
+    ("strata.deferred.debug", include_str!("debug.wgsl")),
+    ("strata.tonemap", include_str!("tonemap.wgsl")),
+];
+
+fn module(gpu: &Gpu, index: usize) -> wgpu::ShaderModule {
+    let (label, stage) = STAGES[index];
+    shader::module(&gpu.device, label, &stage_source(stage))
+}
+
+/// Per-pixel targets, re-made when the size changes.
+struct Targets {
+    size: (u32, u32),
+    hdr: wgpu::Texture,
+    depth: wgpu::Texture,
+    albedo: wgpu::Texture,
+    normal: wgpu::Texture,
+    exact_normal: wgpu::Texture,
+    diffuse: wgpu::Texture,
+    specular: wgpu::Texture,
+    ao_raw: wgpu::Texture,
+    ao: wgpu::Texture,
+    bytes: u64,
+}
+
+fn view(t: &wgpu::Texture) -> wgpu::TextureView {
+    t.create_view(&Default::default())
+}
+
+impl Targets {
+    fn new(gpu: &Gpu, pipeline: Pipeline, options: &RenderOptions) -> Targets {
+        let size = (options.width, options.height);
+        let deferred = pipeline == Pipeline::Deferred;
+        // Targets a pipeline does not use stay 1×1 (bind groups still name them).
+        let sized = |used: bool| if used { size } else { (1, 1) };
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let make = |label: &str, format, used| {
+            gpu.texture_2d(label, sized(used), format, usage | wgpu::TextureUsages::COPY_SRC)
+        };
+        let debug_normals = options.gbuffer_debug == Some(GbufferView::NormalError);
+        let targets = Targets {
+            size,
+            hdr: make("strata.lit.hdr", HDR_FORMAT, true),
+            depth: make("strata.lit.depth", DEPTH_FORMAT, true),
+            albedo: make("strata.deferred.gbuffer.albedo", ALBEDO_FORMAT, deferred),
+            normal: make("strata.deferred.gbuffer.normal", NORMAL_FORMAT, deferred),
+            exact_normal: make(
+                "strata.deferred.gbuffer.exact_normal",
+                EXACT_NORMAL_FORMAT,
+                deferred && debug_normals,
+            ),
+            diffuse: make("strata.deferred.light.diffuse", LIGHT_FORMAT, deferred),
+            specular: make("strata.deferred.light.specular", LIGHT_FORMAT, deferred),
+            ao_raw: make("strata.deferred.ssao.raw", AO_FORMAT, deferred && options.ssao),
+            ao: make("strata.deferred.ssao", AO_FORMAT, deferred && options.ssao),
+            bytes: 0,
+        };
+        let bytes = [
+            (&targets.hdr, 8),
+            (&targets.depth, 4),
+            (&targets.albedo, 4),
+            (&targets.normal, 4),
+            (&targets.exact_normal, 16),
+            (&targets.diffuse, 8),
+            (&targets.specular, 8),
+            (&targets.ao_raw, 2),
+            (&targets.ao, 2),
+        ]
+        .iter()
+        .map(|(t, b)| t.width() as u64 * t.height() as u64 * b)
+        .sum();
+        Targets { bytes, ..targets }
+    }
+}
+
+/// The pipelines, layouts and bind groups of the lit passes.
+struct Passes {
+    forward: wgpu::RenderPipeline,
+    gbuffer: wgpu::RenderPipeline,
+    gbuffer_exact: wgpu::RenderPipeline,
+    ssao: wgpu::RenderPipeline,
+    ssao_blur: wgpu::RenderPipeline,
+    sphere_lights: wgpu::RenderPipeline,
+    cone_lights: wgpu::RenderPipeline,
+    full_screen_lights: wgpu::RenderPipeline,
+    composite: wgpu::RenderPipeline,
+    debug: wgpu::RenderPipeline,
+    tonemap_module: wgpu::ShaderModule,
+    tonemap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    layouts: Layouts,
+}
+
+struct Layouts {
+    gbuffer: wgpu::BindGroupLayout,
+    ssao: wgpu::BindGroupLayout,
+    ssao_blur: wgpu::BindGroupLayout,
+    lighting: wgpu::BindGroupLayout,
+    composite: wgpu::BindGroupLayout,
+    debug: wgpu::BindGroupLayout,
+    tonemap: wgpu::BindGroupLayout,
+}
+
+fn depth_state(write: bool, compare: wgpu::CompareFunction) -> Option<wgpu::DepthStencilState> {
+    Some(wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(compare),
+        stencil: Default::default(),
+        bias: Default::default(),
+    })
+}
+
+fn target(format: wgpu::TextureFormat, blend: Option<wgpu::BlendState>) -> Option<wgpu::ColorTargetState> {
+    Some(wgpu::ColorTargetState {
+        format,
+        blend,
+        write_mask: wgpu::ColorWrites::ALL,
+    })
+}
+
+/// A pipeline drawing `vertex_entry` (no vertex buffers) into `targets`.
+#[allow(clippy::too_many_arguments)]
+fn screen_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    (vertex_entry, fragment_entry): (&str, &str),
+    layouts: &[&wgpu::BindGroupLayout],
+    targets: &[Option<wgpu::ColorTargetState>],
+    cull_mode: Option<wgpu::Face>,
+    depth: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
+    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
+    gpu.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some(vertex_entry),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode,
+                ..Default::default()
+            },
+            depth_stencil: depth,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some(fragment_entry),
+                compilation_options: Default::default(),
+                targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+impl Passes {
+    fn new(gpu: &Gpu, frame_layout: &wgpu::BindGroupLayout) -> Passes {
+        let device = &gpu.device;
+        let layouts = Layouts {
+            gbuffer: binding::layout_at(device, "strata.deferred.gbuffer", &GBUFFER_SLOTS),
+            ssao: binding::layout_at(device, "strata.deferred.ssao", &SSAO_SLOTS),
+            ssao_blur: binding::layout_at(device, "strata.deferred.ssao_blur", &SSAO_BLUR_SLOTS),
+            lighting: binding::layout_at(device, "strata.deferred.lighting", &LIGHTING_SLOTS),
+            composite: binding::layout_at(device, "strata.deferred.composite", &COMPOSITE_SLOTS),
+            debug: binding::layout_at(device, "strata.deferred.debug", &DEBUG_SLOTS),
+            tonemap: binding::layout_at(device, "strata.tonemap", &TONEMAP_SLOTS),
+        };
+        let modules: Vec<wgpu::ShaderModule> = (0..STAGES.len()).map(|i| module(gpu, i)).collect();
+        let [gbuffer_m, forward_m, lighting_m, composite_m, ssao_m, debug_m, tonemap_m] =
+            <[wgpu::ShaderModule; 7]>::try_from(modules).expect("seven stages");
+        let write_less = depth_state(true, wgpu::CompareFunction::Less);
+        let additive = wgpu::BlendState {
+            color: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::One,
+                dst_factor: wgpu::BlendFactor::One,
+                operation: wgpu::BlendOperation::Add,
+            },
+            alpha: wgpu::BlendComponent::REPLACE,
+        };
+        let light_targets = [target(LIGHT_FORMAT, Some(additive)), target(LIGHT_FORMAT, Some(additive))];
+        let gbuffer_targets = [target(ALBEDO_FORMAT, None), target(NORMAL_FORMAT, None)];
+        let volume = |label, entry| {
+            screen_pipeline(
+                gpu,
+                label,
+                &lighting_m,
+                (entry, "fs_light"),
+                &[frame_layout, &layouts.lighting],
+                &light_targets,
+                Some(wgpu::Face::Front),
+                depth_state(false, wgpu::CompareFunction::GreaterEqual),
+            )
+        };
+        let fullscreen = |label, module, entry, layout, format| {
+            screen_pipeline(
+                gpu,
+                label,
+                module,
+                ("vs_fullscreen", entry),
+                &[frame_layout, layout],
+                &[target(format, None)],
+                None,
+                None,
+            )
+        };
+        Passes {
+            forward: passes::capture_pipeline(
+                gpu,
+                "strata.forward.opaque",
+                &forward_m,
+                "fs_forward",
+                &[frame_layout],
+                &[target(HDR_FORMAT, None)],
+                write_less.clone(),
+            ),
+            gbuffer: passes::capture_pipeline(
+                gpu,
+                "strata.deferred.gbuffer",
+                &gbuffer_m,
+                "fs_gbuffer",
+                &[frame_layout, &layouts.gbuffer],
+                &gbuffer_targets,
+                write_less.clone(),
+            ),
+            gbuffer_exact: passes::capture_pipeline(
+                gpu,
+                "strata.deferred.gbuffer_exact",
+                &gbuffer_m,
+                "fs_gbuffer_exact",
+                &[frame_layout, &layouts.gbuffer],
+                &[
+                    gbuffer_targets[0].clone(),
+                    gbuffer_targets[1].clone(),
+                    target(EXACT_NORMAL_FORMAT, None),
+                ],
+                write_less,
+            ),
+            ssao: fullscreen("strata.deferred.ssao", &ssao_m, "fs_ssao", &layouts.ssao, AO_FORMAT),
+            ssao_blur: fullscreen(
+                "strata.deferred.ssao_blur",
+                &ssao_m,
+                "fs_ssao_blur",
+                &layouts.ssao_blur,
+                AO_FORMAT,
+            ),
+            sphere_lights: volume("strata.deferred.lighting.spheres", "vs_sphere_volume"),
+            cone_lights: volume("strata.deferred.lighting.cones", "vs_cone_volume"),
+            full_screen_lights: screen_pipeline(
+                gpu,
+                "strata.deferred.lighting.full_screen",
+                &lighting_m,
+                ("vs_fullscreen_light", "fs_light"),
+                &[frame_layout, &layouts.lighting],
+                &light_targets,
+                None,
+                depth_state(false, wgpu::CompareFunction::Always),
+            ),
+            composite: fullscreen(
+                "strata.deferred.composite",
+                &composite_m,
+                "fs_composite",
+                &layouts.composite,
+                HDR_FORMAT,
+            ),
+            debug: fullscreen("strata.deferred.debug", &debug_m, "fs_debug", &layouts.debug, HDR_FORMAT),
+            tonemap_module: tonemap_m,
+            tonemap: HashMap::new(),
+            layouts,
+        }
+    }
+}
+
+/// Bind groups over the current targets.
+struct Groups {
+    gbuffer: wgpu::BindGroup,
+    ssao: wgpu::BindGroup,
+    ssao_blur: wgpu::BindGroup,
+    lighting: wgpu::BindGroup,
+    composite: wgpu::BindGroup,
+    debug: wgpu::BindGroup,
+    tonemap: wgpu::BindGroup,
+}
+
+/// The lit opaque frame: owns the opaque objects' scene buffers, the targets and the passes.
+pub struct LitFrame {
+    gpu: Gpu,
+    pipeline: Pipeline,
+    options: RenderOptions,
+    scene: SceneGpu,
+    /// False when the scene has no opaque objects: the passes only clear.
+    has_opaque: bool,
+    lights: Vec<GpuLight>,
+    visible: volumes::VisibleLights,
+    visible_buffer: wgpu::Buffer,
+    volume_buffer: wgpu::Buffer,
+    sphere_vertices: u32,
+    cone_vertices: u32,
+    cone_first: u32,
+    params: wgpu::Buffer,
+    ssao_radius: f32,
+    /// A depth texture for group 0's opaque-depth binding, which these passes do not read.
+    unused_depth: wgpu::Texture,
+    targets: Targets,
+    passes: Passes,
+    groups: Groups,
+}
+
+impl LitFrame {
+    /// `opaque` holds the opaque objects (it may have none) with the frame's camera and lights.
+    pub fn new(gpu: &Gpu, pipeline: Pipeline, opaque: &Scene, options: &RenderOptions) -> Result<LitFrame> {
+        let has_opaque = !opaque.objects.is_empty();
+        if pipeline == Pipeline::Deferred && opaque.materials.len() > 256 {
+            return Err(Error::unsupported(format!(
+                "--pipeline deferred: the G-buffer's 8-bit material id holds 256 materials; the opaque objects use {}",
+                opaque.materials.len()
+            )));
+        }
+        let scene = SceneGpu::new_allow_empty(gpu, opaque, options)?;
+        let lights = uniforms::lighting(opaque).lights;
+        let meshes = volumes::meshes();
+        let storage = |label: &str, bytes: u64| gpu.storage_buffer(label, bytes, wgpu::BufferUsages::empty());
+        let volume_buffer = storage(
+            "strata.deferred.volume_meshes",
+            (meshes.vertices.len() * 16) as u64,
+        )?;
+        gpu.queue
+            .write_buffer(&volume_buffer, 0, bytemuck::cast_slice(&meshes.vertices));
+        let visible_buffer = storage(
+            "strata.deferred.visible_lights",
+            (lights.len().max(1) * 4) as u64,
+        )?;
+        let params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("strata.deferred.params"),
+            size: std::mem::size_of::<DeferredParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let (lo, hi) = if has_opaque {
+            opaque.bounds()
+        } else {
+            (glam::Vec3::ZERO, glam::Vec3::ONE)
+        };
+        let passes = Passes::new(gpu, &scene.frame_layout);
+        let targets = Targets::new(gpu, pipeline, options);
+        let groups = Self::make_groups(gpu, &passes.layouts, &targets, &params, &visible_buffer, &volume_buffer);
+        let unused_depth = gpu.texture_2d(
+            "strata.lit.unused_depth",
+            (1, 1),
+            DEPTH_FORMAT,
+            wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let mut lit = LitFrame {
+            gpu: gpu.clone(),
+            pipeline,
+            options: options.clone(),
+            has_opaque,
+            lights,
+            visible: Default::default(),
+            visible_buffer,
+            volume_buffer,
+            sphere_vertices: meshes.sphere_vertices,
+            cone_vertices: meshes.cone_vertices,
+            cone_first: meshes.cone_first,
+            params,
+            ssao_radius: SSAO_RADIUS_FRACTION * (hi - lo).length(),
+            unused_depth,
+            targets,
+            passes,
+            groups,
+            scene,
+        };
+        let camera = lit.scene.camera;
+        lit.set_camera(&camera, options);
+        Ok(lit)
+    }
+
+    fn make_groups(
+        gpu: &Gpu,
+        layouts: &Layouts,
+        t: &Targets,
+        params: &wgpu::Buffer,
+        visible: &wgpu::Buffer,
+        volumes: &wgpu::Buffer,
+    ) -> Groups {
+        let views: HashMap<u32, wgpu::TextureView> = [
+            (1, &t.albedo),
+            (2, &t.normal),
+            (3, &t.depth),
+            (4, &t.diffuse),
+            (5, &t.specular),
+            (6, &t.ao),
+            (7, &t.ao_raw),
+            (10, &t.exact_normal),
+            (11, &t.hdr),
+        ]
+        .into_iter()
+        .map(|(i, tex)| (i, view(tex)))
+        .collect();
+        let group = |label: &str, layout: &wgpu::BindGroupLayout, slots: &[(u32, Slot)]| {
+            let entries: Vec<(u32, wgpu::BindingResource<'_>)> = slots
+                .iter()
+                .map(|&(i, _)| {
+                    let resource = match i {
+                        0 => params.as_entire_binding(),
+                        8 => visible.as_entire_binding(),
+                        9 => volumes.as_entire_binding(),
+                        _ => wgpu::BindingResource::TextureView(&views[&i]),
+                    };
+                    (i, resource)
+                })
+                .collect();
+            binding::group_at(&gpu.device, label, layout, &entries)
+        };
+        Groups {
+            gbuffer: group("strata.deferred.gbuffer", &layouts.gbuffer, &GBUFFER_SLOTS),
+            ssao: group("strata.deferred.ssao", &layouts.ssao, &SSAO_SLOTS),
+            ssao_blur: group("strata.deferred.ssao_blur", &layouts.ssao_blur, &SSAO_BLUR_SLOTS),
+            lighting: group("strata.deferred.lighting", &layouts.lighting, &LIGHTING_SLOTS),
+            composite: group("strata.deferred.composite", &layouts.composite, &COMPOSITE_SLOTS),
+            debug: group("strata.deferred.debug", &layouts.debug, &DEBUG_SLOTS),
+            tonemap: group("strata.tonemap", &layouts.tonemap, &TONEMAP_SLOTS),
+        }
+    }
+
+    pub fn pipeline(&self) -> Pipeline {
+        self.pipeline
+    }
+
+    /// The lit HDR image (Rgba16Float, premultiplied, alpha = coverage): opaque surfaces after
+    /// [`LitFrame::record`], the transparent method's result once it presented over it.
+    pub fn hdr(&self) -> &wgpu::Texture {
+        &self.targets.hdr
+    }
+
+    /// The opaque surfaces' depth (Depth32Float), what the transparent method tests against.
+    pub fn depth(&self) -> &wgpu::Texture {
+        &self.targets.depth
+    }
+
+    /// Moves the camera (and takes new options: size, tone map, background); rewrites the
+    /// uniforms and the visible-light list.
+    pub fn set_camera(&mut self, camera: &Camera, options: &RenderOptions) {
+        if (options.width, options.height) != self.targets.size || options.ssao != self.options.ssao
+            || options.gbuffer_debug != self.options.gbuffer_debug
+        {
+            self.targets = Targets::new(&self.gpu, self.pipeline, options);
+            self.groups = Self::make_groups(
+                &self.gpu,
+                &self.passes.layouts,
+                &self.targets,
+                &self.params,
+                &self.visible_buffer,
+                &self.volume_buffer,
+            );
+        }
+        self.options = options.clone();
+        self.scene.update(&self.gpu, camera, options);
+        let aspect = options.width as f32 / options.height as f32;
+        let view_proj: Mat4 = camera.view_projection(aspect);
+        self.visible = volumes::classify(&self.lights, camera, aspect);
+        if !self.visible.indices.is_empty() {
+            self.gpu.queue.write_buffer(
+                &self.visible_buffer,
+                0,
+                bytemuck::cast_slice(&self.visible.indices),
+            );
+        }
+        let params = DeferredParams {
+            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
+            normal_encoding: options.normal_encoding as u32,
+            ssao: options.ssao as u32,
+            debug_view: options.gbuffer_debug.map(GbufferView::index).unwrap_or(0),
+            tonemap: options.tonemap as u32,
+            ssao_radius: self.ssao_radius,
+            ssao_strength: SSAO_STRENGTH,
+            cone_first: self.cone_first,
+            _pad: 0,
+        };
+        self.gpu
+            .queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+    }
+
+    /// Replaces the opaque objects' geometry (an animation's next time step).
+    pub fn set_geometry(&mut self, opaque: &Scene) -> Result<()> {
+        if !self.scene.update_geometry(&self.gpu, opaque)? {
+            return Err(Error::input(
+                "the opaque objects' triangle count changed between frames",
+            ));
+        }
+        Ok(())
+    }
+
+    pub fn stats(&self) -> LightingStats {
+        let deferred = self.pipeline == Pipeline::Deferred;
+        let v = &self.visible;
+        LightingStats {
+            pipeline: match self.pipeline {
+                Pipeline::Forward => "forward".into(),
+                Pipeline::Deferred => "deferred".into(),
+            },
+            lights: self.lights.len() as u32,
+            sphere_volumes: deferred.then_some(v.spheres),
+            cone_volumes: deferred.then_some(v.cones),
+            full_screen_lights: deferred.then_some(v.full_screen),
+            culled_lights: deferred.then_some(v.culled),
+            gbuffer_bytes_per_pixel: deferred
+                .then(|| gbuffer_bytes_per_pixel(GbufferLayout::Compressed)),
+            bytes_allocated: self.targets.bytes,
+            tonemap: self.options.tonemap,
+            ssao: deferred && self.options.ssao,
+        }
+    }
+
+    /// Records the opaque passes into `encoder`: the HDR image and the depth are cleared, then
+    /// drawn (forward, or G-buffer, SSAO, lighting, composite and the debug view).
+    pub fn record(&mut self, encoder: &mut wgpu::CommandEncoder, timer: &mut Timer) {
+        let unused = view(&self.unused_depth);
+        let frame = self.scene.frame_group(&self.gpu, &unused, None);
+        let hdr = view(&self.targets.hdr);
+        let depth = view(&self.targets.depth);
+        let clear = wgpu::Color::TRANSPARENT;
+        let triangles = if self.has_opaque {
+            self.scene.triangle_count * 3
+        } else {
+            0
+        };
+        let depth_attachment = |view, clear_depth: bool| {
+            Some(wgpu::RenderPassDepthStencilAttachment {
+                view,
+                depth_ops: clear_depth.then_some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            })
+        };
+        if self.pipeline == Pipeline::Forward {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("strata.forward.opaque"),
+                color_attachments: &[passes::attachment(&hdr, clear)],
+                depth_stencil_attachment: depth_attachment(&depth, true),
+                timestamp_writes: timer.render_pass("forward.opaque"),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.passes.forward);
+            pass.set_bind_group(0, Some(&frame), &[]);
+            pass.draw(0..triangles, 0..1);
+            return;
+        }
+        let (albedo, normal, exact) = (
+            view(&self.targets.albedo),
+            view(&self.targets.normal),
+            view(&self.targets.exact_normal),
+        );
+        let exact_normals = self.options.gbuffer_debug == Some(GbufferView::NormalError);
+        {
+            let mut colors = vec![passes::attachment(&albedo, clear), passes::attachment(&normal, clear)];
+            if exact_normals {
+                colors.push(passes::attachment(&exact, clear));
+            }
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("strata.deferred.gbuffer"),
+                color_attachments: &colors,
+                depth_stencil_attachment: depth_attachment(&depth, true),
+                timestamp_writes: timer.render_pass("deferred.gbuffer"),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(if exact_normals {
+                &self.passes.gbuffer_exact
+            } else {
+                &self.passes.gbuffer
+            });
+            pass.set_bind_group(0, Some(&frame), &[]);
+            pass.set_bind_group(1, Some(&self.groups.gbuffer), &[]);
+            pass.draw(0..triangles, 0..1);
+        }
+        if self.options.ssao {
+            let (ao_raw, ao) = (view(&self.targets.ao_raw), view(&self.targets.ao));
+            self.full_screen(encoder, timer, ("deferred.ssao", &ao_raw), &frame, Pass::Ssao);
+            self.full_screen(encoder, timer, ("deferred.ssao_blur", &ao), &frame, Pass::SsaoBlur);
+        }
+        {
+            let (diffuse, specular) = (view(&self.targets.diffuse), view(&self.targets.specular));
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("strata.deferred.lighting"),
+                color_attachments: &[
+                    passes::attachment(&diffuse, clear),
+                    passes::attachment(&specular, clear),
+                ],
+                depth_stencil_attachment: depth_attachment(&depth, false),
+                timestamp_writes: timer.render_pass("deferred.lighting"),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if self.has_opaque {
+                pass.set_bind_group(0, Some(&frame), &[]);
+                pass.set_bind_group(1, Some(&self.groups.lighting), &[]);
+                let v = &self.visible;
+                let (s, c, f) = (v.spheres, v.spheres + v.cones, v.spheres + v.cones + v.full_screen);
+                pass.set_pipeline(&self.passes.sphere_lights);
+                pass.draw(0..self.sphere_vertices, 0..s);
+                pass.set_pipeline(&self.passes.cone_lights);
+                pass.draw(0..self.cone_vertices, s..c);
+                pass.set_pipeline(&self.passes.full_screen_lights);
+                pass.draw(0..3, c..f);
+            }
+        }
+        self.full_screen(encoder, timer, ("deferred.composite", &hdr), &frame, Pass::Composite);
+        if self.options.gbuffer_debug.is_some() {
+            self.full_screen(encoder, timer, ("deferred.debug", &hdr), &frame, Pass::Debug);
+        }
+    }
+
+    fn full_screen(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &mut Timer,
+        (name, target): (&'static str, &wgpu::TextureView),
+        frame: &wgpu::BindGroup,
+        which: Pass,
+    ) {
+        let (pipeline, group, clear) = match which {
+            Pass::Ssao => (&self.passes.ssao, &self.groups.ssao, wgpu::Color::WHITE),
+            Pass::SsaoBlur => (&self.passes.ssao_blur, &self.groups.ssao_blur, wgpu::Color::WHITE),
+            Pass::Composite => (&self.passes.composite, &self.groups.composite, wgpu::Color::TRANSPARENT),
+            Pass::Debug => (&self.passes.debug, &self.groups.debug, wgpu::Color::BLACK),
+        };
+        let label = format!("strata.{name}");
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(&label),
+            color_attachments: &[passes::attachment(target, clear)],
+            depth_stencil_attachment: None,
+            timestamp_writes: timer.render_pass(name),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, Some(frame), &[]);
+        pass.set_bind_group(1, Some(group), &[]);
+        pass.draw(0..3, 0..1);
+    }
+
+    /// Records the tone map: the HDR image (with the transparent method's result over it) OVER
+    /// the picture's background, tone-mapped into `target` (any renderable color format).
+    pub fn tonemap(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &mut Timer,
+        target: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+    ) {
+        let gpu = &self.gpu;
+        let (module, layouts) = (&self.passes.tonemap_module, &self.passes.layouts);
+        let frame_layout = &self.scene.frame_layout;
+        let pipeline = self.passes.tonemap.entry(format).or_insert_with(|| {
+            screen_pipeline(
+                gpu,
+                "strata.tonemap",
+                module,
+                ("vs_fullscreen", "fs_tonemap"),
+                &[frame_layout, &layouts.tonemap],
+                &[target_state(format)],
+                None,
+                None,
+            )
+        });
+        let unused = view(&self.unused_depth);
+        let frame = self.scene.frame_group(gpu, &unused, None);
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("strata.tonemap"),
+            color_attachments: &[passes::attachment(target, wgpu::Color::BLACK)],
+            depth_stencil_attachment: None,
+            timestamp_writes: timer.render_pass("tonemap"),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, Some(&frame), &[]);
+        pass.set_bind_group(1, Some(&self.groups.tonemap), &[]);
+        pass.draw(0..3, 0..1);
+    }
+}
+
+fn target_state(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
+    target(format, None)
+}
+
+#[derive(Clone, Copy)]
+enum Pass {
+    Ssao,
+    SsaoBlur,
+    Composite,
+    Debug,
+}
+
+#[cfg(test)]
+mod tests;
