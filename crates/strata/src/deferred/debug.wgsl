@@ -2,7 +2,7 @@
 // values (sRGB-decoded so the PNG shows them as they are): albedo; the view-space normal as
 // n·0.5 + 0.5; the specular exponent / 128; the material id as a hashed color; the stored depth
 // (view distance / far); the light buffers' diffuse + specular; the normal's encoding error in
-// degrees in R (the renderer draws it as a heatmap).
+// degrees in R (the renderer draws it as a heatmap); the ambient occlusion factor.
 
 const VIEW_ALBEDO: u32 = 0u;
 const VIEW_NORMAL: u32 = 1u;
@@ -10,6 +10,7 @@ const VIEW_SPECULAR: u32 = 2u;
 const VIEW_MATERIAL: u32 = 3u;
 const VIEW_DEPTH: u32 = 4u;
 const VIEW_LIGHTS: u32 = 5u;
+const VIEW_NORMAL_ERROR: u32 = 6u;
 
 fn display(c: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b), 1.0);
@@ -45,11 +46,18 @@ fn fs_debug(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
         case VIEW_LIGHTS: {
             return vec4<f32>(textureLoad(light_diffuse, pixel, 0).rgb + textureLoad(light_specular, pixel, 0).rgb, 1.0);
         }
-        default: {
+        case VIEW_NORMAL_ERROR: {
             let exact = textureLoad(exact_normal, pixel, 0).xyz;
             // 2·asin(|a − b| / 2) keeps small angles accurate in f32, where acos(a·b) does not.
             let chord = length(normalize(exact) - decode_normal(n.xy));
             return vec4<f32>(degrees(2.0 * asin(clamp(chord * 0.5, 0.0, 1.0))), 0.0, 0.0, 1.0);
+        }
+        default: {
+            var occlusion = 1.0;
+            if params.ssao != 0u {
+                occlusion = textureLoad(ambient_occlusion, pixel, 0).r;
+            }
+            return display(vec3<f32>(occlusion));
         }
     }
 }

@@ -38,9 +38,10 @@
 //! compares with (three RGBA16 targets and depth) is 28 B. See [`gbuffer_bytes_per_pixel`].
 //!
 //! Differences deferred vs forward come only from the G-buffer's quantization: albedo in 8-bit
-//! sRGB (clamped to [0, 1]), the normal in 10-bit channels (at most 0.12° on surfaces facing
-//! the camera, 0.25° at grazing view angles; `encoding.rs` bounds both encodings), and world
-//! positions rebuilt from f32 depth. Specular exponents are integers 1–1023 in both pipelines.
+//! sRGB (clamped to [0, 1]), the normal in 10-bit channels (spheremap: at most 0.22° for normals
+//! facing the view axis, 0.30° within a square 45° view, 0.42° within a 97° diagonal;
+//! octahedral: 0.24° for every direction; `encoding.rs` measures both), and world positions
+//! rebuilt from f32 depth. Specular exponents are integers 1–1023 in both pipelines.
 
 pub mod encoding;
 pub mod volumes;
@@ -111,6 +112,8 @@ pub enum GbufferView {
     Lights,
     /// The normal encoding's angular error per pixel: a heatmap in hundredths of a degree.
     NormalError,
+    /// The ambient occlusion factor (with `--ssao`; white without).
+    Occlusion,
 }
 
 impl GbufferView {
@@ -179,8 +182,8 @@ const LIGHT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const AO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
 /// SSAO radius as a fraction of the opaque scene's bounding diagonal.
-const SSAO_RADIUS_FRACTION: f32 = 0.03;
-const SSAO_STRENGTH: f32 = 1.0;
+const SSAO_RADIUS_FRACTION: f32 = 0.05;
+const SSAO_STRENGTH: f32 = 1.5;
 
 /// The G-buffer bindings each pass reads (indices in deferred_common.wgsl).
 const GBUFFER_SLOTS: [(u32, Slot); 1] = [(0, Slot::Uniform)];
@@ -267,7 +270,12 @@ impl Targets {
         let sized = |used: bool| if used { size } else { (1, 1) };
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let make = |label: &str, format, used| {
-            gpu.texture_2d(label, sized(used), format, usage | wgpu::TextureUsages::COPY_SRC)
+            gpu.texture_2d(
+                label,
+                sized(used),
+                format,
+                usage | wgpu::TextureUsages::COPY_SRC,
+            )
         };
         let debug_normals = options.gbuffer_debug == Some(GbufferView::NormalError);
         let targets = Targets {
@@ -283,7 +291,11 @@ impl Targets {
             ),
             diffuse: make("strata.deferred.light.diffuse", LIGHT_FORMAT, deferred),
             specular: make("strata.deferred.light.specular", LIGHT_FORMAT, deferred),
-            ao_raw: make("strata.deferred.ssao.raw", AO_FORMAT, deferred && options.ssao),
+            ao_raw: make(
+                "strata.deferred.ssao.raw",
+                AO_FORMAT,
+                deferred && options.ssao,
+            ),
             ao: make("strata.deferred.ssao", AO_FORMAT, deferred && options.ssao),
             bytes: 0,
         };
@@ -342,7 +354,10 @@ fn depth_state(write: bool, compare: wgpu::CompareFunction) -> Option<wgpu::Dept
     })
 }
 
-fn target(format: wgpu::TextureFormat, blend: Option<wgpu::BlendState>) -> Option<wgpu::ColorTargetState> {
+fn target(
+    format: wgpu::TextureFormat,
+    blend: Option<wgpu::BlendState>,
+) -> Option<wgpu::ColorTargetState> {
     Some(wgpu::ColorTargetState {
         format,
         blend,
@@ -414,7 +429,10 @@ impl Passes {
             },
             alpha: wgpu::BlendComponent::REPLACE,
         };
-        let light_targets = [target(LIGHT_FORMAT, Some(additive)), target(LIGHT_FORMAT, Some(additive))];
+        let light_targets = [
+            target(LIGHT_FORMAT, Some(additive)),
+            target(LIGHT_FORMAT, Some(additive)),
+        ];
         let gbuffer_targets = [target(ALBEDO_FORMAT, None), target(NORMAL_FORMAT, None)];
         let volume = |label, entry| {
             screen_pipeline(
@@ -472,7 +490,13 @@ impl Passes {
                 ],
                 write_less,
             ),
-            ssao: fullscreen("strata.deferred.ssao", &ssao_m, "fs_ssao", &layouts.ssao, AO_FORMAT),
+            ssao: fullscreen(
+                "strata.deferred.ssao",
+                &ssao_m,
+                "fs_ssao",
+                &layouts.ssao,
+                AO_FORMAT,
+            ),
             ssao_blur: fullscreen(
                 "strata.deferred.ssao_blur",
                 &ssao_m,
@@ -499,7 +523,13 @@ impl Passes {
                 &layouts.composite,
                 HDR_FORMAT,
             ),
-            debug: fullscreen("strata.deferred.debug", &debug_m, "fs_debug", &layouts.debug, HDR_FORMAT),
+            debug: fullscreen(
+                "strata.deferred.debug",
+                &debug_m,
+                "fs_debug",
+                &layouts.debug,
+                HDR_FORMAT,
+            ),
             tonemap_module: tonemap_m,
             tonemap: HashMap::new(),
             layouts,
@@ -544,7 +574,12 @@ pub struct LitFrame {
 
 impl LitFrame {
     /// `opaque` holds the opaque objects (it may have none) with the frame's camera and lights.
-    pub fn new(gpu: &Gpu, pipeline: Pipeline, opaque: &Scene, options: &RenderOptions) -> Result<LitFrame> {
+    pub fn new(
+        gpu: &Gpu,
+        pipeline: Pipeline,
+        opaque: &Scene,
+        options: &RenderOptions,
+    ) -> Result<LitFrame> {
         let has_opaque = !opaque.objects.is_empty();
         if pipeline == Pipeline::Deferred && opaque.materials.len() > 256 {
             return Err(Error::unsupported(format!(
@@ -555,7 +590,8 @@ impl LitFrame {
         let scene = SceneGpu::new_allow_empty(gpu, opaque, options)?;
         let lights = uniforms::lighting(opaque).lights;
         let meshes = volumes::meshes();
-        let storage = |label: &str, bytes: u64| gpu.storage_buffer(label, bytes, wgpu::BufferUsages::empty());
+        let storage =
+            |label: &str, bytes: u64| gpu.storage_buffer(label, bytes, wgpu::BufferUsages::empty());
         let volume_buffer = storage(
             "strata.deferred.volume_meshes",
             (meshes.vertices.len() * 16) as u64,
@@ -579,7 +615,14 @@ impl LitFrame {
         };
         let passes = Passes::new(gpu, &scene.frame_layout);
         let targets = Targets::new(gpu, pipeline, options);
-        let groups = Self::make_groups(gpu, &passes.layouts, &targets, &params, &visible_buffer, &volume_buffer);
+        let groups = Self::make_groups(
+            gpu,
+            &passes.layouts,
+            &targets,
+            &params,
+            &visible_buffer,
+            &volume_buffer,
+        );
         let unused_depth = gpu.texture_2d(
             "strata.lit.unused_depth",
             (1, 1),
@@ -651,9 +694,21 @@ impl LitFrame {
         Groups {
             gbuffer: group("strata.deferred.gbuffer", &layouts.gbuffer, &GBUFFER_SLOTS),
             ssao: group("strata.deferred.ssao", &layouts.ssao, &SSAO_SLOTS),
-            ssao_blur: group("strata.deferred.ssao_blur", &layouts.ssao_blur, &SSAO_BLUR_SLOTS),
-            lighting: group("strata.deferred.lighting", &layouts.lighting, &LIGHTING_SLOTS),
-            composite: group("strata.deferred.composite", &layouts.composite, &COMPOSITE_SLOTS),
+            ssao_blur: group(
+                "strata.deferred.ssao_blur",
+                &layouts.ssao_blur,
+                &SSAO_BLUR_SLOTS,
+            ),
+            lighting: group(
+                "strata.deferred.lighting",
+                &layouts.lighting,
+                &LIGHTING_SLOTS,
+            ),
+            composite: group(
+                "strata.deferred.composite",
+                &layouts.composite,
+                &COMPOSITE_SLOTS,
+            ),
             debug: group("strata.deferred.debug", &layouts.debug, &DEBUG_SLOTS),
             tonemap: group("strata.tonemap", &layouts.tonemap, &TONEMAP_SLOTS),
         }
@@ -677,7 +732,8 @@ impl LitFrame {
     /// Moves the camera (and takes new options: size, tone map, background); rewrites the
     /// uniforms and the visible-light list.
     pub fn set_camera(&mut self, camera: &Camera, options: &RenderOptions) {
-        if (options.width, options.height) != self.targets.size || options.ssao != self.options.ssao
+        if (options.width, options.height) != self.targets.size
+            || options.ssao != self.options.ssao
             || options.gbuffer_debug != self.options.gbuffer_debug
         {
             self.targets = Targets::new(&self.gpu, self.pipeline, options);
@@ -793,7 +849,10 @@ impl LitFrame {
         );
         let exact_normals = self.options.gbuffer_debug == Some(GbufferView::NormalError);
         {
-            let mut colors = vec![passes::attachment(&albedo, clear), passes::attachment(&normal, clear)];
+            let mut colors = vec![
+                passes::attachment(&albedo, clear),
+                passes::attachment(&normal, clear),
+            ];
             if exact_normals {
                 colors.push(passes::attachment(&exact, clear));
             }
@@ -816,8 +875,20 @@ impl LitFrame {
         }
         if self.options.ssao {
             let (ao_raw, ao) = (view(&self.targets.ao_raw), view(&self.targets.ao));
-            self.full_screen(encoder, timer, ("deferred.ssao", &ao_raw), &frame, Pass::Ssao);
-            self.full_screen(encoder, timer, ("deferred.ssao_blur", &ao), &frame, Pass::SsaoBlur);
+            self.full_screen(
+                encoder,
+                timer,
+                ("deferred.ssao", &ao_raw),
+                &frame,
+                Pass::Ssao,
+            );
+            self.full_screen(
+                encoder,
+                timer,
+                ("deferred.ssao_blur", &ao),
+                &frame,
+                Pass::SsaoBlur,
+            );
         }
         {
             let (diffuse, specular) = (view(&self.targets.diffuse), view(&self.targets.specular));
@@ -836,7 +907,11 @@ impl LitFrame {
                 pass.set_bind_group(0, Some(&frame), &[]);
                 pass.set_bind_group(1, Some(&self.groups.lighting), &[]);
                 let v = &self.visible;
-                let (s, c, f) = (v.spheres, v.spheres + v.cones, v.spheres + v.cones + v.full_screen);
+                let (s, c, f) = (
+                    v.spheres,
+                    v.spheres + v.cones,
+                    v.spheres + v.cones + v.full_screen,
+                );
                 pass.set_pipeline(&self.passes.sphere_lights);
                 pass.draw(0..self.sphere_vertices, 0..s);
                 pass.set_pipeline(&self.passes.cone_lights);
@@ -845,9 +920,21 @@ impl LitFrame {
                 pass.draw(0..3, c..f);
             }
         }
-        self.full_screen(encoder, timer, ("deferred.composite", &hdr), &frame, Pass::Composite);
+        self.full_screen(
+            encoder,
+            timer,
+            ("deferred.composite", &hdr),
+            &frame,
+            Pass::Composite,
+        );
         if self.options.gbuffer_debug.is_some() {
-            self.full_screen(encoder, timer, ("deferred.debug", &hdr), &frame, Pass::Debug);
+            self.full_screen(
+                encoder,
+                timer,
+                ("deferred.debug", &hdr),
+                &frame,
+                Pass::Debug,
+            );
         }
     }
 
@@ -861,8 +948,16 @@ impl LitFrame {
     ) {
         let (pipeline, group, clear) = match which {
             Pass::Ssao => (&self.passes.ssao, &self.groups.ssao, wgpu::Color::WHITE),
-            Pass::SsaoBlur => (&self.passes.ssao_blur, &self.groups.ssao_blur, wgpu::Color::WHITE),
-            Pass::Composite => (&self.passes.composite, &self.groups.composite, wgpu::Color::TRANSPARENT),
+            Pass::SsaoBlur => (
+                &self.passes.ssao_blur,
+                &self.groups.ssao_blur,
+                wgpu::Color::WHITE,
+            ),
+            Pass::Composite => (
+                &self.passes.composite,
+                &self.groups.composite,
+                wgpu::Color::TRANSPARENT,
+            ),
             Pass::Debug => (&self.passes.debug, &self.groups.debug, wgpu::Color::BLACK),
         };
         let label = format!("strata.{name}");

@@ -298,11 +298,11 @@ mod tests {
             far: 20.0,
         };
         let lights = [
-            point([0.0, 0.0, 0.0], 1.0),    // in view
-            point([50.0, 0.0, 0.0], 1.0),   // far to the side
-            point([0.0, 0.0, 10.0], 1.0),   // behind the camera
-            point([0.0, 0.0, -14.5], 1.0),  // straddles the far plane
-            point([0.0, 0.0, 5.0], 0.5),    // the camera is inside it
+            point([0.0, 0.0, 0.0], 1.0),   // in view
+            point([50.0, 0.0, 0.0], 1.0),  // far to the side
+            point([0.0, 0.0, 10.0], 1.0),  // behind the camera
+            point([0.0, 0.0, -14.5], 1.0), // straddles the far plane
+            point([0.0, 0.0, 5.0], 0.5),   // the camera is inside it
             GpuLight {
                 kind: 2,
                 ..point([0.0; 3], 1.0)

@@ -237,7 +237,9 @@ impl RenderOptions {
         }
         if self.pipeline != Some(Pipeline::Deferred) {
             if self.ssao {
-                return Err(Error::input("--ssao needs --pipeline deferred (it reads the G-buffer)"));
+                return Err(Error::input(
+                    "--ssao needs --pipeline deferred (it reads the G-buffer)",
+                ));
             }
             if let Some(v) = self.gbuffer_debug {
                 let name = serde_json::to_value(v).unwrap_or_default();

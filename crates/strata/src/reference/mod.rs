@@ -250,8 +250,10 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
                     fragments(s, options)
                 }
             };
-            let nearest: Vec<Option<RefFragment>> =
-                part(&opaque)?.into_iter().map(|l| l.into_iter().next()).collect();
+            let nearest: Vec<Option<RefFragment>> = part(&opaque)?
+                .into_iter()
+                .map(|l| l.into_iter().next())
+                .collect();
             let lists = part(&transparent)?
                 .into_iter()
                 .zip(&nearest)

@@ -11,10 +11,10 @@ pub mod recorder;
 pub use recorder::FrameRecorder;
 
 use crate::error::{Error, Result};
+use crate::frame::GbufferView;
 use crate::frame::{DrawCallback, FrameStats, FrameTargets, Resolved};
 use crate::gpu::{readback, Gpu};
 use crate::methods::MethodId;
-use crate::frame::GbufferView;
 use crate::scene::{linear_to_srgb, srgb_to_linear, Scene};
 
 pub use crate::frame::{Effect, RenderOptions, Tail};
@@ -266,7 +266,8 @@ fn lit_pixels(options: &RenderOptions, hdr: &[[f32; 4]], resolved: &[Resolved]) 
     let counts = resolved.iter().map(|r| r.count as f32);
     match options.gbuffer_debug {
         Some(GbufferView::NormalError) => {
-            let centidegrees: Vec<u32> = hdr.iter().map(|p| (p[0] * 100.0).round() as u32).collect();
+            let centidegrees: Vec<u32> =
+                hdr.iter().map(|p| (p[0] * 100.0).round() as u32).collect();
             let map = crate::metrics::complexity_heatmap(&centidegrees, w, options.height, None);
             map.pixels()
                 .zip(counts)
@@ -276,7 +277,11 @@ fn lit_pixels(options: &RenderOptions, hdr: &[[f32; 4]], resolved: &[Resolved]) 
                 })
                 .collect()
         }
-        Some(_) => hdr.iter().zip(counts).map(|(p, n)| [p[0], p[1], p[2], n]).collect(),
+        Some(_) => hdr
+            .iter()
+            .zip(counts)
+            .map(|(p, n)| [p[0], p[1], p[2], n])
+            .collect(),
         None => hdr
             .iter()
             .zip(counts)

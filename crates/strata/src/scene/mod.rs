@@ -474,7 +474,9 @@ impl Scene {
         let range = diagonal * (0.5 / (count as f32).cbrt()).max(0.06);
         // Lights hover over the scene: the box grows upwards by a tenth of its diagonal.
         let (box_lo, box_hi) = (lo, hi + Vec3::new(0.0, 0.1 * diagonal, 0.0));
-        let volume = (box_hi - box_lo).max(Vec3::splat(range * 0.5)).element_product();
+        let volume = (box_hi - box_lo)
+            .max(Vec3::splat(range * 0.5))
+            .element_product();
         let overlap = count as f32 * 4.0 / 3.0 * std::f32::consts::PI * range.powi(3) / volume;
         let intensity = 1.5 / overlap.max(1.0).sqrt();
         let mut rng = builtin::rng::SplitMix64::new(seed ^ 0x6c69_6768_7473);
