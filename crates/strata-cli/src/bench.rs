@@ -68,7 +68,7 @@ pub struct Run {
 }
 
 impl Run {
-    fn plain(method: &str) -> Run {
+    pub(crate) fn plain(method: &str) -> Run {
         Run {
             label: method.into(),
             method: method.into(),
@@ -290,7 +290,7 @@ const EXPERIMENTS: &[Experiment] = &[
 ];
 
 #[derive(Serialize)]
-struct MethodResult {
+pub(crate) struct MethodResult {
     scene: String,
     label: String,
     method: String,
@@ -298,11 +298,11 @@ struct MethodResult {
     culling: bool,
     frames: u32,
     /// Median over frames of the sum of all passes' GPU time; null without timestamps.
-    median_gpu_ms: Option<f64>,
+    pub(crate) median_gpu_ms: Option<f64>,
     /// Median GPU ms per pass name.
-    median_gpu_ms_per_pass: Option<BTreeMap<String, f64>>,
+    pub(crate) median_gpu_ms_per_pass: Option<BTreeMap<String, f64>>,
     /// Wall-clock ms per frame over the timed loop (for `reference`: the median CPU render).
-    median_wall_ms: f64,
+    pub(crate) median_wall_ms: f64,
     /// Frames per second over the timed loop; null for `reference`.
     fps: Option<f64>,
     /// Timed frames whose statistics arrived (the rest found every readback slot in flight).
@@ -389,6 +389,11 @@ pub fn run(a: BenchArgs) -> Result<()> {
             println!("{:<16} {}", e.name, e.description);
         }
         println!("{:<16} {}", "auto-k", crate::auto_k::DESCRIPTION);
+        println!(
+            "{:<16} {}",
+            "deferred-lights",
+            crate::deferred_lights::DESCRIPTION
+        );
         return Ok(());
     }
     let gpu = Gpu::new()?;
@@ -400,6 +405,13 @@ pub fn run(a: BenchArgs) -> Result<()> {
             .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
         return crate::auto_k::run(&gpu, a.size.as_deref(), a.frames, &dir);
     }
+    if a.experiment.as_deref() == Some("deferred-lights") {
+        let dir = a
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
+        return crate::deferred_lights::run(&gpu, a.size.as_deref(), a.frames, &dir);
+    }
     let k_flag = a.k;
     let (name, scenes, runs, size, alpha, frames, quality) = match &a.experiment {
         Some(n) => {
@@ -407,7 +419,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 let names: Vec<_> = EXPERIMENTS
                     .iter()
                     .map(|e| e.name)
-                    .chain(["auto-k"])
+                    .chain(["auto-k", "deferred-lights"])
                     .collect();
                 Error::input(format!(
                     "unknown experiment '{n}' (available: {})",
@@ -509,7 +521,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
             options.culling = run.culling;
             options.weight = run.weight;
             options.depth_scale = run.depth_scale;
-            match measure(&gpu, &scene_data, &options, run, a.warmup, frames, &bar) {
+            match measure(&gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r)
+            {
                 Ok(mut result) => {
                     result.scene = scene.clone();
                     if let Some(full) = &full_reference {
@@ -629,8 +642,9 @@ impl MethodResult {
 /// Frames in flight in the timed loop, as a swap chain of two would allow.
 const FRAMES_IN_FLIGHT: usize = 2;
 
-/// Renders warm-up then timed real-time frames of one run; returns its medians.
-fn measure(
+/// Renders warm-up then timed real-time frames of one run; returns its medians and the last
+/// timed frame's statistics.
+pub(crate) fn measure(
     gpu: &Gpu,
     scene: &strata::scene::Scene,
     options: &strata::RenderOptions,
@@ -638,7 +652,7 @@ fn measure(
     warmup: u32,
     frames: u32,
     bar: &ProgressBar,
-) -> Result<MethodResult> {
+) -> Result<(MethodResult, Option<FrameStats>)> {
     let mut result = MethodResult::new(run, frames);
     let method: MethodId = run.method.parse()?;
     if method == MethodId::Reference {
@@ -654,8 +668,9 @@ fn measure(
             bar.inc(1);
         }
         result.median_wall_ms = median(walls);
-        fill_counts(&mut result, &last.expect("at least one frame"));
-        return Ok(result);
+        let last = last.expect("at least one frame");
+        fill_counts(&mut result, &last);
+        return Ok((result, Some(last)));
     }
     let mut recorder = FrameRecorder::new(gpu, scene, method, options)?;
     let target = gpu.texture_2d(
@@ -720,7 +735,8 @@ fn measure(
         (Some(ms), Some(bytes)) if bytes > 0 => Some(ms / (bytes as f64 / 1048576.0)),
         _ => None,
     };
-    Ok(result)
+    let last = timed.last().map(|s| (*s).clone());
+    Ok((result, last))
 }
 
 fn fill_counts(result: &mut MethodResult, stats: &FrameStats) {

@@ -2,6 +2,7 @@
 
 mod auto_k;
 mod bench;
+mod deferred_lights;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -76,10 +77,11 @@ pub struct PictureArgs {
     #[arg(long)]
     pub frame: Option<f32>,
     /// Light opaque objects forward (every light per fragment) or deferred (G-buffer and light
-    /// volumes), the method drawing only the transparent ones over them; unset: every surface
-    /// through the method.
+    /// volumes), the method drawing only the transparent ones over them; none: every surface,
+    /// opaque ones too, through the method. Default: the scene's (builtin:demo: deferred), else
+    /// none.
     #[arg(long, value_enum)]
-    pub pipeline: Option<strata::frame::Pipeline>,
+    pub pipeline: Option<PipelineArg>,
     /// Add N coloured point lights, a deterministic field over the scene's bounds.
     #[arg(long)]
     pub lights: Option<u32>,
@@ -195,6 +197,13 @@ struct HistogramArgs {
 enum Toggle {
     On,
     Off,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PipelineArg {
+    None,
+    Forward,
+    Deferred,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -352,7 +361,12 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
         background,
         k,
         k_auto,
-        pipeline: p.pipeline,
+        pipeline: match p.pipeline {
+            None => scene.defaults.pipeline,
+            Some(PipelineArg::None) => None,
+            Some(PipelineArg::Forward) => Some(strata::frame::Pipeline::Forward),
+            Some(PipelineArg::Deferred) => Some(strata::frame::Pipeline::Deferred),
+        },
         tonemap: p.tonemap,
         ..Default::default()
     };

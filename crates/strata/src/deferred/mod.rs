@@ -62,7 +62,7 @@ use crate::gpu::{passes, shader, Gpu};
 use crate::scene::{Camera, Scene};
 
 /// How opaque surfaces are lit (`--pipeline`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Pipeline {

@@ -366,6 +366,8 @@ pub struct RenderDefaults {
     pub size: Option<[u32; 2]>,
     pub background: Option<Background>,
     pub shading: Option<Shading>,
+    /// The pipeline the scene is meant for (`--pipeline` overrides it).
+    pub pipeline: Option<crate::deferred::Pipeline>,
 }
 
 #[derive(Clone, Debug, Default)]

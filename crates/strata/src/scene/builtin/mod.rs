@@ -2,7 +2,7 @@
 //!
 //! | scene | parameters (defaults) | what it is |
 //! |---|---|---|
-//! | `demo` | — | the default: three translucent models (spot, teapot, suzanne) on an opaque checkerboard floor, three point lights |
+//! | `demo` | — | the default: three translucent models (spot, teapot, suzanne) on an opaque checkerboard floor with an opaque gold ball and column, three point lights and a ring of twelve coloured ones; rendered with the deferred pipeline by default |
 //! | `layers` | `n=16`, `coverage=0.75`, `order=random` (`front`, `back`), `seed=1` | `n` unlit screen-aligned layers with a closed-form composite, see [`layer_colors`] |
 //! | `spheres` | `layers=16` (even) | `layers/2` nested sphere shells: a ray through the centre crosses `layers` surfaces |
 //! | `nvpro` | `objects=1024`, `subdiv=16`, `seed=0` | random translucent UV spheres in [-1,1]³ (the NVIDIA OIT sample's scene) |

@@ -6,7 +6,7 @@ use glam::{Mat4, Quat, Vec3};
 
 use super::models::model_mesh;
 use super::params::Params;
-use super::primitives::uv_sphere;
+use super::primitives::{cube, uv_sphere};
 use super::rng::SplitMix64;
 use crate::error::{Error, Result};
 use crate::scene::{
@@ -353,8 +353,11 @@ fn checker_floor(cells: i32) -> [Mesh; 2] {
 
 /// The default scene: spot (orange), the teapot (teal) and suzanne (magenta), translucent
 /// (opacity 0.35–0.45, absorption 0.8, ior 1.5) and overlapping in view, standing on an opaque
-/// checkerboard floor (12×12 unit cells at y = 0, so the see-through shows), three point lights
-/// (warm key, cool fill, rim), a perspective camera looking slightly down. About 24K triangles.
+/// checkerboard floor (12×12 unit cells at y = 0, so the see-through shows) with two opaque
+/// objects behind them (a polished gold ball, a stone column); three point lights (warm key,
+/// cool fill, rim) and a ring of twelve coloured point lights low over the floor; a perspective
+/// camera looking slightly down. Meant for the deferred pipeline (its default). About 26K
+/// triangles.
 pub(super) fn demo() -> Result<Scene> {
     let mut scene = Scene::default();
     for (name, grey, mesh) in ["floor light", "floor dark"]
@@ -408,11 +411,68 @@ pub(super) fn demo() -> Result<Scene> {
         near: 0.1,
         far: 30.0,
     });
-    scene.lights = vec![
-        point_light(Vec3::new(3.0, 4.0, 4.0), [1.0, 0.95, 0.85], 1.0, 20.0),
-        point_light(Vec3::new(-4.0, 2.5, 2.0), [0.6, 0.7, 1.0], 0.6, 20.0),
-        point_light(Vec3::new(0.0, 3.0, -4.0), [1.0, 1.0, 1.0], 0.5, 20.0),
+    // (name, mesh, transform, color, shininess)
+    let opaque = [
+        (
+            "gold ball",
+            uv_sphere(48),
+            Mat4::from_translation(Vec3::new(-0.7, 0.42, -2.4))
+                * Mat4::from_scale(Vec3::splat(0.42)),
+            [0.85, 0.62, 0.22],
+            160.0,
+        ),
+        (
+            "column",
+            cube(),
+            Mat4::from_translation(Vec3::new(1.55, 0.7, -2.1))
+                * Mat4::from_rotation_y(0.6)
+                * Mat4::from_scale(Vec3::new(0.25, 0.7, 0.25)),
+            [0.72, 0.7, 0.66],
+            12.0,
+        ),
     ];
+    for (name, mesh, transform, color, shininess) in opaque {
+        let m = scene.add_material(Material {
+            name: name.into(),
+            color,
+            opacity: 1.0,
+            shininess,
+            ..Material::default()
+        });
+        scene.objects.push(Object {
+            name: name.into(),
+            mesh: mesh.transformed(transform),
+            material: m,
+        });
+    }
+    scene.lights = vec![
+        point_light(Vec3::new(3.0, 4.0, 4.0), [1.0, 0.95, 0.85], 0.6, 20.0),
+        point_light(Vec3::new(-4.0, 2.5, 2.0), [0.6, 0.7, 1.0], 0.3, 20.0),
+        point_light(Vec3::new(0.0, 3.0, -4.0), [1.0, 1.0, 1.0], 0.4, 20.0),
+    ];
+    // Coloured pools of light around the models: a ring low over the floor, hues evenly spaced.
+    let ring = 12;
+    for i in 0..ring {
+        let a = i as f32 / ring as f32 * std::f32::consts::TAU;
+        let hue = i as f32 / ring as f32;
+        let channel = |offset: f32| {
+            let x = ((hue + offset).fract() * 6.0 - 3.0).abs() - 1.0;
+            0.2 + 0.8 * x.clamp(0.0, 1.0)
+        };
+        let range = 1.8;
+        scene.lights.push(Light {
+            attenuation: [1.0, 0.0, 12.0 / (range * range)],
+            ..point_light(
+                Vec3::new(2.6 * a.cos(), 0.3, -0.5 + 2.0 * a.sin()),
+                [channel(0.0), channel(2.0 / 3.0), channel(1.0 / 3.0)],
+                3.0,
+                range,
+            )
+        });
+    }
+    scene.defaults.pipeline = Some(crate::deferred::Pipeline::Deferred);
+    // A dark backdrop so that the pools of light read; `--background` overrides it.
+    scene.defaults.background = Some(crate::scene::Background::Color([0.018, 0.02, 0.026]));
     Ok(scene)
 }
 

@@ -63,6 +63,7 @@ struct RenderDef {
     size: Option<[u32; 2]>,
     background: Option<String>,
     shading: Option<Shading>,
+    pipeline: Option<crate::deferred::Pipeline>,
 }
 
 #[derive(Deserialize, Default, Clone, Copy)]
@@ -339,6 +340,7 @@ pub(crate) fn parse(
             size: r.size,
             background,
             shading: r.shading,
+            pipeline: r.pipeline,
         };
     }
 
