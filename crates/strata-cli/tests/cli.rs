@@ -521,3 +521,80 @@ fn frame_sequences_match_single_frames() {
     assert!(first != a, "the balls move between frames");
     assert_bad_input(&["render", "--frames", "3..1"], "--frames");
 }
+
+#[test]
+fn lit_pipelines_render_and_match_the_reference() {
+    let dir = workdir("pipelines");
+    let reference = dir.join("reference.png");
+    let o = strata(&[
+        "reference",
+        "--pipeline",
+        "forward",
+        "--lights",
+        "8",
+        "--size",
+        "64x48",
+        "-o",
+        reference.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for pipeline in ["forward", "deferred"] {
+        let png = dir.join(format!("{pipeline}.png"));
+        let stats = dir.join(format!("{pipeline}.json"));
+        let o = strata(&[
+            "render",
+            "--pipeline",
+            pipeline,
+            "--lights",
+            "8",
+            "--size",
+            "64x48",
+            "-o",
+            png.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        assert_eq!(v["lighting"]["pipeline"], pipeline);
+        // The demo's 15 lights and the field's 8.
+        assert_eq!(v["lighting"]["lights"], 23);
+        let o = strata(&[
+            "compare",
+            png.to_str().unwrap(),
+            reference.to_str().unwrap(),
+            "--json",
+        ]);
+        let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        // Forward is exact; deferred carries the G-buffer's quantization (≤ 3/255).
+        assert!(c["max_abs_diff"].as_u64().unwrap() <= 3, "{pipeline}: {c}");
+    }
+    let debug = dir.join("normals.png");
+    let o = strata(&[
+        "render",
+        "--gbuffer-debug",
+        "normal-error",
+        "--size",
+        "64x48",
+        "-o",
+        debug.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(debug.exists());
+}
+
+#[test]
+fn pipeline_options_are_checked() {
+    assert_bad_input(
+        &["render", "--pipeline", "forward", "--ssao"],
+        "--ssao needs --pipeline deferred",
+    );
+    assert_bad_input(
+        &["render", "--pipeline", "none", "--gbuffer-debug", "albedo"],
+        "--gbuffer-debug albedo needs --pipeline deferred",
+    );
+    assert_bad_input(&["render", "--pipeline", "fast"], "expected one of: none");
+    assert_bad_input(&["reference", "--ssao"], "--ssao");
+    assert_bad_input(&["render", "--lights", "100000000"], "--lights");
+}
