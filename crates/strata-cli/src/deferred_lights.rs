@@ -19,12 +19,12 @@ use strata::RenderOptions;
 
 use crate::bench::{measure, Run};
 
-pub const DESCRIPTION: &str = "seed 004 Figs. 13-14: forward vs deferred frame time over 1..4096 lights (lavapipe: 1..256) on ~100K opaque triangles, and G-buffer bytes per pixel and traffic at 60 fps, traditional vs compressed";
+pub const DESCRIPTION: &str = "seed 004 Figs. 13-14: forward vs deferred frame time over 1..4096 lights (lavapipe: 1..1024) on ~100K opaque triangles, and G-buffer bytes per pixel and traffic at 60 fps, traditional vs compressed";
 
-/// About 100K triangles: 196 UV spheres of 512 triangles.
-const SCENE: &str = "builtin:nvpro?objects=196&subdiv=16&seed=0";
+/// About 100K triangles: 196 UV spheres of 528 triangles (the G-buffer holds 256 materials).
+const SCENE: &str = "builtin:nvpro?objects=196&subdiv=24&seed=0";
 const LIGHTS_GPU: [u32; 7] = [1, 4, 16, 64, 256, 1024, 4096];
-const LIGHTS_CPU: [u32; 5] = [1, 4, 16, 64, 256];
+const LIGHTS_CPU: [u32; 6] = [1, 4, 16, 64, 256, 1024];
 const METHOD: &str = "abuffer-ll";
 
 #[derive(Serialize)]
@@ -74,7 +74,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         None if cpu_figures => (256, 192),
         None => (1024, 768),
     };
-    let frames = frames.unwrap_or(if cpu_figures { 3 } else { 20 });
+    let frames = frames.unwrap_or(if cpu_figures { 7 } else { 20 });
     if frames == 0 {
         return Err(Error::input("--frames must be at least 1"));
     }
