@@ -102,9 +102,15 @@ struct RenderArgs {
         hide_possible_values = true
     )]
     method: MethodId,
-    /// hw: the GPU's rasterizer; compute: the compute-shader rasterizer (not built yet).
+    /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
+    /// the methods whose geometry passes write only storage (k-buffers, lists, S-buffers,
+    /// kpeel, dual).
     #[arg(long, value_enum, default_value = "hw")]
-    raster: Raster,
+    raster: strata::frame::Raster,
+    /// kpeel: layers captured per geometry pass (seed 002's multi-layer peeling: ⌈N/M⌉ passes;
+    /// 1 is depth peeling). The same as --k for kpeel.
+    #[arg(long)]
+    layers_per_pass: Option<u32>,
     /// Memory a method may allocate, MiB.
     #[arg(long)]
     budget_mb: Option<f64>,
@@ -204,12 +210,6 @@ pub enum PipelineArg {
     None,
     Forward,
     Deferred,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Raster {
-    Hw,
-    Compute,
 }
 
 /// A command-line error as one line: clap's first line, with the valid values where it names
@@ -451,11 +451,6 @@ fn spinner(message: String) -> indicatif::ProgressBar {
 }
 
 fn render(a: RenderArgs) -> Result<()> {
-    if a.raster == Raster::Compute {
-        return Err(Error::unsupported(
-            "--raster compute: the compute-shader rasterizer is not built yet; use --raster hw",
-        ));
-    }
     if let Some(range) = a.frames.clone() {
         return render_sequence(a, &range);
     }
@@ -506,6 +501,21 @@ fn prepare_render(a: &RenderArgs, picture: &PictureArgs) -> Result<(Scene, Rende
     options.ssao = a.ssao;
     options.normal_encoding = a.normal_encoding;
     options.gbuffer_debug = a.gbuffer_debug;
+    options.raster = a.raster;
+    if let Some(m) = a.layers_per_pass {
+        if a.method != MethodId::Kpeel {
+            return Err(Error::input(format!(
+                "--layers-per-pass applies to kpeel (multi-layer peeling), not {}",
+                a.method
+            )));
+        }
+        if options.k.is_some_and(|k| k != m) {
+            return Err(Error::input(
+                "--layers-per-pass and --k name the same thing for kpeel: give one",
+            ));
+        }
+        options.k = Some(m);
+    }
     options.validate()?;
     Ok((scene, options))
 }

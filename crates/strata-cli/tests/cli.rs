@@ -242,7 +242,10 @@ fn bad_input_is_one_line_and_exit_2() {
     assert_bad_input(&["render", "--no-such-flag"], "--no-such-flag");
     assert_bad_input(&["render", "--alpha", "2"], "--alpha");
     assert_bad_input(&["render", "--background", "#zz0000"], "background");
-    assert_bad_input(&["render", "--raster", "compute"], "--raster compute");
+    assert_bad_input(
+        &["render", "--raster", "compute", "--method", "wboit"],
+        "--raster compute",
+    );
     assert_bad_input(&["reference", &fixture("nan.obj")], "non-finite");
     assert_bad_input(
         &["render", "builtin:spheres", "--budget-mb", "0.001"],

@@ -31,6 +31,7 @@ use crate::error::{Error, Result};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 
+pub use crate::raster::{ComputeRasterStats, Raster};
 pub use scene_gpu::SceneGpu;
 
 /// How a pixel's depth-ordered fragments become a color.
@@ -171,6 +172,8 @@ pub struct RenderOptions {
     pub normal_encoding: NormalEncoding,
     /// Deferred: write a G-buffer view instead of the picture.
     pub gbuffer_debug: Option<GbufferView>,
+    /// Which rasterizer makes the fragments of the storage geometry passes (`--raster`).
+    pub raster: Raster,
 }
 
 impl Default for RenderOptions {
@@ -197,6 +200,7 @@ impl Default for RenderOptions {
             ssao: false,
             normal_encoding: NormalEncoding::default(),
             gbuffer_debug: None,
+            raster: Raster::Hw,
         }
     }
 }
@@ -303,6 +307,10 @@ pub struct FrameStats {
     /// With `--pipeline`: the lit opaque frame (pipeline, lights drawn and culled, G-buffer
     /// bytes).
     pub lighting: Option<LightingStats>,
+    /// The rasterizer of the storage geometry passes: "hw" or "compute".
+    pub raster: String,
+    /// With `--raster compute`: its work items, capacity and overflow.
+    pub compute_raster: Option<ComputeRasterStats>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the
@@ -447,6 +455,8 @@ pub struct FrameContext<'a> {
     pub draw: Option<&'a DrawCallback<'a>>,
     /// The method's counters to read back with the frame's statistics.
     pub readback: &'a mut ReadbackList,
+    /// With `--raster compute`: the compute rasterizer the storage geometry passes go through.
+    pub raster: Option<&'a mut crate::raster::ComputeRaster>,
 }
 
 impl FrameContext<'_> {

@@ -39,6 +39,9 @@ pub struct SceneGpu {
     lighting: LightingSetup,
     /// Positions of every triangle's vertices, for methods that order triangles on the CPU.
     pub cpu_positions: Vec<[f32; 3]>,
+    /// With `--raster compute`: the layout of the compute rasterizer's group, which the methods'
+    /// compute captures place after their own (`None`: the GPU's rasterizer).
+    pub raster_layout: Option<wgpu::BindGroupLayout>,
 }
 
 impl SceneGpu {
@@ -122,6 +125,8 @@ impl SceneGpu {
                 .iter()
                 .map(|v| v.position)
                 .collect(),
+            raster_layout: (options.raster == crate::raster::Raster::Compute)
+                .then(|| crate::raster::raster_layout(gpu)),
         })
     }
 

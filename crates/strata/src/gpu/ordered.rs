@@ -94,8 +94,11 @@ pub fn with_acquire_release(words: &[u32]) -> (Vec<u32>, usize) {
     (out, changed)
 }
 
+/// An entry point's name and workgroup size (zero for render stages).
+pub type EntryPoint = (String, [u32; 3]);
+
 /// Compiles composed WGSL to SPIR-V the way wgpu does for Vulkan, with acquire/release atomics.
-pub fn spirv(label: &str, source: &str) -> Result<(Vec<u32>, Vec<String>), String> {
+pub fn spirv(label: &str, source: &str) -> Result<(Vec<u32>, Vec<EntryPoint>), String> {
     let module = naga::front::wgsl::parse_str(source)
         .map_err(|e| format!("{label}: {}", e.emit_to_string(source)))?;
     let info = naga::valid::Validator::new(
@@ -117,7 +120,11 @@ pub fn spirv(label: &str, source: &str) -> Result<(Vec<u32>, Vec<String>), Strin
     };
     let words = naga::back::spv::write_vec(&module, &info, &options, None)
         .map_err(|e| format!("{label}: {e}"))?;
-    let entries = module.entry_points.iter().map(|e| e.name.clone()).collect();
+    let entries = module
+        .entry_points
+        .iter()
+        .map(|e| (e.name.clone(), e.workgroup_size))
+        .collect();
     Ok((with_acquire_release(&words).0, entries))
 }
 
@@ -137,9 +144,11 @@ pub fn module(gpu: &Gpu, label: &str, source: &str) -> Option<wgpu::ShaderModule
     };
     let entry_points: Vec<wgpu::PassthroughShaderEntryPoint<'_>> = entries
         .iter()
-        .map(|name| wgpu::PassthroughShaderEntryPoint {
+        .map(|(name, size)| wgpu::PassthroughShaderEntryPoint {
             name: Cow::Borrowed(name.as_str()),
-            workgroup_size: (1, 1, 1),
+            // Render stages have none (naga says 0); compute captures (the compute rasterizer)
+            // need theirs.
+            workgroup_size: (size[0].max(1), size[1].max(1), size[2].max(1)),
         })
         .collect();
     // SAFETY: the SPIR-V is naga's output for a module naga validated, with only the memory

@@ -165,14 +165,33 @@ pub fn dispatch(
     pass.dispatch_workgroups(x, y, 1);
 }
 
-/// Records a timed geometry pass drawing into storage buffers only (over a [`NullTarget`]).
+/// A geometry stage that writes only storage buffers, on the scene's rasterizer: a render
+/// pipeline (the GPU's rasterizer) or the compute rasterizer's capture
+/// ([`crate::raster::storage_stage`]).
+pub enum GeometryStage {
+    Hw(wgpu::RenderPipeline),
+    Compute(wgpu::ComputePipeline),
+}
+
+/// Records a timed geometry pass drawing into storage buffers only: over a [`NullTarget`] with
+/// the GPU's rasterizer, or through the frame's compute rasterizer.
 pub fn storage_geometry_pass(
     ctx: &mut FrameContext<'_>,
     name: &'static str,
     target: &NullTarget,
-    pipeline: &wgpu::RenderPipeline,
+    stage: &GeometryStage,
     groups: &[&wgpu::BindGroup],
 ) {
+    let pipeline = match stage {
+        GeometryStage::Hw(pipeline) => pipeline,
+        GeometryStage::Compute(pipeline) => {
+            if let Some(raster) = ctx.raster.take() {
+                raster.capture(ctx, name, pipeline, groups);
+                ctx.raster = Some(raster);
+            }
+            return;
+        }
+    };
     let draw = ctx.draw;
     let triangles = ctx.scene.triangle_count;
     let label = ctx.label(name);

@@ -435,6 +435,7 @@ pub fn create(
     options: &RenderOptions,
 ) -> Result<Box<dyn Method>> {
     use kbuffer::{list::ListKBuffer, mdt::Mdt, mdt::MdtKBuffer, SlotKBuffer, Variant};
+    crate::raster::check_method(id, options.raster)?;
     Ok(match id {
         MethodId::Unsorted => Box::new(baseline::Blend::new(gpu, scene, false)),
         MethodId::Sorted => Box::new(baseline::Blend::new(gpu, scene, true)),

@@ -9,7 +9,8 @@ use crate::error::Result;
 use crate::frame::{FrameContext, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass, NullTarget,
+    capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage,
+    NullTarget,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 
@@ -18,7 +19,7 @@ pub const HISTOGRAM_BINS: u64 = 1024;
 
 pub struct GpuHistogram {
     layout: wgpu::BindGroupLayout,
-    count: wgpu::RenderPipeline,
+    count: GeometryStage,
     bin: wgpu::ComputePipeline,
     null_target: Option<NullTarget>,
     cache: ResourceCache,
@@ -38,7 +39,9 @@ impl GpuHistogram {
         );
         let layouts = [&scene.frame_layout, &layout];
         GpuHistogram {
-            count: capture_pipeline(
+            // Always the GPU's rasterizer: coverage is the same on both paths (tested), and
+            // the histogram only counts.
+            count: GeometryStage::Hw(capture_pipeline(
                 gpu,
                 "strata.histogram.count",
                 &module,
@@ -46,7 +49,7 @@ impl GpuHistogram {
                 &layouts,
                 &[NullTarget::target_state()],
                 None,
-            ),
+            )),
             bin: compute_pipeline(
                 gpu,
                 "strata.histogram.bins",

@@ -307,6 +307,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         depth_histogram_clipped: None,
         k_auto: None,
         lighting: None,
+        raster: "cpu".to_string(),
+        compute_raster: None,
         blocking_readbacks: 0,
         submits: 0,
         frame: 0,

@@ -51,6 +51,7 @@ use crate::gpu::Gpu;
 use crate::methods::kbuffer::{predict, DEFAULT_K};
 use crate::methods::{self, Method, MethodId};
 use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
+use crate::raster::{ComputeRaster, Raster};
 use crate::scene::{Camera, Scene};
 
 /// How long `wait_stats` waits for mapping callbacks once the GPU is idle.
@@ -64,6 +65,9 @@ struct Pending {
     timestamps: Option<(u64, Vec<&'static str>)>,
     method_words: (u64, u64),
     histogram_words: Option<(u64, u64)>,
+    /// With `--raster compute`: where its counters are in the readback, and the item capacity
+    /// the frame ran with.
+    raster_words: Option<(u64, u64)>,
     auto_k: Option<AutoKStats>,
 }
 
@@ -97,6 +101,8 @@ pub struct FrameRecorder {
     last_histogram: Option<(u64, Vec<u64>)>,
     /// With `options.pipeline`: the lit opaque objects (the method's scene holds the rest).
     lit: Option<LitFrame>,
+    /// With `--raster compute`: the compute rasterizer.
+    raster: Option<ComputeRaster>,
 }
 
 /// Group 0 of a frame being recorded and the opaque depth it binds.
@@ -125,6 +131,8 @@ impl FrameRecorder {
                 )
             }
         };
+        let raster = (options.raster == Raster::Compute)
+            .then(|| ComputeRaster::new(gpu, &scene_gpu, options));
         let mut recorder = FrameRecorder {
             output: output_buffer(gpu, options)?,
             no_opaque: no_opaque_depth(gpu, options),
@@ -141,6 +149,7 @@ impl FrameRecorder {
             histogram: None,
             last_histogram: None,
             lit,
+            raster,
         };
         recorder.set_method(method)?;
         Ok(recorder)
@@ -186,8 +195,9 @@ impl FrameRecorder {
         if !self.scene.update_geometry(&self.gpu, scene)? {
             let camera = self.scene.camera;
             let mut rebuilt = SceneGpu::new_allow_empty(&self.gpu, scene, &self.options)?;
-            // The pipelines were made with the first layout: keep binding through it.
+            // The pipelines were made with the first layouts: keep binding through them.
             rebuilt.frame_layout = self.scene.frame_layout.clone();
+            rebuilt.raster_layout = self.scene.raster_layout.clone();
             rebuilt.update(&self.gpu, &camera, &self.options);
             self.scene = rebuilt;
         }
@@ -242,6 +252,11 @@ impl FrameRecorder {
                 "the pipeline is chosen when the recorder is made; make another for another pipeline",
             ));
         }
+        if options.raster != self.options.raster {
+            return Err(Error::input(
+                "the rasterizer is chosen when the recorder is made; make another for --raster",
+            ));
+        }
         if (options.width, options.height) != (self.options.width, self.options.height) {
             self.resize(options.width, options.height)?;
         }
@@ -267,6 +282,9 @@ impl FrameRecorder {
         for cache in self.method_resources() {
             cache.poison(&self.gpu);
         }
+        if let Some(raster) = &self.raster {
+            raster.resources().poison(&self.gpu);
+        }
         for b in [&self.output, &self.scene.totals] {
             self.gpu
                 .queue
@@ -291,6 +309,14 @@ impl FrameRecorder {
             (Some(lit), None) => Some(lit.depth().create_view(&Default::default())),
             (None, _) => None,
         };
+        if let Some(raster) = &mut self.raster {
+            if draw.is_some() {
+                return Err(Error::unsupported(
+                    "--raster compute rasterizes the scene's own triangles: an application's draw callback needs --raster hw",
+                ));
+            }
+            raster.prepare(&self.gpu, &self.options, self.scene.triangle_count)?;
+        }
         let frame = self.start_frame(encoder, lit_depth.as_ref().or(targets.opaque_depth));
         if let Some(lit) = &mut self.lit {
             lit.record(encoder, &mut self.timer);
@@ -364,6 +390,7 @@ impl FrameRecorder {
             output: &self.output,
             draw,
             readback,
+            raster: None,
         };
         histogram.record(&mut ctx)?;
         Ok(true)
@@ -397,6 +424,11 @@ impl FrameRecorder {
         if self.lit.is_some() {
             return Err(Error::unsupported(
                 "an application's capture with a pipeline: the pipeline draws strata's own opaque pass; use record",
+            ));
+        }
+        if self.raster.is_some() {
+            return Err(Error::unsupported(
+                "an application's capture pass rasterizes with its own pipeline: it needs --raster hw",
             ));
         }
         let frame = self.start_frame(encoder, None);
@@ -467,6 +499,7 @@ impl FrameRecorder {
             output: &self.output,
             draw,
             readback,
+            raster: self.raster.as_mut(),
         };
         f(method.as_mut(), &mut ctx)
     }
@@ -515,6 +548,15 @@ impl FrameRecorder {
             sources.push(range);
             (start, names)
         });
+        let raster_words = self.raster.as_ref().and_then(|raster| {
+            let mut list = ReadbackList::default();
+            raster.read_counters(&mut list).then(|| {
+                let start = at;
+                at += list.total_words();
+                sources.extend(list.entries);
+                (start, raster.frame_capacity())
+            })
+        });
         // The histogram's bins, when it ran, are the last words of the readback.
         let histogram_bins = if histogram_ran { HISTOGRAM_BINS } else { 0 };
         let method_words = (at, readback.total_words() - histogram_bins);
@@ -533,6 +575,7 @@ impl FrameRecorder {
                 timestamps,
                 method_words,
                 histogram_words,
+                raster_words,
                 auto_k,
             },
         );
@@ -609,6 +652,18 @@ impl FrameRecorder {
             None => MethodStats::default(),
         };
         let mut incomplete = ms.incomplete;
+        let mut cannot_complete = ms.cannot_complete;
+        let compute_raster = match (&words, p.raster_words, &mut self.raster) {
+            (Some(w), Some((start, capacity)), Some(raster)) => {
+                let start = start as usize;
+                let words = &w[start..start + crate::raster::COUNTER_WORDS as usize];
+                let report = raster.feedback(&self.gpu, words, capacity);
+                incomplete |= report.incomplete;
+                cannot_complete = cannot_complete.or(report.cannot_complete);
+                Some(report.stats)
+            }
+            _ => None,
+        };
         let mut auto_k = p.auto_k.map(|mut a| {
             a.achieved_robustness = totals.map(|t| match t.generated {
                 0 => 1.0,
@@ -656,7 +711,10 @@ impl FrameRecorder {
             fragments_stored: totals.map(|t| t.stored),
             fragments_dropped: totals.map(|t| t.dropped),
             max_depth_complexity: totals.map(|t| t.max_depth),
-            bytes_allocated: Some(p.recorded.bytes_allocated),
+            bytes_allocated: Some(
+                p.recorded.bytes_allocated
+                    + compute_raster.as_ref().map_or(0, |r| r.bytes_allocated),
+            ),
             overflow: ms.overflow,
             lock_failures: ms.lock_failures,
             memory_ordering: p.recorded.memory_ordering.map(String::from),
@@ -664,6 +722,8 @@ impl FrameRecorder {
             depth_histogram_clipped: histogram.map(|h| h[h.len() - 1] as u64),
             k_auto: auto_k,
             lighting: self.lit.as_ref().map(LitFrame::stats),
+            raster: self.options.raster.name().to_string(),
+            compute_raster,
             blocking_readbacks: 0,
             submits: 0,
             adapter: Some(self.gpu.info.name.clone()),
@@ -672,7 +732,7 @@ impl FrameRecorder {
         FrameReport {
             stats,
             incomplete,
-            cannot_complete: ms.cannot_complete,
+            cannot_complete,
         }
     }
 }

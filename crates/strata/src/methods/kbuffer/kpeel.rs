@@ -27,7 +27,9 @@ use super::{
 };
 use crate::error::Result;
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
-use crate::gpu::passes::{compute_pipeline, dispatch_pixels, storage_geometry_pass, NullTarget};
+use crate::gpu::passes::{
+    compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage, NullTarget,
+};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::peeling::{layers_for, peel_feedback};
 use crate::methods::{Method, MethodId};
@@ -57,7 +59,7 @@ pub fn resolve_source() -> String {
 
 pub struct KPeel {
     frame: KFrame,
-    capture: wgpu::RenderPipeline,
+    capture: GeometryStage,
     init: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     /// The depth complexity the last frame measured.
@@ -70,7 +72,7 @@ impl KPeel {
         let id = MethodId::Kpeel;
         let source = resolve_source();
         let mut frame = KFrame::with_resolve(gpu, scene, id, &source, "cs_kpeel_resolve");
-        let module = frame.capture_module(gpu, capture_source(), true);
+        let module = frame.capture_module(gpu, scene, capture_source(), true);
         let compute = crate::gpu::shader::module(&gpu.device, "strata.kpeel.compute", &source);
         let layouts = [&scene.frame_layout, &frame.layout];
         let pipeline = |entry: &str| {

@@ -16,6 +16,7 @@ use super::{
 };
 use crate::error::Result;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
+use crate::gpu::passes::GeometryStage;
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
@@ -49,7 +50,7 @@ pub fn resolve_source() -> String {
 pub struct ListKBuffer {
     id: MethodId,
     frame: KFrame,
-    capture: wgpu::RenderPipeline,
+    capture: GeometryStage,
     /// The node pool, sized from measured need.
     pool: Pool,
 }
@@ -57,7 +58,7 @@ pub struct ListKBuffer {
 impl ListKBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> ListKBuffer {
         let mut frame = KFrame::new(gpu, scene, id, &resolve_source());
-        let module = frame.capture_module(gpu, capture_source(), true);
+        let module = frame.capture_module(gpu, scene, capture_source(), true);
         let entry = if id == MethodId::KbLl {
             "fs_sorted_ll"
         } else {

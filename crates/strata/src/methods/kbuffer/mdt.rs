@@ -19,6 +19,7 @@
 use super::{k_of, lock_failures, params_for, KFrame, Storage, RESOLVE_WGSL, STORAGE_WGSL};
 use crate::error::{Error, Result};
 use crate::frame::{Effect, FrameContext, MethodStats, Recorded, SceneGpu, Tail, Totals};
+use crate::gpu::passes::GeometryStage;
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
@@ -73,7 +74,7 @@ pub struct MdtKBuffer {
     mdt: Mdt,
     frame: KFrame,
     /// Geometry passes in order: (pass name, pipeline).
-    passes: Vec<(&'static str, wgpu::RenderPipeline)>,
+    passes: Vec<(&'static str, GeometryStage)>,
 }
 
 impl MdtKBuffer {
@@ -86,7 +87,7 @@ impl MdtKBuffer {
         }
         let mut frame = KFrame::new(gpu, scene, id, &resolve_source(mdt));
         // No lock and no publication: the cascades need no ordering beyond atomicity.
-        let module = frame.capture_module(gpu, capture_source(mdt), false);
+        let module = frame.capture_module(gpu, scene, capture_source(mdt), false);
         let pipeline = |entry: &str| frame.capture_pipeline(gpu, scene, &module, entry);
         let passes = match mdt {
             Mdt::Mdt32 => vec![

@@ -72,7 +72,7 @@ use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Tail, Totals};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline_with, compute_pipeline, dispatch_pixels, storage_geometry_pass, NullTarget,
+    compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage, NullTarget,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
@@ -421,6 +421,9 @@ pub fn coherent(gpu: &Gpu, source: String) -> String {
 pub struct CaptureModule {
     pub wgsl: wgpu::ShaderModule,
     pub ordered: Option<wgpu::ShaderModule>,
+    /// The stage's WGSL (after the shared sources), which the compute rasterizer compiles
+    /// again with its own entry point.
+    pub source: String,
 }
 
 /// What every k-buffer method records the same way: the group-1 layout, the resolve pipeline,
@@ -478,35 +481,45 @@ impl KFrame {
         }
     }
 
-    /// A capture pipeline of this method over `module`'s fragment entry point.
+    /// A capture stage of this method over `module`'s fragment entry point, on the scene's
+    /// rasterizer.
     pub fn capture_pipeline(
         &self,
         gpu: &Gpu,
         scene: &SceneGpu,
         module: &CaptureModule,
         entry: &str,
-    ) -> wgpu::RenderPipeline {
-        capture_pipeline_with(
+    ) -> GeometryStage {
+        crate::raster::storage_stage(
             gpu,
-            &format!("strata.{}.{entry}", self.id),
-            (
-                &module.wgsl,
-                module.ordered.as_ref().unwrap_or(&module.wgsl),
-            ),
-            entry,
+            scene,
+            crate::raster::StageSpec {
+                label: &format!("strata.{}.{entry}", self.id),
+                stage: &module.source,
+                modules: (
+                    &module.wgsl,
+                    module.ordered.as_ref().unwrap_or(&module.wgsl),
+                ),
+                entry,
+            },
             &[&scene.frame_layout, &self.layout],
-            &[NullTarget::target_state()],
-            None,
         )
     }
 
     /// A capture module for `source` (made coherent where the adapter can); with `ordered`, its
     /// fragment stages also get acquire/release atomics where the adapter can
-    /// ([`crate::gpu::ordered`]).
-    pub fn capture_module(&mut self, gpu: &Gpu, source: String, ordered: bool) -> CaptureModule {
+    /// ([`crate::gpu::ordered`]) and the scene is drawn by the GPU's rasterizer.
+    pub fn capture_module(
+        &mut self,
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        source: String,
+        ordered: bool,
+    ) -> CaptureModule {
         let label = format!("strata.{}.capture", self.id);
         let source = coherent(gpu, source);
-        let ordered = if ordered {
+        // Compute captures keep WGSL's relaxed atomics (see `raster::storage_stage`).
+        let ordered = if ordered && scene.raster_layout.is_none() {
             crate::gpu::ordered::module(gpu, &label, &shader::with_shared(&source))
         } else {
             None
@@ -521,6 +534,7 @@ impl KFrame {
         CaptureModule {
             wgsl: shader::module(&gpu.device, &label, &source),
             ordered,
+            source,
         }
     }
 
@@ -539,7 +553,7 @@ impl KFrame {
         ctx: &mut FrameContext<'_>,
         params: KParams,
         storage: Storage,
-        passes: &[(&'static str, &wgpu::RenderPipeline)],
+        passes: &[(&'static str, &GeometryStage)],
     ) -> Result<u64> {
         let (group, total) = self.begin(ctx, params, storage)?;
         let frame_group = ctx.frame_group;
@@ -670,7 +684,7 @@ impl KFrame {
 pub struct SlotKBuffer {
     variant: Variant,
     frame: KFrame,
-    capture: wgpu::RenderPipeline,
+    capture: GeometryStage,
     /// kb-ab-fixed: slots per pixel the next frame starts with (measured need).
     measured_stride: u32,
 }
@@ -688,7 +702,7 @@ impl SlotKBuffer {
             id,
             &[STORAGE_WGSL, SLOTS_WGSL, access, RESOLVE_WGSL].join("\n"),
         );
-        let module = frame.capture_module(gpu, slots_capture_source(), true);
+        let module = frame.capture_module(gpu, scene, slots_capture_source(), true);
         SlotKBuffer {
             variant,
             capture: frame.capture_pipeline(gpu, scene, &module, variant.entry()),

@@ -29,7 +29,9 @@ use super::{
 use crate::error::Result;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{compute_pipeline, dispatch, storage_geometry_pass, NullTarget};
+use crate::gpu::passes::{
+    compute_pipeline, dispatch, storage_geometry_pass, GeometryStage, NullTarget,
+};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
@@ -123,8 +125,8 @@ struct ScanPlan {
 pub struct SBuffer {
     id: MethodId,
     frame: KFrame,
-    count: wgpu::RenderPipeline,
-    store: wgpu::RenderPipeline,
+    count: GeometryStage,
+    store: GeometryStage,
     gather: wgpu::ComputePipeline,
     scan_blocks: wgpu::ComputePipeline,
     add_block_offsets: wgpu::ComputePipeline,
@@ -145,7 +147,7 @@ impl SBuffer {
         let kplus = id == MethodId::KplusSbuffer;
         let mut frame = KFrame::new(gpu, scene, id, &resolve_source(id));
         // The k+-buffer's spin lock wants acquire/release ordering where the adapter has it.
-        let module = frame.capture_module(gpu, capture_source(id), kplus);
+        let module = frame.capture_module(gpu, scene, capture_source(id), kplus);
         let (count, store) = if kplus {
             ("fs_kplus_sbuffer_count", "fs_kplus_sbuffer_store")
         } else {

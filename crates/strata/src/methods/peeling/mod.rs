@@ -35,7 +35,7 @@ use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LA
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
     attachment, capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass,
-    NullTarget,
+    GeometryStage, NullTarget,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
@@ -304,8 +304,8 @@ impl Method for FrontToBack {
 pub struct Dual {
     peel_layout: wgpu::BindGroupLayout,
     advance_layout: wgpu::BindGroupLayout,
-    bounds: wgpu::RenderPipeline,
-    peel: wgpu::RenderPipeline,
+    bounds: GeometryStage,
+    peel: GeometryStage,
     init: wgpu::ComputePipeline,
     advance: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
@@ -343,31 +343,24 @@ impl Dual {
         );
         let advance_layout =
             binding::layout(device, "strata.dual.advance.layout", &[Slot::StorageRw; 8]);
-        let module = shader::module(
-            device,
-            "strata.dual.peel",
-            &[key, include_str!("dual_peel.wgsl")].join("\n"),
-        );
+        let stage = [key, include_str!("dual_peel.wgsl")].join("\n");
+        let module = shader::module(device, "strata.dual.peel", &stage);
         let layouts = [&scene.frame_layout, &peel_layout];
-        let targets = [NullTarget::target_state()];
-        let bounds = capture_pipeline(
-            gpu,
-            "strata.dual.bounds",
-            &module,
-            "fs_bounds",
-            &layouts,
-            &targets,
-            None,
-        );
-        let peel = capture_pipeline(
-            gpu,
-            "strata.dual.peel",
-            &module,
-            "fs_peel",
-            &layouts,
-            &targets,
-            None,
-        );
+        let geometry_stage = |label, entry| {
+            crate::raster::storage_stage(
+                gpu,
+                scene,
+                crate::raster::StageSpec {
+                    label,
+                    stage: &stage,
+                    modules: (&module, &module),
+                    entry,
+                },
+                &layouts,
+            )
+        };
+        let bounds = geometry_stage("strata.dual.bounds", "fs_bounds");
+        let peel = geometry_stage("strata.dual.peel", "fs_peel");
         let module = shader::module(
             device,
             "strata.dual.advance",

@@ -1,0 +1,530 @@
+//! The compute rasterizer (seed 002's programmable pipeline, `--raster compute`): the scene's
+//! triangles become fragments in compute shaders instead of the GPU's fixed-function rasterizer,
+//! and each fragment goes straight into the method's capture.
+//!
+//! Passes, recorded before a frame's first geometry pass and reused by the others:
+//! - **bin** (one thread per triangle): the vertex transform of `vs_scene`, clipping at the near
+//!   plane z ≥ 0 and at a guard band |x|, |y| ≤ g·w (g = 2²²/max(width, height) − 1, so window
+//!   coordinates stay within ±2²¹ pixels), the viewport transform, snapping to 1/256 pixel, and
+//!   the bounding box of each triangle of the clipped polygon's fan. Each (fan triangle, 8×8
+//!   tile of its bounding box) pair is appended as a work item. Seed 002 runs one thread per
+//!   triangle over its whole bounding box; that serializes a large triangle over thousands of
+//!   pixels, so large triangles are split here into tiles, and no thread walks more than 64
+//!   pixel centers. A triangle larger than the screen costs its binning thread one store per
+//!   tile of the screen.
+//! - **args** (one thread): the item count becomes an indirect dispatch.
+//! - **capture** (one thread per item, each of the method's geometry passes): the item's
+//!   triangle is set up again (recomputing beats storing ~100 bytes of setup per triangle), its
+//!   edge functions are evaluated exactly in 64-bit integers (two 32-bit words) at the tile's
+//!   pixel centers with the top-left rule, depth is interpolated linearly in the window and the
+//!   world position and normal perspective-correctly from the unsnapped window positions, the
+//!   fragment is tested against the far plane and the opaque depth as the GPU path does, shaded
+//!   with the same material model and handed to the method's fragment stage, compiled as a
+//!   function (`discard` becomes `return`: the stages write only storage).
+//!
+//! Coverage is the GPU path's rule as the CPU reference implements it
+//! ([`crate::reference::raster`]): pixel centers, top-left rule, 8 subpixel bits (lavapipe's
+//! and NVIDIA's `subPixelPrecisionBits`). Depth and attributes are computed in f32 from the same
+//! inputs as the GPU's, so they agree to rounding, not bit for bit.
+//!
+//! Memory: 8 bytes per work item (the primitive and a packed fan-triangle and tile index), 16
+//! of counters, 16 of dispatch arguments. The item buffer starts at twice the triangle count plus four
+//! items per screen tile, grows to the measured need + 25% after a frame that overflowed (that
+//! frame reports itself incomplete, and exact mode renders it again), shrinks when more than
+//! twice too large, and is bounded by the device's largest storage binding.
+//!
+//! Methods: every method whose geometry passes store only into storage buffers — the k-buffers
+//! over slots (`kplus-*`, `kb`, `kb-ps`, `abuffer-fixed`, `kb-ab-fixed`), the MDT cascades
+//! (`kb-mdt32`, `kb-mdt64`, `kb-mdt-pack`), the linked lists (`abuffer-ll`, `kb-ab-ll`,
+//! `kb-ll`), the S-buffers (`sbuffer`, `kb-sbuffer`, `kplus-sbuffer`), `kpeel` and `dual`. The
+//! others write color targets through the GPU's blending or depth test (`unsorted`, `sorted`,
+//! `f2b`, `bucket`, `wboit`, `mboit`), which a compute shader has no equivalent of without
+//! per-pixel locks; they refuse `--raster compute` with a clear error.
+
+pub mod wide;
+
+use bytemuck::{Pod, Zeroable};
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::frame::{FrameContext, ReadbackList, RenderOptions, SceneGpu};
+use crate::gpu::binding::{self, Slot};
+use crate::gpu::passes::{capture_pipeline_with, GeometryStage, NullTarget};
+use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::methods::MethodId;
+
+pub const SETUP_WGSL: &str = include_str!("setup.wgsl");
+pub const BIN_WGSL: &str = include_str!("bin.wgsl");
+pub const ARGS_WGSL: &str = include_str!("args.wgsl");
+pub const RASTER_WGSL: &str = include_str!("raster.wgsl");
+
+/// Pixels per side of a bin tile (TILE in setup.wgsl).
+pub const TILE: u32 = 8;
+pub const ITEM_BYTES: u64 = 8;
+/// Counter words (COUNTER_ in bin.wgsl): work items (64-bit), fan triangles set up (64-bit).
+pub const COUNTER_WORDS: u64 = 4;
+const COUNTER_ITEMS: usize = 0;
+const COUNTER_TRIANGLES: usize = 2;
+/// Bytes of counters, dispatch arguments and parameters.
+pub const CONSTANT_BYTES: u64 = 16 + 16 + 16;
+
+/// Which rasterizer turns triangles into fragments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Raster {
+    /// The GPU's fixed-function rasterizer.
+    #[default]
+    Hw,
+    /// strata's compute-shader rasterizer (this module).
+    Compute,
+}
+
+impl Raster {
+    pub fn name(self) -> &'static str {
+        match self {
+            Raster::Hw => "hw",
+            Raster::Compute => "compute",
+        }
+    }
+}
+
+/// The methods the compute rasterizer can capture for (see the module docs).
+pub fn supports(id: MethodId) -> bool {
+    use MethodId::*;
+    matches!(
+        id,
+        KplusArray
+            | KplusHeap
+            | KplusArrayR
+            | KplusSemiheap
+            | Kb
+            | KbPs
+            | AbufferFixed
+            | KbAbFixed
+            | KbMdt32
+            | KbMdt64
+            | KbMdtPack
+            | AbufferLl
+            | KbAbLl
+            | KbLl
+            | Sbuffer
+            | KbSbuffer
+            | KplusSbuffer
+            | Kpeel
+            | Dual
+    )
+}
+
+/// The error for a method the compute rasterizer cannot capture for.
+pub fn check_method(id: MethodId, raster: Raster) -> Result<()> {
+    if raster == Raster::Compute && !supports(id) {
+        return Err(Error::unsupported(format!(
+            "--raster compute: {id} draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of; use --raster hw, or a k-buffer, list, S-buffer, kpeel or dual"
+        )));
+    }
+    Ok(())
+}
+
+/// Keep in sync with `RasterParams` in bin.wgsl, args.wgsl and raster.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct RasterParams {
+    pub triangles: u32,
+    pub capacity: u32,
+    pub guard: f32,
+    pub _pad: u32,
+}
+
+/// The guard band in clip-space units of w: window coordinates stay within ±2²¹ pixels, so
+/// snapped coordinates and their differences fit the edge functions' 32-bit inputs.
+pub fn guard_band(width: u32, height: u32) -> f32 {
+    ((1u32 << 22) / width.max(height).max(1)) as f32 - 1.0
+}
+
+/// The layout of the raster stage's bindings (params, items, counters), which every method's
+/// compute capture places after its own groups.
+pub fn raster_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
+    binding::layout(
+        &gpu.device,
+        "strata.raster.layout",
+        &[Slot::Uniform, Slot::Storage, Slot::Storage],
+    )
+}
+
+/// The method's storage-only fragment stage `stage` (WGSL composed after the shared sources)
+/// with `entry` turned into a function the raster stage calls; the raster bindings at group
+/// `raster_group`. An error when `entry` is not a storage-only fragment stage over
+/// `SceneVarying`.
+pub fn capture_source(stage: &str, entry: &str, raster_group: usize) -> Result<String> {
+    let with_facing =
+        format!("fn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool) {{");
+    let without = format!("fn {entry}(v: SceneVarying) {{");
+    let call = if stage.contains(&with_facing) {
+        format!("{entry}(v, front_facing)")
+    } else if stage.contains(&without) {
+        format!("{entry}(v)")
+    } else {
+        return Err(Error::unsupported(format!(
+            "{entry} is not a storage-only fragment stage the compute rasterizer can call"
+        )));
+    };
+    let functions = stage
+        .replace("@fragment\n", "")
+        .replace(
+            "@builtin(front_facing) front_facing: bool",
+            "front_facing: bool",
+        )
+        .replace("discard;", "return;");
+    let source = [
+        functions.as_str(),
+        SETUP_WGSL,
+        RASTER_WGSL,
+        &format!("fn raster_capture(v: SceneVarying, front_facing: bool) {{\n    {call};\n}}\n"),
+    ]
+    .join("\n")
+    .replace("RASTER_GROUP", &raster_group.to_string());
+    Ok(shader::with_shared(&source))
+}
+
+/// A storage-only geometry stage of a method: `modules` (the WGSL module and, where made, its
+/// acquire/release twin) for the GPU's rasterizer, `stage` (the WGSL the modules were made of)
+/// for the compute rasterizer, and the fragment entry point.
+pub struct StageSpec<'a> {
+    pub label: &'a str,
+    pub stage: &'a str,
+    pub modules: (&'a wgpu::ShaderModule, &'a wgpu::ShaderModule),
+    pub entry: &'a str,
+}
+
+/// The stage on the scene's rasterizer: a render pipeline, or the compute rasterizer's capture.
+/// Compute captures run with WGSL's relaxed atomics: given acquire/release atomics through a
+/// SPIR-V passthrough module (as fragment captures are), lavapipe lost fragments of the
+/// linked-list and fixed-array captures, so that path is not taken.
+pub fn storage_stage(
+    gpu: &Gpu,
+    scene: &SceneGpu,
+    spec: StageSpec<'_>,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> GeometryStage {
+    let Some(raster_layout) = &scene.raster_layout else {
+        return GeometryStage::Hw(capture_pipeline_with(
+            gpu,
+            spec.label,
+            spec.modules,
+            spec.entry,
+            layouts,
+            &[NullTarget::target_state()],
+            None,
+        ));
+    };
+    let label = format!("{}.compute", spec.label);
+    let source = capture_source(spec.stage, spec.entry, layouts.len())
+        .expect("strata's storage stages have the capture signature (tested)");
+    let module = gpu
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(&label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    let mut all = layouts.to_vec();
+    all.push(raster_layout);
+    GeometryStage::Compute(crate::gpu::passes::compute_pipeline(
+        gpu,
+        &label,
+        &module,
+        "cs_raster",
+        &all,
+    ))
+}
+
+/// What the compute rasterizer reports about a frame.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct ComputeRasterStats {
+    /// Triangles of the clipped polygons' fans that reached the viewport.
+    pub triangles_set_up: u64,
+    /// (Triangle, 8×8 tile) work items the frame needed.
+    pub tile_items: u64,
+    /// Work items the frame's buffer held.
+    pub item_capacity: u64,
+    /// More items were needed than held: fragments were lost and the frame is incomplete.
+    pub overflow: bool,
+    pub bytes_allocated: u64,
+}
+
+/// The compute rasterizer's feedback on a frame.
+pub struct RasterReport {
+    pub stats: ComputeRasterStats,
+    pub incomplete: bool,
+    pub cannot_complete: Option<String>,
+}
+
+/// This frame's binding of the rasterizer's buffers.
+struct FrameBinding {
+    bin_group: wgpu::BindGroup,
+    args_group: wgpu::BindGroup,
+    raster_group: wgpu::BindGroup,
+    counters: wgpu::Buffer,
+    args: wgpu::Buffer,
+    capacity: u64,
+    binned: bool,
+}
+
+/// The compute rasterizer's passes and buffers, kept between frames.
+pub struct ComputeRaster {
+    bin: wgpu::ComputePipeline,
+    args: wgpu::ComputePipeline,
+    bin_layout: wgpu::BindGroupLayout,
+    args_layout: wgpu::BindGroupLayout,
+    raster_layout: wgpu::BindGroupLayout,
+    cache: ResourceCache,
+    /// Work items the next frame's buffer holds.
+    capacity: u64,
+    frame: Option<FrameBinding>,
+}
+
+impl ComputeRaster {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, options: &RenderOptions) -> ComputeRaster {
+        let bin_layout = binding::layout(
+            &gpu.device,
+            "strata.raster.bin.layout",
+            &[Slot::Uniform, Slot::StorageRw, Slot::StorageRw],
+        );
+        let args_layout = binding::layout(
+            &gpu.device,
+            "strata.raster.args.layout",
+            &[Slot::Uniform, Slot::Storage, Slot::StorageRw],
+        );
+        let bin_module = shader::module(
+            &gpu.device,
+            "strata.raster.bin",
+            &[SETUP_WGSL, BIN_WGSL].join("\n"),
+        );
+        let args_module = gpu
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("strata.raster.args"),
+                source: wgpu::ShaderSource::Wgsl(ARGS_WGSL.into()),
+            });
+        let compute = crate::gpu::passes::compute_pipeline;
+        let tiles = screen_tiles(options.width, options.height);
+        ComputeRaster {
+            bin: compute(
+                gpu,
+                "strata.raster.bin",
+                &bin_module,
+                "cs_bin",
+                &[&scene.frame_layout, &bin_layout],
+            ),
+            args: compute(
+                gpu,
+                "strata.raster.args",
+                &args_module,
+                "cs_args",
+                &[&args_layout],
+            ),
+            bin_layout,
+            args_layout,
+            raster_layout: scene
+                .raster_layout
+                .clone()
+                .unwrap_or_else(|| raster_layout(gpu)),
+            cache: ResourceCache::default(),
+            capacity: 2 * scene.triangle_count as u64 + 4 * tiles,
+            frame: None,
+        }
+    }
+
+    /// The most work items one buffer binds.
+    fn limit(gpu: &Gpu) -> u64 {
+        (gpu.max_storage_binding() / ITEM_BYTES).min(1 << 31)
+    }
+
+    /// Allocates this frame's buffers (binning is recorded by the first geometry pass).
+    pub fn prepare(&mut self, gpu: &Gpu, options: &RenderOptions, triangles: u32) -> Result<()> {
+        let capacity = self.capacity.clamp(1, Self::limit(gpu));
+        let params = RasterParams {
+            triangles,
+            capacity: capacity as u32,
+            guard: guard_band(options.width, options.height),
+            _pad: 0,
+        };
+        let cache = &mut self.cache;
+        let params_buffer = cache.uniform(gpu, "strata.raster.params", bytemuck::bytes_of(&params));
+        let items = cache.storage(
+            gpu,
+            "strata.raster.items",
+            capacity * ITEM_BYTES,
+            wgpu::BufferUsages::empty(),
+        )?;
+        let counters = cache.storage(
+            gpu,
+            "strata.raster.counters",
+            COUNTER_WORDS * 4,
+            wgpu::BufferUsages::COPY_SRC,
+        )?;
+        let args = cache.storage(gpu, "strata.raster.args", 16, wgpu::BufferUsages::INDIRECT)?;
+        let group = |label, layout, buffers: &[&wgpu::Buffer]| {
+            let resources: Vec<_> = buffers.iter().map(|b| b.as_entire_binding()).collect();
+            binding::group(&gpu.device, label, layout, &resources)
+        };
+        self.frame = Some(FrameBinding {
+            bin_group: group(
+                "strata.raster.bin.group",
+                &self.bin_layout,
+                &[&params_buffer, &items, &counters],
+            ),
+            args_group: group(
+                "strata.raster.args.group",
+                &self.args_layout,
+                &[&params_buffer, &counters, &args],
+            ),
+            raster_group: group(
+                "strata.raster.group",
+                &self.raster_layout,
+                &[&params_buffer, &items, &counters],
+            ),
+            counters,
+            args,
+            capacity,
+            binned: false,
+        });
+        Ok(())
+    }
+
+    /// Bytes this frame's buffers take.
+    pub fn bytes(&self) -> u64 {
+        self.frame
+            .as_ref()
+            .map_or(0, |f| f.capacity * ITEM_BYTES + CONSTANT_BYTES)
+    }
+
+    /// Records one of the method's geometry passes through `pipeline` (a compute capture made by
+    /// [`storage_stage`]) with the method's `groups`; the first one of a frame bins first.
+    pub fn capture(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        name: &'static str,
+        pipeline: &wgpu::ComputePipeline,
+        groups: &[&wgpu::BindGroup],
+    ) {
+        let Some(frame) = self.frame.as_mut() else {
+            return;
+        };
+        if !frame.binned {
+            frame.binned = true;
+            ctx.encoder.clear_buffer(&frame.counters, 0, None);
+            let triangles = ctx.scene.triangle_count;
+            let workgroups = triangles.div_ceil(64);
+            let x = workgroups.min(65535);
+            let frame_group = ctx.frame_group;
+            record_dispatch(
+                ctx,
+                "raster.bin",
+                &self.bin,
+                &[frame_group, &frame.bin_group],
+                Dispatch::Direct(x, workgroups.div_ceil(x.max(1))),
+            );
+            record_dispatch(
+                ctx,
+                "raster.args",
+                &self.args,
+                &[&frame.args_group],
+                Dispatch::Direct(1, 1),
+            );
+        }
+        let mut all = groups.to_vec();
+        all.push(&frame.raster_group);
+        record_dispatch(ctx, name, pipeline, &all, Dispatch::Indirect(&frame.args));
+    }
+
+    /// Asks for the frame's counters.
+    pub fn read_counters(&self, readback: &mut ReadbackList) -> bool {
+        match &self.frame {
+            Some(f) if f.binned => {
+                readback.words(&f.counters, 0, COUNTER_WORDS);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Feedback from a frame's counters, recorded with `capacity` items: grows the item buffer
+    /// after an overflow, shrinks one more than twice too large.
+    pub fn feedback(&mut self, gpu: &Gpu, words: &[u32], capacity: u64) -> RasterReport {
+        let needed = crate::frame::wide(words, COUNTER_ITEMS);
+        let overflow = needed > capacity;
+        let fitted = (needed + needed / 4).max(1024);
+        // Grow after an overflow; shrink when more than twice too large.
+        if overflow || self.capacity > 2 * fitted {
+            self.capacity = fitted;
+        }
+        let limit = Self::limit(gpu);
+        RasterReport {
+            stats: ComputeRasterStats {
+                triangles_set_up: crate::frame::wide(words, COUNTER_TRIANGLES),
+                tile_items: needed,
+                item_capacity: capacity,
+                overflow,
+                bytes_allocated: capacity * ITEM_BYTES + CONSTANT_BYTES,
+            },
+            incomplete: overflow,
+            cannot_complete: (needed > limit).then(|| {
+                format!(
+                    "--raster compute: the frame needs {needed} tile items ({:.1} MiB), more than the device's largest storage buffer holds ({limit})",
+                    (needed * ITEM_BYTES) as f64 / 1048576.0
+                )
+            }),
+        }
+    }
+
+    /// Work items this frame's buffer holds.
+    pub fn frame_capacity(&self) -> u64 {
+        self.frame.as_ref().map_or(0, |f| f.capacity)
+    }
+
+    pub fn resources(&self) -> &ResourceCache {
+        &self.cache
+    }
+}
+
+/// Tiles of the viewport.
+pub fn screen_tiles(width: u32, height: u32) -> u64 {
+    width.div_ceil(TILE) as u64 * height.div_ceil(TILE) as u64
+}
+
+enum Dispatch<'a> {
+    Direct(u32, u32),
+    Indirect(&'a wgpu::Buffer),
+}
+
+fn record_dispatch(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    dispatch: Dispatch<'_>,
+) {
+    let label = ctx.label(name);
+    let mut pass = ctx
+        .encoder
+        .begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(&label),
+            timestamp_writes: ctx.timer.compute_pass(name),
+        });
+    pass.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*g), &[]);
+    }
+    match dispatch {
+        Dispatch::Direct(x, y) => {
+            if x > 0 {
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        }
+        Dispatch::Indirect(args) => pass.dispatch_workgroups_indirect(args, 0),
+    }
+}
+
+#[cfg(test)]
+mod tests;

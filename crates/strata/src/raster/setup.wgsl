@@ -1,0 +1,169 @@
+// Triangle setup of the compute rasterizer, shared by its bin and raster stages. It follows the
+// GPU path and the CPU reference (crates/strata/src/reference/raster.rs): the vertex transform
+// of `vs_scene`, clipping at the near plane (and at a guard band far outside the viewport),
+// window coordinates snapped to 1/256 pixel, pixel centers with the top-left rule on exact
+// 64-bit edge functions, depth interpolated linearly in the window and attributes
+// perspective-correctly, both from the unsnapped window positions.
+
+const SUBPIXEL: f32 = 256.0;
+const HALF_SUBPIXEL: i32 = 128;
+// Pixels per side of the tiles large triangles are binned into.
+const TILE: i32 = 8;
+// A clipped triangle has at most 3 corners plus one per clipping plane (near, four guard band).
+const MAX_CORNERS: u32 = 8u;
+
+// 64-bit two's complement integers as (low, high) words: edge functions of coordinates up to
+// 2^29 subpixels need 62 bits.
+fn wide_from(a: i32) -> vec2<u32> {
+    return vec2<u32>(bitcast<u32>(a), select(0u, 0xffffffffu, a < 0));
+}
+
+fn wide_add(a: vec2<u32>, b: vec2<u32>) -> vec2<u32> {
+    let lo = a.x + b.x;
+    return vec2<u32>(lo, a.y + b.y + select(0u, 1u, lo < a.x));
+}
+
+fn wide_negate(a: vec2<u32>) -> vec2<u32> {
+    let lo = ~a.x + 1u;
+    return vec2<u32>(lo, ~a.y + select(0u, 1u, lo == 0u));
+}
+
+// a·b for |a|, |b| < 2^31, from 16-bit partial products.
+fn wide_mul(a: i32, b: i32) -> vec2<u32> {
+    let ua = u32(abs(a));
+    let ub = u32(abs(b));
+    let a0 = ua & 0xffffu;
+    let a1 = ua >> 16u;
+    let b0 = ub & 0xffffu;
+    let b1 = ub >> 16u;
+    let low = a0 * b0;
+    // a1, b1 < 2^15, so the middle sum stays below 2^32.
+    let middle = a0 * b1 + a1 * b0;
+    let lo = low + (middle << 16u);
+    let hi = a1 * b1 + (middle >> 16u) + select(0u, 1u, lo < low);
+    let product = vec2<u32>(lo, hi);
+    return select(product, wide_negate(product), (a < 0) != (b < 0));
+}
+
+fn wide_negative(a: vec2<u32>) -> bool {
+    return bitcast<i32>(a.y) < 0;
+}
+
+fn wide_zero(a: vec2<u32>) -> bool {
+    return a.x == 0u && a.y == 0u;
+}
+
+// A corner of the clipped polygon: clip-space position and its barycentric weights in the
+// original triangle.
+struct Corner {
+    clip: vec4<f32>,
+    weights: vec3<f32>,
+}
+
+struct Polygon {
+    corners: array<Corner, 8>,
+    count: u32,
+}
+
+// Sutherland–Hodgman against the half-space dot(plane, clip) ≥ 0.
+fn clip_polygon(polygon: Polygon, plane: vec4<f32>) -> Polygon {
+    var source = polygon.corners;
+    var out: Polygon;
+    out.count = 0u;
+    let n = min(polygon.count, MAX_CORNERS);
+    for (var i = 0u; i < n; i++) {
+        let a = source[i];
+        let b = source[(i + 1u) % n];
+        let da = dot(plane, a.clip);
+        let db = dot(plane, b.clip);
+        if da >= 0.0 && out.count < MAX_CORNERS {
+            out.corners[out.count] = a;
+            out.count += 1u;
+        }
+        if (da >= 0.0) != (db >= 0.0) && out.count < MAX_CORNERS {
+            let t = da / (da - db);
+            out.corners[out.count] = Corner(a.clip + (b.clip - a.clip) * t, a.weights + (b.weights - a.weights) * t);
+            out.count += 1u;
+        }
+    }
+    return out;
+}
+
+// Triangle `prim` transformed as `vs_scene` does and clipped: near plane z ≥ 0 (wgpu's), and
+// |x|, |y| ≤ guard·w, which keeps window coordinates inside the edge functions' range.
+fn clipped_triangle(prim: u32, guard: f32) -> Polygon {
+    var polygon: Polygon;
+    polygon.count = 3u;
+    var in_front = true;
+    var in_guard = true;
+    for (var i = 0u; i < 3u; i++) {
+        let v = vertices[prim * 3u + i];
+        let clip = frame.view_proj * vec4<f32>(v.position, 1.0);
+        polygon.corners[i] = Corner(clip, vec3<f32>(f32(i == 0u), f32(i == 1u), f32(i == 2u)));
+        in_front = in_front && clip.z >= 0.0;
+        in_guard = in_guard && abs(clip.x) <= guard * clip.w && abs(clip.y) <= guard * clip.w;
+    }
+    if !in_front {
+        polygon = clip_polygon(polygon, vec4<f32>(0.0, 0.0, 1.0, 0.0));
+    }
+    if !in_guard {
+        polygon = clip_polygon(polygon, vec4<f32>(-1.0, 0.0, 0.0, guard));
+        polygon = clip_polygon(polygon, vec4<f32>(1.0, 0.0, 0.0, guard));
+        polygon = clip_polygon(polygon, vec4<f32>(0.0, -1.0, 0.0, guard));
+        polygon = clip_polygon(polygon, vec4<f32>(0.0, 1.0, 0.0, guard));
+    }
+    return polygon;
+}
+
+// A corner in the window: snapped position (subpixels, y down), unsnapped position (pixels),
+// depth, 1/w and weights.
+struct WindowCorner {
+    snapped: vec2<i32>,
+    window: vec2<f32>,
+    z: f32,
+    inv_w: f32,
+    weights: vec3<f32>,
+}
+
+fn to_window(c: Corner) -> WindowCorner {
+    let inv_w = 1.0 / c.clip.w;
+    let size = vec2<f32>(frame.size);
+    let window = vec2<f32>((c.clip.x * inv_w + 1.0) * 0.5 * size.x, (1.0 - c.clip.y * inv_w) * 0.5 * size.y);
+    let snapped = vec2<i32>(floor(window * SUBPIXEL + 0.5));
+    return WindowCorner(snapped, window, c.clip.z * inv_w, inv_w, c.weights);
+}
+
+// One triangle of a clipped polygon's fan, ready to rasterize.
+struct SetupTriangle {
+    corners: array<WindowCorner, 3>,
+    // Doubled signed area in subpixels², y down; negative is counter-clockwise on screen, which
+    // is front-facing.
+    area2: vec2<u32>,
+    // Candidate pixels, inclusive, clamped to the viewport; empty when min > max.
+    min: vec2<i32>,
+    max: vec2<i32>,
+    valid: bool,
+}
+
+// The fan triangle (0, j + 1, j + 2) of `polygon`.
+fn fan_triangle(polygon: Polygon, j: u32) -> SetupTriangle {
+    var corners = polygon.corners;
+    var t: SetupTriangle;
+    t.corners[0] = to_window(corners[0]);
+    t.corners[1] = to_window(corners[min(j + 1u, MAX_CORNERS - 1u)]);
+    t.corners[2] = to_window(corners[min(j + 2u, MAX_CORNERS - 1u)]);
+    let a = t.corners[0].snapped;
+    let b = t.corners[1].snapped;
+    let c = t.corners[2].snapped;
+    t.area2 = wide_add(wide_mul(b.x - a.x, c.y - a.y), wide_negate(wide_mul(c.x - a.x, b.y - a.y)));
+    let lo = min(a, min(b, c));
+    let hi = max(a, max(b, c));
+    // Pixel p is a candidate when its center p + 1/2 lies in [lo, hi] (arithmetic shifts floor).
+    let first = (lo - vec2<i32>(HALF_SUBPIXEL) + vec2<i32>(255)) >> vec2<u32>(8u);
+    let last = (hi - vec2<i32>(HALF_SUBPIXEL)) >> vec2<u32>(8u);
+    t.min = max(first, vec2<i32>(0));
+    t.max = min(last, vec2<i32>(frame.size) - vec2<i32>(1));
+    let positive_w = t.corners[0].inv_w > 0.0 && t.corners[1].inv_w > 0.0 && t.corners[2].inv_w > 0.0;
+    t.valid = j + 2u < polygon.count && !wide_zero(t.area2) && positive_w && all(t.min <= t.max);
+    return t;
+}
