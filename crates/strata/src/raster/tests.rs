@@ -33,3 +33,505 @@ fn guard_band_bounds_window_coordinates() {
         assert!(g >= 255.0);
     }
 }
+
+// ---- Shaders -------------------------------------------------------------------------------
+
+fn validate(label: &str, src: &str) {
+    let module = naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(src)));
+}
+
+/// The bin and args stages, and every method's fragment stage compiled for the compute
+/// rasterizer, validate with naga (so a shader error fails without a GPU).
+#[test]
+fn every_compute_capture_validates() {
+    use crate::methods::kbuffer::{kpeel, list, mdt, sbuffer, slots_capture_source};
+    validate(
+        "raster.bin",
+        &shader::with_shared(&[SETUP_WGSL, BIN_WGSL].join("\n")),
+    );
+    validate("raster.args", ARGS_WGSL);
+    let dual = |key: &str| [key, include_str!("../methods/peeling/dual_peel.wgsl")].join("\n");
+    let stages: Vec<(String, &[&str])> = vec![
+        (
+            slots_capture_source(),
+            &[
+                "fs_kplus_array",
+                "fs_kplus_heap",
+                "fs_kplus_array_r",
+                "fs_kb",
+                "fs_kb_ps",
+                "fs_fixed",
+                "fs_kplus_semiheap",
+            ],
+        ),
+        (
+            mdt::capture_source(mdt::Mdt::Mdt32),
+            &["fs_mdt32_depth", "fs_mdt32_color", "fs_mdt_pack"],
+        ),
+        (mdt::capture_source(mdt::Mdt::Mdt64), &["fs_mdt64"]),
+        (list::capture_source(), &["fs_ab_ll", "fs_sorted_ll"]),
+        (
+            sbuffer::capture_source(MethodId::Sbuffer),
+            &["fs_sbuffer_count", "fs_sbuffer_store"],
+        ),
+        (
+            sbuffer::capture_source(MethodId::KplusSbuffer),
+            &["fs_kplus_sbuffer_count", "fs_kplus_sbuffer_store"],
+        ),
+        (kpeel::capture_source(), &["fs_kpeel"]),
+        (
+            dual(include_str!("../methods/peeling/dual_key32.wgsl")),
+            &["fs_bounds", "fs_peel"],
+        ),
+        (
+            dual(include_str!("../methods/peeling/dual_key64.wgsl")),
+            &["fs_bounds", "fs_peel"],
+        ),
+    ];
+    for (stage, entries) in &stages {
+        for entry in *entries {
+            let src = capture_source(stage, entry, 2).unwrap();
+            assert!(!src.contains("RASTER_GROUP"));
+            validate(entry, &src);
+        }
+    }
+    // A stage that writes a color has no compute twin.
+    assert!(capture_source(
+        include_str!("../methods/baseline/blend.wgsl"),
+        "fs_blend",
+        2
+    )
+    .is_err());
+}
+
+// ---- The compute path against the GPU's rasterizer and the reference -------------------------
+
+use crate::frame::{Effect, RenderOptions};
+use crate::render::LinearImage;
+use crate::scene::{loaders, Camera, Material, Mesh, Object, Projection, Scene, Shading};
+use crate::testing::{assert_close, gpu};
+use crate::FrameStats;
+
+fn options(size: u32, raster: Raster) -> RenderOptions {
+    RenderOptions {
+        width: size,
+        height: size,
+        raster,
+        ..Default::default()
+    }
+}
+
+fn render(scene: &Scene, opts: &RenderOptions, method: MethodId) -> (LinearImage, FrameStats) {
+    let mut r =
+        crate::Renderer::new(gpu(), scene, opts).unwrap_or_else(|e| panic!("{method}: {e}"));
+    r.render_method(method, None)
+        .unwrap_or_else(|e| panic!("{method}: {e}"))
+}
+
+/// Panics naming the first pixel whose fragment count differs.
+fn assert_same_counts(name: &str, actual: &LinearImage, expected: &LinearImage, width: u32) {
+    let (a, e) = (actual.counts(), expected.counts());
+    if let Some(i) = (0..a.len()).find(|&i| a[i] != e[i]) {
+        let differing = (0..a.len()).filter(|&i| a[i] != e[i]).count();
+        panic!(
+            "{name}: {differing} pixels covered differently, the first at ({}, {}): {} fragments on the compute path, {} on the GPU's",
+            i as u32 % width,
+            i as u32 / width,
+            a[i],
+            e[i]
+        );
+    }
+}
+
+/// The compute path covers exactly the pixels the GPU's rasterizer covers, and its colors are
+/// within 1/255 of the GPU path's (both shade in f32 from the same inputs; depth and
+/// attributes agree to rounding).
+fn assert_matches_hw(name: &str, scene: &Scene, size: u32, method: MethodId) -> FrameStats {
+    let (hw, hw_stats) = render(scene, &options(size, Raster::Hw), method);
+    let (compute, stats) = render(scene, &options(size, Raster::Compute), method);
+    assert_same_counts(&format!("{name}-{method}"), &compute, &hw, size);
+    assert_close(
+        &format!("raster-{name}-{method}"),
+        &compute,
+        &hw,
+        Effect::Transparency,
+        1,
+        0.0,
+    );
+    assert_eq!(stats.fragments_generated, hw_stats.fragments_generated);
+    assert_eq!(stats.raster, "compute");
+    let raster = stats.compute_raster.clone().expect("compute raster stats");
+    assert!(!raster.overflow && raster.tile_items > 0, "{raster:?}");
+    stats
+}
+
+#[test]
+fn coverage_and_colors_match_the_gpu_path_on_the_test_scenes() {
+    for (name, spec, size) in [
+        (
+            "layers",
+            "builtin:layers?n=8&coverage=0.75&order=random&seed=2",
+            64,
+        ),
+        ("spheres", "builtin:spheres?layers=6", 96),
+        ("nvpro", "builtin:nvpro?objects=64&subdiv=12&seed=1", 96),
+        ("dragon", "builtin:dragon", 128),
+    ] {
+        let scene = loaders::load_scene(spec).unwrap();
+        assert_matches_hw(name, &scene, size, MethodId::AbufferLl);
+    }
+}
+
+/// Every method the compute rasterizer supports gives the GPU path's picture, and the exact ones
+/// the reference's.
+#[test]
+fn every_supported_method_matches_the_gpu_path_and_the_reference() {
+    let scene = loaders::load_scene("builtin:nvpro?objects=24&subdiv=10&seed=5").unwrap();
+    let size = 48;
+    let expected = crate::testing::render_reference(&scene, &options(size, Raster::Hw));
+    for method in MethodId::gpu_methods().filter(|m| supports(*m)) {
+        if method == MethodId::Kb {
+            continue; // unlocked read-modify-writes race by design; its picture is not fixed
+        }
+        let stats = assert_matches_hw("nvpro-small", &scene, size, method);
+        if method.info().exact {
+            let (actual, _) = render(&scene, &options(size, Raster::Compute), method);
+            // The exact methods' usual tolerance (methods/tests.rs): 2/255 on 99.9% of pixels.
+            assert_close(
+                &format!("raster-reference-{method}"),
+                &actual,
+                &expected,
+                Effect::Transparency,
+                2,
+                0.001,
+            );
+        }
+        assert_eq!(stats.lock_failures.unwrap_or(0), 0, "{method}");
+    }
+}
+
+/// Methods that draw through color targets refuse the compute path with one clear error.
+#[test]
+fn color_target_methods_refuse_the_compute_path() {
+    let scene = loaders::load_scene("builtin:layers?n=2").unwrap();
+    for method in MethodId::gpu_methods().filter(|m| !supports(*m)) {
+        let mut r = crate::Renderer::new(gpu(), &scene, &options(16, Raster::Compute)).unwrap();
+        let e = r.render_method(method, None).unwrap_err().to_string();
+        assert!(
+            e.contains("--raster compute") && !e.contains('\n'),
+            "{method}: {e}"
+        );
+    }
+}
+
+// ---- Edge cases ----------------------------------------------------------------------------
+
+fn unlit(opacity: f32) -> Material {
+    Material {
+        color: [0.2, 0.6, 0.9],
+        opacity,
+        shading: Shading::Unlit,
+        ..Default::default()
+    }
+}
+
+fn mesh(positions: Vec<[f32; 3]>, indices: Vec<u32>) -> Mesh {
+    let normals = vec![[0.0, 0.0, 1.0]; positions.len()];
+    Mesh {
+        positions,
+        normals,
+        indices,
+    }
+}
+
+fn scene_of(meshes: Vec<Mesh>, camera: Camera) -> Scene {
+    Scene {
+        objects: meshes
+            .into_iter()
+            .enumerate()
+            .map(|(i, mesh)| Object {
+                name: format!("object{i}"),
+                mesh,
+                material: 0,
+            })
+            .collect(),
+        materials: vec![unlit(0.5)],
+        camera: Some(camera),
+        ..Default::default()
+    }
+}
+
+fn perspective(eye: [f32; 3], near: f32) -> Camera {
+    Camera {
+        eye: eye.into(),
+        target: glam::Vec3::ZERO,
+        up: glam::Vec3::Y,
+        projection: Projection::Perspective { fov_y_deg: 50.0 },
+        near,
+        far: 100.0,
+    }
+}
+
+fn orthographic() -> Camera {
+    Camera {
+        eye: glam::Vec3::new(0.0, 0.0, 5.0),
+        target: glam::Vec3::ZERO,
+        up: glam::Vec3::Y,
+        projection: Projection::Orthographic { height: 2.0 },
+        near: 0.1,
+        far: 10.0,
+    }
+}
+
+/// A quad from corner `a` over edges `u` and `v`.
+fn quad(a: [f32; 3], u: [f32; 3], v: [f32; 3]) -> Mesh {
+    let p = |s: f32, t: f32| std::array::from_fn(|i| a[i] + s * u[i] + t * v[i]);
+    mesh(
+        vec![p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)],
+        vec![0, 1, 2, 0, 2, 3],
+    )
+}
+
+/// Triangles crossing the near plane (and reaching behind the camera), and triangles far larger
+/// than the screen (clipped at the guard band), are covered as on the GPU path and as the
+/// reference covers them.
+#[test]
+fn near_plane_crossings_and_huge_triangles_match() {
+    let floor = quad([-3.0, -0.6, -6.0], [6.0, 0.0, 0.0], [0.0, 0.3, 12.0]);
+    let wall = quad([-2.0e4, -2.0e4, -1.0], [4.0e4, 0.0, 0.0], [0.0, 4.0e4, 0.0]);
+    let slanted = quad([-1.0, 1.0, 3.0], [2.0, 0.0, 0.0], [0.0, -1.5, -8.0]);
+    let scene = scene_of(
+        vec![floor, wall, slanted],
+        perspective([0.0, 0.0, 2.0], 0.5),
+    );
+    let stats = assert_matches_hw("clipped", &scene, 64, MethodId::AbufferLl);
+    assert_eq!(stats.fragments_dropped, Some(0));
+    let (actual, _) = render(&scene, &options(64, Raster::Compute), MethodId::AbufferLl);
+    let expected = crate::testing::render_reference(&scene, &options(64, Raster::Hw));
+    assert_same_counts("clipped-reference", &actual, &expected, 64);
+}
+
+/// Zero-area triangles produce nothing, sub-pixel triangles cover exactly the pixel centers the
+/// GPU's rasterizer gives them.
+#[test]
+fn degenerate_and_sub_pixel_triangles_match() {
+    let mut positions = vec![
+        // Collinear, repeated corners, a point.
+        [-0.5, -0.5, 0.0],
+        [0.0, 0.0, 0.0],
+        [0.5, 0.5, 0.0],
+        [0.3, -0.2, 0.0],
+        [0.3, -0.2, 0.0],
+        [0.6, 0.1, 0.0],
+    ];
+    let mut indices = vec![0, 1, 2, 3, 4, 5, 1, 1, 1];
+    let mut rng = crate::scene::builtin::rng::SplitMix64::new(7);
+    for _ in 0..3000 {
+        let c = [
+            rng.range(-0.95, 0.95),
+            rng.range(-0.95, 0.95),
+            rng.range(-1.0, 1.0),
+        ];
+        let base = positions.len() as u32;
+        for _ in 0..3 {
+            positions.push([
+                c[0] + rng.range(-0.02, 0.02),
+                c[1] + rng.range(-0.02, 0.02),
+                c[2],
+            ]);
+        }
+        indices.extend([base, base + 1, base + 2]);
+    }
+    let scene = scene_of(vec![mesh(positions, indices)], orthographic());
+    assert_matches_hw("tiny", &scene, 64, MethodId::AbufferLl);
+}
+
+/// A grid of triangles sharing every edge (jittered inside, so edges run at all angles) covers
+/// each pixel center inside it exactly once: no pixel twice, none missed.
+#[test]
+fn shared_edges_cover_each_pixel_exactly_once() {
+    let n = 24;
+    let mut rng = crate::scene::builtin::rng::SplitMix64::new(3);
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let interior = i > 0 && j > 0 && i < n && j < n;
+            let jitter = |rng: &mut crate::scene::builtin::rng::SplitMix64| {
+                if interior {
+                    // Less than a quarter cell: no triangle folds over.
+                    rng.range(-0.012, 0.012)
+                } else {
+                    0.0
+                }
+            };
+            let x = -0.8 + 1.6 * i as f32 / n as f32 + jitter(&mut rng);
+            let y = -0.8 + 1.6 * j as f32 / n as f32 + jitter(&mut rng);
+            positions.push([x, y, 0.0]);
+        }
+    }
+    let mut indices = Vec::new();
+    let at = |i: u32, j: u32| j * (n + 1) + i;
+    for j in 0..n {
+        for i in 0..n {
+            // Alternate the diagonal so edges meet at every orientation.
+            if (i + j) % 2 == 0 {
+                indices.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                indices.extend([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            } else {
+                indices.extend([at(i, j), at(i + 1, j), at(i, j + 1)]);
+                indices.extend([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+    }
+    let scene = scene_of(vec![mesh(positions, indices)], orthographic());
+    let size = 80;
+    let (image, _) = render(&scene, &options(size, Raster::Compute), MethodId::AbufferLl);
+    let counts = image.counts();
+    for y in 0..size {
+        for x in 0..size {
+            // Pixel centers in NDC; the grid's outer border is at ±0.8.
+            let ndc = |p: u32| (p as f32 + 0.5) / size as f32 * 2.0 - 1.0;
+            let inside = ndc(x).abs() < 0.79 && ndc(y).abs() < 0.79;
+            let c = counts[(y * size + x) as usize];
+            assert!(c <= 1, "pixel ({x}, {y}) covered {c} times");
+            if inside {
+                assert_eq!(c, 1, "pixel ({x}, {y}) inside the grid missed");
+            }
+        }
+    }
+    assert_matches_hw("grid", &scene, size, MethodId::AbufferLl);
+}
+
+/// A mesh of a million sub-pixel triangles: the same coverage as the GPU's rasterizer.
+#[test]
+fn a_million_tiny_triangles_match() {
+    let (nx, ny) = (708u32, 707u32);
+    let mut positions = Vec::with_capacity(((nx + 1) * (ny + 1)) as usize);
+    for j in 0..=ny {
+        for i in 0..=nx {
+            let x = -0.9 + 1.8 * i as f32 / nx as f32;
+            let y = -0.9 + 1.8 * j as f32 / ny as f32;
+            positions.push([x, y, 0.3 * (x * 7.0).sin() * (y * 5.0).cos()]);
+        }
+    }
+    let at = |i: u32, j: u32| j * (nx + 1) + i;
+    let mut indices = Vec::with_capacity((nx * ny * 6) as usize);
+    for j in 0..ny {
+        for i in 0..nx {
+            indices.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            indices.extend([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    assert!(indices.len() / 3 >= 1_000_000);
+    let scene = scene_of(vec![mesh(positions, indices)], orthographic());
+    assert_matches_hw("million", &scene, 128, MethodId::AbufferFixed);
+}
+
+// ---- Multi-layer peeling, overflow, poison -----------------------------------------------------
+
+/// Seed 002's multi-layer peeling (kpeel, M layers per pass) equals the reference for M = 1, 4,
+/// 16 on both rasterizers.
+#[test]
+fn multi_layer_peeling_matches_the_reference_on_both_paths() {
+    let scene =
+        loaders::load_scene("builtin:layers?n=16&coverage=0.75&order=random&seed=4").unwrap();
+    let size = 40;
+    let expected = crate::testing::render_reference(&scene, &options(size, Raster::Hw));
+    for raster in [Raster::Hw, Raster::Compute] {
+        for m in [1, 4, 16] {
+            let mut opts = options(size, raster);
+            opts.k = Some(m);
+            let (actual, _) = render(&scene, &opts, MethodId::Kpeel);
+            assert_close(
+                &format!("kpeel-m{m}-{}", raster.name()),
+                &actual,
+                &expected,
+                Effect::Transparency,
+                2,
+                0.001,
+            );
+            let steady = steady_frame(&scene, &opts, MethodId::Kpeel);
+            assert_eq!(steady.geometry_passes, Some(16u32.div_ceil(m)), "M = {m}");
+            assert_eq!(steady.fragments_dropped, Some(0));
+        }
+    }
+}
+
+/// The statistics of a third real-time frame (feedback from the first ones applied).
+fn steady_frame(scene: &Scene, opts: &RenderOptions, method: MethodId) -> FrameStats {
+    let mut rec = crate::FrameRecorder::new(gpu(), scene, method, opts).unwrap();
+    let mut last = None;
+    for _ in 0..3 {
+        let mut encoder = gpu().device.create_command_encoder(&Default::default());
+        rec.record(&mut encoder, &Default::default(), None).unwrap();
+        gpu().queue.submit([encoder.finish()]);
+        last = Some(rec.wait_stats().unwrap());
+    }
+    let last = last.unwrap();
+    assert!(
+        !last.incomplete,
+        "{method}: a third frame is still incomplete"
+    );
+    last.stats
+}
+
+/// A first frame whose work items outgrow the first guess says so (incomplete, overflow); the
+/// next frame has room, and exact mode's picture equals the GPU path's.
+#[test]
+fn an_item_overflow_is_reported_and_grown_out_of() {
+    let scene = loaders::load_scene("builtin:layers?n=24&coverage=1").unwrap();
+    let mut opts = options(64, Raster::Compute);
+    // A fixed array, so no pool of the method's own grows from what the first frame measured.
+    opts.k = Some(32);
+    let mut rec = crate::FrameRecorder::new(gpu(), &scene, MethodId::AbufferFixed, &opts).unwrap();
+    let mut frame = || {
+        let mut encoder = gpu().device.create_command_encoder(&Default::default());
+        rec.record(&mut encoder, &Default::default(), None).unwrap();
+        gpu().queue.submit([encoder.finish()]);
+        rec.wait_stats().unwrap()
+    };
+    let first = frame();
+    let raster = first.stats.compute_raster.clone().unwrap();
+    assert!(raster.overflow && first.incomplete, "{raster:?}");
+    assert!(raster.tile_items > raster.item_capacity);
+    let second = frame();
+    let raster = second.stats.compute_raster.clone().unwrap();
+    assert!(!raster.overflow && !second.incomplete, "{raster:?}");
+    assert_eq!(second.stats.fragments_generated, Some(24 * 64 * 64));
+}
+
+/// The rasterizer's items, counters and arguments poisoned before a frame change nothing.
+#[test]
+fn poisoned_raster_buffers_change_nothing() {
+    let scene = loaders::load_scene("builtin:nvpro?objects=32&subdiv=10&seed=2").unwrap();
+    let opts = options(40, Raster::Compute);
+    let mut r = crate::Renderer::new(gpu(), &scene, &opts).unwrap();
+    let (clean, a) = r.render_method(MethodId::KplusHeap, None).unwrap();
+    r.recorder().unwrap().poison();
+    let (poisoned, b) = r.render_method(MethodId::KplusHeap, None).unwrap();
+    assert!(clean == poisoned, "poisoned memory changed the picture");
+    assert_eq!(a.fragments_generated, b.fragments_generated);
+}
+
+/// An application's draw callback or capture pass needs the GPU's rasterizer: one clear error.
+#[test]
+fn application_draws_need_the_gpu_rasterizer() {
+    let scene = loaders::load_scene("builtin:layers?n=2").unwrap();
+    let opts = options(16, Raster::Compute);
+    let mut rec = crate::FrameRecorder::new(gpu(), &scene, MethodId::KplusHeap, &opts).unwrap();
+    let mut encoder = gpu().device.create_command_encoder(&Default::default());
+    let draw = |pass: &mut wgpu::RenderPass<'_>| pass.draw(0..6, 0..1);
+    let e = rec
+        .record(&mut encoder, &Default::default(), Some(&draw))
+        .unwrap_err();
+    assert!(e.to_string().contains("--raster hw"), "{e}");
+    let e = rec.begin_capture(&mut encoder).unwrap_err();
+    assert!(e.to_string().contains("--raster hw"), "{e}");
+}
