@@ -309,11 +309,11 @@ pub(crate) struct MethodResult {
     frames_with_stats: Option<u32>,
     /// Blocking readbacks inside the timed loop, summed over frames (0: real-time).
     blocking_readbacks: Option<u32>,
-    geometry_passes: Option<u32>,
-    fragments: Option<u64>,
-    fragments_dropped: Option<u64>,
-    max_depth_complexity: Option<u32>,
-    bytes_allocated: Option<u64>,
+    pub(crate) geometry_passes: Option<u32>,
+    pub(crate) fragments: Option<u64>,
+    pub(crate) fragments_dropped: Option<u64>,
+    pub(crate) max_depth_complexity: Option<u32>,
+    pub(crate) bytes_allocated: Option<u64>,
     /// Median GPU ms per MiB allocated (seed 003 Fig. 8's measure).
     gpu_ms_per_mib: Option<f64>,
     lock_failures: Option<u64>,
@@ -394,6 +394,11 @@ pub fn run(a: BenchArgs) -> Result<()> {
             "deferred-lights",
             crate::deferred_lights::DESCRIPTION
         );
+        println!(
+            "{:<16} {}",
+            "cuda-renderer",
+            crate::cuda_renderer::DESCRIPTION
+        );
         return Ok(());
     }
     let gpu = Gpu::new()?;
@@ -412,6 +417,13 @@ pub fn run(a: BenchArgs) -> Result<()> {
             .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
         return crate::deferred_lights::run(&gpu, a.size.as_deref(), a.frames, &dir);
     }
+    if a.experiment.as_deref() == Some("cuda-renderer") {
+        let dir = a
+            .out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
+        return crate::cuda_renderer::run(&gpu, a.size.as_deref(), a.frames, &dir);
+    }
     let k_flag = a.k;
     let (name, scenes, runs, size, alpha, frames, quality) = match &a.experiment {
         Some(n) => {
@@ -419,7 +431,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 let names: Vec<_> = EXPERIMENTS
                     .iter()
                     .map(|e| e.name)
-                    .chain(["auto-k", "deferred-lights"])
+                    .chain(["auto-k", "deferred-lights", "cuda-renderer"])
                     .collect();
                 Error::input(format!(
                     "unknown experiment '{n}' (available: {})",

@@ -2,6 +2,7 @@
 
 mod auto_k;
 mod bench;
+mod cuda_renderer;
 mod deferred_lights;
 
 use std::path::{Path, PathBuf};

@@ -1,0 +1,331 @@
+//! `strata bench cuda-renderer` (seed 002 Table 1): the compute rasterizer's single-pass
+//! captures — MDTS (`kb-mdt32`, `kb-mdt-pack`) and FABS (`abuffer-fixed`) — against the GPU
+//! rasterizer's `abuffer-fixed`, depth peeling (`f2b`, `dual`), the linked-list A-buffer and
+//! the k+-buffer, on models from small to large: frame time, geometry passes and the compute
+//! pipeline's time by stage (bin, capture, resolve).
+//!
+//! Each configuration runs as the other experiments do (`bench::measure`: a steady loop of
+//! real-time frames, two in flight, medians of the frames' own GPU timestamps).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Serialize;
+use strata::error::{Error, Result};
+use strata::frame::Raster;
+use strata::gpu::Gpu;
+use strata::scene::loaders;
+use strata::RenderOptions;
+
+use crate::bench::{measure, Run};
+
+pub const DESCRIPTION: &str = "seed 002 Table 1: compute-rasterizer MDTS and FABS vs the hardware abuffer-fixed, f2b, dual, abuffer-ll and kplus-array on bunny, dragon and procedural scenes up to 10M triangles (lavapipe: up to ~1M): frame time, passes, compute time by stage";
+
+/// Scenes from small to large; the last ones only on a GPU.
+const SCENES_CPU: [&str; 3] = [
+    "builtin:bunny",
+    "builtin:dragon",
+    "builtin:nvpro?objects=512&subdiv=32&seed=0",
+];
+const SCENES_GPU: [&str; 5] = [
+    "builtin:bunny",
+    "builtin:dragon",
+    "builtin:nvpro?objects=512&subdiv=32&seed=0",
+    "builtin:nvpro?objects=2048&subdiv=48&seed=0",
+    "builtin:nvpro?objects=4096&subdiv=52&seed=0",
+];
+/// Slots per pixel of the fixed arrays and cascades: above the scenes' depth complexity, so
+/// FABS and MDTS keep every fragment (dropped fragments are reported if not).
+const K_FIXED: u32 = 32;
+const K_PLUS: u32 = 16;
+
+/// (label, method, rasterizer, k).
+const RUNS: [(&str, &str, Raster, Option<u32>); 8] = [
+    (
+        "compute MDTS (kb-mdt32)",
+        "kb-mdt32",
+        Raster::Compute,
+        Some(K_FIXED),
+    ),
+    (
+        "compute MDTS packed (kb-mdt-pack)",
+        "kb-mdt-pack",
+        Raster::Compute,
+        Some(K_FIXED),
+    ),
+    (
+        "compute FABS (abuffer-fixed)",
+        "abuffer-fixed",
+        Raster::Compute,
+        Some(K_FIXED),
+    ),
+    (
+        "hw FABS (abuffer-fixed)",
+        "abuffer-fixed",
+        Raster::Hw,
+        Some(K_FIXED),
+    ),
+    ("hw f2b", "f2b", Raster::Hw, None),
+    ("hw dual", "dual", Raster::Hw, None),
+    ("hw abuffer-ll", "abuffer-ll", Raster::Hw, None),
+    ("hw kplus-array", "kplus-array", Raster::Hw, Some(K_PLUS)),
+];
+
+#[derive(Serialize)]
+struct Row {
+    scene: String,
+    triangles: usize,
+    label: &'static str,
+    method: &'static str,
+    raster: &'static str,
+    k: Option<u32>,
+    geometry_passes: Option<u32>,
+    median_gpu_ms: Option<f64>,
+    median_wall_ms: f64,
+    median_gpu_ms_per_pass: Option<BTreeMap<String, f64>>,
+    fragments: Option<u64>,
+    fragments_dropped: Option<u64>,
+    max_depth_complexity: Option<u32>,
+    bytes_allocated: Option<u64>,
+    /// The compute rasterizer's work items (triangle × 8×8 tile).
+    tile_items: Option<u64>,
+    error: Option<String>,
+}
+
+#[derive(Serialize)]
+struct Ratio {
+    scene: String,
+    /// Compute FABS over hardware FABS frame time (goal: ≤ 1.5 on large meshes).
+    compute_over_hw_fabs: Option<f64>,
+    /// f2b over compute FABS (seed 002: ≈ N).
+    f2b_over_compute_fabs: Option<f64>,
+    /// dual over compute FABS (seed 002: ≈ N/2).
+    dual_over_compute_fabs: Option<f64>,
+    /// kb-mdt32 over compute FABS (seed 002: MDTS ≈ 3/2 of FABS's time).
+    mdts_over_fabs: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    experiment: &'static str,
+    adapter: String,
+    backend: String,
+    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
+    cpu_figures: bool,
+    width: u32,
+    height: u32,
+    frames: u32,
+    rows: Vec<Row>,
+    ratios: Vec<Ratio>,
+}
+
+pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let (width, height) = match size {
+        Some(s) => crate::parse_size(s)?,
+        None if cpu_figures => (256, 256),
+        None => (1024, 1024),
+    };
+    let frames = frames.unwrap_or(if cpu_figures { 5 } else { 20 });
+    if frames == 0 {
+        return Err(Error::input("--frames must be at least 1"));
+    }
+    let scenes: &[&str] = if cpu_figures {
+        &SCENES_CPU
+    } else {
+        &SCENES_GPU
+    };
+    let warmup = 2;
+    let bar =
+        indicatif::ProgressBar::new((scenes.len() * RUNS.len()) as u64 * (warmup + frames) as u64);
+    let mut rows = Vec::new();
+    for spec in scenes {
+        bar.set_message(format!("loading {spec}"));
+        let scene = loaders::load_scene(spec)?;
+        let triangles = scene.triangle_count();
+        for (label, method, raster, k) in RUNS {
+            bar.set_message(format!("{label} on {spec}"));
+            let options = RenderOptions {
+                width,
+                height,
+                k,
+                raster,
+                ..Default::default()
+            };
+            let mut row = Row {
+                scene: spec.to_string(),
+                triangles,
+                label,
+                method,
+                raster: raster.name(),
+                k,
+                geometry_passes: None,
+                median_gpu_ms: None,
+                median_wall_ms: 0.0,
+                median_gpu_ms_per_pass: None,
+                fragments: None,
+                fragments_dropped: None,
+                max_depth_complexity: None,
+                bytes_allocated: None,
+                tile_items: None,
+                error: None,
+            };
+            // A configuration the device cannot hold (memory) is recorded, not fatal.
+            match measure(
+                gpu,
+                &scene,
+                &options,
+                &Run::plain(method),
+                warmup,
+                frames,
+                &bar,
+            ) {
+                Ok((result, last)) => {
+                    row.geometry_passes = result.geometry_passes;
+                    row.median_gpu_ms = result.median_gpu_ms;
+                    row.median_wall_ms = result.median_wall_ms;
+                    row.median_gpu_ms_per_pass = result.median_gpu_ms_per_pass;
+                    row.fragments = result.fragments;
+                    row.fragments_dropped = result.fragments_dropped;
+                    row.max_depth_complexity = result.max_depth_complexity;
+                    row.bytes_allocated = result.bytes_allocated;
+                    row.tile_items = last.and_then(|s| s.compute_raster).map(|r| r.tile_items);
+                }
+                Err(e) => row.error = Some(e.to_string()),
+            }
+            rows.push(row);
+        }
+    }
+    bar.finish_and_clear();
+    let ratios = scenes
+        .iter()
+        .map(|spec| {
+            let time = |label: &str| {
+                rows.iter()
+                    .find(|r| r.scene == *spec && r.label == label)
+                    .and_then(|r| r.median_gpu_ms)
+            };
+            let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+                (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+                _ => None,
+            };
+            let fabs = time(RUNS[2].0);
+            Ratio {
+                scene: spec.to_string(),
+                compute_over_hw_fabs: ratio(fabs, time(RUNS[3].0)),
+                f2b_over_compute_fabs: ratio(time(RUNS[4].0), fabs),
+                dual_over_compute_fabs: ratio(time(RUNS[5].0), fabs),
+                mdts_over_fabs: ratio(time(RUNS[0].0), fabs),
+            }
+        })
+        .collect();
+    let report = Report {
+        experiment: "cuda-renderer",
+        adapter: gpu.info.name.clone(),
+        backend: gpu.backend_name(),
+        cpu_figures,
+        width,
+        height,
+        frames,
+        rows,
+        ratios,
+    };
+    print(&report);
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
+    let path = dir.join("cuda-renderer");
+    crate::write_json(&path.with_extension("json"), &report)?;
+    std::fs::write(path.with_extension("csv"), csv(&report))
+        .map_err(|e| Error::runtime(format!("cannot write CSV: {e}")))?;
+    eprintln!("wrote {}.json and .csv", path.display());
+    Ok(())
+}
+
+fn ms(v: Option<f64>) -> String {
+    v.map(|v| format!("{v:.3}")).unwrap_or_default()
+}
+
+fn stage(row: &Row, name: &str) -> Option<f64> {
+    row.median_gpu_ms_per_pass.as_ref()?.get(name).copied()
+}
+
+fn csv(r: &Report) -> String {
+    let mut out = String::from(
+        "scene,triangles,run,raster,geometry_passes,median_gpu_ms,bin_ms,capture_ms,resolve_ms,fragments,dropped,bytes,error\n",
+    );
+    for row in &r.rows {
+        out += &format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            row.scene,
+            row.triangles,
+            row.label,
+            row.raster,
+            row.geometry_passes
+                .map(|n| n.to_string())
+                .unwrap_or_default(),
+            ms(row.median_gpu_ms),
+            ms(stage(row, "raster.bin")),
+            ms(stage(row, "capture").or(stage(row, "capture_depth"))),
+            ms(stage(row, "resolve")),
+            row.fragments.map(|n| n.to_string()).unwrap_or_default(),
+            row.fragments_dropped
+                .map(|n| n.to_string())
+                .unwrap_or_default(),
+            row.bytes_allocated
+                .map(|n| n.to_string())
+                .unwrap_or_default(),
+            row.error.as_deref().unwrap_or("").replace(',', ";"),
+        );
+    }
+    out
+}
+
+fn print(r: &Report) {
+    let label = if r.cpu_figures {
+        " (CPU figures: lavapipe)"
+    } else {
+        ""
+    };
+    println!(
+        "cuda-renderer on {}{label}: {}x{}, median of {} frames",
+        r.adapter, r.width, r.height, r.frames
+    );
+    let mut scene = "";
+    for row in &r.rows {
+        if row.scene != scene {
+            scene = &row.scene;
+            println!("{} ({} triangles)", row.scene, row.triangles);
+            println!(
+                "  {:<36} {:>6} {:>10} {:>9} {:>10} {:>9}",
+                "run", "passes", "gpu ms", "bin ms", "capture ms", "dropped"
+            );
+        }
+        match &row.error {
+            Some(e) => println!("  {:<36} {e}", row.label),
+            None => println!(
+                "  {:<36} {:>6} {:>10} {:>9} {:>10} {:>9}",
+                row.label,
+                row.geometry_passes
+                    .map(|n| n.to_string())
+                    .unwrap_or_default(),
+                ms(row.median_gpu_ms),
+                ms(stage(row, "raster.bin")),
+                ms(stage(row, "capture").or(stage(row, "capture_depth"))),
+                row.fragments_dropped
+                    .map(|n| n.to_string())
+                    .unwrap_or_default()
+            ),
+        }
+    }
+    for ratio in &r.ratios {
+        let f = |v: Option<f64>| v.map(|v| format!("{v:.2}")).unwrap_or("-".into());
+        println!(
+            "{}: compute/hw FABS {}, f2b/FABS {}, dual/FABS {}, MDTS/FABS {}",
+            ratio.scene,
+            f(ratio.compute_over_hw_fabs),
+            f(ratio.f2b_over_compute_fabs),
+            f(ratio.dual_over_compute_fabs),
+            f(ratio.mdts_over_fabs)
+        );
+    }
+}
