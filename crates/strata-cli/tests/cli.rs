@@ -601,3 +601,63 @@ fn pipeline_options_are_checked() {
     assert_bad_input(&["reference", "--ssao"], "--ssao");
     assert_bad_input(&["render", "--lights", "100000000"], "--lights");
 }
+
+/// `--raster compute` renders the GPU path's picture (the demo: deferred pipeline, transparent
+/// objects through the compute rasterizer) and says so in its statistics; `--layers-per-pass`
+/// is kpeel's.
+#[test]
+fn compute_raster_renders_the_gpu_paths_picture() {
+    let dir = workdir("raster");
+    let mut pictures = Vec::new();
+    for raster in ["hw", "compute"] {
+        let png = dir.join(format!("{raster}.png"));
+        let stats = dir.join(format!("{raster}.json"));
+        let o = strata(&[
+            "render",
+            "--raster",
+            raster,
+            "--method",
+            "kpeel",
+            "--layers-per-pass",
+            "4",
+            "--size",
+            "64x48",
+            "-o",
+            png.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        assert_eq!(v["raster"], raster);
+        assert_eq!(v["k"], 4);
+        assert_eq!(v["compute_raster"].is_object(), raster == "compute");
+        pictures.push(png);
+    }
+    let o = strata(&[
+        "compare",
+        pictures[0].to_str().unwrap(),
+        pictures[1].to_str().unwrap(),
+        "--json",
+    ]);
+    let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    // The same coverage and f32 shading from the same inputs: within 1/255.
+    assert!(c["max_abs_diff"].as_u64().unwrap() <= 1, "{c}");
+    assert_bad_input(
+        &["render", "--layers-per-pass", "2", "--method", "f2b"],
+        "--layers-per-pass applies to kpeel",
+    );
+    assert_bad_input(
+        &[
+            "render",
+            "--method",
+            "kpeel",
+            "--layers-per-pass",
+            "2",
+            "--k",
+            "3",
+        ],
+        "--layers-per-pass and --k",
+    );
+}

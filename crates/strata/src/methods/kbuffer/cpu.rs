@@ -319,8 +319,9 @@ impl SortedArray {
     }
 }
 
-/// `sort_local`: insertion sort for up to 16 fragments, shell sort with Knuth's gaps
-/// (1, 4, 13, 40, …) above.
+/// `sort_local`: insertion sort for up to 16 fragments, above that a bitonic network over the
+/// list padded to 32 or 64 with fragments after every real one (at most 64, the shader's local
+/// array).
 pub fn sort_local(a: &mut [Fragment]) {
     let n = a.len();
     if n <= 16 {
@@ -335,25 +336,38 @@ pub fn sort_local(a: &mut [Fragment]) {
         }
         return;
     }
-    let mut gap = 1;
-    while gap * 3 + 1 < n {
-        gap = gap * 3 + 1;
-    }
-    loop {
-        for i in gap..n {
-            let f = a[i];
-            let mut j = i;
-            while j >= gap && before(&f, &a[j - gap]) {
-                a[j] = a[j - gap];
-                j -= gap;
+    assert!(n <= 64, "sort_local sorts at most 64 fragments");
+    let size = if n > 32 { 64 } else { 32 };
+    let padding = Fragment {
+        depth: f32::INFINITY,
+        tag: u32::MAX,
+        ..*a.first().expect("n > 16")
+    };
+    let mut v = a.to_vec();
+    v.resize(size, padding);
+    let mut k = 2;
+    while k <= size {
+        let mut j = k / 2;
+        while j > 0 {
+            for i in 0..size {
+                let l = i ^ j;
+                if l > i {
+                    let ascending = i & k == 0;
+                    let swap = if ascending {
+                        before(&v[l], &v[i])
+                    } else {
+                        before(&v[i], &v[l])
+                    };
+                    if swap {
+                        v.swap(i, l);
+                    }
+                }
             }
-            a[j] = f;
+            j /= 2;
         }
-        if gap == 1 {
-            break;
-        }
-        gap = (gap - 1) / 3;
+        k *= 2;
     }
+    a.copy_from_slice(&v[..n]);
 }
 
 /// `ordered_before`: [`before`], exact duplicates by their storage index.

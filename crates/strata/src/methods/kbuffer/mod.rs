@@ -20,7 +20,7 @@
 //!   re-rendered with a larger array) and the k nearest selected in the resolve.
 //!
 //! Passes: clear (per-pixel words, counters, tail); capture (1 geometry pass); resolve (compute:
-//! insertion sort ≤ 16, shell sort ≤ 64, k-depth sort beyond, composite the k nearest, then the
+//! insertion sort ≤ 16, bitonic sort ≤ 64, k-depth sort beyond, composite the k nearest, then the
 //! tail). Memory: 16 bytes per slot, 16 per pixel of counters, lock and culling bound, 40 per
 //! pixel of tail sums with `--tail blend`, 136 bytes of parameters and counters.
 //!

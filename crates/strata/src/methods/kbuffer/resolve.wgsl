@@ -1,6 +1,6 @@
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
 // Up to LOCAL_CAPACITY stored fragments are copied to a local array and sorted — insertion sort
-// up to 16, shell sort above; longer lists use the k-depth sort (seed 003, Algorithm 4): chunks
+// up to 16, bitonic sort above; longer lists use the k-depth sort (seed 003, Algorithm 4): chunks
 // of CHUNK nearest fragments selected with a max-array, sorted and composited, the last one
 // composited bounding the next selection. Fragments beyond k join the tail (--tail blend).
 // The storage file prepended to this one defines `stored_count(p)` and `stored_fragment(p, i)`.
@@ -41,25 +41,32 @@ fn sort_local(a: ptr<function, array<Fragment, LOCAL_CAPACITY>>, n: u32) {
         }
         return;
     }
-    // Shell sort with Knuth's gaps 1, 4, 13, 40.
-    var gap = 1u;
-    while gap * 3u + 1u < n {
-        gap = gap * 3u + 1u;
+    // Bitonic sort (seed 002's resolve for long lists): a fixed network of compare-exchanges,
+    // the same sequence whatever the data, over the list padded to a power of two with
+    // fragments after every real one.
+    var size = 32u;
+    if n > 32u {
+        size = LOCAL_CAPACITY;
     }
-    loop {
-        for (var i = gap; i < n; i++) {
-            let f = (*a)[i];
-            var j = i;
-            while j >= gap && fragment_before(f, (*a)[j - gap]) {
-                (*a)[j] = (*a)[j - gap];
-                j -= gap;
+    for (var i = n; i < size; i++) {
+        (*a)[i] = Fragment(bitcast<f32>(0x7f800000u), 0xffffffffu, 0u, 0u);
+    }
+    for (var k = 2u; k <= size; k <<= 1u) {
+        for (var j = k >> 1u; j > 0u; j >>= 1u) {
+            for (var i = 0u; i < size; i++) {
+                let l = i ^ j;
+                if l > i {
+                    let x = (*a)[i];
+                    let y = (*a)[l];
+                    // Ascending where bit k of i is clear, descending where it is set.
+                    let ascending = (i & k) == 0u;
+                    if select(fragment_before(x, y), fragment_before(y, x), ascending) {
+                        (*a)[i] = y;
+                        (*a)[l] = x;
+                    }
+                }
             }
-            (*a)[j] = f;
         }
-        if gap == 1u {
-            break;
-        }
-        gap = (gap - 1u) / 3u;
     }
 }
 
