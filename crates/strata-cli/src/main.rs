@@ -104,8 +104,8 @@ struct RenderArgs {
     )]
     method: MethodId,
     /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
-    /// the methods whose geometry passes write only storage (k-buffers, lists, S-buffers,
-    /// kpeel, dual).
+    /// the lock-free storage methods (abuffer-fixed, kb-ab-fixed, kb-mdt*, abuffer-ll, kb-ab-ll,
+    /// sbuffer, kb-sbuffer, dual, kb).
     #[arg(long, value_enum, default_value = "hw")]
     raster: strata::frame::Raster,
     /// kpeel: layers captured per geometry pass (seed 002's multi-layer peeling: ⌈N/M⌉ passes;
@@ -680,12 +680,29 @@ fn compare(a: CompareArgs) -> Result<()> {
     Ok(())
 }
 
+/// The rasterizers a method runs on (`--raster`).
+fn rasters(id: &str) -> &'static str {
+    match id.parse::<MethodId>() {
+        Ok(MethodId::Reference) | Err(_) => "cpu",
+        Ok(m) if strata::raster::supports(m) => "hw,compute",
+        Ok(_) => "hw",
+    }
+}
+
 fn list_methods(json: bool) -> Result<()> {
     let all = methods::catalogue();
     if json {
+        let entries: Vec<serde_json::Value> = all
+            .iter()
+            .map(|m| {
+                let mut v = serde_json::to_value(m).unwrap_or_default();
+                v["raster"] = rasters(m.id).split(',').collect::<Vec<_>>().into();
+                v
+            })
+            .collect();
         println!(
             "{}",
-            serde_json::to_string_pretty(&all).map_err(|e| Error::runtime(e.to_string()))?
+            serde_json::to_string_pretty(&entries).map_err(|e| Error::runtime(e.to_string()))?
         );
         return Ok(());
     }
@@ -697,15 +714,16 @@ fn list_methods(json: bool) -> Result<()> {
         width(&|m| m.memory.chars().count()),
     );
     println!(
-        "{:<wi$}  {:<wf$}  exact  {:<wp$}  {:<wm$}  summary",
-        "id", "family", "geometry passes", "memory (bytes)"
+        "{:<wi$}  {:<wf$}  exact  {:<10}  {:<wp$}  {:<wm$}  summary",
+        "id", "family", "raster", "geometry passes", "memory (bytes)"
     );
     for m in &all {
         println!(
-            "{:<wi$}  {:<wf$}  {:<5}  {:<wp$}  {:<wm$}  {}",
+            "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<wp$}  {:<wm$}  {}",
             m.id,
             m.family,
             if m.exact { "yes" } else { "no" },
+            rasters(m.id),
             m.geometry_passes,
             m.memory,
             m.summary

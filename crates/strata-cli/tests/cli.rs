@@ -139,6 +139,19 @@ fn methods_and_info_report_json() {
         .iter()
         .map(|m| m["id"].as_str().unwrap().to_string())
         .collect();
+    let raster = |id: &str| {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["id"] == id)
+            .unwrap()["raster"]
+            .clone()
+    };
+    assert_eq!(
+        raster("abuffer-fixed"),
+        serde_json::json!(["hw", "compute"])
+    );
+    assert_eq!(raster("wboit"), serde_json::json!(["hw"]));
     for id in [
         "reference",
         "unsorted",
@@ -604,7 +617,7 @@ fn pipeline_options_are_checked() {
 
 /// `--raster compute` renders the GPU path's picture (the demo: deferred pipeline, transparent
 /// objects through the compute rasterizer) and says so in its statistics; `--layers-per-pass`
-/// is kpeel's.
+/// is kpeel's (on the GPU's rasterizer).
 #[test]
 fn compute_raster_renders_the_gpu_paths_picture() {
     let dir = workdir("raster");
@@ -617,8 +630,8 @@ fn compute_raster_renders_the_gpu_paths_picture() {
             "--raster",
             raster,
             "--method",
-            "kpeel",
-            "--layers-per-pass",
+            "abuffer-fixed",
+            "--k",
             "4",
             "--size",
             "64x48",
@@ -644,6 +657,29 @@ fn compute_raster_renders_the_gpu_paths_picture() {
     let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     // The same coverage and f32 shading from the same inputs: within 1/255.
     assert!(c["max_abs_diff"].as_u64().unwrap() <= 1, "{c}");
+    let png = dir.join("kpeel.png");
+    let stats = dir.join("kpeel.json");
+    let o = strata(&[
+        "render",
+        "--method",
+        "kpeel",
+        "--layers-per-pass",
+        "4",
+        "--size",
+        "64x48",
+        "-o",
+        png.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(v["k"], 4);
+    assert_bad_input(
+        &["render", "--method", "kpeel", "--raster", "compute"],
+        "acquire/release",
+    );
     assert_bad_input(
         &["render", "--layers-per-pass", "2", "--method", "f2b"],
         "--layers-per-pass applies to kpeel",

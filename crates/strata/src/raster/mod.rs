@@ -33,13 +33,23 @@
 //! frame reports itself incomplete, and exact mode renders it again), shrinks when more than
 //! twice too large, and is bounded by the device's largest storage binding.
 //!
-//! Methods: every method whose geometry passes store only into storage buffers — the k-buffers
-//! over slots (`kplus-*`, `kb`, `kb-ps`, `abuffer-fixed`, `kb-ab-fixed`), the MDT cascades
-//! (`kb-mdt32`, `kb-mdt64`, `kb-mdt-pack`), the linked lists (`abuffer-ll`, `kb-ab-ll`,
-//! `kb-ll`), the S-buffers (`sbuffer`, `kb-sbuffer`, `kplus-sbuffer`), `kpeel` and `dual`. The
-//! others write color targets through the GPU's blending or depth test (`unsorted`, `sorted`,
-//! `f2b`, `bucket`, `wboit`, `mboit`), which a compute shader has no equivalent of without
-//! per-pixel locks; they refuse `--raster compute` with a clear error.
+//! Methods: those whose geometry passes store only into storage buffers with lock-free atomics —
+//! the MDT cascades (`kb-mdt32`, `kb-mdt64`, `kb-mdt-pack`: seed 002's MDTS), the fixed arrays
+//! (`abuffer-fixed`, `kb-ab-fixed`: its FABS), the linked lists `abuffer-ll` and `kb-ab-ll`, the
+//! S-buffers `sbuffer` and `kb-sbuffer`, `dual`'s atomic min/max, and `kb` (whose unlocked
+//! read-modify-writes race by design on either path). Not supported:
+//! - the spin-lock captures (`kplus-array`, `kplus-heap`, `kplus-array-r`, `kplus-semiheap`,
+//!   `kb-ps`, `kplus-sbuffer`, `kpeel`) and `kb-ll`'s compare-exchange insertion: their critical
+//!   sections read what other fragments wrote, which needs acquire/release ordering. WGSL's atomics
+//!   are relaxed; lavapipe runs compute workgroups truly in parallel on CPU threads (unlike a
+//!   pixel's fragments), and there the relaxed locks lost fragments (`kb-ps`: 7 of a pixel's 8
+//!   counted, in one run of a few under load). The SPIR-V passthrough that gives the fragment
+//!   captures acquire/release atomics lost whole triangles when used for compute captures on
+//!   lavapipe, so it is not used either.
+//! - the methods that write color targets through the GPU's blending or depth test (`unsorted`,
+//!   `sorted`, `f2b`, `bucket`, `wboit`, `mboit`), which a compute shader could only emulate with
+//!   per-pixel locks.
+//! Both refuse `--raster compute` with one clear error.
 
 pub mod wide;
 
@@ -94,33 +104,38 @@ pub fn supports(id: MethodId) -> bool {
     use MethodId::*;
     matches!(
         id,
-        KplusArray
-            | KplusHeap
-            | KplusArrayR
-            | KplusSemiheap
-            | Kb
-            | KbPs
-            | AbufferFixed
+        Kb | AbufferFixed
             | KbAbFixed
             | KbMdt32
             | KbMdt64
             | KbMdtPack
             | AbufferLl
             | KbAbLl
-            | KbLl
             | Sbuffer
             | KbSbuffer
-            | KplusSbuffer
-            | Kpeel
             | Dual
+    )
+}
+
+/// The methods that take a spin lock or compare-exchange chains in their capture.
+fn locks(id: MethodId) -> bool {
+    use MethodId::*;
+    matches!(
+        id,
+        KplusArray | KplusHeap | KplusArrayR | KplusSemiheap | KbPs | KbLl | KplusSbuffer | Kpeel
     )
 }
 
 /// The error for a method the compute rasterizer cannot capture for.
 pub fn check_method(id: MethodId, raster: Raster) -> Result<()> {
     if raster == Raster::Compute && !supports(id) {
+        let why = if locks(id) {
+            "its capture's locks need acquire/release atomics, which compute captures lack (WGSL atomics are relaxed)"
+        } else {
+            "it draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of"
+        };
         return Err(Error::unsupported(format!(
-            "--raster compute: {id} draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of; use --raster hw, or a k-buffer, list, S-buffer, kpeel or dual"
+            "--raster compute: {id} is not supported: {why}; use --raster hw, or one of abuffer-fixed, kb-ab-fixed, kb-mdt32, kb-mdt64, kb-mdt-pack, abuffer-ll, kb-ab-ll, sbuffer, kb-sbuffer, dual, kb"
         )));
     }
     Ok(())
