@@ -49,6 +49,7 @@
 //! - the methods that write color targets through the GPU's blending or depth test (`unsorted`,
 //!   `sorted`, `f2b`, `bucket`, `wboit`, `mboit`), which a compute shader could only emulate with
 //!   per-pixel locks.
+//!
 //! Both refuse `--raster compute` with one clear error.
 
 pub mod wide;
