@@ -629,8 +629,10 @@ fn compute_raster_renders_the_gpu_paths_picture() {
             "render",
             "--raster",
             raster,
+            // The exact k nearest (FABS's first-k-to-arrive would depend on arrival order, which
+            // differs between the rasterizers).
             "--method",
-            "abuffer-fixed",
+            "kb-ab-fixed",
             "--k",
             "4",
             "--size",
