@@ -663,6 +663,8 @@ fn compute_raster_renders_the_gpu_paths_picture() {
     let stats = dir.join("kpeel.json");
     let o = strata(&[
         "render",
+        "--raster",
+        "compute",
         "--method",
         "kpeel",
         "--layers-per-pass",
@@ -678,8 +680,9 @@ fn compute_raster_renders_the_gpu_paths_picture() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     assert_eq!(v["k"], 4);
+    assert_eq!(v["raster"], "compute");
     assert_bad_input(
-        &["render", "--method", "kpeel", "--raster", "compute"],
+        &["render", "--method", "kplus-heap", "--raster", "compute"],
         "acquire/release",
     );
     assert_bad_input(

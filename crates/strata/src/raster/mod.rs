@@ -36,10 +36,13 @@
 //! Methods: those whose geometry passes store only into storage buffers with lock-free atomics —
 //! the MDT cascades (`kb-mdt32`, `kb-mdt64`, `kb-mdt-pack`: seed 002's MDTS), the fixed arrays
 //! (`abuffer-fixed`, `kb-ab-fixed`: its FABS), the linked lists `abuffer-ll` and `kb-ab-ll`, the
-//! S-buffers `sbuffer` and `kb-sbuffer`, `dual`'s atomic min/max, and `kb` (whose unlocked
-//! read-modify-writes race by design on either path). Not supported:
+//! S-buffers `sbuffer` and `kb-sbuffer`, `dual`'s atomic min/max, `kb` (whose unlocked
+//! read-modify-writes race by design on either path), and `kpeel` — seed 002's multi-layer
+//! peeling, `--layers-per-pass` — which on this path captures through its own lock-free
+//! cascade of 64-bit (depth, tag) keys and a colors pass (kpeel_cascade.wgsl; two geometry
+//! passes per layer group, SHADER_INT64_ATOMIC_ALL_OPS). Not supported:
 //! - the spin-lock captures (`kplus-array`, `kplus-heap`, `kplus-array-r`, `kplus-semiheap`,
-//!   `kb-ps`, `kplus-sbuffer`, `kpeel`) and `kb-ll`'s compare-exchange insertion: their critical
+//!   `kb-ps`, `kplus-sbuffer`) and `kb-ll`'s compare-exchange insertion: their critical
 //!   sections read what other fragments wrote, which needs acquire/release ordering. WGSL's atomics
 //!   are relaxed; lavapipe runs compute workgroups truly in parallel on CPU threads (unlike a
 //!   pixel's fragments), and there the relaxed locks lost fragments (`kb-ps`: 7 of a pixel's 8
@@ -115,6 +118,7 @@ pub fn supports(id: MethodId) -> bool {
             | Sbuffer
             | KbSbuffer
             | Dual
+            | Kpeel
     )
 }
 
@@ -123,7 +127,7 @@ fn locks(id: MethodId) -> bool {
     use MethodId::*;
     matches!(
         id,
-        KplusArray | KplusHeap | KplusArrayR | KplusSemiheap | KbPs | KbLl | KplusSbuffer | Kpeel
+        KplusArray | KplusHeap | KplusArrayR | KplusSemiheap | KbPs | KbLl | KplusSbuffer
     )
 }
 
@@ -136,7 +140,7 @@ pub fn check_method(id: MethodId, raster: Raster) -> Result<()> {
             "it draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of"
         };
         return Err(Error::unsupported(format!(
-            "--raster compute: {id} is not supported: {why}; use --raster hw, or one of abuffer-fixed, kb-ab-fixed, kb-mdt32, kb-mdt64, kb-mdt-pack, abuffer-ll, kb-ab-ll, sbuffer, kb-sbuffer, dual, kb"
+            "--raster compute: {id} is not supported: {why}; use --raster hw, or one of abuffer-fixed, kb-ab-fixed, kb-mdt32, kb-mdt64, kb-mdt-pack, abuffer-ll, kb-ab-ll, sbuffer, kb-sbuffer, dual, kpeel, kb"
         )));
     }
     Ok(())
@@ -223,7 +227,7 @@ pub fn storage_stage(
     spec: StageSpec<'_>,
     layouts: &[&wgpu::BindGroupLayout],
 ) -> GeometryStage {
-    let Some(raster_layout) = &scene.raster_layout else {
+    if scene.raster_layout.is_none() {
         return GeometryStage::Hw(capture_pipeline_with(
             gpu,
             spec.label,
@@ -233,21 +237,45 @@ pub fn storage_stage(
             &[NullTarget::target_state()],
             None,
         ));
-    };
-    let label = format!("{}.compute", spec.label);
-    let source = capture_source(spec.stage, spec.entry, layouts.len())
+    }
+    compute_stage(
+        gpu,
+        scene,
+        &format!("{}.compute", spec.label),
+        spec.stage,
+        spec.entry,
+        layouts,
+    )
+}
+
+/// The compute rasterizer's capture of `stage`'s fragment `entry` (see [`capture_source`]) with
+/// the method's `layouts`, the rasterizer's group after them. Only for scenes on the compute
+/// rasterizer.
+pub fn compute_stage(
+    gpu: &Gpu,
+    scene: &SceneGpu,
+    label: &str,
+    stage: &str,
+    entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+) -> GeometryStage {
+    let raster_layout = scene
+        .raster_layout
+        .as_ref()
+        .expect("a compute stage is made for a scene on the compute rasterizer");
+    let source = capture_source(stage, entry, layouts.len())
         .expect("strata's storage stages have the capture signature (tested)");
     let module = gpu
         .device
         .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(&label),
+            label: Some(label),
             source: wgpu::ShaderSource::Wgsl(source.into()),
         });
     let mut all = layouts.to_vec();
     all.push(raster_layout);
     GeometryStage::Compute(crate::gpu::passes::compute_pipeline(
         gpu,
-        &label,
+        label,
         &module,
         "cs_raster",
         &all,

@@ -87,6 +87,10 @@ fn every_compute_capture_validates() {
         ),
         (kpeel::capture_source(), &["fs_kpeel"]),
         (
+            [kpeel::capture_source().as_str(), kpeel::CASCADE_WGSL].join("\n"),
+            &["fs_kpeel_keys", "fs_kpeel_colors"],
+        ),
+        (
             dual(include_str!("../methods/peeling/dual_key32.wgsl")),
             &["fs_bounds", "fs_peel"],
         ),
@@ -97,7 +101,9 @@ fn every_compute_capture_validates() {
     ];
     for (stage, entries) in &stages {
         for entry in *entries {
-            let src = capture_source(stage, entry, 2).unwrap();
+            // The rasterizer's group follows the method's (kpeel's cascade has a group 2).
+            let group = if stage.contains("@group(2)") { 3 } else { 2 };
+            let src = capture_source(stage, entry, group).unwrap();
             assert!(!src.contains("RASTER_GROUP"));
             validate(entry, &src);
         }
@@ -437,14 +443,15 @@ fn a_million_tiny_triangles_match() {
 // ---- Multi-layer peeling, overflow, poison -----------------------------------------------------
 
 /// Seed 002's multi-layer peeling (kpeel, M layers per pass) equals the reference for M = 1, 4,
-/// 16 on the GPU's rasterizer; the compute rasterizer refuses it (its capture locks).
+/// 16 on both rasterizers (the compute one through its lock-free cascade: two geometry passes
+/// per M layers).
 #[test]
-fn multi_layer_peeling_matches_the_reference() {
+fn multi_layer_peeling_matches_the_reference_on_both_paths() {
     let scene =
         loaders::load_scene("builtin:layers?n=16&coverage=0.75&order=random&seed=4").unwrap();
     let size = 40;
     let expected = crate::testing::render_reference(&scene, &options(size, Raster::Hw));
-    for raster in [Raster::Hw] {
+    for raster in [Raster::Hw, Raster::Compute] {
         for m in [1, 4, 16] {
             let mut opts = options(size, raster);
             opts.k = Some(m);
@@ -458,16 +465,15 @@ fn multi_layer_peeling_matches_the_reference() {
                 0.001,
             );
             let steady = steady_frame(&scene, &opts, MethodId::Kpeel);
-            assert_eq!(steady.geometry_passes, Some(16u32.div_ceil(m)), "M = {m}");
+            let per_group = if raster == Raster::Compute { 2 } else { 1 };
+            assert_eq!(
+                steady.geometry_passes,
+                Some(per_group * 16u32.div_ceil(m)),
+                "M = {m}"
+            );
             assert_eq!(steady.fragments_dropped, Some(0));
         }
     }
-    let mut r = crate::Renderer::new(gpu(), &scene, &options(16, Raster::Compute)).unwrap();
-    let e = r
-        .render_method(MethodId::Kpeel, None)
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("acquire/release"), "{e}");
 }
 
 /// The statistics of a third real-time frame (feedback from the first ones applied).

@@ -17,6 +17,11 @@
 //! fragment of a pixel, so nothing is lost at equal depths: exact, equal to the A-buffer (k = 1
 //! is front-to-back peeling one layer per pass; k ≥ N is a one-pass k+-buffer).
 //!
+//! With `--raster compute` the capture is lock-free (kpeel_cascade.wgsl, seed 002's multi-layer
+//! peeling over MDTS): per pass a *keys* pass cascades 64-bit (depth, tag) keys with atomicMax
+//! through the pixel's k slots and a *colors* pass writes the kept fragments into their slots, so
+//! 2·P geometry passes; 8 more bytes per slot for the keys; needs SHADER_INT64_ATOMIC_ALL_OPS.
+//!
 //! Memory: 16 bytes per slot (k per pixel), 16 per pixel of counters, lock and culling bound,
 //! 136 of parameters and counters; the running composite lives in the frame's own output, so
 //! memory does not grow with the depth complexity. Limits: k ≤ 1024 (the max-heap's lock).
@@ -25,8 +30,9 @@ use super::{
     k_of, params_for, slots_capture_functions, KFrame, Storage, RESOLVE_WGSL, SLOTS_RESOLVE_WGSL,
     SLOTS_WGSL, SLOT_BYTES, STORAGE_WGSL,
 };
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
     compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage, NullTarget,
 };
@@ -35,6 +41,7 @@ use crate::methods::peeling::{layers_for, peel_feedback};
 use crate::methods::{Method, MethodId};
 
 const STATE_WGSL: &str = include_str!("kpeel_state.wgsl");
+pub const CASCADE_WGSL: &str = include_str!("kpeel_cascade.wgsl");
 
 pub fn capture_source() -> String {
     [
@@ -57,9 +64,24 @@ pub fn resolve_source() -> String {
     .join("\n")
 }
 
+/// The compute rasterizer's lock-free capture: the keys buffer's layout, the keys and colors
+/// stages (kpeel_cascade.wgsl).
+struct Cascade {
+    layout: wgpu::BindGroupLayout,
+    keys: GeometryStage,
+    colors: GeometryStage,
+    cache: ResourceCache,
+}
+
+/// Bytes per key of the compute capture's cascade.
+pub const KEY_BYTES: u64 = 8;
+
 pub struct KPeel {
     frame: KFrame,
-    capture: GeometryStage,
+    /// The locked capture, on the GPU's rasterizer.
+    capture: Option<GeometryStage>,
+    /// With `--raster compute`, which runs this capture instead of the locked one.
+    cascade: Option<Cascade>,
     init: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     /// The depth complexity the last frame measured.
@@ -68,7 +90,7 @@ pub struct KPeel {
 }
 
 impl KPeel {
-    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> KPeel {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<KPeel> {
         let id = MethodId::Kpeel;
         let source = resolve_source();
         let mut frame = KFrame::with_resolve(gpu, scene, id, &source, "cs_kpeel_resolve");
@@ -84,14 +106,53 @@ impl KPeel {
                 &layouts,
             )
         };
-        KPeel {
-            capture: frame.capture_pipeline(gpu, scene, &module, "fs_kpeel"),
+        let cascade = match scene.raster_layout {
+            Some(_) => Some(Cascade::new(gpu, scene, &frame)?),
+            None => None,
+        };
+        Ok(KPeel {
+            capture: cascade
+                .is_none()
+                .then(|| frame.capture_pipeline(gpu, scene, &module, "fs_kpeel")),
+            cascade,
             init: pipeline("cs_kpeel_init"),
             finish: pipeline("cs_kpeel_finish"),
             frame,
             measured: None,
             null_target: None,
+        })
+    }
+}
+
+impl Cascade {
+    fn new(gpu: &Gpu, scene: &SceneGpu, frame: &KFrame) -> Result<Cascade> {
+        if !gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) {
+            return Err(Error::unsupported(format!(
+                "kpeel on --raster compute cascades 64-bit keys (SHADER_INT64_ATOMIC_ALL_OPS), which '{}' lacks; use --raster hw",
+                gpu.info.name
+            )));
         }
+        let layout = binding::layout(&gpu.device, "strata.kpeel.keys.layout", &[Slot::StorageRw]);
+        // The stage is compiled only for the compute rasterizer (the GPU path's module would
+        // need 64-bit atomics on every adapter).
+        let stage = [capture_source().as_str(), CASCADE_WGSL].join("\n");
+        let layouts = [&scene.frame_layout, &frame.layout, &layout];
+        let compute_stage = |entry: &str| {
+            crate::raster::compute_stage(
+                gpu,
+                scene,
+                &format!("strata.kpeel.{entry}"),
+                &stage,
+                entry,
+                &layouts,
+            )
+        };
+        Ok(Cascade {
+            keys: compute_stage("fs_kpeel_keys"),
+            colors: compute_stage("fs_kpeel_colors"),
+            layout,
+            cache: ResourceCache::default(),
+        })
     }
 }
 
@@ -108,7 +169,38 @@ impl Method for KPeel {
         // Every fragment is composited in order: no tail.
         let mut params = params_for(ctx, k, k, false);
         params.tail_blend = 0;
-        let (group, bytes) = self.frame.begin(ctx, params, storage)?;
+        let keys_bytes = ctx.pixels() * k as u64 * KEY_BYTES;
+        let (group, bytes) = match self.cascade {
+            Some(_) => {
+                // The budget covers the keys too.
+                ctx.check_budget(
+                    storage.bytes
+                        + keys_bytes
+                        + super::frame_bytes_besides_storage(ctx.pixels(), false),
+                )?;
+                let (group, bytes) = self.frame.begin(ctx, params, storage)?;
+                (group, bytes + keys_bytes)
+            }
+            None => self.frame.begin(ctx, params, storage)?,
+        };
+        let keys = match &mut self.cascade {
+            Some(c) => {
+                let buffer = c.cache.storage(
+                    ctx.gpu,
+                    "strata.kpeel.keys",
+                    keys_bytes,
+                    wgpu::BufferUsages::empty(),
+                )?;
+                let keys_group = binding::group(
+                    &ctx.gpu.device,
+                    "strata.kpeel.keys.group",
+                    &c.layout,
+                    &[buffer.as_entire_binding()],
+                );
+                Some((buffer, keys_group))
+            }
+            None => None,
+        };
         let (w, h) = ctx.size();
         let target = NullTarget::ensure(
             &mut self.null_target,
@@ -123,19 +215,25 @@ impl Method for KPeel {
             if pass > 0 {
                 self.frame.clear_pixels(ctx);
             }
-            storage_geometry_pass(
-                ctx,
-                "capture",
-                target,
-                &self.capture,
-                &[frame_group, &group],
-            );
+            match (&self.cascade, &keys, &self.capture) {
+                (Some(cascade), Some((buffer, keys_group)), _) => {
+                    ctx.encoder.clear_buffer(buffer, 0, None);
+                    let groups = [frame_group, &group, keys_group];
+                    storage_geometry_pass(ctx, "capture_keys", target, &cascade.keys, &groups);
+                    storage_geometry_pass(ctx, "capture_colors", target, &cascade.colors, &groups);
+                }
+                (_, _, Some(capture)) => {
+                    storage_geometry_pass(ctx, "capture", target, capture, &[frame_group, &group])
+                }
+                _ => unreachable!("a capture for the scene's rasterizer is made in new"),
+            }
             self.frame.resolve(ctx, &group);
         }
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &group]);
         self.frame.read_counters(ctx);
+        let passes_per_layer_group = if self.cascade.is_some() { 2 } else { 1 };
         Ok(Recorded {
-            geometry_passes: passes,
+            geometry_passes: passes * passes_per_layer_group,
             k: Some(k),
             bytes_allocated: bytes,
             capacity: passes as u64 * k as u64,
@@ -158,6 +256,8 @@ impl Method for KPeel {
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {
-        self.frame.resources()
+        let mut all = self.frame.resources();
+        all.extend(self.cascade.as_ref().map(|c| &c.cache));
+        all
     }
 }

@@ -1,0 +1,67 @@
+// k-depth peeling's lock-free capture, for the compute rasterizer (seed 002's multi-layer peeling
+// over MDTS cascades). A keys pass sends each fragment behind the pixel's bound through an
+// atomicMax cascade of 64-bit keys — depth bits above the tag, inverted so that 0 marks an empty
+// slot and a larger key is a nearer fragment — which keeps the pixel's k nearest sorted with no
+// lock; keys are unique per pixel, so nothing is lost or swapped at equal depths. A colors pass
+// writes each fragment whose key was kept into the slot holding it and raises FILLED past it; the
+// kpeel resolve then composites the slots as it does the locked capture's.
+// Needs SHADER_INT64_ATOMIC_ALL_OPS.
+
+@group(2) @binding(0) var<storage, read_write> peel_keys: array<atomic<u64>>;
+
+fn peel_key(f: Fragment) -> u64 {
+    return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));
+}
+
+// True for a fragment this pass may capture: behind the pixel's last composited one.
+fn peel_pending(p: u32, f: Fragment) -> bool {
+    return output[p].count == 0u || fragment_before(kpeel_bound(p), f);
+}
+
+@fragment
+fn fs_kpeel_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = kpixel(v.position);
+    let f = scene_fragment(v, front_facing);
+    if !peel_pending(p, f) {
+        discard;
+    }
+    count_seen(p);
+    var key = peel_key(f);
+    let base = p * kp.k;
+    for (var i = 0u; i < kp.k; i++) {
+        let old = atomicMax(&peel_keys[base + i], key);
+        if old == u64(0u) {
+            break;
+        }
+        key = min(key, old);
+    }
+}
+
+@fragment
+fn fs_kpeel_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = kpixel(v.position);
+    let f = scene_fragment(v, front_facing);
+    if !peel_pending(p, f) {
+        discard;
+    }
+    let key = peel_key(f);
+    let base = p * kp.k;
+    for (var i = 0u; i < kp.k; i++) {
+        let stored = atomicLoad(&peel_keys[base + i]);
+        if stored == key {
+            store_slot(p, i, f);
+            atomicMax(&pixels[pixel_word(p, FILLED)], i + 1u);
+            break;
+        }
+        // Keys are sorted nearest first: a farther one means this fragment was not kept.
+        if stored < key {
+            break;
+        }
+    }
+}
