@@ -164,14 +164,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Res
         rows,
     };
     print(&report);
-    std::fs::create_dir_all(dir)
-        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
-    let base = dir.join("auto-k");
-    crate::write_json(&base.with_extension("json"), &report)?;
-    std::fs::write(base.with_extension("csv"), csv(&report))
-        .map_err(|e| Error::runtime(format!("cannot write CSV: {e}")))?;
-    eprintln!("wrote {}.json and .csv", base.display());
-    Ok(())
+    crate::write_results(dir, "auto-k", &report, csv(&report))
 }
 
 fn opt<T: ToString>(v: Option<T>) -> String {

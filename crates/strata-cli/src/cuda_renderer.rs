@@ -231,14 +231,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         ratios,
     };
     print(&report);
-    std::fs::create_dir_all(dir)
-        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
-    let path = dir.join("cuda-renderer");
-    crate::write_json(&path.with_extension("json"), &report)?;
-    std::fs::write(path.with_extension("csv"), csv(&report))
-        .map_err(|e| Error::runtime(format!("cannot write CSV: {e}")))?;
-    eprintln!("wrote {}.json and .csv", path.display());
-    Ok(())
+    crate::write_results(dir, "cuda-renderer", &report, csv(&report))
 }
 
 fn ms(v: Option<f64>) -> String {

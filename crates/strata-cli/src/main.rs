@@ -395,6 +395,23 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
         .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))
 }
 
+/// Writes an experiment's results as `DIR/NAME.json` and `DIR/NAME.csv` and says where.
+pub fn write_results(
+    dir: &Path,
+    name: &str,
+    report: &impl serde::Serialize,
+    csv: String,
+) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
+    let path = dir.join(name);
+    write_json(&path.with_extension("json"), report)?;
+    std::fs::write(path.with_extension("csv"), csv)
+        .map_err(|e| Error::runtime(format!("cannot write CSV: {e}")))?;
+    eprintln!("wrote {}.json and .csv", path.display());
+    Ok(())
+}
+
 fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     let ms = stats
         .gpu_ms_total

@@ -151,6 +151,24 @@ pub fn dispatch(
     groups: &[&wgpu::BindGroup],
     (x, y): (u32, u32),
 ) {
+    dispatch_with(ctx, name, pipeline, groups, Workgroups::Direct(x, y));
+}
+
+/// How many workgroups a compute pass runs.
+pub enum Workgroups<'a> {
+    Direct(u32, u32),
+    /// From the first three words of a buffer written on the GPU.
+    Indirect(&'a wgpu::Buffer),
+}
+
+/// Runs a compute pipeline over `workgroups` in its own timed pass.
+pub fn dispatch_with(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    workgroups: Workgroups<'_>,
+) {
     let label = ctx.label(name);
     let mut pass = ctx
         .encoder
@@ -162,7 +180,11 @@ pub fn dispatch(
     for (i, g) in groups.iter().enumerate() {
         pass.set_bind_group(i as u32, Some(*g), &[]);
     }
-    pass.dispatch_workgroups(x, y, 1);
+    match workgroups {
+        Workgroups::Direct(0, _) => {}
+        Workgroups::Direct(x, y) => pass.dispatch_workgroups(x, y, 1),
+        Workgroups::Indirect(args) => pass.dispatch_workgroups_indirect(args, 0),
+    }
 }
 
 /// A geometry stage that writes only storage buffers, on the scene's rasterizer: a render

@@ -63,7 +63,9 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::frame::{FrameContext, ReadbackList, RenderOptions, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{capture_pipeline_with, GeometryStage, NullTarget};
+use crate::gpu::passes::{
+    capture_pipeline_with, dispatch_with, GeometryStage, NullTarget, Workgroups,
+};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::MethodId;
 
@@ -462,24 +464,24 @@ impl ComputeRaster {
             let workgroups = triangles.div_ceil(64);
             let x = workgroups.min(65535);
             let frame_group = ctx.frame_group;
-            record_dispatch(
+            dispatch_with(
                 ctx,
                 "raster.bin",
                 &self.bin,
                 &[frame_group, &frame.bin_group],
-                Dispatch::Direct(x, workgroups.div_ceil(x.max(1))),
+                Workgroups::Direct(x, workgroups.div_ceil(x.max(1))),
             );
-            record_dispatch(
+            dispatch_with(
                 ctx,
                 "raster.args",
                 &self.args,
                 &[&frame.args_group],
-                Dispatch::Direct(1, 1),
+                Workgroups::Direct(1, 1),
             );
         }
         let mut all = groups.to_vec();
         all.push(&frame.raster_group);
-        record_dispatch(ctx, name, pipeline, &all, Dispatch::Indirect(&frame.args));
+        dispatch_with(ctx, name, pipeline, &all, Workgroups::Indirect(&frame.args));
     }
 
     /// Asks for the frame's counters.
@@ -535,39 +537,6 @@ impl ComputeRaster {
 /// Tiles of the viewport.
 pub fn screen_tiles(width: u32, height: u32) -> u64 {
     width.div_ceil(TILE) as u64 * height.div_ceil(TILE) as u64
-}
-
-enum Dispatch<'a> {
-    Direct(u32, u32),
-    Indirect(&'a wgpu::Buffer),
-}
-
-fn record_dispatch(
-    ctx: &mut FrameContext<'_>,
-    name: &'static str,
-    pipeline: &wgpu::ComputePipeline,
-    groups: &[&wgpu::BindGroup],
-    dispatch: Dispatch<'_>,
-) {
-    let label = ctx.label(name);
-    let mut pass = ctx
-        .encoder
-        .begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(&label),
-            timestamp_writes: ctx.timer.compute_pass(name),
-        });
-    pass.set_pipeline(pipeline);
-    for (i, g) in groups.iter().enumerate() {
-        pass.set_bind_group(i as u32, Some(*g), &[]);
-    }
-    match dispatch {
-        Dispatch::Direct(x, y) => {
-            if x > 0 {
-                pass.dispatch_workgroups(x, y, 1);
-            }
-        }
-        Dispatch::Indirect(args) => pass.dispatch_workgroups_indirect(args, 0),
-    }
 }
 
 #[cfg(test)]
