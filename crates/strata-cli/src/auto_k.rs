@@ -9,11 +9,13 @@
 use std::path::Path;
 
 use serde::Serialize;
-use strata::error::{Error, Result};
+use strata::error::Result;
 use strata::frame::FrameStats;
 use strata::gpu::Gpu;
 use strata::scene::{loaders, Camera};
 use strata::{FrameRecorder, MethodId, RenderOptions};
+
+use crate::bench::standalone_setup;
 
 pub const DESCRIPTION: &str = "seed 003 Figs. 3-4: the k --k auto picks (R = 0.95) per view of a dragon orbit and per frame of balls, kplus-heap and kplus-sbuffer, budgets of 64 and 256 bytes per pixel";
 
@@ -93,16 +95,13 @@ fn frame(gpu: &Gpu, recorder: &mut FrameRecorder) -> Result<FrameStats> {
 }
 
 pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Result<()> {
-    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    let (width, height) = match size {
-        Some(s) => crate::parse_size(s)?,
-        None if cpu_figures => (256, 256),
-        None => (1024, 1024),
-    };
-    let steps = steps.unwrap_or(DEFAULT_STEPS);
-    if steps == 0 {
-        return Err(Error::input("--frames must be at least 1"));
-    }
+    let (cpu_figures, (width, height), steps) = standalone_setup(
+        gpu,
+        size,
+        steps,
+        ((256, 256), (1024, 1024)),
+        (DEFAULT_STEPS, DEFAULT_STEPS),
+    )?;
     let mut dragon = loaders::load_scene("builtin:dragon")?;
     dragon.override_alpha(0.5);
     let base_camera = dragon.camera_or_framing();

@@ -8,7 +8,7 @@
 //! (lavapipe) are CPU figures and are labelled so.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
@@ -383,46 +383,67 @@ pub fn device_slug(gpu: &Gpu) -> String {
         .join("-")
 }
 
+/// An experiment with its own runner: (GPU, `--size`, `--frames`, output folder).
+type StandaloneRun = fn(&Gpu, Option<&str>, Option<u32>, &Path) -> Result<()>;
+
+/// The experiments that report their own tables: name, description, runner.
+const STANDALONE: [(&str, &str, StandaloneRun); 3] = [
+    ("auto-k", crate::auto_k::DESCRIPTION, crate::auto_k::run),
+    (
+        "deferred-lights",
+        crate::deferred_lights::DESCRIPTION,
+        crate::deferred_lights::run,
+    ),
+    (
+        "cuda-renderer",
+        crate::cuda_renderer::DESCRIPTION,
+        crate::cuda_renderer::run,
+    ),
+];
+
+/// Size, frame count and whether figures are CPU figures for a standalone experiment: `--size`
+/// or the default for the adapter's kind (`cpu` on lavapipe, `gpu` otherwise), likewise frames.
+pub(crate) fn standalone_setup(
+    gpu: &Gpu,
+    size: Option<&str>,
+    frames: Option<u32>,
+    (cpu_size, gpu_size): ((u32, u32), (u32, u32)),
+    (cpu_frames, gpu_frames): (u32, u32),
+) -> Result<(bool, (u32, u32), u32)> {
+    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let size = match size {
+        Some(s) => crate::parse_size(s)?,
+        None if cpu_figures => cpu_size,
+        None => gpu_size,
+    };
+    let frames = frames.unwrap_or(if cpu_figures { cpu_frames } else { gpu_frames });
+    if frames == 0 {
+        return Err(Error::input("--frames must be at least 1"));
+    }
+    Ok((cpu_figures, size, frames))
+}
+
 pub fn run(a: BenchArgs) -> Result<()> {
     if a.list {
         for e in EXPERIMENTS {
             println!("{:<16} {}", e.name, e.description);
         }
-        println!("{:<16} {}", "auto-k", crate::auto_k::DESCRIPTION);
-        println!(
-            "{:<16} {}",
-            "deferred-lights",
-            crate::deferred_lights::DESCRIPTION
-        );
-        println!(
-            "{:<16} {}",
-            "cuda-renderer",
-            crate::cuda_renderer::DESCRIPTION
-        );
+        for (name, description, _) in STANDALONE {
+            println!("{name:<16} {description}");
+        }
         return Ok(());
     }
     let gpu = Gpu::new()?;
     let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    if a.experiment.as_deref() == Some("auto-k") {
+    if let Some((_, _, run)) = STANDALONE
+        .iter()
+        .find(|e| a.experiment.as_deref() == Some(e.0))
+    {
         let dir = a
             .out
             .clone()
             .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
-        return crate::auto_k::run(&gpu, a.size.as_deref(), a.frames, &dir);
-    }
-    if a.experiment.as_deref() == Some("deferred-lights") {
-        let dir = a
-            .out
-            .clone()
-            .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
-        return crate::deferred_lights::run(&gpu, a.size.as_deref(), a.frames, &dir);
-    }
-    if a.experiment.as_deref() == Some("cuda-renderer") {
-        let dir = a
-            .out
-            .clone()
-            .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
-        return crate::cuda_renderer::run(&gpu, a.size.as_deref(), a.frames, &dir);
+        return run(&gpu, a.size.as_deref(), a.frames, &dir);
     }
     let k_flag = a.k;
     let (name, scenes, runs, size, alpha, frames, quality) = match &a.experiment {
@@ -431,7 +452,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 let names: Vec<_> = EXPERIMENTS
                     .iter()
                     .map(|e| e.name)
-                    .chain(["auto-k", "deferred-lights", "cuda-renderer"])
+                    .chain(STANDALONE.iter().map(|e| e.0))
                     .collect();
                 Error::input(format!(
                     "unknown experiment '{n}' (available: {})",

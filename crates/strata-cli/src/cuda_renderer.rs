@@ -11,13 +11,13 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde::Serialize;
-use strata::error::{Error, Result};
+use strata::error::Result;
 use strata::frame::Raster;
 use strata::gpu::Gpu;
 use strata::scene::loaders;
 use strata::RenderOptions;
 
-use crate::bench::{measure, Run};
+use crate::bench::{measure, standalone_setup, Run};
 
 pub const DESCRIPTION: &str = "seed 002 Table 1: compute-rasterizer MDTS and FABS vs the hardware abuffer-fixed, f2b, dual, abuffer-ll and kplus-array on bunny, dragon and procedural scenes up to 10M triangles (lavapipe: up to ~1M): frame time, passes, compute time by stage";
 
@@ -120,16 +120,8 @@ struct Report {
 }
 
 pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
-    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    let (width, height) = match size {
-        Some(s) => crate::parse_size(s)?,
-        None if cpu_figures => (256, 256),
-        None => (1024, 1024),
-    };
-    let frames = frames.unwrap_or(if cpu_figures { 5 } else { 20 });
-    if frames == 0 {
-        return Err(Error::input("--frames must be at least 1"));
-    }
+    let (cpu_figures, (width, height), frames) =
+        standalone_setup(gpu, size, frames, ((256, 256), (1024, 1024)), (5, 20))?;
     let scenes: &[&str] = if cpu_figures {
         &SCENES_CPU
     } else {

@@ -12,12 +12,12 @@ use std::path::Path;
 
 use serde::Serialize;
 use strata::deferred::{gbuffer_bytes_per_pixel, GbufferLayout, Pipeline};
-use strata::error::{Error, Result};
+use strata::error::Result;
 use strata::gpu::Gpu;
 use strata::scene::loaders;
 use strata::RenderOptions;
 
-use crate::bench::{measure, Run};
+use crate::bench::{measure, standalone_setup, Run};
 
 pub const DESCRIPTION: &str = "seed 004 Figs. 13-14: forward vs deferred frame time over 1..4096 lights (lavapipe: 1..1024) on ~100K opaque triangles, and G-buffer bytes per pixel and traffic at 60 fps, traditional vs compressed";
 
@@ -68,16 +68,8 @@ struct Report {
 }
 
 pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
-    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    let (width, height) = match size {
-        Some(s) => crate::parse_size(s)?,
-        None if cpu_figures => (256, 192),
-        None => (1024, 768),
-    };
-    let frames = frames.unwrap_or(if cpu_figures { 7 } else { 20 });
-    if frames == 0 {
-        return Err(Error::input("--frames must be at least 1"));
-    }
+    let (cpu_figures, (width, height), frames) =
+        standalone_setup(gpu, size, frames, ((256, 192), (1024, 768)), (7, 20))?;
     let counts: &[u32] = if cpu_figures {
         &LIGHTS_CPU
     } else {
