@@ -529,17 +529,10 @@ pub fn run(a: BenchArgs) -> Result<()> {
     let mut base_options = None;
     for scene in &scenes {
         let picture = PictureArgs {
-            scene: scene.clone(),
             size: Some(size.clone()),
             effect: a.effect,
-            shading: None,
-            background: None,
             alpha,
-            k: None,
-            frame: None,
-            pipeline: None,
-            lights: None,
-            tonemap: Default::default(),
+            ..PictureArgs::for_scene(scene.clone())
         };
         let (scene_data, options) = prepare(&picture)?;
         let full_reference = if quality {

@@ -4,6 +4,7 @@ mod auto_k;
 mod bench;
 mod cuda_renderer;
 mod deferred_lights;
+mod view;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -49,6 +50,9 @@ enum Command {
     Histogram(HistogramArgs),
     /// Benchmark methods: median GPU ms per pass after warm-up.
     Bench(bench::BenchArgs),
+    /// Explore the methods live in a window: every option, per-pass timings, statistics, a
+    /// diff against the reference.
+    View(view::ViewArgs),
 }
 
 /// Options shared by everything that makes a picture.
@@ -89,69 +93,62 @@ pub struct PictureArgs {
     /// The lit pipelines' tone map (neutral: colors below 0.8 unchanged, highlights roll off).
     #[arg(long, value_enum, default_value = "neutral")]
     pub tonemap: strata::frame::Tonemap,
+    /// Camera position X,Y,Z (default: the scene's camera, else auto-framed).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<[f32; 3]>,
+    /// The point the camera looks at, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub target: Option<[f32; 3]>,
+    /// The camera's up direction, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees (perspective cameras), in (0, 180).
+    #[arg(long)]
+    pub fov: Option<f32>,
+}
+
+impl PictureArgs {
+    /// The picture options' defaults for `scene` (what the command line gives without options).
+    pub fn for_scene(scene: impl Into<String>) -> PictureArgs {
+        PictureArgs {
+            scene: scene.into(),
+            size: None,
+            effect: Effect::Transparency,
+            shading: None,
+            background: None,
+            alpha: None,
+            k: None,
+            frame: None,
+            pipeline: None,
+            lights: None,
+            tonemap: Default::default(),
+            eye: None,
+            target: None,
+            up: None,
+            fov: None,
+        }
+    }
+}
+
+/// `X,Y,Z` as three finite numbers.
+pub fn parse_vec3(s: &str) -> std::result::Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not X,Y,Z (three numbers)"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        _ => Err(format!("'{s}' is not X,Y,Z (three finite numbers)")),
+    }
 }
 
 #[derive(Args)]
 struct RenderArgs {
     #[command(flatten)]
     picture: PictureArgs,
-    /// Method id (see `strata methods`).
-    #[arg(
-        long,
-        value_enum,
-        default_value = "abuffer-ll",
-        hide_possible_values = true
-    )]
-    method: MethodId,
-    /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
-    /// the lock-free storage methods (abuffer-fixed, kb-ab-fixed, kb-mdt*, abuffer-ll, kb-ab-ll,
-    /// sbuffer, kb-sbuffer, dual, kb).
-    #[arg(long, value_enum, default_value = "hw")]
-    raster: strata::frame::Raster,
-    /// kpeel: layers captured per geometry pass (seed 002's multi-layer peeling: ⌈N/M⌉ passes;
-    /// 1 is depth peeling). The same as --k for kpeel.
-    #[arg(long)]
-    layers_per_pass: Option<u32>,
-    /// Memory a method may allocate, MiB.
-    #[arg(long)]
-    budget_mb: Option<f64>,
-    /// With --k auto: the fraction of the fragments k must capture, in (0, 1] (default 0.95);
-    /// k is the smallest that does within --budget-mb.
-    #[arg(long)]
-    robustness: Option<f64>,
-    /// kplus-semiheap: slots of its max-heap (default 1, the paper's); the other k - h are
-    /// unordered.
-    #[arg(long)]
-    heap_size: Option<u32>,
-    /// wboit: the weight function (McGuire & Bavoil 2013, equations 7-10).
-    #[arg(long, value_enum, default_value = "eq7")]
-    weight: strata::Weight,
-    /// wboit: multiplies view-space distances before the weight function (its constants assume
-    /// distances of 0.1 to 500 units).
-    #[arg(long, default_value_t = 1.0)]
-    depth_scale: f64,
-    /// Fragments beyond k (k-buffer methods).
-    #[arg(long, value_enum, default_value = "drop")]
-    tail: Tail,
-    /// k-buffers cull fragments behind a full pixel's farthest before taking the lock.
-    #[arg(long, value_enum, default_value = "on")]
-    culling: Toggle,
-    /// Spin-lock tries per fragment for the locking k-buffers.
-    #[arg(long)]
-    max_tries: Option<u32>,
-    /// Depth peeling (f2b, dual): peel this many layers (default: the scene's depth complexity,
-    /// measured by the frame itself).
-    #[arg(long)]
-    layers: Option<u32>,
-    /// --pipeline deferred: screen-space ambient occlusion on the ambient term.
-    #[arg(long)]
-    ssao: bool,
-    /// --pipeline deferred: the G-buffer's normal encoding.
-    #[arg(long, value_enum, default_value = "spheremap")]
-    normal_encoding: strata::frame::NormalEncoding,
-    /// --pipeline deferred: write a G-buffer view instead of the picture.
-    #[arg(long, value_enum)]
-    gbuffer_debug: Option<strata::frame::GbufferView>,
+    #[command(flatten)]
+    method: MethodArgs,
     #[arg(short, long, default_value = "out.png")]
     output: PathBuf,
     /// Write the frame's statistics as JSON (with --frames: one JSON line per frame).
@@ -161,6 +158,68 @@ struct RenderArgs {
     /// %d or %0Nd pattern (e.g. -o frame_%04d.png); one renderer for the whole sequence.
     #[arg(long)]
     frames: Option<String>,
+}
+
+/// The method and its options (`render` and `view`).
+#[derive(Args, Clone, Debug)]
+pub struct MethodArgs {
+    /// Method id (see `strata methods`).
+    #[arg(
+        long,
+        value_enum,
+        default_value = "abuffer-ll",
+        hide_possible_values = true
+    )]
+    pub method: MethodId,
+    /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
+    /// the lock-free storage methods (abuffer-fixed, kb-ab-fixed, kb-mdt*, abuffer-ll, kb-ab-ll,
+    /// sbuffer, kb-sbuffer, dual, kb).
+    #[arg(long, value_enum, default_value = "hw")]
+    pub raster: strata::frame::Raster,
+    /// kpeel: layers captured per geometry pass (seed 002's multi-layer peeling: ⌈N/M⌉ passes;
+    /// 1 is depth peeling). The same as --k for kpeel.
+    #[arg(long)]
+    pub layers_per_pass: Option<u32>,
+    /// Memory a method may allocate, MiB.
+    #[arg(long)]
+    pub budget_mb: Option<f64>,
+    /// With --k auto: the fraction of the fragments k must capture, in (0, 1] (default 0.95);
+    /// k is the smallest that does within --budget-mb.
+    #[arg(long)]
+    pub robustness: Option<f64>,
+    /// kplus-semiheap: slots of its max-heap (default 1, the paper's); the other k - h are
+    /// unordered.
+    #[arg(long)]
+    pub heap_size: Option<u32>,
+    /// wboit: the weight function (McGuire & Bavoil 2013, equations 7-10).
+    #[arg(long, value_enum, default_value = "eq7")]
+    pub weight: strata::Weight,
+    /// wboit: multiplies view-space distances before the weight function (its constants assume
+    /// distances of 0.1 to 500 units).
+    #[arg(long, default_value_t = 1.0)]
+    pub depth_scale: f64,
+    /// Fragments beyond k (k-buffer methods).
+    #[arg(long, value_enum, default_value = "drop")]
+    pub tail: Tail,
+    /// k-buffers cull fragments behind a full pixel's farthest before taking the lock.
+    #[arg(long, value_enum, default_value = "on")]
+    pub culling: Toggle,
+    /// Spin-lock tries per fragment for the locking k-buffers.
+    #[arg(long)]
+    pub max_tries: Option<u32>,
+    /// Depth peeling (f2b, dual): peel this many layers (default: the scene's depth complexity,
+    /// measured by the frame itself).
+    #[arg(long)]
+    pub layers: Option<u32>,
+    /// --pipeline deferred: screen-space ambient occlusion on the ambient term.
+    #[arg(long)]
+    pub ssao: bool,
+    /// --pipeline deferred: the G-buffer's normal encoding.
+    #[arg(long, value_enum, default_value = "spheremap")]
+    pub normal_encoding: strata::frame::NormalEncoding,
+    /// --pipeline deferred: write a G-buffer view instead of the picture.
+    #[arg(long, value_enum)]
+    pub gbuffer_debug: Option<strata::frame::GbufferView>,
 }
 
 #[derive(Args)]
@@ -201,7 +260,7 @@ struct HistogramArgs {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Toggle {
+pub enum Toggle {
     On,
     Off,
 }
@@ -266,6 +325,7 @@ fn run(command: Command) -> Result<()> {
         Command::Info { json } => info(json),
         Command::Histogram(a) => histogram(a),
         Command::Bench(a) => bench::run(a),
+        Command::View(a) => view::run(a),
     }
 }
 
@@ -323,6 +383,7 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
         }
     }
     let mut scene = loaders::load_scene(&scene_spec)?;
+    apply_camera(&mut scene, p)?;
     if let Some(a) = p.alpha {
         scene.override_alpha(a);
     }
@@ -373,6 +434,46 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     };
     options.validate()?;
     Ok((scene, options))
+}
+
+/// `--eye`, `--target`, `--up`, `--fov` over the scene's camera (or its framing).
+fn apply_camera(scene: &mut Scene, p: &PictureArgs) -> Result<()> {
+    if p.eye.is_none() && p.target.is_none() && p.up.is_none() && p.fov.is_none() {
+        return Ok(());
+    }
+    let mut camera = scene.camera_or_framing();
+    if let Some(e) = p.eye {
+        camera.eye = e.into();
+    }
+    if let Some(t) = p.target {
+        camera.target = t.into();
+    }
+    if let Some(u) = p.up {
+        camera.up = u.into();
+    }
+    if let Some(f) = p.fov {
+        if !(f > 0.0 && f < 180.0) {
+            return Err(Error::input(format!(
+                "--fov {f} is outside (0, 180) degrees"
+            )));
+        }
+        match &mut camera.projection {
+            strata::scene::Projection::Perspective { fov_y_deg } => *fov_y_deg = f,
+            strata::scene::Projection::Orthographic { .. } => {
+                return Err(Error::input(
+                    "--fov applies to perspective cameras; this scene's camera is orthographic",
+                ))
+            }
+        }
+    }
+    let forward = camera.target - camera.eye;
+    if forward.length_squared() == 0.0 || forward.cross(camera.up).length_squared() == 0.0 {
+        return Err(Error::input(
+            "the camera's eye, target and up do not define a view (eye = target, or up along the view direction)",
+        ));
+    }
+    scene.camera = Some(camera);
+    Ok(())
 }
 
 fn write_outputs(
@@ -472,16 +573,17 @@ fn render(a: RenderArgs) -> Result<()> {
     if let Some(range) = a.frames.clone() {
         return render_sequence(a, &range);
     }
-    let (scene, options) = prepare_render(&a, &a.picture)?;
+    let (scene, options) = prepare_render(&a.method, &a.picture)?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",
-        options.width, options.height, a.method
+        options.width, options.height, a.method.method
     ));
-    let rendered = if a.method == MethodId::Reference {
+    let rendered = if a.method.method == MethodId::Reference {
         strata::reference::render(&scene, &options)
     } else {
-        Gpu::new()
-            .and_then(|gpu| Renderer::new(&gpu, &scene, &options)?.render_method(a.method, None))
+        Gpu::new().and_then(|gpu| {
+            Renderer::new(&gpu, &scene, &options)?.render_method(a.method.method, None)
+        })
     };
     busy.finish_and_clear();
     let (image, stats) = rendered?;
@@ -497,7 +599,7 @@ fn render(a: RenderArgs) -> Result<()> {
 }
 
 /// The scene and options of a render: the picture's, then the method options.
-fn prepare_render(a: &RenderArgs, picture: &PictureArgs) -> Result<(Scene, RenderOptions)> {
+pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     let (scene, mut options) = prepare(picture)?;
     if let Some(r) = a.robustness {
         if options.k_auto.is_none() {
@@ -599,7 +701,7 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
         return Err(Error::input("--frame and --frames exclude each other"));
     }
     frame_path(&a.output, frames.start)?;
-    let gpu = if a.method == MethodId::Reference {
+    let gpu = if a.method.method == MethodId::Reference {
         None
     } else {
         Some(Gpu::new()?)
@@ -613,7 +715,7 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
             frame: Some(n as f32),
             ..a.picture.clone()
         };
-        let (scene, options) = prepare_render(&a, &picture)?;
+        let (scene, options) = prepare_render(&a.method, &picture)?;
         let (image, stats) = match &gpu {
             None => strata::reference::render(&scene, &options)?,
             Some(gpu) => {
@@ -624,7 +726,7 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
                     }
                     None => renderer.insert(Renderer::new(gpu, &scene, &options)?),
                 };
-                r.render_method(a.method, None)?
+                r.render_method(a.method.method, None)?
             }
         };
         let path = frame_path(&a.output, n)?;
@@ -798,17 +900,9 @@ fn gpu_histogram(scene: &Scene, options: &RenderOptions) -> Result<Vec<u64>> {
 
 fn histogram(a: HistogramArgs) -> Result<()> {
     let picture = PictureArgs {
-        scene: a.scene,
         size: a.size,
         effect: Effect::Complexity,
-        shading: None,
-        background: None,
-        alpha: None,
-        k: None,
-        frame: None,
-        pipeline: None,
-        lights: None,
-        tonemap: Default::default(),
+        ..PictureArgs::for_scene(a.scene)
     };
     let (scene, options) = prepare(&picture)?;
     let hist = if a.cpu {

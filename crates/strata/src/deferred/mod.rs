@@ -57,8 +57,9 @@ use crate::frame::scene_gpu::SceneGpu;
 use crate::frame::uniforms::{self, GpuLight};
 use crate::frame::RenderOptions;
 use crate::gpu::binding::{self, Slot};
+use crate::gpu::passes::{self, screen_pipeline};
 use crate::gpu::timing::Timer;
-use crate::gpu::{passes, shader, Gpu};
+use crate::gpu::{shader, Gpu};
 use crate::scene::{Camera, Scene};
 
 /// How opaque surfaces are lit (`--pipeline`).
@@ -363,46 +364,6 @@ fn target(
         blend,
         write_mask: wgpu::ColorWrites::ALL,
     })
-}
-
-/// A pipeline drawing `vertex_entry` (no vertex buffers) into `targets`.
-#[allow(clippy::too_many_arguments)]
-fn screen_pipeline(
-    gpu: &Gpu,
-    label: &str,
-    module: &wgpu::ShaderModule,
-    (vertex_entry, fragment_entry): (&str, &str),
-    layouts: &[&wgpu::BindGroupLayout],
-    targets: &[Option<wgpu::ColorTargetState>],
-    cull_mode: Option<wgpu::Face>,
-    depth: Option<wgpu::DepthStencilState>,
-) -> wgpu::RenderPipeline {
-    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
-    gpu.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(label),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some(vertex_entry),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode,
-                ..Default::default()
-            },
-            depth_stencil: depth,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some(fragment_entry),
-                compilation_options: Default::default(),
-                targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
 }
 
 impl Passes {

@@ -66,11 +66,34 @@ impl Gpu {
     }
 
     async fn new_async() -> Result<Gpu> {
-        let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::VULKAN);
+        let instance = wgpu::Instance::new(Self::instance_descriptor());
+        Self::open(&instance, None).await
+    }
+
+    /// The instance [`Gpu::new`] opens its adapter from: the backends of `WGPU_BACKEND`
+    /// (default Vulkan).
+    pub fn instance_descriptor() -> wgpu::InstanceDescriptor {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = backends;
-        let instance = wgpu::Instance::new(desc);
-        let adapters = instance.enumerate_adapters(backends).await;
+        desc.backends = Self::backends();
+        desc
+    }
+
+    fn backends() -> wgpu::Backends {
+        wgpu::Backends::from_env().unwrap_or(wgpu::Backends::VULKAN)
+    }
+
+    /// Like [`Gpu::new`], choosing among the adapters of `instance` that can present to
+    /// `surface` (a window's).
+    pub fn for_surface(instance: &wgpu::Instance, surface: &wgpu::Surface<'_>) -> Result<Gpu> {
+        pollster::block_on(Self::open(instance, Some(surface)))
+    }
+
+    async fn open(instance: &wgpu::Instance, surface: Option<&wgpu::Surface<'_>>) -> Result<Gpu> {
+        let backends = Self::backends();
+        let mut adapters = instance.enumerate_adapters(backends).await;
+        if let Some(surface) = surface {
+            adapters.retain(|a| a.is_surface_supported(surface));
+        }
         let wanted_name = std::env::var("WGPU_ADAPTER_NAME")
             .ok()
             .map(|s| s.to_lowercase());
@@ -84,7 +107,6 @@ impl Gpu {
                     ))
                 })?,
             None => {
-                let mut adapters = adapters;
                 // Prefer real GPUs over software rasterizers when both exist.
                 adapters.sort_by_key(|a| match a.get_info().device_type {
                     wgpu::DeviceType::DiscreteGpu => 0,
@@ -95,7 +117,8 @@ impl Gpu {
                 });
                 adapters.into_iter().next().ok_or_else(|| {
                     Error::unsupported(format!(
-                        "no GPU adapter found on backend(s) {backends:?} (on Linux without a GPU, install Mesa's software Vulkan driver: apt-get install mesa-vulkan-drivers)"
+                        "no GPU adapter{} found on backend(s) {backends:?} (on Linux without a GPU, install Mesa's software Vulkan driver: apt-get install mesa-vulkan-drivers)",
+                        if surface.is_some() { " that can present to the window" } else { "" }
                     ))
                 })?
             }

@@ -1,0 +1,644 @@
+//! The viewer's egui panel: every option of `strata render` (greyed out where the method does
+//! not read it), the live statistics, the reference comparison, and the mouse and keys of the
+//! 3D area.
+
+use std::collections::BTreeMap;
+
+use egui::{Color32, Key, PointerButton, Sense, Stroke};
+use strata::frame::FrameStats;
+use strata::methods::kbuffer::DEFAULT_K;
+use strata::methods::MethodId;
+
+use super::state::{applies, families, value_name, Opt, ViewState};
+use crate::{PipelineArg, Toggle};
+
+/// Width of the panel, points.
+pub const PANEL_WIDTH: f32 = 340.0;
+
+/// What the window shows in its 3D area.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shown {
+    Image,
+    Reference,
+    Diff,
+}
+
+/// Asked of the window by the panel or the keys.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    Screenshot,
+    Compare,
+    LoadScene(String),
+}
+
+/// The comparison with the reference as the panel shows it.
+#[derive(Default)]
+pub enum CompareStatus {
+    #[default]
+    Idle,
+    Running {
+        seconds: f32,
+    },
+    Done {
+        rmse: f64,
+        flip: f64,
+        pct_over_2: f64,
+        stale: bool,
+    },
+    Failed(String),
+}
+
+/// The panel's own state between frames.
+pub struct Panel {
+    pub scene_text: String,
+    /// The last message (text, whether it is an error).
+    pub message: Option<(String, bool)>,
+    /// CPU time between frames, smoothed, ms.
+    pub frame_ms: f32,
+    pub shown: Shown,
+    pub compare: CompareStatus,
+}
+
+/// What the panel reads of the frame.
+pub struct Readouts<'a> {
+    pub history: &'a std::collections::VecDeque<FrameStats>,
+    pub histogram: Option<&'a [u64]>,
+    pub target_size: (u32, u32),
+}
+
+impl Panel {
+    pub fn new(scene: &str) -> Panel {
+        Panel {
+            scene_text: scene.to_string(),
+            message: None,
+            frame_ms: 0.0,
+            shown: Shown::Image,
+            compare: CompareStatus::Idle,
+        }
+    }
+}
+
+/// Draws the panel and the 3D area; returns the actions asked for and the 3D area (points).
+pub fn show(
+    ui: &mut egui::Ui,
+    state: &mut ViewState,
+    panel: &mut Panel,
+    readouts: &Readouts<'_>,
+) -> (Vec<Action>, egui::Rect) {
+    let mut actions = Vec::new();
+    egui::Panel::left("strata.view.panel")
+        .exact_size(PANEL_WIDTH)
+        .resizable(false)
+        .show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                controls(ui, state, panel, readouts, &mut actions);
+            });
+        });
+    let area = egui::CentralPanel::no_frame()
+        .show(ui, |ui| {
+            let rect = ui.max_rect();
+            let response = ui.interact(rect, ui.scope_id().with("3d"), Sense::click_and_drag());
+            navigate(ui, state, &response, rect);
+            rect
+        })
+        .inner;
+    if !ui.ctx().egui_wants_keyboard_input() {
+        keys(ui, state, &mut actions);
+    }
+    (actions, area)
+}
+
+fn navigate(ui: &egui::Ui, state: &mut ViewState, response: &egui::Response, rect: egui::Rect) {
+    let d = response.drag_delta();
+    if response.dragged_by(PointerButton::Primary) && !ui.input(|i| i.modifiers.shift) {
+        state.orbit.rotate(d.x, d.y);
+    } else if response.dragged_by(PointerButton::Secondary)
+        || response.dragged_by(PointerButton::Middle)
+        || response.dragged_by(PointerButton::Primary)
+    {
+        state.orbit.pan(d.x, d.y, rect.height());
+    }
+    if response.hovered() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if scroll != 0.0 {
+            state.orbit.zoom(scroll / 50.0);
+        }
+    }
+    if response.double_clicked() {
+        state.reset_view();
+    }
+}
+
+fn keys(ui: &egui::Ui, state: &mut ViewState, actions: &mut Vec<Action>) {
+    ui.input(|i| {
+        let step = 300.0 * i.stable_dt.min(0.1);
+        let held = |k| i.key_down(k);
+        let (mut dx, mut dy) = (0.0, 0.0);
+        if held(Key::ArrowLeft) || held(Key::A) {
+            dx -= step;
+        }
+        if held(Key::ArrowRight) || held(Key::D) {
+            dx += step;
+        }
+        if held(Key::ArrowUp) || held(Key::W) {
+            dy -= step;
+        }
+        if held(Key::ArrowDown) || held(Key::S) {
+            dy += step;
+        }
+        if dx != 0.0 || dy != 0.0 {
+            state.orbit.rotate(dx, dy);
+        }
+        if held(Key::Plus) || held(Key::Equals) || held(Key::PageUp) {
+            state.orbit.zoom(step / 100.0);
+        }
+        if held(Key::Minus) || held(Key::PageDown) {
+            state.orbit.zoom(-step / 100.0);
+        }
+        if i.key_pressed(Key::R) {
+            state.reset_view();
+        }
+        if i.key_pressed(Key::Space) && state.animated() {
+            state.playing = !state.playing;
+        }
+        if i.key_pressed(Key::Period) && state.animated() {
+            state.set_time(state.time() + 1.0);
+        }
+        if i.key_pressed(Key::P) || i.key_pressed(Key::F12) {
+            actions.push(Action::Screenshot);
+        }
+    });
+}
+
+fn controls(
+    ui: &mut egui::Ui,
+    state: &mut ViewState,
+    panel: &mut Panel,
+    readouts: &Readouts<'_>,
+    actions: &mut Vec<Action>,
+) {
+    ui.heading("strata view");
+    if let Some((text, error)) = &panel.message {
+        let color = if *error {
+            Color32::from_rgb(230, 90, 80)
+        } else {
+            ui.visuals().text_color()
+        };
+        ui.colored_label(color, text);
+    }
+    ui.horizontal(|ui| {
+        ui.add(egui::TextEdit::singleline(&mut panel.scene_text).desired_width(220.0));
+        if ui.button("Load").clicked() {
+            actions.push(Action::LoadScene(panel.scene_text.trim().to_string()));
+        }
+    });
+    method_controls(ui, state);
+    picture_controls(ui, state, readouts);
+    camera_controls(ui, state);
+    lighting_controls(ui, state);
+    ui.separator();
+    statistics(ui, panel, readouts);
+    ui.separator();
+    compare_controls(ui, panel, actions);
+    ui.separator();
+    ui.horizontal(|ui| {
+        if ui.button("Screenshot (P)").clicked() {
+            actions.push(Action::Screenshot);
+        }
+        ui.checkbox(&mut state.histogram, "depth histogram");
+    });
+    ui.label("View as command:");
+    let mut line = state.command_line();
+    ui.add(
+        egui::TextEdit::multiline(&mut line)
+            .desired_rows(3)
+            .font(egui::TextStyle::Monospace),
+    );
+    ui.small("Drag: orbit · right/shift-drag: pan · wheel, +/-: zoom · arrows/WASD: orbit · R or double-click: reset · Space: play · . : step · P/F12: screenshot");
+}
+
+/// A combo box over a clap value enum.
+fn choice<T: clap::ValueEnum + PartialEq + Clone>(ui: &mut egui::Ui, label: &str, value: &mut T) {
+    egui::ComboBox::from_label(label)
+        .selected_text(value_name(value))
+        .show_ui(ui, |ui| {
+            for v in T::value_variants() {
+                ui.selectable_value(value, v.clone(), value_name(v));
+            }
+        });
+}
+
+/// An optional number: a checkbox to give it, the number when given.
+fn optional<T: egui::emath::Numeric>(
+    ui: &mut egui::Ui,
+    label: &str,
+    value: &mut Option<T>,
+    default: T,
+    range: std::ops::RangeInclusive<T>,
+) {
+    ui.horizontal(|ui| {
+        let mut on = value.is_some();
+        ui.checkbox(&mut on, label);
+        let mut v = value.unwrap_or(default);
+        ui.add_enabled(on, egui::DragValue::new(&mut v).range(range));
+        *value = on.then_some(v);
+    });
+}
+
+fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
+    let m = &mut state.method;
+    let pipeline = state.picture.pipeline;
+    egui::ComboBox::from_label("method")
+        .selected_text(m.method.as_str())
+        .height(600.0)
+        .show_ui(ui, |ui| {
+            for (family, ids) in families() {
+                ui.label(egui::RichText::new(family).strong());
+                for id in ids {
+                    ui.selectable_value(&mut m.method, id, format!("  {id}"));
+                }
+            }
+        });
+    let id = m.method;
+    ui.add_enabled_ui(applies(Opt::RasterCompute, id, pipeline), |ui| {
+        choice(ui, "raster", &mut m.raster);
+    });
+    ui.add_enabled_ui(applies(Opt::K, id, pipeline), |ui| {
+        let k = &mut state.picture.k;
+        ui.horizontal(|ui| {
+            let mut auto = k.as_deref() == Some("auto");
+            let mut n: u32 = k
+                .as_deref()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(DEFAULT_K);
+            let label = if id == MethodId::Kpeel {
+                "k (layers per pass)"
+            } else {
+                "k"
+            };
+            ui.label(label);
+            ui.add_enabled(!auto, egui::DragValue::new(&mut n).range(1..=256));
+            ui.checkbox(&mut auto, "auto");
+            let new = if auto {
+                Some("auto".to_string())
+            } else {
+                Some(n.to_string())
+            };
+            if new != *k && (k.is_some() || n != DEFAULT_K || auto) {
+                *k = new;
+            }
+        });
+    });
+    ui.add_enabled_ui(applies(Opt::Budget, id, pipeline), |ui| {
+        optional(ui, "budget MiB", &mut m.budget_mb, 64.0, 0.01..=65536.0);
+        if state.picture.k.as_deref() == Some("auto") {
+            optional(ui, "robustness", &mut m.robustness, 0.95, 0.01..=1.0);
+        }
+    });
+    ui.add_enabled_ui(applies(Opt::Tail, id, pipeline), |ui| {
+        choice(ui, "tail", &mut m.tail);
+        let mut culling = m.culling == Toggle::On;
+        ui.checkbox(&mut culling, "culling");
+        m.culling = if culling { Toggle::On } else { Toggle::Off };
+    });
+    ui.add_enabled_ui(applies(Opt::MaxTries, id, pipeline), |ui| {
+        optional(ui, "max tries", &mut m.max_tries, 4096, 1..=1 << 20);
+    });
+    ui.add_enabled_ui(applies(Opt::Layers, id, pipeline), |ui| {
+        optional(ui, "layers", &mut m.layers, 8, 1..=1024);
+    });
+    ui.add_enabled_ui(applies(Opt::HeapSize, id, pipeline), |ui| {
+        optional(ui, "heap size", &mut m.heap_size, 1, 1..=256);
+    });
+    ui.add_enabled_ui(applies(Opt::Weight, id, pipeline), |ui| {
+        choice(ui, "weight", &mut m.weight);
+        ui.horizontal(|ui| {
+            ui.label("depth scale");
+            ui.add(egui::DragValue::new(&mut m.depth_scale).range(1e-4..=1e4));
+        });
+    });
+}
+
+fn picture_controls(ui: &mut egui::Ui, state: &mut ViewState, readouts: &Readouts<'_>) {
+    let p = &mut state.picture;
+    choice(ui, "effect", &mut p.effect);
+    ui.horizontal(|ui| {
+        let (mut w, mut h) = readouts.target_size;
+        ui.label("size");
+        ui.add(egui::DragValue::new(&mut w).range(1..=4096));
+        ui.label("x");
+        ui.add(egui::DragValue::new(&mut h).range(1..=4096));
+        if (w, h) != readouts.target_size {
+            p.size = Some(format!("{w}x{h}"));
+        }
+    });
+    ui.horizontal(|ui| {
+        let mut override_alpha = p.alpha.is_some();
+        ui.checkbox(&mut override_alpha, "opacity");
+        let mut a = p.alpha.unwrap_or(0.5);
+        ui.add_enabled(override_alpha, egui::Slider::new(&mut a, 0.0..=1.0));
+        p.alpha = override_alpha.then_some(a);
+    });
+    ui.horizontal(|ui| {
+        ui.label("background");
+        let mut checker = p.background.as_deref().is_none_or(|b| b == "checker");
+        if ui.radio(checker, "checker").clicked() {
+            checker = true;
+            p.background = Some("checker".into());
+        }
+        let mut color = p
+            .background
+            .as_deref()
+            .and_then(parse_hex)
+            .unwrap_or([32, 48, 64]);
+        if ui.radio(!checker, "color").clicked() {
+            checker = false;
+            p.background = Some(hex(color));
+        }
+        if !checker && ui.color_edit_button_srgb(&mut color).changed() {
+            p.background = Some(hex(color));
+        }
+    });
+    egui::ComboBox::from_label("shading")
+        .selected_text(p.shading.clone().unwrap_or_else(|| "scene's".into()))
+        .show_ui(ui, |ui| {
+            ui.selectable_value(&mut p.shading, None, "scene's");
+            ui.selectable_value(&mut p.shading, Some("unlit".into()), "unlit");
+            ui.selectable_value(&mut p.shading, Some("lit".into()), "lit");
+        });
+    if state.animated() {
+        ui.horizontal(|ui| {
+            let label = if state.playing { "Pause" } else { "Play" };
+            if ui.button(label).clicked() {
+                state.playing = !state.playing;
+            }
+            if ui.button("Step").clicked() {
+                state.set_time(state.time() + 1.0);
+            }
+            let mut t = state.time();
+            if ui
+                .add(egui::Slider::new(&mut t, 0.0..=900.0).text("frame"))
+                .changed()
+            {
+                state.set_time(t);
+            }
+        });
+    }
+}
+
+fn camera_controls(ui: &mut egui::Ui, state: &mut ViewState) {
+    ui.horizontal(|ui| {
+        if let strata::scene::Projection::Perspective { fov_y_deg } = state.home.projection {
+            let mut fov = state.picture.fov.unwrap_or(fov_y_deg);
+            ui.label("field of view");
+            if ui
+                .add(egui::Slider::new(&mut fov, 5.0..=120.0).suffix("°"))
+                .changed()
+            {
+                state.picture.fov = Some(fov);
+            }
+        }
+        if ui.button("Reset view").clicked() {
+            state.reset_view();
+        }
+    });
+}
+
+fn lighting_controls(ui: &mut egui::Ui, state: &mut ViewState) {
+    let p = &mut state.picture;
+    let m = &mut state.method;
+    choice(ui, "pipeline", p.pipeline.get_or_insert(PipelineArg::None));
+    let pipeline = p.pipeline;
+    let mut lights = p.lights.unwrap_or(0);
+    ui.horizontal(|ui| {
+        ui.label("added lights");
+        ui.add(egui::DragValue::new(&mut lights).range(0..=4096));
+    });
+    p.lights = (lights > 0).then_some(lights);
+    ui.add_enabled_ui(applies(Opt::Tonemap, m.method, pipeline), |ui| {
+        choice(ui, "tone map", &mut p.tonemap);
+    });
+    ui.add_enabled_ui(applies(Opt::Deferred, m.method, pipeline), |ui| {
+        ui.checkbox(&mut m.ssao, "SSAO");
+        choice(ui, "normal encoding", &mut m.normal_encoding);
+        egui::ComboBox::from_label("G-buffer view")
+            .selected_text(
+                m.gbuffer_debug
+                    .map(|v| value_name(&v))
+                    .unwrap_or("off".into()),
+            )
+            .show_ui(ui, |ui| {
+                ui.selectable_value(&mut m.gbuffer_debug, None, "off");
+                for v in <strata::frame::GbufferView as clap::ValueEnum>::value_variants() {
+                    ui.selectable_value(&mut m.gbuffer_debug, Some(*v), value_name(v));
+                }
+            });
+    });
+    if pipeline != Some(PipelineArg::Deferred) {
+        m.ssao = false;
+        m.gbuffer_debug = None;
+    }
+}
+
+fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
+    let fps = if panel.frame_ms > 0.0 {
+        1000.0 / panel.frame_ms
+    } else {
+        0.0
+    };
+    ui.label(format!("frame {:.2} ms · {fps:.1} fps", panel.frame_ms));
+    let Some(s) = readouts.history.back() else {
+        ui.label("statistics: waiting for the first frame");
+        return;
+    };
+    let n = |v: Option<u64>| v.map(|v| v.to_string()).unwrap_or_else(|| "—".into());
+    egui::Grid::new("strata.view.stats")
+        .num_columns(2)
+        .striped(true)
+        .show(ui, |ui| {
+            let mut row = |k: &str, v: String| {
+                ui.label(k);
+                ui.label(v);
+                ui.end_row();
+            };
+            row("method", format!("{} ({} raster)", s.method, s.raster));
+            row(
+                "GPU total",
+                s.gpu_ms_total
+                    .map(|t| format!("{t:.3} ms"))
+                    .unwrap_or_else(|| "untimed".into()),
+            );
+            row("geometry passes", n(s.geometry_passes.map(u64::from)));
+            row("k", n(s.k.map(u64::from)));
+            row("fragments", n(s.fragments_generated));
+            row("stored", n(s.fragments_stored));
+            row("dropped", n(s.fragments_dropped));
+            row("lock failures", n(s.lock_failures));
+            row(
+                "overflow",
+                s.overflow
+                    .map(|o| if o { "yes" } else { "no" }.into())
+                    .unwrap_or_else(|| "—".into()),
+            );
+            row(
+                "memory",
+                s.bytes_allocated
+                    .map(|b| format!("{:.2} MiB", b as f64 / 1048576.0))
+                    .unwrap_or_else(|| "—".into()),
+            );
+            row(
+                "max depth complexity",
+                n(s.max_depth_complexity.map(u64::from)),
+            );
+        });
+    if let Some(passes) = &s.gpu_ms {
+        egui::CollapsingHeader::new("GPU ms per pass")
+            .default_open(true)
+            .show(ui, |ui| {
+                egui::Grid::new("strata.view.passes")
+                    .num_columns(2)
+                    .show(ui, |ui| {
+                        for (i, (name, ms)) in passes.iter().enumerate() {
+                            ui.colored_label(series_color(i), name);
+                            ui.label(format!("{ms:.3}"));
+                            ui.end_row();
+                        }
+                    });
+                pass_graph(ui, readouts, passes);
+            });
+    }
+    if let Some(hist) = readouts.histogram {
+        egui::CollapsingHeader::new("depth complexity (pixels per fragment count, log)")
+            .default_open(true)
+            .show(ui, |ui| histogram_chart(ui, hist));
+    }
+}
+
+fn series_color(i: usize) -> Color32 {
+    const COLORS: [Color32; 8] = [
+        Color32::from_rgb(230, 159, 0),
+        Color32::from_rgb(86, 180, 233),
+        Color32::from_rgb(0, 158, 115),
+        Color32::from_rgb(240, 228, 66),
+        Color32::from_rgb(0, 114, 178),
+        Color32::from_rgb(213, 94, 0),
+        Color32::from_rgb(204, 121, 167),
+        Color32::from_rgb(200, 200, 200),
+    ];
+    COLORS[i % COLORS.len()]
+}
+
+/// Each pass's GPU ms over the last frames, one line each, scrolling left.
+fn pass_graph(ui: &mut egui::Ui, readouts: &Readouts<'_>, passes: &BTreeMap<String, f64>) {
+    let size = egui::vec2(ui.available_width(), 90.0);
+    let (response, painter) = ui.allocate_painter(size, Sense::hover());
+    let rect = response.rect;
+    painter.rect_filled(rect, 2.0, ui.visuals().extreme_bg_color);
+    let history = readouts.history;
+    let max = history
+        .iter()
+        .flat_map(|s| s.gpu_ms.iter().flat_map(|m| m.values()))
+        .fold(0.0f64, |a, &b| a.max(b))
+        .max(1e-3);
+    let step = rect.width() / super::viewport::HISTORY as f32;
+    for (i, name) in passes.keys().enumerate() {
+        let points: Vec<egui::Pos2> = history
+            .iter()
+            .enumerate()
+            .filter_map(|(j, s)| {
+                let ms = *s.gpu_ms.as_ref()?.get(name)?;
+                let x = rect.right() - (history.len() - 1 - j) as f32 * step;
+                let y = rect.bottom() - (ms / max) as f32 * rect.height();
+                Some(egui::pos2(x, y))
+            })
+            .collect();
+        painter.add(egui::Shape::line(points, Stroke::new(1.5, series_color(i))));
+    }
+    painter.text(
+        rect.left_top() + egui::vec2(4.0, 2.0),
+        egui::Align2::LEFT_TOP,
+        format!("{max:.3} ms"),
+        egui::FontId::monospace(10.0),
+        ui.visuals().weak_text_color(),
+    );
+}
+
+fn histogram_chart(ui: &mut egui::Ui, hist: &[u64]) {
+    let size = egui::vec2(ui.available_width(), 80.0);
+    let (response, painter) = ui.allocate_painter(size, Sense::hover());
+    let rect = response.rect;
+    painter.rect_filled(rect, 2.0, ui.visuals().extreme_bg_color);
+    let bins = hist.len().max(1);
+    let top = hist.iter().copied().max().unwrap_or(1).max(1) as f32;
+    let w = rect.width() / bins as f32;
+    for (i, &count) in hist.iter().enumerate().filter(|(_, &c)| c > 0) {
+        let h = (1.0 + count as f32).ln() / (1.0 + top).ln() * rect.height();
+        let x = rect.left() + i as f32 * w;
+        painter.rect_filled(
+            egui::Rect::from_min_max(
+                egui::pos2(x, rect.bottom() - h),
+                egui::pos2(x + w.max(1.0), rect.bottom()),
+            ),
+            0.0,
+            Color32::from_rgb(86, 180, 233),
+        );
+    }
+    ui.small(format!(
+        "0 … {} fragments; {} pixels at the tallest bar",
+        bins - 1,
+        top as u64
+    ));
+}
+
+fn compare_controls(ui: &mut egui::Ui, panel: &mut Panel, actions: &mut Vec<Action>) {
+    ui.horizontal(|ui| {
+        let running = matches!(panel.compare, CompareStatus::Running { .. });
+        if ui
+            .add_enabled(!running, egui::Button::new("Compare with reference"))
+            .clicked()
+        {
+            actions.push(Action::Compare);
+        }
+        if let CompareStatus::Running { seconds } = panel.compare {
+            ui.spinner();
+            ui.label(format!("CPU reference… {seconds:.1} s"));
+        }
+    });
+    match &panel.compare {
+        CompareStatus::Done {
+            rmse,
+            flip,
+            pct_over_2,
+            stale,
+        } => {
+            ui.label(format!(
+                "RMSE {rmse:.5} · FLIP {flip:.5} · {pct_over_2:.3}% pixels > 2/255"
+            ));
+            if *stale {
+                ui.small("the view changed since: compare again");
+            }
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut panel.shown, Shown::Image, "image");
+                ui.radio_value(&mut panel.shown, Shown::Reference, "reference");
+                ui.radio_value(&mut panel.shown, Shown::Diff, "diff");
+            });
+        }
+        CompareStatus::Failed(e) => {
+            ui.colored_label(Color32::from_rgb(230, 90, 80), e);
+        }
+        _ => {}
+    }
+}
+
+fn parse_hex(s: &str) -> Option<[u8; 3]> {
+    let h = s.strip_prefix('#')?;
+    if h.len() != 6 {
+        return None;
+    }
+    let c = |i: usize| u8::from_str_radix(&h[i..i + 2], 16).ok();
+    Some([c(0)?, c(2)?, c(4)?])
+}
+
+fn hex(c: [u8; 3]) -> String {
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}

@@ -1,0 +1,530 @@
+//! What the viewer shows, apart from any window: the command-line options it edits, the orbit
+//! camera, which options the current method reads, what a change costs (new options, new
+//! geometry or a new recorder) and the `strata render` line that reproduces the view.
+
+use glam::Vec3;
+use strata::frame::Raster;
+use strata::methods::{self, MethodId};
+use strata::scene::{Camera, Projection};
+
+use crate::{MethodArgs, PictureArgs, PipelineArg, Toggle};
+
+/// An option of the panel that only some methods or pipelines read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Opt {
+    K,
+    /// The tail and culling of k-buffers.
+    Tail,
+    MaxTries,
+    Layers,
+    LayersPerPass,
+    HeapSize,
+    Weight,
+    RasterCompute,
+    Budget,
+    Tonemap,
+    Deferred,
+}
+
+/// The family a method is listed under, and its methods in catalogue order (the reference
+/// excluded: it renders on the CPU, through "Compare with reference").
+pub fn families() -> Vec<(&'static str, Vec<MethodId>)> {
+    let mut out: Vec<(&'static str, Vec<MethodId>)> = Vec::new();
+    for info in methods::catalogue() {
+        let Ok(id) = info.id.parse::<MethodId>() else {
+            continue;
+        };
+        if id == MethodId::Reference {
+            continue;
+        }
+        match out.iter_mut().find(|(f, _)| *f == info.family) {
+            Some((_, list)) => list.push(id),
+            None => out.push((info.family, vec![id])),
+        }
+    }
+    out
+}
+
+fn family(id: MethodId) -> &'static str {
+    methods::catalogue()
+        .into_iter()
+        .find(|m| m.id == id.as_str())
+        .map(|m| m.family)
+        .unwrap_or("")
+}
+
+/// Whether `method` (with `pipeline`) reads option `opt`; the panel greys out the others.
+pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> bool {
+    use MethodId::*;
+    let kbuffer = matches!(family(method), "kbuffer" | "kplus");
+    let locking = matches!(
+        method,
+        KbPs | KbLl | KplusArray | KplusArrayR | KplusHeap | KplusSbuffer | KplusSemiheap
+    );
+    match opt {
+        Opt::K => kbuffer || matches!(method, Kpeel | AbufferFixed),
+        Opt::Tail => kbuffer,
+        Opt::MaxTries => locking,
+        Opt::Layers => matches!(method, F2b | Dual),
+        Opt::LayersPerPass => method == Kpeel,
+        Opt::HeapSize => method == KplusSemiheap,
+        Opt::Weight => method == Wboit,
+        Opt::RasterCompute => strata::raster::supports(method),
+        Opt::Budget => kbuffer || matches!(method, AbufferLl | Sbuffer | Kpeel | AbufferFixed),
+        Opt::Tonemap => matches!(pipeline, Some(PipelineArg::Forward | PipelineArg::Deferred)),
+        Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
+    }
+}
+
+/// An orbit around a target: drag to turn, pan the target, wheel to move closer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    pub target: Vec3,
+    pub up: Vec3,
+    pub distance: f32,
+    /// Radians around `up`, from where the camera started.
+    pub yaw: f32,
+    /// Radians above the plane normal to `up`.
+    pub pitch: f32,
+    back0: Vec3,
+    right0: Vec3,
+}
+
+/// Pitch stays this far from the poles, so `up` never lines up with the view.
+const MAX_PITCH: f32 = 1.55;
+
+impl Orbit {
+    pub fn from_camera(camera: &Camera) -> Orbit {
+        let up = camera.up.normalize_or(Vec3::Y);
+        let offset = camera.eye - camera.target;
+        let distance = offset.length().max(1e-4);
+        let dir = offset / distance;
+        let flat = dir - up * dir.dot(up);
+        let back0 = if flat.length_squared() > 1e-8 {
+            flat.normalize()
+        } else {
+            up.any_orthonormal_vector()
+        };
+        Orbit {
+            target: camera.target,
+            up,
+            distance,
+            yaw: 0.0,
+            pitch: dir.dot(up).clamp(-1.0, 1.0).asin(),
+            back0,
+            right0: up.cross(back0),
+        }
+    }
+
+    pub fn eye(&self) -> Vec3 {
+        let (sy, cy) = self.yaw.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        self.target + self.distance * (cp * (cy * self.back0 + sy * self.right0) + sp * self.up)
+    }
+
+    /// Turns by a drag of (dx, dy) pixels.
+    pub fn rotate(&mut self, dx: f32, dy: f32) {
+        self.yaw -= dx * 0.01;
+        self.pitch = (self.pitch + dy * 0.01).clamp(-MAX_PITCH, MAX_PITCH);
+    }
+
+    /// Moves the target by a drag of (dx, dy) pixels in a view `height` pixels tall.
+    pub fn pan(&mut self, dx: f32, dy: f32, height: f32) {
+        let forward = (self.target - self.eye()).normalize();
+        let right = forward.cross(self.up).normalize();
+        let up = right.cross(forward);
+        let scale = self.distance / height.max(1.0);
+        self.target += (-dx * right + dy * up) * scale;
+    }
+
+    /// Moves closer (steps > 0) or farther, 10% a step.
+    pub fn zoom(&mut self, steps: f32) {
+        self.distance = (self.distance * 0.9f32.powf(steps)).clamp(1e-3, 1e6);
+    }
+}
+
+/// The viewer's editable state: the same options `strata render` takes, and the animation.
+#[derive(Clone, Debug)]
+pub struct ViewState {
+    pub picture: PictureArgs,
+    pub method: MethodArgs,
+    pub orbit: Orbit,
+    /// The camera of the scene with the command line's camera options, for "reset view".
+    pub home: Camera,
+    pub playing: bool,
+    /// Turn the GPU depth-complexity histogram on (one more count pass per frame).
+    pub histogram: bool,
+}
+
+/// What a change of state asks of the frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Change {
+    None,
+    /// The camera moved.
+    Camera,
+    /// The method (and maybe the camera).
+    Method,
+    /// Options the recorder takes as they are (k, tail, size, effect, background, ...), and
+    /// maybe the method and camera.
+    Options,
+    /// Another time step of the same scene, and maybe any of the above.
+    Geometry,
+    /// Everything else: the scene is loaded again and a new recorder made.
+    Rebuild,
+}
+
+impl ViewState {
+    pub fn new(picture: PictureArgs, method: MethodArgs, home: Camera) -> ViewState {
+        ViewState {
+            orbit: Orbit::from_camera(&home),
+            picture,
+            method,
+            home,
+            playing: false,
+            histogram: true,
+        }
+    }
+
+    /// The camera the frame uses: the orbit's, with the scene's projection and planes.
+    pub fn camera(&self) -> Camera {
+        let mut camera = self.home;
+        camera.eye = self.orbit.eye();
+        camera.target = self.orbit.target;
+        camera.up = self.orbit.up;
+        if let (Some(f), Projection::Perspective { fov_y_deg }) =
+            (self.picture.fov, &mut camera.projection)
+        {
+            *fov_y_deg = f;
+        }
+        camera
+    }
+
+    /// Writes the orbit into the picture's camera options, so the command line carries it.
+    pub fn commit_camera(&mut self) {
+        let c = self.camera();
+        self.picture.eye = Some(c.eye.into());
+        self.picture.target = Some(c.target.into());
+        self.picture.up = Some(c.up.into());
+    }
+
+    pub fn reset_view(&mut self) {
+        self.orbit = Orbit::from_camera(&self.home);
+        self.commit_camera();
+    }
+
+    /// Whether the scene animates (its time steps move geometry).
+    pub fn animated(&self) -> bool {
+        self.picture.scene.starts_with("builtin:balls")
+    }
+
+    /// The animation time, frames of the scene.
+    pub fn time(&self) -> f32 {
+        self.picture.frame.unwrap_or(0.0)
+    }
+
+    pub fn set_time(&mut self, t: f32) {
+        self.picture.frame = Some(t.max(0.0));
+    }
+
+    /// What it takes to go from `old` to this state.
+    pub fn change_from(&self, old: &ViewState) -> Change {
+        if rebuild_key(self) != rebuild_key(old) {
+            Change::Rebuild
+        } else if self.picture.frame != old.picture.frame {
+            Change::Geometry
+        } else if options_key(self) != options_key(old) {
+            Change::Options
+        } else if self.method.method != old.method.method {
+            Change::Method
+        } else if self.orbit != old.orbit || self.picture.fov != old.picture.fov {
+            Change::Camera
+        } else {
+            Change::None
+        }
+    }
+
+    /// The `strata render` line that renders this view to a PNG.
+    pub fn command_line(&self) -> String {
+        let p = &self.picture;
+        let m = &self.method;
+        let mut args: Vec<String> = vec!["strata".into(), "render".into(), shell_quote(&p.scene)];
+        let mut push = |name: &str, value: String| {
+            args.push(format!("--{name}"));
+            args.push(shell_quote(&value));
+        };
+        push("method", m.method.as_str().into());
+        if let Some(s) = &p.size {
+            push("size", s.clone());
+        }
+        push("effect", value_name(&p.effect));
+        for (name, v) in [
+            ("shading", &p.shading),
+            ("background", &p.background),
+            ("k", &p.k),
+        ] {
+            if let Some(v) = v {
+                push(name, v.clone());
+            }
+        }
+        if let Some(a) = p.alpha {
+            push("alpha", a.to_string());
+        }
+        if let Some(f) = p.frame {
+            push("frame", f.to_string());
+        }
+        if let Some(pl) = p.pipeline {
+            push("pipeline", value_name(&pl));
+        }
+        if let Some(n) = p.lights {
+            push("lights", n.to_string());
+        }
+        if p.pipeline.is_some_and(|pl| pl != PipelineArg::None) {
+            push("tonemap", value_name(&p.tonemap));
+        }
+        for (name, v) in [("eye", p.eye), ("target", p.target), ("up", p.up)] {
+            if let Some([x, y, z]) = v {
+                push(name, format!("{x},{y},{z}"));
+            }
+        }
+        if let Some(f) = p.fov {
+            push("fov", f.to_string());
+        }
+        let id = m.method;
+        if m.raster != Raster::Hw {
+            push("raster", value_name(&m.raster));
+        }
+        if applies(Opt::LayersPerPass, id, p.pipeline) {
+            if let Some(n) = m.layers_per_pass {
+                push("layers-per-pass", n.to_string());
+            }
+        }
+        if let Some(b) = m.budget_mb {
+            push("budget-mb", b.to_string());
+        }
+        if let Some(r) = m.robustness {
+            push("robustness", r.to_string());
+        }
+        if let Some(h) = m.heap_size {
+            push("heap-size", h.to_string());
+        }
+        if applies(Opt::Weight, id, p.pipeline) {
+            push("weight", value_name(&m.weight));
+            push("depth-scale", m.depth_scale.to_string());
+        }
+        if applies(Opt::Tail, id, p.pipeline) {
+            push("tail", value_name(&m.tail));
+            push("culling", value_name(&m.culling));
+        }
+        if let Some(t) = m.max_tries {
+            push("max-tries", t.to_string());
+        }
+        if let Some(l) = m.layers {
+            push("layers", l.to_string());
+        }
+        if m.ssao {
+            args.push("--ssao".into());
+        }
+        if p.pipeline == Some(PipelineArg::Deferred) {
+            let mut push = |name: &str, value: String| {
+                args.push(format!("--{name}"));
+                args.push(value);
+            };
+            push("normal-encoding", value_name(&m.normal_encoding));
+            if let Some(v) = m.gbuffer_debug {
+                push("gbuffer-debug", value_name(&v));
+            }
+        }
+        args.push("-o".into());
+        args.push("view.png".into());
+        args.join(" ")
+    }
+}
+
+/// A clap value's command-line name.
+pub fn value_name(v: &impl clap::ValueEnum) -> String {
+    v.to_possible_value()
+        .map(|p| p.get_name().to_string())
+        .unwrap_or_default()
+}
+
+fn shell_quote(s: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "-_./:,=+#".contains(c);
+    if !s.is_empty() && s.chars().all(plain) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
+/// The options that need the scene loaded again and a new recorder.
+fn rebuild_key(s: &ViewState) -> String {
+    let (p, m) = (&s.picture, &s.method);
+    format!(
+        "{:?}",
+        (
+            (&p.scene, &p.shading, p.alpha, p.lights, p.pipeline, p.tonemap),
+            (m.raster, m.heap_size, m.weight, m.depth_scale.to_bits()),
+            (m.ssao, m.normal_encoding, m.gbuffer_debug),
+            (
+                m.budget_mb.map(f64::to_bits),
+                m.robustness.map(f64::to_bits)
+            ),
+            (p.k.as_deref() == Some("auto")),
+        )
+    )
+}
+
+/// The options a recorder takes between frames.
+fn options_key(s: &ViewState) -> String {
+    let (p, m) = (&s.picture, &s.method);
+    format!(
+        "{:?}",
+        (
+            (&p.size, p.effect, &p.background, &p.k),
+            (m.tail, m.culling == Toggle::On, m.max_tries, m.layers),
+            m.layers_per_pass,
+        )
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    fn state(args: &[&str]) -> ViewState {
+        let cli = crate::Cli::try_parse_from(["strata", "view"].iter().chain(args).copied())
+            .expect("valid command line");
+        let crate::Command::View(v) = cli.command else {
+            panic!("not a view command")
+        };
+        let (scene, _) = crate::prepare_render(&v.method, &v.picture).expect("prepares");
+        ViewState::new(v.picture, v.method, scene.camera_or_framing())
+    }
+
+    #[test]
+    fn greying_follows_the_method_and_pipeline() {
+        use MethodId::*;
+        assert!(applies(Opt::K, KplusHeap, None));
+        assert!(applies(Opt::K, Kpeel, None));
+        assert!(!applies(Opt::K, AbufferLl, None));
+        assert!(!applies(Opt::Tail, Wboit, None));
+        assert!(applies(Opt::MaxTries, KplusArray, None));
+        assert!(!applies(Opt::MaxTries, KbMdt32, None), "MDT takes no lock");
+        assert!(applies(Opt::Layers, Dual, None));
+        assert!(!applies(Opt::Layers, Kpeel, None));
+        assert!(applies(Opt::Weight, Wboit, None));
+        assert!(!applies(Opt::Weight, Mboit, None));
+        assert!(applies(Opt::RasterCompute, KbMdt64, None));
+        assert!(!applies(Opt::RasterCompute, KplusHeap, None));
+        assert!(!applies(Opt::Tonemap, Unsorted, None));
+        assert!(applies(Opt::Tonemap, Unsorted, Some(PipelineArg::Forward)));
+        assert!(!applies(
+            Opt::Deferred,
+            Unsorted,
+            Some(PipelineArg::Forward)
+        ));
+        assert!(applies(
+            Opt::Deferred,
+            Unsorted,
+            Some(PipelineArg::Deferred)
+        ));
+    }
+
+    #[test]
+    fn every_gpu_method_is_listed_once_under_its_family() {
+        let listed: Vec<MethodId> = families().into_iter().flat_map(|(_, m)| m).collect();
+        let gpu = methods::catalogue().len() - 1;
+        assert_eq!(listed.len(), gpu);
+        assert!(!listed.contains(&MethodId::Reference));
+        let mut unique = listed.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), listed.len());
+    }
+
+    #[test]
+    fn switching_method_keeps_the_camera_and_asks_for_no_rebuild() {
+        let mut s = state(&["builtin:spheres"]);
+        s.orbit.rotate(40.0, -25.0);
+        s.orbit.zoom(2.0);
+        s.commit_camera();
+        let before = s.clone();
+        s.method.method = MethodId::KplusHeap;
+        assert_eq!(s.change_from(&before), Change::Method);
+        assert_eq!(s.camera().eye, before.camera().eye);
+        s.picture.k = Some("8".into());
+        assert_eq!(s.change_from(&before), Change::Options);
+        let moved = s.clone();
+        s.method.raster = Raster::Compute;
+        assert_eq!(s.change_from(&moved), Change::Rebuild);
+        assert_eq!(s.camera().eye, before.camera().eye);
+    }
+
+    #[test]
+    fn orbit_starts_at_the_scene_camera_and_resets_there() {
+        let mut s = state(&["builtin:spheres", "--eye", "1,2,6", "--target", "0,0.5,0"]);
+        let home = s.camera();
+        assert!((home.eye - Vec3::new(1.0, 2.0, 6.0)).length() < 1e-5);
+        s.orbit.rotate(100.0, 30.0);
+        s.orbit.pan(10.0, 5.0, 512.0);
+        s.commit_camera();
+        assert!((s.camera().eye - home.eye).length() > 0.1);
+        s.reset_view();
+        assert!((s.camera().eye - home.eye).length() < 1e-5);
+        for _ in 0..1000 {
+            s.orbit.rotate(0.0, 50.0);
+        }
+        let c = s.camera();
+        assert!((c.target - c.eye).normalize().cross(c.up).length() > 0.01);
+    }
+
+    #[test]
+    fn command_line_parses_back_to_the_same_picture() {
+        let mut s = state(&[
+            "builtin:balls?count=50",
+            "--method",
+            "kplus-heap",
+            "--k",
+            "4",
+            "--size",
+            "96x64",
+            "--background",
+            "#102030",
+        ]);
+        s.orbit.rotate(33.0, 12.0);
+        s.orbit.zoom(1.5);
+        s.picture.fov = Some(37.5);
+        s.set_time(12.5);
+        s.commit_camera();
+        let line = s.command_line();
+        assert!(line.contains("'builtin:balls?count=50'"), "{line}");
+        let words = shell_words(&line);
+        let cli = crate::Cli::try_parse_from(&words).expect("the line parses");
+        let crate::Command::Render(r) = cli.command else {
+            panic!("not a render command: {line}")
+        };
+        assert_eq!(r.method.method, MethodId::KplusHeap);
+        let (scene, options) = crate::prepare_render(&r.method, &r.picture).unwrap();
+        let (_, view_options) = crate::prepare_render(&s.method, &s.picture).unwrap();
+        assert_eq!(scene.camera_or_framing(), s.camera());
+        assert_eq!(format!("{options:?}"), format!("{view_options:?}"));
+        assert_eq!(scene.time, 12.5);
+    }
+
+    /// Splits a line of plain words and single-quoted ones.
+    fn shell_words(line: &str) -> Vec<String> {
+        let mut words = Vec::new();
+        let mut word = String::new();
+        let mut quoted = false;
+        for c in line.chars() {
+            match c {
+                '\'' => quoted = !quoted,
+                ' ' if !quoted => words.push(std::mem::take(&mut word)),
+                c => word.push(c),
+            }
+        }
+        words.push(word);
+        words
+    }
+}
