@@ -194,7 +194,7 @@ impl Gfx {
             .with_title("strata view")
             .with_inner_size(PhysicalSize::new(
                 PANEL_WIDTH as u32 + options.width.max(320),
-                options.height.max(720),
+                options.height.max(800),
             ));
         let window = Arc::new(
             event_loop
@@ -417,6 +417,9 @@ impl App {
                 if change == Change::Rebuild {
                     panel.scene_text = state.picture.scene.clone();
                 }
+                if panel.message.as_ref().is_some_and(|m| m.1) {
+                    panel.message = None;
+                }
             }
         }
 
@@ -562,7 +565,7 @@ fn save_screenshot(viewport: &Viewport) -> Result<PathBuf> {
 /// Reads the current picture back and renders the same view with the CPU reference on a
 /// worker thread.
 fn start_compare(gfx: &Gfx, compare: &mut Option<CompareJob>, panel: &mut Panel) {
-    let image = match gfx.viewport.read_target() {
+    let image = match gfx.viewport.comparable_picture() {
         Ok(image) => image,
         Err(e) => {
             panel.compare = CompareStatus::Failed(e.to_string());

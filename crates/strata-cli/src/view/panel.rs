@@ -192,10 +192,17 @@ fn controls(
             actions.push(Action::LoadScene(panel.scene_text.trim().to_string()));
         }
     });
-    method_controls(ui, state);
-    picture_controls(ui, state, readouts);
-    camera_controls(ui, state);
-    lighting_controls(ui, state);
+    egui::CollapsingHeader::new("Method")
+        .default_open(true)
+        .show(ui, |ui| method_controls(ui, state));
+    egui::CollapsingHeader::new("Picture and camera").show(ui, |ui| {
+        picture_controls(ui, state, readouts);
+        camera_controls(ui, state);
+    });
+    egui::CollapsingHeader::new("Lighting").show(ui, |ui| lighting_controls(ui, state));
+    if state.animated() {
+        animation_controls(ui, state);
+    }
     ui.separator();
     statistics(ui, panel, readouts);
     ui.separator();
@@ -366,24 +373,25 @@ fn picture_controls(ui: &mut egui::Ui, state: &mut ViewState, readouts: &Readout
             ui.selectable_value(&mut p.shading, Some("unlit".into()), "unlit");
             ui.selectable_value(&mut p.shading, Some("lit".into()), "lit");
         });
-    if state.animated() {
-        ui.horizontal(|ui| {
-            let label = if state.playing { "Pause" } else { "Play" };
-            if ui.button(label).clicked() {
-                state.playing = !state.playing;
-            }
-            if ui.button("Step").clicked() {
-                state.set_time(state.time() + 1.0);
-            }
-            let mut t = state.time();
-            if ui
-                .add(egui::Slider::new(&mut t, 0.0..=900.0).text("frame"))
-                .changed()
-            {
-                state.set_time(t);
-            }
-        });
-    }
+}
+
+fn animation_controls(ui: &mut egui::Ui, state: &mut ViewState) {
+    ui.horizontal(|ui| {
+        let label = if state.playing { "Pause" } else { "Play" };
+        if ui.button(label).clicked() {
+            state.playing = !state.playing;
+        }
+        if ui.button("Step").clicked() {
+            state.set_time(state.time() + 1.0);
+        }
+        let mut t = state.time();
+        if ui
+            .add(egui::Slider::new(&mut t, 0.0..=900.0).text("frame"))
+            .changed()
+        {
+            state.set_time(t);
+        }
+    });
 }
 
 fn camera_controls(ui: &mut egui::Ui, state: &mut ViewState) {

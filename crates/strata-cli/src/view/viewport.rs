@@ -208,6 +208,35 @@ impl Viewport {
         (self.scene.clone(), self.recorder.options().clone())
     }
 
+    /// The fragment count of every pixel of the last frame (a blocking readback).
+    pub fn read_counts(&self) -> Result<Vec<u32>> {
+        let options = self.recorder.options();
+        let bytes = readback::read_buffer(
+            &self.gpu,
+            self.recorder.resolved(),
+            options.pixels() * strata::frame::RESOLVED_BYTES,
+        )?;
+        let resolved: Vec<strata::frame::Resolved> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok(resolved.iter().map(|r| r.count).collect())
+    }
+
+    /// The picture to compare with the reference's: the render target, or for the complexity
+    /// effect the still pictures' heatmap of the counts (the live one scales to k, the still
+    /// one to the image's maximum).
+    pub fn comparable_picture(&self) -> Result<image::RgbaImage> {
+        let options = self.recorder.options();
+        if options.effect != strata::frame::Effect::Complexity {
+            return self.read_target();
+        }
+        let counts = self.read_counts()?;
+        Ok(strata::metrics::complexity_heatmap(
+            &counts,
+            options.width,
+            options.height,
+            None,
+        ))
+    }
+
     /// The render target as it is now (a blocking readback: screenshots and comparisons only).
     pub fn read_target(&self) -> Result<image::RgbaImage> {
         texture_image(&self.gpu, &self.target)
