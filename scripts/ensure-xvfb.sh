@@ -5,9 +5,10 @@ set -euo pipefail
 
 # The X libraries winit loads at run time (it links none of them).
 x_libraries_missing() {
-  local lib
+  local lib known
+  known="$(ldconfig -p)"
   for lib in libX11.so.6 libXcursor.so.1 libXrandr.so.2 libXi.so.6 libxkbcommon-x11.so.0; do
-    if ! ldconfig -p | grep -q "$lib"; then return 0; fi
+    if ! grep -qF "$lib" <<<"$known"; then return 0; fi
   done
   return 1
 }
