@@ -9,12 +9,6 @@ struct Background {
 
 @group(0) @binding(0) var<uniform> bg: Background;
 
-@vertex
-fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}
-
 @fragment
 fn fs_background(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     let cell = vec2<u32>(pos.xy) / 16u;

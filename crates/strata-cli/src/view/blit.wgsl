@@ -11,12 +11,6 @@ struct Blit {
 @group(0) @binding(0) var<uniform> blit: Blit;
 @group(0) @binding(1) var image: texture_2d<f32>;
 
-@vertex
-fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}
-
 fn srgb_encode(c: f32) -> f32 {
     if c <= 0.0031308 {
         return 12.92 * c;

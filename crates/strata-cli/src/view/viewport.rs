@@ -64,7 +64,14 @@ impl Viewport {
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("strata.view.background"),
-                source: wgpu::ShaderSource::Wgsl(include_str!("background.wgsl").into()),
+                source: wgpu::ShaderSource::Wgsl(
+                    [
+                        include_str!("fullscreen.wgsl"),
+                        include_str!("background.wgsl"),
+                    ]
+                    .join("\n")
+                    .into(),
+                ),
             });
         let layout = binding::layout(&gpu.device, "strata.view.background", &[Slot::Uniform]);
         let background_params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -323,7 +330,11 @@ impl Blit {
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("strata.view.blit"),
-                source: wgpu::ShaderSource::Wgsl(include_str!("blit.wgsl").into()),
+                source: wgpu::ShaderSource::Wgsl(
+                    [include_str!("fullscreen.wgsl"), include_str!("blit.wgsl")]
+                        .join("\n")
+                        .into(),
+                ),
             });
         let layout = binding::layout(
             &gpu.device,
