@@ -21,7 +21,7 @@ use strata::render::Renderer;
 use strata::FrameRecorder;
 use strata::MethodId;
 
-use crate::{prepare, write_json, PictureArgs};
+use crate::{prepare, PictureArgs};
 
 #[derive(Args)]
 pub struct BenchArgs {
@@ -519,7 +519,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
     std::fs::create_dir_all(&dir)
-        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
+        .map_err(|e| Error::input(format!("cannot create '{}': {e}", dir.display())))?;
     let bar = ProgressBar::new((scenes.len() * runs.len()) as u64 * (a.warmup + frames) as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  (eta {eta})")
@@ -615,12 +615,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         results,
     };
     print_table(&report);
-    let base = dir.join(&name);
-    write_json(&base.with_extension("json"), &report)?;
-    std::fs::write(base.with_extension("csv"), csv(&report))
-        .map_err(|e| Error::runtime(format!("cannot write CSV: {e}")))?;
-    eprintln!("wrote {}.json and .csv", base.display());
-    Ok(())
+    crate::write_results(&dir, &name, &report, csv(&report))
 }
 
 /// A scene spec without its parameters, for progress messages.

@@ -9,11 +9,12 @@ mod view;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use strata::error::{Error, Result};
 use strata::frame::{Effect, FrameStats, RenderOptions, Tail};
 use strata::gpu::Gpu;
 use strata::methods::{self, MethodId};
+use strata::output::Outputs;
 use strata::render::{save_png, LinearImage, Renderer};
 use strata::scene::{loaders, Background, Scene, Shading};
 
@@ -62,7 +63,7 @@ pub struct PictureArgs {
     #[arg(default_value = "builtin:demo")]
     pub scene: String,
     /// Image size, WxH (default: the scene's, else 512x512).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub size: Option<String>,
     #[arg(long, value_enum, default_value = "transparency")]
     pub effect: Effect,
@@ -296,7 +297,10 @@ fn main() -> ExitCode {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
-    let cli = match Cli::try_parse() {
+    let cli = match command()
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m))
+    {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => e.exit(), // --help, --version
         Err(e) => {
@@ -314,6 +318,22 @@ fn main() -> ExitCode {
             }
         }
     }
+}
+
+/// The parser: every option that takes a value accepts a negative number (`--alpha -1`), so its
+/// own range check names it, instead of the parser reading `-1` as a flag.
+fn command() -> clap::Command {
+    fn negative_numbers(cmd: clap::Command) -> clap::Command {
+        cmd.mut_args(|arg| {
+            if arg.get_action().takes_values() {
+                arg.allow_negative_numbers(true)
+            } else {
+                arg
+            }
+        })
+        .mut_subcommands(negative_numbers)
+    }
+    negative_numbers(Cli::command())
 }
 
 fn run(command: Command) -> Result<()> {
@@ -483,17 +503,22 @@ fn write_outputs(
     output: &Path,
     stats_path: Option<&Path>,
 ) -> Result<()> {
-    save_png(&image.to_rgba8(effect), output)?;
+    let mut outputs = Outputs::new();
+    outputs.add_png(output, &image.to_rgba8(effect))?;
     if let Some(path) = stats_path {
-        write_json(path, stats)?;
+        outputs.add_json(path, stats)?;
     }
-    Ok(())
+    outputs.commit()
 }
 
-pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| Error::runtime(e.to_string()))?;
-    std::fs::write(path, text + "\n")
-        .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))
+/// Checks before any work that the command's output paths can be written (see
+/// [`strata::output::check_target`]) and are distinct.
+fn check_outputs<'a>(paths: impl IntoIterator<Item = &'a Path>) -> Result<()> {
+    let mut outputs = Outputs::new();
+    for path in paths {
+        outputs.add(path, Vec::new())?;
+    }
+    Ok(())
 }
 
 /// Writes an experiment's results as `DIR/NAME.json` and `DIR/NAME.csv` and says where.
@@ -504,11 +529,12 @@ pub fn write_results(
     csv: String,
 ) -> Result<()> {
     std::fs::create_dir_all(dir)
-        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", dir.display())))?;
+        .map_err(|e| Error::input(format!("cannot create '{}': {e}", dir.display())))?;
     let path = dir.join(name);
-    write_json(&path.with_extension("json"), report)?;
-    std::fs::write(path.with_extension("csv"), csv)
-        .map_err(|e| Error::runtime(format!("cannot write CSV: {e}")))?;
+    let mut outputs = Outputs::new();
+    outputs.add_json(&path.with_extension("json"), report)?;
+    outputs.add(&path.with_extension("csv"), csv.into_bytes())?;
+    outputs.commit()?;
     eprintln!("wrote {}.json and .csv", path.display());
     Ok(())
 }
@@ -573,6 +599,7 @@ fn render(a: RenderArgs) -> Result<()> {
     if let Some(range) = a.frames.clone() {
         return render_sequence(a, &range);
     }
+    check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
     let (scene, options) = prepare_render(&a.method, &a.picture)?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",
@@ -700,7 +727,12 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
     if a.picture.frame.is_some() {
         return Err(Error::input("--frame and --frames exclude each other"));
     }
-    frame_path(&a.output, frames.start)?;
+    let first = frame_path(&a.output, frames.start)?;
+    let last = frame_path(&a.output, frames.end - 1)?;
+    check_outputs(std::iter::once(first.as_path()).chain(a.stats.as_deref()))?;
+    if last != first {
+        check_outputs([last.as_path()])?;
+    }
     let gpu = if a.method.method == MethodId::Reference {
         None
     } else {
@@ -740,8 +772,9 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
     }
     bar.finish_and_clear();
     if let Some(path) = &a.stats {
-        std::fs::write(path, lines)
-            .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))?;
+        let mut outputs = Outputs::new();
+        outputs.add(path, lines.into_bytes())?;
+        outputs.commit()?;
     }
     if let Some((stats, path, tail)) = last {
         summary(&stats, &path, tail);
@@ -751,6 +784,7 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
 }
 
 fn reference(a: ReferenceArgs) -> Result<()> {
+    check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
     let (scene, options) = prepare(&a.picture)?;
     let busy = spinner(format!(
         "rendering {}x{} with the CPU reference",
@@ -771,6 +805,9 @@ fn reference(a: ReferenceArgs) -> Result<()> {
 }
 
 fn compare(a: CompareArgs) -> Result<()> {
+    if let Some(d) = &a.diff {
+        check_outputs([d.as_path()])?;
+    }
     let ia = strata::metrics::load_png(&a.a)?;
     let ib = strata::metrics::load_png(&a.b)?;
     let c = strata::metrics::compare(&ia, &ib)?;
@@ -904,6 +941,9 @@ fn histogram(a: HistogramArgs) -> Result<()> {
         effect: Effect::Complexity,
         ..PictureArgs::for_scene(a.scene)
     };
+    if let Some(out) = &a.out {
+        check_outputs([out.as_path()])?;
+    }
     let (scene, options) = prepare(&picture)?;
     let hist = if a.cpu {
         let (image, _) = strata::reference::render(&scene, &options)?;

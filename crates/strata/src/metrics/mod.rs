@@ -191,25 +191,7 @@ pub fn load_png(path: &Path) -> Result<RgbaImage> {
     Ok(img.into_rgba8())
 }
 
-/// Writes `img` as an 8-bit RGBA PNG, creating `path` only once the image is complete (no
-/// partial file on error).
-///
-/// Errors with [`Error::Input`] naming the path if it cannot be written (for example a missing
-/// directory).
-pub fn save_png(img: &RgbaImage, path: &Path) -> Result<()> {
-    let bad = |e: &dyn std::fmt::Display| {
-        Error::input(format!("{}: cannot write PNG: {e}", path.display()))
-    };
-    let tmp = path.with_extension("png.partial");
-    if let Err(e) = img.save_with_format(&tmp, image::ImageFormat::Png) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(bad(&e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        bad(&e)
-    })
-}
+pub use crate::output::save_png;
 
 /// Depth-complexity histogram: bin `i` counts the pixels with exactly `i` fragments. The result
 /// has `max + 1` bins, `max` being the largest count (so memory grows with it); empty input gives
