@@ -13,6 +13,25 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
+/// The most triangles a scene may have, whatever its source: about 4 GiB of host memory at this
+/// size (the objects' meshes and the flattened upload). Built-in scenes and loaders check their
+/// estimate against it before allocating; the seeds' largest scenes (11.9M triangles) fit.
+pub const MAX_SCENE_TRIANGLES: u64 = 1 << 25;
+
+/// Host bytes one triangle costs while a scene is built and uploaded (meshes and flat vertices).
+const HOST_BYTES_PER_TRIANGLE: u64 = 132;
+
+/// Refuses `triangles` over [`MAX_SCENE_TRIANGLES`], naming `what` makes them.
+pub(crate) fn check_triangle_estimate(what: &str, triangles: u64) -> Result<()> {
+    if triangles <= MAX_SCENE_TRIANGLES {
+        return Ok(());
+    }
+    Err(Error::input(format!(
+        "{what} makes {triangles} triangles (about {:.1} GiB), more than the limit of {MAX_SCENE_TRIANGLES}",
+        (triangles.saturating_mul(HOST_BYTES_PER_TRIANGLE)) as f64 / (1u64 << 30) as f64
+    )))
+}
+
 /// How a fragment's color is computed from its material.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]

@@ -4,12 +4,14 @@
 //! |---|---|---|
 //! | `demo` | — | the default: three translucent models (spot, teapot, suzanne) on an opaque checkerboard floor with an opaque gold ball and column, three point lights and a ring of twelve coloured ones; rendered with the deferred pipeline by default |
 //! | `layers` | `n=16`, `coverage=0.75`, `order=random` (`front`, `back`), `seed=1` | `n` unlit screen-aligned layers with a closed-form composite, see [`layer_colors`] |
-//! | `spheres` | `layers=16` (even) | `layers/2` nested sphere shells: a ray through the centre crosses `layers` surfaces |
+//! | `spheres` | `layers=16` (even), `segments=48` | `layers/2` nested sphere shells: a ray through the centre crosses `layers` surfaces |
 //! | `nvpro` | `objects=1024`, `subdiv=16`, `seed=0` | random translucent UV spheres in [-1,1]³ (the NVIDIA OIT sample's scene) |
 //! | `balls` | `count=1000`, `frame=0` | small spheres on seeded circular orbits; `frame` (30 per second) moves them |
 //! | `dragon`, `bunny`, `suzanne`, `spot`, `teapot` | — | the embedded public test meshes, default material, auto-framed camera |
 //!
-//! Every scene is deterministic: the same spec gives the same scene on every machine.
+//! Every scene is deterministic: the same spec gives the same scene on every machine. A scene's
+//! triangle count is computed from its parameters before anything is built, and a scene over
+//! [`MAX_SCENE_TRIANGLES`](crate::scene::MAX_SCENE_TRIANGLES) is refused naming them.
 
 mod models;
 mod params;
@@ -17,7 +19,7 @@ mod primitives;
 pub(crate) mod rng;
 mod scenes;
 
-pub use primitives::{cube, quad, uv_sphere};
+pub use primitives::{cube, quad, uv_sphere, uv_sphere_triangles};
 pub use scenes::{layer_colors, layer_depth, LAYERS_EXTENT};
 
 use crate::error::{Error, Result};
@@ -41,7 +43,7 @@ pub fn build(spec: &str) -> Result<Scene> {
     let allowed: &[&str] = match name {
         "demo" => &[],
         "layers" => &["n", "coverage", "order", "seed"],
-        "spheres" => &["layers"],
+        "spheres" => &["layers", "segments"],
         "nvpro" => &["objects", "subdiv", "seed"],
         "balls" => &["count", "frame"],
         m if models::MODEL_NAMES.contains(&m) => &[],

@@ -53,6 +53,10 @@ pub fn cube() -> Mesh {
 /// `segments` triangles, so there are no zero-area triangles. Smooth normals (= positions),
 /// CCW seen from outside. `2 · segments · (rings − 1)` triangles.
 pub fn uv_sphere(segments: u32) -> Mesh {
+    debug_assert!(
+        segments < 1 << 15,
+        "uv_sphere({segments}) would overflow its indices"
+    );
     let segments = segments.max(3);
     let rings = (segments / 2).max(2);
     let mut m = Mesh::default();
@@ -87,6 +91,13 @@ pub fn uv_sphere(segments: u32) -> Mesh {
             .extend_from_slice(&[bottom, at(rings - 1, j + 1), at(rings - 1, j)]);
     }
     m
+}
+
+/// The triangles of [`uv_sphere`]`(segments)`, known before it is built.
+pub fn uv_sphere_triangles(segments: u32) -> u64 {
+    let segments = segments.max(3) as u64;
+    let rings = (segments / 2).max(2);
+    2 * segments * (rings - 1)
 }
 
 #[cfg(test)]

@@ -6,7 +6,7 @@ use glam::{Mat4, Quat, Vec3};
 
 use super::models::model_mesh;
 use super::params::Params;
-use super::primitives::{cube, uv_sphere};
+use super::primitives::{cube, uv_sphere, uv_sphere_triangles};
 use super::rng::SplitMix64;
 use crate::error::{Error, Result};
 use crate::scene::{
@@ -142,7 +142,7 @@ pub(super) fn layers(p: &Params) -> Result<Scene> {
 // ---------------------------------------------------------------------------------------------
 // spheres
 
-/// `spheres?layers=16`: `layers/2` concentric UV spheres (48 segments), radii evenly spaced from
+/// `spheres?layers=16&segments=48`: `layers/2` concentric UV spheres, radii evenly spaced from
 /// 0.3 to 1.0 (a single sphere has radius 1), innermost first; each its own hue, opacity 0.3,
 /// lit by two point lights; perspective camera on +Z looking at the centre.
 pub(super) fn spheres(p: &Params) -> Result<Scene> {
@@ -152,8 +152,13 @@ pub(super) fn spheres(p: &Params) -> Result<Scene> {
             "builtin:spheres: layers={layers} must be even (each shell gives 2 layers)"
         )));
     }
+    let segments = p.int("segments", 48, 3, 4096)? as u32;
     let count = (layers / 2) as usize;
-    let unit = uv_sphere(48);
+    crate::scene::check_triangle_estimate(
+        &format!("builtin:spheres: layers={layers} × segments={segments}"),
+        count as u64 * uv_sphere_triangles(segments),
+    )?;
+    let unit = uv_sphere(segments);
     let mut scene = Scene::default();
     for k in 0..count {
         let r = if count == 1 {
@@ -195,6 +200,10 @@ pub(super) fn nvpro(p: &Params) -> Result<Scene> {
     let objects = p.int("objects", 1024, 1, 100_000)? as usize;
     let subdiv = p.int("subdiv", 16, 3, 256)? as u32;
     let seed = p.int("seed", 0, 0, u64::MAX)?;
+    crate::scene::check_triangle_estimate(
+        &format!("builtin:nvpro: objects={objects} × subdiv={subdiv}"),
+        objects as u64 * uv_sphere_triangles(subdiv),
+    )?;
     let mut rng = SplitMix64::new(seed);
     let unit = uv_sphere(subdiv);
     let scale = (1024.0 / objects as f32).cbrt();

@@ -11,6 +11,10 @@
 //! opacity 1; MASK → opacity 1, except that a primitive whose factor alpha is below
 //! `alphaCutoff` (default 0.5) is cut out entirely and dropped. Textures are ignored. A
 //! primitive without a material gets none (the caller's default).
+//!
+//! Buffers: the GLB binary chunk, `data:` URIs in base64, or files relative to the glTF file
+//! (regular files of at most [`MAX_BUFFER_BYTES`]); every failure names the buffer and, for a
+//! file, its path.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -28,6 +32,9 @@ use crate::scene::{Material, Mesh};
 /// Deepest node hierarchy we follow (a cycle would otherwise recurse forever).
 const MAX_DEPTH: usize = 256;
 
+/// The largest external buffer file read.
+pub const MAX_BUFFER_BYTES: u64 = 4 << 30;
+
 pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Part>> {
     let bytes = super::read_file(path)?;
     let base = path.parent().unwrap_or(Path::new(""));
@@ -41,7 +48,7 @@ pub(super) fn parse(
     what: &str,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Part>> {
-    let gltf_err = |e: ::gltf::Error| Error::input(format!("{what}: {}", one_line(e)));
+    let gltf_err = |e: ::gltf::Error| Error::input(format!("{what}: {}", describe(e)));
     let Gltf { document, blob } = Gltf::from_slice_without_validation(bytes).map_err(gltf_err)?;
     // gltf-json's validator indexes the POSITION accessor unchecked: check references first.
     let json = document.into_json();
@@ -61,8 +68,8 @@ pub(super) fn parse(
         }
     }
     let document = ::gltf::Document::from_json(json).map_err(gltf_err)?;
-    let buffers = ::gltf::import_buffers(&document, Some(base), blob).map_err(gltf_err)?;
-    let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b.0[..]).collect();
+    let buffers = load_buffers(&document, base, blob, what)?;
+    let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b[..]).collect();
 
     let roots: Vec<Node> = match document.default_scene() {
         Some(scene) => scene.nodes().collect(),
@@ -85,6 +92,125 @@ pub(super) fn parse(
         ));
     }
     Ok(ctx.parts)
+}
+
+/// Each buffer's bytes, from the GLB chunk, a `data:` URI or a file beside the glTF file.
+fn load_buffers(
+    document: &::gltf::Document,
+    base: &Path,
+    mut blob: Option<Vec<u8>>,
+    what: &str,
+) -> Result<Vec<Vec<u8>>> {
+    let mut out = Vec::new();
+    for buffer in document.buffers() {
+        let i = buffer.index();
+        let err = |msg: String| Error::input(format!("{what}: buffer {i}: {msg}"));
+        let data = match buffer.source() {
+            ::gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                err("refers to the GLB binary chunk, which the file lacks".into())
+            })?,
+            ::gltf::buffer::Source::Uri(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let (media, payload) = rest
+                        .split_once(',')
+                        .ok_or_else(|| err("data URI without a ',' before its payload".into()))?;
+                    if !media.ends_with(";base64") {
+                        return Err(err(format!(
+                            "data URI '{}' is not base64 (only ';base64,' payloads are read)",
+                            media
+                        )));
+                    }
+                    base64::decode(payload).map_err(|e| err(describe_base64(&e, payload)))?
+                } else if uri.contains(':') && !uri.starts_with("file:") {
+                    let scheme = uri.split(':').next().unwrap_or_default();
+                    return Err(err(format!(
+                        "URI scheme '{scheme}:' is not supported (files and data: URIs are)"
+                    )));
+                } else {
+                    let path = uri.strip_prefix("file://").or(uri.strip_prefix("file:"));
+                    let relative = path.is_none();
+                    let decoded = urlencoding::decode(path.unwrap_or(uri)).map_err(|_| {
+                        err(format!("URI '{uri}' is not valid percent-encoded UTF-8"))
+                    })?;
+                    let file = if relative {
+                        base.join(&*decoded)
+                    } else {
+                        std::path::PathBuf::from(&*decoded)
+                    };
+                    super::read_referenced(what, &format!("buffer {i}"), &file, MAX_BUFFER_BYTES)?
+                }
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(err(format!(
+                "has {} bytes, but the file declares byteLength {}",
+                data.len(),
+                buffer.length()
+            )));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// A base64 failure as a phrase naming the character and where it is.
+fn describe_base64(e: &base64::DecodeError, payload: &str) -> String {
+    match *e {
+        base64::DecodeError::InvalidByte(at, byte)
+        | base64::DecodeError::InvalidLastSymbol(at, byte) => {
+            let c = payload[at..].chars().next().unwrap_or(byte as char);
+            format!("data URI is not valid base64: character {c:?} at payload offset {at}")
+        }
+        base64::DecodeError::InvalidLength => format!(
+            "data URI is not valid base64: its payload has {} characters, which no base64 text has",
+            payload.len()
+        ),
+    }
+}
+
+/// A `gltf` failure as one line saying what was expected and found.
+fn describe(e: ::gltf::Error) -> String {
+    use ::gltf::binary::{ChunkType, Error as Glb};
+    let chunk = |t: &ChunkType| match t {
+        ChunkType::Json => "JSON",
+        ChunkType::Bin => "BIN",
+    };
+    match e {
+        ::gltf::Error::Binary(b) => match b {
+            Glb::Io(_) => {
+                "truncated GLB: the file ends inside its 12-byte header or a chunk header".into()
+            }
+            Glb::Version(v) => format!("GLB version {v} is not supported (expected 2)"),
+            Glb::Magic(m) => format!(
+                "not a GLB file (magic {:?}, expected \"glTF\")",
+                String::from_utf8_lossy(&m)
+            ),
+            // Both lengths count what follows the 12-byte header.
+            Glb::Length {
+                length,
+                length_read,
+            } => format!(
+                "truncated GLB: its header declares {} bytes, the file has {}",
+                length as usize + 12,
+                length_read + 12
+            ),
+            Glb::ChunkLength {
+                ty,
+                length,
+                length_read,
+            } => format!(
+                "truncated GLB: the {} chunk declares {length} bytes, {length_read} remain",
+                chunk(&ty)
+            ),
+            Glb::ChunkType(ty) => format!("GLB chunk {} is not where it may be", chunk(&ty)),
+            Glb::UnknownChunkType(t) => format!(
+                "GLB has an unknown chunk type {:?}",
+                String::from_utf8_lossy(&t)
+            ),
+        },
+        ::gltf::Error::Deserialize(j) => format!("invalid glTF JSON: {}", one_line(j)),
+        other => one_line(other),
+    }
 }
 
 fn one_line(e: impl std::fmt::Display) -> String {

@@ -150,8 +150,79 @@ fn check_file(path: &Path, role: &str) -> Result<()> {
     }
 }
 
+/// The largest scene or model file read (a 10M-triangle OBJ is about 1 GiB of text).
+pub const MAX_FILE_BYTES: u64 = 4 << 30;
+/// The largest `.mtl` library read.
+pub const MAX_MTL_BYTES: u64 = 64 << 20;
+
+/// Reads a scene or model file of at most [`MAX_FILE_BYTES`].
 pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|e| Error::input(format!("{}: cannot read: {e}", path.display())))
+    read_capped(path, MAX_FILE_BYTES)
+        .map_err(|why| Error::input(format!("{}: cannot read: {why}", path.display())))
+}
+
+/// Reads a file another file refers to (an `mtllib`, a glTF buffer, a TOML mesh): a regular
+/// file of at most `cap` bytes, never a device or FIFO that could be read forever. The error
+/// names the referring file, the role and the referenced path.
+pub(crate) fn read_referenced(
+    referrer: &str,
+    role: &str,
+    path: &Path,
+    cap: u64,
+) -> Result<Vec<u8>> {
+    read_capped(path, cap)
+        .map_err(|why| Error::input(format!("{referrer}: {role} '{}': {why}", path.display())))
+}
+
+/// The bytes of the regular file `path` if it has at most `cap`; else why not, as a phrase.
+pub(crate) fn read_capped(path: &Path, cap: u64) -> std::result::Result<Vec<u8>, String> {
+    use std::io::Read;
+    let md = std::fs::metadata(path).map_err(|e| io_phrase(&e))?;
+    if !md.is_file() {
+        return Err(if md.is_dir() {
+            "is a directory".into()
+        } else {
+            "is not a regular file".into()
+        });
+    }
+    let too_big = |n: u64| {
+        format!(
+            "is {}, more than the limit of {}",
+            bytes_phrase(n),
+            bytes_phrase(cap)
+        )
+    };
+    if md.len() > cap {
+        return Err(too_big(md.len()));
+    }
+    let file = std::fs::File::open(path).map_err(|e| io_phrase(&e))?;
+    // The file may grow while it is read: never take more than the cap.
+    let mut bytes = Vec::with_capacity(md.len() as usize);
+    file.take(cap + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| io_phrase(&e))?;
+    if bytes.len() as u64 > cap {
+        return Err(too_big(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
+
+fn io_phrase(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "not found".into(),
+        std::io::ErrorKind::PermissionDenied => "permission denied".into(),
+        _ => e.to_string(),
+    }
+}
+
+/// `12.5 MiB`, `300 bytes`.
+pub(crate) fn bytes_phrase(n: u64) -> String {
+    match n {
+        n if n >= 1 << 30 => format!("{:.1} GiB", n as f64 / (1u64 << 30) as f64),
+        n if n >= 1 << 20 => format!("{:.1} MiB", n as f64 / (1u64 << 20) as f64),
+        n if n >= 1 << 10 => format!("{:.1} KiB", n as f64 / 1024.0),
+        n => format!("{n} bytes"),
+    }
 }
 
 /// Gives a mesh normals when it has none (or unusable ones) and validates it.

@@ -30,14 +30,18 @@ pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Part>>
     let bytes = super::read_file(path)?;
     let text = String::from_utf8_lossy(&bytes);
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    let what = path.display().to_string();
     let lookup = |lib: &Path| {
         let full = dir.join(lib);
-        match std::fs::read_to_string(&full) {
-            Ok(t) => MtlLookup::Text(t),
-            Err(e) => MtlLookup::Missing(format!("cannot read '{}': {e}", full.display())),
+        match super::read_capped(&full, super::MAX_MTL_BYTES) {
+            Ok(bytes) => match String::from_utf8(bytes) {
+                Ok(t) => MtlLookup::Text(t),
+                Err(_) => MtlLookup::Missing(format!("'{}' is not UTF-8 text", full.display())),
+            },
+            Err(why) => MtlLookup::Missing(format!("'{}' {why}", full.display())),
         }
     };
-    parse_obj_text(&text, &path.display().to_string(), &lookup, warnings)
+    parse_obj_text(&text, &what, &lookup, warnings)
 }
 
 /// Parses OBJ text; `what` names it in errors and warnings. Parts have normals and are valid.

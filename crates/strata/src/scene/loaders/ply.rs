@@ -109,23 +109,118 @@ fn one_line(e: impl std::fmt::Display) -> String {
         .join(" ")
 }
 
-/// Rejects header numbers `ply-rs` would panic on (it unwraps a u64 parse).
+const SCALAR_TYPES: [&str; 16] = [
+    "char", "uchar", "short", "ushort", "int", "uint", "float", "double", "int8", "uint8", "int16",
+    "uint16", "int32", "uint32", "float32", "float64",
+];
+
+/// Checks the header line by line before `ply-rs` reads it (its errors are debug structures,
+/// and it unwraps a u64 parse), so a bad header gets one line: the line number, the line, what
+/// was expected. Also refuses a face count over the scene limit before anything is read.
 fn check_header(bytes: &[u8], what: &str) -> Result<()> {
-    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
-        let line = String::from_utf8_lossy(line);
-        if line.trim() == "end_header" {
-            break;
-        }
-        let too_long = line
-            .split(|c: char| !c.is_ascii_digit())
-            .any(|digits| digits.len() > 18);
-        if too_long {
-            return Err(Error::input(format!(
-                "{what}: header line {}: number too large",
+    let mut ended = false;
+    let mut element: Option<String> = None;
+    let mut properties: Vec<String> = Vec::new();
+    for (i, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(raw);
+        let line = line.trim();
+        let bad = |expected: &str| {
+            let shown: String = line.chars().take(60).collect();
+            Error::input(format!(
+                "{what}: header line {}: '{shown}': expected {expected}",
                 i + 1
-            )));
+            ))
+        };
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            _ if i == 0 => {
+                if line != "ply" {
+                    return Err(bad("'ply'"));
+                }
+            }
+            ["end_header"] => {
+                ended = true;
+                break;
+            }
+            [] => {}
+            ["comment" | "obj_info", ..] => {}
+            ["format", encoding, version] => {
+                if !["ascii", "binary_little_endian", "binary_big_endian"].contains(encoding) {
+                    return Err(bad(
+                        "format ascii, binary_little_endian or binary_big_endian",
+                    ));
+                }
+                if *version != "1.0" {
+                    return Err(bad("format version 1.0"));
+                }
+            }
+            ["element", name, count] => {
+                let count: u64 = count
+                    .parse()
+                    .ok()
+                    .filter(|_| count.len() <= 18)
+                    .ok_or_else(|| bad("element NAME COUNT with a count below 10^18"))?;
+                if *name == "face" {
+                    crate::scene::check_triangle_estimate(
+                        &format!("{what}: header line {}: element face {count}", i + 1),
+                        count,
+                    )?;
+                }
+                element = Some(name.to_string());
+                properties.clear();
+            }
+            ["property", "list", count_type, item_type, name] => {
+                for t in [count_type, item_type] {
+                    if !SCALAR_TYPES.contains(t) {
+                        return Err(bad(&format!(
+                            "property list COUNT_TYPE ITEM_TYPE NAME with types among {}",
+                            SCALAR_TYPES.join(", ")
+                        )));
+                    }
+                }
+                property(&bad, &element, &mut properties, name)?;
+            }
+            ["property", scalar_type, name] => {
+                if !SCALAR_TYPES.contains(scalar_type) {
+                    return Err(bad(&format!(
+                        "property TYPE NAME with TYPE among {} (or property list ...)",
+                        SCALAR_TYPES.join(", ")
+                    )));
+                }
+                property(&bad, &element, &mut properties, name)?;
+            }
+            _ => {
+                return Err(bad(
+                    "format, element, property, comment, obj_info or end_header",
+                ))
+            }
         }
     }
+    if !ended {
+        return Err(Error::input(format!(
+            "{what}: the header has no 'end_header' line"
+        )));
+    }
+    Ok(())
+}
+
+/// Records a property of the current element; a property outside an element or given twice is
+/// an error.
+fn property(
+    bad: &dyn Fn(&str) -> Error,
+    element: &Option<String>,
+    properties: &mut Vec<String>,
+    name: &str,
+) -> Result<()> {
+    if element.is_none() {
+        return Err(bad("an 'element' line before the first property"));
+    }
+    if properties.iter().any(|p| p == name) {
+        return Err(bad(&format!(
+            "a property name not already used ('{name}' is)"
+        )));
+    }
+    properties.push(name.to_string());
     Ok(())
 }
 
@@ -364,7 +459,7 @@ mod tests {
     fn malformed_inputs_are_one_line_errors() {
         let cases: [(&[u8], &str); 7] = [
             (b"hello", "not a PLY file"),
-            (b"ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\nend_header\n", "number too large"),
+            (b"ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\nend_header\n", "count below 10^18"),
             (b"ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n", "no 'vertex' element"),
             (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n0 0\n", "no 'z' property"),
             (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "vertex index 7 is out of range"),

@@ -191,16 +191,15 @@ struct Ctx<'a> {
     text: &'a str,
     /// (offset where the element starts, `object 2`), in file order.
     elements: Vec<(usize, String)>,
+    /// Offsets of the file's newlines, so a line number costs a binary search (a scene of
+    /// 100,000 objects must not count from the start of the file for each one).
+    newlines: Vec<usize>,
 }
 
 impl Ctx<'_> {
     fn line_of(&self, offset: usize) -> usize {
         let offset = offset.min(self.text.len());
-        self.text.as_bytes()[..offset]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-            + 1
+        self.newlines.partition_point(|&n| n < offset) + 1
     }
 
     /// `line 3, column 11 (opacity = "x")`.
@@ -289,6 +288,12 @@ pub(crate) fn parse(
         file,
         text,
         elements: Vec::new(),
+        newlines: text
+            .bytes()
+            .enumerate()
+            .filter(|&(_, b)| b == b'\n')
+            .map(|(i, _)| i)
+            .collect(),
     };
     // First pass: syntax, top-level keys, and where each element starts.
     let spans: FileDef = ::toml::from_str(text).map_err(|e| ctx.toml_err(e))?;
@@ -371,6 +376,7 @@ pub(crate) fn parse(
     }
 
     let mut models: HashMap<PathBuf, Vec<Part>> = HashMap::new();
+    let mut triangles = 0u64;
     for (i, (o, label)) in def.object.into_iter().zip(object_labels).enumerate() {
         let err = |msg: String| ctx.err(&label, msg);
 
@@ -406,6 +412,12 @@ pub(crate) fn parse(
         };
         let transform = transform(&o).map_err(err)?;
         let flip = transform.determinant() < 0.0;
+        triangles += parts
+            .iter()
+            .map(|(_, m, _)| m.triangle_count() as u64)
+            .sum::<u64>();
+        crate::scene::check_triangle_estimate("the scene up to here", triangles)
+            .map_err(|e| err(e.to_string()))?;
 
         for (part_name, mesh, part_material) in parts {
             let material = match (base_named, inline.is_empty()) {
