@@ -322,8 +322,9 @@ impl FrameRecorder {
             lit.record(encoder, &mut self.timer);
         }
         let mut readback = ReadbackList::default();
+        let size = (self.options.width, self.options.height);
         let recorded = self.with_method(encoder, &frame, &mut readback, draw, |m, ctx| {
-            let recorded = m.record(ctx)?;
+            let recorded = m.record(ctx).map_err(|e| per_pixel_context(e, size))?;
             // The ledger's backstop: every method checks before it allocates.
             ctx.check_budget(recorded.bytes_allocated)?;
             Ok(recorded)
@@ -737,15 +738,36 @@ impl FrameRecorder {
     }
 }
 
+/// Refuses, before anything is allocated, a picture size the device cannot hold: a side over
+/// its texture limit, or more pixels than one storage binding of resolved colors holds.
 fn check_size(gpu: &Gpu, options: &RenderOptions) -> Result<()> {
+    let (w, h) = (options.width, options.height);
     let max_dim = gpu.limits.max_texture_dimension_2d;
-    if options.width > max_dim || options.height > max_dim {
+    if w > max_dim || h > max_dim {
         return Err(Error::unsupported(format!(
-            "size {}x{} exceeds the device's texture limit {max_dim}",
-            options.width, options.height
+            "--size {w}x{h} exceeds the device's texture limit of {max_dim} pixels a side"
+        )));
+    }
+    let max_pixels = gpu.max_storage_binding() / RESOLVED_BYTES;
+    if options.pixels() > max_pixels {
+        let side = (max_pixels as f64).sqrt() as u64;
+        return Err(Error::unsupported(format!(
+            "--size {w}x{h} is {} pixels; this device binds {:.0} MiB in one buffer, which holds the resolved colors of at most {max_pixels} pixels ({side}x{side})",
+            options.pixels(),
+            gpu.max_storage_binding() as f64 / 1048576.0
         )));
     }
     Ok(())
+}
+
+/// A method's buffer that outgrows one binding grows with the picture: say at which size.
+fn per_pixel_context(e: Error, (w, h): (u32, u32)) -> Error {
+    match e {
+        Error::Unsupported(msg) if msg.contains("the device binds at most") => Error::unsupported(
+            format!("{msg} at --size {w}x{h} (a smaller --size or --k needs less)"),
+        ),
+        other => other,
+    }
 }
 
 fn output_buffer(gpu: &Gpu, options: &RenderOptions) -> Result<wgpu::Buffer> {
