@@ -897,3 +897,211 @@ fn view_without_a_display_says_so() {
     let o = strata(&["view", "--method", "reference"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+fn regression(name: &str) -> String {
+    fixture(&format!("regressions/{name}"))
+}
+
+#[test]
+fn negative_option_values_reach_their_range_checks() {
+    let spheres = "builtin:spheres?layers=2&segments=8";
+    assert_bad_input(&["render", spheres, "--alpha", "-1"], "--alpha -1");
+    assert_bad_input(&["render", spheres, "--k", "-1"], "--k '-1'");
+    assert_bad_input(&["render", spheres, "--budget-mb", "-1"], "--budget-mb -1");
+    assert_bad_input(&["render", spheres, "--fov", "-5"], "--fov -5");
+    assert_bad_input(&["render", spheres, "--lights", "-3"], "--lights");
+    let dir = workdir("negative-size");
+    let out = dir.join("out.png");
+    let o = strata(&[
+        "render",
+        spheres,
+        "--size",
+        "-1x64",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).starts_with("error: --size '-1x64'"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn loader_messages_name_the_file_the_element_and_what_was_expected() {
+    assert_bad_input(
+        &["render", &regression("ply_bad_property_type.ply")],
+        "header line 5: 'property floot y': expected property TYPE NAME",
+    );
+    assert_bad_input(
+        &["render", &regression("gltf_missing_buffer.gltf")],
+        "gltf_missing_buffer.gltf: buffer 0 '",
+    );
+    assert_bad_input(
+        &["render", &regression("gltf_buffer_is_device.gltf")],
+        "buffer 0 '/dev/zero': is not a regular file",
+    );
+    assert_bad_input(
+        &["render", &regression("gltf_bad_base64.gltf")],
+        "data URI is not valid base64",
+    );
+    assert_bad_input(
+        &["render", &regression("glb_truncated_body.glb")],
+        "truncated GLB",
+    );
+    assert_bad_input(
+        &["render", &regression("toml_deeply_nested.toml")],
+        "line 1, column",
+    );
+    assert_bad_input(
+        &["render", &regression("ply_face_count_over_limit.ply")],
+        "element face 4000000000 makes 4000000000 triangles",
+    );
+    assert_bad_input(
+        &["render", "builtin:nvpro?objects=100000&subdiv=256"],
+        "objects=100000 × subdiv=256 makes 6502400000 triangles",
+    );
+    // An mtllib naming a device is a warning and is never read.
+    let dir = workdir("mtllib-device");
+    let out = dir.join("out.png");
+    let o = strata(&[
+        "render",
+        &regression("obj_mtllib_device.obj"),
+        "--size",
+        "16x16",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("'/dev/zero' is not a regular file"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_scene_of_100000_objects_loads_within_its_time_bound() {
+    // Each element's line number used to be counted from the start of the file (over a minute
+    // here); the bound is generous for a debug build on a loaded machine.
+    let dir = workdir("many-objects");
+    let scene = dir.join("many.toml");
+    let mut text = String::from("[[material]]\nname = \"m\"\n");
+    for _ in 0..99_999 {
+        text.push_str("[[object]]\nmesh = \"builtin:quad\"\nmaterial = \"m\"\n");
+    }
+    text.push_str("[[object]]\nmesh = \"builtin:quad\"\nmaterial = \"nope\"\n");
+    std::fs::write(&scene, text).unwrap();
+    let started = std::time::Instant::now();
+    assert_bad_input(
+        &["render", scene.to_str().unwrap()],
+        "object 100000 (line 300000): unknown material 'nope'",
+    );
+    assert!(
+        started.elapsed() < std::time::Duration::from_secs(30),
+        "took {:?}",
+        started.elapsed()
+    );
+}
+
+#[test]
+fn outputs_never_replace_devices_or_directories_nor_appear_in_part() {
+    let dir = workdir("outputs");
+    let spheres = "builtin:spheres?layers=2&segments=8";
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", spheres, "--size", "16x16"];
+        args.extend(extra);
+        strata(&args)
+    };
+    // A directory is refused and left as it was.
+    let o = run(&["-o", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("it is a directory"), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "left a file behind"
+    );
+    // A device is refused and stays a device.
+    let o = run(&["-o", "/dev/null"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("it is a device"), "{}", stderr(&o));
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let md = std::fs::metadata("/dev/null").unwrap();
+        assert!(md.file_type().is_char_device());
+    }
+    // A statistics file that cannot be written: no PNG either.
+    let png = dir.join("a.png");
+    let stats = dir.join("no-such-dir").join("s.json");
+    let o = run(&[
+        "-o",
+        png.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("does not exist"), "{}", stderr(&o));
+    assert!(!png.exists(), "the PNG appeared without its statistics");
+    // Two outputs on one file.
+    let o = run(&[
+        "-o",
+        png.to_str().unwrap(),
+        "--stats",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("same output file"), "{}", stderr(&o));
+    // A symbolic link is written through: the link stays, its target gets the picture.
+    #[cfg(unix)]
+    {
+        let target = dir.join("target.png");
+        std::fs::write(&target, b"old").unwrap();
+        let link = dir.join("link.png");
+        std::os::unix::fs::symlink("target.png", &link).unwrap();
+        let o = run(&["-o", link.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert!(std::fs::read(&target).unwrap().starts_with(b"\x89PNG"));
+    }
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.contains("strata-tmp")),
+        "temporaries left: {names:?}"
+    );
+}
+
+#[test]
+fn a_4096_square_frame_renders_or_is_refused_up_front_naming_the_limit() {
+    let dir = workdir("4k");
+    let out = dir.join("4k.png");
+    let o = strata(&[
+        "render",
+        "builtin:spheres?layers=2&segments=8",
+        "--size",
+        "4096x4096",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    if o.status.success() {
+        let img = image::open(&out).unwrap();
+        assert_eq!((img.width(), img.height()), (4096, 4096));
+    } else {
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        let err = stderr(&o);
+        assert!(
+            err.starts_with("error: --size 4096x4096") && err.contains("binds"),
+            "{err}"
+        );
+        assert!(!out.exists());
+    }
+}

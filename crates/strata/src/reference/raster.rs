@@ -11,6 +11,30 @@ use glam::{DMat4, DVec3, DVec4};
 /// Subpixel steps per pixel.
 pub const SUBPIXEL: f64 = 256.0;
 
+/// Half-extent of the guard band in normalized device coordinates: a polygon reaching beyond
+/// ±64 viewports is clipped to it (as GPUs clip at their guard band), which keeps snapped
+/// coordinates below 2²⁷ subpixels at 16384 pixels and their products in i64. Polygons inside
+/// it — every ordinary view — are rasterized exactly as before.
+const GUARD_BAND: f64 = 64.0;
+
+/// Sutherland–Hodgman: the part of `poly` where `distance` ≥ 0, barycentric weights carried.
+fn clip_polygon(poly: Vec<(DVec4, DVec3)>, distance: impl Fn(DVec4) -> f64) -> Vec<(DVec4, DVec3)> {
+    let mut out = Vec::with_capacity(poly.len() + 1);
+    for i in 0..poly.len() {
+        let (a, wa) = poly[i];
+        let (b, wb) = poly[(i + 1) % poly.len()];
+        let (da, db) = (distance(a), distance(b));
+        if da >= 0.0 {
+            out.push((a, wa));
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            out.push((a + (b - a) * t, wa + (wb - wa) * t));
+        }
+    }
+    out
+}
+
 /// A triangle ready to rasterize: snapped window positions and, per corner, what interpolation
 /// needs. A near-clipped triangle becomes several of these with the same primitive index.
 #[derive(Clone, Debug)]
@@ -51,21 +75,22 @@ pub fn setup(
             )
         })
         .collect();
-    // Clip the polygon against z >= 0 (wgpu's near plane), keeping barycentric weights.
-    let mut poly: Vec<(DVec4, DVec3)> = Vec::with_capacity(4);
-    for i in 0..3 {
-        let (a, wa) = clip[i];
-        let (b, wb) = clip[(i + 1) % 3];
-        if a.z >= 0.0 {
-            poly.push((a, wa));
-        }
-        if (a.z >= 0.0) != (b.z >= 0.0) {
-            let t = a.z / (a.z - b.z);
-            poly.push((a + (b - a) * t, wa + (wb - wa) * t));
-        }
+    if clip.iter().any(|(c, _)| !c.is_finite()) {
+        return;
     }
+    // Clip the polygon against z >= 0 (wgpu's near plane), keeping barycentric weights.
+    let mut poly = clip_polygon(clip, |c| c.z);
     if poly.len() < 3 {
         return;
+    }
+    let beyond = |c: &DVec4| c.x.abs() > GUARD_BAND * c.w || c.y.abs() > GUARD_BAND * c.w;
+    if poly.iter().any(|(c, _)| beyond(c)) {
+        for (axis, sign) in [(0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)] {
+            poly = clip_polygon(poly, |c| GUARD_BAND * c.w - sign * c[axis]);
+            if poly.len() < 3 {
+                return;
+            }
+        }
     }
     let project = |(c, w): (DVec4, DVec3)| {
         let inv_w = 1.0 / c.w;
@@ -201,6 +226,21 @@ mod tests {
         }
         v.sort();
         v
+    }
+
+    #[test]
+    fn corners_far_beyond_the_viewport_are_clipped_at_the_guard_band() {
+        // Corners at 1e12 viewports (a --fov of 1e-30 makes such) once overflowed the snapped
+        // integer arithmetic; clipped at the guard band, the triangle covers every pixel once.
+        let huge = ortho_setup([[-1e12, -1e12], [1e12, -1e12], [0.0, 1e12]], 16, 16);
+        assert!(!huge.is_empty());
+        let all = covered(&huge, 16);
+        assert_eq!(all.len(), 256);
+        let mut unique = all.clone();
+        unique.dedup();
+        assert_eq!(unique.len(), 256);
+        // Non-finite corners draw nothing (and do not panic).
+        assert!(ortho_setup([[f64::NAN, 0.0], [1.0, 0.0], [0.0, 1.0]], 16, 16).is_empty());
     }
 
     #[test]
