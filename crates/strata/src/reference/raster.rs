@@ -17,6 +17,10 @@ pub const SUBPIXEL: f64 = 256.0;
 /// it — every ordinary view — are rasterized exactly as before.
 const GUARD_BAND: f64 = 64.0;
 
+/// Window coordinates (pixels) beyond which a corner cannot come from the guard band at any
+/// supported size: only precision loss puts one there.
+const SNAP_LIMIT: f64 = (1u64 << 22) as f64;
+
 /// Sutherland–Hodgman: the part of `poly` where `distance` ≥ 0, barycentric weights carried.
 fn clip_polygon(poly: Vec<(DVec4, DVec3)>, distance: impl Fn(DVec4) -> f64) -> Vec<(DVec4, DVec3)> {
     let mut out = Vec::with_capacity(poly.len() + 1);
@@ -108,6 +112,15 @@ pub fn setup(
     for i in 1..corners.len() - 1 {
         let tri = [corners[0], corners[i], corners[i + 1]];
         let xy = tri.map(|c| c.0);
+        // Clipping an edge whose ends differ by ~1e24 can cancel a clipped corner's w to 0;
+        // such a sliver has no pixels the guard band lets through, and its coordinates would
+        // overflow the integer edge functions.
+        let unsafe_corner = |c: &(_, f64, f64, _, [f64; 2])| {
+            !(c.2.is_finite() && c.2 > 0.0) || c.4.iter().any(|v| !(v.abs() < SNAP_LIMIT))
+        };
+        if tri.iter().any(unsafe_corner) {
+            continue;
+        }
         let area2 = (xy[1][0] - xy[0][0]) * (xy[2][1] - xy[0][1])
             - (xy[2][0] - xy[0][0]) * (xy[1][1] - xy[0][1]);
         if area2 == 0 || tri.iter().any(|c| !c.2.is_finite() || c.2 <= 0.0) {
