@@ -116,7 +116,8 @@ pub fn setup(
         // such a sliver has no pixels the guard band lets through, and its coordinates would
         // overflow the integer edge functions.
         let unsafe_corner = |c: &(_, f64, f64, _, [f64; 2])| {
-            !(c.2.is_finite() && c.2 > 0.0) || c.4.iter().any(|v| !(v.abs() < SNAP_LIMIT))
+            !(c.2.is_finite() && c.2 > 0.0)
+                || c.4.iter().any(|v| v.is_nan() || v.abs() >= SNAP_LIMIT)
         };
         if tri.iter().any(unsafe_corner) {
             continue;
