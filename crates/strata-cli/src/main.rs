@@ -511,7 +511,8 @@ fn write_outputs(
     outputs.commit()
 }
 
-/// Checks before any work that the command's output paths can be written (see
+/// Checks before rendering (after the options, so their errors come first) that the command's
+/// output paths can be written (see
 /// [`strata::output::check_target`]) and are distinct.
 fn check_outputs<'a>(paths: impl IntoIterator<Item = &'a Path>) -> Result<()> {
     let mut outputs = Outputs::new();
@@ -599,8 +600,8 @@ fn render(a: RenderArgs) -> Result<()> {
     if let Some(range) = a.frames.clone() {
         return render_sequence(a, &range);
     }
-    check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
     let (scene, options) = prepare_render(&a.method, &a.picture)?;
+    check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",
         options.width, options.height, a.method.method
@@ -784,8 +785,8 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
 }
 
 fn reference(a: ReferenceArgs) -> Result<()> {
-    check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
     let (scene, options) = prepare(&a.picture)?;
+    check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
     let busy = spinner(format!(
         "rendering {}x{} with the CPU reference",
         options.width, options.height
@@ -941,10 +942,10 @@ fn histogram(a: HistogramArgs) -> Result<()> {
         effect: Effect::Complexity,
         ..PictureArgs::for_scene(a.scene)
     };
+    let (scene, options) = prepare(&picture)?;
     if let Some(out) = &a.out {
         check_outputs([out.as_path()])?;
     }
-    let (scene, options) = prepare(&picture)?;
     let hist = if a.cpu {
         let (image, _) = strata::reference::render(&scene, &options)?;
         strata::metrics::depth_complexity_histogram(&image.counts())
