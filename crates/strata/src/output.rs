@@ -52,10 +52,7 @@ pub fn check_target(path: &Path) -> Result<PathBuf> {
                 )))
             }
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                let dir = match current.parent() {
-                    Some(d) if !d.as_os_str().is_empty() => d,
-                    _ => Path::new("."),
-                };
+                let dir = directory_of(&current);
                 return match std::fs::metadata(dir) {
                     Ok(md) if md.is_dir() => Ok(current),
                     Ok(_) => Err(bad(format!("{} is not a directory", dir.display()))),
@@ -68,6 +65,14 @@ pub fn check_target(path: &Path) -> Result<PathBuf> {
     Err(bad(format!(
         "more than {MAX_LINK_DEPTH} symbolic links (a loop?)"
     )))
+}
+
+/// The directory a file at `path` lives in (`.` for a bare name).
+fn directory_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
 }
 
 fn kind_of(md: &std::fs::Metadata) -> &'static str {
@@ -179,8 +184,7 @@ impl Outputs {
 
 fn same_file(a: &Path, b: &Path) -> bool {
     let canonical = |p: &Path| {
-        let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
-        let dir = std::fs::canonicalize(dir.unwrap_or(Path::new("."))).ok();
+        let dir = std::fs::canonicalize(directory_of(p)).ok();
         dir.zip(p.file_name()).map(|(d, f)| d.join(f))
     };
     a == b || matches!((canonical(a), canonical(b)), (Some(x), Some(y)) if x == y)
@@ -189,10 +193,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// A new temporary file beside `target` holding `bytes`; its path.
 fn write_temporary(target: &Path, bytes: &[u8]) -> std::io::Result<PathBuf> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let dir = match target.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = directory_of(target);
     let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
