@@ -931,38 +931,37 @@ fn negative_option_values_reach_their_range_checks() {
 
 #[test]
 fn loader_messages_name_the_file_the_element_and_what_was_expected() {
-    assert_bad_input(
-        &["render", &regression("ply_bad_property_type.ply")],
-        "header line 5: 'property floot y': expected property TYPE NAME",
-    );
-    assert_bad_input(
-        &["render", &regression("gltf_missing_buffer.gltf")],
-        "gltf_missing_buffer.gltf: buffer 0 '",
-    );
-    assert_bad_input(
-        &["render", &regression("gltf_buffer_is_device.gltf")],
-        "buffer 0 '/dev/zero': is not a regular file",
-    );
-    assert_bad_input(
-        &["render", &regression("gltf_bad_base64.gltf")],
-        "data URI is not valid base64",
-    );
-    assert_bad_input(
-        &["render", &regression("glb_truncated_body.glb")],
-        "truncated GLB",
-    );
-    assert_bad_input(
-        &["render", &regression("toml_deeply_nested.toml")],
-        "line 1, column",
-    );
-    assert_bad_input(
-        &["render", &regression("ply_face_count_over_limit.ply")],
-        "element face 4000000000 makes 4000000000 triangles",
-    );
-    assert_bad_input(
-        &["render", "builtin:nvpro?objects=100000&subdiv=256"],
-        "objects=100000 × subdiv=256 makes 6502400000 triangles",
-    );
+    let cases = [
+        (
+            regression("ply_bad_property_type.ply"),
+            "header line 5: 'property floot y': expected property TYPE NAME",
+        ),
+        (
+            regression("gltf_missing_buffer.gltf"),
+            "gltf_missing_buffer.gltf: buffer 0 '",
+        ),
+        (
+            regression("gltf_buffer_is_device.gltf"),
+            "buffer 0 '/dev/zero': is not a regular file",
+        ),
+        (
+            regression("gltf_bad_base64.gltf"),
+            "data URI is not valid base64",
+        ),
+        (regression("glb_truncated_body.glb"), "truncated GLB"),
+        (regression("toml_deeply_nested.toml"), "line 1, column"),
+        (
+            regression("ply_face_count_over_limit.ply"),
+            "element face 4000000000 makes 4000000000 triangles",
+        ),
+        (
+            "builtin:nvpro?objects=100000&subdiv=256".to_string(),
+            "objects=100000 × subdiv=256 makes 6502400000 triangles",
+        ),
+    ];
+    for (scene, message) in &cases {
+        assert_bad_input(&["render", scene], message);
+    }
     // An mtllib naming a device is a warning and is never read.
     let dir = workdir("mtllib-device");
     let out = dir.join("out.png");
