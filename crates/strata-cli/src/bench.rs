@@ -304,7 +304,7 @@ pub(crate) struct MethodResult {
     /// Wall-clock ms per frame over the timed loop (for `reference`: the median CPU render).
     pub(crate) median_wall_ms: f64,
     /// Frames per second over the timed loop; null for `reference`.
-    fps: Option<f64>,
+    pub(crate) fps: Option<f64>,
     /// Timed frames whose statistics arrived (the rest found every readback slot in flight).
     frames_with_stats: Option<u32>,
     /// Blocking readbacks inside the timed loop, summed over frames (0: real-time).
@@ -387,7 +387,7 @@ pub fn device_slug(gpu: &Gpu) -> String {
 type StandaloneRun = fn(&Gpu, Option<&str>, Option<u32>, &Path) -> Result<()>;
 
 /// The experiments that report their own tables: name, description, runner.
-const STANDALONE: [(&str, &str, StandaloneRun); 3] = [
+const STANDALONE: [(&str, &str, StandaloneRun); 4] = [
     ("auto-k", crate::auto_k::DESCRIPTION, crate::auto_k::run),
     (
         "deferred-lights",
@@ -399,6 +399,7 @@ const STANDALONE: [(&str, &str, StandaloneRun); 3] = [
         crate::cuda_renderer::DESCRIPTION,
         crate::cuda_renderer::run,
     ),
+    ("scale", crate::scale::DESCRIPTION, crate::scale::run),
 ];
 
 /// Size, frame count and whether figures are CPU figures for a standalone experiment: `--size`

@@ -4,6 +4,7 @@ mod auto_k;
 mod bench;
 mod cuda_renderer;
 mod deferred_lights;
+mod scale;
 mod view;
 
 use std::path::{Path, PathBuf};

@@ -25,13 +25,6 @@ struct Frame {
     _pad2: u32,
 }
 
-struct Vertex {
-    position: vec3<f32>,
-    material: u32,
-    normal: vec3<f32>,
-    _pad: u32,
-}
-
 struct Material {
     color: vec3<f32>,
     opacity: f32,
@@ -65,14 +58,14 @@ const LIGHT_DIRECTIONAL: u32 = 2u;
 const SPECULAR: f32 = 0.3;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(1) var<storage, read> vertices: array<Vertex>;
+// Each triangle's index into `materials` (the vertices are a vertex buffer: see `vs_scene`).
+@group(0) @binding(1) var<storage, read> triangle_materials: array<u32>;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
-@group(0) @binding(4) var<storage, read> draw_order: array<u32>;
-@group(0) @binding(5) var opaque_depth: texture_depth_2d;
+@group(0) @binding(4) var opaque_depth: texture_depth_2d;
 // Frame totals every resolve adds its pixels to; cleared before each frame. Keep the TOTAL_
 // indices in sync with `Totals` in crates/strata/src/frame/mod.rs.
-@group(0) @binding(6) var<storage, read_write> totals: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> totals: array<atomic<u32>>;
 
 const TOTAL_GENERATED: u32 = 0u;
 const TOTAL_STORED: u32 = 2u;
@@ -110,16 +103,22 @@ struct SceneVarying {
     @location(3) @interpolate(flat) material: u32,
 }
 
+// The scene's vertex buffer (`GpuVertex`): vertex 3t + i is corner i of triangle t, whether
+// drawn in order or through an index buffer of such vertex numbers (a sorted draw), so the
+// vertex index names the primitive.
 @vertex
-fn vs_scene(@builtin(vertex_index) vertex_index: u32) -> SceneVarying {
-    let prim = draw_order[vertex_index / 3u];
-    let v = vertices[prim * 3u + vertex_index % 3u];
+fn vs_scene(
+    @builtin(vertex_index) vertex_index: u32,
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+) -> SceneVarying {
+    let prim = vertex_index / 3u;
     var out: SceneVarying;
-    out.position = frame.view_proj * vec4<f32>(v.position, 1.0);
-    out.world = v.position;
-    out.normal = v.normal;
+    out.position = frame.view_proj * vec4<f32>(position, 1.0);
+    out.world = position;
+    out.normal = normal;
     out.prim = prim;
-    out.material = v.material;
+    out.material = triangle_materials[prim];
     return out;
 }
 

@@ -770,7 +770,7 @@ impl LitFrame {
     /// drawn (forward, or G-buffer, SSAO, lighting, composite and the debug view).
     pub fn record(&mut self, encoder: &mut wgpu::CommandEncoder, timer: &mut Timer) {
         let unused = view(&self.unused_depth);
-        let frame = self.scene.frame_group(&self.gpu, &unused, None);
+        let frame = self.scene.frame_group(&self.gpu, &unused);
         let hdr = view(&self.targets.hdr);
         let depth = view(&self.targets.depth);
         let clear = wgpu::Color::TRANSPARENT;
@@ -779,6 +779,7 @@ impl LitFrame {
         } else {
             0
         };
+        let scene = &self.scene;
         let depth_attachment = |view, clear_depth: bool| {
             Some(wgpu::RenderPassDepthStencilAttachment {
                 view,
@@ -800,6 +801,7 @@ impl LitFrame {
             });
             pass.set_pipeline(&self.passes.forward);
             pass.set_bind_group(0, Some(&frame), &[]);
+            scene.bind(&mut pass);
             pass.draw(0..triangles, 0..1);
             return;
         }
@@ -832,6 +834,7 @@ impl LitFrame {
             });
             pass.set_bind_group(0, Some(&frame), &[]);
             pass.set_bind_group(1, Some(&self.groups.gbuffer), &[]);
+            scene.bind(&mut pass);
             pass.draw(0..triangles, 0..1);
         }
         if self.options.ssao {
@@ -961,7 +964,7 @@ impl LitFrame {
             )
         });
         let unused = view(&self.unused_depth);
-        let frame = self.scene.frame_group(gpu, &unused, None);
+        let frame = self.scene.frame_group(gpu, &unused);
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("strata.tonemap"),
             color_attachments: &[passes::attachment(target, wgpu::Color::BLACK)],

@@ -403,9 +403,9 @@ pub struct Resolved {
 
 pub const RESOLVED_BYTES: u64 = std::mem::size_of::<Resolved>() as u64;
 
-/// Issues draw calls into a geometry pass whose pipeline and bind groups the method has set: the
-/// vertex stage pulls triangle `t` as vertices 3t..3t+3 of the scene's triangle list, so a
-/// callback draws any ranges (culled subsets, chunks) of it.
+/// Issues draw calls into a geometry pass whose pipeline and bind groups the method has set and
+/// whose vertex-buffer slot 0 holds the scene's triangle list: triangle `t` is vertices
+/// 3t..3t+3, so a callback draws any ranges (culled subsets, chunks) of it.
 pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
 
 /// Where a frame goes: the application's color target (the resolve is blended OVER it; `None`
@@ -462,10 +462,7 @@ pub struct FrameContext<'a> {
 impl FrameContext<'_> {
     /// Records the geometry's draws into a pass whose pipeline and bind groups are set.
     pub fn draw_geometry(&self, pass: &mut wgpu::RenderPass<'_>) {
-        match self.draw {
-            Some(draw) => draw(pass),
-            None => pass.draw(0..self.scene.triangle_count * 3, 0..1),
-        }
+        self.scene.draw(pass, self.draw);
     }
 
     pub fn pixels(&self) -> u64 {

@@ -1,19 +1,24 @@
 //! The scene on the GPU: the flattened triangles, materials, lights, the frame uniforms and the
 //! frame totals, with the group-0 layout every method's pipelines start with.
+//!
+//! The triangles live in a vertex buffer (three [`GpuVertex`] per triangle, 72 bytes), which
+//! the adapter's largest buffer bounds, not its largest storage binding: on lavapipe that is
+//! 2 GiB (29.8M triangles) against 128 MiB (1.9M). Storage holds only each triangle's material
+//! (4 bytes), which resolves look up by the fragment's primitive. The compute rasterizer reads
+//! the vertex buffer as storage, and so refuses a scene beyond one storage binding.
 
 use wgpu::util::DeviceExt;
 
 use super::uniforms::{self, LightingSetup};
-use super::{RenderOptions, TOTAL_WORDS};
+use super::{DrawCallback, RenderOptions, TOTAL_WORDS};
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::Gpu;
-use crate::scene::{Camera, GpuVertex, Scene};
+use crate::scene::{Camera, GpuVertex, Scene, TriangleList, GPU_TRIANGLE_BYTES};
 
-/// Group 0: frame uniforms, vertices, materials, lights, draw order, opaque depth, totals.
-pub const FRAME_SLOTS: [Slot; 7] = [
+/// Group 0: frame uniforms, triangle materials, materials, lights, opaque depth, totals.
+pub const FRAME_SLOTS: [Slot; 6] = [
     Slot::Uniform,
-    Slot::Storage,
     Slot::Storage,
     Slot::Storage,
     Slot::Storage,
@@ -21,24 +26,26 @@ pub const FRAME_SLOTS: [Slot; 7] = [
     Slot::StorageRw,
 ];
 
-/// Scenes with more triangles are refused: a pixel then never sees 2³² fragments in one
-/// geometry pass, so per-pixel u32 counters cannot wrap.
-pub const MAX_TRIANGLES: u64 = 1 << 31;
+/// Scenes with more triangles are refused: vertex indices (3 per triangle) fit in u32, and a
+/// pixel never sees 2³² fragments in one geometry pass, so per-pixel u32 counters cannot wrap.
+pub const MAX_TRIANGLES: u64 = (u32::MAX / 3) as u64;
 
 pub struct SceneGpu {
     pub triangle_count: u32,
+    /// Three [`GpuVertex`] per triangle; bound at vertex-buffer slot 0 by [`SceneGpu::bind`].
     pub vertices: wgpu::Buffer,
+    /// Each triangle's material index.
+    pub triangle_materials: wgpu::Buffer,
     pub materials: wgpu::Buffer,
     pub lights: wgpu::Buffer,
-    pub identity_order: wgpu::Buffer,
     pub uniforms: wgpu::Buffer,
     /// Frame totals (see [`super::Totals`]), cleared at the start of every frame.
     pub totals: wgpu::Buffer,
     pub frame_layout: wgpu::BindGroupLayout,
     pub camera: Camera,
     lighting: LightingSetup,
-    /// Positions of every triangle's vertices, for methods that order triangles on the CPU.
-    pub cpu_positions: Vec<[f32; 3]>,
+    /// Every triangle's centroid, for methods that order triangles on the CPU.
+    pub centroids: Vec<glam::Vec3>,
     /// With `--raster compute`: the layout of the compute rasterizer's group, which the methods'
     /// compute captures place after their own (`None`: the GPU's rasterizer).
     pub raster_layout: Option<wgpu::BindGroupLayout>,
@@ -57,17 +64,16 @@ impl SceneGpu {
             scene.validate()?;
         }
         let triangles = scene.triangle_count() as u64;
-        let vertex_bytes = triangles * 3 * std::mem::size_of::<GpuVertex>() as u64;
-        if triangles >= MAX_TRIANGLES || vertex_bytes > gpu.max_storage_binding() {
-            return Err(Error::unsupported(format!(
-                "scene has {triangles} triangles ({:.0} MiB), more than the device binds in one buffer",
-                vertex_bytes as f64 / 1048576.0
-            )));
-        }
-        let mut tris = scene.triangles();
-        let triangle_count = (tris.len() / 3) as u32;
-        if tris.is_empty() {
-            tris.push(GpuVertex::default()); // bindings cannot be empty
+        check_fits(&gpu.limits, triangles, options.raster)?;
+        let TriangleList {
+            mut vertices,
+            materials: mut triangle_materials,
+        } = scene.triangles();
+        let triangle_count = triangle_materials.len() as u32;
+        if vertices.is_empty() {
+            // Buffers and bindings cannot be empty.
+            vertices.push(GpuVertex::default());
+            triangle_materials.push(0);
         }
         let init = |label: &str, contents: &[u8], usage| {
             gpu.device
@@ -88,13 +94,18 @@ impl SceneGpu {
             lights.push(bytemuck::Zeroable::zeroed()); // bindings cannot be empty
         }
         let camera = scene.camera_or_framing();
-        let order: Vec<u32> = (0..triangle_count.max(1)).collect();
         let u = uniforms::frame_uniforms(&camera, options, &lighting);
         Ok(SceneGpu {
             triangle_count,
+            // STORAGE for the compute rasterizer, which reads it as floats.
             vertices: init(
                 "strata.scene.vertices",
-                bytemuck::cast_slice(&tris),
+                bytemuck::cast_slice(&vertices),
+                wgpu::BufferUsages::VERTEX | storage,
+            ),
+            triangle_materials: init(
+                "strata.scene.triangle_materials",
+                bytemuck::cast_slice(&triangle_materials),
                 storage,
             ),
             materials: init(
@@ -107,7 +118,6 @@ impl SceneGpu {
                 bytemuck::cast_slice(&lights),
                 storage,
             ),
-            identity_order: init("strata.scene.order", bytemuck::cast_slice(&order), storage),
             uniforms: init(
                 "strata.frame.uniforms",
                 bytemuck::bytes_of(&u),
@@ -121,10 +131,7 @@ impl SceneGpu {
             frame_layout: binding::layout(&gpu.device, "strata.frame.layout", &FRAME_SLOTS),
             camera,
             lighting,
-            cpu_positions: tris[..triangle_count as usize * 3]
-                .iter()
-                .map(|v| v.position)
-                .collect(),
+            centroids: centroids(&vertices[..triangle_count as usize * 3]),
             raster_layout: (options.raster == crate::raster::Raster::Compute)
                 .then(|| crate::raster::raster_layout(gpu)),
         })
@@ -147,32 +154,169 @@ impl SceneGpu {
         }
         scene.validate()?;
         let tris = scene.triangles();
+        if tris.vertices.is_empty() {
+            return Ok(true);
+        }
         gpu.queue
-            .write_buffer(&self.vertices, 0, bytemuck::cast_slice(&tris));
-        self.cpu_positions = tris.iter().map(|v| v.position).collect();
+            .write_buffer(&self.vertices, 0, bytemuck::cast_slice(&tris.vertices));
+        gpu.queue.write_buffer(
+            &self.triangle_materials,
+            0,
+            bytemuck::cast_slice(&tris.materials),
+        );
+        self.centroids = centroids(&tris.vertices);
         Ok(true)
     }
 
-    /// Group 0 for a frame, drawing triangles in `order` (default: primitive order).
-    pub fn frame_group(
-        &self,
-        gpu: &Gpu,
-        opaque_depth: &wgpu::TextureView,
-        order: Option<&wgpu::Buffer>,
-    ) -> wgpu::BindGroup {
+    /// Binds the scene's vertex buffer at slot 0 of `pass`, as every scene pipeline reads it.
+    pub fn bind(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+    }
+
+    /// Binds the vertex buffer and draws the geometry: through `draw` (an application's
+    /// callback), or every triangle.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, draw: Option<&DrawCallback<'_>>) {
+        self.bind(pass);
+        match draw {
+            Some(draw) => draw(pass),
+            None => pass.draw(0..self.triangle_count * 3, 0..1),
+        }
+    }
+
+    /// Group 0 for a frame.
+    pub fn frame_group(&self, gpu: &Gpu, opaque_depth: &wgpu::TextureView) -> wgpu::BindGroup {
         binding::group(
             &gpu.device,
             "strata.frame.group",
             &self.frame_layout,
             &[
                 self.uniforms.as_entire_binding(),
-                self.vertices.as_entire_binding(),
+                self.triangle_materials.as_entire_binding(),
                 self.materials.as_entire_binding(),
                 self.lights.as_entire_binding(),
-                order.unwrap_or(&self.identity_order).as_entire_binding(),
                 wgpu::BindingResource::TextureView(opaque_depth),
                 self.totals.as_entire_binding(),
             ],
         )
+    }
+}
+
+fn centroids(vertices: &[GpuVertex]) -> Vec<glam::Vec3> {
+    vertices
+        .chunks_exact(3)
+        .map(|t| {
+            t.iter()
+                .map(|v| glam::Vec3::from(v.position))
+                .sum::<glam::Vec3>()
+                / 3.0
+        })
+        .collect()
+}
+
+/// Refuses, before anything is built, a scene of `triangles` the device cannot hold: its
+/// vertex buffer over the largest buffer, its materials (or, for the compute rasterizer, its
+/// vertices) over the largest storage binding.
+pub fn check_fits(
+    limits: &wgpu::Limits,
+    triangles: u64,
+    raster: crate::raster::Raster,
+) -> Result<()> {
+    let mib = |bytes: u64| bytes as f64 / 1048576.0;
+    let vertex_bytes = triangles * 3 * std::mem::size_of::<GpuVertex>() as u64;
+    let binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let total = triangles * GPU_TRIANGLE_BYTES;
+    if triangles > MAX_TRIANGLES {
+        return Err(Error::unsupported(format!(
+            "scene has {triangles} triangles, more than strata draws in one frame ({MAX_TRIANGLES})"
+        )));
+    }
+    if vertex_bytes > limits.max_buffer_size || triangles * 4 > binding {
+        return Err(Error::unsupported(format!(
+            "scene has {triangles} triangles ({:.0} MiB on the GPU), more than the device holds: its largest buffer is {:.0} MiB (vertices take 72 bytes per triangle) and its largest storage binding {:.0} MiB (materials take 4)",
+            mib(total),
+            mib(limits.max_buffer_size),
+            mib(binding)
+        )));
+    }
+    if raster == crate::raster::Raster::Compute && vertex_bytes > binding {
+        return Err(Error::unsupported(format!(
+            "--raster compute reads the scene's vertices from one storage binding: {triangles} triangles take {:.0} MiB, more than the device's {:.0} MiB; use --raster hw",
+            mib(vertex_bytes),
+            mib(binding)
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::raster::Raster;
+
+    /// Lavapipe's limits: 128 MiB storage bindings, 2 GiB buffers.
+    fn lavapipe() -> wgpu::Limits {
+        wgpu::Limits {
+            max_storage_buffer_binding_size: 128 << 20,
+            max_buffer_size: (2 << 30) - 1,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn vertices_are_bounded_by_the_largest_buffer_not_the_largest_binding() {
+        let limits = lavapipe();
+        // 12M triangles: 824 MiB of vertices, 46 MiB of materials.
+        check_fits(&limits, 12_000_000, Raster::Hw).unwrap();
+        let over = ((2u64 << 30) / 72) + 1;
+        let message = check_fits(&limits, over, Raster::Hw)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("largest buffer is 2048 MiB") && message.contains(&over.to_string()),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn the_compute_rasterizer_refuses_vertices_beyond_one_binding() {
+        let limits = lavapipe();
+        let fits = (128u64 << 20) / 72;
+        check_fits(&limits, fits, Raster::Compute).unwrap();
+        let message = check_fits(&limits, fits + 1, Raster::Compute)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("--raster compute") && message.contains("--raster hw"),
+            "{message}"
+        );
+        check_fits(&limits, fits + 1, Raster::Hw).unwrap();
+    }
+
+    #[test]
+    fn materials_are_bounded_by_the_largest_binding() {
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: 1 << 20,
+            max_buffer_size: 1 << 40,
+            ..Default::default()
+        };
+        check_fits(&limits, 1 << 18, Raster::Hw).unwrap();
+        assert!(check_fits(&limits, (1 << 18) + 1, Raster::Hw).is_err());
+    }
+
+    #[test]
+    fn vertex_numbers_fit_in_u32() {
+        let unbounded = wgpu::Limits {
+            max_storage_buffer_binding_size: 1 << 40,
+            max_buffer_size: 1 << 40,
+            ..Default::default()
+        };
+        check_fits(&unbounded, MAX_TRIANGLES, Raster::Hw).unwrap();
+        let message = check_fits(&unbounded, MAX_TRIANGLES + 1, Raster::Hw)
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("strata draws in one frame"), "{message}");
+        assert!(MAX_TRIANGLES * 3 <= u32::MAX as u64);
     }
 }

@@ -46,7 +46,7 @@ pub fn capture_pipeline_with(
                 module,
                 entry_point: Some("vs_scene"),
                 compilation_options: Default::default(),
-                buffers: &[],
+                buffers: &[Some(crate::scene::GpuVertex::layout())],
             },
             primitive: wgpu::PrimitiveState {
                 cull_mode: None,
@@ -133,6 +133,21 @@ pub fn color_geometry_pass(
     groups: &[&wgpu::BindGroup],
     targets: &[(&wgpu::TextureView, wgpu::Color)],
 ) {
+    let (scene, draw) = (ctx.scene, ctx.draw);
+    color_pass_drawing(ctx, name, pipeline, groups, targets, &|pass| {
+        scene.draw(pass, draw)
+    });
+}
+
+/// [`color_geometry_pass`] with the method's own draws (`draw` binds what it reads).
+pub fn color_pass_drawing(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::RenderPipeline,
+    groups: &[&wgpu::BindGroup],
+    targets: &[(&wgpu::TextureView, wgpu::Color)],
+    draw: &dyn Fn(&mut wgpu::RenderPass<'_>),
+) {
     let label = ctx.label(name);
     let attachments: Vec<_> = targets
         .iter()
@@ -150,10 +165,7 @@ pub fn color_geometry_pass(
     for (i, group) in groups.iter().enumerate() {
         pass.set_bind_group(i as u32, Some(*group), &[]);
     }
-    match ctx.draw {
-        Some(draw) => draw(&mut pass),
-        None => pass.draw(0..ctx.scene.triangle_count * 3, 0..1),
-    }
+    draw(&mut pass);
 }
 
 /// A color attachment the pass clears to `clear` and keeps.
@@ -254,8 +266,7 @@ pub fn storage_geometry_pass(
             return;
         }
     };
-    let draw = ctx.draw;
-    let triangles = ctx.scene.triangle_count;
+    let (scene, draw) = (ctx.scene, ctx.draw);
     let label = ctx.label(name);
     let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(&label),
@@ -269,10 +280,7 @@ pub fn storage_geometry_pass(
     for (i, g) in groups.iter().enumerate() {
         pass.set_bind_group(i as u32, Some(*g), &[]);
     }
-    match draw {
-        Some(draw) => draw(&mut pass),
-        None => pass.draw(0..triangles * 3, 0..1),
-    }
+    scene.draw(&mut pass, draw);
 }
 
 /// A render pass over a throwaway color target, for capture passes whose output goes to

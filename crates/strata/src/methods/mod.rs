@@ -230,7 +230,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "baseline",
             exact: false,
             geometry_passes: "1",
-            memory: "12·W·H + 4·triangles",
+            memory: "12·W·H + 12·triangles",
             summary: "alpha blending after a back-to-front sort of triangle centroids",
         },
         MethodInfo {

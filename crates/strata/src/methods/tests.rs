@@ -152,6 +152,33 @@ fn exact_methods_match_reference_on_nvpro_complexity() {
     );
 }
 
+/// WebGPU's default largest storage binding, and lavapipe's.
+const ONE_STORAGE_BINDING: u64 = 128 << 20;
+
+/// The scene's vertices exceed one storage binding (2.16M triangles, 149 MiB of vertices): they
+/// are drawn from a vertex buffer, and the picture equals the reference.
+#[test]
+fn a_scene_beyond_one_storage_binding_matches_the_reference() {
+    let s = scene("builtin:nvpro?objects=4096&subdiv=24&seed=2");
+    let vertex_bytes =
+        s.triangle_count() as u64 * 3 * std::mem::size_of::<crate::scene::GpuVertex>() as u64;
+    assert!(vertex_bytes > ONE_STORAGE_BINDING, "{vertex_bytes} bytes");
+    let opts = options(32, Effect::Transparency);
+    let expected = render_reference(&s, &opts);
+    for method in ["abuffer-ll", "sbuffer"] {
+        let (actual, stats) = render_gpu(&s, &opts, method);
+        assert_close(
+            &format!("beyond-binding-{method}"),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        assert_eq!(stats.fragments_dropped, Some(0), "{method}");
+    }
+}
+
 #[test]
 fn exact_methods_match_reference_on_the_dragon() {
     let mut s = scene("builtin:dragon");
@@ -369,7 +396,7 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
     let tris = s.triangle_count() as u64;
     for (method, expected) in [
         ("unsorted", 12 * px),
-        ("sorted", 12 * px + 4 * tris),
+        ("sorted", 12 * px + 12 * tris),
         ("f2b", 56 * px),
         (
             "dual",
@@ -522,7 +549,8 @@ fn a_second_frame_keeps_nothing_of_the_first() {
     opts.k = Some(3);
     let draw_near = move |pass: &mut wgpu::RenderPass<'_>| pass.draw(0..split, 0..1);
     let draw_far = move |pass: &mut wgpu::RenderPass<'_>| pass.draw(split..total, 0..1);
-    for m in frame_test_methods() {
+    // `sorted` draws every triangle itself and refuses a callback (tested below).
+    for m in frame_test_methods().filter(|&m| m != super::MethodId::Sorted) {
         let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
         r.render_method(m, Some(&draw_near)).unwrap();
         let (second, a) = r.render_method(m, Some(&draw_far)).unwrap();
@@ -536,6 +564,28 @@ fn a_second_frame_keeps_nothing_of_the_first() {
         assert_eq!(a.fragments_stored, b.fragments_stored, "{m}");
         assert_eq!(a.max_depth_complexity, b.max_depth_complexity, "{m}");
     }
+}
+
+/// `sorted` draws the scene's triangles through its own index buffer, so an application's draw
+/// callback would be ignored: it is refused instead.
+#[test]
+fn sorted_refuses_a_draw_callback() {
+    let s = scene("builtin:layers?n=4");
+    let mut r = crate::Renderer::new(
+        crate::testing::gpu(),
+        &s,
+        &options(16, Effect::Transparency),
+    )
+    .unwrap();
+    let e = r
+        .render_with("sorted", &|pass| pass.draw(0..6, 0..1))
+        .expect_err("sorted refuses a callback");
+    assert!(
+        matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("draw callback"),
+        "{e}"
+    );
+    // Without one it draws.
+    r.render("sorted").unwrap();
 }
 
 /// Pool allocation counters started just below 2³² saturate: every fragment is counted as

@@ -37,7 +37,7 @@ fn cs_bin(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups)
     if draw >= rp.triangles {
         return;
     }
-    let prim = draw_order[draw];
+    let prim = draw;
     let polygon = clipped_triangle(prim, rp.guard);
     var set_up = 0u;
     for (var j = 0u; j + 2u < min(polygon.count, MAX_CORNERS); j++) {

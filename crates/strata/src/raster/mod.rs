@@ -164,13 +164,20 @@ pub fn guard_band(width: u32, height: u32) -> f32 {
     ((1u32 << 22) / width.max(height).max(1)) as f32 - 1.0
 }
 
-/// The layout of the raster stage's bindings (params, items, counters), which every method's
+/// The bin stage's WGSL (before the shared sources): setup's raster bindings are its group 1.
+pub fn bin_source() -> String {
+    [SETUP_WGSL, BIN_WGSL]
+        .join("\n")
+        .replace("RASTER_GROUP", "1")
+}
+
+/// The layout of the raster stage's bindings (params, items, counters, the scene's vertices), which every method's
 /// compute capture places after its own groups.
 pub fn raster_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     binding::layout(
         &gpu.device,
         "strata.raster.layout",
-        &[Slot::Uniform, Slot::Storage, Slot::Storage],
+        &[Slot::Uniform, Slot::Storage, Slot::Storage, Slot::Storage],
     )
 }
 
@@ -334,18 +341,19 @@ impl ComputeRaster {
         let bin_layout = binding::layout(
             &gpu.device,
             "strata.raster.bin.layout",
-            &[Slot::Uniform, Slot::StorageRw, Slot::StorageRw],
+            &[
+                Slot::Uniform,
+                Slot::StorageRw,
+                Slot::StorageRw,
+                Slot::Storage,
+            ],
         );
         let args_layout = binding::layout(
             &gpu.device,
             "strata.raster.args.layout",
             &[Slot::Uniform, Slot::Storage, Slot::StorageRw],
         );
-        let bin_module = shader::module(
-            &gpu.device,
-            "strata.raster.bin",
-            &[SETUP_WGSL, BIN_WGSL].join("\n"),
-        );
+        let bin_module = shader::module(&gpu.device, "strata.raster.bin", &bin_source());
         let args_module = gpu
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -387,7 +395,8 @@ impl ComputeRaster {
     }
 
     /// Allocates this frame's buffers (binning is recorded by the first geometry pass).
-    pub fn prepare(&mut self, gpu: &Gpu, options: &RenderOptions, triangles: u32) -> Result<()> {
+    pub fn prepare(&mut self, gpu: &Gpu, options: &RenderOptions, scene: &SceneGpu) -> Result<()> {
+        let triangles = scene.triangle_count;
         let capacity = self.capacity.clamp(1, Self::limit(gpu));
         let params = RasterParams {
             triangles,
@@ -418,7 +427,7 @@ impl ComputeRaster {
             bin_group: group(
                 "strata.raster.bin.group",
                 &self.bin_layout,
-                &[&params_buffer, &items, &counters],
+                &[&params_buffer, &items, &counters, &scene.vertices],
             ),
             args_group: group(
                 "strata.raster.args.group",
@@ -428,7 +437,7 @@ impl ComputeRaster {
             raster_group: group(
                 "strata.raster.group",
                 &self.raster_layout,
-                &[&params_buffer, &items, &counters],
+                &[&params_buffer, &items, &counters, &scene.vertices],
             ),
             counters,
             args,

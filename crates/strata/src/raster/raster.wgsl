@@ -71,9 +71,9 @@ fn cs_raster(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     let e1 = corners[1].window - w0;
     let e2 = corners[2].window - w0;
     let area = e1.x * e2.y - e2.x * e1.y;
-    let v0 = vertices[prim * 3u];
-    let v1 = vertices[prim * 3u + 1u];
-    let v2 = vertices[prim * 3u + 2u];
+    let v0 = scene_vertex(prim, 0u);
+    let v1 = scene_vertex(prim, 1u);
+    let v2 = scene_vertex(prim, 2u);
     for (var y = lo.y; y <= hi.y; y++) {
         var row = edge;
         for (var x = lo.x; x <= hi.x; x++) {
@@ -100,7 +100,7 @@ fn cs_raster(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
             v.world = v0.position * weights.x + v1.position * weights.y + v2.position * weights.z;
             v.normal = v0.normal * weights.x + v1.normal * weights.y + v2.normal * weights.z;
             v.prim = prim;
-            v.material = v0.material;
+            v.material = triangle_materials[prim];
             // The GPU path clips at the far plane and tests the opaque depth with LESS.
             if depth > 1.0 || behind_opaque(v.position) {
                 continue;

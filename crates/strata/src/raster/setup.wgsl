@@ -5,6 +5,24 @@
 // 64-bit edge functions, depth interpolated linearly in the window and attributes
 // perspective-correctly, both from the unsnapped window positions.
 
+// The scene's vertex buffer (`GpuVertex`, six floats: position, normal) read as storage; the
+// group is the stage's raster bindings (RASTER_GROUP is replaced).
+@group(RASTER_GROUP) @binding(3) var<storage, read> scene_vertices: array<f32>;
+
+struct SceneVertex {
+    position: vec3<f32>,
+    normal: vec3<f32>,
+}
+
+// Corner `corner` of triangle `prim`.
+fn scene_vertex(prim: u32, corner: u32) -> SceneVertex {
+    let at = (prim * 3u + corner) * 6u;
+    return SceneVertex(
+        vec3<f32>(scene_vertices[at], scene_vertices[at + 1u], scene_vertices[at + 2u]),
+        vec3<f32>(scene_vertices[at + 3u], scene_vertices[at + 4u], scene_vertices[at + 5u]),
+    );
+}
+
 const SUBPIXEL: f32 = 256.0;
 const HALF_SUBPIXEL: i32 = 128;
 // Pixels per side of the tiles large triangles are binned into.
@@ -97,7 +115,7 @@ fn clipped_triangle(prim: u32, guard: f32) -> Polygon {
     var in_front = true;
     var in_guard = true;
     for (var i = 0u; i < 3u; i++) {
-        let v = vertices[prim * 3u + i];
+        let v = scene_vertex(prim, i);
         let clip = frame.view_proj * vec4<f32>(v.position, 1.0);
         polygon.corners[i] = Corner(clip, vec3<f32>(f32(i == 0u), f32(i == 1u), f32(i == 2u)));
         in_front = in_front && clip.z >= 0.0;

@@ -52,10 +52,7 @@ fn validate(label: &str, src: &str) {
 #[test]
 fn every_compute_capture_validates() {
     use crate::methods::kbuffer::{kpeel, list, mdt, sbuffer, slots_capture_source};
-    validate(
-        "raster.bin",
-        &shader::with_shared(&[SETUP_WGSL, BIN_WGSL].join("\n")),
-    );
+    validate("raster.bin", &shader::with_shared(&bin_source()));
     validate("raster.args", ARGS_WGSL);
     let dual = |key: &str| [key, include_str!("../methods/peeling/dual_peel.wgsl")].join("\n");
     let stages: Vec<(String, &[&str])> = vec![

@@ -141,6 +141,7 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
     };
 
     let setups: Vec<raster::SetupTriangle> = tris
+        .vertices
         .par_chunks_exact(3)
         .enumerate()
         .fold(Vec::new, |mut out, (prim, t)| {
@@ -184,8 +185,8 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
             for &i in members {
                 let t = &setups[i as usize];
                 let prim = t.prim as usize;
-                let corners = &tris[prim * 3..prim * 3 + 3];
-                let material = corners[0].material as usize;
+                let corners = &tris.vertices[prim * 3..prim * 3 + 3];
+                let material = tris.materials[prim] as usize;
                 cover(t, y0..y1, |s| {
                     // Depth clipping, and the opaque test against the cleared depth (1.0).
                     if !(0.0..1.0).contains(&s.depth) {

@@ -315,7 +315,7 @@ impl FrameRecorder {
                     "--raster compute rasterizes the scene's own triangles: an application's draw callback needs --raster hw",
                 ));
             }
-            raster.prepare(&self.gpu, &self.options, self.scene.triangle_count)?;
+            raster.prepare(&self.gpu, &self.options, &self.scene)?;
         }
         let frame = self.start_frame(encoder, lit_depth.as_ref().or(targets.opaque_depth));
         if let Some(lit) = &mut self.lit {
@@ -470,7 +470,7 @@ impl FrameRecorder {
         encoder.clear_buffer(&self.scene.totals, 0, None);
         self.timer.reset();
         OpenFrame {
-            group: self.scene.frame_group(&self.gpu, &opaque, None),
+            group: self.scene.frame_group(&self.gpu, &opaque),
             opaque,
         }
     }

@@ -401,16 +401,40 @@ pub struct Scene {
     pub time: f32,
 }
 
-/// One vertex of the flattened triangle list, as the GPU reads it.
-/// Keep in sync with `Vertex` in `shaders/shared/scene.wgsl`.
+/// One vertex of the flattened triangle list: the scene's vertex buffer, which `vs_scene`
+/// (`shaders/shared/scene.wgsl`) reads as locations 0 and 1 and the compute rasterizer as six
+/// floats. Vertex 3t + i is corner i of triangle t.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuVertex {
     pub position: [f32; 3],
-    pub material: u32,
     pub normal: [f32; 3],
-    pub _pad: u32,
 }
+
+impl GpuVertex {
+    pub const ATTRIBUTES: [wgpu::VertexAttribute; 2] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
+
+    /// The vertex-buffer layout of every scene pipeline.
+    pub fn layout() -> wgpu::VertexBufferLayout<'static> {
+        wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<GpuVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &Self::ATTRIBUTES,
+        }
+    }
+}
+
+/// The scene flattened for the GPU: three vertices per triangle in primitive order, and each
+/// triangle's material index.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriangleList {
+    pub vertices: Vec<GpuVertex>,
+    pub materials: Vec<u32>,
+}
+
+/// Bytes per triangle of the flattened scene on the GPU: three vertices and a material index.
+pub const GPU_TRIANGLE_BYTES: u64 = 3 * std::mem::size_of::<GpuVertex>() as u64 + 4;
 
 /// A linear RGB color of full value with the given hue in [0, 1) and saturation.
 fn hue_color(hue: f32, saturation: f32) -> [f32; 3] {
@@ -568,8 +592,12 @@ impl Scene {
     }
 
     /// The flattened triangle list: three vertices per triangle in primitive order.
-    pub fn triangles(&self) -> Vec<GpuVertex> {
-        let mut out = Vec::with_capacity(self.triangle_count() * 3);
+    pub fn triangles(&self) -> TriangleList {
+        let count = self.triangle_count();
+        let mut out = TriangleList {
+            vertices: Vec::with_capacity(count * 3),
+            materials: Vec::with_capacity(count),
+        };
         for o in &self.objects {
             let has_normals = o.mesh.normals.len() == o.mesh.positions.len();
             for t in o.mesh.indices.chunks_exact(3) {
@@ -583,17 +611,16 @@ impl Scene {
                         .to_array()
                 };
                 for &i in t {
-                    out.push(GpuVertex {
+                    out.vertices.push(GpuVertex {
                         position: o.mesh.positions[i as usize],
-                        material: o.material as u32,
                         normal: if has_normals {
                             o.mesh.normals[i as usize]
                         } else {
                             flat
                         },
-                        _pad: 0,
                     });
                 }
+                out.materials.push(o.material as u32);
             }
         }
         out
@@ -606,9 +633,12 @@ mod tests {
 
     #[test]
     fn gpu_vertex_layout() {
-        assert_eq!(std::mem::size_of::<GpuVertex>(), 32);
-        assert_eq!(std::mem::offset_of!(GpuVertex, material), 12);
-        assert_eq!(std::mem::offset_of!(GpuVertex, normal), 16);
+        assert_eq!(std::mem::size_of::<GpuVertex>(), 24);
+        assert_eq!(std::mem::offset_of!(GpuVertex, normal), 12);
+        let layout = GpuVertex::layout();
+        assert_eq!(layout.array_stride, 24);
+        assert_eq!(layout.attributes[1].offset, 12);
+        assert_eq!(GPU_TRIANGLE_BYTES, 76);
     }
 
     #[test]

@@ -3,15 +3,16 @@
 //!
 //! Passes: blend (1 geometry pass, premultiplied over-blending into an Rgba16Float target, with an
 //! atomic per-pixel fragment count), finish (compute: over the background, into the output).
-//! Memory: 8 bytes (Rgba16Float) + 4 bytes (count) per pixel, plus 4 bytes per triangle for
-//! `sorted`'s draw order. Limits: wrong wherever triangles overlap out of order (that is the
+//! Memory: 8 bytes (Rgba16Float) + 4 bytes (count) per pixel, plus 12 bytes per triangle for
+//! `sorted`'s index buffer (the sorted triangles' vertex numbers). `sorted` draws every triangle
+//! of the scene, so it refuses an application's draw callback. Limits: wrong wherever triangles overlap out of order (that is the
 //! point); translucency gets Fresnel opacity but no absorption, which needs ordered neighbours.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
+    capture_pipeline, color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
@@ -73,22 +74,22 @@ impl Blend {
         }
     }
 
-    /// Triangles from farthest to nearest centroid along the view axis.
+    /// The vertex numbers of the triangles from farthest to nearest centroid along the view
+    /// axis, an index buffer's contents.
     fn back_to_front(scene: &SceneGpu) -> Vec<u32> {
         let view = scene.camera.view();
         let depth: Vec<f32> = scene
-            .cpu_positions
-            .chunks_exact(3)
-            .map(|t| {
-                let c = (glam::Vec3::from(t[0]) + glam::Vec3::from(t[1]) + glam::Vec3::from(t[2]))
-                    / 3.0;
-                view.transform_point3(c).z
-            })
+            .centroids
+            .iter()
+            .map(|&c| view.transform_point3(c).z)
             .collect();
         let mut order: Vec<u32> = (0..depth.len() as u32).collect();
         // View space looks down −z: the farthest centroid has the most negative z.
         order.sort_by(|&a, &b| depth[a as usize].total_cmp(&depth[b as usize]));
         order
+            .iter()
+            .flat_map(|&t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect()
     }
 }
 
@@ -96,8 +97,13 @@ impl Method for Blend {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let (w, h) = (ctx.options.width, ctx.options.height);
+        if self.sort && ctx.draw.is_some() {
+            return Err(Error::unsupported(
+                "sorted orders every triangle of the scene itself and cannot take an application's draw callback; use an order-independent method",
+            ));
+        }
         let order_bytes = if self.sort {
-            ctx.scene.triangle_count as u64 * 4
+            ctx.scene.triangle_count as u64 * 12
         } else {
             0
         };
@@ -117,25 +123,24 @@ impl Method for Blend {
             wgpu::BufferUsages::empty(),
         )?;
         let mut bytes = ctx.pixels() * 12;
-        let sorted_group;
-        let frame_group = if self.sort {
+        let order = if self.sort {
             let order = Self::back_to_front(ctx.scene);
             let buffer = self.order.get_or_insert_with(|| {
                 gpu.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("strata.sorted.order"),
-                    size: order.len() as u64 * 4,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    size: (order.len() as u64 * 4).max(4),
+                    usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 })
             });
             gpu.queue
                 .write_buffer(buffer, 0, bytemuck::cast_slice(&order));
             bytes += order.len() as u64 * 4;
-            sorted_group = ctx.scene.frame_group(gpu, ctx.opaque_depth, Some(buffer));
-            &sorted_group
+            Some((buffer.clone(), order.len() as u32))
         } else {
-            ctx.frame_group
+            None
         };
+        let frame_group = ctx.frame_group;
         let blend_group = binding::group(
             &gpu.device,
             "strata.blend.group",
@@ -153,13 +158,19 @@ impl Method for Blend {
             ],
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
-        color_geometry_pass(
-            ctx,
-            "blend",
-            &self.blend,
-            &[frame_group, &blend_group],
-            &[(&target_view, wgpu::Color::TRANSPARENT)],
-        );
+        let groups = [frame_group, &blend_group];
+        let targets = [(&target_view, wgpu::Color::TRANSPARENT)];
+        match order {
+            Some((indices, count)) => {
+                let scene = ctx.scene;
+                color_pass_drawing(ctx, "blend", &self.blend, &groups, &targets, &|pass| {
+                    scene.bind(pass);
+                    pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..count, 0, 0..1);
+                })
+            }
+            None => color_geometry_pass(ctx, "blend", &self.blend, &groups, &targets),
+        }
         let frame_group = ctx.frame_group;
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &finish_group]);
         Ok(Recorded {

@@ -227,8 +227,7 @@ impl Method for FrontToBack {
         dispatch_pixels(ctx, "init", &self.init, &[frame_group, &acc_group]);
         for layer in 0..layers {
             let label = ctx.label("peel");
-            let draw = ctx.draw;
-            let triangles = ctx.scene.triangle_count;
+            let (scene, draw) = (ctx.scene, ctx.draw);
             let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some(&label),
                 color_attachments: &[
@@ -263,10 +262,7 @@ impl Method for FrontToBack {
             });
             pass.set_bind_group(0, Some(frame_group), &[]);
             pass.set_bind_group(1, Some(&peel_group), &[]);
-            match draw {
-                Some(draw) => draw(&mut pass),
-                None => pass.draw(0..triangles * 3, 0..1),
-            }
+            scene.draw(&mut pass, draw);
             drop(pass);
             dispatch_pixels(
                 ctx,
