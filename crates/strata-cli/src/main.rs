@@ -557,6 +557,11 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
         stats.max_depth_complexity.unwrap_or(0),
         output.display()
     );
+    if let Some(bands) = stats.bands {
+        eprintln!(
+            "note: rendered in {bands} bands of rows: the whole picture's per-pixel buffers outgrow this device's largest storage binding"
+        );
+    }
     if let (Some(a), Some(k)) = (&stats.k_auto, stats.k) {
         let percent = |r: Option<f64>| {
             r.map(|r| format!("{:.2}%", 100.0 * r))

@@ -18,6 +18,10 @@ pub enum Error {
     Runtime(String),
 }
 
+/// The phrase every error about a buffer over the device's largest storage binding contains
+/// (a smaller picture, band or k needs less): [`crate::Renderer`] then renders in bands.
+pub const OVER_BINDING: &str = "more than the device binds";
+
 impl Error {
     pub fn input(msg: impl Into<String>) -> Self {
         Error::Input(msg.into())

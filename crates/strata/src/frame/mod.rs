@@ -124,6 +124,20 @@ impl FromStr for Tail {
     }
 }
 
+/// A horizontal band of a taller picture: this picture's rows are rows `top..top + height` of a
+/// picture `full_height` rows high and as wide. The projection is cropped to the band, so bands
+/// rendered one after another make the whole picture (how [`crate::Renderer`] renders pictures
+/// whose per-pixel buffers outgrow the device's storage bindings).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Band {
+    pub full_height: u32,
+    pub top: u32,
+}
+
+/// Band tops are multiples of this many rows: the checkerboard background's period, so that
+/// every band continues its pattern.
+pub const BAND_ALIGN: u32 = 32;
+
 /// Everything about a picture that is not the scene.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -174,6 +188,8 @@ pub struct RenderOptions {
     pub gbuffer_debug: Option<GbufferView>,
     /// Which rasterizer makes the fragments of the storage geometry passes (`--raster`).
     pub raster: Raster,
+    /// The picture is a band of a taller one (`None`: the whole picture).
+    pub band: Option<Band>,
 }
 
 impl Default for RenderOptions {
@@ -201,6 +217,7 @@ impl Default for RenderOptions {
             normal_encoding: NormalEncoding::default(),
             gbuffer_debug: None,
             raster: Raster::Hw,
+            band: None,
         }
     }
 }
@@ -220,6 +237,23 @@ impl RenderOptions {
                 "size {}x{} is out of range (1..16384 per side)",
                 self.width, self.height
             )));
+        }
+        if let Some(band) = self.band {
+            if band.top % BAND_ALIGN != 0
+                || band.full_height > 16384
+                || band.top as u64 + self.height as u64 > band.full_height as u64
+            {
+                return Err(Error::input(format!(
+                    "band of {} rows at row {} is not inside a picture of {} rows with its top a multiple of {BAND_ALIGN}",
+                    self.height, band.top, band.full_height
+                )));
+            }
+            if self.pipeline.is_some() {
+                return Err(Error::unsupported(format!(
+                    "--pipeline renders the whole picture at once (its screen-space passes see the whole frame), and {}x{} is too large for this device to do so; use a smaller --size",
+                    self.width, band.full_height
+                )));
+            }
         }
         if let Some(b) = self.budget_mb {
             if b.is_nan() || b <= 0.0 {
@@ -294,6 +328,10 @@ pub struct FrameStats {
     /// How the capture's atomics are ordered on this adapter (k-buffer methods): "acquire-release
     /// (SPIR-V passthrough)", or "relaxed" with or without coherent storage.
     pub memory_ordering: Option<String>,
+    /// Horizontal bands the picture was rendered in, when its per-pixel buffers outgrew the
+    /// device's storage bindings (counters are summed over bands, GPU times too).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bands: Option<u32>,
     /// With the GPU histogram on ([`crate::FrameRecorder::set_histogram`]): pixels per fragment
     /// count, bin i = exactly i fragments, up to the last non-empty bin.
     #[serde(skip_serializing_if = "Option::is_none")]

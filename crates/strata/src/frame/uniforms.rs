@@ -132,14 +132,33 @@ pub fn checker_colors() -> ([f32; 3], [f32; 3]) {
     ([light; 3], [dark; 3])
 }
 
+/// The camera's view-projection for the picture, cropped to its band: the full picture's
+/// projection followed by the map that takes the band's rows to the whole of clip space.
+pub fn band_projection(camera: &Camera, options: &RenderOptions) -> Mat4 {
+    let Some(band) = options.band else {
+        return camera.view_projection(options.width as f32 / options.height as f32);
+    };
+    let full = band.full_height as f32;
+    let full_projection = camera.view_projection(options.width as f32 / full);
+    // Clip-space y of the band's centre (y up, rows down) and how much the band is magnified.
+    let centre = 1.0 - (2.0 * band.top as f32 + options.height as f32) / full;
+    let scale = full / options.height as f32;
+    let crop = Mat4::from_cols(
+        glam::Vec4::X,
+        glam::Vec4::new(0.0, scale, 0.0, 0.0),
+        glam::Vec4::Z,
+        glam::Vec4::new(0.0, -scale * centre, 0.0, 1.0),
+    );
+    crop * full_projection
+}
+
 pub fn frame_uniforms(
     camera: &Camera,
     options: &RenderOptions,
     setup: &LightingSetup,
 ) -> FrameUniforms {
-    let aspect = options.width as f32 / options.height as f32;
     let view = camera.view();
-    let view_proj: Mat4 = camera.view_projection(aspect);
+    let view_proj: Mat4 = band_projection(camera, options);
     let (light, dark) = checker_colors();
     let (checker, background) = match options.background {
         Background::Checker => (1, [0.0; 3]),

@@ -243,8 +243,9 @@ impl Gpu {
         let size = size.max(16).next_multiple_of(4);
         if size > self.max_storage_binding() {
             return Err(Error::unsupported(format!(
-                "{label}: needs a {:.1} MiB buffer but the device binds at most {:.1} MiB",
+                "{label}: needs a {:.1} MiB buffer, {} ({:.1} MiB)",
                 size as f64 / 1048576.0,
+                crate::error::OVER_BINDING,
                 self.max_storage_binding() as f64 / 1048576.0
             )));
         }

@@ -179,6 +179,105 @@ fn a_scene_beyond_one_storage_binding_matches_the_reference() {
     }
 }
 
+/// A picture rendered in bands of 32 rows (each band a frame of its own, the projection cropped
+/// to it) equals the reference, and its statistics add up over the bands.
+#[test]
+fn pictures_in_bands_match_the_reference() {
+    let s = scene("builtin:nvpro?objects=96&subdiv=12&seed=2");
+    let opts = options(96, Effect::Transparency);
+    let expected = render_reference(&s, &opts);
+    for method in EXACT_METHODS {
+        let (_, whole) = render_gpu(&s, &opts, method);
+        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        r.set_max_band_rows(Some(40)); // rounded down to 32
+        let (actual, stats) = r.render(method).unwrap();
+        assert_close(
+            &format!("bands-{method}"),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        assert_eq!(stats.bands, Some(3), "{method}");
+        assert_eq!((stats.width, stats.height), (96, 96), "{method}");
+        let (a, b) = (
+            whole.fragments_generated.unwrap(),
+            stats.fragments_generated.unwrap(),
+        );
+        // Pixel centres on a triangle's edge may fall either way after the crop's rounding.
+        assert!(
+            a.abs_diff(b) * 1000 <= a,
+            "{method}: {a} whole, {b} in bands"
+        );
+        assert_eq!(stats.fragments_dropped, Some(0), "{method}");
+    }
+}
+
+/// On a device whose storage bindings hold 512 KiB, a 128×128 picture's resolved colors fit but
+/// an A-buffer's pool and a k-buffer's arrays do not: the picture is rendered in bands, halved
+/// until they fit, and equals the reference.
+#[test]
+fn pictures_beyond_the_bindings_render_in_bands_that_halve_as_needed() {
+    let mut gpu = crate::testing::gpu().clone();
+    gpu.limits.max_storage_buffer_binding_size = 512 << 10;
+    let s = scene("builtin:layers?n=4&coverage=1&order=random&seed=2");
+    let mut opts = options(128, Effect::Transparency);
+    opts.k = Some(8);
+    let expected = render_reference(&s, &opts);
+    // abuffer-ll's pool outgrows the binding after its first frame; kplus-array's arrays when
+    // they are allocated.
+    for method in ["abuffer-ll", "kplus-array"] {
+        let mut r = crate::Renderer::new(&gpu, &s, &opts).unwrap();
+        let (actual, stats) = r.render(method).unwrap();
+        assert_close(
+            &format!("halving-bands-{method}"),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        assert!(stats.bands.unwrap_or(1) >= 2, "{method}: {:?}", stats.bands);
+        assert_eq!(stats.fragments_generated, Some(4 * 128 * 128), "{method}");
+        assert_eq!(stats.fragments_dropped, Some(0), "{method}");
+    }
+}
+
+/// Pictures are refused, before anything is allocated, beyond 8192×8192 pixels (a 1 GiB
+/// host image); that size itself is accepted.
+#[test]
+fn pictures_beyond_the_host_image_limit_are_refused_up_front() {
+    let s = scene("builtin:layers?n=2");
+    let mut opts = options(8192, Effect::Transparency);
+    opts.width = 8193;
+    let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
+        .err()
+        .expect("refused");
+    assert!(
+        matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("8192x8192"),
+        "{e}"
+    );
+}
+
+/// Bands cannot use a depth texture the application drew into at the whole picture's size.
+#[test]
+fn bands_refuse_an_application_opaque_depth() {
+    let s = scene("builtin:layers?n=2");
+    let mut r = crate::Renderer::new(
+        crate::testing::gpu(),
+        &s,
+        &options(64, Effect::Transparency),
+    )
+    .unwrap();
+    let _ = r.opaque_depth();
+    r.set_max_band_rows(Some(32));
+    let e = r
+        .render("abuffer-ll")
+        .expect_err("bands refuse a lent depth");
+    assert!(e.to_string().contains("opaque depth"), "{e}");
+}
+
 #[test]
 fn exact_methods_match_reference_on_the_dragon() {
     let mut s = scene("builtin:dragon");

@@ -304,6 +304,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         overflow: None,
         lock_failures: None,
         memory_ordering: None,
+        bands: None,
         depth_histogram: None,
         depth_histogram_clipped: None,
         k_auto: None,

@@ -12,7 +12,7 @@ pub use recorder::FrameRecorder;
 
 use crate::error::{Error, Result};
 use crate::frame::GbufferView;
-use crate::frame::{DrawCallback, FrameStats, FrameTargets, Resolved};
+use crate::frame::{Band, DrawCallback, FrameStats, FrameTargets, Resolved, BAND_ALIGN};
 use crate::gpu::{readback, Gpu};
 use crate::methods::MethodId;
 use crate::scene::{linear_to_srgb, srgb_to_linear, Scene};
@@ -22,6 +22,10 @@ pub use crate::frame::{Effect, RenderOptions, Tail};
 /// Exact mode gives up after this many frames of one picture (each one grows what overflowed,
 /// so two suffice unless the scene changed in between).
 pub const MAX_EXACT_FRAMES: u32 = 4;
+
+/// The largest picture the batch renderer makes: 8192×8192, whose [`LinearImage`] takes 1 GiB
+/// of host memory (and its PNG 256 MiB more). Larger ones are refused before anything is made.
+pub const MAX_PICTURE_PIXELS: u64 = 8192 * 8192;
 
 /// A rendered frame before encoding: per pixel linear RGB and the number of fragments composited.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,6 +78,12 @@ pub struct Renderer<'g> {
     scene: Scene,
     options: RenderOptions,
     opaque: wgpu::Texture,
+    /// Whether [`Renderer::opaque_depth`] was handed out (the application may have drawn
+    /// into it, which banded pictures cannot use).
+    opaque_lent: std::cell::Cell<bool>,
+    /// A cleared depth texture of one band's size, for banded pictures.
+    band_opaque: Option<wgpu::Texture>,
+    max_band_rows: Option<u32>,
     recorder: Option<FrameRecorder>,
 }
 
@@ -85,6 +95,14 @@ impl<'g> Renderer<'g> {
             return Err(Error::unsupported(format!(
                 "size {}x{} exceeds the device's texture limit {max_dim}",
                 options.width, options.height
+            )));
+        }
+        if options.pixels() > MAX_PICTURE_PIXELS {
+            return Err(Error::unsupported(format!(
+                "--size {}x{} is {} pixels, more than strata renders in one picture ({MAX_PICTURE_PIXELS}, 8192x8192: 1 GiB of image in host memory)",
+                options.width,
+                options.height,
+                options.pixels()
             )));
         }
         scene.validate()?;
@@ -100,6 +118,9 @@ impl<'g> Renderer<'g> {
             scene: scene.clone(),
             options: options.clone(),
             opaque,
+            opaque_lent: std::cell::Cell::new(false),
+            band_opaque: None,
+            max_band_rows: None,
             recorder: None,
         })
     }
@@ -111,6 +132,7 @@ impl<'g> Renderer<'g> {
     /// The depth texture fragments are tested against (Depth32Float, the frame's size); render
     /// opaque geometry into it to hide fragments behind it.
     pub fn opaque_depth(&self) -> &wgpu::Texture {
+        self.opaque_lent.set(true);
         &self.opaque
     }
 
@@ -153,28 +175,144 @@ impl<'g> Renderer<'g> {
         self.render_frame(method, draw)
     }
 
+    /// Renders pictures whose per-pixel buffers fit in bands of at most `rows` rows (rounded
+    /// down to a multiple of [`BAND_ALIGN`], at least that), even when the whole picture would
+    /// fit (`None`: bands only when it does not).
+    pub fn set_max_band_rows(&mut self, rows: Option<u32>) {
+        self.max_band_rows = rows.map(|r| (r / BAND_ALIGN * BAND_ALIGN).max(BAND_ALIGN));
+    }
+
     fn render_frame(
         &mut self,
         method: MethodId,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<(LinearImage, FrameStats)> {
+        let (w, h) = (self.options.width, self.options.height);
+        let fits = self.options.pixels() <= recorder::max_resolved_pixels(self.gpu);
+        let rows = match self.max_band_rows {
+            Some(rows) if rows < h => rows,
+            _ if fits => {
+                let options = self.options.clone();
+                let opaque = self.opaque.create_view(&Default::default());
+                match self.render_picture(method, draw, &options, &opaque) {
+                    // A method's per-pixel buffers outgrew a binding: halves will hold them.
+                    Err(e) if outgrew_binding(&e) && h > BAND_ALIGN && !self.opaque_lent.get() => {
+                        (h / 2 / BAND_ALIGN * BAND_ALIGN).max(BAND_ALIGN)
+                    }
+                    done => return done,
+                }
+            }
+            _ => {
+                let rows = (recorder::max_resolved_pixels(self.gpu) / w as u64) as u32;
+                (rows / BAND_ALIGN * BAND_ALIGN).max(BAND_ALIGN)
+            }
+        };
+        self.render_bands(method, draw, rows)
+    }
+
+    /// The picture in horizontal bands of `rows` rows, each a frame of its own whose projection
+    /// is cropped to it; bands halve while a method's per-pixel buffers outgrow a binding.
+    fn render_bands(
+        &mut self,
+        method: MethodId,
+        draw: Option<&DrawCallback<'_>>,
+        mut rows: u32,
+    ) -> Result<(LinearImage, FrameStats)> {
+        let (w, h) = (self.options.width, self.options.height);
+        if self.opaque_lent.get() {
+            return Err(Error::unsupported(format!(
+                "{w}x{h} is rendered in bands of {rows} rows, which cannot take the application's opaque depth (Renderer::opaque_depth); use a smaller size"
+            )));
+        }
+        let mut pixels = Vec::with_capacity(self.options.pixels() as usize);
+        let mut total: Option<FrameStats> = None;
+        let mut top = 0;
+        while top < h {
+            let band_rows = rows.min(h - top);
+            let options = RenderOptions {
+                height: band_rows,
+                band: Some(Band {
+                    full_height: h,
+                    top,
+                }),
+                ..self.options.clone()
+            };
+            let opaque = self.band_depth(w, band_rows);
+            match self.render_picture(method, draw, &options, &opaque) {
+                Ok((image, stats)) => {
+                    pixels.extend(image.pixels);
+                    total = Some(match total {
+                        None => stats,
+                        Some(sum) => merge_band(sum, stats),
+                    });
+                    top += band_rows;
+                }
+                Err(e) if outgrew_binding(&e) => {
+                    if rows == BAND_ALIGN {
+                        return Err(Error::unsupported(format!(
+                            "{e}; {w}x{h} does not fit even in bands of {BAND_ALIGN} rows"
+                        )));
+                    }
+                    rows = (rows / 2 / BAND_ALIGN * BAND_ALIGN).max(BAND_ALIGN);
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        let mut stats = total.expect("a picture has rows");
+        stats.height = h;
+        Ok((
+            LinearImage {
+                width: w,
+                height: h,
+                pixels,
+            },
+            stats,
+        ))
+    }
+
+    /// A cleared depth texture of one band's size (kept while the size stays).
+    fn band_depth(&mut self, width: u32, rows: u32) -> wgpu::TextureView {
+        if !matches!(&self.band_opaque, Some(t) if (t.width(), t.height()) == (width, rows)) {
+            let texture = self.gpu.texture_2d(
+                "strata.opaque_depth.band",
+                (width, rows),
+                wgpu::TextureFormat::Depth32Float,
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            );
+            clear_depth(self.gpu, &texture.create_view(&Default::default()), 1.0);
+            self.band_opaque = Some(texture);
+        }
+        self.band_opaque
+            .as_ref()
+            .expect("made above")
+            .create_view(&Default::default())
+    }
+
+    /// One picture (the whole one or a band) with `options` in exact mode, over `opaque`.
+    fn render_picture(
+        &mut self,
+        method: MethodId,
+        draw: Option<&DrawCallback<'_>>,
+        options: &RenderOptions,
+        opaque: &wgpu::TextureView,
+    ) -> Result<(LinearImage, FrameStats)> {
         let recorder = match &mut self.recorder {
             Some(r) => {
                 r.set_method(method)?;
+                if r.options().band != options.band || r.options().height != options.height {
+                    r.set_options(options)?;
+                }
                 r
             }
-            None => self.recorder.insert(FrameRecorder::new(
-                self.gpu,
-                &self.scene,
-                method,
-                &self.options,
-            )?),
+            None => {
+                self.recorder
+                    .insert(FrameRecorder::new(self.gpu, &self.scene, method, options)?)
+            }
         };
-        let opaque = self.opaque.create_view(&Default::default());
         // A pipeline draws the opaque objects and their depth itself.
         let targets = FrameTargets {
             color: None,
-            opaque_depth: self.options.pipeline.is_none().then_some(&opaque),
+            opaque_depth: options.pipeline.is_none().then_some(opaque),
         };
         let (mut submits, mut blocking, mut passes, mut overflowed) = (0, 0, 0, false);
         let mut report = None;
@@ -211,19 +349,19 @@ impl<'g> Renderer<'g> {
         let bytes = readback::read_buffer(
             self.gpu,
             recorder.resolved(),
-            self.options.pixels() * crate::frame::RESOLVED_BYTES,
+            options.pixels() * crate::frame::RESOLVED_BYTES,
         )?;
         blocking += 1;
         stats.submits = submits + 1;
         stats.blocking_readbacks = blocking;
         let resolved: Vec<Resolved> = bytemuck::pod_collect_to_vec(&bytes);
-        let (w, h) = (self.options.width, self.options.height);
-        let background = self.options.background;
+        let (w, h) = (options.width, options.height);
+        let background = options.background;
         if let Some(lit) = recorder.lit() {
             let hdr = readback::read_rgba16f(self.gpu, lit.hdr())?;
             stats.blocking_readbacks += 1;
             stats.submits += 1;
-            let pixels = lit_pixels(&self.options, &hdr, &resolved);
+            let pixels = lit_pixels(options, &hdr, &resolved);
             return Ok((
                 LinearImage {
                     width: w,
@@ -233,11 +371,12 @@ impl<'g> Renderer<'g> {
                 stats,
             ));
         }
+        let top = options.band.map_or(0, |b| b.top);
         let pixels = resolved
             .iter()
             .enumerate()
             .map(|(i, r)| {
-                let bg = background.at(i as u32 % w, i as u32 / w);
+                let bg = background.at(i as u32 % w, top + i as u32 / w);
                 let t = 1.0 - r.color[3];
                 [
                     r.color[0] + t * bg[0],
@@ -256,6 +395,50 @@ impl<'g> Renderer<'g> {
             stats,
         ))
     }
+}
+
+/// Whether an error is a buffer over the device's largest storage binding, which smaller bands
+/// avoid: one refused when allocated ([`Gpu::storage_buffer`]) or a pool that would have to
+/// outgrow it (a method's `cannot_complete`).
+fn outgrew_binding(e: &Error) -> bool {
+    match e {
+        Error::Unsupported(why) | Error::Input(why) => why.contains(crate::error::OVER_BINDING),
+        Error::Runtime(_) => false,
+    }
+}
+
+/// The statistics of a picture so far with those of its next band: counts and times summed,
+/// maxima kept, allocations the largest band's.
+fn merge_band(mut sum: FrameStats, band: FrameStats) -> FrameStats {
+    let add = |a: Option<u64>, b: Option<u64>| match (a, b) {
+        (Some(a), Some(b)) => Some(a + b),
+        (a, b) => a.or(b),
+    };
+    sum.fragments_generated = add(sum.fragments_generated, band.fragments_generated);
+    sum.fragments_stored = add(sum.fragments_stored, band.fragments_stored);
+    sum.fragments_dropped = add(sum.fragments_dropped, band.fragments_dropped);
+    sum.lock_failures = add(sum.lock_failures, band.lock_failures);
+    sum.max_depth_complexity = sum.max_depth_complexity.max(band.max_depth_complexity);
+    sum.bytes_allocated = sum.bytes_allocated.max(band.bytes_allocated);
+    sum.geometry_passes =
+        Some(sum.geometry_passes.unwrap_or(0) + band.geometry_passes.unwrap_or(0));
+    sum.overflow = match (sum.overflow, band.overflow) {
+        (Some(a), Some(b)) => Some(a || b),
+        (a, b) => a.or(b),
+    };
+    sum.gpu_ms_total = match (sum.gpu_ms_total, band.gpu_ms_total) {
+        (Some(a), Some(b)) => Some(a + b),
+        _ => None,
+    };
+    if let (Some(total), Some(more)) = (sum.gpu_ms.as_mut(), band.gpu_ms) {
+        for (pass, ms) in more {
+            *total.entry(pass).or_default() += ms;
+        }
+    }
+    sum.submits += band.submits;
+    sum.blocking_readbacks += band.blocking_readbacks;
+    sum.bands = Some(sum.bands.unwrap_or(1) + 1);
+    sum
 }
 
 /// The picture of a lit frame from its HDR image (the method presented over the opaque

@@ -719,6 +719,7 @@ impl FrameRecorder {
             overflow: ms.overflow,
             lock_failures: ms.lock_failures,
             memory_ordering: p.recorded.memory_ordering.map(String::from),
+            bands: None,
             depth_histogram: histogram.as_deref().map(gpu_histogram::trim),
             depth_histogram_clipped: histogram.map(|h| h[h.len() - 1] as u64),
             k_auto: auto_k,
@@ -748,7 +749,7 @@ fn check_size(gpu: &Gpu, options: &RenderOptions) -> Result<()> {
             "--size {w}x{h} exceeds the device's texture limit of {max_dim} pixels a side"
         )));
     }
-    let max_pixels = gpu.max_storage_binding() / RESOLVED_BYTES;
+    let max_pixels = max_resolved_pixels(gpu);
     if options.pixels() > max_pixels {
         let side = (max_pixels as f64).sqrt() as u64;
         return Err(Error::unsupported(format!(
@@ -760,10 +761,15 @@ fn check_size(gpu: &Gpu, options: &RenderOptions) -> Result<()> {
     Ok(())
 }
 
+/// The most pixels whose resolved colors one storage binding holds.
+pub(crate) fn max_resolved_pixels(gpu: &Gpu) -> u64 {
+    gpu.max_storage_binding() / RESOLVED_BYTES
+}
+
 /// A method's buffer that outgrows one binding grows with the picture: say at which size.
 fn per_pixel_context(e: Error, (w, h): (u32, u32)) -> Error {
     match e {
-        Error::Unsupported(msg) if msg.contains("the device binds at most") => Error::unsupported(
+        Error::Unsupported(msg) if msg.contains(crate::error::OVER_BINDING) => Error::unsupported(
             format!("{msg} at --size {w}x{h} (a smaller --size or --k needs less)"),
         ),
         other => other,

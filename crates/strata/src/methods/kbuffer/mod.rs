@@ -257,8 +257,9 @@ pub fn check_memory(
     ctx.check_budget(total_bytes)?;
     if buffer_bytes > ctx.gpu.max_storage_binding() {
         return Err(Error::unsupported(format!(
-            "{method}: needs a {:.1} MiB buffer, more than the device binds ({:.1} MiB); lower --k or --size",
+            "{method}: needs a {:.1} MiB buffer, {} ({:.1} MiB); lower --k or --size",
             buffer_bytes as f64 / 1048576.0,
+            crate::error::OVER_BINDING,
             ctx.gpu.max_storage_binding() as f64 / 1048576.0
         )));
     }
@@ -381,9 +382,13 @@ impl Pool {
             incomplete: overflowed,
             cannot_complete: (needed > max).then(|| {
                 format!(
-                    "{id}: the frame has {needed} fragments ({:.1} MiB of pool), more than {} allows ({:.1} MiB)",
+                    "{id}: the frame has {needed} fragments ({:.1} MiB of pool), {} ({:.1} MiB)",
                     mib(needed),
-                    if by_budget { "--budget-mb" } else { "the device's largest storage buffer" },
+                    if by_budget {
+                        "more than --budget-mb allows"
+                    } else {
+                        crate::error::OVER_BINDING
+                    },
                     mib(max)
                 )
             }),
