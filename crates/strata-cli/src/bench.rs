@@ -383,6 +383,15 @@ pub fn device_slug(gpu: &Gpu) -> String {
         .join("-")
 }
 
+/// The suffix of a report's heading whose figures come from a CPU adapter.
+pub(crate) fn cpu_label(cpu_figures: bool) -> &'static str {
+    if cpu_figures {
+        " (CPU figures: lavapipe)"
+    } else {
+        ""
+    }
+}
+
 /// An experiment with its own runner: (GPU, `--size`, `--frames`, output folder).
 type StandaloneRun = fn(&Gpu, Option<&str>, Option<u32>, &Path) -> Result<()>;
 

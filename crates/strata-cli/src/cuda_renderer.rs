@@ -266,11 +266,7 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = if r.cpu_figures {
-        " (CPU figures: lavapipe)"
-    } else {
-        ""
-    };
+    let label = crate::bench::cpu_label(r.cpu_figures);
     println!(
         "cuda-renderer on {}{label}: {}x{}, median of {} frames",
         r.adapter, r.width, r.height, r.frames

@@ -178,11 +178,7 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = if r.cpu_figures {
-        " (CPU figures: lavapipe)"
-    } else {
-        ""
-    };
+    let label = crate::bench::cpu_label(r.cpu_figures);
     println!(
         "deferred-lights on {}{label}: {} triangles at {}x{}, median of {} frames",
         r.adapter, r.triangles, r.width, r.height, r.frames
