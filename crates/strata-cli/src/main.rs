@@ -222,6 +222,14 @@ pub struct MethodArgs {
     /// --pipeline deferred: write a G-buffer view instead of the picture.
     #[arg(long, value_enum)]
     pub gbuffer_debug: Option<strata::frame::GbufferView>,
+    /// Resubmit the triangles every frame sorted on the GPU by centroid depth (front: nearest
+    /// first; back: farthest first), randomly permuted (random), or as the scene lists them
+    /// (scene); the statistics report the Kendall distance to depth order.
+    #[arg(long, value_enum)]
+    pub order: Option<strata::order::Order>,
+    /// --order random: the seed its per-frame permutations draw from.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
 }
 
 #[derive(Args)]
@@ -557,6 +565,11 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
         stats.max_depth_complexity.unwrap_or(0),
         output.display()
     );
+    if let (Some(order), Some(tau)) = (&stats.order, stats.kendall_tau) {
+        eprintln!(
+            "order: {order}, Kendall distance to front-to-back order {tau:.3} (0 front to back, 1 back to front)"
+        );
+    }
     if let Some(bands) = stats.bands {
         eprintln!(
             "note: rendered in {bands} bands of rows: the whole picture's per-pixel buffers outgrow this device's largest storage binding"
@@ -656,6 +669,8 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
     options.normal_encoding = a.normal_encoding;
     options.gbuffer_debug = a.gbuffer_debug;
     options.raster = a.raster;
+    options.order = a.order;
+    options.order_seed = a.seed;
     if let Some(m) = a.layers_per_pass {
         if a.method != MethodId::Kpeel {
             return Err(Error::input(format!(

@@ -8,6 +8,7 @@ pub mod frame;
 pub mod gpu;
 pub mod methods;
 pub mod metrics;
+pub mod order;
 pub mod output;
 pub mod raster;
 pub mod reference;

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use egui::{Color32, Key, PointerButton, Sense, Stroke};
-use strata::frame::FrameStats;
+use strata::frame::{FrameStats, Raster};
 use strata::methods::kbuffer::DEFAULT_K;
 use strata::methods::MethodId;
 
@@ -324,6 +324,24 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             ui.add(egui::DragValue::new(&mut m.depth_scale).range(1e-4..=1e4));
         });
     });
+    ui.add_enabled_ui(
+        applies(Opt::Order, id, pipeline) && m.raster == Raster::Hw,
+        |ui| {
+            ui.horizontal(|ui| {
+                let mut on = m.order.is_some();
+                ui.checkbox(&mut on, "triangle order");
+                let mut order = m.order.unwrap_or(strata::order::Order::Front);
+                ui.add_enabled_ui(on, |ui| choice(ui, "", &mut order));
+                m.order = on.then_some(order);
+            });
+            if m.order == Some(strata::order::Order::Random) {
+                ui.horizontal(|ui| {
+                    ui.label("seed");
+                    ui.add(egui::DragValue::new(&mut m.seed));
+                });
+            }
+        },
+    );
 }
 
 fn picture_controls(ui: &mut egui::Ui, state: &mut ViewState, readouts: &Readouts<'_>) {
@@ -482,6 +500,9 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
             row("stored", n(s.fragments_stored));
             row("dropped", n(s.fragments_dropped));
             row("lock failures", n(s.lock_failures));
+            if let (Some(order), Some(tau)) = (&s.order, s.kendall_tau) {
+                row("order (Kendall τ)", format!("{order} ({tau:.3})"));
+            }
             row(
                 "overflow",
                 s.overflow

@@ -24,6 +24,8 @@ pub enum Opt {
     Budget,
     Tonemap,
     Deferred,
+    /// `--order`: every method but `sorted` (its own order).
+    Order,
 }
 
 /// The family a method is listed under, and its methods in catalogue order (the reference
@@ -73,6 +75,7 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         Opt::Budget => kbuffer || matches!(method, AbufferLl | Sbuffer | Kpeel | AbufferFixed),
         Opt::Tonemap => matches!(pipeline, Some(PipelineArg::Forward | PipelineArg::Deferred)),
         Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
+        Opt::Order => method != Sorted,
     }
 }
 
@@ -321,6 +324,12 @@ impl ViewState {
         if let Some(l) = m.layers {
             push("layers", l.to_string());
         }
+        if let Some(o) = m.order {
+            push("order", value_name(&o));
+            if o == strata::order::Order::Random {
+                push("seed", m.seed.to_string());
+            }
+        }
         if m.ssao {
             args.push("--ssao".into());
         }
@@ -382,7 +391,7 @@ fn options_key(s: &ViewState) -> String {
         (
             (&p.size, p.effect, &p.background, &p.k),
             (m.tail, m.culling == Toggle::On, m.max_tries, m.layers),
-            m.layers_per_pass,
+            (m.layers_per_pass, m.order, m.seed),
         )
     )
 }

@@ -190,6 +190,11 @@ pub struct RenderOptions {
     pub raster: Raster,
     /// The picture is a band of a taller one (`None`: the whole picture).
     pub band: Option<Band>,
+    /// `--order`: the triangles' submission order, rebuilt on the GPU every frame, and its
+    /// Kendall distance to depth order in the statistics (`None`: the scene's order, unmeasured).
+    pub order: Option<crate::order::Order>,
+    /// `--seed`: random orders draw their permutations from it and the frame number.
+    pub order_seed: u64,
 }
 
 impl Default for RenderOptions {
@@ -218,6 +223,8 @@ impl Default for RenderOptions {
             gbuffer_debug: None,
             raster: Raster::Hw,
             band: None,
+            order: None,
+            order_seed: 0,
         }
     }
 }
@@ -254,6 +261,12 @@ impl RenderOptions {
                     self.width, band.full_height
                 )));
             }
+        }
+        if let (Some(order), Raster::Compute) = (self.order, self.raster) {
+            return Err(Error::unsupported(format!(
+                "--order {} changes the order the GPU's rasterizer receives triangles in; --raster compute has none (use --raster hw)",
+                order.name()
+            )));
         }
         if let Some(b) = self.budget_mb {
             if b.is_nan() || b <= 0.0 {
@@ -349,6 +362,13 @@ pub struct FrameStats {
     pub raster: String,
     /// With `--raster compute`: its work items, capacity and overflow.
     pub compute_raster: Option<ComputeRasterStats>,
+    /// With `--order`: the submission order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub order: Option<String>,
+    /// With `--order`: the sampled normalized Kendall tau distance between the submission
+    /// order and front-to-back depth order (0: front to back, 1: back to front).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kendall_tau: Option<f64>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the

@@ -46,6 +46,9 @@ pub struct SceneGpu {
     lighting: LightingSetup,
     /// Every triangle's centroid, for methods that order triangles on the CPU.
     pub centroids: Vec<glam::Vec3>,
+    /// With `--order` (other than `scene`): the index buffer of the frame's submission order,
+    /// which [`SceneGpu::draw`] draws through.
+    pub draw_indices: Option<wgpu::Buffer>,
     /// With `--raster compute`: the layout of the compute rasterizer's group, which the methods'
     /// compute captures place after their own (`None`: the GPU's rasterizer).
     pub raster_layout: Option<wgpu::BindGroupLayout>,
@@ -132,6 +135,7 @@ impl SceneGpu {
             camera,
             lighting,
             centroids: centroids(&vertices[..triangle_count as usize * 3]),
+            draw_indices: None,
             raster_layout: (options.raster == crate::raster::Raster::Compute)
                 .then(|| crate::raster::raster_layout(gpu)),
         })
@@ -174,12 +178,16 @@ impl SceneGpu {
     }
 
     /// Binds the vertex buffer and draws the geometry: through `draw` (an application's
-    /// callback), or every triangle.
+    /// callback), or every triangle — in the frame's `--order` when one is set.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, draw: Option<&DrawCallback<'_>>) {
         self.bind(pass);
-        match draw {
-            Some(draw) => draw(pass),
-            None => pass.draw(0..self.triangle_count * 3, 0..1),
+        match (draw, &self.draw_indices) {
+            (Some(draw), _) => draw(pass),
+            (None, Some(indices)) => {
+                pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..self.triangle_count * 3, 0, 0..1);
+            }
+            (None, None) => pass.draw(0..self.triangle_count * 3, 0..1),
         }
     }
 

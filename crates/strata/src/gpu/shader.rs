@@ -23,13 +23,18 @@ pub fn module(device: &wgpu::Device, label: &str, stage: &str) -> wgpu::ShaderMo
 /// Validates a composed module with naga (used by tests, so shader errors fail without a GPU).
 #[cfg(test)]
 pub fn validate(label: &str, stage: &str) {
-    let src = with_shared(stage);
-    let module = naga::front::wgsl::parse_str(&src)
-        .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(&src)));
+    validate_source(label, &with_shared(stage));
+}
+
+/// Validates a complete WGSL module with naga (tests).
+#[cfg(test)]
+pub fn validate_source(label: &str, src: &str) {
+    let module = naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(src)));
     naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::all(),
     )
     .validate(&module)
-    .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(&src)));
+    .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(src)));
 }

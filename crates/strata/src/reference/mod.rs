@@ -311,6 +311,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         lighting: None,
         raster: "cpu".to_string(),
         compute_raster: None,
+        order: None,
+        kendall_tau: None,
         blocking_readbacks: 0,
         submits: 0,
         frame: 0,

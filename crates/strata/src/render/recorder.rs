@@ -51,6 +51,7 @@ use crate::gpu::Gpu;
 use crate::methods::kbuffer::{predict, DEFAULT_K};
 use crate::methods::{self, Method, MethodId};
 use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
+use crate::order::TriangleOrder;
 use crate::raster::{ComputeRaster, Raster};
 use crate::scene::{Camera, Scene};
 
@@ -68,6 +69,8 @@ struct Pending {
     /// With `--raster compute`: where its counters are in the readback, and the item capacity
     /// the frame ran with.
     raster_words: Option<(u64, u64)>,
+    /// With `--order`: where its Kendall pair counts are in the readback, and its bytes.
+    order_words: Option<(u64, u64)>,
     auto_k: Option<AutoKStats>,
 }
 
@@ -103,6 +106,8 @@ pub struct FrameRecorder {
     lit: Option<LitFrame>,
     /// With `--raster compute`: the compute rasterizer.
     raster: Option<ComputeRaster>,
+    /// With `--order`: the submission order, rebuilt every frame.
+    order: Option<TriangleOrder>,
 }
 
 /// Group 0 of a frame being recorded and the opaque depth it binds.
@@ -120,7 +125,7 @@ impl FrameRecorder {
     ) -> Result<FrameRecorder> {
         options.validate()?;
         check_size(gpu, options)?;
-        let (scene_gpu, lit) = match options.pipeline {
+        let (mut scene_gpu, lit) = match options.pipeline {
             None => (SceneGpu::new(gpu, scene, options)?, None),
             Some(pipeline) => {
                 scene.validate()?;
@@ -133,6 +138,7 @@ impl FrameRecorder {
         };
         let raster = (options.raster == Raster::Compute)
             .then(|| ComputeRaster::new(gpu, &scene_gpu, options));
+        let order = attach_order(gpu, options, &mut scene_gpu)?;
         let mut recorder = FrameRecorder {
             output: output_buffer(gpu, options)?,
             no_opaque: no_opaque_depth(gpu, options),
@@ -150,6 +156,7 @@ impl FrameRecorder {
             last_histogram: None,
             lit,
             raster,
+            order,
         };
         recorder.set_method(method)?;
         Ok(recorder)
@@ -200,6 +207,9 @@ impl FrameRecorder {
             rebuilt.raster_layout = self.scene.raster_layout.clone();
             rebuilt.update(&self.gpu, &camera, &self.options);
             self.scene = rebuilt;
+            self.order = attach_order(&self.gpu, &self.options, &mut self.scene)?;
+        } else if let Some(order) = &self.order {
+            order.set_centroids(&self.gpu, &self.scene.centroids);
         }
         Ok(())
     }
@@ -260,6 +270,9 @@ impl FrameRecorder {
         if (options.width, options.height) != (self.options.width, self.options.height) {
             self.resize(options.width, options.height)?;
         }
+        if (options.order, options.order_seed) != (self.options.order, self.options.order_seed) {
+            self.order = attach_order(&self.gpu, options, &mut self.scene)?;
+        }
         self.options = options.clone();
         let camera = self.scene.camera;
         self.set_camera(&camera);
@@ -317,7 +330,22 @@ impl FrameRecorder {
             }
             raster.prepare(&self.gpu, &self.options, &self.scene)?;
         }
+        if let (Some(order), Some(_)) = (&self.order, draw) {
+            return Err(Error::unsupported(format!(
+                "--order {} resubmits the scene's own triangles: an application's draw callback draws its own",
+                order.order().name()
+            )));
+        }
         let frame = self.start_frame(encoder, lit_depth.as_ref().or(targets.opaque_depth));
+        if let Some(order) = &self.order {
+            order.record(
+                &self.gpu,
+                encoder,
+                &mut self.timer,
+                &self.scene.camera,
+                self.frame,
+            );
+        }
         if let Some(lit) = &mut self.lit {
             lit.record(encoder, &mut self.timer);
         }
@@ -431,6 +459,12 @@ impl FrameRecorder {
             return Err(Error::unsupported(
                 "an application's capture pass rasterizes with its own pipeline: it needs --raster hw",
             ));
+        }
+        if let Some(order) = &self.order {
+            return Err(Error::unsupported(format!(
+                "--order {} resubmits strata's own geometry passes: an application's capture pass draws its own triangles",
+                order.order().name()
+            )));
         }
         let frame = self.start_frame(encoder, None);
         let mut readback = ReadbackList::default();
@@ -558,6 +592,14 @@ impl FrameRecorder {
                 (start, raster.frame_capacity())
             })
         });
+        let order_words = self.order.as_ref().map(|order| {
+            let mut list = ReadbackList::default();
+            order.read_counters(&mut list);
+            let start = at;
+            at += list.total_words();
+            sources.extend(list.entries);
+            (start, order.bytes())
+        });
         // The histogram's bins, when it ran, are the last words of the readback.
         let histogram_bins = if histogram_ran { HISTOGRAM_BINS } else { 0 };
         let method_words = (at, readback.total_words() - histogram_bins);
@@ -577,6 +619,7 @@ impl FrameRecorder {
                 method_words,
                 histogram_words,
                 raster_words,
+                order_words,
                 auto_k,
             },
         );
@@ -714,7 +757,8 @@ impl FrameRecorder {
             max_depth_complexity: totals.map(|t| t.max_depth),
             bytes_allocated: Some(
                 p.recorded.bytes_allocated
-                    + compute_raster.as_ref().map_or(0, |r| r.bytes_allocated),
+                    + compute_raster.as_ref().map_or(0, |r| r.bytes_allocated)
+                    + p.order_words.map_or(0, |o| o.1),
             ),
             overflow: ms.overflow,
             lock_failures: ms.lock_failures,
@@ -726,6 +770,13 @@ impl FrameRecorder {
             lighting: self.lit.as_ref().map(LitFrame::stats),
             raster: self.options.raster.name().to_string(),
             compute_raster,
+            order: self.options.order.map(|o| o.name().to_string()),
+            kendall_tau: match (&words, p.order_words) {
+                (Some(w), Some((start, _))) => Some(crate::order::kendall_tau(
+                    &w[start as usize..start as usize + 2],
+                )),
+                _ => None,
+            },
             blocking_readbacks: 0,
             submits: 0,
             adapter: Some(self.gpu.info.name.clone()),
@@ -737,6 +788,21 @@ impl FrameRecorder {
             cannot_complete,
         }
     }
+}
+
+/// The submission order `options` ask for, made for `scene`'s triangles and attached to its
+/// draws (or detached when there is none).
+fn attach_order(
+    gpu: &Gpu,
+    options: &RenderOptions,
+    scene: &mut SceneGpu,
+) -> Result<Option<TriangleOrder>> {
+    let order = options
+        .order
+        .map(|o| TriangleOrder::new(gpu, o, options.order_seed, &scene.centroids))
+        .transpose()?;
+    scene.draw_indices = order.as_ref().and_then(|o| o.indices().cloned());
+    Ok(order)
 }
 
 /// Refuses, before anything is allocated, a picture size the device cannot hold: a side over

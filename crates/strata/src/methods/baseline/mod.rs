@@ -102,6 +102,12 @@ impl Method for Blend {
                 "sorted orders every triangle of the scene itself and cannot take an application's draw callback; use an order-independent method",
             ));
         }
+        if let (true, Some(order)) = (self.sort, ctx.options.order) {
+            return Err(Error::unsupported(format!(
+                "sorted submits triangles back to front itself; --order {} applies to the other methods",
+                order.name()
+            )));
+        }
         let order_bytes = if self.sort {
             ctx.scene.triangle_count as u64 * 12
         } else {

@@ -1,0 +1,24 @@
+// Shared by the radix sort's stages: 4-bit digits, blocks of 1024 keys per workgroup of 256.
+// Keep in sync with `RadixPass` in crates/strata/src/order/radix.rs.
+
+struct RadixPass {
+    // The digit this pass sorts by is (key >> shift) & 15.
+    shift: u32,
+    count: u32,
+    blocks: u32,
+    grid_x: u32,
+}
+
+const DIGITS: u32 = 16u;
+const ITEMS: u32 = 4u;
+const BLOCK: u32 = 1024u;
+
+@group(0) @binding(0) var<uniform> radix: RadixPass;
+
+fn block_index(workgroup: vec3<u32>) -> u32 {
+    return workgroup.x + workgroup.y * radix.grid_x;
+}
+
+fn digit_of(key: u32) -> u32 {
+    return (key >> radix.shift) & (DIGITS - 1u);
+}
