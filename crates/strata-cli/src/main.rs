@@ -230,6 +230,19 @@ pub struct MethodArgs {
     /// --order random: the seed its per-frame permutations draw from.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Reverse-reprojection culling (seed 000; kplus-*, kb-ps, kb): each frame culls, before any
+    /// lock, fragments that lay behind last frame's (k+1)-th nearest depth. Approximate: the
+    /// first frame culls nothing, moving objects can be culled wrongly until their tile
+    /// refreshes.
+    #[arg(long, value_enum, default_value = "off")]
+    pub temporal: Toggle,
+    /// --temporal on: frames between refreshes of each 16x16 tile, which then skips culling (0:
+    /// never).
+    #[arg(long, default_value_t = strata::methods::kbuffer::temporal::DEFAULT_REFRESH)]
+    pub temporal_refresh: u32,
+    /// --temporal on: window depth a fragment must lie behind the interface to be culled.
+    #[arg(long, default_value_t = strata::methods::kbuffer::temporal::DEFAULT_EPSILON)]
+    pub temporal_epsilon: f32,
 }
 
 #[derive(Args)]
@@ -565,6 +578,12 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
         stats.max_depth_complexity.unwrap_or(0),
         output.display()
     );
+    if let (Some(culled), Some(generated)) = (stats.culled_temporal, stats.fragments_generated) {
+        eprintln!(
+            "temporal culling: {culled} of {generated} fragments culled by last frame's interface ({:.1}%)",
+            100.0 * culled as f64 / generated.max(1) as f64
+        );
+    }
     if let (Some(order), Some(tau)) = (&stats.order, stats.kendall_tau) {
         eprintln!(
             "order: {order}, Kendall distance to front-to-back order {tau:.3} (0 front to back, 1 back to front)"
@@ -671,6 +690,12 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
     options.raster = a.raster;
     options.order = a.order;
     options.order_seed = a.seed;
+    options.temporal =
+        (a.temporal == Toggle::On).then_some(strata::methods::kbuffer::temporal::TemporalCulling {
+            refresh: a.temporal_refresh,
+            epsilon: a.temporal_epsilon,
+        });
+    strata::methods::kbuffer::temporal::check(a.method, options.temporal)?;
     if let Some(m) = a.layers_per_pass {
         if a.method != MethodId::Kpeel {
             return Err(Error::input(format!(

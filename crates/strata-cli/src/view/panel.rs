@@ -324,6 +324,17 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             ui.add(egui::DragValue::new(&mut m.depth_scale).range(1e-4..=1e4));
         });
     });
+    ui.add_enabled_ui(applies(Opt::Temporal, id, pipeline), |ui| {
+        ui.horizontal(|ui| {
+            let mut on = m.temporal == Toggle::On;
+            ui.checkbox(&mut on, "temporal culling");
+            m.temporal = if on { Toggle::On } else { Toggle::Off };
+            ui.add_enabled_ui(on, |ui| {
+                ui.label("refresh");
+                ui.add(egui::DragValue::new(&mut m.temporal_refresh).range(0..=256));
+            });
+        });
+    });
     ui.add_enabled_ui(
         applies(Opt::Order, id, pipeline) && m.raster == Raster::Hw,
         |ui| {
@@ -500,6 +511,9 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
             row("stored", n(s.fragments_stored));
             row("dropped", n(s.fragments_dropped));
             row("lock failures", n(s.lock_failures));
+            if let Some(culled) = s.culled_temporal {
+                row("culled (temporal)", culled.to_string());
+            }
             if let (Some(order), Some(tau)) = (&s.order, s.kendall_tau) {
                 row("order (Kendall τ)", format!("{order} ({tau:.3})"));
             }

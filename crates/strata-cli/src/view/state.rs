@@ -26,6 +26,8 @@ pub enum Opt {
     Deferred,
     /// `--order`: every method but `sorted` (its own order).
     Order,
+    /// `--temporal`: the slot k-buffers that choose at capture time.
+    Temporal,
 }
 
 /// The family a method is listed under, and its methods in catalogue order (the reference
@@ -76,6 +78,7 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         Opt::Tonemap => matches!(pipeline, Some(PipelineArg::Forward | PipelineArg::Deferred)),
         Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
         Opt::Order => method != Sorted,
+        Opt::Temporal => strata::methods::kbuffer::temporal::takes(method),
     }
 }
 
@@ -324,6 +327,11 @@ impl ViewState {
         if let Some(l) = m.layers {
             push("layers", l.to_string());
         }
+        if applies(Opt::Temporal, id, p.pipeline) && m.temporal == Toggle::On {
+            push("temporal", "on".into());
+            push("temporal-refresh", m.temporal_refresh.to_string());
+            push("temporal-epsilon", m.temporal_epsilon.to_string());
+        }
         if let Some(o) = m.order {
             push("order", value_name(&o));
             if o == strata::order::Order::Random {
@@ -392,6 +400,11 @@ fn options_key(s: &ViewState) -> String {
             (&p.size, p.effect, &p.background, &p.k),
             (m.tail, m.culling == Toggle::On, m.max_tries, m.layers),
             (m.layers_per_pass, m.order, m.seed),
+            (
+                m.temporal == Toggle::On,
+                m.temporal_refresh,
+                m.temporal_epsilon.to_bits()
+            ),
         )
     )
 }

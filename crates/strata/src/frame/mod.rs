@@ -195,6 +195,9 @@ pub struct RenderOptions {
     pub order: Option<crate::order::Order>,
     /// `--seed`: random orders draw their permutations from it and the frame number.
     pub order_seed: u64,
+    /// `--temporal on`: reverse-reprojection culling against last frame's (k+1)-th depths
+    /// ([`crate::methods::kbuffer::temporal`]).
+    pub temporal: Option<crate::methods::kbuffer::temporal::TemporalCulling>,
 }
 
 impl Default for RenderOptions {
@@ -225,6 +228,7 @@ impl Default for RenderOptions {
             band: None,
             order: None,
             order_seed: 0,
+            temporal: None,
         }
     }
 }
@@ -253,6 +257,12 @@ impl RenderOptions {
                 return Err(Error::input(format!(
                     "band of {} rows at row {} is not inside a picture of {} rows with its top a multiple of {BAND_ALIGN}",
                     self.height, band.top, band.full_height
+                )));
+            }
+            if self.temporal.is_some() {
+                return Err(Error::unsupported(format!(
+                    "--temporal on reprojects whole frames, and {}x{} is too large for this device to render at once; use a smaller --size",
+                    self.width, band.full_height
                 )));
             }
             if self.pipeline.is_some() {
@@ -362,6 +372,10 @@ pub struct FrameStats {
     pub raster: String,
     /// With `--raster compute`: its work items, capacity and overflow.
     pub compute_raster: Option<ComputeRasterStats>,
+    /// With `--temporal on`: fragments culled before any lock by last frame's interface
+    /// (included in `fragments_generated` and `fragments_dropped`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub culled_temporal: Option<u64>,
     /// With `--order`: the submission order.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub order: Option<String>,
@@ -404,6 +418,9 @@ pub struct MethodStats {
     pub incomplete: bool,
     /// Why no later frame can be complete either (memory limits): exact mode's error.
     pub cannot_complete: Option<String>,
+    /// With `--temporal on`: fragments culled by last frame's interface (never counted by the
+    /// resolve: the frame's totals add them as generated and dropped).
+    pub culled_temporal: Option<u64>,
 }
 
 /// What a method recorded: known on the CPU when the frame is recorded.
@@ -416,6 +433,8 @@ pub struct Recorded {
     pub capacity: u64,
     /// How the capture's atomics are ordered (k-buffer methods).
     pub memory_ordering: Option<&'static str>,
+    /// The frame ran with temporal culling.
+    pub temporal: bool,
 }
 
 /// Frame totals every resolve adds each pixel to (`report_pixel` in composite.wgsl); 64-bit

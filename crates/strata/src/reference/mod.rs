@@ -311,6 +311,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         lighting: None,
         raster: "cpu".to_string(),
         compute_raster: None,
+        culled_temporal: None,
         order: None,
         kendall_tau: None,
         blocking_readbacks: 0,

@@ -177,6 +177,7 @@ impl FrameRecorder {
 
     /// Switches method; its pipelines are built on first use and kept.
     pub fn set_method(&mut self, method: MethodId) -> Result<()> {
+        crate::methods::kbuffer::temporal::check(method, self.options.temporal)?;
         if !self.methods.contains_key(&method) {
             let m = methods::create(method, &self.gpu, &self.scene, &self.options)?;
             self.methods.insert(method, m);
@@ -458,6 +459,11 @@ impl FrameRecorder {
         if self.raster.is_some() {
             return Err(Error::unsupported(
                 "an application's capture pass rasterizes with its own pipeline: it needs --raster hw",
+            ));
+        }
+        if self.options.temporal.is_some() {
+            return Err(Error::unsupported(
+                "--temporal on reprojects strata's own fragments: an application's capture pass has no temporal test",
             ));
         }
         if let Some(order) = &self.order {
@@ -751,9 +757,10 @@ impl FrameRecorder {
             exact: Some(p.method.info().exact),
             gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
             gpu_ms,
-            fragments_generated: totals.map(|t| t.generated),
+            fragments_generated: totals.map(|t| t.generated + ms.culled_temporal.unwrap_or(0)),
             fragments_stored: totals.map(|t| t.stored),
-            fragments_dropped: totals.map(|t| t.dropped),
+            fragments_dropped: totals.map(|t| t.dropped + ms.culled_temporal.unwrap_or(0)),
+            culled_temporal: ms.culled_temporal,
             max_depth_complexity: totals.map(|t| t.max_depth),
             bytes_allocated: Some(
                 p.recorded.bytes_allocated

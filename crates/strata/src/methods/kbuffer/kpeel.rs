@@ -238,6 +238,7 @@ impl Method for KPeel {
             bytes_allocated: bytes,
             capacity: passes as u64 * k as u64,
             memory_ordering: Some(self.frame.memory_ordering()),
+            temporal: false,
         })
     }
 

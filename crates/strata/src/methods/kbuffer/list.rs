@@ -102,6 +102,7 @@ impl ListKBuffer {
             bytes_allocated: 0,
             capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
+            temporal: false,
         };
         Ok((params_for(ctx, k, k, false), storage, recorded))
     }

@@ -127,6 +127,7 @@ impl Method for MdtKBuffer {
             bytes_allocated: bytes,
             capacity: k as u64,
             memory_ordering: Some(self.frame.memory_ordering()),
+            temporal: false,
         })
     }
 

@@ -63,6 +63,7 @@ pub mod list;
 pub mod mdt;
 pub mod predict;
 pub mod sbuffer;
+pub mod temporal;
 
 pub mod cpu;
 
@@ -156,7 +157,12 @@ impl Variant {
     }
 }
 
-pub const STORAGE_WGSL: &str = include_str!("storage.wgsl");
+/// Per-pixel words, counters, tail, and temporal culling's bindings (temporal.wgsl).
+pub const STORAGE_WGSL: &str = concat!(
+    include_str!("storage.wgsl"),
+    "\n",
+    include_str!("temporal.wgsl")
+);
 pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
 /// Fixed per-pixel slot arrays and their accessors.
 pub const SLOTS_WGSL: &str = concat!(
@@ -276,6 +282,12 @@ pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
             Slot::StorageRw,
             Slot::StorageRw,
             Slot::StorageRw,
+            Slot::StorageRw,
+            // Temporal culling (temporal.wgsl): parameters, last frame's interface, this one's.
+            // The parameters are storage, not a second uniform in this group: lavapipe 22.3
+            // crashed running the compute captures with one.
+            Slot::Storage,
+            Slot::Storage,
             Slot::StorageRw,
         ],
     )
@@ -447,6 +459,9 @@ pub struct KFrame {
     /// Between `begin_capture` and `end_capture`: the group and what the frame records.
     external: Option<(wgpu::BindGroup, Recorded)>,
     memory_ordering: &'static str,
+    temporal: temporal::TemporalState,
+    /// With `--temporal on`: the interface this frame writes, whose last words count the culled.
+    temporal_interface: Option<wgpu::Buffer>,
 }
 
 impl KFrame {
@@ -483,6 +498,8 @@ impl KFrame {
             counters: None,
             external: None,
             memory_ordering: "relaxed",
+            temporal: temporal::TemporalState::new(gpu),
+            temporal_interface: None,
         }
     }
 
@@ -587,7 +604,10 @@ impl KFrame {
         let gpu = ctx.gpu;
         let px = ctx.pixels();
         let tail_bytes = tail_bytes(px, params.tail_blend != 0);
-        let total = storage.bytes + frame_bytes_besides_storage(px, params.tail_blend != 0);
+        let temporal = self.temporal.frame(ctx)?;
+        let total = storage.bytes
+            + frame_bytes_besides_storage(px, params.tail_blend != 0)
+            + temporal.bytes;
         check_memory(ctx, self.id.as_str(), storage.bytes, total)?;
         let none = wgpu::BufferUsages::empty();
         let cache = &mut self.cache;
@@ -622,8 +642,12 @@ impl KFrame {
                 counters.as_entire_binding(),
                 tail.as_entire_binding(),
                 ctx.output.as_entire_binding(),
+                temporal.params.as_entire_binding(),
+                temporal.previous.as_entire_binding(),
+                temporal.current.as_entire_binding(),
             ],
         );
+        self.temporal_interface = temporal.on.then_some(temporal.current);
         ctx.encoder.clear_buffer(&pixels, 0, None);
         ctx.encoder.clear_buffer(&tail, 0, None);
         ctx.encoder
@@ -674,6 +698,9 @@ impl KFrame {
     pub fn read_counters(&self, ctx: &mut FrameContext<'_>) {
         if let Some(counters) = &self.counters {
             ctx.readback.words(counters, 0, COUNTERS);
+        }
+        if let Some(interface) = &self.temporal_interface {
+            ctx.readback.words(interface, ctx.pixels() * 4, 2);
         }
     }
 
@@ -737,11 +764,17 @@ impl SlotKBuffer {
             bytes_allocated: 0,
             capacity: stride as u64,
             memory_ordering: Some(self.frame.memory_ordering()),
+            temporal: false,
         };
         let mut params = params_for(ctx, k, stride, self.variant.fixed());
         if self.variant == Variant::KplusSemiheap {
             params.aux = heap_size(ctx.options, k)?;
         }
+        temporal::check(self.frame.id, ctx.options.temporal)?;
+        let recorded = Recorded {
+            temporal: ctx.options.temporal.is_some(),
+            ..recorded
+        };
         Ok((params, storage, recorded))
     }
 }
@@ -780,6 +813,11 @@ impl Method for SlotKBuffer {
         let over = totals.max_depth as u64 > recorded.capacity;
         let mut stats = MethodStats {
             lock_failures: Some(lock_failures(words)),
+            culled_temporal: recorded
+                .temporal
+                .then(|| words.get(COUNTERS as usize..COUNTERS as usize + 2))
+                .flatten()
+                .map(temporal::culled),
             ..Default::default()
         };
         match self.variant {

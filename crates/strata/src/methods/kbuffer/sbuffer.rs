@@ -302,6 +302,7 @@ impl Method for SBuffer {
             bytes_allocated: bytes + scan_words * 4,
             capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
+            temporal: false,
         })
     }
 

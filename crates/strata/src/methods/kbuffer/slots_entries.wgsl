@@ -1,10 +1,30 @@
 // The built-in capture entry points of the slot k-buffers: the scene's rasterized fragments,
-// tested against the opaque depth, through each method's capture step.
+// tested against the opaque depth and (except the fixed arrays) temporal culling, through each
+// method's capture step.
+
+// Temporal culling before any lock (temporal.wgsl): true when the fragment was culled — then
+// counted, noted in the interface, and blended into the tail with --tail blend.
+fn culled_by_last_frame(v: SceneVarying, front_facing: bool) -> bool {
+    if !temporally_culled(v.world, v.position) {
+        return false;
+    }
+    count_temporal_cull();
+    let p = kpixel(v.position);
+    if kp.tail_blend != 0u {
+        tail_add(p, scene_fragment(v, front_facing));
+    } else {
+        note_outside(p, v.position.z);
+    }
+    return true;
+}
 
 @fragment
 fn fs_kplus_array(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
+    }
+    if culled_by_last_frame(v, front_facing) {
+        return;
     }
     capture_locked(kpixel(v.position), scene_fragment(v, front_facing), VARIANT_ARRAY);
 }
@@ -14,6 +34,9 @@ fn fs_kplus_heap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
+    if culled_by_last_frame(v, front_facing) {
+        return;
+    }
     capture_locked(kpixel(v.position), scene_fragment(v, front_facing), VARIANT_HEAP);
 }
 
@@ -21,6 +44,9 @@ fn fs_kplus_heap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
 fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
+    }
+    if culled_by_last_frame(v, front_facing) {
+        return;
     }
     capture_array_r(kpixel(v.position), scene_fragment(v, front_facing));
 }
@@ -30,6 +56,9 @@ fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
     }
+    if culled_by_last_frame(v, front_facing) {
+        return;
+    }
     capture_sorted(kpixel(v.position), scene_fragment(v, front_facing), UNLOCKED);
 }
 
@@ -37,6 +66,9 @@ fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
 fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
+    }
+    if culled_by_last_frame(v, front_facing) {
+        return;
     }
     capture_sorted(kpixel(v.position), scene_fragment(v, front_facing), LOCKED);
 }
@@ -53,6 +85,9 @@ fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
 fn fs_kplus_semiheap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {
         discard;
+    }
+    if culled_by_last_frame(v, front_facing) {
+        return;
     }
     capture_semiheap(kpixel(v.position), scene_fragment(v, front_facing));
 }

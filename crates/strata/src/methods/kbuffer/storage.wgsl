@@ -71,8 +71,11 @@ fn tail_word(at: u32) -> f32 {
     return (f32(atomicLoad(&tail[at])) + f32(atomicLoad(&tail[at + 1u])) * 4294967296.0) / TAIL_SCALE;
 }
 
-// Blends a fragment beyond the k nearest into the pixel's unsorted tail (--tail blend).
+// Blends a fragment beyond the k nearest into the pixel's unsorted tail (--tail blend), and
+// notes it for temporal culling's interface (temporal.wgsl): every fragment the cache does not
+// keep passes here.
 fn tail_add(p: u32, f: Fragment) {
+    note_outside(p, f.depth);
     if kp.tail_blend == 0u {
         return;
     }

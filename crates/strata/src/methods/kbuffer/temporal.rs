@@ -1,0 +1,320 @@
+//! Reverse-reprojection temporal culling (seed 000, `--temporal on`) for the slot k-buffers
+//! whose capture decides at capture time which fragments are outside the k nearest:
+//! `kplus-array`, `kplus-heap`, `kplus-array-r`, `kplus-semiheap`, `kb-ps` and `kb`.
+//!
+//! Each frame writes, per pixel, the depth of the nearest fragment the cache did not keep — the
+//! (k+1)-th nearest — into one of two interface buffers (ping-pong by frame parity; 4 bytes per
+//! pixel each, plus the frame's culled count). The next frame's capture reprojects each
+//! fragment's world position with the previous frame's view-projection and culls it before any
+//! lock when it lies more than ε behind the interface at all four texels around its previous
+//! position (a border or an uncovered texel means far: no culling). Storage buffers stand in
+//! for the paper's depth textures: the lookup is the farthest of the 2×2 neighbourhood rather
+//! than a bilinear blend of depths across silhouettes. 16×16 tiles skip culling one frame in
+//! `refresh` (rotating), so that what was culled wrongly returns.
+//!
+//! Approximate by design: the first frame culls nothing; a static scene and camera lose
+//! nothing from the second frame on (each pixel's k nearest lie in front of its own (k+1)-th
+//! depth); moving objects are reprojected with the previous camera only (the scene's
+//! triangles arrive in world space, without last frame's positions), so what moved into the k
+//! nearest from behind the interface is lost until its tile refreshes. The error against
+//! `reference --k N` is measured per frame (`strata bench online-culling`), never hidden.
+//!
+//! Not taken by: the fixed arrays (`abuffer-fixed`, `kb-ab-fixed`: they keep fragments by
+//! arrival), the A-buffer k-selectors and lists (`kb-ab-ll`, `kb-ll`, `kb-sbuffer`,
+//! `kplus-sbuffer`: chosen in the resolve or by a pool), the MDT cascades (two passes that
+//! would have to cull identically), `kpeel`, and an application's capture pass.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+
+use crate::error::{Error, Result};
+use crate::frame::FrameContext;
+use crate::gpu::Gpu;
+use crate::methods::MethodId;
+
+/// Keep in sync with `Temporal` in temporal.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct TemporalParams {
+    pub previous_view_proj: [[f32; 4]; 4],
+    pub epsilon: f32,
+    pub refresh_period: u32,
+    pub frame: u32,
+    pub cull: u32,
+    pub record: u32,
+    pub width: u32,
+    pub height: u32,
+    pub _pad: u32,
+}
+
+/// `--temporal on` and its settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TemporalCulling {
+    /// Frames between refreshes of one tile (0: never refresh).
+    pub refresh: u32,
+    /// How far (window depth) behind the interface a fragment must lie to be culled.
+    pub epsilon: f32,
+}
+
+impl Default for TemporalCulling {
+    fn default() -> Self {
+        TemporalCulling {
+            refresh: DEFAULT_REFRESH,
+            epsilon: DEFAULT_EPSILON,
+        }
+    }
+}
+
+pub const DEFAULT_REFRESH: u32 = 8;
+pub const DEFAULT_EPSILON: f32 = 1e-5;
+
+/// Whether `method`'s capture takes temporal culling.
+pub fn takes(method: MethodId) -> bool {
+    use MethodId::*;
+    matches!(
+        method,
+        KplusArray | KplusHeap | KplusArrayR | KplusSemiheap | KbPs | Kb
+    )
+}
+
+/// Refuses `--temporal on` where it cannot apply.
+pub fn check(method: MethodId, temporal: Option<TemporalCulling>) -> Result<()> {
+    match temporal {
+        Some(_) if !takes(method) => Err(Error::unsupported(format!(
+            "--temporal on applies to kplus-array, kplus-heap, kplus-array-r, kplus-semiheap, kb-ps and kb, not {method}"
+        ))),
+        Some(t) if !(t.epsilon.is_finite() && t.epsilon >= 0.0) => Err(Error::input(format!(
+            "--temporal-epsilon {} must be a non-negative number",
+            t.epsilon
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// The interface buffers, the parameters, and what last frame recorded.
+pub struct TemporalState {
+    params: wgpu::Buffer,
+    /// Bound in place of the interfaces while culling is off.
+    stubs: [wgpu::Buffer; 2],
+    interfaces: Option<[wgpu::Buffer; 2]>,
+    /// The interface this frame writes.
+    parity: usize,
+    /// Last frame's view-projection and size, when it recorded an interface.
+    last: Option<(Mat4, u32, u32)>,
+    frames: u32,
+}
+
+/// What a frame binds: the parameters, last frame's interface, this frame's.
+pub struct TemporalBindings {
+    pub params: wgpu::Buffer,
+    pub previous: wgpu::Buffer,
+    pub current: wgpu::Buffer,
+    /// Bytes the interfaces take (0 when off).
+    pub bytes: u64,
+    pub on: bool,
+}
+
+impl TemporalState {
+    pub fn new(gpu: &Gpu) -> TemporalState {
+        let stub = |label: &str| {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            })
+        };
+        TemporalState {
+            params: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("strata.kbuffer.temporal"),
+                size: std::mem::size_of::<TemporalParams>() as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            stubs: [
+                stub("strata.kbuffer.temporal.off0"),
+                stub("strata.kbuffer.temporal.off1"),
+            ],
+            interfaces: None,
+            parity: 0,
+            last: None,
+            frames: 0,
+        }
+    }
+
+    /// This frame's bindings: writes the parameters and clears the interface it records.
+    pub fn frame(&mut self, ctx: &mut FrameContext<'_>) -> Result<TemporalBindings> {
+        let gpu = ctx.gpu;
+        let (w, h) = ctx.size();
+        let Some(settings) = ctx.options.temporal else {
+            self.last = None;
+            let params = TemporalParams {
+                width: w,
+                height: h,
+                ..Zeroable::zeroed()
+            };
+            gpu.queue
+                .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+            return Ok(TemporalBindings {
+                params: self.params.clone(),
+                previous: self.stubs[0].clone(),
+                current: self.stubs[1].clone(),
+                bytes: 0,
+                on: false,
+            });
+        };
+        let words = ctx.pixels() + 2;
+        if self
+            .interfaces
+            .as_ref()
+            .is_none_or(|b| b[0].size() != words * 4)
+        {
+            let make = |i: usize| {
+                gpu.storage_buffer(
+                    &format!("strata.kbuffer.temporal.interface{i}"),
+                    words * 4,
+                    wgpu::BufferUsages::COPY_SRC,
+                )
+            };
+            self.interfaces = Some([make(0)?, make(1)?]);
+            self.last = None;
+        }
+        let interfaces = self.interfaces.as_ref().expect("made above");
+        let view_proj = crate::frame::uniforms::band_projection(&ctx.scene.camera, ctx.options);
+        let previous = self.last.filter(|l| (l.1, l.2) == (w, h));
+        let params = TemporalParams {
+            previous_view_proj: previous.map_or(Mat4::IDENTITY, |l| l.0).to_cols_array_2d(),
+            epsilon: settings.epsilon,
+            refresh_period: settings.refresh,
+            frame: self.frames,
+            cull: previous.is_some() as u32,
+            record: 1,
+            width: w,
+            height: h,
+            _pad: 0,
+        };
+        gpu.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let current = interfaces[self.parity].clone();
+        ctx.encoder.clear_buffer(&current, 0, None);
+        let bindings = TemporalBindings {
+            params: self.params.clone(),
+            previous: interfaces[1 - self.parity].clone(),
+            current,
+            bytes: 2 * words * 4 + std::mem::size_of::<TemporalParams>() as u64,
+            on: true,
+        };
+        self.last = Some((view_proj, w, h));
+        self.parity = 1 - self.parity;
+        self.frames = self.frames.wrapping_add(1);
+        Ok(bindings)
+    }
+}
+
+/// The culled count from the interface's last two words.
+pub fn culled(words: &[u32]) -> u64 {
+    crate::frame::wide(words, 0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::{RenderOptions, Tail};
+    use crate::scene::loaders;
+    use crate::testing::{assert_close, gpu, render_reference};
+    use crate::Renderer;
+
+    fn temporal_options(refresh: u32) -> RenderOptions {
+        RenderOptions {
+            width: 64,
+            height: 64,
+            k: Some(4),
+            temporal: Some(TemporalCulling {
+                refresh,
+                ..Default::default()
+            }),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_static_view_loses_nothing_from_the_second_frame_on() {
+        // Depth complexity up to ~12 at k = 4: most fragments lie behind the interface.
+        let scene = loaders::load_scene("builtin:nvpro?objects=24&subdiv=8&seed=4").unwrap();
+        for refresh in [0, DEFAULT_REFRESH] {
+            let options = temporal_options(refresh);
+            let expected = render_reference(&scene, &options);
+            for method in [
+                "kplus-heap",
+                "kplus-semiheap",
+                "kplus-array",
+                "kplus-array-r",
+                "kb-ps",
+            ] {
+                let mut r = Renderer::new(gpu(), &scene, &options).unwrap();
+                let (_, first) = r.render(method).unwrap();
+                assert_eq!(
+                    first.culled_temporal,
+                    Some(0),
+                    "{method}: the first frame has no interface"
+                );
+                for frame in 1..3 {
+                    let (image, stats) = r.render(method).unwrap();
+                    let culled = stats.culled_temporal.unwrap();
+                    assert!(culled > 0, "{method} frame {frame}: nothing culled");
+                    assert_eq!(
+                        stats.fragments_generated, first.fragments_generated,
+                        "{method}"
+                    );
+                    // Tolerance as in methods/tests.rs (rasterization at pixel-center edges).
+                    assert_close(
+                        &format!("temporal-{method}-{refresh}-{frame}"),
+                        &image,
+                        &expected,
+                        options.effect,
+                        2,
+                        0.001,
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn culled_fragments_join_the_tail() {
+        let scene = loaders::load_scene("builtin:nvpro?objects=24&subdiv=8&seed=4").unwrap();
+        let options = RenderOptions {
+            tail: Tail::Blend,
+            ..temporal_options(0)
+        };
+        let mut r = Renderer::new(gpu(), &scene, &options).unwrap();
+        let (first, _) = r.render("kplus-heap").unwrap();
+        let (second, stats) = r.render("kplus-heap").unwrap();
+        assert!(stats.culled_temporal.unwrap() > 0);
+        // The tail's sums are integers, so the same fragments give the same tail in any order.
+        assert_close("temporal-tail", &second, &first, options.effect, 1, 0.0);
+    }
+
+    #[test]
+    fn temporal_params_layout_matches_wgsl() {
+        assert_eq!(std::mem::size_of::<TemporalParams>(), 96);
+        assert_eq!(std::mem::offset_of!(TemporalParams, epsilon), 64);
+        assert_eq!(std::mem::offset_of!(TemporalParams, width), 84);
+    }
+
+    #[test]
+    fn only_captures_that_choose_at_capture_time_take_it() {
+        assert!(takes(MethodId::KplusSemiheap) && takes(MethodId::KplusHeap));
+        assert!(!takes(MethodId::AbufferFixed) && !takes(MethodId::KbMdt32));
+        let e = check(MethodId::AbufferLl, Some(TemporalCulling::default()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not abuffer-ll"), "{e}");
+        let bad = TemporalCulling {
+            epsilon: f32::NAN,
+            ..Default::default()
+        };
+        assert!(check(MethodId::KplusHeap, Some(bad)).is_err());
+        assert!(check(MethodId::AbufferLl, None).is_ok());
+    }
+}

@@ -1,0 +1,86 @@
+// Reverse-reprojection temporal culling (seed 000), shared by every k-buffer stage.
+// Keep `Temporal` in sync with `TemporalParams` in kbuffer/temporal.rs.
+//
+// Each frame records, per pixel, the depth of the nearest fragment its cache did not keep —
+// evicted, rejected, culled or blended into the tail: the (k+1)-th nearest — in `interface`
+// (stored as !bits, so that atomicMax keeps the nearest and a cleared word means "none"). The
+// next frame reprojects each fragment's world position with the previous view-projection and
+// culls it before any lock when it lies farther than that depth by more than ε at all four
+// interface texels around where it was (border and "none" mean far: no culling). Tiles of
+// 16×16 pixels skip culling one frame in `refresh_period`, in a rotating pattern, so that
+// what was wrongly culled comes back.
+
+struct Temporal {
+    previous_view_proj: mat4x4<f32>,
+    epsilon: f32,
+    refresh_period: u32,
+    frame: u32,
+    // 1 when last frame's interface is valid for this frame.
+    cull: u32,
+    // 1 when this frame records its interface.
+    record: u32,
+    width: u32,
+    height: u32,
+    _pad: u32,
+}
+
+@group(1) @binding(6) var<storage, read> temporal: Temporal;
+@group(1) @binding(7) var<storage, read> previous_culling_interface: array<u32>;
+// One word per pixel, then the frame's count of culled fragments (64-bit, low word first).
+@group(1) @binding(8) var<storage, read_write> culling_interface: array<atomic<u32>>;
+
+const REFRESH_TILE: u32 = 16u;
+
+// Notes a fragment the cache does not keep at pixel `p`.
+fn note_outside(p: u32, depth: f32) {
+    if temporal.record != 0u {
+        atomicMax(&culling_interface[p], ~bitcast<u32>(depth));
+    }
+}
+
+// Counts a fragment temporal culling rejected.
+fn count_temporal_cull() {
+    let at = kp.pixels;
+    let old = atomicAdd(&culling_interface[at], 1u);
+    if old == 0xffffffffu {
+        atomicAdd(&culling_interface[at + 1u], 1u);
+    }
+}
+
+// True when the fragment at `world` (window position `position` this frame) lay behind last
+// frame's (k+1)-th nearest depth by more than ε where it was then.
+fn temporally_culled(world: vec3<f32>, position: vec4<f32>) -> bool {
+    if temporal.cull == 0u {
+        return false;
+    }
+    let pixel = vec2<u32>(position.xy);
+    if temporal.refresh_period > 0u {
+        let tiles_x = (temporal.width + REFRESH_TILE - 1u) / REFRESH_TILE;
+        let tile = (pixel.y / REFRESH_TILE) * tiles_x + pixel.x / REFRESH_TILE;
+        if (tile + temporal.frame) % temporal.refresh_period == 0u {
+            return false;
+        }
+    }
+    let clip = temporal.previous_view_proj * vec4<f32>(world, 1.0);
+    if !(clip.w > 0.0) {
+        return false;
+    }
+    let ndc = clip.xyz / clip.w;
+    let size = vec2<f32>(f32(temporal.width), f32(temporal.height));
+    let window = vec2<f32>((ndc.x * 0.5 + 0.5) * size.x, (0.5 - ndc.y * 0.5) * size.y);
+    if !(all(window >= vec2<f32>(0.0)) && all(window <= size)) {
+        return false;
+    }
+    let corner = vec2<u32>(max(floor(window - 0.5), vec2<f32>(0.0)));
+    let last = vec2<u32>(temporal.width - 1u, temporal.height - 1u);
+    var farthest = 0.0;
+    for (var i = 0u; i < 4u; i++) {
+        let t = min(corner + vec2<u32>(i & 1u, i >> 1u), last);
+        let word = previous_culling_interface[t.y * temporal.width + t.x];
+        if word == 0u {
+            return false;
+        }
+        farthest = max(farthest, bitcast<f32>(~word));
+    }
+    return ndc.z > farthest + temporal.epsilon;
+}
