@@ -396,7 +396,7 @@ pub(crate) fn cpu_label(cpu_figures: bool) -> &'static str {
 type StandaloneRun = fn(&Gpu, Option<&str>, Option<u32>, &Path) -> Result<()>;
 
 /// The experiments that report their own tables: name, description, runner.
-const STANDALONE: [(&str, &str, StandaloneRun); 4] = [
+const STANDALONE: [(&str, &str, StandaloneRun); 5] = [
     ("auto-k", crate::auto_k::DESCRIPTION, crate::auto_k::run),
     (
         "deferred-lights",
@@ -409,6 +409,11 @@ const STANDALONE: [(&str, &str, StandaloneRun); 4] = [
         crate::cuda_renderer::run,
     ),
     ("scale", crate::scale::DESCRIPTION, crate::scale::run),
+    (
+        "online-culling",
+        crate::online_culling::DESCRIPTION,
+        crate::online_culling::run,
+    ),
 ];
 
 /// Size, frame count and whether figures are CPU figures for a standalone experiment: `--size`

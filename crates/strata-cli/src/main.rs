@@ -4,6 +4,7 @@ mod auto_k;
 mod bench;
 mod cuda_renderer;
 mod deferred_lights;
+mod online_culling;
 mod scale;
 mod view;
 

@@ -166,6 +166,14 @@ impl<'g> Renderer<'g> {
         Ok(())
     }
 
+    /// Moves the camera for the next pictures (a camera path); pipelines and buffers are kept.
+    pub fn set_camera(&mut self, camera: &crate::scene::Camera) {
+        if let Some(recorder) = &mut self.recorder {
+            recorder.set_camera(camera);
+        }
+        self.scene.camera = Some(*camera);
+    }
+
     /// Renders with a typed method id.
     pub fn render_method(
         &mut self,

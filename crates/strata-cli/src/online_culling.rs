@@ -1,0 +1,436 @@
+//! `strata bench online-culling` (seed 000 Table 1): how triangle order changes the cost of a
+//! one-pass k-buffer, and what in-frame culling, the semi-heap and reverse-reprojection
+//! temporal culling recover. Two sequences — `balls` animating (the paper's N-body scene) and a
+//! large nvpro field under a slow orbit (≥ 1M triangles) — are each rendered under triangle
+//! orders front to back, several random permutations and back to front (`--order`, sorted on
+//! the GPU every frame), with four configurations: kplus-heap without culling, kplus-heap with
+//! in-frame culling, kplus-semiheap (|H| = 1), and kplus-semiheap with temporal culling. A
+//! second table sweeps the refresh period of temporal culling on `balls`.
+//!
+//! Per row: the median GPU ms of the frames after the first (the order pass excluded: it is
+//! the experiment's instrument, not the method's cost), the Kendall distance, the fraction of
+//! fragments temporal culling rejected and, for temporal culling (approximate by design), the
+//! worst RMSE and share of pixels over 2/255 against `reference --k N` over the sequence.
+//! Frames are waited for one by one (exact mode), so times are per frame, not a steady loop.
+
+use std::path::Path;
+
+use serde::Serialize;
+use strata::error::Result;
+use strata::frame::FrameStats;
+use strata::gpu::Gpu;
+use strata::methods::kbuffer::temporal::TemporalCulling;
+use strata::order::Order;
+use strata::scene::{loaders, Camera, Scene};
+use strata::{Effect, LinearImage, MethodId, RenderOptions, Renderer};
+
+use crate::bench::standalone_setup;
+
+pub const DESCRIPTION: &str = "seed 000 Table 1: balls and a >= 1M-triangle scene x order (front, random, back) x {kplus-heap without / with culling, kplus-semiheap, + temporal culling}: frame ms, culled fraction, error; and temporal culling's refresh period";
+
+const K: u32 = 16;
+
+#[derive(Clone, Copy, Serialize)]
+struct Config {
+    name: &'static str,
+    method: MethodId,
+    culling: bool,
+    temporal: bool,
+}
+
+const CONFIGS: [Config; 4] = [
+    Config {
+        name: "kplus-heap, no culling",
+        method: MethodId::KplusHeap,
+        culling: false,
+        temporal: false,
+    },
+    Config {
+        name: "kplus-heap, in-frame culling",
+        method: MethodId::KplusHeap,
+        culling: true,
+        temporal: false,
+    },
+    Config {
+        name: "kplus-semiheap",
+        method: MethodId::KplusSemiheap,
+        culling: true,
+        temporal: false,
+    },
+    Config {
+        name: "kplus-semiheap + temporal",
+        method: MethodId::KplusSemiheap,
+        culling: true,
+        temporal: true,
+    },
+];
+
+#[derive(Serialize)]
+struct Row {
+    sequence: String,
+    triangles: usize,
+    order: &'static str,
+    seed: Option<u64>,
+    config: &'static str,
+    method: MethodId,
+    refresh: Option<u32>,
+    frames: u32,
+    /// Median over the frames after the first, the order pass excluded.
+    gpu_ms: Option<f64>,
+    kendall_tau: Option<f64>,
+    fragments: Option<u64>,
+    culled_temporal_fraction: Option<f64>,
+    lock_failures: u64,
+    /// Temporal culling only (the other configurations are exact): worst over the frames.
+    rmse_max: Option<f64>,
+    pct_over_2_max: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    experiment: &'static str,
+    adapter: String,
+    backend: String,
+    cpu_figures: bool,
+    width: u32,
+    height: u32,
+    k: u32,
+    rows: Vec<Row>,
+}
+
+/// A sequence: its name and each frame's scene (geometry) and camera.
+struct Sequence {
+    name: String,
+    frames: Vec<(Scene, Camera)>,
+    /// Reference pictures per frame, made once and shared by every order and configuration.
+    references: Vec<Option<image::RgbaImage>>,
+}
+
+fn balls(count: u32, frames: u32) -> Result<Sequence> {
+    let scenes = (0..frames)
+        .map(|t| {
+            let s = loaders::load_scene(&format!("builtin:balls?count={count}&frame={t}"))?;
+            let camera = s.camera_or_framing();
+            Ok((s, camera))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Sequence {
+        name: format!("balls?count={count}"),
+        references: vec![None; scenes.len()],
+        frames: scenes,
+    })
+}
+
+/// A large static field whose camera turns 1° a frame around its vertical axis.
+fn orbit(objects: u32, frames: u32) -> Result<Sequence> {
+    let spec = format!("builtin:nvpro?objects={objects}&subdiv=16&seed=0");
+    let scene = loaders::load_scene(&spec)?;
+    let base = scene.camera_or_framing();
+    let frames = (0..frames)
+        .map(|t| {
+            let turn = glam::Quat::from_axis_angle(base.up.normalize(), (t as f32).to_radians());
+            let camera = Camera {
+                eye: base.target + turn * (base.eye - base.target),
+                ..base
+            };
+            (scene.clone(), camera)
+        })
+        .collect::<Vec<_>>();
+    Ok(Sequence {
+        name: spec.trim_start_matches("builtin:").to_string(),
+        references: vec![None; frames.len()],
+        frames,
+    })
+}
+
+fn options(
+    size: (u32, u32),
+    config: &Config,
+    order: Order,
+    seed: u64,
+    refresh: u32,
+) -> RenderOptions {
+    RenderOptions {
+        width: size.0,
+        height: size.1,
+        k: Some(K),
+        culling: config.culling,
+        order: Some(order),
+        order_seed: seed,
+        temporal: config.temporal.then_some(TemporalCulling {
+            refresh,
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+fn method_ms(s: &FrameStats) -> Option<f64> {
+    let passes = s.gpu_ms.as_ref()?;
+    Some(
+        passes
+            .iter()
+            .filter(|(name, _)| *name != "order")
+            .map(|(_, ms)| ms)
+            .sum(),
+    )
+}
+
+/// Runs one order and configuration over a sequence.
+fn run_one(gpu: &Gpu, seq: &mut Sequence, options: &RenderOptions, config: &Config) -> Result<Row> {
+    let (scene0, camera0) = &seq.frames[0];
+    let mut renderer = Renderer::new(gpu, scene0, options)?;
+    renderer.set_camera(camera0);
+    let (mut times, mut taus) = (Vec::new(), Vec::new());
+    let (mut fragments, mut culled, mut lock_failures) = (0u64, 0u64, 0u64);
+    let (mut rmse_max, mut over_max) = (0.0f64, 0.0f64);
+    for t in 0..seq.frames.len() {
+        if t > 0 {
+            let (scene, camera) = &seq.frames[t];
+            renderer.set_geometry(scene)?;
+            renderer.set_camera(camera);
+        }
+        let (image, stats) = renderer.render_method(config.method, None)?;
+        lock_failures += stats.lock_failures.unwrap_or(0);
+        if t > 0 {
+            times.extend(method_ms(&stats));
+            taus.extend(stats.kendall_tau);
+            fragments += stats.fragments_generated.unwrap_or(0);
+            culled += stats.culled_temporal.unwrap_or(0);
+        }
+        if config.temporal {
+            let reference = match &seq.references[t] {
+                Some(r) => r.clone(),
+                None => {
+                    let (scene, camera) = &seq.frames[t];
+                    let mut scene = scene.clone();
+                    scene.camera = Some(*camera);
+                    let exact = RenderOptions {
+                        temporal: None,
+                        order: None,
+                        ..options.clone()
+                    };
+                    let r = to_rgba(&strata::reference::render(&scene, &exact)?.0);
+                    seq.references[t] = Some(r.clone());
+                    r
+                }
+            };
+            let c = strata::metrics::compare(&reference, &to_rgba(&image))?;
+            rmse_max = rmse_max.max(c.rmse);
+            over_max = over_max.max(c.pct_over_2);
+        }
+    }
+    Ok(Row {
+        sequence: seq.name.clone(),
+        triangles: seq.frames[0].0.triangle_count(),
+        order: options.order.map_or("scene", |o| o.name()),
+        seed: (options.order == Some(Order::Random)).then_some(options.order_seed),
+        config: config.name,
+        method: config.method,
+        refresh: options.temporal.map(|t| t.refresh),
+        frames: seq.frames.len() as u32,
+        gpu_ms: median(times),
+        kendall_tau: median(taus),
+        fragments: Some(fragments),
+        culled_temporal_fraction: config
+            .temporal
+            .then(|| culled as f64 / fragments.max(1) as f64),
+        lock_failures,
+        rmse_max: config.temporal.then_some(rmse_max),
+        pct_over_2_max: config.temporal.then_some(over_max),
+    })
+}
+
+fn to_rgba(image: &LinearImage) -> image::RgbaImage {
+    image.to_rgba8(Effect::Transparency)
+}
+
+pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+    let (cpu_figures, size, frames) =
+        standalone_setup(gpu, size, frames, ((128, 128), (640, 480)), (4, 16))?;
+    let frames = frames.max(2);
+    // The paper's balls: 435K triangles (1500 of 288); ≥ 10M triangles on a GPU, ≥ 1M on a CPU.
+    let (ball_count, objects, randoms) = if cpu_figures {
+        (1500, 2048, 3)
+    } else {
+        (1500, 20480, 10)
+    };
+    let mut sequences = vec![balls(ball_count, frames)?, orbit(objects, frames)?];
+    let orders: Vec<(Order, u64)> = std::iter::once((Order::Front, 0))
+        .chain((0..randoms).map(|s| (Order::Random, s)))
+        .chain(std::iter::once((Order::Back, 0)))
+        .collect();
+    let sweep = [0, 2, 4, 8, 16];
+    let bar = indicatif::ProgressBar::new(
+        (sequences.len() * orders.len() * CONFIGS.len() + sweep.len()) as u64,
+    );
+    let mut rows = Vec::new();
+    for seq in &mut sequences {
+        for &(order, seed) in &orders {
+            for config in &CONFIGS {
+                bar.set_message(format!("{} {} {}", seq.name, order.name(), config.name));
+                let opts = options(size, config, order, seed, temporal_default_refresh());
+                rows.push(run_one(gpu, seq, &opts, config)?);
+                bar.inc(1);
+            }
+        }
+    }
+    let temporal = &CONFIGS[3];
+    for refresh in sweep {
+        bar.set_message(format!("refresh {refresh}"));
+        let opts = options(size, temporal, Order::Random, 0, refresh);
+        let mut row = run_one(gpu, &mut sequences[0], &opts, temporal)?;
+        row.sequence += " (refresh sweep)";
+        rows.push(row);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let report = Report {
+        experiment: "online-culling",
+        adapter: gpu.info.name.clone(),
+        backend: gpu.backend_name(),
+        cpu_figures,
+        width: size.0,
+        height: size.1,
+        k: K,
+        rows,
+    };
+    print(&report);
+    crate::write_results(dir, "online-culling", &report, csv(&report))
+}
+
+fn temporal_default_refresh() -> u32 {
+    strata::methods::kbuffer::temporal::DEFAULT_REFRESH
+}
+
+fn opt<T: ToString>(v: Option<T>) -> String {
+    v.map(|v| v.to_string()).unwrap_or_default()
+}
+
+fn csv(r: &Report) -> String {
+    let mut s = String::from("sequence,triangles,order,seed,config,method,refresh,frames,gpu_ms,kendall_tau,fragments,culled_temporal_fraction,lock_failures,rmse_max,pct_over_2_max\n");
+    for row in &r.rows {
+        s += &[
+            row.sequence.clone(),
+            row.triangles.to_string(),
+            row.order.to_string(),
+            opt(row.seed),
+            row.config.to_string(),
+            row.method.to_string(),
+            opt(row.refresh),
+            row.frames.to_string(),
+            opt(row.gpu_ms.map(|v| format!("{v:.3}"))),
+            opt(row.kendall_tau.map(|v| format!("{v:.4}"))),
+            opt(row.fragments),
+            opt(row.culled_temporal_fraction.map(|v| format!("{v:.4}"))),
+            row.lock_failures.to_string(),
+            opt(row.rmse_max.map(|v| format!("{v:.5}"))),
+            opt(row.pct_over_2_max.map(|v| format!("{v:.3}"))),
+        ]
+        .join(",");
+        s.push('\n');
+    }
+    s
+}
+
+/// The paper's Table 1 shape: per sequence and configuration, the best (front), the mean of the
+/// random orders and the worst (back), with random against both.
+fn print(r: &Report) {
+    println!(
+        "online-culling — {}x{} k = {} on {} ({}){}",
+        r.width,
+        r.height,
+        r.k,
+        r.adapter,
+        r.backend,
+        if r.cpu_figures {
+            " — CPU FIGURES"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "{:<34} {:<30} {:>9} {:>9} {:>9} {:>11} {:>11} {:>8} {:>9}",
+        "sequence",
+        "configuration",
+        "front ms",
+        "random",
+        "back ms",
+        "vs front",
+        "vs back",
+        "culled",
+        "RMSE max"
+    );
+    let mut keys: Vec<(&str, &str)> = Vec::new();
+    for row in &r.rows {
+        if !row.sequence.ends_with("(refresh sweep)")
+            && !keys.contains(&(&row.sequence, row.config))
+        {
+            keys.push((&row.sequence, row.config));
+        }
+    }
+    for (sequence, config) in keys {
+        let of = |order: &str| -> Vec<&Row> {
+            r.rows
+                .iter()
+                .filter(|x| x.sequence == sequence && x.config == config && x.order == order)
+                .collect()
+        };
+        let ms = |rows: &[&Row]| {
+            let v: Vec<f64> = rows.iter().filter_map(|x| x.gpu_ms).collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        let (front, random, back) = (ms(&of("front")), ms(&of("random")), ms(&of("back")));
+        let pct = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(a), Some(b)) if b > 0.0 => format!("{:+.1}%", 100.0 * (a / b - 1.0)),
+            _ => "-".into(),
+        };
+        let randoms = of("random");
+        let culled = randoms
+            .iter()
+            .filter_map(|x| x.culled_temporal_fraction)
+            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+        let rmse = randoms
+            .iter()
+            .filter_map(|x| x.rmse_max)
+            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+        let f = |v: Option<f64>| v.map(|v| format!("{v:.2}")).unwrap_or("-".into());
+        println!(
+            "{:<34} {:<30} {:>9} {:>9} {:>9} {:>11} {:>11} {:>8} {:>9}",
+            sequence,
+            config,
+            f(front),
+            f(random),
+            f(back),
+            pct(random, front),
+            pct(random, back),
+            culled
+                .map(|c| format!("{:.1}%", 100.0 * c))
+                .unwrap_or("-".into()),
+            rmse.map(|v| format!("{v:.4}")).unwrap_or("-".into()),
+        );
+    }
+    println!("temporal culling's refresh period (balls, random order):");
+    for row in r
+        .rows
+        .iter()
+        .filter(|x| x.sequence.ends_with("(refresh sweep)"))
+    {
+        println!(
+            "  refresh {:>2}: {:>8} ms, culled {:>5.1}%, RMSE max {:.4}, pixels over 2/255 max {:.2}%",
+            opt(row.refresh),
+            row.gpu_ms.map(|v| format!("{v:.2}")).unwrap_or("-".into()),
+            100.0 * row.culled_temporal_fraction.unwrap_or(0.0),
+            row.rmse_max.unwrap_or(0.0),
+            row.pct_over_2_max.unwrap_or(0.0)
+        );
+    }
+}
