@@ -289,7 +289,7 @@ mod tests {
             narrow in any::<bool>(),
         ) {
             // Half the cases draw keys from a few values, so equal keys are common.
-            let keys: Vec<u32> = if narrow { keys.iter().map(|k| k % 5 << 30 | k % 3).collect() } else { keys };
+            let keys: Vec<u32> = if narrow { keys.iter().map(|k| ((k % 5) << 30) | (k % 3)).collect() } else { keys };
             let values: Vec<u32> = (0..keys.len() as u32).map(|i| i ^ 0xa5a5).collect();
             prop_assert_eq!(gpu_sort(&keys, &values), sort_pairs(&keys, &values));
         }
