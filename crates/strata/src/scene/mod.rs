@@ -5,8 +5,11 @@
 //! ([`Scene::triangles`]) whose order is the *primitive index* every method and the CPU reference
 //! use to break depth ties.
 
+pub mod animation;
 pub mod builtin;
 pub mod loaders;
+
+pub use animation::{CameraKey, CameraPath, ObjectMotion, Orbit};
 
 use glam::{Mat4, Vec3};
 use serde::{Deserialize, Serialize};
@@ -397,8 +400,13 @@ pub struct Scene {
     pub camera: Option<Camera>,
     pub lights: Vec<Light>,
     pub defaults: RenderDefaults,
-    /// Animation time of the scene (seconds or frame number, per scene).
+    /// Animation time of the scene, in frames (see [`Scene::set_time`]).
     pub time: f32,
+    /// How each object moves, index for index with `objects` (empty: nothing moves). Each
+    /// moving object's `mesh` is its motion's mesh at `time`.
+    pub motions: Vec<Option<ObjectMotion>>,
+    /// A moving camera: `camera` is its camera at `time`.
+    pub camera_path: Option<CameraPath>,
 }
 
 /// One vertex of the flattened triangle list: the scene's vertex buffer, which `vs_scene`
@@ -486,11 +494,16 @@ impl Scene {
                 lights: self.lights.clone(),
                 defaults: self.defaults.clone(),
                 time: self.time,
+                motions: Vec::new(),
+                camera_path: self.camera_path.clone(),
             };
             let mut remap: Vec<Option<usize>> = vec![None; self.materials.len()];
-            for o in &self.objects {
+            for (i, o) in self.objects.iter().enumerate() {
                 if (self.materials[o.material].opacity >= 1.0) != opaque {
                     continue;
+                }
+                if self.animated() {
+                    out.motions.push(self.motions.get(i).cloned().flatten());
                 }
                 let material = *remap[o.material]
                     .get_or_insert_with(|| out.add_material(self.materials[o.material].clone()));

@@ -6,7 +6,7 @@
 //! | `layers` | `n=16`, `coverage=0.75`, `order=random` (`front`, `back`), `seed=1` | `n` unlit screen-aligned layers with a closed-form composite, see [`layer_colors`] |
 //! | `spheres` | `layers=16` (even), `segments=48` | `layers/2` nested sphere shells: a ray through the centre crosses `layers` surfaces |
 //! | `nvpro` | `objects=1024`, `subdiv=16`, `seed=0` | random translucent UV spheres in [-1,1]³ (the NVIDIA OIT sample's scene) |
-//! | `balls` | `count=1000`, `frame=0` | small spheres on seeded circular orbits; `frame` (30 per second) moves them |
+//! | `balls` | `count=1000`, `frame=0`, `segments=12`, `radius` | small spheres on seeded circular orbits (moved on the GPU); `frame` (30 per second) moves them |
 //! | `dragon`, `bunny`, `suzanne`, `spot`, `teapot` | — | the embedded public test meshes, default material, auto-framed camera |
 //!
 //! Every scene is deterministic: the same spec gives the same scene on every machine. A scene's
@@ -45,7 +45,7 @@ pub fn build(spec: &str) -> Result<Scene> {
         "layers" => &["n", "coverage", "order", "seed"],
         "spheres" => &["layers", "segments"],
         "nvpro" => &["objects", "subdiv", "seed"],
-        "balls" => &["count", "frame"],
+        "balls" => &["count", "frame", "segments", "radius"],
         m if models::MODEL_NAMES.contains(&m) => &[],
         _ => {
             return Err(Error::input(format!(

@@ -1,6 +1,7 @@
 //! The built-in scene generators.
 
 use std::f32::consts::TAU;
+use std::sync::Arc;
 
 use glam::{Mat4, Quat, Vec3};
 
@@ -10,7 +11,8 @@ use super::primitives::{cube, uv_sphere, uv_sphere_triangles};
 use super::rng::SplitMix64;
 use crate::error::{Error, Result};
 use crate::scene::{
-    Camera, Light, LightKind, Material, Mesh, Object, Projection, RenderDefaults, Scene, Shading,
+    Camera, Light, LightKind, Material, Mesh, Object, ObjectMotion, Orbit, Projection,
+    RenderDefaults, Scene, Shading,
 };
 
 /// Linear RGB from hue (turns, [0,1)), saturation and value.
@@ -249,47 +251,58 @@ pub(super) fn nvpro(p: &Params) -> Result<Scene> {
 /// Frames per second of `builtin:balls` (its `frame` parameter counts these).
 pub(crate) const BALLS_FPS: f32 = 30.0;
 
-/// `balls?count=1000&frame=0`: `count` spheres (12 segments, radius 0.04·∛(1000/count)) each on
-/// its own seeded circular orbit (centre in [-0.7,0.7]³, orbit radius in [0.1, 0.5), random
-/// axis, angular speed ±[0.5, 2) rad/s, random phase); positions at time frame/30 s. Random hue,
-/// opacity 0.5, lit; a fixed perspective camera at (0, 0.7, 3.8) looking at the centre.
-/// `scene.time` = frame.
+/// `balls?count=1000&frame=0&segments=12&radius=R`: `count` spheres (`segments` around, half as
+/// many rings; radius R, default 0.04·∛(1000/count)) each on its own seeded circular orbit (centre
+/// in [-0.7,0.7]³, orbit radius in [0.1, 0.5), random axis, angular speed ±[0.5, 2) rad/s at 30
+/// frames per second, random phase), placed at time `frame`. Each ball is one object with an
+/// [`ObjectMotion`] (the unit sphere, its radius, its orbit), so the GPU moves it without
+/// rebuilding meshes. Random hue, opacity 0.5, lit; a fixed perspective camera at
+/// (0, 0.7, 3.8) looking at the centre. `scene.time` = frame.
 pub(super) fn balls(p: &Params) -> Result<Scene> {
-    let count = p.int("count", 1000, 1, 100_000)? as usize;
+    let count = p.int("count", 1000, 1, 1_000_000)? as usize;
     let frame = p.float("frame", 0.0, -1.0e6, 1.0e6)?;
-    let t = frame / BALLS_FPS;
+    let segments = p.int("segments", 12, 3, 256)? as u32;
+    let default_radius = 0.04 * (1000.0 / count as f32).cbrt();
+    let radius = p.float("radius", default_radius, 1e-4, 10.0)?;
+    crate::scene::check_triangle_estimate(
+        "builtin:balls",
+        count as u64 * uv_sphere_triangles(segments),
+    )?;
     let mut rng = SplitMix64::new(0xBA11_5EED);
-    let unit = uv_sphere(12);
-    let radius = 0.04 * (1000.0 / count as f32).cbrt();
-    let mut scene = Scene {
-        time: frame,
-        ..Scene::default()
-    };
+    let unit = Arc::new(uv_sphere(segments));
+    let mut scene = Scene::default();
     for i in 0..count {
         let centre = Vec3::new(
             rng.range(-0.7, 0.7),
             rng.range(-0.7, 0.7),
             rng.range(-0.7, 0.7),
         );
-        let orbit = rng.range(0.1, 0.5);
+        let orbit_radius = rng.range(0.1, 0.5);
         let axis = rng.unit_vector();
         let u = axis.any_orthonormal_vector();
         let v = axis.cross(u);
         let speed = rng.range(0.5, 2.0) * if rng.next_f32() < 0.5 { -1.0 } else { 1.0 };
         let phase = rng.range(0.0, TAU);
         let hue = rng.next_f32();
-        let angle = speed * t + phase;
-        let pos = centre + orbit * (angle.cos() * u + angle.sin() * v);
+        let motion = ObjectMotion {
+            local: unit.clone(),
+            scale: radius,
+            orbit: Orbit {
+                centre,
+                radius: orbit_radius,
+                u,
+                v,
+                angular_speed: speed / BALLS_FPS,
+                phase,
+            },
+        };
         let m = scene.add_material(material(format!("ball {i}"), hsv(hue, 0.65, 0.9), 0.5));
         scene.objects.push(Object {
             name: format!("ball {i}"),
-            mesh: unit.transformed(Mat4::from_scale_rotation_translation(
-                Vec3::splat(radius),
-                Quat::IDENTITY,
-                pos,
-            )),
+            mesh: Mesh::default(),
             material: m,
         });
+        scene.motions.push(Some(motion));
     }
     scene.camera = Some(Camera {
         eye: Vec3::new(0.0, 0.7, 3.8),
@@ -303,6 +316,7 @@ pub(super) fn balls(p: &Params) -> Result<Scene> {
         point_light(Vec3::new(3.0, 4.0, 5.0), [1.0, 0.95, 0.9], 1.0, 20.0),
         point_light(Vec3::new(-4.0, 1.0, -3.0), [0.7, 0.8, 1.0], 0.6, 20.0),
     ];
+    scene.set_time(frame);
     Ok(scene)
 }
 

@@ -669,3 +669,48 @@ mod never_panic {
         }
     }
 }
+
+#[test]
+fn toml_camera_keys_make_a_path_over_the_camera() {
+    let text = r#"
+[camera]
+eye = [0.0, 0.0, 5.0]
+fov_y_deg = 30.0
+
+[[object]]
+mesh = "builtin:cube"
+
+[[camera_key]]
+time = 0.0
+eye = [0.0, 0.0, 5.0]
+
+[[camera_key]]
+time = 30.0
+eye = [5.0, 0.0, 0.0]
+target = [0.0, 1.0, 0.0]
+"#;
+    let mut s = toml::parse(text, "t.toml", Path::new("."), &mut Vec::new()).unwrap();
+    assert_eq!(s.camera.unwrap().eye, Vec3::new(0.0, 0.0, 5.0));
+    s.set_time(15.0);
+    let c = s.camera.unwrap();
+    assert!((c.eye - Vec3::new(2.5, 0.0, 2.5)).length() < 1e-6, "{c:?}");
+    assert!(
+        (c.target - Vec3::new(0.0, 0.5, 0.0)).length() < 1e-6,
+        "{c:?}"
+    );
+    assert_eq!(
+        c.projection,
+        Projection::Perspective { fov_y_deg: 30.0 },
+        "the keys keep the [camera]'s projection"
+    );
+    let e = toml_error(
+        "[[object]]\nmesh = \"builtin:cube\"\n[[camera_key]]\ntime = 2.0\neye = [0.0, 0.0, 4.0]\n[[camera_key]]\ntime = 1.0\neye = [0.0, 0.0, 3.0]\n",
+    );
+    assert!(
+        e.contains("camera_key 2 (line 6)") && e.contains("does not come after"),
+        "{e}"
+    );
+    let e =
+        toml_error("[[object]]\nmesh = \"builtin:cube\"\n[[camera_key]]\neye = [0.0, 0.0, 4.0]\n");
+    assert!(e.contains("time"), "{e}");
+}

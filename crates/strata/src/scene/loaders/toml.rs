@@ -1,7 +1,7 @@
 //! TOML scene files (DESIGN.md, "Scene file (TOML)").
 //!
 //! Unknown keys are errors (typos must not pass silently). Errors name the file, the element —
-//! `render`, `camera`, `material N`, `object N`, `light N`, counted from 1 in file order — and the
+//! `render`, `camera`, `material N`, `object N`, `light N`, `camera_key N`, counted from 1 in file order — and the
 //! element's line, e.g. `scene.toml: object 2 (line 14): unknown material 'glas'`.
 //!
 //! Objects: `mesh` is a model file relative to the scene file's directory, or `builtin:quad`,
@@ -15,6 +15,11 @@
 //! Defaults: camera `target` [0,0,0], `up` [0,1,0], perspective, `fov_y_deg` 45, `height` 2,
 //! `near` 0.1, `far` 100 (`eye` is required); materials and lights take the fields they omit
 //! from [`Material::default`] and [`Light::default`]; `[camera]` omitted means auto-framed.
+//!
+//! Camera paths: a `[[camera_key]]` list (`time` in frames, `eye`, `target` default [0,0,0])
+//! moves the camera between keys, linearly, holding the first before it and the last after it;
+//! projection, up and planes stay the `[camera]`'s (or the framing's). `--frame T` and
+//! `--frames A..B` pick the time.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -25,9 +30,10 @@ use serde::Deserialize;
 
 use super::{intern_material, Part};
 use crate::error::{Error, Result};
+use crate::scene::animation::check_key;
 use crate::scene::{
-    builtin, Background, Camera, Light, LightKind, Material, Object, Projection, RenderDefaults,
-    Scene, Shading,
+    builtin, Background, Camera, CameraKey, CameraPath, Light, LightKind, Material, Object,
+    Projection, RenderDefaults, Scene, Shading,
 };
 
 #[derive(Deserialize)]
@@ -41,6 +47,8 @@ struct FileDef {
     object: Vec<Spanned<Table>>,
     #[serde(default)]
     light: Vec<Spanned<Table>>,
+    #[serde(default)]
+    camera_key: Vec<Spanned<Table>>,
 }
 
 /// The same file, typed (parsed second, so field errors carry their own line and column).
@@ -55,6 +63,18 @@ struct TypedFileDef {
     object: Vec<ObjectDef>,
     #[serde(default)]
     light: Vec<LightDef>,
+    #[serde(default)]
+    camera_key: Vec<CameraKeyDef>,
+}
+
+/// One `[[camera_key]]`: where the camera is at `time` (frames).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraKeyDef {
+    time: f32,
+    eye: [f32; 3],
+    #[serde(default)]
+    target: [f32; 3],
 }
 
 #[derive(Deserialize)]
@@ -308,6 +328,7 @@ pub(crate) fn parse(
     let material_labels = labels("material", &spans.material);
     let object_labels = labels("object", &spans.object);
     let light_labels = labels("light", &spans.light);
+    let key_labels = labels("camera_key", &spans.camera_key);
     let mut elements: Vec<(usize, String)> = Vec::new();
     for (name, t) in [("render", &spans.render), ("camera", &spans.camera)] {
         if let Some(t) = t {
@@ -318,6 +339,7 @@ pub(crate) fn parse(
         ("material", &spans.material),
         ("object", &spans.object),
         ("light", &spans.light),
+        ("camera_key", &spans.camera_key),
     ] {
         for (i, t) in v.iter().enumerate() {
             elements.push((t.span().start, format!("{kind} {}", i + 1)));
@@ -461,6 +483,23 @@ pub(crate) fn parse(
 
     if scene.objects.is_empty() {
         return Err(Error::input(format!("{file}: no [[object]] in the scene")));
+    }
+    if !def.camera_key.is_empty() {
+        let base = scene.camera_or_framing();
+        let keys: Vec<CameraKey> = def
+            .camera_key
+            .iter()
+            .map(|k| CameraKey {
+                time: k.time,
+                eye: Vec3::from(k.eye),
+                target: Vec3::from(k.target),
+            })
+            .collect();
+        for (i, label) in key_labels.iter().enumerate() {
+            check_key(&base, &keys, i).map_err(|why| ctx.err(label, why))?;
+        }
+        scene.camera_path = Some(CameraPath::keys(base, keys)?);
+        scene.set_time(0.0);
     }
     Ok(scene)
 }
