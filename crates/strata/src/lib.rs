@@ -2,6 +2,7 @@
 //!
 //! See `ARCHITECTURE.md` at the repository root for the layout and the path of a frame.
 
+pub mod animation;
 pub mod deferred;
 pub mod error;
 pub mod frame;

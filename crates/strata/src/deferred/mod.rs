@@ -745,6 +745,11 @@ impl LitFrame {
         Ok(())
     }
 
+    /// Moves the opaque objects to time `t` (frames) for the next frame, on the GPU.
+    pub fn set_time(&mut self, t: f32) {
+        self.scene.set_time(t);
+    }
+
     pub fn stats(&self) -> LightingStats {
         let deferred = self.pipeline == Pipeline::Deferred;
         let v = &self.visible;
@@ -769,6 +774,9 @@ impl LitFrame {
     /// Records the opaque passes into `encoder`: the HDR image and the depth are cleared, then
     /// drawn (forward, or G-buffer, SSAO, lighting, composite and the debug view).
     pub fn record(&mut self, encoder: &mut wgpu::CommandEncoder, timer: &mut Timer) {
+        if let Some(animation) = &mut self.scene.animation {
+            animation.record(&self.gpu, encoder, timer);
+        }
         let unused = view(&self.unused_depth);
         let frame = self.scene.frame_group(&self.gpu, &unused);
         let hdr = view(&self.targets.hdr);

@@ -11,6 +11,7 @@ use wgpu::util::DeviceExt;
 
 use super::uniforms::{self, LightingSetup};
 use super::{DrawCallback, RenderOptions, TOTAL_WORDS};
+use crate::animation::SceneAnimation;
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::Gpu;
@@ -52,6 +53,20 @@ pub struct SceneGpu {
     /// With `--raster compute`: the layout of the compute rasterizer's group, which the methods'
     /// compute captures place after their own (`None`: the GPU's rasterizer).
     pub raster_layout: Option<wgpu::BindGroupLayout>,
+    /// A scene whose objects move: the passes that move them on the GPU.
+    pub animation: Option<SceneAnimation>,
+    /// What the CPU needs to follow the animation's centroids (for `sorted`), and whether
+    /// `centroids` lag its time.
+    motion: Option<CpuMotion>,
+}
+
+/// The CPU's view of an animated scene: enough to place every triangle's centroid at a time.
+struct CpuMotion {
+    motions: Vec<Option<crate::scene::ObjectMotion>>,
+    /// Each triangle's object and rest centroid (object space for moving objects).
+    triangle_objects: Vec<u32>,
+    rest_centroids: Vec<glam::Vec3>,
+    stale: bool,
 }
 
 impl SceneGpu {
@@ -98,13 +113,14 @@ impl SceneGpu {
         }
         let camera = scene.camera_or_framing();
         let u = uniforms::frame_uniforms(&camera, options, &lighting);
-        Ok(SceneGpu {
+        let mut scene_gpu = SceneGpu {
             triangle_count,
-            // STORAGE for the compute rasterizer, which reads it as floats.
+            // STORAGE for the compute rasterizer, which reads it as floats, and the animation,
+            // which writes it.
             vertices: init(
                 "strata.scene.vertices",
                 bytemuck::cast_slice(&vertices),
-                wgpu::BufferUsages::VERTEX | storage,
+                wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC | storage,
             ),
             triangle_materials: init(
                 "strata.scene.triangle_materials",
@@ -138,7 +154,71 @@ impl SceneGpu {
             draw_indices: None,
             raster_layout: (options.raster == crate::raster::Raster::Compute)
                 .then(|| crate::raster::raster_layout(gpu)),
-        })
+            animation: None,
+            motion: None,
+        };
+        scene_gpu.animate(gpu, scene)?;
+        Ok(scene_gpu)
+    }
+
+    /// Makes the GPU animation of `scene` when it moves (none otherwise).
+    fn animate(&mut self, gpu: &Gpu, scene: &Scene) -> Result<()> {
+        if !scene.animated() || self.triangle_count == 0 {
+            self.animation = None;
+            self.motion = None;
+            return Ok(());
+        }
+        self.animation = Some(SceneAnimation::new(gpu, scene, &self.vertices)?);
+        let (rest, triangle_objects) = scene.rest_triangles();
+        self.motion = Some(CpuMotion {
+            motions: scene.motions.clone(),
+            triangle_objects,
+            rest_centroids: centroids(&rest.vertices),
+            stale: false,
+        });
+        Ok(())
+    }
+
+    /// Moves an animated scene to time `t` (frames) for the next frame; the vertices move on
+    /// the GPU when it is recorded. Nothing happens to a scene that does not move.
+    pub fn set_time(&mut self, t: f32) {
+        if let Some(animation) = &mut self.animation {
+            if animation.time().to_bits() != t.to_bits() {
+                animation.set_time(t);
+                if let Some(m) = &mut self.motion {
+                    m.stale = true;
+                }
+            }
+        }
+    }
+
+    /// Brings `centroids` to the animation's time on the CPU (for methods that order triangles
+    /// there); free when nothing moved since.
+    pub fn refresh_centroids(&mut self) {
+        let (Some(m), Some(animation)) = (&mut self.motion, &self.animation) else {
+            return;
+        };
+        if !m.stale {
+            return;
+        }
+        let t = animation.time();
+        let transforms: Vec<Option<glam::Mat4>> = m
+            .motions
+            .iter()
+            .map(|motion| motion.as_ref().map(|mo| mo.transform(t)))
+            .collect();
+        for ((c, &o), &rest) in self
+            .centroids
+            .iter_mut()
+            .zip(&m.triangle_objects)
+            .zip(&m.rest_centroids)
+        {
+            *c = match transforms[o as usize] {
+                Some(transform) => transform.transform_point3(rest),
+                None => rest,
+            };
+        }
+        m.stale = false;
     }
 
     /// Writes the frame uniforms for `camera` and `options` (size, effect, background); takes
@@ -169,6 +249,7 @@ impl SceneGpu {
             bytemuck::cast_slice(&tris.materials),
         );
         self.centroids = centroids(&tris.vertices);
+        self.animate(gpu, scene)?;
         Ok(true)
     }
 

@@ -318,6 +318,12 @@ impl TriangleOrder {
         bytes(self.order, self.count)
     }
 
+    /// The triangles' centroids the keys pass reads (three floats each; the animation's
+    /// vertices pass writes them when the scene moves on the GPU).
+    pub fn centroids(&self) -> &wgpu::Buffer {
+        &self.centroids
+    }
+
     /// New centroids for the same triangle count (an animation's next frame).
     pub fn set_centroids(&self, gpu: &Gpu, centroids: &[glam::Vec3]) {
         debug_assert_eq!(centroids.len(), self.count as usize);

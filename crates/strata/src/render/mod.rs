@@ -85,6 +85,9 @@ pub struct Renderer<'g> {
     band_opaque: Option<wgpu::Texture>,
     max_band_rows: Option<u32>,
     recorder: Option<FrameRecorder>,
+    /// The time set by [`Renderer::set_time`]: the GPU moves the scene there (the CPU scene
+    /// stays at its own time).
+    time: Option<f32>,
 }
 
 impl<'g> Renderer<'g> {
@@ -122,6 +125,7 @@ impl<'g> Renderer<'g> {
             band_opaque: None,
             max_band_rows: None,
             recorder: None,
+            time: None,
         })
     }
 
@@ -163,7 +167,20 @@ impl<'g> Renderer<'g> {
             recorder.set_geometry(scene)?;
         }
         self.scene = scene.clone();
+        self.time = None;
         Ok(())
+    }
+
+    /// Moves the scene to time `t` (frames) for the next pictures: moving objects move on the
+    /// GPU (nothing is rebuilt or uploaded) and a camera path moves the camera.
+    pub fn set_time(&mut self, t: f32) {
+        if let Some(recorder) = &mut self.recorder {
+            recorder.set_time(t);
+        }
+        if let Some(path) = &self.scene.camera_path {
+            self.scene.camera = Some(path.camera_at(t));
+        }
+        self.time = Some(t);
     }
 
     /// Moves the camera for the next pictures (a camera path); pipelines and buffers are kept.
@@ -313,8 +330,17 @@ impl<'g> Renderer<'g> {
                 r
             }
             None => {
-                self.recorder
-                    .insert(FrameRecorder::new(self.gpu, &self.scene, method, options)?)
+                let r = self.recorder.insert(FrameRecorder::new(
+                    self.gpu,
+                    &self.scene,
+                    method,
+                    options,
+                )?);
+                if let Some(t) = self.time {
+                    r.set_time(t);
+                    r.set_camera(&self.scene.camera_or_framing());
+                }
+                r
             }
         };
         // A pipeline draws the opaque objects and their depth itself.

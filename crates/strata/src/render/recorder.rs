@@ -53,7 +53,7 @@ use crate::methods::{self, Method, MethodId};
 use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
 use crate::order::TriangleOrder;
 use crate::raster::{ComputeRaster, Raster};
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, CameraPath, Scene};
 
 /// How long `wait_stats` waits for mapping callbacks once the GPU is idle.
 const STATS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
@@ -108,6 +108,8 @@ pub struct FrameRecorder {
     raster: Option<ComputeRaster>,
     /// With `--order`: the submission order, rebuilt every frame.
     order: Option<TriangleOrder>,
+    /// The scene's camera path, which [`FrameRecorder::set_time`] follows.
+    camera_path: Option<CameraPath>,
 }
 
 /// Group 0 of a frame being recorded and the opaque depth it binds.
@@ -157,6 +159,7 @@ impl FrameRecorder {
             lit,
             raster,
             order,
+            camera_path: scene.camera_path.clone(),
         };
         recorder.set_method(method)?;
         Ok(recorder)
@@ -211,8 +214,31 @@ impl FrameRecorder {
             self.order = attach_order(&self.gpu, &self.options, &mut self.scene)?;
         } else if let Some(order) = &self.order {
             order.set_centroids(&self.gpu, &self.scene.centroids);
+            if let Some(animation) = &mut self.scene.animation {
+                animation.bind(&self.gpu, &self.scene.vertices, Some(order.centroids()));
+            }
         }
+        self.camera_path = scene.camera_path.clone();
         Ok(())
+    }
+
+    /// Moves the scene to time `t` (frames) for the next frames: its moving objects move on
+    /// the GPU when the next frame is recorded (no mesh is rebuilt or uploaded), and a camera
+    /// path moves the camera ([`FrameRecorder::set_camera`] afterwards overrides it).
+    pub fn set_time(&mut self, t: f32) {
+        self.scene.set_time(t);
+        if let Some(lit) = &mut self.lit {
+            lit.set_time(t);
+        }
+        if let Some(path) = &self.camera_path {
+            let camera = path.camera_at(t);
+            self.set_camera(&camera);
+        }
+    }
+
+    /// The time the next frame shows (the scene's own time until [`FrameRecorder::set_time`]).
+    pub fn time(&self) -> Option<f32> {
+        self.scene.animation.as_ref().map(|a| a.time())
     }
 
     /// Turns the GPU depth-complexity histogram on or off for the next frames: one more count
@@ -338,6 +364,12 @@ impl FrameRecorder {
             )));
         }
         let frame = self.start_frame(encoder, lit_depth.as_ref().or(targets.opaque_depth));
+        if let Some(animation) = &mut self.scene.animation {
+            animation.record(&self.gpu, encoder, &mut self.timer);
+        }
+        if self.method == MethodId::Sorted {
+            self.scene.refresh_centroids();
+        }
         if let Some(order) = &self.order {
             order.record(
                 &self.gpu,
@@ -765,7 +797,8 @@ impl FrameRecorder {
             bytes_allocated: Some(
                 p.recorded.bytes_allocated
                     + compute_raster.as_ref().map_or(0, |r| r.bytes_allocated)
-                    + p.order_words.map_or(0, |o| o.1),
+                    + p.order_words.map_or(0, |o| o.1)
+                    + self.scene.animation.as_ref().map_or(0, |a| a.bytes()),
             ),
             overflow: ms.overflow,
             lock_failures: ms.lock_failures,
@@ -809,6 +842,9 @@ fn attach_order(
         .map(|o| TriangleOrder::new(gpu, o, options.order_seed, &scene.centroids))
         .transpose()?;
     scene.draw_indices = order.as_ref().and_then(|o| o.indices().cloned());
+    if let Some(animation) = &mut scene.animation {
+        animation.bind(gpu, &scene.vertices, order.as_ref().map(|o| o.centroids()));
+    }
     Ok(order)
 }
 

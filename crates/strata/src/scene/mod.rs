@@ -581,6 +581,30 @@ impl Scene {
                 )));
             }
         }
+        if !self.motions.is_empty() && self.motions.len() != self.objects.len() {
+            return Err(Error::input(format!(
+                "scene has {} motions for {} objects",
+                self.motions.len(),
+                self.objects.len()
+            )));
+        }
+        for (o, m) in self.objects.iter().zip(&self.motions) {
+            let Some(m) = m else { continue };
+            let orbit = &m.orbit;
+            let finite = [orbit.radius, orbit.angular_speed, orbit.phase, m.scale]
+                .iter()
+                .all(|x| x.is_finite())
+                && [orbit.centre, orbit.u, orbit.v]
+                    .iter()
+                    .all(|v| v.is_finite());
+            if !(finite && m.scale > 0.0) {
+                return Err(Error::input(format!(
+                    "{}: its motion must be finite with a positive scale",
+                    o.name
+                )));
+            }
+            m.local.validate(&o.name)?;
+        }
         for m in &self.materials {
             if !(0.0..=1.0).contains(&m.opacity) {
                 return Err(Error::input(format!(
@@ -606,37 +630,62 @@ impl Scene {
 
     /// The flattened triangle list: three vertices per triangle in primitive order.
     pub fn triangles(&self) -> TriangleList {
-        let count = self.triangle_count();
-        let mut out = TriangleList {
-            vertices: Vec::with_capacity(count * 3),
-            materials: Vec::with_capacity(count),
-        };
+        let mut out = TriangleList::with_capacity(self.triangle_count());
         for o in &self.objects {
-            let has_normals = o.mesh.normals.len() == o.mesh.positions.len();
-            for t in o.mesh.indices.chunks_exact(3) {
-                let flat = {
-                    let [a, b, c] =
-                        [t[0], t[1], t[2]].map(|i| Vec3::from(o.mesh.positions[i as usize]));
-                    (b - a)
-                        .cross(c - a)
-                        .try_normalize()
-                        .unwrap_or(Vec3::Z)
-                        .to_array()
-                };
-                for &i in t {
-                    out.vertices.push(GpuVertex {
-                        position: o.mesh.positions[i as usize],
-                        normal: if has_normals {
-                            o.mesh.normals[i as usize]
-                        } else {
-                            flat
-                        },
-                    });
-                }
-                out.materials.push(o.material as u32);
-            }
+            out.push_mesh(&o.mesh, o.material as u32);
         }
         out
+    }
+
+    /// The triangle list the GPU animates from: moving objects in object space (their motion's
+    /// mesh), the others in world space as in [`Scene::triangles`]; and each triangle's object.
+    pub fn rest_triangles(&self) -> (TriangleList, Vec<u32>) {
+        let mut out = TriangleList::with_capacity(self.triangle_count());
+        let mut objects = Vec::with_capacity(self.triangle_count());
+        for (i, o) in self.objects.iter().enumerate() {
+            let mesh = match self.motions.get(i) {
+                Some(Some(m)) => &m.local,
+                _ => &o.mesh,
+            };
+            out.push_mesh(mesh, o.material as u32);
+            objects.resize(out.materials.len(), i as u32);
+        }
+        (out, objects)
+    }
+}
+
+impl TriangleList {
+    fn with_capacity(triangles: usize) -> TriangleList {
+        TriangleList {
+            vertices: Vec::with_capacity(triangles * 3),
+            materials: Vec::with_capacity(triangles),
+        }
+    }
+
+    /// Appends `mesh`'s triangles: its vertex normals, or each face's own when it has none.
+    fn push_mesh(&mut self, mesh: &Mesh, material: u32) {
+        let has_normals = mesh.normals.len() == mesh.positions.len();
+        for t in mesh.indices.chunks_exact(3) {
+            let flat = {
+                let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from(mesh.positions[i as usize]));
+                (b - a)
+                    .cross(c - a)
+                    .try_normalize()
+                    .unwrap_or(Vec3::Z)
+                    .to_array()
+            };
+            for &i in t {
+                self.vertices.push(GpuVertex {
+                    position: mesh.positions[i as usize],
+                    normal: if has_normals {
+                        mesh.normals[i as usize]
+                    } else {
+                        flat
+                    },
+                });
+            }
+            self.materials.push(material);
+        }
     }
 }
 

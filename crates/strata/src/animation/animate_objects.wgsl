@@ -1,0 +1,44 @@
+// One thread per object: its transform at this frame's time, and the transform that carries a
+// point of the object from where it is now to where it was in the previous frame (temporal
+// culling reprojects with it).
+
+@group(0) @binding(1) var<storage, read> motions: array<Motion>;
+@group(0) @binding(2) var<storage, read_write> models: array<mat4x4<f32>>;
+@group(0) @binding(3) var<storage, read_write> to_previous: array<mat4x4<f32>>;
+
+// Same expression, in the same order, as `Orbit::position` on the CPU.
+fn orbit_position(m: Motion, t: f32) -> vec3<f32> {
+    let a = m.angular_speed * t + m.phase;
+    return m.centre + m.radius * (cos(a) * m.u + sin(a) * m.v);
+}
+
+fn translation(offset: vec3<f32>, scale: f32) -> mat4x4<f32> {
+    return mat4x4<f32>(
+        vec4<f32>(scale, 0.0, 0.0, 0.0),
+        vec4<f32>(0.0, scale, 0.0, 0.0),
+        vec4<f32>(0.0, 0.0, scale, 0.0),
+        vec4<f32>(offset, 1.0),
+    );
+}
+
+@compute @workgroup_size(64)
+fn object_transforms(
+    @builtin(workgroup_id) workgroup: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let o = thread_index(workgroup, local);
+    if o >= params.objects {
+        return;
+    }
+    let m = motions[o];
+    if m.moving == 0u {
+        models[o] = translation(vec3<f32>(0.0), 1.0);
+        to_previous[o] = translation(vec3<f32>(0.0), 1.0);
+        return;
+    }
+    let now = orbit_position(m, params.time);
+    let before = orbit_position(m, params.previous_time);
+    models[o] = translation(now, m.scale);
+    // Same scale at both times: the motion between them is a translation.
+    to_previous[o] = translation(before - now, 1.0);
+}
