@@ -289,6 +289,9 @@ pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
             Slot::Storage,
             Slot::Storage,
             Slot::StorageRw,
+            // Moving objects (temporal.wgsl): each triangle's object, their motion.
+            Slot::Storage,
+            Slot::Storage,
         ],
     )
 }
@@ -645,6 +648,8 @@ impl KFrame {
                 temporal.params.as_entire_binding(),
                 temporal.previous.as_entire_binding(),
                 temporal.current.as_entire_binding(),
+                temporal.triangle_objects.as_entire_binding(),
+                temporal.to_previous.as_entire_binding(),
             ],
         );
         self.temporal_interface = temporal.on.then_some(temporal.current);

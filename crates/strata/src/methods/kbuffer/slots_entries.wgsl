@@ -5,7 +5,7 @@
 // Temporal culling before any lock (temporal.wgsl): true when the fragment was culled — then
 // counted, noted in the interface, and blended into the tail with --tail blend.
 fn culled_by_last_frame(v: SceneVarying, front_facing: bool) -> bool {
-    if !temporally_culled(v.world, v.position) {
+    if !temporally_culled(v.world, v.position, v.prim) {
         return false;
     }
     count_temporal_cull();

@@ -14,9 +14,12 @@
 //!
 //! Approximate by design: the first frame culls nothing; a static scene and camera lose
 //! nothing from the second frame on (each pixel's k nearest lie in front of its own (k+1)-th
-//! depth); moving objects are reprojected with the previous camera only (the scene's
-//! triangles arrive in world space, without last frame's positions), so what moved into the k
-//! nearest from behind the interface is lost until its tile refreshes. The error against
+//! depth). Objects the GPU moves ([`crate::animation`]) are carried back along their own motion
+//! before the previous camera reprojects them (each triangle's object, and per object the
+//! transform from this frame's position to last frame's); geometry the application moves
+//! itself, or replaces with [`crate::FrameRecorder::set_geometry`], is reprojected with the
+//! camera only. Either way what moved into the k nearest from behind the interface, or whose
+//! neighbourhood changed, can be lost until its tile refreshes. The error against
 //! `reference --k N` is measured per frame (`strata bench online-culling`), never hidden.
 //!
 //! Not taken by: the fixed arrays (`abuffer-fixed`, `kb-ab-fixed`: they keep fragments by
@@ -44,7 +47,7 @@ pub struct TemporalParams {
     pub record: u32,
     pub width: u32,
     pub height: u32,
-    pub _pad: u32,
+    pub moving: u32,
 }
 
 /// `--temporal on` and its settings.
@@ -94,8 +97,10 @@ pub fn check(method: MethodId, temporal: Option<TemporalCulling>) -> Result<()> 
 /// The interface buffers, the parameters, and what last frame recorded.
 pub struct TemporalState {
     params: wgpu::Buffer,
-    /// Bound in place of the interfaces while culling is off.
+    /// Bound in place of the interfaces while culling is off, and of the motion while nothing
+    /// moves.
     stubs: [wgpu::Buffer; 2],
+    motion_stubs: [wgpu::Buffer; 2],
     interfaces: Option<[wgpu::Buffer; 2]>,
     /// The interface this frame writes.
     parity: usize,
@@ -104,11 +109,14 @@ pub struct TemporalState {
     frames: u32,
 }
 
-/// What a frame binds: the parameters, last frame's interface, this frame's.
+/// What a frame binds: the parameters, last frame's interface, this frame's, and the objects'
+/// motion (stubs when nothing moves).
 pub struct TemporalBindings {
     pub params: wgpu::Buffer,
     pub previous: wgpu::Buffer,
     pub current: wgpu::Buffer,
+    pub triangle_objects: wgpu::Buffer,
+    pub to_previous: wgpu::Buffer,
     /// Bytes the interfaces take (0 when off).
     pub bytes: u64,
     pub on: bool,
@@ -119,7 +127,7 @@ impl TemporalState {
         let stub = |label: &str| {
             gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size: 16,
+                size: 64,
                 usage: wgpu::BufferUsages::STORAGE,
                 mapped_at_creation: false,
             })
@@ -135,6 +143,10 @@ impl TemporalState {
                 stub("strata.kbuffer.temporal.off0"),
                 stub("strata.kbuffer.temporal.off1"),
             ],
+            motion_stubs: [
+                stub("strata.kbuffer.temporal.still_objects"),
+                stub("strata.kbuffer.temporal.still_motion"),
+            ],
             interfaces: None,
             parity: 0,
             last: None,
@@ -146,6 +158,11 @@ impl TemporalState {
     pub fn frame(&mut self, ctx: &mut FrameContext<'_>) -> Result<TemporalBindings> {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
+        let [triangle_objects, to_previous] = match &ctx.scene.animation {
+            Some(a) => [a.triangle_objects().clone(), a.to_previous().clone()],
+            None => self.motion_stubs.clone(),
+        };
+        let moving = ctx.scene.animation.is_some() as u32;
         let Some(settings) = ctx.options.temporal else {
             self.last = None;
             let params = TemporalParams {
@@ -159,6 +176,8 @@ impl TemporalState {
                 params: self.params.clone(),
                 previous: self.stubs[0].clone(),
                 current: self.stubs[1].clone(),
+                triangle_objects,
+                to_previous,
                 bytes: 0,
                 on: false,
             });
@@ -191,7 +210,7 @@ impl TemporalState {
             record: 1,
             width: w,
             height: h,
-            _pad: 0,
+            moving,
         };
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
@@ -201,6 +220,8 @@ impl TemporalState {
             params: self.params.clone(),
             previous: interfaces[1 - self.parity].clone(),
             current,
+            triangle_objects,
+            to_previous,
             bytes: 2 * words * 4 + std::mem::size_of::<TemporalParams>() as u64,
             on: true,
         };
@@ -280,43 +301,62 @@ mod tests {
         }
     }
 
-    /// Moving objects are reprojected with the camera only, so some of what moved into the k
-    /// nearest from behind last frame's interface is lost until its tile refreshes. Measured on
-    /// lavapipe over these 30 frames (64x64, k = 4, refresh 8): 604 fragments culled, the worst
-    /// frame 0.098% of pixels (4 of 4096) over 2/255. The bound allows 20 pixels, for other
-    /// rasterizers' edge rounding; it is a measurement's bound, not a target.
-    #[test]
-    fn moving_balls_stay_within_the_measured_error() {
-        const MOVING_MAX_PCT_OVER_2: f64 = 0.5;
-        let options = temporal_options(DEFAULT_REFRESH);
+    /// `frames` of balls moving on the GPU (`set_time`: culling follows each ball's motion) or
+    /// replaced from the CPU each frame (`set_geometry`: the camera's reprojection only), with
+    /// kplus-semiheap and temporal culling: fragments culled, and per frame the share of pixels
+    /// over 2/255 against `reference --k 4` of the scene at that time.
+    fn moving_balls(options: &RenderOptions, on_gpu: bool, frames: u32) -> (u64, Vec<f64>) {
         let exact = RenderOptions {
             temporal: None,
             ..options.clone()
         };
-        let scene =
-            |t: u32| loaders::load_scene(&format!("builtin:balls?count=200&frame={t}")).unwrap();
-        let mut r = Renderer::new(gpu(), &scene(0), &options).unwrap();
-        let (mut culled, mut worst) = (0, 0.0f64);
-        for t in 0..30 {
-            if t > 0 {
-                r.set_geometry(&scene(t)).unwrap();
+        let scene = loaders::load_scene("builtin:balls?count=200").unwrap();
+        let mut r = Renderer::new(gpu(), &scene, options).unwrap();
+        let (mut culled, mut over) = (0, Vec::new());
+        for t in 0..frames {
+            let moved = scene.at_time(t as f32);
+            if on_gpu {
+                r.set_time(t as f32);
+            } else if t > 0 {
+                r.set_geometry(&moved).unwrap();
             }
             let (image, stats) = r.render("kplus-semiheap").unwrap();
             culled += stats.culled_temporal.unwrap();
-            let expected = render_reference(&scene(t), &exact);
+            let expected = render_reference(&moved, &exact);
             let c = crate::metrics::compare(
                 &expected.to_rgba8(options.effect),
                 &image.to_rgba8(options.effect),
             )
             .unwrap();
-            worst = worst.max(c.pct_over_2);
+            over.push(c.pct_over_2);
         }
-        eprintln!("balls, 30 frames: {culled} culled, worst {worst:.3}% of pixels over 2/255");
-        assert!(culled > 0, "the animation culled nothing");
-        assert!(
-            worst <= MOVING_MAX_PCT_OVER_2,
-            "worst frame: {worst:.3}% over 2/255"
-        );
+        (culled, over)
+    }
+
+    /// Measured on lavapipe over these 30 frames (64x64, k = 4, refresh 8): with the balls'
+    /// own motion, 637 fragments culled, the worst frame 0.098% of pixels (4 of 4096) over
+    /// 2/255, the mean 0.033%; reprojected with the camera only, 609 culled, 0.098% and 0.024%.
+    /// At 160x160 with 1000 balls the two agree too (mean 0.259% and 0.255%, worst 0.352%):
+    /// a ball moves under two pixels a frame, which the 2x2 lookup already spans, and the
+    /// error comes from neighbours that moved differently. The bound allows 20 pixels, for
+    /// other rasterizers' edge rounding; it is a measurement's bound, not a target.
+    #[test]
+    fn moving_balls_stay_within_the_measured_error() {
+        const MOVING_MAX_PCT_OVER_2: f64 = 0.5;
+        let options = temporal_options(DEFAULT_REFRESH);
+        for on_gpu in [true, false] {
+            let (culled, over) = moving_balls(&options, on_gpu, 30);
+            let worst = over.iter().cloned().fold(0.0, f64::max);
+            let mean = over.iter().sum::<f64>() / over.len() as f64;
+            eprintln!(
+                "balls, 30 frames, moved on the GPU: {on_gpu}: {culled} culled, worst {worst:.3}%, mean {mean:.4}% of pixels over 2/255"
+            );
+            assert!(culled > 0, "the animation culled nothing");
+            assert!(
+                worst <= MOVING_MAX_PCT_OVER_2,
+                "worst frame: {worst:.3}% over 2/255"
+            );
+        }
     }
 
     #[test]

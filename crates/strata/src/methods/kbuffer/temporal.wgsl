@@ -4,7 +4,8 @@
 // Each frame records, per pixel, the depth of the nearest fragment its cache did not keep —
 // evicted, rejected, culled or blended into the tail: the (k+1)-th nearest — in `interface`
 // (stored as !bits, so that atomicMax keeps the nearest and a cleared word means "none"). The
-// next frame reprojects each fragment's world position with the previous view-projection and
+// next frame carries each fragment's world position back to where it was (moving objects, by
+// their motion since last frame) and reprojects it with the previous view-projection, and
 // culls it before any lock when it lies farther than that depth by more than ε at all four
 // interface texels around where it was (border and "none" mean far: no culling). Tiles of
 // 16×16 pixels skip culling one frame in `refresh_period`, in a rotating pattern, so that
@@ -21,13 +22,19 @@ struct Temporal {
     record: u32,
     width: u32,
     height: u32,
-    _pad: u32,
+    // 1 when the scene's objects move on the GPU (crate::animation): bindings 9 and 10 hold
+    // their motion.
+    moving: u32,
 }
 
 @group(1) @binding(6) var<storage, read> temporal: Temporal;
 @group(1) @binding(7) var<storage, read> previous_culling_interface: array<u32>;
 // One word per pixel, then the frame's count of culled fragments (64-bit, low word first).
 @group(1) @binding(8) var<storage, read_write> culling_interface: array<atomic<u32>>;
+// With `moving`: each triangle's object, and per object the transform from where it is this
+// frame to where it was last frame.
+@group(1) @binding(9) var<storage, read> motion_triangle_objects: array<u32>;
+@group(1) @binding(10) var<storage, read> motion_to_previous: array<mat4x4<f32>>;
 
 const REFRESH_TILE: u32 = 16u;
 
@@ -47,9 +54,9 @@ fn count_temporal_cull() {
     }
 }
 
-// True when the fragment at `world` (window position `position` this frame) lay behind last
-// frame's (k+1)-th nearest depth by more than ε where it was then.
-fn temporally_culled(world: vec3<f32>, position: vec4<f32>) -> bool {
+// True when the fragment of triangle `prim` at `world` (window position `position` this frame)
+// lay behind last frame's (k+1)-th nearest depth by more than ε where it was then.
+fn temporally_culled(world: vec3<f32>, position: vec4<f32>, prim: u32) -> bool {
     if temporal.cull == 0u {
         return false;
     }
@@ -61,7 +68,11 @@ fn temporally_culled(world: vec3<f32>, position: vec4<f32>) -> bool {
             return false;
         }
     }
-    let clip = temporal.previous_view_proj * vec4<f32>(world, 1.0);
+    var before = vec4<f32>(world, 1.0);
+    if temporal.moving != 0u {
+        before = motion_to_previous[motion_triangle_objects[prim]] * before;
+    }
+    let clip = temporal.previous_view_proj * before;
     if !(clip.w > 0.0) {
         return false;
     }
