@@ -134,12 +134,10 @@ pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Res
                 bar.inc(1);
             }
             bar.set_message(format!("{method} {budget_mb:.1} MiB balls"));
-            let balls = |t: u32| loaders::load_scene(&format!("builtin:balls?frame={t}"));
-            let mut recorder = FrameRecorder::new(gpu, &balls(0)?, method, &options)?;
+            let balls = loaders::load_scene("builtin:balls")?;
+            let mut recorder = FrameRecorder::new(gpu, &balls, method, &options)?;
             for step in 0..steps {
-                if step > 0 {
-                    recorder.set_geometry(&balls(step)?)?;
-                }
+                recorder.set_time(step as f32);
                 rows.push(row(
                     "balls",
                     step,

@@ -18,7 +18,7 @@ use strata::gpu::Gpu;
 use strata::methods::{self, MethodId};
 use strata::output::Outputs;
 use strata::render::{save_png, LinearImage, Renderer};
-use strata::scene::{loaders, Background, Scene, Shading};
+use strata::scene::{loaders, Background, CameraPath, Scene, Shading};
 
 #[derive(Parser)]
 #[command(
@@ -81,9 +81,14 @@ pub struct PictureArgs {
     /// Per-pixel capacity for k-buffer methods; for `reference`, keep each pixel's k nearest.
     #[arg(long)]
     pub k: Option<String>,
-    /// Animation time for animated scenes.
+    /// Animation time in frames: moves the scene's animated objects (builtin:balls) and its
+    /// camera path ([[camera_key]] in a scene file, or --orbit).
     #[arg(long)]
     pub frame: Option<f32>,
+    /// Camera path: orbit the camera about its target (around its up axis) at DEG degrees per
+    /// frame, for any scene; --frame and --frames pick the time.
+    #[arg(long, allow_hyphen_values = true)]
+    pub orbit: Option<f32>,
     /// Light opaque objects forward (every light per fragment) or deferred (G-buffer and light
     /// volumes), the method drawing only the transparent ones over them; none: every surface,
     /// opaque ones too, through the method. Default: the scene's (builtin:demo: deferred), else
@@ -122,6 +127,7 @@ impl PictureArgs {
             alpha: None,
             k: None,
             frame: None,
+            orbit: None,
             pipeline: None,
             lights: None,
             tonemap: Default::default(),
@@ -413,20 +419,21 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
             return Err(Error::input(format!("--alpha {a} is outside [0, 1]")));
         }
     }
-    let mut scene_spec = p.scene.clone();
     if let Some(f) = p.frame {
         if !f.is_finite() || f < 0.0 {
             return Err(Error::input(format!(
                 "--frame {f} must be a non-negative number"
             )));
         }
-        if scene_spec.starts_with("builtin:balls") {
-            scene_spec.push(if scene_spec.contains('?') { '&' } else { '?' });
-            scene_spec.push_str(&format!("frame={f}"));
-        }
     }
-    let mut scene = loaders::load_scene(&scene_spec)?;
+    let mut scene = loaders::load_scene(&p.scene)?;
     apply_camera(&mut scene, p)?;
+    if let Some(degrees) = p.orbit {
+        scene.camera_path = Some(CameraPath::orbit(scene.camera_or_framing(), degrees)?);
+    }
+    if let Some(f) = p.frame.or(scene.camera_path.as_ref().map(|_| scene.time)) {
+        scene.set_time(f);
+    }
     if let Some(a) = p.alpha {
         scene.override_alpha(a);
     }
@@ -479,9 +486,30 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     Ok((scene, options))
 }
 
-/// `--eye`, `--target`, `--up`, `--fov` over the scene's camera (or its framing).
+/// `--eye`, `--target`, `--up`, `--fov` over the scene's camera (or its framing); `--up` and
+/// `--fov` also apply to a camera path's keys, which `--eye` and `--target` cannot override.
 fn apply_camera(scene: &mut Scene, p: &PictureArgs) -> Result<()> {
     if p.eye.is_none() && p.target.is_none() && p.up.is_none() && p.fov.is_none() {
+        return Ok(());
+    }
+    if let Some(path) = &mut scene.camera_path {
+        if p.eye.is_some() || p.target.is_some() {
+            return Err(Error::input(
+                "--eye and --target fix the camera, but this scene's [[camera_key]] path moves it: leave them out, or the keys",
+            ));
+        }
+        let mut moved = PictureArgs {
+            eye: None,
+            target: None,
+            ..p.clone()
+        };
+        moved.scene.clear();
+        let mut base = Scene {
+            camera: Some(*path.base()),
+            ..Scene::default()
+        };
+        apply_camera(&mut base, &moved)?;
+        *path.base_mut() = base.camera.expect("set above");
         return Ok(());
     }
     let mut camera = scene.camera_or_framing();
@@ -768,8 +796,9 @@ fn frame_path(pattern: &Path, n: u32) -> Result<PathBuf> {
     )))
 }
 
-/// `strata render --frames`: each time step of the animation with one renderer, PNGs by
-/// pattern, statistics as JSON lines.
+/// `strata render --frames`: each time step of the animation with one renderer — the GPU
+/// moves the objects and the camera follows its path, nothing is rebuilt between frames — PNGs
+/// by pattern, statistics as JSON lines.
 fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
     let frames = parse_frames(range)?;
     if a.picture.frame.is_some() {
@@ -781,31 +810,28 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
     if last != first {
         check_outputs([last.as_path()])?;
     }
+    let picture = PictureArgs {
+        frame: Some(frames.start as f32),
+        ..a.picture.clone()
+    };
+    let (scene, options) = prepare_render(&a.method, &picture)?;
     let gpu = if a.method.method == MethodId::Reference {
         None
     } else {
         Some(Gpu::new()?)
     };
     let bar = indicatif::ProgressBar::new(frames.len() as u64);
-    let mut renderer: Option<Renderer> = None;
+    let mut renderer = match &gpu {
+        Some(gpu) => Some(Renderer::new(gpu, &scene, &options)?),
+        None => None,
+    };
     let mut lines = String::new();
     let mut last = None;
     for n in frames.clone() {
-        let picture = PictureArgs {
-            frame: Some(n as f32),
-            ..a.picture.clone()
-        };
-        let (scene, options) = prepare_render(&a.method, &picture)?;
-        let (image, stats) = match &gpu {
-            None => strata::reference::render(&scene, &options)?,
-            Some(gpu) => {
-                let r = match renderer.as_mut() {
-                    Some(r) => {
-                        r.set_geometry(&scene)?;
-                        r
-                    }
-                    None => renderer.insert(Renderer::new(gpu, &scene, &options)?),
-                };
+        let (image, stats) = match renderer.as_mut() {
+            None => strata::reference::render(&scene.at_time(n as f32), &options)?,
+            Some(r) => {
+                r.set_time(n as f32);
                 r.render_method(a.method.method, None)?
             }
         };

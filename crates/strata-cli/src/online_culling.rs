@@ -1,14 +1,16 @@
 //! `strata bench online-culling` (seed 000 Table 1): how triangle order changes the cost of a
 //! one-pass k-buffer, and what in-frame culling, the semi-heap and reverse-reprojection
-//! temporal culling recover. Two sequences — `balls` animating (the paper's N-body scene) and a
-//! large nvpro field under a slow orbit (≥ 1M triangles) — are each rendered under triangle
+//! temporal culling recover. Two sequences — 1500 `balls` of 288 triangles (432K, depth
+//! complexity 50–56: the paper's N-body scene) moving on the GPU, and a large nvpro field under
+//! a camera orbit of 1° a frame (≥ 1M triangles; on a GPU also 100K balls, 4.8M triangles,
+//! moving) — are each rendered under triangle
 //! orders front to back, several random permutations and back to front (`--order`, sorted on
 //! the GPU every frame), with four configurations: kplus-heap without culling, kplus-heap with
 //! in-frame culling, kplus-semiheap (|H| = 1), and kplus-semiheap with temporal culling. A
 //! second table sweeps the refresh period of temporal culling on `balls`.
 //!
-//! Per row: the median GPU ms of the frames after the first (the order pass excluded: it is
-//! the experiment's instrument, not the method's cost), the Kendall distance, the fraction of
+//! Per row: the median GPU ms of the frames after the first (the order and animation passes
+//! excluded: they are the experiment's instruments, not the method's cost), the Kendall distance, the fraction of
 //! fragments temporal culling rejected and, for temporal culling (approximate by design), the
 //! worst RMSE and share of pixels over 2/255 against `reference --k N` over the sequence.
 //! Frames are waited for one by one (exact mode), so times are per frame, not a steady loop.
@@ -21,7 +23,7 @@ use strata::frame::FrameStats;
 use strata::gpu::Gpu;
 use strata::methods::kbuffer::temporal::TemporalCulling;
 use strata::order::Order;
-use strata::scene::{loaders, Camera, Scene};
+use strata::scene::{loaders, CameraPath, Scene};
 use strata::{Effect, LinearImage, MethodId, RenderOptions, Renderer};
 
 use crate::bench::standalone_setup;
@@ -98,49 +100,49 @@ struct Report {
     rows: Vec<Row>,
 }
 
-/// A sequence: its name and each frame's scene (geometry) and camera.
+/// A sequence: a scene that moves with time (objects on the GPU, or the camera on a path),
+/// shown at frames 0, 1, ...
 struct Sequence {
     name: String,
-    frames: Vec<(Scene, Camera)>,
+    scene: Scene,
+    frames: u32,
     /// Reference pictures per frame, made once and shared by every order and configuration.
     references: Vec<Option<image::RgbaImage>>,
 }
 
-fn balls(count: u32, frames: u32) -> Result<Sequence> {
-    let scenes = (0..frames)
-        .map(|t| {
-            let s = loaders::load_scene(&format!("builtin:balls?count={count}&frame={t}"))?;
-            let camera = s.camera_or_framing();
-            Ok((s, camera))
-        })
-        .collect::<Result<Vec<_>>>()?;
-    Ok(Sequence {
-        name: format!("balls?count={count}"),
-        references: vec![None; scenes.len()],
-        frames: scenes,
-    })
+impl Sequence {
+    fn new(name: String, scene: Scene, frames: u32) -> Sequence {
+        Sequence {
+            name,
+            scene,
+            frames,
+            references: vec![None; frames as usize],
+        }
+    }
+}
+
+/// The balls' radius: 1500 of them (432K triangles, the paper's 435K) reach the paper's depth
+/// complexity, 48–62 (at 128², frames 0–90: 50–56).
+const BALLS_RADIUS: f32 = 0.08;
+
+/// `count` balls of 288 triangles (18 segments) moving on the GPU; `radius` sets how deep the
+/// pixels are.
+fn balls(count: u32, radius: f32, frames: u32) -> Result<Sequence> {
+    let spec = format!("balls?count={count}&segments=18&radius={radius}");
+    let scene = loaders::load_scene(&format!("builtin:{spec}"))?;
+    Ok(Sequence::new(spec, scene, frames))
 }
 
 /// A large static field whose camera turns 1° a frame around its vertical axis.
 fn orbit(objects: u32, frames: u32) -> Result<Sequence> {
     let spec = format!("builtin:nvpro?objects={objects}&subdiv=16&seed=0");
-    let scene = loaders::load_scene(&spec)?;
-    let base = scene.camera_or_framing();
-    let frames = (0..frames)
-        .map(|t| {
-            let turn = glam::Quat::from_axis_angle(base.up.normalize(), (t as f32).to_radians());
-            let camera = Camera {
-                eye: base.target + turn * (base.eye - base.target),
-                ..base
-            };
-            (scene.clone(), camera)
-        })
-        .collect::<Vec<_>>();
-    Ok(Sequence {
-        name: spec.trim_start_matches("builtin:").to_string(),
-        references: vec![None; frames.len()],
+    let mut scene = loaders::load_scene(&spec)?;
+    scene.camera_path = Some(CameraPath::orbit(scene.camera_or_framing(), 1.0)?);
+    Ok(Sequence::new(
+        spec.trim_start_matches("builtin:").to_string(),
+        scene,
         frames,
-    })
+    ))
 }
 
 fn options(
@@ -178,7 +180,7 @@ fn method_ms(s: &FrameStats) -> Option<f64> {
     Some(
         passes
             .iter()
-            .filter(|(name, _)| *name != "order")
+            .filter(|(name, _)| *name != "order" && *name != "animate")
             .map(|(_, ms)| ms)
             .sum(),
     )
@@ -186,18 +188,12 @@ fn method_ms(s: &FrameStats) -> Option<f64> {
 
 /// Runs one order and configuration over a sequence.
 fn run_one(gpu: &Gpu, seq: &mut Sequence, options: &RenderOptions, config: &Config) -> Result<Row> {
-    let (scene0, camera0) = &seq.frames[0];
-    let mut renderer = Renderer::new(gpu, scene0, options)?;
-    renderer.set_camera(camera0);
+    let mut renderer = Renderer::new(gpu, &seq.scene, options)?;
     let (mut times, mut taus) = (Vec::new(), Vec::new());
     let (mut fragments, mut culled, mut lock_failures) = (0u64, 0u64, 0u64);
     let (mut rmse_max, mut over_max) = (0.0f64, 0.0f64);
-    for t in 0..seq.frames.len() {
-        if t > 0 {
-            let (scene, camera) = &seq.frames[t];
-            renderer.set_geometry(scene)?;
-            renderer.set_camera(camera);
-        }
+    for t in 0..seq.frames as usize {
+        renderer.set_time(t as f32);
         let (image, stats) = renderer.render_method(config.method, None)?;
         lock_failures += stats.lock_failures.unwrap_or(0);
         if t > 0 {
@@ -210,9 +206,7 @@ fn run_one(gpu: &Gpu, seq: &mut Sequence, options: &RenderOptions, config: &Conf
             let reference = match &seq.references[t] {
                 Some(r) => r.clone(),
                 None => {
-                    let (scene, camera) = &seq.frames[t];
-                    let mut scene = scene.clone();
-                    scene.camera = Some(*camera);
+                    let scene = seq.scene.at_time(t as f32);
                     let exact = RenderOptions {
                         temporal: None,
                         order: None,
@@ -230,13 +224,13 @@ fn run_one(gpu: &Gpu, seq: &mut Sequence, options: &RenderOptions, config: &Conf
     }
     Ok(Row {
         sequence: seq.name.clone(),
-        triangles: seq.frames[0].0.triangle_count(),
+        triangles: seq.scene.triangle_count(),
         order: options.order.map_or("scene", |o| o.name()),
         seed: (options.order == Some(Order::Random)).then_some(options.order_seed),
         config: config.name,
         method: config.method,
         refresh: options.temporal.map(|t| t.refresh),
-        frames: seq.frames.len() as u32,
+        frames: seq.frames,
         gpu_ms: median(times),
         kendall_tau: median(taus),
         fragments: Some(fragments),
@@ -257,13 +251,24 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     let (cpu_figures, size, frames) =
         standalone_setup(gpu, size, frames, ((128, 128), (640, 480)), (4, 16))?;
     let frames = frames.max(2);
-    // The paper's balls: 435K triangles (1500 of 288); ≥ 10M triangles on a GPU, ≥ 1M on a CPU.
+    // The field: ≥ 10M triangles on a GPU, ≥ 1M on a CPU.
     let (ball_count, objects, randoms) = if cpu_figures {
         (1500, 2048, 3)
     } else {
         (1500, 20480, 10)
     };
-    let mut sequences = vec![balls(ball_count, frames)?, orbit(objects, frames)?];
+    let mut sequences = vec![
+        balls(ball_count, BALLS_RADIUS, frames)?,
+        orbit(objects, frames)?,
+    ];
+    if !cpu_figures {
+        // The animation's scale: 100K balls (4.8M triangles) moved on the GPU every frame.
+        sequences.push(Sequence::new(
+            "balls?count=100000&segments=8".into(),
+            loaders::load_scene("builtin:balls?count=100000&segments=8")?,
+            frames,
+        ));
+    }
     let orders: Vec<(Order, u64)> = std::iter::once((Order::Front, 0))
         .chain((0..randoms).map(|s| (Order::Random, s)))
         .chain(std::iter::once((Order::Back, 0)))

@@ -483,8 +483,9 @@ fn histogram_on_the_gpu_agrees_with_the_cpu() {
     );
 }
 
-/// `--frames` renders an animation's time steps with one renderer: each PNG equals the
-/// single-frame render of its step, and the statistics come as one JSON line per frame.
+/// `--frames` renders an animation's time steps with one renderer (the balls moving on the
+/// GPU, the camera on an `--orbit`): each PNG equals the single-frame render of its step (the
+/// scene built on the CPU at that time), and the statistics come as one JSON line per frame.
 #[test]
 fn frame_sequences_match_single_frames() {
     let dir = workdir("frames");
@@ -500,6 +501,8 @@ fn frame_sequences_match_single_frames() {
         "48x48",
         "--frames",
         "1..=3",
+        "--orbit",
+        "4",
         "-o",
         pattern.to_str().unwrap(),
         "--stats",
@@ -523,6 +526,8 @@ fn frame_sequences_match_single_frames() {
         "48x48",
         "--frame",
         "3",
+        "--orbit",
+        "4",
         "-o",
         single.to_str().unwrap(),
     ]);
@@ -536,6 +541,42 @@ fn frame_sequences_match_single_frames() {
     let first = image::open(dir.join("frame_001.png")).unwrap().to_rgba8();
     assert!(first != a, "the balls move between frames");
     assert_bad_input(&["render", "--frames", "3..1"], "--frames");
+    assert_bad_input(&["render", "--orbit", "nan"], "--orbit");
+}
+
+/// A scene file's `[[camera_key]]` path moves the camera with `--frame`; `--eye` cannot fix it.
+#[test]
+fn camera_keys_move_the_camera() {
+    let dir = workdir("camera-keys");
+    let scene = dir.join("keys.toml");
+    std::fs::write(
+        &scene,
+        "[[object]]\nmesh = \"builtin:cube\"\nopacity = 0.5\n\n[[camera_key]]\ntime = 0\neye = [0.0, 1.0, 4.0]\n\n[[camera_key]]\ntime = 10\neye = [4.0, 1.0, 0.0]\n",
+    )
+    .unwrap();
+    let render = |frame: &str, out: &str| {
+        let path = dir.join(out);
+        let o = strata(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--size",
+            "32x32",
+            "--frame",
+            frame,
+            "-o",
+            path.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        image::open(path).unwrap().to_rgba8()
+    };
+    let at_start = render("0", "k0.png");
+    let between = render("5", "k5.png");
+    assert!(at_start != between, "the camera moves between keys");
+    assert_eq!(render("0", "k0b.png"), at_start);
+    assert_bad_input(
+        &["render", scene.to_str().unwrap(), "--eye", "1,2,3"],
+        "camera_key",
+    );
 }
 
 #[test]

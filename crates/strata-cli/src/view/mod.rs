@@ -75,7 +75,8 @@ pub fn run(args: ViewArgs) -> Result<()> {
         Some(strata::frame::Pipeline::Forward) => PipelineArg::Forward,
         Some(strata::frame::Pipeline::Deferred) => PipelineArg::Deferred,
     });
-    let state = ViewState::new(picture, args.method.clone(), scene.camera_or_framing());
+    let mut state = ViewState::new(picture, args.method.clone(), scene.camera_or_framing());
+    state.camera_path = scene.camera_path.clone();
     let event_loop = EventLoop::new()
         .map_err(|e| Error::unsupported(format!("strata view cannot reach the display: {e}")))?;
     event_loop.set_control_flow(ControlFlow::Poll);
@@ -545,6 +546,7 @@ fn load_scene(state: &mut ViewState, spec: &str) {
     if let Ok((scene, _)) = crate::prepare_render(&state.method, &picture) {
         state.home = scene.camera_or_framing();
         state.orbit = Orbit::from_camera(&state.home);
+        state.camera_path = scene.camera_path.clone();
         state.playing = false;
     }
     // A scene that does not load fails in the viewport, which keeps the last one and says why.

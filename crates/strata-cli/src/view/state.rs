@@ -5,7 +5,7 @@
 use glam::Vec3;
 use strata::frame::Raster;
 use strata::methods::{self, MethodId};
-use strata::scene::{Camera, Projection};
+use strata::scene::{Camera, CameraPath, Projection};
 
 use crate::{MethodArgs, PictureArgs, PipelineArg, Toggle};
 
@@ -157,6 +157,8 @@ pub struct ViewState {
     pub orbit: Orbit,
     /// The camera of the scene with the command line's camera options, for "reset view".
     pub home: Camera,
+    /// The scene's camera path (`[[camera_key]]` or `--orbit`), which playing follows.
+    pub camera_path: Option<CameraPath>,
     pub playing: bool,
     /// Turn the GPU depth-complexity histogram on (one more count pass per frame).
     pub histogram: bool,
@@ -173,6 +175,8 @@ pub enum Change {
     /// Options the recorder takes as they are (k, tail, size, effect, background, ...), and
     /// maybe the method and camera.
     Options,
+    /// Another time step of the same scene (the GPU moves it), and maybe the camera or method.
+    Time,
     /// Another time step of the same scene, and maybe any of the above.
     Geometry,
     /// Everything else: the scene is loaded again and a new recorder made.
@@ -186,6 +190,7 @@ impl ViewState {
             picture,
             method,
             home,
+            camera_path: None,
             playing: false,
             histogram: true,
         }
@@ -218,9 +223,9 @@ impl ViewState {
         self.commit_camera();
     }
 
-    /// Whether the scene animates (its time steps move geometry).
+    /// Whether the scene animates (its time steps move geometry or the camera).
     pub fn animated(&self) -> bool {
-        self.picture.scene.starts_with("builtin:balls")
+        self.picture.scene.starts_with("builtin:balls") || self.camera_path.is_some()
     }
 
     /// The animation time, frames of the scene.
@@ -228,14 +233,21 @@ impl ViewState {
         self.picture.frame.unwrap_or(0.0)
     }
 
+    /// Moves to time `t`; a camera path moves the view with it.
     pub fn set_time(&mut self, t: f32) {
-        self.picture.frame = Some(t.max(0.0));
+        let t = t.max(0.0);
+        self.picture.frame = Some(t);
+        if let Some(path) = &self.camera_path {
+            self.orbit = Orbit::from_camera(&path.camera_at(t));
+        }
     }
 
     /// What it takes to go from `old` to this state.
     pub fn change_from(&self, old: &ViewState) -> Change {
         if rebuild_key(self) != rebuild_key(old) {
             Change::Rebuild
+        } else if self.picture.frame != old.picture.frame && options_key(self) == options_key(old) {
+            Change::Time
         } else if self.picture.frame != old.picture.frame {
             Change::Geometry
         } else if options_key(self) != options_key(old) {
@@ -274,6 +286,9 @@ impl ViewState {
         }
         if let Some(a) = p.alpha {
             push("alpha", a.to_string());
+        }
+        if let Some(d) = p.orbit {
+            push("orbit", d.to_string());
         }
         if let Some(f) = p.frame {
             push("frame", f.to_string());

@@ -46,6 +46,8 @@ pub struct Viewport {
     recorder: FrameRecorder,
     /// The scene as loaded, the camera being the view's.
     scene: Scene,
+    /// The time the recorder shows (`scene` stays at its own).
+    time: f32,
     target: wgpu::Texture,
     background: wgpu::RenderPipeline,
     background_group: wgpu::BindGroup,
@@ -100,6 +102,7 @@ impl Viewport {
             target: target(gpu, &options),
             gpu: gpu.clone(),
             recorder,
+            time: scene.time,
             scene,
             background,
             background_group,
@@ -116,6 +119,12 @@ impl Viewport {
     pub fn apply(&mut self, state: &ViewState, change: Change) -> Result<()> {
         match change {
             Change::None => {}
+            Change::Time => {
+                self.recorder.set_time(state.time());
+                self.time = state.time();
+                self.recorder.set_method(state.method.method)?;
+                self.recorder.set_camera(&state.camera());
+            }
             Change::Camera | Change::Method => {
                 self.recorder.set_method(state.method.method)?;
                 self.recorder.set_camera(&state.camera());
@@ -124,6 +133,7 @@ impl Viewport {
                 let (scene, options) = prepared(state)?;
                 if change == Change::Geometry {
                     self.recorder.set_geometry(&scene)?;
+                    self.time = scene.time;
                     self.scene = scene;
                 }
                 self.recorder.set_options(&options)?;
@@ -212,7 +222,13 @@ impl Viewport {
 
     /// The scene and options of the current view (what the reference renders).
     pub fn picture(&self) -> (Scene, RenderOptions) {
-        (self.scene.clone(), self.recorder.options().clone())
+        let mut scene = self.scene.clone();
+        if scene.time != self.time {
+            let camera = scene.camera;
+            scene.set_time(self.time);
+            scene.camera = camera;
+        }
+        (scene, self.recorder.options().clone())
     }
 
     /// The fragment count of every pixel of the last frame (a blocking readback).
