@@ -94,6 +94,16 @@ fn range(buffer: &wgpu::Buffer, stride: u64, first: u32, count: u32) -> wgpu::Bi
     })
 }
 
+/// The buffer bound in place of `triangles` centroids while no order reads them.
+fn centroid_stub(gpu: &Gpu, triangles: u32) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("strata.animation.centroid_stub"),
+        size: 12 * triangles as u64,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    })
+}
+
 /// A scene's moving objects on the GPU.
 pub struct SceneAnimation {
     objects: u32,
@@ -244,12 +254,7 @@ impl SceneAnimation {
             vertices_layout,
             chunk,
             chunks: Vec::new(),
-            centroid_stub: gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("strata.animation.centroid_stub"),
-                size: 12 * chunk.min(triangles) as u64,
-                usage: storage,
-                mapped_at_creation: false,
-            }),
+            centroid_stub: centroid_stub(gpu, chunk.min(triangles)),
             writes_centroids: false,
             time: scene.time,
             shown: scene.time,
@@ -299,12 +304,7 @@ impl SceneAnimation {
     pub(crate) fn set_chunk(&mut self, gpu: &Gpu, vertices: &wgpu::Buffer, triangles: u32) {
         assert!(triangles > 0 && triangles.is_multiple_of(WORKGROUP));
         self.chunk = triangles;
-        self.centroid_stub = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("strata.animation.centroid_stub"),
-            size: 12 * triangles as u64,
-            usage: wgpu::BufferUsages::STORAGE,
-            mapped_at_creation: false,
-        });
+        self.centroid_stub = centroid_stub(gpu, triangles);
         self.bind(gpu, vertices, None);
         self.shown = f32::NAN;
     }
