@@ -383,6 +383,10 @@ pub struct FrameStats {
     /// order and front-to-back depth order (0: front to back, 1: back to front).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub kendall_tau: Option<f64>,
+    /// `convex`: groups, passes, draws, pairs ordered without a plane, and `order_violations`
+    /// (pixel-passes where the order failed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub convex: Option<crate::methods::convex::ConvexStats>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the
@@ -421,6 +425,8 @@ pub struct MethodStats {
     /// With `--temporal on`: fragments culled by last frame's interface (never counted by the
     /// resolve: the frame's totals add them as generated and dropped).
     pub culled_temporal: Option<u64>,
+    /// `convex`: the frame's order and its violations.
+    pub convex: Option<crate::methods::convex::ConvexStats>,
 }
 
 /// What a method recorded: known on the CPU when the frame is recorded.
@@ -435,6 +441,8 @@ pub struct Recorded {
     pub memory_ordering: Option<&'static str>,
     /// The frame ran with temporal culling.
     pub temporal: bool,
+    /// `convex`: its order for this frame (violations come back with the statistics).
+    pub convex: Option<crate::methods::convex::ConvexStats>,
 }
 
 /// Frame totals every resolve adds each pixel to (`report_pixel` in composite.wgsl); 64-bit

@@ -10,6 +10,7 @@
 
 pub mod baseline;
 pub mod capture;
+pub mod convex;
 pub mod kbuffer;
 pub mod peeling;
 pub mod weighted;
@@ -53,10 +54,11 @@ pub enum MethodId {
     Wboit,
     Mboit,
     KplusSemiheap,
+    Convex,
 }
 
 impl MethodId {
-    pub const ALL: [MethodId; 25] = [
+    pub const ALL: [MethodId; 26] = [
         MethodId::Reference,
         MethodId::Unsorted,
         MethodId::Sorted,
@@ -82,6 +84,7 @@ impl MethodId {
         MethodId::Wboit,
         MethodId::Mboit,
         MethodId::KplusSemiheap,
+        MethodId::Convex,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -111,6 +114,7 @@ impl MethodId {
             MethodId::Wboit => "wboit",
             MethodId::Mboit => "mboit",
             MethodId::KplusSemiheap => "kplus-semiheap",
+            MethodId::Convex => "convex",
         }
     }
 
@@ -290,6 +294,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per geometry pass, by a k+-buffer capture; A-buffer results in bounded memory, equal-depth fragments included",
         },
         MethodInfo {
+            id: "convex",
+            family: "convex",
+            exact: true,
+            geometry_passes: "1 read of the geometry, split over P passes (P: groups in the deepest chain of overlapping screen rectangles)",
+            memory: "(16·L + 40)·W·H + 12·triangles + 8; L = 2, or 4 with paired groups",
+            summary: "convex polyhedra (seed 001): convex parts by region growing, ordered per frame by separating planes and nesting; each pass captures groups that cannot share a pixel (2 layers per part) and merges them front to back; exact when the order holds, order_violations counted",
+        },
+        MethodInfo {
             id: "abuffer-fixed",
             family: "abuffer",
             exact: false,
@@ -450,6 +462,7 @@ pub fn create(
             Box::new(kbuffer::sbuffer::SBuffer::new(gpu, scene, id, options))
         }
         MethodId::Kpeel => Box::new(kbuffer::kpeel::KPeel::new(gpu, scene)?),
+        MethodId::Convex => Box::new(convex::Convex::new(gpu, scene)?),
         MethodId::KbMdt32 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt32)?),
         MethodId::KbMdt64 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt64)?),
         MethodId::KbMdtPack => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Pack)?),

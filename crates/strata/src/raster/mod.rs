@@ -136,7 +136,9 @@ fn locks(id: MethodId) -> bool {
 /// The error for a method the compute rasterizer cannot capture for.
 pub fn check_method(id: MethodId, raster: Raster) -> Result<()> {
     if raster == Raster::Compute && !supports(id) {
-        let why = if locks(id) {
+        let why = if id == MethodId::Convex {
+            "it draws each pass's groups through their own index ranges, in an order made per frame"
+        } else if locks(id) {
             "its capture's locks need acquire/release atomics, which compute captures lack (WGSL atomics are relaxed)"
         } else {
             "it draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of"

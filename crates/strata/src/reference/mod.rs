@@ -314,6 +314,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         culled_temporal: None,
         order: None,
         kendall_tau: None,
+        convex: None,
         blocking_readbacks: 0,
         submits: 0,
         frame: 0,

@@ -793,6 +793,7 @@ impl FrameRecorder {
             fragments_stored: totals.map(|t| t.stored),
             fragments_dropped: totals.map(|t| t.dropped + ms.culled_temporal.unwrap_or(0)),
             culled_temporal: ms.culled_temporal,
+            convex: ms.convex,
             max_depth_complexity: totals.map(|t| t.max_depth),
             bytes_allocated: Some(
                 p.recorded.bytes_allocated

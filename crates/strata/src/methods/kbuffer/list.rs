@@ -103,6 +103,7 @@ impl ListKBuffer {
             capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
+            convex: None,
         };
         Ok((params_for(ctx, k, k, false), storage, recorded))
     }

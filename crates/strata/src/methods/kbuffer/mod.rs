@@ -770,6 +770,7 @@ impl SlotKBuffer {
             capacity: stride as u64,
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
+            convex: None,
         };
         let mut params = params_for(ctx, k, stride, self.variant.fixed());
         if self.variant == Variant::KplusSemiheap {

@@ -303,6 +303,7 @@ impl Method for SBuffer {
             capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
+            convex: None,
         })
     }
 

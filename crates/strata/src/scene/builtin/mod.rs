@@ -15,7 +15,7 @@
 
 mod models;
 mod params;
-mod primitives;
+pub(crate) mod primitives;
 pub(crate) mod rng;
 mod scenes;
 

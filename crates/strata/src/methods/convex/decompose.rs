@@ -1,0 +1,576 @@
+//! The preprocess of `convex` (seed 001 §3): convex parts by region growing over face
+//! adjacency, inseparable neighbours paired into groups of two (the paper's slabs: at most four
+//! layers), and a separating plane for every pair of groups whose bounding boxes overlap.
+//!
+//! A *part* is a set of triangles lying on the boundary of their own convex hull, each facing
+//! out of it: every vertex of the part lies on or below every triangle's plane (within
+//! [`Decomposition::tolerance`]). A ray from the eye therefore meets a part at most twice — once
+//! on a front-facing triangle, once on a back-facing one — whether or not the part is closed.
+//! Region growing takes the first unassigned triangle in primitive order as seed and adds
+//! edge-neighbours for which that condition still holds both ways (the new triangle's vertices
+//! below every plane of the part, the part's vertices below the new triangle's plane), breadth
+//! first, up to [`MAX_PART_TRIANGLES`] (which bounds the quadratic cost of the test).
+//!
+//! Parts are ordered per frame through planes that separate them (see [`super::order`]). Two
+//! parts whose boxes are disjoint along an axis are separated by that axis; for the pairs whose
+//! boxes overlap, a plane is searched among candidate normals (the line between their centroids,
+//! the axes, and the normals of their triangles that come within the other's box — the paper
+//! takes the PCA of the touching faces; their own normals include the planes a convex edge
+//! between two parts lies on). A pair that no candidate separates is *inseparable*: the two
+//! parts are captured together as one group (at most four layers per pixel, sorted in the merge
+//! — the role of the paper's slab), each part joining at most one such pair. Inseparable pairs
+//! left over (a part already paired) are counted (`unseparated`) and ordered by centroid each
+//! frame; the frame's `order_violations` measure what that costs.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Region growing stops a part at this many triangles: the convexity test of each candidate
+/// costs the part's size, so parts are bounded to keep the preprocess near-linear.
+pub const MAX_PART_TRIANGLES: usize = 8192;
+
+/// Candidate triangle normals tried per side when separating two groups.
+const TOUCHING_CANDIDATES: usize = 24;
+
+/// A set of triangles drawn together (one or two convex parts), with the range of the static
+/// index buffer that holds them.
+#[derive(Clone, Debug)]
+pub struct Group {
+    /// Convex parts in this group (1, or 2 for an inseparable pair).
+    pub parts: u32,
+    /// Primitive indices, the group's triangles in order.
+    pub triangles: Vec<u32>,
+    pub lo: Vec3,
+    pub hi: Vec3,
+    pub centroid: Vec3,
+}
+
+/// A plane n·x = offset with the first group of the pair (the lower index) on or below it and
+/// the second on or above it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Separation {
+    pub normal: Vec3,
+    pub offset: f32,
+}
+
+/// What the preprocess found.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct DecompositionStats {
+    pub triangles: u64,
+    /// Convex parts from region growing.
+    pub parts: u32,
+    /// Groups drawn and ordered (parts, inseparable pairs joined).
+    pub groups: u32,
+    /// Inseparable pairs captured together as one group.
+    pub paired: u32,
+    /// Pairs of groups whose boxes overlap, each needing its own plane.
+    pub overlapping_pairs: u64,
+    /// Overlapping pairs where one group lies inside the other's convex hull.
+    pub nested: u64,
+    /// Overlapping pairs neither separated by a candidate plane nor nested: ordered by
+    /// centroid per frame.
+    pub unseparated: u64,
+    /// Layers a pixel can need from one group: 2 per part.
+    pub layers_per_group: u32,
+    pub preprocess_ms: f64,
+}
+
+/// Convex groups of a triangle list and the planes between them.
+#[derive(Clone, Debug)]
+pub struct Decomposition {
+    pub groups: Vec<Group>,
+    /// How each pair (i < j) of groups whose boxes overlap relates.
+    pub relations: HashMap<(u32, u32), Relation>,
+    /// Groups holding another inside their hull, drawn as a front and a back cap.
+    pub container: Vec<bool>,
+    /// Distance within which a point counts as on a plane: a millionth of the scene's extent.
+    pub tolerance: f32,
+    pub stats: DecompositionStats,
+}
+
+/// Triangles welded into shared vertices, with planes and edge neighbours.
+struct Mesh {
+    positions: Vec<Vec3>,
+    corners: Vec<[u32; 3]>,
+    /// Unit normal and offset; `None` for a triangle without area.
+    planes: Vec<Option<(Vec3, f32)>>,
+    neighbours: Vec<Vec<u32>>,
+}
+
+impl Mesh {
+    fn new(triangles: &[[Vec3; 3]]) -> Mesh {
+        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut positions = Vec::new();
+        let corners: Vec<[u32; 3]> = triangles
+            .iter()
+            .map(|t| {
+                t.map(|p| {
+                    *ids.entry(p.to_array().map(f32::to_bits))
+                        .or_insert_with(|| {
+                            positions.push(p);
+                            positions.len() as u32 - 1
+                        })
+                })
+            })
+            .collect();
+        let planes = triangles
+            .par_iter()
+            .map(|t| {
+                let n = (t[1] - t[0]).cross(t[2] - t[0]);
+                let len = n.length();
+                (len > 0.0 && len.is_finite()).then(|| {
+                    let n = n / len;
+                    (n, n.dot(t[0]))
+                })
+            })
+            .collect();
+        let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+        for (t, c) in corners.iter().enumerate() {
+            for i in 0..3 {
+                let (a, b) = (c[i], c[(i + 1) % 3]);
+                if a != b {
+                    edges
+                        .entry((a.min(b), a.max(b)))
+                        .or_default()
+                        .push(t as u32);
+                }
+            }
+        }
+        let mut neighbours = vec![Vec::new(); triangles.len()];
+        for sharing in edges.values() {
+            for &a in sharing {
+                for &b in sharing {
+                    if a != b {
+                        neighbours[a as usize].push(b);
+                    }
+                }
+            }
+        }
+        for n in &mut neighbours {
+            n.sort_unstable();
+            n.dedup();
+        }
+        Mesh {
+            positions,
+            corners,
+            planes,
+            neighbours,
+        }
+    }
+}
+
+/// Convex parts by region growing: each a list of primitive indices, every triangle in exactly
+/// one. `tolerance` is the distance within which a vertex counts as on a plane.
+pub fn convex_parts(triangles: &[[Vec3; 3]], tolerance: f32) -> Vec<Vec<u32>> {
+    let mesh = Mesh::new(triangles);
+    grow_parts(&mesh, tolerance)
+}
+
+fn grow_parts(mesh: &Mesh, tolerance: f32) -> Vec<Vec<u32>> {
+    const NONE: u32 = u32::MAX;
+    let n = mesh.corners.len();
+    let mut part_of = vec![NONE; n];
+    // Per-part stamps: which part a vertex belongs to, which part rejected a triangle.
+    let mut vertex_in = vec![NONE; mesh.positions.len()];
+    let mut rejected_by = vec![NONE; n];
+    let mut parts: Vec<Vec<u32>> = Vec::new();
+    for seed in 0..n {
+        if part_of[seed] != NONE {
+            continue;
+        }
+        let id = parts.len() as u32;
+        part_of[seed] = id;
+        let mut faces = vec![seed as u32];
+        let Some(seed_plane) = mesh.planes[seed] else {
+            // Without area a triangle has no plane to grow from: a part of its own.
+            parts.push(faces);
+            continue;
+        };
+        let mut planes = vec![seed_plane];
+        let mut vertices: Vec<u32> = Vec::new();
+        for &v in &mesh.corners[seed] {
+            if vertex_in[v as usize] != id {
+                vertex_in[v as usize] = id;
+                vertices.push(v);
+            }
+        }
+        let mut queue =
+            std::collections::VecDeque::from_iter(mesh.neighbours[seed].iter().copied());
+        while let Some(g) = queue.pop_front() {
+            if faces.len() >= MAX_PART_TRIANGLES {
+                break;
+            }
+            let gi = g as usize;
+            if part_of[gi] != NONE || rejected_by[gi] == id {
+                continue;
+            }
+            let Some((gn, gd)) = mesh.planes[gi] else {
+                continue;
+            };
+            let new_below_part = mesh.corners[gi].iter().all(|&v| {
+                vertex_in[v as usize] == id || {
+                    let p = mesh.positions[v as usize];
+                    planes.iter().all(|&(n, d)| n.dot(p) - d <= tolerance)
+                }
+            });
+            let part_below_new = new_below_part
+                && vertices
+                    .iter()
+                    .all(|&v| gn.dot(mesh.positions[v as usize]) - gd <= tolerance);
+            if !part_below_new {
+                rejected_by[gi] = id;
+                continue;
+            }
+            part_of[gi] = id;
+            faces.push(g);
+            planes.push((gn, gd));
+            for &v in &mesh.corners[gi] {
+                if vertex_in[v as usize] != id {
+                    vertex_in[v as usize] = id;
+                    vertices.push(v);
+                }
+            }
+            queue.extend(mesh.neighbours[gi].iter().copied());
+        }
+        parts.push(faces);
+    }
+    parts
+}
+
+/// Whether every vertex of `faces` lies on or below every plane of `faces` (within
+/// `tolerance`): the definition of a convex part.
+pub fn is_convex_part(triangles: &[[Vec3; 3]], faces: &[u32], tolerance: f32) -> bool {
+    faces.iter().all(|&f| {
+        let t = triangles[f as usize];
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        let len = n.length();
+        if len == 0.0 {
+            return faces.len() == 1;
+        }
+        let (n, d) = (n / len, (n / len).dot(t[0]));
+        faces
+            .iter()
+            .flat_map(|&g| triangles[g as usize])
+            .all(|p| n.dot(p) - d <= tolerance)
+    })
+}
+
+impl Decomposition {
+    /// Decomposes `triangles` (in primitive order). `progress` is told the fraction done.
+    pub fn new(triangles: &[[Vec3; 3]], progress: &dyn Fn(f32)) -> Decomposition {
+        let start = std::time::Instant::now();
+        let (lo, hi) = bounds(triangles.iter().flatten().copied());
+        let tolerance = ((hi - lo).length() * 1e-6).max(f32::MIN_POSITIVE);
+        let mesh = Mesh::new(triangles);
+        progress(0.1);
+        let parts = grow_parts(&mesh, tolerance);
+        progress(0.6);
+        let part_count = parts.len() as u32;
+        let mut groups: Vec<Group> = parts.into_iter().map(|p| group(triangles, p, 1)).collect();
+        // Inseparable neighbours, neither inside the other, become one group of two parts; each
+        // part joins at most one.
+        let relations = relate(triangles, &mesh, &groups, tolerance);
+        let mut partner = vec![u32::MAX; groups.len()];
+        for (&(a, b), relation) in &relations {
+            if *relation == Relation::Inseparable
+                && partner[a as usize] == u32::MAX
+                && partner[b as usize] == u32::MAX
+            {
+                partner[a as usize] = b;
+                partner[b as usize] = a;
+            }
+        }
+        progress(0.8);
+        let mut joined = Vec::with_capacity(groups.len());
+        let mut paired = 0;
+        for i in 0..groups.len() {
+            let p = partner[i] as usize;
+            if partner[i] == u32::MAX {
+                joined.push((std::mem::take(&mut groups[i].triangles), 1));
+            } else if p > i {
+                let mut t = std::mem::take(&mut groups[i].triangles);
+                t.append(&mut groups[p].triangles);
+                joined.push((t, 2));
+                paired += 1;
+            }
+        }
+        let groups: Vec<Group> = joined
+            .into_iter()
+            .map(|(t, parts)| group(triangles, t, parts))
+            .collect();
+        let relations = if paired == 0 {
+            relations
+        } else {
+            relate(triangles, &mesh, &groups, tolerance)
+        };
+        progress(1.0);
+        let count = |r: Relation| relations.values().filter(|&&x| x == r).count() as u64;
+        let layers_per_group = 2 * groups.iter().map(|g| g.parts).max().unwrap_or(1);
+        let stats = DecompositionStats {
+            triangles: triangles.len() as u64,
+            parts: part_count,
+            groups: groups.len() as u32,
+            paired,
+            overlapping_pairs: relations.len() as u64,
+            nested: count(Relation::Contains) + count(Relation::Inside),
+            unseparated: count(Relation::Inseparable),
+            layers_per_group,
+            preprocess_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        let mut container = vec![false; groups.len()];
+        for (&(i, j), r) in &relations {
+            match r {
+                Relation::Contains => container[i as usize] = true,
+                Relation::Inside => container[j as usize] = true,
+                _ => {}
+            }
+        }
+        Decomposition {
+            groups,
+            relations,
+            container,
+            tolerance,
+            stats,
+        }
+    }
+
+    /// How groups `a` and `b` relate, seen from `a`: a plane with `a` below it (pairs whose
+    /// boxes overlap, when one was found; along an axis when the boxes are apart), nesting, or
+    /// nothing found.
+    pub fn relation(&self, a: u32, b: u32) -> Relation {
+        let (i, j) = (a.min(b), a.max(b));
+        let r = match self.relations.get(&(i, j)) {
+            Some(r) => *r,
+            None => axis_separation(&self.groups[i as usize], &self.groups[j as usize])
+                .map_or(Relation::Inseparable, Relation::Plane),
+        };
+        if a == i {
+            r
+        } else {
+            r.reversed()
+        }
+    }
+}
+
+fn group(triangles: &[[Vec3; 3]], faces: Vec<u32>, parts: u32) -> Group {
+    let points = faces.iter().flat_map(|&f| triangles[f as usize]);
+    let (lo, hi) = bounds(points.clone());
+    let centroid = points.clone().sum::<Vec3>() / (3 * faces.len()).max(1) as f32;
+    Group {
+        parts,
+        triangles: faces,
+        lo,
+        hi,
+        centroid,
+    }
+}
+
+fn bounds(points: impl Iterator<Item = Vec3>) -> (Vec3, Vec3) {
+    points.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p), hi.max(p))
+    })
+}
+
+/// The axis-aligned plane between two groups whose boxes are apart along an axis.
+fn axis_separation(a: &Group, b: &Group) -> Option<Separation> {
+    (0..3).find_map(|k| {
+        let axis = Vec3::AXES[k];
+        if a.hi[k] <= b.lo[k] {
+            Some(Separation {
+                normal: axis,
+                offset: 0.5 * (a.hi[k] + b.lo[k]),
+            })
+        } else if b.hi[k] <= a.lo[k] {
+            Some(Separation {
+                normal: -axis,
+                offset: -0.5 * (b.hi[k] + a.lo[k]),
+            })
+        } else {
+            None
+        }
+    })
+}
+
+/// How two groups `(a, b)` relate, from `a`'s side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Relation {
+    /// A plane with `a` on or below it and `b` on or above it.
+    Plane(Separation),
+    /// `b` lies inside the convex hull of `a` (a single convex part): every ray meets `a`'s
+    /// front-facing layer before `b` and its back-facing layer after.
+    Contains,
+    /// `a` lies inside `b`'s hull.
+    Inside,
+    /// No candidate plane separates them and neither holds the other.
+    Inseparable,
+}
+
+impl Relation {
+    fn reversed(self) -> Relation {
+        match self {
+            Relation::Plane(s) => Relation::Plane(Separation {
+                normal: -s.normal,
+                offset: -s.offset,
+            }),
+            Relation::Contains => Relation::Inside,
+            Relation::Inside => Relation::Contains,
+            Relation::Inseparable => Relation::Inseparable,
+        }
+    }
+}
+
+/// Every pair (i < j) of groups whose boxes overlap, with how they relate.
+fn relate(
+    triangles: &[[Vec3; 3]],
+    mesh: &Mesh,
+    groups: &[Group],
+    tolerance: f32,
+) -> HashMap<(u32, u32), Relation> {
+    let mut by_x: Vec<u32> = (0..groups.len() as u32).collect();
+    by_x.sort_by(|&a, &b| groups[a as usize].lo.x.total_cmp(&groups[b as usize].lo.x));
+    let mut pairs = Vec::new();
+    for (n, &a) in by_x.iter().enumerate() {
+        let ga = &groups[a as usize];
+        for &b in &by_x[n + 1..] {
+            let gb = &groups[b as usize];
+            if gb.lo.x >= ga.hi.x {
+                break;
+            }
+            if gb.lo.y < ga.hi.y && gb.hi.y > ga.lo.y && gb.lo.z < ga.hi.z && gb.hi.z > ga.lo.z {
+                pairs.push((a.min(b), a.max(b)));
+            }
+        }
+    }
+    let mut group_of = vec![0u32; triangles.len()];
+    for (g, group) in groups.iter().enumerate() {
+        for &t in &group.triangles {
+            group_of[t as usize] = g as u32;
+        }
+    }
+    let relations: Vec<Relation> = pairs
+        .par_iter()
+        .map(|&(a, b)| {
+            let pair = Pair {
+                triangles,
+                mesh,
+                group_of: &group_of,
+                tolerance,
+            };
+            pair.relate((a, &groups[a as usize]), (b, &groups[b as usize]))
+        })
+        .collect();
+    pairs.into_iter().zip(relations).collect()
+}
+
+struct Pair<'a> {
+    triangles: &'a [[Vec3; 3]],
+    mesh: &'a Mesh,
+    group_of: &'a [u32],
+    tolerance: f32,
+}
+
+impl Pair<'_> {
+    fn points(&self, g: &Group) -> Vec<Vec3> {
+        g.triangles
+            .iter()
+            .flat_map(|&f| self.triangles[f as usize])
+            .collect()
+    }
+
+    fn relate(&self, (ia, a): (u32, &Group), (ib, b): (u32, &Group)) -> Relation {
+        let (pa, pb) = (self.points(a), self.points(b));
+        if let Some(s) = self.separate((ia, a, &pa), (ib, b, &pb)) {
+            return Relation::Plane(s);
+        }
+        let boxed = |outer: &Group, inner: &Group| {
+            outer.parts == 1 && inner.lo.cmpge(outer.lo).all() && inner.hi.cmple(outer.hi).all()
+        };
+        if boxed(a, b) && self.holds(a, &pb) {
+            return Relation::Contains;
+        }
+        if boxed(b, a) && self.holds(b, &pa) {
+            return Relation::Inside;
+        }
+        Relation::Inseparable
+    }
+
+    /// Whether `points` lie below every plane of the convex part `container`.
+    fn holds(&self, container: &Group, points: &[Vec3]) -> bool {
+        container.triangles.iter().all(|&f| {
+            self.mesh.planes[f as usize]
+                .is_none_or(|(n, d)| points.iter().all(|&p| n.dot(p) - d <= self.tolerance))
+        })
+    }
+
+    /// A plane with `a` below and `b` above among the candidate normals: the line between
+    /// the centroids, the axes, the normals of triangles reaching into the other's box, and
+    /// for triangles sharing an edge across the pair the difference of their normals (a plane
+    /// through that edge between the two faces).
+    fn separate(
+        &self,
+        (ia, a, pa): (u32, &Group, &[Vec3]),
+        (ib, b, pb): (u32, &Group, &[Vec3]),
+    ) -> Option<Separation> {
+        let normal = |f: u32| self.mesh.planes[f as usize].map(|(n, _)| n);
+        let touching = |g: &Group, other: &Group| -> Vec<u32> {
+            let (lo, hi) = (other.lo - self.tolerance, other.hi + self.tolerance);
+            let near: Vec<u32> = g
+                .triangles
+                .iter()
+                .copied()
+                .filter(|&f| {
+                    self.triangles[f as usize]
+                        .iter()
+                        .any(|p| p.cmpge(lo).all() && p.cmple(hi).all())
+                })
+                .collect();
+            let step = near.len().div_ceil(TOUCHING_CANDIDATES).max(1);
+            near.into_iter().step_by(step).collect()
+        };
+        let (ta, tb) = (touching(a, b), touching(b, a));
+        let mut candidates = vec![(b.centroid - a.centroid).normalize_or_zero()];
+        for (&f, other) in ta.iter().map(|f| (f, ib)).chain(tb.iter().map(|f| (f, ia))) {
+            let Some(nf) = normal(f) else { continue };
+            for &g in &self.mesh.neighbours[f as usize] {
+                if self.group_of[g as usize] == other {
+                    if let Some(ng) = normal(g) {
+                        candidates.push((nf - ng).normalize_or_zero());
+                    }
+                }
+            }
+        }
+        candidates.extend(ta.iter().chain(&tb).filter_map(|&f| normal(f)));
+        candidates.extend(Vec3::AXES);
+        candidates.into_iter().find_map(|n| {
+            if n == Vec3::ZERO {
+                return None;
+            }
+            let (a_lo, a_hi) = extent(pa, n);
+            let (b_lo, b_hi) = extent(pb, n);
+            if a_hi <= b_lo + self.tolerance {
+                Some(Separation {
+                    normal: n,
+                    offset: 0.5 * (a_hi + b_lo),
+                })
+            } else if b_hi <= a_lo + self.tolerance {
+                Some(Separation {
+                    normal: -n,
+                    offset: -0.5 * (b_hi + a_lo),
+                })
+            } else {
+                None
+            }
+        })
+    }
+}
+
+fn extent(points: &[Vec3], n: Vec3) -> (f32, f32) {
+    points
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+            let d = n.dot(*p);
+            (lo.min(d), hi.max(d))
+        })
+}

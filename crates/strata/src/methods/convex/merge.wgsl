@@ -1,0 +1,73 @@
+// convex merge: after each capture pass, every pixel sorts the fragments its pass left (at most
+// LAYERS) and composites them behind what earlier passes merged. A pass's nearest fragment in
+// front of the last merged one in (depth, primitive) order is an order violation: counted, and
+// composited where it arrived (the order could not be kept). init and finish bracket the frame.
+// LAYERS is prepended by the method.
+
+@group(1) @binding(0) var<storage, read_write> state: array<Composite>;
+@group(1) @binding(1) var<storage, read_write> claims: array<u32>;
+@group(1) @binding(2) var<storage, read> slots: array<Fragment>;
+// Per pixel: fragments generated over the frame's passes.
+@group(1) @binding(3) var<storage, read_write> generated: array<u32>;
+// [0]: order violations (pixel-passes), [1]: pixel-passes with fragments past LAYERS.
+@group(1) @binding(4) var<storage, read_write> counters: array<atomic<u32>>;
+@group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
+
+@compute @workgroup_size(8, 8)
+fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let i = pixel_index(id.xy);
+    state[i] = composite_new();
+    generated[i] = 0u;
+    claims[i] = 0u;
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_merge(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let i = pixel_index(id.xy);
+    let claimed = claims[i];
+    if claimed == 0u {
+        return;
+    }
+    claims[i] = 0u;
+    generated[i] += claimed;
+    if claimed > LAYERS {
+        atomicAdd(&counters[1], 1u);
+    }
+    let n = min(claimed, LAYERS);
+    var f: array<Fragment, LAYERS>;
+    for (var a = 0u; a < n; a++) {
+        let x = slots[i * LAYERS + a];
+        var b = a;
+        while b > 0u && fragment_before(x, f[b - 1u]) {
+            f[b] = f[b - 1u];
+            b--;
+        }
+        f[b] = x;
+    }
+    var s = state[i];
+    let last = Fragment(s.last_depth, s.last_tag, 0u, 0u);
+    if s.count > 0u && fragment_before(f[0], last) {
+        atomicAdd(&counters[0], 1u);
+    }
+    for (var a = 0u; a < n; a++) {
+        composite_front(&s, f[a]);
+    }
+    state[i] = s;
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let i = pixel_index(id.xy);
+    let s = state[i];
+    output[i] = composite_finish(s);
+    report_pixel(generated[i], s.count);
+}

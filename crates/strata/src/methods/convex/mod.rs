@@ -1,0 +1,405 @@
+//! `convex` — single-read multi-fragment rendering with convex polyhedra (seed 001: Xie & Wang,
+//! 2011): the geometry is ordered in object space so that each triangle is drawn once per frame
+//! in visibility order, and a pixel never holds more than one group's layers at a time.
+//!
+//! Preprocess (once, when the method is made; [`decompose`]): convex parts by region growing,
+//! inseparable neighbours paired into groups of two, nesting found, a separating plane per pair
+//! of groups whose boxes overlap. The triangles go into one static index buffer, group by group.
+//!
+//! Per frame ([`order`], on the CPU when the view changed): the groups' screen rectangles, the
+//! visibility order of every overlapping pair (their plane, or nesting), a topological sort into
+//! passes whose groups cannot share a pixel. Passes, each recorded into the caller's encoder:
+//! - init (compute): every pixel's compositing state, counters.
+//! - per pass: capture (one geometry pass drawing only that pass's groups' index ranges; a
+//!   container's front cap before what it holds, its back cap after): each fragment appended to
+//!   its pixel's slots behind an atomic claim counter; then merge (compute): the pixel sorts its
+//!   at most `layers` fragments (2 per convex part; 4 for a paired group — the paper's slab),
+//!   composites them front to back behind what earlier passes merged, and counts an order
+//!   violation when the pass's nearest fragment lies in front of the last merged one.
+//! - finish (compute): the pixel's [`crate::frame::Resolved`] and its account.
+//!
+//! Every triangle is drawn once per frame (containers' twice, each fragment kept once).
+//! Memory: (16·layers + 40)·W·H + 12 bytes per triangle (the index buffer) + 8 — two layers'
+//! worth when no group is paired, whatever the depth complexity.
+//!
+//! The paper captures a piece's two layers with 32-bit MAX blending into two zero-cleared
+//! targets; WebGPU has no MAX blending on 32-bit float targets everywhere, so the capture writes
+//! storage behind a per-pixel counter, which also keeps a paired group's four layers and counts
+//! (as dropped) what a non-convex configuration would put past them.
+//!
+//! Exact where every overlapping pair has a plane or nests: then the passes follow depth order in
+//! every pixel and the result equals the reference. Pairs without either (adjacent parts on a
+//! curved scanned surface whose shared boundary is not planar, once each has a partner) are
+//! ordered by centroid distance: the frame counts the pixels where that broke the order
+//! (`order_violations`), and the error against the reference is measured, not hidden. Limits:
+//! static geometry (a scene whose objects move is refused; camera motion is free), the GPU's
+//! rasterizer only, no application draw callback, no `--order`.
+
+pub mod decompose;
+pub mod order;
+
+use glam::Vec3;
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::gpu::binding::{self, Slot};
+use crate::gpu::passes::{capture_pipeline, compute_pipeline, dispatch_pixels, NullTarget};
+use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::methods::Method;
+use crate::scene::GpuVertex;
+use decompose::Decomposition;
+use order::{Cap, FramePlan};
+
+/// Per-pixel bytes besides the slots: compositing state (32), claim counter, generated count.
+const PIXEL_BYTES: u64 = 40;
+
+/// What `convex` reports about a frame (`FrameStats::convex`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ConvexStats {
+    /// Convex parts, and the groups they were drawn as.
+    pub parts: u32,
+    pub groups: u32,
+    /// Groups outside the view this frame.
+    pub culled: u32,
+    /// Capture passes this frame (each followed by a merge).
+    pub passes: u32,
+    /// Draw calls over all passes.
+    pub draws: u32,
+    /// Pairs of groups whose screen rectangles overlap, and those of them ordered by centroid
+    /// for want of a plane.
+    pub overlapping_pairs: u64,
+    pub unseparated_pairs: u64,
+    /// Cycles the sort broke.
+    pub cycles_broken: u32,
+    /// Fragments per pixel and pass the capture keeps (2 per convex part of a group).
+    pub layers: u32,
+    /// CPU milliseconds of this frame's order (0 when the view did not change).
+    pub order_ms: f64,
+    pub preprocess_ms: f64,
+    /// Pixel-passes whose nearest fragment lay in front of what was already merged (the order
+    /// failed there).
+    pub order_violations: Option<u64>,
+    /// Pixel-passes that received more fragments than `layers` (the excess is dropped).
+    pub overflowing_pixels: Option<u64>,
+}
+
+pub struct Convex {
+    decomposition: Decomposition,
+    layers: u32,
+    /// Each group's range of `indices`.
+    ranges: Vec<std::ops::Range<u32>>,
+    indices: wgpu::Buffer,
+    capture_layout: wgpu::BindGroupLayout,
+    merge_layout: wgpu::BindGroupLayout,
+    whole: wgpu::RenderPipeline,
+    front: wgpu::RenderPipeline,
+    back: wgpu::RenderPipeline,
+    init: wgpu::ComputePipeline,
+    merge: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
+    null_target: Option<NullTarget>,
+    /// The last plan and the view-projection and size it was made for.
+    plan: Option<([f32; 16], (u32, u32), FramePlan)>,
+    cache: ResourceCache,
+}
+
+/// The scene's triangles read back from its vertex buffer (setup, not steady state).
+fn scene_triangles(gpu: &Gpu, scene: &SceneGpu) -> Result<Vec<[Vec3; 3]>> {
+    let bytes = scene.triangle_count as u64 * 3 * std::mem::size_of::<GpuVertex>() as u64;
+    if bytes == 0 {
+        return Ok(Vec::new());
+    }
+    let raw = crate::gpu::readback::read_buffer(gpu, &scene.vertices, bytes)?;
+    let vertices: &[GpuVertex] = bytemuck::cast_slice(&raw);
+    Ok(vertices
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|i| Vec3::from(t[i].position)))
+        .collect())
+}
+
+impl Convex {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Convex> {
+        if scene.animation.is_some() {
+            return Err(Error::unsupported(
+                "convex orders static geometry decomposed once; this scene's objects move (use --frame T to render one time, or another method)",
+            ));
+        }
+        let triangles = scene_triangles(gpu, scene)?;
+        let decomposition = Decomposition::new(&triangles, &|_| {});
+        Ok(Self::with_decomposition(gpu, scene, decomposition))
+    }
+
+    /// The method over a decomposition already made (of the scene's triangles).
+    pub fn with_decomposition(gpu: &Gpu, scene: &SceneGpu, decomposition: Decomposition) -> Convex {
+        let device = &gpu.device;
+        let layers = decomposition.stats.layers_per_group;
+        let mut indices: Vec<u32> = Vec::with_capacity(3 * scene.triangle_count as usize);
+        let mut ranges = Vec::with_capacity(decomposition.groups.len());
+        for g in &decomposition.groups {
+            let start = indices.len() as u32;
+            indices.extend(
+                g.triangles
+                    .iter()
+                    .flat_map(|&t| [3 * t, 3 * t + 1, 3 * t + 2]),
+            );
+            ranges.push(start..indices.len() as u32);
+        }
+        if indices.is_empty() {
+            indices.push(0); // buffers cannot be empty
+        }
+        let indices = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("strata.convex.indices"),
+                contents: bytemuck::cast_slice(&indices),
+                usage: wgpu::BufferUsages::INDEX,
+            },
+        );
+        let capture_layout = binding::layout(
+            device,
+            "strata.convex.capture.layout",
+            &[Slot::StorageRw, Slot::StorageRw],
+        );
+        let merge_layout = binding::layout(
+            device,
+            "strata.convex.merge.layout",
+            &[
+                Slot::StorageRw,
+                Slot::StorageRw,
+                Slot::Storage,
+                Slot::StorageRw,
+                Slot::StorageRw,
+                Slot::StorageRw,
+            ],
+        );
+        let constant = format!("const LAYERS: u32 = {layers}u;\n");
+        let module = shader::module(
+            device,
+            "strata.convex.capture",
+            &(constant.clone() + include_str!("capture.wgsl")),
+        );
+        let capture = |entry: &str| {
+            capture_pipeline(
+                gpu,
+                &format!("strata.convex.{entry}"),
+                &module,
+                entry,
+                &[&scene.frame_layout, &capture_layout],
+                &[NullTarget::target_state()],
+                None,
+            )
+        };
+        let (whole, front, back) = (capture("fs_whole"), capture("fs_front"), capture("fs_back"));
+        let module = shader::module(
+            device,
+            "strata.convex.merge",
+            &(constant + include_str!("merge.wgsl")),
+        );
+        let layouts = [&scene.frame_layout, &merge_layout];
+        Convex {
+            init: compute_pipeline(gpu, "strata.convex.init", &module, "cs_init", &layouts),
+            merge: compute_pipeline(gpu, "strata.convex.merge", &module, "cs_merge", &layouts),
+            finish: compute_pipeline(gpu, "strata.convex.finish", &module, "cs_finish", &layouts),
+            whole,
+            front,
+            back,
+            capture_layout,
+            merge_layout,
+            decomposition,
+            layers,
+            ranges,
+            indices,
+            null_target: None,
+            plan: None,
+            cache: ResourceCache::default(),
+        }
+    }
+
+    pub fn decomposition(&self) -> &Decomposition {
+        &self.decomposition
+    }
+
+    fn pixel_bytes(&self) -> u64 {
+        16 * self.layers as u64 + PIXEL_BYTES
+    }
+
+    /// The plan for the frame's view, made again only when the view or size changed; returns
+    /// its CPU milliseconds this frame.
+    fn update_plan(&mut self, ctx: &FrameContext<'_>) -> f64 {
+        let view_proj = crate::frame::uniforms::band_projection(&ctx.scene.camera, ctx.options);
+        let key = view_proj.to_cols_array();
+        let size = ctx.size();
+        if let Some((k, s, _)) = &self.plan {
+            if *k == key && *s == size {
+                return 0.0;
+            }
+        }
+        let plan = order::plan(
+            &self.decomposition,
+            &ctx.scene.camera,
+            view_proj,
+            size.0,
+            size.1,
+        );
+        let ms = plan.order_ms;
+        self.plan = Some((key, size, plan));
+        ms
+    }
+}
+
+impl Method for Convex {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        if ctx.draw.is_some() {
+            return Err(Error::unsupported(
+                "convex draws its own groups pass by pass in visibility order and cannot take an application's draw callback; use an order-independent method",
+            ));
+        }
+        if let Some(order) = ctx.options.order {
+            return Err(Error::unsupported(format!(
+                "convex submits its groups in visibility order itself; --order {} applies to the other methods",
+                order.name()
+            )));
+        }
+        let gpu = ctx.gpu;
+        let (w, h) = ctx.size();
+        let px = ctx.pixels();
+        let bytes = px * self.pixel_bytes() + self.indices.size() + 8;
+        ctx.check_budget(bytes)?;
+        let order_ms = self.update_plan(ctx);
+        let none = wgpu::BufferUsages::empty();
+        let layers = self.layers as u64;
+        let state = self
+            .cache
+            .storage(gpu, "strata.convex.state", px * 32, none)?;
+        let claims = self
+            .cache
+            .storage(gpu, "strata.convex.claims", px * 4, none)?;
+        let slots = self
+            .cache
+            .storage(gpu, "strata.convex.slots", px * 16 * layers, none)?;
+        let generated = self
+            .cache
+            .storage(gpu, "strata.convex.generated", px * 4, none)?;
+        let counters = self.cache.storage(
+            gpu,
+            "strata.convex.counters",
+            8,
+            wgpu::BufferUsages::COPY_SRC,
+        )?;
+        let capture_group = binding::group(
+            &gpu.device,
+            "strata.convex.capture.group",
+            &self.capture_layout,
+            &[claims.as_entire_binding(), slots.as_entire_binding()],
+        );
+        let merge_group = binding::group(
+            &gpu.device,
+            "strata.convex.merge.group",
+            &self.merge_layout,
+            &[
+                state.as_entire_binding(),
+                claims.as_entire_binding(),
+                slots.as_entire_binding(),
+                generated.as_entire_binding(),
+                counters.as_entire_binding(),
+                ctx.output.as_entire_binding(),
+            ],
+        );
+        let null_target = NullTarget::ensure(
+            &mut self.null_target,
+            gpu,
+            "strata.convex.null_target",
+            w,
+            h,
+        );
+        let frame_group = ctx.frame_group;
+        ctx.encoder.clear_buffer(&counters, 0, None);
+        dispatch_pixels(ctx, "init", &self.init, &[frame_group, &merge_group]);
+        let (_, _, plan) = self.plan.as_ref().expect("made above");
+        let mut draws = 0;
+        for pass_groups in &plan.passes {
+            let label = ctx.label("capture");
+            let scene = ctx.scene;
+            let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(&label),
+                color_attachments: &[null_target.attachment()],
+                depth_stencil_attachment: None,
+                timestamp_writes: ctx.timer.render_pass("capture"),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, Some(frame_group), &[]);
+            pass.set_bind_group(1, Some(&capture_group), &[]);
+            scene.bind(&mut pass);
+            pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+            let mut sorted = pass_groups.clone();
+            sorted.sort_by_key(|&(g, cap)| (cap, g));
+            let mut current = None;
+            for (g, cap) in sorted {
+                if current != Some(cap) {
+                    pass.set_pipeline(match cap {
+                        Cap::Whole => &self.whole,
+                        Cap::Front => &self.front,
+                        Cap::Back => &self.back,
+                    });
+                    current = Some(cap);
+                }
+                pass.draw_indexed(self.ranges[g as usize].clone(), 0, 0..1);
+                draws += 1;
+            }
+            drop(pass);
+            dispatch_pixels(ctx, "merge", &self.merge, &[frame_group, &merge_group]);
+        }
+        dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &merge_group]);
+        ctx.readback.words(&counters, 0, 2);
+        let d = &self.decomposition.stats;
+        Ok(Recorded {
+            geometry_passes: plan.passes.len() as u32,
+            bytes_allocated: bytes,
+            capacity: layers,
+            convex: Some(ConvexStats {
+                parts: d.parts,
+                groups: d.groups,
+                culled: plan.culled,
+                passes: plan.passes.len() as u32,
+                draws,
+                overlapping_pairs: plan.overlapping,
+                unseparated_pairs: plan.unseparated,
+                cycles_broken: plan.cycles_broken,
+                layers: self.layers,
+                order_ms,
+                preprocess_ms: d.preprocess_ms,
+                order_violations: None,
+                overflowing_pixels: None,
+            }),
+            ..Default::default()
+        })
+    }
+
+    fn stats(
+        &mut self,
+        recorded: &Recorded,
+        _totals: &Totals,
+        words: Option<&[u32]>,
+    ) -> MethodStats {
+        let convex = recorded.convex.clone().map(|mut c| {
+            if let Some(w) = words {
+                c.order_violations = Some(w[0] as u64);
+                c.overflowing_pixels = Some(w[1] as u64);
+            }
+            c
+        });
+        MethodStats {
+            convex,
+            ..Default::default()
+        }
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        vec![&self.cache]
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,340 @@
+//! The per-frame visibility order of `convex`'s groups (seed 001 §3.2, done differently): which
+//! groups' fragments can meet in a pixel, which of each such pair comes first, and passes of
+//! groups that cannot meet.
+//!
+//! Each group's bounding box is projected to a conservative pixel rectangle (boxes behind the
+//! eye, beyond the far plane or off screen are culled; a box crossing the eye's plane covers the
+//! whole screen). Two groups matter to each other only when their rectangles overlap; for such a
+//! pair the plane that separates them (see [`super::decompose`]) decides: the group on the eye's
+//! side is in front for every ray from the eye (for an orthographic view, the side the view
+//! direction leaves). The pairs give a directed graph, topologically sorted nearest centroid
+//! first; a cycle (or a pair with no plane) is broken by taking the nearest remaining centroid,
+//! counted, and what it costs shows in the frame's `order_violations`. A group's pass is one
+//! more than the latest pass of any overlapping group placed before it, so a pass never holds
+//! two groups that can share a pixel: passes ≈ the depth complexity in groups, not the group
+//! count.
+//!
+//! The paper orders pieces by walking a uniform grid front to back; the rectangles and planes
+//! here play the grid's part (which pairs need an order, and what decides it) without its
+//! special cases for pieces spanning cells.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::{Mat4, Vec3, Vec4Swizzles};
+
+use super::decompose::{Decomposition, Relation, Separation};
+use crate::scene::{Camera, Projection};
+
+/// Where the rays come from.
+#[derive(Clone, Copy, Debug)]
+pub enum Viewer {
+    Eye(Vec3),
+    /// An orthographic view's direction.
+    Toward(Vec3),
+}
+
+impl Viewer {
+    pub fn of(camera: &Camera) -> Viewer {
+        match camera.projection {
+            Projection::Perspective { .. } => Viewer::Eye(camera.eye),
+            Projection::Orthographic { .. } => {
+                Viewer::Toward((camera.target - camera.eye).normalize_or_zero())
+            }
+        }
+    }
+
+    /// Whether rays meet the side below `s` first (`None`: the plane is seen edge-on, and
+    /// either order holds).
+    pub fn below_first(&self, s: &Separation) -> Option<bool> {
+        let side = match *self {
+            Viewer::Eye(e) => s.offset - s.normal.dot(e),
+            Viewer::Toward(f) => s.normal.dot(f),
+        };
+        (side != 0.0).then_some(side > 0.0)
+    }
+
+    /// Distance of `p` along the view (for tie-breaking only).
+    fn distance(&self, p: Vec3) -> f32 {
+        match *self {
+            Viewer::Eye(e) => (p - e).length_squared(),
+            Viewer::Toward(f) => f.dot(p),
+        }
+    }
+}
+
+/// One frame's order.
+#[derive(Clone, Debug, Default)]
+pub struct FramePlan {
+    /// Groups (with the cap drawn) per pass, front pass first; no two of a pass share a pixel.
+    pub passes: Vec<Vec<(u32, Cap)>>,
+    /// Groups outside the view.
+    pub culled: u32,
+    /// Pairs of groups whose rectangles overlap.
+    pub overlapping: u64,
+    /// Overlapping pairs without a separating plane, ordered by centroid.
+    pub unseparated: u64,
+    /// Times the sort met a cycle and took the nearest remaining group instead.
+    pub cycles_broken: u32,
+    pub order_ms: f64,
+}
+
+/// A group's conservative pixel rectangle, inclusive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Rect {
+    x0: i32,
+    y0: i32,
+    x1: i32,
+    y1: i32,
+}
+
+/// The pixels a box can cover under `view_proj` at `width`×`height` (`None`: none).
+fn footprint(view_proj: Mat4, lo: Vec3, hi: Vec3, width: u32, height: u32) -> Option<Rect> {
+    let (w, h) = (width as i32, height as i32);
+    let full = Rect {
+        x0: 0,
+        y0: 0,
+        x1: w - 1,
+        y1: h - 1,
+    };
+    let corners = (0..8).map(|i| {
+        let p = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        view_proj * p.extend(1.0)
+    });
+    let clip: Vec<_> = corners.collect();
+    // Entirely outside one clip plane: nothing of it is drawn.
+    let outside = |f: &dyn Fn(&glam::Vec4) -> bool| clip.iter().all(f);
+    if outside(&|c| c.x > c.w)
+        || outside(&|c| c.x < -c.w)
+        || outside(&|c| c.y > c.w)
+        || outside(&|c| c.y < -c.w)
+        || outside(&|c| c.z > c.w)
+        || outside(&|c| c.z < 0.0)
+    {
+        return None;
+    }
+    if clip.iter().any(|c| c.w <= 0.0) {
+        return Some(full);
+    }
+    let (mut x0, mut y0, mut x1, mut y1) = (f32::INFINITY, f32::INFINITY, f32::MIN, f32::MIN);
+    for c in &clip {
+        let ndc = c.xy() / c.w;
+        let px = (ndc.x + 1.0) * 0.5 * width as f32;
+        let py = (1.0 - ndc.y) * 0.5 * height as f32;
+        x0 = x0.min(px);
+        x1 = x1.max(px);
+        y0 = y0.min(py);
+        y1 = y1.max(py);
+    }
+    // A pixel is covered through its centre; one pixel of margin absorbs rounding.
+    let r = Rect {
+        x0: (x0.floor() as i32 - 1).max(0),
+        y0: (y0.floor() as i32 - 1).max(0),
+        x1: (x1.ceil() as i32 + 1).min(w - 1),
+        y1: (y1.ceil() as i32 + 1).min(h - 1),
+    };
+    (r.x0 <= r.x1 && r.y0 <= r.y1).then_some(r)
+}
+
+/// Which of a group's fragments a draw keeps: all, or (for a container, drawn twice around
+/// what it holds) the front-facing or the back-facing ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Cap {
+    Whole,
+    Front,
+    Back,
+}
+
+/// The order of `dec`'s groups for a frame seen by `camera` through `view_proj` at
+/// `width`×`height`.
+pub fn plan(
+    dec: &Decomposition,
+    camera: &Camera,
+    view_proj: Mat4,
+    width: u32,
+    height: u32,
+) -> FramePlan {
+    let start = std::time::Instant::now();
+    let viewer = Viewer::of(camera);
+    let n = dec.groups.len();
+    let rects: Vec<Option<Rect>> = dec
+        .groups
+        .iter()
+        .map(|g| footprint(view_proj, g.lo, g.hi, width, height))
+        .collect();
+    let mut visible: Vec<u32> = (0..n as u32)
+        .filter(|&g| rects[g as usize].is_some())
+        .collect();
+    let culled = (n - visible.len()) as u32;
+    let rect = |g: u32| rects[g as usize].expect("visible");
+    visible.sort_by_key(|&g| rect(g).x0);
+    // Nodes: 2g is group g whole, or its front cap when it is a container; 2g + 1 its back cap.
+    let caps = |g: u32| -> &'static [u32] {
+        if dec.container[g as usize] {
+            &[0, 1]
+        } else {
+            &[0]
+        }
+    };
+    let mut graph = Graph::new(2 * n);
+    let distance: Vec<f32> = dec
+        .groups
+        .iter()
+        .map(|g| viewer.distance(g.centroid))
+        .collect();
+    let (mut overlapping, mut unseparated) = (0u64, 0u64);
+    for &g in &visible {
+        if dec.container[g as usize] {
+            graph.edge(2 * g, 2 * g + 1);
+        }
+    }
+    for (i, &a) in visible.iter().enumerate() {
+        let ra = rect(a);
+        for &b in &visible[i + 1..] {
+            let rb = rect(b);
+            if rb.x0 > ra.x1 {
+                break;
+            }
+            if rb.y0 > ra.y1 || rb.y1 < ra.y0 {
+                continue;
+            }
+            overlapping += 1;
+            let (outer, inner) = match dec.relation(a, b) {
+                Relation::Contains => (a, b),
+                Relation::Inside => (b, a),
+                other => {
+                    let by_distance = || distance[a as usize] <= distance[b as usize];
+                    let a_first = match other {
+                        Relation::Plane(s) => viewer.below_first(&s).unwrap_or_else(by_distance),
+                        _ => {
+                            unseparated += 1;
+                            by_distance()
+                        }
+                    };
+                    let (first, second) = if a_first { (a, b) } else { (b, a) };
+                    for &f in caps(first) {
+                        for &s in caps(second) {
+                            graph.edge(2 * first + f, 2 * second + s);
+                        }
+                    }
+                    continue;
+                }
+            };
+            for &c in caps(inner) {
+                graph.edge(2 * outer, 2 * inner + c);
+                graph.edge(2 * inner + c, 2 * outer + 1);
+            }
+        }
+    }
+    let nodes: Vec<u32> = visible
+        .iter()
+        .flat_map(|&g| caps(g).iter().map(move |&c| 2 * g + c))
+        .collect();
+    let (node_passes, cycles_broken) = graph.passes(&nodes, |node| distance[node as usize / 2]);
+    let passes = node_passes
+        .into_iter()
+        .map(|pass| {
+            pass.into_iter()
+                .map(|node| {
+                    let g = node / 2;
+                    let cap = match (dec.container[g as usize], node % 2) {
+                        (false, _) => Cap::Whole,
+                        (true, 0) => Cap::Front,
+                        (true, _) => Cap::Back,
+                    };
+                    (g, cap)
+                })
+                .collect()
+        })
+        .collect();
+    FramePlan {
+        passes,
+        culled,
+        overlapping,
+        unseparated,
+        cycles_broken,
+        order_ms: start.elapsed().as_secs_f64() * 1e3,
+    }
+}
+
+/// Nodes with "comes before" edges between nodes that can share a pixel.
+struct Graph {
+    /// Each node's neighbours, with whether the neighbour comes after it.
+    neighbours: Vec<Vec<(u32, bool)>>,
+    indegree: Vec<u32>,
+}
+
+impl Graph {
+    fn new(nodes: usize) -> Graph {
+        Graph {
+            neighbours: vec![Vec::new(); nodes],
+            indegree: vec![0; nodes],
+        }
+    }
+
+    fn edge(&mut self, first: u32, second: u32) {
+        self.neighbours[first as usize].push((second, true));
+        self.neighbours[second as usize].push((first, false));
+        self.indegree[second as usize] += 1;
+    }
+
+    /// Kahn's sort of `nodes`, the nearest ready node first (a cycle takes the nearest
+    /// unplaced node, counted); each node's pass is one past the latest pass of a neighbour
+    /// placed before it. Returns the passes and the cycles broken.
+    fn passes(mut self, nodes: &[u32], distance: impl Fn(u32) -> f32) -> (Vec<Vec<u32>>, u32) {
+        let key = |g: u32| (Reverse(distance(g).to_bits()), Reverse(g));
+        let mut ready: BinaryHeap<_> = nodes
+            .iter()
+            .filter(|&&g| self.indegree[g as usize] == 0)
+            .map(|&g| key(g))
+            .collect();
+        let mut by_distance = nodes.to_vec();
+        by_distance.sort_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(a.cmp(&b)));
+        let mut next_nearest = 0;
+        const UNPLACED: u32 = u32::MAX;
+        let mut pass_of = vec![UNPLACED; self.indegree.len()];
+        let mut passes: Vec<Vec<u32>> = Vec::new();
+        let mut cycles_broken = 0;
+        let mut placed = 0;
+        while placed < nodes.len() {
+            let g = match ready.pop() {
+                Some((_, Reverse(g))) => g,
+                None => {
+                    while pass_of[by_distance[next_nearest] as usize] != UNPLACED {
+                        next_nearest += 1;
+                    }
+                    cycles_broken += 1;
+                    by_distance[next_nearest]
+                }
+            };
+            if pass_of[g as usize] != UNPLACED {
+                continue;
+            }
+            let pass = self.neighbours[g as usize]
+                .iter()
+                .filter(|(o, _)| pass_of[*o as usize] != UNPLACED)
+                .map(|(o, _)| pass_of[*o as usize] + 1)
+                .max()
+                .unwrap_or(0);
+            pass_of[g as usize] = pass;
+            if passes.len() <= pass as usize {
+                passes.resize(pass as usize + 1, Vec::new());
+            }
+            passes[pass as usize].push(g);
+            placed += 1;
+            for &(o, after) in &self.neighbours[g as usize] {
+                if after && pass_of[o as usize] == UNPLACED {
+                    self.indegree[o as usize] -= 1;
+                    if self.indegree[o as usize] == 0 {
+                        ready.push(key(o));
+                    }
+                }
+            }
+        }
+        (passes, cycles_broken)
+    }
+}

@@ -1,0 +1,232 @@
+//! `convex`: the decomposition's invariants (property tests over random meshes), and the GPU
+//! method against the CPU reference on lavapipe.
+
+use glam::Vec3;
+use proptest::prelude::*;
+
+use super::decompose::{convex_parts, is_convex_part, Decomposition, Relation};
+use crate::frame::{Effect, RenderOptions};
+use crate::scene::{loaders, Scene};
+use crate::testing::{assert_close, render_gpu, render_reference};
+
+fn triangles_of(scene: &Scene) -> Vec<[Vec3; 3]> {
+    scene
+        .triangles()
+        .vertices
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|i| Vec3::from(t[i].position)))
+        .collect()
+}
+
+/// A height field over an n×n grid: convex, concave and saddle regions by the seed's bumps.
+fn bumpy_grid(n: usize, heights: &[f32]) -> Vec<[Vec3; 3]> {
+    let p = |i: usize, j: usize| {
+        Vec3::new(
+            i as f32,
+            j as f32,
+            heights[(i * 7 + j * 13) % heights.len()],
+        )
+    };
+    let mut t = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            t.push([p(i, j), p(i + 1, j), p(i + 1, j + 1)]);
+            t.push([p(i, j), p(i + 1, j + 1), p(i, j + 1)]);
+        }
+    }
+    t
+}
+
+fn check_partition(triangles: &[[Vec3; 3]], parts: &[Vec<u32>], tolerance: f32) {
+    let mut seen = vec![0u32; triangles.len()];
+    for part in parts {
+        for &t in part {
+            seen[t as usize] += 1;
+        }
+        assert!(
+            is_convex_part(triangles, part, tolerance),
+            "part {part:?} is not convex"
+        );
+    }
+    assert!(
+        seen.iter().all(|&s| s == 1),
+        "every face in exactly one part"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn parts_partition_the_faces_and_are_convex(
+        heights in proptest::collection::vec(-1.5f32..1.5, 5..40),
+        n in 2usize..9,
+    ) {
+        let triangles = bumpy_grid(n, &heights);
+        let tolerance = 1e-5;
+        check_partition(&triangles, &convex_parts(&triangles, tolerance), tolerance);
+    }
+
+    #[test]
+    fn convex_solids_stay_whole(segments in 3u32..24, scale in 0.1f32..10.0) {
+        // A closed UV sphere is convex: one part (its pole fans included) when the grid of
+        // the sphere's triangles is not degenerate.
+        let s = crate::scene::builtin::primitives::uv_sphere(segments)
+            .transformed(glam::Mat4::from_scale(Vec3::splat(scale)));
+        let triangles: Vec<[Vec3; 3]> = s
+            .indices
+            .chunks_exact(3)
+            .map(|t| [0, 1, 2].map(|i| Vec3::from(s.positions[t[i] as usize])))
+            .collect();
+        let d = Decomposition::new(&triangles, &|_| {});
+        let areaful = d.groups.iter().filter(|g| {
+            g.triangles.iter().any(|&t| {
+                let [a, b, c] = triangles[t as usize];
+                (b - a).cross(c - a).length() > 0.0
+            })
+        });
+        prop_assert_eq!(areaful.count(), 1);
+    }
+}
+
+#[test]
+fn model_parts_partition_the_faces_and_are_convex() {
+    for model in ["teapot", "spot", "suzanne"] {
+        let triangles = triangles_of(&scene(&format!("builtin:{model}")));
+        let d = Decomposition::new(&triangles, &|_| {});
+        let parts = convex_parts(&triangles, d.tolerance);
+        check_partition(&triangles, &parts, d.tolerance);
+        assert_eq!(d.stats.parts as usize, parts.len());
+    }
+}
+
+/// Every relation the preprocess records holds: planes separate, containers contain.
+#[test]
+fn relations_hold_on_the_models() {
+    for spec in [
+        "builtin:teapot",
+        "builtin:spheres?layers=8",
+        "builtin:suzanne",
+    ] {
+        let triangles = triangles_of(&scene(spec));
+        let d = Decomposition::new(&triangles, &|_| {});
+        let points = |g: u32| -> Vec<Vec3> {
+            d.groups[g as usize]
+                .triangles
+                .iter()
+                .flat_map(|&t| triangles[t as usize])
+                .collect()
+        };
+        let slack = 2.0 * d.tolerance;
+        for (&(a, b), r) in &d.relations {
+            match r {
+                Relation::Plane(s) => {
+                    assert!(points(a)
+                        .iter()
+                        .all(|p| s.normal.dot(*p) <= s.offset + slack));
+                    assert!(points(b)
+                        .iter()
+                        .all(|p| s.normal.dot(*p) >= s.offset - slack));
+                }
+                Relation::Contains | Relation::Inside => {
+                    let (outer, inner) = if *r == Relation::Contains {
+                        (a, b)
+                    } else {
+                        (b, a)
+                    };
+                    assert_eq!(d.groups[outer as usize].parts, 1);
+                    let tris = &d.groups[outer as usize].triangles;
+                    let part: Vec<u32> = tris.clone();
+                    let mut with_inner = part.clone();
+                    with_inner.extend(&d.groups[inner as usize].triangles);
+                    // Inner points lie below every plane of the container.
+                    for &t in &part {
+                        let [p0, p1, p2] = triangles[t as usize];
+                        let n = (p1 - p0).cross(p2 - p0);
+                        if n.length() == 0.0 {
+                            continue;
+                        }
+                        let n = n.normalize();
+                        assert!(points(inner).iter().all(|q| n.dot(*q - p0) <= slack));
+                    }
+                }
+                Relation::Inseparable => {}
+            }
+        }
+    }
+    let spheres = Decomposition::new(&triangles_of(&scene("builtin:spheres?layers=8")), &|_| {});
+    assert_eq!(spheres.stats.parts, 4);
+    assert_eq!(
+        spheres.stats.nested, 6,
+        "every shell holds the smaller ones"
+    );
+}
+
+fn scene(spec: &str) -> Scene {
+    loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
+}
+
+fn options(size: u32, effect: Effect) -> RenderOptions {
+    RenderOptions {
+        width: size,
+        height: size,
+        effect,
+        ..Default::default()
+    }
+}
+
+/// Exact where every overlapping pair has a plane or nests: equals the reference with no
+/// violation and nothing dropped (tolerance as for every exact method, see methods/tests.rs).
+fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
+    let expected = render_reference(scene, opts);
+    let (actual, stats) = render_gpu(scene, opts, "convex");
+    assert_close(
+        &format!("convex-{name}-{}", opts.effect.name()),
+        &actual,
+        &expected,
+        opts.effect,
+        2,
+        0.001,
+    );
+    let c = stats.convex.expect("convex stats");
+    assert_eq!(c.order_violations, Some(0), "{name}: {c:?}");
+    assert_eq!(c.unseparated_pairs, 0, "{name}: {c:?}");
+    assert_eq!(stats.fragments_dropped, Some(0), "{name}");
+    assert!(c.passes >= 1 && c.passes < 64, "{name}: {c:?}");
+}
+
+#[test]
+fn convex_equals_the_reference_on_nested_spheres() {
+    check_exact(
+        "spheres",
+        &scene("builtin:spheres?layers=16"),
+        &options(96, Effect::Transparency),
+    );
+    check_exact(
+        "spheres",
+        &scene("builtin:spheres?layers=8&segments=24"),
+        &options(64, Effect::Translucency),
+    );
+}
+
+#[test]
+fn convex_equals_the_reference_on_layers() {
+    check_exact(
+        "layers",
+        &scene("builtin:layers?n=16&coverage=0.75&order=random&seed=3"),
+        &options(64, Effect::Transparency),
+    );
+}
+
+#[test]
+fn convex_stages_validate() {
+    for layers in [2, 4] {
+        let constant = format!("const LAYERS: u32 = {layers}u;\n");
+        for (label, src) in [
+            ("convex.capture", include_str!("capture.wgsl")),
+            ("convex.merge", include_str!("merge.wgsl")),
+        ] {
+            crate::gpu::shader::validate(label, &(constant.clone() + src));
+        }
+    }
+}
