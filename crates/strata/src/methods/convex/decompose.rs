@@ -273,11 +273,15 @@ impl Decomposition {
         // part joins at most one.
         let relations = relate(triangles, &mesh, &groups, tolerance);
         let mut partner = vec![u32::MAX; groups.len()];
-        for (&(a, b), relation) in &relations {
-            if *relation == Relation::Inseparable
-                && partner[a as usize] == u32::MAX
-                && partner[b as usize] == u32::MAX
-            {
+        // In pair order, so the groups are the same every run.
+        let mut inseparable: Vec<(u32, u32)> = relations
+            .iter()
+            .filter(|(_, r)| **r == Relation::Inseparable)
+            .map(|(&k, _)| k)
+            .collect();
+        inseparable.sort_unstable();
+        for (a, b) in inseparable {
+            if true && partner[a as usize] == u32::MAX && partner[b as usize] == u32::MAX {
                 partner[a as usize] = b;
                 partner[b as usize] = a;
             }
