@@ -281,7 +281,7 @@ impl Decomposition {
             .collect();
         inseparable.sort_unstable();
         for (a, b) in inseparable {
-            if true && partner[a as usize] == u32::MAX && partner[b as usize] == u32::MAX {
+            if partner[a as usize] == u32::MAX && partner[b as usize] == u32::MAX {
                 partner[a as usize] = b;
                 partner[b as usize] = a;
             }
