@@ -51,6 +51,9 @@ enum Command {
     },
     /// Depth-complexity histogram of a scene (number of pixels per fragment count).
     Histogram(HistogramArgs),
+    /// The convex decomposition `convex` orders (seed 001): parts, groups, nesting, pairs
+    /// without a separating plane, this view's passes; --out renders a color per group.
+    Convex(ConvexArgs),
     /// Benchmark methods: median GPU ms per pass after warm-up.
     Bench(bench::BenchArgs),
     /// Explore the methods live in a window: every option, per-pass timings, statistics, a
@@ -289,6 +292,21 @@ struct HistogramArgs {
     cpu: bool,
 }
 
+#[derive(Args)]
+struct ConvexArgs {
+    /// The model or scene to decompose.
+    #[arg(default_value = "builtin:teapot")]
+    scene: String,
+    #[arg(long)]
+    size: Option<String>,
+    /// Render the decomposition to this PNG: one opaque color per group (paired groups
+    /// darker), from the scene's camera.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[arg(long)]
+    json: bool,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Toggle {
     On,
@@ -373,6 +391,7 @@ fn run(command: Command) -> Result<()> {
         Command::Methods { json } => list_methods(json),
         Command::Info { json } => info(json),
         Command::Histogram(a) => histogram(a),
+        Command::Convex(a) => convex(a),
         Command::Bench(a) => bench::run(a),
         Command::View(a) => view::run(a),
     }
@@ -1007,6 +1026,96 @@ fn gpu_histogram(scene: &Scene, options: &RenderOptions) -> Result<Vec<u64>> {
     stats
         .depth_histogram
         .ok_or_else(|| Error::runtime("the GPU histogram did not arrive"))
+}
+
+/// What `strata convex` reports: the preprocess, and the order of the scene's view.
+#[derive(serde::Serialize)]
+struct ConvexReport {
+    decomposition: strata::methods::convex::decompose::DecompositionStats,
+    width: u32,
+    height: u32,
+    passes: usize,
+    culled: u32,
+    overlapping_pairs: u64,
+    unseparated_pairs: u64,
+    cycles_broken: u32,
+    order_ms: f64,
+}
+
+fn convex(a: ConvexArgs) -> Result<()> {
+    use strata::methods::convex::{self, decompose::Decomposition, order};
+    let picture = PictureArgs {
+        size: a.size,
+        ..PictureArgs::for_scene(a.scene)
+    };
+    let (scene, options) = prepare(&picture)?;
+    if let Some(out) = &a.out {
+        check_outputs([out.as_path()])?;
+    }
+    let triangles = convex::triangles_of(&scene);
+    let bar = indicatif::ProgressBar::new(100).with_message("decomposing");
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {percent}% ({elapsed})")
+            .map_err(|e| Error::runtime(e.to_string()))?,
+    );
+    if triangles.len() < 50_000 || a.json {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let d = Decomposition::new(&triangles, &|f| bar.set_position((f * 100.0) as u64));
+    bar.finish_and_clear();
+    let camera = scene.camera_or_framing();
+    let view_proj = strata::frame::uniforms::band_projection(&camera, &options);
+    let plan = order::plan(&d, &camera, view_proj, options.width, options.height);
+    let report = ConvexReport {
+        decomposition: d.stats.clone(),
+        width: options.width,
+        height: options.height,
+        passes: plan.passes.len(),
+        culled: plan.culled,
+        overlapping_pairs: plan.overlapping,
+        unseparated_pairs: plan.unseparated,
+        cycles_broken: plan.cycles_broken,
+        order_ms: plan.order_ms,
+    };
+    if let Some(out) = &a.out {
+        let pieces = convex::pieces_scene(&scene, &triangles, &d);
+        let gpu = Gpu::new()?;
+        let (image, _) = Renderer::new(&gpu, &pieces, &options)?.render("abuffer-ll")?;
+        let mut outputs = Outputs::new();
+        outputs.add_png(out, &image.to_rgba8(Effect::Transparency))?;
+        outputs.commit()?;
+    }
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| Error::runtime(e.to_string()))?
+        );
+        return Ok(());
+    }
+    let s = &report.decomposition;
+    println!(
+        "{} triangles -> {} convex parts -> {} groups ({} inseparable pairs joined; up to {} layers per pixel and group), preprocess {:.0} ms",
+        s.triangles, s.parts, s.groups, s.paired, s.layers_per_group, s.preprocess_ms
+    );
+    println!(
+        "pairs with overlapping boxes: {} ({} nested, {} without a separating plane: ordered by centroid)",
+        s.overlapping_pairs, s.nested, s.unseparated
+    );
+    println!(
+        "this view at {}x{}: {} passes, {} groups culled, {} overlapping pairs on screen ({} without a plane), {} cycles broken, order {:.2} ms",
+        report.width,
+        report.height,
+        report.passes,
+        report.culled,
+        report.overlapping_pairs,
+        report.unseparated_pairs,
+        report.cycles_broken,
+        report.order_ms
+    );
+    if let Some(out) = &a.out {
+        println!("-> {}", out.display());
+    }
+    Ok(())
 }
 
 fn histogram(a: HistogramArgs) -> Result<()> {

@@ -1150,3 +1150,39 @@ fn a_4096_square_frame_renders() {
         assert!(stderr(&o).contains(&format!("rendered in {bands} bands")));
     }
 }
+
+/// `strata convex` reports the decomposition (nested shells: one part each, every pair nested)
+/// and renders a color per group; a missing model is one error line and no picture.
+#[test]
+fn convex_reports_the_decomposition_and_renders_its_pieces() {
+    let dir = workdir("convex");
+    let out = dir.join("pieces.png");
+    let o = strata(&[
+        "convex",
+        "builtin:spheres?layers=8&segments=16",
+        "--size",
+        "48x48",
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["decomposition"]["parts"], 4);
+    assert_eq!(report["decomposition"]["nested"], 6);
+    assert_eq!(report["decomposition"]["unseparated"], 0);
+    // Three shells drawn as front and back caps around the innermost one.
+    assert_eq!(report["passes"], 7);
+    let img = image::open(&out).unwrap().to_rgba8();
+    assert_eq!(img.dimensions(), (48, 48));
+    let missing = dir.join("missing.png");
+    let o = strata(&[
+        "convex",
+        "no-such-model.obj",
+        "--out",
+        missing.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+    assert!(!missing.exists());
+}

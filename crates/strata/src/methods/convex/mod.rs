@@ -401,5 +401,58 @@ impl Method for Convex {
     }
 }
 
+/// Every triangle of `scene` (at its current time), in primitive order.
+pub fn triangles_of(scene: &crate::scene::Scene) -> Vec<[Vec3; 3]> {
+    scene
+        .triangles()
+        .vertices
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|i| Vec3::from(t[i].position)))
+        .collect()
+}
+
+/// `scene` redrawn as its decomposition: one opaque object per group, each its own color
+/// (golden-ratio hues, paired groups darker), with the scene's camera and lights — what
+/// `strata convex --out` renders.
+pub fn pieces_scene(
+    scene: &crate::scene::Scene,
+    triangles: &[[Vec3; 3]],
+    decomposition: &Decomposition,
+) -> crate::scene::Scene {
+    use crate::scene::{Material, Mesh, Object, Scene};
+    let mut pieces = Scene {
+        camera: Some(scene.camera_or_framing()),
+        lights: scene.lights.clone(),
+        ..Scene::default()
+    };
+    for (i, g) in decomposition.groups.iter().enumerate() {
+        let hue = (i as f32 * 0.618_034).fract();
+        let value = if g.parts > 1 { 0.55 } else { 0.95 };
+        let material = pieces.add_material(Material {
+            name: format!("group {i}"),
+            color: crate::scene::builtin::scenes::hsv(hue, 0.65, value),
+            opacity: 1.0,
+            ..Material::default()
+        });
+        let positions: Vec<[f32; 3]> = g
+            .triangles
+            .iter()
+            .flat_map(|&t| triangles[t as usize].map(|p| p.to_array()))
+            .collect();
+        let mut mesh = Mesh {
+            indices: (0..positions.len() as u32).collect(),
+            normals: Vec::new(),
+            positions,
+        };
+        mesh.compute_normals();
+        pieces.objects.push(Object {
+            name: format!("group {i}"),
+            mesh,
+            material,
+        });
+    }
+    pieces
+}
+
 #[cfg(test)]
 mod tests;

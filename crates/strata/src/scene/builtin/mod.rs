@@ -17,7 +17,7 @@ mod models;
 mod params;
 pub(crate) mod primitives;
 pub(crate) mod rng;
-mod scenes;
+pub(crate) mod scenes;
 
 pub use primitives::{cube, quad, uv_sphere, uv_sphere_triangles};
 pub use scenes::{layer_colors, layer_depth, LAYERS_EXTENT};

@@ -16,7 +16,7 @@ use crate::scene::{
 };
 
 /// Linear RGB from hue (turns, [0,1)), saturation and value.
-fn hsv(h: f32, s: f32, v: f32) -> [f32; 3] {
+pub(crate) fn hsv(h: f32, s: f32, v: f32) -> [f32; 3] {
     let h6 = h.rem_euclid(1.0) * 6.0;
     let f = h6 - h6.floor();
     let (p, q, t) = (v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f)));
