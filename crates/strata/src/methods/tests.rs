@@ -648,8 +648,10 @@ fn a_second_frame_keeps_nothing_of_the_first() {
     opts.k = Some(3);
     let draw_near = move |pass: &mut wgpu::RenderPass<'_>| pass.draw(0..split, 0..1);
     let draw_far = move |pass: &mut wgpu::RenderPass<'_>| pass.draw(split..total, 0..1);
-    // `sorted` draws every triangle itself and refuses a callback (tested below).
-    for m in frame_test_methods().filter(|&m| m != super::MethodId::Sorted) {
+    // `sorted` and `convex` draw every triangle themselves and refuse a callback (tested below).
+    for m in frame_test_methods()
+        .filter(|&m| !matches!(m, super::MethodId::Sorted | super::MethodId::Convex))
+    {
         let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
         r.render_method(m, Some(&draw_near)).unwrap();
         let (second, a) = r.render_method(m, Some(&draw_far)).unwrap();
@@ -665,26 +667,28 @@ fn a_second_frame_keeps_nothing_of_the_first() {
     }
 }
 
-/// `sorted` draws the scene's triangles through its own index buffer, so an application's draw
-/// callback would be ignored: it is refused instead.
+/// `sorted` and `convex` draw the scene's triangles through their own index buffers, so an
+/// application's draw callback would be ignored: it is refused instead.
 #[test]
 fn sorted_refuses_a_draw_callback() {
     let s = scene("builtin:layers?n=4");
-    let mut r = crate::Renderer::new(
-        crate::testing::gpu(),
-        &s,
-        &options(16, Effect::Transparency),
-    )
-    .unwrap();
-    let e = r
-        .render_with("sorted", &|pass| pass.draw(0..6, 0..1))
-        .expect_err("sorted refuses a callback");
-    assert!(
-        matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("draw callback"),
-        "{e}"
-    );
-    // Without one it draws.
-    r.render("sorted").unwrap();
+    for method in ["sorted", "convex"] {
+        let mut r = crate::Renderer::new(
+            crate::testing::gpu(),
+            &s,
+            &options(16, Effect::Transparency),
+        )
+        .unwrap();
+        let e = r
+            .render_with(method, &|pass| pass.draw(0..6, 0..1))
+            .expect_err("refuses a callback");
+        assert!(
+            matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("draw callback"),
+            "{method}: {e}"
+        );
+        // Without one it draws.
+        r.render(method).unwrap();
+    }
 }
 
 /// Pool allocation counters started just below 2³² saturate: every fragment is counted as
