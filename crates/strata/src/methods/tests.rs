@@ -14,7 +14,7 @@ const EXACT_METHODS: [&str; 5] = ["f2b", "dual", "abuffer-ll", "sbuffer", "kpeel
 const MAX_DIFF: u8 = 2;
 const MAX_FRACTION: f64 = 0.001;
 
-fn options(size: u32, effect: Effect) -> RenderOptions {
+pub(crate) fn options(size: u32, effect: Effect) -> RenderOptions {
     RenderOptions {
         width: size,
         height: size,

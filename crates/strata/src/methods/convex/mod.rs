@@ -111,11 +111,15 @@ fn scene_triangles(gpu: &Gpu, scene: &SceneGpu) -> Result<Vec<[Vec3; 3]>> {
         return Ok(Vec::new());
     }
     let raw = crate::gpu::readback::read_buffer(gpu, &scene.vertices, bytes)?;
-    let vertices: &[GpuVertex] = bytemuck::cast_slice(&raw);
-    Ok(vertices
+    Ok(positions(bytemuck::cast_slice(&raw)))
+}
+
+/// Each triangle's corners from three [`GpuVertex`] per triangle.
+fn positions(vertices: &[GpuVertex]) -> Vec<[Vec3; 3]> {
+    vertices
         .chunks_exact(3)
         .map(|t| [0, 1, 2].map(|i| Vec3::from(t[i].position)))
-        .collect())
+        .collect()
 }
 
 impl Convex {
@@ -333,10 +337,8 @@ impl Method for Convex {
             pass.set_bind_group(1, Some(&capture_group), &[]);
             scene.bind(&mut pass);
             pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-            let mut sorted = pass_groups.clone();
-            sorted.sort_by_key(|&(g, cap)| (cap, g));
             let mut current = None;
-            for (g, cap) in sorted {
+            for &(g, cap) in pass_groups {
                 if current != Some(cap) {
                     pass.set_pipeline(match cap {
                         Cap::Whole => &self.whole,
@@ -403,12 +405,7 @@ impl Method for Convex {
 
 /// Every triangle of `scene` (at its current time), in primitive order.
 pub fn triangles_of(scene: &crate::scene::Scene) -> Vec<[Vec3; 3]> {
-    scene
-        .triangles()
-        .vertices
-        .chunks_exact(3)
-        .map(|t| [0, 1, 2].map(|i| Vec3::from(t[i].position)))
-        .collect()
+    positions(&scene.triangles().vertices)
 }
 
 /// `scene` redrawn as its decomposition: one opaque object per group, each its own color

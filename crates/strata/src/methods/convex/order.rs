@@ -67,6 +67,7 @@ impl Viewer {
 #[derive(Clone, Debug, Default)]
 pub struct FramePlan {
     /// Groups (with the cap drawn) per pass, front pass first; no two of a pass share a pixel.
+    /// Each pass is sorted by cap, so its draws switch pipelines at most twice.
     pub passes: Vec<Vec<(u32, Cap)>>,
     /// Groups outside the view.
     pub culled: u32,
@@ -248,7 +249,11 @@ pub fn plan(
                     };
                     (g, cap)
                 })
-                .collect()
+                .collect::<Vec<_>>()
+        })
+        .map(|mut pass| {
+            pass.sort_by_key(|&(g, cap)| (cap, g));
+            pass
         })
         .collect();
     FramePlan {

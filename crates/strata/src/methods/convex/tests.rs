@@ -5,18 +5,11 @@ use glam::Vec3;
 use proptest::prelude::*;
 
 use super::decompose::{convex_parts, is_convex_part, Decomposition, Relation};
+use super::triangles_of;
 use crate::frame::{Effect, RenderOptions};
+use crate::methods::tests::options;
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference};
-
-fn triangles_of(scene: &Scene) -> Vec<[Vec3; 3]> {
-    scene
-        .triangles()
-        .vertices
-        .chunks_exact(3)
-        .map(|t| [0, 1, 2].map(|i| Vec3::from(t[i].position)))
-        .collect()
-}
 
 /// A height field over an n×n grid: convex, concave and saddle regions by the seed's bumps.
 fn bumpy_grid(n: usize, heights: &[f32]) -> Vec<[Vec3; 3]> {
@@ -135,12 +128,8 @@ fn relations_hold_on_the_models() {
                         (b, a)
                     };
                     assert_eq!(d.groups[outer as usize].parts, 1);
-                    let tris = &d.groups[outer as usize].triangles;
-                    let part: Vec<u32> = tris.clone();
-                    let mut with_inner = part.clone();
-                    with_inner.extend(&d.groups[inner as usize].triangles);
                     // Inner points lie below every plane of the container.
-                    for &t in &part {
+                    for &t in &d.groups[outer as usize].triangles {
                         let [p0, p1, p2] = triangles[t as usize];
                         let n = (p1 - p0).cross(p2 - p0);
                         if n.length() == 0.0 {
@@ -164,15 +153,6 @@ fn relations_hold_on_the_models() {
 
 fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
-}
-
-fn options(size: u32, effect: Effect) -> RenderOptions {
-    RenderOptions {
-        width: size,
-        height: size,
-        effect,
-        ..Default::default()
-    }
 }
 
 /// Exact where every overlapping pair has a plane or nests: equals the reference with no
