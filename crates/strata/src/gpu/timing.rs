@@ -89,6 +89,44 @@ impl Timer {
             })
     }
 
+    /// A pair for a span of passes (see [`Timer::render_pass_in_span`]): its begin is written
+    /// by the span's first pass and its end by its last, so a frame of more passes than the
+    /// query set holds is still timed as a whole (idle gaps between its passes included).
+    pub fn span(&mut self, name: &'static str) -> Option<u32> {
+        self.next_pair(name).map(|(_, i)| i)
+    }
+
+    /// The writes of one render pass inside `span`: the begin when it is the span's first pass,
+    /// the end when it is its last, nothing in between.
+    pub fn render_pass_in_span(
+        &self,
+        span: Option<u32>,
+        first: bool,
+        last: bool,
+    ) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        let (query_set, i) = (self.set.as_ref()?, span?);
+        (first || last).then(|| wgpu::RenderPassTimestampWrites {
+            query_set,
+            beginning_of_pass_write_index: first.then_some(i),
+            end_of_pass_write_index: last.then_some(i + 1),
+        })
+    }
+
+    /// As [`Timer::render_pass_in_span`], for a compute pass.
+    pub fn compute_pass_in_span(
+        &self,
+        span: Option<u32>,
+        first: bool,
+        last: bool,
+    ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        let (query_set, i) = (self.set.as_ref()?, span?);
+        (first || last).then(|| wgpu::ComputePassTimestampWrites {
+            query_set,
+            beginning_of_pass_write_index: first.then_some(i),
+            end_of_pass_write_index: last.then_some(i + 1),
+        })
+    }
+
     /// Resolves this frame's timestamps into the resolve buffer (inside `encoder`) and returns
     /// the range to read back with the frame's statistics and the pass names, or `None` when
     /// the adapter cannot time or more passes ran than the query set holds.

@@ -8,6 +8,7 @@
 pub mod animation;
 pub mod builtin;
 pub mod loaders;
+pub mod subdivide;
 
 pub use animation::{CameraKey, CameraPath, ObjectMotion, Orbit};
 

@@ -45,6 +45,8 @@ pub struct Group {
     pub lo: Vec3,
     pub hi: Vec3,
     pub centroid: Vec3,
+    /// The group's distinct vertices: their projection's hull bounds its screen footprint.
+    pub points: Vec<Vec3>,
 }
 
 /// A plane n·x = offset with the first group of the pair (the lower index) on or below it and
@@ -362,12 +364,16 @@ fn group(triangles: &[[Vec3; 3]], faces: Vec<u32>, parts: u32) -> Group {
     let points = faces.iter().flat_map(|&f| triangles[f as usize]);
     let (lo, hi) = bounds(points.clone());
     let centroid = points.clone().sum::<Vec3>() / (3 * faces.len()).max(1) as f32;
+    let mut distinct: Vec<Vec3> = points.collect();
+    distinct.sort_by_key(|p| p.to_array().map(f32::to_bits));
+    distinct.dedup();
     Group {
         parts,
         triangles: faces,
         lo,
         hi,
         centroid,
+        points: distinct,
     }
 }
 

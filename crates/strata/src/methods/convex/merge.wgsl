@@ -2,7 +2,8 @@
 // LAYERS) and composites them behind what earlier passes merged. A pass's nearest fragment in
 // front of the last merged one in (depth, primitive) order is an order violation: counted, and
 // composited where it arrived (the order could not be kept). init and finish bracket the frame.
-// LAYERS is prepended by the method.
+// The merge visits only the pixels the pass listed. LAYERS and MERGE_WORKGROUP are prepended by
+// the method.
 
 @group(1) @binding(0) var<storage, read_write> state: array<Composite>;
 @group(1) @binding(1) var<storage, read_write> claims: array<u32>;
@@ -12,6 +13,8 @@
 // [0]: order violations (pixel-passes), [1]: pixel-passes with fragments past LAYERS.
 @group(1) @binding(4) var<storage, read_write> counters: array<atomic<u32>>;
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
+@group(1) @binding(6) var<storage, read> touched: array<u32>;
+@group(1) @binding(7) var<storage, read> touched_count: u32;
 
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -24,12 +27,18 @@ fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
     claims[i] = 0u;
 }
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(MERGE_WORKGROUP)
 fn cs_merge(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
+    // The dispatch stops growing at 65535 workgroups; past that each invocation takes every
+    // stride-th listed pixel (at most a few at the largest frames).
+    let stride = 65535u * MERGE_WORKGROUP;
+    let count = min(touched_count, arrayLength(&touched));
+    for (var t = id.x; t < count; t += stride) {
+        merge_pixel(touched[t]);
     }
-    let i = pixel_index(id.xy);
+}
+
+fn merge_pixel(i: u32) {
     let claimed = claims[i];
     if claimed == 0u {
         return;

@@ -12,14 +12,16 @@
 //! - init (compute): every pixel's compositing state, counters.
 //! - per pass: capture (one geometry pass drawing only that pass's groups' index ranges; a
 //!   container's front cap before what it holds, its back cap after): each fragment appended to
-//!   its pixel's slots behind an atomic claim counter; then merge (compute): the pixel sorts its
+//!   its pixel's slots behind an atomic claim counter, and a pixel's first claim lists it; then
+//!   merge (compute, dispatched indirectly over the listed pixels only, so a pass costs what its
+//!   groups cover, not the screen): the pixel sorts its
 //!   at most `layers` fragments (2 per convex part; 4 for a paired group — the paper's slab),
 //!   composites them front to back behind what earlier passes merged, and counts an order
 //!   violation when the pass's nearest fragment lies in front of the last merged one.
 //! - finish (compute): the pixel's [`crate::frame::Resolved`] and its account.
 //!
 //! Every triangle is drawn once per frame (containers' twice, each fragment kept once).
-//! Memory: (16·layers + 40)·W·H + 12 bytes per triangle (the index buffer) + 8 — two layers'
+//! Memory: (16·layers + 44)·W·H + 12 bytes per triangle (the index buffer) + 56 — two layers'
 //! worth when no group is paired, whatever the depth complexity.
 //!
 //! The paper captures a piece's two layers with 32-bit MAX blending into two zero-cleared
@@ -51,8 +53,18 @@ use crate::scene::GpuVertex;
 use decompose::Decomposition;
 use order::{Cap, FramePlan};
 
-/// Per-pixel bytes besides the slots: compositing state (32), claim counter, generated count.
-const PIXEL_BYTES: u64 = 40;
+/// Per-pixel bytes besides the slots: compositing state (32), claim counter, generated count,
+/// the pass's list of touched pixels.
+const PIXEL_BYTES: u64 = 44;
+/// Bytes besides the per-pixel ones and the index buffer: counters, the touched count, the
+/// merge's indirect arguments and their reset value.
+const FIXED_BYTES: u64 = 8 + 16 + 16 + 16;
+/// Invocations per merge workgroup; the merge dispatch grows by one workgroup per this many
+/// touched pixels.
+const MERGE_WORKGROUP: u32 = 64;
+/// Above this many passes a frame is timed as one span ("passes") instead of per pass, so the
+/// timestamp query set does not run out.
+const MAX_TIMED_PASSES: usize = 500;
 
 /// What `convex` reports about a frame (`FrameStats::convex`).
 #[derive(Clone, Debug, Default, Serialize)]
@@ -99,9 +111,16 @@ pub struct Convex {
     merge: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     null_target: Option<NullTarget>,
+    /// The merge's indirect arguments before a pass: no workgroups, y = z = 1.
+    merge_args_reset: wgpu::Buffer,
     /// The last plan and the view-projection and size it was made for.
     plan: Option<([f32; 16], (u32, u32), FramePlan)>,
     cache: ResourceCache,
+}
+
+/// The constants the stages are compiled with, for `layers` fragments per pixel and pass.
+fn shader_constants(layers: u32) -> String {
+    format!("const LAYERS: u32 = {layers}u;\nconst MERGE_WORKGROUP: u32 = {MERGE_WORKGROUP}u;\n")
 }
 
 /// The scene's triangles read back from its vertex buffer (setup, not steady state).
@@ -163,7 +182,13 @@ impl Convex {
         let capture_layout = binding::layout(
             device,
             "strata.convex.capture.layout",
-            &[Slot::StorageRw, Slot::StorageRw],
+            &[
+                Slot::StorageRw,
+                Slot::StorageRw,
+                Slot::StorageRw,
+                Slot::StorageRw,
+                Slot::StorageRw,
+            ],
         );
         let merge_layout = binding::layout(
             device,
@@ -175,9 +200,19 @@ impl Convex {
                 Slot::StorageRw,
                 Slot::StorageRw,
                 Slot::StorageRw,
+                Slot::Storage,
+                Slot::Storage,
             ],
         );
-        let constant = format!("const LAYERS: u32 = {layers}u;\n");
+        let merge_args_reset = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("strata.convex.merge_args_reset"),
+                contents: bytemuck::cast_slice(&[0u32, 1, 1, 0]),
+                usage: wgpu::BufferUsages::COPY_SRC,
+            },
+        );
+        let constant = shader_constants(layers);
         let module = shader::module(
             device,
             "strata.convex.capture",
@@ -215,6 +250,7 @@ impl Convex {
             ranges,
             indices,
             null_target: None,
+            merge_args_reset,
             plan: None,
             cache: ResourceCache::default(),
         }
@@ -268,7 +304,7 @@ impl Method for Convex {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let px = ctx.pixels();
-        let bytes = px * self.pixel_bytes() + self.indices.size() + 8;
+        let bytes = px * self.pixel_bytes() + self.indices.size() + FIXED_BYTES;
         ctx.check_budget(bytes)?;
         let order_ms = self.update_plan(ctx);
         let none = wgpu::BufferUsages::empty();
@@ -291,11 +327,29 @@ impl Method for Convex {
             8,
             wgpu::BufferUsages::COPY_SRC,
         )?;
+        let touched = self
+            .cache
+            .storage(gpu, "strata.convex.touched", px * 4, none)?;
+        let touched_count = self
+            .cache
+            .storage(gpu, "strata.convex.touched_count", 4, none)?;
+        let merge_args = self.cache.storage(
+            gpu,
+            "strata.convex.merge_args",
+            16,
+            wgpu::BufferUsages::INDIRECT,
+        )?;
         let capture_group = binding::group(
             &gpu.device,
             "strata.convex.capture.group",
             &self.capture_layout,
-            &[claims.as_entire_binding(), slots.as_entire_binding()],
+            &[
+                claims.as_entire_binding(),
+                slots.as_entire_binding(),
+                touched.as_entire_binding(),
+                touched_count.as_entire_binding(),
+                merge_args.as_entire_binding(),
+            ],
         );
         let merge_group = binding::group(
             &gpu.device,
@@ -308,6 +362,8 @@ impl Method for Convex {
                 generated.as_entire_binding(),
                 counters.as_entire_binding(),
                 ctx.output.as_entire_binding(),
+                touched.as_entire_binding(),
+                touched_count.as_entire_binding(),
             ],
         );
         let null_target = NullTarget::ensure(
@@ -322,14 +378,23 @@ impl Method for Convex {
         dispatch_pixels(ctx, "init", &self.init, &[frame_group, &merge_group]);
         let (_, _, plan) = self.plan.as_ref().expect("made above");
         let mut draws = 0;
-        for pass_groups in &plan.passes {
+        let span = (plan.passes.len() > MAX_TIMED_PASSES).then(|| ctx.timer.span("passes"));
+        let last_pass = plan.passes.len().saturating_sub(1);
+        for (p, pass_groups) in plan.passes.iter().enumerate() {
+            ctx.encoder
+                .copy_buffer_to_buffer(&self.merge_args_reset, 0, &merge_args, 0, 16);
+            ctx.encoder.clear_buffer(&touched_count, 0, None);
             let label = ctx.label("capture");
+            let timestamps = match span {
+                Some(span) => ctx.timer.render_pass_in_span(span, p == 0, false),
+                None => ctx.timer.render_pass("capture"),
+            };
             let scene = ctx.scene;
             let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some(&label),
                 color_attachments: &[null_target.attachment()],
                 depth_stencil_attachment: None,
-                timestamp_writes: ctx.timer.render_pass("capture"),
+                timestamp_writes: timestamps,
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -351,7 +416,21 @@ impl Method for Convex {
                 draws += 1;
             }
             drop(pass);
-            dispatch_pixels(ctx, "merge", &self.merge, &[frame_group, &merge_group]);
+            let label = ctx.label("merge");
+            let timestamps = match span {
+                Some(span) => ctx.timer.compute_pass_in_span(span, false, p == last_pass),
+                None => ctx.timer.compute_pass("merge"),
+            };
+            let mut pass = ctx
+                .encoder
+                .begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(&label),
+                    timestamp_writes: timestamps,
+                });
+            pass.set_pipeline(&self.merge);
+            pass.set_bind_group(0, Some(frame_group), &[]);
+            pass.set_bind_group(1, Some(&merge_group), &[]);
+            pass.dispatch_workgroups_indirect(&merge_args, 0);
         }
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &merge_group]);
         ctx.readback.words(&counters, 0, 2);

@@ -4,8 +4,9 @@
 //!
 //! Each group's bounding box is projected to a conservative pixel rectangle (boxes behind the
 //! eye, beyond the far plane or off screen are culled; a box crossing the eye's plane covers the
-//! whole screen). Two groups matter to each other only when their rectangles overlap; for such a
-//! pair the plane that separates them (see [`super::decompose`]) decides: the group on the eye's
+//! whole screen). Two groups matter to each other only when their rectangles overlap and the
+//! convex hulls of their projected vertices (which hold every pixel centre a group can cover)
+//! are not apart; for such a pair the plane that separates them (see [`super::decompose`]) decides: the group on the eye's
 //! side is in front for every ray from the eye (for an orthographic view, the side the view
 //! direction leaves). The pairs give a directed graph, topologically sorted nearest centroid
 //! first; a cycle (or a pair with no plane) is broken by taking the nearest remaining centroid,
@@ -21,7 +22,8 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use glam::{Mat4, Vec3, Vec4Swizzles};
+use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
+use rayon::prelude::*;
 
 use super::decompose::{Decomposition, Relation, Separation};
 use crate::scene::{Camera, Projection};
@@ -71,7 +73,7 @@ pub struct FramePlan {
     pub passes: Vec<Vec<(u32, Cap)>>,
     /// Groups outside the view.
     pub culled: u32,
-    /// Pairs of groups whose rectangles overlap.
+    /// Pairs of groups whose footprints (rectangle and projected hull) overlap.
     pub overlapping: u64,
     /// Overlapping pairs without a separating plane, ordered by centroid.
     pub unseparated: u64,
@@ -143,6 +145,74 @@ fn footprint(view_proj: Mat4, lo: Vec3, hi: Vec3, width: u32, height: u32) -> Op
 
 /// Which of a group's fragments a draw keeps: all, or (for a container, drawn twice around
 /// what it holds) the front-facing or the back-facing ones.
+/// The convex hull (counter-clockwise in the plane's own orientation) of `points` projected to
+/// pixel coordinates: it holds every pixel centre the group can cover. `None` when a point lies
+/// at or behind the eye (the projection is unbounded there; the rectangle decides alone).
+fn screen_hull(view_proj: Mat4, points: &[Vec3], width: u32, height: u32) -> Option<Vec<Vec2>> {
+    let mut projected = Vec::with_capacity(points.len());
+    for p in points {
+        let c = view_proj * p.extend(1.0);
+        if c.w <= 1e-6 {
+            return None;
+        }
+        let ndc = c.xy() / c.w;
+        projected.push(Vec2::new(
+            (ndc.x + 1.0) * 0.5 * width as f32,
+            (1.0 - ndc.y) * 0.5 * height as f32,
+        ));
+    }
+    Some(convex_hull(projected))
+}
+
+/// Andrew's monotone chain: the hull's corners, each turn positive (collinear points dropped).
+fn convex_hull(mut points: Vec<Vec2>) -> Vec<Vec2> {
+    points.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    points.dedup();
+    if points.len() < 3 {
+        return points;
+    }
+    let turn = |o: Vec2, a: Vec2, b: Vec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<Vec2> = Vec::with_capacity(points.len() + 1);
+    for pass in 0..2 {
+        let start = hull.len();
+        let sweep: Box<dyn Iterator<Item = &Vec2>> = if pass == 0 {
+            Box::new(points.iter())
+        } else {
+            Box::new(points.iter().rev())
+        };
+        for &p in sweep {
+            while hull.len() >= start + 2
+                && turn(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// Pixels closer to a hull's edge than this count as possibly covered (the rasterizer snaps
+/// vertices to a sub-pixel grid).
+const HULL_MARGIN_PX: f32 = 0.01;
+
+/// Whether one of the polygons' edges has the other polygon wholly outside it: then no pixel
+/// centre lies in both and their groups never meet in a pixel.
+fn hulls_apart(a: &[Vec2], b: &[Vec2]) -> bool {
+    let apart_by_edges_of = |p: &[Vec2], q: &[Vec2]| {
+        (p.len() >= 2)
+            && (0..p.len()).any(|i| {
+                let (from, to) = (p[i], p[(i + 1) % p.len()]);
+                let edge = to - from;
+                let margin = HULL_MARGIN_PX * edge.length();
+                // Inside a positively turning hull lies to the left of every edge.
+                q.iter().all(|&x| edge.perp_dot(x - from) < -margin)
+            })
+    };
+    apart_by_edges_of(a, b) || apart_by_edges_of(b, a)
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Cap {
     Whole,
@@ -172,6 +242,13 @@ pub fn plan(
         .collect();
     let culled = (n - visible.len()) as u32;
     let rect = |g: u32| rects[g as usize].expect("visible");
+    let hulls: Vec<Option<Vec<Vec2>>> = (0..n)
+        .into_par_iter()
+        .map(|g| {
+            rects[g]?;
+            screen_hull(view_proj, &dec.groups[g].points, width, height)
+        })
+        .collect();
     visible.sort_by_key(|&g| rect(g).x0);
     // Nodes: 2g is group g whole, or its front cap when it is a container; 2g + 1 its back cap.
     let caps = |g: u32| -> &'static [u32] {
@@ -202,6 +279,11 @@ pub fn plan(
             }
             if rb.y0 > ra.y1 || rb.y1 < ra.y0 {
                 continue;
+            }
+            if let (Some(ha), Some(hb)) = (&hulls[a as usize], &hulls[b as usize]) {
+                if hulls_apart(ha, hb) {
+                    continue;
+                }
             }
             overlapping += 1;
             let (outer, inner) = match dec.relation(a, b) {

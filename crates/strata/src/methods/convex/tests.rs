@@ -201,7 +201,7 @@ fn convex_equals_the_reference_on_layers() {
 #[test]
 fn convex_stages_validate() {
     for layers in [2, 4] {
-        let constant = format!("const LAYERS: u32 = {layers}u;\n");
+        let constant = super::shader_constants(layers);
         for (label, src) in [
             ("convex.capture", include_str!("capture.wgsl")),
             ("convex.merge", include_str!("merge.wgsl")),

@@ -26,8 +26,9 @@ use crate::error::{Error, Result};
 use crate::scene::{Mesh, Scene};
 use params::Params;
 
-const NAMES: [&str; 10] = [
-    "demo", "layers", "spheres", "nvpro", "balls", "dragon", "bunny", "suzanne", "spot", "teapot",
+const NAMES: [&str; 11] = [
+    "demo", "layers", "spheres", "stack", "nvpro", "balls", "dragon", "bunny", "suzanne", "spot",
+    "teapot",
 ];
 
 /// Names of the built-in scenes, `demo` first.
@@ -44,9 +45,10 @@ pub fn build(spec: &str) -> Result<Scene> {
         "demo" => &[],
         "layers" => &["n", "coverage", "order", "seed"],
         "spheres" => &["layers", "segments"],
+        "stack" => &["layers", "columns", "segments"],
         "nvpro" => &["objects", "subdiv", "seed"],
         "balls" => &["count", "frame", "segments", "radius"],
-        m if models::MODEL_NAMES.contains(&m) => &[],
+        m if models::MODEL_NAMES.contains(&m) => &["subdivide"],
         _ => {
             return Err(Error::input(format!(
                 "unknown builtin scene '{name}' (available: {})",
@@ -59,9 +61,10 @@ pub fn build(spec: &str) -> Result<Scene> {
         "demo" => scenes::demo(),
         "layers" => scenes::layers(&p),
         "spheres" => scenes::spheres(&p),
+        "stack" => scenes::stack(&p),
         "nvpro" => scenes::nvpro(&p),
         "balls" => scenes::balls(&p),
-        model => scenes::model(model),
+        model => scenes::model(model, &p),
     }
 }
 
@@ -98,7 +101,7 @@ mod tests {
         let e = build("foo").unwrap_err().to_string();
         assert_eq!(
             e,
-            "unknown builtin scene 'foo' (available: demo, layers, spheres, nvpro, balls, dragon, bunny, suzanne, spot, teapot)"
+            "unknown builtin scene 'foo' (available: demo, layers, spheres, stack, nvpro, balls, dragon, bunny, suzanne, spot, teapot)"
         );
         let e = build("layers?m=3").unwrap_err().to_string();
         assert!(
@@ -111,7 +114,9 @@ mod tests {
         let e = build("layers?order=sideways").unwrap_err().to_string();
         assert!(e.contains("order='sideways'") && e.contains("front"), "{e}");
         let e = build("bunny?x=1").unwrap_err().to_string();
-        assert!(e.contains("takes no parameters"), "{e}");
+        assert!(e.contains("unknown parameter 'x'"), "{e}");
+        let e = build("bunny?subdivide=5").unwrap_err().to_string();
+        assert!(e.contains("subdivide=5") && e.contains("0..=4"), "{e}");
         let e = build("spheres?layers=3").unwrap_err().to_string();
         assert!(e.contains("even"), "{e}");
         let e = build("layers?n=0").unwrap_err().to_string();

@@ -192,6 +192,83 @@ pub(super) fn spheres(p: &Params) -> Result<Scene> {
 }
 
 // ---------------------------------------------------------------------------------------------
+// stack
+
+/// `stack?layers=16&columns=2&segments=200`: seed 001's layered-sphere scene (its Fig. 6): a
+/// `columns`×`columns` square of columns of unit UV spheres, each column `layers/2` spheres deep
+/// along the view axis (a sphere gives 2 layers), 2.5 apart, one hue per depth, opacity 0.25, lit
+/// by two point lights; an orthographic camera on +Z looks down the columns. The defaults are the
+/// paper's: 4 columns of 39,600-triangle spheres, 1,267,200 triangles at 16 layers.
+pub(super) fn stack(p: &Params) -> Result<Scene> {
+    let layers = p.int("layers", 16, 2, 512)?;
+    if layers % 2 != 0 {
+        return Err(Error::input(format!(
+            "builtin:stack: layers={layers} must be even (each sphere gives 2 layers)"
+        )));
+    }
+    let columns = p.int("columns", 2, 1, 64)? as usize;
+    let segments = p.int("segments", 200, 3, 4096)? as u32;
+    let depth = (layers / 2) as usize;
+    crate::scene::check_triangle_estimate(
+        &format!("builtin:stack: layers={layers} × columns={columns}² × segments={segments}"),
+        (depth * columns * columns) as u64 * uv_sphere_triangles(segments),
+    )?;
+    const SPACING: f32 = 2.5;
+    let unit = uv_sphere(segments);
+    let mut scene = Scene::default();
+    let materials: Vec<usize> = (0..depth)
+        .map(|d| {
+            let color = hsv(d as f32 / depth as f32, 0.7, 0.95);
+            scene.add_material(material(format!("depth {d}"), color, 0.25))
+        })
+        .collect();
+    let centre = (columns as f32 - 1.0) * 0.5;
+    let front = (depth as f32 - 1.0) * 0.5 * SPACING;
+    for row in 0..columns {
+        for column in 0..columns {
+            for (d, &m) in materials.iter().enumerate() {
+                let at = Vec3::new(
+                    (column as f32 - centre) * SPACING,
+                    (row as f32 - centre) * SPACING,
+                    front - d as f32 * SPACING,
+                );
+                scene.objects.push(Object {
+                    name: format!("sphere {row},{column},{d}"),
+                    mesh: unit.transformed(Mat4::from_translation(at)),
+                    material: m,
+                });
+            }
+        }
+    }
+    let half_width = centre * SPACING + 1.0;
+    scene.camera = Some(Camera {
+        eye: Vec3::new(0.0, 0.0, front + 5.0),
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        projection: Projection::Orthographic {
+            height: 2.0 * half_width * 1.05,
+        },
+        near: 1.0,
+        far: 2.0 * front + 10.0,
+    });
+    scene.lights = vec![
+        point_light(
+            Vec3::new(3.0, 4.0, front + 4.0),
+            [1.0, 1.0, 1.0],
+            1.0,
+            4.0 * front + 20.0,
+        ),
+        point_light(
+            Vec3::new(-4.0, -2.0, front + 2.0),
+            [0.7, 0.8, 1.0],
+            0.5,
+            4.0 * front + 20.0,
+        ),
+    ];
+    Ok(scene)
+}
+
+// ---------------------------------------------------------------------------------------------
 // nvpro
 
 /// `nvpro?objects=1024&subdiv=16&seed=0`: `objects` UV spheres (`subdiv` segments) centred
@@ -323,13 +400,23 @@ pub(super) fn balls(p: &Params) -> Result<Scene> {
 // ---------------------------------------------------------------------------------------------
 // models and demo
 
-/// One embedded model with the default material, auto-framed camera, no lights (headlight).
-pub(super) fn model(name: &str) -> Result<Scene> {
+/// One embedded model (`?subdivide=N`: N Loop subdivision steps, 4^N times the triangles) with
+/// the default material, auto-framed camera, no lights (headlight).
+pub(super) fn model(name: &str, p: &Params) -> Result<Scene> {
+    let steps = p.int("subdivide", 0, 0, 4)? as u32;
+    let mut mesh = model_mesh(name)?;
+    crate::scene::check_triangle_estimate(
+        &format!("builtin:{name}: subdivide={steps}"),
+        mesh.triangle_count() as u64 * 4u64.pow(steps),
+    )?;
+    for _ in 0..steps {
+        mesh = crate::scene::subdivide::loop_subdivide(&mesh);
+    }
     let mut scene = Scene::default();
     let m = scene.add_material(Material::default());
     scene.objects.push(Object {
         name: name.to_string(),
-        mesh: model_mesh(name)?,
+        mesh,
         material: m,
     });
     Ok(scene)
@@ -613,6 +700,17 @@ mod tests {
             "{radii:?}"
         );
         assert_eq!(built("spheres").objects.len(), 8);
+    }
+
+    #[test]
+    fn stack_is_the_papers_layered_spheres() {
+        let s = built("stack?layers=6&columns=3&segments=8");
+        assert_eq!(s.objects.len(), 3 * 3 * 3);
+        let z: Vec<f32> = s.objects[..3].iter().map(|o| o.mesh.bounds().1.z).collect();
+        assert!(z[0] > z[1] && z[1] > z[2], "{z:?}");
+        // The paper's 16-layer scene: 32 spheres, 1,267,200 triangles.
+        assert_eq!(4 * 8 * uv_sphere_triangles(200), 1_267_200);
+        assert!(crate::scene::builtin::build("stack?layers=5").is_err());
     }
 
     #[test]
