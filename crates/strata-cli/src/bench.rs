@@ -396,7 +396,7 @@ pub(crate) fn cpu_label(cpu_figures: bool) -> &'static str {
 type StandaloneRun = fn(&Gpu, Option<&str>, Option<u32>, &Path) -> Result<()>;
 
 /// The experiments that report their own tables: name, description, runner.
-const STANDALONE: [(&str, &str, StandaloneRun); 5] = [
+const STANDALONE: [(&str, &str, StandaloneRun); 6] = [
     ("auto-k", crate::auto_k::DESCRIPTION, crate::auto_k::run),
     (
         "deferred-lights",
@@ -413,6 +413,11 @@ const STANDALONE: [(&str, &str, StandaloneRun); 5] = [
         "online-culling",
         crate::online_culling::DESCRIPTION,
         crate::online_culling::run,
+    ),
+    (
+        "convex",
+        crate::convex_experiment::DESCRIPTION,
+        crate::convex_experiment::run,
     ),
 ];
 
@@ -689,12 +694,41 @@ pub(crate) fn measure(
     frames: u32,
     bar: &ProgressBar,
 ) -> Result<(MethodResult, Option<FrameStats>)> {
+    let (result, timed) = measure_views(gpu, scene, options, run, warmup, frames, bar, &[])?;
+    Ok((result, timed.last().cloned()))
+}
+
+/// [`measure`] with frame `f` (warm-up frames counted) seen from `cameras[f % len]` when
+/// `cameras` is not empty (the scene's own camera otherwise); returns the timed frames'
+/// statistics that arrived, in frame order.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn measure_views(
+    gpu: &Gpu,
+    scene: &strata::scene::Scene,
+    options: &strata::RenderOptions,
+    run: &Run,
+    warmup: u32,
+    frames: u32,
+    bar: &ProgressBar,
+    cameras: &[strata::scene::Camera],
+) -> Result<(MethodResult, Vec<FrameStats>)> {
     let mut result = MethodResult::new(run, frames);
     let method: MethodId = run.method.parse()?;
     if method == MethodId::Reference {
         let mut walls = Vec::new();
         let mut last = None;
         for f in 0..warmup + frames {
+            let viewed;
+            let scene = match cameras.get(f as usize % cameras.len().max(1)) {
+                Some(camera) => {
+                    viewed = strata::scene::Scene {
+                        camera: Some(*camera),
+                        ..scene.clone()
+                    };
+                    &viewed
+                }
+                None => scene,
+            };
             let start = Instant::now();
             let (_, stats) = strata::reference::render(scene, options)?;
             if f >= warmup {
@@ -706,7 +740,7 @@ pub(crate) fn measure(
         result.median_wall_ms = median(walls);
         let last = last.expect("at least one frame");
         fill_counts(&mut result, &last);
-        return Ok((result, Some(last)));
+        return Ok((result, vec![last]));
     }
     let mut recorder = FrameRecorder::new(gpu, scene, method, options)?;
     let target = gpu.texture_2d(
@@ -740,6 +774,9 @@ pub(crate) fn measure(
                 })
                 .map_err(|e| Error::runtime(format!("GPU wait failed: {e}")))?;
         }
+        if !cameras.is_empty() {
+            recorder.set_camera(&cameras[f as usize % cameras.len()]);
+        }
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         recorder.record(&mut encoder, &targets, None)?;
         in_flight.push_back(gpu.queue.submit([encoder.finish()]));
@@ -771,8 +808,7 @@ pub(crate) fn measure(
         (Some(ms), Some(bytes)) if bytes > 0 => Some(ms / (bytes as f64 / 1048576.0)),
         _ => None,
     };
-    let last = timed.last().map(|s| (*s).clone());
-    Ok((result, last))
+    Ok((result, timed.into_iter().cloned().collect()))
 }
 
 fn fill_counts(result: &mut MethodResult, stats: &FrameStats) {

@@ -2,6 +2,7 @@
 
 mod auto_k;
 mod bench;
+mod convex_experiment;
 mod cuda_renderer;
 mod deferred_lights;
 mod online_culling;

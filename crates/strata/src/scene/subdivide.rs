@@ -51,7 +51,10 @@ pub fn loop_subdivide(mesh: &Mesh) -> Mesh {
     let mut ring_count = vec![0u32; n];
     let mut border_sum = vec![Vec3::ZERO; n];
     let mut border_count = vec![0u32; n];
-    for (&(a, b), e) in &edges {
+    // In the edges' creation order: the sums below must not depend on the map's order.
+    let mut ordered: Vec<(&(u32, u32), &Edge)> = edges.iter().collect();
+    ordered.sort_unstable_by_key(|(_, e)| e.index);
+    for (&(a, b), e) in ordered {
         let interior = e.faces == 2;
         out[e.index as usize] = if interior {
             (0.375 * (p(a) + p(b)) + 0.125 * (p(e.opposite[0]) + p(e.opposite[1]))).to_array()
@@ -168,6 +171,17 @@ mod tests {
         for t in twice.indices.chunks_exact(3) {
             let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from(twice.positions[i as usize]));
             assert!((b - a).cross(c - a).dot(a + b + c) > 0.0);
+        }
+    }
+
+    #[test]
+    fn subdivision_is_deterministic() {
+        let mesh = crate::scene::builtin::build("teapot").unwrap().objects[0]
+            .mesh
+            .clone();
+        let a = loop_subdivide(&mesh);
+        for _ in 0..3 {
+            assert_eq!(loop_subdivide(&mesh), a);
         }
     }
 

@@ -193,6 +193,82 @@ fn convex_hull(mut points: Vec<Vec2>) -> Vec<Vec2> {
     hull
 }
 
+/// Side in pixels of the screen tiles that bin the groups when pairs are looked for.
+const TILE: i32 = 8;
+
+/// Every pair (a, b) of `visible` groups (a before b in `visible`) whose pixel rectangles
+/// (`None`: no pixel) overlap and
+/// whose hulls are not apart, in a deterministic order. Groups are binned into screen tiles by
+/// rectangle; a pair is examined in the one tile holding its rectangles' intersection's first
+/// corner, so the work is the pairs sharing tiles, not all pairs along a screen axis.
+fn meeting_pairs(
+    visible: &[u32],
+    rects: &[Option<Rect>],
+    hulls: &[Option<Vec<Vec2>>],
+    width: u32,
+    height: u32,
+) -> Vec<(u32, u32)> {
+    let tiles_x = (width as i32 + TILE - 1) / TILE;
+    let tiles_y = (height as i32 + TILE - 1) / TILE;
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
+    for &g in visible {
+        let Some(r) = rects[g as usize] else {
+            continue;
+        };
+        for ty in r.y0 / TILE..=r.y1 / TILE {
+            for tx in r.x0 / TILE..=r.x1 / TILE {
+                bins[(ty * tiles_x + tx) as usize].push(g);
+            }
+        }
+    }
+    bins.par_iter()
+        .enumerate()
+        .flat_map_iter(|(tile, bin)| {
+            let (tx, ty) = (tile as i32 % tiles_x, tile as i32 / tiles_x);
+            let mut pairs = Vec::new();
+            for (i, &a) in bin.iter().enumerate() {
+                let ra = rects[a as usize].expect("binned");
+                for &b in &bin[i + 1..] {
+                    let rb = rects[b as usize].expect("binned");
+                    let (x0, y0) = (ra.x0.max(rb.x0), ra.y0.max(rb.y0));
+                    if x0 > ra.x1.min(rb.x1) || y0 > ra.y1.min(rb.y1) {
+                        continue;
+                    }
+                    if x0 / TILE != tx || y0 / TILE != ty {
+                        continue;
+                    }
+                    if let (Some(ha), Some(hb)) = (&hulls[a as usize], &hulls[b as usize]) {
+                        if hulls_apart(ha, hb) {
+                            continue;
+                        }
+                    }
+                    pairs.push((a, b));
+                }
+            }
+            pairs
+        })
+        .collect()
+}
+
+/// The pixels whose centres a hull's box holds (within the margin), or `None` when it holds no
+/// pixel centre on screen (the group can cover none).
+fn hull_pixels(hull: &[Vec2], width: u32, height: u32) -> Option<Rect> {
+    let (lo, hi) = hull
+        .iter()
+        .fold((Vec2::INFINITY, Vec2::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let first = |v: f32| (v - 0.5 - HULL_MARGIN_PX).ceil().max(0.0) as i32;
+    let last = |v: f32, size: u32| (v - 0.5 + HULL_MARGIN_PX).floor().min(size as f32 - 1.0) as i32;
+    let r = Rect {
+        x0: first(lo.x),
+        y0: first(lo.y),
+        x1: last(hi.x, width),
+        y1: last(hi.y, height),
+    };
+    (r.x0 <= r.x1 && r.y0 <= r.y1).then_some(r)
+}
+
 /// Pixels closer to a hull's edge than this count as possibly covered (the rasterizer snaps
 /// vertices to a sub-pixel grid).
 const HULL_MARGIN_PX: f32 = 0.01;
@@ -237,11 +313,10 @@ pub fn plan(
         .iter()
         .map(|g| footprint(view_proj, g.lo, g.hi, width, height))
         .collect();
-    let mut visible: Vec<u32> = (0..n as u32)
+    let visible: Vec<u32> = (0..n as u32)
         .filter(|&g| rects[g as usize].is_some())
         .collect();
     let culled = (n - visible.len()) as u32;
-    let rect = |g: u32| rects[g as usize].expect("visible");
     let hulls: Vec<Option<Vec<Vec2>>> = (0..n)
         .into_par_iter()
         .map(|g| {
@@ -249,7 +324,6 @@ pub fn plan(
             screen_hull(view_proj, &dec.groups[g].points, width, height)
         })
         .collect();
-    visible.sort_by_key(|&g| rect(g).x0);
     // Nodes: 2g is group g whole, or its front cap when it is a container; 2g + 1 its back cap.
     let caps = |g: u32| -> &'static [u32] {
         if dec.container[g as usize] {
@@ -270,47 +344,41 @@ pub fn plan(
             graph.edge(2 * g, 2 * g + 1);
         }
     }
-    for (i, &a) in visible.iter().enumerate() {
-        let ra = rect(a);
-        for &b in &visible[i + 1..] {
-            let rb = rect(b);
-            if rb.x0 > ra.x1 {
-                break;
-            }
-            if rb.y0 > ra.y1 || rb.y1 < ra.y0 {
+    // Where a group's hull is known its pixel rectangle is exact: the rectangle's padding was
+    // for boxes, and a group covering no pixel centre meets nothing.
+    let pixels: Vec<Option<Rect>> = (0..n)
+        .map(|g| match &hulls[g] {
+            Some(hull) => hull_pixels(hull, width, height),
+            None => rects[g],
+        })
+        .collect();
+    let meeting = meeting_pairs(&visible, &pixels, &hulls, width, height);
+    for &(a, b) in &meeting {
+        overlapping += 1;
+        let (outer, inner) = match dec.relation(a, b) {
+            Relation::Contains => (a, b),
+            Relation::Inside => (b, a),
+            other => {
+                let by_distance = || distance[a as usize] <= distance[b as usize];
+                let a_first = match other {
+                    Relation::Plane(s) => viewer.below_first(&s).unwrap_or_else(by_distance),
+                    _ => {
+                        unseparated += 1;
+                        by_distance()
+                    }
+                };
+                let (first, second) = if a_first { (a, b) } else { (b, a) };
+                for &f in caps(first) {
+                    for &s in caps(second) {
+                        graph.edge(2 * first + f, 2 * second + s);
+                    }
+                }
                 continue;
             }
-            if let (Some(ha), Some(hb)) = (&hulls[a as usize], &hulls[b as usize]) {
-                if hulls_apart(ha, hb) {
-                    continue;
-                }
-            }
-            overlapping += 1;
-            let (outer, inner) = match dec.relation(a, b) {
-                Relation::Contains => (a, b),
-                Relation::Inside => (b, a),
-                other => {
-                    let by_distance = || distance[a as usize] <= distance[b as usize];
-                    let a_first = match other {
-                        Relation::Plane(s) => viewer.below_first(&s).unwrap_or_else(by_distance),
-                        _ => {
-                            unseparated += 1;
-                            by_distance()
-                        }
-                    };
-                    let (first, second) = if a_first { (a, b) } else { (b, a) };
-                    for &f in caps(first) {
-                        for &s in caps(second) {
-                            graph.edge(2 * first + f, 2 * second + s);
-                        }
-                    }
-                    continue;
-                }
-            };
-            for &c in caps(inner) {
-                graph.edge(2 * outer, 2 * inner + c);
-                graph.edge(2 * inner + c, 2 * outer + 1);
-            }
+        };
+        for &c in caps(inner) {
+            graph.edge(2 * outer, 2 * inner + c);
+            graph.edge(2 * inner + c, 2 * outer + 1);
         }
     }
     let nodes: Vec<u32> = visible

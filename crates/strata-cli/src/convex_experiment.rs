@@ -1,0 +1,415 @@
+//! `strata bench convex` (seed 001 Tables 1–3): `convex` — each triangle drawn once per frame,
+//! in visibility order — against depth peeling (`f2b`, `dual`) and the single-pass arrays the
+//! paper compares with (MDTS as `kb-mdt32`, ABS as `abuffer-fixed`, both with enough slots to
+//! keep every layer): frame time, geometry passes and memory.
+//!
+//! - Models (Table 1): teapot, bunny, spot, the dragon, and the dragon Loop-subdivided twice
+//!   (1.6M triangles; the paper's largest model has 655K), opacity 0.5, each seen from views
+//!   spread around it (azimuths evenly spaced, elevations alternating ±30°) at 512² (lavapipe:
+//!   128²). Each timed frame shows the next view, so the medians are over views, and `convex`
+//!   makes its order again every frame (its CPU time is `order_ms`, in the wall time, not in the
+//!   GPU time).
+//! - Depth (Table 2): the layered spheres of the paper's Fig. 6 (`builtin:stack`: 4 columns of
+//!   spheres, 16…96 layers, 1.27M…7.6M triangles, seen along the columns) at 1024² (lavapipe:
+//!   smaller spheres, 256²).
+//! - Memory (Table 3): every row's `bytes_allocated` and bytes per pixel.
+//!
+//! Runs as the other experiments do (`bench::measure_views`: a steady loop of real-time frames,
+//! two in flight, medians of the frames' own GPU timestamps). A configuration the device cannot
+//! hold is recorded with its error, not fatal.
+
+use std::path::Path;
+
+use glam::Vec3;
+use serde::Serialize;
+use strata::error::Result;
+use strata::frame::FrameStats;
+use strata::gpu::Gpu;
+use strata::scene::{loaders, Camera, Scene};
+use strata::RenderOptions;
+
+use crate::bench::{measure_views, standalone_setup, Run};
+
+pub const DESCRIPTION: &str = "seed 001 Tables 1-3: convex vs f2b, dual, kb-mdt32 and abuffer-fixed on teapot, bunny, spot, the dragon and the dragon subdivided to 1.6M triangles over views around each (512², lavapipe 128²), and on the layered spheres at 16..96 layers (1024², lavapipe 256² with smaller spheres): frame time, passes, memory";
+
+const MODELS: [&str; 5] = [
+    "builtin:teapot",
+    "builtin:bunny",
+    "builtin:spot",
+    "builtin:dragon",
+    "builtin:dragon?subdivide=2",
+];
+const MODEL_ALPHA: f32 = 0.5;
+/// Slots per pixel for the arrays on the models: above their depth complexity from any view
+/// (dropped fragments are reported if not).
+const MODEL_K: u32 = 32;
+const STACK_LAYERS: [u32; 6] = [16, 32, 48, 64, 80, 96];
+/// Sphere segments: the paper's 39,600-triangle spheres on a GPU, 528 on lavapipe.
+const STACK_SEGMENTS_GPU: u32 = 200;
+const STACK_SEGMENTS_CPU: u32 = 24;
+const METHODS: [&str; 5] = ["convex", "f2b", "dual", "kb-mdt32", "abuffer-fixed"];
+
+#[derive(Serialize)]
+struct Row {
+    table: &'static str,
+    scene: String,
+    triangles: usize,
+    method: &'static str,
+    k: Option<u32>,
+    views: u32,
+    /// Timed frames whose statistics arrived (the medians are over these).
+    frames_with_stats: usize,
+    median_gpu_ms: Option<f64>,
+    median_wall_ms: f64,
+    /// Mean geometry passes per frame over the timed frames.
+    mean_passes: Option<f64>,
+    bytes_allocated: Option<u64>,
+    bytes_per_pixel: Option<f64>,
+    max_depth_complexity: Option<u32>,
+    fragments_dropped: Option<u64>,
+    convex: Option<ConvexFigures>,
+    error: Option<String>,
+}
+
+#[derive(Serialize)]
+struct ConvexFigures {
+    parts: u32,
+    groups: u32,
+    preprocess_ms: f64,
+    /// Mean CPU milliseconds of a frame's order (made again for every view).
+    mean_order_ms: f64,
+    mean_cycles_broken: f64,
+    /// Summed over the timed frames: pixel-passes where the order failed.
+    order_violations: u64,
+    overflowing_pixels: u64,
+}
+
+#[derive(Serialize)]
+struct Speedup {
+    scene: String,
+    /// Each method's median GPU ms over convex's (> 1: convex is faster).
+    f2b_over_convex: Option<f64>,
+    dual_over_convex: Option<f64>,
+    mdt32_over_convex: Option<f64>,
+    abuffer_fixed_over_convex: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    experiment: &'static str,
+    adapter: String,
+    backend: String,
+    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
+    cpu_figures: bool,
+    model_size: (u32, u32),
+    stack_size: (u32, u32),
+    frames: u32,
+    rows: Vec<Row>,
+    speedups: Vec<Speedup>,
+}
+
+/// `views` cameras around `scene`'s framing: the same distance from its target, azimuths
+/// evenly spaced, elevations alternating +30° and −30°.
+fn views_around(scene: &Scene, views: u32) -> Vec<Camera> {
+    let base = scene.camera_or_framing();
+    let distance = (base.eye - base.target).length();
+    (0..views)
+        .map(|v| {
+            let azimuth = (v as f32 / views as f32) * std::f32::consts::TAU;
+            let elevation = if v % 2 == 0 { 30f32 } else { -30f32 }.to_radians();
+            let direction = Vec3::new(
+                elevation.cos() * azimuth.sin(),
+                elevation.sin(),
+                elevation.cos() * azimuth.cos(),
+            );
+            Camera {
+                eye: base.target + distance * direction,
+                up: Vec3::Y,
+                ..base
+            }
+        })
+        .collect()
+}
+
+fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let (sum, n) = values.fold((0.0, 0u32), |(s, n), v| (s + v, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+fn convex_figures(timed: &[FrameStats]) -> Option<ConvexFigures> {
+    let stats: Vec<_> = timed.iter().filter_map(|s| s.convex.as_ref()).collect();
+    let first = stats.first()?;
+    Some(ConvexFigures {
+        parts: first.parts,
+        groups: first.groups,
+        preprocess_ms: first.preprocess_ms,
+        mean_order_ms: mean(stats.iter().map(|c| c.order_ms)).unwrap_or(0.0),
+        mean_cycles_broken: mean(stats.iter().map(|c| c.cycles_broken as f64)).unwrap_or(0.0),
+        order_violations: stats.iter().filter_map(|c| c.order_violations).sum(),
+        overflowing_pixels: stats.iter().filter_map(|c| c.overflowing_pixels).sum(),
+    })
+}
+
+/// One table's configurations on `scene`.
+struct Case<'a> {
+    table: &'static str,
+    spec: String,
+    scene: &'a Scene,
+    size: (u32, u32),
+    k: u32,
+    cameras: &'a [Camera],
+    warmup: u32,
+    frames: u32,
+}
+
+fn run_case(gpu: &Gpu, case: &Case<'_>, bar: &indicatif::ProgressBar, rows: &mut Vec<Row>) {
+    for method in METHODS {
+        bar.set_message(format!("{method} on {}", case.spec));
+        let k = matches!(method, "kb-mdt32" | "abuffer-fixed").then_some(case.k);
+        let options = RenderOptions {
+            width: case.size.0,
+            height: case.size.1,
+            k,
+            ..Default::default()
+        };
+        let mut row = Row {
+            table: case.table,
+            scene: case.spec.clone(),
+            triangles: case.scene.triangle_count(),
+            method,
+            k,
+            views: case.cameras.len().max(1) as u32,
+            frames_with_stats: 0,
+            median_gpu_ms: None,
+            median_wall_ms: 0.0,
+            mean_passes: None,
+            bytes_allocated: None,
+            bytes_per_pixel: None,
+            max_depth_complexity: None,
+            fragments_dropped: None,
+            convex: None,
+            error: None,
+        };
+        let measured = measure_views(
+            gpu,
+            case.scene,
+            &options,
+            &Run::plain(method),
+            case.warmup,
+            case.frames,
+            bar,
+            case.cameras,
+        );
+        match measured {
+            Ok((result, timed)) => {
+                row.frames_with_stats = timed.len();
+                row.median_gpu_ms = result.median_gpu_ms;
+                row.median_wall_ms = result.median_wall_ms;
+                row.mean_passes = mean(
+                    timed
+                        .iter()
+                        .filter_map(|s| s.geometry_passes.map(f64::from)),
+                );
+                row.bytes_allocated = result.bytes_allocated;
+                row.bytes_per_pixel = result
+                    .bytes_allocated
+                    .map(|b| b as f64 / (case.size.0 as f64 * case.size.1 as f64));
+                row.max_depth_complexity =
+                    timed.iter().filter_map(|s| s.max_depth_complexity).max();
+                row.fragments_dropped =
+                    Some(timed.iter().filter_map(|s| s.fragments_dropped).sum());
+                row.convex = convex_figures(&timed);
+            }
+            Err(e) => {
+                bar.inc((case.warmup + case.frames) as u64);
+                row.error = Some(e.to_string());
+            }
+        }
+        rows.push(row);
+    }
+}
+
+pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+    let (cpu_figures, model_size, frames) =
+        standalone_setup(gpu, size, frames, ((128, 128), (512, 512)), (4, 16))?;
+    let (views, stack_size, segments) = if cpu_figures {
+        (4, (256, 256), STACK_SEGMENTS_CPU)
+    } else {
+        (8, (1024, 1024), STACK_SEGMENTS_GPU)
+    };
+    // `--size` sets both tables' size.
+    let stack_size = if size.is_some() {
+        model_size
+    } else {
+        stack_size
+    };
+    let cases = MODELS.len() + STACK_LAYERS.len();
+    let per_case = (views + frames) as u64 * METHODS.len() as u64;
+    let bar = indicatif::ProgressBar::new(cases as u64 * per_case);
+    let mut rows = Vec::new();
+    for spec in MODELS {
+        bar.set_message(format!("loading {spec}"));
+        let mut scene = loaders::load_scene(spec)?;
+        scene.override_alpha(MODEL_ALPHA);
+        let cameras = views_around(&scene, views);
+        let case = Case {
+            table: "models",
+            spec: spec.to_string(),
+            scene: &scene,
+            size: model_size,
+            k: MODEL_K,
+            cameras: &cameras,
+            warmup: views,
+            frames,
+        };
+        run_case(gpu, &case, &bar, &mut rows);
+    }
+    for layers in STACK_LAYERS {
+        let spec = format!("builtin:stack?layers={layers}&columns=2&segments={segments}");
+        bar.set_message(format!("loading {spec}"));
+        let scene = loaders::load_scene(&spec)?;
+        let case = Case {
+            table: "depth",
+            spec,
+            scene: &scene,
+            size: stack_size,
+            k: layers,
+            cameras: &[],
+            warmup: views,
+            frames,
+        };
+        run_case(gpu, &case, &bar, &mut rows);
+    }
+    bar.finish_and_clear();
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in &rows {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    let speedups = scenes
+        .iter()
+        .map(|&scene| {
+            let time = |method: &str| {
+                rows.iter()
+                    .find(|r| r.scene == scene && r.method == method)
+                    .and_then(|r| r.median_gpu_ms)
+            };
+            let over = |method: &str| match (time(method), time("convex")) {
+                (Some(m), Some(c)) if c > 0.0 => Some(m / c),
+                _ => None,
+            };
+            Speedup {
+                scene: scene.to_string(),
+                f2b_over_convex: over("f2b"),
+                dual_over_convex: over("dual"),
+                mdt32_over_convex: over("kb-mdt32"),
+                abuffer_fixed_over_convex: over("abuffer-fixed"),
+            }
+        })
+        .collect();
+    let report = Report {
+        experiment: "convex",
+        adapter: gpu.info.name.clone(),
+        backend: gpu.backend_name(),
+        cpu_figures,
+        model_size,
+        stack_size,
+        frames,
+        rows,
+        speedups,
+    };
+    print(&report);
+    crate::write_results(dir, "convex", &report, csv(&report))
+}
+
+fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
+    v.map(|v| v.to_string()).unwrap_or_default()
+}
+
+fn ms(v: Option<f64>) -> String {
+    v.map(|v| format!("{v:.3}")).unwrap_or_default()
+}
+
+fn csv(r: &Report) -> String {
+    let mut out = String::from(
+        "table,scene,triangles,method,k,views,median_gpu_ms,median_wall_ms,mean_passes,bytes_allocated,max_depth_complexity,fragments_dropped,convex_groups,convex_mean_order_ms,convex_order_violations,error\n",
+    );
+    for row in &r.rows {
+        let c = row.convex.as_ref();
+        out += &format!(
+            "{},\"{}\",{},{},{},{},{},{:.3},{},{},{},{},{},{},{},\"{}\"\n",
+            row.table,
+            row.scene,
+            row.triangles,
+            row.method,
+            opt(row.k),
+            row.views,
+            ms(row.median_gpu_ms),
+            row.median_wall_ms,
+            row.mean_passes
+                .map(|p| format!("{p:.1}"))
+                .unwrap_or_default(),
+            opt(row.bytes_allocated),
+            opt(row.max_depth_complexity),
+            opt(row.fragments_dropped),
+            opt(c.map(|c| c.groups)),
+            ms(c.map(|c| c.mean_order_ms)),
+            opt(c.map(|c| c.order_violations)),
+            row.error.as_deref().unwrap_or_default().replace('"', "'"),
+        );
+    }
+    out
+}
+
+fn print(r: &Report) {
+    let label = crate::bench::cpu_label(r.cpu_figures);
+    println!(
+        "convex on {}{label}: models at {}x{} (median over views), layered spheres at {}x{}",
+        r.adapter, r.model_size.0, r.model_size.1, r.stack_size.0, r.stack_size.1
+    );
+    println!(
+        "{:<44} {:>9} {:<14} {:>11} {:>8} {:>9} {:>10}",
+        "scene", "triangles", "method", "GPU ms", "passes", "MiB", "violations"
+    );
+    for row in &r.rows {
+        let passes = row
+            .mean_passes
+            .map(|p| format!("{p:.1}"))
+            .unwrap_or_default();
+        let mib = row
+            .bytes_allocated
+            .map(|b| format!("{:.2}", b as f64 / 1048576.0))
+            .unwrap_or_default();
+        let violations = opt(row.convex.as_ref().map(|c| c.order_violations));
+        let time = match &row.error {
+            Some(_) => "error".to_string(),
+            None => ms(row.median_gpu_ms),
+        };
+        println!(
+            "{:<44} {:>9} {:<14} {:>11} {:>8} {:>9} {:>10}",
+            row.scene.trim_start_matches("builtin:"),
+            row.triangles,
+            row.method,
+            time,
+            passes,
+            mib,
+            violations
+        );
+    }
+    println!(
+        "{:<44} {:>8} {:>8} {:>8} {:>8}",
+        "speedup of convex over", "f2b", "dual", "mdt32", "abuf-fix"
+    );
+    let x = |v: Option<f64>| v.map(|v| format!("{v:.2}x")).unwrap_or_default();
+    for s in &r.speedups {
+        println!(
+            "{:<44} {:>8} {:>8} {:>8} {:>8}",
+            s.scene.trim_start_matches("builtin:"),
+            x(s.f2b_over_convex),
+            x(s.dual_over_convex),
+            x(s.mdt32_over_convex),
+            x(s.abuffer_fixed_over_convex)
+        );
+    }
+}
