@@ -2,7 +2,8 @@
 //! 2011): the geometry is ordered in object space so that each triangle is drawn once per frame
 //! in visibility order, and a pixel never holds more than one group's layers at a time.
 //!
-//! Preprocess (once, when the method is made; [`decompose`]): convex parts by region growing,
+//! Preprocess (once per geometry: the last few are cached in memory by [`decomposition_of`];
+//! [`decompose`]): convex parts by region growing,
 //! inseparable neighbours paired into groups of two, nesting found, a separating plane per pair
 //! of groups whose boxes overlap. The triangles go into one static index buffer, group by group.
 //!
@@ -40,6 +41,9 @@
 pub mod decompose;
 pub mod order;
 
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex};
+
 use glam::Vec3;
 use serde::Serialize;
 
@@ -52,6 +56,9 @@ use crate::methods::Method;
 use crate::scene::GpuVertex;
 use decompose::Decomposition;
 use order::{Cap, FramePlan};
+
+/// Per pass, the cap drawn and its range of the plan's index buffer.
+type PassDraws = Vec<Vec<(Cap, std::ops::Range<u32>)>>;
 
 /// Per-pixel bytes besides the slots: compositing state (32), claim counter, generated count,
 /// the pass's list of touched pixels.
@@ -97,10 +104,11 @@ pub struct ConvexStats {
 }
 
 pub struct Convex {
-    decomposition: Decomposition,
+    decomposition: Arc<Decomposition>,
     layers: u32,
-    /// Each group's range of `indices`.
-    ranges: Vec<std::ops::Range<u32>>,
+    /// The current plan's triangles, pass by pass and cap by cap (vertex numbers 3t + i, so the
+    /// vertex stage still names the primitive), rewritten when the plan changes; sized for
+    /// every group with containers twice.
     indices: wgpu::Buffer,
     capture_layout: wgpu::BindGroupLayout,
     merge_layout: wgpu::BindGroupLayout,
@@ -113,9 +121,42 @@ pub struct Convex {
     null_target: Option<NullTarget>,
     /// The merge's indirect arguments before a pass: no workgroups, y = z = 1.
     merge_args_reset: wgpu::Buffer,
-    /// The last plan and the view-projection and size it was made for.
-    plan: Option<([f32; 16], (u32, u32), FramePlan)>,
+    /// The last plan, the view-projection and size it was made for, and its draws: per pass,
+    /// each cap's range of `indices` (at most three draws a pass).
+    plan: Option<([f32; 16], (u32, u32), FramePlan, PassDraws)>,
     cache: ResourceCache,
+}
+
+/// Decompositions made in this process, newest last, by a hash of the triangles they were made
+/// of (and their count): a method made again for the same geometry — the viewer changing an
+/// option, a benchmark's next configuration — reuses the preprocess instead of repeating it.
+static DECOMPOSITIONS: Mutex<Vec<(u64, usize, Arc<Decomposition>)>> = Mutex::new(Vec::new());
+/// How many decompositions stay cached.
+const CACHED_DECOMPOSITIONS: usize = 4;
+
+/// The decomposition of `triangles`, from the cache or made (and cached).
+pub fn decomposition_of(triangles: &[[Vec3; 3]]) -> Arc<Decomposition> {
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    for t in triangles {
+        t.map(|p| p.to_array().map(f32::to_bits)).hash(&mut hasher);
+    }
+    let key = (hasher.finish(), triangles.len());
+    let mut cache = DECOMPOSITIONS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(i) = cache.iter().position(|(h, n, _)| (*h, *n) == key) {
+        let entry = cache.remove(i);
+        let found = entry.2.clone();
+        cache.push(entry);
+        return found;
+    }
+    // Made outside the lock: other threads' lookups need not wait for a long preprocess.
+    drop(cache);
+    let made = Arc::new(Decomposition::new(triangles, &|_| {}));
+    let mut cache = DECOMPOSITIONS.lock().unwrap_or_else(|e| e.into_inner());
+    cache.push((key.0, key.1, made.clone()));
+    if cache.len() > CACHED_DECOMPOSITIONS {
+        cache.remove(0);
+    }
+    made
 }
 
 /// The constants the stages are compiled with, for `layers` fragments per pixel and pass.
@@ -149,36 +190,33 @@ impl Convex {
             ));
         }
         let triangles = scene_triangles(gpu, scene)?;
-        let decomposition = Decomposition::new(&triangles, &|_| {});
-        Ok(Self::with_decomposition(gpu, scene, decomposition))
+        Ok(Self::with_decomposition(
+            gpu,
+            scene,
+            decomposition_of(&triangles),
+        ))
     }
 
     /// The method over a decomposition already made (of the scene's triangles).
-    pub fn with_decomposition(gpu: &Gpu, scene: &SceneGpu, decomposition: Decomposition) -> Convex {
+    pub fn with_decomposition(
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        decomposition: Arc<Decomposition>,
+    ) -> Convex {
         let device = &gpu.device;
         let layers = decomposition.stats.layers_per_group;
-        let mut indices: Vec<u32> = Vec::with_capacity(3 * scene.triangle_count as usize);
-        let mut ranges = Vec::with_capacity(decomposition.groups.len());
-        for g in &decomposition.groups {
-            let start = indices.len() as u32;
-            indices.extend(
-                g.triangles
-                    .iter()
-                    .flat_map(|&t| [3 * t, 3 * t + 1, 3 * t + 2]),
-            );
-            ranges.push(start..indices.len() as u32);
-        }
-        if indices.is_empty() {
-            indices.push(0); // buffers cannot be empty
-        }
-        let indices = wgpu::util::DeviceExt::create_buffer_init(
-            device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("strata.convex.indices"),
-                contents: bytemuck::cast_slice(&indices),
-                usage: wgpu::BufferUsages::INDEX,
-            },
-        );
+        let most: u64 = decomposition
+            .groups
+            .iter()
+            .zip(&decomposition.container)
+            .map(|(g, &container)| g.triangles.len() as u64 * if container { 2 } else { 1 })
+            .sum();
+        let indices = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("strata.convex.indices"),
+            size: (12 * most).max(16),
+            usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let capture_layout = binding::layout(
             device,
             "strata.convex.capture.layout",
@@ -247,7 +285,6 @@ impl Convex {
             merge_layout,
             decomposition,
             layers,
-            ranges,
             indices,
             null_target: None,
             merge_args_reset,
@@ -264,13 +301,14 @@ impl Convex {
         16 * self.layers as u64 + PIXEL_BYTES
     }
 
-    /// The plan for the frame's view, made again only when the view or size changed; returns
-    /// its CPU milliseconds this frame.
+    /// The plan for the frame's view, made again only when the view or size changed (its
+    /// triangles then written to the index buffer, pass by pass and cap by cap); returns its
+    /// CPU milliseconds this frame.
     fn update_plan(&mut self, ctx: &FrameContext<'_>) -> f64 {
         let view_proj = crate::frame::uniforms::band_projection(&ctx.scene.camera, ctx.options);
         let key = view_proj.to_cols_array();
         let size = ctx.size();
-        if let Some((k, s, _)) = &self.plan {
+        if let Some((k, s, _, _)) = &self.plan {
             if *k == key && *s == size {
                 return 0.0;
             }
@@ -282,8 +320,36 @@ impl Convex {
             size.0,
             size.1,
         );
+        let mut indices: Vec<u32> = Vec::new();
+        let draws: PassDraws = plan
+            .passes
+            .iter()
+            .map(|pass| {
+                let mut draws: Vec<(Cap, std::ops::Range<u32>)> = Vec::new();
+                for &(g, cap) in pass {
+                    let start = indices.len() as u32;
+                    let triangles = &self.decomposition.groups[g as usize].triangles;
+                    indices.extend(
+                        triangles
+                            .iter()
+                            .flat_map(|&t| [3 * t, 3 * t + 1, 3 * t + 2]),
+                    );
+                    match draws.last_mut() {
+                        // The pass is sorted by cap: its groups of one cap are one draw.
+                        Some((last, range)) if *last == cap => range.end = indices.len() as u32,
+                        _ => draws.push((cap, start..indices.len() as u32)),
+                    }
+                }
+                draws
+            })
+            .collect();
+        if !indices.is_empty() {
+            ctx.gpu
+                .queue
+                .write_buffer(&self.indices, 0, bytemuck::cast_slice(&indices));
+        }
         let ms = plan.order_ms;
-        self.plan = Some((key, size, plan));
+        self.plan = Some((key, size, plan, draws));
         ms
     }
 }
@@ -376,11 +442,11 @@ impl Method for Convex {
         let frame_group = ctx.frame_group;
         ctx.encoder.clear_buffer(&counters, 0, None);
         dispatch_pixels(ctx, "init", &self.init, &[frame_group, &merge_group]);
-        let (_, _, plan) = self.plan.as_ref().expect("made above");
+        let (_, _, plan, pass_draws) = self.plan.as_ref().expect("made above");
         let mut draws = 0;
         let span = (plan.passes.len() > MAX_TIMED_PASSES).then(|| ctx.timer.span("passes"));
         let last_pass = plan.passes.len().saturating_sub(1);
-        for (p, pass_groups) in plan.passes.iter().enumerate() {
+        for (p, cap_draws) in pass_draws.iter().enumerate() {
             ctx.encoder
                 .copy_buffer_to_buffer(&self.merge_args_reset, 0, &merge_args, 0, 16);
             ctx.encoder.clear_buffer(&touched_count, 0, None);
@@ -402,17 +468,13 @@ impl Method for Convex {
             pass.set_bind_group(1, Some(&capture_group), &[]);
             scene.bind(&mut pass);
             pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-            let mut current = None;
-            for &(g, cap) in pass_groups {
-                if current != Some(cap) {
-                    pass.set_pipeline(match cap {
-                        Cap::Whole => &self.whole,
-                        Cap::Front => &self.front,
-                        Cap::Back => &self.back,
-                    });
-                    current = Some(cap);
-                }
-                pass.draw_indexed(self.ranges[g as usize].clone(), 0, 0..1);
+            for (cap, range) in cap_draws {
+                pass.set_pipeline(match cap {
+                    Cap::Whole => &self.whole,
+                    Cap::Front => &self.front,
+                    Cap::Back => &self.back,
+                });
+                pass.draw_indexed(range.clone(), 0, 0..1);
                 draws += 1;
             }
             drop(pass);

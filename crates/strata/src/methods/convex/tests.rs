@@ -257,3 +257,19 @@ fn convex_on_meshes_counts_its_violations_and_stays_close() {
         assert!(violations > 0 || over == 0.0, "{model}");
     }
 }
+
+#[test]
+fn a_decomposition_is_made_once_per_geometry() {
+    let scene = crate::scene::builtin::build("teapot").unwrap();
+    let triangles = super::triangles_of(&scene);
+    let first = super::decomposition_of(&triangles);
+    assert!(std::sync::Arc::ptr_eq(
+        &first,
+        &super::decomposition_of(&triangles)
+    ));
+    let mut moved = triangles.clone();
+    moved[7][1].x += 1e-3;
+    let other = super::decomposition_of(&moved);
+    assert!(!std::sync::Arc::ptr_eq(&first, &other));
+    assert_eq!(other.stats.triangles, triangles.len() as u64);
+}
