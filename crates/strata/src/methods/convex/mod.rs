@@ -60,6 +60,15 @@ use order::{Cap, FramePlan};
 /// Per pass, the cap drawn and its range of the plan's index buffer.
 type PassDraws = Vec<Vec<(Cap, std::ops::Range<u32>)>>;
 
+/// The last plan, the view-projection and size it was made for, and its draws (at most three
+/// a pass).
+struct CurrentPlan {
+    view_proj: [f32; 16],
+    size: (u32, u32),
+    plan: FramePlan,
+    draws: PassDraws,
+}
+
 /// Per-pixel bytes besides the slots: compositing state (32), claim counter, generated count,
 /// the pass's list of touched pixels.
 const PIXEL_BYTES: u64 = 44;
@@ -121,9 +130,7 @@ pub struct Convex {
     null_target: Option<NullTarget>,
     /// The merge's indirect arguments before a pass: no workgroups, y = z = 1.
     merge_args_reset: wgpu::Buffer,
-    /// The last plan, the view-projection and size it was made for, and its draws: per pass,
-    /// each cap's range of `indices` (at most three draws a pass).
-    plan: Option<([f32; 16], (u32, u32), FramePlan, PassDraws)>,
+    plan: Option<CurrentPlan>,
     cache: ResourceCache,
 }
 
@@ -308,8 +315,8 @@ impl Convex {
         let view_proj = crate::frame::uniforms::band_projection(&ctx.scene.camera, ctx.options);
         let key = view_proj.to_cols_array();
         let size = ctx.size();
-        if let Some((k, s, _, _)) = &self.plan {
-            if *k == key && *s == size {
+        if let Some(current) = &self.plan {
+            if current.view_proj == key && current.size == size {
                 return 0.0;
             }
         }
@@ -349,7 +356,12 @@ impl Convex {
                 .write_buffer(&self.indices, 0, bytemuck::cast_slice(&indices));
         }
         let ms = plan.order_ms;
-        self.plan = Some((key, size, plan, draws));
+        self.plan = Some(CurrentPlan {
+            view_proj: key,
+            size,
+            plan,
+            draws,
+        });
         ms
     }
 }
@@ -442,7 +454,11 @@ impl Method for Convex {
         let frame_group = ctx.frame_group;
         ctx.encoder.clear_buffer(&counters, 0, None);
         dispatch_pixels(ctx, "init", &self.init, &[frame_group, &merge_group]);
-        let (_, _, plan, pass_draws) = self.plan.as_ref().expect("made above");
+        let CurrentPlan {
+            plan,
+            draws: pass_draws,
+            ..
+        } = self.plan.as_ref().expect("made above");
         let mut draws = 0;
         let span = (plan.passes.len() > MAX_TIMED_PASSES).then(|| ctx.timer.span("passes"));
         let last_pass = plan.passes.len().saturating_sub(1);
