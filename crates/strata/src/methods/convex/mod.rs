@@ -2,28 +2,29 @@
 //! 2011): the geometry is ordered in object space so that each triangle is drawn once per frame
 //! in visibility order, and a pixel never holds more than one group's layers at a time.
 //!
-//! Preprocess (once per geometry: the last few are cached in memory by [`decomposition_of`];
-//! [`decompose`]): convex parts by region growing,
-//! inseparable neighbours paired into groups of two, nesting found, a separating plane per pair
-//! of groups whose boxes overlap. The triangles go into one static index buffer, group by group.
+//! Preprocess (once per geometry, the last few cached in memory by [`decomposition_of`];
+//! [`decompose`]): convex parts by region growing, inseparable neighbours paired into groups of
+//! two, nesting found, a separating plane per pair of groups whose boxes overlap.
 //!
-//! Per frame ([`order`], on the CPU when the view changed): the groups' screen rectangles, the
-//! visibility order of every overlapping pair (their plane, or nesting), a topological sort into
-//! passes whose groups cannot share a pixel. Passes, each recorded into the caller's encoder:
+//! Per frame ([`order`], on the CPU when the view changed): the groups' screen footprints
+//! (rectangles and projected hulls), the visibility order of every pair that can meet in a pixel
+//! (their plane, or nesting), a topological sort into passes whose groups cannot share a pixel;
+//! the plan's triangles are then written into one index buffer, pass by pass and cap by cap.
+//! Passes, each recorded into the caller's encoder:
 //! - init (compute): every pixel's compositing state, counters.
-//! - per pass: capture (one geometry pass drawing only that pass's groups' index ranges; a
-//!   container's front cap before what it holds, its back cap after): each fragment appended to
-//!   its pixel's slots behind an atomic claim counter, and a pixel's first claim lists it; then
-//!   merge (compute, dispatched indirectly over the listed pixels only, so a pass costs what its
-//!   groups cover, not the screen): the pixel sorts its
-//!   at most `layers` fragments (2 per convex part; 4 for a paired group — the paper's slab),
-//!   composites them front to back behind what earlier passes merged, and counts an order
-//!   violation when the pass's nearest fragment lies in front of the last merged one.
+//! - per pass: capture (one geometry pass of at most three draws, one per cap; a container's
+//!   front cap before what it holds, its back cap after): each fragment appended to its pixel's
+//!   slots behind an atomic claim counter, and a pixel's first claim lists it; then merge
+//!   (compute, dispatched indirectly over the listed pixels only, so a pass costs what its groups
+//!   cover, not the screen): the pixel sorts its at most `layers` fragments (2 per convex part;
+//!   4 for a paired group — the paper's slab), composites them front to back behind what earlier
+//!   passes merged, and counts an order violation when the pass's nearest fragment lies in front
+//!   of the last merged one.
 //! - finish (compute): the pixel's [`crate::frame::Resolved`] and its account.
 //!
 //! Every triangle is drawn once per frame (containers' twice, each fragment kept once).
-//! Memory: (16·layers + 44)·W·H + 12 bytes per triangle (the index buffer) + 56 — two layers'
-//! worth when no group is paired, whatever the depth complexity.
+//! Memory: (16·layers + 44)·W·H + 12 bytes per triangle (the index buffer; a container's
+//! twice) + 56 — two layers' worth when no group is paired, whatever the depth complexity.
 //!
 //! The paper captures a piece's two layers with 32-bit MAX blending into two zero-cleared
 //! targets; WebGPU has no MAX blending on 32-bit float targets everywhere, so the capture writes
