@@ -254,6 +254,10 @@ pub struct MethodArgs {
     /// --temporal on: window depth a fragment must lie behind the interface to be culled.
     #[arg(long, default_value_t = strata::methods::kbuffer::temporal::DEFAULT_EPSILON)]
     pub temporal_epsilon: f32,
+    /// Keep preprocesses (convex's decomposition of a mesh) in DIR between runs: read when
+    /// there, written when made.
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -306,6 +310,9 @@ struct ConvexArgs {
     out: Option<PathBuf>,
     #[arg(long)]
     json: bool,
+    /// Keep the decomposition in DIR: read when there, written when made.
+    #[arg(long)]
+    cache_dir: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -713,6 +720,14 @@ fn render(a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--cache-dir DIR`, made if missing: refused now, not after a long preprocess, when it cannot
+/// be a directory.
+fn cache_dir(dir: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::input(format!("--cache-dir {}: {e}", dir.display())))?;
+    Ok(dir.to_path_buf())
+}
+
 /// The scene and options of a render: the picture's, then the method options.
 pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     let (scene, mut options) = prepare(picture)?;
@@ -745,6 +760,7 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
             epsilon: a.temporal_epsilon,
         });
     strata::methods::kbuffer::temporal::check(a.method, options.temporal)?;
+    options.cache_dir = a.cache_dir.as_deref().map(cache_dir).transpose()?;
     if let Some(m) = a.layers_per_pass {
         if a.method != MethodId::Kpeel {
             return Err(Error::input(format!(
@@ -1044,7 +1060,7 @@ struct ConvexReport {
 }
 
 fn convex(a: ConvexArgs) -> Result<()> {
-    use strata::methods::convex::{self, decompose::Decomposition, order};
+    use strata::methods::convex::{self, order};
     let picture = PictureArgs {
         size: a.size,
         ..PictureArgs::for_scene(a.scene)
@@ -1062,7 +1078,10 @@ fn convex(a: ConvexArgs) -> Result<()> {
     if triangles.len() < 50_000 || a.json {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
-    let d = Decomposition::new(&triangles, &|f| bar.set_position((f * 100.0) as u64));
+    let cache = a.cache_dir.as_deref().map(cache_dir).transpose()?;
+    let d = convex::decomposition_of(&triangles, cache.as_deref(), &|f| {
+        bar.set_position((f * 100.0) as u64)
+    });
     bar.finish_and_clear();
     let camera = scene.camera_or_framing();
     let view_proj = strata::frame::uniforms::band_projection(&camera, &options);
@@ -1098,6 +1117,11 @@ fn convex(a: ConvexArgs) -> Result<()> {
         "{} triangles -> {} convex parts -> {} groups ({} inseparable pairs joined; up to {} layers per pixel and group), preprocess {:.0} ms",
         s.triangles, s.parts, s.groups, s.paired, s.layers_per_group, s.preprocess_ms
     );
+    if let Some(ms) = s.read_from_cache_ms {
+        println!(
+            "read from the cache in {ms:.0} ms (the preprocess above is the run that made it)"
+        );
+    }
     println!(
         "pairs with overlapping boxes: {} ({} nested, {} without a separating plane: ordered by centroid)",
         s.overlapping_pairs, s.nested, s.unseparated

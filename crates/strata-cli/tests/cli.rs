@@ -1186,3 +1186,71 @@ fn convex_reports_the_decomposition_and_renders_its_pieces() {
     assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
     assert!(!missing.exists());
 }
+
+/// `--cache-dir` keeps a decomposition between runs: the second run reads what the first made
+/// and renders the same picture; a cache directory that cannot be one is refused up front.
+#[test]
+fn convex_decompositions_persist_in_the_cache_dir() {
+    let dir = workdir("convex-cache");
+    let cache = dir.join("cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    let decompose = || {
+        let o = strata(&[
+            "convex",
+            "builtin:teapot",
+            "--size",
+            "32x32",
+            "--json",
+            "--cache-dir",
+            cache.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let made = decompose();
+    assert!(made["decomposition"]["read_from_cache_ms"].is_null());
+    let files: Vec<_> = std::fs::read_dir(&cache).unwrap().collect();
+    assert_eq!(files.len(), 1);
+    let read = decompose();
+    assert!(read["decomposition"]["read_from_cache_ms"].is_number());
+    for field in ["parts", "groups", "overlapping_pairs", "preprocess_ms"] {
+        assert_eq!(read["decomposition"][field], made["decomposition"][field]);
+    }
+    assert_eq!(read["passes"], made["passes"]);
+
+    let render = |name: &str| {
+        let out = dir.join(name);
+        let o = strata(&[
+            "render",
+            "builtin:teapot",
+            "--method",
+            "convex",
+            "--size",
+            "32x32",
+            "--cache-dir",
+            cache.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        image::open(&out).unwrap().to_rgba8()
+    };
+    assert_eq!(render("a.png"), render("b.png"));
+
+    let not_a_dir = dir.join("a.png");
+    let out = dir.join("never.png");
+    let o = strata(&[
+        "render",
+        "builtin:teapot",
+        "--method",
+        "convex",
+        "--cache-dir",
+        not_a_dir.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+    assert!(stderr(&o).contains("--cache-dir"), "{}", stderr(&o));
+    assert!(!out.exists());
+}

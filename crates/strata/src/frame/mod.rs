@@ -198,6 +198,9 @@ pub struct RenderOptions {
     /// `--temporal on`: reverse-reprojection culling against last frame's (k+1)-th depths
     /// ([`crate::methods::kbuffer::temporal`]).
     pub temporal: Option<crate::methods::kbuffer::temporal::TemporalCulling>,
+    /// `--cache-dir`: preprocesses (convex's decomposition) are kept here between runs, read
+    /// when present and written when made (`None`: in memory only).
+    pub cache_dir: Option<std::path::PathBuf>,
 }
 
 impl Default for RenderOptions {
@@ -229,6 +232,7 @@ impl Default for RenderOptions {
             order: None,
             order_seed: 0,
             temporal: None,
+            cache_dir: None,
         }
     }
 }

@@ -462,7 +462,7 @@ pub fn create(
             Box::new(kbuffer::sbuffer::SBuffer::new(gpu, scene, id, options))
         }
         MethodId::Kpeel => Box::new(kbuffer::kpeel::KPeel::new(gpu, scene)?),
-        MethodId::Convex => Box::new(convex::Convex::new(gpu, scene)?),
+        MethodId::Convex => Box::new(convex::Convex::new(gpu, scene, options)?),
         MethodId::KbMdt32 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt32)?),
         MethodId::KbMdt64 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt64)?),
         MethodId::KbMdtPack => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Pack)?),

@@ -32,11 +32,11 @@ use rayon::prelude::*;
 pub const MAX_PART_TRIANGLES: usize = 8192;
 
 /// Candidate triangle normals tried per side when separating two groups.
-const TOUCHING_CANDIDATES: usize = 24;
+pub const TOUCHING_CANDIDATES: usize = 24;
 
 /// A set of triangles drawn together (one or two convex parts), with the range of the static
 /// index buffer that holds them.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Group {
     /// Convex parts in this group (1, or 2 for an inseparable pair).
     pub parts: u32,
@@ -58,7 +58,7 @@ pub struct Separation {
 }
 
 /// What the preprocess found.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DecompositionStats {
     pub triangles: u64,
     /// Convex parts from region growing.
@@ -77,10 +77,13 @@ pub struct DecompositionStats {
     /// Layers a pixel can need from one group: 2 per part.
     pub layers_per_group: u32,
     pub preprocess_ms: f64,
+    /// Read from the disk cache in this many ms (`preprocess_ms` is then the run that made it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub read_from_cache_ms: Option<f64>,
 }
 
 /// Convex groups of a triangle list and the planes between them.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Decomposition {
     pub groups: Vec<Group>,
     /// How each pair (i < j) of groups whose boxes overlap relates.
@@ -324,7 +327,18 @@ impl Decomposition {
             unseparated: count(Relation::Inseparable),
             layers_per_group,
             preprocess_ms: start.elapsed().as_secs_f64() * 1e3,
+            read_from_cache_ms: None,
         };
+        Decomposition::from_parts(groups, relations, tolerance, stats)
+    }
+
+    /// A decomposition from its groups and their relations (containers derived).
+    pub fn from_parts(
+        groups: Vec<Group>,
+        relations: HashMap<(u32, u32), Relation>,
+        tolerance: f32,
+        stats: DecompositionStats,
+    ) -> Decomposition {
         let mut container = vec![false; groups.len()];
         for (&(i, j), r) in &relations {
             match r {

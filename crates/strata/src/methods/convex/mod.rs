@@ -2,7 +2,8 @@
 //! 2011): the geometry is ordered in object space so that each triangle is drawn once per frame
 //! in visibility order, and a pixel never holds more than one group's layers at a time.
 //!
-//! Preprocess (once per geometry, the last few cached in memory by [`decomposition_of`];
+//! Preprocess (once per geometry, the last few kept in memory by [`decomposition_of`], and on
+//! disk with `--cache-dir` ([`cache`]);
 //! [`decompose`]): convex parts by region growing, inseparable neighbours paired into groups of
 //! two, nesting found, a separating plane per pair of groups whose boxes overlap.
 //!
@@ -39,17 +40,18 @@
 //! static geometry (a scene whose objects move is refused; camera motion is free), the GPU's
 //! rasterizer only, no application draw callback, no `--order`.
 
+pub mod cache;
 pub mod decompose;
 pub mod order;
 
-use std::hash::{Hash, Hasher};
+use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use glam::Vec3;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{capture_pipeline, compute_pipeline, dispatch_pixels, NullTarget};
 use crate::gpu::{shader, Gpu, ResourceCache};
@@ -135,36 +137,64 @@ pub struct Convex {
     cache: ResourceCache,
 }
 
-/// Decompositions made in this process, newest last, by a hash of the triangles they were made
-/// of (and their count): a method made again for the same geometry — the viewer changing an
-/// option, a benchmark's next configuration — reuses the preprocess instead of repeating it.
-static DECOMPOSITIONS: Mutex<Vec<(u64, usize, Arc<Decomposition>)>> = Mutex::new(Vec::new());
-/// How many decompositions stay cached.
+/// Decompositions made or read in this process, newest last, by their geometry: a method made
+/// again for the same geometry — the viewer changing an option, a benchmark's next
+/// configuration — reuses the preprocess instead of repeating it.
+static DECOMPOSITIONS: Mutex<Vec<(cache::Key, Arc<Decomposition>)>> = Mutex::new(Vec::new());
+/// How many decompositions stay cached in memory.
 const CACHED_DECOMPOSITIONS: usize = 4;
 
-/// The decomposition of `triangles`, from the cache or made (and cached).
-pub fn decomposition_of(triangles: &[[Vec3; 3]]) -> Arc<Decomposition> {
-    let mut hasher = std::collections::hash_map::DefaultHasher::new();
-    for t in triangles {
-        t.map(|p| p.to_array().map(f32::to_bits)).hash(&mut hasher);
-    }
-    let key = (hasher.finish(), triangles.len());
-    let mut cache = DECOMPOSITIONS.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(i) = cache.iter().position(|(h, n, _)| (*h, *n) == key) {
-        let entry = cache.remove(i);
-        let found = entry.2.clone();
-        cache.push(entry);
+/// The decomposition of `triangles`: from memory, else from `cache_dir` (see [`cache`]), else
+/// made (told to `progress` as the fraction done) and stored in both. A cache file that cannot
+/// be read or written is reported as a warning; the decomposition is made regardless.
+pub fn decomposition_of(
+    triangles: &[[Vec3; 3]],
+    cache_dir: Option<&Path>,
+    progress: &dyn Fn(f32),
+) -> Arc<Decomposition> {
+    let key = cache::Key::of(triangles);
+    let mut memory = DECOMPOSITIONS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(i) = memory.iter().position(|(k, _)| *k == key) {
+        let entry = memory.remove(i);
+        let found = entry.1.clone();
+        memory.push(entry);
         return found;
     }
     // Made outside the lock: other threads' lookups need not wait for a long preprocess.
-    drop(cache);
-    let made = Arc::new(Decomposition::new(triangles, &|_| {}));
-    let mut cache = DECOMPOSITIONS.lock().unwrap_or_else(|e| e.into_inner());
-    cache.push((key.0, key.1, made.clone()));
-    if cache.len() > CACHED_DECOMPOSITIONS {
-        cache.remove(0);
+    drop(memory);
+    let made = Arc::new(read_or_make(triangles, key, cache_dir, progress));
+    let mut memory = DECOMPOSITIONS.lock().unwrap_or_else(|e| e.into_inner());
+    memory.push((key, made.clone()));
+    if memory.len() > CACHED_DECOMPOSITIONS {
+        memory.remove(0);
     }
     made
+}
+
+fn read_or_make(
+    triangles: &[[Vec3; 3]],
+    key: cache::Key,
+    cache_dir: Option<&Path>,
+    progress: &dyn Fn(f32),
+) -> Decomposition {
+    let Some(dir) = cache_dir else {
+        return Decomposition::new(triangles, progress);
+    };
+    let start = std::time::Instant::now();
+    match cache::read(dir, key) {
+        Ok(Some(mut d)) => {
+            d.stats.read_from_cache_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+            progress(1.0);
+            return d;
+        }
+        Ok(None) => {}
+        Err(why) => log::warn!("convex: remaking an unusable cached decomposition ({why})"),
+    }
+    let d = Decomposition::new(triangles, progress);
+    if let Err(why) = cache::write(dir, key, &d) {
+        log::warn!("convex: could not cache the decomposition ({why})");
+    }
+    d
 }
 
 /// The constants the stages are compiled with, for `layers` fragments per pixel and pass.
@@ -191,7 +221,7 @@ fn positions(vertices: &[GpuVertex]) -> Vec<[Vec3; 3]> {
 }
 
 impl Convex {
-    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Convex> {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, options: &RenderOptions) -> Result<Convex> {
         if scene.animation.is_some() {
             return Err(Error::unsupported(
                 "convex orders static geometry decomposed once; this scene's objects move (use --frame T to render one time, or another method)",
@@ -201,7 +231,7 @@ impl Convex {
         Ok(Self::with_decomposition(
             gpu,
             scene,
-            decomposition_of(&triangles),
+            decomposition_of(&triangles, options.cache_dir.as_deref(), &|_| {}),
         ))
     }
 

@@ -262,14 +262,59 @@ fn convex_on_meshes_counts_its_violations_and_stays_close() {
 fn a_decomposition_is_made_once_per_geometry() {
     let scene = crate::scene::builtin::build("teapot").unwrap();
     let triangles = super::triangles_of(&scene);
-    let first = super::decomposition_of(&triangles);
+    let first = super::decomposition_of(&triangles, None, &|_| {});
     assert!(std::sync::Arc::ptr_eq(
         &first,
-        &super::decomposition_of(&triangles)
+        &super::decomposition_of(&triangles, None, &|_| {})
     ));
     let mut moved = triangles.clone();
     moved[7][1].x += 1e-3;
-    let other = super::decomposition_of(&moved);
+    let other = super::decomposition_of(&moved, None, &|_| {});
     assert!(!std::sync::Arc::ptr_eq(&first, &other));
     assert_eq!(other.stats.triangles, triangles.len() as u64);
+}
+
+#[test]
+fn a_decomposition_survives_the_disk_cache_and_a_damaged_file_is_made_again() {
+    use super::cache::{self, Key};
+    let dir = std::env::temp_dir().join(format!("strata-convex-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let triangles = super::triangles_of(&scene("builtin:teapot"));
+    let key = Key::of(&triangles);
+    assert_eq!(key, Key::of(&triangles.clone()), "the key is stable");
+    assert_eq!(cache::read(&dir, key), Ok(None));
+
+    let made = super::read_or_make(&triangles, key, Some(&dir), &|_| {});
+    assert!(made.stats.read_from_cache_ms.is_none());
+    let mut read = cache::read(&dir, key).unwrap().expect("written when made");
+    assert!(read.stats.read_from_cache_ms.is_none());
+    read.stats.read_from_cache_ms = None;
+    assert_eq!(read, made);
+    let again = super::read_or_make(&triangles, key, Some(&dir), &|_| {});
+    assert!(again.stats.read_from_cache_ms.is_some());
+    assert_eq!(again.groups, made.groups);
+    assert_eq!(again.relations, made.relations);
+    assert_eq!(again.container, made.container);
+
+    // Another geometry's name on this file: refused, not trusted.
+    let mut moved = triangles.clone();
+    moved[0][0].y += 1e-3;
+    let other = Key::of(&moved);
+    std::fs::copy(key.path(&dir), other.path(&dir)).unwrap();
+    assert!(cache::read(&dir, other)
+        .unwrap_err()
+        .contains("other triangles"));
+
+    // Truncated (a crash elsewhere, a full disk): reported, made again and rewritten.
+    let bytes = std::fs::read(key.path(&dir)).unwrap();
+    for cut in [0, 7, bytes.len() / 2, bytes.len() - 1] {
+        std::fs::write(key.path(&dir), &bytes[..cut]).unwrap();
+        assert!(cache::read(&dir, key).is_err(), "cut at {cut}");
+        let remade = super::read_or_make(&triangles, key, Some(&dir), &|_| {});
+        assert!(remade.stats.read_from_cache_ms.is_none());
+        assert_eq!(remade.groups, made.groups);
+        let rewritten = cache::read(&dir, key).unwrap().expect("rewritten");
+        assert_eq!(rewritten.relations, made.relations);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }
