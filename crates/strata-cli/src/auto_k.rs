@@ -106,7 +106,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Res
     dragon.override_alpha(0.5);
     let base_camera = dragon.camera_or_framing();
     let pixels = width as f64 * height as f64;
-    let bar = indicatif::ProgressBar::new(
+    let bar = crate::bench::frames_bar(
         (2 * METHODS.len() * BUDGET_BYTES_PER_PIXEL.len()) as u64 * steps as u64,
     );
     let mut rows = Vec::new();

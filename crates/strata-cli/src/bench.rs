@@ -25,7 +25,8 @@ use crate::{prepare, PictureArgs};
 
 #[derive(Args)]
 pub struct BenchArgs {
-    /// A named experiment (see --list), or none with --scene/--methods.
+    /// A named experiment (see --list), `all` for every one in turn, or none with
+    /// --scene/--methods.
     experiment: Option<String>,
     /// List the named experiments.
     #[arg(long)]
@@ -37,7 +38,7 @@ pub struct BenchArgs {
     methods: Option<String>,
     /// Timed frames per method.
     #[arg(long)]
-    frames: Option<u32>,
+    pub(crate) frames: Option<u32>,
     /// Untimed frames before them.
     #[arg(long, default_value_t = 2)]
     warmup: u32,
@@ -45,7 +46,7 @@ pub struct BenchArgs {
     #[arg(long)]
     k: Option<u32>,
     #[arg(long)]
-    size: Option<String>,
+    pub(crate) size: Option<String>,
     #[arg(long)]
     alpha: Option<f32>,
     #[arg(long, value_enum, default_value = "transparency")]
@@ -53,6 +54,19 @@ pub struct BenchArgs {
     /// Output folder (default: bench/results/<device>/).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// With `all`: only these experiments (comma-separated names).
+    #[arg(long)]
+    pub(crate) only: Option<String>,
+    /// With `all`: every experiment but these (comma-separated names).
+    #[arg(long)]
+    pub(crate) skip: Option<String>,
+}
+
+impl BenchArgs {
+    /// Options that configure one ad-hoc run or override one experiment's scene.
+    pub(crate) fn has_single_run_options(&self) -> bool {
+        self.scene.is_some() || self.methods.is_some() || self.k.is_some() || self.alpha.is_some()
+    }
 }
 
 /// One configuration measured in an experiment.
@@ -358,7 +372,7 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-fn commit() -> Option<String> {
+pub(crate) fn commit() -> Option<String> {
     let out = std::process::Command::new("git")
         .args(["rev-parse", "--short", "HEAD"])
         .output()
@@ -454,29 +468,44 @@ pub fn run(a: BenchArgs) -> Result<()> {
         return Ok(());
     }
     let gpu = Gpu::new()?;
-    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    if let Some((_, _, run)) = STANDALONE
+    if a.experiment.as_deref() == Some("all") {
+        return crate::suite::run(&gpu, &a);
+    }
+    if a.only.is_some() || a.skip.is_some() {
+        return Err(Error::input("--only and --skip apply to `bench all`"));
+    }
+    run_experiment(&gpu, &a, a.experiment.as_deref())
+}
+
+/// Every named experiment, in the order `bench all` runs them.
+pub(crate) fn experiment_names() -> Vec<&'static str> {
+    EXPERIMENTS
         .iter()
-        .find(|e| a.experiment.as_deref() == Some(e.0))
-    {
-        let dir = a
-            .out
-            .clone()
-            .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
-        return run(&gpu, a.size.as_deref(), a.frames, &dir);
+        .map(|e| e.name)
+        .chain(STANDALONE.iter().map(|e| e.0))
+        .collect()
+}
+
+/// The output folder: `--out`, else `bench/results/<device>/`.
+pub(crate) fn results_dir(gpu: &Gpu, a: &BenchArgs) -> PathBuf {
+    a.out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(gpu)))
+}
+
+/// Runs the named experiment `experiment`, or the ad-hoc run of `--scene` and `--methods`.
+pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>) -> Result<()> {
+    let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    if let Some((_, _, run)) = STANDALONE.iter().find(|e| experiment == Some(e.0)) {
+        return run(&gpu, a.size.as_deref(), a.frames, &results_dir(&gpu, a));
     }
     let k_flag = a.k;
-    let (name, scenes, runs, size, alpha, frames, quality) = match &a.experiment {
+    let (name, scenes, runs, size, alpha, frames, quality) = match experiment {
         Some(n) => {
             let e = EXPERIMENTS.iter().find(|e| e.name == n).ok_or_else(|| {
-                let names: Vec<_> = EXPERIMENTS
-                    .iter()
-                    .map(|e| e.name)
-                    .chain(STANDALONE.iter().map(|e| e.0))
-                    .collect();
                 Error::input(format!(
-                    "unknown experiment '{n}' (available: {})",
-                    names.join(", ")
+                    "unknown experiment '{n}' (available: all, {})",
+                    experiment_names().join(", ")
                 ))
             })?;
             if a.methods.is_some() {
@@ -534,17 +563,10 @@ pub fn run(a: BenchArgs) -> Result<()> {
             return Err(strata::methods::unknown_method(&r.method));
         }
     }
-    let dir = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("bench/results").join(device_slug(&gpu)));
+    let dir = results_dir(&gpu, a);
     std::fs::create_dir_all(&dir)
         .map_err(|e| Error::input(format!("cannot create '{}': {e}", dir.display())))?;
-    let bar = ProgressBar::new((scenes.len() * runs.len()) as u64 * (a.warmup + frames) as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {msg}  (eta {eta})")
-            .expect("valid template"),
-    );
+    let bar = frames_bar((scenes.len() * runs.len()) as u64 * (a.warmup + frames) as u64);
     let mut results = Vec::new();
     let mut base_options = None;
     for scene in &scenes {
@@ -636,6 +658,16 @@ pub fn run(a: BenchArgs) -> Result<()> {
     };
     print_table(&report);
     crate::write_results(&dir, &name, &report, csv(&report))
+}
+
+/// An experiment's progress bar over `len` frames (or steps), its message naming the current
+/// configuration; inside `bench all`, drawn under the suite's bar.
+pub(crate) fn frames_bar(len: u64) -> ProgressBar {
+    let bar = ProgressBar::new(len).with_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len}  {msg}  (eta {eta})")
+            .expect("valid template"),
+    );
+    crate::suite::attach(bar)
 }
 
 /// A scene spec without its parameters, for progress messages.

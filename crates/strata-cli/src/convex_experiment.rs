@@ -245,7 +245,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     };
     let cases = MODELS.len() + STACK_LAYERS.len();
     let per_case = (views + frames) as u64 * METHODS.len() as u64;
-    let bar = indicatif::ProgressBar::new(cases as u64 * per_case);
+    let bar = crate::bench::frames_bar(cases as u64 * per_case);
     let mut rows = Vec::new();
     for spec in MODELS {
         bar.set_message(format!("loading {spec}"));

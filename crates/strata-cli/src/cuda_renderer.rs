@@ -129,7 +129,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     };
     let warmup = 2;
     let bar =
-        indicatif::ProgressBar::new((scenes.len() * RUNS.len()) as u64 * (warmup + frames) as u64);
+        crate::bench::frames_bar((scenes.len() * RUNS.len()) as u64 * (warmup + frames) as u64);
     let mut rows = Vec::new();
     for spec in scenes {
         bar.set_message(format!("loading {spec}"));

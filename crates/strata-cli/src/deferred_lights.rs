@@ -79,7 +79,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     base.override_alpha(1.0);
     let triangles = base.triangle_count();
     let warmup = 2;
-    let bar = indicatif::ProgressBar::new((counts.len() * 2) as u64 * (warmup + frames) as u64);
+    let bar = crate::bench::frames_bar((counts.len() * 2) as u64 * (warmup + frames) as u64);
     let mut rows = Vec::new();
     for &lights in counts {
         let mut scene = base.clone();

@@ -7,6 +7,7 @@ mod cuda_renderer;
 mod deferred_lights;
 mod online_culling;
 mod scale;
+mod suite;
 mod view;
 
 use std::path::{Path, PathBuf};

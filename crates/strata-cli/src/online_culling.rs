@@ -274,7 +274,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         .chain(std::iter::once((Order::Back, 0)))
         .collect();
     let sweep = [0, 2, 4, 8, 16];
-    let bar = indicatif::ProgressBar::new(
+    let bar = crate::bench::frames_bar(
         (sequences.len() * orders.len() * CONFIGS.len() + sweep.len()) as u64,
     );
     let mut rows = Vec::new();

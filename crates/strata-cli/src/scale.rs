@@ -101,11 +101,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         ..Default::default()
     };
     options.validate()?;
-    let bar = indicatif::ProgressBar::new(MILLIONS.len() as u64 * (2 + warmup + frames) as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} (eta {eta})")
-            .expect("a valid template"),
-    );
+    let bar = crate::bench::frames_bar(MILLIONS.len() as u64 * (2 + warmup + frames) as u64);
     let mut rows = Vec::new();
     for millions in MILLIONS {
         let spec = scene_of(millions);

@@ -1254,3 +1254,59 @@ fn convex_decompositions_persist_in_the_cache_dir() {
     assert!(stderr(&o).contains("--cache-dir"), "{}", stderr(&o));
     assert!(!out.exists());
 }
+
+/// `bench all` runs the chosen experiments in turn, writes each one's results and records the
+/// suite's durations; names it does not know and single-run options are refused.
+#[test]
+fn bench_all_runs_the_suite_and_records_its_durations() {
+    let dir = workdir("bench-all");
+    let out = dir.join("results");
+    let _ = std::fs::remove_dir_all(&out);
+    let o = strata(&[
+        "bench",
+        "all",
+        "--only",
+        "foundation,deferred-lights",
+        "--frames",
+        "1",
+        "--size",
+        "24x24",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for name in ["foundation", "deferred-lights"] {
+        assert!(out.join(format!("{name}.json")).exists(), "{name}");
+    }
+    let record: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("suite.json")).unwrap()).unwrap();
+    let names: Vec<_> = record["experiments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["name"].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(names, ["foundation", "deferred-lights"]);
+    assert!(record["experiments"][0]["seconds"].as_f64().unwrap() > 0.0);
+    assert_eq!(
+        record["experiments"][0]["overrides"],
+        "--size 24x24 --frames 1"
+    );
+
+    for args in [
+        &["bench", "all", "--only", "no-such-experiment"][..],
+        &[
+            "bench",
+            "all",
+            "--skip",
+            "foundation",
+            "--scene",
+            "builtin:demo",
+        ][..],
+        &["bench", "foundation", "--only", "foundation"][..],
+    ] {
+        let o = strata(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+    }
+}
