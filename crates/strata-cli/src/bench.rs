@@ -497,7 +497,7 @@ pub(crate) fn results_dir(gpu: &Gpu, a: &BenchArgs) -> PathBuf {
 pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>) -> Result<()> {
     let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
     if let Some((_, _, run)) = STANDALONE.iter().find(|e| experiment == Some(e.0)) {
-        return run(&gpu, a.size.as_deref(), a.frames, &results_dir(&gpu, a));
+        return run(gpu, a.size.as_deref(), a.frames, &results_dir(gpu, a));
     }
     let k_flag = a.k;
     let (name, scenes, runs, size, alpha, frames, quality) = match experiment {
@@ -563,7 +563,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             return Err(strata::methods::unknown_method(&r.method));
         }
     }
-    let dir = results_dir(&gpu, a);
+    let dir = results_dir(gpu, a);
     std::fs::create_dir_all(&dir)
         .map_err(|e| Error::input(format!("cannot create '{}': {e}", dir.display())))?;
     let bar = frames_bar((scenes.len() * runs.len()) as u64 * (a.warmup + frames) as u64);
@@ -589,14 +589,13 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             options.culling = run.culling;
             options.weight = run.weight;
             options.depth_scale = run.depth_scale;
-            match measure(&gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r)
-            {
+            match measure(gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r) {
                 Ok(mut result) => {
                     result.scene = scene.clone();
                     if let Some(full) = &full_reference {
                         let effect = options.effect;
                         let (image, _) =
-                            Renderer::new(&gpu, &scene_data, &options)?.render(&run.method)?;
+                            Renderer::new(gpu, &scene_data, &options)?.render(&run.method)?;
                         let picture = image.to_rgba8(effect);
                         let truth = full.to_rgba8(effect);
                         let with_k = strata::reference::render(&scene_data, &options)?
