@@ -25,9 +25,23 @@ use crate::{prepare, PictureArgs};
 
 #[derive(Args)]
 pub struct BenchArgs {
-    /// A named experiment (see --list), `all` for every one in turn, or none with
-    /// --scene/--methods.
+    /// A named experiment (see --list), `all` for every one in turn, `compare` (OLD.json
+    /// NEW.json: which figures moved beyond the noise), or none with --scene/--methods.
     experiment: Option<String>,
+    /// `compare`: the old results file, then the new one.
+    files: Vec<PathBuf>,
+    /// `compare`: another run of the old code (repeatable): the spread across runs is the noise.
+    #[arg(long)]
+    repeat: Vec<PathBuf>,
+    /// `compare`: timing noise in percent assumed without --repeat.
+    #[arg(long, default_value_t = 10.0)]
+    threshold: f64,
+    /// `compare`: timing figures that changed less than this percentage never count as moved.
+    #[arg(long, default_value_t = 2.0)]
+    min_change: f64,
+    /// `compare`: write the comparison as JSON.
+    #[arg(long)]
+    json: bool,
     /// List the named experiments.
     #[arg(long)]
     list: bool,
@@ -466,6 +480,28 @@ pub fn run(a: BenchArgs) -> Result<()> {
             println!("{name:<16} {description}");
         }
         return Ok(());
+    }
+    if a.experiment.as_deref() == Some("compare") {
+        let [old, new] = &a.files[..] else {
+            return Err(Error::input(
+                "bench compare needs two results files: OLD.json NEW.json",
+            ));
+        };
+        if !(a.threshold >= 0.0 && a.min_change >= 0.0) {
+            return Err(Error::input(
+                "--threshold and --min-change are percentages, at least 0",
+            ));
+        }
+        let settings = crate::compare::Settings {
+            threshold_pct: a.threshold,
+            min_change_pct: a.min_change,
+        };
+        return crate::compare::run(old, &a.repeat, new, &settings, a.json);
+    }
+    if !a.files.is_empty() || !a.repeat.is_empty() || a.json {
+        return Err(Error::input(
+            "files, --repeat and --json apply to `bench compare OLD.json NEW.json`",
+        ));
     }
     let gpu = Gpu::new()?;
     if a.experiment.as_deref() == Some("all") {

@@ -2,6 +2,7 @@
 
 mod auto_k;
 mod bench;
+mod compare;
 mod convex_experiment;
 mod cuda_renderer;
 mod deferred_lights;
@@ -349,6 +350,13 @@ fn one_line(e: &clap::Error) -> String {
 }
 
 fn main() -> ExitCode {
+    // Rust ignores SIGPIPE, so printing into a closed pipe (`strata bench compare … | head`)
+    // would panic; the default action ends the process quietly instead.
+    #[cfg(unix)]
+    // SAFETY: called before any other thread exists; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     // Mesa's drivers complain on stderr when this is unset; keep errors to one line.
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());

@@ -1256,9 +1256,10 @@ fn convex_decompositions_persist_in_the_cache_dir() {
 }
 
 /// `bench all` runs the chosen experiments in turn, writes each one's results and records the
-/// suite's durations; names it does not know and single-run options are refused.
+/// suite's durations; names it does not know and single-run options are refused. `bench
+/// compare` of a results file with itself moves nothing; bad files are one error line.
 #[test]
-fn bench_all_runs_the_suite_and_records_its_durations() {
+fn bench_all_runs_the_suite_and_bench_compare_finds_nothing_moved_in_a_rerun_of_itself() {
     let dir = workdir("bench-all");
     let out = dir.join("results");
     let _ = std::fs::remove_dir_all(&out);
@@ -1292,6 +1293,29 @@ fn bench_all_runs_the_suite_and_records_its_durations() {
         record["experiments"][0]["overrides"],
         "--size 24x24 --frames 1"
     );
+
+    // A run compared with itself: every figure compared, none moved.
+    let foundation = out.join("foundation.json");
+    let f = foundation.to_str().unwrap();
+    let o = strata(&["bench", "compare", f, f, "--repeat", f, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(c["experiment"], "foundation");
+    assert!(c["figures_compared"].as_u64().unwrap() > 20);
+    assert_eq!(c["moved"], serde_json::json!([]));
+    let broken = dir.join("broken.json");
+    std::fs::write(&broken, "{\"experiment\": ").unwrap();
+    let deferred = out.join("deferred-lights.json");
+    for args in [
+        vec!["bench", "compare", f],
+        vec!["bench", "compare", f, broken.to_str().unwrap()],
+        vec!["bench", "compare", f, deferred.to_str().unwrap()],
+        vec!["bench", "foundation", f],
+    ] {
+        let o = strata(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+    }
 
     for args in [
         &["bench", "all", "--only", "no-such-experiment"][..],
