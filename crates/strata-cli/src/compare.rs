@@ -20,6 +20,8 @@ use serde::Serialize;
 use serde_json::Value;
 use strata::error::{Error, Result};
 
+use crate::bench::median;
+
 /// Numbers that name a row's configuration rather than measure it.
 const CONFIGURATION: &[&str] = &[
     "k",
@@ -129,16 +131,6 @@ pub struct Settings {
     pub threshold_pct: f64,
     /// Percent: timing figures closer than this never count as moved.
     pub min_change_pct: f64,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    }
 }
 
 /// Compares `new` with `old` and its repeats.
