@@ -7,6 +7,7 @@ mod convex_experiment;
 mod cuda_renderer;
 mod deferred_lights;
 mod online_culling;
+mod report;
 mod scale;
 mod suite;
 mod view;
@@ -57,6 +58,9 @@ enum Command {
     /// The convex decomposition `convex` orders (seed 001): parts, groups, nesting, pairs
     /// without a separating plane, this view's passes; --out renders a color per group.
     Convex(ConvexArgs),
+    /// Refresh the generated charts and tables of bench/REPORT.md from bench/results/ (the
+    /// hand-written text outside the generated blocks is kept).
+    Report(report::ReportArgs),
     /// Benchmark methods: median GPU ms per pass after warm-up.
     Bench(bench::BenchArgs),
     /// Explore the methods live in a window: every option, per-pass timings, statistics, a
@@ -410,6 +414,7 @@ fn run(command: Command) -> Result<()> {
         Command::Histogram(a) => histogram(a),
         Command::Convex(a) => convex(a),
         Command::Bench(a) => bench::run(a),
+        Command::Report(a) => report::run(a),
         Command::View(a) => view::run(a),
     }
 }

@@ -1334,3 +1334,67 @@ fn bench_all_runs_the_suite_and_bench_compare_finds_nothing_moved_in_a_rerun_of_
         assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
     }
 }
+
+/// `strata report` refreshes its generated blocks from the results and keeps the prose around
+/// them; run twice it changes nothing; a missing results folder is one error line.
+#[test]
+fn report_refreshes_generated_blocks_and_keeps_the_prose() {
+    let dir = workdir("report");
+    let results = dir.join("results");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(results.join("lavapipe")).unwrap();
+    let rows: Vec<serde_json::Value> = [4, 8, 16]
+        .iter()
+        .flat_map(|&k| {
+            ["kb", "kplus-heap"].map(|m| {
+                serde_json::json!({"label": format!("{m} k={k}"), "method": m, "k": k,
+                                   "median_gpu_ms": k as f64 * if m == "kb" { 2.0 } else { 1.0 }})
+            })
+        })
+        .collect();
+    let results_file =
+        serde_json::json!({"experiment": "kbuffer-k", "cpu_figures": true, "results": rows});
+    std::fs::write(
+        results.join("lavapipe/kbuffer-k.json"),
+        results_file.to_string(),
+    )
+    .unwrap();
+    let report = dir.join("REPORT.md");
+    let prose = "# Benchmark report\n\nhand-written intro\n\n## kbuffer-k — seed 003 Fig. 6\nwhat the figure shows\n\n## scale\nmore prose\n";
+    std::fs::write(&report, prose).unwrap();
+    let args = [
+        "report",
+        "--results",
+        results.to_str().unwrap(),
+        "--out",
+        report.to_str().unwrap(),
+    ];
+    let o = strata(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = std::fs::read_to_string(&report).unwrap();
+    for line in prose.lines() {
+        assert!(first.lines().any(|l| l == line), "lost: {line}");
+    }
+    let block = first.find("<!-- strata report: kbuffer-k -->").unwrap();
+    assert!(block > first.find("what the figure shows").unwrap());
+    assert!(block < first.find("## scale").unwrap());
+    assert!(first.contains("![kbuffer-k](charts/kbuffer-k.svg)"));
+    assert!(first.contains("| kb k=16 | 32.00 |"));
+    assert!(first.contains("CPU figures"));
+    let svg = std::fs::read_to_string(dir.join("charts/kbuffer-k.svg")).unwrap();
+    assert!(svg.contains("<svg") && svg.contains("kplus-heap"));
+    let o = strata(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&report).unwrap(), first);
+
+    let o = strata(&[
+        "report",
+        "--results",
+        dir.join("none").to_str().unwrap(),
+        "--out",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&report).unwrap(), first);
+}

@@ -1,0 +1,559 @@
+//! `strata report`: refreshes the generated parts of `bench/REPORT.md` from the results in
+//! `bench/results/<device>/*.json`, leaving every hand-written line as it is.
+//!
+//! Each experiment with results gets one generated block, between
+//! `<!-- strata report: NAME -->` and `<!-- end strata report: NAME -->`: a chart (SVG, drawn
+//! with plotters, in `bench/charts/`) and, folded, the table of every configuration's time with
+//! the devices side by side. A block already in the file is replaced where it stands; a new one
+//! goes at the end of the experiment's section (the `## NAME` heading), or in a new section at
+//! the end. Everything outside the markers is prose and survives regeneration.
+//!
+//! Charts take the papers' shapes where a results file has a sweep: time over k (seed 003
+//! Fig. 6), over the light count (seed 004 Fig. 13), over the triangle count, one line per
+//! method (or pipeline) and device; otherwise a bar per configuration, devices side by side.
+//! Times are on a log axis: methods differ by orders of magnitude.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use plotters::prelude::*;
+use serde_json::Value;
+use strata::error::{Error, Result};
+
+#[derive(Args)]
+pub struct ReportArgs {
+    /// The results folder: one subfolder per device.
+    #[arg(long, default_value = "bench/results")]
+    results: PathBuf,
+    /// The report to refresh (made if missing).
+    #[arg(long, default_value = "bench/REPORT.md")]
+    out: PathBuf,
+    /// Where the charts go (default: `charts/` beside the report).
+    #[arg(long)]
+    charts: Option<PathBuf>,
+}
+
+/// The figure a chart and table show, the first a row has: GPU time, else wall time.
+const TIME_FIELDS: &[&str] = &["median_gpu_ms", "gpu_ms", "median_wall_ms"];
+/// Numeric fields a sweep runs over, with their axis names.
+const SWEEPS: &[(&str, &str)] = &[("k", "k"), ("lights", "lights"), ("triangles", "triangles")];
+/// Fields naming a line of a sweep.
+const SERIES_FIELDS: &[&str] = &["method", "pipeline", "config"];
+
+/// One device's results of one experiment.
+struct DeviceResults {
+    device: String,
+    cpu_figures: bool,
+    rows: Vec<Value>,
+}
+
+/// A measured row: its name, sweep value and series where it has them, and its time.
+struct Point {
+    name: String,
+    series: String,
+    x: Option<f64>,
+    ms: f64,
+}
+
+fn rows_of(report: &Value) -> Vec<Value> {
+    for table in ["results", "rows"] {
+        if let Some(Value::Array(rows)) = report.get(table) {
+            return rows.clone();
+        }
+    }
+    Vec::new()
+}
+
+fn text(row: &Value, field: &str) -> Option<String> {
+    match row.get(field)? {
+        Value::String(s) => Some(s.clone()),
+        Value::Number(n) => Some(n.to_string()),
+        _ => None,
+    }
+}
+
+/// A row's name: its label (or method and k), with its scene when the rows have several.
+fn row_name(row: &Value, several_scenes: bool) -> String {
+    let mut name = text(row, "label")
+        .or_else(|| {
+            let mut parts: Vec<String> = ["sequence", "method", "pipeline", "config", "order"]
+                .iter()
+                .filter_map(|f| text(row, f))
+                .collect();
+            for f in ["k", "lights", "step", "seed"] {
+                if let Some(v) = text(row, f) {
+                    parts.push(format!("{f}={v}"));
+                }
+            }
+            (!parts.is_empty()).then(|| parts.join(" "))
+        })
+        .unwrap_or_else(|| "run".into());
+    if several_scenes {
+        if let Some(scene) = text(row, "scene") {
+            let short = scene.split('?').next().unwrap_or(&scene);
+            name = format!("{} · {name}", short.trim_start_matches("builtin:"));
+        }
+    }
+    name
+}
+
+/// The sweep field whose values vary (at least three) across `rows`, if any.
+fn sweep_of(rows: &[Value]) -> Option<&'static (&'static str, &'static str)> {
+    SWEEPS.iter().find(|(field, _)| {
+        let mut values: Vec<f64> = rows
+            .iter()
+            .filter_map(|r| r.get(*field)?.as_f64())
+            .collect();
+        values.sort_by(f64::total_cmp);
+        values.dedup();
+        values.len() >= 3
+    })
+}
+
+fn points(rows: &[Value], sweep: Option<&str>) -> Vec<Point> {
+    let scenes: std::collections::BTreeSet<String> =
+        rows.iter().filter_map(|r| text(r, "scene")).collect();
+    let several_scenes = scenes.len() > 1;
+    rows.iter()
+        .filter_map(|row| {
+            let ms = TIME_FIELDS
+                .iter()
+                .find_map(|f| row.get(*f)?.as_f64())
+                .filter(|v| v.is_finite() && *v > 0.0)?;
+            let series = SERIES_FIELDS
+                .iter()
+                .find_map(|f| text(row, f))
+                .unwrap_or_default();
+            Some(Point {
+                name: row_name(row, several_scenes),
+                series,
+                x: sweep.and_then(|f| row.get(f)?.as_f64()),
+                ms,
+            })
+        })
+        .collect()
+}
+
+/// A line chart of time over the sweep: one line per series and device.
+fn sweep_chart(
+    path: &Path,
+    title: &str,
+    axis: &str,
+    data: &[(&DeviceResults, Vec<Point>)],
+) -> Result<()> {
+    let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let several = data.len() > 1;
+    for (device, points) in data {
+        for p in points {
+            let Some(x) = p.x else { continue };
+            let name = if several {
+                format!("{} ({})", p.series, device.device)
+            } else {
+                p.series.clone()
+            };
+            lines.entry(name).or_default().push((x, p.ms));
+        }
+    }
+    for line in lines.values_mut() {
+        line.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Several rows at one x (other scenes or settings): their median.
+        let mut merged: Vec<(f64, f64)> = Vec::new();
+        let mut i = 0;
+        while i < line.len() {
+            let same: Vec<f64> = line[i..]
+                .iter()
+                .take_while(|p| p.0 == line[i].0)
+                .map(|p| p.1)
+                .collect();
+            let n = same.len();
+            merged.push((line[i].0, crate::bench::median(same)));
+            i += n;
+        }
+        *line = merged;
+    }
+    let all: Vec<(f64, f64)> = lines.values().flatten().copied().collect();
+    if all.is_empty() {
+        return Err(Error::input(format!("{title}: nothing to chart")));
+    }
+    let (x_lo, x_hi) = bounds(all.iter().map(|p| p.0));
+    let (y_lo, y_hi) = bounds(all.iter().map(|p| p.1));
+    let root = SVGBackend::new(path, (900, 520)).into_drawing_area();
+    let draw = |e: &dyn std::fmt::Display| Error::runtime(format!("{}: {e}", path.display()));
+    root.fill(&WHITE).map_err(|e| draw(&e))?;
+    let log_x = x_hi / x_lo.max(f64::MIN_POSITIVE) > 20.0;
+    let mut builder = ChartBuilder::on(&root);
+    builder
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70);
+    let style = |i: usize| Palette99::pick(i).stroke_width(2);
+    macro_rules! plot {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            chart
+                .configure_mesh()
+                .x_desc(axis)
+                .y_desc("ms per frame (log)")
+                .x_labels(10)
+                .y_labels(10)
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .y_label_formatter(&|v| format!("{v:.0}"))
+                .draw()
+                .map_err(|e| draw(&e))?;
+            for (i, (name, line)) in lines.iter().enumerate() {
+                chart
+                    .draw_series(LineSeries::new(line.iter().copied(), style(i)))
+                    .map_err(|e| draw(&e))?
+                    .label(name.as_str())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style(i)));
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .position(SeriesLabelPosition::UpperLeft)
+                .draw()
+                .map_err(|e| draw(&e))?;
+        }};
+    }
+    let y = (y_lo * 0.8)..(y_hi * 1.25);
+    if log_x {
+        plot!(builder
+            .build_cartesian_2d((x_lo..x_hi).log_scale(), y.log_scale())
+            .map_err(|e| draw(&e))?);
+    } else {
+        plot!(builder
+            .build_cartesian_2d(x_lo..x_hi, y.log_scale())
+            .map_err(|e| draw(&e))?);
+    }
+    root.present().map_err(|e| draw(&e))
+}
+
+/// Pixels of one device's bar.
+const BAR_PX: u32 = 12;
+
+/// A bar per row (devices side by side), time on a log axis.
+fn bar_chart(path: &Path, title: &str, data: &[(&DeviceResults, Vec<Point>)]) -> Result<()> {
+    let mut names: Vec<String> = Vec::new();
+    for (_, points) in data {
+        for p in points {
+            if !names.contains(&p.name) {
+                names.push(p.name.clone());
+            }
+        }
+    }
+    if names.is_empty() {
+        return Err(Error::input(format!("{title}: nothing to chart")));
+    }
+    let (y_lo, y_hi) = bounds(data.iter().flat_map(|(_, p)| p.iter().map(|p| p.ms)));
+    let devices = data.len();
+    let height = 100 + names.len() as u32 * (8 + BAR_PX * devices as u32);
+    let root = SVGBackend::new(path, (900, height)).into_drawing_area();
+    let draw = |e: &dyn std::fmt::Display| Error::runtime(format!("{}: {e}", path.display()));
+    root.fill(&WHITE).map_err(|e| draw(&e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(36)
+        .y_label_area_size(260)
+        .build_cartesian_2d(
+            ((y_lo * 0.8)..(y_hi * 1.25)).log_scale(),
+            (0..names.len()).into_segmented(),
+        )
+        .map_err(|e| draw(&e))?;
+    // Top to bottom in the results' order.
+    let name_at = |segment: &SegmentValue<usize>| match segment {
+        SegmentValue::CenterOf(i) if *i < names.len() => names[names.len() - 1 - i].clone(),
+        _ => String::new(),
+    };
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .x_desc("ms per frame (log)")
+        .x_labels(8)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_labels(names.len())
+        .y_label_formatter(&name_at)
+        .draw()
+        .map_err(|e| draw(&e))?;
+    for (d, (device, points)) in data.iter().enumerate() {
+        let color = Palette99::pick(d).filled();
+        let bars = points.iter().filter_map(|p| {
+            let i = names.len() - 1 - names.iter().position(|n| *n == p.name)?;
+            let mut bar = Rectangle::new(
+                [
+                    (y_lo * 0.8, SegmentValue::Exact(i)),
+                    (p.ms, SegmentValue::Exact(i + 1)),
+                ],
+                color,
+            );
+            // Each name's band (BAR_PX per device and a gap) split between the devices.
+            let (d, n) = (d as u32, devices as u32);
+            bar.set_margin(4 + d * BAR_PX, 4 + (n - 1 - d) * BAR_PX, 0, 0);
+            Some(bar)
+        });
+        chart
+            .draw_series(bars)
+            .map_err(|e| draw(&e))?
+            .label(device.device.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color));
+    }
+    if devices > 1 {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| draw(&e))?;
+    }
+    root.present().map_err(|e| draw(&e))
+}
+
+fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if lo < hi {
+        (lo, hi)
+    } else {
+        (lo * 0.5, hi * 2.0)
+    }
+}
+
+/// The generated block of one experiment: its chart and table.
+fn block(name: &str, chart: &str, data: &[(&DeviceResults, Vec<Point>)]) -> String {
+    let mut s = format!("<!-- strata report: {name} -->\n");
+    s += &format!(
+        "*Generated by `strata report` from `bench/results/*/{name}.json`; edits between these markers are replaced.*\n\n"
+    );
+    s += &format!("![{name}]({chart})\n\n");
+    let cpu: Vec<&str> = data
+        .iter()
+        .filter(|(d, _)| d.cpu_figures)
+        .map(|(d, _)| d.device.as_str())
+        .collect();
+    if !cpu.is_empty() {
+        s += &format!(
+            "Figures from {} are CPU figures (a software rasterizer), not GPU performance.\n\n",
+            cpu.join(", ")
+        );
+    }
+    let mut names: Vec<String> = Vec::new();
+    for (_, points) in data {
+        for p in points {
+            if !names.contains(&p.name) {
+                names.push(p.name.clone());
+            }
+        }
+    }
+    s += "<details><summary>every configuration's ms per frame, by device</summary>\n\n";
+    s += "| configuration |";
+    for (d, _) in data {
+        s += &format!(" {} |", d.device);
+    }
+    s += "\n|---|";
+    s += &"---|".repeat(data.len());
+    s += "\n";
+    for n in &names {
+        s += &format!("| {} |", n.replace('|', "\\|"));
+        for (_, points) in data {
+            match points.iter().find(|p| p.name == *n) {
+                Some(p) => s += &format!(" {:.2} |", p.ms),
+                None => s += " |",
+            }
+        }
+        s += "\n";
+    }
+    s += "\n</details>\n";
+    s += &format!("<!-- end strata report: {name} -->\n");
+    s
+}
+
+/// `report` with `name`'s generated block replaced by `new`, or inserted at the end of its
+/// section, or in a new section at the end.
+pub fn place_block(report: &str, name: &str, new: &str) -> String {
+    let begin = format!("<!-- strata report: {name} -->");
+    let end = format!("<!-- end strata report: {name} -->");
+    if let (Some(b), Some(e)) = (report.find(&begin), report.find(&end)) {
+        if b < e {
+            let after = e + end.len();
+            let after = after + report[after..].starts_with('\n') as usize;
+            return format!("{}{new}{}", &report[..b], &report[after..]);
+        }
+    }
+    let heading = format!("## {name}");
+    let lines: Vec<&str> = report.split_inclusive('\n').collect();
+    let start = lines
+        .iter()
+        .position(|l| l.trim_end() == heading || l.starts_with(&format!("{heading} ")));
+    match start {
+        Some(i) => {
+            let next = lines[i + 1..]
+                .iter()
+                .position(|l| l.starts_with("## "))
+                .map_or(lines.len(), |j| i + 1 + j);
+            let mut head: String = lines[..next].concat();
+            if !head.ends_with('\n') {
+                head.push('\n');
+            }
+            if !head.ends_with("\n\n") {
+                head.push('\n');
+            }
+            let tail: String = lines[next..].concat();
+            let gap = if tail.is_empty() { "" } else { "\n" };
+            format!("{head}{new}{gap}{tail}")
+        }
+        None => {
+            let mut s = report.to_string();
+            if !s.is_empty() && !s.ends_with('\n') {
+                s.push('\n');
+            }
+            if !s.is_empty() {
+                s.push('\n');
+            }
+            format!("{s}{heading}\n\n{new}")
+        }
+    }
+}
+
+pub fn run(a: ReportArgs) -> Result<()> {
+    let devices = std::fs::read_dir(&a.results).map_err(|e| {
+        Error::input(format!(
+            "cannot read the results folder '{}': {e}",
+            a.results.display()
+        ))
+    })?;
+    let mut device_dirs: Vec<PathBuf> = devices
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .collect();
+    device_dirs.sort();
+    let charts = a
+        .charts
+        .clone()
+        .unwrap_or_else(|| a.out.parent().unwrap_or(Path::new(".")).join("charts"));
+    std::fs::create_dir_all(&charts)
+        .map_err(|e| Error::input(format!("cannot create '{}': {e}", charts.display())))?;
+    let mut report = match std::fs::read_to_string(&a.out) {
+        Ok(s) => s,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => "# Benchmark report\n".into(),
+        Err(e) => {
+            return Err(Error::input(format!(
+                "cannot read '{}': {e}",
+                a.out.display()
+            )))
+        }
+    };
+    let mut written = 0;
+    for name in crate::bench::experiment_names() {
+        let mut found = Vec::new();
+        for dir in &device_dirs {
+            let path = dir.join(format!("{name}.json"));
+            let Ok(bytes) = std::fs::read(&path) else {
+                continue;
+            };
+            let v: Value = serde_json::from_slice(&bytes).map_err(|e| {
+                Error::input(format!("'{}' is not a results file: {e}", path.display()))
+            })?;
+            found.push(DeviceResults {
+                device: dir
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                cpu_figures: v
+                    .get("cpu_figures")
+                    .and_then(Value::as_bool)
+                    .unwrap_or(false),
+                rows: rows_of(&v),
+            });
+        }
+        if found.is_empty() {
+            continue;
+        }
+        let all_rows: Vec<Value> = found.iter().flat_map(|d| d.rows.clone()).collect();
+        let sweep = sweep_of(&all_rows);
+        let data: Vec<(&DeviceResults, Vec<Point>)> = found
+            .iter()
+            .map(|d| (d, points(&d.rows, sweep.map(|s| s.0))))
+            .collect();
+        if data.iter().all(|(_, p)| p.is_empty()) {
+            continue;
+        }
+        let svg = charts.join(format!("{name}.svg"));
+        match sweep {
+            Some((_, axis)) => sweep_chart(&svg, name, axis, &data)?,
+            None => bar_chart(&svg, name, &data)?,
+        }
+        let relative = pathdiff(&svg, a.out.parent().unwrap_or(Path::new(".")));
+        report = place_block(&report, name, &block(name, &relative, &data));
+        written += 1;
+    }
+    let mut outputs = strata::output::Outputs::new();
+    outputs.add(&a.out, report.into_bytes())?;
+    outputs.commit()?;
+    eprintln!(
+        "{}: {written} experiments' charts and tables refreshed (charts in {})",
+        a.out.display(),
+        charts.display()
+    );
+    Ok(())
+}
+
+/// `path` relative to `base` when it lies below it (the report links its charts relatively).
+fn pathdiff(path: &Path, base: &Path) -> String {
+    path.strip_prefix(base)
+        .unwrap_or(path)
+        .to_string_lossy()
+        .replace('\\', "/")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocks_replace_themselves_and_leave_the_prose() {
+        let prose =
+            "# Report\n\nintro\n\n## kbuffer-k — seed 003 Fig. 6\nhand-written\n\n## other\ntext\n";
+        let first = place_block(
+            prose,
+            "kbuffer-k",
+            "<!-- strata report: kbuffer-k -->\nA\n<!-- end strata report: kbuffer-k -->\n",
+        );
+        assert_eq!(
+            first,
+            "# Report\n\nintro\n\n## kbuffer-k — seed 003 Fig. 6\nhand-written\n\n<!-- strata report: kbuffer-k -->\nA\n<!-- end strata report: kbuffer-k -->\n\n## other\ntext\n"
+        );
+        let again = place_block(
+            &first,
+            "kbuffer-k",
+            "<!-- strata report: kbuffer-k -->\nB\n<!-- end strata report: kbuffer-k -->\n",
+        );
+        assert_eq!(again, first.replace("\nA\n", "\nB\n"));
+        let new = place_block(
+            &again,
+            "scale",
+            "<!-- strata report: scale -->\nC\n<!-- end strata report: scale -->\n",
+        );
+        assert!(new.starts_with(&again));
+        assert!(new.ends_with("text\n\n## scale\n\n<!-- strata report: scale -->\nC\n<!-- end strata report: scale -->\n"));
+    }
+
+    #[test]
+    fn a_sweep_needs_three_values_and_rows_are_named_by_their_configuration() {
+        let rows: Vec<Value> = [4, 8, 16]
+            .iter()
+            .map(|k| serde_json::json!({"method": "kb", "k": k, "median_gpu_ms": *k as f64, "scene": "builtin:layers?n=8"}))
+            .collect();
+        assert_eq!(sweep_of(&rows).map(|s| s.0), Some("k"));
+        assert_eq!(sweep_of(&rows[..2]), None);
+        let p = points(&rows, Some("k"));
+        assert_eq!(p.len(), 3);
+        assert_eq!(
+            (p[1].name.as_str(), p[1].series.as_str(), p[1].x, p[1].ms),
+            ("kb k=8", "kb", Some(8.0), 8.0)
+        );
+    }
+}
