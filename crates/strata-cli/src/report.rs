@@ -36,8 +36,13 @@ pub struct ReportArgs {
 
 /// The figure a chart and table show, the first a row has: GPU time, else wall time.
 const TIME_FIELDS: &[&str] = &["median_gpu_ms", "gpu_ms", "median_wall_ms"];
-/// Numeric fields a sweep runs over, with their axis names.
-const SWEEPS: &[(&str, &str)] = &[("k", "k"), ("lights", "lights"), ("triangles", "triangles")];
+/// The experiments whose figure is a sweep: the field it runs over and the axis's name.
+const SWEEPS: &[(&str, &str, &str)] = &[
+    ("kbuffer-k", "k", "k (seed 003 Fig. 6)"),
+    ("kbuffer-culling", "k", "k (seed 003 Fig. 7)"),
+    ("deferred-lights", "lights", "lights (seed 004 Fig. 13)"),
+    ("scale", "triangles", "triangles"),
+];
 /// Fields naming a line of a sweep.
 const SERIES_FIELDS: &[&str] = &["method", "pipeline", "config"];
 
@@ -73,15 +78,65 @@ fn text(row: &Value, field: &str) -> Option<String> {
     }
 }
 
-/// A row's name: its label (or method and k), with its scene when the rows have several.
-fn row_name(row: &Value, several_scenes: bool) -> String {
-    let mut name = text(row, "label")
+fn short_scene(scene: &str) -> &str {
+    scene
+        .split('?')
+        .next()
+        .unwrap_or(scene)
+        .trim_start_matches("builtin:")
+}
+
+/// What tells `scenes` apart: each one's name, with the parameters whose values differ between
+/// scenes of the same name (`layers n=16 coverage=0.25`); empty names for a single scene.
+fn scene_names(scenes: &std::collections::BTreeSet<String>) -> BTreeMap<String, String> {
+    let params = |s: &str| -> Vec<(String, String)> {
+        s.split_once('?')
+            .map(|(_, q)| q)
+            .unwrap_or("")
+            .split('&')
+            .filter(|p| !p.is_empty())
+            .map(|p| {
+                let (k, v) = p.split_once('=').unwrap_or((p, ""));
+                (k.to_string(), v.to_string())
+            })
+            .collect()
+    };
+    scenes
+        .iter()
+        .map(|scene| {
+            if scenes.len() < 2 {
+                return (scene.clone(), String::new());
+            }
+            let name = short_scene(scene);
+            let siblings: Vec<&String> = scenes.iter().filter(|s| short_scene(s) == name).collect();
+            let differing: Vec<String> = params(scene)
+                .into_iter()
+                .filter(|(k, v)| {
+                    siblings
+                        .iter()
+                        .any(|s| params(s).iter().all(|(k2, v2)| k2 != k || v2 != v))
+                })
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect();
+            let shown = if differing.is_empty() {
+                name.to_string()
+            } else {
+                format!("{name} {}", differing.join(" "))
+            };
+            (scene.clone(), shown)
+        })
+        .collect()
+}
+
+/// A row's name: its label (or its configuration), after its scene's name in `scenes`.
+fn row_name(row: &Value, scenes: &BTreeMap<String, String>) -> String {
+    let name = text(row, "label")
         .or_else(|| {
             let mut parts: Vec<String> = ["sequence", "method", "pipeline", "config", "order"]
                 .iter()
                 .filter_map(|f| text(row, f))
                 .collect();
-            for f in ["k", "lights", "step", "seed"] {
+            for f in ["k", "lights", "budget_mb", "refresh", "step", "seed"] {
                 if let Some(v) = text(row, f) {
                     parts.push(format!("{f}={v}"));
                 }
@@ -89,44 +144,48 @@ fn row_name(row: &Value, several_scenes: bool) -> String {
             (!parts.is_empty()).then(|| parts.join(" "))
         })
         .unwrap_or_else(|| "run".into());
-    if several_scenes {
-        if let Some(scene) = text(row, "scene") {
-            let short = scene.split('?').next().unwrap_or(&scene);
-            name = format!("{} · {name}", short.trim_start_matches("builtin:"));
-        }
+    match text(row, "scene").and_then(|s| scenes.get(&s)) {
+        Some(scene) if !scene.is_empty() => format!("{scene} · {name}"),
+        _ => name,
     }
-    name
 }
 
-/// The sweep field whose values vary (at least three) across `rows`, if any.
-fn sweep_of(rows: &[Value]) -> Option<&'static (&'static str, &'static str)> {
-    SWEEPS.iter().find(|(field, _)| {
-        let mut values: Vec<f64> = rows
-            .iter()
-            .filter_map(|r| r.get(*field)?.as_f64())
-            .collect();
-        values.sort_by(f64::total_cmp);
-        values.dedup();
-        values.len() >= 3
-    })
+/// `experiment`'s sweep (field, axis) when its rows run over at least three of its values.
+fn sweep_of(experiment: &str, rows: &[Value]) -> Option<(&'static str, &'static str)> {
+    let &(_, field, axis) = SWEEPS.iter().find(|s| s.0 == experiment)?;
+    let mut values: Vec<f64> = rows.iter().filter_map(|r| r.get(field)?.as_f64()).collect();
+    values.sort_by(f64::total_cmp);
+    values.dedup();
+    (values.len() >= 3).then_some((field, axis))
 }
 
 fn points(rows: &[Value], sweep: Option<&str>) -> Vec<Point> {
     let scenes: std::collections::BTreeSet<String> =
         rows.iter().filter_map(|r| text(r, "scene")).collect();
-    let several_scenes = scenes.len() > 1;
+    let scene_names = scene_names(&scenes);
+    let mut seen: BTreeMap<String, usize> = BTreeMap::new();
     rows.iter()
         .filter_map(|row| {
             let ms = TIME_FIELDS
                 .iter()
                 .find_map(|f| row.get(*f)?.as_f64())
                 .filter(|v| v.is_finite() && *v > 0.0)?;
-            let series = SERIES_FIELDS
+            let mut series = SERIES_FIELDS
                 .iter()
                 .find_map(|f| text(row, f))
                 .unwrap_or_default();
+            if row.get("culling") == Some(&Value::Bool(false)) {
+                series += " no-culling";
+            }
+            // Rows the fields above cannot tell apart are numbered, never merged.
+            let mut name = row_name(row, &scene_names);
+            let count = seen.entry(name.clone()).or_insert(0);
+            *count += 1;
+            if *count > 1 {
+                name = format!("{name} #{count}");
+            }
             Some(Point {
-                name: row_name(row, several_scenes),
+                name,
                 series,
                 x: sweep.and_then(|f| row.get(f)?.as_f64()),
                 ms,
@@ -250,14 +309,14 @@ fn bar_chart(path: &Path, title: &str, data: &[(&DeviceResults, Vec<Point>)]) ->
     let (y_lo, y_hi) = bounds(data.iter().flat_map(|(_, p)| p.iter().map(|p| p.ms)));
     let devices = data.len();
     let height = 100 + names.len() as u32 * (8 + BAR_PX * devices as u32);
-    let root = SVGBackend::new(path, (900, height)).into_drawing_area();
+    let root = SVGBackend::new(path, (1000, height)).into_drawing_area();
     let draw = |e: &dyn std::fmt::Display| Error::runtime(format!("{}: {e}", path.display()));
     root.fill(&WHITE).map_err(|e| draw(&e))?;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(36)
-        .y_label_area_size(260)
+        .y_label_area_size(340)
         .build_cartesian_2d(
             ((y_lo * 0.8)..(y_hi * 1.25)).log_scale(),
             (0..names.len()).into_segmented(),
@@ -473,7 +532,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
             continue;
         }
         let all_rows: Vec<Value> = found.iter().flat_map(|d| d.rows.clone()).collect();
-        let sweep = sweep_of(&all_rows);
+        let sweep = sweep_of(name, &all_rows);
         let data: Vec<(&DeviceResults, Vec<Point>)> = found
             .iter()
             .map(|d| (d, points(&d.rows, sweep.map(|s| s.0))))
@@ -547,8 +606,9 @@ mod tests {
             .iter()
             .map(|k| serde_json::json!({"method": "kb", "k": k, "median_gpu_ms": *k as f64, "scene": "builtin:layers?n=8"}))
             .collect();
-        assert_eq!(sweep_of(&rows).map(|s| s.0), Some("k"));
-        assert_eq!(sweep_of(&rows[..2]), None);
+        assert_eq!(sweep_of("kbuffer-k", &rows).map(|s| s.0), Some("k"));
+        assert_eq!(sweep_of("kbuffer-k", &rows[..2]), None);
+        assert_eq!(sweep_of("auto-k", &rows), None);
         let p = points(&rows, Some("k"));
         assert_eq!(p.len(), 3);
         assert_eq!(
