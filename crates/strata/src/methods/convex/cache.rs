@@ -6,7 +6,7 @@
 //! a file written by another version, for other triangles or with other parameters is not
 //! read. Files are written to a temporary name and renamed, so a reader never sees half of one;
 //! a file that does not parse is reported (a warning) and made again. Little-endian binary:
-//! header, statistics as JSON, groups (parts, triangles, box, centroid, distinct vertices),
+//! header, statistics as JSON (and the preprocess time as bits), groups (parts, triangles, box, centroid, distinct vertices),
 //! then the relations of overlapping pairs.
 
 use std::collections::HashMap;
@@ -22,7 +22,7 @@ use super::decompose::{
 
 const MAGIC: &[u8; 8] = b"STRATAcx";
 /// Bumped whenever the decomposition's algorithm or this layout changes.
-const FORMAT_VERSION: u32 = 1;
+const FORMAT_VERSION: u32 = 2;
 
 /// What identifies a geometry's decomposition.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -107,6 +107,8 @@ fn encode(key: Key, d: &Decomposition) -> Vec<u8> {
     let stats = serde_json::to_vec(&d.stats).expect("statistics serialize");
     out.u32(stats.len() as u32);
     out.bytes(&stats);
+    // serde_json does not round-trip every f64 exactly: the one timing goes in as bits.
+    out.u64(d.stats.preprocess_ms.to_bits());
     out.u32(d.groups.len() as u32);
     for g in &d.groups {
         out.u32(g.parts);
@@ -163,8 +165,9 @@ fn decode(bytes: &[u8], key: Key) -> Result<Decomposition, String> {
     }
     let tolerance = r.f32()?;
     let stats_len = r.u32()? as usize;
-    let stats: DecompositionStats =
+    let mut stats: DecompositionStats =
         serde_json::from_slice(r.take(stats_len)?).map_err(|e| format!("statistics: {e}"))?;
+    stats.preprocess_ms = f64::from_bits(r.u64()?);
     let group_count = r.u32()? as usize;
     let mut groups = Vec::with_capacity(group_count.min(bytes.len()));
     for _ in 0..group_count {
