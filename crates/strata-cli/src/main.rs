@@ -123,6 +123,12 @@ pub struct PictureArgs {
     /// Vertical field of view in degrees (perspective cameras), in (0, 180).
     #[arg(long)]
     pub fov: Option<f32>,
+    /// Samples per pixel: 1, or 4 and 8 for multisample anti-aliasing at the standard sample
+    /// positions (fragments shaded once per pixel, composited per sample; the methods that
+    /// store every fragment: abuffer-ll, abuffer-fixed, kb-ab-ll, kb-ab-fixed, sbuffer,
+    /// kb-sbuffer, and the reference).
+    #[arg(long, default_value_t = 1)]
+    pub msaa: u32,
 }
 
 impl PictureArgs {
@@ -145,6 +151,7 @@ impl PictureArgs {
             target: None,
             up: None,
             fov: None,
+            msaa: 1,
         }
     }
 }
@@ -521,6 +528,7 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
             Some(PipelineArg::Deferred) => Some(strata::frame::Pipeline::Deferred),
         },
         tonemap: p.tonemap,
+        msaa: p.msaa,
         ..Default::default()
     };
     options.validate()?;

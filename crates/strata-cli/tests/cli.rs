@@ -228,6 +228,57 @@ fn assert_bad_input(args: &[&str], expect_in_message: &str) {
     assert!(!out.exists(), "{args:?}: wrote an output file");
 }
 
+/// `--msaa 4` renders an anti-aliased picture equal to `reference --msaa 4`; what cannot take it
+/// says so in one line.
+#[test]
+fn msaa_renders_match_the_multisampled_reference() {
+    let dir = workdir("msaa");
+    let (a, b, single) = (
+        dir.join("gpu.png"),
+        dir.join("ref.png"),
+        dir.join("one.png"),
+    );
+    let scene = "builtin:spheres?layers=4";
+    let run = |args: &[&str], out: &std::path::Path| {
+        let mut all = args.to_vec();
+        all.extend([scene, "--size", "48x48", "-o", out.to_str().unwrap()]);
+        let o = strata(&all);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    };
+    run(&["render", "--method", "sbuffer", "--msaa", "4"], &a);
+    run(&["reference", "--msaa", "4"], &b);
+    run(&["reference"], &single);
+    let diff = |x: &std::path::Path, y: &std::path::Path| {
+        let o = strata(&[
+            "compare",
+            x.to_str().unwrap(),
+            y.to_str().unwrap(),
+            "--json",
+        ]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["max_abs_diff"].as_u64().unwrap()
+    };
+    assert!(diff(&a, &b) <= 2);
+    // Anti-aliased edges differ from the single-sampled picture.
+    assert!(diff(&b, &single) > 16);
+    for (args, message) in [
+        (
+            &["render", scene, "--msaa", "2"][..],
+            "--msaa 2 is not 1, 4 or 8",
+        ),
+        (
+            &["render", scene, "--msaa", "4", "--method", "kplus-heap"],
+            "kplus-heap does not support --msaa 4",
+        ),
+        (
+            &["render", scene, "--msaa", "4", "--pipeline", "forward"],
+            "--pipeline",
+        ),
+    ] {
+        assert_bad_input(args, message);
+    }
+}
+
 #[test]
 fn bad_input_is_one_line_and_exit_2() {
     assert_bad_input(&["render", "no/such/model.obj"], "not found");

@@ -30,7 +30,7 @@ fn view_distance(depth: f32) -> f32 {
 }
 
 fn absorption_of(tag: u32) -> f32 {
-    return materials[triangle_materials[tag >> 1u]].absorption;
+    return materials[triangle_materials[tag_prim(tag)]].absorption;
 }
 
 // σ of the medium between a nearer and a farther fragment: inside the nearer one's object if it

@@ -20,7 +20,9 @@ struct Frame {
     orthographic: u32,
     headlight: u32,
     checker: u32,
-    _pad0: u32,
+    // With --msaa: samples per pixel, each fragment's tag then carries their coverage mask
+    // (see `fragment_covering`); 0 single-sampled.
+    coverage_bits: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -125,6 +127,32 @@ fn vs_scene(
 // Shades a rasterized scene fragment into a record.
 fn scene_fragment(v: SceneVarying, front_facing: bool) -> Fragment {
     return fragment_new(v.position.z, v.prim, front_facing, shade(v.world, v.normal, v.material));
+}
+
+// With --msaa: the record of a fragment shaded once for the samples `mask` it covers — the
+// center's depth and color, and a tag of primitive << (1 + S) | mask << 1 | front-facing for S
+// samples, which still orders equal depths by primitive. Single-sampled: `scene_fragment`.
+fn scene_fragment_covering(v: SceneVarying, front_facing: bool, mask: u32) -> Fragment {
+    var f = scene_fragment(v, front_facing);
+    let bits = frame.coverage_bits;
+    if bits != 0u {
+        f.tag = (v.prim << (1u + bits)) | ((mask & ((1u << bits) - 1u)) << 1u) | select(0u, 1u, front_facing);
+    }
+    return f;
+}
+
+// The primitive a tag names.
+fn tag_prim(tag: u32) -> u32 {
+    return tag >> (1u + frame.coverage_bits);
+}
+
+// The samples a fragment covers, bit i for sample i (every bit single-sampled).
+fn fragment_coverage(f: Fragment) -> u32 {
+    let bits = frame.coverage_bits;
+    if bits == 0u {
+        return 0xffffffffu;
+    }
+    return (f.tag >> 1u) & ((1u << bits) - 1u);
 }
 
 fn pixel_of(position: vec4<f32>) -> vec2<u32> {

@@ -15,6 +15,7 @@
 //! [`crate::FrameRecorder`] (in `render`, above the methods) drives this for an application;
 //! [`crate::Renderer`] is the batch renderer on top of it that the CLI and the tests use.
 
+pub mod msaa;
 pub mod present;
 pub mod scene_gpu;
 pub mod stats;
@@ -201,6 +202,9 @@ pub struct RenderOptions {
     /// `--cache-dir`: preprocesses (convex's decomposition) are kept here between runs, read
     /// when present and written when made (`None`: in memory only).
     pub cache_dir: Option<std::path::PathBuf>,
+    /// `--msaa`: samples per pixel (1, 4 or 8) at the standard sample positions; each captured
+    /// fragment carries its coverage mask and resolves composite per sample ([`msaa`]).
+    pub msaa: u32,
 }
 
 impl Default for RenderOptions {
@@ -233,6 +237,7 @@ impl Default for RenderOptions {
             order_seed: 0,
             temporal: None,
             cache_dir: None,
+            msaa: 1,
         }
     }
 }
@@ -314,6 +319,7 @@ impl RenderOptions {
                 )));
             }
         }
+        msaa::check_options(self)?;
         if let Some(l) = self.layers {
             if l == 0 || l > MAX_LAYERS {
                 return Err(Error::input(format!(

@@ -53,6 +53,8 @@ pub struct SceneGpu {
     /// With `--raster compute`: the layout of the compute rasterizer's group, which the methods'
     /// compute captures place after their own (`None`: the GPU's rasterizer).
     pub raster_layout: Option<wgpu::BindGroupLayout>,
+    /// Samples per pixel of the storage geometry passes (`--msaa`).
+    pub samples: u32,
     /// A scene whose objects move: the passes that move them on the GPU.
     pub animation: Option<SceneAnimation>,
     /// What the CPU needs to follow the animation's centroids (for `sorted`), and whether
@@ -154,6 +156,7 @@ impl SceneGpu {
             draw_indices: None,
             raster_layout: (options.raster == crate::raster::Raster::Compute)
                 .then(|| crate::raster::raster_layout(gpu)),
+            samples: options.msaa,
             animation: None,
             motion: None,
         };

@@ -29,7 +29,10 @@ pub struct FrameUniforms {
     pub orthographic: u32,
     pub headlight: u32,
     pub checker: u32,
-    pub _pad: [u32; 3],
+    /// Samples per pixel with `--msaa` (4 or 8), whose coverage mask each fragment's tag carries
+    /// ([`crate::frame::msaa`]); 0 single-sampled.
+    pub coverage_bits: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Keep in sync with `Material` in scene.wgsl.
@@ -186,7 +189,8 @@ pub fn frame_uniforms(
         orthographic: matches!(camera.projection, Projection::Orthographic { .. }) as u32,
         headlight: setup.headlight as u32,
         checker,
-        _pad: [0; 3],
+        coverage_bits: crate::frame::msaa::coverage_bits(options.msaa),
+        _pad: [0; 2],
     }
 }
 
@@ -204,6 +208,7 @@ mod tests {
         assert_eq!(offset_of!(FrameUniforms, effect), 232);
         assert_eq!(offset_of!(FrameUniforms, near), 240);
         assert_eq!(offset_of!(FrameUniforms, checker), 256);
+        assert_eq!(offset_of!(FrameUniforms, coverage_bits), 260);
     }
 
     #[test]

@@ -27,6 +27,7 @@ pub fn wanted_features() -> wgpu::Features {
         | wgpu::Features::MEMORY_DECORATION_COHERENT
         | wgpu::Features::PASSTHROUGH_SHADERS
         | wgpu::Features::FLOAT32_BLENDABLE
+        | wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES
 }
 
 /// A device and queue with the features and limits they were created with: strata's own

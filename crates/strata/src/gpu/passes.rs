@@ -24,10 +24,13 @@ pub fn capture_pipeline(
         layouts,
         targets,
         depth,
+        1,
     )
 }
 
-/// [`capture_pipeline`] with the fragment stage from its own module (a passthrough one).
+/// [`capture_pipeline`] with the fragment stage from its own module (a passthrough one),
+/// rasterizing `samples` samples per pixel (`--msaa`; the targets must have as many).
+#[allow(clippy::too_many_arguments)]
 pub fn capture_pipeline_with(
     gpu: &Gpu,
     label: &str,
@@ -36,6 +39,7 @@ pub fn capture_pipeline_with(
     layouts: &[&wgpu::BindGroupLayout],
     targets: &[Option<wgpu::ColorTargetState>],
     depth: Option<wgpu::DepthStencilState>,
+    samples: u32,
 ) -> wgpu::RenderPipeline {
     let layout = binding::pipeline_layout(&gpu.device, label, layouts);
     gpu.device
@@ -53,7 +57,10 @@ pub fn capture_pipeline_with(
                 ..Default::default()
             },
             depth_stencil: depth,
-            multisample: Default::default(),
+            multisample: wgpu::MultisampleState {
+                count: samples,
+                ..Default::default()
+            },
             fragment: Some(wgpu::FragmentState {
                 module: fragment_module,
                 entry_point: Some(fragment_entry),
@@ -284,38 +291,53 @@ pub fn storage_geometry_pass(
 }
 
 /// A render pass over a throwaway color target, for capture passes whose output goes to
-/// storage buffers (WebGPU needs at least one attachment).
+/// storage buffers (WebGPU needs at least one attachment). Multisampled with `--msaa`: its sample
+/// count is the rasterizer's.
 pub struct NullTarget {
     view: wgpu::TextureView,
     size: (u32, u32),
+    samples: u32,
 }
 
 impl NullTarget {
     pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
 
-    pub fn new(gpu: &Gpu, label: &str, width: u32, height: u32) -> NullTarget {
-        let t = gpu.texture_2d(
-            label,
-            (width, height),
-            Self::FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT,
-        );
+    pub fn new(gpu: &Gpu, label: &str, (width, height): (u32, u32), samples: u32) -> NullTarget {
+        let t = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: samples,
+            dimension: wgpu::TextureDimension::D2,
+            format: Self::FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
         NullTarget {
             view: t.create_view(&Default::default()),
             size: (width, height),
+            samples,
         }
     }
 
-    /// The target in `slot`, (re)created when the frame size changed.
+    /// The target in `slot` for the frame's size and the scene's samples, (re)created when
+    /// they changed.
     pub fn ensure<'s>(
         slot: &'s mut Option<NullTarget>,
         gpu: &Gpu,
         label: &str,
-        width: u32,
-        height: u32,
+        size: (u32, u32),
+        samples: u32,
     ) -> &'s NullTarget {
-        if slot.as_ref().is_none_or(|t| t.size != (width, height)) {
-            *slot = Some(NullTarget::new(gpu, label, width, height));
+        if slot
+            .as_ref()
+            .is_none_or(|t| t.size != size || t.samples != samples)
+        {
+            *slot = Some(NullTarget::new(gpu, label, size, samples));
         }
         slot.as_ref().expect("set above")
     }

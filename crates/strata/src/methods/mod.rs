@@ -448,6 +448,8 @@ pub fn create(
 ) -> Result<Box<dyn Method>> {
     use kbuffer::{list::ListKBuffer, mdt::Mdt, mdt::MdtKBuffer, SlotKBuffer, Variant};
     crate::raster::check_method(id, options.raster)?;
+    crate::frame::msaa::check_method(id, options, scene.triangle_count as u64)?;
+    crate::frame::msaa::check_device(gpu, options.msaa)?;
     Ok(match id {
         MethodId::Unsorted => Box::new(baseline::Blend::new(gpu, scene, false)),
         MethodId::Sorted => Box::new(baseline::Blend::new(gpu, scene, true)),
@@ -485,4 +487,4 @@ pub fn create(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

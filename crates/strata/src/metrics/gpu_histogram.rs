@@ -9,7 +9,7 @@ use crate::error::Result;
 use crate::frame::{FrameContext, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage,
+    capture_pipeline_with, compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage,
     NullTarget,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
@@ -41,14 +41,15 @@ impl GpuHistogram {
         GpuHistogram {
             // Always the GPU's rasterizer: coverage is the same on both paths (tested), and
             // the histogram only counts.
-            count: GeometryStage::Hw(capture_pipeline(
+            count: GeometryStage::Hw(capture_pipeline_with(
                 gpu,
                 "strata.histogram.count",
-                &module,
+                (&module, &module),
                 "fs_histogram_count",
                 &layouts,
                 &[NullTarget::target_state()],
                 None,
+                scene.samples,
             )),
             bin: compute_pipeline(
                 gpu,
@@ -87,8 +88,8 @@ impl GpuHistogram {
             &mut self.null_target,
             gpu,
             "strata.histogram.null_target",
-            w,
-            h,
+            (w, h),
+            ctx.scene.samples,
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
         ctx.encoder.clear_buffer(&bins, 0, None);

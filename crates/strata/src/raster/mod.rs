@@ -190,8 +190,14 @@ pub fn raster_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
 pub fn capture_source(stage: &str, entry: &str, raster_group: usize) -> Result<String> {
     let with_facing =
         format!("fn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool) {{");
+    let with_mask = format!(
+        "fn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {{"
+    );
     let without = format!("fn {entry}(v: SceneVarying) {{");
-    let call = if stage.contains(&with_facing) {
+    // The compute rasterizer samples pixel centers only (`--msaa` refuses it): full coverage.
+    let call = if stage.contains(&with_mask) {
+        format!("{entry}(v, front_facing, 0xffffffffu)")
+    } else if stage.contains(&with_facing) {
         format!("{entry}(v, front_facing)")
     } else if stage.contains(&without) {
         format!("{entry}(v)")
@@ -206,6 +212,7 @@ pub fn capture_source(stage: &str, entry: &str, raster_group: usize) -> Result<S
             "@builtin(front_facing) front_facing: bool",
             "front_facing: bool",
         )
+        .replace("@builtin(sample_mask) mask: u32", "mask: u32")
         .replace("discard;", "return;");
     let source = [
         functions.as_str(),
@@ -247,6 +254,7 @@ pub fn storage_stage(
             layouts,
             &[NullTarget::target_state()],
             None,
+            scene.samples,
         ));
     }
     compute_stage(

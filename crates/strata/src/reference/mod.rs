@@ -3,7 +3,10 @@
 //! Every fragment of every pixel is generated with the GPU's coverage rule ([`raster`]), shaded
 //! with the same formulas as `shaders/shared/scene.wgsl` in f64, sorted by depth with ties by
 //! primitive index, optionally cut to the `k` nearest, and composited in f64 by
-//! [`crate::resolve::composite`]. Rows are split into bands rendered in parallel with rayon.
+//! [`crate::resolve::composite`]. With `--msaa` each fragment covers some of its pixel's samples
+//! (shaded at the center, as the GPU does); every sample composites its own fragments (its k
+//! nearest) and the pixel is their average. Rows are split into bands rendered in parallel with
+//! rayon.
 //! Memory: every fragment is held at once (about 80 bytes each).
 
 pub mod raster;
@@ -151,6 +154,7 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
                 &view_proj,
                 w,
                 h,
+                options.msaa,
                 &mut out,
             );
             out
@@ -187,9 +191,15 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
                 let prim = t.prim as usize;
                 let corners = &tris.vertices[prim * 3..prim * 3 + 3];
                 let material = tris.materials[prim] as usize;
-                cover(t, y0..y1, |s| {
-                    // Depth clipping, and the opaque test against the cleared depth (1.0).
-                    if !(0.0..1.0).contains(&s.depth) {
+                cover_samples(t, y0..y1, options.msaa, |s| {
+                    // Depth clipping (multisampled: per sample, in `cover_samples`), and the
+                    // opaque test against the cleared depth (1.0) at the center.
+                    let clipped = if options.msaa > 1 {
+                        s.depth.is_nan() || s.depth >= 1.0
+                    } else {
+                        !(0.0..1.0).contains(&s.depth)
+                    };
+                    if clipped {
                         return;
                     }
                     let world = v3(corners[0].position) * s.weights.x
@@ -207,6 +217,7 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
                         alpha,
                         absorption: absorption[material],
                         distance: view_distance(&camera, s.depth),
+                        coverage: s.coverage as u8,
                     });
                 });
             }
@@ -219,7 +230,7 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
     Ok(rows.into_iter().flatten().collect())
 }
 
-use raster::cover;
+use raster::cover_samples;
 
 /// Renders the exact picture. `options.k` keeps each pixel's k nearest fragments.
 ///
@@ -267,7 +278,10 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         }
     };
     let keep = options.k.map(|k| k as usize).unwrap_or(usize::MAX);
-    let pixels: Vec<[f32; 4]> = lists
+    let samples = options.msaa.max(1);
+    // Per pixel: the color, averaged over samples that each composite their own k nearest,
+    // and the fragments some sample kept.
+    let resolved: Vec<([f32; 4], u64)> = lists
         .par_iter()
         .enumerate()
         .map(|(i, list)| {
@@ -276,16 +290,36 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
             if let Some(Some(o)) = opaque.as_ref().map(|o| &o[i]) {
                 bg = o.color;
             }
-            let kept = &list[..list.len().min(keep)];
-            let mut c = composite(kept, bg, translucency);
+            let mut kept_by_any = vec![false; list.len()];
+            let mut sum = [0.0f64; 3];
+            for sample in 0..samples {
+                let own: Vec<RefFragment> = list
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, f)| f.coverage & (1 << sample) != 0)
+                    .take(keep)
+                    .map(|(j, f)| {
+                        kept_by_any[j] = true;
+                        *f
+                    })
+                    .collect();
+                let c = composite(&own, bg, translucency);
+                sum = std::array::from_fn(|k| sum[k] + c[k]);
+            }
+            let mut c = sum.map(|s| s / samples as f64);
             if opaque.is_some() {
                 c = crate::deferred::encoding::tone_map(options.tonemap, c);
             }
-            [c[0] as f32, c[1] as f32, c[2] as f32, kept.len() as f32]
+            let kept = kept_by_any.iter().filter(|k| **k).count();
+            (
+                [c[0] as f32, c[1] as f32, c[2] as f32, kept as f32],
+                kept as u64,
+            )
         })
         .collect();
     let generated: u64 = lists.iter().map(|l| l.len() as u64).sum();
-    let stored: u64 = lists.iter().map(|l| l.len().min(keep) as u64).sum();
+    let stored: u64 = resolved.iter().map(|r| r.1).sum();
+    let pixels: Vec<[f32; 4]> = resolved.into_iter().map(|r| r.0).collect();
     let stats = FrameStats {
         method: "reference".into(),
         width: w,
@@ -379,6 +413,36 @@ mod tests {
             assert!(list
                 .windows(2)
                 .all(|w| RefFragment::order(&w[0], &w[1]).is_lt()));
+        }
+    }
+
+    /// A layer's edge through a column of pixel centers covers half the samples there at 4×
+    /// and 8×: those pixels get half its contribution, and its fragments say which samples.
+    #[test]
+    fn multisampled_edges_cover_half_the_samples() {
+        let scene = load_scene("builtin:layers?n=1&coverage=0.515625").unwrap();
+        for msaa in [4, 8] {
+            let o = RenderOptions {
+                width: 32,
+                height: 32,
+                msaa,
+                background: crate::scene::Background::Color([0.2, 0.3, 0.4]),
+                ..Default::default()
+            };
+            let lists = fragments(&scene, &o).unwrap();
+            let (img, _) = render(&scene, &o).unwrap();
+            let full = ((1u32 << msaa) - 1) as u8;
+            for y in 0..32 {
+                let at = |x: u32| (y * 32 + x) as usize;
+                assert_eq!(lists[at(15)][0].coverage, full);
+                let edge = lists[at(16)][0].coverage;
+                assert_eq!(edge.count_ones(), msaa / 2, "{msaa}x row {y}: {edge:b}");
+                assert!(lists[at(17)].is_empty());
+                for c in 0..3 {
+                    let half = 0.5 * (img.pixels[at(15)][c] + img.pixels[at(17)][c]);
+                    assert!((img.pixels[at(16)][c] - half).abs() < 1e-6);
+                }
+            }
         }
     }
 

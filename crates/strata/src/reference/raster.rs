@@ -4,7 +4,10 @@
 //! rule in exact integer arithmetic; depth (screen-linear) and attributes (perspective-correct)
 //! interpolated from the *unsnapped* window positions, as lavapipe's attribute planes are — at
 //! near edge-on triangles, where depth changes fast across a pixel, this decides the order of
-//! fragments that are almost at the same depth.
+//! fragments that are almost at the same depth. With `--msaa` coverage is tested at the
+//! standard sample positions ([`crate::frame::msaa::positions`]) and a pixel's fragment is
+//! shaded, and its depth taken, at the pixel center (extrapolated when the center lies outside),
+//! as the GPU shades multisampled fragments.
 
 use glam::{DMat4, DVec3, DVec4};
 
@@ -62,15 +65,27 @@ pub struct SetupTriangle {
     pub max: [u32; 2],
 }
 
-/// Projects and clips triangle `prim` with corners `p` (world space).
+/// The sample positions of `samples` per pixel in subpixel units from the pixel's corner.
+fn sample_offsets(samples: u32) -> Vec<[i64; 2]> {
+    crate::frame::msaa::positions(samples)
+        .iter()
+        .map(|p| p.map(|c| (c * SUBPIXEL) as i64))
+        .collect()
+}
+
+/// Projects and clips triangle `prim` with corners `p` (world space); its pixel bounds hold
+/// every pixel with a sample inside it at `samples` per pixel.
+#[allow(clippy::too_many_arguments)]
 pub fn setup(
     prim: u32,
     p: [DVec3; 3],
     view_proj: &DMat4,
     width: u32,
     height: u32,
+    samples: u32,
     out: &mut Vec<SetupTriangle>,
 ) {
+    let offsets = sample_offsets(samples);
     let clip: Vec<(DVec4, DVec3)> = (0..3)
         .map(|i| {
             (
@@ -129,11 +144,22 @@ pub fn setup(
         }
         let lo = |k: usize| xy.iter().map(|v| v[k]).min().unwrap();
         let hi = |k: usize| xy.iter().map(|v| v[k]).max().unwrap();
-        // Pixel centers at (p + 0.5): pixel p is a candidate if its center lies in [lo, hi].
-        let first = |v: i64| ((v - SUBPIXEL as i64 / 2) as f64 / SUBPIXEL).ceil() as i64;
-        let last = |v: i64| ((v - SUBPIXEL as i64 / 2) as f64 / SUBPIXEL).floor() as i64;
-        let (x0, x1) = (first(lo(0)).max(0), last(hi(0)).min(width as i64 - 1));
-        let (y0, y1) = (first(lo(1)).max(0), last(hi(1)).min(height as i64 - 1));
+        // Samples at p + offset: pixel p is a candidate if one of its samples lies in [lo, hi].
+        let off = |k: usize| {
+            let o = offsets.iter().map(|o| o[k]);
+            (o.clone().min().unwrap_or(0), o.max().unwrap_or(0))
+        };
+        let first = |v: i64, max_off: i64| ((v - max_off) as f64 / SUBPIXEL).ceil() as i64;
+        let last = |v: i64, min_off: i64| ((v - min_off) as f64 / SUBPIXEL).floor() as i64;
+        let ((ox0, ox1), (oy0, oy1)) = (off(0), off(1));
+        let (x0, x1) = (
+            first(lo(0), ox1).max(0),
+            last(hi(0), ox0).min(width as i64 - 1),
+        );
+        let (y0, y1) = (
+            first(lo(1), oy1).max(0),
+            last(hi(1), oy0).min(height as i64 - 1),
+        );
         if x0 > x1 || y0 > y1 {
             continue;
         }
@@ -161,16 +187,30 @@ fn barycentrics(w: &[[f64; 2]; 3], x: f64, y: f64) -> [f64; 3] {
 }
 
 /// A covered pixel: window depth and perspective-correct barycentric weights of the original
-/// triangle's corners.
+/// triangle's corners at the pixel center, and the samples covered (bit i: sample i) with their
+/// depths inside the depth range.
 pub struct Sample {
     pub x: u32,
     pub y: u32,
     pub depth: f64,
     pub weights: DVec3,
+    pub coverage: u32,
 }
 
 /// Visits the pixels of rows `rows` that `t` covers under the top-left rule.
-pub fn cover(t: &SetupTriangle, rows: std::ops::Range<u32>, mut visit: impl FnMut(Sample)) {
+pub fn cover(t: &SetupTriangle, rows: std::ops::Range<u32>, visit: impl FnMut(Sample)) {
+    cover_samples(t, rows, 1, visit)
+}
+
+/// Visits the pixels of rows `rows` where `t` covers one of `samples` sample positions (under
+/// the top-left rule, with the sample's depth in [0, 1)).
+pub fn cover_samples(
+    t: &SetupTriangle,
+    rows: std::ops::Range<u32>,
+    samples: u32,
+    mut visit: impl FnMut(Sample),
+) {
+    let offsets = sample_offsets(samples);
     // Orient so the interior is where all edge functions are positive.
     let order = if t.area2 > 0 { [0, 1, 2] } else { [0, 2, 1] };
     let v = order.map(|i| t.xy[i]);
@@ -184,25 +224,40 @@ pub fn cover(t: &SetupTriangle, rows: std::ops::Range<u32>, mut visit: impl FnMu
         let top_left = dy < 0 || (dy == 0 && dx > 0);
         (dx, dy, if top_left { 0 } else { -1 })
     });
-    let half = SUBPIXEL as i64 / 2;
+    let inside = |sx: i64, sy: i64| {
+        (0..3).all(|i| {
+            let a = v[i];
+            let (dx, dy, bias) = edges[i];
+            dx * (sy - a[1]) - dy * (sx - a[0]) + bias >= 0
+        })
+    };
+    let depth_at = |x: f64, y: f64| {
+        let l = barycentrics(&t.window, x, y);
+        l[0] * t.z[0] + l[1] * t.z[1] + l[2] * t.z[2]
+    };
     let y_start = t.min[1].max(rows.start);
     let y_end = (t.max[1] + 1).min(rows.end);
     for py in y_start..y_end {
-        let sy = py as i64 * SUBPIXEL as i64 + half;
         for px in t.min[0]..=t.max[0] {
-            let sx = px as i64 * SUBPIXEL as i64 + half;
-            let mut e = [0i64; 3];
-            let mut inside = true;
-            for i in 0..3 {
-                let a = v[i];
-                let (dx, dy, bias) = edges[i];
-                e[i] = dx * (sy - a[1]) - dy * (sx - a[0]);
-                if e[i] + bias < 0 {
-                    inside = false;
-                    break;
+            let (cx, cy) = (px as i64 * SUBPIXEL as i64, py as i64 * SUBPIXEL as i64);
+            let mut coverage = 0u32;
+            for (i, o) in offsets.iter().enumerate() {
+                if !inside(cx + o[0], cy + o[1]) {
+                    continue;
+                }
+                // Single-sampled, the center's depth is tested by the caller.
+                let in_range = samples <= 1 || {
+                    let d = depth_at(
+                        px as f64 + o[0] as f64 / SUBPIXEL,
+                        py as f64 + o[1] as f64 / SUBPIXEL,
+                    );
+                    (0.0..1.0).contains(&d)
+                };
+                if in_range {
+                    coverage |= 1 << i;
                 }
             }
-            if !inside {
+            if coverage == 0 {
                 continue;
             }
             let l = barycentrics(&t.window, px as f64 + 0.5, py as f64 + 0.5);
@@ -216,6 +271,7 @@ pub fn cover(t: &SetupTriangle, rows: std::ops::Range<u32>, mut visit: impl FnMu
                 y: py,
                 depth,
                 weights,
+                coverage,
             });
         }
     }
@@ -229,7 +285,7 @@ mod tests {
         // Identity view-projection: corners are NDC.
         let p = corners.map(|c| DVec3::new(c[0], c[1], 0.5));
         let mut out = Vec::new();
-        setup(0, p, &DMat4::IDENTITY, w, h, &mut out);
+        setup(0, p, &DMat4::IDENTITY, w, h, 1, &mut out);
         out
     }
 

@@ -343,10 +343,12 @@ impl<'g> Renderer<'g> {
                 r
             }
         };
-        // A pipeline draws the opaque objects and their depth itself.
+        // A pipeline draws the opaque objects and their depth itself; multisampled frames take
+        // no single-sampled opaque depth, so the cleared one is passed only when it was lent.
+        let opaque_used = options.msaa <= 1 || self.opaque_lent.get();
         let targets = FrameTargets {
             color: None,
-            opaque_depth: options.pipeline.is_none().then_some(opaque),
+            opaque_depth: (options.pipeline.is_none() && opaque_used).then_some(opaque),
         };
         let (mut submits, mut blocking, mut passes, mut overflowed) = (0, 0, 0, false);
         let mut report = None;

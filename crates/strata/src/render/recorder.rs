@@ -294,6 +294,11 @@ impl FrameRecorder {
                 "the rasterizer is chosen when the recorder is made; make another for --raster",
             ));
         }
+        if options.msaa != self.options.msaa {
+            return Err(Error::input(
+                "the sample count is chosen when the recorder is made; make another for --msaa",
+            ));
+        }
         if (options.width, options.height) != (self.options.width, self.options.height) {
             self.resize(options.width, options.height)?;
         }
@@ -339,6 +344,11 @@ impl FrameRecorder {
         targets: &FrameTargets<'_>,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<u64> {
+        if self.options.msaa > 1 && targets.opaque_depth.is_some() {
+            return Err(Error::unsupported(
+                "an opaque depth with --msaa: strata tests fragments against a single-sampled opaque depth only, yet",
+            ));
+        }
         let auto_k = self.choose_k()?;
         let lit_depth = match (&self.lit, targets.opaque_depth) {
             (Some(_), Some(_)) => {
@@ -481,6 +491,11 @@ impl FrameRecorder {
         if self.options.k_auto.is_some() {
             return Err(Error::unsupported(
                 "--k auto counts fragments with strata's own geometry pass, which an application's capture replaces: set k",
+            ));
+        }
+        if self.options.msaa > 1 {
+            return Err(Error::unsupported(
+                "an application's capture with --msaa: `strata_capture` takes no coverage mask yet; use record",
             ));
         }
         if self.lit.is_some() {

@@ -49,6 +49,9 @@ pub struct RefFragment {
     pub absorption: f64,
     /// View-space distance along the view axis.
     pub distance: f64,
+    /// The samples of its pixel it covers, bit i for sample i (`--msaa`; 1 single-sampled).
+    /// One byte: 8 samples at most, and the record stays 64 bytes.
+    pub coverage: u8,
 }
 
 impl RefFragment {
@@ -112,6 +115,7 @@ mod tests {
             alpha,
             absorption: 0.0,
             distance: depth,
+            coverage: 1,
         }
     }
 

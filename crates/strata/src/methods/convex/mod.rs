@@ -479,8 +479,8 @@ impl Method for Convex {
             &mut self.null_target,
             gpu,
             "strata.convex.null_target",
-            w,
-            h,
+            (w, h),
+            ctx.scene.samples,
         );
         let frame_group = ctx.frame_group;
         ctx.encoder.clear_buffer(&counters, 0, None);

@@ -206,8 +206,8 @@ impl Method for KPeel {
             &mut self.null_target,
             ctx.gpu,
             "strata.kpeel.null_target",
-            w,
-            h,
+            (w, h),
+            ctx.scene.samples,
         );
         let frame_group = ctx.frame_group;
         dispatch_pixels(ctx, "init", &self.init, &[frame_group, &group]);

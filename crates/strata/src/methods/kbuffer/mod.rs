@@ -586,8 +586,8 @@ impl KFrame {
             &mut self.null_target,
             ctx.gpu,
             "strata.kbuffer.null_target",
-            ctx.options.width,
-            ctx.options.height,
+            ctx.size(),
+            ctx.scene.samples,
         );
         for (name, pipeline) in passes {
             storage_geometry_pass(ctx, name, target, pipeline, &[frame_group, &group]);

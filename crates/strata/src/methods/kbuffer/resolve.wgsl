@@ -76,9 +76,19 @@ fn ordered_before(a: Fragment, ia: u32, b: Fragment, ib: u32) -> bool {
     return fragment_before(a, b) || (!fragment_before(b, a) && ia < ib);
 }
 
-// k-depth sort: composites the `limit` nearest of `n` stored fragments, CHUNK at a time. With
-// --tail blend the selection goes on past `limit` and the rest joins the tail.
-fn k_depth_sort(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) {
+// The last fragment a k-depth sort composited and its storage index (for --msaa's count of the
+// fragments some sample kept).
+struct Composited {
+    f: Fragment,
+    at: u32,
+    done: u32,
+}
+
+// k-depth sort: composites the `limit` nearest of the `n` stored fragments that cover a sample
+// of `coverage` (`fragment_coverage`), CHUNK at a time. With --tail blend the selection goes on
+// past `limit` and the rest joins the tail.
+fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) -> Composited {
+    var last = Composited(Fragment(0.0, 0u, 0u, 0u), 0u, 0u);
     var chunk: array<Fragment, LOCAL_CAPACITY>;
     var chunk_at: array<u32, LOCAL_CAPACITY>;
     var done = 0u;
@@ -91,6 +101,9 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<
         var m = 0u;
         for (var i = 0u; i < n; i++) {
             let f = stored_fragment(p, i);
+            if (fragment_coverage(f) & coverage) == 0u {
+                continue;
+            }
             if has_bound && !ordered_before(bound, bound_at, f, i) {
                 continue;
             }
@@ -133,6 +146,7 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<
             if done < limit {
                 composite_front(s, chunk[j]);
                 done += 1u;
+                last = Composited(chunk[j], chunk_at[j], done);
             } else if kp.tail_blend != 0u {
                 tail_add_local(t, chunk[j]);
             }
@@ -141,6 +155,7 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<
             break;
         }
     }
+    return last;
 }
 
 // Composites the tail behind the sorted fragments: the weighted average color of the tail
@@ -172,8 +187,76 @@ fn composite_stored(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: 
             }
         }
     } else {
-        k_depth_sort(p, n, limit, s, t);
+        k_depth_sort(p, n, limit, 0xffffffffu, s, t);
     }
+}
+
+// --msaa: each sample composites its own fragments in depth order — its `limit` nearest, the
+// rest joining its tail — and the pixel is the samples' average (premultiplied, so blending it
+// over a background equals averaging the samples blended over it). A tail captured per pixel
+// (fixed arrays past their slots) lies behind every sample. Returns the fragments some sample
+// composited.
+fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
+    let samples = frame.coverage_bits;
+    var sum = vec4<f32>(0.0);
+    var kept = 0u;
+    if n <= LOCAL_CAPACITY {
+        var local: array<Fragment, LOCAL_CAPACITY>;
+        for (var i = 0u; i < n; i++) {
+            local[i] = stored_fragment(p, i);
+        }
+        sort_local(&local, n);
+        // Bit i of word i / 32: local fragment i was composited by some sample.
+        var used = vec2<u32>(0u);
+        for (var si = 0u; si < samples; si++) {
+            let bit = 1u << si;
+            var s = composite_new();
+            var t = captured;
+            var done = 0u;
+            for (var i = 0u; i < n; i++) {
+                let f = local[i];
+                if (fragment_coverage(f) & bit) == 0u {
+                    continue;
+                }
+                if done < limit {
+                    composite_front(&s, f);
+                    done += 1u;
+                    used[i / 32u] |= 1u << (i % 32u);
+                } else if kp.tail_blend != 0u {
+                    tail_add_local(&t, f);
+                } else {
+                    break;
+                }
+            }
+            composite_tail(&s, t);
+            sum += composite_finish(s).color;
+        }
+        kept = countOneBits(used.x) + countOneBits(used.y);
+    } else {
+        // Each sample's last composited fragment: a fragment is kept when it is not behind it
+        // for some sample it covers (or that sample composited all of its fragments).
+        var last: array<Composited, 8>;
+        for (var si = 0u; si < samples; si++) {
+            var s = composite_new();
+            var t = captured;
+            last[si] = k_depth_sort(p, n, limit, 1u << si, &s, &t);
+            composite_tail(&s, t);
+            sum += composite_finish(s).color;
+        }
+        for (var i = 0u; i < n; i++) {
+            let f = stored_fragment(p, i);
+            let coverage = fragment_coverage(f);
+            for (var si = 0u; si < samples; si++) {
+                let l = last[si];
+                if (coverage & (1u << si)) != 0u && (l.done < limit || !ordered_before(l.f, l.at, f, i)) {
+                    kept += 1u;
+                    break;
+                }
+            }
+        }
+    }
+    output[p] = Resolved(sum / f32(samples), kept, 0u, 0u, 0u);
+    return kept;
 }
 
 fn resolve_pixel(pixel: vec2<u32>) {
@@ -185,6 +268,10 @@ fn resolve_pixel(pixel: vec2<u32>) {
     var t = Tail(vec4<f32>(0.0), 0.0);
     if kp.tail_blend != 0u {
         t = tail_sums(p);
+    }
+    if frame.coverage_bits != 0u {
+        report_pixel(seen, resolve_samples(p, n, limit, t));
+        return;
     }
     composite_stored(p, n, limit, &s, &t);
     composite_tail(&s, t);

@@ -269,8 +269,8 @@ impl Method for SBuffer {
             &mut self.null_target,
             gpu,
             "strata.sbuffer.null_target",
-            w,
-            h,
+            (w, h),
+            ctx.scene.samples,
         );
         let frame_group = ctx.frame_group;
         storage_geometry_pass(ctx, "count", target, &self.count, &[frame_group, &group]);

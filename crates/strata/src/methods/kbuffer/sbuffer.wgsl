@@ -31,7 +31,7 @@ fn fs_sbuffer_count(v: SceneVarying) {
 }
 
 @fragment
-fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
@@ -39,7 +39,7 @@ fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool) 
     let start = region_start(p);
     let n = atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
     if start < arrayLength(&pool) && n < arrayLength(&pool) - start {
-        pool[start + n] = scene_fragment(v, front_facing);
+        pool[start + n] = scene_fragment_covering(v, front_facing, mask);
     } else {
         counter_add(COUNTER_OVERFLOWED, 1u);
     }

@@ -74,11 +74,11 @@ fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
 }
 
 @fragment
-fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
-    capture_fixed(kpixel(v.position), scene_fragment(v, front_facing));
+    capture_fixed(kpixel(v.position), scene_fragment_covering(v, front_facing, mask));
 }
 
 @fragment

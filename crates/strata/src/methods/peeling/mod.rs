@@ -384,8 +384,13 @@ impl Method for Dual {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
-        let null_target =
-            NullTarget::ensure(&mut self.null_target, gpu, "strata.dual.null_target", w, h);
+        let null_target = NullTarget::ensure(
+            &mut self.null_target,
+            gpu,
+            "strata.dual.null_target",
+            (w, h),
+            1,
+        );
         let px = ctx.pixels();
         ctx.check_budget(px * (108 + 4 * self.key_bytes))?;
         let none = wgpu::BufferUsages::empty();

@@ -1,0 +1,342 @@
+//! Multisample anti-aliasing (`--msaa 4|8`) for the methods that store every fragment.
+//!
+//! The capture passes rasterize with 4 or 8 samples per pixel at the standard sample positions
+//! ([`positions`]; Vulkan's and WebGPU's, which every wgpu backend uses) but shade once per pixel
+//! and primitive, as engines do: a fragment is shaded at the pixel center and stores the center's
+//! depth, plus its coverage mask (`@builtin(sample_mask)`, the samples inside the primitive).
+//! The mask rides in the fragment's tag word — `primitive << (1 + S) | mask << 1 | front-facing`
+//! for S samples — so the 16-byte record stays as it is; the tag still orders equal depths by
+//! primitive. The resolve composites each sample's own fragments in depth order (and keeps each
+//! sample's k nearest) and averages the samples: an edge pixel half covered by a layer gets half
+//! its contribution, a fully covered pixel exactly the single-sample result, and shading costs
+//! what it costs without MSAA.
+//!
+//! Memory: nothing per sample — a pixel on a mesh edge stores one fragment per primitive that
+//! touches it, so a surface whose edge crosses the pixel stores two; methods that count
+//! fragments per pixel (the fixed arrays) measure that as drops. A device may also shade one
+//! primitive's pixel in more than one invocation, each with its own disjoint part of the mask
+//! (lavapipe does, on some partly and some fully covered pixels): every sample still sees the
+//! surface once, so the picture is the same, but fragment counts — the statistics and the
+//! complexity view — count what was stored, invocations, where the reference counts primitives. The reference
+//! ([`crate::reference`]) supersamples the same way, so the exact methods stay testable.
+//!
+//! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×); methods whose capture keeps
+//! the k nearest per pixel (k-buffers with capture-time selection, peeling, multi-depth tests,
+//! weighted, convex), `--pipeline`, `--raster compute` and `--temporal` refuse `--msaa` with one
+//! error line, since for them a per-pixel choice would not be the per-sample one.
+
+use crate::error::{Error, Result};
+use crate::frame::RenderOptions;
+use crate::gpu::{passes::NullTarget, Gpu};
+use crate::methods::MethodId;
+
+/// The sample counts `--msaa` takes.
+pub const SAMPLE_COUNTS: [u32; 3] = [1, 4, 8];
+
+/// Standard sample positions within a pixel (x right, y down, in pixels), sample i being bit i
+/// of the coverage mask.
+pub fn positions(samples: u32) -> &'static [[f64; 2]] {
+    const ONE: [[f64; 2]; 1] = [[0.5, 0.5]];
+    const FOUR: [[f64; 2]; 4] = [
+        [0.375, 0.125],
+        [0.875, 0.375],
+        [0.125, 0.625],
+        [0.625, 0.875],
+    ];
+    const EIGHT: [[f64; 2]; 8] = [
+        [0.5625, 0.3125],
+        [0.4375, 0.6875],
+        [0.8125, 0.5625],
+        [0.3125, 0.1875],
+        [0.1875, 0.8125],
+        [0.0625, 0.4375],
+        [0.6875, 0.9375],
+        [0.9375, 0.0625],
+    ];
+    match samples {
+        4 => &FOUR,
+        8 => &EIGHT,
+        _ => &ONE,
+    }
+}
+
+/// Bits of coverage each fragment's tag carries (0 single-sampled).
+pub fn coverage_bits(samples: u32) -> u32 {
+    if samples > 1 {
+        samples
+    } else {
+        0
+    }
+}
+
+/// The most triangles a scene may have at `samples` (their index shares the tag with the mask).
+pub fn max_triangles(samples: u32) -> u64 {
+    1u64 << (31 - coverage_bits(samples))
+}
+
+/// The methods whose resolve sees every fragment and can composite per sample.
+pub fn supported(method: MethodId) -> bool {
+    matches!(
+        method,
+        MethodId::AbufferLl
+            | MethodId::AbufferFixed
+            | MethodId::KbAbLl
+            | MethodId::KbAbFixed
+            | MethodId::Sbuffer
+            | MethodId::KbSbuffer
+            | MethodId::Reference
+    )
+}
+
+/// `--msaa` against the other options.
+pub fn check_options(options: &RenderOptions) -> Result<()> {
+    let samples = options.msaa;
+    if !SAMPLE_COUNTS.contains(&samples) {
+        return Err(Error::input(format!(
+            "--msaa {samples} is not 1, 4 or 8 (the sample counts every wgpu backend supports)"
+        )));
+    }
+    if samples == 1 {
+        return Ok(());
+    }
+    let refuse = |what: &str| {
+        Err(Error::unsupported(format!(
+            "--msaa {samples} does not work with {what} yet; use --msaa 1"
+        )))
+    };
+    if options.pipeline.is_some() {
+        return refuse("--pipeline (the lit opaque frame is single-sampled)");
+    }
+    if options.raster == crate::raster::Raster::Compute {
+        return refuse("--raster compute (the compute rasterizer samples pixel centers)");
+    }
+    if options.temporal.is_some() {
+        return refuse("--temporal on");
+    }
+    Ok(())
+}
+
+/// The sample counts the device rasterizes the capture passes' target at: 1 and 4 everywhere
+/// (WebGPU's guarantee), 8 where the adapter reports it.
+pub fn device_sample_counts(gpu: &Gpu) -> Vec<u32> {
+    SAMPLE_COUNTS
+        .into_iter()
+        .filter(|&n| {
+            n <= 4
+                || gpu.has(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES)
+                    && gpu.adapter.as_ref().is_some_and(|a| {
+                        a.get_texture_format_features(NullTarget::FORMAT)
+                            .flags
+                            .sample_count_supported(n)
+                    })
+        })
+        .collect()
+}
+
+/// `--msaa` against the device.
+pub fn check_device(gpu: &Gpu, samples: u32) -> Result<()> {
+    let counts = device_sample_counts(gpu);
+    if counts.contains(&samples) {
+        return Ok(());
+    }
+    let list: Vec<String> = counts.iter().map(|n| n.to_string()).collect();
+    Err(Error::unsupported(format!(
+        "--msaa {samples}: this device rasterizes {} samples per pixel only ({})",
+        list.join(" or "),
+        gpu.info.name
+    )))
+}
+
+/// `--msaa` against the method and the scene's size.
+pub fn check_method(method: MethodId, options: &RenderOptions, triangles: u64) -> Result<()> {
+    let samples = options.msaa;
+    if samples <= 1 {
+        return Ok(());
+    }
+    if !supported(method) {
+        let ids: Vec<&str> = MethodId::ALL
+            .iter()
+            .filter(|m| supported(**m) && **m != MethodId::Reference)
+            .map(|m| m.as_str())
+            .collect();
+        return Err(Error::unsupported(format!(
+            "{method} does not support --msaa {samples} yet (methods that store every fragment do: {})",
+            ids.join(", ")
+        )));
+    }
+    if triangles > max_triangles(samples) {
+        return Err(Error::unsupported(format!(
+            "--msaa {samples} takes at most {} triangles (each fragment's tag holds the triangle's index and the {samples}-bit coverage mask); the scene has {triangles}",
+            max_triangles(samples)
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn positions_are_distinct_inside_the_pixel_and_on_the_sixteenth_grid() {
+        for n in SAMPLE_COUNTS {
+            let p = positions(n);
+            assert_eq!(p.len(), n as usize);
+            for (i, a) in p.iter().enumerate() {
+                assert!(a.iter().all(|c| *c > 0.0 && *c < 1.0));
+                // Exact in the reference's 1/256-pixel integer grid.
+                assert!(a.iter().all(|c| (c * 16.0).fract() == 0.0));
+                assert!(p[..i].iter().all(|b| b != a));
+            }
+            // Balanced: the mean position is the center.
+            let mean = p.iter().fold([0.0; 2], |m, a| [m[0] + a[0], m[1] + a[1]]);
+            assert_eq!(mean.map(|m| m / n as f64), [0.5, 0.5]);
+        }
+    }
+
+    #[test]
+    fn bad_counts_and_combinations_are_refused() {
+        let with = |msaa| RenderOptions {
+            msaa,
+            ..Default::default()
+        };
+        assert!(check_options(&with(2)).is_err());
+        assert!(check_options(&with(4)).is_ok());
+        let err = check_method(MethodId::KplusHeap, &with(4), 10).unwrap_err();
+        assert!(err.to_string().contains("abuffer-ll"), "{err}");
+        assert!(check_method(MethodId::AbufferLl, &with(8), 1 << 23).is_ok());
+        assert!(check_method(MethodId::AbufferLl, &with(8), (1 << 23) + 1).is_err());
+        assert!(check_method(MethodId::KplusHeap, &with(1), 10).is_ok());
+    }
+}
+
+/// The GPU against the multisampled reference, on lavapipe.
+#[cfg(test)]
+mod gpu_tests {
+    use crate::frame::{Effect, RenderOptions};
+    use crate::methods::tests::options;
+    use crate::scene::{loaders::load_scene, Background};
+    use crate::testing::{assert_close, render_gpu, render_reference};
+
+    /// As the exact methods' tolerance (methods/tests.rs): ≤ 2/255 on ≥ 99.9% of pixels.
+    const MAX_DIFF: u8 = 2;
+    const MAX_FRACTION: f64 = 0.001;
+
+    fn multisampled(size: u32, effect: Effect, msaa: u32, k: Option<u32>) -> RenderOptions {
+        RenderOptions {
+            msaa,
+            k,
+            ..options(size, effect)
+        }
+    }
+
+    /// Every method that supports --msaa equals `reference --msaa N`, with each sample's k
+    /// nearest where the method keeps k; the spheres' deepest pixels take more than the
+    /// resolve's 64 local fragments (the per-sample k-depth sort).
+    #[test]
+    fn exact_methods_equal_the_multisampled_reference() {
+        let cases = [
+            ("builtin:spheres?layers=4", 48, Effect::Transparency),
+            (
+                "builtin:layers?n=8&coverage=0.6&order=random&seed=5",
+                40,
+                Effect::Translucency,
+            ),
+            ("builtin:spheres?layers=24", 32, Effect::Transparency),
+        ];
+        let counts = super::device_sample_counts(crate::testing::gpu());
+        for (spec, size, effect) in cases {
+            let scene = load_scene(spec).unwrap();
+            // kb- methods keep each sample's k nearest (by default 16: the spheres' 24 layers
+            // beyond it add less than 2/255).
+            for msaa in [4, 8] {
+                if !counts.contains(&msaa) {
+                    // lavapipe rasterizes 1 or 4 samples: the request is refused, not botched.
+                    let opts = multisampled(size, effect, msaa, None);
+                    let mut r = crate::Renderer::new(crate::testing::gpu(), &scene, &opts).unwrap();
+                    let err = r.render("abuffer-ll").unwrap_err().to_string();
+                    assert!(err.contains("samples per pixel only"), "{err}");
+                    continue;
+                }
+                let all = multisampled(size, effect, msaa, None);
+                let expected = render_reference(&scene, &all);
+                for method in ["abuffer-ll", "sbuffer", "kb-ab-ll", "kb-sbuffer"] {
+                    let (actual, stats) = render_gpu(&scene, &all, method);
+                    let name = format!("msaa{msaa}-{method}-{spec}");
+                    assert_close(&name, &actual, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                    if !method.starts_with("kb-") {
+                        assert_eq!(stats.fragments_dropped, Some(0), "{name}");
+                    }
+                }
+                let wide = multisampled(size, effect, msaa, Some(256));
+                let (fixed, _) = render_gpu(&scene, &wide, "abuffer-fixed");
+                let name = format!("msaa{msaa}-abuffer-fixed-{spec}");
+                assert_close(&name, &fixed, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                // Each sample's 3 nearest.
+                let three = multisampled(size, effect, msaa, Some(3));
+                let expected = render_reference(&scene, &three);
+                for method in ["kb-ab-ll", "kb-ab-fixed", "kb-sbuffer"] {
+                    let (actual, _) = render_gpu(&scene, &three, method);
+                    let name = format!("msaa{msaa}-k3-{method}-{spec}");
+                    assert_close(&name, &actual, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                }
+            }
+        }
+    }
+
+    /// A pixel whose fragments all cover every sample resolves exactly as single-sampled.
+    #[test]
+    fn fully_covered_pixels_equal_the_single_sample_result() {
+        let scene = load_scene("builtin:layers?n=8&coverage=0.6&order=random&seed=5").unwrap();
+        let single = options(48, Effect::Transparency);
+        let four = RenderOptions {
+            msaa: 4,
+            ..single.clone()
+        };
+        let lists = crate::reference::fragments(&scene, &four).unwrap();
+        let (one, _) = render_gpu(&scene, &single, "abuffer-ll");
+        let (many, _) = render_gpu(&scene, &four, "abuffer-ll");
+        let mut interior = 0;
+        for (i, list) in lists.iter().enumerate() {
+            if list.is_empty() || list.iter().any(|f| f.coverage != 0b1111) {
+                continue;
+            }
+            interior += 1;
+            // Colors only: counts are invocations (see the module docs).
+            for c in 0..3 {
+                let (a, b) = (one.pixels[i][c], many.pixels[i][c]);
+                assert!((a - b).abs() <= 1e-5, "pixel {i} channel {c}: {a} vs {b}");
+            }
+        }
+        assert!(interior > 1000, "only {interior} fully covered pixels");
+    }
+
+    /// A layer whose edge runs through a column of pixel centers covers two of each pixel's
+    /// four samples there: the pixel gets half the layer's contribution.
+    #[test]
+    fn a_half_covered_edge_pixel_gets_half_the_contribution() {
+        // 32 pixels span x ∈ [-1, 1]: the layer's right edge at 16.5 pixels.
+        let scene = load_scene("builtin:layers?n=1&coverage=0.515625").unwrap();
+        let opts = RenderOptions {
+            msaa: 4,
+            background: Background::Color([0.2, 0.3, 0.4]),
+            ..options(32, Effect::Transparency)
+        };
+        for method in ["abuffer-ll", "kb-ab-fixed"] {
+            let (img, _) = render_gpu(&scene, &opts, method);
+            for y in 4..28 {
+                let at = |x: u32| img.pixels[(y * 32 + x) as usize];
+                let (covered, edge, bare) = (at(15), at(16), at(17));
+                for c in 0..3 {
+                    let half = 0.5 * (covered[c] + bare[c]);
+                    assert!(
+                        (edge[c] - half).abs() < 1e-3,
+                        "{method} row {y} channel {c}: {} vs {half}",
+                        edge[c]
+                    );
+                }
+                assert!((bare[0] - 0.2).abs() < 1e-6 && covered[0] != bare[0]);
+            }
+        }
+    }
+}
