@@ -20,10 +20,14 @@
 //! complexity view — count what was stored, invocations, where the reference counts primitives. The reference
 //! ([`crate::reference`]) supersamples the same way, so the exact methods stay testable.
 //!
-//! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×); methods whose capture keeps
-//! the k nearest per pixel (k-buffers with capture-time selection, peeling, multi-depth tests,
-//! weighted, convex), `--pipeline`, `--raster compute` and `--temporal` refuse `--msaa` with one
-//! error line, since for them a per-pixel choice would not be the per-sample one.
+//! `wboit` blends into multisampled targets instead: the hardware writes each fragment into the
+//! samples it covers and the composite averages the samples' closed forms.
+//!
+//! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×); 8× only where the device
+//! rasterizes it (lavapipe: 4×). Methods whose capture keeps the k nearest per pixel (k-buffers
+//! with capture-time selection, peeling, multi-depth tests, convex) and mboit, `--pipeline`,
+//! `--raster compute` and `--temporal` refuse `--msaa` with one error line: for them a per-pixel
+//! choice would not be the per-sample one, and per-sample versions are not built yet.
 
 use crate::error::{Error, Result};
 use crate::frame::RenderOptions;
@@ -74,7 +78,8 @@ pub fn max_triangles(samples: u32) -> u64 {
     1u64 << (31 - coverage_bits(samples))
 }
 
-/// The methods whose resolve sees every fragment and can composite per sample.
+/// The methods whose resolve sees every fragment and can composite per sample, and wboit,
+/// whose blended targets are multisampled.
 pub fn supported(method: MethodId) -> bool {
     matches!(
         method,
@@ -84,6 +89,7 @@ pub fn supported(method: MethodId) -> bool {
             | MethodId::KbAbFixed
             | MethodId::Sbuffer
             | MethodId::KbSbuffer
+            | MethodId::Wboit
             | MethodId::Reference
     )
 }

@@ -11,6 +11,8 @@ pub enum Slot {
     StorageRw,
     /// `texture_2d<f32>` read with `textureLoad`.
     TextureFloat,
+    /// `texture_multisampled_2d<f32>` read with `textureLoad` (`--msaa` targets).
+    TextureFloatMultisampled,
     /// `texture_2d<u32>` read with `textureLoad`.
     TextureUint,
     /// `texture_depth_2d` read with `textureLoad`.
@@ -23,7 +25,7 @@ fn entry(binding: u32, slot: Slot) -> wgpu::BindGroupLayoutEntry {
     let texture = |sample_type| wgpu::BindingType::Texture {
         sample_type,
         view_dimension: wgpu::TextureViewDimension::D2,
-        multisampled: false,
+        multisampled: slot == Slot::TextureFloatMultisampled,
     };
     let (visibility, ty) = match slot {
         Slot::Uniform => (
@@ -50,7 +52,7 @@ fn entry(binding: u32, slot: Slot) -> wgpu::BindGroupLayoutEntry {
                 min_binding_size: None,
             },
         ),
-        Slot::TextureFloat => (
+        Slot::TextureFloat | Slot::TextureFloatMultisampled => (
             wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE,
             texture(wgpu::TextureSampleType::Float { filterable: false }),
         ),

@@ -167,9 +167,21 @@ impl Gpu {
     pub fn texture_2d(
         &self,
         label: &str,
+        size: (u32, u32),
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        self.texture_2d_samples(label, size, format, usage, 1)
+    }
+
+    /// [`Gpu::texture_2d`] with `samples` per pixel.
+    pub fn texture_2d_samples(
+        &self,
+        label: &str,
         (width, height): (u32, u32),
         format: wgpu::TextureFormat,
         usage: wgpu::TextureUsages,
+        samples: u32,
     ) -> wgpu::Texture {
         self.device.create_texture(&wgpu::TextureDescriptor {
             label: Some(label),
@@ -179,7 +191,7 @@ impl Gpu {
                 depth_or_array_layers: 1,
             },
             mip_level_count: 1,
-            sample_count: 1,
+            sample_count: samples,
             dimension: wgpu::TextureDimension::D2,
             format,
             usage,
@@ -329,19 +341,33 @@ impl ResourceCache {
         &mut self,
         gpu: &Gpu,
         label: &'static str,
+        size: (u32, u32),
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        self.texture_samples(gpu, label, size, format, usage, 1)
+    }
+
+    /// [`ResourceCache::texture`] with `samples` per pixel.
+    pub fn texture_samples(
+        &mut self,
+        gpu: &Gpu,
+        label: &'static str,
         (width, height): (u32, u32),
         format: wgpu::TextureFormat,
         usage: wgpu::TextureUsages,
+        samples: u32,
     ) -> wgpu::Texture {
         if let Some(t) = self.textures.get(label) {
             if (t.width(), t.height()) == (width, height)
                 && t.format() == format
                 && t.usage() == usage
+                && t.sample_count() == samples
             {
                 return t.clone();
             }
         }
-        let t = gpu.texture_2d(label, (width, height), format, usage);
+        let t = gpu.texture_2d_samples(label, (width, height), format, usage, samples);
         self.textures.insert(label, t.clone());
         t
     }

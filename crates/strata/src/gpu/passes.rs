@@ -303,20 +303,13 @@ impl NullTarget {
     pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
 
     pub fn new(gpu: &Gpu, label: &str, (width, height): (u32, u32), samples: u32) -> NullTarget {
-        let t = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: samples,
-            dimension: wgpu::TextureDimension::D2,
-            format: Self::FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
+        let t = gpu.texture_2d_samples(
+            label,
+            (width, height),
+            Self::FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+            samples,
+        );
         NullTarget {
             view: t.create_view(&Default::default()),
             size: (width, height),

@@ -65,6 +65,10 @@ fn every_stage_validates() {
             "wboit.composite",
             include_str!("weighted/wboit_composite.wgsl"),
         ),
+        (
+            "wboit.composite.msaa",
+            &super::weighted::composite_source(4),
+        ),
         ("mboit.moments", &super::weighted::mboit::moments_source()),
         ("mboit.shade", &super::weighted::mboit::shade_source()),
         (

@@ -13,6 +13,10 @@
 //! reference is measured (`strata bench approx-quality`), and its own closed form is tested
 //! (`cpu::wboit`). Translucency gets Fresnel opacity but no absorption between surfaces, which
 //! needs ordered neighbours; the complexity effect counts every fragment.
+//!
+//! With `--msaa` the two targets are multisampled: the blend writes each fragment, shaded once,
+//! into the samples it covers, and the composite averages the per-sample results — what engines
+//! do, and per sample the same closed form.
 
 pub mod cpu;
 pub mod mboit;
@@ -23,7 +27,7 @@ use crate::error::Result;
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
+    capture_pipeline_with, color_geometry_pass, compute_pipeline, dispatch_pixels,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
@@ -48,6 +52,7 @@ pub struct Wboit {
     accumulate: wgpu::RenderPipeline,
     composite: wgpu::ComputePipeline,
     cache: ResourceCache,
+    samples: u32,
 }
 
 impl Wboit {
@@ -58,15 +63,16 @@ impl Wboit {
             "strata.wboit.accumulate.layout",
             &[Slot::Uniform, Slot::StorageRw],
         );
+        let samples = scene.samples;
+        let target = if samples > 1 {
+            Slot::TextureFloatMultisampled
+        } else {
+            Slot::TextureFloat
+        };
         let composite_layout = binding::layout(
             device,
             "strata.wboit.composite.layout",
-            &[
-                Slot::StorageRw,
-                Slot::TextureFloat,
-                Slot::TextureFloat,
-                Slot::StorageRw,
-            ],
+            &[Slot::StorageRw, target, target, Slot::StorageRw],
         );
         let module = shader::module(
             device,
@@ -83,10 +89,10 @@ impl Wboit {
             dst_factor: wgpu::BlendFactor::OneMinusSrc,
             operation: wgpu::BlendOperation::Add,
         };
-        let accumulate = capture_pipeline(
+        let accumulate = capture_pipeline_with(
             gpu,
             "strata.wboit.accumulate",
-            &module,
+            (&module, &module),
             "fs_wboit",
             &[&scene.frame_layout, &accumulate_layout],
             &[
@@ -108,12 +114,9 @@ impl Wboit {
                 }),
             ],
             None,
+            samples,
         );
-        let module = shader::module(
-            device,
-            "strata.wboit.composite",
-            include_str!("wboit_composite.wgsl"),
-        );
+        let module = shader::module(device, "strata.wboit.composite", &composite_source(samples));
         let composite = compute_pipeline(
             gpu,
             "strata.wboit.composite",
@@ -127,7 +130,18 @@ impl Wboit {
             accumulate,
             composite,
             cache: ResourceCache::default(),
+            samples,
         }
+    }
+}
+
+/// The composite stage, reading multisampled targets with `--msaa`.
+pub fn composite_source(samples: u32) -> String {
+    let source = include_str!("wboit_composite.wgsl");
+    if samples > 1 {
+        source.replace("texture_2d<f32>", "texture_multisampled_2d<f32>")
+    } else {
+        source.to_string()
     }
 }
 
@@ -140,22 +154,24 @@ impl Method for Wboit {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let accumulation = self
             .cache
-            .texture(
+            .texture_samples(
                 gpu,
                 "strata.wboit.accumulation",
                 (w, h),
                 ACCUMULATION_FORMAT,
                 usage,
+                self.samples,
             )
             .create_view(&Default::default());
         let revealage = self
             .cache
-            .texture(
+            .texture_samples(
                 gpu,
                 "strata.wboit.revealage",
                 (w, h),
                 REVEALAGE_FORMAT,
                 usage,
+                self.samples,
             )
             .create_view(&Default::default());
         let counts = self.cache.storage(

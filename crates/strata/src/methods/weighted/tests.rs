@@ -71,6 +71,48 @@ fn wboit_equals_its_closed_form_for_every_weight() {
     }
 }
 
+/// With --msaa 4 each sample blends the fragments covering it: the picture is the average of
+/// the samples' closed forms.
+#[test]
+fn multisampled_wboit_averages_the_samples_closed_forms() {
+    let scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
+    let opts = RenderOptions {
+        width: 40,
+        height: 40,
+        msaa: 4,
+        ..Default::default()
+    };
+    let expected = per_pixel(&scene, &opts, |l, bg| {
+        let mut sum = [0.0; 3];
+        for sample in 0..4 {
+            let own: Vec<_> = l
+                .iter()
+                .filter(|f| f.coverage & (1 << sample) != 0)
+                .copied()
+                .collect();
+            let c = cpu::wboit(&own, bg, &opts);
+            sum = std::array::from_fn(|i| sum[i] + c[i] / 4.0);
+        }
+        sum
+    });
+    let (actual, _) = render_gpu(&scene, &opts, "wboit");
+    assert_close(
+        "wboit-msaa4",
+        &actual,
+        &expected,
+        Effect::Transparency,
+        2,
+        0.001,
+    );
+    // Anti-aliased: the edges differ from the single-sampled picture.
+    let single = RenderOptions { msaa: 1, ..opts };
+    let (aliased, _) = render_gpu(&scene, &single, "wboit");
+    let moved = (0..aliased.pixels.len())
+        .filter(|&i| (aliased.pixels[i][0] - actual.pixels[i][0]).abs() > 0.02)
+        .count();
+    assert!(moved > 20, "{moved} pixels changed");
+}
+
 /// The weights change the picture (a weight ignored would pass the test above on one weight
 /// only if the closed form ignored it too): eq. 7 and eq. 9 differ on overlapping layers.
 #[test]
