@@ -267,9 +267,26 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             }
         });
     let id = m.method;
+    // A method that cannot take MSAA renders single-sampled rather than failing.
+    if !applies(Opt::Msaa, id, pipeline) || m.raster != Raster::Hw {
+        state.picture.msaa = 1;
+    }
     ui.add_enabled_ui(applies(Opt::RasterCompute, id, pipeline), |ui| {
         choice(ui, "raster", &mut m.raster);
     });
+    ui.add_enabled_ui(
+        applies(Opt::Msaa, id, pipeline) && m.raster == Raster::Hw,
+        |ui| {
+            let msaa = &mut state.picture.msaa;
+            egui::ComboBox::from_label("MSAA samples")
+                .selected_text(msaa.to_string())
+                .show_ui(ui, |ui| {
+                    for n in strata::frame::msaa::SAMPLE_COUNTS {
+                        ui.selectable_value(msaa, n, n.to_string());
+                    }
+                });
+        },
+    );
     ui.add_enabled_ui(applies(Opt::K, id, pipeline), |ui| {
         let k = &mut state.picture.k;
         ui.horizontal(|ui| {

@@ -28,6 +28,8 @@ pub enum Opt {
     Order,
     /// `--temporal`: the slot k-buffers that choose at capture time.
     Temporal,
+    /// `--msaa`: the methods that store every fragment and wboit, without a lit pipeline.
+    Msaa,
 }
 
 /// The family a method is listed under, and its methods in catalogue order (the reference
@@ -79,6 +81,10 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
         Opt::Order => method != Sorted,
         Opt::Temporal => strata::methods::kbuffer::temporal::takes(method),
+        Opt::Msaa => {
+            strata::frame::msaa::supported(method)
+                && matches!(pipeline, None | Some(PipelineArg::None))
+        }
     }
 }
 
@@ -311,6 +317,9 @@ impl ViewState {
             push("fov", f.to_string());
         }
         let id = m.method;
+        if p.msaa != 1 {
+            push("msaa", p.msaa.to_string());
+        }
         if m.raster != Raster::Hw {
             push("raster", value_name(&m.raster));
         }
@@ -395,7 +404,13 @@ fn rebuild_key(s: &ViewState) -> String {
         "{:?}",
         (
             (&p.scene, &p.shading, p.alpha, p.lights, p.pipeline, p.tonemap),
-            (m.raster, m.heap_size, m.weight, m.depth_scale.to_bits()),
+            (
+                m.raster,
+                m.heap_size,
+                m.weight,
+                m.depth_scale.to_bits(),
+                p.msaa
+            ),
             (m.ssao, m.normal_encoding, m.gbuffer_debug),
             (
                 m.budget_mb.map(f64::to_bits),
@@ -452,6 +467,9 @@ mod tests {
         assert!(!applies(Opt::Layers, Kpeel, None));
         assert!(applies(Opt::Weight, Wboit, None));
         assert!(!applies(Opt::Weight, Mboit, None));
+        assert!(applies(Opt::Msaa, Sbuffer, None));
+        assert!(!applies(Opt::Msaa, KplusHeap, None));
+        assert!(!applies(Opt::Msaa, Wboit, Some(PipelineArg::Deferred)));
         assert!(applies(Opt::RasterCompute, KbMdt64, None));
         assert!(!applies(Opt::RasterCompute, KplusHeap, None));
         assert!(!applies(Opt::Tonemap, Unsorted, None));
@@ -547,6 +565,15 @@ mod tests {
         assert_eq!(scene.camera_or_framing(), s.camera());
         assert_eq!(format!("{options:?}"), format!("{view_options:?}"));
         assert_eq!(scene.time, 12.5);
+    }
+
+    #[test]
+    fn command_line_keeps_msaa() {
+        let s = state(&["builtin:spheres", "--method", "sbuffer", "--msaa", "4"]);
+        let line = s.command_line();
+        assert!(line.contains("--msaa 4"), "{line}");
+        let one = state(&["builtin:spheres", "--method", "sbuffer"]);
+        assert!(!one.command_line().contains("--msaa"));
     }
 
     /// Splits a line of plain words and single-quoted ones.
