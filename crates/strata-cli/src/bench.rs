@@ -93,6 +93,8 @@ pub struct Run {
     /// wboit's weight function and depth scale.
     weight: strata::Weight,
     depth_scale: f64,
+    /// Samples per pixel (`--msaa`).
+    msaa: u32,
 }
 
 impl Run {
@@ -104,6 +106,16 @@ impl Run {
             culling: true,
             weight: strata::Weight::default(),
             depth_scale: 1.0,
+            msaa: 1,
+        }
+    }
+
+    /// `self` at `msaa` samples per pixel.
+    fn multisampled(self, msaa: u32) -> Run {
+        Run {
+            label: format!("{} msaa={msaa}", self.label),
+            msaa,
+            ..self
         }
     }
 
@@ -189,6 +201,29 @@ const EXPERIMENTS: &[Experiment] = &[
             runs
         },
         quality: true,
+    },
+    Experiment {
+        name: "msaa",
+        description: "issue 13: every family that takes --msaa at 1, 4 and 8 samples per pixel (8 where the device rasterizes it): time, memory, fragments stored (a pixel on a mesh edge stores one per primitive touching it), and abuffer-fixed's drops at k = 16 (edges overflowing per-pixel arrays)",
+        scenes: &["builtin:dragon", "builtin:spheres", "builtin:nvpro?objects=1024&subdiv=16&seed=0"],
+        size_gpu: "1024x1024",
+        size_cpu: "160x160",
+        alpha: Some(0.5),
+        frames: 5,
+        runs: || {
+            let base = [
+                Run::plain("abuffer-ll"),
+                Run::plain("sbuffer"),
+                Run::with_k("kb-ab-ll", 8, true),
+                Run::with_k("kb-ab-fixed", 8, true),
+                Run::with_k("abuffer-fixed", 16, true),
+                Run::plain("wboit"),
+            ];
+            base.iter()
+                .flat_map(|r| [1, 4, 8].map(|n| r.clone().multisampled(n)))
+                .collect()
+        },
+        quality: false,
     },
     Experiment {
         name: "realtime",
@@ -324,6 +359,8 @@ pub(crate) struct MethodResult {
     method: String,
     k: Option<u32>,
     culling: bool,
+    /// Samples per pixel.
+    msaa: u32,
     frames: u32,
     /// Median over frames of the sum of all passes' GPU time; null without timestamps.
     pub(crate) median_gpu_ms: Option<f64>,
@@ -625,6 +662,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             options.culling = run.culling;
             options.weight = run.weight;
             options.depth_scale = run.depth_scale;
+            options.msaa = run.msaa;
             match measure(gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r) {
                 Ok(mut result) => {
                     result.scene = scene.clone();
@@ -726,6 +764,7 @@ impl MethodResult {
             method: run.method.clone(),
             k: run.k,
             culling: run.culling,
+            msaa: run.msaa,
             frames,
             median_gpu_ms: None,
             median_gpu_ms_per_pass: None,
@@ -959,7 +998,7 @@ fn print_table(r: &BenchReport) {
 
 fn csv(r: &BenchReport) -> String {
     let mut s = String::from(
-        "experiment,scene,width,height,adapter,cpu_figures,commit,label,method,k,culling,median_gpu_ms,median_wall_ms,fps,blocking_readbacks,geometry_passes,fragments,fragments_dropped,max_depth_complexity,bytes_allocated,gpu_ms_per_mib,lock_failures,rmse,flip_mean,pct_over_2,rmse_vs_k,flip_vs_k,pct_over_2_vs_k,skipped\n",
+        "experiment,scene,width,height,adapter,cpu_figures,commit,label,method,k,culling,msaa,median_gpu_ms,median_wall_ms,fps,blocking_readbacks,geometry_passes,fragments,fragments_dropped,max_depth_complexity,bytes_allocated,gpu_ms_per_mib,lock_failures,rmse,flip_mean,pct_over_2,rmse_vs_k,flip_vs_k,pct_over_2_vs_k,skipped\n",
     );
     let opt = |v: Option<String>| v.unwrap_or_default();
     for m in &r.results {
@@ -979,6 +1018,7 @@ fn csv(r: &BenchReport) -> String {
             m.method.clone(),
             opt(m.k.map(|k| k.to_string())),
             m.culling.to_string(),
+            m.msaa.to_string(),
             opt(m.median_gpu_ms.map(|v| format!("{v:.3}"))),
             if m.median_wall_ms.is_finite() {
                 format!("{:.3}", m.median_wall_ms)

@@ -25,6 +25,7 @@ use crate::bench::median;
 /// Numbers that name a row's configuration rather than measure it.
 const CONFIGURATION: &[&str] = &[
     "k",
+    "msaa",
     "step",
     "seed",
     "lights",

@@ -242,7 +242,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "weighted",
             exact: false,
             geometry_passes: "1",
-            memory: "14·W·H",
+            memory: "(10·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
             summary: "weighted blended OIT (McGuire & Bavoil 2013): weighted average color over exact coverage, weights of eqs. 7-10 (--weight, --depth-scale); what engines ship",
         },
         MethodInfo {

@@ -6,7 +6,8 @@
 //! per-pixel fragment count); composite (compute: the weighted average color times the coverage
 //! 1 − Π(1 − α), into the output). The weight w(z, α) is one of the paper's equations 7–10
 //! (`--weight`), of the view-space distance times `--depth-scale` (the constants assume 0.1–500
-//! units) or, for equation 10, of the window depth. Memory: 8 + 2 + 4 = 14 bytes per pixel.
+//! units) or, for equation 10, of the window depth. Memory: 8 + 2 + 4 = 14 bytes per pixel (the
+//! targets' 10 per sample with `--msaa`).
 //!
 //! Not exact, by design: the coverage is exact, the color a weighted average that approaches
 //! the ordered composite only when the weights fall steeply with depth. Its error against the
@@ -34,8 +35,10 @@ use crate::methods::Method;
 
 const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const REVEALAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
-/// Bytes per pixel: the two targets and the fragment count.
-pub const WBOIT_PIXEL_BYTES: u64 = 8 + 2 + 4;
+/// Bytes per pixel and sample of the two targets.
+pub const WBOIT_SAMPLE_BYTES: u64 = 8 + 2;
+/// Bytes per pixel of the fragment count.
+pub const WBOIT_COUNT_BYTES: u64 = 4;
 
 /// Keep in sync with `WboitParams` in wboit_accumulate.wgsl.
 #[repr(C)]
@@ -148,7 +151,7 @@ pub fn composite_source(samples: u32) -> String {
 impl Method for Wboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let bytes = ctx.pixels() * WBOIT_PIXEL_BYTES;
+        let bytes = ctx.pixels() * (WBOIT_SAMPLE_BYTES * self.samples as u64 + WBOIT_COUNT_BYTES);
         ctx.check_budget(bytes)?;
         let (w, h) = ctx.size();
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
