@@ -58,6 +58,10 @@ enum Command {
     /// The convex decomposition `convex` orders (seed 001): parts, groups, nesting, pairs
     /// without a separating plane, this view's passes; --out renders a color per group.
     Convex(ConvexArgs),
+    /// Write a scene as glTF 2.0 (.glb, or .gltf with the data embedded): meshes, materials
+    /// (alphaMode BLEND), camera and lights, so other renderers draw exactly strata's scene;
+    /// strata reloads it to the same picture.
+    Export(ExportArgs),
     /// Refresh the generated charts and tables of bench/REPORT.md from bench/results/ (the
     /// hand-written text outside the generated blocks is kept).
     Report(report::ReportArgs),
@@ -311,6 +315,46 @@ struct HistogramArgs {
 }
 
 #[derive(Args)]
+struct ExportArgs {
+    /// A scene file (.toml, .obj, .ply, .gltf, .glb) or builtin:NAME?key=value&...
+    #[arg(default_value = "builtin:demo")]
+    scene: String,
+    /// The glTF file to write: .glb, or .gltf with its buffer as a base64 data: URI.
+    #[arg(short, long, default_value = "scene.glb")]
+    output: PathBuf,
+    /// Image size WxH the file records as its picture default (with the camera's aspect ratio).
+    #[arg(long, allow_hyphen_values = true)]
+    size: Option<String>,
+    /// checker | #rrggbb (sRGB): the background the file records as its picture default.
+    #[arg(long)]
+    background: Option<String>,
+    /// unlit | lit: every material's shading (unlit materials get KHR_materials_unlit).
+    #[arg(long)]
+    shading: Option<String>,
+    /// Sets every material's opacity.
+    #[arg(long)]
+    alpha: Option<f32>,
+    /// Animation time in frames: objects and camera are written where they are then.
+    #[arg(long)]
+    frame: Option<f32>,
+    /// Add N coloured point lights, a deterministic field over the scene's bounds.
+    #[arg(long)]
+    lights: Option<u32>,
+    /// Camera position X,Y,Z (default: the scene's camera, else auto-framed).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    eye: Option<[f32; 3]>,
+    /// The point the camera looks at, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    target: Option<[f32; 3]>,
+    /// The camera's up direction, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees (perspective cameras), in (0, 180).
+    #[arg(long)]
+    fov: Option<f32>,
+}
+
+#[derive(Args)]
 struct ConvexArgs {
     /// The model or scene to decompose.
     #[arg(default_value = "builtin:teapot")]
@@ -420,6 +464,7 @@ fn run(command: Command) -> Result<()> {
         Command::Info { json } => info(json),
         Command::Histogram(a) => histogram(a),
         Command::Convex(a) => convex(a),
+        Command::Export(a) => export(a),
         Command::Bench(a) => bench::run(a),
         Command::Report(a) => report::run(a),
         Command::View(a) => view::run(a),
@@ -1162,6 +1207,41 @@ fn convex(a: ConvexArgs) -> Result<()> {
     if let Some(out) = &a.out {
         println!("-> {}", out.display());
     }
+    Ok(())
+}
+
+fn export(a: ExportArgs) -> Result<()> {
+    let container = strata::scene::export::GltfContainer::for_path(&a.output)?;
+    let picture = PictureArgs {
+        size: a.size.clone(),
+        background: a.background.clone(),
+        shading: a.shading,
+        alpha: a.alpha,
+        frame: a.frame,
+        lights: a.lights,
+        eye: a.eye,
+        target: a.target,
+        up: a.up,
+        fov: a.fov,
+        ..PictureArgs::for_scene(a.scene)
+    };
+    let (scene, options) = prepare(&picture)?;
+    let defaults = strata::scene::export::ExportDefaults {
+        size: a.size.map(|_| [options.width, options.height]),
+        background: a.background.map(|_| options.background),
+    };
+    let bytes = strata::scene::export::to_gltf(&scene, &defaults, container)?;
+    let mut outputs = strata::output::Outputs::new();
+    outputs.add(&a.output, bytes)?;
+    outputs.commit()?;
+    println!(
+        "{}: {} objects, {} triangles, {} materials, {} lights",
+        a.output.display(),
+        scene.objects.len(),
+        scene.triangle_count(),
+        scene.materials.len(),
+        scene.lights.len()
+    );
     Ok(())
 }
 

@@ -1449,3 +1449,63 @@ fn report_refreshes_generated_blocks_and_keeps_the_prose() {
     assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(&report).unwrap(), first);
 }
+
+/// `strata export` writes a scene as glTF that renders to the same picture as the scene itself:
+/// the demo (lights, deferred pipeline), a moving scene at a frame, and a scene file with
+/// translucent, unlit and lit materials under the translucency effect.
+#[test]
+fn exported_gltf_renders_the_same_picture() {
+    let dir = workdir("export");
+    let balls = "builtin:balls?count=40".to_string();
+    let scene_file = fixture("scene.toml");
+    let cases: [(&str, &str, &[&str], &[&str]); 3] = [
+        ("demo.glb", "builtin:demo", &[], &["--size", "64x48"]),
+        (
+            "balls.gltf",
+            &balls,
+            &["--frame", "4"],
+            &["--size", "64x48"],
+        ),
+        (
+            "file.glb",
+            &scene_file,
+            &[],
+            &[
+                "--effect",
+                "translucency",
+                "--method",
+                "abuffer-fixed",
+                "--k",
+                "32",
+            ],
+        ),
+    ];
+    for (name, scene, export_args, render_args) in cases {
+        let exported = dir.join(name);
+        let mut args = vec!["export", scene, "-o", exported.to_str().unwrap()];
+        args.extend(export_args);
+        let o = strata(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (direct, reloaded) = (
+            dir.join(format!("{name}.direct.png")),
+            dir.join(format!("{name}.png")),
+        );
+        for (source, extra, out) in [
+            (scene, export_args, &direct),
+            (exported.to_str().unwrap(), &[][..], &reloaded),
+        ] {
+            let mut args = vec!["render", source, "-o", out.to_str().unwrap()];
+            args.extend(extra);
+            args.extend(render_args);
+            let o = strata(&args);
+            assert!(o.status.success(), "{}", stderr(&o));
+        }
+        assert_eq!(
+            std::fs::read(&direct).unwrap(),
+            std::fs::read(&reloaded).unwrap(),
+            "{name}: the exported scene renders differently"
+        );
+    }
+    // assert_bad_input adds `-o out.png`: not a glTF name.
+    assert_bad_input(&["export", "builtin:demo"], "must end in .glb or .gltf");
+}

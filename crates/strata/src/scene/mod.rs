@@ -7,6 +7,7 @@
 
 pub mod animation;
 pub mod builtin;
+pub mod export;
 pub mod loaders;
 pub mod subdivide;
 

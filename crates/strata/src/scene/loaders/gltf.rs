@@ -12,6 +12,18 @@
 //! `alphaCutoff` (default 0.5) is cut out entirely and dropped. Textures are ignored. A
 //! primitive without a material gets none (the caller's default).
 //!
+//! Extensions: `KHR_materials_unlit` gives unlit shading, `KHR_materials_ior` the index of
+//! refraction. As a scene (`load_scene`), the first camera node met in the traversal becomes the
+//! camera (its target one unit ahead, unless the scene's extras say otherwise; an infinite far
+//! plane ends past the scene's bounds), and `KHR_lights_punctual` lights become point, spot
+//! (outer cone angle) and directional lights (glTF's inverse-square falloff as attenuation
+//! [1, 0, 1]; an infinite range reaches twice the bounds' diagonal).
+//!
+//! strata's own extras (written by `strata export`, see [`crate::scene::export`]) override the
+//! above: a scene's `extras.strata` holds `camera`, `light` and `render` tables with the fields of
+//! the TOML scene file, a material's `extras.strata` its `absorption`, `ior`, `shading` and
+//! `shininess`.
+//!
 //! Buffers: the GLB binary chunk, `data:` URIs in base64, or files relative to the glTF file
 //! (regular files of at most [`MAX_BUFFER_BYTES`]); every failure names the buffer and, for a
 //! file, its path.
@@ -27,7 +39,9 @@ use glam::Mat4;
 
 use super::{finish_mesh, Part};
 use crate::error::{Error, Result};
-use crate::scene::{Material, Mesh};
+use crate::scene::{
+    Background, Camera, Light, LightKind, Material, Mesh, Projection, RenderDefaults, Shading,
+};
 
 /// Deepest node hierarchy we follow (a cycle would otherwise recurse forever).
 const MAX_DEPTH: usize = 256;
@@ -36,6 +50,78 @@ const MAX_DEPTH: usize = 256;
 pub const MAX_BUFFER_BYTES: u64 = 4 << 30;
 
 pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Part>> {
+    Ok(load_scene(path, warnings)?.parts)
+}
+
+/// What a glTF file holds besides its meshes, for a scene.
+pub(super) struct GltfScene {
+    pub parts: Vec<Part>,
+    /// The camera: from strata's extras, else the first camera node (resolved against the
+    /// bounds by [`GltfScene::camera`]).
+    camera: Option<CameraSource>,
+    /// From strata's extras, else `KHR_lights_punctual` (ranges resolved against the bounds).
+    lights: Vec<(Light, bool)>,
+    pub defaults: RenderDefaults,
+}
+
+enum CameraSource {
+    Exact(Camera),
+    Node {
+        world: Mat4,
+        projection: Projection,
+        near: f32,
+        far: Option<f32>,
+    },
+}
+
+impl GltfScene {
+    /// The camera, with what the file leaves open taken from the scene's bounds.
+    pub fn camera(&self, lo: glam::Vec3, hi: glam::Vec3) -> Option<Camera> {
+        match self.camera.as_ref()? {
+            CameraSource::Exact(c) => Some(*c),
+            &CameraSource::Node {
+                world,
+                projection,
+                near,
+                far,
+            } => {
+                let eye = world.transform_point3(glam::Vec3::ZERO);
+                let forward = world.transform_vector3(glam::Vec3::NEG_Z).try_normalize()?;
+                let up = world.transform_vector3(glam::Vec3::Y).try_normalize()?;
+                let reach = [lo, hi]
+                    .iter()
+                    .flat_map(|a| [lo, hi].map(|b| (a, b)))
+                    .flat_map(|(a, b)| [lo, hi].map(|c| glam::Vec3::new(a.x, b.y, c.z)))
+                    .map(|corner| (corner - eye).length())
+                    .fold(0.0f32, f32::max);
+                let far = far.unwrap_or((reach * 1.01).max(near * 2.0));
+                Some(Camera {
+                    eye,
+                    target: eye + forward,
+                    up,
+                    projection,
+                    near,
+                    far,
+                })
+            }
+        }
+    }
+
+    /// The lights, infinite ranges reaching twice the bounds' diagonal.
+    pub fn lights(&self, lo: glam::Vec3, hi: glam::Vec3) -> Vec<Light> {
+        let reach = ((hi - lo).length() * 2.0).max(1e-3);
+        self.lights
+            .iter()
+            .map(|&(l, infinite)| Light {
+                range: if infinite { reach } else { l.range },
+                ..l
+            })
+            .collect()
+    }
+}
+
+/// Loads a glTF file as a scene: its parts, camera, lights and picture defaults.
+pub(super) fn load_scene(path: &Path, warnings: &mut Vec<String>) -> Result<GltfScene> {
     let bytes = super::read_file(path)?;
     let base = path.parent().unwrap_or(Path::new(""));
     parse(&bytes, base, &path.display().to_string(), warnings)
@@ -47,7 +133,7 @@ pub(super) fn parse(
     base: &Path,
     what: &str,
     warnings: &mut Vec<String>,
-) -> Result<Vec<Part>> {
+) -> Result<GltfScene> {
     let gltf_err = |e: ::gltf::Error| Error::input(format!("{what}: {}", describe(e)));
     let Gltf { document, blob } = Gltf::from_slice_without_validation(bytes).map_err(gltf_err)?;
     // gltf-json's validator indexes the POSITION accessor unchecked: check references first.
@@ -75,12 +161,24 @@ pub(super) fn parse(
         Some(scene) => scene.nodes().collect(),
         None => document.scenes().flat_map(|s| s.nodes()).collect(),
     };
+    let extras = match document.default_scene().or(document.scenes().next()) {
+        Some(scene) => strata_extras(scene.extras(), what, "scene")?,
+        None => None,
+    };
+    let extras = extras
+        .map(|v| {
+            serde_json::from_value::<SceneExtras>(v)
+                .map_err(|e| Error::input(format!("{what}: scene extras.strata: {}", one_line(e))))
+        })
+        .transpose()?;
     let mut ctx = Ctx {
         what,
         buffers: &buffers,
         parts: Vec::new(),
         materials: HashMap::new(),
         skipped_modes: 0,
+        camera: None,
+        lights: Vec::new(),
     };
     for node in roots {
         ctx.visit(&node, Mat4::IDENTITY, 0)?;
@@ -91,7 +189,107 @@ pub(super) fn parse(
             ctx.skipped_modes
         ));
     }
-    Ok(ctx.parts)
+    let mut scene = GltfScene {
+        parts: ctx.parts,
+        camera: ctx.camera,
+        lights: ctx.lights,
+        defaults: RenderDefaults::default(),
+    };
+    if let Some(extras) = extras {
+        extras.apply(&mut scene, what)?;
+    }
+    Ok(scene)
+}
+
+/// strata's extras of a scene (the TOML scene file's tables, in JSON).
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneExtras {
+    camera: Option<super::toml::CameraDef>,
+    light: Option<Vec<super::toml::LightDef>>,
+    render: Option<RenderExtras>,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderExtras {
+    size: Option<[u32; 2]>,
+    /// `checker`, `#rrggbb`, or linear `[r, g, b]`.
+    background: Option<serde_json::Value>,
+    shading: Option<Shading>,
+    pipeline: Option<crate::deferred::Pipeline>,
+}
+
+impl SceneExtras {
+    fn apply(self, scene: &mut GltfScene, what: &str) -> Result<()> {
+        let err = |part: &str, msg: String| {
+            Error::input(format!("{what}: scene extras.strata.{part}: {msg}"))
+        };
+        if let Some(c) = self.camera {
+            scene.camera = Some(CameraSource::Exact(
+                super::toml::camera(c).map_err(|m| err("camera", m))?,
+            ));
+        }
+        if let Some(lights) = self.light {
+            scene.lights = lights
+                .into_iter()
+                .enumerate()
+                .map(|(i, l)| {
+                    super::toml::light(l)
+                        .map(|l| (l, false))
+                        .map_err(|m| err(&format!("light[{i}]"), m))
+                })
+                .collect::<Result<_>>()?;
+        }
+        if let Some(r) = self.render {
+            if let Some([w, h]) = r.size {
+                if w == 0 || h == 0 {
+                    return Err(err("render", format!("size [{w}, {h}] must be positive")));
+                }
+            }
+            let background = match r.background {
+                None => None,
+                Some(serde_json::Value::String(s)) => Some(
+                    s.parse::<Background>()
+                        .map_err(|e| err("render", e.to_string()))?,
+                ),
+                Some(v) => {
+                    let c: [f32; 3] = serde_json::from_value(v).map_err(|_| {
+                        err(
+                            "render",
+                            "background must be 'checker', '#rrggbb' or [r, g, b]".into(),
+                        )
+                    })?;
+                    if !c.iter().all(|x| x.is_finite() && *x >= 0.0) {
+                        return Err(err(
+                            "render",
+                            format!("background {c:?} must be finite and non-negative"),
+                        ));
+                    }
+                    Some(Background::Color(c))
+                }
+            };
+            scene.defaults = RenderDefaults {
+                size: r.size,
+                background,
+                shading: r.shading,
+                pipeline: r.pipeline,
+            };
+        }
+        Ok(())
+    }
+}
+
+/// The `strata` member of an element's extras, if it has one.
+fn strata_extras(
+    extras: &::gltf::json::Extras,
+    what: &str,
+    element: &str,
+) -> Result<Option<serde_json::Value>> {
+    let Some(raw) = extras else { return Ok(None) };
+    let value: serde_json::Value = serde_json::from_str(raw.get())
+        .map_err(|e| Error::input(format!("{what}: {element} extras: {}", one_line(e))))?;
+    Ok(value.get("strata").cloned())
 }
 
 /// Each buffer's bytes, from the GLB chunk, a `data:` URI or a file beside the glTF file.
@@ -227,6 +425,8 @@ struct Ctx<'a> {
     /// Converted materials by glTF index; `None` means "cut out" (MASK below cutoff).
     materials: HashMap<usize, Option<Material>>,
     skipped_modes: usize,
+    camera: Option<CameraSource>,
+    lights: Vec<(Light, bool)>,
 }
 
 impl Ctx<'_> {
@@ -247,6 +447,13 @@ impl Ctx<'_> {
                 node.index()
             )));
         }
+        if let (None, Some(camera)) = (&self.camera, node.camera()) {
+            self.camera = Some(self.camera_of(world, &camera, node.index())?);
+        }
+        if let Some(light) = node.light() {
+            self.lights
+                .push(self.light_of(world, &light, node.index())?);
+        }
         if let Some(mesh) = node.mesh() {
             let mesh_name = mesh
                 .name()
@@ -260,11 +467,11 @@ impl Ctx<'_> {
                 let material = match prim.material().index() {
                     None => None,
                     Some(i) => {
-                        let m = self
-                            .materials
-                            .entry(i)
-                            .or_insert_with(|| convert_material(&prim.material()));
-                        match m {
+                        if !self.materials.contains_key(&i) {
+                            let m = convert_material(&prim.material(), self.what)?;
+                            self.materials.insert(i, m);
+                        }
+                        match &self.materials[&i] {
                             None => continue, // cut out
                             Some(m) => Some(m.clone()),
                         }
@@ -277,7 +484,12 @@ impl Ctx<'_> {
                 };
                 let what = format!("{}: mesh '{name}'", self.what);
                 let local_mesh = self.read_primitive(&prim, &what)?;
-                let mut m = local_mesh.transformed(world);
+                // Untransformed meshes keep their normals bit for bit (an exported scene).
+                let mut m = if world == Mat4::IDENTITY {
+                    local_mesh
+                } else {
+                    local_mesh.transformed(world)
+                };
                 if world.determinant() < 0.0 {
                     for t in m.indices.chunks_exact_mut(3) {
                         t.swap(1, 2);
@@ -290,6 +502,107 @@ impl Ctx<'_> {
             self.visit(&child, world, depth + 1)?;
         }
         Ok(())
+    }
+
+    fn camera_of(&self, world: Mat4, camera: &::gltf::Camera, node: usize) -> Result<CameraSource> {
+        let bad =
+            |msg: String| Error::input(format!("{}: camera of node {node}: {msg}", self.what));
+        let (projection, near, far) = match camera.projection() {
+            ::gltf::camera::Projection::Perspective(p) => {
+                let fov_y_deg = p.yfov().to_degrees();
+                if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
+                    return Err(bad(format!("yfov {} is outside (0, π)", p.yfov())));
+                }
+                (Projection::Perspective { fov_y_deg }, p.znear(), p.zfar())
+            }
+            ::gltf::camera::Projection::Orthographic(o) => {
+                let height = 2.0 * o.ymag();
+                if !(height > 0.0 && height.is_finite()) {
+                    return Err(bad(format!("ymag {} must be positive", o.ymag())));
+                }
+                (
+                    Projection::Orthographic { height },
+                    o.znear(),
+                    Some(o.zfar()),
+                )
+            }
+        };
+        if !(near > 0.0 && near.is_finite()) || far.is_some_and(|f| !(f > near && f.is_finite())) {
+            return Err(bad(format!(
+                "znear {near} and zfar {far:?} must satisfy 0 < znear < zfar"
+            )));
+        }
+        if world
+            .x_axis
+            .truncate()
+            .cross(world.y_axis.truncate())
+            .length()
+            < 1e-12
+        {
+            return Err(bad("its node's transform is degenerate".into()));
+        }
+        Ok(CameraSource::Node {
+            world,
+            projection,
+            near,
+            far,
+        })
+    }
+
+    fn light_of(
+        &self,
+        world: Mat4,
+        light: &::gltf::khr_lights_punctual::Light,
+        node: usize,
+    ) -> Result<(Light, bool)> {
+        use ::gltf::khr_lights_punctual::Kind;
+        let bad = |msg: String| Error::input(format!("{}: light of node {node}: {msg}", self.what));
+        let color = light.color();
+        let intensity = light.intensity();
+        if !color.iter().all(|c| c.is_finite() && *c >= 0.0) {
+            return Err(bad(format!(
+                "color {color:?} must be finite and non-negative"
+            )));
+        }
+        if !(intensity.is_finite() && intensity >= 0.0) {
+            return Err(bad(format!("intensity {intensity} must be ≥ 0")));
+        }
+        let range = light.range();
+        if range.is_some_and(|r| !(r > 0.0 && r.is_finite())) {
+            return Err(bad(format!("range {range:?} must be positive")));
+        }
+        let (kind, angle_deg) = match light.kind() {
+            Kind::Directional => (LightKind::Directional, Light::default().angle_deg),
+            Kind::Point => (LightKind::Point, Light::default().angle_deg),
+            Kind::Spot {
+                outer_cone_angle, ..
+            } => {
+                let deg = outer_cone_angle.to_degrees();
+                if !(deg > 0.0 && deg < 180.0) {
+                    return Err(bad(format!(
+                        "outerConeAngle {outer_cone_angle} must be in (0, π)"
+                    )));
+                }
+                (LightKind::Spot, deg)
+            }
+        };
+        let direction = world
+            .transform_vector3(glam::Vec3::NEG_Z)
+            .try_normalize()
+            .ok_or_else(|| bad("its node's transform is degenerate".into()))?;
+        Ok((
+            Light {
+                kind,
+                position: world.transform_point3(glam::Vec3::ZERO),
+                direction,
+                angle_deg,
+                color,
+                intensity,
+                range: range.unwrap_or(1.0),
+                attenuation: [1.0, 0.0, 1.0],
+            },
+            range.is_none(),
+        ))
     }
 
     fn read_primitive(&self, prim: &::gltf::Primitive, what: &str) -> Result<Mesh> {
@@ -398,8 +711,18 @@ fn check_accessor(
     Ok(())
 }
 
+/// strata's extras of a material: the fields glTF lacks.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialExtras {
+    absorption: Option<f32>,
+    ior: Option<f32>,
+    shading: Option<Shading>,
+    shininess: Option<f32>,
+}
+
 /// `None`: the material cuts everything out (MASK with factor alpha below the cutoff).
-fn convert_material(m: &::gltf::Material) -> Option<Material> {
+fn convert_material(m: &::gltf::Material, what: &str) -> Result<Option<Material>> {
     let pbr = m.pbr_metallic_roughness();
     let [r, g, b, a] = pbr.base_color_factor();
     let opacity = match m.alpha_mode() {
@@ -407,18 +730,39 @@ fn convert_material(m: &::gltf::Material) -> Option<Material> {
         AlphaMode::Opaque => 1.0,
         AlphaMode::Mask => {
             if a < m.alpha_cutoff().unwrap_or(0.5) {
-                return None;
+                return Ok(None);
             }
             1.0
         }
     };
-    Some(Material {
-        name: m
-            .name()
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
+    let name = m
+        .name()
+        .map(str::to_string)
+        .unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0)));
+    let mut material = Material {
+        name,
         color: [r, g, b].map(|c| if c.is_finite() { c.max(0.0) } else { 0.8 }),
         opacity,
         ..Material::default()
-    })
+    };
+    if m.unlit() {
+        material.shading = Shading::Unlit;
+    }
+    // glTF allows 0 for an ior it leaves undefined; strata needs ≥ 1.
+    if let Some(ior) = m.ior().filter(|&ior| ior >= 1.0) {
+        material.ior = ior;
+    }
+    let element = format!("material '{}'", material.name);
+    if let Some(v) = strata_extras(m.extras(), what, &element)? {
+        let e: MaterialExtras = serde_json::from_value(v).map_err(|e| {
+            Error::input(format!("{what}: {element} extras.strata: {}", one_line(e)))
+        })?;
+        material.absorption = e.absorption.unwrap_or(material.absorption);
+        material.ior = e.ior.unwrap_or(material.ior);
+        material.shading = e.shading.unwrap_or(material.shading);
+        material.shininess = e.shininess.unwrap_or(material.shininess);
+    }
+    super::toml::check_material(&material)
+        .map_err(|msg| Error::input(format!("{what}: {element}: {msg}")))?;
+    Ok(Some(material))
 }

@@ -37,7 +37,7 @@ fn kind_of(path: &Path) -> Option<Kind> {
 }
 
 /// Loads a scene from `spec`: a `.toml` scene file, a model file (`.obj`, `.ply`, `.gltf`,
-/// `.glb`: auto-framed camera, headlight, the file's materials or the default one), or
+/// `.glb`: auto-framed camera, headlight, the file's materials or the default one; a glTF file's camera, lights and strata extras), or
 /// `builtin:NAME?key=value&...`. The result has passed [`Scene::validate`].
 pub fn load_scene(spec: &str) -> Result<Scene> {
     if let Some(rest) = spec.strip_prefix("builtin:") {
@@ -60,6 +60,24 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
             let scene = toml::load(path, &mut warnings);
             print_warnings(&warnings);
             scene?
+        }
+        Kind::Gltf => {
+            let mut warnings = Vec::new();
+            let loaded = gltf::load_scene(path, &mut warnings);
+            print_warnings(&warnings);
+            let mut loaded = loaded?;
+            if loaded.parts.is_empty() {
+                return Err(Error::input(format!(
+                    "{}: no triangles found",
+                    path.display()
+                )));
+            }
+            let mut scene = scene_from_parts(std::mem::take(&mut loaded.parts));
+            let (lo, hi) = scene.bounds();
+            scene.camera = loaded.camera(lo, hi);
+            scene.lights = loaded.lights(lo, hi);
+            scene.defaults = loaded.defaults;
+            scene
         }
         _ => scene_from_parts(load_model(path)?),
     };

@@ -96,7 +96,7 @@ enum ProjectionKind {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct CameraDef {
+pub(super) struct CameraDef {
     eye: [f32; 3],
     #[serde(default)]
     target: [f32; 3],
@@ -194,7 +194,7 @@ struct ObjectDef {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct LightDef {
+pub(super) struct LightDef {
     kind: Option<LightKind>,
     position: Option<[f32; 3]>,
     direction: Option<[f32; 3]>,
@@ -504,7 +504,7 @@ pub(crate) fn parse(
     Ok(scene)
 }
 
-fn camera(c: CameraDef) -> std::result::Result<Camera, String> {
+pub(super) fn camera(c: CameraDef) -> std::result::Result<Camera, String> {
     if !(finite3(c.eye) && finite3(c.target) && finite3(c.up)) {
         return Err("eye, target and up must be finite".into());
     }
@@ -547,7 +547,7 @@ fn camera(c: CameraDef) -> std::result::Result<Camera, String> {
     })
 }
 
-fn check_material(m: &Material) -> std::result::Result<(), String> {
+pub(super) fn check_material(m: &Material) -> std::result::Result<(), String> {
     if !m.color.iter().all(|c| c.is_finite() && *c >= 0.0) {
         return Err(format!(
             "color {:?} must be finite and non-negative",
@@ -604,7 +604,7 @@ fn transform(o: &ObjectDef) -> std::result::Result<Mat4, String> {
         * Mat4::from_scale(scale))
 }
 
-fn light(l: LightDef) -> std::result::Result<Light, String> {
+pub(super) fn light(l: LightDef) -> std::result::Result<Light, String> {
     let d = Light::default();
     let kind = l.kind.unwrap_or(d.kind);
     let position = l.position.unwrap_or(d.position.to_array());
@@ -637,12 +637,19 @@ fn light(l: LightDef) -> std::result::Result<Light, String> {
             "attenuation {attenuation:?} must be [a, b, c] with a > 0 and b, c ≥ 0 (1 / (a + b·d + c·d²))"
         ));
     }
+    // A direction already of unit length (to float precision) is kept bit for bit, so that a
+    // scene written out and read back (glTF extras) lights the same.
     let direction = Vec3::from(direction);
+    let direction = if (direction.length_squared() - 1.0).abs() < 1e-6 {
+        Some(direction)
+    } else {
+        direction.try_normalize()
+    };
     let direction = match kind {
-        LightKind::Spot | LightKind::Directional => direction
-            .try_normalize()
-            .ok_or("direction must be non-zero")?,
-        _ => direction.try_normalize().unwrap_or(d.direction),
+        LightKind::Spot | LightKind::Directional => {
+            direction.ok_or("direction must be non-zero")?
+        }
+        _ => direction.unwrap_or(d.direction),
     };
     Ok(Light {
         kind,
