@@ -128,7 +128,7 @@ impl Run {
         }
     }
 
-    fn with_k(method: &str, k: u32, culling: bool) -> Run {
+    pub(crate) fn with_k(method: &str, k: u32, culling: bool) -> Run {
         Run {
             label: format!("{method} k={k}{}", if culling { "" } else { " no-culling" }),
             k: Some(k),
@@ -461,7 +461,7 @@ pub(crate) fn cpu_label(cpu_figures: bool) -> &'static str {
 type StandaloneRun = fn(&Gpu, Option<&str>, Option<u32>, &Path) -> Result<()>;
 
 /// The experiments that report their own tables: name, description, runner.
-const STANDALONE: [(&str, &str, StandaloneRun); 6] = [
+const STANDALONE: [(&str, &str, StandaloneRun); 7] = [
     ("auto-k", crate::auto_k::DESCRIPTION, crate::auto_k::run),
     (
         "deferred-lights",
@@ -484,6 +484,7 @@ const STANDALONE: [(&str, &str, StandaloneRun); 6] = [
         crate::convex_experiment::DESCRIPTION,
         crate::convex_experiment::run,
     ),
+    ("peers", crate::peers::DESCRIPTION, crate::peers::run),
 ];
 
 /// Size, frame count and whether figures are CPU figures for a standalone experiment: `--size`

@@ -7,6 +7,7 @@ mod convex_experiment;
 mod cuda_renderer;
 mod deferred_lights;
 mod online_culling;
+mod peers;
 mod report;
 mod scale;
 mod suite;

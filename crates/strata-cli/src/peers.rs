@@ -1,0 +1,427 @@
+//! `strata bench peers` (issue 16): strata against the transparency a user's engine already has,
+//! on the same scenes, the same machine and in the same run.
+//!
+//! Each scene is prepared once (unlit materials, one solid background, no lit pipeline, so the
+//! peers and strata draw the same thing), written with `strata export` to a temporary glTF file,
+//! and rendered by the exact CPU reference. Then:
+//! - strata's nearest equivalents run as every experiment does (`bench::measure`: real-time
+//!   frames, GPU timestamps) and render one picture: abuffer-ll (exact), kb-ab-ll and kplus-heap
+//!   at k = 8 with the tail blended (what Bevy's OIT does by default: 8 sorted layers, the rest
+//!   blended), wboit (against pygfx's weighted blend) and unsorted (against pygfx's blend);
+//! - each peer renders the exported file through its harness in `peers/`: pygfx 0.17's `blend`,
+//!   `weighted_blend`, `dither` and `bayer` alpha modes (`peers/pygfx_oit.py`, wall-clock ms per
+//!   frame from render to the GPU's completion: pygfx has no GPU timestamps).
+//!
+//! Every picture's error against the reference (RMSE, FLIP, % of pixels over 2/255) is recorded
+//! and the pictures are written beside the results. A peer that is not installed (`peers/setup`)
+//! is recorded as skipped with the reason. Bevy's OIT is not run yet (see the README).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde::Serialize;
+use strata::error::{Error, Result};
+use strata::gpu::Gpu;
+use strata::metrics::Comparison;
+use strata::render::Renderer;
+use strata::Tail;
+
+use crate::bench::{measure, standalone_setup, Run};
+use crate::{prepare, PictureArgs, PipelineArg};
+
+pub const DESCRIPTION: &str = "issue 16: strata against its peers on the same scenes: pygfx 0.17's blend, weighted_blend, dither and bayer (peers/pygfx_oit.py) against abuffer-ll, kb-ab-ll and kplus-heap at k = 8 with tail blend (Bevy's default shape), wboit and unsorted on nvpro, the dragon (opacity 0.5), the demo and balls, unlit on one background: ms, memory, error against the reference, pictures";
+
+/// The scenes and the opacity each is drawn at (the dragon is opaque by default).
+const SCENES: [(&str, Option<f32>); 4] = [
+    ("builtin:nvpro?objects=1024&subdiv=16&seed=0", None),
+    ("builtin:dragon", Some(0.5)),
+    ("builtin:demo", None),
+    ("builtin:balls", None),
+];
+
+/// The background every renderer draws (pygfx has no checkerboard).
+pub const BACKGROUND: &str = "#333333";
+
+const PYGFX_MODES: [&str; 4] = ["blend", "weighted_blend", "dither", "bayer"];
+
+/// strata's configurations: label, method, k, tail.
+const STRATA_RUNS: [(&str, &str, Option<u32>, Tail); 5] = [
+    ("abuffer-ll", "abuffer-ll", None, Tail::Drop),
+    ("kb-ab-ll k=8 tail=blend", "kb-ab-ll", Some(8), Tail::Blend),
+    (
+        "kplus-heap k=8 tail=blend",
+        "kplus-heap",
+        Some(8),
+        Tail::Blend,
+    ),
+    ("wboit", "wboit", None, Tail::Drop),
+    ("unsorted", "unsorted", None, Tail::Drop),
+];
+
+#[derive(Serialize)]
+struct Row {
+    scene: String,
+    alpha: Option<f32>,
+    /// `strata` or the peer's name.
+    renderer: String,
+    label: String,
+    /// strata's method id, or the peer's mode.
+    method: String,
+    /// Median GPU ms per frame (timestamp queries); null where the renderer exposes none.
+    median_gpu_ms: Option<f64>,
+    /// Median wall-clock ms per frame: strata's steady loop with two frames in flight; a peer's
+    /// render-to-GPU-completion, one frame at a time.
+    median_wall_ms: Option<f64>,
+    /// Bytes of GPU memory the method allocated; null where unknown (peers).
+    bytes_allocated: Option<u64>,
+    fragments_dropped: Option<u64>,
+    error_vs_reference: Option<Comparison>,
+    /// The picture, beside the results.
+    picture: Option<String>,
+    /// Why the configuration was not measured; null when it was.
+    skipped: Option<String>,
+}
+
+impl Row {
+    /// A configuration with nothing measured yet.
+    fn new(scene: &str, alpha: Option<f32>, renderer: &str, label: &str, method: &str) -> Row {
+        Row {
+            scene: scene.into(),
+            alpha,
+            renderer: renderer.into(),
+            label: label.into(),
+            method: method.into(),
+            median_gpu_ms: None,
+            median_wall_ms: None,
+            bytes_allocated: None,
+            fragments_dropped: None,
+            error_vs_reference: None,
+            picture: None,
+            skipped: None,
+        }
+    }
+}
+
+#[derive(Serialize)]
+struct Report {
+    experiment: &'static str,
+    adapter: String,
+    backend: String,
+    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
+    cpu_figures: bool,
+    commit: Option<String>,
+    width: u32,
+    height: u32,
+    frames: u32,
+    background: &'static str,
+    /// Each peer's version and adapter, as its harness reported them.
+    peers: Vec<serde_json::Value>,
+    rows: Vec<Row>,
+}
+
+/// Where the peers' harnesses live: `STRATA_PEERS_DIR`, else `peers/` under the working
+/// directory, else the source tree's.
+fn peers_dir() -> PathBuf {
+    if let Some(dir) = std::env::var_os("STRATA_PEERS_DIR") {
+        return PathBuf::from(dir);
+    }
+    let here = PathBuf::from("peers");
+    if here.join("pygfx_oit.py").is_file() {
+        return here;
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../peers")
+}
+
+/// The Python that has pygfx: `STRATA_PEERS_PYTHON`, else `peers/.venv/bin/python`.
+fn pygfx_python(peers: &Path) -> std::result::Result<PathBuf, String> {
+    if let Some(p) = std::env::var_os("STRATA_PEERS_PYTHON") {
+        return Ok(PathBuf::from(p));
+    }
+    let venv = peers.join(".venv/bin/python");
+    if venv.is_file() {
+        Ok(venv)
+    } else {
+        Err(format!(
+            "pygfx is not installed: run {}/setup (or set STRATA_PEERS_PYTHON)",
+            peers.display()
+        ))
+    }
+}
+
+pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+    run_scenes(gpu, &SCENES, size, frames, dir)
+}
+
+/// [`run`] over `scenes`.
+fn run_scenes(
+    gpu: &Gpu,
+    scenes: &[(&str, Option<f32>)],
+    size: Option<&str>,
+    frames: Option<u32>,
+    dir: &Path,
+) -> Result<()> {
+    let (cpu_figures, (width, height), frames) =
+        standalone_setup(gpu, size, frames, ((192, 192), (1024, 1024)), (5, 20))?;
+    let warmup = 2;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::input(format!("cannot create '{}': {e}", dir.display())))?;
+    let scratch = std::env::temp_dir().join(format!("strata-peers-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch)
+        .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", scratch.display())))?;
+    let peers = peers_dir();
+    let python = pygfx_python(&peers);
+    let per_scene = (STRATA_RUNS.len() + PYGFX_MODES.len()) as u64;
+    let bar = crate::bench::frames_bar(scenes.len() as u64 * per_scene);
+    let mut rows = Vec::new();
+    let mut peer_info: Vec<serde_json::Value> = Vec::new();
+    let result = (|| -> Result<()> {
+        for &(spec, alpha) in scenes {
+            let short = spec
+                .split('?')
+                .next()
+                .unwrap_or(spec)
+                .trim_start_matches("builtin:");
+            let picture = PictureArgs {
+                size: Some(format!("{width}x{height}")),
+                shading: Some("unlit".into()),
+                background: Some(BACKGROUND.into()),
+                pipeline: Some(PipelineArg::None),
+                alpha,
+                ..PictureArgs::for_scene(spec)
+            };
+            let (scene, options) = prepare(&picture)?;
+            let glb = scratch.join(format!("{short}.glb"));
+            let defaults = strata::scene::export::ExportDefaults {
+                size: Some([width, height]),
+                background: Some(options.background),
+            };
+            let bytes = strata::scene::export::to_gltf(
+                &scene,
+                &defaults,
+                strata::scene::export::GltfContainer::Glb,
+            )?;
+            std::fs::write(&glb, bytes)
+                .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", glb.display())))?;
+            bar.set_message(format!("{short}: reference"));
+            let truth = strata::reference::render(&scene, &options)?
+                .0
+                .to_rgba8(options.effect);
+            let save = |label: &str, img: &image::RgbaImage| -> Result<String> {
+                let name = format!("peers-{short}-{}.png", label.replace([' ', '='], "-"));
+                strata::render::save_png(img, &dir.join(&name))?;
+                Ok(name)
+            };
+            save("reference", &truth)?;
+
+            for (label, method, k, tail) in STRATA_RUNS {
+                bar.set_message(format!("{short}: strata {label}"));
+                let mut options = options.clone();
+                options.k = k;
+                options.tail = tail;
+                let run = match k {
+                    Some(k) => Run::with_k(method, k, true),
+                    None => Run::plain(method),
+                };
+                let quiet = indicatif::ProgressBar::hidden();
+                let mut row = Row::new(spec, alpha, "strata", label, method);
+                match measure(gpu, &scene, &options, &run, warmup, frames, &quiet) {
+                    Ok((m, _)) => {
+                        let (image, _) = Renderer::new(gpu, &scene, &options)?.render(method)?;
+                        let img = image.to_rgba8(options.effect);
+                        row.median_gpu_ms = m.median_gpu_ms;
+                        row.median_wall_ms = Some(m.median_wall_ms);
+                        row.bytes_allocated = m.bytes_allocated;
+                        row.fragments_dropped = m.fragments_dropped;
+                        row.error_vs_reference = Some(strata::metrics::compare(&truth, &img)?);
+                        row.picture = Some(save(label, &img)?);
+                    }
+                    Err(Error::Unsupported(why)) => row.skipped = Some(why),
+                    Err(e) => return Err(e),
+                }
+                rows.push(row);
+                bar.inc(1);
+            }
+
+            for mode in PYGFX_MODES {
+                bar.set_message(format!("{short}: pygfx {mode}"));
+                let label = format!("pygfx {mode}");
+                let mut row = Row::new(spec, alpha, "pygfx", &label, mode);
+                match &python {
+                    Err(why) => row.skipped = Some(why.clone()),
+                    Ok(python) => {
+                        let png = scratch.join(format!("{short}-{mode}.png"));
+                        let json = scratch.join(format!("{short}-{mode}.json"));
+                        match run_pygfx(
+                            python,
+                            &peers,
+                            &glb,
+                            mode,
+                            (width, height),
+                            frames,
+                            warmup,
+                            &png,
+                            &json,
+                        ) {
+                            Err(why) => row.skipped = Some(why),
+                            Ok(timings) => {
+                                let img = image::open(&png)
+                                    .map_err(|e| {
+                                        Error::runtime(format!(
+                                            "pygfx's picture '{}': {e}",
+                                            png.display()
+                                        ))
+                                    })?
+                                    .to_rgba8();
+                                row.median_wall_ms =
+                                    timings.get("median_wall_ms").and_then(|v| v.as_f64());
+                                row.error_vs_reference =
+                                    Some(strata::metrics::compare(&truth, &img)?);
+                                row.picture = Some(save(&label, &img)?);
+                                let mut info = timings;
+                                if let Some(o) = info.as_object_mut() {
+                                    o.remove("wall_ms");
+                                    o.remove("mode");
+                                    o.remove("median_wall_ms");
+                                }
+                                if !peer_info.contains(&info) {
+                                    peer_info.push(info);
+                                }
+                            }
+                        }
+                    }
+                }
+                rows.push(row);
+                bar.inc(1);
+            }
+        }
+        Ok(())
+    })();
+    let _ = std::fs::remove_dir_all(&scratch);
+    bar.finish_and_clear();
+    result?;
+    let report = Report {
+        experiment: "peers",
+        adapter: gpu.info.name.clone(),
+        backend: gpu.backend_name(),
+        cpu_figures,
+        commit: crate::bench::commit(),
+        width,
+        height,
+        frames,
+        background: BACKGROUND,
+        peers: peer_info,
+        rows,
+    };
+    print(&report);
+    crate::write_results(dir, "peers", &report, csv(&report))
+}
+
+/// Runs the pygfx harness; its timings JSON, or why it failed (its one error line).
+#[allow(clippy::too_many_arguments)]
+fn run_pygfx(
+    python: &Path,
+    peers: &Path,
+    glb: &Path,
+    mode: &str,
+    (width, height): (u32, u32),
+    frames: u32,
+    warmup: u32,
+    png: &Path,
+    json: &Path,
+) -> std::result::Result<serde_json::Value, String> {
+    let out = Command::new(python)
+        .arg(peers.join("pygfx_oit.py"))
+        .arg(glb)
+        .args(["--mode", mode, "--background", BACKGROUND])
+        .args(["--size", &format!("{width}x{height}")])
+        .args([
+            "--frames",
+            &frames.to_string(),
+            "--warmup",
+            &warmup.to_string(),
+        ])
+        .arg("-o")
+        .arg(png)
+        .arg("--json")
+        .arg(json)
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", python.display()))?;
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        let line = err
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("no message");
+        return Err(format!("pygfx harness failed: {}", line.trim()));
+    }
+    let text = std::fs::read_to_string(json).map_err(|e| format!("pygfx's timings: {e}"))?;
+    serde_json::from_str(&text).map_err(|e| format!("pygfx's timings: {e}"))
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.map(|v| format!("{v:.digits$}")).unwrap_or_default()
+}
+
+fn csv(r: &Report) -> String {
+    let mut out = String::from(
+        "scene,renderer,label,median_gpu_ms,median_wall_ms,bytes_allocated,rmse,flip_mean,pct_over_2,skipped\n",
+    );
+    for row in &r.rows {
+        let e = row.error_vs_reference.as_ref();
+        out += &format!(
+            "{},{},{},{},{},{},{},{},{},{}\n",
+            row.scene.replace(',', ";"),
+            row.renderer,
+            row.label,
+            opt(row.median_gpu_ms, 3),
+            opt(row.median_wall_ms, 3),
+            row.bytes_allocated
+                .map(|b| b.to_string())
+                .unwrap_or_default(),
+            opt(e.map(|e| e.rmse), 5),
+            opt(e.map(|e| e.flip_mean), 5),
+            opt(e.map(|e| e.pct_over_2), 3),
+            row.skipped.as_deref().unwrap_or("").replace(',', ";"),
+        );
+    }
+    out
+}
+
+fn print(r: &Report) {
+    println!(
+        "peers on {}{}: {}x{}, background {}, median of {} frames",
+        r.adapter,
+        crate::bench::cpu_label(r.cpu_figures),
+        r.width,
+        r.height,
+        r.background,
+        r.frames
+    );
+    println!(
+        "{:<10} {:<28} {:>9} {:>9} {:>9} {:>8} {:>7}",
+        "scene", "configuration", "GPU ms", "wall ms", "MiB", "RMSE", "FLIP"
+    );
+    for row in &r.rows {
+        let scene = row
+            .scene
+            .split('?')
+            .next()
+            .unwrap_or(&row.scene)
+            .trim_start_matches("builtin:");
+        if let Some(why) = &row.skipped {
+            println!("{scene:<10} {:<28} skipped: {why}", row.label);
+            continue;
+        }
+        let e = row.error_vs_reference.as_ref();
+        println!(
+            "{scene:<10} {:<28} {:>9} {:>9} {:>9} {:>8} {:>7}",
+            row.label,
+            opt(row.median_gpu_ms, 2),
+            opt(row.median_wall_ms, 2),
+            opt(row.bytes_allocated.map(|b| b as f64 / 1048576.0), 1),
+            opt(e.map(|e| e.rmse), 4),
+            opt(e.map(|e| e.flip_mean), 4),
+        );
+    }
+}
