@@ -1023,6 +1023,14 @@ fn rasters(id: &str) -> &'static str {
     }
 }
 
+/// The `--msaa` sample counts `method` takes (8 only where the device rasterizes it).
+fn msaa_counts(method: &str) -> Vec<u32> {
+    match method.parse::<MethodId>() {
+        Ok(m) if strata::frame::msaa::supported(m) => strata::frame::msaa::SAMPLE_COUNTS.to_vec(),
+        _ => vec![1],
+    }
+}
+
 fn list_methods(json: bool) -> Result<()> {
     let all = methods::catalogue();
     if json {
@@ -1031,6 +1039,7 @@ fn list_methods(json: bool) -> Result<()> {
             .map(|m| {
                 let mut v = serde_json::to_value(m).unwrap_or_default();
                 v["raster"] = rasters(m.id).split(',').collect::<Vec<_>>().into();
+                v["msaa"] = msaa_counts(m.id).into();
                 v
             })
             .collect();
@@ -1048,16 +1057,18 @@ fn list_methods(json: bool) -> Result<()> {
         width(&|m| m.memory.chars().count()),
     );
     println!(
-        "{:<wi$}  {:<wf$}  exact  {:<10}  {:<wp$}  {:<wm$}  summary",
-        "id", "family", "raster", "geometry passes", "memory (bytes)"
+        "{:<wi$}  {:<wf$}  exact  {:<10}  {:<5}  {:<wp$}  {:<wm$}  summary",
+        "id", "family", "raster", "msaa", "geometry passes", "memory (bytes)"
     );
     for m in &all {
+        let msaa: Vec<String> = msaa_counts(m.id).iter().map(u32::to_string).collect();
         println!(
-            "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<wp$}  {:<wm$}  {}",
+            "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<5}  {:<wp$}  {:<wm$}  {}",
             m.id,
             m.family,
             if m.exact { "yes" } else { "no" },
             rasters(m.id),
+            msaa.join(","),
             m.geometry_passes,
             m.memory,
             m.summary

@@ -152,6 +152,16 @@ fn methods_and_info_report_json() {
         serde_json::json!(["hw", "compute"])
     );
     assert_eq!(raster("wboit"), serde_json::json!(["hw"]));
+    let msaa = |id: &str| {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["id"] == id)
+            .unwrap()["msaa"]
+            .clone()
+    };
+    assert_eq!(msaa("sbuffer"), serde_json::json!([1, 4, 8]));
+    assert_eq!(msaa("kplus-heap"), serde_json::json!([1]));
     for id in [
         "reference",
         "unsorted",
