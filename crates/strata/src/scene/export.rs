@@ -530,7 +530,9 @@ mod tests {
             GltfContainer::Embedded,
         )
         .unwrap();
-        let cases: [(&str, fn(&mut Value), &str); 3] = [
+        /// A file name, an edit of the exported JSON, and what the error must say.
+        type Case = (&'static str, fn(&mut Value), &'static str);
+        let cases: [Case; 3] = [
             (
                 "near_far.gltf",
                 |r| r["scenes"][0]["extras"]["strata"]["camera"]["near"] = json!(20.0),
