@@ -745,7 +745,7 @@ pub(crate) fn frames_bar(len: u64) -> ProgressBar {
 }
 
 /// A scene spec without its parameters, for progress messages.
-fn short_scene(spec: &str) -> &str {
+pub(crate) fn short_scene(spec: &str) -> &str {
     spec.split('?').next().unwrap_or(spec)
 }
 

@@ -176,11 +176,7 @@ fn run_scenes(
     let mut peer_info: Vec<serde_json::Value> = Vec::new();
     let result = (|| -> Result<()> {
         for &(spec, alpha) in scenes {
-            let short = spec
-                .split('?')
-                .next()
-                .unwrap_or(spec)
-                .trim_start_matches("builtin:");
+            let short = crate::bench::short_scene(spec).trim_start_matches("builtin:");
             let picture = PictureArgs {
                 size: Some(format!("{width}x{height}")),
                 shading: Some("unlit".into()),
@@ -403,12 +399,7 @@ fn print(r: &Report) {
         "scene", "configuration", "GPU ms", "wall ms", "MiB", "RMSE", "FLIP"
     );
     for row in &r.rows {
-        let scene = row
-            .scene
-            .split('?')
-            .next()
-            .unwrap_or(&row.scene)
-            .trim_start_matches("builtin:");
+        let scene = crate::bench::short_scene(&row.scene).trim_start_matches("builtin:");
         if let Some(why) = &row.skipped {
             println!("{scene:<10} {:<28} skipped: {why}", row.label);
             continue;
