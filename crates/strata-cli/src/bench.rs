@@ -410,18 +410,7 @@ struct BenchReport {
     results: Vec<MethodResult>,
 }
 
-pub(crate) fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) * 0.5
-    }
-}
+pub(crate) use strata::metrics::median;
 
 pub(crate) fn commit() -> Option<String> {
     let out = std::process::Command::new("git")
@@ -461,7 +450,7 @@ pub(crate) fn cpu_label(cpu_figures: bool) -> &'static str {
 type StandaloneRun = fn(&Gpu, Option<&str>, Option<u32>, &Path) -> Result<()>;
 
 /// The experiments that report their own tables: name, description, runner.
-const STANDALONE: [(&str, &str, StandaloneRun); 7] = [
+const STANDALONE: [(&str, &str, StandaloneRun); 8] = [
     ("auto-k", crate::auto_k::DESCRIPTION, crate::auto_k::run),
     (
         "deferred-lights",
@@ -485,6 +474,11 @@ const STANDALONE: [(&str, &str, StandaloneRun); 7] = [
         crate::convex_experiment::run,
     ),
     ("peers", crate::peers::DESCRIPTION, crate::peers::run),
+    (
+        "bandwidth",
+        crate::bandwidth::DESCRIPTION,
+        crate::bandwidth::run,
+    ),
 ];
 
 /// Size, frame count and whether figures are CPU figures for a standalone experiment: `--size`

@@ -1,7 +1,9 @@
 //! `strata`: render, compare and benchmark multi-fragment methods from the command line.
 
 mod auto_k;
+mod bandwidth;
 mod bench;
+mod claims;
 mod compare;
 mod convex_experiment;
 mod cuda_renderer;

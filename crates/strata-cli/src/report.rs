@@ -17,6 +17,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use serde_json::Value;
 use strata::error::{Error, Result};
@@ -39,13 +40,24 @@ const TIME_FIELDS: &[&str] = &["median_gpu_ms", "gpu_ms", "median_wall_ms"];
 /// Experiments compared on wall-clock time for every row (some renderers have no GPU timer).
 const WALL_CLOCK_EXPERIMENTS: &[&str] = &["peers"];
 
-/// The time fields `experiment`'s rows are charted by, in order of preference.
-fn time_fields(experiment: &str) -> &'static [&'static str] {
+/// What `experiment`'s chart and table show: the row fields it is read from, in order of
+/// preference, and what the figure is.
+fn figure(experiment: &str) -> (&'static [&'static str], &'static str) {
     if WALL_CLOCK_EXPERIMENTS.contains(&experiment) {
-        &["median_wall_ms"]
+        (&["median_wall_ms"], "wall-clock ms per frame")
+    } else if experiment == "bandwidth" {
+        (
+            &["measured_over_floor"],
+            "measured GPU time / memory-traffic floor",
+        )
     } else {
-        TIME_FIELDS
+        (TIME_FIELDS, "ms per frame")
     }
+}
+
+/// The fields `experiment`'s rows are charted by, in order of preference.
+fn time_fields(experiment: &str) -> &'static [&'static str] {
+    figure(experiment).0
 }
 /// The experiments whose figure is a sweep: the field it runs over and the axis's name.
 const SWEEPS: &[(&str, &str, &str)] = &[
@@ -53,7 +65,30 @@ const SWEEPS: &[(&str, &str, &str)] = &[
     ("kbuffer-culling", "k", "k (seed 003 Fig. 7)"),
     ("deferred-lights", "lights", "lights (seed 004 Fig. 13)"),
     ("scale", "triangles", "triangles"),
+    (
+        "peel-vs-abuffer",
+        "scene:n",
+        "fragments per pixel (seed 003 Fig. 9 right)",
+    ),
+    (
+        "convex",
+        "scene:layers",
+        "layers of the stacked spheres (seed 001 Table 3)",
+    ),
 ];
+
+/// A row's value of a sweep field: a number of the row, or with `scene:NAME` the parameter
+/// NAME of its scene (`builtin:layers?n=64` gives 64 for `scene:n`).
+fn sweep_value(row: &Value, field: &str) -> Option<f64> {
+    match field.strip_prefix("scene:") {
+        Some(param) => text(row, "scene")?
+            .split_once('?')?
+            .1
+            .split('&')
+            .find_map(|p| p.strip_prefix(param)?.strip_prefix('=')?.parse().ok()),
+        None => row.get(field)?.as_f64(),
+    }
+}
 /// Fields naming a line of a sweep.
 const SERIES_FIELDS: &[&str] = &["method", "pipeline", "config"];
 
@@ -62,6 +97,8 @@ struct DeviceResults {
     device: String,
     cpu_figures: bool,
     rows: Vec<Value>,
+    /// `bandwidth`: the device's measured rates (its results' `device` object).
+    rates: Option<Value>,
 }
 
 /// A measured row: its name, sweep value and series where it has them, and its time.
@@ -166,7 +203,7 @@ fn row_name(row: &Value, scenes: &BTreeMap<String, String>) -> String {
 /// `experiment`'s sweep (field, axis) when its rows run over at least three of its values.
 fn sweep_of(experiment: &str, rows: &[Value]) -> Option<(&'static str, &'static str)> {
     let &(_, field, axis) = SWEEPS.iter().find(|s| s.0 == experiment)?;
-    let mut values: Vec<f64> = rows.iter().filter_map(|r| r.get(field)?.as_f64()).collect();
+    let mut values: Vec<f64> = rows.iter().filter_map(|r| sweep_value(r, field)).collect();
     values.sort_by(f64::total_cmp);
     values.dedup();
     (values.len() >= 3).then_some((field, axis))
@@ -190,6 +227,12 @@ fn points(rows: &[Value], sweep: Option<&str>, fields: &[&str]) -> Vec<Point> {
             if row.get("culling") == Some(&Value::Bool(false)) {
                 series += " no-culling";
             }
+            // Runs of one method at several k are lines of their own unless k is the axis.
+            if sweep.is_some_and(|f| f != "k") {
+                if let Some(k) = text(row, "k") {
+                    series += &format!(" k={k}");
+                }
+            }
             // Rows the fields above cannot tell apart are numbered, never merged.
             let mut name = row_name(row, &scene_names);
             let count = seen.entry(name.clone()).or_insert(0);
@@ -200,7 +243,7 @@ fn points(rows: &[Value], sweep: Option<&str>, fields: &[&str]) -> Vec<Point> {
             Some(Point {
                 name,
                 series,
-                x: sweep.and_then(|f| row.get(f)?.as_f64()),
+                x: sweep.and_then(|f| sweep_value(row, f)),
                 ms,
                 error: row.get("error_vs_reference").and_then(|e| {
                     Some(["rmse", "flip_mean", "pct_over_2"].map(|f| e.get(f)?.as_f64()))
@@ -211,8 +254,33 @@ fn points(rows: &[Value], sweep: Option<&str>, fields: &[&str]) -> Vec<Point> {
         .collect()
 }
 
-/// A line chart of time over the sweep: one line per series and device.
+/// Size of a sweep chart in pixels.
+const SWEEP_SIZE: (u32, u32) = (900, 520);
+
+/// A line chart of time over the sweep (one line per series and device) as an SVG at `path`
+/// and a PNG beside it.
 fn sweep_chart(
+    path: &Path,
+    title: &str,
+    axis: &str,
+    data: &[(&DeviceResults, Vec<Point>)],
+) -> Result<()> {
+    let svg = SVGBackend::new(path, SWEEP_SIZE).into_drawing_area();
+    sweep_chart_on(svg, path, title, axis, data)?;
+    let png = path.with_extension("png");
+    let mut pixels = vec![0u8; (SWEEP_SIZE.0 * SWEEP_SIZE.1 * 3) as usize];
+    sweep_chart_on(
+        BitMapBackend::with_buffer(&mut pixels, SWEEP_SIZE).into_drawing_area(),
+        &png,
+        title,
+        axis,
+        data,
+    )?;
+    save_png(&png, SWEEP_SIZE, pixels)
+}
+
+fn sweep_chart_on<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
     path: &Path,
     title: &str,
     axis: &str,
@@ -254,7 +322,6 @@ fn sweep_chart(
     }
     let (x_lo, x_hi) = bounds(all.iter().map(|p| p.0));
     let (y_lo, y_hi) = bounds(all.iter().map(|p| p.1));
-    let root = SVGBackend::new(path, (900, 520)).into_drawing_area();
     let draw = |e: &dyn std::fmt::Display| Error::runtime(format!("{}: {e}", path.display()));
     root.fill(&WHITE).map_err(|e| draw(&e))?;
     let log_x = x_hi / x_lo.max(f64::MIN_POSITIVE) > 20.0;
@@ -310,8 +377,43 @@ fn sweep_chart(
 /// Pixels of one device's bar.
 const BAR_PX: u32 = 12;
 
-/// A bar per row (devices side by side), time on a log axis.
-fn bar_chart(path: &Path, title: &str, data: &[(&DeviceResults, Vec<Point>)]) -> Result<()> {
+/// A bar per row (devices side by side), the figure on a log axis titled `unit`, as an SVG at
+/// `path` and a PNG beside it.
+fn bar_chart(
+    path: &Path,
+    title: &str,
+    unit: &str,
+    data: &[(&DeviceResults, Vec<Point>)],
+) -> Result<()> {
+    let names = row_names(data);
+    if names.is_empty() {
+        return Err(Error::input(format!("{title}: nothing to chart")));
+    }
+    let size = (
+        1000,
+        100 + names.len() as u32 * (8 + BAR_PX * data.len() as u32),
+    );
+    bar_chart_on(
+        SVGBackend::new(path, size).into_drawing_area(),
+        path,
+        title,
+        unit,
+        data,
+    )?;
+    let png = path.with_extension("png");
+    let mut pixels = vec![0u8; (size.0 * size.1 * 3) as usize];
+    bar_chart_on(
+        BitMapBackend::with_buffer(&mut pixels, size).into_drawing_area(),
+        &png,
+        title,
+        unit,
+        data,
+    )?;
+    save_png(&png, size, pixels)
+}
+
+/// Every row's name over the devices, in the results' order.
+fn row_names(data: &[(&DeviceResults, Vec<Point>)]) -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
     for (_, points) in data {
         for p in points {
@@ -320,13 +422,19 @@ fn bar_chart(path: &Path, title: &str, data: &[(&DeviceResults, Vec<Point>)]) ->
             }
         }
     }
-    if names.is_empty() {
-        return Err(Error::input(format!("{title}: nothing to chart")));
-    }
+    names
+}
+
+fn bar_chart_on<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    path: &Path,
+    title: &str,
+    unit: &str,
+    data: &[(&DeviceResults, Vec<Point>)],
+) -> Result<()> {
+    let names = row_names(data);
     let (y_lo, y_hi) = bounds(data.iter().flat_map(|(_, p)| p.iter().map(|p| p.ms)));
     let devices = data.len();
-    let height = 100 + names.len() as u32 * (8 + BAR_PX * devices as u32);
-    let root = SVGBackend::new(path, (1000, height)).into_drawing_area();
     let draw = |e: &dyn std::fmt::Display| Error::runtime(format!("{}: {e}", path.display()));
     root.fill(&WHITE).map_err(|e| draw(&e))?;
     let mut chart = ChartBuilder::on(&root)
@@ -347,7 +455,7 @@ fn bar_chart(path: &Path, title: &str, data: &[(&DeviceResults, Vec<Point>)]) ->
     chart
         .configure_mesh()
         .disable_y_mesh()
-        .x_desc("ms per frame (log)")
+        .x_desc(unit)
         .x_labels(8)
         .x_label_formatter(&|v| format!("{v:.0}"))
         .y_labels(names.len())
@@ -387,6 +495,41 @@ fn bar_chart(path: &Path, title: &str, data: &[(&DeviceResults, Vec<Point>)]) ->
     root.present().map_err(|e| draw(&e))
 }
 
+/// Writes an RGB chart's pixels as a PNG.
+fn save_png(path: &Path, (width, height): (u32, u32), pixels: Vec<u8>) -> Result<()> {
+    let image = image::RgbImage::from_raw(width, height, pixels).ok_or_else(|| {
+        Error::runtime(format!(
+            "{}: chart buffer of the wrong size",
+            path.display()
+        ))
+    })?;
+    image
+        .save(path)
+        .map_err(|e| Error::runtime(format!("cannot write '{}': {e}", path.display())))
+}
+
+/// Makes the PNG charts' text drawable: plotters' bitmap backend draws text with fonts
+/// registered by name, and strata depends on no system font, so it registers egui's bundled
+/// Ubuntu Light as "sans-serif".
+fn register_chart_font() -> Result<()> {
+    static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let registered = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            epaint_default_fonts::UBUNTU_LIGHT,
+        )
+        .is_ok()
+    });
+    if registered {
+        Ok(())
+    } else {
+        Err(Error::runtime(
+            "the charts' bundled font (Ubuntu Light) did not parse",
+        ))
+    }
+}
+
 fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
         (a.min(v), b.max(v))
@@ -411,11 +554,7 @@ fn table_head(data: &[(&DeviceResults, Vec<Point>)]) -> String {
 
 /// The generated block of one experiment: its chart and tables.
 fn block(name: &str, chart: &str, data: &[(&DeviceResults, Vec<Point>)]) -> String {
-    let what = if WALL_CLOCK_EXPERIMENTS.contains(&name) {
-        "wall-clock ms per frame"
-    } else {
-        "ms per frame"
-    };
+    let what = figure(name).1;
     let mut s = format!("<!-- strata report: {name} -->\n");
     s += &format!(
         "*Generated by `strata report` from `bench/results/*/{name}.json`; edits between these markers are replaced.*\n\n"
@@ -473,8 +612,73 @@ fn block(name: &str, chart: &str, data: &[(&DeviceResults, Vec<Point>)]) -> Stri
         }
         s += "\n</details>\n";
     }
+    if name == "bandwidth" {
+        s += &floor_tables(data);
+    }
     s += &format!("<!-- end strata report: {name} -->\n");
     s
+}
+
+/// `bandwidth`'s own tables: each device's measured rates, and each method's time, floor and
+/// what sets it.
+fn floor_tables(data: &[(&DeviceResults, Vec<Point>)]) -> String {
+    let rate = |d: &DeviceResults, f: &str| {
+        d.rates
+            .as_ref()
+            .and_then(|r| r.get(f)?.as_f64())
+            .map_or(String::new(), |v| format!("{v:.3}"))
+    };
+    let mut s = String::from(
+        "\n| device | copy GB/s | stream GB/s | atomics G/s: distinct | per pixel (16 per word) | one word |\n|---|---|---|---|---|---|\n",
+    );
+    for (d, _) in data {
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            d.device,
+            rate(d, "copy_gb_per_s"),
+            rate(d, "stream_gb_per_s"),
+            rate(d, "atomics_distinct_g_per_s"),
+            rate(d, "atomics_per_pixel_g_per_s"),
+            rate(d, "atomics_one_word_g_per_s"),
+        );
+    }
+    s += "\n<details><summary>GPU ms · floor ms (what sets the floor), by device</summary>\n\n";
+    s += &table_head(data);
+    let scenes: std::collections::BTreeSet<String> = data
+        .iter()
+        .flat_map(|(d, _)| d.rows.iter().filter_map(|r| text(r, "scene")))
+        .collect();
+    let scene_names = scene_names(&scenes);
+    let mut names: Vec<String> = Vec::new();
+    for (d, _) in data {
+        for row in &d.rows {
+            let n = row_name(row, &scene_names);
+            if !names.contains(&n) {
+                names.push(n);
+            }
+        }
+    }
+    for n in &names {
+        s += &format!("| {} |", n.replace('|', "\\|"));
+        for (d, _) in data {
+            let row = d.rows.iter().find(|r| row_name(r, &scene_names) == *n);
+            let cell = row.and_then(|r| {
+                let ms = r.get("median_gpu_ms")?.as_f64()?;
+                let floor = r.get("floor_ms")?.as_f64()?;
+                Some(format!(
+                    " {ms:.2} · {floor:.4} ({})",
+                    text(r, "bound").unwrap_or_default()
+                ))
+            });
+            match (cell, row.and_then(|r| text(r, "skipped"))) {
+                (Some(c), _) => s += &format!("{c} |"),
+                (None, Some(why)) => s += &format!(" skipped: {} |", why.replace('|', "\\|")),
+                (None, None) => s += " |",
+            }
+        }
+        s += "\n";
+    }
+    s + "\n</details>\n"
 }
 
 /// `report` with `name`'s generated block replaced by `new`, or inserted at the end of its
@@ -552,6 +756,8 @@ pub fn run(a: ReportArgs) -> Result<()> {
             )))
         }
     };
+    register_chart_font()?;
+    let mut claim_files: Vec<(String, bool, crate::claims::DeviceFiles)> = Vec::new();
     let mut written = 0;
     for name in crate::bench::experiment_names() {
         let mut found = Vec::new();
@@ -563,16 +769,33 @@ pub fn run(a: ReportArgs) -> Result<()> {
             let v: Value = serde_json::from_slice(&bytes).map_err(|e| {
                 Error::input(format!("'{}' is not a results file: {e}", path.display()))
             })?;
+            let device = dir
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let cpu = v
+                .get("cpu_figures")
+                .and_then(Value::as_bool)
+                .unwrap_or(false);
+            match claim_files.iter_mut().find(|(d, _, _)| *d == device) {
+                Some((_, any_cpu, files)) => {
+                    *any_cpu |= cpu;
+                    files.insert(name.to_string(), v.clone());
+                }
+                None => claim_files.push((
+                    device.clone(),
+                    cpu,
+                    [(name.to_string(), v.clone())].into_iter().collect(),
+                )),
+            }
             found.push(DeviceResults {
-                device: dir
-                    .file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default(),
+                device,
                 cpu_figures: v
                     .get("cpu_figures")
                     .and_then(Value::as_bool)
                     .unwrap_or(false),
                 rows: rows_of(&v),
+                rates: v.get("device").filter(|d| d.is_object()).cloned(),
             });
         }
         if found.is_empty() {
@@ -590,11 +813,18 @@ pub fn run(a: ReportArgs) -> Result<()> {
         let svg = charts.join(format!("{name}.svg"));
         match sweep {
             Some((_, axis)) => sweep_chart(&svg, name, axis, &data)?,
-            None => bar_chart(&svg, name, &data)?,
+            None => bar_chart(&svg, name, &format!("{} (log)", figure(name).1), &data)?,
         }
         let relative = pathdiff(&svg, a.out.parent().unwrap_or(Path::new(".")));
         report = place_block(&report, name, &block(name, &relative, &data));
         written += 1;
+    }
+    if !claim_files.is_empty() {
+        let block = format!(
+            "<!-- strata report: claims -->\n*Generated by `strata report` from `bench/results/*/`; edits between these markers are replaced.*\n\n{}<!-- end strata report: claims -->\n",
+            crate::claims::table(&claim_files)
+        );
+        report = place_block(&report, "claims", &block);
     }
     let mut outputs = strata::output::Outputs::new();
     outputs.add(&a.out, report.into_bytes())?;
@@ -656,6 +886,26 @@ mod tests {
         assert_eq!(sweep_of("kbuffer-k", &rows).map(|s| s.0), Some("k"));
         assert_eq!(sweep_of("kbuffer-k", &rows[..2]), None);
         assert_eq!(sweep_of("auto-k", &rows), None);
+        let layered: Vec<Value> = [8, 16, 32]
+            .iter()
+            .map(|n| serde_json::json!({"method": "f2b", "scene": format!("builtin:layers?n={n}&coverage=1"), "median_gpu_ms": 1.0}))
+            .collect();
+        assert_eq!(
+            sweep_of("peel-vs-abuffer", &layered).map(|s| s.0),
+            Some("scene:n")
+        );
+        let p = points(&layered, Some("scene:n"), TIME_FIELDS);
+        assert_eq!(
+            p.iter().map(|p| p.x).collect::<Vec<_>>(),
+            [Some(8.0), Some(16.0), Some(32.0)]
+        );
+        assert_eq!(
+            sweep_value(
+                &serde_json::json!({"scene": "builtin:nvpro?objects=5"}),
+                "scene:n"
+            ),
+            None
+        );
         let p = points(&rows, Some("k"), TIME_FIELDS);
         assert_eq!(p.len(), 3);
         assert_eq!(
@@ -680,6 +930,7 @@ mod tests {
             device: "lavapipe".into(),
             cpu_figures: true,
             rows: rows.clone(),
+            rates: None,
         };
         let text = block("peers", "charts/peers.svg", &[(&device, p)]);
         assert!(

@@ -4,6 +4,7 @@
 //! The device is headless. Vulkan is the default backend; `WGPU_BACKEND` picks another and
 //! `WGPU_ADAPTER_NAME` picks an adapter by a case-insensitive substring of its name.
 
+pub mod bandwidth;
 pub mod binding;
 pub mod ordered;
 pub mod passes;

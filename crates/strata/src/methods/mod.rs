@@ -13,6 +13,7 @@ pub mod capture;
 pub mod convex;
 pub mod kbuffer;
 pub mod peeling;
+pub mod traffic;
 pub mod weighted;
 
 use std::fmt;

@@ -193,6 +193,17 @@ pub fn load_png(path: &Path) -> Result<RgbaImage> {
 
 pub use crate::output::save_png;
 
+/// The median of `values` (the mean of the middle two for an even count); NaN when empty.
+pub fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => values[n / 2],
+        _ => (values[n / 2 - 1] + values[n / 2]) * 0.5,
+    }
+}
+
 /// Depth-complexity histogram: bin `i` counts the pixels with exactly `i` fragments. The result
 /// has `max + 1` bins, `max` being the largest count (so memory grows with it); empty input gives
 /// no bins.
