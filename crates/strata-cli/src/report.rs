@@ -213,6 +213,33 @@ fn points(rows: &[Value], sweep: Option<&str>, fields: &[&str]) -> Vec<Point> {
     let scenes: std::collections::BTreeSet<String> =
         rows.iter().filter_map(|r| text(r, "scene")).collect();
     let scene_names = scene_names(&scenes);
+    let base_series = |row: &Value| {
+        let mut series = SERIES_FIELDS
+            .iter()
+            .find_map(|f| text(row, f))
+            .unwrap_or_default();
+        if row.get("culling") == Some(&Value::Bool(false)) {
+            series += " no-culling";
+        }
+        series
+    };
+    // A series run at several k for one sweep value (kpeel k=8 and k=32 over depth) splits
+    // into a line per k; one whose k follows the axis (k = the layer count) stays one line.
+    let mut ks: BTreeMap<(String, String), std::collections::BTreeSet<String>> = BTreeMap::new();
+    if let Some(field) = sweep.filter(|f| *f != "k") {
+        for row in rows {
+            if let (Some(x), Some(k)) = (sweep_value(row, field), text(row, "k")) {
+                ks.entry((base_series(row), x.to_string()))
+                    .or_default()
+                    .insert(k);
+            }
+        }
+    }
+    let split: std::collections::BTreeSet<String> = ks
+        .into_iter()
+        .filter(|(_, k)| k.len() > 1)
+        .map(|((series, _), _)| series)
+        .collect();
     let mut seen: BTreeMap<String, usize> = BTreeMap::new();
     rows.iter()
         .filter_map(|row| {
@@ -220,15 +247,8 @@ fn points(rows: &[Value], sweep: Option<&str>, fields: &[&str]) -> Vec<Point> {
                 .iter()
                 .find_map(|f| row.get(*f)?.as_f64())
                 .filter(|v| v.is_finite() && *v > 0.0)?;
-            let mut series = SERIES_FIELDS
-                .iter()
-                .find_map(|f| text(row, f))
-                .unwrap_or_default();
-            if row.get("culling") == Some(&Value::Bool(false)) {
-                series += " no-culling";
-            }
-            // Runs of one method at several k are lines of their own unless k is the axis.
-            if sweep.is_some_and(|f| f != "k") {
+            let mut series = base_series(row);
+            if split.contains(&series) {
                 if let Some(k) = text(row, "k") {
                     series += &format!(" k={k}");
                 }

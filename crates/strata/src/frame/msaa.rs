@@ -20,12 +20,13 @@
 //! complexity view — count what was stored, invocations, where the reference counts primitives. The reference
 //! ([`crate::reference`]) supersamples the same way, so the exact methods stay testable.
 //!
-//! `wboit` blends into multisampled targets instead: the hardware writes each fragment into the
-//! samples it covers and the composite averages the samples' closed forms.
+//! `wboit` and the baselines (`unsorted`, `sorted`) blend into multisampled targets instead: the
+//! hardware writes each fragment into the samples it covers and the composite averages the
+//! samples' results (wboit's closed forms, the baselines' blended colors).
 //!
 //! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×); 8× only where the device
 //! rasterizes it (lavapipe: 4×). Methods whose capture keeps the k nearest per pixel (k-buffers
-//! with capture-time selection, peeling, multi-depth tests, convex) and mboit, `--pipeline`,
+//! with capture-time selection, peeling, multi-depth tests, convex), mboit, `--pipeline`,
 //! `--raster compute` and `--temporal` refuse `--msaa` with one error line: for them a per-pixel
 //! choice would not be the per-sample one, and per-sample versions are not built yet.
 
@@ -90,6 +91,8 @@ pub fn supported(method: MethodId) -> bool {
             | MethodId::Sbuffer
             | MethodId::KbSbuffer
             | MethodId::Wboit
+            | MethodId::Unsorted
+            | MethodId::Sorted
             | MethodId::Reference
     )
 }
@@ -290,6 +293,50 @@ mod gpu_tests {
         }
     }
 
+    /// The baselines blend into multisampled targets: where submission order is depth order
+    /// (layers sent back to front; screen-aligned layers sorted by centroid) they equal
+    /// `reference --msaa N`, edges included; out of order `unsorted` is wrong as single-sampled.
+    #[test]
+    fn baselines_blend_per_sample_and_equal_the_reference_where_order_holds() {
+        let counts = super::device_sample_counts(crate::testing::gpu());
+        let back = load_scene("builtin:layers?n=8&coverage=0.6&order=back&seed=5").unwrap();
+        let shuffled = load_scene("builtin:layers?n=8&coverage=0.6&order=random&seed=5").unwrap();
+        for msaa in [4, 8] {
+            if !counts.contains(&msaa) {
+                continue;
+            }
+            // 37 pixels: the layers' edges fall between sample positions, not on pixel edges.
+            let opts = multisampled(37, Effect::Transparency, msaa, None);
+            let expected = render_reference(&back, &opts);
+            let (unsorted, _) = render_gpu(&back, &opts, "unsorted");
+            let name = format!("msaa{msaa}-unsorted-back");
+            assert_close(
+                &name,
+                &unsorted,
+                &expected,
+                opts.effect,
+                MAX_DIFF,
+                MAX_FRACTION,
+            );
+            let (sorted, _) = render_gpu(&shuffled, &opts, "sorted");
+            let name = format!("msaa{msaa}-sorted-random");
+            assert_close(
+                &name,
+                &sorted,
+                &expected,
+                opts.effect,
+                MAX_DIFF,
+                MAX_FRACTION,
+            );
+            // The layers' edges are where samples differ: some pixel is partly covered.
+            let lists = crate::reference::fragments(&back, &opts).unwrap();
+            let full = (1u32 << msaa) - 1;
+            assert!(lists
+                .iter()
+                .any(|l| l.iter().any(|f| u32::from(f.coverage) != full)));
+        }
+    }
+
     /// A pixel whose fragments all cover every sample resolves exactly as single-sampled.
     #[test]
     fn fully_covered_pixels_equal_the_single_sample_result() {
@@ -328,7 +375,7 @@ mod gpu_tests {
             background: Background::Color([0.2, 0.3, 0.4]),
             ..options(32, Effect::Transparency)
         };
-        for method in ["abuffer-ll", "kb-ab-fixed"] {
+        for method in ["abuffer-ll", "kb-ab-fixed", "unsorted"] {
             let (img, _) = render_gpu(&scene, &opts, method);
             for y in 4..28 {
                 let at = |x: u32| img.pixels[(y * 32 + x) as usize];

@@ -399,7 +399,7 @@ mod tests {
             increments: 1 << 16,
             repeats: 1,
         };
-        let rates = measure(&gpu, sizes).expect("probes run");
+        let rates = measure(gpu, sizes).expect("probes run");
         for r in [
             rates.copy_gb_per_s,
             rates.stream_gb_per_s,
@@ -419,7 +419,7 @@ mod tests {
             increments: 1 << 12,
             repeats: 1,
         };
-        let probes = Probes::new(&gpu, sizes).unwrap();
+        let probes = Probes::new(gpu, sizes).unwrap();
         probes.time(|enc| probes.increment(enc, 64)).unwrap();
         // Claim one more repetition than ran: the sum no longer matches.
         probes.repetitions.set(probes.repetitions.get() + 1);

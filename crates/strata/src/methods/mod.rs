@@ -227,7 +227,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "baseline",
             exact: false,
             geometry_passes: "1",
-            memory: "12·W·H",
+            memory: "(8·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
             summary: "alpha blending in submission order (no OIT)",
         },
         MethodInfo {
@@ -235,7 +235,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "baseline",
             exact: false,
             geometry_passes: "1",
-            memory: "12·W·H + 12·triangles",
+            memory: "(8·S + 4)·W·H + 12·triangles; S samples per pixel (--msaa, else 1)",
             summary: "alpha blending after a back-to-front sort of triangle centroids",
         },
         MethodInfo {

@@ -69,6 +69,7 @@ fn every_stage_validates() {
             "wboit.composite.msaa",
             &super::weighted::composite_source(4),
         ),
+        ("blend.finish.msaa", &super::baseline::finish_source(4)),
         ("mboit.moments", &super::weighted::mboit::moments_source()),
         ("mboit.shade", &super::weighted::mboit::shade_source()),
         (

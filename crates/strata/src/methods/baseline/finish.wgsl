@@ -1,5 +1,6 @@
 // The blended color is already premultiplied with alpha = 1 − transmittance: it becomes the
-// pixel's result as it is, with the fragment count.
+// pixel's result as it is, with the fragment count. With --msaa (the target then multisampled)
+// the samples' colors, averaged.
 
 @group(1) @binding(0) var<storage, read_write> counts: array<u32>;
 @group(1) @binding(1) var blended: texture_2d<f32>;
@@ -13,6 +14,12 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = id.xy;
     let i = pixel_index(pixel);
     let count = counts[i];
-    output[i] = Resolved(textureLoad(blended, vec2<i32>(pixel), 0), count, 0u, 0u, 0u);
+    let samples = max(frame.coverage_bits, 1u);
+    var color = vec4<f32>(0.0);
+    // Single-sampled the index is the mip level, 0; multisampled it is the sample.
+    for (var si = 0u; si < samples; si++) {
+        color += textureLoad(blended, vec2<i32>(pixel), si);
+    }
+    output[i] = Resolved(color / f32(samples), count, 0u, 0u, 0u);
     report_pixel(count, count);
 }

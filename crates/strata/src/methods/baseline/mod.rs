@@ -3,8 +3,10 @@
 //!
 //! Passes: blend (1 geometry pass, premultiplied over-blending into an Rgba16Float target, with an
 //! atomic per-pixel fragment count), finish (compute: over the background, into the output).
-//! Memory: 8 bytes (Rgba16Float) + 4 bytes (count) per pixel, plus 12 bytes per triangle for
-//! `sorted`'s index buffer (the sorted triangles' vertex numbers). `sorted` draws every triangle
+//! With `--msaa 4|8` the target is multisampled: each fragment, shaded once, blends into the
+//! samples it covers, and finish averages the samples (anti-aliased edges, as engines blend).
+//! Memory: 8 bytes (Rgba16Float) per sample + 4 bytes (count) per pixel, plus 12 bytes per
+//! triangle for `sorted`'s index buffer (the sorted triangles' vertex numbers). `sorted` draws every triangle
 //! of the scene, so it refuses an application's draw callback. Limits: wrong wherever triangles overlap out of order (that is the
 //! point); translucency gets Fresnel opacity but no absorption, which needs ordered neighbours.
 
@@ -12,12 +14,16 @@ use crate::error::{Error, Result};
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline, color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels,
+    capture_pipeline_with, color_geometry_pass, color_pass_drawing, compute_pipeline,
+    dispatch_pixels,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
 
 const BLEND_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Bytes of the blend target per sample, and of the fragment count per pixel.
+pub const SAMPLE_BYTES: u64 = 8;
+pub const COUNT_BYTES: u64 = 4;
 
 pub struct Blend {
     sort: bool,
@@ -27,21 +33,28 @@ pub struct Blend {
     finish: wgpu::ComputePipeline,
     order: Option<wgpu::Buffer>,
     cache: ResourceCache,
+    samples: u32,
 }
 
 impl Blend {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, sort: bool) -> Blend {
+        let samples = scene.samples;
+        let target = if samples > 1 {
+            Slot::TextureFloatMultisampled
+        } else {
+            Slot::TextureFloat
+        };
         let blend_layout = binding::layout(&gpu.device, "strata.blend.layout", &[Slot::StorageRw]);
         let finish_layout = binding::layout(
             &gpu.device,
             "strata.blend.finish.layout",
-            &[Slot::StorageRw, Slot::TextureFloat, Slot::StorageRw],
+            &[Slot::StorageRw, target, Slot::StorageRw],
         );
         let module = shader::module(&gpu.device, "strata.blend", include_str!("blend.wgsl"));
-        let blend = capture_pipeline(
+        let blend = capture_pipeline_with(
             gpu,
             "strata.blend",
-            &module,
+            (&module, &module),
             "fs_blend",
             &[&scene.frame_layout, &blend_layout],
             &[Some(wgpu::ColorTargetState {
@@ -50,12 +63,9 @@ impl Blend {
                 write_mask: wgpu::ColorWrites::ALL,
             })],
             None,
+            samples,
         );
-        let module = shader::module(
-            &gpu.device,
-            "strata.blend.finish",
-            include_str!("finish.wgsl"),
-        );
+        let module = shader::module(&gpu.device, "strata.blend.finish", &finish_source(samples));
         let finish = compute_pipeline(
             gpu,
             "strata.blend.finish",
@@ -71,6 +81,7 @@ impl Blend {
             finish,
             order: None,
             cache: ResourceCache::default(),
+            samples,
         }
     }
 
@@ -90,6 +101,16 @@ impl Blend {
             .iter()
             .flat_map(|&t| [3 * t, 3 * t + 1, 3 * t + 2])
             .collect()
+    }
+}
+
+/// The finish stage, reading the multisampled target with `--msaa`.
+pub fn finish_source(samples: u32) -> String {
+    let source = include_str!("finish.wgsl");
+    if samples > 1 {
+        source.replace("texture_2d<f32>", "texture_multisampled_2d<f32>")
+    } else {
+        source.to_string()
     }
 }
 
@@ -113,13 +134,15 @@ impl Method for Blend {
         } else {
             0
         };
-        ctx.check_budget(ctx.pixels() * 12 + order_bytes)?;
-        let target = self.cache.texture(
+        let pixel_bytes = SAMPLE_BYTES * self.samples as u64 + COUNT_BYTES;
+        ctx.check_budget(ctx.pixels() * pixel_bytes + order_bytes)?;
+        let target = self.cache.texture_samples(
             gpu,
             "strata.blend.target",
             (w, h),
             BLEND_FORMAT,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            self.samples,
         );
         let target_view = target.create_view(&Default::default());
         let counts = self.cache.storage(
@@ -128,7 +151,7 @@ impl Method for Blend {
             ctx.pixels() * 4,
             wgpu::BufferUsages::empty(),
         )?;
-        let mut bytes = ctx.pixels() * 12;
+        let mut bytes = ctx.pixels() * pixel_bytes;
         let order = if self.sort {
             let order = Self::back_to_front(ctx.scene);
             let buffer = self.order.get_or_insert_with(|| {
