@@ -45,6 +45,8 @@ const WALL_CLOCK_EXPERIMENTS: &[&str] = &["peers"];
 fn figure(experiment: &str) -> (&'static [&'static str], &'static str) {
     if WALL_CLOCK_EXPERIMENTS.contains(&experiment) {
         (&["median_wall_ms"], "wall-clock ms per frame")
+    } else if experiment == "memory-density" {
+        (&["gpu_ms_per_mib"], "GPU ms per MiB allocated")
     } else if experiment == "bandwidth" {
         (
             &["measured_over_floor"],
@@ -71,6 +73,11 @@ const SWEEPS: &[(&str, &str, &str)] = &[
         "fragments per pixel (seed 003 Fig. 9 right)",
     ),
     (
+        "memory-density",
+        "scene:n*coverage",
+        "fragments per pixel over the screen (seed 003 Fig. 8)",
+    ),
+    (
         "convex",
         "scene:layers",
         "layers of the stacked spheres (seed 001 Table 3)",
@@ -78,16 +85,21 @@ const SWEEPS: &[(&str, &str, &str)] = &[
 ];
 
 /// A row's value of a sweep field: a number of the row, or with `scene:NAME` the parameter
-/// NAME of its scene (`builtin:layers?n=64` gives 64 for `scene:n`).
+/// NAME of its scene (`builtin:layers?n=64` gives 64 for `scene:n`), with `scene:A*B` the
+/// product of two.
 fn sweep_value(row: &Value, field: &str) -> Option<f64> {
-    match field.strip_prefix("scene:") {
-        Some(param) => text(row, "scene")?
-            .split_once('?')?
-            .1
+    let Some(params) = field.strip_prefix("scene:") else {
+        return row.get(field)?.as_f64();
+    };
+    let scene = text(row, "scene")?;
+    let query = scene.split_once('?')?.1;
+    // `scene:a*b`: the product of the scene's parameters a and b.
+    params.split('*').try_fold(1.0, |product, param| {
+        let value: f64 = query
             .split('&')
-            .find_map(|p| p.strip_prefix(param)?.strip_prefix('=')?.parse().ok()),
-        None => row.get(field)?.as_f64(),
-    }
+            .find_map(|p| p.strip_prefix(param)?.strip_prefix('=')?.parse().ok())?;
+        Some(product * value)
+    })
 }
 /// Fields naming a line of a sweep.
 const SERIES_FIELDS: &[&str] = &["method", "pipeline", "config"];
@@ -282,18 +294,18 @@ const SWEEP_SIZE: (u32, u32) = (900, 520);
 fn sweep_chart(
     path: &Path,
     title: &str,
-    axis: &str,
+    (axis, unit): (&str, &str),
     data: &[(&DeviceResults, Vec<Point>)],
 ) -> Result<()> {
     let svg = SVGBackend::new(path, SWEEP_SIZE).into_drawing_area();
-    sweep_chart_on(svg, path, title, axis, data)?;
+    sweep_chart_on(svg, path, title, (axis, unit), data)?;
     let png = path.with_extension("png");
     let mut pixels = vec![0u8; (SWEEP_SIZE.0 * SWEEP_SIZE.1 * 3) as usize];
     sweep_chart_on(
         BitMapBackend::with_buffer(&mut pixels, SWEEP_SIZE).into_drawing_area(),
         &png,
         title,
-        axis,
+        (axis, unit),
         data,
     )?;
     save_png(&png, SWEEP_SIZE, pixels)
@@ -303,7 +315,7 @@ fn sweep_chart_on<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     path: &Path,
     title: &str,
-    axis: &str,
+    (axis, unit): (&str, &str),
     data: &[(&DeviceResults, Vec<Point>)],
 ) -> Result<()> {
     let mut lines: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
@@ -358,7 +370,7 @@ fn sweep_chart_on<DB: DrawingBackend>(
             chart
                 .configure_mesh()
                 .x_desc(axis)
-                .y_desc("ms per frame (log)")
+                .y_desc(unit)
                 .x_labels(10)
                 .y_labels(10)
                 .x_label_formatter(&|v| format!("{v:.0}"))
@@ -832,7 +844,12 @@ pub fn run(a: ReportArgs) -> Result<()> {
         }
         let svg = charts.join(format!("{name}.svg"));
         match sweep {
-            Some((_, axis)) => sweep_chart(&svg, name, axis, &data)?,
+            Some((_, axis)) => sweep_chart(
+                &svg,
+                name,
+                (axis, &format!("{} (log)", figure(name).1)),
+                &data,
+            )?,
             None => bar_chart(&svg, name, &format!("{} (log)", figure(name).1), &data)?,
         }
         let relative = pathdiff(&svg, a.out.parent().unwrap_or(Path::new(".")));

@@ -1396,6 +1396,77 @@ fn bench_all_runs_the_suite_and_bench_compare_finds_nothing_moved_in_a_rerun_of_
     }
 }
 
+/// `bench bandwidth` probes the device and puts every GPU method against its memory-traffic
+/// floor; `strata report` turns the results into its tables.
+#[test]
+fn bench_bandwidth_measures_rates_and_floors_and_the_report_shows_them() {
+    let dir = workdir("bandwidth");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = dir.join("results/lavapipe");
+    let o = strata(&[
+        "bench",
+        "bandwidth",
+        "--frames",
+        "1",
+        "--size",
+        "24x24",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("bandwidth.json")).unwrap()).unwrap();
+    for rate in [
+        "copy_gb_per_s",
+        "stream_gb_per_s",
+        "atomics_distinct_g_per_s",
+        "atomics_per_pixel_g_per_s",
+        "atomics_one_word_g_per_s",
+    ] {
+        assert!(v["device"][rate].as_f64().unwrap() > 0.0, "{rate}: {v}");
+    }
+    let rows = v["rows"].as_array().unwrap();
+    let methods = strata(&["methods", "--json"]);
+    let catalogue: serde_json::Value = serde_json::from_slice(&methods.stdout).unwrap();
+    // Every GPU method has a row: measured against its floor, or skipped with the reason.
+    assert_eq!(rows.len(), catalogue.as_array().unwrap().len() - 1);
+    for row in rows {
+        if row["skipped"].is_string() {
+            continue;
+        }
+        let (ms, floor) = (
+            row["median_gpu_ms"].as_f64().unwrap(),
+            row["floor_ms"].as_f64().unwrap(),
+        );
+        assert!(
+            floor > 0.0 && row["traffic"]["bytes"].as_u64().unwrap() > 0,
+            "{row}"
+        );
+        let ratio = row["measured_over_floor"].as_f64().unwrap();
+        assert!((ratio - ms / floor).abs() <= 1e-9 * ratio, "{row}");
+    }
+    let report = dir.join("REPORT.md");
+    let o = strata(&[
+        "report",
+        "--results",
+        dir.join("results").to_str().unwrap(),
+        "--out",
+        report.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&report).unwrap();
+    assert!(
+        text.contains("| device | copy GB/s | stream GB/s |"),
+        "{text}"
+    );
+    assert!(
+        text.contains("measured GPU time / memory-traffic floor"),
+        "{text}"
+    );
+    assert!(text.contains("| abuffer-ll |"), "{text}");
+    assert!(dir.join("charts/bandwidth.png").exists());
+}
+
 /// `strata report` refreshes its generated blocks from the results and keeps the prose around
 /// them; run twice it changes nothing; a missing results folder is one error line.
 #[test]
@@ -1444,6 +1515,15 @@ fn report_refreshes_generated_blocks_and_keeps_the_prose() {
     assert!(first.contains("CPU figures"));
     let svg = std::fs::read_to_string(dir.join("charts/kbuffer-k.svg")).unwrap();
     assert!(svg.contains("<svg") && svg.contains("kplus-heap"));
+    // The same chart as a PNG (for the README), and the seeds' claims, empty where the results
+    // lack what a claim needs (no k = 64 here).
+    let png = image::open(dir.join("charts/kbuffer-k.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_eq!(png.dimensions(), (900, 520));
+    assert!(png.pixels().any(|p| p.0 != [255, 255, 255]));
+    assert!(first.contains("<!-- strata report: claims -->"));
+    assert!(first.contains("| 003 Fig. 6 | k = 64, 128 layers: K+B-Heap 3.5×"));
     let o = strata(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(&report).unwrap(), first);
