@@ -218,6 +218,7 @@ const EXPERIMENTS: &[Experiment] = &[
                 Run::with_k("kb-ab-fixed", 8, true),
                 Run::with_k("abuffer-fixed", 16, true),
                 Run::plain("wboit"),
+                Run::plain("mboit"),
                 Run::plain("unsorted"),
             ];
             base.iter()

@@ -20,13 +20,14 @@
 //! complexity view — count what was stored, invocations, where the reference counts primitives. The reference
 //! ([`crate::reference`]) supersamples the same way, so the exact methods stay testable.
 //!
-//! `wboit` and the baselines (`unsorted`, `sorted`) blend into multisampled targets instead: the
-//! hardware writes each fragment into the samples it covers and the composite averages the
-//! samples' results (wboit's closed forms, the baselines' blended colors).
+//! `wboit`, `mboit` and the baselines (`unsorted`, `sorted`) blend into multisampled targets
+//! instead: the hardware writes each fragment into the samples it covers and the composite
+//! averages the samples' results (wboit's and mboit's closed forms, the baselines' blended
+//! colors); mboit weights a fragment by the mean of its covered samples' transmittances.
 //!
 //! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×); 8× only where the device
 //! rasterizes it (lavapipe: 4×). Methods whose capture keeps the k nearest per pixel (k-buffers
-//! with capture-time selection, peeling, multi-depth tests, convex), mboit, `--pipeline`,
+//! with capture-time selection, peeling, multi-depth tests, convex), `--pipeline`,
 //! `--raster compute` and `--temporal` refuse `--msaa` with one error line: for them a per-pixel
 //! choice would not be the per-sample one, and per-sample versions are not built yet.
 
@@ -91,6 +92,7 @@ pub fn supported(method: MethodId) -> bool {
             | MethodId::Sbuffer
             | MethodId::KbSbuffer
             | MethodId::Wboit
+            | MethodId::Mboit
             | MethodId::Unsorted
             | MethodId::Sorted
             | MethodId::Reference
@@ -375,7 +377,7 @@ mod gpu_tests {
             background: Background::Color([0.2, 0.3, 0.4]),
             ..options(32, Effect::Transparency)
         };
-        for method in ["abuffer-ll", "kb-ab-fixed", "unsorted"] {
+        for method in ["abuffer-ll", "kb-ab-fixed", "unsorted", "mboit"] {
             let (img, _) = render_gpu(&scene, &opts, method);
             for y in 4..28 {
                 let at = |x: u32| img.pixels[(y * 32 + x) as usize];

@@ -251,7 +251,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "weighted",
             exact: false,
             geometry_passes: "2",
-            memory: "32·W·H",
+            memory: "(28·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
             summary: "moment-based OIT (Münstermann et al. 2018): 4 power moments of absorbance over log depth (32-bit, bias 5e-7, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
         },
         MethodInfo {

@@ -71,10 +71,15 @@ fn every_stage_validates() {
         ),
         ("blend.finish.msaa", &super::baseline::finish_source(4)),
         ("mboit.moments", &super::weighted::mboit::moments_source()),
-        ("mboit.shade", &super::weighted::mboit::shade_source()),
+        ("mboit.shade", &super::weighted::mboit::shade_source(1)),
+        ("mboit.shade.msaa", &super::weighted::mboit::shade_source(4)),
         (
             "mboit.composite",
-            include_str!("weighted/mboit_composite.wgsl"),
+            &super::weighted::mboit::composite_source(1),
+        ),
+        (
+            "mboit.composite.msaa",
+            &super::weighted::mboit::composite_source(4),
         ),
     ];
     for (label, src) in stages {

@@ -85,14 +85,8 @@ pub fn absorbance_fraction(moments: [f64; 4], z: f64, bias: f64, overestimation:
     a0 + a1 * m[0] + a2 * m[1]
 }
 
-/// One pixel of `mboit` over `background`, from its fragments in any order.
-pub fn mboit(
-    fragments: &[RefFragment],
-    background: [f64; 3],
-    camera: &Camera,
-    bias: f64,
-    overestimation: f64,
-) -> [f64; 3] {
+/// b0 and the absorbance-weighted power moments Σ a·zᵏ (k = 1..4) of `fragments`.
+fn mboit_moments(fragments: &[&RefFragment], camera: &Camera) -> (f64, [f64; 4]) {
     let mut b0 = 0.0;
     let mut b = [0.0f64; 4];
     for f in fragments {
@@ -103,17 +97,34 @@ pub fn mboit(
             *bk += a * z.powi(k as i32 + 1);
         }
     }
+    (b0, b)
+}
+
+/// The transmittance the moments `(b0, b)` give in front of warped depth `z`.
+fn mboit_transmittance((b0, b): (f64, [f64; 4]), z: f64, bias: f64, overestimation: f64) -> f64 {
+    if b0 <= 0.0 {
+        return 1.0;
+    }
+    let moments = b.map(|x| x / b0);
+    (-b0 * absorbance_fraction(moments, z, bias, overestimation))
+        .exp()
+        .clamp(0.0, 1.0)
+}
+
+/// One sample's color over `background`: the fragments covering it, each weighted by α and its
+/// transmittance `t(f)`, averaged over the coverage the sample's moments give.
+fn mboit_resolve(
+    fragments: &[&RefFragment],
+    b0: f64,
+    t: impl Fn(&RefFragment) -> f64,
+    background: [f64; 3],
+) -> [f64; 3] {
     if b0 <= 0.0 {
         return background;
     }
-    let moments = b.map(|x| x / b0);
     let (mut sum, mut weights) = ([0.0f64; 3], 0.0f64);
     for f in fragments {
-        let z = mboit_depth(camera, f.distance);
-        let t = (-b0 * absorbance_fraction(moments, z, bias, overestimation))
-            .exp()
-            .clamp(0.0, 1.0);
-        let alpha = f.alpha.min(MAX_ALPHA);
+        let (alpha, t) = (f.alpha.min(MAX_ALPHA), t(f));
         for (s, c) in sum.iter_mut().zip(f.color) {
             *s += c * alpha * t;
         }
@@ -124,4 +135,64 @@ pub fn mboit(
         let color = if weights > 0.0 { sum[i] / weights } else { 0.0 };
         color * coverage + background[i] * (1.0 - coverage)
     })
+}
+
+/// One pixel of `mboit` over `background`, from its fragments in any order.
+pub fn mboit(
+    fragments: &[RefFragment],
+    background: [f64; 3],
+    camera: &Camera,
+    bias: f64,
+    overestimation: f64,
+) -> [f64; 3] {
+    let all: Vec<&RefFragment> = fragments.iter().collect();
+    let moments = mboit_moments(&all, camera);
+    mboit_resolve(
+        &all,
+        moments.0,
+        |f| {
+            mboit_transmittance(
+                moments,
+                mboit_depth(camera, f.distance),
+                bias,
+                overestimation,
+            )
+        },
+        background,
+    )
+}
+
+/// One pixel of `mboit --msaa S` (fragments with their coverage masks): each sample's moments
+/// from the fragments covering it; a fragment weighted by the mean of its covered samples'
+/// transmittances at its depth; each sample resolved on its own, the samples averaged.
+pub fn mboit_multisampled(
+    fragments: &[RefFragment],
+    background: [f64; 3],
+    camera: &Camera,
+    (bias, overestimation): (f64, f64),
+    samples: u32,
+) -> [f64; 3] {
+    let covering = |s: u32| -> Vec<&RefFragment> {
+        fragments
+            .iter()
+            .filter(|f| f.coverage & (1 << s) != 0)
+            .collect()
+    };
+    let moments: Vec<(f64, [f64; 4])> = (0..samples)
+        .map(|s| mboit_moments(&covering(s), camera))
+        .collect();
+    let t = |f: &RefFragment| {
+        let z = mboit_depth(camera, f.distance);
+        let covered: Vec<f64> = (0..samples)
+            .filter(|s| f.coverage & (1 << s) != 0)
+            .map(|s| mboit_transmittance(moments[s as usize], z, bias, overestimation))
+            .collect();
+        covered.iter().sum::<f64>() / covered.len().max(1) as f64
+    };
+    let mut sum = [0.0; 3];
+    for s in 0..samples {
+        let c = mboit_resolve(&covering(s), moments[s as usize].0, t, background);
+        sum = std::array::from_fn(|i| sum[i] + c[i] / samples as f64);
+    }
+    sum
 }

@@ -12,6 +12,13 @@
 //! the moments (0, 0.375, 0, 0.375), overestimation η = 0.25. Memory: 4 + 16 + 8 + 4 = 32 bytes
 //! per pixel. Needs FLOAT32_BLENDABLE (additive blending of 32-bit float targets).
 //!
+//! With `--msaa 4|8` the three targets are multisampled, and shading stays once per pixel and
+//! primitive: the moments pass blends each fragment into the samples it covers, so every sample
+//! has its own moments; the shade pass weights the fragment by the mean, over the samples it
+//! covers, of each sample's transmittance at its depth (one color per fragment, as engines
+//! shade), blended into those samples; the composite resolves each sample and averages them.
+//! Memory: (4 + 16 + 8)·S + 4 bytes per pixel for S samples.
+//!
 //! Not exact, by design: the coverage is exact, the order is estimated. Six, eight or
 //! trigonometric moments and the 16-bit quantized variants are not built. Translucency gets Fresnel
 //! opacity but no absorption between surfaces.
@@ -22,7 +29,7 @@ use crate::error::{Error, Result};
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
+    capture_pipeline_with, color_geometry_pass, compute_pipeline, dispatch_pixels,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
@@ -30,8 +37,10 @@ use crate::methods::Method;
 const B0_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const MOMENTS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-/// Bytes per pixel: b0, the four moments, the accumulation and the fragment count.
-pub const MBOIT_PIXEL_BYTES: u64 = 4 + 16 + 8 + 4;
+/// Bytes per sample: b0, the four moments and the accumulation.
+pub const MBOIT_SAMPLE_BYTES: u64 = 4 + 16 + 8;
+/// Bytes per pixel of the fragment count.
+pub const MBOIT_COUNT_BYTES: u64 = 4;
 /// The paper's moment bias for four power moments in 32-bit floats.
 pub const MOMENT_BIAS: f32 = 5e-7;
 /// The paper's overestimation.
@@ -56,6 +65,7 @@ pub struct Mboit {
     shade: wgpu::RenderPipeline,
     composite: wgpu::ComputePipeline,
     cache: ResourceCache,
+    samples: u32,
 }
 
 fn additive() -> Option<wgpu::BlendState> {
@@ -82,8 +92,25 @@ pub fn moments_source() -> String {
     [MATH_WGSL, include_str!("mboit_moments.wgsl")].join("\n")
 }
 
-pub fn shade_source() -> String {
-    [MATH_WGSL, include_str!("mboit_shade.wgsl")].join("\n")
+/// The shade stage, reading multisampled moments with `--msaa`.
+pub fn shade_source(samples: u32) -> String {
+    multisampled(
+        [MATH_WGSL, include_str!("mboit_shade.wgsl")].join("\n"),
+        samples,
+    )
+}
+
+/// The composite stage, reading multisampled targets with `--msaa`.
+pub fn composite_source(samples: u32) -> String {
+    multisampled(include_str!("mboit_composite.wgsl").to_string(), samples)
+}
+
+fn multisampled(source: String, samples: u32) -> String {
+    if samples > 1 {
+        source.replace("texture_2d<f32>", "texture_multisampled_2d<f32>")
+    } else {
+        source
+    }
 }
 
 impl Mboit {
@@ -94,6 +121,12 @@ impl Mboit {
             ));
         }
         let device = &gpu.device;
+        let samples = scene.samples;
+        let texture = if samples > 1 {
+            Slot::TextureFloatMultisampled
+        } else {
+            Slot::TextureFloat
+        };
         let moments_layout = binding::layout(
             device,
             "strata.mboit.moments.layout",
@@ -102,43 +135,36 @@ impl Mboit {
         let shade_layout = binding::layout(
             device,
             "strata.mboit.shade.layout",
-            &[Slot::Uniform, Slot::TextureFloat, Slot::TextureFloat],
+            &[Slot::Uniform, texture, texture],
         );
         let composite_layout = binding::layout(
             device,
             "strata.mboit.composite.layout",
-            &[
-                Slot::StorageRw,
-                Slot::TextureFloat,
-                Slot::TextureFloat,
-                Slot::StorageRw,
-            ],
+            &[Slot::StorageRw, texture, texture, Slot::StorageRw],
         );
         let module = shader::module(device, "strata.mboit.moments", &moments_source());
-        let moments = capture_pipeline(
+        let moments = capture_pipeline_with(
             gpu,
             "strata.mboit.moments",
-            &module,
+            (&module, &module),
             "fs_moments",
             &[&scene.frame_layout, &moments_layout],
             &[target(B0_FORMAT), target(MOMENTS_FORMAT)],
             None,
+            samples,
         );
-        let module = shader::module(device, "strata.mboit.shade", &shade_source());
-        let shade = capture_pipeline(
+        let module = shader::module(device, "strata.mboit.shade", &shade_source(samples));
+        let shade = capture_pipeline_with(
             gpu,
             "strata.mboit.shade",
-            &module,
+            (&module, &module),
             "fs_shade",
             &[&scene.frame_layout, &shade_layout],
             &[target(ACCUMULATION_FORMAT)],
             None,
+            samples,
         );
-        let module = shader::module(
-            device,
-            "strata.mboit.composite",
-            include_str!("mboit_composite.wgsl"),
-        );
+        let module = shader::module(device, "strata.mboit.composite", &composite_source(samples));
         let composite = compute_pipeline(
             gpu,
             "strata.mboit.composite",
@@ -154,6 +180,7 @@ impl Mboit {
             shade,
             composite,
             cache: ResourceCache::default(),
+            samples,
         })
     }
 }
@@ -161,13 +188,14 @@ impl Mboit {
 impl Method for Mboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let bytes = ctx.pixels() * MBOIT_PIXEL_BYTES;
+        let bytes = ctx.pixels() * (MBOIT_SAMPLE_BYTES * self.samples as u64 + MBOIT_COUNT_BYTES);
         ctx.check_budget(bytes)?;
         let (w, h) = ctx.size();
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let samples = self.samples;
         let mut view = |label, format| {
             self.cache
-                .texture(gpu, label, (w, h), format, usage)
+                .texture_samples(gpu, label, (w, h), format, usage, samples)
                 .create_view(&Default::default())
         };
         let b0 = view("strata.mboit.b0", B0_FORMAT);

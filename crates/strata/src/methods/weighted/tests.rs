@@ -159,6 +159,75 @@ fn mboit_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
     })
 }
 
+/// With --msaa 4 every sample has its own moments, each fragment is weighted by the mean of its
+/// covered samples' transmittances, and the samples are resolved and averaged: the closed form
+/// `cpu::mboit_multisampled`. Fully covered pixels stay the single-sampled result.
+#[test]
+fn multisampled_mboit_equals_its_closed_form() {
+    let mut scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
+    scene.override_alpha(0.4);
+    let opts = RenderOptions {
+        width: 40,
+        height: 40,
+        msaa: 4,
+        background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+        ..Default::default()
+    };
+    let camera = scene.camera_or_framing();
+    let settings = (
+        super::mboit::MOMENT_BIAS as f64,
+        super::mboit::OVERESTIMATION as f64,
+    );
+    let expected = per_pixel(&scene, &opts, |l, bg| {
+        cpu::mboit_multisampled(l, bg, &camera, settings, 4)
+    });
+    let (actual, stats) = render_gpu(&scene, &opts, "mboit");
+    assert_close(
+        "mboit-msaa4",
+        &actual,
+        &expected,
+        Effect::Transparency,
+        2,
+        0.001,
+    );
+    assert_eq!(stats.bytes_allocated, Some(40 * 40 * (28 * 4 + 4)));
+    // On flat layers (37 pixels: edges between sample positions) the same as single-sampled
+    // where every fragment covers every sample, and anti-aliased at the edges.
+    let mut layers =
+        loaders::load_scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3").unwrap();
+    layers.override_alpha(0.4);
+    let four = RenderOptions {
+        width: 37,
+        height: 37,
+        ..opts
+    };
+    let single = RenderOptions {
+        msaa: 1,
+        ..four.clone()
+    };
+    let (aliased, _) = render_gpu(&layers, &single, "mboit");
+    let (smooth, _) = render_gpu(&layers, &four, "mboit");
+    let lists = crate::reference::fragments(&layers, &four).unwrap();
+    let (mut moved, mut interior) = (0, 0);
+    for (i, l) in lists.iter().enumerate() {
+        let differs = (0..3).any(|c| (aliased.pixels[i][c] - smooth.pixels[i][c]).abs() > 1e-4);
+        if !l.is_empty() && l.iter().all(|f| f.coverage == 0b1111) {
+            interior += 1;
+            assert!(
+                !differs,
+                "fully covered pixel {i}: {:?} vs {:?}",
+                aliased.pixels[i], smooth.pixels[i]
+            );
+        } else if differs {
+            moved += 1;
+        }
+    }
+    assert!(
+        interior > 200 && moved > 20,
+        "{interior} interior, {moved} edge pixels changed"
+    );
+}
+
 /// mboit against its f64 closed form: the same moments, the same reconstruction per fragment.
 #[test]
 fn mboit_equals_its_closed_form() {
