@@ -6,6 +6,7 @@
 //! recording the next, since it measures the choice (k, predicted and achieved robustness),
 //! not speed; its GPU times are those of single frames, not of a steady loop.
 
+use crate::bench::opt;
 use std::path::Path;
 
 use serde::Serialize;
@@ -45,11 +46,8 @@ struct Row {
 
 #[derive(Serialize)]
 struct Report {
-    experiment: &'static str,
-    adapter: String,
-    backend: String,
-    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
-    cpu_figures: bool,
+    #[serde(flatten)]
+    header: crate::bench::Header,
     width: u32,
     height: u32,
     robustness: f64,
@@ -151,10 +149,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Res
     }
     bar.finish_and_clear();
     let report = Report {
-        experiment: "auto-k",
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        cpu_figures,
+        header: crate::bench::Header::new("auto-k", gpu, cpu_figures),
         width,
         height,
         robustness: ROBUSTNESS,
@@ -162,10 +157,6 @@ pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Res
     };
     print(&report);
     crate::write_results(dir, "auto-k", &report, csv(&report))
-}
-
-fn opt<T: ToString>(v: Option<T>) -> String {
-    v.map(|v| v.to_string()).unwrap_or_default()
 }
 
 fn csv(r: &Report) -> String {
@@ -199,9 +190,9 @@ fn print(r: &Report) {
         r.width,
         r.height,
         r.robustness,
-        r.adapter,
-        r.backend,
-        if r.cpu_figures {
+        r.header.adapter,
+        r.header.backend,
+        if r.header.cpu_figures {
             " — CPU FIGURES"
         } else {
             ""

@@ -6,6 +6,7 @@
 //! On a GPU: the dragon (opacity 0.5) and nvpro at 1024²; on lavapipe the dragon at 192² (CPU
 //! figures: a CPU's memory system and a software rasterizer, so the ratios are large).
 
+use crate::bench::fixed;
 use std::path::Path;
 
 use serde::Serialize;
@@ -48,11 +49,8 @@ struct Row {
 
 #[derive(Serialize)]
 struct Report {
-    experiment: &'static str,
-    adapter: String,
-    backend: String,
-    /// True when the adapter is a CPU (lavapipe): rates and times measure a CPU.
-    cpu_figures: bool,
+    #[serde(flatten)]
+    header: crate::bench::Header,
     width: u32,
     height: u32,
     frames: u32,
@@ -135,10 +133,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     }
     bar.finish_and_clear();
     let report = Report {
-        experiment: "bandwidth",
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        cpu_figures,
+        header: crate::bench::Header::new("bandwidth", gpu, cpu_figures),
         width,
         height,
         frames,
@@ -148,10 +143,6 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     };
     print(&report);
     crate::write_results(dir, "bandwidth", &report, csv(&report))
-}
-
-fn fixed(v: Option<f64>, digits: usize) -> String {
-    v.map(|v| format!("{v:.digits$}")).unwrap_or_default()
 }
 
 fn csv(r: &Report) -> String {
@@ -181,8 +172,8 @@ fn print(r: &Report) {
     let d = &r.device;
     println!(
         "bandwidth on {}{}: copy {:.1} GB/s, stream {:.1} GB/s; atomics (G/s) distinct {:.3}, {} per word {:.3}, one word {:.4}",
-        r.adapter,
-        crate::bench::cpu_label(r.cpu_figures),
+        r.header.adapter,
+        crate::bench::cpu_label(r.header.cpu_figures),
         d.copy_gb_per_s,
         d.stream_gb_per_s,
         d.atomics_distinct_g_per_s,

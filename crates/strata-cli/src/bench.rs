@@ -439,6 +439,37 @@ pub fn device_slug(gpu: &Gpu) -> String {
         .join("-")
 }
 
+/// What every standalone experiment's results file starts with (flattened into it).
+#[derive(Serialize)]
+pub(crate) struct Header {
+    pub(crate) experiment: &'static str,
+    pub(crate) adapter: String,
+    pub(crate) backend: String,
+    /// True when the adapter is a CPU (lavapipe): the figures measure a CPU, not a GPU.
+    pub(crate) cpu_figures: bool,
+}
+
+impl Header {
+    pub(crate) fn new(experiment: &'static str, gpu: &Gpu, cpu_figures: bool) -> Header {
+        Header {
+            experiment,
+            adapter: gpu.info.name.clone(),
+            backend: gpu.backend_name(),
+            cpu_figures,
+        }
+    }
+}
+
+/// A number with `digits` decimals, or nothing (a table's empty cell).
+pub(crate) fn fixed(v: Option<f64>, digits: usize) -> String {
+    v.map(|v| format!("{v:.digits$}")).unwrap_or_default()
+}
+
+/// A value, or nothing (a table's empty cell).
+pub(crate) fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
+    v.map(|v| v.to_string()).unwrap_or_default()
+}
+
 /// The suffix of a report's heading whose figures come from a CPU adapter.
 pub(crate) fn cpu_label(cpu_figures: bool) -> &'static str {
     if cpu_figures {

@@ -18,6 +18,7 @@
 //! two in flight, medians of the frames' own GPU timestamps). A configuration the device cannot
 //! hold is recorded with its error, not fatal.
 
+use crate::bench::opt;
 use std::path::Path;
 
 use glam::Vec3;
@@ -96,11 +97,8 @@ struct Speedup {
 
 #[derive(Serialize)]
 struct Report {
-    experiment: &'static str,
-    adapter: String,
-    backend: String,
-    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
-    cpu_figures: bool,
+    #[serde(flatten)]
+    header: crate::bench::Header,
     model_size: (u32, u32),
     stack_size: (u32, u32),
     frames: u32,
@@ -309,10 +307,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         })
         .collect();
     let report = Report {
-        experiment: "convex",
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        cpu_figures,
+        header: crate::bench::Header::new("convex", gpu, cpu_figures),
         model_size,
         stack_size,
         frames,
@@ -321,10 +316,6 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     };
     print(&report);
     crate::write_results(dir, "convex", &report, csv(&report))
-}
-
-fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
-    v.map(|v| v.to_string()).unwrap_or_default()
 }
 
 fn ms(v: Option<f64>) -> String {
@@ -363,10 +354,10 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = crate::bench::cpu_label(r.cpu_figures);
+    let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
         "convex on {}{label}: models at {}x{} (median over views), layered spheres at {}x{}",
-        r.adapter, r.model_size.0, r.model_size.1, r.stack_size.0, r.stack_size.1
+        r.header.adapter, r.model_size.0, r.model_size.1, r.stack_size.0, r.stack_size.1
     );
     println!(
         "{:<44} {:>9} {:<14} {:>11} {:>8} {:>9} {:>10}",

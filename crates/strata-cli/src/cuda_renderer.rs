@@ -107,11 +107,8 @@ struct Ratio {
 
 #[derive(Serialize)]
 struct Report {
-    experiment: &'static str,
-    adapter: String,
-    backend: String,
-    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
-    cpu_figures: bool,
+    #[serde(flatten)]
+    header: crate::bench::Header,
     width: u32,
     height: u32,
     frames: u32,
@@ -212,10 +209,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         })
         .collect();
     let report = Report {
-        experiment: "cuda-renderer",
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        cpu_figures,
+        header: crate::bench::Header::new("cuda-renderer", gpu, cpu_figures),
         width,
         height,
         frames,
@@ -266,10 +260,10 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = crate::bench::cpu_label(r.cpu_figures);
+    let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
         "cuda-renderer on {}{label}: {}x{}, median of {} frames",
-        r.adapter, r.width, r.height, r.frames
+        r.header.adapter, r.width, r.height, r.frames
     );
     let mut scene = "";
     for row in &r.rows {

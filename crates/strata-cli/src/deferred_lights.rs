@@ -51,11 +51,8 @@ struct Layout {
 
 #[derive(Serialize)]
 struct Report {
-    experiment: &'static str,
-    adapter: String,
-    backend: String,
-    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
-    cpu_figures: bool,
+    #[serde(flatten)]
+    header: crate::bench::Header,
     scene: &'static str,
     triangles: usize,
     width: u32,
@@ -141,10 +138,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     .into_iter()
     .collect();
     let report = Report {
-        experiment: "deferred-lights",
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        cpu_figures,
+        header: crate::bench::Header::new("deferred-lights", gpu, cpu_figures),
         scene: SCENE,
         triangles,
         width,
@@ -178,10 +172,10 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = crate::bench::cpu_label(r.cpu_figures);
+    let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
         "deferred-lights on {}{label}: {} triangles at {}x{}, median of {} frames",
-        r.adapter, r.triangles, r.width, r.height, r.frames
+        r.header.adapter, r.triangles, r.width, r.height, r.frames
     );
     println!(
         "{:>7} {:>12} {:>12} {:>8}",

@@ -15,6 +15,7 @@
 //! worst RMSE and share of pixels over 2/255 against `reference --k N` over the sequence.
 //! Frames are waited for one by one (exact mode), so times are per frame, not a steady loop.
 
+use crate::bench::opt;
 use std::path::Path;
 
 use serde::Serialize;
@@ -90,10 +91,8 @@ struct Row {
 
 #[derive(Serialize)]
 struct Report {
-    experiment: &'static str,
-    adapter: String,
-    backend: String,
-    cpu_figures: bool,
+    #[serde(flatten)]
+    header: crate::bench::Header,
     width: u32,
     height: u32,
     k: u32,
@@ -299,10 +298,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     }
     bar.finish_and_clear();
     let report = Report {
-        experiment: "online-culling",
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        cpu_figures,
+        header: crate::bench::Header::new("online-culling", gpu, cpu_figures),
         width: size.0,
         height: size.1,
         k: K,
@@ -314,10 +310,6 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
 
 fn temporal_default_refresh() -> u32 {
     strata::methods::kbuffer::temporal::DEFAULT_REFRESH
-}
-
-fn opt<T: ToString>(v: Option<T>) -> String {
-    v.map(|v| v.to_string()).unwrap_or_default()
 }
 
 fn csv(r: &Report) -> String {
@@ -354,9 +346,9 @@ fn print(r: &Report) {
         r.width,
         r.height,
         r.k,
-        r.adapter,
-        r.backend,
-        if r.cpu_figures {
+        r.header.adapter,
+        r.header.backend,
+        if r.header.cpu_figures {
             " — CPU FIGURES"
         } else {
             ""

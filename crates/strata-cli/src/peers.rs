@@ -16,6 +16,7 @@
 //! and the pictures are written beside the results. A peer that is not installed (`peers/setup`)
 //! is recorded as skipped with the reason. Bevy's OIT is not run yet (see the README).
 
+use crate::bench::fixed;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -104,11 +105,8 @@ impl Row {
 
 #[derive(Serialize)]
 struct Report {
-    experiment: &'static str,
-    adapter: String,
-    backend: String,
-    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
-    cpu_figures: bool,
+    #[serde(flatten)]
+    header: crate::bench::Header,
     commit: Option<String>,
     width: u32,
     height: u32,
@@ -296,10 +294,7 @@ fn run_scenes(
     bar.finish_and_clear();
     result?;
     let report = Report {
-        experiment: "peers",
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        cpu_figures,
+        header: crate::bench::Header::new("peers", gpu, cpu_figures),
         commit: crate::bench::commit(),
         width,
         height,
@@ -355,10 +350,6 @@ fn run_pygfx(
     serde_json::from_str(&text).map_err(|e| format!("pygfx's timings: {e}"))
 }
 
-fn opt(v: Option<f64>, digits: usize) -> String {
-    v.map(|v| format!("{v:.digits$}")).unwrap_or_default()
-}
-
 fn csv(r: &Report) -> String {
     let mut out = String::from(
         "scene,renderer,label,median_gpu_ms,median_wall_ms,bytes_allocated,rmse,flip_mean,pct_over_2,skipped\n",
@@ -370,14 +361,14 @@ fn csv(r: &Report) -> String {
             row.scene.replace(',', ";"),
             row.renderer,
             row.label,
-            opt(row.median_gpu_ms, 3),
-            opt(row.median_wall_ms, 3),
+            fixed(row.median_gpu_ms, 3),
+            fixed(row.median_wall_ms, 3),
             row.bytes_allocated
                 .map(|b| b.to_string())
                 .unwrap_or_default(),
-            opt(e.map(|e| e.rmse), 5),
-            opt(e.map(|e| e.flip_mean), 5),
-            opt(e.map(|e| e.pct_over_2), 3),
+            fixed(e.map(|e| e.rmse), 5),
+            fixed(e.map(|e| e.flip_mean), 5),
+            fixed(e.map(|e| e.pct_over_2), 3),
             row.skipped.as_deref().unwrap_or("").replace(',', ";"),
         );
     }
@@ -387,8 +378,8 @@ fn csv(r: &Report) -> String {
 fn print(r: &Report) {
     println!(
         "peers on {}{}: {}x{}, background {}, median of {} frames",
-        r.adapter,
-        crate::bench::cpu_label(r.cpu_figures),
+        r.header.adapter,
+        crate::bench::cpu_label(r.header.cpu_figures),
         r.width,
         r.height,
         r.background,
@@ -408,11 +399,11 @@ fn print(r: &Report) {
         println!(
             "{scene:<10} {:<28} {:>9} {:>9} {:>9} {:>8} {:>7}",
             row.label,
-            opt(row.median_gpu_ms, 2),
-            opt(row.median_wall_ms, 2),
-            opt(row.bytes_allocated.map(|b| b as f64 / 1048576.0), 1),
-            opt(e.map(|e| e.rmse), 4),
-            opt(e.map(|e| e.flip_mean), 4),
+            fixed(row.median_gpu_ms, 2),
+            fixed(row.median_wall_ms, 2),
+            fixed(row.bytes_allocated.map(|b| b as f64 / 1048576.0), 1),
+            fixed(e.map(|e| e.rmse), 4),
+            fixed(e.map(|e| e.flip_mean), 4),
         );
     }
 }

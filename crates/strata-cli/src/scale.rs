@@ -10,6 +10,7 @@
 //! the size needs; the generator keeps the spheres' density, so depth complexity stays about the
 //! same while the triangle count grows.
 
+use crate::bench::{fixed, opt};
 use std::path::Path;
 use std::time::Instant;
 
@@ -52,11 +53,8 @@ struct Row {
 
 #[derive(Serialize)]
 struct Report {
-    experiment: &'static str,
-    adapter: String,
-    backend: String,
-    /// True when the adapter is a CPU (lavapipe): times measure a CPU.
-    cpu_figures: bool,
+    #[serde(flatten)]
+    header: crate::bench::Header,
     method: &'static str,
     width: u32,
     height: u32,
@@ -148,10 +146,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     }
     bar.finish_and_clear();
     let report = Report {
-        experiment: "scale",
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        cpu_figures,
+        header: crate::bench::Header::new("scale", gpu, cpu_figures),
         method: METHOD,
         width,
         height,
@@ -160,14 +155,6 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     };
     print(&report);
     crate::write_results(dir, "scale", &report, csv(&report))
-}
-
-fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
-    v.map(|v| v.to_string()).unwrap_or_default()
-}
-
-fn fixed(v: Option<f64>, digits: usize) -> String {
-    v.map(|v| format!("{v:.digits$}")).unwrap_or_default()
 }
 
 fn csv(r: &Report) -> String {
@@ -194,10 +181,10 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = crate::bench::cpu_label(r.cpu_figures);
+    let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
         "scale on {}{label}: {} at {}x{}, median of {} frames",
-        r.adapter, r.method, r.width, r.height, r.frames
+        r.header.adapter, r.method, r.width, r.height, r.frames
     );
     println!(
         "{:>10} {:>9} {:>10} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9}",

@@ -13,6 +13,17 @@ pub fn with_shared(stage: &str) -> String {
     [SCENE, COLOR, FRAGMENT, COMPOSITE, stage].join("\n")
 }
 
+/// A compute or fragment stage that reads its targets with `textureLoad(t, pixel, i)` where `i`
+/// is the mip level (0) single-sampled and the sample multisampled: with `samples > 1` its
+/// `texture_2d<f32>` bindings become `texture_multisampled_2d<f32>` (`--msaa`).
+pub fn multisampled(source: &str, samples: u32) -> String {
+    if samples > 1 {
+        source.replace("texture_2d<f32>", "texture_multisampled_2d<f32>")
+    } else {
+        source.to_string()
+    }
+}
+
 pub fn module(device: &wgpu::Device, label: &str, stage: &str) -> wgpu::ShaderModule {
     device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(label),

@@ -106,12 +106,7 @@ impl Blend {
 
 /// The finish stage, reading the multisampled target with `--msaa`.
 pub fn finish_source(samples: u32) -> String {
-    let source = include_str!("finish.wgsl");
-    if samples > 1 {
-        source.replace("texture_2d<f32>", "texture_multisampled_2d<f32>")
-    } else {
-        source.to_string()
-    }
+    shader::multisampled(include_str!("finish.wgsl"), samples)
 }
 
 impl Method for Blend {

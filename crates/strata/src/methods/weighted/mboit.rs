@@ -94,23 +94,15 @@ pub fn moments_source() -> String {
 
 /// The shade stage, reading multisampled moments with `--msaa`.
 pub fn shade_source(samples: u32) -> String {
-    multisampled(
-        [MATH_WGSL, include_str!("mboit_shade.wgsl")].join("\n"),
+    shader::multisampled(
+        &[MATH_WGSL, include_str!("mboit_shade.wgsl")].join("\n"),
         samples,
     )
 }
 
 /// The composite stage, reading multisampled targets with `--msaa`.
 pub fn composite_source(samples: u32) -> String {
-    multisampled(include_str!("mboit_composite.wgsl").to_string(), samples)
-}
-
-fn multisampled(source: String, samples: u32) -> String {
-    if samples > 1 {
-        source.replace("texture_2d<f32>", "texture_multisampled_2d<f32>")
-    } else {
-        source
-    }
+    shader::multisampled(include_str!("mboit_composite.wgsl"), samples)
 }
 
 impl Mboit {

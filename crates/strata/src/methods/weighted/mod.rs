@@ -140,12 +140,7 @@ impl Wboit {
 
 /// The composite stage, reading multisampled targets with `--msaa`.
 pub fn composite_source(samples: u32) -> String {
-    let source = include_str!("wboit_composite.wgsl");
-    if samples > 1 {
-        source.replace("texture_2d<f32>", "texture_multisampled_2d<f32>")
-    } else {
-        source.to_string()
-    }
+    shader::multisampled(include_str!("wboit_composite.wgsl"), samples)
 }
 
 impl Method for Wboit {
