@@ -10,11 +10,15 @@
 //!   blended), wboit (against pygfx's weighted blend) and unsorted (against pygfx's blend);
 //! - each peer renders the exported file through its harness in `peers/`: pygfx 0.17's `blend`,
 //!   `weighted_blend`, `dither` and `bayer` alpha modes (`peers/pygfx_oit.py`, wall-clock ms per
-//!   frame from render to the GPU's completion: pygfx has no GPU timestamps).
+//!   frame from render to the GPU's completion: pygfx has no GPU timestamps), and Bevy 0.19's
+//!   order-independent transparency at its default 8 layers (`peers/bevy-oit`, a headless Bevy
+//!   app; GPU ms from Bevy's render diagnostics where the device has timestamps).
 //!
-//! Every picture's error against the reference (RMSE, FLIP, % of pixels over 2/255) is recorded
-//! and the pictures are written beside the results. A peer that is not installed (`peers/setup`)
-//! is recorded as skipped with the reason. Bevy's OIT is not run yet (see the README).
+//! Every harness takes the same arguments (`SCENE.glb [its own] --background --size --frames
+//! --warmup -o PNG --json JSON`) and writes its timings and version as JSON. Every picture's
+//! error against the reference (RMSE, FLIP, % of pixels over 2/255) is recorded and the pictures
+//! are written beside the results. A peer that is not installed or built (`peers/setup`) is
+//! recorded as skipped with the reason.
 
 use crate::bench::fixed;
 use std::path::{Path, PathBuf};
@@ -30,7 +34,7 @@ use strata::Tail;
 use crate::bench::{measure, standalone_setup, Run};
 use crate::{prepare, PictureArgs, PipelineArg};
 
-pub const DESCRIPTION: &str = "issue 16: strata against its peers on the same scenes: pygfx 0.17's blend, weighted_blend, dither and bayer (peers/pygfx_oit.py) against abuffer-ll, kb-ab-ll and kplus-heap at k = 8 with tail blend (Bevy's default shape), wboit and unsorted on nvpro, the dragon (opacity 0.5), the demo and balls, unlit on one background: ms, memory, error against the reference, pictures";
+pub const DESCRIPTION: &str = "issue 16: strata against its peers on the same scenes: Bevy 0.19's OIT (peers/bevy-oit) and pygfx 0.17's blend, weighted_blend, dither and bayer (peers/pygfx_oit.py) against abuffer-ll, kb-ab-ll and kplus-heap at k = 8 with tail blend (Bevy's default shape), wboit and unsorted on nvpro, the dragon (opacity 0.5), the demo and balls, unlit on one background: ms, memory, error against the reference, pictures";
 
 /// The scenes and the opacity each is drawn at (the dragon is opaque by default).
 const SCENES: [(&str, Option<f32>); 4] = [
@@ -44,6 +48,66 @@ const SCENES: [(&str, Option<f32>); 4] = [
 pub const BACKGROUND: &str = "#333333";
 
 const PYGFX_MODES: [&str; 4] = ["blend", "weighted_blend", "dither", "bayer"];
+
+/// Bevy OIT's layer count in the comparison: its default.
+pub const BEVY_LAYERS: u32 = 8;
+
+/// A peer's harness and one of its configurations.
+struct PeerRun {
+    /// The peer's name (`pygfx`, `bevy`).
+    peer: &'static str,
+    /// Its mode (pygfx's alpha mode; `oit` for Bevy).
+    mode: &'static str,
+    /// The program and the arguments before the scene's, or why the peer cannot run.
+    harness: std::result::Result<(PathBuf, Vec<String>), String>,
+    /// Arguments after the common ones.
+    extra: Vec<String>,
+    label: String,
+}
+
+/// Every peer configuration of the comparison, each with its harness found (or not).
+fn peer_runs(peers: &Path) -> Vec<PeerRun> {
+    let python = pygfx_python(peers).map(|python| {
+        (
+            python,
+            vec![peers.join("pygfx_oit.py").to_string_lossy().into_owned()],
+        )
+    });
+    let mut runs: Vec<PeerRun> = PYGFX_MODES
+        .iter()
+        .map(|&mode| PeerRun {
+            peer: "pygfx",
+            mode,
+            harness: python.clone(),
+            extra: vec!["--mode".into(), mode.into()],
+            label: format!("pygfx {mode}"),
+        })
+        .collect();
+    runs.push(PeerRun {
+        peer: "bevy",
+        mode: "oit",
+        harness: bevy_harness(peers).map(|program| (program, Vec::new())),
+        extra: vec!["--layers".into(), BEVY_LAYERS.to_string()],
+        label: format!("bevy oit layers={BEVY_LAYERS}"),
+    });
+    runs
+}
+
+/// Bevy's harness: `STRATA_BEVY_OIT`, else `peers/bevy-oit/target/release/bevy-oit`.
+fn bevy_harness(peers: &Path) -> std::result::Result<PathBuf, String> {
+    if let Some(p) = std::env::var_os("STRATA_BEVY_OIT") {
+        return Ok(PathBuf::from(p));
+    }
+    let built = peers.join("bevy-oit/target/release/bevy-oit");
+    if built.is_file() {
+        Ok(built)
+    } else {
+        Err(format!(
+            "Bevy's harness is not built: run {}/setup --bevy (or set STRATA_BEVY_OIT)",
+            peers.display()
+        ))
+    }
+}
 
 /// strata's configurations: label, method, k, tail.
 const STRATA_RUNS: [(&str, &str, Option<u32>, Tail); 5] = [
@@ -167,8 +231,8 @@ fn run_scenes(
     std::fs::create_dir_all(&scratch)
         .map_err(|e| Error::runtime(format!("cannot create '{}': {e}", scratch.display())))?;
     let peers = peers_dir();
-    let python = pygfx_python(&peers);
-    let per_scene = (STRATA_RUNS.len() + PYGFX_MODES.len()) as u64;
+    let peer_runs = peer_runs(&peers);
+    let per_scene = (STRATA_RUNS.len() + peer_runs.len()) as u64;
     let bar = crate::bench::frames_bar(scenes.len() as u64 * per_scene);
     let mut rows = Vec::new();
     let mut peer_info: Vec<serde_json::Value> = Vec::new();
@@ -236,23 +300,24 @@ fn run_scenes(
                 bar.inc(1);
             }
 
-            for mode in PYGFX_MODES {
-                bar.set_message(format!("{short}: pygfx {mode}"));
-                let label = format!("pygfx {mode}");
-                let mut row = Row::new(spec, alpha, "pygfx", &label, mode);
-                match &python {
+            for peer in &peer_runs {
+                bar.set_message(format!("{short}: {}", peer.label));
+                let mut row = Row::new(spec, alpha, peer.peer, &peer.label, peer.mode);
+                match &peer.harness {
                     Err(why) => row.skipped = Some(why.clone()),
-                    Ok(python) => {
-                        let png = scratch.join(format!("{short}-{mode}.png"));
-                        let json = scratch.join(format!("{short}-{mode}.json"));
-                        match run_pygfx(
-                            python,
-                            &peers,
-                            &glb,
-                            mode,
+                    Ok((program, before)) => {
+                        let stem = peer.label.replace([' ', '='], "-");
+                        let png = scratch.join(format!("{short}-{stem}.png"));
+                        let json = scratch.join(format!("{short}-{stem}.json"));
+                        let mut args = before.clone();
+                        args.push(glb.to_string_lossy().into_owned());
+                        args.extend(peer.extra.iter().cloned());
+                        match run_harness(
+                            peer.peer,
+                            program,
+                            &args,
                             (width, height),
-                            frames,
-                            warmup,
+                            (frames, warmup),
                             &png,
                             &json,
                         ) {
@@ -261,21 +326,30 @@ fn run_scenes(
                                 let img = image::open(&png)
                                     .map_err(|e| {
                                         Error::runtime(format!(
-                                            "pygfx's picture '{}': {e}",
+                                            "{}'s picture '{}': {e}",
+                                            peer.peer,
                                             png.display()
                                         ))
                                     })?
                                     .to_rgba8();
                                 row.median_wall_ms =
                                     timings.get("median_wall_ms").and_then(|v| v.as_f64());
+                                row.median_gpu_ms =
+                                    timings.get("median_gpu_ms").and_then(|v| v.as_f64());
                                 row.error_vs_reference =
                                     Some(strata::metrics::compare(&truth, &img)?);
-                                row.picture = Some(save(&label, &img)?);
+                                row.picture = Some(save(&peer.label, &img)?);
                                 let mut info = timings;
                                 if let Some(o) = info.as_object_mut() {
-                                    o.remove("wall_ms");
-                                    o.remove("mode");
-                                    o.remove("median_wall_ms");
+                                    for per_frame in [
+                                        "wall_ms",
+                                        "gpu_ms",
+                                        "mode",
+                                        "median_wall_ms",
+                                        "median_gpu_ms",
+                                    ] {
+                                        o.remove(per_frame);
+                                    }
                                 }
                                 if !peer_info.contains(&info) {
                                     peer_info.push(info);
@@ -307,23 +381,20 @@ fn run_scenes(
     crate::write_results(dir, "peers", &report, csv(&report))
 }
 
-/// Runs the pygfx harness; its timings JSON, or why it failed (its one error line).
-#[allow(clippy::too_many_arguments)]
-fn run_pygfx(
-    python: &Path,
-    peers: &Path,
-    glb: &Path,
-    mode: &str,
+/// Runs a peer's harness (`program args... --background --size --frames --warmup -o PNG --json
+/// JSON`); its timings JSON, or why it failed (its one error line).
+fn run_harness(
+    peer: &str,
+    program: &Path,
+    args: &[String],
     (width, height): (u32, u32),
-    frames: u32,
-    warmup: u32,
+    (frames, warmup): (u32, u32),
     png: &Path,
     json: &Path,
 ) -> std::result::Result<serde_json::Value, String> {
-    let out = Command::new(python)
-        .arg(peers.join("pygfx_oit.py"))
-        .arg(glb)
-        .args(["--mode", mode, "--background", BACKGROUND])
+    let out = Command::new(program)
+        .args(args)
+        .args(["--background", BACKGROUND])
         .args(["--size", &format!("{width}x{height}")])
         .args([
             "--frames",
@@ -336,7 +407,7 @@ fn run_pygfx(
         .arg("--json")
         .arg(json)
         .output()
-        .map_err(|e| format!("cannot run {}: {e}", python.display()))?;
+        .map_err(|e| format!("cannot run {}: {e}", program.display()))?;
     if !out.status.success() {
         let err = String::from_utf8_lossy(&out.stderr);
         let line = err
@@ -344,10 +415,10 @@ fn run_pygfx(
             .rev()
             .find(|l| !l.trim().is_empty())
             .unwrap_or("no message");
-        return Err(format!("pygfx harness failed: {}", line.trim()));
+        return Err(format!("{peer} harness failed: {}", line.trim()));
     }
-    let text = std::fs::read_to_string(json).map_err(|e| format!("pygfx's timings: {e}"))?;
-    serde_json::from_str(&text).map_err(|e| format!("pygfx's timings: {e}"))
+    let text = std::fs::read_to_string(json).map_err(|e| format!("{peer}'s timings: {e}"))?;
+    serde_json::from_str(&text).map_err(|e| format!("{peer}'s timings: {e}"))
 }
 
 fn csv(r: &Report) -> String {
