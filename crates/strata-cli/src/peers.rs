@@ -51,6 +51,9 @@ const PYGFX_MODES: [&str; 4] = ["blend", "weighted_blend", "dither", "bayer"];
 
 /// Bevy OIT's layer count in the comparison: its default.
 pub const BEVY_LAYERS: u32 = 8;
+/// Bevy's fragment pool, in fragments per pixel on average, for the run that gives it enough
+/// (its default is 4; nvpro at 1024 objects averages about 10 per covered pixel).
+pub const BEVY_DEEP_POOL: u32 = 24;
 
 /// A peer's harness and one of its configurations.
 struct PeerRun {
@@ -83,13 +86,24 @@ fn peer_runs(peers: &Path) -> Vec<PeerRun> {
             label: format!("pygfx {mode}"),
         })
         .collect();
-    runs.push(PeerRun {
-        peer: "bevy",
-        mode: "oit",
-        harness: bevy_harness(peers).map(|program| (program, Vec::new())),
-        extra: vec!["--layers".into(), BEVY_LAYERS.to_string()],
-        label: format!("bevy oit layers={BEVY_LAYERS}"),
-    });
+    let bevy = bevy_harness(peers).map(|program| (program, Vec::new()));
+    // Bevy's defaults (its fragment pool holds 4 fragments per pixel on average: deeper scenes
+    // lose fragments), and a pool deep enough for the scenes here.
+    for fragments_per_pixel in [None, Some(BEVY_DEEP_POOL)] {
+        let mut extra = vec!["--layers".into(), BEVY_LAYERS.to_string()];
+        let mut label = format!("bevy oit layers={BEVY_LAYERS}");
+        if let Some(f) = fragments_per_pixel {
+            extra.extend(["--fragments-per-pixel".into(), f.to_string()]);
+            label += &format!(" fpp={f}");
+        }
+        runs.push(PeerRun {
+            peer: "bevy",
+            mode: "oit",
+            harness: bevy.clone(),
+            extra,
+            label,
+        });
+    }
     runs
 }
 

@@ -21,7 +21,9 @@
 //! update to the end of `Device::poll(Wait)` after it, i.e. until the GPU has finished the frame.
 //! GPU ms per frame is the sum of the per-pass GPU times (`render/<pass>/elapsed_gpu`) that
 //! Bevy's `RenderDiagnosticsPlugin` measures with timestamp queries; null when the adapter has
-//! none. The picture is read back once, after the timed frames, with Bevy's `Screenshot`.
+//! none. Before the warm-up frames, untimed frames run until Bevy's pipeline cache has settled
+//! (`prime_frames` in the JSON): Bevy specialises and compiles pipelines over the first few frames
+//! after the scene is spawned, which would otherwise land in the timed frames. The picture is read back once, after the timed frames, with Bevy's `Screenshot`.
 //!
 //! Errors are one line on stderr starting `error: ` and exit status 2.
 
@@ -45,7 +47,8 @@ use bevy::render::render_resource::{
 use bevy::render::renderer::{RenderAdapterInfo, RenderDevice};
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::render::view::Msaa;
-use bevy::render::RenderPlugin;
+use bevy::render::render_resource::PipelineCache;
+use bevy::render::{RenderApp, RenderPlugin};
 use bevy::window::ExitCondition;
 
 const USAGE: &str = "usage: bevy-oit SCENE.glb [--size WxH] [--background '#rrggbb'] [--frames N] \
@@ -266,7 +269,8 @@ fn read_scene(path: &Path) -> SceneData {
     let mut meshes = Vec::new();
     let mut camera = None;
     // Depth first, in the file's order; strata writes every node at the top level.
-    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).rev().collect();
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    stack.reverse();
     while let Some((node, parent)) = stack.pop() {
         let matrix = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         if let Some(mesh) = node.mesh() {
@@ -336,7 +340,7 @@ fn on_screenshot(captured: On<ScreenshotCaptured>, mut picture: ResMut<Picture>)
     picture.0 = Some(captured.image.clone());
 }
 
-fn build_app(args: &Args) -> App {
+fn build_app() -> App {
     let mut app = App::new();
     app.add_plugins(
         DefaultPlugins
@@ -359,7 +363,6 @@ fn build_app(args: &Args) -> App {
     )
     .add_plugins(RenderDiagnosticsPlugin)
     .init_resource::<Picture>();
-    let _ = args;
     // What App::run's runners do before the first update: wait for the renderer, then finish.
     while app.plugins_state() == PluginsState::Adding {
         bevy::tasks::tick_global_task_pools_on_main_thread();
@@ -525,6 +528,27 @@ fn drain_gpu_times(app: &mut App) -> Option<(f64, Vec<String>)> {
     })
 }
 
+/// Runs untimed frames until Bevy has every pipeline the scene needs: none waiting to compile
+/// and the same number cached three frames running (meshes and materials become ready, and their
+/// pipelines are specialised, a few frames after they are spawned). The number of frames run.
+fn prime(app: &mut App) -> usize {
+    const MAX: usize = 120;
+    let mut last = usize::MAX;
+    let mut stable = 0;
+    for i in 1..=MAX {
+        frame(app);
+        let _ = drain_gpu_times(app);
+        let cache = app.sub_app(RenderApp).world().resource::<PipelineCache>();
+        let (cached, waiting) = (cache.pipelines().count(), cache.waiting_pipelines().count());
+        stable = if waiting == 0 && cached == last { stable + 1 } else { 0 };
+        last = cached;
+        if stable >= 3 {
+            return i;
+        }
+    }
+    fail(format!("Bevy's pipelines were still changing after {MAX} frames"));
+}
+
 fn median(values: &[f64]) -> Option<f64> {
     if values.is_empty() {
         return None;
@@ -583,12 +607,14 @@ fn main() {
         }
     }
 
-    let mut app = build_app(&args);
+    let mut app = build_app();
     if !app.world().contains_resource::<RenderDevice>() {
         fail("no GPU adapter: Bevy could not create a renderer");
     }
     let image = spawn_scene(&mut app, &args, &scene);
     let adapter = app.world().resource::<RenderAdapterInfo>().name.clone();
+
+    let primed = prime(&mut app);
 
     // Warm-up, then timed frames, then the frames that bring the last timed frames' GPU times.
     let total = args.warmup + args.frames;
@@ -658,6 +684,7 @@ fn main() {
             "height": args.height,
             "frames": args.frames,
             "warmup": args.warmup,
+            "prime_frames": primed,
             "adapter": adapter,
             "wall_ms": wall_ms,
             "median_wall_ms": median(&wall_ms),
