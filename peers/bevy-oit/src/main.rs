@@ -41,13 +41,13 @@ use bevy::log::{Level, LogPlugin};
 use bevy::mesh::Indices;
 use bevy::prelude::*;
 use bevy::render::diagnostic::RenderDiagnosticsPlugin;
+use bevy::render::render_resource::PipelineCache;
 use bevy::render::render_resource::{
     Extent3d, PollType, PrimitiveTopology, TextureDimension, TextureFormat, TextureUsages,
 };
 use bevy::render::renderer::{RenderAdapterInfo, RenderDevice};
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::render::view::Msaa;
-use bevy::render::render_resource::PipelineCache;
 use bevy::render::{RenderApp, RenderPlugin};
 use bevy::window::ExitCondition;
 
@@ -205,8 +205,16 @@ struct MaterialData {
 }
 
 enum CameraProjection {
-    Perspective { yfov: f32, znear: f32, zfar: Option<f32> },
-    Orthographic { ymag: f32, znear: f32, zfar: f32 },
+    Perspective {
+        yfov: f32,
+        znear: f32,
+        zfar: Option<f32>,
+    },
+    Orthographic {
+        ymag: f32,
+        znear: f32,
+        zfar: f32,
+    },
 }
 
 struct SceneData {
@@ -286,14 +294,23 @@ fn read_scene(path: &Path) -> SceneData {
                 let reader = primitive.reader(|b| data.get(b.index()).map(|d| d.as_slice()));
                 let positions: Vec<[f32; 3]> = match reader.read_positions() {
                     Some(p) => p.collect(),
-                    None => fail(format!("{}: mesh {} has no positions", path.display(), mesh.index())),
+                    None => fail(format!(
+                        "{}: mesh {} has no positions",
+                        path.display(),
+                        mesh.index()
+                    )),
                 };
                 let indices: Vec<u32> = match reader.read_indices() {
                     Some(i) => i.into_u32().collect(),
                     None => (0..positions.len() as u32).collect(),
                 };
-                if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len()) {
-                    fail(format!("{}: mesh {} has bad indices", path.display(), mesh.index()));
+                if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len())
+                {
+                    fail(format!(
+                        "{}: mesh {} has bad indices",
+                        path.display(),
+                        mesh.index()
+                    ));
                 }
                 meshes.push(MeshData {
                     positions,
@@ -323,7 +340,10 @@ fn read_scene(path: &Path) -> SceneData {
         }
     }
     let Some(camera) = camera else {
-        fail(format!("{}: no camera node (write it with strata export)", path.display()))
+        fail(format!(
+            "{}: no camera node (write it with strata export)",
+            path.display()
+        ))
     };
     SceneData {
         meshes,
@@ -385,9 +405,8 @@ fn spawn_scene(app: &mut App, args: &Args, scene: &SceneData) -> Handle<Image> {
         TextureFormat::Rgba8UnormSrgb,
         RenderAssetUsages::RENDER_WORLD,
     );
-    target.texture_descriptor.usage |= TextureUsages::RENDER_ATTACHMENT
-        | TextureUsages::COPY_SRC
-        | TextureUsages::TEXTURE_BINDING;
+    target.texture_descriptor.usage |=
+        TextureUsages::RENDER_ATTACHMENT | TextureUsages::COPY_SRC | TextureUsages::TEXTURE_BINDING;
     let image = world.resource_mut::<Assets<Image>>().add(target);
 
     let aspect = args.width as f32 / args.height as f32;
@@ -457,21 +476,29 @@ fn spawn_scene(app: &mut App, args: &Args, scene: &SceneData) -> Handle<Image> {
             })
             .collect()
     };
-    let default_material = world.resource_mut::<Assets<StandardMaterial>>().add(StandardMaterial {
-        base_color: Color::WHITE,
-        unlit: true,
-        double_sided: true,
-        cull_mode: None,
-        ..default()
-    });
+    let default_material = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial {
+            base_color: Color::WHITE,
+            unlit: true,
+            double_sided: true,
+            cull_mode: None,
+            ..default()
+        });
     for data in &scene.meshes {
-        let mut mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::RENDER_WORLD);
+        let mut mesh = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::RENDER_WORLD,
+        );
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, data.positions.clone());
         mesh.insert_indices(Indices::U32(data.indices.clone()));
         let mesh = world.resource_mut::<Assets<Mesh>>().add(mesh);
         let material = match data.material {
             Some(i) => materials.get(i).cloned().unwrap_or_else(|| {
-                fail(format!("{}: material {i} does not exist", args.scene.display()))
+                fail(format!(
+                    "{}: material {i} does not exist",
+                    args.scene.display()
+                ))
             }),
             None => default_material.clone(),
         };
@@ -488,7 +515,9 @@ fn spawn_scene(app: &mut App, args: &Args, scene: &SceneData) -> Handle<Image> {
 fn frame(app: &mut App) {
     app.update();
     if let Some(AppExit::Error(code)) = app.should_exit() {
-        fail(format!("Bevy stopped rendering (exit code {code}); run with RUST_LOG=info for its log"));
+        fail(format!(
+            "Bevy stopped rendering (exit code {code}); run with RUST_LOG=info for its log"
+        ));
     }
     let device = app.world().resource::<RenderDevice>().wgpu_device().clone();
     if let Err(e) = device.poll(PollType::Wait {
@@ -540,13 +569,19 @@ fn prime(app: &mut App) -> usize {
         let _ = drain_gpu_times(app);
         let cache = app.sub_app(RenderApp).world().resource::<PipelineCache>();
         let (cached, waiting) = (cache.pipelines().count(), cache.waiting_pipelines().count());
-        stable = if waiting == 0 && cached == last { stable + 1 } else { 0 };
+        stable = if waiting == 0 && cached == last {
+            stable + 1
+        } else {
+            0
+        };
         last = cached;
         if stable >= 3 {
             return i;
         }
     }
-    fail(format!("Bevy's pipelines were still changing after {MAX} frames"));
+    fail(format!(
+        "Bevy's pipelines were still changing after {MAX} frames"
+    ));
 }
 
 fn median(values: &[f64]) -> Option<f64> {
@@ -603,7 +638,10 @@ fn main() {
     let scene = read_scene(&args.scene);
     if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         if !dir.is_dir() {
-            fail(format!("cannot write '{}': no such directory", args.output.display()));
+            fail(format!(
+                "cannot write '{}': no such directory",
+                args.output.display()
+            ));
         }
     }
 
@@ -629,7 +667,10 @@ fn main() {
             wall_ms.push(ms);
         }
         if let Some((gpu, names)) = drain_gpu_times(&mut app) {
-            if let Some(slot) = i.checked_sub(DIAGNOSTICS_LAG).and_then(|f| gpu_by_frame.get_mut(f)) {
+            if let Some(slot) = i
+                .checked_sub(DIAGNOSTICS_LAG)
+                .and_then(|f| gpu_by_frame.get_mut(f))
+            {
                 *slot = Some(gpu);
                 passes = names;
             }
