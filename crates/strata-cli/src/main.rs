@@ -133,7 +133,8 @@ pub struct PictureArgs {
     /// Samples per pixel: 1, or 4 and 8 for multisample anti-aliasing at the standard sample
     /// positions (fragments shaded once per pixel, composited per sample; the methods that
     /// store every fragment: abuffer-ll, abuffer-fixed, kb-ab-ll, kb-ab-fixed, sbuffer,
-    /// kb-sbuffer; wboit; and the reference). 8 where the device has it (lavapipe: 4).
+    /// kb-sbuffer; wboit, mboit, unsorted, sorted; and the reference). 8 where the device has it
+    /// (lavapipe: 4).
     #[arg(long, default_value_t = 1)]
     pub msaa: u32,
 }

@@ -28,7 +28,8 @@ pub enum Opt {
     Order,
     /// `--temporal`: the slot k-buffers that choose at capture time.
     Temporal,
-    /// `--msaa`: the methods that store every fragment and wboit, without a lit pipeline.
+    /// `--msaa`: the methods that store every fragment, the weighted ones and the baselines,
+    /// without a lit pipeline.
     Msaa,
 }
 

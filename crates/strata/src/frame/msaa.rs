@@ -80,8 +80,8 @@ pub fn max_triangles(samples: u32) -> u64 {
     1u64 << (31 - coverage_bits(samples))
 }
 
-/// The methods whose resolve sees every fragment and can composite per sample, and wboit,
-/// whose blended targets are multisampled.
+/// The methods whose resolve sees every fragment and can composite per sample, and those whose
+/// blended targets are multisampled (wboit, mboit, the baselines).
 pub fn supported(method: MethodId) -> bool {
     matches!(
         method,
@@ -171,7 +171,7 @@ pub fn check_method(method: MethodId, options: &RenderOptions, triangles: u64) -
             .map(|m| m.as_str())
             .collect();
         return Err(Error::unsupported(format!(
-            "{method} does not support --msaa {samples} yet (methods that store every fragment do: {})",
+            "{method} does not support --msaa {samples} yet (these do: {})",
             ids.join(", ")
         )));
     }
