@@ -304,7 +304,8 @@ fn read_scene(path: &Path) -> SceneData {
                     Some(i) => i.into_u32().collect(),
                     None => (0..positions.len() as u32).collect(),
                 };
-                if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len())
+                if !indices.len().is_multiple_of(3)
+                    || indices.iter().any(|&i| i as usize >= positions.len())
                 {
                     fail(format!(
                         "{}: mesh {} has bad indices",
