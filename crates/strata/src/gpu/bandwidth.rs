@@ -103,7 +103,8 @@ pub fn measure(gpu: &Gpu, sizes: ProbeSizes) -> Result<DeviceRates> {
     let probes = Probes::new(gpu, sizes)?;
     let copy = probes.time(|enc| probes.copy(enc))?;
     probes.check_copy()?;
-    let stream = probes.time(|enc| probes.stream(enc))?;
+    let group = probes.stream_group();
+    let stream = probes.time(|enc| probes.dispatch(enc, &probes.stream, &group))?;
     probes.check_copy()?;
     let n = sizes.increments;
     let mut atomics = [0.0; 3];
@@ -111,7 +112,8 @@ pub fn measure(gpu: &Gpu, sizes: ProbeSizes) -> Result<DeviceRates> {
         .iter_mut()
         .zip([n, (n / FRAGMENTS_PER_PIXEL).max(1), 1])
     {
-        let seconds = probes.time(|enc| probes.increment(enc, words))?;
+        let group = probes.increment_group(words);
+        let seconds = probes.time(|enc| probes.dispatch(enc, &probes.increment, &group))?;
         probes.check_increments(words)?;
         *rate = n as f64 / seconds / 1e9;
     }
@@ -290,40 +292,40 @@ impl<'g> Probes<'g> {
         enc.copy_buffer_to_buffer(&self.source, 0, &self.destination, 0, self.sizes.copy_bytes);
     }
 
+    /// Records one grid of `pipeline` with `group` (made once per probe, not per repetition).
     fn dispatch(
         &self,
         enc: &mut wgpu::CommandEncoder,
         pipeline: &wgpu::ComputePipeline,
-        params: ProbeParams,
+        group: &wgpu::BindGroup,
     ) {
-        let group = self.bind(params);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("strata.bandwidth"),
             timestamp_writes: None,
         });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, Some(&group), &[]);
+        pass.set_bind_group(0, Some(group), &[]);
         pass.dispatch_workgroups(GRID_WORKGROUPS, 1, 1);
     }
 
-    fn stream(&self, enc: &mut wgpu::CommandEncoder) {
-        let params = ProbeParams {
+    /// The stream probe's bindings.
+    fn stream_group(&self) -> wgpu::BindGroup {
+        self.bind(ProbeParams {
             count: (self.sizes.copy_bytes / 16) as u32,
             words: 1,
             invocations: GRID_WORKGROUPS * WORKGROUP,
             _pad: 0,
-        };
-        self.dispatch(enc, &self.stream, params);
+        })
     }
 
-    fn increment(&self, enc: &mut wgpu::CommandEncoder, words: u32) {
-        let params = ProbeParams {
+    /// The bindings of the atomic probe spreading its increments over `words` words.
+    fn increment_group(&self, words: u32) -> wgpu::BindGroup {
+        self.bind(ProbeParams {
             count: self.sizes.increments,
             words,
             invocations: GRID_WORKGROUPS * WORKGROUP,
             _pad: 0,
-        };
-        self.dispatch(enc, &self.increment, params);
+        })
     }
 
     fn check_copy(&self) -> Result<()> {
@@ -420,7 +422,10 @@ mod tests {
             repeats: 1,
         };
         let probes = Probes::new(gpu, sizes).unwrap();
-        probes.time(|enc| probes.increment(enc, 64)).unwrap();
+        let group = probes.increment_group(64);
+        probes
+            .time(|enc| probes.dispatch(enc, &probes.increment, &group))
+            .unwrap();
         // Claim one more repetition than ran: the sum no longer matches.
         probes.repetitions.set(probes.repetitions.get() + 1);
         let err = probes.check_increments(64).unwrap_err().to_string();
