@@ -204,7 +204,7 @@ const EXPERIMENTS: &[Experiment] = &[
     },
     Experiment {
         name: "msaa",
-        description: "issue 13: every family that takes --msaa at 1, 4 and 8 samples per pixel (8 where the device rasterizes it): time, memory, fragments stored (a pixel on a mesh edge stores one per primitive touching it), and abuffer-fixed's drops at k = 16 (edges overflowing per-pixel arrays)",
+        description: "issue 13: every family that takes --msaa at 1, 4 and 8 samples per pixel (8 where the device rasterizes it): time, memory, fragments stored (a pixel on a mesh edge stores one per primitive touching it), abuffer-fixed's drops at k = 16 (edges overflowing per-pixel arrays), and kplus-heap's per-sample storage (each sample its own k: S times the memory, nothing lost at edges)",
         scenes: &["builtin:dragon", "builtin:spheres", "builtin:nvpro?objects=1024&subdiv=16&seed=0"],
         size_gpu: "1024x1024",
         size_cpu: "160x160",
@@ -217,6 +217,7 @@ const EXPERIMENTS: &[Experiment] = &[
                 Run::with_k("kb-ab-ll", 8, true),
                 Run::with_k("kb-ab-fixed", 8, true),
                 Run::with_k("abuffer-fixed", 16, true),
+                Run::with_k("kplus-heap", 8, true),
                 Run::plain("wboit"),
                 Run::plain("mboit"),
                 Run::plain("unsorted"),

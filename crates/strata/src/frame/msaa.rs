@@ -20,16 +20,27 @@
 //! complexity view — count what was stored, invocations, where the reference counts primitives. The reference
 //! ([`crate::reference`]) supersamples the same way, so the exact methods stay testable.
 //!
+//! The capture-time k-buffers (`kplus-array`, `kplus-heap`, `kplus-array-r`, `kplus-semiheap`,
+//! `kb`, `kb-ps`, `kb-ll`, `kb-mdt32`) choose what to keep while capturing, and a choice made
+//! per pixel is not each sample's: a pixel on an edge would spend its k on fragments some of
+//! its samples do not see. They keep **per-sample storage** instead: each pixel has S sample
+//! pixels with their own slots (or list, or cascade), counters, lock and tail; a fragment is
+//! shaded once and enters the storage of each sample it covers, so every sample keeps exactly
+//! its own k nearest and nothing at an edge overflows into the tail. The resolve composites
+//! each sample and averages. A fragment counts once in the statistics however many samples
+//! kept it (a per-pixel count of fragments, and at the resolve the first sample that kept it).
+//! Memory: S times the single-sampled storage and per-pixel words, plus 4 bytes per pixel; the
+//! capture's atomic work grows with the samples each fragment covers (S in a surface's
+//! interior).
+//!
 //! `wboit`, `mboit` and the baselines (`unsorted`, `sorted`) blend into multisampled targets
 //! instead: the hardware writes each fragment into the samples it covers and the composite
 //! averages the samples' results (wboit's and mboit's closed forms, the baselines' blended
 //! colors); mboit weights a fragment by the mean of its covered samples' transmittances.
 //!
 //! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×); 8× only where the device
-//! rasterizes it (lavapipe: 4×). Methods whose capture keeps the k nearest per pixel (k-buffers
-//! with capture-time selection, peeling, multi-depth tests, convex), `--pipeline`,
-//! `--raster compute` and `--temporal` refuse `--msaa` with one error line: for them a per-pixel
-//! choice would not be the per-sample one, and per-sample versions are not built yet.
+//! rasterizes it (lavapipe: 4×). The methods [`supported`] does not list, `--pipeline`,
+//! `--raster compute` and `--temporal` refuse `--msaa` with one error line naming why.
 
 use crate::error::{Error, Result};
 use crate::frame::RenderOptions;
@@ -87,6 +98,14 @@ pub fn supported(method: MethodId) -> bool {
         method,
         MethodId::AbufferLl
             | MethodId::AbufferFixed
+            | MethodId::KplusArray
+            | MethodId::KplusHeap
+            | MethodId::KplusArrayR
+            | MethodId::Kb
+            | MethodId::KbPs
+            | MethodId::KplusSemiheap
+            | MethodId::KbLl
+            | MethodId::KbMdt32
             | MethodId::KbAbLl
             | MethodId::KbAbFixed
             | MethodId::Sbuffer
@@ -213,11 +232,11 @@ mod tests {
         };
         assert!(check_options(&with(2)).is_err());
         assert!(check_options(&with(4)).is_ok());
-        let err = check_method(MethodId::KplusHeap, &with(4), 10).unwrap_err();
+        let err = check_method(MethodId::Convex, &with(4), 10).unwrap_err();
         assert!(err.to_string().contains("abuffer-ll"), "{err}");
         assert!(check_method(MethodId::AbufferLl, &with(8), 1 << 23).is_ok());
         assert!(check_method(MethodId::AbufferLl, &with(8), (1 << 23) + 1).is_err());
-        assert!(check_method(MethodId::KplusHeap, &with(1), 10).is_ok());
+        assert!(check_method(MethodId::Convex, &with(1), 10).is_ok());
     }
 }
 
@@ -280,16 +299,45 @@ mod gpu_tests {
                     }
                 }
                 let wide = multisampled(size, effect, msaa, Some(256));
-                let (fixed, _) = render_gpu(&scene, &wide, "abuffer-fixed");
-                let name = format!("msaa{msaa}-abuffer-fixed-{spec}");
-                assert_close(&name, &fixed, &expected, effect, MAX_DIFF, MAX_FRACTION);
-                // Each sample's 3 nearest.
+                for method in ["abuffer-fixed", "kplus-heap", "kplus-array"] {
+                    let (actual, stats) = render_gpu(&scene, &wide, method);
+                    let name = format!("msaa{msaa}-k256-{method}-{spec}");
+                    assert_close(&name, &actual, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_eq!(stats.fragments_dropped, Some(0), "{name}");
+                }
+                // Each sample's 3 nearest: the capture-time k-buffers keep them in each
+                // sample's own storage, the others select them in the resolve.
                 let three = multisampled(size, effect, msaa, Some(3));
                 let expected = render_reference(&scene, &three);
-                for method in ["kb-ab-ll", "kb-ab-fixed", "kb-sbuffer"] {
-                    let (actual, _) = render_gpu(&scene, &three, method);
+                let mut selected_in_resolve = None;
+                for method in [
+                    "kb-ab-ll",
+                    "kb-ab-fixed",
+                    "kb-sbuffer",
+                    "kplus-array",
+                    "kplus-heap",
+                    "kplus-array-r",
+                    "kplus-semiheap",
+                    "kb-ps",
+                    "kb",
+                    "kb-ll",
+                    "kb-mdt32",
+                ] {
+                    let (actual, stats) = render_gpu(&scene, &three, method);
                     let name = format!("msaa{msaa}-k3-{method}-{spec}");
                     assert_close(&name, &actual, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                    let counts = (
+                        stats.fragments_generated,
+                        stats.fragments_stored,
+                        stats.fragments_dropped,
+                    );
+                    assert!(counts.2.unwrap() > 0, "{name}");
+                    // Per-sample storage counts a fragment once however many samples kept
+                    // it, as kb-ab-ll (one list per pixel) does on the same device.
+                    let selected = *selected_in_resolve.get_or_insert(counts);
+                    if crate::methods::kbuffer::sample_storage(method.parse().unwrap(), msaa) > 1 {
+                        assert_eq!(counts, selected, "{name}");
+                    }
                 }
             }
         }

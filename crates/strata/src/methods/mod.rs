@@ -275,7 +275,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "abuffer",
             exact: true,
             geometry_passes: "1 (+1 when the node pool overflows)",
-            memory: "20·nodes + 16·W·H + 136 (nodes ≥ F)",
+            memory: "20·nodes + 16·W·H + 152 (nodes ≥ F)",
             summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
         },
         MethodInfo {
@@ -283,7 +283,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "abuffer",
             exact: true,
             geometry_passes: "2 (+2 when the pool overflows)",
-            memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 136",
+            memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 152",
             summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
         },
         MethodInfo {
@@ -291,7 +291,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "peeling",
             exact: true,
             geometry_passes: "ceil(N/k) (N: the last frame's depth complexity, or --layers)",
-            memory: "16·(k+1)·W·H + 136",
+            memory: "16·(k+1)·W·H + 152",
             summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per geometry pass, by a k+-buffer capture; A-buffer results in bounded memory, equal-depth fragments included",
         },
         MethodInfo {
@@ -331,7 +331,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: true,
             geometry_passes: "1 (+1 when the array overflows)",
-            memory: "16·(n+1)·W·H + 96 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
+            memory: "16·(n+1)·W·H + 112 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
             summary: "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
         },
         MethodInfo {
@@ -363,7 +363,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kplus",
             exact: true,
             geometry_passes: "2 (+2 when the pool overflows)",
-            memory: "16·Σmin(f,k) + 20·W·H + 4·(W·H + W·H/256 + …) + 96 + 40·(W·H with --tail blend, else 1); f: a pixel's fragments",
+            memory: "16·Σmin(f,k) + 20·W·H + 4·(W·H + W·H/256 + …) + 112 + 40·(W·H with --tail blend, else 1); f: a pixel's fragments",
             summary: "memory-aware k+-buffer: a count pass, a GPU prefix sum giving each pixel exactly min(f, k) slots, then lock-free appends (f ≤ k) or a max-array (k ≤ 16) / max-heap under a spin lock",
         },
         MethodInfo {
@@ -379,7 +379,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: true,
             geometry_passes: "2",
-            memory: "20·k·W·H + 16·W·H + 96 + 40·(W·H with --tail blend, else 1)",
+            memory: "20·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
             summary: "multi-depth test: atomicMax cascade of depth keys, colors fetched in a second geometry pass (ties beyond k share keys)",
         },
         MethodInfo {
@@ -387,7 +387,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: false,
             geometry_passes: "1",
-            memory: "8·k·W·H + 16·W·H + 96 + 40·(W·H with --tail blend, else 1)",
+            memory: "8·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
             summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
         },
         MethodInfo {
@@ -395,7 +395,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: false,
             geometry_passes: "1",
-            memory: "8·k·W·H + 16·W·H + 136",
+            memory: "8·k·W·H + 16·W·H + 152",
             summary: "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
         },
         MethodInfo {
@@ -403,7 +403,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: true,
             geometry_passes: "1 (+1 when the node pool overflows)",
-            memory: "20·nodes + 16·W·H + 96 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
+            memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
             summary: "A-buffer linked lists, the k nearest selected in resolve",
         },
         MethodInfo {
@@ -411,7 +411,7 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: true,
             geometry_passes: "2 (+2 when the pool overflows)",
-            memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 96 + 40·(W·H with --tail blend, else 1)",
+            memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 112 + 40·(W·H with --tail blend, else 1)",
             summary: "every fragment in S-buffer regions, the k nearest selected in resolve",
         },
         MethodInfo {
@@ -419,14 +419,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "kbuffer",
             exact: false,
             geometry_passes: "1 (+1 when the node pool overflows)",
-            memory: "20·nodes + 16·W·H + 96 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
+            memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
             summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",
         },
     ]
 }
 
 /// Memory of the k-slot methods; `kbuffer::SLOT_BYTES` etc. keep it true.
-const KB_MEMORY: &str = "16·(k+1)·W·H + 96 + 40·(W·H with --tail blend, else 1)";
+const KB_MEMORY: &str = "16·(k+1)·W·H + 112 + 40·(W·H with --tail blend, else 1)";
 
 pub fn info(id: &str) -> Option<MethodInfo> {
     catalogue().into_iter().find(|m| m.id == id)

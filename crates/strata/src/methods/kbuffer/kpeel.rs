@@ -23,7 +23,7 @@
 //! 2·P geometry passes; 8 more bytes per slot for the keys; needs SHADER_INT64_ATOMIC_ALL_OPS.
 //!
 //! Memory: 16 bytes per slot (k per pixel), 16 per pixel of counters, lock and culling bound,
-//! 136 of parameters and counters; the running composite lives in the frame's own output, so
+//! 152 of parameters and counters; the running composite lives in the frame's own output, so
 //! memory does not grow with the depth complexity. Limits: k ≤ 1024 (the max-heap's lock).
 
 use super::{

@@ -82,11 +82,13 @@ impl ListKBuffer {
         } else {
             k_of(ctx.options, self.id)?
         };
+        let sample_slots = super::sample_storage(self.id, ctx.options.msaa);
         let bytes = self.pool.fit(
             ctx,
             self.id,
-            super::frame_bytes_besides_storage(
+            super::sample_frame_bytes_besides_storage(
                 ctx.pixels(),
+                sample_slots,
                 ctx.options.tail == crate::Tail::Blend,
             ),
             0,
@@ -105,7 +107,11 @@ impl ListKBuffer {
             temporal: false,
             convex: None,
         };
-        Ok((params_for(ctx, k, k, false), storage, recorded))
+        let params = KParams {
+            sample_slots,
+            ..params_for(ctx, k, k, false)
+        };
+        Ok((params, storage, recorded))
     }
 }
 

@@ -8,10 +8,19 @@ fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin
     capture_list(kpixel(v.position), scene_fragment_covering(v, front_facing, mask));
 }
 
+// kb-ll: sorted insertion into the pixel's list, or with --msaa into each covered sample's.
 @fragment
-fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
-    capture_sorted_list(kpixel(v.position), scene_fragment(v, front_facing));
+    let p = kpixel(v.position);
+    let f = scene_fragment_covering(v, front_facing, mask);
+    count_pixel_fragment(p);
+    let samples = storage_samples(mask);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) != 0u {
+            capture_sorted_list(sample_pixel(p, s), f);
+        }
+    }
 }

@@ -113,13 +113,17 @@ impl Method for MdtKBuffer {
             return Err(Error::unsupported("kb-mdt-pack cannot blend a tail: a displaced key carries half a color; use --tail drop"));
         }
         let k = k_of(ctx.options, self.frame.id)?;
+        let sample_slots = super::sample_storage(self.frame.id, ctx.options.msaa);
         let storage = Storage {
             label: "strata.kbuffer.keys",
-            bytes: ctx.pixels() * k as u64 * self.mdt.slot_bytes(),
+            bytes: ctx.pixels() * sample_slots as u64 * k as u64 * self.mdt.slot_bytes(),
             clear: true,
         };
         let passes: Vec<_> = self.passes.iter().map(|(name, p)| (*name, p)).collect();
-        let params = params_for(ctx, k, k, false);
+        let params = super::KParams {
+            sample_slots,
+            ..params_for(ctx, k, k, false)
+        };
         let bytes = self.frame.record(ctx, params, storage, &passes)?;
         Ok(Recorded {
             geometry_passes: self.passes.len() as u32,

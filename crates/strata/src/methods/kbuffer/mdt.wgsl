@@ -11,7 +11,7 @@
 @group(1) @binding(1) var<storage, read_write> keys: array<atomic<u32>>;
 
 fn slots_in_frame() -> u32 {
-    return kp.pixels * kp.k;
+    return kp.pixels * kp.sample_slots * kp.k;
 }
 
 fn depth_key(depth: f32) -> u32 {
@@ -53,28 +53,50 @@ fn cascade_culled(base: u32, key: u32) -> bool {
     return last != 0u && key <= last;
 }
 
+// The depth pass: the fragment's key into its pixel's cascade, or with --msaa into each covered
+// sample's.
 @fragment
-fn fs_mdt32_depth(v: SceneVarying) {
+fn fs_mdt32_depth(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
-    let p = kpixel(v.position);
-    count_seen(p);
+    let pixel = kpixel(v.position);
+    count_pixel_fragment(pixel);
     let key = depth_key(v.position.z);
-    let base = p * kp.k;
-    if cascade_culled(base, key) {
-        return;
+    let samples = storage_samples(mask);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) == 0u {
+            continue;
+        }
+        let p = sample_pixel(pixel, s);
+        count_seen(p);
+        let base = p * kp.k;
+        if !cascade_culled(base, key) {
+            cascade(base, key);
+        }
     }
-    cascade(base, key);
 }
 
+// The color pass: the fragment claims a slot holding its key in its pixel, or with --msaa in
+// each covered sample.
 @fragment
-fn fs_mdt32_color(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_mdt32_color(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
-    let p = kpixel(v.position);
-    let f = scene_fragment(v, front_facing);
+    let pixel = kpixel(v.position);
+    let f = scene_fragment_covering(v, front_facing, mask);
+    let samples = storage_samples(mask);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) != 0u {
+            store_color(sample_pixel(pixel, s), f);
+        }
+    }
+}
+
+// Stores `f`'s color and tag in a slot of `p` holding its key that no other fragment claimed;
+// else it joins the tail.
+fn store_color(p: u32, f: Fragment) {
     let key = depth_key(f.depth);
     let base = p * kp.k;
     let n = slots_in_frame();

@@ -22,7 +22,10 @@
 //! Passes: clear (per-pixel words, counters, tail); capture (1 geometry pass); resolve (compute:
 //! insertion sort ≤ 16, bitonic sort ≤ 64, k-depth sort beyond, composite the k nearest, then the
 //! tail). Memory: 16 bytes per slot, 16 per pixel of counters, lock and culling bound, 40 per
-//! pixel of tail sums with `--tail blend`, 136 bytes of parameters and counters.
+//! pixel of tail sums with `--tail blend`, 152 bytes of parameters and counters. With `--msaa S`
+//! the capture-time k-buffers (all but the fixed A-buffers, here; `kb-ll` and `kb-mdt32` too)
+//! keep it all per sample — S× the slots, words and tail, + 4 bytes per pixel — and each
+//! sample keeps its own k nearest ([`crate::frame::msaa`], [`sample_storage`]).
 //!
 //! Frames: nothing is read back while recording. The counters (lock failures, losses, pool use)
 //! come back with the frame's statistics; `kb-ab-fixed` and the linked lists grow from the
@@ -92,6 +95,10 @@ pub struct KParams {
     pub aux: u32,
     pub width: u32,
     pub pixels: u32,
+    /// `--msaa` with per-sample storage: S, each pixel's storage being S sample pixels with
+    /// their own words, slots and tail (see [`sample_storage`]); else 1.
+    pub sample_slots: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Counter words, as storage.wgsl's COUNTER_ constants (64-bit counters take two words).
@@ -101,9 +108,9 @@ pub const COUNTER_ALLOCATED: usize = 2;
 pub const COUNTER_LOST: usize = 4;
 pub const COUNTER_OVERFLOWED: usize = 6;
 
-/// Bytes of per-frame constants: parameters (32), counters and their initial values (2 × 32),
+/// Bytes of per-frame constants: parameters (48), counters and their initial values (2 × 32),
 /// the tail stub (40) when the tail is dropped.
-pub const CONSTANT_BYTES: u64 = 136;
+pub const CONSTANT_BYTES: u64 = 152;
 pub const SLOT_BYTES: u64 = 16;
 pub const PIXEL_BYTES: u64 = 16;
 pub const TAIL_BYTES: u64 = 40;
@@ -239,7 +246,46 @@ pub fn tail_bytes(pixels: u64, blend: bool) -> u64 {
 /// What a k-buffer frame allocates besides its fragment storage: per-pixel words, tail sums,
 /// parameters and counters.
 pub fn frame_bytes_besides_storage(pixels: u64, tail_blend: bool) -> u64 {
-    pixels * PIXEL_BYTES + tail_bytes(pixels, tail_blend) + CONSTANT_BYTES - TAIL_BYTES
+    sample_frame_bytes_besides_storage(pixels, 1, tail_blend)
+}
+
+/// [`frame_bytes_besides_storage`] with `sample_slots` storage pixels per pixel: their words
+/// and tails, and one fragment count per pixel when there is more than one.
+pub fn sample_frame_bytes_besides_storage(pixels: u64, sample_slots: u32, tail_blend: bool) -> u64 {
+    let storage_pixels = pixels * sample_slots as u64;
+    pixel_words_bytes(pixels, sample_slots)
+        + tail_bytes(storage_pixels, tail_blend)
+        + CONSTANT_BYTES
+        - TAIL_BYTES
+}
+
+/// The per-pixel words: 4 per storage pixel, and with per-sample storage a fragment count per
+/// pixel after them.
+fn pixel_words_bytes(pixels: u64, sample_slots: u32) -> u64 {
+    let extra = if sample_slots > 1 { pixels * 4 } else { 0 };
+    pixels * sample_slots as u64 * PIXEL_BYTES + extra
+}
+
+/// Storage pixels per pixel of `id` at `msaa` samples: the capture-time k-buffers keep each
+/// sample's k nearest in its own storage (their choice of which to keep is per sample), the
+/// others store fragments per pixel with their coverage masks.
+pub fn sample_storage(id: MethodId, msaa: u32) -> u32 {
+    let per_sample = matches!(
+        id,
+        MethodId::KplusArray
+            | MethodId::KplusHeap
+            | MethodId::KplusArrayR
+            | MethodId::Kb
+            | MethodId::KbPs
+            | MethodId::KplusSemiheap
+            | MethodId::KbLl
+            | MethodId::KbMdt32
+    );
+    if per_sample && msaa > 1 {
+        msaa
+    } else {
+        1
+    }
 }
 
 /// kplus-semiheap's |H|: `--heap-size`, default 1 (the paper's), at most k.
@@ -307,6 +353,8 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
         aux: count_by_seen as u32,
         width: options.width,
         pixels: (ctx.pixels()).min(u32::MAX as u64) as u32,
+        sample_slots: 1,
+        _pad: [0; 3],
     }
 }
 
@@ -606,17 +654,23 @@ impl KFrame {
     ) -> Result<(wgpu::BindGroup, u64)> {
         let gpu = ctx.gpu;
         let px = ctx.pixels();
-        let tail_bytes = tail_bytes(px, params.tail_blend != 0);
+        let samples = params.sample_slots.max(1);
+        let tail_bytes = tail_bytes(px * samples as u64, params.tail_blend != 0);
         let temporal = self.temporal.frame(ctx)?;
         let total = storage.bytes
-            + frame_bytes_besides_storage(px, params.tail_blend != 0)
+            + sample_frame_bytes_besides_storage(px, samples, params.tail_blend != 0)
             + temporal.bytes;
         check_memory(ctx, self.id.as_str(), storage.bytes, total)?;
         let none = wgpu::BufferUsages::empty();
         let cache = &mut self.cache;
         let params_buffer =
             cache.uniform(gpu, "strata.kbuffer.params", bytemuck::bytes_of(&params));
-        let pixels = cache.storage(gpu, "strata.kbuffer.pixels", px * PIXEL_BYTES, none)?;
+        let pixels = cache.storage(
+            gpu,
+            "strata.kbuffer.pixels",
+            pixel_words_bytes(px, samples),
+            none,
+        )?;
         let counters = cache.storage(
             gpu,
             "strata.kbuffer.counters",
@@ -758,9 +812,10 @@ impl SlotKBuffer {
         } else {
             k
         };
+        let sample_slots = sample_storage(self.frame.id, ctx.options.msaa);
         let storage = Storage {
             label: "strata.kbuffer.slots",
-            bytes: ctx.pixels() * stride as u64 * SLOT_BYTES,
+            bytes: ctx.pixels() * sample_slots as u64 * stride as u64 * SLOT_BYTES,
             clear: false,
         };
         let recorded = Recorded {
@@ -773,6 +828,7 @@ impl SlotKBuffer {
             convex: None,
         };
         let mut params = params_for(ctx, k, stride, self.variant.fixed());
+        params.sample_slots = sample_slots;
         if self.variant == Variant::KplusSemiheap {
             params.aux = heap_size(ctx.options, k)?;
         }

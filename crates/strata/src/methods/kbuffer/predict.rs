@@ -13,7 +13,10 @@
 //! for such scenes the prediction is an estimate (the achieved robustness, measured on the frame,
 //! is not).
 
-use super::{frame_bytes_besides_storage, max_k, mdt::Mdt, sbuffer::scan_levels, SLOT_BYTES};
+use super::{
+    max_k, mdt::Mdt, sample_frame_bytes_besides_storage, sample_storage, sbuffer::scan_levels,
+    SLOT_BYTES,
+};
 use crate::error::{Error, Result};
 use crate::frame::{RenderOptions, Tail};
 use crate::methods::MethodId;
@@ -49,9 +52,10 @@ pub fn frame_bytes(
     options: &RenderOptions,
 ) -> Option<u64> {
     let px = options.pixels();
-    let fixed = frame_bytes_besides_storage(px, options.tail == Tail::Blend);
+    let samples = sample_storage(id, options.msaa);
+    let fixed = sample_frame_bytes_besides_storage(px, samples, options.tail == Tail::Blend);
     let k = k as u64;
-    let per_pixel = |bytes: u64| Some(fixed + bytes * k * px);
+    let per_pixel = |bytes: u64| Some(fixed + bytes * k * px * samples as u64);
     match id {
         MethodId::KplusArray
         | MethodId::KplusArrayR
@@ -188,7 +192,7 @@ mod tests {
         let px = 65536u64;
         let h = [0, 0, 0, 0, 0, 0, 0, 0, px];
         let c = choose_k(MethodId::KplusHeap, Some(&h), 1.0, 16, &opts).unwrap();
-        let fixed = 16 * px + 96 + 40;
+        let fixed = 16 * px + 112 + 40;
         assert_eq!(c.k_budget as u64, (16 * 1048576 - fixed) / (16 * px));
         assert_eq!(c.k, 8);
         assert_eq!(c.predicted_robustness, 1.0);

@@ -76,11 +76,11 @@ fn ordered_before(a: Fragment, ia: u32, b: Fragment, ib: u32) -> bool {
     return fragment_before(a, b) || (!fragment_before(b, a) && ia < ib);
 }
 
-// The last fragment a k-depth sort composited and its storage index (for --msaa's count of the
-// fragments some sample kept).
+// The last fragment a k-depth sort composited and how many it composited (for --msaa's count of
+// the fragments some sample kept). Multisampled tags hold the coverage mask, so no two stored
+// fragments of a pixel have equal keys there and the key alone says which were composited.
 struct Composited {
     f: Fragment,
-    at: u32,
     done: u32,
 }
 
@@ -88,7 +88,7 @@ struct Composited {
 // of `coverage` (`fragment_coverage`), CHUNK at a time. With --tail blend the selection goes on
 // past `limit` and the rest joins the tail.
 fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) -> Composited {
-    var last = Composited(Fragment(0.0, 0u, 0u, 0u), 0u, 0u);
+    var last = Composited(Fragment(0.0, 0u, 0u, 0u), 0u);
     var chunk: array<Fragment, LOCAL_CAPACITY>;
     var chunk_at: array<u32, LOCAL_CAPACITY>;
     var done = 0u;
@@ -146,7 +146,7 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
             if done < limit {
                 composite_front(s, chunk[j]);
                 done += 1u;
-                last = Composited(chunk[j], chunk_at[j], done);
+                last = Composited(chunk[j], done);
             } else if kp.tail_blend != 0u {
                 tail_add_local(t, chunk[j]);
             }
@@ -248,7 +248,7 @@ fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
             let coverage = fragment_coverage(f);
             for (var si = 0u; si < samples; si++) {
                 let l = last[si];
-                if (coverage & (1u << si)) != 0u && (l.done < limit || !ordered_before(l.f, l.at, f, i)) {
+                if (coverage & (1u << si)) != 0u && (l.done < limit || !fragment_before(l.f, f)) {
                     kept += 1u;
                     break;
                 }
@@ -259,8 +259,66 @@ fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
     return kept;
 }
 
+// --msaa with per-sample storage: each sample composites its own stored k nearest with its
+// own tail, and the pixel is the samples' average. A fragment counts as stored once however
+// many samples kept it: at its first covered sample that kept it, a sample having kept it when
+// that sample stored all its fragments or the fragment is not behind its farthest stored one.
+fn resolve_sample_storage(p: u32) {
+    let samples = kp.sample_slots;
+    var sum = vec4<f32>(0.0);
+    var farthest: array<Fragment, 8>;
+    var stored_all: array<bool, 8>;
+    for (var si = 0u; si < samples; si++) {
+        let q = sample_pixel(p, si);
+        let n = stored_count(q);
+        let limit = min(n, kp.k);
+        var s = composite_new();
+        var t = Tail(vec4<f32>(0.0), 0.0);
+        if kp.tail_blend != 0u {
+            t = tail_sums(q);
+        }
+        composite_stored(q, n, limit, &s, &t);
+        composite_tail(&s, t);
+        sum += composite_finish(s).color;
+        stored_all[si] = atomicLoad(&pixels[pixel_word(q, SEEN)]) <= limit;
+        var far = Fragment(0.0, 0u, 0u, 0u);
+        for (var i = 0u; i < limit; i++) {
+            let f = stored_fragment(q, i);
+            if i == 0u || fragment_before(far, f) {
+                far = f;
+            }
+        }
+        farthest[si] = far;
+    }
+    var kept = 0u;
+    for (var si = 0u; si < samples; si++) {
+        let q = sample_pixel(p, si);
+        let limit = min(stored_count(q), kp.k);
+        for (var i = 0u; i < limit; i++) {
+            let f = stored_fragment(q, i);
+            let coverage = fragment_coverage(f);
+            var earlier = false;
+            for (var sj = 0u; sj < si; sj++) {
+                if (coverage & (1u << sj)) != 0u && (stored_all[sj] || !fragment_before(farthest[sj], f)) {
+                    earlier = true;
+                    break;
+                }
+            }
+            if !earlier {
+                kept += 1u;
+            }
+        }
+    }
+    output[p] = Resolved(sum / f32(samples), kept, 0u, 0u, 0u);
+    report_pixel(atomicLoad(&pixels[pixel_fragments_word(p)]), kept);
+}
+
 fn resolve_pixel(pixel: vec2<u32>) {
     let p = pixel.y * kp.width + pixel.x;
+    if kp.sample_slots > 1u {
+        resolve_sample_storage(p);
+        return;
+    }
     let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
     let n = stored_count(p);
     let limit = min(n, kp.k);

@@ -18,59 +18,81 @@ fn culled_by_last_frame(v: SceneVarying, front_facing: bool) -> bool {
     return true;
 }
 
-@fragment
-fn fs_kplus_array(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+const CAPTURE_KPLUS_ARRAY: u32 = 0u;
+const CAPTURE_KPLUS_HEAP: u32 = 1u;
+const CAPTURE_KPLUS_ARRAY_R: u32 = 2u;
+const CAPTURE_KB: u32 = 3u;
+const CAPTURE_KB_PS: u32 = 4u;
+const CAPTURE_KPLUS_SEMIHEAP: u32 = 5u;
+
+// The capture step of a capture-time k-buffer (the argument is a constant at every call site).
+fn capture_step(p: u32, f: Fragment, method: u32) {
+    switch method {
+        case CAPTURE_KPLUS_ARRAY: {
+            capture_locked(p, f, VARIANT_ARRAY);
+        }
+        case CAPTURE_KPLUS_HEAP: {
+            capture_locked(p, f, VARIANT_HEAP);
+        }
+        case CAPTURE_KPLUS_ARRAY_R: {
+            capture_array_r(p, f);
+        }
+        case CAPTURE_KB: {
+            capture_sorted(p, f, UNLOCKED);
+        }
+        case CAPTURE_KB_PS: {
+            capture_sorted(p, f, LOCKED);
+        }
+        default: {
+            capture_semiheap(p, f);
+        }
+    }
+}
+
+// A rasterized fragment through a capture-time k-buffer: into its pixel's storage, or with
+// --msaa into the storage of each sample it covers (each sample keeps its own k nearest; the
+// fragment is shaded once). Pixel fragments are counted once for the statistics.
+fn capture_covering(v: SceneVarying, front_facing: bool, mask: u32, method: u32) {
     if behind_opaque(v.position) {
         discard;
     }
     if culled_by_last_frame(v, front_facing) {
         return;
     }
-    capture_locked(kpixel(v.position), scene_fragment(v, front_facing), VARIANT_ARRAY);
+    let p = kpixel(v.position);
+    let f = scene_fragment_covering(v, front_facing, mask);
+    count_pixel_fragment(p);
+    let samples = storage_samples(mask);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) != 0u {
+            capture_step(sample_pixel(p, s), f, method);
+        }
+    }
 }
 
 @fragment
-fn fs_kplus_heap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    if culled_by_last_frame(v, front_facing) {
-        return;
-    }
-    capture_locked(kpixel(v.position), scene_fragment(v, front_facing), VARIANT_HEAP);
+fn fs_kplus_array(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    capture_covering(v, front_facing, mask, CAPTURE_KPLUS_ARRAY);
 }
 
 @fragment
-fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    if culled_by_last_frame(v, front_facing) {
-        return;
-    }
-    capture_array_r(kpixel(v.position), scene_fragment(v, front_facing));
+fn fs_kplus_heap(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    capture_covering(v, front_facing, mask, CAPTURE_KPLUS_HEAP);
 }
 
 @fragment
-fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    if culled_by_last_frame(v, front_facing) {
-        return;
-    }
-    capture_sorted(kpixel(v.position), scene_fragment(v, front_facing), UNLOCKED);
+fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    capture_covering(v, front_facing, mask, CAPTURE_KPLUS_ARRAY_R);
 }
 
 @fragment
-fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    if culled_by_last_frame(v, front_facing) {
-        return;
-    }
-    capture_sorted(kpixel(v.position), scene_fragment(v, front_facing), LOCKED);
+fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    capture_covering(v, front_facing, mask, CAPTURE_KB);
+}
+
+@fragment
+fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    capture_covering(v, front_facing, mask, CAPTURE_KB_PS);
 }
 
 @fragment
@@ -82,12 +104,6 @@ fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin
 }
 
 @fragment
-fn fs_kplus_semiheap(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    if culled_by_last_frame(v, front_facing) {
-        return;
-    }
-    capture_semiheap(kpixel(v.position), scene_fragment(v, front_facing));
+fn fs_kplus_semiheap(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    capture_covering(v, front_facing, mask, CAPTURE_KPLUS_SEMIHEAP);
 }

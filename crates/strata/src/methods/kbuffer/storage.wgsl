@@ -20,6 +20,12 @@ struct KParams {
     aux: u32,
     width: u32,
     pixels: u32,
+    // --msaa with per-sample storage (the capture-time k-buffers): S, each pixel's storage
+    // being S sample pixels `p * S + s` with their own words, slots and tail; else 1.
+    sample_slots: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(1) @binding(0) var<uniform> kp: KParams;
@@ -50,6 +56,34 @@ fn pixel_word(p: u32, word: u32) -> u32 {
 // The pixel index of a fragment position, from the k-buffer's own width (no scene bindings).
 fn kpixel(position: vec4<f32>) -> u32 {
     return u32(position.y) * kp.width + u32(position.x);
+}
+
+// Sample `s`'s storage pixel of pixel `p` (per-sample storage).
+fn sample_pixel(p: u32, s: u32) -> u32 {
+    return p * kp.sample_slots + s;
+}
+
+// Per-sample storage: the word after the sample pixels' words that counts pixel `p`'s
+// fragments (each once, whatever it covers), as the statistics count them.
+fn pixel_fragments_word(p: u32) -> u32 {
+    return kp.pixels * kp.sample_slots * 4u + p;
+}
+
+// The samples whose storage a fragment covering `mask` enters: bit s for `sample_pixel(p, s)`;
+// without per-sample storage bit 0 alone, the pixel's own.
+fn storage_samples(mask: u32) -> u32 {
+    if kp.sample_slots <= 1u {
+        return 1u;
+    }
+    return mask & ((1u << kp.sample_slots) - 1u);
+}
+
+// Counts a fragment once at its pixel for the statistics, where per-sample storage counts it
+// in each sample it enters.
+fn count_pixel_fragment(p: u32) {
+    if kp.sample_slots > 1u {
+        atomicAdd(&pixels[pixel_fragments_word(p)], 1u);
+    }
 }
 
 // Adds n to the 64-bit counter at words (at, at + 1), carrying out of the low word.

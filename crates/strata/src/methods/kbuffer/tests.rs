@@ -242,24 +242,33 @@ fn memory_follows_the_catalogue_formula() {
     ] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(16 * (k + 1) * px + 96 + 40),
+            Some(16 * (k + 1) * px + 112 + 40),
             "{method}"
         );
     }
     opts.tail = Tail::Blend;
     assert_eq!(
         render_gpu(&s, &opts, "kplus-heap").1.bytes_allocated,
-        Some(16 * (k + 1) * px + 96 + 40 * px)
+        Some(16 * (k + 1) * px + 112 + 40 * px)
+    );
+    // --msaa 4: each sample's own slots, words and tail, and a fragment count per pixel.
+    let four = RenderOptions {
+        msaa: 4,
+        ..opts.clone()
+    };
+    assert_eq!(
+        render_gpu(&s, &four, "kplus-heap").1.bytes_allocated,
+        Some(16 * (k + 1) * px * 4 + 4 * px + 112 + 40 * px * 4)
     );
     opts.tail = Tail::Drop;
     assert_eq!(
         render_gpu(&s, &opts, "kb-mdt32").1.bytes_allocated,
-        Some(20 * k * px + 16 * px + 136)
+        Some(20 * k * px + 16 * px + 152)
     );
     for method in ["kb-mdt64", "kb-mdt-pack"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(8 * k * px + 16 * px + 136),
+            Some(8 * k * px + 16 * px + 152),
             "{method}"
         );
     }
@@ -267,7 +276,7 @@ fn memory_follows_the_catalogue_formula() {
     for method in ["kb-ab-ll", "kb-ll"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(20 * 3000 + 16 * px + 136),
+            Some(20 * 3000 + 16 * px + 152),
             "{method}"
         );
     }
@@ -275,20 +284,20 @@ fn memory_follows_the_catalogue_formula() {
     for method in ["sbuffer", "kb-sbuffer"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(16 * 3000 + 16 * px + 4 * 403 + 136),
+            Some(16 * 3000 + 16 * px + 4 * 403 + 152),
             "{method}"
         );
     }
     // kplus-sbuffer: the region starts (4 per pixel) share the pool's buffer.
     assert_eq!(
         render_gpu(&s, &opts, "kplus-sbuffer").1.bytes_allocated,
-        Some(16 * 3000 + 20 * px + 4 * 403 + 136)
+        Some(16 * 3000 + 20 * px + 4 * 403 + 152)
     );
     opts.abuffer_initial_nodes = None;
     // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
     opts.tail = Tail::Drop;
     let (_, stats) = render_gpu(&s, &opts, "kb-ab-fixed");
-    assert_eq!(stats.bytes_allocated, Some(16 * 7 * px + 96 + 40));
+    assert_eq!(stats.bytes_allocated, Some(16 * 7 * px + 112 + 40));
 }
 
 /// kplus-sbuffer's three store paths in one frame: pixels with f ≤ k append without the lock,
@@ -317,7 +326,7 @@ fn kplus_sbuffer_regions_hold_exactly_min_f_k() {
         let expected_pool = (need + need / 4).max(1024);
         assert_eq!(
             stats.bytes_allocated,
-            Some(16 * expected_pool + 20 * px + 4 * scan_words + 136),
+            Some(16 * expected_pool + 20 * px + 4 * scan_words + 152),
             "k={k}"
         );
     }
@@ -479,10 +488,11 @@ fn long_lists_with_the_tail_dropped_composite_only_k() {
 #[test]
 fn kparams_layout_matches_wgsl() {
     use std::mem::{offset_of, size_of};
-    assert_eq!(size_of::<super::KParams>(), 32);
+    assert_eq!(size_of::<super::KParams>(), 48);
     assert_eq!(offset_of!(super::KParams, aux), 20);
     assert_eq!(offset_of!(super::KParams, width), 24);
     assert_eq!(offset_of!(super::KParams, pixels), 28);
+    assert_eq!(offset_of!(super::KParams, sample_slots), 32);
 }
 
 /// Locking methods refuse a k whose critical section could run past a GPU timeout.
@@ -677,7 +687,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         assert_eq!(stats.geometry_passes, Some(24u32.div_ceil(k)), "k={k}");
         assert_eq!(
             stats.bytes_allocated,
-            Some(16 * (k as u64 + 1) * 48 * 48 + 136)
+            Some(16 * (k as u64 + 1) * 48 * 48 + 152)
         );
         // Too few layers: what was not reached is reported as dropped.
         opts.layers = Some(k);
