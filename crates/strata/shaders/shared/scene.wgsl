@@ -95,6 +95,16 @@ fn report_pixel(generated: u32, stored: u32) {
     atomicMax(&totals[TOTAL_MAX_DEPTH], generated);
 }
 
+// A multisampled pixel's account where a sample's own fragments set the depth complexity (the
+// peeling methods' --msaa): `generated` fragments reached it, `stored` of them some sample
+// composited, and its deepest sample has `deepest` fragments.
+fn report_samples(generated: u32, stored: u32, deepest: u32) {
+    total_add(TOTAL_GENERATED, generated);
+    total_add(TOTAL_STORED, stored);
+    total_add(TOTAL_DROPPED, generated - min(stored, generated));
+    atomicMax(&totals[TOTAL_MAX_DEPTH], deepest);
+}
+
 // `position` is invariant: passes of different pipelines compare its depth for equality
 // (kb-mdt32's color pass, dual peeling's bounds and peel passes).
 struct SceneVarying {

@@ -106,6 +106,7 @@ pub fn supported(method: MethodId) -> bool {
             | MethodId::KplusSemiheap
             | MethodId::KbLl
             | MethodId::KbMdt32
+            | MethodId::Kpeel
             | MethodId::KbAbLl
             | MethodId::KbAbFixed
             | MethodId::Sbuffer
@@ -298,6 +299,21 @@ mod gpu_tests {
                         assert_eq!(stats.fragments_dropped, Some(0), "{name}");
                     }
                 }
+                // k-depth peeling, 3 per sample and pass: every sample peels all of its own.
+                let (abuffer, abuffer_stats) = render_gpu(&scene, &all, "abuffer-ll");
+                let three = multisampled(size, effect, msaa, Some(3));
+                let (peeled, stats) = render_gpu(&scene, &three, "kpeel");
+                let name = format!("msaa{msaa}-kpeel-{spec}");
+                assert_close(&name, &peeled, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                assert_close(&name, &peeled, &abuffer, effect, MAX_DIFF, MAX_FRACTION);
+                let counts = |s: &crate::FrameStats| {
+                    (
+                        s.fragments_generated,
+                        s.fragments_stored,
+                        s.fragments_dropped,
+                    )
+                };
+                assert_eq!(counts(&stats), counts(&abuffer_stats), "{name}");
                 let wide = multisampled(size, effect, msaa, Some(256));
                 for method in ["abuffer-fixed", "kplus-heap", "kplus-array"] {
                     let (actual, stats) = render_gpu(&scene, &wide, method);

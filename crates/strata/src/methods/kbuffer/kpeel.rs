@@ -22,9 +22,17 @@
 //! through the pixel's k slots and a *colors* pass writes the kept fragments into their slots, so
 //! 2·P geometry passes; 8 more bytes per slot for the keys; needs SHADER_INT64_ATOMIC_ALL_OPS.
 //!
+//! With `--msaa S` every sample peels on its own (per-sample storage, [`crate::frame::msaa`]):
+//! a fragment, shaded once, enters the capture of each covered sample where it is still behind
+//! that sample's last composited fragment; each sample keeps its running composite after the
+//! slots; a last *account* geometry pass counts each fragment once, each sample's depth
+//! complexity (which sets the next frame's passes) and the fragments some sample composited,
+//! and finish averages the samples. P + 1 geometry passes.
+//!
 //! Memory: 16 bytes per slot (k per pixel), 16 per pixel of counters, lock and culling bound,
 //! 152 of parameters and counters; the running composite lives in the frame's own output, so
-//! memory does not grow with the depth complexity. Limits: k ≤ 1024 (the max-heap's lock).
+//! memory does not grow with the depth complexity. With `--msaa S`: S× the slots and words,
+//! 32·S per pixel of running composites, 4 per pixel. Limits: k ≤ 1024 (the max-heap's lock).
 
 use super::{
     k_of, params_for, slots_capture_functions, KFrame, Storage, RESOLVE_WGSL, SLOTS_RESOLVE_WGSL,
@@ -80,6 +88,8 @@ pub struct KPeel {
     frame: KFrame,
     /// The locked capture, on the GPU's rasterizer.
     capture: Option<GeometryStage>,
+    /// `--msaa`'s account pass (on the GPU's rasterizer).
+    account: Option<GeometryStage>,
     /// With `--raster compute`, which runs this capture instead of the locked one.
     cascade: Option<Cascade>,
     init: wgpu::ComputePipeline,
@@ -110,10 +120,14 @@ impl KPeel {
             Some(_) => Some(Cascade::new(gpu, scene, &frame)?),
             None => None,
         };
-        Ok(KPeel {
-            capture: cascade
+        let stage = |entry: &str| {
+            cascade
                 .is_none()
-                .then(|| frame.capture_pipeline(gpu, scene, &module, "fs_kpeel")),
+                .then(|| frame.capture_pipeline(gpu, scene, &module, entry))
+        };
+        Ok(KPeel {
+            capture: stage("fs_kpeel"),
+            account: stage("fs_kpeel_account"),
             cascade,
             init: pipeline("cs_kpeel_init"),
             finish: pipeline("cs_kpeel_finish"),
@@ -161,14 +175,22 @@ impl Method for KPeel {
         let k = k_of(ctx.options, MethodId::Kpeel)?;
         let layers = layers_for(ctx, self.measured);
         let passes = layers.div_ceil(k);
+        // --msaa: each sample's slots, and its running composite after them.
+        let samples = super::sample_storage(MethodId::Kpeel, ctx.options.msaa) as u64;
+        let sample_states = if samples > 1 {
+            samples * crate::frame::RESOLVED_BYTES
+        } else {
+            0
+        };
         let storage = Storage {
             label: "strata.kbuffer.slots",
-            bytes: ctx.pixels() * k as u64 * SLOT_BYTES,
+            bytes: ctx.pixels() * (samples * k as u64 * SLOT_BYTES + sample_states),
             clear: false,
         };
         // Every fragment is composited in order: no tail.
         let mut params = params_for(ctx, k, k, false);
         params.tail_blend = 0;
+        params.sample_slots = samples as u32;
         let keys_bytes = ctx.pixels() * k as u64 * KEY_BYTES;
         let (group, bytes) = match self.cascade {
             Some(_) => {
@@ -229,11 +251,19 @@ impl Method for KPeel {
             }
             self.frame.resolve(ctx, &group);
         }
+        let account = match (&self.account, samples > 1) {
+            (Some(account), true) => {
+                self.frame.clear_pixels(ctx);
+                storage_geometry_pass(ctx, "account", target, account, &[frame_group, &group]);
+                1
+            }
+            _ => 0,
+        };
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &group]);
         self.frame.read_counters(ctx);
         let passes_per_layer_group = if self.cascade.is_some() { 2 } else { 1 };
         Ok(Recorded {
-            geometry_passes: passes * passes_per_layer_group,
+            geometry_passes: passes * passes_per_layer_group + account,
             k: Some(k),
             bytes_allocated: bytes,
             capacity: passes as u64 * k as u64,

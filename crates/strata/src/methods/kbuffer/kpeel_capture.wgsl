@@ -1,20 +1,53 @@
 // k-depth peeling capture (seed 003 §4.3): each geometry pass keeps the k nearest fragments
 // strictly after the pixel's last composited one in (depth, primitive) order — a k+-buffer
 // capture (max-array for k ≤ 16, max-heap above) behind that bound. Ordering by the pair, not
-// the depth alone, loses nothing at exactly equal depths.
+// the depth alone, loses nothing at exactly equal depths. With --msaa every sample peels on its
+// own: a fragment enters the capture of each covered sample it is still pending at.
 
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 
 @fragment
-fn fs_kpeel(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_kpeel(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
     let p = kpixel(v.position);
-    let f = scene_fragment(v, front_facing);
-    if output[p].count > 0u && !fragment_before(kpeel_bound(p), f) {
-        // Composited by an earlier pass.
+    let f = scene_fragment_covering(v, front_facing, mask);
+    let variant = select(VARIANT_HEAP, VARIANT_ARRAY, kp.k <= 16u);
+    let samples = storage_samples(mask);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        let q = sample_pixel(p, s);
+        // Composited by an earlier pass where not pending.
+        if ((samples >> s) & 1u) != 0u && peel_pending(q, f) {
+            capture_locked(q, f, variant);
+        }
+    }
+}
+
+// --msaa's account, a geometry pass after the last resolve (the per-pixel words cleared): each
+// fragment once at its pixel, once at each sample it covers (a sample's depth complexity), and
+// as stored when some covered sample composited it (not pending there: per sample, peeling
+// composites in order). The counts go to sample pixel 0's FILLED word and to each sample's
+// SEEN word.
+@fragment
+fn fs_kpeel_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    if behind_opaque(v.position) {
         discard;
     }
-    capture_locked(p, f, select(VARIANT_HEAP, VARIANT_ARRAY, kp.k <= 16u));
+    let p = kpixel(v.position);
+    let f = scene_fragment_covering(v, front_facing, mask);
+    count_pixel_fragment(p);
+    let samples = storage_samples(mask);
+    var stored = false;
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) == 0u {
+            continue;
+        }
+        let q = sample_pixel(p, s);
+        count_seen(q);
+        stored = stored || !peel_pending(q, f);
+    }
+    if stored {
+        atomicAdd(&pixels[pixel_word(sample_pixel(p, 0u), FILLED)], 1u);
+    }
 }

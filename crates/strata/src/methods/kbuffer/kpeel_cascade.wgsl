@@ -13,11 +13,6 @@ fn peel_key(f: Fragment) -> u64 {
     return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));
 }
 
-// True for a fragment this pass may capture: behind the pixel's last composited one.
-fn peel_pending(p: u32, f: Fragment) -> bool {
-    return output[p].count == 0u || fragment_before(kpeel_bound(p), f);
-}
-
 @fragment
 fn fs_kpeel_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     if behind_opaque(v.position) {

@@ -1,18 +1,38 @@
-// k-depth peeling's compute passes: init (an empty composite per pixel), resolve after each
-// geometry pass (the captured layers composited behind the running result), finish (the
-// accounting of pixels the last pass left unfinished).
+// k-depth peeling's compute passes: init (an empty composite per pixel, or per sample with
+// --msaa), resolve after each geometry pass (the captured layers composited behind the running
+// result), finish (the accounting; with --msaa the samples' average).
 //
 // Accounting: a pixel is reported once, in the pass that finishes it (it saw at most k
 // fragments behind its bound); one still unfinished after the last pass is reported by finish,
 // the fragments behind its last bound counted as dropped. Either way generated = composited
-// before the pass + seen in it.
+// before the pass + seen in it. With --msaa the account pass (kpeel_capture.wgsl) counts, and
+// finish reports.
 
 @compute @workgroup_size(8, 8)
 fn cs_kpeel_init(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    kpeel_store(id.y * kp.width + id.x, composite_new());
+    let p = id.y * kp.width + id.x;
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        kpeel_store(sample_pixel(p, s), composite_new());
+    }
+}
+
+// Composites what (sample) pixel q captured this pass behind its running result; returns the
+// fragments it captured, 0 when it saw none.
+fn kpeel_resolve_one(q: u32) -> u32 {
+    let seen = atomicLoad(&pixels[pixel_word(q, SEEN)]);
+    if seen == 0u {
+        return 0u;
+    }
+    let n = stored_count(q);
+    let limit = min(n, kp.k);
+    var s = kpeel_state(q);
+    var t = Tail(vec4<f32>(0.0), 0.0);
+    composite_stored(q, n, limit, &s, &t);
+    kpeel_store(q, s);
+    return limit;
 }
 
 @compute @workgroup_size(8, 8)
@@ -21,18 +41,16 @@ fn cs_kpeel_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = id.y * kp.width + id.x;
-    let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
-    if seen == 0u {
+    if kp.sample_slots > 1u {
+        for (var s = 0u; s < kp.sample_slots; s++) {
+            kpeel_resolve_one(sample_pixel(p, s));
+        }
         return;
     }
-    let n = stored_count(p);
-    let limit = min(n, kp.k);
-    var s = kpeel_state(p);
-    var t = Tail(vec4<f32>(0.0), 0.0);
-    composite_stored(p, n, limit, &s, &t);
-    kpeel_store(p, s);
-    if seen <= kp.k {
-        report_pixel(s.count - limit + seen, s.count);
+    let limit = kpeel_resolve_one(p);
+    let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
+    if seen > 0u && seen <= kp.k {
+        report_pixel(output[p].count - limit + seen, output[p].count);
     }
 }
 
@@ -42,6 +60,20 @@ fn cs_kpeel_finish(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = id.y * kp.width + id.x;
+    if kp.sample_slots > 1u {
+        var sum = vec4<f32>(0.0);
+        var deepest = 0u;
+        for (var s = 0u; s < kp.sample_slots; s++) {
+            let q = sample_pixel(p, s);
+            sum += composite_finish(kpeel_state(q)).color;
+            deepest = max(deepest, atomicLoad(&pixels[pixel_word(q, SEEN)]));
+        }
+        let generated = atomicLoad(&pixels[pixel_fragments_word(p)]);
+        let stored = atomicLoad(&pixels[pixel_word(sample_pixel(p, 0u), FILLED)]);
+        output[p] = Resolved(sum / f32(kp.sample_slots), stored, 0u, 0u, 0u);
+        report_samples(generated, stored, deepest);
+        return;
+    }
     let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
     if seen > kp.k {
         let count = output[p].count;

@@ -280,6 +280,7 @@ pub fn sample_storage(id: MethodId, msaa: u32) -> u32 {
             | MethodId::KplusSemiheap
             | MethodId::KbLl
             | MethodId::KbMdt32
+            | MethodId::Kpeel
     );
     if per_sample && msaa > 1 {
         msaa
