@@ -107,6 +107,7 @@ pub fn supported(method: MethodId) -> bool {
             | MethodId::KbLl
             | MethodId::KbMdt32
             | MethodId::Kpeel
+            | MethodId::F2b
             | MethodId::KbAbLl
             | MethodId::KbAbFixed
             | MethodId::Sbuffer
@@ -193,6 +194,12 @@ pub fn check_method(method: MethodId, options: &RenderOptions, triangles: u64) -
         return Err(Error::unsupported(format!(
             "{method} does not support --msaa {samples} yet (these do: {})",
             ids.join(", ")
+        )));
+    }
+    if method == MethodId::F2b && triangles > crate::methods::peeling::F2B_MSAA_MAX_TRIANGLES {
+        return Err(Error::unsupported(format!(
+            "f2b --msaa {samples} takes at most {} triangles (its layer's tag travels as an exact float, as 32-bit integer targets cannot be multisampled); the scene has {triangles}",
+            crate::methods::peeling::F2B_MSAA_MAX_TRIANGLES
         )));
     }
     if triangles > max_triangles(samples) {
@@ -313,6 +320,12 @@ mod gpu_tests {
                         s.fragments_dropped,
                     )
                 };
+                assert_eq!(counts(&stats), counts(&abuffer_stats), "{name}");
+                // Front-to-back peeling: each sample its own layers, the hardware's depth test
+                // per sample over the fragments' center depths.
+                let (peeled, stats) = render_gpu(&scene, &all, "f2b");
+                let name = format!("msaa{msaa}-f2b-{spec}");
+                assert_close(&name, &peeled, &expected, effect, MAX_DIFF, MAX_FRACTION);
                 assert_eq!(counts(&stats), counts(&abuffer_stats), "{name}");
                 let wide = multisampled(size, effect, msaa, Some(256));
                 for method in ["abuffer-fixed", "kplus-heap", "kplus-array"] {
@@ -441,7 +454,15 @@ mod gpu_tests {
             background: Background::Color([0.2, 0.3, 0.4]),
             ..options(32, Effect::Transparency)
         };
-        for method in ["abuffer-ll", "kb-ab-fixed", "unsorted", "mboit"] {
+        for method in [
+            "abuffer-ll",
+            "kb-ab-fixed",
+            "kplus-heap",
+            "kpeel",
+            "f2b",
+            "unsorted",
+            "mboit",
+        ] {
             let (img, _) = render_gpu(&scene, &opts, method);
             for y in 4..28 {
                 let at = |x: u32| img.pixels[(y * 32 + x) as usize];

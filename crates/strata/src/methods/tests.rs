@@ -58,6 +58,14 @@ fn every_stage_validates() {
             include_str!("peeling/f2b_accumulate.wgsl"),
         ),
         (
+            "f2b.peel.msaa",
+            include_str!("peeling/f2b_peel_samples.wgsl"),
+        ),
+        (
+            "f2b.accumulate.msaa",
+            include_str!("peeling/f2b_accumulate_samples.wgsl"),
+        ),
+        (
             "wboit.accumulate",
             include_str!("weighted/wboit_accumulate.wgsl"),
         ),

@@ -34,7 +34,7 @@ use crate::error::Result;
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    attachment, capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass,
+    attachment, capture_pipeline_with, compute_pipeline, dispatch_pixels, storage_geometry_pass,
     GeometryStage, NullTarget,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
@@ -65,8 +65,14 @@ pub(crate) fn peel_feedback(
     }
 }
 
-/// f2b's bytes per pixel (see the module docs).
-const F2B_PIXEL_BYTES: u64 = 56;
+/// f2b's bytes per pixel (see the module docs); with `--msaa S`, 56·S + 8.
+fn f2b_pixel_bytes(samples: u32) -> u64 {
+    if samples > 1 {
+        56 * samples as u64 + 8
+    } else {
+        56
+    }
+}
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const TAG_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
@@ -77,6 +83,10 @@ pub struct FrontToBack {
     accumulate_layout: wgpu::BindGroupLayout,
     peel_first: wgpu::RenderPipeline,
     peel: wgpu::RenderPipeline,
+    /// `--msaa`: samples per pixel, and the account pass after the last layer.
+    samples: u32,
+    account: Option<GeometryStage>,
+    null_target: Option<NullTarget>,
     init: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
@@ -87,24 +97,41 @@ pub struct FrontToBack {
 impl FrontToBack {
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> FrontToBack {
         let device = &gpu.device;
+        let samples = scene.samples;
+        let multisampled = samples > 1;
         let peel_layout = binding::layout(
             device,
             "strata.f2b.peel.layout",
             &[Slot::Storage, Slot::StorageRw],
         );
+        let layer_texture = if multisampled {
+            Slot::TextureFloatMultisampled
+        } else {
+            Slot::TextureFloat
+        };
+        let tag_texture = if multisampled {
+            Slot::TextureFloatMultisampled
+        } else {
+            Slot::TextureUint
+        };
         let accumulate_layout = binding::layout(
             device,
             "strata.f2b.accumulate.layout",
             &[
                 Slot::StorageRw,
-                Slot::TextureFloat,
-                Slot::TextureUint,
-                Slot::TextureFloat,
+                layer_texture,
+                tag_texture,
+                layer_texture,
                 Slot::StorageRw,
                 Slot::StorageRw,
             ],
         );
-        let module = shader::module(device, "strata.f2b.peel", include_str!("f2b_peel.wgsl"));
+        let peel_source = if multisampled {
+            include_str!("f2b_peel_samples.wgsl")
+        } else {
+            include_str!("f2b_peel.wgsl")
+        };
+        let module = shader::module(device, "strata.f2b.peel", peel_source);
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,
@@ -113,15 +140,15 @@ impl FrontToBack {
             })
         };
         let peel_pipeline = |entry: &str| {
-            capture_pipeline(
+            capture_pipeline_with(
                 gpu,
                 &format!("strata.f2b.{entry}"),
-                &module,
+                (&module, &module),
                 entry,
                 &[&scene.frame_layout, &peel_layout],
                 &[
                     target(COLOR_FORMAT),
-                    target(TAG_FORMAT),
+                    target(tag_format(samples)),
                     target(DEPTH_COPY_FORMAT),
                 ],
                 Some(wgpu::DepthStencilState {
@@ -131,15 +158,37 @@ impl FrontToBack {
                     stencil: Default::default(),
                     bias: Default::default(),
                 }),
+                samples,
             )
         };
-        let peel_first = peel_pipeline("fs_peel_first");
-        let peel = peel_pipeline("fs_peel");
-        let module = shader::module(
-            device,
-            "strata.f2b.accumulate",
-            include_str!("f2b_accumulate.wgsl"),
-        );
+        // Multisampled, the account pass counts instead of the first peel.
+        let (peel_first, peel) = if multisampled {
+            (
+                peel_pipeline("fs_peel_samples"),
+                peel_pipeline("fs_peel_samples"),
+            )
+        } else {
+            (peel_pipeline("fs_peel_first"), peel_pipeline("fs_peel"))
+        };
+        let account = multisampled.then(|| {
+            crate::raster::storage_stage(
+                gpu,
+                scene,
+                crate::raster::StageSpec {
+                    label: "strata.f2b.account",
+                    stage: peel_source,
+                    modules: (&module, &module),
+                    entry: "fs_account",
+                },
+                &[&scene.frame_layout, &peel_layout],
+            )
+        });
+        let accumulate_source = if multisampled {
+            include_str!("f2b_accumulate_samples.wgsl")
+        } else {
+            include_str!("f2b_accumulate.wgsl")
+        };
+        let module = shader::module(device, "strata.f2b.accumulate", accumulate_source);
         let layouts = [&scene.frame_layout, &accumulate_layout];
         FrontToBack {
             init: compute_pipeline(gpu, "strata.f2b.init", &module, "cs_init", &layouts),
@@ -153,6 +202,9 @@ impl FrontToBack {
             finish: compute_pipeline(gpu, "strata.f2b.finish", &module, "cs_finish", &layouts),
             peel_first,
             peel,
+            samples,
+            account,
+            null_target: None,
             peel_layout,
             accumulate_layout,
             measured: None,
@@ -161,48 +213,86 @@ impl FrontToBack {
     }
 }
 
+/// The layer's tag target: the tag itself, or with `--msaa` the tag as an exact float (32-bit
+/// integer formats cannot be multisampled in WebGPU; primitives stay below 2^23).
+fn tag_format(samples: u32) -> wgpu::TextureFormat {
+    if samples > 1 {
+        wgpu::TextureFormat::R32Float
+    } else {
+        TAG_FORMAT
+    }
+}
+
+/// The most triangles f2b takes with `--msaa` (its tags travel as exact floats).
+pub const F2B_MSAA_MAX_TRIANGLES: u64 = 1 << 23;
+
 impl Method for FrontToBack {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
-        ctx.check_budget(ctx.pixels() * F2B_PIXEL_BYTES)?;
+        let samples = self.samples;
+        ctx.check_budget(ctx.pixels() * f2b_pixel_bytes(samples))?;
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let color = self
             .cache
-            .texture(gpu, "strata.f2b.layer.color", (w, h), COLOR_FORMAT, usage)
+            .texture_samples(
+                gpu,
+                "strata.f2b.layer.color",
+                (w, h),
+                COLOR_FORMAT,
+                usage,
+                samples,
+            )
             .create_view(&Default::default());
         let tag = self
             .cache
-            .texture(gpu, "strata.f2b.layer.tag", (w, h), TAG_FORMAT, usage)
+            .texture_samples(
+                gpu,
+                "strata.f2b.layer.tag",
+                (w, h),
+                tag_format(samples),
+                usage,
+                samples,
+            )
             .create_view(&Default::default());
         let depth_copy = self
             .cache
-            .texture(
+            .texture_samples(
                 gpu,
                 "strata.f2b.layer.depth",
                 (w, h),
                 DEPTH_COPY_FORMAT,
                 usage,
+                samples,
             )
             .create_view(&Default::default());
         let depth = self
             .cache
-            .texture(
+            .texture_samples(
                 gpu,
                 "strata.f2b.depth",
                 (w, h),
                 wgpu::TextureFormat::Depth32Float,
                 wgpu::TextureUsages::RENDER_ATTACHMENT,
+                samples,
             )
             .create_view(&Default::default());
         let none = wgpu::BufferUsages::empty();
-        let state = self
-            .cache
-            .storage(gpu, "strata.f2b.state", ctx.pixels() * 32, none)?;
-        let counts = self
-            .cache
-            .storage(gpu, "strata.f2b.counts", ctx.pixels() * 4, none)?;
+        let state = self.cache.storage(
+            gpu,
+            "strata.f2b.state",
+            ctx.pixels() * 32 * samples as u64,
+            none,
+        )?;
+        // Multisampled: per pixel fragments and composited ones, per sample fragments.
+        let count_words = if samples > 1 { 2 + samples as u64 } else { 1 };
+        let counts = self.cache.storage(
+            gpu,
+            "strata.f2b.counts",
+            ctx.pixels() * 4 * count_words,
+            none,
+        )?;
         let peel_group = binding::group(
             &gpu.device,
             "strata.f2b.peel.group",
@@ -235,7 +325,8 @@ impl Method for FrontToBack {
                     attachment(
                         &tag,
                         wgpu::Color {
-                            r: u32::MAX as f64,
+                            // No fragment: u32::MAX, or the float tag's -1.
+                            r: if samples > 1 { -1.0 } else { u32::MAX as f64 },
                             g: 0.0,
                             b: 0.0,
                             a: 0.0,
@@ -271,10 +362,22 @@ impl Method for FrontToBack {
                 &[frame_group, &acc_group],
             );
         }
+        let mut account_passes = 0;
+        if let Some(account) = &self.account {
+            let target = NullTarget::ensure(
+                &mut self.null_target,
+                gpu,
+                "strata.f2b.null_target",
+                (w, h),
+                samples,
+            );
+            storage_geometry_pass(ctx, "account", target, account, &[frame_group, &peel_group]);
+            account_passes = 1;
+        }
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &acc_group]);
         Ok(Recorded {
-            geometry_passes: layers,
-            bytes_allocated: ctx.pixels() * F2B_PIXEL_BYTES,
+            geometry_passes: layers + account_passes,
+            bytes_allocated: ctx.pixels() * f2b_pixel_bytes(samples),
             capacity: layers as u64,
             ..Default::default()
         })

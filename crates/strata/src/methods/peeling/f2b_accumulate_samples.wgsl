@@ -1,0 +1,63 @@
+// f2b's compute passes with --msaa: a running composite per sample; accumulate composites each
+// sample's layer behind it; finish averages the samples and reports the account pass's counts.
+
+const NO_TAG: f32 = -1.0;
+
+@group(1) @binding(0) var<storage, read_write> state: array<Composite>;
+@group(1) @binding(1) var layer_color: texture_multisampled_2d<f32>;
+@group(1) @binding(2) var layer_tag: texture_multisampled_2d<f32>;
+@group(1) @binding(3) var layer_depth: texture_multisampled_2d<f32>;
+@group(1) @binding(4) var<storage, read_write> counts: array<u32>;
+@group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
+
+@compute @workgroup_size(8, 8)
+fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let p = pixel_index(id.xy);
+    for (var s = 0u; s < frame.coverage_bits; s++) {
+        state[p * frame.coverage_bits + s] = composite_new();
+    }
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let xy = vec2<i32>(id.xy);
+    let p = pixel_index(id.xy);
+    for (var s = 0u; s < frame.coverage_bits; s++) {
+        let t = textureLoad(layer_tag, xy, i32(s)).r;
+        if t == NO_TAG {
+            continue;
+        }
+        let tag = u32(t);
+        let c = textureLoad(layer_color, xy, i32(s));
+        let f = fragment_new(textureLoad(layer_depth, xy, i32(s)).r, tag >> 1u, (tag & 1u) == 1u, c);
+        let i = p * frame.coverage_bits + s;
+        var st = state[i];
+        composite_front(&st, f);
+        state[i] = st;
+    }
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let samples = frame.coverage_bits;
+    let pixels = frame.size.x * frame.size.y;
+    let p = pixel_index(id.xy);
+    var sum = vec4<f32>(0.0);
+    var deepest = 0u;
+    for (var s = 0u; s < samples; s++) {
+        sum += composite_finish(state[p * samples + s]).color;
+        deepest = max(deepest, counts[2u * pixels + p * samples + s]);
+    }
+    let composited = counts[pixels + p];
+    output[p] = Resolved(sum / f32(samples), composited, 0u, 0u, 0u);
+    report_samples(counts[p], composited, deepest);
+}
