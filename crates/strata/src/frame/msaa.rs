@@ -108,6 +108,7 @@ pub fn supported(method: MethodId) -> bool {
             | MethodId::KbMdt32
             | MethodId::Kpeel
             | MethodId::F2b
+            | MethodId::Dual
             | MethodId::KbAbLl
             | MethodId::KbAbFixed
             | MethodId::Sbuffer
@@ -323,10 +324,12 @@ mod gpu_tests {
                 assert_eq!(counts(&stats), counts(&abuffer_stats), "{name}");
                 // Front-to-back peeling: each sample its own layers, the hardware's depth test
                 // per sample over the fragments' center depths.
-                let (peeled, stats) = render_gpu(&scene, &all, "f2b");
-                let name = format!("msaa{msaa}-f2b-{spec}");
-                assert_close(&name, &peeled, &expected, effect, MAX_DIFF, MAX_FRACTION);
-                assert_eq!(counts(&stats), counts(&abuffer_stats), "{name}");
+                for method in ["f2b", "dual"] {
+                    let (peeled, stats) = render_gpu(&scene, &all, method);
+                    let name = format!("msaa{msaa}-{method}-{spec}");
+                    assert_close(&name, &peeled, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_eq!(counts(&stats), counts(&abuffer_stats), "{name}");
+                }
                 let wide = multisampled(size, effect, msaa, Some(256));
                 for method in ["abuffer-fixed", "kplus-heap", "kplus-array"] {
                     let (actual, stats) = render_gpu(&scene, &wide, method);
@@ -369,6 +372,40 @@ mod gpu_tests {
                     }
                 }
             }
+        }
+    }
+
+    /// Peeling too few layers: each sample composites its own nearest ones — f2b's and kpeel's
+    /// 2 layers are `reference --k 2 --msaa 4` — and what no sample reached is counted as
+    /// dropped, as kb-ab-ll (each sample's 2 nearest from one list per pixel) counts it.
+    #[test]
+    fn peeling_too_few_layers_keeps_each_samples_nearest_and_counts_the_rest() {
+        let scene = load_scene("builtin:spheres?layers=4").unwrap();
+        let two = multisampled(40, Effect::Transparency, 4, Some(2));
+        let expected = render_reference(&scene, &two);
+        let (_, selected) = render_gpu(&scene, &two, "kb-ab-ll");
+        assert!(selected.fragments_dropped.unwrap() > 0);
+        let layers = RenderOptions {
+            layers: Some(2),
+            k: Some(1),
+            ..two.clone()
+        };
+        for method in ["f2b", "kpeel"] {
+            let mut r = crate::Renderer::new(crate::testing::gpu(), &scene, &layers).unwrap();
+            let (img, stats) = r.render(method).unwrap();
+            assert_close(
+                method,
+                &img,
+                &expected,
+                layers.effect,
+                MAX_DIFF,
+                MAX_FRACTION,
+            );
+            assert_eq!(
+                stats.fragments_dropped, selected.fragments_dropped,
+                "{method}"
+            );
+            assert_eq!(stats.max_depth_complexity, Some(4), "{method}");
         }
     }
 
@@ -460,6 +497,7 @@ mod gpu_tests {
             "kplus-heap",
             "kpeel",
             "f2b",
+            "dual",
             "unsorted",
             "mboit",
         ] {

@@ -1,5 +1,7 @@
 // dual peeling between passes: composites the peeled front layer front-to-back and the back
 // layer back-to-front, then makes the next bounds current and counts pixels with layers left.
+// With --msaa each of a pixel's S sample entries (`p * S + s`) peels on its own, finish
+// averages them and reports the counts after the sample entries of hits (dual_peel.wgsl).
 
 struct Counters {
     pending: atomic<u32>,
@@ -15,28 +17,35 @@ struct Counters {
 @group(1) @binding(6) var<storage, read_write> counters: Counters;
 @group(1) @binding(7) var<storage, read_write> output: array<Resolved>;
 
+fn samples_per_pixel() -> u32 {
+    return max(frame.coverage_bits, 1u);
+}
 
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    let i = pixel_index(id.xy);
-    front[i] = composite_new();
-    back[i] = composite_back_new();
-    next_bounds[2u * i] = no_min();
-    next_bounds[2u * i + 1u] = no_max();
-    hits[3u * i] = 0u;
-    hits[3u * i + 1u] = 0u;
-    hits[3u * i + 2u] = 0u;
+    let p = pixel_index(id.xy);
+    for (var s = 0u; s < samples_per_pixel(); s++) {
+        let i = p * samples_per_pixel() + s;
+        front[i] = composite_new();
+        back[i] = composite_back_new();
+        next_bounds[2u * i] = no_min();
+        next_bounds[2u * i + 1u] = no_max();
+        hits[3u * i] = 0u;
+        hits[3u * i + 1u] = 0u;
+        hits[3u * i + 2u] = 0u;
+    }
+    if frame.coverage_bits != 0u {
+        let pixels = frame.size.x * frame.size.y;
+        let after = 3u * pixels * samples_per_pixel();
+        hits[after + p] = 0u;
+        hits[after + pixels + p] = 0u;
+    }
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let i = pixel_index(id.xy);
+fn advance_entry(i: u32) {
     let front_hits = hits[3u * i];
     if front_hits > 0u {
         var s = front[i];
@@ -67,12 +76,39 @@ fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 @compute @workgroup_size(8, 8)
+fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let p = pixel_index(id.xy);
+    for (var s = 0u; s < samples_per_pixel(); s++) {
+        advance_entry(p * samples_per_pixel() + s);
+    }
+}
+
+@compute @workgroup_size(8, 8)
 fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    let i = pixel_index(id.xy);
-    let r = composite_join(front[i], back[i]);
-    output[i] = r;
-    report_pixel(hits[3u * i + 2u], r.count);
+    let p = pixel_index(id.xy);
+    if frame.coverage_bits == 0u {
+        let r = composite_join(front[p], back[p]);
+        output[p] = r;
+        report_pixel(hits[3u * p + 2u], r.count);
+        return;
+    }
+    let samples = samples_per_pixel();
+    var sum = vec4<f32>(0.0);
+    var deepest = 0u;
+    for (var s = 0u; s < samples; s++) {
+        let i = p * samples + s;
+        sum += composite_join(front[i], back[i]).color;
+        deepest = max(deepest, hits[3u * i + 2u]);
+    }
+    let pixels = frame.size.x * frame.size.y;
+    let after = 3u * pixels * samples;
+    let composited = hits[after + pixels + p];
+    output[p] = Resolved(sum / f32(samples), composited, 0u, 0u, 0u);
+    report_samples(hits[after + p], composited, deepest);
 }

@@ -3,6 +3,10 @@
 // goes to the front slot, the one at the farthest to the back slot, everything between bounds
 // the next pass. hits: per pixel the front and back slots' claims and (third word) every
 // fragment of the pixel, counted by the bounds pass.
+// With --msaa every sample peels on its own: each array holds S sample entries per pixel
+// (`sample_entry`), a fragment (shaded once) takes part at each sample it covers, and after the
+// sample entries hits holds per pixel its fragments (bounds pass) and those some sample
+// composited (account pass).
 
 @group(1) @binding(0) var<storage, read> bounds: array<Key>;
 @group(1) @binding(1) var<storage, read_write> next_bounds: array<atomic<Key>>;
@@ -18,23 +22,52 @@ fn key_of(v: SceneVarying, front_facing: bool) -> Key {
     return fragment_key(v.position.z, (v.prim << 1u) | select(0u, 1u, front_facing));
 }
 
-@fragment
-fn fs_bounds(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
+// The samples of a pixel a fragment covering `mask` takes part at: bit s for
+// `sample_entry(p, s)`; single-sampled bit 0, the pixel itself.
+fn dual_samples(mask: u32) -> u32 {
+    if frame.coverage_bits == 0u {
+        return 1u;
     }
-    let i = pixel_index(pixel_of(v.position));
-    atomicAdd(&hits[3u * i + 2u], 1u);
-    widen_next(i, key_of(v, front_facing));
+    return mask & ((1u << frame.coverage_bits) - 1u);
+}
+
+fn dual_samples_per_pixel() -> u32 {
+    return max(frame.coverage_bits, 1u);
+}
+
+fn sample_entry(p: u32, s: u32) -> u32 {
+    return p * dual_samples_per_pixel() + s;
+}
+
+// --msaa: the word of hits after the sample entries holding pixel p's `which`-th count (0: its
+// fragments, 1: those some sample composited).
+fn pixel_count_word(p: u32, which: u32) -> u32 {
+    let pixels = frame.size.x * frame.size.y;
+    return 3u * pixels * dual_samples_per_pixel() + which * pixels + p;
 }
 
 @fragment
-fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_bounds(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
-    let i = pixel_index(pixel_of(v.position));
+    let p = pixel_index(pixel_of(v.position));
     let key = key_of(v, front_facing);
+    if frame.coverage_bits != 0u {
+        atomicAdd(&hits[pixel_count_word(p, 0u)], 1u);
+    }
+    let samples = dual_samples(mask);
+    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+        if ((samples >> s) & 1u) != 0u {
+            let i = sample_entry(p, s);
+            atomicAdd(&hits[3u * i + 2u], 1u);
+            widen_next(i, key);
+        }
+    }
+}
+
+// One fragment at sample entry i: into a slot at its bounds, or widening the next bounds.
+fn peel_at(i: u32, key: Key, f: Fragment) {
     let lo = bounds[2u * i];
     let hi = bounds[2u * i + 1u];
     if key < lo || key > hi {
@@ -52,6 +85,44 @@ fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     // Fragments sharing a key (equal depth, 32-bit keys only) share a slot: the first keeps it,
     // the rest are counted.
     if atomicAdd(&hits[claim], 1u) == 0u {
-        layers[slot] = scene_fragment(v, front_facing);
+        layers[slot] = f;
+    }
+}
+
+@fragment
+fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    let key = key_of(v, front_facing);
+    let f = scene_fragment(v, front_facing);
+    let samples = dual_samples(mask);
+    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+        if ((samples >> s) & 1u) != 0u {
+            peel_at(sample_entry(p, s), key, f);
+        }
+    }
+}
+
+// --msaa's account after the last pass: a fragment was composited at a sample unless its key
+// lies within the sample's remaining bounds (what the last pass left between its slots).
+@fragment
+fn fs_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    let key = key_of(v, front_facing);
+    let samples = dual_samples(mask);
+    var composited = false;
+    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+        if ((samples >> s) & 1u) != 0u {
+            let i = sample_entry(p, s);
+            composited = composited || key < bounds[2u * i] || key > bounds[2u * i + 1u];
+        }
+    }
+    if composited {
+        atomicAdd(&hits[pixel_count_word(p, 1u)], 1u);
     }
 }

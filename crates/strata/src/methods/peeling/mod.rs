@@ -30,7 +30,7 @@
 //! (140·W·H). Classic dual peeling's min/max blending needs RG32F blending, which core
 //! WebGPU lacks, hence the storage atomics.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
@@ -405,6 +405,8 @@ pub struct Dual {
     advance_layout: wgpu::BindGroupLayout,
     bounds: GeometryStage,
     peel: GeometryStage,
+    /// `--msaa`'s account pass after the last peel.
+    account: Option<GeometryStage>,
     init: wgpu::ComputePipeline,
     advance: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
@@ -413,6 +415,16 @@ pub struct Dual {
     /// Bytes per key: 8 with 64-bit atomics (exact with ties), else 4.
     key_bytes: u64,
     cache: ResourceCache,
+}
+
+/// dual's bytes for `px` pixels at `samples` per pixel and `key_bytes` per key (module docs).
+fn dual_bytes(px: u64, samples: u32, key_bytes: u64) -> u64 {
+    let per_entry = 108 + 4 * key_bytes;
+    if samples > 1 {
+        px * (per_entry * samples as u64 + 8)
+    } else {
+        px * per_entry
+    }
 }
 
 /// Whether the adapter has the 64-bit atomic min/max dual peeling's exact keys need.
@@ -460,6 +472,8 @@ impl Dual {
         };
         let bounds = geometry_stage("strata.dual.bounds", "fs_bounds");
         let peel = geometry_stage("strata.dual.peel", "fs_peel");
+        let account =
+            (scene.samples > 1).then(|| geometry_stage("strata.dual.account", "fs_account"));
         let module = shader::module(
             device,
             "strata.dual.advance",
@@ -472,6 +486,7 @@ impl Dual {
             finish: compute_pipeline(gpu, "strata.dual.finish", &module, "cs_finish", &layouts),
             bounds,
             peel,
+            account,
             peel_layout,
             advance_layout,
             null_target: None,
@@ -487,31 +502,50 @@ impl Method for Dual {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
+        let samples = ctx.scene.samples;
+        if samples > 1 && self.key_bytes < 8 {
+            return Err(Error::unsupported(format!(
+                "dual --msaa {samples} needs 64-bit atomic min/max (SHADER_INT64_ATOMIC_MIN_MAX), which '{}' lacks: with depth-only keys its account could not tell fragments lost to a shared key; use f2b or kpeel",
+                gpu.info.name
+            )));
+        }
         let null_target = NullTarget::ensure(
             &mut self.null_target,
             gpu,
             "strata.dual.null_target",
             (w, h),
-            1,
+            samples,
         );
         let px = ctx.pixels();
-        ctx.check_budget(px * (108 + 4 * self.key_bytes))?;
+        let bytes = dual_bytes(px, samples, self.key_bytes);
+        ctx.check_budget(bytes)?;
         let none = wgpu::BufferUsages::empty();
         let key_bytes = self.key_bytes;
-        let bounds = self
-            .cache
-            .storage(gpu, "strata.dual.bounds", px * 2 * key_bytes, none)?;
-        let next_bounds =
+        // Per sample entry (one per pixel single-sampled).
+        let entries = px * samples as u64;
+        let bounds =
             self.cache
-                .storage(gpu, "strata.dual.next_bounds", px * 2 * key_bytes, none)?;
+                .storage(gpu, "strata.dual.bounds", entries * 2 * key_bytes, none)?;
+        let next_bounds = self.cache.storage(
+            gpu,
+            "strata.dual.next_bounds",
+            entries * 2 * key_bytes,
+            none,
+        )?;
         let layers_buffer = self
             .cache
-            .storage(gpu, "strata.dual.layers", px * 32, none)?;
-        let hits = self.cache.storage(gpu, "strata.dual.hits", px * 12, none)?;
+            .storage(gpu, "strata.dual.layers", entries * 32, none)?;
+        // --msaa: per pixel its fragments and those composited, after the entries' words.
+        let pixel_counts = if samples > 1 { px * 8 } else { 0 };
+        let hits =
+            self.cache
+                .storage(gpu, "strata.dual.hits", entries * 12 + pixel_counts, none)?;
         let front = self
             .cache
-            .storage(gpu, "strata.dual.front", px * 32, none)?;
-        let back = self.cache.storage(gpu, "strata.dual.back", px * 32, none)?;
+            .storage(gpu, "strata.dual.front", entries * 32, none)?;
+        let back = self
+            .cache
+            .storage(gpu, "strata.dual.back", entries * 32, none)?;
         let counters =
             self.cache
                 .storage(gpu, "strata.dual.counters", 8, wgpu::BufferUsages::COPY_SRC)?;
@@ -571,11 +605,22 @@ impl Method for Dual {
                 &[frame_group, &advance_group],
             );
         }
+        let mut account_passes = 0;
+        if let Some(account) = &self.account {
+            storage_geometry_pass(
+                ctx,
+                "account",
+                null_target,
+                account,
+                &[frame_group, &peel_group],
+            );
+            account_passes = 1;
+        }
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &advance_group]);
         ctx.readback.words(&counters, 0, 1);
         Ok(Recorded {
-            geometry_passes: peel_passes + 1,
-            bytes_allocated: px * (108 + 4 * self.key_bytes),
+            geometry_passes: peel_passes + 1 + account_passes,
+            bytes_allocated: bytes,
             capacity: layers as u64,
             ..Default::default()
         })
