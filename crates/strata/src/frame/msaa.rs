@@ -109,6 +109,7 @@ pub fn supported(method: MethodId) -> bool {
             | MethodId::Kpeel
             | MethodId::F2b
             | MethodId::Dual
+            | MethodId::KplusSbuffer
             | MethodId::KbAbLl
             | MethodId::KbAbFixed
             | MethodId::Sbuffer
@@ -354,6 +355,7 @@ mod gpu_tests {
                     "kb",
                     "kb-ll",
                     "kb-mdt32",
+                    "kplus-sbuffer",
                 ] {
                     let (actual, stats) = render_gpu(&scene, &three, method);
                     let name = format!("msaa{msaa}-k3-{method}-{spec}");

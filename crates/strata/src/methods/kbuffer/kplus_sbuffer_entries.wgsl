@@ -1,25 +1,27 @@
-// The memory-aware k+-buffer's geometry passes (storage in kplus_sbuffer.wgsl).
+// The memory-aware k+-buffer's geometry passes (storage in kplus_sbuffer.wgsl). With --msaa
+// every sample pixel has its own count, region and k nearest.
 
 // Above this k a full pixel keeps a max-heap (O(log k) per replacement), else a max-array.
 const ARRAY_MAX_K: u32 = 16u;
 
 @fragment
-fn fs_kplus_sbuffer_count(v: SceneVarying) {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    count_seen(kpixel(v.position));
-}
-
-// A pixel with at most k fragments appends them without the lock (its region holds them all);
-// a pixel with more keeps its k nearest under the lock, by max-array or max-heap.
-@fragment
-fn fs_kplus_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_kplus_sbuffer_count(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
     let p = kpixel(v.position);
-    let f = scene_fragment(v, front_facing);
+    count_pixel_fragment(p);
+    let samples = storage_samples(mask);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) != 0u {
+            count_seen(sample_pixel(p, s));
+        }
+    }
+}
+
+// A pixel with at most k fragments appends them without the lock (its region holds them all);
+// a pixel with more keeps its k nearest under the lock, by max-array or max-heap.
+fn store_in_region(p: u32, f: Fragment) {
     if !region_fits(p) {
         counter_add(COUNTER_OVERFLOWED, 1u);
         return;
@@ -35,4 +37,19 @@ fn fs_kplus_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: 
         return;
     }
     insert_locked(p, f, select(VARIANT_HEAP, VARIANT_ARRAY, kp.k <= ARRAY_MAX_K));
+}
+
+@fragment
+fn fs_kplus_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = kpixel(v.position);
+    let f = scene_fragment_covering(v, front_facing, mask);
+    let samples = storage_samples(mask);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) != 0u {
+            store_in_region(sample_pixel(p, s), f);
+        }
+    }
 }

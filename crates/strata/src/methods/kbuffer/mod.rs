@@ -281,6 +281,7 @@ pub fn sample_storage(id: MethodId, msaa: u32) -> u32 {
             | MethodId::KbLl
             | MethodId::KbMdt32
             | MethodId::Kpeel
+            | MethodId::KplusSbuffer
     );
     if per_sample && msaa > 1 {
         msaa

@@ -67,11 +67,13 @@ pub fn frame_bytes(
         MethodId::KbMdt64 => per_pixel(Mdt::Mdt64.slot_bytes()),
         MethodId::KbMdtPack => per_pixel(Mdt::Pack.slot_bytes()),
         MethodId::KplusSbuffer => {
+            // --msaa: a region per sample pixel, each as deep as its pixel at most.
+            let regions = px * samples as u64;
             let slots = match histogram {
-                Some(h) => captured(h, k as u32),
-                None => k * px,
+                Some(h) => captured(h, k as u32) * samples as u64,
+                None => k * regions,
             };
-            Some(fixed + 4 * px + 4 * scan_levels(px).1 + SLOT_BYTES * slots)
+            Some(fixed + 4 * regions + 4 * scan_levels(regions).1 + SLOT_BYTES * slots)
         }
         MethodId::KbAbFixed | MethodId::KbAbLl | MethodId::KbSbuffer | MethodId::KbLl => {
             Some(fixed)

@@ -19,6 +19,9 @@
 //! as overflowed (dropped), reports `overflow` and grows the pool for the next frame; exact mode
 //! renders again (2 + 2 geometry passes). Frames over the memory limits (`--budget-mb`, the largest
 //! storage binding) are an error in exact mode. Prefix sums saturate rather than wrap.
+//! With `--msaa S` `kplus-sbuffer` counts, sizes and fills a region per sample pixel (the scan
+//! runs over S·W·H entries): each sample's min(f, k) slots hold its own k nearest; `sbuffer` and
+//! `kb-sbuffer` keep one region per pixel whose fragments carry their coverage masks.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -238,17 +241,22 @@ impl Method for SBuffer {
         };
         let gpu = ctx.gpu;
         let pixels = ctx.pixels();
-        let (levels, scan_words) = self.scan_levels(gpu, pixels)?;
+        // --msaa: kplus-sbuffer gives each sample pixel its own region.
+        let sample_slots = super::sample_storage(self.id, ctx.options.msaa);
+        let regions = pixels * sample_slots as u64;
+        let (levels, scan_words) = self.scan_levels(gpu, regions)?;
         // kplus-sbuffer's region starts share the pool's buffer.
         let header = if self.id == MethodId::KplusSbuffer {
-            pixels * 4
+            regions * 4
         } else {
             0
         };
-        let fixed =
-            super::frame_bytes_besides_storage(pixels, ctx.options.tail == crate::Tail::Blend)
-                + header
-                + scan_words * 4;
+        let fixed = super::sample_frame_bytes_besides_storage(
+            pixels,
+            sample_slots,
+            ctx.options.tail == crate::Tail::Blend,
+        ) + header
+            + scan_words * 4;
         // A larger k than the need was measured at (--k auto following the scene) needs at most
         // k/k₀ times the slots, since min(f, k) ≤ (k/k₀)·min(f, k₀): grow to that bound rather
         // than overflow a frame.
@@ -262,7 +270,10 @@ impl Method for SBuffer {
             bytes: header + pool_bytes,
             clear: false,
         };
-        let params = params_for(ctx, k, k, false);
+        let params = super::KParams {
+            sample_slots,
+            ..params_for(ctx, k, k, false)
+        };
         let (group, bytes) = self.frame.begin(ctx, params, storage)?;
         let (w, h) = ctx.size();
         let target = NullTarget::ensure(
