@@ -110,6 +110,7 @@ pub fn supported(method: MethodId) -> bool {
             | MethodId::F2b
             | MethodId::Dual
             | MethodId::KplusSbuffer
+            | MethodId::Convex
             | MethodId::KbAbLl
             | MethodId::KbAbFixed
             | MethodId::Sbuffer
@@ -242,11 +243,11 @@ mod tests {
         };
         assert!(check_options(&with(2)).is_err());
         assert!(check_options(&with(4)).is_ok());
-        let err = check_method(MethodId::Convex, &with(4), 10).unwrap_err();
+        let err = check_method(MethodId::KbMdt64, &with(4), 10).unwrap_err();
         assert!(err.to_string().contains("abuffer-ll"), "{err}");
         assert!(check_method(MethodId::AbufferLl, &with(8), 1 << 23).is_ok());
         assert!(check_method(MethodId::AbufferLl, &with(8), (1 << 23) + 1).is_err());
-        assert!(check_method(MethodId::Convex, &with(1), 10).is_ok());
+        assert!(check_method(MethodId::KbMdt64, &with(1), 10).is_ok());
     }
 }
 

@@ -14,12 +14,18 @@
 @group(1) @binding(3) var<storage, read_write> touched_count: atomic<u32>;
 @group(1) @binding(4) var<storage, read_write> merge_args: array<atomic<u32>, 3>;
 
-fn capture(v: SceneVarying, front_facing: bool) {
-    let i = pixel_index(pixel_of(v.position));
+// Samples per pixel: with --msaa each pixel has S sample entries `p * S + s` with their own
+// claims, slots and state, and a fragment (shaded once) is captured at each it covers.
+fn samples_per_pixel() -> u32 {
+    return max(frame.coverage_bits, 1u);
+}
+
+// Captures `f` at sample entry i; false when the entry's LAYERS were full.
+fn capture_at(i: u32, f: Fragment) -> bool {
     // Claims past LAYERS are counted and dropped by the merge, never written.
     let n = atomicAdd(&claims[i], 1u);
     if n == 0u {
-        // Once per pixel and pass: the merge resets the claim, so t stays below the pixel count.
+        // Once per entry and pass: the merge resets the claim, so t stays below the entry count.
         let t = atomicAdd(&touched_count, 1u);
         if t < arrayLength(&touched) {
             touched[t] = i;
@@ -29,30 +35,55 @@ fn capture(v: SceneVarying, front_facing: bool) {
         }
     }
     if n < LAYERS {
-        slots[i * LAYERS + n] = scene_fragment(v, front_facing);
+        slots[i * LAYERS + n] = f;
+        return true;
+    }
+    return false;
+}
+
+fn capture(v: SceneVarying, front_facing: bool, mask: u32) {
+    let p = pixel_index(pixel_of(v.position));
+    if frame.coverage_bits == 0u {
+        capture_at(p, scene_fragment(v, front_facing));
+        return;
+    }
+    // --msaa: after the entries' claims, per pixel its fragments and those some covered sample
+    // could not keep (counted as dropped: never fewer than the fragments no sample kept).
+    let samples = samples_per_pixel();
+    let pixels = frame.size.x * frame.size.y;
+    let f = scene_fragment_covering(v, front_facing, mask);
+    var kept_everywhere = true;
+    for (var s = 0u; s < samples; s++) {
+        if ((mask >> s) & 1u) != 0u {
+            kept_everywhere = capture_at(p * samples + s, f) && kept_everywhere;
+        }
+    }
+    atomicAdd(&claims[pixels * samples + p], 1u);
+    if !kept_everywhere {
+        atomicAdd(&claims[pixels * samples + pixels + p], 1u);
     }
 }
 
 @fragment
-fn fs_whole(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_whole(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
-    capture(v, front_facing);
+    capture(v, front_facing, mask);
 }
 
 @fragment
-fn fs_front(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_front(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if !front_facing || behind_opaque(v.position) {
         discard;
     }
-    capture(v, front_facing);
+    capture(v, front_facing, mask);
 }
 
 @fragment
-fn fs_back(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_back(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if front_facing || behind_opaque(v.position) {
         discard;
     }
-    capture(v, front_facing);
+    capture(v, front_facing, mask);
 }

@@ -2,7 +2,7 @@
 // LAYERS) and composites them behind what earlier passes merged. A pass's nearest fragment in
 // front of the last merged one in (depth, primitive) order is an order violation: counted, and
 // composited where it arrived (the order could not be kept). init and finish bracket the frame.
-// The merge visits only the pixels the pass listed. LAYERS and MERGE_WORKGROUP are prepended by
+// The merge visits only the pixels the pass listed (sample entries with --msaa, capture.wgsl). LAYERS and MERGE_WORKGROUP are prepended by
 // the method.
 
 @group(1) @binding(0) var<storage, read_write> state: array<Composite>;
@@ -16,15 +16,28 @@
 @group(1) @binding(6) var<storage, read> touched: array<u32>;
 @group(1) @binding(7) var<storage, read> touched_count: u32;
 
+fn samples_per_pixel() -> u32 {
+    return max(frame.coverage_bits, 1u);
+}
+
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    let i = pixel_index(id.xy);
-    state[i] = composite_new();
-    generated[i] = 0u;
-    claims[i] = 0u;
+    let p = pixel_index(id.xy);
+    let samples = samples_per_pixel();
+    for (var s = 0u; s < samples; s++) {
+        let i = p * samples + s;
+        state[i] = composite_new();
+        generated[i] = 0u;
+        claims[i] = 0u;
+    }
+    if frame.coverage_bits != 0u {
+        let pixels = frame.size.x * frame.size.y;
+        claims[pixels * samples + p] = 0u;
+        claims[pixels * samples + pixels + p] = 0u;
+    }
 }
 
 @compute @workgroup_size(MERGE_WORKGROUP)
@@ -75,8 +88,25 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    let i = pixel_index(id.xy);
-    let s = state[i];
-    output[i] = composite_finish(s);
-    report_pixel(generated[i], s.count);
+    let p = pixel_index(id.xy);
+    if frame.coverage_bits == 0u {
+        let s = state[p];
+        output[p] = composite_finish(s);
+        report_pixel(generated[p], s.count);
+        return;
+    }
+    // --msaa: the samples' average; the pixel's fragments and drops the capture counted.
+    let samples = samples_per_pixel();
+    let pixels = frame.size.x * frame.size.y;
+    var sum = vec4<f32>(0.0);
+    var deepest = 0u;
+    for (var s = 0u; s < samples; s++) {
+        let i = p * samples + s;
+        sum += composite_finish(state[i]).color;
+        deepest = max(deepest, generated[i]);
+    }
+    let fragments = claims[pixels * samples + p];
+    let kept = fragments - min(claims[pixels * samples + pixels + p], fragments);
+    output[p] = Resolved(sum / f32(samples), kept, 0u, 0u, 0u);
+    report_samples(fragments, kept, deepest);
 }
