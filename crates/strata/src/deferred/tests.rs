@@ -388,6 +388,82 @@ fn the_transparent_method_over_the_deferred_image_equals_the_reference_composite
     }
 }
 
+/// --msaa 4 with the pipeline: the lit opaque frame stays single-sampled, the transparent
+/// fragments in front of its depth at the pixel center are composited per sample over the lit
+/// pixel and averaged — for the methods that keep every fragment, each sample's k nearest, and
+/// peel — and the reference agrees.
+#[test]
+fn multisampled_transparency_over_the_single_sampled_deferred_image() {
+    let scene = room(mixed_lights());
+    let size = 80;
+    let opts = RenderOptions {
+        tonemap: Tonemap::None,
+        background: crate::scene::Background::Color([0.02, 0.03, 0.05]),
+        msaa: 4,
+        k: Some(4),
+        ..options(Some(Pipeline::Deferred), size)
+    };
+    let (opaque, transparent) = scene.split_by_opacity();
+    let (lit_opaque, _) = render(&opaque, &opts, "abuffer-ll");
+    let single = RenderOptions {
+        msaa: 1,
+        ..opts.clone()
+    };
+    let opaque_fragments = crate::reference::fragments(&opaque, &single).unwrap();
+    let transparent_fragments = crate::reference::fragments(&transparent, &opts).unwrap();
+    let mut partly_covered = 0;
+    let expected = LinearImage {
+        width: size,
+        height: size,
+        pixels: transparent_fragments
+            .iter()
+            .zip(&opaque_fragments)
+            .zip(&lit_opaque.pixels)
+            .map(|((list, opaque), under)| {
+                let in_front: Vec<_> = match opaque.first() {
+                    Some(o) => list.iter().filter(|f| f.depth < o.depth).cloned().collect(),
+                    None => list.clone(),
+                };
+                partly_covered += in_front.iter().any(|f| f.coverage != 0b1111) as u32;
+                let under = [under[0] as f64, under[1] as f64, under[2] as f64];
+                let mut sum = [0.0; 3];
+                for sample in 0..4 {
+                    let own: Vec<_> = in_front
+                        .iter()
+                        .filter(|f| f.coverage & (1 << sample) != 0)
+                        .take(4)
+                        .cloned()
+                        .collect();
+                    let c = crate::resolve::composite(&own, under, false);
+                    sum = std::array::from_fn(|i| sum[i] + c[i] / 4.0);
+                }
+                [sum[0] as f32, sum[1] as f32, sum[2] as f32, 0.0]
+            })
+            .collect(),
+    };
+    assert!(partly_covered > 20, "{partly_covered} edge pixels");
+    let reference = crate::reference::render(&scene, &opts).unwrap().0;
+    assert_close(
+        "msaa-deferred-reference",
+        &reference,
+        &expected,
+        Effect::Transparency,
+        EXACT_MAX_DIFF,
+        EXACT_MAX_FRACTION,
+    );
+    for method in ["abuffer-ll", "kplus-heap", "f2b"] {
+        let (actual, _) = render(&scene, &opts, method);
+        assert_close(
+            &format!("msaa-deferred-{method}"),
+            &actual,
+            &expected,
+            Effect::Transparency,
+            EXACT_MAX_DIFF,
+            EXACT_MAX_FRACTION,
+        );
+    }
+}
+
 #[test]
 fn a_scene_without_opaque_or_without_transparent_objects_renders_with_a_pipeline() {
     let all_transparent = {

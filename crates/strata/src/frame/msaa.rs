@@ -33,14 +33,19 @@
 //! capture's atomic work grows with the samples each fragment covers (S in a surface's
 //! interior).
 //!
+//! With `--pipeline` the lit opaque frame stays single-sampled (multisampled deferred shading,
+//! lighting each edge sample, is not built): `--msaa` anti-aliases the transparent surfaces,
+//! which are tested against the opaque depth at the pixel center and composited per sample over
+//! the lit pixel; opaque edges keep their stairs. The reference does the same.
+//!
 //! `wboit`, `mboit` and the baselines (`unsorted`, `sorted`) blend into multisampled targets
 //! instead: the hardware writes each fragment into the samples it covers and the composite
 //! averages the samples' results (wboit's and mboit's closed forms, the baselines' blended
 //! colors); mboit weights a fragment by the mean of its covered samples' transmittances.
 //!
 //! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×); 8× only where the device
-//! rasterizes it (lavapipe: 4×). The methods [`supported`] does not list, `--pipeline`,
-//! `--raster compute` and `--temporal` refuse `--msaa` with one error line naming why.
+//! rasterizes it (lavapipe: 4×). The methods [`supported`] does not list, `--raster compute`
+//! and `--temporal` refuse `--msaa` with one error line naming why.
 
 use crate::error::{Error, Result};
 use crate::frame::RenderOptions;
@@ -139,9 +144,6 @@ pub fn check_options(options: &RenderOptions) -> Result<()> {
             "--msaa {samples} does not work with {what} yet; use --msaa 1"
         )))
     };
-    if options.pipeline.is_some() {
-        return refuse("--pipeline (the lit opaque frame is single-sampled)");
-    }
     if options.raster == crate::raster::Raster::Compute {
         return refuse("--raster compute (the compute rasterizer samples pixel centers)");
     }

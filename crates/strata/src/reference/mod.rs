@@ -255,18 +255,24 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         Some(_) => {
             scene.validate()?;
             let (opaque, transparent) = scene.split_by_opacity();
-            let part = |s: &Scene| -> Result<Vec<Vec<RefFragment>>> {
+            let part = |s: &Scene, o: &RenderOptions| -> Result<Vec<Vec<RefFragment>>> {
                 if s.objects.is_empty() {
-                    Ok(vec![Vec::new(); options.pixels() as usize])
+                    Ok(vec![Vec::new(); o.pixels() as usize])
                 } else {
-                    fragments(s, options)
+                    fragments(s, o)
                 }
             };
-            let nearest: Vec<Option<RefFragment>> = part(&opaque)?
+            // The pipeline's lit opaque frame is single-sampled (frame::msaa): its nearest
+            // surface at the pixel center.
+            let single = RenderOptions {
+                msaa: 1,
+                ..options.clone()
+            };
+            let nearest: Vec<Option<RefFragment>> = part(&opaque, &single)?
                 .into_iter()
                 .map(|l| l.into_iter().next())
                 .collect();
-            let lists = part(&transparent)?
+            let lists = part(&transparent, options)?
                 .into_iter()
                 .zip(&nearest)
                 .map(|(list, o)| match o {
