@@ -1,51 +1,61 @@
-//! Multisample anti-aliasing (`--msaa 4|8`) for the methods that store every fragment.
+//! Multisample anti-aliasing (`--msaa 4|8`) for every capture family.
 //!
 //! The capture passes rasterize with 4 or 8 samples per pixel at the standard sample positions
 //! ([`positions`]; Vulkan's and WebGPU's, which every wgpu backend uses) but shade once per pixel
 //! and primitive, as engines do: a fragment is shaded at the pixel center and stores the center's
 //! depth, plus its coverage mask (`@builtin(sample_mask)`, the samples inside the primitive).
-//! The mask rides in the fragment's tag word — `primitive << (1 + S) | mask << 1 | front-facing`
-//! for S samples — so the 16-byte record stays as it is; the tag still orders equal depths by
-//! primitive. The resolve composites each sample's own fragments in depth order (and keeps each
-//! sample's k nearest) and averages the samples: an edge pixel half covered by a layer gets half
-//! its contribution, a fully covered pixel exactly the single-sample result, and shading costs
-//! what it costs without MSAA.
+//! Every sample composites its own fragments in (center depth, primitive) order and the pixel
+//! is the samples' average (premultiplied, so blending it over a background equals averaging
+//! the samples blended over it): an edge pixel half covered by a layer gets half its
+//! contribution, a fully covered pixel exactly the single-sample result, and shading costs what
+//! it costs without MSAA. The reference ([`crate::reference`]) supersamples the same way, so the
+//! exact methods stay testable against it. How each family keeps its samples:
 //!
-//! Memory: nothing per sample — a pixel on a mesh edge stores one fragment per primitive that
-//! touches it, so a surface whose edge crosses the pixel stores two; methods that count
-//! fragments per pixel (the fixed arrays) measure that as drops. A device may also shade one
-//! primitive's pixel in more than one invocation, each with its own disjoint part of the mask
-//! (lavapipe does, on some partly and some fully covered pixels): every sample still sees the
-//! surface once, so the picture is the same, but fragment counts — the statistics and the
-//! complexity view — count what was stored, invocations, where the reference counts primitives. The reference
-//! ([`crate::reference`]) supersamples the same way, so the exact methods stay testable.
+//! - **Every fragment per pixel** (`abuffer-ll`, `abuffer-fixed`, `sbuffer`, `kb-ab-ll`,
+//!   `kb-ab-fixed`, `kb-sbuffer`): the mask rides in the fragment's tag word —
+//!   `primitive << (1 + S) | mask << 1 | front-facing` — so the 16-byte record stays as it is,
+//!   and the resolve composites each sample's fragments (each sample's k nearest for `kb-`).
+//!   Memory: nothing per sample, but a pixel on a mesh edge stores one fragment per primitive
+//!   touching it, which the fixed arrays feel as drops.
+//! - **Capture-time choice** (`kplus-array`, `kplus-heap`, `kplus-array-r`, `kplus-semiheap`,
+//!   `kplus-sbuffer`, `kb`, `kb-ps`, `kb-ll`, `kb-mdt32`, and `kpeel`'s passes): a choice made
+//!   per pixel is not each sample's — an edge pixel would spend its k on fragments some of its
+//!   samples do not see — so they keep **per-sample storage**: S sample pixels per pixel with
+//!   their own slots (or list, cascade, region), counters, lock and tail; a fragment, shaded
+//!   once, enters the storage of each sample it covers, so every sample keeps exactly its own k
+//!   nearest and nothing at an edge overflows into the tail. Memory: S× the storage and words,
+//!   + 4 bytes per pixel; the capture's atomic work grows with the samples a fragment covers.
+//! - **Peeling** (`f2b`, `dual`, `kpeel`): every sample peels on its own, with its own running
+//!   composite. `f2b` renders multisampled layer targets: a fragment covers (through its output
+//!   sample mask) only the samples still waiting for it and writes its center depth to them, so
+//!   each sample's depth test keeps that sample's next fragment. `dual` and `kpeel` keep sample
+//!   entries in every per-pixel array. An *account* geometry pass after the last layer counts
+//!   each fragment once, each sample's depth complexity (which sets the next frame's layers)
+//!   and the fragments some sample composited: one more geometry pass per frame.
+//! - **convex**: sample entries with their own claims, slots and state (see its module).
+//! - **Blended targets** (`wboit`, `mboit`, `unsorted`, `sorted`): multisampled targets; the
+//!   hardware writes each fragment into the samples it covers and the composite averages the
+//!   samples' results; mboit weights a fragment by the mean of its covered samples'
+//!   transmittances.
 //!
-//! The capture-time k-buffers (`kplus-array`, `kplus-heap`, `kplus-array-r`, `kplus-semiheap`,
-//! `kb`, `kb-ps`, `kb-ll`, `kb-mdt32`) choose what to keep while capturing, and a choice made
-//! per pixel is not each sample's: a pixel on an edge would spend its k on fragments some of
-//! its samples do not see. They keep **per-sample storage** instead: each pixel has S sample
-//! pixels with their own slots (or list, or cascade), counters, lock and tail; a fragment is
-//! shaded once and enters the storage of each sample it covers, so every sample keeps exactly
-//! its own k nearest and nothing at an edge overflows into the tail. The resolve composites
-//! each sample and averages. A fragment counts once in the statistics however many samples
-//! kept it (a per-pixel count of fragments, and at the resolve the first sample that kept it).
-//! Memory: S times the single-sampled storage and per-pixel words, plus 4 bytes per pixel; the
-//! capture's atomic work grows with the samples each fragment covers (S in a surface's
-//! interior).
+//! A fragment counts once in the statistics however many samples kept it. A device may shade
+//! one primitive's pixel in more than one invocation, each with its own disjoint part of the
+//! mask (lavapipe does, on some partly and some fully covered pixels): every sample still sees
+//! the surface once, so the picture is the same, but fragment counts — the statistics and the
+//! complexity view — count invocations where the reference counts primitives.
 //!
 //! With `--pipeline` the lit opaque frame stays single-sampled (multisampled deferred shading,
 //! lighting each edge sample, is not built): `--msaa` anti-aliases the transparent surfaces,
 //! which are tested against the opaque depth at the pixel center and composited per sample over
 //! the lit pixel; opaque edges keep their stairs. The reference does the same.
 //!
-//! `wboit`, `mboit` and the baselines (`unsorted`, `sorted`) blend into multisampled targets
-//! instead: the hardware writes each fragment into the samples it covers and the composite
-//! averages the samples' results (wboit's and mboit's closed forms, the baselines' blended
-//! colors); mboit weights a fragment by the mean of its covered samples' transmittances.
-//!
-//! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×); 8× only where the device
-//! rasterizes it (lavapipe: 4×). The methods [`supported`] does not list, `--raster compute`
-//! and `--temporal` refuse `--msaa` with one error line naming why.
+//! Limits: scenes of at most 2^(31 − S) triangles (8,388,608 at 8×; `f2b`: 2^23, its tag
+//! travelling as an exact float because 32-bit integer targets cannot be multisampled); 8× only
+//! where the device rasterizes it (lavapipe: 4×); `dual` needs 64-bit atomic min/max. Refused
+//! with one error line naming why: `kb-mdt64` and `kb-mdt-pack` (no primitive or mask in their
+//! 8-byte keys), `--raster compute` (it samples pixel centers), `--temporal` (its interface is
+//! per pixel), and application captures (`strata_capture` takes no mask yet, and WGSL has no
+//! early fragment tests to cull the samples an application's multisampled depth hides).
 
 use crate::error::{Error, Result};
 use crate::frame::RenderOptions;
@@ -96,36 +106,10 @@ pub fn max_triangles(samples: u32) -> u64 {
     1u64 << (31 - coverage_bits(samples))
 }
 
-/// The methods whose resolve sees every fragment and can composite per sample, and those whose
-/// blended targets are multisampled (wboit, mboit, the baselines).
+/// The methods that take `--msaa`: all but the multi-depth tests with 8-byte keys, which keep
+/// no primitive or coverage per fragment (see [`check_method`]).
 pub fn supported(method: MethodId) -> bool {
-    matches!(
-        method,
-        MethodId::AbufferLl
-            | MethodId::AbufferFixed
-            | MethodId::KplusArray
-            | MethodId::KplusHeap
-            | MethodId::KplusArrayR
-            | MethodId::Kb
-            | MethodId::KbPs
-            | MethodId::KplusSemiheap
-            | MethodId::KbLl
-            | MethodId::KbMdt32
-            | MethodId::Kpeel
-            | MethodId::F2b
-            | MethodId::Dual
-            | MethodId::KplusSbuffer
-            | MethodId::Convex
-            | MethodId::KbAbLl
-            | MethodId::KbAbFixed
-            | MethodId::Sbuffer
-            | MethodId::KbSbuffer
-            | MethodId::Wboit
-            | MethodId::Mboit
-            | MethodId::Unsorted
-            | MethodId::Sorted
-            | MethodId::Reference
-    )
+    !matches!(method, MethodId::KbMdt64 | MethodId::KbMdtPack)
 }
 
 /// `--msaa` against the other options.
@@ -191,14 +175,8 @@ pub fn check_method(method: MethodId, options: &RenderOptions, triangles: u64) -
         return Ok(());
     }
     if !supported(method) {
-        let ids: Vec<&str> = MethodId::ALL
-            .iter()
-            .filter(|m| supported(**m) && **m != MethodId::Reference)
-            .map(|m| m.as_str())
-            .collect();
         return Err(Error::unsupported(format!(
-            "{method} does not support --msaa {samples} yet (these do: {})",
-            ids.join(", ")
+            "{method} does not support --msaa: its 8-byte keys hold depth and color but no primitive or coverage mask, so per-sample storage could not count a fragment once over the samples it covers; use kb-mdt32"
         )));
     }
     if method == MethodId::F2b && triangles > crate::methods::peeling::F2B_MSAA_MAX_TRIANGLES {
@@ -246,7 +224,12 @@ mod tests {
         assert!(check_options(&with(2)).is_err());
         assert!(check_options(&with(4)).is_ok());
         let err = check_method(MethodId::KbMdt64, &with(4), 10).unwrap_err();
-        assert!(err.to_string().contains("abuffer-ll"), "{err}");
+        assert!(err.to_string().contains("kb-mdt32"), "{err}");
+        // Every other method takes it.
+        for m in MethodId::ALL {
+            let takes = check_method(m, &with(4), 10).is_ok();
+            assert_eq!(takes, supported(m), "{m}");
+        }
         assert!(check_method(MethodId::AbufferLl, &with(8), 1 << 23).is_ok());
         assert!(check_method(MethodId::AbufferLl, &with(8), (1 << 23) + 1).is_err());
         assert!(check_method(MethodId::KbMdt64, &with(1), 10).is_ok());
