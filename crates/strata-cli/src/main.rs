@@ -232,6 +232,9 @@ pub struct MethodArgs {
     /// distances of 0.1 to 500 units).
     #[arg(long, default_value_t = 1.0)]
     pub depth_scale: f64,
+    /// mboit: power moments, 4, 6 or 8 (more follow more layers, at more memory and work).
+    #[arg(long, default_value_t = 4)]
+    pub moments: u32,
     /// Fragments beyond k (k-buffer methods).
     #[arg(long, value_enum, default_value = "drop")]
     pub tail: Tail,
@@ -819,6 +822,7 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
     options.heap_size = a.heap_size;
     options.weight = a.weight;
     options.depth_scale = a.depth_scale;
+    options.moments = a.moments;
     options.ssao = a.ssao;
     options.normal_encoding = a.normal_encoding;
     options.gbuffer_debug = a.gbuffer_debug;

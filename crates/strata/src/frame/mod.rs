@@ -169,6 +169,8 @@ pub struct RenderOptions {
     /// wboit: view-space distances are multiplied by this before the weight function, whose
     /// constants assume distances of 0.1 to 500 units.
     pub depth_scale: f64,
+    /// mboit: power moments, 4 (default), 6 or 8.
+    pub moments: u32,
     /// `--k auto --robustness R`: each frame's k is chosen from the last depth-complexity
     /// histogram to capture the fraction R of the fragments within `budget_mb` (see
     /// [`crate::methods::kbuffer::predict`]); `k` is then ignored.
@@ -224,6 +226,7 @@ impl Default for RenderOptions {
             k_auto: None,
             heap_size: None,
             weight: Weight::Eq7,
+            moments: 4,
             depth_scale: 1.0,
             allocation_counter_start: 0,
             pipeline: None,
@@ -296,6 +299,12 @@ impl RenderOptions {
             return Err(Error::input(format!(
                 "--depth-scale {} must be a positive number",
                 self.depth_scale
+            )));
+        }
+        if ![4, 6, 8].contains(&self.moments) {
+            return Err(Error::input(format!(
+                "--moments {} is not 4, 6 or 8 (mboit's power moments)",
+                self.moments
             )));
         }
         if let Some(r) = self.k_auto {

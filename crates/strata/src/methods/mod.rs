@@ -251,8 +251,8 @@ pub fn catalogue() -> Vec<MethodInfo> {
             family: "weighted",
             exact: false,
             geometry_passes: "2",
-            memory: "(28·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
-            summary: "moment-based OIT (Münstermann et al. 2018): 4 power moments of absorbance over log depth (32-bit, bias 5e-7, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
+            memory: "(28·S + 4)·W·H, +8·S with --moments 6, +16·S with 8; S samples per pixel (--msaa, else 1)",
+            summary: "moment-based OIT (Münstermann et al. 2018): 4, 6 or 8 power moments of absorbance over log depth (--moments; 32-bit, bias 5e-7, 5e-7, 2e-6, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
         },
         MethodInfo {
             id: "f2b",

@@ -85,10 +85,145 @@ pub fn absorbance_fraction(moments: [f64; 4], z: f64, bias: f64, overestimation:
     a0 + a1 * m[0] + a2 * m[1]
 }
 
-/// b0 and the absorbance-weighted power moments Σ a·zᵏ (k = 1..4) of `fragments`.
-fn mboit_moments(fragments: &[&RefFragment], camera: &Camera) -> (f64, [f64; 4]) {
+/// The moments the bias pulls toward for 4, 6 and 8 power moments in 32-bit floats (the values
+/// of the paper's code).
+pub fn bias_moments(count: usize) -> &'static [f64] {
+    match count {
+        4 => &BIAS_MOMENTS,
+        6 => &[0.0, 0.48, 0.0, 0.451, 0.0, 0.45],
+        _ => &[
+            0.0,
+            0.75,
+            0.0,
+            0.676_666_666_666_666_6,
+            0.0,
+            0.63,
+            0.0,
+            0.600_303_030_303_030_3,
+        ],
+    }
+}
+
+/// The real roots, in ascending order, of the polynomial Σ cᵢ·xⁱ of degree 1 to 4 (`c` low to
+/// high, the last coefficient nonzero), each bracketed between consecutive roots of its
+/// derivative (or the Cauchy bound) and bisected. The polynomial a Hankel system gives has only
+/// real, simple roots; where rounding leaves fewer sign changes than its degree, the derivative's
+/// roots where it comes nearest zero stand in.
+pub fn polynomial_roots(c: &[f64]) -> Vec<f64> {
+    let degree = c.len() - 1;
+    if degree == 1 {
+        return vec![-c[0] / c[1]];
+    }
+    let eval = |x: f64| c.iter().rev().fold(0.0, |acc, a| acc * x + a);
+    let derivative: Vec<f64> = (1..=degree).map(|i| i as f64 * c[i]).collect();
+    let critical = polynomial_roots(&derivative);
+    let bound = 1.0
+        + c[..degree]
+            .iter()
+            .map(|a| (a / c[degree]).abs())
+            .fold(0.0, f64::max);
+    let mut edges = vec![-bound];
+    edges.extend(critical.iter().map(|x| x.clamp(-bound, bound)));
+    edges.push(bound);
+    let mut roots = Vec::with_capacity(degree);
+    for pair in edges.windows(2) {
+        let (mut lo, mut hi) = (pair[0], pair[1]);
+        let (f_lo, f_hi) = (eval(lo), eval(hi));
+        if f_lo * f_hi > 0.0 {
+            continue;
+        }
+        let rising = f_hi > f_lo;
+        for _ in 0..ROOT_BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            if (eval(mid) < 0.0) == rising {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        roots.push(0.5 * (lo + hi));
+    }
+    let mut stand_ins = critical;
+    stand_ins.sort_by(|a, b| eval(*a).abs().total_cmp(&eval(*b).abs()));
+    roots.extend(
+        stand_ins
+            .into_iter()
+            .take(degree.saturating_sub(roots.len())),
+    );
+    roots.truncate(degree);
+    roots.sort_by(f64::total_cmp);
+    roots
+}
+
+/// Bisection steps per root (`mboit_roots` in WGSL takes as many).
+pub const ROOT_BISECTIONS: u32 = 48;
+
+/// [`absorbance_fraction`] for 6 or 8 power moments (E[z], …, E[z^2n]): the Hankel system
+/// B·c = (1, z, …, zⁿ) solved through L·D·Lᵀ, the n other points of support as the roots of
+/// Σ cᵢ·xⁱ, the interpolating polynomial of degree n through (z, η) and (xᵢ, [xᵢ < z]) in Newton
+/// form, and its expectation under the moments.
+pub fn absorbance_fraction_n(moments: &[f64], z: f64, bias: f64, overestimation: f64) -> f64 {
+    let n = moments.len() / 2;
+    let target = bias_moments(moments.len());
+    let m = |k: usize| -> f64 {
+        if k == 0 {
+            1.0
+        } else {
+            moments[k - 1] + (target[k - 1] - moments[k - 1]) * bias
+        }
+    };
+    let size = n + 1;
+    let (mut l, mut d) = ([[0.0f64; 5]; 5], [0.0f64; 5]);
+    for i in 0..size {
+        for j in 0..=i {
+            let s = m(i + j) - (0..j).map(|k| l[i][k] * l[j][k] * d[k]).sum::<f64>();
+            if i == j {
+                d[i] = s;
+            } else {
+                l[i][j] = s / d[j];
+            }
+        }
+    }
+    let mut c = [0.0f64; 5];
+    for i in 0..size {
+        c[i] = z.powi(i as i32) - (0..i).map(|k| l[i][k] * c[k]).sum::<f64>();
+    }
+    for i in 0..size {
+        c[i] /= d[i];
+    }
+    for i in (0..size).rev() {
+        c[i] -= (i + 1..size).map(|k| l[k][i] * c[k]).sum::<f64>();
+    }
+    let roots = polynomial_roots(&c[..size]);
+    let (mut x, mut f) = ([0.0f64; 5], [0.0f64; 5]);
+    x[0] = z;
+    f[0] = overestimation;
+    for (i, r) in roots.iter().enumerate() {
+        x[i + 1] = *r;
+        f[i + 1] = if *r < z { 1.0 } else { 0.0 };
+    }
+    // Divided differences in place: f[i] becomes f[x0, …, xi].
+    for level in 1..size {
+        for i in (level..size).rev() {
+            f[i] = (f[i] - f[i - 1]) / (x[i] - x[i - level]);
+        }
+    }
+    // Newton form to monomials: p ← p·(X − x_k) + f_k from the highest k down.
+    let mut p = [0.0f64; 5];
+    p[0] = f[n];
+    for k in (0..n).rev() {
+        for j in (1..size).rev() {
+            p[j] = p[j - 1] - x[k] * p[j];
+        }
+        p[0] = f[k] - x[k] * p[0];
+    }
+    (0..size).map(|k| p[k] * m(k)).sum()
+}
+
+/// b0 and the absorbance-weighted power moments Σ a·zᵏ (k = 1..count) of `fragments`.
+fn mboit_moments(fragments: &[&RefFragment], camera: &Camera, count: usize) -> (f64, Vec<f64>) {
     let mut b0 = 0.0;
-    let mut b = [0.0f64; 4];
+    let mut b = vec![0.0f64; count];
     for f in fragments {
         let a = -(1.0 - f.alpha.min(MAX_ALPHA)).ln();
         let z = mboit_depth(camera, f.distance);
@@ -101,14 +236,17 @@ fn mboit_moments(fragments: &[&RefFragment], camera: &Camera) -> (f64, [f64; 4])
 }
 
 /// The transmittance the moments `(b0, b)` give in front of warped depth `z`.
-fn mboit_transmittance((b0, b): (f64, [f64; 4]), z: f64, bias: f64, overestimation: f64) -> f64 {
-    if b0 <= 0.0 {
+/// Four moments by the closed form, six and eight by [`absorbance_fraction_n`].
+fn mboit_transmittance((b0, b): &(f64, Vec<f64>), z: f64, bias: f64, overestimation: f64) -> f64 {
+    if *b0 <= 0.0 {
         return 1.0;
     }
-    let moments = b.map(|x| x / b0);
-    (-b0 * absorbance_fraction(moments, z, bias, overestimation))
-        .exp()
-        .clamp(0.0, 1.0)
+    let moments: Vec<f64> = b.iter().map(|x| x / b0).collect();
+    let fraction = match moments[..] {
+        [m1, m2, m3, m4] => absorbance_fraction([m1, m2, m3, m4], z, bias, overestimation),
+        _ => absorbance_fraction_n(&moments, z, bias, overestimation),
+    };
+    (-b0 * fraction).exp().clamp(0.0, 1.0)
 }
 
 /// One sample's color over `background`: the fragments covering it, each weighted by α and its
@@ -137,25 +275,32 @@ fn mboit_resolve(
     })
 }
 
+/// `mboit`'s settings: the moment bias β, the overestimation η, and the power moments (4, 6, 8).
+#[derive(Clone, Copy, Debug)]
+pub struct MboitSettings {
+    pub bias: f64,
+    pub overestimation: f64,
+    pub moments: usize,
+}
+
 /// One pixel of `mboit` over `background`, from its fragments in any order.
 pub fn mboit(
     fragments: &[RefFragment],
     background: [f64; 3],
     camera: &Camera,
-    bias: f64,
-    overestimation: f64,
+    settings: MboitSettings,
 ) -> [f64; 3] {
     let all: Vec<&RefFragment> = fragments.iter().collect();
-    let moments = mboit_moments(&all, camera);
+    let moments = mboit_moments(&all, camera, settings.moments);
     mboit_resolve(
         &all,
         moments.0,
         |f| {
             mboit_transmittance(
-                moments,
+                &moments,
                 mboit_depth(camera, f.distance),
-                bias,
-                overestimation,
+                settings.bias,
+                settings.overestimation,
             )
         },
         background,
@@ -169,7 +314,7 @@ pub fn mboit_multisampled(
     fragments: &[RefFragment],
     background: [f64; 3],
     camera: &Camera,
-    (bias, overestimation): (f64, f64),
+    settings: MboitSettings,
     samples: u32,
 ) -> [f64; 3] {
     let covering = |s: u32| -> Vec<&RefFragment> {
@@ -178,14 +323,21 @@ pub fn mboit_multisampled(
             .filter(|f| f.coverage & (1 << s) != 0)
             .collect()
     };
-    let moments: Vec<(f64, [f64; 4])> = (0..samples)
-        .map(|s| mboit_moments(&covering(s), camera))
+    let moments: Vec<(f64, Vec<f64>)> = (0..samples)
+        .map(|s| mboit_moments(&covering(s), camera, settings.moments))
         .collect();
     let t = |f: &RefFragment| {
         let z = mboit_depth(camera, f.distance);
         let covered: Vec<f64> = (0..samples)
             .filter(|s| f.coverage & (1 << s) != 0)
-            .map(|s| mboit_transmittance(moments[s as usize], z, bias, overestimation))
+            .map(|s| {
+                mboit_transmittance(
+                    &moments[s as usize],
+                    z,
+                    settings.bias,
+                    settings.overestimation,
+                )
+            })
             .collect();
         covered.iter().sum::<f64>() / covered.len().max(1) as f64
     };

@@ -1,13 +1,14 @@
 // Moment-based OIT (Münstermann et al. 2018): the moments a fragment adds and the transmittance
-// reconstructed from four power moments. Keep `MboitParams` in sync with `MboitParams` in
-// weighted/mod.rs, and the reconstruction with `cpu::absorbance_fraction`.
+// reconstructed from four, six or eight power moments. Keep `MboitParams` in sync with
+// `MboitParams` in weighted/mboit.rs, and the reconstructions with `cpu::absorbance_fraction`
+// (four, closed form) and `cpu::absorbance_fraction_n` (six and eight).
 
 struct MboitParams {
-    // The moment bias β and the overestimation η of the paper.
+    // The moment bias β and the overestimation η of the paper, and the power moments (4, 6, 8).
     bias: f32,
     overestimation: f32,
-    _pad0: u32,
-    _pad1: u32,
+    moments: u32,
+    _pad: u32,
 }
 
 @group(1) @binding(0) var<uniform> mp: MboitParams;
@@ -72,4 +73,196 @@ fn mboit_transmittance(b0: f32, b: vec4<f32>, z: f32) -> f32 {
         return 1.0;
     }
     return clamp(exp(-b0 * mboit_absorbance_fraction(b / b0, z)), 0.0, 1.0);
+}
+
+// Bisection steps per root (cpu::ROOT_BISECTIONS).
+const MBOIT_ROOT_BISECTIONS: u32 = 48u;
+
+// The k-th moment (k ≥ 1) the bias pulls toward, for 6 or 8 power moments (cpu::bias_moments).
+fn mboit_bias_moment(count: u32, k: u32) -> f32 {
+    if (k & 1u) == 1u {
+        return 0.0;
+    }
+    var six = array<f32, 3>(0.48, 0.451, 0.45);
+    var eight = array<f32, 4>(0.75, 0.67666666666666664, 0.63, 0.60030303030303034);
+    if count == 6u {
+        return six[k / 2u - 1u];
+    }
+    return eight[k / 2u - 1u];
+}
+
+fn mboit_polynomial(c: array<f32, 5>, degree: u32, x: f32) -> f32 {
+    var v = c[degree];
+    for (var i = degree; i > 0u; i--) {
+        v = v * x + c[i - 1u];
+    }
+    return v;
+}
+
+// The real roots, ascending, of Σ cᵢ·xⁱ of degree n (2 ≤ n ≤ 4): each root of a derivative
+// brackets the next derivative's (cpu::polynomial_roots), from the linear one up; where rounding
+// leaves fewer sign changes than the degree, the critical points nearest zero stand in.
+fn mboit_roots(c: array<f32, 5>, n: u32) -> array<f32, 4> {
+    // chain[j]: the j-th derivative, of degree n − j.
+    var chain: array<array<f32, 5>, 5>;
+    chain[0] = c;
+    for (var j = 1u; j < n; j++) {
+        for (var i = 0u; i <= n - j; i++) {
+            chain[j][i] = f32(i + 1u) * chain[j - 1u][i + 1u];
+        }
+    }
+    var roots: array<f32, 4>;
+    roots[0] = -chain[n - 1u][0] / chain[n - 1u][1];
+    var count = 1u;
+    for (var degree = 2u; degree <= n; degree++) {
+        let p = chain[n - degree];
+        var bound = 0.0;
+        for (var i = 0u; i < degree; i++) {
+            bound = max(bound, abs(p[i] / p[degree]));
+        }
+        bound += 1.0;
+        var edges: array<f32, 6>;
+        edges[0] = -bound;
+        for (var i = 0u; i < count; i++) {
+            edges[i + 1u] = clamp(roots[i], -bound, bound);
+        }
+        edges[count + 1u] = bound;
+        var found: array<f32, 4>;
+        var nf = 0u;
+        for (var e = 0u; e <= count; e++) {
+            var lo = edges[e];
+            var hi = edges[e + 1u];
+            let f_lo = mboit_polynomial(p, degree, lo);
+            let f_hi = mboit_polynomial(p, degree, hi);
+            if f_lo * f_hi > 0.0 || nf >= degree {
+                continue;
+            }
+            let rising = f_hi > f_lo;
+            for (var it = 0u; it < MBOIT_ROOT_BISECTIONS; it++) {
+                let mid = 0.5 * (lo + hi);
+                if (mboit_polynomial(p, degree, mid) < 0.0) == rising {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            found[nf] = 0.5 * (lo + hi);
+            nf++;
+        }
+        var used = 0u;
+        for (var guard = 0u; guard < 4u && nf < degree; guard++) {
+            var best = 0u;
+            var best_value = -1.0;
+            for (var i = 0u; i < count; i++) {
+                let v = abs(mboit_polynomial(p, degree, roots[i]));
+                if (used & (1u << i)) == 0u && (best_value < 0.0 || v < best_value) {
+                    best = i;
+                    best_value = v;
+                }
+            }
+            used |= 1u << best;
+            found[nf] = roots[best];
+            nf++;
+        }
+        // Ascending (insertion sort of at most four).
+        for (var i = 1u; i < degree; i++) {
+            let x = found[i];
+            var k = i;
+            while k > 0u && found[k - 1u] > x {
+                found[k] = found[k - 1u];
+                k--;
+            }
+            found[k] = x;
+        }
+        roots = found;
+        count = degree;
+    }
+    return roots;
+}
+
+// mboit_absorbance_fraction for 6 or 8 normalized power moments (`count`; cpu::absorbance_fraction_n):
+// the Hankel system through L·D·Lᵀ, the other points of support as the roots of its solution,
+// the interpolating polynomial through (z, η) and (xᵢ, [xᵢ < z]) in Newton form, and its
+// expectation.
+fn mboit_absorbance_fraction_n(moments: array<f32, 8>, count: u32, z: f32) -> f32 {
+    let n = count / 2u;
+    let size = n + 1u;
+    var m: array<f32, 9>;
+    m[0] = 1.0;
+    for (var k = 1u; k <= count; k++) {
+        m[k] = mix(moments[k - 1u], mboit_bias_moment(count, k), mp.bias);
+    }
+    var l: array<array<f32, 5>, 5>;
+    var d: array<f32, 5>;
+    for (var i = 0u; i < size; i++) {
+        for (var j = 0u; j <= i; j++) {
+            var s = m[i + j];
+            for (var k = 0u; k < j; k++) {
+                s -= l[i][k] * l[j][k] * d[k];
+            }
+            if i == j {
+                d[i] = s;
+            } else {
+                l[i][j] = s / d[j];
+            }
+        }
+    }
+    var c: array<f32, 5>;
+    var power = 1.0;
+    for (var i = 0u; i < size; i++) {
+        var v = power;
+        for (var k = 0u; k < i; k++) {
+            v -= l[i][k] * c[k];
+        }
+        c[i] = v;
+        power *= z;
+    }
+    for (var i = 0u; i < size; i++) {
+        c[i] /= d[i];
+    }
+    for (var i = size; i > 0u; i--) {
+        for (var k = i; k < size; k++) {
+            c[i - 1u] -= l[k][i - 1u] * c[k];
+        }
+    }
+    let roots = mboit_roots(c, n);
+    var x: array<f32, 5>;
+    var f: array<f32, 5>;
+    x[0] = z;
+    f[0] = mp.overestimation;
+    for (var i = 0u; i < n; i++) {
+        x[i + 1u] = roots[i];
+        f[i + 1u] = select(0.0, 1.0, roots[i] < z);
+    }
+    for (var level = 1u; level < size; level++) {
+        for (var i = size - 1u; i >= level; i--) {
+            f[i] = (f[i] - f[i - 1u]) / (x[i] - x[i - level]);
+        }
+    }
+    var p: array<f32, 5>;
+    p[0] = f[n];
+    for (var k = n; k > 0u; k--) {
+        let xk = x[k - 1u];
+        for (var j = size - 1u; j > 0u; j--) {
+            p[j] = p[j - 1u] - xk * p[j];
+        }
+        p[0] = f[k - 1u] - xk * p[0];
+    }
+    var fraction = 0.0;
+    for (var k = 0u; k < size; k++) {
+        fraction += p[k] * m[k];
+    }
+    return fraction;
+}
+
+// Transmittance in front of warped depth z from b0 and 6 or 8 moments.
+fn mboit_transmittance_n(b0: f32, b: array<f32, 8>, count: u32, z: f32) -> f32 {
+    if b0 <= 0.0 {
+        return 1.0;
+    }
+    var normalized: array<f32, 8>;
+    for (var k = 0u; k < count; k++) {
+        normalized[k] = b[k] / b0;
+    }
+    return clamp(exp(-b0 * mboit_absorbance_fraction_n(normalized, count, z)), 0.0, 1.0);
 }

@@ -1,7 +1,25 @@
 // mboit pass 1: every fragment adds its absorbance a = −ln(1 − α) to b0 and a·(z, z², z³, z⁴) to
-// the moments (additive blending into 32-bit float targets), and counts itself.
+// the moments (additive blending into 32-bit float targets), and counts itself; with 6 or 8
+// moments a·(z⁵, z⁶[, z⁷, z⁸]) go to a third target.
 
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
+
+// A fragment's absorbance (x) and a·zᵏ for k = 1..8 (the rest), counting it at its pixel.
+struct FragmentMoments {
+    a: f32,
+    low: vec4<f32>,
+    high: vec4<f32>,
+}
+
+fn fragment_moments(v: SceneVarying) -> FragmentMoments {
+    atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
+    let a = mboit_absorbance(shade(v.world, v.normal, v.material).a);
+    let z = mboit_depth(v.position.z);
+    let z2 = z * z;
+    let z4 = z2 * z2;
+    let low = vec4<f32>(z, z2, z2 * z, z4);
+    return FragmentMoments(a, a * low, a * z4 * low);
+}
 
 struct MomentsOut {
     @location(0) b0: vec4<f32>,
@@ -13,12 +31,36 @@ fn fs_moments(v: SceneVarying) -> MomentsOut {
     if behind_opaque(v.position) {
         discard;
     }
-    atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
-    let a = mboit_absorbance(shade(v.world, v.normal, v.material).a);
-    let z = mboit_depth(v.position.z);
-    let z2 = z * z;
-    var out: MomentsOut;
-    out.b0 = vec4<f32>(a);
-    out.moments = a * vec4<f32>(z, z2, z2 * z, z2 * z2);
-    return out;
+    let m = fragment_moments(v);
+    return MomentsOut(vec4<f32>(m.a), m.low);
+}
+
+struct Moments6Out {
+    @location(0) b0: vec4<f32>,
+    @location(1) moments: vec4<f32>,
+    @location(2) high: vec2<f32>,
+}
+
+@fragment
+fn fs_moments6(v: SceneVarying) -> Moments6Out {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let m = fragment_moments(v);
+    return Moments6Out(vec4<f32>(m.a), m.low, m.high.xy);
+}
+
+struct Moments8Out {
+    @location(0) b0: vec4<f32>,
+    @location(1) moments: vec4<f32>,
+    @location(2) high: vec4<f32>,
+}
+
+@fragment
+fn fs_moments8(v: SceneVarying) -> Moments8Out {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let m = fragment_moments(v);
+    return Moments8Out(vec4<f32>(m.a), m.low, m.high);
 }

@@ -1,27 +1,38 @@
 // mboit pass 2: every fragment adds its color weighted by α and by the transmittance the moments
 // give in front of it, (T·α·c, T·α), into the accumulation target (additive blending). With
 // --msaa (the targets then multisampled) T is the mean over the samples the fragment covers of
-// each sample's own transmittance: shading stays once per pixel and primitive.
+// each sample's own transmittance: shading stays once per pixel and primitive. With 6 or 8
+// moments (mp.moments) those past the fourth come from a third target.
 
 @group(1) @binding(1) var b0_target: texture_2d<f32>;
 @group(1) @binding(2) var moments_target: texture_2d<f32>;
+// With four moments the moments target again (not read).
+@group(1) @binding(3) var moments_high: texture_2d<f32>;
 
-@fragment
-fn fs_shade(v: SceneVarying, @builtin(sample_mask) mask: u32) -> @location(0) vec4<f32> {
-    if behind_opaque(v.position) {
-        discard;
+// The transmittance at warped depth z of sample si (the mip level, 0, single-sampled).
+fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool) -> f32 {
+    let b0 = textureLoad(b0_target, pixel, si).r;
+    let low = textureLoad(moments_target, pixel, si);
+    if !high {
+        return mboit_transmittance(b0, low, z);
     }
+    let up = textureLoad(moments_high, pixel, si);
+    let b = array<f32, 8>(low.x, low.y, low.z, low.w, up.x, up.y, up.z, up.w);
+    return mboit_transmittance_n(b0, b, mp.moments, z);
+}
+
+// The fragment's weighted color: its transmittance averaged over the samples it covers (the one
+// sample counts whatever the mask single-sampled).
+fn shade_fragment(v: SceneVarying, mask: u32, high: bool) -> vec4<f32> {
     let pixel = vec2<i32>(pixel_of(v.position));
     let z = mboit_depth(v.position.z);
     let samples = max(frame.coverage_bits, 1u);
-    // Single-sampled the index is the mip level, 0, and the one sample counts whatever the mask.
     let covered = select(mask, 1u, samples == 1u);
     var t = 0.0;
     var n = 0u;
     for (var si = 0u; si < samples; si++) {
         if (covered & (1u << si)) != 0u {
-            let b0 = textureLoad(b0_target, pixel, si).r;
-            t += mboit_transmittance(b0, textureLoad(moments_target, pixel, si), z);
+            t += sample_transmittance(pixel, si, z, high);
             n += 1u;
         }
     }
@@ -29,4 +40,12 @@ fn fs_shade(v: SceneVarying, @builtin(sample_mask) mask: u32) -> @location(0) ve
     let c = shade(v.world, v.normal, v.material);
     let alpha = min(c.a, MBOIT_MAX_ALPHA);
     return vec4<f32>(c.rgb * alpha * t, alpha * t);
+}
+
+@fragment
+fn fs_shade(v: SceneVarying, @builtin(sample_mask) mask: u32) -> @location(0) vec4<f32> {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    return shade_fragment(v, mask, mp.moments > 4u);
 }
