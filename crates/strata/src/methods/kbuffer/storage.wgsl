@@ -23,9 +23,10 @@ struct KParams {
     // --msaa with per-sample storage (the capture-time k-buffers): S, each pixel's storage
     // being S sample pixels `p * S + s` with their own words, slots and tail; else 1.
     sample_slots: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // Padding to 16 bytes; naga_oil's composer refused the names `_pad0` and `spare0`.
+    spare_a: u32,
+    spare_b: u32,
+    spare_c: u32,
 }
 
 @group(1) @binding(0) var<uniform> kp: KParams;
