@@ -161,7 +161,8 @@ fn methods_and_info_report_json() {
             .clone()
     };
     assert_eq!(msaa("sbuffer"), serde_json::json!([1, 4, 8]));
-    assert_eq!(msaa("kplus-heap"), serde_json::json!([1]));
+    assert_eq!(msaa("kplus-heap"), serde_json::json!([1, 4, 8]));
+    assert_eq!(msaa("kb-mdt64"), serde_json::json!([1]));
     for id in [
         "reference",
         "unsorted",
@@ -271,18 +272,32 @@ fn msaa_renders_match_the_multisampled_reference() {
     assert!(diff(&a, &b) <= 2);
     // Anti-aliased edges differ from the single-sampled picture.
     assert!(diff(&b, &single) > 16);
+    // The default scene (its deferred pipeline) takes it: transparency anti-aliased over the
+    // lit frame.
+    let demo = dir.join("demo.png");
+    let o = strata(&[
+        "render",
+        "--msaa",
+        "4",
+        "--size",
+        "64x64",
+        "-o",
+        demo.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(demo.exists());
     for (args, message) in [
         (
             &["render", scene, "--msaa", "2"][..],
             "--msaa 2 is not 1, 4 or 8",
         ),
         (
-            &["render", scene, "--msaa", "4", "--method", "kplus-heap"],
-            "kplus-heap does not support --msaa 4",
+            &["render", scene, "--msaa", "4", "--method", "kb-mdt-pack"],
+            "kb-mdt-pack does not support --msaa",
         ),
         (
-            &["render", scene, "--msaa", "4", "--pipeline", "forward"],
-            "--pipeline",
+            &["render", scene, "--msaa", "4", "--raster", "compute"],
+            "--raster compute",
         ),
     ] {
         assert_bad_input(args, message);

@@ -28,8 +28,8 @@ pub enum Opt {
     Order,
     /// `--temporal`: the slot k-buffers that choose at capture time.
     Temporal,
-    /// `--msaa`: the methods that store every fragment, the weighted ones and the baselines,
-    /// without a lit pipeline.
+    /// `--msaa`: every method but the 8-byte multi-depth tests (with a pipeline too: the
+    /// transparent surfaces are anti-aliased over the lit frame).
     Msaa,
 }
 
@@ -82,10 +82,7 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
         Opt::Order => method != Sorted,
         Opt::Temporal => strata::methods::kbuffer::temporal::takes(method),
-        Opt::Msaa => {
-            strata::frame::msaa::supported(method)
-                && matches!(pipeline, None | Some(PipelineArg::None))
-        }
+        Opt::Msaa => strata::frame::msaa::supported(method),
     }
 }
 
@@ -469,8 +466,9 @@ mod tests {
         assert!(applies(Opt::Weight, Wboit, None));
         assert!(!applies(Opt::Weight, Mboit, None));
         assert!(applies(Opt::Msaa, Sbuffer, None));
-        assert!(!applies(Opt::Msaa, KplusHeap, None));
-        assert!(!applies(Opt::Msaa, Wboit, Some(PipelineArg::Deferred)));
+        assert!(applies(Opt::Msaa, KplusHeap, None));
+        assert!(!applies(Opt::Msaa, KbMdt64, None));
+        assert!(applies(Opt::Msaa, Wboit, Some(PipelineArg::Deferred)));
         assert!(applies(Opt::RasterCompute, KbMdt64, None));
         assert!(!applies(Opt::RasterCompute, KplusHeap, None));
         assert!(!applies(Opt::Tonemap, Unsorted, None));
