@@ -95,6 +95,8 @@ pub struct Run {
     depth_scale: f64,
     /// Samples per pixel (`--msaa`).
     msaa: u32,
+    /// mboit's power moments.
+    moments: u32,
 }
 
 impl Run {
@@ -107,6 +109,15 @@ impl Run {
             weight: strata::Weight::default(),
             depth_scale: 1.0,
             msaa: 1,
+            moments: 4,
+        }
+    }
+
+    fn mboit(moments: u32) -> Run {
+        Run {
+            label: format!("mboit moments={moments}"),
+            moments,
+            ..Run::plain("mboit")
         }
     }
 
@@ -173,7 +184,7 @@ const K_METHODS: &[&str] = &[
 const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "approx-quality",
-        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit, unsorted, sorted, kplus-heap k=8 and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
+        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit (4, 6, 8 moments), unsorted, sorted, kplus-heap k=8 and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
         scenes: &[
             "builtin:nvpro?objects=1024&subdiv=16&seed=0",
             "builtin:dragon",
@@ -192,6 +203,8 @@ const EXPERIMENTS: &[Experiment] = &[
                 .collect();
             runs.extend([
                 Run::plain("mboit"),
+                Run::mboit(6),
+                Run::mboit(8),
                 Run::plain("unsorted"),
                 Run::plain("sorted"),
                 Run::with_k("kplus-heap", 8, true),
@@ -696,6 +709,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             options.weight = run.weight;
             options.depth_scale = run.depth_scale;
             options.msaa = run.msaa;
+            options.moments = run.moments;
             match measure(gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r) {
                 Ok(mut result) => {
                     result.scene = scene.clone();

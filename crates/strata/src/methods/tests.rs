@@ -652,6 +652,30 @@ fn poisoned_storage_changes_nothing() {
     }
 }
 
+/// The same with --msaa 4: the per-sample storage, states and counts every family keeps are
+/// set before anything reads them.
+#[test]
+fn poisoned_storage_changes_nothing_multisampled() {
+    let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
+    let mut opts = options(32, Effect::Translucency);
+    opts.k = Some(6);
+    opts.tail = crate::Tail::Blend;
+    opts.msaa = 4;
+    for m in frame_test_methods().filter(|&m| crate::frame::msaa::supported(m)) {
+        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let (clean, a) = r.render_method(m, None).unwrap();
+        r.recorder().unwrap().poison();
+        let (poisoned, b) = r.render_method(m, None).unwrap();
+        assert!(
+            clean == poisoned,
+            "{m}: poisoned memory changed the multisampled picture"
+        );
+        assert_eq!(a.fragments_generated, b.fragments_generated, "{m}");
+        assert_eq!(a.fragments_dropped, b.fragments_dropped, "{m}");
+        assert_eq!(b.lock_failures.unwrap_or(0), 0, "{m}");
+    }
+}
+
 /// One renderer draws near geometry, then far geometry: the second frame must equal a fresh
 /// renderer's frame of the far geometry exactly, fragment counts included (nothing of the first
 /// frame may survive in lists, slots, counters or bounds).
