@@ -106,7 +106,8 @@ pub fn bias_moments(count: usize) -> &'static [f64] {
 
 /// The real roots, in ascending order, of the polynomial Σ cᵢ·xⁱ of degree 1 to 4 (`c` low to
 /// high, the last coefficient nonzero), each bracketed between consecutive roots of its
-/// derivative (or the Cauchy bound) and bisected. The polynomial a Hankel system gives has only
+/// derivative (or the Cauchy bound) and found by Newton's steps that bisection keeps inside the
+/// bracket. The polynomial a Hankel system gives has only
 /// real, simple roots; where rounding leaves fewer sign changes than its degree, the derivative's
 /// roots where it comes nearest zero stand in.
 pub fn polynomial_roots(c: &[f64]) -> Vec<f64> {
@@ -133,15 +134,31 @@ pub fn polynomial_roots(c: &[f64]) -> Vec<f64> {
             continue;
         }
         let rising = f_hi > f_lo;
-        for _ in 0..ROOT_BISECTIONS {
-            let mid = 0.5 * (lo + hi);
-            if (eval(mid) < 0.0) == rising {
-                lo = mid;
+        let slope = |x: f64| derivative.iter().rev().fold(0.0, |acc: f64, a| acc * x + a);
+        let mut x = 0.5 * (lo + hi);
+        for _ in 0..ROOT_STEPS {
+            let fx = eval(x);
+            if fx == 0.0 {
+                break;
+            }
+            if (fx < 0.0) == rising {
+                lo = x;
             } else {
-                hi = mid;
+                hi = x;
+            }
+            let newton = x - fx / slope(x);
+            let next = if newton > lo && newton < hi {
+                newton
+            } else {
+                0.5 * (lo + hi)
+            };
+            let done = (next - x).abs() <= 1e-12 * x.abs().max(1.0);
+            x = next;
+            if done {
+                break;
             }
         }
-        roots.push(0.5 * (lo + hi));
+        roots.push(x);
     }
     let mut stand_ins = critical;
     stand_ins.sort_by(|a, b| eval(*a).abs().total_cmp(&eval(*b).abs()));
@@ -155,8 +172,9 @@ pub fn polynomial_roots(c: &[f64]) -> Vec<f64> {
     roots
 }
 
-/// Bisection steps per root (`mboit_roots` in WGSL takes as many).
-pub const ROOT_BISECTIONS: u32 = 48;
+/// Steps per root at most: Newton's, kept inside the bracket by bisection (`mboit_roots` in
+/// WGSL takes as many, converging to f32).
+pub const ROOT_STEPS: u32 = 48;
 
 /// [`absorbance_fraction`] for 6 or 8 power moments (E[z], …, E[z^2n]): the Hankel system
 /// B·c = (1, z, …, zⁿ) solved through L·D·Lᵀ, the n other points of support as the roots of

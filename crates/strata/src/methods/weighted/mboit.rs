@@ -24,8 +24,9 @@
 //! 36 bytes of render targets per sample, over WebGPU's default 32, and are refused with one
 //! error line on a device that does not allow them. The reconstruction generalizes the four-moment
 //! one: the Hankel system B·c = (1, z, …, zⁿ) solved through L·D·Lᵀ, the n other points of
-//! support as the roots of Σ cᵢ·xⁱ (each bracketed between the roots of its derivative and
-//! bisected 48 times: bounded, and no cubic or quartic formula to lose precision in f32), the
+//! support as the roots of Σ cᵢ·xⁱ (each bracketed between the roots of its derivative and found
+//! by Newton's steps that bisection keeps in the bracket, at most 48: bounded, and no cubic or
+//! quartic formula to lose precision in f32), the
 //! interpolating polynomial through (z, η) and (xᵢ, [xᵢ < z]), and its expectation. The bias
 //! vectors are the paper's code's for 32-bit moments; the bias amounts for 6 and 8 moments
 //! ([`MOMENT_BIAS_6`], [`MOMENT_BIAS_8`]) were measured here, as the smallest that keeps the f32

@@ -75,8 +75,8 @@ fn mboit_transmittance(b0: f32, b: vec4<f32>, z: f32) -> f32 {
     return clamp(exp(-b0 * mboit_absorbance_fraction(b / b0, z)), 0.0, 1.0);
 }
 
-// Bisection steps per root (cpu::ROOT_BISECTIONS).
-const MBOIT_ROOT_BISECTIONS: u32 = 48u;
+// Steps per root at most (cpu::ROOT_STEPS): Newton's, bisection keeping them in the bracket.
+const MBOIT_ROOT_STEPS: u32 = 48u;
 
 // The k-th moment (k ≥ 1) the bias pulls toward, for 6 or 8 power moments (cpu::bias_moments).
 fn mboit_bias_moment(count: u32, k: u32) -> f32 {
@@ -100,7 +100,8 @@ fn mboit_polynomial(c: array<f32, 5>, degree: u32, x: f32) -> f32 {
 }
 
 // The real roots, ascending, of Σ cᵢ·xⁱ of degree n (2 ≤ n ≤ 4): each root of a derivative
-// brackets the next derivative's (cpu::polynomial_roots), from the linear one up; where rounding
+// brackets the next derivative's (cpu::polynomial_roots), from the linear one up, and Newton's
+// steps, bisected back into the bracket when they leave it, find the root in it; where rounding
 // leaves fewer sign changes than the degree, the critical points nearest zero stand in.
 fn mboit_roots(c: array<f32, 5>, n: u32) -> array<f32, 4> {
     // chain[j]: the j-th derivative, of degree n − j.
@@ -138,15 +139,28 @@ fn mboit_roots(c: array<f32, 5>, n: u32) -> array<f32, 4> {
                 continue;
             }
             let rising = f_hi > f_lo;
-            for (var it = 0u; it < MBOIT_ROOT_BISECTIONS; it++) {
-                let mid = 0.5 * (lo + hi);
-                if (mboit_polynomial(p, degree, mid) < 0.0) == rising {
-                    lo = mid;
+            let slope = chain[n - degree + 1u];
+            var x = 0.5 * (lo + hi);
+            for (var it = 0u; it < MBOIT_ROOT_STEPS; it++) {
+                let fx = mboit_polynomial(p, degree, x);
+                if fx == 0.0 {
+                    break;
+                }
+                if (fx < 0.0) == rising {
+                    lo = x;
                 } else {
-                    hi = mid;
+                    hi = x;
+                }
+                let newton = x - fx / mboit_polynomial(slope, degree - 1u, x);
+                // A step out of the bracket (or not a number) bisects instead.
+                let next = select(0.5 * (lo + hi), newton, newton > lo && newton < hi);
+                let done = abs(next - x) <= 1e-7 * max(abs(x), 1.0);
+                x = next;
+                if done {
+                    break;
                 }
             }
-            found[nf] = 0.5 * (lo + hi);
+            found[nf] = x;
             nf++;
         }
         var used = 0u;
