@@ -79,8 +79,16 @@ fn every_stage_validates() {
         ),
         ("blend.finish.msaa", &super::baseline::finish_source(4)),
         ("mboit.moments", &super::weighted::mboit::moments_source()),
-        ("mboit.shade", &super::weighted::mboit::shade_source(1)),
-        ("mboit.shade.msaa", &super::weighted::mboit::shade_source(4)),
+        ("mboit.shade", &super::weighted::mboit::shade_source(1, 4)),
+        (
+            "mboit.shade.msaa",
+            &super::weighted::mboit::shade_source(4, 4),
+        ),
+        ("mboit.shade.6", &super::weighted::mboit::shade_source(1, 6)),
+        (
+            "mboit.shade.8.msaa",
+            &super::weighted::mboit::shade_source(4, 8),
+        ),
         (
             "mboit.composite",
             &super::weighted::mboit::composite_source(1),

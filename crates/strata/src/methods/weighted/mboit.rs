@@ -96,10 +96,11 @@ fn high_format(moments: u32) -> (wgpu::TextureFormat, u64) {
     }
 }
 
-/// The moments stage of 6 or 8 moments (a third target), made on first use.
+/// The moments stage of 6 or 8 moments (a third target) and their shade stage, made on first use.
 struct HighStage {
     moments: u32,
     pipeline: wgpu::RenderPipeline,
+    shade: wgpu::RenderPipeline,
 }
 
 pub struct Mboit {
@@ -138,10 +139,15 @@ pub fn moments_source() -> String {
     [MATH_WGSL, include_str!("mboit_moments.wgsl")].join("\n")
 }
 
-/// The shade stage, reading multisampled moments with `--msaa`.
-pub fn shade_source(samples: u32) -> String {
+/// The shade stage for `moments` power moments, reading multisampled moments with `--msaa`.
+pub fn shade_source(samples: u32, moments: u32) -> String {
     shader::multisampled(
-        &[MATH_WGSL, include_str!("mboit_shade.wgsl")].join("\n"),
+        &[
+            &format!("const MBOIT_MOMENTS: u32 = {moments}u;"),
+            MATH_WGSL,
+            include_str!("mboit_shade.wgsl"),
+        ]
+        .join("\n"),
         samples,
     )
 }
@@ -191,7 +197,7 @@ impl Mboit {
             None,
             samples,
         );
-        let module = shader::module(device, "strata.mboit.shade", &shade_source(samples));
+        let module = shader::module(device, "strata.mboit.shade", &shade_source(samples, 4));
         let shade = capture_pipeline_with(
             gpu,
             "strata.mboit.shade",
@@ -260,7 +266,26 @@ impl Mboit {
             None,
             self.samples,
         );
-        self.high = Some(HighStage { moments, pipeline });
+        let module = shader::module(
+            &gpu.device,
+            "strata.mboit.shade",
+            &shade_source(self.samples, moments),
+        );
+        let shade = capture_pipeline_with(
+            gpu,
+            "strata.mboit.shade",
+            (&module, &module),
+            "fs_shade",
+            &[scene_layout, &self.shade_layout],
+            &[target(ACCUMULATION_FORMAT)],
+            None,
+            self.samples,
+        );
+        self.high = Some(HighStage {
+            moments,
+            pipeline,
+            shade,
+        });
         Ok(())
     }
 }
@@ -315,9 +340,9 @@ impl Method for Mboit {
             &self.moments_layout,
             &[params.as_entire_binding(), counts.as_entire_binding()],
         );
-        let moments_pipeline = match (&self.high, moments > 4) {
-            (Some(high), true) => &high.pipeline,
-            _ => &self.moments,
+        let (moments_pipeline, shade_pipeline) = match (&self.high, moments > 4) {
+            (Some(high), true) => (&high.pipeline, &high.shade),
+            _ => (&self.moments, &self.shade),
         };
         let shade_group = binding::group(
             &gpu.device,
@@ -358,7 +383,7 @@ impl Method for Mboit {
         color_geometry_pass(
             ctx,
             "shade",
-            &self.shade,
+            shade_pipeline,
             &[frame_group, &shade_group],
             &[(&accumulation, zero)],
         );

@@ -2,7 +2,8 @@
 // give in front of it, (T·α·c, T·α), into the accumulation target (additive blending). With
 // --msaa (the targets then multisampled) T is the mean over the samples the fragment covers of
 // each sample's own transmittance: shading stays once per pixel and primitive. With 6 or 8
-// moments (mp.moments) those past the fourth come from a third target.
+// moments those past the fourth come from a third target. MBOIT_MOMENTS is prepended by the
+// method: each count compiles its own stage, so the generic solver's loops have constant bounds.
 
 @group(1) @binding(1) var b0_target: texture_2d<f32>;
 @group(1) @binding(2) var moments_target: texture_2d<f32>;
@@ -18,7 +19,7 @@ fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool) -> f32 {
     }
     let up = textureLoad(moments_high, pixel, si);
     let b = array<f32, 8>(low.x, low.y, low.z, low.w, up.x, up.y, up.z, up.w);
-    return mboit_transmittance_n(b0, b, mp.moments, z);
+    return mboit_transmittance_n(b0, b, MBOIT_MOMENTS, z);
 }
 
 // The fragment's weighted color: its transmittance averaged over the samples it covers (the one
@@ -47,5 +48,5 @@ fn fs_shade(v: SceneVarying, @builtin(sample_mask) mask: u32) -> @location(0) ve
     if behind_opaque(v.position) {
         discard;
     }
-    return shade_fragment(v, mask, mp.moments > 4u);
+    return shade_fragment(v, mask, MBOIT_MOMENTS > 4u);
 }
