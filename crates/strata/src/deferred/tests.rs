@@ -336,6 +336,64 @@ fn forward_pipeline_with_exact_methods_equals_the_reference() {
     }
 }
 
+/// The expected full frame: the deferred image of the opaque objects alone (through the GPU's
+/// own path, single-sampled), and over it, per sample, the reference's transparent fragments in
+/// front of the opaque depth at the pixel center (each sample's `k` nearest), the samples
+/// averaged; and how many pixels hold a fragment covering only some samples.
+fn composite_over_deferred(scene: &Scene, opts: &RenderOptions) -> (LinearImage, u32) {
+    let (opaque, transparent) = scene.split_by_opacity();
+    let (lit_opaque, _) = render(&opaque, opts, "abuffer-ll");
+    let single = RenderOptions {
+        msaa: 1,
+        ..opts.clone()
+    };
+    let opaque_fragments = crate::reference::fragments(&opaque, &single).unwrap();
+    let transparent_fragments = crate::reference::fragments(&transparent, opts).unwrap();
+    let samples = opts.msaa.max(1);
+    let full = ((1u32 << samples) - 1) as u8;
+    let keep = opts.k.map_or(usize::MAX, |k| k as usize);
+    let mut partly_covered = 0;
+    let pixels = transparent_fragments
+        .iter()
+        .zip(&opaque_fragments)
+        .zip(&lit_opaque.pixels)
+        .map(|((list, opaque), under)| {
+            let in_front: Vec<_> = match opaque.first() {
+                Some(o) => list.iter().filter(|f| f.depth < o.depth).cloned().collect(),
+                None => list.clone(),
+            };
+            partly_covered += in_front.iter().any(|f| f.coverage != full) as u32;
+            let under = [under[0] as f64, under[1] as f64, under[2] as f64];
+            let mut sum = [0.0; 3];
+            for sample in 0..samples {
+                let own: Vec<_> = in_front
+                    .iter()
+                    .filter(|f| f.coverage & (1 << sample) != 0)
+                    .take(keep)
+                    .cloned()
+                    .collect();
+                let c = crate::resolve::composite(&own, under, false);
+                sum = std::array::from_fn(|i| sum[i] + c[i] / samples as f64);
+            }
+            [
+                sum[0] as f32,
+                sum[1] as f32,
+                sum[2] as f32,
+                in_front.len() as f32,
+            ]
+        })
+        .collect();
+    let (width, height) = (opts.width, opts.height);
+    (
+        LinearImage {
+            width,
+            height,
+            pixels,
+        },
+        partly_covered,
+    )
+}
+
 /// The full frame: the transparent method over the deferred image equals the reference's
 /// transparent fragments (those in front of the opaque depth) composited over that same
 /// deferred image.
@@ -348,29 +406,7 @@ fn the_transparent_method_over_the_deferred_image_equals_the_reference_composite
         background: crate::scene::Background::Color([0.02, 0.03, 0.05]),
         ..options(Some(Pipeline::Deferred), size)
     };
-    let (opaque, transparent) = scene.split_by_opacity();
-    // The deferred image of the opaque objects alone, through the same path.
-    let (lit_opaque, _) = render(&opaque, &opts, "abuffer-ll");
-    let opaque_fragments = crate::reference::fragments(&opaque, &opts).unwrap();
-    let transparent_fragments = crate::reference::fragments(&transparent, &opts).unwrap();
-    let expected = LinearImage {
-        width: size,
-        height: size,
-        pixels: transparent_fragments
-            .iter()
-            .zip(&opaque_fragments)
-            .zip(&lit_opaque.pixels)
-            .map(|((list, opaque), under)| {
-                let in_front: Vec<_> = match opaque.first() {
-                    Some(o) => list.iter().filter(|f| f.depth < o.depth).cloned().collect(),
-                    None => list.clone(),
-                };
-                let under = [under[0] as f64, under[1] as f64, under[2] as f64];
-                let c = crate::resolve::composite(&in_front, under, false);
-                [c[0] as f32, c[1] as f32, c[2] as f32, in_front.len() as f32]
-            })
-            .collect(),
-    };
+    let (expected, _) = composite_over_deferred(&scene, &opts);
     for method in ["abuffer-ll", "dual", "kplus-array"] {
         let opts = RenderOptions {
             k: Some(4),
@@ -403,44 +439,7 @@ fn multisampled_transparency_over_the_single_sampled_deferred_image() {
         k: Some(4),
         ..options(Some(Pipeline::Deferred), size)
     };
-    let (opaque, transparent) = scene.split_by_opacity();
-    let (lit_opaque, _) = render(&opaque, &opts, "abuffer-ll");
-    let single = RenderOptions {
-        msaa: 1,
-        ..opts.clone()
-    };
-    let opaque_fragments = crate::reference::fragments(&opaque, &single).unwrap();
-    let transparent_fragments = crate::reference::fragments(&transparent, &opts).unwrap();
-    let mut partly_covered = 0;
-    let expected = LinearImage {
-        width: size,
-        height: size,
-        pixels: transparent_fragments
-            .iter()
-            .zip(&opaque_fragments)
-            .zip(&lit_opaque.pixels)
-            .map(|((list, opaque), under)| {
-                let in_front: Vec<_> = match opaque.first() {
-                    Some(o) => list.iter().filter(|f| f.depth < o.depth).cloned().collect(),
-                    None => list.clone(),
-                };
-                partly_covered += in_front.iter().any(|f| f.coverage != 0b1111) as u32;
-                let under = [under[0] as f64, under[1] as f64, under[2] as f64];
-                let mut sum = [0.0; 3];
-                for sample in 0..4 {
-                    let own: Vec<_> = in_front
-                        .iter()
-                        .filter(|f| f.coverage & (1 << sample) != 0)
-                        .take(4)
-                        .cloned()
-                        .collect();
-                    let c = crate::resolve::composite(&own, under, false);
-                    sum = std::array::from_fn(|i| sum[i] + c[i] / 4.0);
-                }
-                [sum[0] as f32, sum[1] as f32, sum[2] as f32, 0.0]
-            })
-            .collect(),
-    };
+    let (expected, partly_covered) = composite_over_deferred(&scene, &opts);
     assert!(partly_covered > 20, "{partly_covered} edge pixels");
     let reference = crate::reference::render(&scene, &opts).unwrap().0;
     assert_close(
