@@ -323,6 +323,10 @@ fn bad_input_is_one_line_and_exit_2() {
         "invalid value 'nope' for '--method",
     );
     assert_bad_input(&["render", "builtin:nope"], "unknown builtin");
+    assert_bad_input(
+        &["render", "--method", "mboit", "--moments", "5"],
+        "--moments 5 is not 4, 6 or 8",
+    );
     assert_bad_input(&["render", "builtin:layers?n=abc"], "n");
     assert_bad_input(
         &["render", "--effect", "glow"],

@@ -67,8 +67,7 @@ const MATH_WGSL: &str = include_str!("mboit_math.wgsl");
 pub struct MboitParams {
     pub bias: f32,
     pub overestimation: f32,
-    pub moments: u32,
-    pub _pad: u32,
+    pub _pad: [u32; 2],
 }
 
 /// The moment bias for 4, 6 and 8 power moments in 32-bit floats: the paper's for four; for six
@@ -327,8 +326,7 @@ impl Method for Mboit {
         let params = MboitParams {
             bias: moment_bias(moments),
             overestimation: OVERESTIMATION,
-            moments,
-            _pad: 0,
+            _pad: [0; 2],
         };
         let params = self
             .cache

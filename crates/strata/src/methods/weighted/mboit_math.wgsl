@@ -4,11 +4,12 @@
 // (four, closed form) and `cpu::absorbance_fraction_n` (six and eight).
 
 struct MboitParams {
-    // The moment bias β and the overestimation η of the paper, and the power moments (4, 6, 8).
+    // The moment bias β and the overestimation η of the paper (the moment count is each stage's
+    // own constant, MBOIT_MOMENTS in the shade stage).
     bias: f32,
     overestimation: f32,
-    moments: u32,
-    _pad: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(1) @binding(0) var<uniform> mp: MboitParams;
