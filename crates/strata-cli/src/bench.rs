@@ -246,6 +246,29 @@ const EXPERIMENTS: &[Experiment] = &[
         quality: false,
     },
     Experiment {
+        name: "bucket",
+        description: "bucket depth peeling (Liu et al. 2009) at k = 8, 16 and 32 (where the device blends 8 RGBA32F targets) against exact peeling (f2b, dual) and abuffer-ll: time, geometry passes, memory, fragments lost to bucket collisions and the error they cost against the reference",
+        scenes: &[
+            "builtin:dragon",
+            "builtin:spheres",
+            "builtin:nvpro?objects=1024&subdiv=16&seed=0",
+            "builtin:layers?n=32&coverage=0.75&order=random&seed=1",
+        ],
+        size_gpu: "1024x1024",
+        size_cpu: "192x192",
+        alpha: Some(0.5),
+        frames: 5,
+        runs: || {
+            let mut runs: Vec<Run> = [8, 16, 32]
+                .into_iter()
+                .map(|k| Run::with_k("bucket", k, true))
+                .collect();
+            runs.extend(["f2b", "dual", "abuffer-ll"].map(Run::plain));
+            runs
+        },
+        quality: true,
+    },
+    Experiment {
         name: "realtime",
         description: "real-time frames of every GPU method on the dragon (opacity 0.5) and nvpro: GPU ms and frames per second, no blocking readback",
         scenes: &["builtin:dragon", "builtin:nvpro?objects=1024&subdiv=16&seed=0"],

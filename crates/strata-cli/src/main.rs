@@ -740,6 +740,7 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     let dropped = stats.fragments_dropped.unwrap_or(0);
     if dropped > 0 {
         match (stats.k, tail) {
+            (Some(k), _) if stats.method == "bucket" => eprintln!("note: {dropped} fragments collided in buckets that already held two and were dropped (k={k}; a larger even --k splits each pixel's depth range finer)"),
             (Some(k), Tail::Blend) => eprintln!("note: {dropped} fragments beyond k={k} were blended into the tail"),
             (Some(k), Tail::Drop) => eprintln!("note: {dropped} fragments beyond k={k} were dropped (--tail blend keeps them as one term)"),
             (None, _) => eprintln!("warning: {dropped} fragments dropped"),

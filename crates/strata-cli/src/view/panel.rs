@@ -295,14 +295,24 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
                 .as_deref()
                 .and_then(|s| s.parse().ok())
                 .unwrap_or(DEFAULT_K);
+            let bucket = id == MethodId::Bucket;
             let label = if id == MethodId::Kpeel {
                 "k (layers per pass)"
+            } else if bucket {
+                "k (two per bucket)"
             } else {
                 "k"
             };
             ui.label(label);
-            ui.add_enabled(!auto, egui::DragValue::new(&mut n).range(1..=256));
-            ui.checkbox(&mut auto, "auto");
+            if bucket {
+                // bucket takes even k up to its 32-bit claim word (--k auto does not apply).
+                auto = false;
+                ui.add(egui::DragValue::new(&mut n).range(2..=32));
+                n = n / 2 * 2;
+            } else {
+                ui.add_enabled(!auto, egui::DragValue::new(&mut n).range(1..=256));
+                ui.checkbox(&mut auto, "auto");
+            }
             let new = if auto {
                 Some("auto".to_string())
             } else {

@@ -69,7 +69,7 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         KbPs | KbLl | KplusArray | KplusArrayR | KplusHeap | KplusSbuffer | KplusSemiheap
     );
     match opt {
-        Opt::K => kbuffer || matches!(method, Kpeel | AbufferFixed),
+        Opt::K => kbuffer || matches!(method, Kpeel | AbufferFixed | Bucket),
         Opt::Tail => kbuffer,
         Opt::MaxTries => locking,
         Opt::Layers => matches!(method, F2b | Dual),
@@ -77,7 +77,9 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         Opt::HeapSize => method == KplusSemiheap,
         Opt::Weight => method == Wboit,
         Opt::RasterCompute => strata::raster::supports(method),
-        Opt::Budget => kbuffer || matches!(method, AbufferLl | Sbuffer | Kpeel | AbufferFixed),
+        Opt::Budget => {
+            kbuffer || matches!(method, AbufferLl | Sbuffer | Kpeel | AbufferFixed | Bucket)
+        }
         Opt::Tonemap => matches!(pipeline, Some(PipelineArg::Forward | PipelineArg::Deferred)),
         Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
         Opt::Order => method != Sorted,
@@ -458,6 +460,7 @@ mod tests {
         assert!(applies(Opt::K, KplusHeap, None));
         assert!(applies(Opt::K, Kpeel, None));
         assert!(!applies(Opt::K, AbufferLl, None));
+        assert!(applies(Opt::K, Bucket, None) && !applies(Opt::Msaa, Bucket, None));
         assert!(!applies(Opt::Tail, Wboit, None));
         assert!(applies(Opt::MaxTries, KplusArray, None));
         assert!(!applies(Opt::MaxTries, KbMdt32, None), "MDT takes no lock");

@@ -107,9 +107,12 @@ pub fn max_triangles(samples: u32) -> u64 {
 }
 
 /// The methods that take `--msaa`: all but the multi-depth tests with 8-byte keys, which keep
-/// no primitive or coverage per fragment (see [`check_method`]).
+/// no primitive or coverage per fragment, and `bucket` (see [`check_method`]).
 pub fn supported(method: MethodId) -> bool {
-    !matches!(method, MethodId::KbMdt64 | MethodId::KbMdtPack)
+    !matches!(
+        method,
+        MethodId::KbMdt64 | MethodId::KbMdtPack | MethodId::Bucket
+    )
 }
 
 /// `--msaa` against the other options.
@@ -173,6 +176,11 @@ pub fn check_method(method: MethodId, options: &RenderOptions, triangles: u64) -
     let samples = options.msaa;
     if samples <= 1 {
         return Ok(());
+    }
+    if method == MethodId::Bucket {
+        return Err(Error::unsupported(format!(
+            "bucket does not support --msaa {samples} yet: its color pass would have to match each covered sample's buckets, which is not built; use dual or f2b"
+        )));
     }
     if !supported(method) {
         return Err(Error::unsupported(format!(

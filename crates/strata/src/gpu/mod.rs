@@ -179,17 +179,30 @@ impl Gpu {
     pub fn texture_2d_samples(
         &self,
         label: &str,
-        (width, height): (u32, u32),
+        size: (u32, u32),
         format: wgpu::TextureFormat,
         usage: wgpu::TextureUsages,
         samples: u32,
+    ) -> wgpu::Texture {
+        self.texture_2d_array(label, size, format, usage, (samples, 1))
+    }
+
+    /// A 2D texture of one mip level with `(samples, layers)`: samples per pixel and array
+    /// layers.
+    pub fn texture_2d_array(
+        &self,
+        label: &str,
+        (width, height): (u32, u32),
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+        (samples, layers): (u32, u32),
     ) -> wgpu::Texture {
         self.device.create_texture(&wgpu::TextureDescriptor {
             label: Some(label),
             size: wgpu::Extent3d {
                 width,
                 height,
-                depth_or_array_layers: 1,
+                depth_or_array_layers: layers,
             },
             mip_level_count: 1,
             sample_count: samples,
@@ -354,21 +367,35 @@ impl ResourceCache {
         &mut self,
         gpu: &Gpu,
         label: &'static str,
-        (width, height): (u32, u32),
+        size: (u32, u32),
         format: wgpu::TextureFormat,
         usage: wgpu::TextureUsages,
         samples: u32,
+    ) -> wgpu::Texture {
+        self.texture_array(gpu, label, size, format, usage, (samples, 1))
+    }
+
+    /// [`ResourceCache::texture`] with `(samples, layers)` (see [`Gpu::texture_2d_array`]).
+    pub fn texture_array(
+        &mut self,
+        gpu: &Gpu,
+        label: &'static str,
+        (width, height): (u32, u32),
+        format: wgpu::TextureFormat,
+        usage: wgpu::TextureUsages,
+        (samples, layers): (u32, u32),
     ) -> wgpu::Texture {
         if let Some(t) = self.textures.get(label) {
             if (t.width(), t.height()) == (width, height)
                 && t.format() == format
                 && t.usage() == usage
                 && t.sample_count() == samples
+                && t.depth_or_array_layers() == layers
             {
                 return t.clone();
             }
         }
-        let t = gpu.texture_2d_samples(label, (width, height), format, usage, samples);
+        let t = gpu.texture_2d_array(label, (width, height), format, usage, (samples, layers));
         self.textures.insert(label, t.clone());
         t
     }
@@ -402,6 +429,7 @@ fn limits_json(l: &wgpu::Limits) -> serde_json::Value {
         "max_storage_textures_per_shader_stage": l.max_storage_textures_per_shader_stage,
         "max_bind_groups": l.max_bind_groups,
         "max_color_attachments": l.max_color_attachments,
+        "max_color_attachment_bytes_per_sample": l.max_color_attachment_bytes_per_sample,
         "max_compute_workgroup_size_x": l.max_compute_workgroup_size_x,
         "max_compute_invocations_per_workgroup": l.max_compute_invocations_per_workgroup,
         "max_compute_workgroups_per_dimension": l.max_compute_workgroups_per_dimension,

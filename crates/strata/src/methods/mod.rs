@@ -56,10 +56,11 @@ pub enum MethodId {
     Mboit,
     KplusSemiheap,
     Convex,
+    Bucket,
 }
 
 impl MethodId {
-    pub const ALL: [MethodId; 26] = [
+    pub const ALL: [MethodId; 27] = [
         MethodId::Reference,
         MethodId::Unsorted,
         MethodId::Sorted,
@@ -86,6 +87,7 @@ impl MethodId {
         MethodId::Mboit,
         MethodId::KplusSemiheap,
         MethodId::Convex,
+        MethodId::Bucket,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -116,6 +118,7 @@ impl MethodId {
             MethodId::Mboit => "mboit",
             MethodId::KplusSemiheap => "kplus-semiheap",
             MethodId::Convex => "convex",
+            MethodId::Bucket => "bucket",
         }
     }
 
@@ -269,6 +272,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             geometry_passes: "ceil(N/2)+1 (N: the last frame's depth complexity, or --layers)",
             memory: "140·W·H with 64-bit atomics, else 124·W·H",
             summary: "dual depth peeling: nearest and farthest layer per pass; exact with ties given 64-bit atomic min/max (else fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
+        },
+        MethodInfo {
+            id: "bucket",
+            family: "peeling",
+            exact: false,
+            geometry_passes: "3",
+            memory: "(16·k + 16·ceil(k/4) + 16)·W·H + 16; k even, at most 32 and 4 × the color targets the device blends at once",
+            summary: "bucket depth peeling (Liu et al. 2009): each pixel's depth range split into k/2 uniform buckets, every bucket's nearest and farthest depth kept by MAX blending into ceil(k/4) RGBA32F targets in one geometry pass, colors claimed in a second; a third fragment in a bucket collides and is counted as dropped",
         },
         MethodInfo {
             id: "abuffer-ll",
@@ -458,6 +469,7 @@ pub fn create(
         MethodId::Wboit => Box::new(weighted::Wboit::new(gpu, scene)),
         MethodId::Mboit => Box::new(weighted::mboit::Mboit::new(gpu, scene)?),
         MethodId::Dual => Box::new(peeling::Dual::new(gpu, scene)),
+        MethodId::Bucket => Box::new(peeling::bucket::Bucket::new(gpu, scene)?),
         MethodId::AbufferLl | MethodId::KbAbLl | MethodId::KbLl => {
             Box::new(ListKBuffer::new(gpu, scene, id, options))
         }

@@ -691,14 +691,15 @@ fn a_second_frame_keeps_nothing_of_the_first() {
     near.objects.truncate(4);
     let split = near.triangle_count() as u32 * 3;
     let total = full.triangle_count() as u32 * 3;
-    let mut opts = options(24, Effect::Transparency);
-    opts.k = Some(3);
     let draw_near = move |pass: &mut wgpu::RenderPass<'_>| pass.draw(0..split, 0..1);
     let draw_far = move |pass: &mut wgpu::RenderPass<'_>| pass.draw(split..total, 0..1);
     // `sorted` and `convex` draw every triangle themselves and refuse a callback (tested below).
     for m in frame_test_methods()
         .filter(|&m| !matches!(m, super::MethodId::Sorted | super::MethodId::Convex))
     {
+        let mut opts = options(24, Effect::Transparency);
+        // bucket's k is even (two per bucket).
+        opts.k = Some(if m == super::MethodId::Bucket { 4 } else { 3 });
         let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
         r.render_method(m, Some(&draw_near)).unwrap();
         let (second, a) = r.render_method(m, Some(&draw_far)).unwrap();

@@ -25,7 +25,10 @@
 //! - `kpeel`: each fragment stored once over all passes, the per-pixel peel key
 //!   ([`KEY_BYTES`]) read and written per pass, one atomic per stored fragment;
 //! - `convex`: each fragment written into its layer once and read once by the merge, the
-//!   per-pixel merge state read and written once.
+//!   per-pixel merge state read and written once;
+//! - `bucket`: its bounds target (8 bytes), at least one bucket target layer (16), the count
+//!   and the claim word (8) written and read once per pixel, each stored record written and
+//!   read once, one atomic per fragment (its count) and one per stored fragment (its claim).
 //!
 //! The floor time is the largest of bytes over bandwidth and atomics over their measured rates
 //! (the resources work in parallel, so their sum would not be a lower bound). Stored counts
@@ -98,6 +101,11 @@ pub fn traffic(id: MethodId, c: &FrameCounts) -> Option<Traffic> {
             0,
         ),
         Convex => (2 * 16 * c.stored + 2 * CONVEX_MERGE_BYTES * c.pixels, 0, 0),
+        Bucket => (
+            2 * 16 * c.stored + 2 * (8 + 16 + 8) * c.pixels,
+            c.generated + c.stored,
+            0,
+        ),
     };
     Some(Traffic {
         bytes: bytes + present,

@@ -1,4 +1,5 @@
-//! Depth peeling: `f2b` (front-to-back, Everitt 2001) and `dual` (Bavoil & Myers 2008).
+//! Depth peeling: `f2b` (front-to-back, Everitt 2001) and `dual` (Bavoil & Myers 2008) here;
+//! `bucket` (bucket depth peeling, Liu et al. 2009) in [`bucket`].
 //!
 //! The number of layers L a frame peels is fixed when it is recorded: `--layers N`, else the
 //! depth complexity the previous frame measured (8 for a first frame). Each frame counts every
@@ -29,6 +30,8 @@
 //! keys), 64 B two composites, 32 B two slots, 12 B hit counters and count = 124·W·H
 //! (140·W·H). Classic dual peeling's min/max blending needs RG32F blending, which core
 //! WebGPU lacks, hence the storage atomics.
+
+pub mod bucket;
 
 use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};

@@ -1,0 +1,467 @@
+//! Bucket depth peeling, `bucket` (Liu, Huang, Liu & Wu, HPG 2009): k layers in one geometry
+//! pass by a bucket sort of each pixel's fragments over its depth range, using render targets
+//! as the bucket array and MAX blending as the concurrent update (no atomics, no locks).
+//!
+//! Passes:
+//! 1. `bounds` — geometry pass into an Rg32Float target with MAX blending of (−z, z): each
+//!    pixel's nearest and farthest depth (and, by a storage atomic, its fragment count).
+//! 2. `sort` — geometry pass into ⌈k/4⌉ layers of an Rgba32Float array texture with MAX
+//!    blending. The pixel's range is split into B = k/2 equal buckets; a fragment of bucket b
+//!    writes −z to slot 2b and z to slot 2b + 1, nothing (−2) elsewhere, so every bucket ends
+//!    with its nearest and farthest depth: dual peeling inside each bucket (the paper's scheme
+//!    against collisions), every bucket at once.
+//! 3. `color` — geometry pass (storage only): the fragment whose depth is its bucket's nearest
+//!    (farthest) claims that slot with one atomicOr on the pixel's claim word and stores its
+//!    shaded record there. The paper's targets hold depths only; its attributes come from a
+//!    later pass too, and WebGPU's blending cannot carry a color beside a max-blended depth.
+//! 4. `resolve` — compute: the claimed slots in bucket order, composited front to back.
+//!
+//! Buckets are uniform in depth, computed in fixed point with 31 fraction bits
+//! (`bucket_common.wgsl`), so the routing is exact integer arithmetic the CPU twin
+//! ([`select`]) repeats. **Approximate by design**: a bucket keeps two fragments, so a third
+//! routed to it — fragments clustered in depth — is lost. Losses are counted in
+//! `fragments_dropped`; a frame without drops equals the reference. Fragments at exactly one
+//! depth share a slot: two that are both a bucket's nearest and farthest keep both slots (and
+//! composite in primitive order); otherwise the first to claim the slot keeps it (a race on a
+//! GPU) and the others are dropped. The paper's adaptive variant (a second pass redistributing
+//! the buckets by a depth histogram) and its multi-pass refinement are not built.
+//!
+//! Memory per pixel: 8 B bounds, 16·⌈k/4⌉ B bucket targets, 4 B count, 4 B claims and 16·k B
+//! of records; plus a 16-byte uniform. `--k` is even, 2 ≤ k ≤ 32 (the claim word), and at
+//! most 4 × the targets the device blends at once: k/4 ≤ `max_color_attachments` and
+//! 16·⌈k/4⌉ ≤ `max_color_attachment_bytes_per_sample` (32 layers with 8 targets, the paper's
+//! figure; WebGPU's defaults allow 8). Needs FLOAT32_BLENDABLE. Single-sampled only: `--msaa`,
+//! `--raster compute` and `--temporal` are refused.
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::error::{Error, Result};
+use crate::frame::{FrameContext, Recorded, RenderOptions, SceneGpu};
+use crate::gpu::binding::{self, Slot};
+use crate::gpu::passes::{
+    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
+    storage_geometry_pass, GeometryStage, NullTarget,
+};
+use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::methods::kbuffer::DEFAULT_K;
+use crate::methods::Method;
+
+/// The most slots a pixel has: two per bucket, one claim bit each.
+pub const MAX_SLOTS: u32 = 32;
+
+/// Keep in sync with `BucketParams` in bucket_common.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct BucketParams {
+    pub buckets: u32,
+    pub slots: u32,
+    pub layers: u32,
+    pub unused: u32,
+}
+
+const COMMON: &str = include_str!("bucket_common.wgsl");
+const BOUNDS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
+const BUCKET_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// What the targets are cleared to (`NO_DEPTH` in bucket_common.wgsl).
+const NO_DEPTH: f64 = -2.0;
+
+/// Target layers for `slots` slots (four channels each).
+pub fn target_layers(slots: u32) -> u32 {
+    slots.div_ceil(4)
+}
+
+/// Bytes a frame allocates at `slots` slots over `pixels` pixels (module docs).
+pub fn frame_bytes(pixels: u64, slots: u32) -> u64 {
+    let slots = slots as u64;
+    pixels * (8 + 16 * target_layers(slots as u32) as u64 + 8 + 16 * slots)
+        + std::mem::size_of::<BucketParams>() as u64
+}
+
+/// The most slots the device's render targets hold: four per target it blends at once.
+pub fn device_max_slots(limits: &wgpu::Limits) -> u32 {
+    let targets = limits
+        .max_color_attachments
+        .min(limits.max_color_attachment_bytes_per_sample / 16);
+    (4 * targets).min(MAX_SLOTS)
+}
+
+/// `--k` for bucket: an input error when it is odd or outside 2..=32, unsupported where the
+/// device blends too few targets at once.
+pub fn slots_of(options: &RenderOptions, limits: &wgpu::Limits) -> Result<u32> {
+    let k = options.k.unwrap_or(DEFAULT_K);
+    if !(2..=MAX_SLOTS).contains(&k) || !k.is_multiple_of(2) {
+        return Err(Error::input(format!(
+            "--k {k}: bucket keeps two fragments per bucket and one claim bit per slot, so k must be even and within 2..{MAX_SLOTS}"
+        )));
+    }
+    let max = device_max_slots(limits);
+    if k > max {
+        return Err(Error::unsupported(format!(
+            "bucket --k {k} needs {} four-channel 32-bit targets blended at once, and this device takes {} color targets of at most {} bytes per sample in all: use --k {max} or less",
+            target_layers(k),
+            limits.max_color_attachments,
+            limits.max_color_attachment_bytes_per_sample
+        )));
+    }
+    Ok(k)
+}
+
+/// The sort stage for `layers` target layers: the shared routing, the stage file, and the
+/// generated output struct and entry point (one member per layer).
+pub fn sort_stage(layers: u32) -> String {
+    let members: Vec<String> = (0..layers)
+        .map(|i| format!("    @location({i}) layer{i}: vec4<f32>,"))
+        .collect();
+    let values: Vec<String> = (0..layers)
+        .map(|i| format!("bucket_channels({i}u, b, z)"))
+        .collect();
+    format!(
+        "{COMMON}\n{}\nstruct BucketTargets {{\n{}\n}}\n\n@fragment\nfn fs_sort(v: SceneVarying) -> BucketTargets {{\n    if behind_opaque(v.position) {{\n        discard;\n    }}\n    let b = fragment_bucket(v);\n    let z = v.position.z;\n    return BucketTargets({});\n}}\n",
+        include_str!("bucket_sort.wgsl"),
+        members.join("\n"),
+        values.join(", ")
+    )
+}
+
+/// The bucket-depth-peeling stages besides the generated sort (for validation in tests).
+pub fn stages() -> [(&'static str, String); 3] {
+    [
+        (
+            "bucket.bounds",
+            [COMMON, include_str!("bucket_bounds.wgsl")].join("\n"),
+        ),
+        (
+            "bucket.color",
+            [COMMON, include_str!("bucket_color.wgsl")].join("\n"),
+        ),
+        (
+            "bucket.resolve",
+            [COMMON, include_str!("bucket_resolve.wgsl")].join("\n"),
+        ),
+    ]
+}
+
+/// The CPU twin of the routing and the claims: which of a pixel's fragment depths keep a slot,
+/// given `slots` slots. Depths are visited in the given order, which decides only between
+/// fragments at exactly equal depth (on the GPU, whichever claims first).
+pub fn select(depths: &[f32], slots: u32) -> Vec<bool> {
+    let buckets = (slots / 2).max(1) as u64;
+    let fixed = |z: f32| (z * 2147483648.0) as u32 as u64;
+    let Some(nearest) = depths.iter().copied().reduce(f32::min) else {
+        return Vec::new();
+    };
+    let farthest = depths.iter().copied().fold(nearest, f32::max);
+    let (lo, hi) = (fixed(nearest), fixed(farthest));
+    let width = (hi - lo) / buckets + 1;
+    let bucket = |z: f32| ((fixed(z).max(lo) - lo) / width).min(buckets - 1) as usize;
+    let mut bounds = vec![(f32::INFINITY, f32::NEG_INFINITY); buckets as usize];
+    for &z in depths {
+        let b = &mut bounds[bucket(z)];
+        *b = (b.0.min(z), b.1.max(z));
+    }
+    let mut claimed = vec![[false; 2]; buckets as usize];
+    depths
+        .iter()
+        .map(|&z| {
+            let b = bucket(z);
+            let (near, far) = bounds[b];
+            let mut take = |end: usize| !std::mem::replace(&mut claimed[b][end], true);
+            (z == near && take(0)) || (z == far && take(1))
+        })
+        .collect()
+}
+
+pub struct Bucket {
+    bounds_layout: wgpu::BindGroupLayout,
+    sort_layout: wgpu::BindGroupLayout,
+    color_layout: wgpu::BindGroupLayout,
+    resolve_layout: wgpu::BindGroupLayout,
+    frame_layout: wgpu::BindGroupLayout,
+    bounds: wgpu::RenderPipeline,
+    /// The sort pipeline and the target layers it was built for.
+    sort: Option<(u32, wgpu::RenderPipeline)>,
+    color: GeometryStage,
+    resolve: wgpu::ComputePipeline,
+    null_target: Option<NullTarget>,
+    cache: ResourceCache,
+}
+
+fn blend_max() -> wgpu::BlendState {
+    let max = wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Max,
+    };
+    wgpu::BlendState {
+        color: max,
+        alpha: max,
+    }
+}
+
+fn max_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
+    Some(wgpu::ColorTargetState {
+        format,
+        blend: Some(blend_max()),
+        write_mask: wgpu::ColorWrites::ALL,
+    })
+}
+
+impl Bucket {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Bucket> {
+        if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
+            return Err(Error::unsupported(format!(
+                "bucket max-blends 32-bit float depths, and '{}' lacks FLOAT32_BLENDABLE; use dual (the same min/max through storage atomics)",
+                gpu.info.name
+            )));
+        }
+        let device = &gpu.device;
+        let bounds_layout = binding::layout(
+            device,
+            "strata.bucket.bounds.layout",
+            &[Slot::Uniform, Slot::StorageRw],
+        );
+        let sort_layout = binding::layout(
+            device,
+            "strata.bucket.sort.layout",
+            &[Slot::Uniform, Slot::TextureFloat],
+        );
+        let color_layout = binding::layout(
+            device,
+            "strata.bucket.color.layout",
+            &[
+                Slot::Uniform,
+                Slot::TextureFloat,
+                Slot::TextureFloatArray,
+                Slot::StorageRw,
+                Slot::StorageRw,
+            ],
+        );
+        let resolve_layout = binding::layout(
+            device,
+            "strata.bucket.resolve.layout",
+            &[
+                Slot::Uniform,
+                Slot::Storage,
+                Slot::Storage,
+                Slot::Storage,
+                Slot::StorageRw,
+            ],
+        );
+        let [bounds_stage, color_stage, resolve_stage] = stages();
+        let module = shader::module(device, "strata.bucket.bounds", &bounds_stage.1);
+        let bounds = capture_pipeline(
+            gpu,
+            "strata.bucket.bounds",
+            &module,
+            "fs_bounds",
+            &[&scene.frame_layout, &bounds_layout],
+            &[max_target(BOUNDS_FORMAT)],
+            None,
+        );
+        let module = shader::module(device, "strata.bucket.color", &color_stage.1);
+        let color = crate::raster::storage_stage(
+            gpu,
+            scene,
+            crate::raster::StageSpec {
+                label: "strata.bucket.color",
+                stage: &color_stage.1,
+                modules: (&module, &module),
+                entry: "fs_color",
+            },
+            &[&scene.frame_layout, &color_layout],
+        );
+        let module = shader::module(device, "strata.bucket.resolve", &resolve_stage.1);
+        let resolve = compute_pipeline(
+            gpu,
+            "strata.bucket.resolve",
+            &module,
+            "cs_resolve",
+            &[&scene.frame_layout, &resolve_layout],
+        );
+        Ok(Bucket {
+            bounds_layout,
+            sort_layout,
+            color_layout,
+            resolve_layout,
+            frame_layout: scene.frame_layout.clone(),
+            bounds,
+            sort: None,
+            color,
+            resolve,
+            null_target: None,
+            cache: ResourceCache::default(),
+        })
+    }
+
+    /// The sort pipeline for `layers` target layers, built when the layer count changes.
+    fn sort_pipeline(&mut self, gpu: &Gpu, layers: u32) -> &wgpu::RenderPipeline {
+        if self.sort.as_ref().is_none_or(|(l, _)| *l != layers) {
+            let module = shader::module(&gpu.device, "strata.bucket.sort", &sort_stage(layers));
+            let targets: Vec<_> = (0..layers).map(|_| max_target(BUCKET_FORMAT)).collect();
+            let pipeline = capture_pipeline(
+                gpu,
+                "strata.bucket.sort",
+                &module,
+                "fs_sort",
+                &[&self.frame_layout, &self.sort_layout],
+                &targets,
+                None,
+            );
+            self.sort = Some((layers, pipeline));
+        }
+        &self.sort.as_ref().expect("built above").1
+    }
+}
+
+impl Method for Bucket {
+    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        let gpu = ctx.gpu;
+        let slots = slots_of(ctx.options, &gpu.limits)?;
+        let layers = target_layers(slots);
+        let px = ctx.pixels();
+        let bytes = frame_bytes(px, slots);
+        ctx.check_budget(bytes)?;
+        let size = ctx.size();
+        let params = BucketParams {
+            buckets: slots / 2,
+            slots,
+            layers,
+            unused: 0,
+        };
+        let params = self
+            .cache
+            .uniform(gpu, "strata.bucket.params", bytemuck::bytes_of(&params));
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let bounds = self
+            .cache
+            .texture(gpu, "strata.bucket.bounds", size, BOUNDS_FORMAT, usage)
+            .create_view(&Default::default());
+        let buckets = self.cache.texture_array(
+            gpu,
+            "strata.bucket.buckets",
+            size,
+            BUCKET_FORMAT,
+            usage,
+            (1, layers),
+        );
+        let layer_views: Vec<wgpu::TextureView> = (0..layers)
+            .map(|layer| {
+                buckets.create_view(&wgpu::TextureViewDescriptor {
+                    label: Some("strata.bucket.buckets.layer"),
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: layer,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        let buckets_view = buckets.create_view(&wgpu::TextureViewDescriptor {
+            label: Some("strata.bucket.buckets.array"),
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let none = wgpu::BufferUsages::empty();
+        let counts = self
+            .cache
+            .storage(gpu, "strata.bucket.counts", px * 4, none)?;
+        let claims = self
+            .cache
+            .storage(gpu, "strata.bucket.claims", px * 4, none)?;
+        let records =
+            self.cache
+                .storage(gpu, "strata.bucket.records", px * 16 * slots as u64, none)?;
+        let device = &gpu.device;
+        let bounds_group = binding::group(
+            device,
+            "strata.bucket.bounds.group",
+            &self.bounds_layout,
+            &[params.as_entire_binding(), counts.as_entire_binding()],
+        );
+        let sort_group = binding::group(
+            device,
+            "strata.bucket.sort.group",
+            &self.sort_layout,
+            &[
+                params.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&bounds),
+            ],
+        );
+        let color_group = binding::group(
+            device,
+            "strata.bucket.color.group",
+            &self.color_layout,
+            &[
+                params.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&bounds),
+                wgpu::BindingResource::TextureView(&buckets_view),
+                claims.as_entire_binding(),
+                records.as_entire_binding(),
+            ],
+        );
+        let resolve_group = binding::group(
+            device,
+            "strata.bucket.resolve.group",
+            &self.resolve_layout,
+            &[
+                params.as_entire_binding(),
+                counts.as_entire_binding(),
+                claims.as_entire_binding(),
+                records.as_entire_binding(),
+                ctx.output.as_entire_binding(),
+            ],
+        );
+        let nothing = wgpu::Color {
+            r: NO_DEPTH,
+            g: NO_DEPTH,
+            b: NO_DEPTH,
+            a: NO_DEPTH,
+        };
+        let frame_group = ctx.frame_group;
+        ctx.encoder.clear_buffer(&counts, 0, None);
+        ctx.encoder.clear_buffer(&claims, 0, None);
+        color_geometry_pass(
+            ctx,
+            "bounds",
+            &self.bounds,
+            &[frame_group, &bounds_group],
+            &[(&bounds, nothing)],
+        );
+        let targets: Vec<_> = layer_views.iter().map(|v| (v, nothing)).collect();
+        let sort = self.sort_pipeline(gpu, layers);
+        color_geometry_pass(ctx, "sort", sort, &[frame_group, &sort_group], &targets);
+        let null_target = NullTarget::ensure(
+            &mut self.null_target,
+            gpu,
+            "strata.bucket.null_target",
+            size,
+            1,
+        );
+        storage_geometry_pass(
+            ctx,
+            "color",
+            null_target,
+            &self.color,
+            &[frame_group, &color_group],
+        );
+        dispatch_pixels(
+            ctx,
+            "resolve",
+            &self.resolve,
+            &[frame_group, &resolve_group],
+        );
+        Ok(Recorded {
+            geometry_passes: 3,
+            k: Some(slots),
+            bytes_allocated: bytes,
+            capacity: slots as u64,
+            ..Default::default()
+        })
+    }
+
+    fn resources(&self) -> Vec<&ResourceCache> {
+        vec![&self.cache]
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,279 @@
+//! `bucket` against its CPU twin and the reference, on lavapipe; the twin's properties.
+
+use proptest::prelude::*;
+
+use super::*;
+use crate::frame::{Effect, RenderOptions};
+use crate::render::LinearImage;
+use crate::scene::{loaders, Scene};
+use crate::testing::{assert_close, render_gpu, render_reference};
+
+/// The tolerance of the exact methods' tests (methods/tests.rs): lavapipe's f32 edge and depth
+/// equations against the reference's exact ones.
+const MAX_DIFF: u8 = 2;
+const MAX_FRACTION: f64 = 0.001;
+
+fn options(size: u32, k: u32) -> RenderOptions {
+    RenderOptions {
+        width: size,
+        height: size,
+        k: Some(k),
+        ..Default::default()
+    }
+}
+
+/// The reference's fragments cut by the twin: each pixel keeps what [`select`] keeps (visited in
+/// depth-then-primitive order), composited over the background; and the fragments kept.
+fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage, u64) {
+    let lists = crate::reference::fragments(scene, opts).unwrap();
+    let translucency = opts.effect == Effect::Translucency;
+    let mut kept_total = 0;
+    let pixels = lists
+        .iter()
+        .enumerate()
+        .map(|(i, list)| {
+            let (x, y) = (i as u32 % opts.width, i as u32 / opts.width);
+            let depths: Vec<f32> = list.iter().map(|f| f.depth as f32).collect();
+            let kept: Vec<_> = list
+                .iter()
+                .zip(select(&depths, slots))
+                .filter(|(_, keep)| *keep)
+                .map(|(f, _)| *f)
+                .collect();
+            kept_total += kept.len() as u64;
+            let bg = opts.background.at(x, y).map(|c| c as f64);
+            let c = crate::resolve::composite(&kept, bg, translucency);
+            [c[0] as f32, c[1] as f32, c[2] as f32, kept.len() as f32]
+        })
+        .collect();
+    let image = LinearImage {
+        width: opts.width,
+        height: opts.height,
+        pixels,
+    };
+    (image, kept_total)
+}
+
+fn scene(spec: &str) -> Scene {
+    loaders::load_scene(spec).unwrap()
+}
+
+#[test]
+fn stages_validate() {
+    for (label, src) in stages() {
+        crate::gpu::shader::validate(label, &src);
+    }
+    for layers in 1..=8 {
+        crate::gpu::shader::validate(&format!("bucket.sort{layers}"), &sort_stage(layers));
+    }
+}
+
+#[test]
+fn params_layout_matches_wgsl() {
+    let module = naga::front::wgsl::parse_str(COMMON).unwrap();
+    let (_, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("BucketParams"))
+        .unwrap();
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("BucketParams is not a struct");
+    };
+    assert_eq!(*span as usize, std::mem::size_of::<BucketParams>());
+    let offsets: Vec<u32> = members.iter().map(|m| m.offset).collect();
+    assert_eq!(
+        offsets,
+        [
+            std::mem::offset_of!(BucketParams, buckets),
+            std::mem::offset_of!(BucketParams, slots),
+            std::mem::offset_of!(BucketParams, layers),
+            std::mem::offset_of!(BucketParams, unused),
+        ]
+        .map(|o| o as u32)
+    );
+}
+
+/// Fragments clustered in depth collide; a scene whose pixels hold few fragments spread over
+/// their range does not: the GPU keeps exactly what the twin keeps, on both.
+#[test]
+fn bucket_keeps_what_its_cpu_twin_keeps() {
+    for (spec, size, k) in [
+        (
+            "builtin:layers?n=16&coverage=0.75&order=random&seed=3",
+            64,
+            8,
+        ),
+        ("builtin:spheres?layers=8", 64, 4),
+        ("builtin:nvpro?objects=48&subdiv=10&seed=4", 48, 6),
+    ] {
+        let s = scene(spec);
+        let opts = options(size, k);
+        let (expected, kept) = twin_picture(&s, &opts, k);
+        let (actual, stats) = render_gpu(&s, &opts, "bucket");
+        assert_close(
+            &format!("bucket-twin-k{k}"),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        let generated = stats.fragments_generated.unwrap();
+        let dropped = stats.fragments_dropped.unwrap();
+        assert!(dropped > 0, "{spec}: the test wants collisions");
+        // Pixel centers on an edge within lavapipe's f32 rounding may differ (module docs of
+        // methods/tests.rs), so the kept count is compared within the same 0.1%.
+        let stored = stats.fragments_stored.unwrap();
+        let off = stored.abs_diff(kept) as f64 / generated as f64;
+        assert!(off <= MAX_FRACTION, "{spec}: kept {stored}, twin {kept}");
+        assert_eq!(stats.geometry_passes, Some(3));
+    }
+}
+
+/// With enough buckets nothing collides, and the frame is the reference's exactly, translucency
+/// included.
+#[test]
+fn without_collisions_bucket_equals_the_reference() {
+    let s = scene("builtin:spheres?layers=8");
+    let mut opts = options(64, 32);
+    opts.effect = Effect::Translucency;
+    let (actual, stats) = render_gpu(&s, &opts, "bucket");
+    assert_eq!(stats.fragments_dropped, Some(0));
+    let expected = render_reference(&s, &opts);
+    assert_close(
+        "bucket-exact",
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+}
+
+/// Coincident faces: two fragments at exactly one depth are a bucket's nearest and farthest at
+/// once and keep both slots, composited in primitive order like the reference; a third at that
+/// depth collides and is counted.
+#[test]
+fn coincident_faces_keep_two_slots_and_drop_the_third() {
+    let mut s = scene("builtin:layers?n=4&coverage=1&order=front");
+    s.objects[1].mesh.positions = s.objects[0].mesh.positions.clone();
+    let opts = options(24, 8);
+    let (actual, stats) = render_gpu(&s, &opts, "bucket");
+    assert_eq!(stats.fragments_dropped, Some(0));
+    let expected = render_reference(&s, &opts);
+    assert_close(
+        "bucket-coincident",
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    s.objects[2].mesh.positions = s.objects[0].mesh.positions.clone();
+    let (_, stats) = render_gpu(&s, &opts, "bucket");
+    assert_eq!(stats.fragments_dropped, Some(24 * 24));
+}
+
+#[test]
+fn bad_k_msaa_and_compute_raster_are_refused() {
+    let s = scene("builtin:layers?n=4&coverage=1&order=front");
+    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &options(16, 16)).unwrap();
+    assert!(r.render("bucket").is_ok());
+    for k in [0, 1, 7, 34] {
+        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &options(16, k)).unwrap();
+        let e = r.render("bucket").unwrap_err();
+        assert!(
+            matches!(e, crate::Error::Input(_)) && e.to_string().contains("--k"),
+            "{k}: {e}"
+        );
+    }
+    let mut opts = options(16, 8);
+    opts.msaa = 4;
+    let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
+        .and_then(|mut r| r.render("bucket").map(|_| ()))
+        .unwrap_err();
+    assert!(e.to_string().contains("--msaa"), "{e}");
+    let mut opts = options(16, 8);
+    opts.raster = crate::raster::Raster::Compute;
+    let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
+        .and_then(|mut r| r.render("bucket").map(|_| ()))
+        .unwrap_err();
+    assert!(e.to_string().contains("--raster compute"), "{e}");
+}
+
+#[test]
+fn device_limits_bound_the_slots() {
+    let mut limits = wgpu::Limits::default();
+    let e = slots_of(&options(4, 16), &limits).unwrap_err();
+    assert!(
+        matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("--k 8"),
+        "{e}"
+    );
+    assert_eq!(slots_of(&options(4, 8), &limits).unwrap(), 8);
+    // WebGPU's defaults: 32 bytes per sample, two RGBA32F targets.
+    assert_eq!(device_max_slots(&limits), 8);
+    limits.max_color_attachment_bytes_per_sample = 128;
+    assert_eq!(device_max_slots(&limits), 32);
+    limits.max_color_attachments = 4;
+    assert_eq!(device_max_slots(&limits), 16);
+    assert_eq!(target_layers(2), 1);
+    assert_eq!(target_layers(6), 2);
+    assert_eq!(target_layers(32), 8);
+    assert_eq!(frame_bytes(10, 8), 10 * (8 + 32 + 8 + 128) + 16);
+}
+
+#[test]
+fn select_examples() {
+    // Two fragments always fit: the range's ends.
+    assert_eq!(select(&[0.5, 0.2], 2), [true, true]);
+    // One bucket: its nearest and farthest survive, the middle collides.
+    assert_eq!(select(&[0.5, 0.2, 0.3], 2), [true, true, false]);
+    // Two buckets over [0.2, 0.6]: 0.3 shares the first with 0.2, 0.5 the second with 0.6.
+    assert_eq!(select(&[0.2, 0.3, 0.5, 0.6], 4), [true; 4]);
+    // Equal depths: two take both ends of their bucket, a third collides.
+    assert_eq!(select(&[0.4, 0.4, 0.4], 8), [true, true, false]);
+    assert!(select(&[], 8).is_empty());
+}
+
+proptest! {
+    /// Each bucket keeps at most two; the pixel's nearest and farthest always survive; a pixel
+    /// whose buckets hold at most two each keeps everything; what survives of a bucket is its
+    /// nearest and its farthest.
+    #[test]
+    fn select_keeps_each_buckets_ends(
+        raw in prop::collection::vec(0u32..1 << 24, 1..40),
+        half in 1u32..=16,
+    ) {
+        let slots = 2 * half;
+        let depths: Vec<f32> = raw.iter().map(|&r| r as f32 / (1u32 << 24) as f32).collect();
+        let kept = select(&depths, slots);
+        let count = kept.iter().filter(|k| **k).count();
+        prop_assert!(count <= slots as usize);
+        let nearest = depths.iter().copied().fold(f32::INFINITY, f32::min);
+        let farthest = depths.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        prop_assert!(depths.iter().zip(&kept).any(|(&z, &k)| k && z == nearest));
+        prop_assert!(depths.iter().zip(&kept).any(|(&z, &k)| k && z == farthest));
+        // Group by bucket with an independent float computation of the same fixed point.
+        let fixed = |z: f32| (z as f64 * 2147483648.0).floor() as u64;
+        let (lo, hi) = (fixed(nearest), fixed(farthest));
+        let width = (hi - lo) / half as u64 + 1;
+        let bucket = |z: f32| ((fixed(z) - lo) / width).min(half as u64 - 1);
+        for b in 0..half as u64 {
+            let members: Vec<(f32, bool)> = depths
+                .iter()
+                .zip(&kept)
+                .filter(|(&z, _)| bucket(z) == b)
+                .map(|(&z, &k)| (z, k))
+                .collect();
+            let survivors: Vec<f32> = members.iter().filter(|m| m.1).map(|m| m.0).collect();
+            prop_assert!(survivors.len() <= 2);
+            if members.len() <= 2 {
+                prop_assert_eq!(survivors.len(), members.len());
+            } else {
+                let near = members.iter().map(|m| m.0).fold(f32::INFINITY, f32::min);
+                let far = members.iter().map(|m| m.0).fold(f32::NEG_INFINITY, f32::max);
+                prop_assert!(survivors.contains(&near) && survivors.contains(&far));
+            }
+        }
+    }
+}
