@@ -97,6 +97,8 @@ pub struct Run {
     msaa: u32,
     /// mboit's power moments.
     moments: u32,
+    /// bucket's split of the depth range.
+    buckets: strata::BucketSplit,
 }
 
 impl Run {
@@ -110,6 +112,17 @@ impl Run {
             depth_scale: 1.0,
             msaa: 1,
             moments: 4,
+            buckets: strata::BucketSplit::Uniform,
+        }
+    }
+
+    /// bucket at `k` with `split`.
+    fn bucket(k: u32, split: strata::BucketSplit) -> Run {
+        Run {
+            label: format!("bucket {} k={k}", split.name()),
+            k: Some(k),
+            buckets: split,
+            ..Run::plain("bucket")
         }
     }
 
@@ -247,7 +260,7 @@ const EXPERIMENTS: &[Experiment] = &[
     },
     Experiment {
         name: "bucket",
-        description: "bucket depth peeling (Liu et al. 2009) at k = 8, 16 and 32 (where the device blends 8 RGBA32F targets) against exact peeling (f2b, dual) and abuffer-ll: time, geometry passes, memory, fragments lost to bucket collisions and the error they cost against the reference",
+        description: "bucket depth peeling (Liu et al. 2009), uniform and adaptive buckets, at k = 8, 16 and 32 (where the device blends 8 RGBA32F targets) against exact peeling (f2b, dual) and abuffer-ll: time, geometry passes, memory, fragments lost to bucket collisions and the error they cost against the reference",
         scenes: &[
             "builtin:dragon",
             "builtin:spheres",
@@ -259,9 +272,10 @@ const EXPERIMENTS: &[Experiment] = &[
         alpha: Some(0.5),
         frames: 5,
         runs: || {
-            let mut runs: Vec<Run> = [8, 16, 32]
+            use strata::BucketSplit;
+            let mut runs: Vec<Run> = [BucketSplit::Uniform, BucketSplit::Adaptive]
                 .into_iter()
-                .map(|k| Run::with_k("bucket", k, true))
+                .flat_map(|split| [8, 16, 32].map(|k| Run::bucket(k, split)))
                 .collect();
             runs.extend(["f2b", "dual", "abuffer-ll"].map(Run::plain));
             runs
@@ -733,6 +747,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             options.depth_scale = run.depth_scale;
             options.msaa = run.msaa;
             options.moments = run.moments;
+            options.buckets = run.buckets;
             match measure(gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r) {
                 Ok(mut result) => {
                     result.scene = scene.clone();

@@ -225,6 +225,11 @@ pub struct MethodArgs {
     /// unordered.
     #[arg(long)]
     pub heap_size: Option<u32>,
+    /// bucket: split each pixel's depth range into k/2 equal buckets (uniform, the paper's
+    /// method) or share the buckets among the occupied parts of a 1024-part histogram
+    /// (adaptive, one more geometry pass).
+    #[arg(long, value_enum, default_value = "uniform")]
+    pub buckets: strata::BucketSplit,
     /// wboit: the weight function (McGuire & Bavoil 2013, equations 7-10).
     #[arg(long, value_enum, default_value = "eq7")]
     pub weight: strata::Weight,
@@ -821,6 +826,7 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
     options.max_tries = a.max_tries;
     options.layers = a.layers;
     options.heap_size = a.heap_size;
+    options.buckets = a.buckets;
     options.weight = a.weight;
     options.depth_scale = a.depth_scale;
     options.moments = a.moments;

@@ -20,6 +20,6 @@ pub mod scene;
 pub(crate) mod testing;
 
 pub use error::{Error, Result};
-pub use frame::{Effect, FrameStats, FrameTargets, RenderOptions, Tail, Weight};
+pub use frame::{BucketSplit, Effect, FrameStats, FrameTargets, RenderOptions, Tail, Weight};
 pub use methods::MethodId;
 pub use render::{FrameRecorder, LinearImage, Renderer};

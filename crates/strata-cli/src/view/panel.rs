@@ -344,6 +344,9 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
     ui.add_enabled_ui(applies(Opt::HeapSize, id, pipeline), |ui| {
         optional(ui, "heap size", &mut m.heap_size, 1, 1..=256);
     });
+    ui.add_enabled_ui(applies(Opt::Buckets, id, pipeline), |ui| {
+        choice(ui, "buckets", &mut m.buckets);
+    });
     ui.add_enabled_ui(applies(Opt::Weight, id, pipeline), |ui| {
         choice(ui, "weight", &mut m.weight);
         ui.horizontal(|ui| {

@@ -19,6 +19,8 @@ pub enum Opt {
     Layers,
     LayersPerPass,
     HeapSize,
+    /// `--buckets`: bucket's split.
+    Buckets,
     Weight,
     RasterCompute,
     Budget,
@@ -75,6 +77,7 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         Opt::Layers => matches!(method, F2b | Dual),
         Opt::LayersPerPass => method == Kpeel,
         Opt::HeapSize => method == KplusSemiheap,
+        Opt::Buckets => method == Bucket,
         Opt::Weight => method == Wboit,
         Opt::RasterCompute => strata::raster::supports(method),
         Opt::Budget => {
@@ -336,6 +339,9 @@ impl ViewState {
         }
         if let Some(h) = m.heap_size {
             push("heap-size", h.to_string());
+        }
+        if applies(Opt::Buckets, id, p.pipeline) && m.buckets != strata::BucketSplit::Uniform {
+            push("buckets", value_name(&m.buckets));
         }
         if applies(Opt::Weight, id, p.pipeline) {
             push("weight", value_name(&m.weight));

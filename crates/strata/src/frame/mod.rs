@@ -114,6 +114,28 @@ impl Weight {
     }
 }
 
+/// How `bucket` splits each pixel's depth range into buckets (`--buckets`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum BucketSplit {
+    /// k/2 equal parts of the depth range (Liu et al. 2009's bucket depth peeling).
+    #[default]
+    Uniform,
+    /// The paper's adaptive variant: a histogram pass marks which of 1024 equal parts hold
+    /// fragments, and the buckets are shared among the occupied parts only.
+    Adaptive,
+}
+
+impl BucketSplit {
+    pub fn name(self) -> &'static str {
+        match self {
+            BucketSplit::Uniform => "uniform",
+            BucketSplit::Adaptive => "adaptive",
+        }
+    }
+}
+
 impl FromStr for Tail {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
@@ -164,6 +186,8 @@ pub struct RenderOptions {
     pub layers: Option<u32>,
     /// kplus-semiheap: slots of the max-heap H (default 1, the paper's), the rest unordered.
     pub heap_size: Option<u32>,
+    /// bucket: how each pixel's depth range splits into buckets.
+    pub buckets: BucketSplit,
     /// wboit: the weight function.
     pub weight: Weight,
     /// wboit: view-space distances are multiplied by this before the weight function, whose
@@ -225,6 +249,7 @@ impl Default for RenderOptions {
             layers: None,
             k_auto: None,
             heap_size: None,
+            buckets: BucketSplit::Uniform,
             weight: Weight::Eq7,
             moments: 4,
             depth_scale: 1.0,

@@ -636,7 +636,7 @@ fn frame_test_methods() -> impl Iterator<Item = super::MethodId> {
 
 /// Renders each of `methods` twice with one renderer, the second time after filling its
 /// storage with garbage: the pictures and counts must be the same.
-fn check_poisoned(opts: &RenderOptions, methods: impl Iterator<Item = super::MethodId>) {
+pub(crate) fn check_poisoned(opts: &RenderOptions, methods: impl Iterator<Item = super::MethodId>) {
     let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
     for m in methods {
         let mut r = crate::Renderer::new(crate::testing::gpu(), &s, opts).unwrap();

@@ -1,42 +1,50 @@
-//! Bucket depth peeling, `bucket` (Liu, Huang, Liu & Wu, HPG 2009): k layers in one geometry
-//! pass by a bucket sort of each pixel's fragments over its depth range, using render targets
-//! as the bucket array and MAX blending as the concurrent update (no atomics, no locks).
+//! Bucket depth peeling, `bucket` (Liu, Huang, Liu & Wu, HPG 2009): k layers' depths in one
+//! geometry pass by a bucket sort of each pixel's fragments over its depth range, using render
+//! targets as the bucket array and MAX blending as the concurrent update (no atomics, no locks).
 //!
 //! Passes:
 //! 1. `bounds` — geometry pass into an Rg32Float target with MAX blending of (−z, z): each
 //!    pixel's nearest and farthest depth (and, by a storage atomic, its fragment count).
-//! 2. `sort` — geometry pass into ⌈k/4⌉ layers of an Rgba32Float array texture with MAX
-//!    blending. The pixel's range is split into B = k/2 equal buckets; a fragment of bucket b
-//!    writes −z to slot 2b and z to slot 2b + 1, nothing (−2) elsewhere, so every bucket ends
-//!    with its nearest and farthest depth: dual peeling inside each bucket (the paper's scheme
-//!    against collisions), every bucket at once.
-//! 3. `color` — geometry pass (storage only): the fragment whose depth is its bucket's nearest
+//! 2. `histogram` (only with `--buckets adaptive`) — geometry pass: each fragment sets the bit of
+//!    its part of the pixel's range split into 1024 equal parts (one storage atomicOr: the paper
+//!    ORs bits into render targets with logic-op blending, which WebGPU lacks).
+//! 3. `sort` — geometry pass into ⌈k/4⌉ layers of an Rgba32Float array texture with MAX
+//!    blending. The pixel's range is split into B = k/2 buckets; a fragment of bucket b writes −z
+//!    to slot 2b and z to slot 2b + 1, nothing (−2) elsewhere, so every bucket ends with its
+//!    nearest and farthest depth: dual peeling inside each bucket (the paper's scheme against
+//!    collisions), every bucket at once.
+//! 4. `color` — geometry pass (storage only): the fragment whose depth is its bucket's nearest
 //!    (farthest) claims that slot with one atomicOr on the pixel's claim word and stores its
 //!    shaded record there. The paper's targets hold depths only; its attributes come from a
 //!    later pass too, and WebGPU's blending cannot carry a color beside a max-blended depth.
-//! 4. `resolve` — compute: the claimed slots in bucket order, composited front to back.
+//! 5. `resolve` — compute: the claimed slots in bucket order, composited front to back.
 //!
-//! Buckets are uniform in depth, computed in fixed point with 31 fraction bits
-//! (`bucket_common.wgsl`), so the routing is exact integer arithmetic the CPU twin
-//! ([`select`]) repeats. **Approximate by design**: a bucket keeps two fragments, so a third
-//! routed to it — fragments clustered in depth — is lost. Losses are counted in
-//! `fragments_dropped`; a frame without drops equals the reference. Fragments at exactly one
-//! depth share a slot: two that are both a bucket's nearest and farthest keep both slots (and
-//! composite in primitive order); otherwise the first to claim the slot keeps it (a race on a
-//! GPU) and the others are dropped. The paper's adaptive variant (a second pass redistributing
-//! the buckets by a depth histogram) and its multi-pass refinement are not built.
+//! The split (`--buckets`): **uniform** (default, the paper's method) — B equal parts of the
+//! range; **adaptive** (the paper's second scheme) — the occupied parts of the histogram, in
+//! depth order, share the B buckets (bucket = rank · B / occupied parts), so with at most B
+//! occupied parts only fragments within one part (1/1024 of the range) can collide, and empty
+//! depth costs no bucket. Either way the routing is exact integer arithmetic on depths in fixed
+//! point with 31 fraction bits (`bucket_common.wgsl`), which the CPU twin ([`select`]) repeats.
+//!
+//! **Approximate by design**: a bucket keeps two fragments, so a third routed to it — fragments
+//! clustered in depth — is lost. Losses are counted in `fragments_dropped`; a frame without
+//! drops equals the reference. Fragments at exactly one depth share a slot: two that are both a
+//! bucket's nearest and farthest keep both slots (and composite in primitive order); otherwise
+//! the first to claim the slot keeps it (a race on a GPU) and the others are dropped. The paper's
+//! multi-pass refinement (peeling again behind what collided) is not built.
 //!
 //! Memory per pixel: 8 B bounds, 16·⌈k/4⌉ B bucket targets, 4 B count, 4 B claims and 16·k B
-//! of records; plus a 16-byte uniform. `--k` is even, 2 ≤ k ≤ 32 (the claim word), and at
-//! most 4 × the targets the device blends at once: k/4 ≤ `max_color_attachments` and
-//! 16·⌈k/4⌉ ≤ `max_color_attachment_bytes_per_sample` (32 layers with 8 targets, the paper's
-//! figure; WebGPU's defaults allow 8). Needs FLOAT32_BLENDABLE. Single-sampled only: `--msaa`,
-//! `--raster compute` and `--temporal` are refused.
+//! of records, + 128 B of histogram with the adaptive split; plus a 16-byte uniform. `--k` is
+//! even, 2 ≤ k ≤ 32 (the claim word), and at most 4 × the targets the device blends at once:
+//! k/4 ≤ `max_color_attachments` and 16·⌈k/4⌉ ≤ `max_color_attachment_bytes_per_sample` (32
+//! layers with 8 targets, the paper's figure; WebGPU's defaults allow 8). Needs
+//! FLOAT32_BLENDABLE. Single-sampled only: `--msaa`, `--raster compute` and `--temporal` are
+//! refused.
 
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
-use crate::frame::{FrameContext, Recorded, RenderOptions, SceneGpu};
+use crate::frame::{BucketSplit, FrameContext, Recorded, RenderOptions, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
     capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
@@ -56,7 +64,7 @@ pub struct BucketParams {
     pub buckets: u32,
     pub slots: u32,
     pub layers: u32,
-    pub unused: u32,
+    pub adaptive: u32,
 }
 
 const COMMON: &str = include_str!("bucket_common.wgsl");
@@ -70,10 +78,19 @@ pub fn target_layers(slots: u32) -> u32 {
     slots.div_ceil(4)
 }
 
+/// Parts of the range the adaptive split's histogram tells apart (`SUBINTERVALS` in WGSL).
+pub const SUBINTERVALS: u32 = 1024;
+/// The histogram's bytes per pixel, one bit per part.
+pub const HISTOGRAM_BYTES: u64 = SUBINTERVALS as u64 / 8;
+
 /// Bytes a frame allocates at `slots` slots over `pixels` pixels (module docs).
-pub fn frame_bytes(pixels: u64, slots: u32) -> u64 {
+pub fn frame_bytes(pixels: u64, slots: u32, split: BucketSplit) -> u64 {
+    let histogram = match split {
+        BucketSplit::Uniform => 0,
+        BucketSplit::Adaptive => HISTOGRAM_BYTES,
+    };
     let slots = slots as u64;
-    pixels * (8 + 16 * target_layers(slots as u32) as u64 + 8 + 16 * slots)
+    pixels * (8 + 16 * target_layers(slots as u32) as u64 + 8 + 16 * slots + histogram)
         + std::mem::size_of::<BucketParams>() as u64
 }
 
@@ -124,11 +141,15 @@ pub fn sort_stage(layers: u32) -> String {
 }
 
 /// The bucket-depth-peeling stages besides the generated sort (for validation in tests).
-pub fn stages() -> [(&'static str, String); 3] {
+pub fn stages() -> [(&'static str, String); 4] {
     [
         (
             "bucket.bounds",
             [COMMON, include_str!("bucket_bounds.wgsl")].join("\n"),
+        ),
+        (
+            "bucket.histogram",
+            [COMMON, include_str!("bucket_histogram.wgsl")].join("\n"),
         ),
         (
             "bucket.color",
@@ -141,19 +162,44 @@ pub fn stages() -> [(&'static str, String); 3] {
     ]
 }
 
+/// Fixed point with 31 fraction bits of a window depth (`depth_fixed` in WGSL).
+fn depth_fixed(z: f32) -> u64 {
+    (z * 2147483648.0) as u32 as u64
+}
+
+/// The part of `parts` equal parts of [lo, hi] (fixed point) that `q` falls in (`bucket_of`).
+fn part_of(q: u64, lo: u64, hi: u64, parts: u64) -> u64 {
+    let width = (hi.max(lo) - lo) / parts + 1;
+    ((q.max(lo) - lo) / width).min(parts - 1)
+}
+
 /// The CPU twin of the routing and the claims: which of a pixel's fragment depths keep a slot,
-/// given `slots` slots. Depths are visited in the given order, which decides only between
-/// fragments at exactly equal depth (on the GPU, whichever claims first).
-pub fn select(depths: &[f32], slots: u32) -> Vec<bool> {
+/// given `slots` slots and the split. Depths are visited in the given order, which decides only
+/// between fragments at exactly equal depth (on the GPU, whichever claims first).
+pub fn select(depths: &[f32], slots: u32, split: BucketSplit) -> Vec<bool> {
     let buckets = (slots / 2).max(1) as u64;
-    let fixed = |z: f32| (z * 2147483648.0) as u32 as u64;
     let Some(nearest) = depths.iter().copied().reduce(f32::min) else {
         return Vec::new();
     };
     let farthest = depths.iter().copied().fold(nearest, f32::max);
-    let (lo, hi) = (fixed(nearest), fixed(farthest));
-    let width = (hi - lo) / buckets + 1;
-    let bucket = |z: f32| ((fixed(z).max(lo) - lo) / width).min(buckets - 1) as usize;
+    let (lo, hi) = (depth_fixed(nearest), depth_fixed(farthest));
+    let parts = SUBINTERVALS as u64;
+    let mut occupied = vec![false; parts as usize];
+    for &z in depths {
+        occupied[part_of(depth_fixed(z), lo, hi, parts) as usize] = true;
+    }
+    let total = occupied.iter().filter(|o| **o).count() as u64;
+    let bucket = |z: f32| -> usize {
+        let q = depth_fixed(z);
+        match split {
+            BucketSplit::Uniform => part_of(q, lo, hi, buckets) as usize,
+            BucketSplit::Adaptive => {
+                let part = part_of(q, lo, hi, parts) as usize;
+                let below = occupied[..part].iter().filter(|o| **o).count() as u64;
+                (below * buckets / total).min(buckets - 1) as usize
+            }
+        }
+    };
     let mut bounds = vec![(f32::INFINITY, f32::NEG_INFINITY); buckets as usize];
     for &z in depths {
         let b = &mut bounds[bucket(z)];
@@ -176,8 +222,11 @@ pub struct Bucket {
     sort_layout: wgpu::BindGroupLayout,
     color_layout: wgpu::BindGroupLayout,
     resolve_layout: wgpu::BindGroupLayout,
+    histogram_layout: wgpu::BindGroupLayout,
     frame_layout: wgpu::BindGroupLayout,
     bounds: wgpu::RenderPipeline,
+    /// `--buckets adaptive`'s histogram pass.
+    histogram: GeometryStage,
     /// The sort pipeline and the target layers it was built for.
     sort: Option<(u32, wgpu::RenderPipeline)>,
     color: GeometryStage,
@@ -220,10 +269,15 @@ impl Bucket {
             "strata.bucket.bounds.layout",
             &[Slot::Uniform, Slot::StorageRw],
         );
-        let sort_layout = binding::layout(
+        // The histogram (binding 5) is read wherever a fragment is routed.
+        let sort_layout = binding::layout_at(
             device,
             "strata.bucket.sort.layout",
-            &[Slot::Uniform, Slot::TextureFloat],
+            &[
+                (0, Slot::Uniform),
+                (1, Slot::TextureFloat),
+                (5, Slot::Storage),
+            ],
         );
         let color_layout = binding::layout(
             device,
@@ -234,7 +288,13 @@ impl Bucket {
                 Slot::TextureFloatArray,
                 Slot::StorageRw,
                 Slot::StorageRw,
+                Slot::Storage,
             ],
+        );
+        let histogram_layout = binding::layout(
+            device,
+            "strata.bucket.histogram.layout",
+            &[Slot::Uniform, Slot::TextureFloat, Slot::StorageRw],
         );
         let resolve_layout = binding::layout(
             device,
@@ -247,7 +307,7 @@ impl Bucket {
                 Slot::StorageRw,
             ],
         );
-        let [bounds_stage, color_stage, resolve_stage] = stages();
+        let [bounds_stage, histogram_stage, color_stage, resolve_stage] = stages();
         let module = shader::module(device, "strata.bucket.bounds", &bounds_stage.1);
         let bounds = capture_pipeline(
             gpu,
@@ -257,6 +317,18 @@ impl Bucket {
             &[&scene.frame_layout, &bounds_layout],
             &[max_target(BOUNDS_FORMAT)],
             None,
+        );
+        let module = shader::module(device, "strata.bucket.histogram", &histogram_stage.1);
+        let histogram = crate::raster::storage_stage(
+            gpu,
+            scene,
+            crate::raster::StageSpec {
+                label: "strata.bucket.histogram",
+                stage: &histogram_stage.1,
+                modules: (&module, &module),
+                entry: "fs_histogram",
+            },
+            &[&scene.frame_layout, &histogram_layout],
         );
         let module = shader::module(device, "strata.bucket.color", &color_stage.1);
         let color = crate::raster::storage_stage(
@@ -283,8 +355,10 @@ impl Bucket {
             sort_layout,
             color_layout,
             resolve_layout,
+            histogram_layout,
             frame_layout: scene.frame_layout.clone(),
             bounds,
+            histogram,
             sort: None,
             color,
             resolve,
@@ -319,14 +393,16 @@ impl Method for Bucket {
         let slots = slots_of(ctx.options, &gpu.limits)?;
         let layers = target_layers(slots);
         let px = ctx.pixels();
-        let bytes = frame_bytes(px, slots);
+        let split = ctx.options.buckets;
+        let adaptive = split == BucketSplit::Adaptive;
+        let bytes = frame_bytes(px, slots, split);
         ctx.check_budget(bytes)?;
         let size = ctx.size();
         let params = BucketParams {
             buckets: slots / 2,
             slots,
             layers,
-            unused: 0,
+            adaptive: adaptive as u32,
         };
         let params = self
             .cache
@@ -370,20 +446,38 @@ impl Method for Bucket {
         let records =
             self.cache
                 .storage(gpu, "strata.bucket.records", px * 16 * slots as u64, none)?;
+        // A stub while the split is uniform (the shaders never read it then).
+        let histogram = self.cache.storage(
+            gpu,
+            "strata.bucket.histogram",
+            if adaptive { px * HISTOGRAM_BYTES } else { 16 },
+            none,
+        )?;
         let device = &gpu.device;
+        let histogram_group = binding::group(
+            device,
+            "strata.bucket.histogram.group",
+            &self.histogram_layout,
+            &[
+                params.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&bounds),
+                histogram.as_entire_binding(),
+            ],
+        );
         let bounds_group = binding::group(
             device,
             "strata.bucket.bounds.group",
             &self.bounds_layout,
             &[params.as_entire_binding(), counts.as_entire_binding()],
         );
-        let sort_group = binding::group(
+        let sort_group = binding::group_at(
             device,
             "strata.bucket.sort.group",
             &self.sort_layout,
             &[
-                params.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&bounds),
+                (0, params.as_entire_binding()),
+                (1, wgpu::BindingResource::TextureView(&bounds)),
+                (5, histogram.as_entire_binding()),
             ],
         );
         let color_group = binding::group(
@@ -396,6 +490,7 @@ impl Method for Bucket {
                 wgpu::BindingResource::TextureView(&buckets_view),
                 claims.as_entire_binding(),
                 records.as_entire_binding(),
+                histogram.as_entire_binding(),
             ],
         );
         let resolve_group = binding::group(
@@ -419,6 +514,9 @@ impl Method for Bucket {
         let frame_group = ctx.frame_group;
         ctx.encoder.clear_buffer(&counts, 0, None);
         ctx.encoder.clear_buffer(&claims, 0, None);
+        if adaptive {
+            ctx.encoder.clear_buffer(&histogram, 0, None);
+        }
         color_geometry_pass(
             ctx,
             "bounds",
@@ -426,16 +524,27 @@ impl Method for Bucket {
             &[frame_group, &bounds_group],
             &[(&bounds, nothing)],
         );
-        let targets: Vec<_> = layer_views.iter().map(|v| (v, nothing)).collect();
-        let sort = self.sort_pipeline(gpu, layers);
-        color_geometry_pass(ctx, "sort", sort, &[frame_group, &sort_group], &targets);
-        let null_target = NullTarget::ensure(
+        NullTarget::ensure(
             &mut self.null_target,
             gpu,
             "strata.bucket.null_target",
             size,
             1,
         );
+        let null_target = self.null_target.as_ref().expect("made above");
+        if adaptive {
+            storage_geometry_pass(
+                ctx,
+                "histogram",
+                null_target,
+                &self.histogram,
+                &[frame_group, &histogram_group],
+            );
+        }
+        let targets: Vec<_> = layer_views.iter().map(|v| (v, nothing)).collect();
+        let sort = self.sort_pipeline(gpu, layers);
+        color_geometry_pass(ctx, "sort", sort, &[frame_group, &sort_group], &targets);
+        let null_target = self.null_target.as_ref().expect("made above");
         storage_geometry_pass(
             ctx,
             "color",
@@ -450,7 +559,7 @@ impl Method for Bucket {
             &[frame_group, &resolve_group],
         );
         Ok(Recorded {
-            geometry_passes: 3,
+            geometry_passes: 3 + adaptive as u32,
             k: Some(slots),
             bytes_allocated: bytes,
             capacity: slots as u64,

@@ -2,7 +2,6 @@
 // target with MAX blending, leaving each pixel's nearest depth (negated) and its farthest; it
 // also counts the pixel's fragments for the resolve's account.
 
-@group(1) @binding(0) var<uniform> params: BucketParams;
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
 
 @fragment

@@ -3,7 +3,6 @@
 // claimant stores its shaded record there. Everything else collided — a third fragment in a
 // bucket, or an equal depth whose slot was taken — and is counted by the resolve as dropped.
 
-@group(1) @binding(0) var<uniform> params: BucketParams;
 @group(1) @binding(1) var bounds: texture_2d<f32>;
 @group(1) @binding(2) var buckets: texture_2d_array<f32>;
 @group(1) @binding(3) var<storage, read_write> claims: array<atomic<u32>>;
@@ -24,7 +23,7 @@ fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     let p = pixel_index(pixel);
     let z = v.position.z;
     let range = textureLoad(bounds, pixel, 0);
-    let b = bucket_of(z, -range.x, range.y, params.buckets);
+    let b = route(z, -range.x, range.y, p);
     let pair = textureLoad(buckets, pixel, b / 2u, 0);
     let c = 2u * (b % 2u);
     var slot = 2u * b;

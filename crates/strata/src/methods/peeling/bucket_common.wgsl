@@ -1,7 +1,7 @@
-// Bucket depth peeling's routing, shared by its passes (prepended to each stage).
-// A pixel's depth range [nearest, farthest] (the bounds pass) is split into `buckets` equal
-// parts over depth in fixed point with 31 fraction bits: exact integer arithmetic, so every
-// pass, and the CPU twin (`bucket::select`), routes a depth to the same bucket. Bucket b keeps
+// Bucket depth peeling's routing and parameters, shared by its passes (prepended to each stage).
+// A pixel's depth range [nearest, farthest] (the bounds pass) is split into equal parts over
+// depth in fixed point with 31 fraction bits: exact integer arithmetic, so every pass, and the
+// CPU twin (`bucket::select`), routes a depth to the same bucket. Bucket b keeps
 // its nearest depth in slot 2b and its farthest in slot 2b + 1; slot s is channel s % 4 of
 // layer s / 4 of the bucket targets.
 
@@ -9,14 +9,23 @@ struct BucketParams {
     buckets: u32,
     slots: u32,
     layers: u32,
-    unused: u32,
+    // 1 with --buckets adaptive.
+    adaptive: u32,
 }
+
+@group(1) @binding(0) var<uniform> params: BucketParams;
+// --buckets adaptive: per pixel HISTOGRAM_WORDS words, bit i set when part i of the range holds
+// a fragment (written by bucket_histogram.wgsl).
+@group(1) @binding(5) var<storage, read> histogram: array<u32>;
 
 // What the bounds and bucket targets are cleared to and what a fragment writes to the
 // channels of other buckets: below every −z and z of a window depth, so MAX blending ignores it.
 const NO_DEPTH: f32 = -2.0;
 // Buckets fit the 32-bit claim word: two slots each.
 const MAX_BUCKETS: u32 = 16u;
+// The adaptive split's histogram: the range in 1024 equal parts, one bit each.
+const SUBINTERVALS: u32 = 1024u;
+const HISTOGRAM_WORDS: u32 = 32u;
 
 // Window depth in [0, 1] as fixed point: z · 2^31 is exact in f32, and the conversion truncates.
 fn depth_fixed(z: f32) -> u32 {
@@ -29,4 +38,28 @@ fn bucket_of(z: f32, nearest: f32, farthest: f32, buckets: u32) -> u32 {
     let hi = max(depth_fixed(farthest), lo);
     let width = (hi - lo) / buckets + 1u;
     return min((max(depth_fixed(z), lo) - lo) / width, buckets - 1u);
+}
+
+// The bucket of depth `z` at pixel p. Uniform: its equal part of the range. Adaptive: the rank
+// of its part among the occupied parts, spread over the buckets, so parts that hold fragments
+// get buckets of their own (when there are at most `buckets` of them) and empty depth costs none.
+fn route(z: f32, nearest: f32, farthest: f32, p: u32) -> u32 {
+    if params.adaptive == 0u {
+        return bucket_of(z, nearest, farthest, params.buckets);
+    }
+    let part = bucket_of(z, nearest, farthest, SUBINTERVALS);
+    let word = part / 32u;
+    let base = p * HISTOGRAM_WORDS;
+    var below = countOneBits(histogram[base + word] & ((1u << (part % 32u)) - 1u));
+    var occupied = countOneBits(histogram[base + word]);
+    for (var w = 0u; w < HISTOGRAM_WORDS; w++) {
+        if w != word {
+            let n = countOneBits(histogram[base + w]);
+            occupied += n;
+            if w < word {
+                below += n;
+            }
+        }
+    }
+    return min(below * params.buckets / max(occupied, 1u), params.buckets - 1u);
 }

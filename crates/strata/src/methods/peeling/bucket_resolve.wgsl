@@ -2,7 +2,6 @@
 // then farthest within a bucket (by depth and primitive, for two fragments at one depth), are
 // composited front to back; the fragments that reached the pixel but hold no slot are dropped.
 
-@group(1) @binding(0) var<uniform> params: BucketParams;
 @group(1) @binding(1) var<storage, read> counts: array<u32>;
 @group(1) @binding(2) var<storage, read> claims: array<u32>;
 @group(1) @binding(3) var<storage, read> records: array<Fragment>;

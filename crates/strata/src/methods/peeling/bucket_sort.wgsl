@@ -4,13 +4,13 @@
 // geometry pass. `fs_sort` and its output struct, one member per target layer, are generated
 // (`bucket::sort_stage`) after this file.
 
-@group(1) @binding(0) var<uniform> params: BucketParams;
 @group(1) @binding(1) var bounds: texture_2d<f32>;
 
 // The bucket of a fragment that is not behind the opaque depth.
 fn fragment_bucket(v: SceneVarying) -> u32 {
-    let range = textureLoad(bounds, pixel_of(v.position), 0);
-    return bucket_of(v.position.z, -range.x, range.y, params.buckets);
+    let pixel = pixel_of(v.position);
+    let range = textureLoad(bounds, pixel, 0);
+    return route(v.position.z, -range.x, range.y, pixel_index(pixel));
 }
 
 // Target layer `layer`'s four channels for a fragment at depth z in bucket b.

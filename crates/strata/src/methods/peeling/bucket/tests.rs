@@ -3,7 +3,7 @@
 use proptest::prelude::*;
 
 use super::*;
-use crate::frame::{Effect, RenderOptions};
+use crate::frame::{BucketSplit, Effect, RenderOptions};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference};
@@ -36,7 +36,7 @@ fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage
             let depths: Vec<f32> = list.iter().map(|f| f.depth as f32).collect();
             let kept: Vec<_> = list
                 .iter()
-                .zip(select(&depths, slots))
+                .zip(select(&depths, slots, opts.buckets))
                 .filter(|(_, keep)| *keep)
                 .map(|(f, _)| *f)
                 .collect();
@@ -87,27 +87,41 @@ fn params_layout_matches_wgsl() {
             std::mem::offset_of!(BucketParams, buckets),
             std::mem::offset_of!(BucketParams, slots),
             std::mem::offset_of!(BucketParams, layers),
-            std::mem::offset_of!(BucketParams, unused),
+            std::mem::offset_of!(BucketParams, adaptive),
         ]
         .map(|o| o as u32)
     );
 }
 
-/// Fragments clustered in depth collide; a scene whose pixels hold few fragments spread over
-/// their range does not: the GPU keeps exactly what the twin keeps, on both.
+/// Fragments clustered in depth collide, fewer with the adaptive split: the GPU keeps what the
+/// twin keeps, with both splits.
 #[test]
 fn bucket_keeps_what_its_cpu_twin_keeps() {
-    for (spec, size, k) in [
+    for (spec, size, k, split) in [
         (
             "builtin:layers?n=16&coverage=0.75&order=random&seed=3",
             64,
             8,
+            BucketSplit::Uniform,
         ),
-        ("builtin:spheres?layers=8", 64, 4),
-        ("builtin:nvpro?objects=48&subdiv=10&seed=4", 48, 6),
+        ("builtin:spheres?layers=8", 64, 4, BucketSplit::Uniform),
+        ("builtin:spheres?layers=8", 64, 4, BucketSplit::Adaptive),
+        (
+            "builtin:nvpro?objects=48&subdiv=10&seed=4",
+            48,
+            6,
+            BucketSplit::Uniform,
+        ),
+        (
+            "builtin:nvpro?objects=48&subdiv=10&seed=4",
+            48,
+            6,
+            BucketSplit::Adaptive,
+        ),
     ] {
         let s = scene(spec);
-        let opts = options(size, k);
+        let mut opts = options(size, k);
+        opts.buckets = split;
         let (expected, kept) = twin_picture(&s, &opts, k);
         let (actual, stats) = render_gpu(&s, &opts, "bucket");
         assert_close(
@@ -126,7 +140,8 @@ fn bucket_keeps_what_its_cpu_twin_keeps() {
         let stored = stats.fragments_stored.unwrap();
         let off = stored.abs_diff(kept) as f64 / generated as f64;
         assert!(off <= MAX_FRACTION, "{spec}: kept {stored}, twin {kept}");
-        assert_eq!(stats.geometry_passes, Some(3));
+        let passes = if split == BucketSplit::Adaptive { 4 } else { 3 };
+        assert_eq!(stats.geometry_passes, Some(passes));
     }
 }
 
@@ -148,6 +163,43 @@ fn without_collisions_bucket_equals_the_reference() {
         MAX_DIFF,
         MAX_FRACTION,
     );
+}
+
+/// Nested shells crowd a pixel's fragments into part of its depth range: at k = 8 uniform
+/// buckets collide, while the adaptive split gives every occupied part a bucket and keeps all
+/// eight layers, equal to the reference.
+#[test]
+fn the_adaptive_split_keeps_what_uniform_buckets_lose() {
+    let s = scene("builtin:spheres?layers=8");
+    let mut opts = options(64, 8);
+    let (_, uniform) = render_gpu(&s, &opts, "bucket");
+    assert!(uniform.fragments_dropped.unwrap() > 0);
+    opts.buckets = BucketSplit::Adaptive;
+    let (actual, adaptive) = render_gpu(&s, &opts, "bucket");
+    assert_eq!(adaptive.fragments_dropped, Some(0));
+    assert_eq!(adaptive.geometry_passes, Some(4));
+    assert_eq!(
+        adaptive.bytes_allocated,
+        Some(frame_bytes(64 * 64, 8, BucketSplit::Adaptive))
+    );
+    let expected = render_reference(&s, &opts);
+    assert_close(
+        "bucket-adaptive",
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+}
+
+/// The histogram, claims and counts are cleared before anything reads them.
+#[test]
+fn poisoned_storage_changes_nothing_with_the_adaptive_split() {
+    let mut opts = crate::methods::tests::options(40, Effect::Translucency);
+    opts.k = Some(6);
+    opts.buckets = BucketSplit::Adaptive;
+    crate::methods::tests::check_poisoned(&opts, [crate::MethodId::Bucket].into_iter());
 }
 
 /// Coincident faces: two fragments at exactly one depth are a bucket's nearest and farthest at
@@ -219,20 +271,36 @@ fn device_limits_bound_the_slots() {
     assert_eq!(target_layers(2), 1);
     assert_eq!(target_layers(6), 2);
     assert_eq!(target_layers(32), 8);
-    assert_eq!(frame_bytes(10, 8), 10 * (8 + 32 + 8 + 128) + 16);
+    assert_eq!(
+        frame_bytes(10, 8, BucketSplit::Uniform),
+        10 * (8 + 32 + 8 + 128) + 16
+    );
+    assert_eq!(
+        frame_bytes(10, 8, BucketSplit::Adaptive),
+        10 * (8 + 32 + 8 + 128 + 128) + 16
+    );
 }
+
+const U: BucketSplit = BucketSplit::Uniform;
+const A: BucketSplit = BucketSplit::Adaptive;
 
 #[test]
 fn select_examples() {
     // Two fragments always fit: the range's ends.
-    assert_eq!(select(&[0.5, 0.2], 2), [true, true]);
+    assert_eq!(select(&[0.5, 0.2], 2, U), [true, true]);
     // One bucket: its nearest and farthest survive, the middle collides.
-    assert_eq!(select(&[0.5, 0.2, 0.3], 2), [true, true, false]);
+    assert_eq!(select(&[0.5, 0.2, 0.3], 2, U), [true, true, false]);
     // Two buckets over [0.2, 0.6]: 0.3 shares the first with 0.2, 0.5 the second with 0.6.
-    assert_eq!(select(&[0.2, 0.3, 0.5, 0.6], 4), [true; 4]);
+    assert_eq!(select(&[0.2, 0.3, 0.5, 0.6], 4, U), [true; 4]);
     // Equal depths: two take both ends of their bucket, a third collides.
-    assert_eq!(select(&[0.4, 0.4, 0.4], 8), [true, true, false]);
-    assert!(select(&[], 8).is_empty());
+    assert_eq!(select(&[0.4, 0.4, 0.4], 8, U), [true, true, false]);
+    assert!(select(&[], 8, U).is_empty());
+    // Clustered depths: uniform buckets over the range put 0.1, 0.11 and 0.12 into the first
+    // bucket (one collides); the adaptive split gives each occupied part its own.
+    let clustered = [0.1, 0.11, 0.12, 1.0 - f32::EPSILON];
+    assert_eq!(select(&clustered, 4, U), [true, false, true, true]);
+    assert_eq!(select(&clustered, 8, A), [true; 4]);
+    assert_eq!(select(&clustered, 8, U), [true, false, true, true]);
 }
 
 proptest! {
@@ -246,7 +314,7 @@ proptest! {
     ) {
         let slots = 2 * half;
         let depths: Vec<f32> = raw.iter().map(|&r| r as f32 / (1u32 << 24) as f32).collect();
-        let kept = select(&depths, slots);
+        let kept = select(&depths, slots, U);
         let count = kept.iter().filter(|k| **k).count();
         prop_assert!(count <= slots as usize);
         let nearest = depths.iter().copied().fold(f32::INFINITY, f32::min);
@@ -273,6 +341,40 @@ proptest! {
                 let near = members.iter().map(|m| m.0).fold(f32::INFINITY, f32::min);
                 let far = members.iter().map(|m| m.0).fold(f32::NEG_INFINITY, f32::max);
                 prop_assert!(survivors.contains(&near) && survivors.contains(&far));
+            }
+        }
+    }
+}
+
+proptest! {
+    /// The adaptive split gives the parts holding fragments buckets in depth order: with at
+    /// most `buckets` occupied parts, a fragment is lost only to others in its own part (each
+    /// part keeps min(2, its fragments)).
+    #[test]
+    fn adaptive_split_loses_only_within_a_part(
+        raw in prop::collection::vec(0u32..1 << 24, 1..40),
+        half in 1u32..=16,
+    ) {
+        let slots = 2 * half;
+        let depths: Vec<f32> = raw.iter().map(|&r| r as f32 / (1u32 << 24) as f32).collect();
+        let kept = select(&depths, slots, A);
+        prop_assert!(kept.iter().filter(|k| **k).count() <= slots as usize);
+        let nearest = depths.iter().copied().fold(f32::INFINITY, f32::min);
+        let farthest = depths.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let (lo, hi) = (depth_fixed(nearest), depth_fixed(farthest));
+        let part = |z: f32| part_of(depth_fixed(z), lo, hi, SUBINTERVALS as u64);
+        let mut parts: Vec<u64> = depths.iter().map(|&z| part(z)).collect();
+        parts.sort();
+        parts.dedup();
+        if parts.len() <= half as usize {
+            for p in parts {
+                let members = depths.iter().filter(|&&z| part(z) == p).count();
+                let survivors = depths
+                    .iter()
+                    .zip(&kept)
+                    .filter(|(&z, &k)| k && part(z) == p)
+                    .count();
+                prop_assert_eq!(survivors, members.min(2));
             }
         }
     }

@@ -1,0 +1,19 @@
+// Bucket depth peeling with --buckets adaptive, the histogram pass (between bounds and sort):
+// each fragment sets the bit of its part of the pixel's range, 1024 equal parts. The paper ORs
+// bits into render targets with logic-op blending; WebGPU has no logic ops, so one storage
+// atomicOr per fragment sets it.
+
+@group(1) @binding(1) var bounds: texture_2d<f32>;
+@group(1) @binding(2) var<storage, read_write> histogram_bits: array<atomic<u32>>;
+
+@fragment
+fn fs_histogram(v: SceneVarying) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let pixel = pixel_of(v.position);
+    let range = textureLoad(bounds, pixel, 0);
+    let part = bucket_of(v.position.z, -range.x, range.y, SUBINTERVALS);
+    let word = pixel_index(pixel) * HISTOGRAM_WORDS + part / 32u;
+    atomicOr(&histogram_bits[word], 1u << (part % 32u));
+}
