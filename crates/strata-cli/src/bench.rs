@@ -260,7 +260,7 @@ const EXPERIMENTS: &[Experiment] = &[
     },
     Experiment {
         name: "bucket",
-        description: "bucket depth peeling (Liu et al. 2009), uniform and adaptive buckets, at k = 8, 16 and 32 (where the device blends 8 RGBA32F targets) against exact peeling (f2b, dual) and abuffer-ll: time, geometry passes, memory, fragments lost to bucket collisions and the error they cost against the reference",
+        description: "bucket depth peeling (Liu et al. 2009), uniform and adaptive buckets, at k = 8, 16 and 32 (where the device blends 8 RGBA32F targets) and at k = 16 with --msaa 4, against exact peeling (f2b, dual) and abuffer-ll: time, geometry passes, memory, fragments lost to bucket collisions and the error they cost against the reference",
         scenes: &[
             "builtin:dragon",
             "builtin:spheres",
@@ -277,6 +277,10 @@ const EXPERIMENTS: &[Experiment] = &[
                 .into_iter()
                 .flat_map(|split| [8, 16, 32].map(|k| Run::bucket(k, split)))
                 .collect();
+            runs.extend(
+                [BucketSplit::Uniform, BucketSplit::Adaptive]
+                    .map(|split| Run::bucket(16, split).multisampled(4)),
+            );
             runs.extend(["f2b", "dual", "abuffer-ll"].map(Run::plain));
             runs
         },

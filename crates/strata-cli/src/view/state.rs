@@ -466,7 +466,7 @@ mod tests {
         assert!(applies(Opt::K, KplusHeap, None));
         assert!(applies(Opt::K, Kpeel, None));
         assert!(!applies(Opt::K, AbufferLl, None));
-        assert!(applies(Opt::K, Bucket, None) && !applies(Opt::Msaa, Bucket, None));
+        assert!(applies(Opt::K, Bucket, None) && applies(Opt::Buckets, Bucket, None));
         assert!(!applies(Opt::Tail, Wboit, None));
         assert!(applies(Opt::MaxTries, KplusArray, None));
         assert!(!applies(Opt::MaxTries, KbMdt32, None), "MDT takes no lock");

@@ -33,6 +33,10 @@
 //!   each fragment once, each sample's depth complexity (which sets the next frame's layers)
 //!   and the fragments some sample composited: one more geometry pass per frame.
 //! - **convex**: sample entries with their own claims, slots and state (see its module).
+//! - **bucket**: multisampled bounds and bucket targets (MAX blending writes a fragment into the
+//!   samples it covers), one routing per pixel (a reduce pass joins the samples' bounds, so a
+//!   fragment has one bucket at all its samples), and claims and records per sample entry; the
+//!   resolve counts a fragment kept at several samples once, at the lowest.
 //! - **Blended targets** (`wboit`, `mboit`, `unsorted`, `sorted`): multisampled targets; the
 //!   hardware writes each fragment into the samples it covers and the composite averages the
 //!   samples' results; mboit weights a fragment by the mean of its covered samples'
@@ -107,12 +111,9 @@ pub fn max_triangles(samples: u32) -> u64 {
 }
 
 /// The methods that take `--msaa`: all but the multi-depth tests with 8-byte keys, which keep
-/// no primitive or coverage per fragment, and `bucket` (see [`check_method`]).
+/// no primitive or coverage per fragment (see [`check_method`]).
 pub fn supported(method: MethodId) -> bool {
-    !matches!(
-        method,
-        MethodId::KbMdt64 | MethodId::KbMdtPack | MethodId::Bucket
-    )
+    !matches!(method, MethodId::KbMdt64 | MethodId::KbMdtPack)
 }
 
 /// `--msaa` against the other options.
@@ -176,11 +177,6 @@ pub fn check_method(method: MethodId, options: &RenderOptions, triangles: u64) -
     let samples = options.msaa;
     if samples <= 1 {
         return Ok(());
-    }
-    if method == MethodId::Bucket {
-        return Err(Error::unsupported(format!(
-            "bucket does not support --msaa {samples} yet: its color pass would have to match each covered sample's buckets, which is not built; use dual or f2b"
-        )));
     }
     if !supported(method) {
         return Err(Error::unsupported(format!(

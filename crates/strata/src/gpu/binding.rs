@@ -13,8 +13,6 @@ pub enum Slot {
     TextureFloat,
     /// `texture_multisampled_2d<f32>` read with `textureLoad` (`--msaa` targets).
     TextureFloatMultisampled,
-    /// `texture_2d_array<f32>` read with `textureLoad`.
-    TextureFloatArray,
     /// `texture_2d<u32>` read with `textureLoad`.
     TextureUint,
     /// `texture_depth_2d` read with `textureLoad`.
@@ -26,11 +24,7 @@ fn entry(binding: u32, slot: Slot) -> wgpu::BindGroupLayoutEntry {
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;
     let texture = |sample_type| wgpu::BindingType::Texture {
         sample_type,
-        view_dimension: if slot == Slot::TextureFloatArray {
-            wgpu::TextureViewDimension::D2Array
-        } else {
-            wgpu::TextureViewDimension::D2
-        },
+        view_dimension: wgpu::TextureViewDimension::D2,
         multisampled: slot == Slot::TextureFloatMultisampled,
     };
     let (visibility, ty) = match slot {
@@ -58,7 +52,7 @@ fn entry(binding: u32, slot: Slot) -> wgpu::BindGroupLayoutEntry {
                 min_binding_size: None,
             },
         ),
-        Slot::TextureFloat | Slot::TextureFloatMultisampled | Slot::TextureFloatArray => (
+        Slot::TextureFloat | Slot::TextureFloatMultisampled => (
             wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE,
             texture(wgpu::TextureSampleType::Float { filterable: false }),
         ),

@@ -179,30 +179,17 @@ impl Gpu {
     pub fn texture_2d_samples(
         &self,
         label: &str,
-        size: (u32, u32),
-        format: wgpu::TextureFormat,
-        usage: wgpu::TextureUsages,
-        samples: u32,
-    ) -> wgpu::Texture {
-        self.texture_2d_array(label, size, format, usage, (samples, 1))
-    }
-
-    /// A 2D texture of one mip level with `(samples, layers)`: samples per pixel and array
-    /// layers.
-    pub fn texture_2d_array(
-        &self,
-        label: &str,
         (width, height): (u32, u32),
         format: wgpu::TextureFormat,
         usage: wgpu::TextureUsages,
-        (samples, layers): (u32, u32),
+        samples: u32,
     ) -> wgpu::Texture {
         self.device.create_texture(&wgpu::TextureDescriptor {
             label: Some(label),
             size: wgpu::Extent3d {
                 width,
                 height,
-                depth_or_array_layers: layers,
+                depth_or_array_layers: 1,
             },
             mip_level_count: 1,
             sample_count: samples,
@@ -318,6 +305,12 @@ impl ResourceCache {
         self.buffers.get(label)
     }
 
+    /// Drops the buffer or texture made under `label`, if any (a frame that needs less).
+    pub fn forget(&mut self, label: &str) {
+        self.buffers.remove(label);
+        self.textures.remove(label);
+    }
+
     /// A uniform buffer holding `contents`, written on every call.
     pub fn uniform(&mut self, gpu: &Gpu, label: &'static str, contents: &[u8]) -> wgpu::Buffer {
         let size = contents.len() as u64;
@@ -367,35 +360,21 @@ impl ResourceCache {
         &mut self,
         gpu: &Gpu,
         label: &'static str,
-        size: (u32, u32),
-        format: wgpu::TextureFormat,
-        usage: wgpu::TextureUsages,
-        samples: u32,
-    ) -> wgpu::Texture {
-        self.texture_array(gpu, label, size, format, usage, (samples, 1))
-    }
-
-    /// [`ResourceCache::texture`] with `(samples, layers)` (see [`Gpu::texture_2d_array`]).
-    pub fn texture_array(
-        &mut self,
-        gpu: &Gpu,
-        label: &'static str,
         (width, height): (u32, u32),
         format: wgpu::TextureFormat,
         usage: wgpu::TextureUsages,
-        (samples, layers): (u32, u32),
+        samples: u32,
     ) -> wgpu::Texture {
         if let Some(t) = self.textures.get(label) {
             if (t.width(), t.height()) == (width, height)
                 && t.format() == format
                 && t.usage() == usage
                 && t.sample_count() == samples
-                && t.depth_or_array_layers() == layers
             {
                 return t.clone();
             }
         }
-        let t = gpu.texture_2d_array(label, (width, height), format, usage, (samples, layers));
+        let t = gpu.texture_2d_samples(label, (width, height), format, usage, samples);
         self.textures.insert(label, t.clone());
         t
     }

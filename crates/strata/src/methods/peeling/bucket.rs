@@ -4,15 +4,16 @@
 //!
 //! Passes:
 //! 1. `bounds` — geometry pass into an Rg32Float target with MAX blending of (−z, z): each
-//!    pixel's nearest and farthest depth (and, by a storage atomic, its fragment count).
+//!    pixel's nearest and farthest depth (and, by a storage atomic, its fragment count). With
+//!    `--msaa` the target is multisampled and a `reduce` screen pass joins the samples' bounds.
 //! 2. `histogram` (only with `--buckets adaptive`) — geometry pass: each fragment sets the bit of
 //!    its part of the pixel's range split into 1024 equal parts (one storage atomicOr: the paper
 //!    ORs bits into render targets with logic-op blending, which WebGPU lacks).
-//! 3. `sort` — geometry pass into ⌈k/4⌉ layers of an Rgba32Float array texture with MAX
-//!    blending. The pixel's range is split into B = k/2 buckets; a fragment of bucket b writes −z
-//!    to slot 2b and z to slot 2b + 1, nothing (−2) elsewhere, so every bucket ends with its
-//!    nearest and farthest depth: dual peeling inside each bucket (the paper's scheme against
-//!    collisions), every bucket at once.
+//! 3. `sort` — geometry pass into ⌈k/4⌉ Rgba32Float targets with MAX blending. The pixel's
+//!    range is split into B = k/2 buckets; a fragment of bucket b writes −z to slot 2b and z to
+//!    slot 2b + 1, nothing (−2) elsewhere, so every bucket ends with its nearest and farthest
+//!    depth: dual peeling inside each bucket (the paper's scheme against collisions), every
+//!    bucket at once.
 //! 4. `color` — geometry pass (storage only): the fragment whose depth is its bucket's nearest
 //!    (farthest) claims that slot with one atomicOr on the pixel's claim word and stores its
 //!    shaded record there. The paper's targets hold depths only; its attributes come from a
@@ -23,23 +24,30 @@
 //! range; **adaptive** (the paper's second scheme) — the occupied parts of the histogram, in
 //! depth order, share the B buckets (bucket = rank · B / occupied parts), so with at most B
 //! occupied parts only fragments within one part (1/1024 of the range) can collide, and empty
-//! depth costs no bucket. Either way the routing is exact integer arithmetic on depths in fixed
-//! point with 31 fraction bits (`bucket_common.wgsl`), which the CPU twin ([`select`]) repeats.
+//! depth costs no bucket. Either way the routing is exact integer arithmetic on depths clamped
+//! to [0, 1] in fixed point with 31 fraction bits (`bucket_common.wgsl`), which the CPU twin
+//! ([`select`], [`select_samples`]) repeats.
 //!
 //! **Approximate by design**: a bucket keeps two fragments, so a third routed to it — fragments
 //! clustered in depth — is lost. Losses are counted in `fragments_dropped`; a frame without
 //! drops equals the reference. Fragments at exactly one depth share a slot: two that are both a
 //! bucket's nearest and farthest keep both slots (and composite in primitive order); otherwise
-//! the first to claim the slot keeps it (a race on a GPU) and the others are dropped. The paper's
-//! multi-pass refinement (peeling again behind what collided) is not built.
+//! the first to claim the slot keeps it and the others are dropped — a race on a GPU, so which
+//! of three coplanar faces shows may change from frame to frame (the count does not). The
+//! paper's multi-pass refinement (peeling again behind what collided) is not built.
 //!
-//! Memory per pixel: 8 B bounds, 16·⌈k/4⌉ B bucket targets, 4 B count, 4 B claims and 16·k B
-//! of records, + 128 B of histogram with the adaptive split; plus a 16-byte uniform. `--k` is
+//! `--msaa S`: the bounds and bucket targets are multisampled, so MAX blending gives every
+//! sample its own buckets' nearest and farthest; the routing stays the pixel's (a fragment has
+//! one bucket at all its samples); claims and records are per sample entry, and the resolve
+//! composites each sample, averages, and counts a fragment kept at several samples once.
+//!
+//! Memory per pixel, S samples: 8 B bounds (+8·S B of sample bounds with S > 1), 4 B count,
+//! 128 B of histogram with the adaptive split, and per sample 16·⌈k/4⌉ B of bucket targets,
+//! 4 B of claims and 16·k B of records; plus a 16-byte uniform ([`frame_bytes`]). `--k` is
 //! even, 2 ≤ k ≤ 32 (the claim word), and at most 4 × the targets the device blends at once:
 //! k/4 ≤ `max_color_attachments` and 16·⌈k/4⌉ ≤ `max_color_attachment_bytes_per_sample` (32
 //! layers with 8 targets, the paper's figure; WebGPU's defaults allow 8). Needs
-//! FLOAT32_BLENDABLE. Single-sampled only: `--msaa`, `--raster compute` and `--temporal` are
-//! refused.
+//! FLOAT32_BLENDABLE. `--raster compute` and `--temporal` are refused.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -47,8 +55,8 @@ use crate::error::{Error, Result};
 use crate::frame::{BucketSplit, FrameContext, Recorded, RenderOptions, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::passes::{
-    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
-    storage_geometry_pass, GeometryStage, NullTarget,
+    capture_pipeline_with, color_geometry_pass, color_pass_drawing, compute_pipeline,
+    dispatch_pixels, screen_pipeline, storage_geometry_pass, GeometryStage, NullTarget,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::kbuffer::DEFAULT_K;
@@ -84,13 +92,16 @@ pub const SUBINTERVALS: u32 = 1024;
 pub const HISTOGRAM_BYTES: u64 = SUBINTERVALS as u64 / 8;
 
 /// Bytes a frame allocates at `slots` slots over `pixels` pixels (module docs).
-pub fn frame_bytes(pixels: u64, slots: u32, split: BucketSplit) -> u64 {
+pub fn frame_bytes(pixels: u64, slots: u32, split: BucketSplit, samples: u32) -> u64 {
     let histogram = match split {
         BucketSplit::Uniform => 0,
         BucketSplit::Adaptive => HISTOGRAM_BYTES,
     };
-    let slots = slots as u64;
-    pixels * (8 + 16 * target_layers(slots as u32) as u64 + 8 + 16 * slots + histogram)
+    let samples = samples as u64;
+    // Per sample: bucket targets, claim word and records; with --msaa, the samples' bounds.
+    let per_sample = 16 * target_layers(slots) as u64 + 4 + 16 * slots as u64;
+    let sample_bounds = if samples > 1 { 8 * samples } else { 0 };
+    pixels * (8 + 4 + histogram + sample_bounds + samples * per_sample)
         + std::mem::size_of::<BucketParams>() as u64
 }
 
@@ -141,11 +152,15 @@ pub fn sort_stage(layers: u32) -> String {
 }
 
 /// The bucket-depth-peeling stages besides the generated sort (for validation in tests).
-pub fn stages() -> [(&'static str, String); 4] {
+pub fn stages() -> [(&'static str, String); 5] {
     [
         (
             "bucket.bounds",
             [COMMON, include_str!("bucket_bounds.wgsl")].join("\n"),
+        ),
+        (
+            "bucket.reduce",
+            [COMMON, include_str!("bucket_reduce.wgsl")].join("\n"),
         ),
         (
             "bucket.histogram",
@@ -162,9 +177,10 @@ pub fn stages() -> [(&'static str, String); 4] {
     ]
 }
 
-/// Fixed point with 31 fraction bits of a window depth (`depth_fixed` in WGSL).
+/// Fixed point with 31 fraction bits of a window depth, clamped to [0, 1] (`depth_fixed` in
+/// WGSL).
 fn depth_fixed(z: f32) -> u64 {
-    (z * 2147483648.0) as u32 as u64
+    (z.clamp(0.0, 1.0) * 2147483648.0) as u32 as u64
 }
 
 /// The part of `parts` equal parts of [lo, hi] (fixed point) that `q` falls in (`bucket_of`).
@@ -177,6 +193,24 @@ fn part_of(q: u64, lo: u64, hi: u64, parts: u64) -> u64 {
 /// given `slots` slots and the split. Depths are visited in the given order, which decides only
 /// between fragments at exactly equal depth (on the GPU, whichever claims first).
 pub fn select(depths: &[f32], slots: u32, split: BucketSplit) -> Vec<bool> {
+    let everywhere = vec![1u32; depths.len()];
+    select_samples(depths, &everywhere, 1, slots, split)
+        .into_iter()
+        .map(|kept| kept != 0)
+        .collect()
+}
+
+/// [`select`] with `--msaa`: each fragment covers the samples of its mask in `coverage`; it is
+/// routed over all the pixel's fragments (one bucket at every sample) and claims its slot at
+/// each sample it covers among that sample's fragments. Returns, per fragment, the mask of the
+/// samples that kept it.
+pub fn select_samples(
+    depths: &[f32],
+    coverage: &[u32],
+    samples: u32,
+    slots: u32,
+    split: BucketSplit,
+) -> Vec<u32> {
     let buckets = (slots / 2).max(1) as u64;
     let Some(nearest) = depths.iter().copied().reduce(f32::min) else {
         return Vec::new();
@@ -189,42 +223,53 @@ pub fn select(depths: &[f32], slots: u32, split: BucketSplit) -> Vec<bool> {
         occupied[part_of(depth_fixed(z), lo, hi, parts) as usize] = true;
     }
     let total = occupied.iter().filter(|o| **o).count() as u64;
-    let bucket = |z: f32| -> usize {
-        let q = depth_fixed(z);
-        match split {
-            BucketSplit::Uniform => part_of(q, lo, hi, buckets) as usize,
-            BucketSplit::Adaptive => {
-                let part = part_of(q, lo, hi, parts) as usize;
-                let below = occupied[..part].iter().filter(|o| **o).count() as u64;
-                (below * buckets / total).min(buckets - 1) as usize
-            }
-        }
-    };
-    let mut bounds = vec![(f32::INFINITY, f32::NEG_INFINITY); buckets as usize];
-    for &z in depths {
-        let b = &mut bounds[bucket(z)];
-        *b = (b.0.min(z), b.1.max(z));
-    }
-    let mut claimed = vec![[false; 2]; buckets as usize];
-    depths
+    let bucket: Vec<usize> = depths
         .iter()
         .map(|&z| {
-            let b = bucket(z);
+            let q = depth_fixed(z);
+            match split {
+                BucketSplit::Uniform => part_of(q, lo, hi, buckets) as usize,
+                BucketSplit::Adaptive => {
+                    let part = part_of(q, lo, hi, parts) as usize;
+                    let below = occupied[..part].iter().filter(|o| **o).count() as u64;
+                    (below * buckets / total).min(buckets - 1) as usize
+                }
+            }
+        })
+        .collect();
+    let mut kept = vec![0u32; depths.len()];
+    for s in 0..samples {
+        let covers = |i: usize| coverage[i] >> s & 1 == 1;
+        let mut bounds = vec![(f32::INFINITY, f32::NEG_INFINITY); buckets as usize];
+        for (i, &z) in depths.iter().enumerate().filter(|(i, _)| covers(*i)) {
+            let b = &mut bounds[bucket[i]];
+            *b = (b.0.min(z), b.1.max(z));
+        }
+        let mut claimed = vec![[false; 2]; buckets as usize];
+        for (i, &z) in depths.iter().enumerate().filter(|(i, _)| covers(*i)) {
+            let b = bucket[i];
             let (near, far) = bounds[b];
             let mut take = |end: usize| !std::mem::replace(&mut claimed[b][end], true);
-            (z == near && take(0)) || (z == far && take(1))
-        })
-        .collect()
+            if (z == near && take(0)) || (z == far && take(1)) {
+                kept[i] |= 1 << s;
+            }
+        }
+    }
+    kept
 }
 
 pub struct Bucket {
     bounds_layout: wgpu::BindGroupLayout,
+    reduce_layout: wgpu::BindGroupLayout,
     sort_layout: wgpu::BindGroupLayout,
     color_layout: wgpu::BindGroupLayout,
     resolve_layout: wgpu::BindGroupLayout,
     histogram_layout: wgpu::BindGroupLayout,
     frame_layout: wgpu::BindGroupLayout,
+    samples: u32,
     bounds: wgpu::RenderPipeline,
+    /// `--msaa`: the pass that joins the samples' bounds into the pixel's.
+    reduce: Option<wgpu::RenderPipeline>,
     /// `--buckets adaptive`'s histogram pass.
     histogram: GeometryStage,
     /// The sort pipeline and the target layers it was built for.
@@ -234,6 +279,22 @@ pub struct Bucket {
     null_target: Option<NullTarget>,
     cache: ResourceCache,
 }
+
+/// The bucket target layers' labels (one texture each: multisampled arrays are not core
+/// WebGPU).
+const LAYER_LABELS: [&str; 8] = [
+    "strata.bucket.layer0",
+    "strata.bucket.layer1",
+    "strata.bucket.layer2",
+    "strata.bucket.layer3",
+    "strata.bucket.layer4",
+    "strata.bucket.layer5",
+    "strata.bucket.layer6",
+    "strata.bucket.layer7",
+];
+
+/// The color pass's first layer binding (bucket_color.wgsl).
+const FIRST_LAYER_BINDING: u32 = 6;
 
 fn blend_max() -> wgpu::BlendState {
     let max = wgpu::BlendComponent {
@@ -255,6 +316,19 @@ fn max_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     })
 }
 
+/// The color stage with its layer textures multisampled at `samples` > 1.
+fn color_stage_for(source: &str, samples: u32) -> String {
+    if samples == 1 {
+        return source.to_string();
+    }
+    (0..LAYER_LABELS.len()).fold(source.to_string(), |s, i| {
+        s.replace(
+            &format!("var layer{i}: texture_2d<f32>"),
+            &format!("var layer{i}: texture_multisampled_2d<f32>"),
+        )
+    })
+}
+
 impl Bucket {
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Bucket> {
         if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
@@ -264,10 +338,21 @@ impl Bucket {
             )));
         }
         let device = &gpu.device;
+        let samples = scene.samples;
+        let layer_slot = if samples > 1 {
+            Slot::TextureFloatMultisampled
+        } else {
+            Slot::TextureFloat
+        };
         let bounds_layout = binding::layout(
             device,
             "strata.bucket.bounds.layout",
             &[Slot::Uniform, Slot::StorageRw],
+        );
+        let reduce_layout = binding::layout_at(
+            device,
+            "strata.bucket.reduce.layout",
+            &[(1, Slot::TextureFloatMultisampled)],
         );
         // The histogram (binding 5) is read wherever a fragment is routed.
         let sort_layout = binding::layout_at(
@@ -279,18 +364,16 @@ impl Bucket {
                 (5, Slot::Storage),
             ],
         );
-        let color_layout = binding::layout(
-            device,
-            "strata.bucket.color.layout",
-            &[
-                Slot::Uniform,
-                Slot::TextureFloat,
-                Slot::TextureFloatArray,
-                Slot::StorageRw,
-                Slot::StorageRw,
-                Slot::Storage,
-            ],
-        );
+        let mut color_slots = vec![
+            (0, Slot::Uniform),
+            (1, Slot::TextureFloat),
+            (3, Slot::StorageRw),
+            (4, Slot::StorageRw),
+            (5, Slot::Storage),
+        ];
+        color_slots
+            .extend((0..LAYER_LABELS.len() as u32).map(|i| (FIRST_LAYER_BINDING + i, layer_slot)));
+        let color_layout = binding::layout_at(device, "strata.bucket.color.layout", &color_slots);
         let histogram_layout = binding::layout(
             device,
             "strata.bucket.histogram.layout",
@@ -307,17 +390,31 @@ impl Bucket {
                 Slot::StorageRw,
             ],
         );
-        let [bounds_stage, histogram_stage, color_stage, resolve_stage] = stages();
+        let [bounds_stage, reduce_stage, histogram_stage, color_stage, resolve_stage] = stages();
         let module = shader::module(device, "strata.bucket.bounds", &bounds_stage.1);
-        let bounds = capture_pipeline(
+        let bounds = capture_pipeline_with(
             gpu,
             "strata.bucket.bounds",
-            &module,
+            (&module, &module),
             "fs_bounds",
             &[&scene.frame_layout, &bounds_layout],
             &[max_target(BOUNDS_FORMAT)],
             None,
+            samples,
         );
+        let reduce = (samples > 1).then(|| {
+            let module = shader::module(device, "strata.bucket.reduce", &reduce_stage.1);
+            screen_pipeline(
+                gpu,
+                "strata.bucket.reduce",
+                &module,
+                ("vs_reduce", "fs_reduce"),
+                &[&scene.frame_layout, &reduce_layout],
+                &[Some(BOUNDS_FORMAT.into())],
+                None,
+                None,
+            )
+        });
         let module = shader::module(device, "strata.bucket.histogram", &histogram_stage.1);
         let histogram = crate::raster::storage_stage(
             gpu,
@@ -330,13 +427,14 @@ impl Bucket {
             },
             &[&scene.frame_layout, &histogram_layout],
         );
-        let module = shader::module(device, "strata.bucket.color", &color_stage.1);
+        let color_source = color_stage_for(&color_stage.1, samples);
+        let module = shader::module(device, "strata.bucket.color", &color_source);
         let color = crate::raster::storage_stage(
             gpu,
             scene,
             crate::raster::StageSpec {
                 label: "strata.bucket.color",
-                stage: &color_stage.1,
+                stage: &color_source,
                 modules: (&module, &module),
                 entry: "fs_color",
             },
@@ -352,12 +450,15 @@ impl Bucket {
         );
         Ok(Bucket {
             bounds_layout,
+            reduce_layout,
             sort_layout,
             color_layout,
             resolve_layout,
             histogram_layout,
             frame_layout: scene.frame_layout.clone(),
+            samples,
             bounds,
+            reduce,
             histogram,
             sort: None,
             color,
@@ -372,14 +473,15 @@ impl Bucket {
         if self.sort.as_ref().is_none_or(|(l, _)| *l != layers) {
             let module = shader::module(&gpu.device, "strata.bucket.sort", &sort_stage(layers));
             let targets: Vec<_> = (0..layers).map(|_| max_target(BUCKET_FORMAT)).collect();
-            let pipeline = capture_pipeline(
+            let pipeline = capture_pipeline_with(
                 gpu,
                 "strata.bucket.sort",
-                &module,
+                (&module, &module),
                 "fs_sort",
                 &[&self.frame_layout, &self.sort_layout],
                 &targets,
                 None,
+                self.samples,
             );
             self.sort = Some((layers, pipeline));
         }
@@ -395,7 +497,8 @@ impl Method for Bucket {
         let px = ctx.pixels();
         let split = ctx.options.buckets;
         let adaptive = split == BucketSplit::Adaptive;
-        let bytes = frame_bytes(px, slots, split);
+        let samples = self.samples;
+        let bytes = frame_bytes(px, slots, split, samples);
         ctx.check_budget(bytes)?;
         let size = ctx.size();
         let params = BucketParams {
@@ -412,47 +515,54 @@ impl Method for Bucket {
             .cache
             .texture(gpu, "strata.bucket.bounds", size, BOUNDS_FORMAT, usage)
             .create_view(&Default::default());
-        let buckets = self.cache.texture_array(
-            gpu,
-            "strata.bucket.buckets",
-            size,
-            BUCKET_FORMAT,
-            usage,
-            (1, layers),
-        );
-        let layer_views: Vec<wgpu::TextureView> = (0..layers)
-            .map(|layer| {
-                buckets.create_view(&wgpu::TextureViewDescriptor {
-                    label: Some("strata.bucket.buckets.layer"),
-                    dimension: Some(wgpu::TextureViewDimension::D2),
-                    base_array_layer: layer,
-                    array_layer_count: Some(1),
-                    ..Default::default()
-                })
+        // --msaa: the bounds pass writes each sample's, the reduce pass joins them into `bounds`.
+        // (--msaa is fixed per renderer, so nothing to forget here.)
+        let bounds_samples = (samples > 1).then(|| {
+            self.cache
+                .texture_samples(
+                    gpu,
+                    "strata.bucket.bounds_samples",
+                    size,
+                    BOUNDS_FORMAT,
+                    usage,
+                    samples,
+                )
+                .create_view(&Default::default())
+        });
+        for label in &LAYER_LABELS[layers as usize..] {
+            self.cache.forget(label);
+        }
+        let layer_views: Vec<wgpu::TextureView> = LAYER_LABELS[..layers as usize]
+            .iter()
+            .map(|label| {
+                self.cache
+                    .texture_samples(gpu, label, size, BUCKET_FORMAT, usage, samples)
+                    .create_view(&Default::default())
             })
             .collect();
-        let buckets_view = buckets.create_view(&wgpu::TextureViewDescriptor {
-            label: Some("strata.bucket.buckets.array"),
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
         let none = wgpu::BufferUsages::empty();
+        let entries = px * samples as u64;
         let counts = self
             .cache
             .storage(gpu, "strata.bucket.counts", px * 4, none)?;
         let claims = self
             .cache
-            .storage(gpu, "strata.bucket.claims", px * 4, none)?;
-        let records =
-            self.cache
-                .storage(gpu, "strata.bucket.records", px * 16 * slots as u64, none)?;
-        // A stub while the split is uniform (the shaders never read it then).
-        let histogram = self.cache.storage(
+            .storage(gpu, "strata.bucket.claims", entries * 4, none)?;
+        let records = self.cache.storage(
             gpu,
-            "strata.bucket.histogram",
-            if adaptive { px * HISTOGRAM_BYTES } else { 16 },
+            "strata.bucket.records",
+            entries * 16 * slots as u64,
             none,
         )?;
+        // Uniform: the counts stand in at the histogram's bindings, never read there (and never
+        // bound beside them).
+        let histogram = if adaptive {
+            self.cache
+                .storage(gpu, "strata.bucket.histogram", px * HISTOGRAM_BYTES, none)?
+        } else {
+            self.cache.forget("strata.bucket.histogram");
+            counts.clone()
+        };
         let device = &gpu.device;
         let histogram_group = binding::group(
             device,
@@ -470,6 +580,14 @@ impl Method for Bucket {
             &self.bounds_layout,
             &[params.as_entire_binding(), counts.as_entire_binding()],
         );
+        let reduce_group = bounds_samples.as_ref().map(|view| {
+            binding::group_at(
+                device,
+                "strata.bucket.reduce.group",
+                &self.reduce_layout,
+                &[(1, wgpu::BindingResource::TextureView(view))],
+            )
+        });
         let sort_group = binding::group_at(
             device,
             "strata.bucket.sort.group",
@@ -480,18 +598,26 @@ impl Method for Bucket {
                 (5, histogram.as_entire_binding()),
             ],
         );
-        let color_group = binding::group(
+        let mut color_entries = vec![
+            (0, params.as_entire_binding()),
+            (1, wgpu::BindingResource::TextureView(&bounds)),
+            (3, claims.as_entire_binding()),
+            (4, records.as_entire_binding()),
+            (5, histogram.as_entire_binding()),
+        ];
+        // Layers past the frame's repeat its last (never read: routing stays below k/4).
+        color_entries.extend((0..LAYER_LABELS.len()).map(|i| {
+            let view = &layer_views[i.min(layer_views.len() - 1)];
+            (
+                FIRST_LAYER_BINDING + i as u32,
+                wgpu::BindingResource::TextureView(view),
+            )
+        }));
+        let color_group = binding::group_at(
             device,
             "strata.bucket.color.group",
             &self.color_layout,
-            &[
-                params.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&bounds),
-                wgpu::BindingResource::TextureView(&buckets_view),
-                claims.as_entire_binding(),
-                records.as_entire_binding(),
-                histogram.as_entire_binding(),
-            ],
+            &color_entries,
         );
         let resolve_group = binding::group(
             device,
@@ -522,14 +648,24 @@ impl Method for Bucket {
             "bounds",
             &self.bounds,
             &[frame_group, &bounds_group],
-            &[(&bounds, nothing)],
+            &[(bounds_samples.as_ref().unwrap_or(&bounds), nothing)],
         );
+        if let (Some(reduce), Some(group)) = (&self.reduce, &reduce_group) {
+            color_pass_drawing(
+                ctx,
+                "reduce",
+                reduce,
+                &[frame_group, group],
+                &[(&bounds, nothing)],
+                &|pass| pass.draw(0..3, 0..1),
+            );
+        }
         NullTarget::ensure(
             &mut self.null_target,
             gpu,
             "strata.bucket.null_target",
             size,
-            1,
+            samples,
         );
         let null_target = self.null_target.as_ref().expect("made above");
         if adaptive {

@@ -1,21 +1,61 @@
-// Bucket depth peeling, pass 3 (color): a fragment whose depth is its bucket's nearest claims
-// slot 2b, one at its farthest slot 2b + 1 (one atomicOr on the pixel's claim word), and the
-// claimant stores its shaded record there. Everything else collided — a third fragment in a
-// bucket, or an equal depth whose slot was taken — and is counted by the resolve as dropped.
+// Bucket depth peeling, the color pass: at each sample it covers, a fragment whose depth is its
+// bucket's nearest claims slot 2b, one at its farthest slot 2b + 1 (one atomicOr on the sample
+// entry's claim word), and the claimant stores its shaded record there (shaded once, for every
+// sample). Everything else collided — a third fragment in a bucket, or an equal depth whose slot
+// was taken — and is counted by the resolve as dropped. The bucket targets are separate
+// textures, one per layer of four slots (multisampled 2D arrays are not core WebGPU), bound at
+// 6..13 (unused ones repeat the last) and picked by `bucket_pair`.
 
 @group(1) @binding(1) var bounds: texture_2d<f32>;
-@group(1) @binding(2) var buckets: texture_2d_array<f32>;
 @group(1) @binding(3) var<storage, read_write> claims: array<atomic<u32>>;
 @group(1) @binding(4) var<storage, read_write> records: array<Fragment>;
+@group(1) @binding(6) var layer0: texture_2d<f32>;
+@group(1) @binding(7) var layer1: texture_2d<f32>;
+@group(1) @binding(8) var layer2: texture_2d<f32>;
+@group(1) @binding(9) var layer3: texture_2d<f32>;
+@group(1) @binding(10) var layer4: texture_2d<f32>;
+@group(1) @binding(11) var layer5: texture_2d<f32>;
+@group(1) @binding(12) var layer6: texture_2d<f32>;
+@group(1) @binding(13) var layer7: texture_2d<f32>;
 
-// Claims `slot` of pixel p; true for the one fragment that gets it.
-fn claim(p: u32, slot: u32) -> bool {
+// Sample s of target layer `layer` at `pixel` (the mip level, 0, when single-sampled).
+fn bucket_pair(layer: u32, pixel: vec2<u32>, s: u32) -> vec4<f32> {
+    switch layer {
+        case 0u: {
+            return textureLoad(layer0, pixel, s);
+        }
+        case 1u: {
+            return textureLoad(layer1, pixel, s);
+        }
+        case 2u: {
+            return textureLoad(layer2, pixel, s);
+        }
+        case 3u: {
+            return textureLoad(layer3, pixel, s);
+        }
+        case 4u: {
+            return textureLoad(layer4, pixel, s);
+        }
+        case 5u: {
+            return textureLoad(layer5, pixel, s);
+        }
+        case 6u: {
+            return textureLoad(layer6, pixel, s);
+        }
+        default: {
+            return textureLoad(layer7, pixel, s);
+        }
+    }
+}
+
+// Claims `slot` of sample entry e; true for the one fragment that gets it.
+fn claim(e: u32, slot: u32) -> bool {
     let bit = 1u << slot;
-    return (atomicOr(&claims[p], bit) & bit) == 0u;
+    return (atomicOr(&claims[e], bit) & bit) == 0u;
 }
 
 @fragment
-fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
@@ -24,16 +64,30 @@ fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     let z = v.position.z;
     let range = textureLoad(bounds, pixel, 0);
     let b = route(z, -range.x, range.y, p);
-    let pair = textureLoad(buckets, pixel, b / 2u, 0);
     let c = 2u * (b % 2u);
-    var slot = 2u * b;
-    // Two fragments at one depth that is both the bucket's nearest and farthest take a slot each.
-    var claimed = z == -pair[c] && claim(p, slot);
-    if !claimed && z == pair[c + 1u] {
-        slot += 1u;
-        claimed = claim(p, slot);
-    }
-    if claimed {
-        records[p * params.slots + slot] = scene_fragment(v, front_facing);
+    let samples = covered_samples(mask);
+    var record: Fragment;
+    var shaded = false;
+    for (var s = 0u; s < samples_per_pixel(); s++) {
+        if ((samples >> s) & 1u) == 0u {
+            continue;
+        }
+        let e = sample_entry(p, s);
+        let pair = bucket_pair(b / 2u, pixel, s);
+        var slot = 2u * b;
+        // Two fragments at one depth that is both the bucket's nearest and farthest take a
+        // slot each.
+        var claimed = z == -pair[c] && claim(e, slot);
+        if !claimed && z == pair[c + 1u] {
+            slot += 1u;
+            claimed = claim(e, slot);
+        }
+        if claimed {
+            if !shaded {
+                record = scene_fragment_covering(v, front_facing, mask);
+                shaded = true;
+            }
+            records[e * params.slots + slot] = record;
+        }
     }
 }

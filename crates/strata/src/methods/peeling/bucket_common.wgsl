@@ -27,9 +27,29 @@ const MAX_BUCKETS: u32 = 16u;
 const SUBINTERVALS: u32 = 1024u;
 const HISTOGRAM_WORDS: u32 = 32u;
 
+// With --msaa, S sample entries per pixel, entry p·S + s, each with its own bucket targets'
+// samples, claims and records; the routing (bounds, histogram) is the pixel's, over all its
+// fragments, so a fragment has one bucket at every sample it covers. Single-sampled S = 1.
+fn samples_per_pixel() -> u32 {
+    return max(frame.coverage_bits, 1u);
+}
+
+fn sample_entry(p: u32, s: u32) -> u32 {
+    return p * samples_per_pixel() + s;
+}
+
+// The samples a fragment covering `mask` reaches (bit 0, the pixel, single-sampled).
+fn covered_samples(mask: u32) -> u32 {
+    if frame.coverage_bits == 0u {
+        return 1u;
+    }
+    return mask & ((1u << frame.coverage_bits) - 1u);
+}
+
 // Window depth in [0, 1] as fixed point: z · 2^31 is exact in f32, and the conversion truncates.
+// Clamped, because with --msaa a partly covered pixel's center depth may lie outside [0, 1].
 fn depth_fixed(z: f32) -> u32 {
-    return u32(z * 2147483648.0);
+    return u32(clamp(z, 0.0, 1.0) * 2147483648.0);
 }
 
 // The bucket of depth `z` in a pixel whose fragments span [nearest, farthest].

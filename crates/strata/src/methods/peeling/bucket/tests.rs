@@ -22,11 +22,13 @@ fn options(size: u32, k: u32) -> RenderOptions {
     }
 }
 
-/// The reference's fragments cut by the twin: each pixel keeps what [`select`] keeps (visited in
-/// depth-then-primitive order), composited over the background; and the fragments kept.
+/// The reference's fragments cut by the twin: each pixel keeps what [`select_samples`] keeps
+/// (visited in depth-then-primitive order), each sample composites what it kept over the
+/// background, and the samples are averaged; and the fragments some sample kept.
 fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage, u64) {
     let lists = crate::reference::fragments(scene, opts).unwrap();
     let translucency = opts.effect == Effect::Translucency;
+    let samples = opts.msaa.max(1);
     let mut kept_total = 0;
     let pixels = lists
         .iter()
@@ -34,16 +36,23 @@ fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage
         .map(|(i, list)| {
             let (x, y) = (i as u32 % opts.width, i as u32 / opts.width);
             let depths: Vec<f32> = list.iter().map(|f| f.depth as f32).collect();
-            let kept: Vec<_> = list
-                .iter()
-                .zip(select(&depths, slots, opts.buckets))
-                .filter(|(_, keep)| *keep)
-                .map(|(f, _)| *f)
-                .collect();
-            kept_total += kept.len() as u64;
+            let coverage: Vec<u32> = list.iter().map(|f| f.coverage as u32).collect();
+            let kept = select_samples(&depths, &coverage, samples, slots, opts.buckets);
             let bg = opts.background.at(x, y).map(|c| c as f64);
-            let c = crate::resolve::composite(&kept, bg, translucency);
-            [c[0] as f32, c[1] as f32, c[2] as f32, kept.len() as f32]
+            let mut sum = [0.0f64; 3];
+            for s in 0..samples {
+                let own: Vec<_> = list
+                    .iter()
+                    .zip(&kept)
+                    .filter(|(_, k)| *k >> s & 1 == 1)
+                    .map(|(f, _)| *f)
+                    .collect();
+                let c = crate::resolve::composite(&own, bg, translucency);
+                sum = std::array::from_fn(|j| sum[j] + c[j] / samples as f64);
+            }
+            let count = kept.iter().filter(|k| **k != 0).count();
+            kept_total += count as u64;
+            [sum[0] as f32, sum[1] as f32, sum[2] as f32, count as f32]
         })
         .collect();
     let image = LinearImage {
@@ -63,6 +72,9 @@ fn stages_validate() {
     for (label, src) in stages() {
         crate::gpu::shader::validate(label, &src);
     }
+    let color = &stages()[3];
+    assert_eq!(color.0, "bucket.color");
+    crate::gpu::shader::validate("bucket.color.msaa", &color_stage_for(&color.1, 4));
     for layers in 1..=8 {
         crate::gpu::shader::validate(&format!("bucket.sort{layers}"), &sort_stage(layers));
     }
@@ -70,7 +82,7 @@ fn stages_validate() {
 
 #[test]
 fn params_layout_matches_wgsl() {
-    let module = naga::front::wgsl::parse_str(COMMON).unwrap();
+    let module = naga::front::wgsl::parse_str(&crate::gpu::shader::with_shared(COMMON)).unwrap();
     let (_, ty) = module
         .types
         .iter()
@@ -145,6 +157,45 @@ fn bucket_keeps_what_its_cpu_twin_keeps() {
     }
 }
 
+/// --msaa 4: each sample keeps its own two fragments per bucket (the routing is the pixel's);
+/// the GPU keeps what the twin keeps, counted once per fragment, with both splits, and a
+/// half-covered edge pixel gets half its layer.
+#[test]
+fn multisampled_bucket_keeps_what_its_cpu_twin_keeps() {
+    for (spec, k, split) in [
+        ("builtin:spheres?layers=8", 4, BucketSplit::Uniform),
+        ("builtin:spheres?layers=8", 8, BucketSplit::Adaptive),
+        (
+            "builtin:nvpro?objects=48&subdiv=10&seed=4",
+            6,
+            BucketSplit::Uniform,
+        ),
+    ] {
+        let s = scene(spec);
+        let mut opts = options(48, k);
+        opts.msaa = 4;
+        opts.buckets = split;
+        let (expected, kept) = twin_picture(&s, &opts, k);
+        let (actual, stats) = render_gpu(&s, &opts, "bucket");
+        assert_close(
+            &format!("bucket-msaa-{}-k{k}", split.name()),
+            &actual,
+            &expected,
+            opts.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        let generated = stats.fragments_generated.unwrap();
+        let stored = stats.fragments_stored.unwrap();
+        let off = stored.abs_diff(kept) as f64 / generated as f64;
+        assert!(off <= MAX_FRACTION, "{spec}: kept {stored}, twin {kept}");
+        assert_eq!(
+            stats.bytes_allocated,
+            Some(frame_bytes(48 * 48, k, split, 4))
+        );
+    }
+}
+
 /// With enough buckets nothing collides, and the frame is the reference's exactly, translucency
 /// included.
 #[test]
@@ -180,7 +231,7 @@ fn the_adaptive_split_keeps_what_uniform_buckets_lose() {
     assert_eq!(adaptive.geometry_passes, Some(4));
     assert_eq!(
         adaptive.bytes_allocated,
-        Some(frame_bytes(64 * 64, 8, BucketSplit::Adaptive))
+        Some(frame_bytes(64 * 64, 8, BucketSplit::Adaptive, 1))
     );
     let expected = render_reference(&s, &opts);
     assert_close(
@@ -227,7 +278,7 @@ fn coincident_faces_keep_two_slots_and_drop_the_third() {
 }
 
 #[test]
-fn bad_k_msaa_and_compute_raster_are_refused() {
+fn bad_k_and_compute_raster_are_refused() {
     let s = scene("builtin:layers?n=4&coverage=1&order=front");
     let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &options(16, 16)).unwrap();
     assert!(r.render("bucket").is_ok());
@@ -239,12 +290,6 @@ fn bad_k_msaa_and_compute_raster_are_refused() {
             "{k}: {e}"
         );
     }
-    let mut opts = options(16, 8);
-    opts.msaa = 4;
-    let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
-        .and_then(|mut r| r.render("bucket").map(|_| ()))
-        .unwrap_err();
-    assert!(e.to_string().contains("--msaa"), "{e}");
     let mut opts = options(16, 8);
     opts.raster = crate::raster::Raster::Compute;
     let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
@@ -272,12 +317,17 @@ fn device_limits_bound_the_slots() {
     assert_eq!(target_layers(6), 2);
     assert_eq!(target_layers(32), 8);
     assert_eq!(
-        frame_bytes(10, 8, BucketSplit::Uniform),
+        frame_bytes(10, 8, BucketSplit::Uniform, 1),
         10 * (8 + 32 + 8 + 128) + 16
     );
     assert_eq!(
-        frame_bytes(10, 8, BucketSplit::Adaptive),
+        frame_bytes(10, 8, BucketSplit::Adaptive, 1),
         10 * (8 + 32 + 8 + 128 + 128) + 16
+    );
+    // --msaa 4: targets, claims and records per sample, the samples' bounds, one count.
+    assert_eq!(
+        frame_bytes(10, 8, BucketSplit::Uniform, 4),
+        10 * (8 + 4 + 4 * 8 + 4 * (32 + 4 + 128)) + 16
     );
 }
 
