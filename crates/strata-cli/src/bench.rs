@@ -760,7 +760,18 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
                         let (image, _) =
                             Renderer::new(gpu, &scene_data, &options)?.render(&run.method)?;
                         let picture = image.to_rgba8(effect);
-                        let truth = full.to_rgba8(effect);
+                        // A multisampled run against the reference at its sample count.
+                        let truth = if options.msaa > 1 {
+                            let exact = strata::RenderOptions {
+                                k: None,
+                                ..options.clone()
+                            };
+                            strata::reference::render(&scene_data, &exact)?
+                                .0
+                                .to_rgba8(effect)
+                        } else {
+                            full.to_rgba8(effect)
+                        };
                         let with_k = strata::reference::render(&scene_data, &options)?
                             .0
                             .to_rgba8(effect);

@@ -38,10 +38,12 @@
 //!
 //! `--msaa S`: the bounds and bucket targets are multisampled, so MAX blending gives every
 //! sample its own buckets' nearest and farthest; the routing stays the pixel's (a fragment has
-//! one bucket at all its samples); claims and records are per sample entry, and the resolve
-//! composites each sample, averages, and counts a fragment kept at several samples once.
+//! one bucket at all its samples); claims and records are per sample entry, a fragment that
+//! claimed at some sample counts itself kept once (claims are never taken back), and the
+//! resolve composites each sample and averages.
 //!
-//! Memory per pixel, S samples: 8 B bounds (+8·S B of sample bounds with S > 1), 4 B count,
+//! Memory per pixel, S samples: 8 B bounds (+8·S B of sample bounds and a 4 B kept count with
+//! S > 1), 4 B count,
 //! 128 B of histogram with the adaptive split, and per sample 16·⌈k/4⌉ B of bucket targets,
 //! 4 B of claims and 16·k B of records; plus a 16-byte uniform ([`frame_bytes`]). `--k` is
 //! even, 2 ≤ k ≤ 32 (the claim word), and at most 4 × the targets the device blends at once:
@@ -100,8 +102,9 @@ pub fn frame_bytes(pixels: u64, slots: u32, split: BucketSplit, samples: u32) ->
     let samples = samples as u64;
     // Per sample: bucket targets, claim word and records; with --msaa, the samples' bounds.
     let per_sample = 16 * target_layers(slots) as u64 + 4 + 16 * slots as u64;
-    let sample_bounds = if samples > 1 { 8 * samples } else { 0 };
-    pixels * (8 + 4 + histogram + sample_bounds + samples * per_sample)
+    // --msaa: the samples' bounds and the kept count.
+    let multisampled = if samples > 1 { 8 * samples + 4 } else { 0 };
+    pixels * (8 + 4 + histogram + multisampled + samples * per_sample)
         + std::mem::size_of::<BucketParams>() as u64
 }
 
@@ -545,9 +548,14 @@ impl Method for Bucket {
         let counts = self
             .cache
             .storage(gpu, "strata.bucket.counts", px * 4, none)?;
-        let claims = self
-            .cache
-            .storage(gpu, "strata.bucket.claims", entries * 4, none)?;
+        // --msaa: each pixel's kept count after the entries' claim words.
+        let kept_words = if samples > 1 { px } else { 0 };
+        let claims = self.cache.storage(
+            gpu,
+            "strata.bucket.claims",
+            (entries + kept_words) * 4,
+            none,
+        )?;
         let records = self.cache.storage(
             gpu,
             "strata.bucket.records",

@@ -2,7 +2,9 @@
 // bucket's nearest claims slot 2b, one at its farthest slot 2b + 1 (one atomicOr on the sample
 // entry's claim word), and the claimant stores its shaded record there (shaded once, for every
 // sample). Everything else collided — a third fragment in a bucket, or an equal depth whose slot
-// was taken — and is counted by the resolve as dropped. The bucket targets are separate
+// was taken — and is counted by the resolve as dropped. A claim is never taken back, so with
+// --msaa a fragment that claimed at some sample counts itself kept here, once (the word after
+// the claim words). The bucket targets are separate
 // textures, one per layer of four slots (multisampled 2D arrays are not core WebGPU), bound at
 // 6..13 (unused ones repeat the last) and picked by `bucket_pair`.
 
@@ -89,5 +91,8 @@ fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin
             }
             records[e * params.slots + slot] = record;
         }
+    }
+    if shaded && frame.coverage_bits != 0u {
+        atomicAdd(&claims[kept_word(p)], 1u);
     }
 }

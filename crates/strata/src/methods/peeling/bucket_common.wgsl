@@ -38,6 +38,11 @@ fn sample_entry(p: u32, s: u32) -> u32 {
     return p * samples_per_pixel() + s;
 }
 
+// --msaa: the word after the sample entries' claim words counting pixel p's kept fragments.
+fn kept_word(p: u32) -> u32 {
+    return frame.size.x * frame.size.y * samples_per_pixel() + p;
+}
+
 // The samples a fragment covering `mask` reaches (bit 0, the pixel, single-sampled).
 fn covered_samples(mask: u32) -> u32 {
     if frame.coverage_bits == 0u {

@@ -324,10 +324,10 @@ fn device_limits_bound_the_slots() {
         frame_bytes(10, 8, BucketSplit::Adaptive, 1),
         10 * (8 + 32 + 8 + 128 + 128) + 16
     );
-    // --msaa 4: targets, claims and records per sample, the samples' bounds, one count.
+    // --msaa 4: targets, claims and records per sample, the samples' bounds, two counts.
     assert_eq!(
         frame_bytes(10, 8, BucketSplit::Uniform, 4),
-        10 * (8 + 4 + 4 * 8 + 4 * (32 + 4 + 128)) + 16
+        10 * (8 + 4 + 4 * 8 + 4 + 4 * (32 + 4 + 128)) + 16
     );
 }
 
