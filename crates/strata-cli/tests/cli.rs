@@ -435,6 +435,12 @@ fn k_buffer_bad_options_are_one_line_and_exit_2() {
         "--k 300",
     );
     assert_bad_input(&["render", "--method", "f2b", "--layers", "0"], "--layers");
+    // bucket keeps two fragments per bucket: k is even.
+    assert_bad_input(&["render", "--method", "bucket", "--k", "7"], "--k 7");
+    assert_bad_input(
+        &["render", "--method", "bucket", "--buckets", "sideways"],
+        "--buckets",
+    );
     assert_bad_input(
         &["render", "--method", "kplus-array", "--tail", "keep"],
         "--tail",

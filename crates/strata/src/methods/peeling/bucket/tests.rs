@@ -63,6 +63,21 @@ fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage
     (image, kept_total)
 }
 
+/// Renders `bucket` and checks it against the full reference; its statistics.
+fn bucket_against_the_reference(name: &str, s: &Scene, opts: &RenderOptions) -> crate::FrameStats {
+    let (actual, stats) = render_gpu(s, opts, "bucket");
+    let expected = render_reference(s, opts);
+    assert_close(
+        name,
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    stats
+}
+
 fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap()
 }
@@ -203,17 +218,8 @@ fn without_collisions_bucket_equals_the_reference() {
     let s = scene("builtin:spheres?layers=8");
     let mut opts = options(64, 32);
     opts.effect = Effect::Translucency;
-    let (actual, stats) = render_gpu(&s, &opts, "bucket");
+    let stats = bucket_against_the_reference("bucket-exact", &s, &opts);
     assert_eq!(stats.fragments_dropped, Some(0));
-    let expected = render_reference(&s, &opts);
-    assert_close(
-        "bucket-exact",
-        &actual,
-        &expected,
-        opts.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
 }
 
 /// Nested shells crowd a pixel's fragments into part of its depth range: at k = 8 uniform
@@ -226,21 +232,12 @@ fn the_adaptive_split_keeps_what_uniform_buckets_lose() {
     let (_, uniform) = render_gpu(&s, &opts, "bucket");
     assert!(uniform.fragments_dropped.unwrap() > 0);
     opts.buckets = BucketSplit::Adaptive;
-    let (actual, adaptive) = render_gpu(&s, &opts, "bucket");
+    let adaptive = bucket_against_the_reference("bucket-adaptive", &s, &opts);
     assert_eq!(adaptive.fragments_dropped, Some(0));
     assert_eq!(adaptive.geometry_passes, Some(4));
     assert_eq!(
         adaptive.bytes_allocated,
         Some(frame_bytes(64 * 64, 8, BucketSplit::Adaptive, 1))
-    );
-    let expected = render_reference(&s, &opts);
-    assert_close(
-        "bucket-adaptive",
-        &actual,
-        &expected,
-        opts.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
     );
 }
 
@@ -261,17 +258,8 @@ fn coincident_faces_keep_two_slots_and_drop_the_third() {
     let mut s = scene("builtin:layers?n=4&coverage=1&order=front");
     s.objects[1].mesh.positions = s.objects[0].mesh.positions.clone();
     let opts = options(24, 8);
-    let (actual, stats) = render_gpu(&s, &opts, "bucket");
+    let stats = bucket_against_the_reference("bucket-coincident", &s, &opts);
     assert_eq!(stats.fragments_dropped, Some(0));
-    let expected = render_reference(&s, &opts);
-    assert_close(
-        "bucket-coincident",
-        &actual,
-        &expected,
-        opts.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
     s.objects[2].mesh.positions = s.objects[0].mesh.positions.clone();
     let (_, stats) = render_gpu(&s, &opts, "bucket");
     assert_eq!(stats.fragments_dropped, Some(24 * 24));
