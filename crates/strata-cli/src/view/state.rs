@@ -26,7 +26,7 @@ pub enum Opt {
     Budget,
     Tonemap,
     Deferred,
-    /// `--order`: every method but `sorted` (its own order).
+    /// `--order`: every method but `sorted` (its own order) and `f2b` (ties in draw order).
     Order,
     /// `--temporal`: the slot k-buffers that choose at capture time.
     Temporal,
@@ -85,7 +85,7 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         }
         Opt::Tonemap => matches!(pipeline, Some(PipelineArg::Forward | PipelineArg::Deferred)),
         Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
-        Opt::Order => method != Sorted,
+        Opt::Order => !matches!(method, Sorted | F2b),
         Opt::Temporal => strata::methods::kbuffer::temporal::takes(method),
         Opt::Msaa => strata::frame::msaa::supported(method),
     }

@@ -25,8 +25,9 @@
 //! plus 64 bytes per 1024 triangles; `scene` order 16 bytes per triangle. The centroids and
 //! index buffer are bound as storage, so a scene over the device's largest storage binding / 12
 //! triangles (11.1M at 128 MiB) is refused with `--order`. Limits: an application's draw
-//! callback or capture pass, `--raster compute` (which has no submission order) and `sorted`
-//! (which has its own) refuse it.
+//! callback or capture pass, `--raster compute` (which has no submission order), `sorted`
+//! (which has its own) and `f2b` (whose depth test keeps the first drawn of equal depths, so it
+//! peels in primitive order; `--order scene` it takes) refuse it.
 
 pub mod radix;
 

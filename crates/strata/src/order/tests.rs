@@ -193,14 +193,25 @@ fn exact_pictures_do_not_change_with_the_order() {
     // Equal depths order by primitive, so an order-independent method's picture is the
     // reference's whatever the submission order. Tolerance as in methods/tests.rs.
     let scene = scene("builtin:nvpro?objects=24&subdiv=8&seed=4");
-    for (method, k) in [("abuffer-ll", None), ("f2b", None), ("kplus-heap", Some(8))] {
+    // kpeel's k is its layers per pass: it keeps every fragment.
+    for (method, k, keeps) in [
+        ("abuffer-ll", None, None),
+        ("kpeel", Some(4), None),
+        ("kplus-heap", Some(8), Some(8)),
+    ] {
         let base = RenderOptions {
             width: 64,
             height: 64,
             k,
             ..Default::default()
         };
-        let expected = render_reference(&scene, &base);
+        let expected = render_reference(
+            &scene,
+            &RenderOptions {
+                k: keeps,
+                ..base.clone()
+            },
+        );
         for order in [Order::Back, Order::Random, Order::Front] {
             let options = RenderOptions {
                 order: Some(order),
@@ -237,6 +248,21 @@ fn orders_refuse_what_has_no_submission_order() {
         .unwrap_err()
         .to_string();
     assert!(sorted.contains("--order back"), "{sorted}");
+    // f2b settles equal depths by draw order, so it peels in primitive order only.
+    let f2b = crate::Renderer::new(gpu(), &s, &options)
+        .unwrap()
+        .render("f2b")
+        .unwrap_err()
+        .to_string();
+    assert!(f2b.contains("--order back"), "{f2b}");
+    let scene_order = RenderOptions {
+        order: Some(Order::Scene),
+        ..options.clone()
+    };
+    assert!(crate::Renderer::new(gpu(), &s, &scene_order)
+        .unwrap()
+        .render("f2b")
+        .is_ok());
     let compute = RenderOptions {
         raster: crate::raster::Raster::Compute,
         ..options.clone()

@@ -263,6 +263,10 @@ fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
 // own tail, and the pixel is the samples' average. A fragment counts as stored once however
 // many samples kept it: at its first covered sample that kept it, a sample having kept it when
 // that sample stored all its fragments or the fragment is not behind its farthest stored one.
+// That inference holds where each sample's storage is exact (its k nearest); where it is not —
+// a failed lock sent a fragment to the tail, kb-ll ran out of tries, kb raced — a fragment
+// missing from an earlier sample is counted at none, so `fragments_stored` runs low there
+// (frames already flagged by `lock_failures`, or by kb's design).
 fn resolve_sample_storage(p: u32) {
     let samples = kp.sample_slots;
     var sum = vec4<f32>(0.0);
@@ -309,8 +313,11 @@ fn resolve_sample_storage(p: u32) {
             }
         }
     }
+    // kb's unlocked insertions can leave one fragment in two slots: never more than arrived.
+    let generated = atomicLoad(&pixels[pixel_fragments_word(p)]);
+    kept = min(kept, generated);
     output[p] = Resolved(sum / f32(samples), kept, 0u, 0u, 0u);
-    report_pixel(atomicLoad(&pixels[pixel_fragments_word(p)]), kept);
+    report_pixel(generated, kept);
 }
 
 fn resolve_pixel(pixel: vec2<u32>) {

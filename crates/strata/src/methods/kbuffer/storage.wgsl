@@ -124,11 +124,14 @@ fn tail_add(p: u32, f: Fragment) {
     tail_add_wide(w + 8u, u32(-log(1.0 - a) * TAIL_SCALE));
 }
 
-// Test-and-set on the pixel's lock word. Callers loop with a bounded number of tries and do the
-// critical section inside the loop body, then break: a thread that fails keeps no lock, so lanes
-// of one SIMD group make progress with or without independent thread scheduling.
+// Test-and-test-and-set on the pixel's lock word. Callers loop with a bounded number of tries
+// and do the critical section inside the loop body, then break: a thread that fails keeps no
+// lock, so lanes of one SIMD group make progress with or without independent thread scheduling.
+// A try that sees the lock held fails on a load, without the exchange's write: spinners then
+// leave the cache line (shared by a pixel's sample words with --msaa) to the holder.
 fn try_lock(p: u32) -> bool {
-    return atomicExchange(&pixels[pixel_word(p, LOCK)], 1u) == 0u;
+    let word = pixel_word(p, LOCK);
+    return atomicLoad(&pixels[word]) == 0u && atomicExchange(&pixels[word], 1u) == 0u;
 }
 
 fn unlock(p: u32) {

@@ -12,6 +12,7 @@
 //! discarded and a LESS depth test keeps the nearest of the rest (the first drawn among equal
 //! depths, so ties follow primitive order exactly); the first one also counts every fragment of
 //! the pixel — and an *accumulate* compute pass that composites the layer; finish (compute).
+//! Because ties follow the draw order, f2b refuses `--order front|back|random`.
 //! N layers → N geometry passes. Memory per pixel: 32 B running composite, 8 B color, 4 B tag,
 //! 4 B depth copy, 4 B depth buffer, 4 B count = 56·W·H. Exact, including ties.
 //!
@@ -231,6 +232,16 @@ pub const F2B_MSAA_MAX_TRIANGLES: u64 = 1 << 23;
 
 impl Method for FrontToBack {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+        if let Some(order) = ctx
+            .options
+            .order
+            .filter(|o| *o != crate::order::Order::Scene)
+        {
+            return Err(Error::unsupported(format!(
+                "f2b takes no --order {}: its LESS depth test keeps the first fragment drawn at an equal depth, and its peel relies on that being the lowest primitive; dual and kpeel peel by (depth, primitive) in any order",
+                order.name()
+            )));
+        }
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
