@@ -341,6 +341,17 @@ fn select_examples() {
     assert_eq!(select(&clustered, 8, U), [true, false, true, true]);
 }
 
+/// A pixel's fragment depths from random 24-bit fractions, with their nearest and farthest.
+fn pixel_depths(raw: &[u32]) -> (Vec<f32>, f32, f32) {
+    let depths: Vec<f32> = raw
+        .iter()
+        .map(|&r| r as f32 / (1u32 << 24) as f32)
+        .collect();
+    let nearest = depths.iter().copied().fold(f32::INFINITY, f32::min);
+    let farthest = depths.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    (depths, nearest, farthest)
+}
+
 proptest! {
     /// Each bucket keeps at most two; the pixel's nearest and farthest always survive; a pixel
     /// whose buckets hold at most two each keeps everything; what survives of a bucket is its
@@ -350,13 +361,9 @@ proptest! {
         raw in prop::collection::vec(0u32..1 << 24, 1..40),
         half in 1u32..=16,
     ) {
-        let slots = 2 * half;
-        let depths: Vec<f32> = raw.iter().map(|&r| r as f32 / (1u32 << 24) as f32).collect();
-        let kept = select(&depths, slots, U);
-        let count = kept.iter().filter(|k| **k).count();
-        prop_assert!(count <= slots as usize);
-        let nearest = depths.iter().copied().fold(f32::INFINITY, f32::min);
-        let farthest = depths.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let (depths, nearest, farthest) = pixel_depths(&raw);
+        let kept = select(&depths, 2 * half, U);
+        prop_assert!(kept.iter().filter(|k| **k).count() <= 2 * half as usize);
         prop_assert!(depths.iter().zip(&kept).any(|(&z, &k)| k && z == nearest));
         prop_assert!(depths.iter().zip(&kept).any(|(&z, &k)| k && z == farthest));
         // Group by bucket with an independent float computation of the same fixed point.
@@ -382,9 +389,7 @@ proptest! {
             }
         }
     }
-}
 
-proptest! {
     /// The adaptive split gives the parts holding fragments buckets in depth order: with at
     /// most `buckets` occupied parts, a fragment is lost only to others in its own part (each
     /// part keeps min(2, its fragments)).
@@ -393,12 +398,9 @@ proptest! {
         raw in prop::collection::vec(0u32..1 << 24, 1..40),
         half in 1u32..=16,
     ) {
-        let slots = 2 * half;
-        let depths: Vec<f32> = raw.iter().map(|&r| r as f32 / (1u32 << 24) as f32).collect();
-        let kept = select(&depths, slots, A);
-        prop_assert!(kept.iter().filter(|k| **k).count() <= slots as usize);
-        let nearest = depths.iter().copied().fold(f32::INFINITY, f32::min);
-        let farthest = depths.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        let (depths, nearest, farthest) = pixel_depths(&raw);
+        let kept = select(&depths, 2 * half, A);
+        prop_assert!(kept.iter().filter(|k| **k).count() <= 2 * half as usize);
         let (lo, hi) = (depth_fixed(nearest), depth_fixed(farthest));
         let part = |z: f32| part_of(depth_fixed(z), lo, hi, SUBINTERVALS as u64);
         let mut parts: Vec<u64> = depths.iter().map(|&z| part(z)).collect();
