@@ -197,7 +197,7 @@ const K_METHODS: &[&str] = &[
 const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "approx-quality",
-        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit (4, 6, 8 moments), unsorted, sorted, kplus-heap k=8 and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
+        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit (4, 6, 8 moments), unsorted, sorted, kplus-heap k=8, bucket k=16 (uniform, adaptive) and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
         scenes: &[
             "builtin:nvpro?objects=1024&subdiv=16&seed=0",
             "builtin:dragon",
@@ -221,6 +221,8 @@ const EXPERIMENTS: &[Experiment] = &[
                 Run::plain("unsorted"),
                 Run::plain("sorted"),
                 Run::with_k("kplus-heap", 8, true),
+                Run::bucket(16, strata::BucketSplit::Uniform),
+                Run::bucket(16, strata::BucketSplit::Adaptive),
                 Run::plain("abuffer-ll"),
                 Run::with_k("kpeel", 8, true),
             ]);
