@@ -839,6 +839,17 @@ struct Display {
 impl Drop for Display {
     fn drop(&mut self) {
         if let Some(child) = &mut self.xvfb {
+            // SIGTERM lets Xvfb remove its lock and socket; a killed one leaves them, and a later
+            // Xvfb on that number would refuse to start while its stale socket looked alive.
+            let _ = Command::new("kill")
+                .args(["-TERM", &child.id().to_string()])
+                .status();
+            for _ in 0..100 {
+                if matches!(child.try_wait(), Ok(Some(_))) {
+                    return;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
             let _ = child.kill();
             let _ = child.wait();
         }
@@ -853,9 +864,18 @@ fn display() -> Display {
         };
     }
     static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let n = 100
-        + std::process::id() % 500 * 4
-        + NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    // A number no server (live or dead) holds: its lock and socket must not exist yet.
+    let taken = |n: u32| {
+        PathBuf::from(format!("/tmp/.X{n}-lock")).exists()
+            || PathBuf::from(format!("/tmp/.X11-unix/X{n}")).exists()
+    };
+    let n = (0..64)
+        .map(|_| {
+            100 + std::process::id() % 500 * 4
+                + NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        })
+        .find(|&n| !taken(n))
+        .expect("a free X display number");
     let name = format!(":{n}");
     let child = Command::new("Xvfb")
         .args([name.as_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
