@@ -63,6 +63,28 @@ fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage
     (image, kept_total)
 }
 
+/// Renders `bucket` and checks its picture and kept count against the twin's; its statistics.
+fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate::FrameStats {
+    let k = opts.k.expect("bucket tests give k");
+    let (expected, kept) = twin_picture(s, opts, k);
+    let (actual, stats) = render_gpu(s, opts, "bucket");
+    assert_close(
+        name,
+        &actual,
+        &expected,
+        opts.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    // Pixel centers on an edge within lavapipe's f32 rounding may differ (module docs of
+    // methods/tests.rs), so the kept count is compared within the same 0.1%.
+    let generated = stats.fragments_generated.unwrap();
+    let stored = stats.fragments_stored.unwrap();
+    let off = stored.abs_diff(kept) as f64 / generated as f64;
+    assert!(off <= MAX_FRACTION, "{name}: kept {stored}, twin {kept}");
+    stats
+}
+
 /// Renders `bucket` and checks it against the full reference; its statistics.
 fn bucket_against_the_reference(name: &str, s: &Scene, opts: &RenderOptions) -> crate::FrameStats {
     let (actual, stats) = render_gpu(s, opts, "bucket");
@@ -149,24 +171,11 @@ fn bucket_keeps_what_its_cpu_twin_keeps() {
         let s = scene(spec);
         let mut opts = options(size, k);
         opts.buckets = split;
-        let (expected, kept) = twin_picture(&s, &opts, k);
-        let (actual, stats) = render_gpu(&s, &opts, "bucket");
-        assert_close(
-            &format!("bucket-twin-k{k}"),
-            &actual,
-            &expected,
-            opts.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
+        let stats = bucket_against_its_twin(&format!("bucket-twin-k{k}"), &s, &opts);
+        assert!(
+            stats.fragments_dropped.unwrap() > 0,
+            "{spec}: the test wants collisions"
         );
-        let generated = stats.fragments_generated.unwrap();
-        let dropped = stats.fragments_dropped.unwrap();
-        assert!(dropped > 0, "{spec}: the test wants collisions");
-        // Pixel centers on an edge within lavapipe's f32 rounding may differ (module docs of
-        // methods/tests.rs), so the kept count is compared within the same 0.1%.
-        let stored = stats.fragments_stored.unwrap();
-        let off = stored.abs_diff(kept) as f64 / generated as f64;
-        assert!(off <= MAX_FRACTION, "{spec}: kept {stored}, twin {kept}");
         let passes = if split == BucketSplit::Adaptive { 4 } else { 3 };
         assert_eq!(stats.geometry_passes, Some(passes));
     }
@@ -190,20 +199,8 @@ fn multisampled_bucket_keeps_what_its_cpu_twin_keeps() {
         let mut opts = options(48, k);
         opts.msaa = 4;
         opts.buckets = split;
-        let (expected, kept) = twin_picture(&s, &opts, k);
-        let (actual, stats) = render_gpu(&s, &opts, "bucket");
-        assert_close(
-            &format!("bucket-msaa-{}-k{k}", split.name()),
-            &actual,
-            &expected,
-            opts.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
-        let generated = stats.fragments_generated.unwrap();
-        let stored = stats.fragments_stored.unwrap();
-        let off = stored.abs_diff(kept) as f64 / generated as f64;
-        assert!(off <= MAX_FRACTION, "{spec}: kept {stored}, twin {kept}");
+        let name = format!("bucket-msaa-{}-k{k}", split.name());
+        let stats = bucket_against_its_twin(&name, &s, &opts);
         assert_eq!(
             stats.bytes_allocated,
             Some(frame_bytes(48 * 48, k, split, 4))
