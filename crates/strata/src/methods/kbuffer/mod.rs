@@ -902,4 +902,4 @@ impl Method for SlotKBuffer {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

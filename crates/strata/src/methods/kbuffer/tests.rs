@@ -25,7 +25,7 @@ fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
 }
 
-fn options(size: u32, k: u32) -> RenderOptions {
+pub(crate) fn options(size: u32, k: u32) -> RenderOptions {
     RenderOptions {
         width: size,
         height: size,

@@ -13,14 +13,7 @@ use crate::testing::{assert_close, render_gpu, render_reference};
 const MAX_DIFF: u8 = 2;
 const MAX_FRACTION: f64 = 0.001;
 
-fn options(size: u32, k: u32) -> RenderOptions {
-    RenderOptions {
-        width: size,
-        height: size,
-        k: Some(k),
-        ..Default::default()
-    }
-}
+use crate::methods::kbuffer::tests::options;
 
 /// The reference's fragments cut by the twin: each pixel keeps what [`select_samples`] keeps
 /// (visited in depth-then-primitive order), each sample composites what it kept over the
