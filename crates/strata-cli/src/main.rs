@@ -246,7 +246,7 @@ pub struct MethodArgs {
     /// k-buffers cull fragments behind a full pixel's farthest before taking the lock.
     #[arg(long, value_enum, default_value = "on")]
     pub culling: Toggle,
-    /// Spin-lock tries per fragment for the locking k-buffers.
+    /// Spin-lock tries per fragment for the locking k-buffers (default 65536).
     #[arg(long)]
     pub max_tries: Option<u32>,
     /// Depth peeling (f2b, dual): peel this many layers (default: the scene's depth complexity,

@@ -21,5 +21,6 @@ pub(crate) mod testing;
 
 pub use error::{Error, Result};
 pub use frame::{BucketSplit, Effect, FrameStats, FrameTargets, RenderOptions, Tail, Weight};
+pub use methods::kbuffer::DEFAULT_MAX_TRIES;
 pub use methods::MethodId;
 pub use render::{FrameRecorder, LinearImage, Renderer};

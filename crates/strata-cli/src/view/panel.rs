@@ -336,7 +336,13 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
         m.culling = if culling { Toggle::On } else { Toggle::Off };
     });
     ui.add_enabled_ui(applies(Opt::MaxTries, id, pipeline), |ui| {
-        optional(ui, "max tries", &mut m.max_tries, 4096, 1..=1 << 20);
+        optional(
+            ui,
+            "max tries",
+            &mut m.max_tries,
+            strata::DEFAULT_MAX_TRIES,
+            1..=1 << 24,
+        );
     });
     ui.add_enabled_ui(applies(Opt::Layers, id, pipeline), |ui| {
         optional(ui, "layers", &mut m.layers, 8, 1..=1024);

@@ -179,7 +179,7 @@ pub struct RenderOptions {
     pub tail: Tail,
     /// k-buffers: cull fragments behind a full pixel's maximum before taking the lock.
     pub culling: bool,
-    /// k-buffers: spin-lock tries per fragment (default 4096).
+    /// k-buffers: spin-lock tries per fragment (default 65536).
     pub max_tries: Option<u32>,
     /// Depth peeling: a fixed number of layers per frame; by default the last frame's depth
     /// complexity.

@@ -47,12 +47,15 @@ fn capture_sorted(p: u32, f: Fragment, locking: u32) {
         sorted_insert(p, f);
         return;
     }
-    for (var t = 0u; t < kp.max_tries; t++) {
+    var waiting = true;
+    for (var t = 0u; t < kp.max_tries && waiting; t++) {
         if try_lock(p) {
             sorted_insert(p, f);
             unlock(p);
-            return;
+            waiting = false;
         }
     }
-    lock_failed(p, f);
+    if waiting {
+        lock_failed(p, f);
+    }
 }

@@ -129,7 +129,8 @@ fn insert_locked(p: u32, f: Fragment, variant: u32) {
         tail_add(p, f);
         return;
     }
-    for (var t = 0u; t < kp.max_tries; t++) {
+    var waiting = true;
+    for (var t = 0u; t < kp.max_tries && waiting; t++) {
         if try_lock(p) {
             let n = atomicLoad(&pixels[pixel_word(p, FILLED)]);
             if variant == VARIANT_ARRAY {
@@ -138,49 +139,56 @@ fn insert_locked(p: u32, f: Fragment, variant: u32) {
                 heap_insert(p, n, f);
             }
             unlock(p);
-            return;
+            waiting = false;
         }
     }
-    lock_failed(p, f);
+    if waiting {
+        lock_failed(p, f);
+    }
 }
 
 // Revised max-array: the first k fragments take slots from the seen counter without the lock
 // ("fast store") and publish themselves in FILLED; later fragments take the lock, wait (within
 // the try bound) until all k slots are published, find the maximum once (a published bound marks
-// it found), then replace as the max-array does.
+// it found), then replace as the max-array does. The fast stores come first in program order,
+// each finished before the slow path starts: a slow fragment never waits on a fast store of its
+// own SIMD group.
 fn capture_array_r(p: u32, f: Fragment) {
     let s = count_seen(p);
     if s < kp.k {
         store_slot(p, s, f);
         atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+    }
+    if s < kp.k {
         return;
     }
     if culled(p, f) {
         tail_add(p, f);
         return;
     }
-    for (var t = 0u; t < kp.max_tries; t++) {
+    var waiting = true;
+    for (var t = 0u; t < kp.max_tries && waiting; t++) {
         if try_lock(p) {
-            if atomicLoad(&pixels[pixel_word(p, FILLED)]) < kp.k {
-                // A fast store is still being written: let it finish.
-                unlock(p);
-                continue;
-            }
-            if atomicLoad(&pixels[pixel_word(p, BOUND)]) == 0u {
-                array_replace_max(p, load_slot(p, 0u));
-                publish_bound(p, load_slot(p, 0u).depth);
-            }
-            let m = load_slot(p, 0u);
-            if fragment_before(f, m) {
-                tail_add(p, m);
-                array_replace_max(p, f);
-                publish_bound(p, load_slot(p, 0u).depth);
-            } else {
-                tail_add(p, f);
+            // While a fast store is still being written, let it finish: try again.
+            if atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k {
+                if atomicLoad(&pixels[pixel_word(p, BOUND)]) == 0u {
+                    array_replace_max(p, load_slot(p, 0u));
+                    publish_bound(p, load_slot(p, 0u).depth);
+                }
+                let m = load_slot(p, 0u);
+                if fragment_before(f, m) {
+                    tail_add(p, m);
+                    array_replace_max(p, f);
+                    publish_bound(p, load_slot(p, 0u).depth);
+                } else {
+                    tail_add(p, f);
+                }
+                waiting = false;
             }
             unlock(p);
-            return;
         }
     }
-    lock_failed(p, f);
+    if waiting {
+        lock_failed(p, f);
+    }
 }

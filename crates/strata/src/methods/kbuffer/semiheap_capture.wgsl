@@ -46,31 +46,35 @@ fn semiheap_insert(p: u32, heap_size: u32, f: Fragment) {
     publish_bound(p, load_slot(p, 0u).depth);
 }
 
-// The capture step of kplus-semiheap.
+// The capture step of kplus-semiheap. The direct stores come first in program order, each
+// finished before the locked path starts (see capture_array_r).
 fn capture_semiheap(p: u32, f: Fragment) {
     let direct = kp.k - kp.aux;
     let s = count_seen(p);
     if s < direct {
         store_slot(p, kp.aux + s, f);
         atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+    }
+    if s < direct {
         return;
     }
     if culled(p, f) {
         tail_add(p, f);
         return;
     }
-    for (var t = 0u; t < kp.max_tries; t++) {
+    var waiting = true;
+    for (var t = 0u; t < kp.max_tries && waiting; t++) {
         if try_lock(p) {
             let filled = atomicLoad(&pixels[pixel_word(p, FILLED)]);
-            if (filled & 0xffffu) < direct {
-                // A direct store of this pixel is still being written: let it finish.
-                unlock(p);
-                continue;
+            // While a direct store of this pixel is still being written, let it finish.
+            if (filled & 0xffffu) >= direct {
+                semiheap_insert(p, filled >> 16u, f);
+                waiting = false;
             }
-            semiheap_insert(p, filled >> 16u, f);
             unlock(p);
-            return;
         }
     }
-    lock_failed(p, f);
+    if waiting {
+        lock_failed(p, f);
+    }
 }
