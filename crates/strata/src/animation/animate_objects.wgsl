@@ -6,9 +6,17 @@
 @group(0) @binding(2) var<storage, read_write> models: array<mat4x4<f32>>;
 @group(0) @binding(3) var<storage, read_write> to_previous: array<mat4x4<f32>>;
 
+// The angle less the nearest multiple of 2π, by the same f32 operations as `reduced_angle` on
+// the CPU (scene/animation.rs): GPU sin and cos lose accuracy on large arguments.
+fn reduced_angle(a: f32) -> f32 {
+    // The f32 values of the CPU's INV_TAU and TAU_LO.
+    let n = round(a * 0.15915493667125702);
+    return (a - n * 6.28125) - n * 0.0019353071693331003;
+}
+
 // Same expression, in the same order, as `Orbit::position` on the CPU.
 fn orbit_position(m: Motion, t: f32) -> vec3<f32> {
-    let a = m.angular_speed * t + m.phase;
+    let a = reduced_angle(m.angular_speed * t + m.phase);
     return m.centre + m.radius * (cos(a) * m.u + sin(a) * m.v);
 }
 

@@ -29,9 +29,23 @@ pub struct Orbit {
 
 impl Orbit {
     pub fn position(&self, t: f32) -> Vec3 {
-        let a = self.angular_speed * t + self.phase;
+        let a = reduced_angle(self.angular_speed * t + self.phase);
         self.centre + self.radius * (a.cos() * self.u + a.sin() * self.v)
     }
+}
+
+/// 2π in two parts: `TAU_HI` has 8 significant bits, so `n·TAU_HI` is exact for |n| < 2^16.
+const TAU_HI: f32 = 6.28125;
+const TAU_LO: f32 = (std::f64::consts::TAU - 6.28125) as f32;
+const INV_TAU: f32 = (1.0 / std::f64::consts::TAU) as f32;
+
+/// `a` less the nearest multiple of 2π, in [−π, π] (Cody–Waite). A GPU's sin and cos lose
+/// accuracy as their argument grows (an H100 placed balls 2.7e-6 from the CPU at frame 900,
+/// angles near 66 rad), so both sides reduce the angle first, by these same f32 operations
+/// (animate_objects.wgsl): the first subtraction is exact, and the second is small.
+pub fn reduced_angle(a: f32) -> f32 {
+    let n = (a * INV_TAU).round_ties_even();
+    (a - n * TAU_HI) - n * TAU_LO
 }
 
 /// How one object moves: its mesh in object space, scaled uniformly and carried along an orbit.
