@@ -1473,8 +1473,16 @@ fn bench_bandwidth_measures_rates_and_floors_and_the_report_shows_them() {
     let rows = v["rows"].as_array().unwrap();
     let methods = strata(&["methods", "--json"]);
     let catalogue: serde_json::Value = serde_json::from_slice(&methods.stdout).unwrap();
-    // Every GPU method has a row: measured against its floor, or skipped with the reason.
-    assert_eq!(rows.len(), catalogue.as_array().unwrap().len() - 1);
+    // Every GPU method has a row per scene (lavapipe runs one scene, a GPU two): measured
+    // against its floor, or skipped with the reason.
+    let mut scenes: Vec<&str> = rows.iter().map(|r| r["scene"].as_str().unwrap()).collect();
+    scenes.dedup();
+    let gpu_methods = catalogue.as_array().unwrap().len() - 1;
+    for scene in &scenes {
+        let of_scene = rows.iter().filter(|r| r["scene"] == *scene).count();
+        assert_eq!(of_scene, gpu_methods, "{scene}");
+    }
+    assert_eq!(rows.len(), scenes.len() * gpu_methods);
     for row in rows {
         if row["skipped"].is_string() {
             continue;
