@@ -786,3 +786,55 @@ fn semiheap_keeps_the_k_nearest_for_every_heap_size() {
     let e = r.render("kplus-semiheap").unwrap_err();
     assert!(e.to_string().contains("--heap-size 5"), "{e}");
 }
+
+/// The text from the `{` after `at` to its matching `}`.
+fn braced_block(source: &str, at: usize) -> &str {
+    let open = at + source[at..].find('{').expect("a block");
+    let mut depth = 0;
+    for (i, c) in source[open..].char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' => {
+                depth -= 1;
+                if depth == 0 {
+                    return &source[open..=open + i];
+                }
+            }
+            _ => {}
+        }
+    }
+    panic!("unbalanced braces after byte {at}");
+}
+
+/// A GPU shades a pixel's fragments in one SIMD group together, and lavapipe cannot show what
+/// goes wrong when a lock winner leaves its loop from inside the `if` that took the lock: on an
+/// H100 the losing lanes then ran their whole try budget first (kbuffer/mod.rs). Every lock loop
+/// keeps its critical section inside that `if` with no `return`, `break` or `continue`, and ends
+/// at its condition.
+#[test]
+fn lock_winners_leave_their_loop_only_through_its_condition() {
+    let mut loops = 0;
+    for (file, source) in [
+        ("kplus_capture.wgsl", super::KPLUS_CAPTURE_WGSL),
+        ("kb_capture.wgsl", super::KB_CAPTURE_WGSL),
+        ("semiheap_capture.wgsl", super::SEMIHEAP_CAPTURE_WGSL),
+    ] {
+        for (at, _) in source.match_indices("if try_lock(") {
+            let section = braced_block(source, at);
+            for exit in ["return", "break", "continue"] {
+                assert!(
+                    !section.contains(exit),
+                    "{file}: a critical section leaves through `{exit}`:\n{section}"
+                );
+            }
+            let before = &source[..at];
+            let head = before.rfind("for (").expect("a lock loop");
+            assert!(
+                before[head..].contains("&& waiting"),
+                "{file}: the lock loop does not end at its condition"
+            );
+            loops += 1;
+        }
+    }
+    assert_eq!(loops, 4, "every lock loop checked");
+}
