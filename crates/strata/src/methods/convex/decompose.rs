@@ -9,7 +9,17 @@
 //! Region growing takes the first unassigned triangle in primitive order as seed and adds
 //! edge-neighbours for which that condition still holds both ways (the new triangle's vertices
 //! below every plane of the part, the part's vertices below the new triangle's plane), breadth
-//! first, up to [`MAX_PART_TRIANGLES`] (which bounds the quadratic cost of the test).
+//! first, up to [`MAX_PART_TRIANGLES`] (which bounds the cost of the test).
+//!
+//! The preprocess runs on rayon and gives the same parts as that one sequential sweep: the
+//! mesh is welded and its edges matched by parallel sorts; edge-connected components grow
+//! apart (a seed is the first free triangle of its component, and parts are sorted by seed);
+//! a growing part keeps its planes and vertices in chunks of 32 (and blocks of 1024) reordered
+//! along a Morton curve, each with a bound — a box for points; a mean normal, spread and offset
+//! for planes — that passes a whole chunk only when it lies farther inside the tolerance than
+//! f32 rounding can reach, so every answer equals the per-item f32 test (a twin of the plain
+//! sweep checks it). Containment between large parts uses the same chunks, and a candidate
+//! plane stops scanning a group's points once they reach past both ends of the other group.
 //!
 //! Parts are ordered per frame through planes that separate them (see [`super::order`]). Two
 //! parts whose boxes are disjoint along an axis are separated by that axis; for the pairs whose
@@ -24,11 +34,12 @@
 
 use std::collections::HashMap;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-/// Region growing stops a part at this many triangles: the convexity test of each candidate
-/// costs the part's size, so parts are bounded to keep the preprocess near-linear.
+/// Region growing stops a part at this many triangles: the convexity test of a candidate grows
+/// with the part's size (less than linearly, through the chunk bounds), so parts are bounded to
+/// keep the preprocess near-linear.
 pub const MAX_PART_TRIANGLES: usize = 8192;
 
 /// Candidate triangle normals tried per side when separating two groups.
@@ -105,20 +116,38 @@ struct Mesh {
 }
 
 impl Mesh {
+    fn centroid(&self, face: u32) -> Vec3 {
+        let c = self.corners[face as usize];
+        (self.positions[c[0] as usize]
+            + self.positions[c[1] as usize]
+            + self.positions[c[2] as usize])
+            / 3.0
+    }
+
     fn new(triangles: &[[Vec3; 3]]) -> Mesh {
-        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
-        let mut positions = Vec::new();
-        let corners: Vec<[u32; 3]> = triangles
-            .iter()
-            .map(|t| {
-                t.map(|p| {
-                    *ids.entry(p.to_array().map(f32::to_bits))
-                        .or_insert_with(|| {
-                            positions.push(p);
-                            positions.len() as u32 - 1
-                        })
-                })
+        // Welding and edge matching by parallel sorts (hash maps of millions of keys were most
+        // of the preprocess); vertex numbers follow the sorted positions, which nothing
+        // downstream depends on.
+        let mut keyed: Vec<([u32; 3], u32)> = triangles
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(t, corners)| {
+                (0..3).map(move |i| (corners[i].to_array().map(f32::to_bits), (3 * t + i) as u32))
             })
+            .collect();
+        keyed.par_sort_unstable();
+        let mut vertex_of = vec![0u32; keyed.len()];
+        let mut positions = Vec::new();
+        for (i, &(key, corner)) in keyed.iter().enumerate() {
+            if i == 0 || keyed[i - 1].0 != key {
+                positions.push(Vec3::from_array(key.map(f32::from_bits)));
+            }
+            vertex_of[corner as usize] = positions.len() as u32 - 1;
+        }
+        drop(keyed);
+        let corners: Vec<[u32; 3]> = vertex_of
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
             .collect();
         let planes = triangles
             .par_iter()
@@ -131,32 +160,33 @@ impl Mesh {
                 })
             })
             .collect();
-        let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-        for (t, c) in corners.iter().enumerate() {
-            for i in 0..3 {
-                let (a, b) = (c[i], c[(i + 1) % 3]);
-                if a != b {
-                    edges
-                        .entry((a.min(b), a.max(b)))
-                        .or_default()
-                        .push(t as u32);
-                }
-            }
-        }
+        // (edge, face) for every edge of every face, sorted so faces sharing an edge are
+        // adjacent.
+        let mut edges: Vec<(u64, u32)> = corners
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(t, c)| {
+                (0..3).filter_map(move |i| {
+                    let (a, b) = (c[i], c[(i + 1) % 3]);
+                    (a != b).then(|| (((a.min(b) as u64) << 32) | a.max(b) as u64, t as u32))
+                })
+            })
+            .collect();
+        edges.par_sort_unstable();
         let mut neighbours = vec![Vec::new(); triangles.len()];
-        for sharing in edges.values() {
-            for &a in sharing {
-                for &b in sharing {
+        for sharing in edges.chunk_by(|x, y| x.0 == y.0) {
+            for &(_, a) in sharing {
+                for &(_, b) in sharing {
                     if a != b {
                         neighbours[a as usize].push(b);
                     }
                 }
             }
         }
-        for n in &mut neighbours {
+        neighbours.par_iter_mut().for_each(|n: &mut Vec<u32>| {
             n.sort_unstable();
             n.dedup();
-        }
+        });
         Mesh {
             positions,
             corners,
@@ -174,6 +204,320 @@ pub fn convex_parts(triangles: &[[Vec3; 3]], tolerance: f32) -> Vec<Vec<u32>> {
 }
 
 fn grow_parts(mesh: &Mesh, tolerance: f32) -> Vec<Vec<u32>> {
+    // Parts never cross between edge-connected components, and a component's seeds come in
+    // primitive order, so growing components apart and sorting the parts by seed gives the
+    // parts (and their order) of one sequential sweep.
+    let components = components(mesh);
+    let mut local_index = vec![0u32; mesh.corners.len()];
+    for faces in &components {
+        for (i, &f) in faces.iter().enumerate() {
+            local_index[f as usize] = i as u32;
+        }
+    }
+    let margin = rounding_margin(mesh);
+    let curve = Curve::new(mesh);
+    let mut parts: Vec<Vec<u32>> = components
+        .par_iter()
+        .flat_map_iter(|faces| grow_component(mesh, faces, &local_index, tolerance, margin, &curve))
+        .collect();
+    parts.sort_unstable_by_key(|p| p[0]);
+    parts
+}
+
+/// The mesh's edge-connected components, each its faces in primitive order, ordered by their
+/// first face.
+fn components(mesh: &Mesh) -> Vec<Vec<u32>> {
+    let n = mesh.corners.len();
+    let mut seen = vec![false; n];
+    let mut components = Vec::new();
+    let mut stack = Vec::new();
+    for first in 0..n {
+        if seen[first] {
+            continue;
+        }
+        seen[first] = true;
+        let mut faces = vec![first as u32];
+        stack.push(first as u32);
+        while let Some(f) = stack.pop() {
+            for &g in &mesh.neighbours[f as usize] {
+                if !std::mem::replace(&mut seen[g as usize], true) {
+                    faces.push(g);
+                    stack.push(g);
+                }
+            }
+        }
+        faces.sort_unstable();
+        components.push(faces);
+    }
+    components
+}
+
+/// Bounds the f32 rounding of `n·p − d` (unit n, |p| and |d| at most the mesh's radius from the
+/// origin): a chunk whose exact bound lies this far inside the tolerance passes in f32 too.
+fn rounding_margin(mesh: &Mesh) -> f64 {
+    let radius = mesh
+        .positions
+        .iter()
+        .map(|p| p.length() as f64)
+        .fold(0.0, f64::max);
+    16.0 * f32::EPSILON as f64 * radius
+}
+
+/// Region growing over one component (`faces` in primitive order; `local_index` maps a face to
+/// its place there): the parts, each listing its seed first.
+fn grow_component(
+    mesh: &Mesh,
+    faces: &[u32],
+    local_index: &[u32],
+    tolerance: f32,
+    margin: f64,
+    curve: &Curve,
+) -> Vec<Vec<u32>> {
+    const NONE: u32 = u32::MAX;
+    let local = |f: u32| local_index[f as usize] as usize;
+    let mut part_of = vec![NONE; faces.len()];
+    // Per-part stamps: which part a vertex belongs to, which part rejected a triangle.
+    let mut vertex_in: HashMap<u32, u32> = HashMap::new();
+    let mut rejected_by = vec![NONE; faces.len()];
+    let mut parts: Vec<Vec<u32>> = Vec::new();
+    let mut queue = std::collections::VecDeque::new();
+    for (seed_local, &seed) in faces.iter().enumerate() {
+        if part_of[seed_local] != NONE {
+            continue;
+        }
+        let id = parts.len() as u32;
+        part_of[seed_local] = id;
+        let mut members = vec![seed];
+        let Some(seed_plane) = mesh.planes[seed as usize] else {
+            // Without area a triangle has no plane to grow from: a part of its own.
+            parts.push(members);
+            continue;
+        };
+        let mut planes = PlaneChunks::default();
+        planes.push(seed_plane, mesh.centroid(seed), curve);
+        let mut vertices = PointChunks::default();
+        for &v in &mesh.corners[seed as usize] {
+            if vertex_in.insert(v, id) != Some(id) {
+                vertices.push(mesh.positions[v as usize], curve);
+            }
+        }
+        queue.clear();
+        queue.extend(mesh.neighbours[seed as usize].iter().copied());
+        while let Some(g) = queue.pop_front() {
+            if members.len() >= MAX_PART_TRIANGLES {
+                break;
+            }
+            let gl = local(g);
+            if part_of[gl] != NONE || rejected_by[gl] == id {
+                continue;
+            }
+            let Some((gn, gd)) = mesh.planes[g as usize] else {
+                continue;
+            };
+            let corners = mesh.corners[g as usize];
+            let new_below_part = corners.iter().all(|&v| {
+                vertex_in.get(&v) == Some(&id)
+                    || planes.holds(mesh.positions[v as usize], tolerance, margin)
+            });
+            if !new_below_part || !vertices.all_below(gn, gd, tolerance, margin) {
+                rejected_by[gl] = id;
+                continue;
+            }
+            part_of[gl] = id;
+            members.push(g);
+            planes.push((gn, gd), mesh.centroid(g), curve);
+            for &v in &corners {
+                if vertex_in.insert(v, id) != Some(id) {
+                    vertices.push(mesh.positions[v as usize], curve);
+                }
+            }
+            queue.extend(mesh.neighbours[g as usize].iter().copied());
+        }
+        parts.push(members);
+    }
+    parts
+}
+
+/// A growing part's items (vertices, planes) come in chunks of [`CHUNK`], and chunks in blocks
+/// of [`BLOCK`], each with a bound that answers the convexity test for all its items when they
+/// lie far inside; only the chunks near the candidate are tested item by item, which keeps a
+/// part's growth far below quadratic.
+const CHUNK: usize = 32;
+const BLOCK: usize = 32 * CHUNK;
+
+/// Morton order over the mesh's box, 10 bits per axis.
+struct Curve {
+    lo: Vec3,
+    scale: Vec3,
+}
+
+impl Curve {
+    fn new(mesh: &Mesh) -> Curve {
+        let (lo, hi) = bounds(mesh.positions.iter().copied());
+        Curve {
+            lo,
+            scale: 1023.0 / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE)),
+        }
+    }
+
+    fn key(&self, p: Vec3) -> u32 {
+        let spread = |v: f32| {
+            let mut x = (v.clamp(0.0, 1023.0) as u32) & 0x3ff;
+            x = (x | (x << 16)) & 0x030000ff;
+            x = (x | (x << 8)) & 0x0300f00f;
+            x = (x | (x << 4)) & 0x030c30c3;
+            (x | (x << 2)) & 0x09249249
+        };
+        let q = (p - self.lo) * self.scale;
+        spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2)
+    }
+}
+
+/// Items with a bound per full chunk and per full block.
+struct Bounded<T, B> {
+    items: Vec<T>,
+    chunks: Vec<B>,
+    blocks: Vec<B>,
+}
+
+impl<T, B> Default for Bounded<T, B> {
+    fn default() -> Self {
+        Bounded {
+            items: Vec::new(),
+            chunks: Vec::new(),
+            blocks: Vec::new(),
+        }
+    }
+}
+
+impl<T, B> Bounded<T, B> {
+    /// Adds `item`; a full block is reordered by `place` (a space-filling-curve key) before
+    /// its chunks' bounds are made again, so that each chunk is compact in space and its bound
+    /// tight. (Insertion order is breadth first: a chunk of it is a strip along the front.)
+    fn push(&mut self, item: T, bound: impl Fn(&[T]) -> B, place: impl Fn(&T) -> u32) {
+        self.items.push(item);
+        let n = self.items.len();
+        if n.is_multiple_of(BLOCK) {
+            let block = &mut self.items[n - BLOCK..];
+            block.sort_by_cached_key(place);
+            self.chunks.truncate(self.chunks.len() + 1 - BLOCK / CHUNK);
+            self.chunks
+                .extend(self.items[n - BLOCK..].chunks(CHUNK).map(&bound));
+            self.blocks.push(bound(&self.items[n - BLOCK..]));
+        } else if n.is_multiple_of(CHUNK) {
+            self.chunks.push(bound(&self.items[n - CHUNK..]));
+        }
+    }
+
+    /// Whether `test` holds for every item, where `inside(bound)` promises it for all the items
+    /// of a bound.
+    fn all(&self, inside: impl Fn(&B) -> bool, test: impl Fn(&T) -> bool) -> bool {
+        self.items.chunks(BLOCK).enumerate().all(|(j, block)| {
+            self.blocks.get(j).is_some_and(&inside)
+                || block.chunks(CHUNK).enumerate().all(|(i, chunk)| {
+                    self.chunks
+                        .get(j * (BLOCK / CHUNK) + i)
+                        .is_some_and(&inside)
+                        || chunk.iter().all(&test)
+                })
+        })
+    }
+}
+
+/// A part's vertices, with the centre and half-extent of each chunk's and block's box.
+#[derive(Default)]
+struct PointChunks(Bounded<Vec3, (DVec3, DVec3)>);
+
+impl PointChunks {
+    fn push(&mut self, p: Vec3, curve: &Curve) {
+        self.0.push(
+            p,
+            |points| {
+                let (lo, hi) = bounds(points.iter().copied());
+                let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+                ((lo + hi) * 0.5, (hi - lo) * 0.5)
+            },
+            |&p| curve.key(p),
+        );
+    }
+
+    /// Whether every point lies on or below the plane n·x = d within `tolerance`: the answer
+    /// of testing each point in f32, since a box is passed whole only when its highest corner
+    /// lies `margin` (the f32 rounding) below the tolerance.
+    fn all_below(&self, n: Vec3, d: f32, tolerance: f32, margin: f64) -> bool {
+        let nd = n.as_dvec3();
+        self.0.all(
+            |&(centre, half)| {
+                nd.dot(centre) + nd.abs().dot(half) - d as f64 <= tolerance as f64 - margin
+            },
+            |&p| n.dot(p) - d <= tolerance,
+        )
+    }
+}
+
+/// A part's planes (unit normal, offset) with a point of each plane's triangle (its centroid),
+/// and a bound per chunk and block.
+#[derive(Default)]
+struct PlaneChunks(Bounded<(Vec3, f32, Vec3), PlaneBound>);
+
+/// For every plane i of a chunk and every point p: n_i·p − d_i ≤ normal·(p − centre) +
+/// spread·|p − centre| + offset, where normal is the chunk's mean normal, spread the largest
+/// |n_i − normal| and offset the largest n_i·centre − d_i.
+struct PlaneBound {
+    normal: DVec3,
+    centre: DVec3,
+    spread: f64,
+    offset: f64,
+}
+
+impl PlaneBound {
+    fn of(planes: &[(Vec3, f32, Vec3)]) -> PlaneBound {
+        let count = planes.len() as f64;
+        let normal = planes.iter().map(|p| p.0.as_dvec3()).sum::<DVec3>() / count;
+        let centre = planes.iter().map(|p| p.2.as_dvec3()).sum::<DVec3>() / count;
+        let spread = planes
+            .iter()
+            .map(|p| (p.0.as_dvec3() - normal).length())
+            .fold(0.0, f64::max);
+        let offset = planes
+            .iter()
+            .map(|p| p.0.as_dvec3().dot(centre) - p.1 as f64)
+            .fold(f64::NEG_INFINITY, f64::max);
+        PlaneBound {
+            normal,
+            centre,
+            spread,
+            offset,
+        }
+    }
+}
+
+impl PlaneChunks {
+    fn push(&mut self, (n, d): (Vec3, f32), anchor: Vec3, curve: &Curve) {
+        self.0
+            .push((n, d, anchor), PlaneBound::of, |&(_, _, a)| curve.key(a));
+    }
+
+    /// Whether `p` lies on or below every plane within `tolerance`: the answer of testing each
+    /// plane in f32 (a bound passes its planes only when it lies `margin` below the tolerance).
+    fn holds(&self, p: Vec3, tolerance: f32, margin: f64) -> bool {
+        let pd = p.as_dvec3();
+        self.0.all(
+            |b| {
+                let r = pd - b.centre;
+                b.normal.dot(r) + b.spread * r.length() + b.offset <= tolerance as f64 - margin
+            },
+            |&(n, d, _)| n.dot(p) - d <= tolerance,
+        )
+    }
+}
+
+/// The region growing as first written — each candidate tested against every plane and vertex
+/// of the part in one sequential sweep — that [`grow_parts`] must reproduce exactly.
+#[cfg(test)]
+pub(crate) fn grow_parts_plainly(triangles: &[[Vec3; 3]], tolerance: f32) -> Vec<Vec<u32>> {
+    let mesh = Mesh::new(triangles);
+
     const NONE: u32 = u32::MAX;
     let n = mesh.corners.len();
     let mut part_of = vec![NONE; n];
@@ -242,6 +586,47 @@ fn grow_parts(mesh: &Mesh, tolerance: f32) -> Vec<Vec<u32>> {
         parts.push(faces);
     }
     parts
+}
+
+/// For every ordered pair of `triangles`' convex parts whose boxes overlap: whether the second
+/// part's vertices lie below the first's planes, as [`Pair`] answers it (by chunks for large
+/// parts) and as the plain test of every plane against every point answers it; and whether
+/// the first part was large enough for the chunks.
+#[cfg(test)]
+pub(crate) fn containment_twins(
+    triangles: &[[Vec3; 3]],
+    tolerance: f32,
+) -> Vec<(bool, bool, bool)> {
+    let mesh = Mesh::new(triangles);
+    let groups: Vec<Group> = grow_parts(&mesh, tolerance)
+        .into_iter()
+        .map(|p| group(triangles, p, 1))
+        .collect();
+    let curve = Curve::new(&mesh);
+    let pair = Pair {
+        triangles,
+        mesh: &mesh,
+        group_of: &[],
+        tolerance,
+        margin: rounding_margin(&mesh),
+        curve: &curve,
+    };
+    let overlap = |a: &Group, b: &Group| a.lo.cmplt(b.hi).all() && b.lo.cmplt(a.hi).all();
+    let mut twins = Vec::new();
+    for a in &groups {
+        for b in groups.iter().filter(|b| overlap(a, b)) {
+            let plain = a.triangles.iter().all(|&f| {
+                mesh.planes[f as usize]
+                    .is_none_or(|(n, d)| b.points.iter().all(|&p| n.dot(p) - d <= tolerance))
+            });
+            twins.push((
+                pair.holds(a, &b.points),
+                plain,
+                a.triangles.len() >= 4 * CHUNK,
+            ));
+        }
+    }
+    twins
 }
 
 /// Whether every vertex of `faces` lies on or below every plane of `faces` (within
@@ -473,6 +858,7 @@ fn relate(
             group_of[t as usize] = g as u32;
         }
     }
+    let (margin, curve) = (rounding_margin(mesh), Curve::new(mesh));
     let relations: Vec<Relation> = pairs
         .par_iter()
         .map(|&(a, b)| {
@@ -481,6 +867,8 @@ fn relate(
                 mesh,
                 group_of: &group_of,
                 tolerance,
+                margin,
+                curve: &curve,
             };
             pair.relate((a, &groups[a as usize]), (b, &groups[b as usize]))
         })
@@ -493,28 +881,23 @@ struct Pair<'a> {
     mesh: &'a Mesh,
     group_of: &'a [u32],
     tolerance: f32,
+    margin: f64,
+    curve: &'a Curve,
 }
 
 impl Pair<'_> {
-    fn points(&self, g: &Group) -> Vec<Vec3> {
-        g.triangles
-            .iter()
-            .flat_map(|&f| self.triangles[f as usize])
-            .collect()
-    }
-
     fn relate(&self, (ia, a): (u32, &Group), (ib, b): (u32, &Group)) -> Relation {
-        let (pa, pb) = (self.points(a), self.points(b));
-        if let Some(s) = self.separate((ia, a, &pa), (ib, b, &pb)) {
+        let (pa, pb) = (&a.points, &b.points);
+        if let Some(s) = self.separate((ia, a, pa), (ib, b, pb)) {
             return Relation::Plane(s);
         }
         let boxed = |outer: &Group, inner: &Group| {
             outer.parts == 1 && inner.lo.cmpge(outer.lo).all() && inner.hi.cmple(outer.hi).all()
         };
-        if boxed(a, b) && self.holds(a, &pb) {
+        if boxed(a, b) && self.holds(a, pb) {
             return Relation::Contains;
         }
-        if boxed(b, a) && self.holds(b, &pa) {
+        if boxed(b, a) && self.holds(b, pa) {
             return Relation::Inside;
         }
         Relation::Inseparable
@@ -522,10 +905,21 @@ impl Pair<'_> {
 
     /// Whether `points` lie below every plane of the convex part `container`.
     fn holds(&self, container: &Group, points: &[Vec3]) -> bool {
-        container.triangles.iter().all(|&f| {
-            self.mesh.planes[f as usize]
-                .is_none_or(|(n, d)| points.iter().all(|&p| n.dot(p) - d <= self.tolerance))
-        })
+        if container.triangles.len() < 4 * CHUNK {
+            return container.triangles.iter().all(|&f| {
+                self.mesh.planes[f as usize]
+                    .is_none_or(|(n, d)| points.iter().all(|&p| n.dot(p) - d <= self.tolerance))
+            });
+        }
+        let mut planes = PlaneChunks::default();
+        for &f in &container.triangles {
+            if let Some(plane) = self.mesh.planes[f as usize] {
+                planes.push(plane, self.mesh.centroid(f), self.curve);
+            }
+        }
+        points
+            .iter()
+            .all(|&p| planes.holds(p, self.tolerance, self.margin))
     }
 
     /// A plane with `a` below and `b` above among the candidate normals: the line between
@@ -571,8 +965,13 @@ impl Pair<'_> {
             if n == Vec3::ZERO {
                 return None;
             }
-            let (a_lo, a_hi) = extent(pa, n);
-            let (b_lo, b_hi) = extent(pb, n);
+            let ((a_lo, a_hi), (b_lo, b_hi)) = if pa.len() <= pb.len() {
+                let a = extent(pa, n);
+                (a, extent_unless_overlapping(pb, n, a, self.tolerance)?)
+            } else {
+                let b = extent(pb, n);
+                (extent_unless_overlapping(pa, n, b, self.tolerance)?, b)
+            };
             if a_hi <= b_lo + self.tolerance {
                 Some(Separation {
                     normal: n,
@@ -590,7 +989,27 @@ impl Pair<'_> {
     }
 }
 
-fn extent(points: &[Vec3], n: Vec3) -> (f32, f32) {
+/// The extent of `points` along `n`, or `None` as soon as they reach more than `tolerance`
+/// past both ends of `other`, the extent of the other group (then neither lies on one side).
+pub(crate) fn extent_unless_overlapping(
+    points: &[Vec3],
+    n: Vec3,
+    (other_lo, other_hi): (f32, f32),
+    tolerance: f32,
+) -> Option<(f32, f32)> {
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for p in points {
+        let d = n.dot(*p);
+        lo = lo.min(d);
+        hi = hi.max(d);
+        if other_hi > lo + tolerance && hi > other_lo + tolerance {
+            return None;
+        }
+    }
+    Some((lo, hi))
+}
+
+pub(crate) fn extent(points: &[Vec3], n: Vec3) -> (f32, f32) {
     points
         .iter()
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {

@@ -6,8 +6,8 @@
 //! eye, beyond the far plane or off screen are culled; a box crossing the eye's plane covers the
 //! whole screen). Two groups matter to each other only when their rectangles overlap and the
 //! convex hulls of their projected vertices (which hold every pixel centre a group can cover)
-//! are not apart; for such a pair the plane that separates them (see [`super::decompose`]) decides: the group on the eye's
-//! side is in front for every ray from the eye (for an orthographic view, the side the view
+//! are not apart; for such a pair the plane that separates them (see [`super::decompose`])
+//! decides: the group on the eye's side is in front for every ray from the eye (for an orthographic view, the side the view
 //! direction leaves). The pairs give a directed graph, topologically sorted nearest centroid
 //! first; a cycle (or a pair with no plane) is broken by taking the nearest remaining centroid,
 //! counted, and what it costs shows in the frame's `order_violations`. A group's pass is one
@@ -143,8 +143,6 @@ fn footprint(view_proj: Mat4, lo: Vec3, hi: Vec3, width: u32, height: u32) -> Op
     (r.x0 <= r.x1 && r.y0 <= r.y1).then_some(r)
 }
 
-/// Which of a group's fragments a draw keeps: all, or (for a container, drawn twice around
-/// what it holds) the front-facing or the back-facing ones.
 /// The convex hull (counter-clockwise in the plane's own orientation) of `points` projected to
 /// pixel coordinates: it holds every pixel centre the group can cover. `None` when a point lies
 /// at or behind the eye (the projection is unbounded there; the rectangle decides alone).
@@ -289,6 +287,8 @@ fn hulls_apart(a: &[Vec2], b: &[Vec2]) -> bool {
     apart_by_edges_of(a, b) || apart_by_edges_of(b, a)
 }
 
+/// Which of a group's fragments a draw keeps: all, or (for a container, drawn twice around
+/// what it holds) the front-facing or the back-facing ones.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Cap {
     Whole,
@@ -441,7 +441,17 @@ impl Graph {
     /// unplaced node, counted); each node's pass is one past the latest pass of a neighbour
     /// placed before it. Returns the passes and the cycles broken.
     fn passes(mut self, nodes: &[u32], distance: impl Fn(u32) -> f32) -> (Vec<Vec<u32>>, u32) {
-        let key = |g: u32| (Reverse(distance(g).to_bits()), Reverse(g));
+        // Bits that order like the distances, negative ones included (an orthographic view's
+        // distances are signed).
+        let ordered = |d: f32| {
+            let bits = d.to_bits();
+            if bits >> 31 == 1 {
+                !bits
+            } else {
+                bits | 1 << 31
+            }
+        };
+        let key = |g: u32| (Reverse(ordered(distance(g))), Reverse(g));
         let mut ready: BinaryHeap<_> = nodes
             .iter()
             .filter(|&&g| self.indegree[g as usize] == 0)

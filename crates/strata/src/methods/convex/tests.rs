@@ -4,7 +4,10 @@
 use glam::Vec3;
 use proptest::prelude::*;
 
-use super::decompose::{convex_parts, is_convex_part, Decomposition, Relation};
+use super::decompose::{
+    containment_twins, convex_parts, extent, extent_unless_overlapping, grow_parts_plainly,
+    is_convex_part, Decomposition, Relation,
+};
 use super::triangles_of;
 use crate::frame::{Effect, RenderOptions};
 use crate::methods::tests::options;
@@ -79,6 +82,102 @@ proptest! {
             })
         });
         prop_assert_eq!(areaful.count(), 1);
+    }
+
+    /// The fast region growing (components in parallel, chunks skipped by their bounds) finds
+    /// exactly the parts of the plain sequential sweep: spheres big enough to fill many chunks,
+    /// with a bumpy grid, their triangles interleaved so that components alternate in
+    /// primitive order.
+    #[test]
+    fn fast_region_growing_finds_the_plain_sweeps_parts(
+        spheres in proptest::collection::vec(
+            (3u32..28, 0.05f32..20.0, -30.0f32..30.0, 0.0f32..0.05),
+            1..5,
+        ),
+        heights in proptest::collection::vec(-1.5f32..1.5, 5..40),
+        seed in 0u64..1000,
+    ) {
+        let mut triangles = bumpy_grid(6, &heights);
+        for &(segments, scale, offset, wave) in &spheres {
+            // A wavy sphere: large parts that still stop where the surface turns concave.
+            let wavy = |p: Vec3| p * (1.0 + wave * (7.0 * p.x).sin() * (5.0 * p.y).cos());
+            let s = crate::scene::builtin::primitives::uv_sphere(segments).transformed(
+                glam::Mat4::from_scale_rotation_translation(
+                    Vec3::splat(scale),
+                    glam::Quat::from_rotation_x(offset),
+                    Vec3::new(offset, -offset, 0.5 * offset),
+                ),
+            );
+            triangles.extend(
+                s.indices
+                    .chunks_exact(3)
+                    .map(|t| [0, 1, 2].map(|i| wavy(Vec3::from(s.positions[t[i] as usize])))),
+            );
+        }
+        crate::scene::builtin::rng::SplitMix64::new(seed).shuffle(&mut triangles);
+        let tolerance = 1e-5;
+        prop_assert_eq!(
+            convex_parts(&triangles, tolerance),
+            grow_parts_plainly(&triangles, tolerance)
+        );
+    }
+}
+
+#[test]
+fn fast_region_growing_finds_the_plain_sweeps_parts_on_models() {
+    for spec in [
+        "builtin:teapot",
+        "builtin:bunny",
+        "builtin:spot",
+        "builtin:spheres?layers=6",
+    ] {
+        let triangles = triangles_of(&scene(spec));
+        let d = Decomposition::new(&triangles, &|_| {});
+        assert_eq!(
+            convex_parts(&triangles, d.tolerance),
+            grow_parts_plainly(&triangles, d.tolerance),
+            "{spec}"
+        );
+    }
+}
+
+#[test]
+fn chunked_containment_answers_as_the_plain_test() {
+    // Fine concentric spheres give parts of thousands of faces, nested and side by side.
+    for spec in ["builtin:spheres?layers=6&segments=120", "builtin:bunny"] {
+        let triangles = triangles_of(&scene(spec));
+        let d = Decomposition::new(&triangles, &|_| {});
+        let twins = containment_twins(&triangles, d.tolerance);
+        for &(chunked, plain, _) in &twins {
+            assert_eq!(chunked, plain, "{spec}");
+        }
+        if spec.contains("spheres") {
+            let large = |answer: bool| twins.iter().any(|&(c, _, big)| big && c == answer);
+            assert!(
+                large(true) && large(false),
+                "{spec}: both answers from large parts"
+            );
+        }
+    }
+}
+
+proptest! {
+    #[test]
+    fn an_extent_cut_short_only_where_neither_side_is_clear(
+        points in prop::collection::vec((-4.0f32..4.0, -4.0f32..4.0, -4.0f32..4.0), 1..40),
+        other in (-6.0f32..6.0, 0.0f32..3.0),
+        tolerance in 0.0f32..0.5,
+    ) {
+        let points: Vec<Vec3> = points.into_iter().map(Vec3::from).collect();
+        let n = Vec3::new(0.6, -0.48, 0.64);
+        let other = (other.0, other.0 + other.1);
+        let (lo, hi) = extent(&points, n);
+        let clear = other.1 <= lo + tolerance || hi <= other.0 + tolerance;
+        match extent_unless_overlapping(&points, n, other, tolerance) {
+            Some(found) => prop_assert_eq!(found, (lo, hi)),
+            None => prop_assert!(!clear),
+        }
+        prop_assert_eq!(extent_unless_overlapping(&points, n, other, tolerance).is_some(), clear);
     }
 }
 
