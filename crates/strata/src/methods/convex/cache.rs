@@ -9,14 +9,13 @@
 //! header, statistics as JSON (and the preprocess time as bits), groups (parts, triangles, box, centroid, distinct vertices),
 //! then the relations of overlapping pairs.
 
-use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
 use super::decompose::{
-    Decomposition, DecompositionStats, Group, Relation, Separation, MAX_PART_TRIANGLES,
+    Decomposition, DecompositionStats, Group, Relation, Relations, Separation, MAX_PART_TRIANGLES,
     TOUCHING_CANDIDATES,
 };
 
@@ -191,7 +190,7 @@ fn decode(bytes: &[u8], key: Key) -> Result<Decomposition, String> {
         });
     }
     let pair_count = r.u64()?;
-    let mut relations = HashMap::new();
+    let mut relations = Relations::default();
     for _ in 0..pair_count {
         let (i, j) = (r.u32()?, r.u32()?);
         if i >= j || j as usize >= groups.len() {

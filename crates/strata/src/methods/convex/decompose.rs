@@ -32,10 +32,13 @@
 //! left over (a part already paired) are counted (`unseparated`) and ordered by centroid each
 //! frame; the frame's `order_violations` measure what that costs.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+
+/// How the groups of each pair (i < j) whose boxes overlap relate.
+pub type Relations = FxHashMap<(u32, u32), Relation>;
 
 /// Region growing stops a part at this many triangles: the convexity test of a candidate grows
 /// with the part's size (less than linearly, through the chunk bounds), so parts are bounded to
@@ -98,7 +101,7 @@ pub struct DecompositionStats {
 pub struct Decomposition {
     pub groups: Vec<Group>,
     /// How each pair (i < j) of groups whose boxes overlap relates.
-    pub relations: HashMap<(u32, u32), Relation>,
+    pub relations: Relations,
     /// Groups holding another inside their hull, drawn as a front and a back cap.
     pub container: Vec<bool>,
     /// Distance within which a point counts as on a plane: a millionth of the scene's extent.
@@ -277,7 +280,7 @@ fn grow_component(
     let local = |f: u32| local_index[f as usize] as usize;
     let mut part_of = vec![NONE; faces.len()];
     // Per-part stamps: which part a vertex belongs to, which part rejected a triangle.
-    let mut vertex_in: HashMap<u32, u32> = HashMap::new();
+    let mut vertex_in: FxHashMap<u32, u32> = FxHashMap::default();
     let mut rejected_by = vec![NONE; faces.len()];
     let mut parts: Vec<Vec<u32>> = Vec::new();
     let mut queue = std::collections::VecDeque::new();
@@ -611,10 +614,9 @@ pub(crate) fn containment_twins(
         margin: rounding_margin(&mesh),
         curve: &curve,
     };
-    let overlap = |a: &Group, b: &Group| a.lo.cmplt(b.hi).all() && b.lo.cmplt(a.hi).all();
     let mut twins = Vec::new();
     for a in &groups {
-        for b in groups.iter().filter(|b| overlap(a, b)) {
+        for b in groups.iter().filter(|b| boxes_overlap(a, b)) {
             let plain = a.triangles.iter().all(|&f| {
                 mesh.planes[f as usize]
                     .is_none_or(|(n, d)| b.points.iter().all(|&p| n.dot(p) - d <= tolerance))
@@ -720,7 +722,7 @@ impl Decomposition {
     /// A decomposition from its groups and their relations (containers derived).
     pub fn from_parts(
         groups: Vec<Group>,
-        relations: HashMap<(u32, u32), Relation>,
+        relations: Relations,
         tolerance: f32,
         stats: DecompositionStats,
     ) -> Decomposition {
@@ -782,6 +784,12 @@ fn bounds(points: impl Iterator<Item = Vec3>) -> (Vec3, Vec3) {
     })
 }
 
+/// Whether the boxes share interior: pairs that do are related by [`relate`]; the others
+/// are apart along an axis ([`axis_separation`]).
+fn boxes_overlap(a: &Group, b: &Group) -> bool {
+    a.lo.cmplt(b.hi).all() && b.lo.cmplt(a.hi).all()
+}
+
 /// The axis-aligned plane between two groups whose boxes are apart along an axis.
 fn axis_separation(a: &Group, b: &Group) -> Option<Separation> {
     (0..3).find_map(|k| {
@@ -830,28 +838,75 @@ impl Relation {
     }
 }
 
-/// Every pair (i < j) of groups whose boxes overlap, with how they relate.
-fn relate(
-    triangles: &[[Vec3; 3]],
-    mesh: &Mesh,
-    groups: &[Group],
-    tolerance: f32,
-) -> HashMap<(u32, u32), Relation> {
-    let mut by_x: Vec<u32> = (0..groups.len() as u32).collect();
-    by_x.sort_by(|&a, &b| groups[a as usize].lo.x.total_cmp(&groups[b as usize].lo.x));
-    let mut pairs = Vec::new();
-    for (n, &a) in by_x.iter().enumerate() {
-        let ga = &groups[a as usize];
-        for &b in &by_x[n + 1..] {
-            let gb = &groups[b as usize];
-            if gb.lo.x >= ga.hi.x {
-                break;
-            }
-            if gb.lo.y < ga.hi.y && gb.hi.y > ga.lo.y && gb.lo.z < ga.hi.z && gb.hi.z > ga.lo.z {
-                pairs.push((a.min(b), a.max(b)));
-            }
-        }
+/// Every pair (i < j) of groups whose boxes overlap, in order. The boxes are binned into a
+/// uniform grid of cells about twice the mean box size (coarser where large boxes would fill
+/// too many cells); a pair is examined in the one cell holding its boxes' intersection's lowest
+/// corner.
+pub(crate) fn overlapping_pairs(groups: &[Group]) -> Vec<(u32, u32)> {
+    if groups.len() < 2 {
+        return Vec::new();
     }
+    let (lo, hi) = bounds(groups.iter().flat_map(|g| [g.lo, g.hi]));
+    let span = (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
+    let mean_extent = groups.iter().map(|g| g.hi - g.lo).sum::<Vec3>() / groups.len() as f32;
+    const MAX_CELLS_PER_AXIS: f32 = 1024.0;
+    let mut cell = (2.0 * mean_extent).max(span / MAX_CELLS_PER_AXIS);
+    let dims = |cell: Vec3| (span / cell).ceil().max(Vec3::ONE).as_uvec3();
+    let cell_of =
+        |p: Vec3, cell: Vec3, dims: glam::UVec3| ((p - lo) / cell).as_uvec3().min(dims - 1);
+    let range =
+        |g: &Group, cell: Vec3, dims| (cell_of(g.lo, cell, dims), cell_of(g.hi, cell, dims));
+    let entries = |cell: Vec3| {
+        let d = dims(cell);
+        groups
+            .par_iter()
+            .map(|g| {
+                let (a, b) = range(g, cell, d);
+                (b - a + 1).as_u64vec3().element_product()
+            })
+            .sum::<u64>()
+    };
+    // Bounded memory: a scene of many large boxes gets coarser cells.
+    while entries(cell) > 32 * groups.len() as u64 {
+        cell *= 2.0;
+    }
+    let d = dims(cell);
+    let index = |c: glam::UVec3| c.x as u64 + d.x as u64 * (c.y as u64 + d.y as u64 * c.z as u64);
+    let mut binned: Vec<(u64, u32)> = groups
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(g, group)| {
+            let (a, b) = range(group, cell, d);
+            (a.z..=b.z).flat_map(move |z| {
+                (a.y..=b.y).flat_map(move |y| {
+                    (a.x..=b.x).map(move |x| (index(glam::UVec3::new(x, y, z)), g as u32))
+                })
+            })
+        })
+        .collect();
+    binned.par_sort_unstable();
+    let cells: Vec<&[(u64, u32)]> = binned.chunk_by(|a, b| a.0 == b.0).collect();
+    let mut pairs: Vec<(u32, u32)> = cells
+        .par_iter()
+        .flat_map_iter(|members| {
+            let here = members[0].0;
+            members.iter().enumerate().flat_map(move |(i, &(_, a))| {
+                let ga = &groups[a as usize];
+                members[i + 1..].iter().filter_map(move |&(_, b)| {
+                    let gb = &groups[b as usize];
+                    (boxes_overlap(ga, gb) && index(cell_of(ga.lo.max(gb.lo), cell, d)) == here)
+                        .then_some((a.min(b), a.max(b)))
+                })
+            })
+        })
+        .collect();
+    pairs.par_sort_unstable();
+    pairs
+}
+
+/// Every pair (i < j) of groups whose boxes overlap, with how they relate.
+fn relate(triangles: &[[Vec3; 3]], mesh: &Mesh, groups: &[Group], tolerance: f32) -> Relations {
+    let pairs = overlapping_pairs(groups);
     let mut group_of = vec![0u32; triangles.len()];
     for (g, group) in groups.iter().enumerate() {
         for &t in &group.triangles {

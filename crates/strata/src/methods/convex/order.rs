@@ -332,18 +332,11 @@ pub fn plan(
             &[0]
         }
     };
-    let mut graph = Graph::new(2 * n);
     let distance: Vec<f32> = dec
         .groups
         .iter()
         .map(|g| viewer.distance(g.centroid))
         .collect();
-    let (mut overlapping, mut unseparated) = (0u64, 0u64);
-    for &g in &visible {
-        if dec.container[g as usize] {
-            graph.edge(2 * g, 2 * g + 1);
-        }
-    }
     // Where a group's hull is known its pixel rectangle is exact: the rectangle's padding was
     // for boxes, and a group covering no pixel centre meets nothing.
     let pixels: Vec<Option<Rect>> = (0..n)
@@ -353,34 +346,66 @@ pub fn plan(
         })
         .collect();
     let meeting = meeting_pairs(&visible, &pixels, &hulls, width, height);
-    for &(a, b) in &meeting {
-        overlapping += 1;
-        let (outer, inner) = match dec.relation(a, b) {
-            Relation::Contains => (a, b),
-            Relation::Inside => (b, a),
-            other => {
-                let by_distance = || distance[a as usize] <= distance[b as usize];
-                let a_first = match other {
-                    Relation::Plane(s) => viewer.below_first(&s).unwrap_or_else(by_distance),
-                    _ => {
-                        unseparated += 1;
-                        by_distance()
+    // Each meeting pair's "comes before" edges (at most 4: two caps on each side), and whether
+    // it had no plane.
+    let ordered: Vec<PairEdges> = meeting
+        .par_iter()
+        .map(|&(a, b)| {
+            let mut edges = [(0, 0); 4];
+            let mut count = 0;
+            let mut edge = |first: u32, second: u32| {
+                edges[count] = (first, second);
+                count += 1;
+            };
+            let (outer, inner) = match dec.relation(a, b) {
+                Relation::Contains => (a, b),
+                Relation::Inside => (b, a),
+                other => {
+                    let by_distance = || distance[a as usize] <= distance[b as usize];
+                    let (a_first, unseparated) = match other {
+                        Relation::Plane(s) => {
+                            (viewer.below_first(&s).unwrap_or_else(by_distance), false)
+                        }
+                        _ => (by_distance(), true),
+                    };
+                    let (first, second) = if a_first { (a, b) } else { (b, a) };
+                    for &f in caps(first) {
+                        for &s in caps(second) {
+                            edge(2 * first + f, 2 * second + s);
+                        }
                     }
-                };
-                let (first, second) = if a_first { (a, b) } else { (b, a) };
-                for &f in caps(first) {
-                    for &s in caps(second) {
-                        graph.edge(2 * first + f, 2 * second + s);
-                    }
+                    return PairEdges {
+                        edges,
+                        count,
+                        unseparated,
+                    };
                 }
-                continue;
+            };
+            for &c in caps(inner) {
+                edge(2 * outer, 2 * inner + c);
+                edge(2 * inner + c, 2 * outer + 1);
             }
-        };
-        for &c in caps(inner) {
-            graph.edge(2 * outer, 2 * inner + c);
-            graph.edge(2 * inner + c, 2 * outer + 1);
-        }
-    }
+            PairEdges {
+                edges,
+                count,
+                unseparated: false,
+            }
+        })
+        .collect();
+    let overlapping = meeting.len() as u64;
+    let unseparated = ordered.iter().filter(|o| o.unseparated).count() as u64;
+    let containers = visible
+        .iter()
+        .filter(|&&g| dec.container[g as usize])
+        .map(|&g| (2 * g, 2 * g + 1));
+    let edges: Vec<(u32, u32)> = containers
+        .chain(
+            ordered
+                .iter()
+                .flat_map(|o| o.edges[..o.count].iter().copied()),
+        )
+        .collect();
+    let graph = Graph::new(2 * n, &edges);
     let nodes: Vec<u32> = visible
         .iter()
         .flat_map(|&g| caps(g).iter().map(move |&c| 2 * g + c))
@@ -416,31 +441,64 @@ pub fn plan(
     }
 }
 
+/// The "comes before" edges of one pair of groups that can meet in a pixel (one per pair of
+/// caps: at most 4), and whether the pair had no separating plane.
+struct PairEdges {
+    edges: [(u32, u32); 4],
+    count: usize,
+    unseparated: bool,
+}
+
 /// Nodes with "comes before" edges between nodes that can share a pixel.
 struct Graph {
-    /// Each node's neighbours, with whether the neighbour comes after it.
-    neighbours: Vec<Vec<(u32, bool)>>,
+    /// Node i's neighbours are `neighbours[first[i]..first[i + 1]]`, each with whether it
+    /// comes after node i.
+    first: Vec<u32>,
+    neighbours: Vec<(u32, bool)>,
     indegree: Vec<u32>,
 }
 
 impl Graph {
-    fn new(nodes: usize) -> Graph {
+    /// The graph of `nodes` nodes and `edges` (first, second), each node's neighbours in edge
+    /// order.
+    fn new(nodes: usize, edges: &[(u32, u32)]) -> Graph {
+        let mut first = vec![0u32; nodes + 1];
+        let mut indegree = vec![0u32; nodes];
+        for &(a, b) in edges {
+            first[a as usize + 1] += 1;
+            first[b as usize + 1] += 1;
+            indegree[b as usize] += 1;
+        }
+        for i in 0..nodes {
+            first[i + 1] += first[i];
+        }
+        let mut fill = first.clone();
+        let mut neighbours = vec![(0u32, false); 2 * edges.len()];
+        for &(a, b) in edges {
+            neighbours[fill[a as usize] as usize] = (b, true);
+            fill[a as usize] += 1;
+            neighbours[fill[b as usize] as usize] = (a, false);
+            fill[b as usize] += 1;
+        }
         Graph {
-            neighbours: vec![Vec::new(); nodes],
-            indegree: vec![0; nodes],
+            first,
+            neighbours,
+            indegree,
         }
     }
 
-    fn edge(&mut self, first: u32, second: u32) {
-        self.neighbours[first as usize].push((second, true));
-        self.neighbours[second as usize].push((first, false));
-        self.indegree[second as usize] += 1;
+    fn neighbours(&self, node: u32) -> &[(u32, bool)] {
+        &self.neighbours[self.first[node as usize] as usize..self.first[node as usize + 1] as usize]
     }
 
     /// Kahn's sort of `nodes`, the nearest ready node first (a cycle takes the nearest
     /// unplaced node, counted); each node's pass is one past the latest pass of a neighbour
     /// placed before it. Returns the passes and the cycles broken.
-    fn passes(mut self, nodes: &[u32], distance: impl Fn(u32) -> f32) -> (Vec<Vec<u32>>, u32) {
+    fn passes(
+        mut self,
+        nodes: &[u32],
+        distance: impl Fn(u32) -> f32 + Sync,
+    ) -> (Vec<Vec<u32>>, u32) {
         // Bits that order like the distances, negative ones included (an orthographic view's
         // distances are signed).
         let ordered = |d: f32| {
@@ -458,7 +516,7 @@ impl Graph {
             .map(|&g| key(g))
             .collect();
         let mut by_distance = nodes.to_vec();
-        by_distance.sort_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(a.cmp(&b)));
+        by_distance.par_sort_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(a.cmp(&b)));
         let mut next_nearest = 0;
         const UNPLACED: u32 = u32::MAX;
         let mut pass_of = vec![UNPLACED; self.indegree.len()];
@@ -479,7 +537,8 @@ impl Graph {
             if pass_of[g as usize] != UNPLACED {
                 continue;
             }
-            let pass = self.neighbours[g as usize]
+            let pass = self
+                .neighbours(g)
                 .iter()
                 .filter(|(o, _)| pass_of[*o as usize] != UNPLACED)
                 .map(|(o, _)| pass_of[*o as usize] + 1)
@@ -491,7 +550,8 @@ impl Graph {
             }
             passes[pass as usize].push(g);
             placed += 1;
-            for &(o, after) in &self.neighbours[g as usize] {
+            for i in self.first[g as usize]..self.first[g as usize + 1] {
+                let (o, after) = self.neighbours[i as usize];
                 if after && pass_of[o as usize] == UNPLACED {
                     self.indegree[o as usize] -= 1;
                     if self.indegree[o as usize] == 0 {

@@ -6,7 +6,7 @@ use proptest::prelude::*;
 
 use super::decompose::{
     containment_twins, convex_parts, extent, extent_unless_overlapping, grow_parts_plainly,
-    is_convex_part, Decomposition, Relation,
+    is_convex_part, overlapping_pairs, Decomposition, Group, Relation,
 };
 use super::triangles_of;
 use crate::frame::{Effect, RenderOptions};
@@ -162,6 +162,44 @@ fn chunked_containment_answers_as_the_plain_test() {
 }
 
 proptest! {
+    #[test]
+    fn the_grid_finds_every_overlapping_pair_once(
+        boxes in prop::collection::vec(
+            ((-10.0f32..10.0, -10.0f32..10.0, -3.0f32..3.0), (0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0), 0u8..8),
+            0..120,
+        ),
+    ) {
+        // Mostly small boxes, some spanning the scene, some flat.
+        let groups: Vec<Group> = boxes
+            .into_iter()
+            .map(|(lo, size, kind)| {
+                let lo = Vec3::from(lo);
+                let size = Vec3::from(size) * match kind {
+                    0 => Vec3::splat(20.0),
+                    1 => Vec3::new(1.0, 1.0, 0.0),
+                    _ => Vec3::ONE,
+                };
+                Group {
+                    parts: 1,
+                    triangles: Vec::new(),
+                    lo,
+                    hi: lo + size,
+                    centroid: lo,
+                    points: Vec::new(),
+                }
+            })
+            .collect();
+        let mut every = Vec::new();
+        for (i, a) in groups.iter().enumerate() {
+            for (j, b) in groups.iter().enumerate().skip(i + 1) {
+                if a.lo.cmplt(b.hi).all() && b.lo.cmplt(a.hi).all() {
+                    every.push((i as u32, j as u32));
+                }
+            }
+        }
+        prop_assert_eq!(overlapping_pairs(&groups), every);
+    }
+
     #[test]
     fn an_extent_cut_short_only_where_neither_side_is_clear(
         points in prop::collection::vec((-4.0f32..4.0, -4.0f32..4.0, -4.0f32..4.0), 1..40),
