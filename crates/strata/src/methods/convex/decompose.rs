@@ -1002,21 +1002,7 @@ impl Pair<'_> {
             let step = near.len().div_ceil(TOUCHING_CANDIDATES).max(1);
             near.into_iter().step_by(step).collect()
         };
-        let (ta, tb) = (touching(a, b), touching(b, a));
-        let mut candidates = vec![(b.centroid - a.centroid).normalize_or_zero()];
-        for (&f, other) in ta.iter().map(|f| (f, ib)).chain(tb.iter().map(|f| (f, ia))) {
-            let Some(nf) = normal(f) else { continue };
-            for &g in &self.mesh.neighbours[f as usize] {
-                if self.group_of[g as usize] == other {
-                    if let Some(ng) = normal(g) {
-                        candidates.push((nf - ng).normalize_or_zero());
-                    }
-                }
-            }
-        }
-        candidates.extend(ta.iter().chain(&tb).filter_map(|&f| normal(f)));
-        candidates.extend(Vec3::AXES);
-        candidates.into_iter().find_map(|n| {
+        let across = |n: Vec3| {
             if n == Vec3::ZERO {
                 return None;
             }
@@ -1040,7 +1026,28 @@ impl Pair<'_> {
             } else {
                 None
             }
-        })
+        };
+        // The candidates in turn, each gathered only when those before it failed.
+        if let Some(s) = across((b.centroid - a.centroid).normalize_or_zero()) {
+            return Some(s);
+        }
+        let (ta, tb) = (touching(a, b), touching(b, a));
+        let edge_planes = ta
+            .iter()
+            .map(|&f| (f, ib))
+            .chain(tb.iter().map(|&f| (f, ia)))
+            .filter_map(|(f, other)| Some((normal(f)?, f, other)))
+            .flat_map(|(nf, f, other)| {
+                self.mesh.neighbours[f as usize]
+                    .iter()
+                    .filter(move |&&g| self.group_of[g as usize] == other)
+                    .filter_map(move |&g| Some((nf - normal(g)?).normalize_or_zero()))
+            });
+        let own_normals = ta.iter().chain(&tb).filter_map(|&f| normal(f));
+        edge_planes
+            .chain(own_normals)
+            .chain(Vec3::AXES)
+            .find_map(across)
     }
 }
 
