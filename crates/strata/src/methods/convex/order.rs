@@ -194,11 +194,11 @@ fn convex_hull(mut points: Vec<Vec2>) -> Vec<Vec2> {
 /// Side in pixels of the screen tiles that bin the groups when pairs are looked for.
 const TILE: i32 = 8;
 
-/// Every pair (a, b) of `visible` groups (a before b in `visible`) whose pixel rectangles
-/// (`None`: no pixel) overlap and
-/// whose hulls are not apart, in a deterministic order. Groups are binned into screen tiles by
-/// rectangle; a pair is examined in the one tile holding its rectangles' intersection's first
-/// corner, so the work is the pairs sharing tiles, not all pairs along a screen axis.
+/// Every pair (a < b) of `visible` groups whose pixel rectangles (`None`: no pixel) overlap
+/// and whose hulls are not apart, in a deterministic order. Groups are binned into screen
+/// tiles by rectangle; a pair is examined in the one tile holding its rectangles'
+/// intersection's first corner, so the work is the pairs sharing tiles, not all pairs along a
+/// screen axis.
 fn meeting_pairs(
     visible: &[u32],
     rects: &[Option<Rect>],
@@ -224,12 +224,16 @@ fn meeting_pairs(
         .flat_map_iter(|(tile, bin)| {
             let (tx, ty) = (tile as i32 % tiles_x, tile as i32 / tiles_x);
             let mut pairs = Vec::new();
-            for (i, &a) in bin.iter().enumerate() {
-                let ra = rects[a as usize].expect("binned");
-                for &b in &bin[i + 1..] {
-                    let rb = rects[b as usize].expect("binned");
-                    let (x0, y0) = (ra.x0.max(rb.x0), ra.y0.max(rb.y0));
-                    if x0 > ra.x1.min(rb.x1) || y0 > ra.y1.min(rb.y1) {
+            // Swept along x: each group meets only the later-starting ones it reaches.
+            let mut bin: Vec<(Rect, u32)> = bin
+                .iter()
+                .map(|&g| (rects[g as usize].expect("binned"), g))
+                .collect();
+            bin.sort_unstable_by_key(|&(r, g)| (r.x0, g));
+            for (i, &(ra, a)) in bin.iter().enumerate() {
+                for &(rb, b) in bin[i + 1..].iter().take_while(|(rb, _)| rb.x0 <= ra.x1) {
+                    let (x0, y0) = (rb.x0, ra.y0.max(rb.y0));
+                    if y0 > ra.y1.min(rb.y1) {
                         continue;
                     }
                     if x0 / TILE != tx || y0 / TILE != ty {
@@ -240,7 +244,7 @@ fn meeting_pairs(
                             continue;
                         }
                     }
-                    pairs.push((a, b));
+                    pairs.push((a.min(b), a.max(b)));
                 }
             }
             pairs
