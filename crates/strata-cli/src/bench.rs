@@ -501,7 +501,7 @@ pub fn device_slug(gpu: &Gpu) -> String {
 }
 
 /// What every standalone experiment's results file starts with (flattened into it).
-#[derive(Serialize)]
+#[derive(Clone, Serialize)]
 pub(crate) struct Header {
     pub(crate) experiment: &'static str,
     pub(crate) adapter: String,

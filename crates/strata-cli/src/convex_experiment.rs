@@ -102,6 +102,9 @@ struct Report {
     model_size: (u32, u32),
     stack_size: (u32, u32),
     frames: u32,
+    /// False while the run is under way: the results are written after every scene, so a run
+    /// stopped early (a time limit) leaves what it measured.
+    complete: bool,
     rows: Vec<Row>,
     speedups: Vec<Speedup>,
 }
@@ -244,6 +247,12 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     let cases = MODELS.len() + STACK_LAYERS.len();
     let per_case = (views + frames) as u64 * METHODS.len() as u64;
     let bar = crate::bench::frames_bar(cases as u64 * per_case);
+    let partial = Partial {
+        header: crate::bench::Header::new("convex", gpu, cpu_figures),
+        model_size,
+        stack_size,
+        frames,
+    };
     let mut rows = Vec::new();
     for spec in MODELS {
         bar.set_message(format!("loading {spec}"));
@@ -261,6 +270,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
             frames,
         };
         run_case(gpu, &case, &bar, &mut rows);
+        rows = partial.write(dir, rows);
     }
     for layers in STACK_LAYERS {
         let spec = format!("builtin:stack?layers={layers}&columns=2&segments={segments}");
@@ -277,45 +287,70 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
             frames,
         };
         run_case(gpu, &case, &bar, &mut rows);
+        rows = partial.write(dir, rows);
     }
     bar.finish_and_clear();
-    let mut scenes: Vec<&str> = Vec::new();
-    for r in &rows {
-        if !scenes.contains(&r.scene.as_str()) {
-            scenes.push(&r.scene);
-        }
-    }
-    let speedups = scenes
-        .iter()
-        .map(|&scene| {
-            let time = |method: &str| {
-                rows.iter()
-                    .find(|r| r.scene == scene && r.method == method)
-                    .and_then(|r| r.median_gpu_ms)
-            };
-            let over = |method: &str| match (time(method), time("convex")) {
-                (Some(m), Some(c)) if c > 0.0 => Some(m / c),
-                _ => None,
-            };
-            Speedup {
-                scene: scene.to_string(),
-                f2b_over_convex: over("f2b"),
-                dual_over_convex: over("dual"),
-                mdt32_over_convex: over("kb-mdt32"),
-                abuffer_fixed_over_convex: over("abuffer-fixed"),
-            }
-        })
-        .collect();
-    let report = Report {
-        header: crate::bench::Header::new("convex", gpu, cpu_figures),
-        model_size,
-        stack_size,
-        frames,
-        rows,
-        speedups,
-    };
+    let report = partial.report(rows, true);
     print(&report);
     crate::write_results(dir, "convex", &report, csv(&report))
+}
+
+/// What a report holds besides its rows.
+struct Partial {
+    header: crate::bench::Header,
+    model_size: (u32, u32),
+    stack_size: (u32, u32),
+    frames: u32,
+}
+
+impl Partial {
+    fn report(&self, rows: Vec<Row>, complete: bool) -> Report {
+        let mut scenes: Vec<&str> = Vec::new();
+        for r in &rows {
+            if !scenes.contains(&r.scene.as_str()) {
+                scenes.push(&r.scene);
+            }
+        }
+        let speedups = scenes
+            .iter()
+            .map(|&scene| {
+                let time = |method: &str| {
+                    rows.iter()
+                        .find(|r| r.scene == scene && r.method == method)
+                        .and_then(|r| r.median_gpu_ms)
+                };
+                let over = |method: &str| match (time(method), time("convex")) {
+                    (Some(m), Some(c)) if c > 0.0 => Some(m / c),
+                    _ => None,
+                };
+                Speedup {
+                    scene: scene.to_string(),
+                    f2b_over_convex: over("f2b"),
+                    dual_over_convex: over("dual"),
+                    mdt32_over_convex: over("kb-mdt32"),
+                    abuffer_fixed_over_convex: over("abuffer-fixed"),
+                }
+            })
+            .collect();
+        Report {
+            header: self.header.clone(),
+            model_size: self.model_size,
+            stack_size: self.stack_size,
+            frames: self.frames,
+            complete,
+            rows,
+            speedups,
+        }
+    }
+
+    /// Writes what is measured so far (quietly: the bar is running).
+    fn write(&self, dir: &Path, rows: Vec<Row>) -> Vec<Row> {
+        let report = self.report(rows, false);
+        if let Err(e) = crate::write_results_quietly(dir, "convex", &report, csv(&report)) {
+            eprintln!("warning: convex: the results so far were not written: {e}");
+        }
+        report.rows
+    }
 }
 
 fn ms(v: Option<f64>) -> String {
@@ -402,5 +437,60 @@ fn print(r: &Report) {
             x(s.mdt32_over_convex),
             x(s.abuffer_fixed_over_convex)
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(scene: &str, method: &'static str, gpu_ms: f64) -> Row {
+        Row {
+            table: "models",
+            scene: scene.to_string(),
+            triangles: 12,
+            method,
+            k: None,
+            views: 2,
+            frames_with_stats: 4,
+            median_gpu_ms: Some(gpu_ms),
+            median_wall_ms: gpu_ms,
+            mean_passes: Some(3.0),
+            bytes_allocated: Some(1024),
+            bytes_per_pixel: Some(1.0),
+            max_depth_complexity: Some(2),
+            fragments_dropped: Some(0),
+            convex: None,
+            error: None,
+        }
+    }
+
+    #[test]
+    fn results_so_far_are_written_and_marked_incomplete() {
+        let dir =
+            std::env::temp_dir().join(format!("strata-convex-partial-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let partial = Partial {
+            header: crate::bench::Header {
+                experiment: "convex",
+                adapter: "test".into(),
+                backend: "none".into(),
+                cpu_figures: true,
+            },
+            model_size: (8, 8),
+            stack_size: (8, 8),
+            frames: 4,
+        };
+        let rows = partial.write(&dir, vec![row("a", "convex", 2.0), row("a", "f2b", 5.0)]);
+        assert_eq!(rows.len(), 2, "the rows come back for the next scene");
+        let text = std::fs::read_to_string(dir.join("convex.json")).expect("written");
+        let json: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+        assert_eq!(json["complete"], false);
+        assert_eq!(json["rows"].as_array().map(Vec::len), Some(2));
+        assert_eq!(json["speedups"][0]["f2b_over_convex"], 2.5);
+        assert!(dir.join("convex.csv").exists());
+        let done = partial.report(rows, true);
+        assert!(done.complete);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

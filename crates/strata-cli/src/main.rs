@@ -686,15 +686,25 @@ pub fn write_results(
     report: &impl serde::Serialize,
     csv: String,
 ) -> Result<()> {
+    write_results_quietly(dir, name, report, csv)?;
+    eprintln!("wrote {}.json and .csv", dir.join(name).display());
+    Ok(())
+}
+
+/// [`write_results`] without the line that says so (for results written while a run goes on).
+pub fn write_results_quietly(
+    dir: &Path,
+    name: &str,
+    report: &impl serde::Serialize,
+    csv: String,
+) -> Result<()> {
     std::fs::create_dir_all(dir)
         .map_err(|e| Error::input(format!("cannot create '{}': {e}", dir.display())))?;
     let path = dir.join(name);
     let mut outputs = Outputs::new();
     outputs.add_json(&path.with_extension("json"), report)?;
     outputs.add(&path.with_extension("csv"), csv.into_bytes())?;
-    outputs.commit()?;
-    eprintln!("wrote {}.json and .csv", path.display());
-    Ok(())
+    outputs.commit()
 }
 
 fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
