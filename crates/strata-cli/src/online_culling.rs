@@ -96,6 +96,9 @@ struct Report {
     width: u32,
     height: u32,
     k: u32,
+    /// False while the run is under way: the results are written after every sequence, so a
+    /// run stopped early (a time limit) leaves what it measured.
+    complete: bool,
     rows: Vec<Row>,
 }
 
@@ -276,6 +279,22 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     let bar = crate::bench::frames_bar(
         (sequences.len() * orders.len() * CONFIGS.len() + sweep.len()) as u64,
     );
+    let header = crate::bench::Header::new("online-culling", gpu, cpu_figures);
+    let report = |rows: Vec<Row>, complete: bool| Report {
+        header: header.clone(),
+        width: size.0,
+        height: size.1,
+        k: K,
+        complete,
+        rows,
+    };
+    let write_so_far = |rows: Vec<Row>| {
+        let so_far = report(rows, false);
+        if let Err(e) = crate::write_results_quietly(dir, "online-culling", &so_far, csv(&so_far)) {
+            eprintln!("warning: online-culling: the results so far were not written: {e}");
+        }
+        so_far.rows
+    };
     let mut rows = Vec::new();
     for seq in &mut sequences {
         for &(order, seed) in &orders {
@@ -286,6 +305,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
                 bar.inc(1);
             }
         }
+        rows = write_so_far(rows);
     }
     let temporal = &CONFIGS[3];
     for refresh in sweep {
@@ -297,13 +317,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let report = Report {
-        header: crate::bench::Header::new("online-culling", gpu, cpu_figures),
-        width: size.0,
-        height: size.1,
-        k: K,
-        rows,
-    };
+    let report = report(rows, true);
     print(&report);
     crate::write_results(dir, "online-culling", &report, csv(&report))
 }
