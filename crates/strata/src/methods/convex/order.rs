@@ -567,3 +567,34 @@ impl Graph {
         (passes, cycles_broken)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Graph;
+
+    #[test]
+    fn passes_follow_the_edges_and_a_cycle_takes_the_nearest_node() {
+        // 0 → 1 → 2 and 3 alone: 3 shares the first pass; each edge starts a later pass.
+        let graph = Graph::new(4, &[(0, 1), (1, 2)]);
+        let (passes, cycles) = graph.passes(&[0, 1, 2, 3], |n| n as f32);
+        assert_eq!(passes, vec![vec![0, 3], vec![1], vec![2]]);
+        assert_eq!(cycles, 0);
+        // 0 ⇄ 1: one cycle, broken at the nearer node, which then comes first.
+        let distances = [-1.0f32, -2.0];
+        let graph = Graph::new(2, &[(0, 1), (1, 0)]);
+        let (passes, cycles) = graph.passes(&[0, 1], |n| distances[n as usize]);
+        assert_eq!(passes, vec![vec![1], vec![0]]);
+        assert_eq!(cycles, 1);
+    }
+
+    #[test]
+    fn the_nearest_ready_node_goes_first_at_negative_distances_too() {
+        // Three nodes ready at once are placed nearest first (their order within the pass
+        // shows it); an orthographic view's distances are signed.
+        let distances = [0.5f32, -3.0, -1.0, 9.0];
+        let graph = Graph::new(4, &[(0, 3), (1, 3), (2, 3)]);
+        let (passes, cycles) = graph.passes(&[0, 1, 2, 3], |n| distances[n as usize]);
+        assert_eq!(passes, vec![vec![1, 2, 0], vec![3]]);
+        assert_eq!(cycles, 0);
+    }
+}
