@@ -343,12 +343,10 @@ impl Partial {
         }
     }
 
-    /// Writes what is measured so far (quietly: the bar is running).
+    /// Writes what is measured so far; gives the rows back.
     fn write(&self, dir: &Path, rows: Vec<Row>) -> Vec<Row> {
         let report = self.report(rows, false);
-        if let Err(e) = crate::write_results_quietly(dir, "convex", &report, csv(&report)) {
-            eprintln!("warning: convex: the results so far were not written: {e}");
-        }
+        crate::write_results_so_far(dir, "convex", &report, csv(&report));
         report.rows
     }
 }

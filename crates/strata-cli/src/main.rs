@@ -691,8 +691,16 @@ pub fn write_results(
     Ok(())
 }
 
-/// [`write_results`] without the line that says so (for results written while a run goes on).
-pub fn write_results_quietly(
+/// Writes what a run has measured so far, quietly (its progress bar is running); a failure is
+/// a warning, not the end of the run.
+pub fn write_results_so_far(dir: &Path, name: &str, report: &impl serde::Serialize, csv: String) {
+    if let Err(e) = write_results_quietly(dir, name, report, csv) {
+        eprintln!("warning: {name}: the results so far were not written: {e}");
+    }
+}
+
+/// [`write_results`] without the line that says so.
+fn write_results_quietly(
     dir: &Path,
     name: &str,
     report: &impl serde::Serialize,

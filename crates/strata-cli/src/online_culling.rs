@@ -290,9 +290,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     };
     let write_so_far = |rows: Vec<Row>| {
         let so_far = report(rows, false);
-        if let Err(e) = crate::write_results_quietly(dir, "online-culling", &so_far, csv(&so_far)) {
-            eprintln!("warning: online-culling: the results so far were not written: {e}");
-        }
+        crate::write_results_so_far(dir, "online-culling", &so_far, csv(&so_far));
         so_far.rows
     };
     let mut rows = Vec::new();
