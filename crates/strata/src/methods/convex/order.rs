@@ -19,10 +19,7 @@
 //! here play the grid's part (which pairs need an order, and what decides it) without its
 //! special cases for pieces spanning cells.
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
-
-use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
+use glam::{Mat4, Vec2, Vec3, Vec4, Vec4Swizzles};
 use rayon::prelude::*;
 
 use super::decompose::{Decomposition, Relation, Separation};
@@ -100,7 +97,7 @@ fn footprint(view_proj: Mat4, lo: Vec3, hi: Vec3, width: u32, height: u32) -> Op
         x1: w - 1,
         y1: h - 1,
     };
-    let corners = (0..8).map(|i| {
+    let clip: [Vec4; 8] = std::array::from_fn(|i| {
         let p = Vec3::new(
             if i & 1 == 0 { lo.x } else { hi.x },
             if i & 2 == 0 { lo.y } else { hi.y },
@@ -108,9 +105,8 @@ fn footprint(view_proj: Mat4, lo: Vec3, hi: Vec3, width: u32, height: u32) -> Op
         );
         view_proj * p.extend(1.0)
     });
-    let clip: Vec<_> = corners.collect();
     // Entirely outside one clip plane: nothing of it is drawn.
-    let outside = |f: &dyn Fn(&glam::Vec4) -> bool| clip.iter().all(f);
+    let outside = |f: &dyn Fn(&Vec4) -> bool| clip.iter().all(f);
     if outside(&|c| c.x > c.w)
         || outside(&|c| c.x < -c.w)
         || outside(&|c| c.y > c.w)
@@ -162,9 +158,80 @@ fn screen_hull(view_proj: Mat4, points: &[Vec3], width: u32, height: u32) -> Opt
     Some(convex_hull(projected))
 }
 
-/// Andrew's monotone chain: the hull's corners, each turn positive (collinear points dropped).
+/// Bits of `v` whose unsigned order is `v`'s order, negative values included.
+fn ordered_bits(v: f32) -> u32 {
+    let bits = v.to_bits();
+    if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 1 << 31
+    }
+}
+
+/// Points at least this far inside the polygon of a cloud's extreme points cannot be corners of
+/// its hull (a margin, so that rounding never drops one that is).
+const INTERIOR_MARGIN_PX: f32 = 1e-3;
+
+/// Drops the points lying well inside the polygon of `points`' extreme points along 16
+/// directions (Akl and Toussaint's filter): every corner of their hull stays, and on a big
+/// group's silhouette-like cloud few other points do, so the sort below has little left.
+fn drop_interior(points: &mut Vec<Vec2>) {
+    const AXES: usize = 8;
+    let axes: [Vec2; AXES] =
+        std::array::from_fn(|k| Vec2::from_angle(k as f32 * std::f32::consts::PI / AXES as f32));
+    let mut highest = [(f32::NEG_INFINITY, Vec2::ZERO); AXES];
+    let mut lowest = [(f32::INFINITY, Vec2::ZERO); AXES];
+    for &p in points.iter() {
+        for k in 0..AXES {
+            let along = axes[k].dot(p);
+            if along > highest[k].0 {
+                highest[k] = (along, p);
+            }
+            if along < lowest[k].0 {
+                lowest[k] = (along, p);
+            }
+        }
+    }
+    // Support points of directions turning positively (angle 0 to 2π) follow the hull's
+    // positive turn.
+    let mut corners: Vec<Vec2> = highest.iter().chain(&lowest).map(|&(_, p)| p).collect();
+    corners.dedup();
+    if corners.len() > 1 && corners.first() == corners.last() {
+        corners.pop();
+    }
+    if corners.len() < 3 {
+        return;
+    }
+    let edges: Vec<(Vec2, Vec2, f32)> = (0..corners.len())
+        .map(|i| {
+            let (from, to) = (corners[i], corners[(i + 1) % corners.len()]);
+            (from, to - from, INTERIOR_MARGIN_PX * (to - from).length())
+        })
+        .collect();
+    points.retain(|&p| {
+        !edges
+            .iter()
+            .all(|&(from, edge, margin)| edge.perp_dot(p - from) > margin)
+    });
+}
+
+/// Clouds smaller than this go straight to the sort.
+const FILTERED_FROM: usize = 64;
+
+/// The hull's corners, each turn positive (collinear points dropped).
 fn convex_hull(mut points: Vec<Vec2>) -> Vec<Vec2> {
-    points.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    if points.len() >= FILTERED_FROM {
+        drop_interior(&mut points);
+    }
+    monotone_chain(points)
+}
+
+/// Andrew's monotone chain over all of `points`.
+fn monotone_chain(mut points: Vec<Vec2>) -> Vec<Vec2> {
+    // x then y, as one integer key.
+    points.sort_unstable_by_key(|p| {
+        (u64::from(ordered_bits(p.x)) << 32) | u64::from(ordered_bits(p.y))
+    });
     points.dedup();
     if points.len() < 3 {
         return points;
@@ -191,8 +258,19 @@ fn convex_hull(mut points: Vec<Vec2>) -> Vec<Vec2> {
     hull
 }
 
-/// Side in pixels of the screen tiles that bin the groups when pairs are looked for.
-const TILE: i32 = 8;
+/// Side in pixels of the screen tiles that bin the groups when pairs are looked for: the
+/// power of two (8 to 1024) nearest above the median rectangle's longer side, so that a typical
+/// group lands in a few tiles (small tiles for a big group put it, and every pair it is in, in
+/// hundreds of bins; big tiles for small groups sweep many that never meet).
+fn tile_side(rects: impl Iterator<Item = Rect>) -> i32 {
+    let mut sides: Vec<i32> = rects.map(|r| (r.x1 - r.x0).max(r.y1 - r.y0) + 1).collect();
+    if sides.is_empty() {
+        return 8;
+    }
+    let middle = sides.len() / 2;
+    let median = *sides.select_nth_unstable(middle).1;
+    (median as u32).next_power_of_two().clamp(8, 1024) as i32
+}
 
 /// Every pair (a < b) of `visible` groups whose pixel rectangles (`None`: no pixel) overlap
 /// and whose hulls are not apart, in a deterministic order. Groups are binned into screen
@@ -206,23 +284,24 @@ fn meeting_pairs(
     width: u32,
     height: u32,
 ) -> Vec<(u32, u32)> {
-    let tiles_x = (width as i32 + TILE - 1) / TILE;
-    let tiles_y = (height as i32 + TILE - 1) / TILE;
+    let tile = tile_side(visible.iter().filter_map(|&g| rects[g as usize]));
+    let tiles_x = (width as i32 + tile - 1) / tile;
+    let tiles_y = (height as i32 + tile - 1) / tile;
     let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tiles_x * tiles_y) as usize];
     for &g in visible {
         let Some(r) = rects[g as usize] else {
             continue;
         };
-        for ty in r.y0 / TILE..=r.y1 / TILE {
-            for tx in r.x0 / TILE..=r.x1 / TILE {
+        for ty in r.y0 / tile..=r.y1 / tile {
+            for tx in r.x0 / tile..=r.x1 / tile {
                 bins[(ty * tiles_x + tx) as usize].push(g);
             }
         }
     }
     bins.par_iter()
         .enumerate()
-        .flat_map_iter(|(tile, bin)| {
-            let (tx, ty) = (tile as i32 % tiles_x, tile as i32 / tiles_x);
+        .flat_map_iter(|(index, bin)| {
+            let (tx, ty) = (index as i32 % tiles_x, index as i32 / tiles_x);
             let mut pairs = Vec::new();
             // Swept along x: each group meets only the later-starting ones it reaches.
             let mut bin: Vec<(Rect, u32)> = bin
@@ -236,7 +315,7 @@ fn meeting_pairs(
                     if y0 > ra.y1.min(rb.y1) {
                         continue;
                     }
-                    if x0 / TILE != tx || y0 / TILE != ty {
+                    if x0 / tile != tx || y0 / tile != ty {
                         continue;
                     }
                     if let (Some(ha), Some(hb)) = (&hulls[a as usize], &hulls[b as usize]) {
@@ -314,7 +393,7 @@ pub fn plan(
     let n = dec.groups.len();
     let rects: Vec<Option<Rect>> = dec
         .groups
-        .iter()
+        .par_iter()
         .map(|g| footprint(view_proj, g.lo, g.hi, width, height))
         .collect();
     let visible: Vec<u32> = (0..n as u32)
@@ -338,12 +417,13 @@ pub fn plan(
     };
     let distance: Vec<f32> = dec
         .groups
-        .iter()
+        .par_iter()
         .map(|g| viewer.distance(g.centroid))
         .collect();
     // Where a group's hull is known its pixel rectangle is exact: the rectangle's padding was
     // for boxes, and a group covering no pixel centre meets nothing.
     let pixels: Vec<Option<Rect>> = (0..n)
+        .into_par_iter()
         .map(|g| match &hulls[g] {
             Some(hull) => hull_pixels(hull, width, height),
             None => rects[g],
@@ -495,32 +575,31 @@ impl Graph {
         &self.neighbours[self.first[node as usize] as usize..self.first[node as usize + 1] as usize]
     }
 
-    /// Kahn's sort of `nodes`, the nearest ready node first (a cycle takes the nearest
-    /// unplaced node, counted); each node's pass is one past the latest pass of a neighbour
-    /// placed before it. Returns the passes and the cycles broken.
+    /// Kahn's sort of `nodes` (a cycle takes the nearest unplaced node, counted); each node's
+    /// pass is one past the latest pass of a neighbour placed before it. Returns the passes and
+    /// the cycles broken.
+    ///
+    /// The passes do not depend on the order ready nodes are taken in: until the ready nodes
+    /// run out, the sort places every node whose predecessors all get placed, whatever the
+    /// order, and only then breaks a cycle; so a node's neighbours placed before it are the
+    /// same in every order. Ready nodes are kept on a stack; the order within a pass is
+    /// arbitrary.
     fn passes(
         mut self,
         nodes: &[u32],
         distance: impl Fn(u32) -> f32 + Sync,
     ) -> (Vec<Vec<u32>>, u32) {
-        // Bits that order like the distances, negative ones included (an orthographic view's
-        // distances are signed).
-        let ordered = |d: f32| {
-            let bits = d.to_bits();
-            if bits >> 31 == 1 {
-                !bits
-            } else {
-                bits | 1 << 31
-            }
-        };
-        let key = |g: u32| (Reverse(ordered(distance(g))), Reverse(g));
-        let mut ready: BinaryHeap<_> = nodes
+        let mut ready: Vec<u32> = nodes
             .iter()
-            .filter(|&&g| self.indegree[g as usize] == 0)
-            .map(|&g| key(g))
+            .copied()
+            .filter(|&g| self.indegree[g as usize] == 0)
             .collect();
+        // Nearest first, ties by node: an integer key (distances are signed in an
+        // orthographic view).
         let mut by_distance = nodes.to_vec();
-        by_distance.par_sort_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(a.cmp(&b)));
+        by_distance.par_sort_unstable_by_key(|&g| {
+            (u64::from(ordered_bits(distance(g))) << 32) | u64::from(g)
+        });
         let mut next_nearest = 0;
         const UNPLACED: u32 = u32::MAX;
         let mut pass_of = vec![UNPLACED; self.indegree.len()];
@@ -529,7 +608,7 @@ impl Graph {
         let mut placed = 0;
         while placed < nodes.len() {
             let g = match ready.pop() {
-                Some((_, Reverse(g))) => g,
+                Some(g) => g,
                 None => {
                     while pass_of[by_distance[next_nearest] as usize] != UNPLACED {
                         next_nearest += 1;
@@ -559,7 +638,7 @@ impl Graph {
                 if after && pass_of[o as usize] == UNPLACED {
                     self.indegree[o as usize] -= 1;
                     if self.indegree[o as usize] == 0 {
-                        ready.push(key(o));
+                        ready.push(o);
                     }
                 }
             }
@@ -570,14 +649,31 @@ impl Graph {
 
 #[cfg(test)]
 mod tests {
-    use super::Graph;
+    use std::cmp::Reverse;
+    use std::collections::{BTreeSet, BinaryHeap};
+
+    use glam::Vec2;
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// Passes with each pass's nodes in order (the order within a pass is arbitrary).
+    fn sorted(passes: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
+        passes
+            .into_iter()
+            .map(|mut pass| {
+                pass.sort();
+                pass
+            })
+            .collect()
+    }
 
     #[test]
     fn passes_follow_the_edges_and_a_cycle_takes_the_nearest_node() {
         // 0 → 1 → 2 and 3 alone: 3 shares the first pass; each edge starts a later pass.
         let graph = Graph::new(4, &[(0, 1), (1, 2)]);
         let (passes, cycles) = graph.passes(&[0, 1, 2, 3], |n| n as f32);
-        assert_eq!(passes, vec![vec![0, 3], vec![1], vec![2]]);
+        assert_eq!(sorted(passes), vec![vec![0, 3], vec![1], vec![2]]);
         assert_eq!(cycles, 0);
         // 0 ⇄ 1: one cycle, broken at the nearer node, which then comes first.
         let distances = [-1.0f32, -2.0];
@@ -588,13 +684,232 @@ mod tests {
     }
 
     #[test]
-    fn the_nearest_ready_node_goes_first_at_negative_distances_too() {
-        // Three nodes ready at once are placed nearest first (their order within the pass
-        // shows it); an orthographic view's distances are signed.
+    fn a_cycle_is_broken_at_the_nearest_node_at_signed_distances() {
+        // 3 → 0 and the cycle 0 → 1 → 2 → 0: the cycle opens at 1, the nearest (an
+        // orthographic view's distances are signed), which shares 3's pass and heads the
+        // cycle's.
         let distances = [0.5f32, -3.0, -1.0, 9.0];
-        let graph = Graph::new(4, &[(0, 3), (1, 3), (2, 3)]);
+        let graph = Graph::new(4, &[(0, 1), (1, 2), (2, 0), (3, 0)]);
         let (passes, cycles) = graph.passes(&[0, 1, 2, 3], |n| distances[n as usize]);
-        assert_eq!(passes, vec![vec![1, 2, 0], vec![3]]);
-        assert_eq!(cycles, 0);
+        assert_eq!(sorted(passes), vec![vec![1, 3], vec![2], vec![0]]);
+        assert_eq!(cycles, 1);
+    }
+
+    /// The sort as it was, taking the nearest ready node first from a heap: the passes must not
+    /// depend on that order.
+    fn passes_nearest_first(
+        graph: &Graph,
+        nodes: &[u32],
+        distance: &[f32],
+    ) -> (Vec<BTreeSet<u32>>, u32) {
+        let mut indegree = graph.indegree.clone();
+        let key = |g: u32| (Reverse(ordered_bits(distance[g as usize])), Reverse(g));
+        let mut ready: BinaryHeap<_> = nodes
+            .iter()
+            .filter(|&&g| indegree[g as usize] == 0)
+            .map(|&g| key(g))
+            .collect();
+        let mut by_distance = nodes.to_vec();
+        by_distance.sort_by(|&a, &b| {
+            distance[a as usize]
+                .total_cmp(&distance[b as usize])
+                .then(a.cmp(&b))
+        });
+        let mut pass_of = vec![u32::MAX; indegree.len()];
+        let (mut passes, mut cycles, mut placed) = (Vec::<BTreeSet<u32>>::new(), 0, 0);
+        while placed < nodes.len() {
+            let g = match ready.pop() {
+                Some((_, Reverse(g))) => g,
+                None => {
+                    cycles += 1;
+                    *by_distance
+                        .iter()
+                        .find(|&&g| pass_of[g as usize] == u32::MAX)
+                        .unwrap()
+                }
+            };
+            if pass_of[g as usize] != u32::MAX {
+                continue;
+            }
+            let pass = graph
+                .neighbours(g)
+                .iter()
+                .filter(|(o, _)| pass_of[*o as usize] != u32::MAX)
+                .map(|(o, _)| pass_of[*o as usize] + 1)
+                .max()
+                .unwrap_or(0);
+            pass_of[g as usize] = pass;
+            if passes.len() <= pass as usize {
+                passes.resize(pass as usize + 1, BTreeSet::new());
+            }
+            passes[pass as usize].insert(g);
+            placed += 1;
+            for &(o, after) in graph.neighbours(g) {
+                if after && pass_of[o as usize] == u32::MAX {
+                    indegree[o as usize] -= 1;
+                    if indegree[o as usize] == 0 {
+                        ready.push(key(o));
+                    }
+                }
+            }
+        }
+        (passes, cycles)
+    }
+
+    proptest! {
+        /// Random graphs with cycles (edges both ways, self-contained groups of nodes) and signed
+        /// distances: the stack-driven sort gives the same passes and cycle count as taking the
+        /// nearest ready node first.
+        #[test]
+        fn passes_do_not_depend_on_which_ready_node_goes_first(
+            distances in proptest::collection::vec(-50.0f32..50.0, 1..60),
+            edges in proptest::collection::vec((0usize..60, 0usize..60), 0..150),
+        ) {
+            let n = distances.len();
+            let edges: Vec<(u32, u32)> = edges
+                .into_iter()
+                .map(|(a, b)| ((a % n) as u32, (b % n) as u32))
+                .filter(|(a, b)| a != b)
+                .collect();
+            let nodes: Vec<u32> = (0..n as u32).collect();
+            let graph = Graph::new(n, &edges);
+            let expected = passes_nearest_first(&graph, &nodes, &distances);
+            let (passes, cycles) = graph.passes(&nodes, |g| distances[g as usize]);
+            let passes: Vec<BTreeSet<u32>> =
+                passes.into_iter().map(|p| p.into_iter().collect()).collect();
+            prop_assert_eq!((passes, cycles), expected);
+        }
+
+        /// Clouds of every shape (a filled disk, a ring, a thin line, a square with its corners,
+        /// many copies of few points): the filtered hull has the same corners as the chain over
+        /// every point.
+        #[test]
+        fn dropping_interior_points_keeps_every_hull_corner(
+            shape in 0u32..5,
+            count in 64usize..600,
+            scale in 0.01f32..2000.0,
+            seed in 0u64..1000,
+        ) {
+            let mut rng = crate::scene::builtin::rng::SplitMix64::new(seed);
+            let centre = Vec2::new(rng.next_f32(), rng.next_f32()) * 1000.0;
+            let points: Vec<Vec2> = (0..count)
+                .map(|i| {
+                    let angle = rng.next_f32() * std::f32::consts::TAU;
+                    let radius = match shape {
+                        0 => rng.next_f32().sqrt(),
+                        1 => 1.0 - 0.01 * rng.next_f32(),
+                        _ => rng.next_f32(),
+                    };
+                    let p = match shape {
+                        2 => Vec2::new(radius, 0.5 * radius),
+                        3 if i % 4 == 0 => Vec2::new((i / 4 % 2) as f32, (i / 8 % 2) as f32),
+                        3 => Vec2::new(rng.next_f32(), rng.next_f32()),
+                        4 => Vec2::new((i % 5) as f32, (i % 3) as f32),
+                        _ => Vec2::from_angle(angle) * radius,
+                    };
+                    centre + p * scale
+                })
+                .collect();
+            prop_assert_eq!(convex_hull(points.clone()), monotone_chain(points));
+        }
+
+        /// Rectangles from a pixel to most of the screen (so the tiles range from the smallest
+        /// to the largest), some groups with no pixel, hulls that are triangles inside their
+        /// rectangles: every pair whose rectangles overlap and whose hulls are not apart, each
+        /// once.
+        #[test]
+        fn meeting_pairs_are_the_overlapping_pairs_each_once(
+            groups in proptest::collection::vec(
+                (0i32..300, 0i32..200, 0i32..4, 0.0f32..1.0, 0.0f32..1.0),
+                1..80,
+            ),
+            size_scale in 0u32..4,
+        ) {
+            let (width, height) = (300u32, 200u32);
+            let rects: Vec<Option<Rect>> = groups
+                .iter()
+                .map(|&(x, y, size, _, _)| {
+                    let side = [0, 2, 30, 250][size as usize] >> size_scale.min(size as u32);
+                    let r = Rect {
+                        x0: x,
+                        y0: y,
+                        x1: (x + side).min(width as i32 - 1),
+                        y1: (y + side).min(height as i32 - 1),
+                    };
+                    (x % 7 != 0).then_some(r)
+                })
+                .collect();
+            // A triangle spanning its rectangle's left edge, bottom edge and a point of its top.
+            let hulls: Vec<Option<Vec<Vec2>>> = rects
+                .iter()
+                .zip(&groups)
+                .map(|(r, &(_, _, _, u, v))| {
+                    let r = (*r)?;
+                    let (lo, hi) = (
+                        Vec2::new(r.x0 as f32, r.y0 as f32),
+                        Vec2::new(r.x1 as f32, r.y1 as f32),
+                    );
+                    Some(vec![
+                        lo,
+                        Vec2::new(hi.x, lo.y + v * (hi.y - lo.y)),
+                        Vec2::new(lo.x + u * (hi.x - lo.x), hi.y),
+                    ])
+                })
+                .collect();
+            let visible: Vec<u32> = (0..groups.len() as u32).collect();
+            let found = meeting_pairs(&visible, &rects, &hulls, width, height);
+            let unique: BTreeSet<(u32, u32)> = found.iter().copied().collect();
+            prop_assert_eq!(unique.len(), found.len(), "a pair found twice");
+            let mut expected = BTreeSet::new();
+            for a in 0..groups.len() {
+                for b in a + 1..groups.len() {
+                    let (Some(ra), Some(rb)) = (rects[a], rects[b]) else {
+                        continue;
+                    };
+                    let overlap = ra.x0.max(rb.x0) <= ra.x1.min(rb.x1)
+                        && ra.y0.max(rb.y0) <= ra.y1.min(rb.y1);
+                    let apart = hulls_apart(
+                        hulls[a].as_ref().unwrap(),
+                        hulls[b].as_ref().unwrap(),
+                    );
+                    if overlap && !apart {
+                        expected.insert((a as u32, b as u32));
+                    }
+                }
+            }
+            prop_assert_eq!(unique, expected);
+        }
+    }
+
+    #[test]
+    fn tiles_follow_the_median_rectangle() {
+        let square = |side: i32| Rect {
+            x0: 0,
+            y0: 0,
+            x1: side - 1,
+            y1: side - 1,
+        };
+        assert_eq!(tile_side(std::iter::empty()), 8);
+        assert_eq!(tile_side([1, 3, 2].map(square).into_iter()), 8);
+        assert_eq!(
+            tile_side([1, 300, 300, 2, 400].map(square).into_iter()),
+            512
+        );
+        assert_eq!(tile_side([5000; 3].map(square).into_iter()), 1024);
+    }
+
+    #[test]
+    fn the_filter_drops_most_of_a_filled_disk() {
+        let points: Vec<Vec2> = (0..2000)
+            .map(|i| {
+                let (ring, step) = ((i / 100) as f32 / 20.0, (i % 100) as f32 / 100.0);
+                Vec2::from_angle(step * std::f32::consts::TAU) * ring * 100.0
+            })
+            .collect();
+        let mut kept = points.clone();
+        drop_interior(&mut kept);
+        // The 16-gon of extreme points holds every ring but the outer one.
+        assert!(kept.len() <= 100, "{} of 2000 points kept", kept.len());
+        assert_eq!(convex_hull(points.clone()), monotone_chain(points));
     }
 }
