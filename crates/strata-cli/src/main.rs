@@ -1196,7 +1196,7 @@ fn convex(a: ConvexArgs) -> Result<()> {
     bar.finish_and_clear();
     let camera = scene.camera_or_framing();
     let view_proj = strata::frame::uniforms::band_projection(&camera, &options);
-    let plan = order::plan(&d, &camera, view_proj, options.width, options.height);
+    let plan = order::plan(&d, &camera, view_proj, options.width, options.height, 1);
     let report = ConvexReport {
         decomposition: d.stats.clone(),
         width: options.width,

@@ -379,6 +379,7 @@ impl Convex {
             view_proj,
             size.0,
             size.1,
+            ctx.scene.samples,
         );
         let mut indices: Vec<u32> = Vec::new();
         let draws: PassDraws = plan

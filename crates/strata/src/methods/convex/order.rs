@@ -5,15 +5,20 @@
 //! Each group's bounding box is projected to a conservative pixel rectangle (boxes behind the
 //! eye, beyond the far plane or off screen are culled; a box crossing the eye's plane covers the
 //! whole screen). Two groups matter to each other only when their rectangles overlap and the
-//! convex hulls of their projected vertices (which hold every pixel centre a group can cover)
-//! are not apart; for such a pair the plane that separates them (see [`super::decompose`])
-//! decides: the group on the eye's side is in front for every ray from the eye (for an orthographic view, the side the view
-//! direction leaves). The pairs give a directed graph, topologically sorted nearest centroid
-//! first; a cycle (or a pair with no plane) is broken by taking the nearest remaining centroid,
-//! counted, and what it costs shows in the frame's `order_violations`. A group's pass is one
-//! more than the latest pass of any overlapping group placed before it, so a pass never holds
-//! two groups that can share a pixel: passes ≈ the depth complexity in groups, not the group
-//! count.
+//! convex hulls of their projected vertices (which hold every sample point a group can cover:
+//! pixel centres, or with `--msaa` anywhere in a pixel's square) are not apart; for such a pair
+//! the plane that separates them (see [`super::decompose`]) decides: the group on the eye's side
+//! is in front for every ray from the eye (for an orthographic view, the side the view
+//! direction leaves). The pairs give a directed graph, topologically sorted (ready groups in any
+//! order: the passes do not depend on it); a cycle (or a pair with no plane) is broken by taking
+//! the nearest remaining centroid, counted, and what it costs shows in the frame's
+//! `order_violations`. A group's pass is one more than the latest pass of any overlapping group
+//! placed before it, so a pass never holds two groups that can share a pixel: passes ≈ the
+//! depth complexity in groups, not the group count.
+//!
+//! Cost per view: projecting every group's distinct vertices (points well inside the polygon of
+//! a group's 16 extreme points are dropped before the hull's sort), pairs found in screen tiles
+//! sized to the median footprint, a linear topological sort.
 //!
 //! The paper orders pieces by walking a uniform grid front to back; the rectangles and planes
 //! here play the grid's part (which pairs need an order, and what decides it) without its
@@ -331,16 +336,20 @@ fn meeting_pairs(
         .collect()
 }
 
-/// The pixels whose centres a hull's box holds (within the margin), or `None` when it holds no
-/// pixel centre on screen (the group can cover none).
-fn hull_pixels(hull: &[Vec2], width: u32, height: u32) -> Option<Rect> {
+/// The pixels a hull's box can cover: those whose sample points it holds (within the margin), or
+/// `None` when it holds none on screen (the group can cover none). Single-sampled, a pixel's one
+/// sample is its centre; multisampled, its samples may lie anywhere in its square, so every
+/// pixel whose square the box meets counts.
+fn hull_pixels(hull: &[Vec2], width: u32, height: u32, samples: u32) -> Option<Rect> {
     let (lo, hi) = hull
         .iter()
         .fold((Vec2::INFINITY, Vec2::NEG_INFINITY), |(lo, hi), &p| {
             (lo.min(p), hi.max(p))
         });
-    let first = |v: f32| (v - 0.5 - HULL_MARGIN_PX).ceil().max(0.0) as i32;
-    let last = |v: f32, size: u32| (v - 0.5 + HULL_MARGIN_PX).floor().min(size as f32 - 1.0) as i32;
+    // How far from its centre a pixel's samples can lie, along each axis.
+    let reach = if samples > 1 { 0.5 } else { 0.0 } + HULL_MARGIN_PX;
+    let first = |v: f32| (v - 0.5 - reach).ceil().max(0.0) as i32;
+    let last = |v: f32, size: u32| (v - 0.5 + reach).floor().min(size as f32 - 1.0) as i32;
     let r = Rect {
         x0: first(lo.x),
         y0: first(lo.y),
@@ -380,13 +389,14 @@ pub enum Cap {
 }
 
 /// The order of `dec`'s groups for a frame seen by `camera` through `view_proj` at
-/// `width`×`height`.
+/// `width`×`height` with `samples` per pixel.
 pub fn plan(
     dec: &Decomposition,
     camera: &Camera,
     view_proj: Mat4,
     width: u32,
     height: u32,
+    samples: u32,
 ) -> FramePlan {
     let start = std::time::Instant::now();
     let viewer = Viewer::of(camera);
@@ -425,7 +435,7 @@ pub fn plan(
     let pixels: Vec<Option<Rect>> = (0..n)
         .into_par_iter()
         .map(|g| match &hulls[g] {
-            Some(hull) => hull_pixels(hull, width, height),
+            Some(hull) => hull_pixels(hull, width, height, samples),
             None => rects[g],
         })
         .collect();
@@ -879,6 +889,51 @@ mod tests {
             }
             prop_assert_eq!(unique, expected);
         }
+    }
+
+    #[test]
+    fn a_group_between_pixel_centres_is_ordered_when_multisampled() {
+        // One world unit per pixel, 8×8, looking down -z: a quad over the whole view at z = 2,
+        // another behind it at z = 1, and behind both a sliver between pixel centres (x and y
+        // in [2.6, 3.4]), which covers samples of 4× multisampling but no centre.
+        let quad = |lo: f32, hi: f32, z: f32| {
+            let [a, b, c, d] =
+                [(lo, lo), (hi, lo), (hi, hi), (lo, hi)].map(|(x, y)| glam::Vec3::new(x, y, z));
+            [[a, b, c], [a, c, d]]
+        };
+        let triangles = [
+            quad(0.0, 8.0, 2.0),
+            quad(0.0, 8.0, 1.0),
+            quad(2.6, 3.4, 0.0),
+        ]
+        .concat();
+        let dec = Decomposition::new(&triangles, &|_| {});
+        assert_eq!(dec.groups.len(), 3);
+        let group_at = |z: f32| dec.groups.iter().position(|g| g.lo.z == z).unwrap() as u32;
+        let camera = Camera {
+            eye: glam::Vec3::new(4.0, 4.0, 10.0),
+            target: glam::Vec3::new(4.0, 4.0, 0.0),
+            up: glam::Vec3::Y,
+            projection: Projection::Orthographic { height: 8.0 },
+            near: 0.1,
+            far: 100.0,
+        };
+        let view_proj = camera.view_projection(1.0);
+        let passes = |samples: u32| -> Vec<Vec<u32>> {
+            sorted(
+                plan(&dec, &camera, view_proj, 8, 8, samples)
+                    .passes
+                    .into_iter()
+                    .map(|pass| pass.into_iter().map(|(g, _)| g).collect())
+                    .collect(),
+            )
+        };
+        let (front, middle, sliver) = (group_at(2.0), group_at(1.0), group_at(0.0));
+        assert_eq!(passes(4), vec![vec![front], vec![middle], vec![sliver]]);
+        // Single-sampled the sliver covers no pixel and meets nothing: any pass will do.
+        let mut first = vec![front, sliver];
+        first.sort();
+        assert_eq!(passes(1), vec![first, vec![middle]]);
     }
 
     #[test]

@@ -351,6 +351,40 @@ fn convex_equals_the_multisampled_reference_on_layers() {
     assert_eq!(convex.fragments_generated, abuffer.fragments_generated);
 }
 
+/// Multisampled, a group covering samples but no pixel centre (a sliver behind two quads that
+/// fill the view) still goes after what lies in front of it: its footprint counts every pixel
+/// whose square it meets, not only those whose centre it holds.
+#[test]
+fn convex_orders_a_sliver_between_pixel_centres_when_multisampled() {
+    let mut s = Scene::default();
+    let material = s.add_material(crate::scene::Material::default());
+    // One world unit per pixel; the sliver spans [2.6, 3.4] on both axes.
+    for (lo, hi, z) in [(0.0, 8.0, 2.0), (0.0, 8.0, 1.0), (2.6, 3.4, 0.0)] {
+        s.objects.push(crate::scene::Object {
+            name: format!("quad at z = {z}"),
+            mesh: crate::scene::Mesh {
+                positions: vec![[lo, lo, z], [hi, lo, z], [hi, hi, z], [lo, hi, z]],
+                normals: vec![[0.0, 0.0, 1.0]; 4],
+                indices: vec![0, 1, 2, 0, 2, 3],
+            },
+            material,
+        });
+    }
+    s.camera = Some(crate::scene::Camera {
+        eye: Vec3::new(4.0, 4.0, 10.0),
+        target: Vec3::new(4.0, 4.0, 0.0),
+        up: Vec3::Y,
+        projection: crate::scene::Projection::Orthographic { height: 8.0 },
+        near: 0.1,
+        far: 100.0,
+    });
+    let opts = RenderOptions {
+        msaa: 4,
+        ..options(8, Effect::Transparency)
+    };
+    check_exact("msaa4-sliver", &s, &opts);
+}
+
 /// At a curved silhouette a fragment covering only some samples carries the depth of its
 /// triangle's plane at the pixel center (fragment-rate shading), far from where the triangle
 /// is when the plane is steep: the reference orders each sample by those depths, convex by
