@@ -674,6 +674,8 @@ impl KFrame {
             + temporal.bytes;
         check_memory(ctx, self.id.as_str(), storage.bytes, total)?;
         let none = wgpu::BufferUsages::empty();
+        // Tests read the per-pixel words and the storage back (the lists against the reference).
+        let readable = wgpu::BufferUsages::COPY_SRC;
         let cache = &mut self.cache;
         let params_buffer =
             cache.uniform(gpu, "strata.kbuffer.params", bytemuck::bytes_of(&params));
@@ -681,7 +683,7 @@ impl KFrame {
             gpu,
             "strata.kbuffer.pixels",
             pixel_words_bytes(px, samples),
-            none,
+            readable,
         )?;
         let counters = cache.storage(
             gpu,
@@ -699,7 +701,7 @@ impl KFrame {
             self.counter_start = Some(start);
         }
         let tail = cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, none)?;
-        let buffer = cache.storage(gpu, storage.label, storage.bytes, none)?;
+        let buffer = cache.storage(gpu, storage.label, storage.bytes, readable)?;
         let group = binding::group(
             &gpu.device,
             "strata.kbuffer.group",
