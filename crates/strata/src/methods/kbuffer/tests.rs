@@ -859,11 +859,17 @@ struct RasterAgreement {
 /// Renders `abuffer-ll` (every fragment kept in its pixel's list) at `msaa` samples and reads
 /// the lists back: each fragment's pixel, primitive, covered samples and window depth, as the
 /// device's rasterizer made them, matched with the reference's fragments.
-fn raster_agreement(s: &Scene, size: u32, msaa: u32) -> RasterAgreement {
+fn raster_agreement(
+    s: &Scene,
+    size: u32,
+    msaa: u32,
+    raster: crate::raster::Raster,
+) -> RasterAgreement {
     use crate::gpu::readback::read_u32s;
     use std::collections::HashMap;
     let opts = RenderOptions {
         msaa,
+        raster,
         ..all_fragments(size)
     };
     // The tag: primitive << (1 + mask bits) | mask << 1 | front-facing (no mask single-sampled).
@@ -940,19 +946,24 @@ const EXTRAPOLATED_DEPTH_AGREEMENT: f64 = 1e-5;
 /// the reference's: the same fragments (pixel and primitive) but for pixel centres on an edge
 /// (at most the 0.1% the image tests allow; lavapipe: none here), with --msaa the same samples,
 /// and window depths within [`DEPTH_AGREEMENT`] ([`EXTRAPOLATED_DEPTH_AGREEMENT`] where a
-/// fragment covers only some samples). Every exact test leans on this; on another GPU, a
-/// failure here says whether coverage or depth makes its pictures differ, and where.
+/// fragment covers only some samples); and strata's compute rasterizer the same. Every exact
+/// test leans on this; on another GPU, a failure here says whether coverage or depth makes its
+/// pictures differ, where, and whether the compute rasterizer (the same WGSL everywhere) still
+/// agrees with the reference there.
 #[test]
 fn the_devices_fragments_are_the_references() {
-    for (spec, size, msaa) in [
-        ("builtin:nvpro?objects=48&subdiv=10&seed=4", 48, 1),
-        ("builtin:nvpro?objects=160&subdiv=10&seed=3", 64, 1),
-        ("builtin:nvpro?objects=48&subdiv=10&seed=4", 48, 4),
+    use crate::raster::Raster::{Compute, Hw};
+    for (spec, size, msaa, raster) in [
+        ("builtin:nvpro?objects=48&subdiv=10&seed=4", 48, 1, Hw),
+        ("builtin:nvpro?objects=160&subdiv=10&seed=3", 64, 1, Hw),
+        ("builtin:nvpro?objects=48&subdiv=10&seed=4", 48, 4, Hw),
+        ("builtin:nvpro?objects=48&subdiv=10&seed=4", 48, 1, Compute),
+        ("builtin:nvpro?objects=160&subdiv=10&seed=3", 64, 1, Compute),
     ] {
-        let a = raster_agreement(&scene(spec), size, msaa);
+        let a = raster_agreement(&scene(spec), size, msaa, raster);
         let first = |v: &Vec<(u32, u32, u32)>| v[..v.len().min(8)].to_vec();
         let summary = format!(
-            "{spec} at {size}², --msaa {msaa}: {} fragments; only the reference's (x, y, \
+            "{spec} at {size}², --msaa {msaa}, {raster:?} rasterizer: {} fragments; only the reference's (x, y, \
              primitive): {} {:?}; only the device's: {} {:?}; other samples covered: {} {:?}; \
              depth error up to {:.3e} at {:?}, partly covering fragments {:.3e} at {:?}",
             a.reference,
