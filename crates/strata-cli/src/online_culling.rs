@@ -14,6 +14,8 @@
 //! fragments temporal culling rejected and, for temporal culling (approximate by design), the
 //! worst RMSE and share of pixels over 2/255 against `reference --k N` over the sequence.
 //! Frames are waited for one by one (exact mode), so times are per frame, not a steady loop.
+//! A run past [`RUN_BUDGET`] of wall time renders no more frames (its row's `frames` says how
+//! many it did), and the results are written after every run.
 
 use crate::bench::opt;
 use std::path::Path;
@@ -77,6 +79,7 @@ struct Row {
     config: &'static str,
     method: MethodId,
     refresh: Option<u32>,
+    /// Frames rendered: the sequence's, or fewer when the run outlasted [`RUN_BUDGET`].
     frames: u32,
     /// Median over the frames after the first, the order pass excluded.
     gpu_ms: Option<f64>,
@@ -96,8 +99,8 @@ struct Report {
     width: u32,
     height: u32,
     k: u32,
-    /// False while the run is under way: the results are written after every sequence, so a
-    /// run stopped early (a time limit) leaves what it measured.
+    /// False while the run is under way: the results are written after every run of a
+    /// configuration, so a run stopped early (a time limit) leaves what it measured.
     complete: bool,
     rows: Vec<Row>,
 }
@@ -188,13 +191,32 @@ fn method_ms(s: &FrameStats) -> Option<f64> {
     )
 }
 
-/// Runs one order and configuration over a sequence.
+/// Wall time after which a run renders no more frames (a configuration that starves on a
+/// device, say), so that one slow configuration leaves time for the others; the row's `frames`
+/// says how many it rendered.
+const RUN_BUDGET: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// Runs one order and configuration over a sequence (within [`RUN_BUDGET`], at least two
+/// frames).
 fn run_one(gpu: &Gpu, seq: &mut Sequence, options: &RenderOptions, config: &Config) -> Result<Row> {
+    let start = std::time::Instant::now();
     let mut renderer = Renderer::new(gpu, &seq.scene, options)?;
     let (mut times, mut taus) = (Vec::new(), Vec::new());
     let (mut fragments, mut culled, mut lock_failures) = (0u64, 0u64, 0u64);
     let (mut rmse_max, mut over_max) = (0.0f64, 0.0f64);
+    let mut rendered = 0;
     for t in 0..seq.frames as usize {
+        if t >= 2 && start.elapsed() > RUN_BUDGET {
+            eprintln!(
+                "warning: {} {}: {t} of {} frames in {:.0} s, the rest skipped",
+                seq.name,
+                config.name,
+                seq.frames,
+                start.elapsed().as_secs_f64()
+            );
+            break;
+        }
+        rendered += 1;
         renderer.set_time(t as f32);
         let (image, stats) = renderer.render_method(config.method, None)?;
         lock_failures += stats.lock_failures.unwrap_or(0);
@@ -232,7 +254,7 @@ fn run_one(gpu: &Gpu, seq: &mut Sequence, options: &RenderOptions, config: &Conf
         config: config.name,
         method: config.method,
         refresh: options.temporal.map(|t| t.refresh),
-        frames: seq.frames,
+        frames: rendered,
         gpu_ms: median(times),
         kendall_tau: median(taus),
         fragments: Some(fragments),
@@ -301,9 +323,9 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
                 let opts = options(size, config, order, seed, temporal_default_refresh());
                 rows.push(run_one(gpu, seq, &opts, config)?);
                 bar.inc(1);
+                rows = write_so_far(rows);
             }
         }
-        rows = write_so_far(rows);
     }
     let temporal = &CONFIGS[3];
     for refresh in sweep {
