@@ -856,24 +856,22 @@ struct RasterAgreement {
     worst: [Option<(u32, u32, u32)>; 2],
 }
 
-/// Renders `abuffer-ll` (every fragment kept in its pixel's list) at `msaa` samples and reads
-/// the lists back: each fragment's pixel, primitive, covered samples and window depth, as the
-/// device's rasterizer made them, matched with the reference's fragments.
-fn raster_agreement(
-    s: &Scene,
-    size: u32,
-    msaa: u32,
-    raster: crate::raster::Raster,
-) -> RasterAgreement {
+/// A fragment as the device's rasterizer made it: window depth and covered samples (bit i:
+/// sample i; 0 single-sampled), by primitive.
+pub(crate) type DeviceFragments = std::collections::HashMap<u32, (f32, u32)>;
+
+/// Renders `abuffer-ll` (every fragment kept in its pixel's list) with `opts`' size, samples and
+/// rasterizer, and reads the lists back: per pixel, each fragment's primitive, window depth and
+/// covered samples, as the device made them (the depth every capture pass sees: the vertex
+/// stage's position is invariant).
+pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFragments> {
     use crate::gpu::readback::read_u32s;
-    use std::collections::HashMap;
     let opts = RenderOptions {
-        msaa,
-        raster,
-        ..all_fragments(size)
+        k: None,
+        ..opts.clone()
     };
     // The tag: primitive << (1 + mask bits) | mask << 1 | front-facing (no mask single-sampled).
-    let mask_bits = if msaa > 1 { msaa } else { 0 };
+    let mask_bits = if opts.msaa > 1 { opts.msaa } else { 0 };
     let gpu = crate::testing::gpu();
     let mut r = crate::Renderer::new(gpu, s, &opts).unwrap();
     let (_, stats) = r.render("abuffer-ll").unwrap();
@@ -885,32 +883,50 @@ fn raster_agreement(
         buffer("strata.kbuffer.pixels"),
         buffer("strata.kbuffer.nodes"),
     );
-    let pixel_words = read_u32s(gpu, pixels, 4 * (size * size) as u64).unwrap();
+    let count = (opts.width * opts.height) as usize;
+    let pixel_words = read_u32s(gpu, pixels, 4 * count as u64).unwrap();
     let node_words = read_u32s(gpu, nodes, nodes.size() / 4).unwrap();
+    (0..count)
+        .map(|p| {
+            // Node links are index + 1; a walk longer than the pool would mean a cycle.
+            let mut device = DeviceFragments::new();
+            let mut link = pixel_words[4 * p + 1];
+            let mut steps = 0;
+            while link != 0 {
+                let w = 5 * (link - 1) as usize;
+                let tag = node_words[w + 1];
+                let mask = (tag >> 1) & ((1 << mask_bits) - 1);
+                device.insert(
+                    tag >> (1 + mask_bits),
+                    (f32::from_bits(node_words[w]), mask),
+                );
+                link = node_words[w + 4];
+                steps += 1;
+                assert!(steps <= node_words.len() / 5, "a cycle in pixel {p}'s list");
+            }
+            device
+        })
+        .collect()
+}
+
+/// [`device_fragments`] matched with the reference's fragments.
+fn raster_agreement(
+    s: &Scene,
+    size: u32,
+    msaa: u32,
+    raster: crate::raster::Raster,
+) -> RasterAgreement {
+    let opts = RenderOptions {
+        msaa,
+        raster,
+        ..all_fragments(size)
+    };
+    let devices = device_fragments(s, &opts);
     let reference = crate::reference::fragments(s, &opts).unwrap();
     let mut agreement = RasterAgreement::default();
-    for (p, expected) in reference.iter().enumerate() {
+    for (p, (expected, mut device)) in reference.iter().zip(devices).enumerate() {
         let (x, y) = (p as u32 % size, p as u32 / size);
         agreement.reference += expected.len();
-        // Node links are index + 1; a walk longer than the pool would mean a cycle.
-        let mut device: HashMap<u32, (f32, u32)> = HashMap::new();
-        let mut link = pixel_words[4 * p + 1];
-        let mut steps = 0;
-        while link != 0 {
-            let w = 5 * (link - 1) as usize;
-            let tag = node_words[w + 1];
-            let mask = (tag >> 1) & ((1 << mask_bits) - 1);
-            device.insert(
-                tag >> (1 + mask_bits),
-                (f32::from_bits(node_words[w]), mask),
-            );
-            link = node_words[w + 4];
-            steps += 1;
-            assert!(
-                steps <= node_words.len() / 5,
-                "a cycle in pixel ({x}, {y})'s list"
-            );
-        }
         for f in expected {
             match device.remove(&f.prim) {
                 Some((depth, mask)) => {
