@@ -238,8 +238,6 @@ use raster::cover_samples;
 /// pixel's nearest opaque surface, shaded, replaces the background, the transparent fragments in
 /// front of it (strictly nearer) are composited over it, and the result is tone-mapped.
 pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, FrameStats)> {
-    let (w, h) = (options.width, options.height);
-    let translucency = options.effect == Effect::Translucency;
     if options.k_auto.is_some() {
         return Err(crate::Error::input(
             "the reference takes --k N, not --k auto (a GPU frame's stats name the k it chose)",
@@ -283,6 +281,20 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
             (lists, Some(nearest))
         }
     };
+    Ok(render_lists(&lists, opaque.as_deref(), options))
+}
+
+/// The picture of every pixel's fragments `lists` (depth order) as [`render`] makes it: each
+/// sample composites its k nearest over the background (or the pixel's `opaque` surface, then
+/// tone-mapped). Tests also give it the reference's fragments at the depths a device's
+/// rasterizer gave them.
+pub fn render_lists(
+    lists: &[Vec<RefFragment>],
+    opaque: Option<&[Option<RefFragment>]>,
+    options: &RenderOptions,
+) -> (LinearImage, FrameStats) {
+    let (w, h) = (options.width, options.height);
+    let translucency = options.effect == Effect::Translucency;
     let keep = options.k.map(|k| k as usize).unwrap_or(usize::MAX);
     let samples = options.msaa.max(1);
     // Per pixel: the color, averaged over samples that each composite their own k nearest,
@@ -293,7 +305,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         .map(|(i, list)| {
             let (x, y) = (i as u32 % w, i as u32 / w);
             let mut bg = options.background.at(x, y).map(|c| c as f64);
-            if let Some(Some(o)) = opaque.as_ref().map(|o| &o[i]) {
+            if let Some(Some(o)) = opaque.map(|o| &o[i]) {
                 bg = o.color;
             }
             let mut kept_by_any = vec![false; list.len()];
@@ -361,14 +373,14 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
         adapter: Some("cpu".into()),
         backend: Some("cpu".into()),
     };
-    Ok((
+    (
         LinearImage {
             width: w,
             height: h,
             pixels,
         },
         stats,
-    ))
+    )
 }
 
 #[cfg(test)]

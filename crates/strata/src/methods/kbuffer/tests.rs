@@ -2,7 +2,10 @@
 //!
 //! Tolerance as for the foundation's exact methods (see methods/tests.rs): max |Δ| ≤ 2/255 on
 //! ≥ 99.9% of pixels; coverage at edges may differ between lavapipe's f32 setup and the
-//! reference's exact integers.
+//! reference's exact integers. Each picture is also compared with the reference's fragments at
+//! the depths and samples the device's rasterizer gave them (read back through `abuffer-ll`):
+//! there every pixel must match, since which k are nearest no longer depends on rounding, so
+//! on any GPU a failure of that comparison is the method's, not the rasterizer's.
 
 use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};
@@ -44,6 +47,10 @@ fn all_fragments(size: u32) -> RenderOptions {
 
 fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
     let (expected, reference_stats) = crate::reference::render(s, opts).unwrap();
+    // The same picture from the reference's fragments at the device's own depths and coverage:
+    // which k are nearest no longer hangs on rounding, so it must match at every pixel.
+    let (lists, unmatched) = reference_fragments_at_device_depths(s, opts);
+    let (at_device, _) = crate::reference::render_lists(&lists, None, opts);
     for method in methods {
         let (actual, stats) = render_gpu(s, opts, method);
         assert_close(
@@ -53,6 +60,14 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
             opts.effect,
             MAX_DIFF,
             MAX_FRACTION,
+        );
+        assert_close(
+            &format!("{name}-{method}-k{}-device-depths", opts.k.unwrap()),
+            &actual,
+            &at_device,
+            opts.effect,
+            MAX_DIFF,
+            if unmatched == 0 { 0.0 } else { MAX_FRACTION },
         );
         assert_eq!(
             stats.lock_failures.unwrap_or(0),
@@ -907,6 +922,46 @@ pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFra
             device
         })
         .collect()
+}
+
+/// The reference's fragments at the depths and samples the device's rasterizer gave them, in
+/// the device's depth order, and how many fragments only one of the two has (coverage at pixel
+/// centres on an edge: those are left out).
+pub(crate) fn reference_fragments_at_device_depths(
+    s: &Scene,
+    opts: &RenderOptions,
+) -> (Vec<Vec<crate::resolve::RefFragment>>, u64) {
+    let lists = crate::reference::fragments(s, opts).unwrap();
+    let devices = device_fragments(s, opts);
+    let mut unmatched = 0;
+    let lists = lists
+        .into_iter()
+        .zip(devices)
+        .map(|(list, mut device)| {
+            let mut list: Vec<_> = list
+                .into_iter()
+                .filter_map(|f| {
+                    let Some((depth, mask)) = device.remove(&f.prim) else {
+                        unmatched += 1;
+                        return None;
+                    };
+                    Some(crate::resolve::RefFragment {
+                        depth: f64::from(depth),
+                        coverage: if opts.msaa > 1 {
+                            mask as u8
+                        } else {
+                            f.coverage
+                        },
+                        ..f
+                    })
+                })
+                .collect();
+            unmatched += device.len() as u64;
+            list.sort_by(crate::resolve::RefFragment::order);
+            list
+        })
+        .collect();
+    (lists, unmatched)
 }
 
 /// [`device_fragments`] matched with the reference's fragments.

@@ -13,8 +13,7 @@ use crate::testing::{assert_close, render_gpu, render_reference};
 const MAX_DIFF: u8 = 2;
 const MAX_FRACTION: f64 = 0.001;
 
-use crate::methods::kbuffer::tests::{device_fragments, options};
-use crate::resolve::RefFragment;
+use crate::methods::kbuffer::tests::{options, reference_fragments_at_device_depths};
 
 /// The reference's fragments at the depths and samples the device's rasterizer gave them (read
 /// back through `abuffer-ll`: the twin must route what the GPU routes, and a depth on a bucket
@@ -24,34 +23,15 @@ use crate::resolve::RefFragment;
 /// fragments some sample kept, and the fragments only one of the reference and the device has
 /// (coverage at pixel centres on an edge).
 fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage, u64, u64) {
-    let lists = crate::reference::fragments(scene, opts).unwrap();
-    let devices = device_fragments(scene, opts);
+    let (lists, unmatched) = reference_fragments_at_device_depths(scene, opts);
     let translucency = opts.effect == Effect::Translucency;
     let samples = opts.msaa.max(1);
-    let (mut kept_total, mut unmatched) = (0, 0);
+    let mut kept_total = 0;
     let pixels = lists
         .iter()
-        .zip(devices)
         .enumerate()
-        .map(|(i, (list, mut device))| {
+        .map(|(i, list)| {
             let (x, y) = (i as u32 % opts.width, i as u32 / opts.width);
-            let mut list: Vec<RefFragment> = list
-                .iter()
-                .filter_map(|f| {
-                    let Some((depth, mask)) = device.remove(&f.prim) else {
-                        unmatched += 1;
-                        return None;
-                    };
-                    let coverage = if samples > 1 { mask as u8 } else { f.coverage };
-                    Some(RefFragment {
-                        depth: f64::from(depth),
-                        coverage,
-                        ..*f
-                    })
-                })
-                .collect();
-            unmatched += device.len() as u64;
-            list.sort_by(RefFragment::order);
             let depths: Vec<f32> = list.iter().map(|f| f.depth as f32).collect();
             let coverage: Vec<u32> = list.iter().map(|f| f.coverage as u32).collect();
             let kept = select_samples(&depths, &coverage, samples, slots, opts.buckets);
