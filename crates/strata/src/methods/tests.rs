@@ -25,6 +25,11 @@ pub(crate) fn options(size: u32, effect: Effect) -> RenderOptions {
 
 fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
     let expected = render_reference(scene, opts);
+    // The reference's fragments at the device's own depths and coverage: every pixel matches
+    // there (see kbuffer/tests.rs), so on any GPU a difference is the method's.
+    let (lists, unmatched) =
+        super::kbuffer::tests::reference_fragments_at_device_depths(scene, opts);
+    let (at_device, _) = crate::reference::render_lists(&lists, None, opts);
     for method in EXACT_METHODS {
         let (actual, stats) = render_gpu(scene, opts, method);
         assert_close(
@@ -34,6 +39,14 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
             opts.effect,
             MAX_DIFF,
             MAX_FRACTION,
+        );
+        assert_close(
+            &format!("{name}-{method}-{}-device-depths", opts.effect.name()),
+            &actual,
+            &at_device,
+            opts.effect,
+            MAX_DIFF,
+            if unmatched == 0 { 0.0 } else { MAX_FRACTION },
         );
         assert!(stats.geometry_passes.unwrap() >= 1);
     }

@@ -931,6 +931,10 @@ pub(crate) fn reference_fragments_at_device_depths(
     s: &Scene,
     opts: &RenderOptions,
 ) -> (Vec<Vec<crate::resolve::RefFragment>>, u64) {
+    assert!(
+        opts.pipeline.is_none(),
+        "the whole scene's fragments, no opaque split"
+    );
     let lists = crate::reference::fragments(s, opts).unwrap();
     let devices = device_fragments(s, opts);
     let mut unmatched = 0;
