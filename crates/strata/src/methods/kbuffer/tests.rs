@@ -911,10 +911,13 @@ pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFra
                 let w = 5 * (link - 1) as usize;
                 let tag = node_words[w + 1];
                 let mask = (tag >> 1) & ((1 << mask_bits) - 1);
-                device.insert(
-                    tag >> (1 + mask_bits),
-                    (f32::from_bits(node_words[w]), mask),
-                );
+                // A device may shade one primitive's pixel in more than one invocation, each
+                // with its own samples (lavapipe does at some edges with --msaa): one fragment
+                // covering their union, as the resolve sees it.
+                device
+                    .entry(tag >> (1 + mask_bits))
+                    .and_modify(|(_, covered)| *covered |= mask)
+                    .or_insert((f32::from_bits(node_words[w]), mask));
                 link = node_words[w + 4];
                 steps += 1;
                 assert!(steps <= node_words.len() / 5, "a cycle in pixel {p}'s list");
