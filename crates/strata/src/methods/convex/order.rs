@@ -144,23 +144,111 @@ fn footprint(view_proj: Mat4, lo: Vec3, hi: Vec3, width: u32, height: u32) -> Op
     (r.x0 <= r.x1 && r.y0 <= r.y1).then_some(r)
 }
 
-/// The convex hull (counter-clockwise in the plane's own orientation) of `points` projected to
-/// pixel coordinates: it holds every pixel centre the group can cover. `None` when a point lies
-/// at or behind the eye (the projection is unbounded there; the rectangle decides alone).
-fn screen_hull(view_proj: Mat4, points: &[Vec3], width: u32, height: u32) -> Option<Vec<Vec2>> {
-    let mut projected = Vec::with_capacity(points.len());
+/// `points` projected to pixel coordinates in `out` (replacing what it held); `false` when a
+/// point lies at or behind the eye (the projection is unbounded there).
+fn project(view_proj: Mat4, points: &[Vec3], width: u32, height: u32, out: &mut Vec<Vec2>) -> bool {
+    out.clear();
     for p in points {
         let c = view_proj * p.extend(1.0);
         if c.w <= 1e-6 {
-            return None;
+            return false;
         }
         let ndc = c.xy() / c.w;
-        projected.push(Vec2::new(
+        out.push(Vec2::new(
             (ndc.x + 1.0) * 0.5 * width as f32,
             (1.0 - ndc.y) * 0.5 * height as f32,
         ));
     }
-    Some(convex_hull(projected))
+    true
+}
+
+/// The groups' screen footprints in one frame.
+struct Footprints {
+    /// The pixels whose samples a group can cover (`None`: none, or outside the view).
+    pixels: Vec<Option<Rect>>,
+    /// Group g's projected hull (counter-clockwise in the plane's own orientation; it holds
+    /// every sample point the group can cover) is `corners[start..end]`; `None` where the
+    /// projection is unbounded (a point at or behind the eye: the box's rectangle decides
+    /// alone) or the group covers no pixel.
+    hulls: Vec<Option<(u32, u32)>>,
+    corners: Vec<Vec2>,
+}
+
+impl Footprints {
+    /// Where each group of `dec` with a rectangle in `rects` can lie on screen. A group whose
+    /// projected points' box holds no sample point covers nothing, and its hull is not made.
+    fn new(
+        dec: &Decomposition,
+        rects: &[Option<Rect>],
+        view_proj: Mat4,
+        (width, height): (u32, u32),
+        samples: u32,
+    ) -> Footprints {
+        // Chunks of groups share scratch space and one corner list, so a frame allocates per
+        // chunk, not per group.
+        const CHUNK: usize = 2048;
+        let chunks: Vec<Footprints> = rects
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(chunk, rects)| {
+                let mut projected = Vec::new();
+                let mut part = Footprints {
+                    pixels: Vec::with_capacity(rects.len()),
+                    hulls: Vec::with_capacity(rects.len()),
+                    corners: Vec::new(),
+                };
+                for (i, rect) in rects.iter().enumerate() {
+                    let points = &dec.groups[chunk * CHUNK + i].points;
+                    let (pixels, hull) = match rect {
+                        None => (None, None),
+                        Some(rect)
+                            if !project(view_proj, points, width, height, &mut projected) =>
+                        {
+                            (Some(*rect), None)
+                        }
+                        Some(_) => {
+                            let (lo, hi) = projected
+                                .iter()
+                                .fold((Vec2::INFINITY, Vec2::NEG_INFINITY), |(lo, hi), &p| {
+                                    (lo.min(p), hi.max(p))
+                                });
+                            match box_pixels(lo, hi, width, height, samples) {
+                                None => (None, None),
+                                Some(pixels) => {
+                                    let start = part.corners.len() as u32;
+                                    convex_hull_into(&mut projected, &mut part.corners);
+                                    (Some(pixels), Some((start, part.corners.len() as u32)))
+                                }
+                            }
+                        }
+                    };
+                    part.pixels.push(pixels);
+                    part.hulls.push(hull);
+                }
+                part
+            })
+            .collect();
+        let mut all = Footprints {
+            pixels: Vec::with_capacity(rects.len()),
+            hulls: Vec::with_capacity(rects.len()),
+            corners: Vec::with_capacity(chunks.iter().map(|c| c.corners.len()).sum()),
+        };
+        for part in chunks {
+            let offset = all.corners.len() as u32;
+            all.pixels.extend(part.pixels);
+            all.hulls.extend(
+                part.hulls
+                    .into_iter()
+                    .map(|h| h.map(|(start, end)| (start + offset, end + offset))),
+            );
+            all.corners.extend(part.corners);
+        }
+        all
+    }
+
+    fn hull(&self, g: u32) -> Option<&[Vec2]> {
+        self.hulls[g as usize].map(|(start, end)| &self.corners[start as usize..end as usize])
+    }
 }
 
 /// Bits of `v` whose unsigned order is `v`'s order, negative values included.
@@ -223,44 +311,42 @@ fn drop_interior(points: &mut Vec<Vec2>) {
 /// Clouds smaller than this go straight to the sort.
 const FILTERED_FROM: usize = 64;
 
-/// The hull's corners, each turn positive (collinear points dropped).
-fn convex_hull(mut points: Vec<Vec2>) -> Vec<Vec2> {
+/// Appends the corners of `points`' hull to `out`, each turn positive (collinear points
+/// dropped); `points` is left reordered and filtered.
+fn convex_hull_into(points: &mut Vec<Vec2>, out: &mut Vec<Vec2>) {
     if points.len() >= FILTERED_FROM {
-        drop_interior(&mut points);
+        drop_interior(points);
     }
-    monotone_chain(points)
+    monotone_chain_into(points, out);
 }
 
-/// Andrew's monotone chain over all of `points`.
-fn monotone_chain(mut points: Vec<Vec2>) -> Vec<Vec2> {
+/// Andrew's monotone chain over all of `points` (left sorted), its corners appended to `out`.
+fn monotone_chain_into(points: &mut Vec<Vec2>, out: &mut Vec<Vec2>) {
     // x then y, as one integer key.
     points.sort_unstable_by_key(|p| {
         (u64::from(ordered_bits(p.x)) << 32) | u64::from(ordered_bits(p.y))
     });
     points.dedup();
     if points.len() < 3 {
-        return points;
+        out.extend_from_slice(points);
+        return;
     }
     let turn = |o: Vec2, a: Vec2, b: Vec2| (a - o).perp_dot(b - o);
-    let mut hull: Vec<Vec2> = Vec::with_capacity(points.len() + 1);
     for pass in 0..2 {
-        let start = hull.len();
-        let sweep: Box<dyn Iterator<Item = &Vec2>> = if pass == 0 {
-            Box::new(points.iter())
-        } else {
-            Box::new(points.iter().rev())
-        };
-        for &p in sweep {
-            while hull.len() >= start + 2
-                && turn(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
-            {
-                hull.pop();
+        let start = out.len();
+        let mut add = |p: Vec2| {
+            while out.len() >= start + 2 && turn(out[out.len() - 2], out[out.len() - 1], p) <= 0.0 {
+                out.pop();
             }
-            hull.push(p);
+            out.push(p);
+        };
+        if pass == 0 {
+            points.iter().for_each(|&p| add(p));
+        } else {
+            points.iter().rev().for_each(|&p| add(p));
         }
-        hull.pop();
+        out.pop();
     }
-    hull
 }
 
 /// Side in pixels of the screen tiles that bin the groups when pairs are looked for: the
@@ -282,10 +368,10 @@ fn tile_side(rects: impl Iterator<Item = Rect>) -> i32 {
 /// tiles by rectangle; a pair is examined in the one tile holding its rectangles'
 /// intersection's first corner, so the work is the pairs sharing tiles, not all pairs along a
 /// screen axis.
-fn meeting_pairs(
+fn meeting_pairs<'a>(
     visible: &[u32],
     rects: &[Option<Rect>],
-    hulls: &[Option<Vec<Vec2>>],
+    hull: impl Fn(u32) -> Option<&'a [Vec2]> + Sync,
     width: u32,
     height: u32,
 ) -> Vec<(u32, u32)> {
@@ -323,7 +409,7 @@ fn meeting_pairs(
                     if x0 / tile != tx || y0 / tile != ty {
                         continue;
                     }
-                    if let (Some(ha), Some(hb)) = (&hulls[a as usize], &hulls[b as usize]) {
+                    if let (Some(ha), Some(hb)) = (hull(a), hull(b)) {
                         if hulls_apart(ha, hb) {
                             continue;
                         }
@@ -336,16 +422,11 @@ fn meeting_pairs(
         .collect()
 }
 
-/// The pixels a hull's box can cover: those whose sample points it holds (within the margin), or
-/// `None` when it holds none on screen (the group can cover none). Single-sampled, a pixel's one
-/// sample is its centre; multisampled, its samples may lie anywhere in its square, so every
-/// pixel whose square the box meets counts.
-fn hull_pixels(hull: &[Vec2], width: u32, height: u32, samples: u32) -> Option<Rect> {
-    let (lo, hi) = hull
-        .iter()
-        .fold((Vec2::INFINITY, Vec2::NEG_INFINITY), |(lo, hi), &p| {
-            (lo.min(p), hi.max(p))
-        });
+/// The pixels a hull's box (`lo` to `hi`) can cover: those whose sample points it holds (within
+/// the margin), or `None` when it holds none on screen (the group can cover none).
+/// Single-sampled, a pixel's one sample is its centre; multisampled, its samples may lie
+/// anywhere in its square, so every pixel whose square the box meets counts.
+fn box_pixels(lo: Vec2, hi: Vec2, width: u32, height: u32, samples: u32) -> Option<Rect> {
     // How far from its centre a pixel's samples can lie, along each axis.
     let reach = if samples > 1 { 0.5 } else { 0.0 } + HULL_MARGIN_PX;
     let first = |v: f32| (v - 0.5 - reach).ceil().max(0.0) as i32;
@@ -410,13 +491,7 @@ pub fn plan(
         .filter(|&g| rects[g as usize].is_some())
         .collect();
     let culled = (n - visible.len()) as u32;
-    let hulls: Vec<Option<Vec<Vec2>>> = (0..n)
-        .into_par_iter()
-        .map(|g| {
-            rects[g]?;
-            screen_hull(view_proj, &dec.groups[g].points, width, height)
-        })
-        .collect();
+    let footprints = Footprints::new(dec, &rects, view_proj, (width, height), samples);
     // Nodes: 2g is group g whole, or its front cap when it is a container; 2g + 1 its back cap.
     let caps = |g: u32| -> &'static [u32] {
         if dec.container[g as usize] {
@@ -430,16 +505,13 @@ pub fn plan(
         .par_iter()
         .map(|g| viewer.distance(g.centroid))
         .collect();
-    // Where a group's hull is known its pixel rectangle is exact: the rectangle's padding was
-    // for boxes, and a group covering no pixel centre meets nothing.
-    let pixels: Vec<Option<Rect>> = (0..n)
-        .into_par_iter()
-        .map(|g| match &hulls[g] {
-            Some(hull) => hull_pixels(hull, width, height, samples),
-            None => rects[g],
-        })
-        .collect();
-    let meeting = meeting_pairs(&visible, &pixels, &hulls, width, height);
+    let meeting = meeting_pairs(
+        &visible,
+        &footprints.pixels,
+        |g| footprints.hull(g),
+        width,
+        height,
+    );
     // Each meeting pair's "comes before" edges (at most 4: two caps on each side), and whether
     // it had no plane.
     let ordered: Vec<PairEdges> = meeting
@@ -667,6 +739,18 @@ mod tests {
 
     use super::*;
 
+    fn convex_hull(mut points: Vec<Vec2>) -> Vec<Vec2> {
+        let mut hull = Vec::new();
+        convex_hull_into(&mut points, &mut hull);
+        hull
+    }
+
+    fn monotone_chain(mut points: Vec<Vec2>) -> Vec<Vec2> {
+        let mut hull = Vec::new();
+        monotone_chain_into(&mut points, &mut hull);
+        hull
+    }
+
     /// Passes with each pass's nodes in order (the order within a pass is arbitrary).
     fn sorted(passes: Vec<Vec<u32>>) -> Vec<Vec<u32>> {
         passes
@@ -867,7 +951,7 @@ mod tests {
                 })
                 .collect();
             let visible: Vec<u32> = (0..groups.len() as u32).collect();
-            let found = meeting_pairs(&visible, &rects, &hulls, width, height);
+            let found = meeting_pairs(&visible, &rects, |g| hulls[g as usize].as_deref(), width, height);
             let unique: BTreeSet<(u32, u32)> = found.iter().copied().collect();
             prop_assert_eq!(unique.len(), found.len(), "a pair found twice");
             let mut expected = BTreeSet::new();
