@@ -726,8 +726,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
         }
     }
     let dir = results_dir(gpu, a);
-    std::fs::create_dir_all(&dir)
-        .map_err(|e| Error::input(format!("cannot create '{}': {e}", dir.display())))?;
+    crate::check_results_dir(&dir)?;
     let bar = frames_bar((scenes.len() * runs.len()) as u64 * (a.warmup + frames) as u64);
     let mut results = Vec::new();
     let mut base_options = None;
@@ -786,6 +785,9 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
                             short_scene(scene).trim_start_matches("builtin:"),
                             run.label.replace([' ', '='], "-")
                         );
+                        std::fs::create_dir_all(&dir).map_err(|e| {
+                            Error::input(format!("cannot create '{}': {e}", dir.display()))
+                        })?;
                         strata::render::save_png(&picture, &dir.join(format!("{stem}.png")))?;
                         strata::render::save_png(
                             &strata::metrics::diff_heatmap(&truth, &picture),

@@ -8,6 +8,7 @@ mod compare;
 mod convex_experiment;
 mod cuda_renderer;
 mod deferred_lights;
+mod method_options;
 mod online_culling;
 mod peers;
 mod report;
@@ -113,7 +114,7 @@ pub struct PictureArgs {
     #[arg(long, value_enum)]
     pub pipeline: Option<PipelineArg>,
     /// Add N coloured point lights, a deterministic field over the scene's bounds.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_LIGHTS as i64))]
     pub lights: Option<u32>,
     /// The lit pipelines' tone map (neutral: colors below 0.8 unchanged, highlights roll off).
     #[arg(long, value_enum, default_value = "neutral")]
@@ -287,6 +288,10 @@ pub struct MethodArgs {
     /// there, written when made.
     #[arg(long)]
     pub cache_dir: Option<PathBuf>,
+    /// The options above given on the command line (clap ids), so that those the method does
+    /// not read are refused; empty where the options were not parsed from a command line.
+    #[arg(skip)]
+    pub given: Vec<String>,
 }
 
 #[derive(Args)]
@@ -350,7 +355,7 @@ struct ExportArgs {
     #[arg(long)]
     frame: Option<f32>,
     /// Add N coloured point lights, a deterministic field over the scene's bounds.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_LIGHTS as i64))]
     lights: Option<u32>,
     /// Camera position X,Y,Z (default: the scene's camera, else auto-framed).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
@@ -397,22 +402,41 @@ pub enum PipelineArg {
     Deferred,
 }
 
-/// A command-line error as one line: clap's first line, with the valid values where it names
-/// them (its own rendering spreads over several lines).
+/// A command-line error as one line: clap's first line, with what it lists on the following
+/// lines (the missing arguments, the valid values) folded in.
 fn one_line(e: &clap::Error) -> String {
-    use clap::error::{ContextKind, ContextValue};
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        let commands: Vec<String> = Cli::command()
+            .get_subcommands()
+            .map(|c| c.get_name().to_string())
+            .collect();
+        return format!(
+            "a command is required: one of {} (strata --help says what each does)",
+            commands.join(", ")
+        );
+    }
     let rendered = e.render().to_string();
     let first = rendered
         .lines()
         .next()
         .unwrap_or("invalid command line")
         .trim_start_matches("error: ")
+        .trim_end_matches(':')
         .to_string();
-    match e.get(ContextKind::ValidValue) {
-        Some(ContextValue::Strings(values)) => {
-            format!("{first} (expected one of: {})", values.join(", "))
+    let listed = |kind| match e.get(kind) {
+        Some(ContextValue::Strings(values)) if !values.is_empty() => Some(values.join(", ")),
+        Some(ContextValue::String(value)) if !value.is_empty() => Some(value.clone()),
+        _ => None,
+    };
+    if e.kind() == ErrorKind::MissingRequiredArgument {
+        if let Some(missing) = listed(ContextKind::InvalidArg) {
+            return format!("{first}: {missing}");
         }
-        _ => first,
+    }
+    match listed(ContextKind::ValidValue) {
+        Some(values) => format!("{first} (expected one of: {values})"),
+        None => first,
     }
 }
 
@@ -428,10 +452,13 @@ fn main() -> ExitCode {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
-    let cli = match command()
-        .try_get_matches()
-        .and_then(|m| Cli::from_arg_matches(&m))
-    {
+    let cli = match command().try_get_matches().and_then(|m| {
+        let mut cli = Cli::from_arg_matches(&m)?;
+        if let (Command::Render(a), Some((_, given))) = (&mut cli.command, m.subcommand()) {
+            a.method.given = given_options(given);
+        }
+        Ok(cli)
+    }) {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => e.exit(), // --help, --version
         Err(e) => {
@@ -449,6 +476,17 @@ fn main() -> ExitCode {
             }
         }
     }
+}
+
+/// The ids of the options given on the command line (not taken from their defaults).
+fn given_options(matches: &clap::ArgMatches) -> Vec<String> {
+    matches
+        .ids()
+        .filter(|id| {
+            matches.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine)
+        })
+        .map(|id| id.as_str().to_string())
+        .collect()
 }
 
 /// The parser: every option that takes a value accepts a negative number (`--alpha -1`), so its
@@ -491,13 +529,15 @@ const LIGHT_FIELD_SEED: u64 = 1;
 pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     let bad = || {
         Error::input(format!(
-            "--size '{s}' is not WxH with positive integers (e.g. 512x512)"
+            "--size '{s}' is not WxH with integers in 1..{} (e.g. 512x512)",
+            strata::frame::MAX_SIDE
         ))
     };
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let w: u32 = w.trim().parse().map_err(|_| bad())?;
     let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 {
+    let side = 1..=strata::frame::MAX_SIDE;
+    if !side.contains(&w) || !side.contains(&h) {
         return Err(bad());
     }
     Ok((w, h))
@@ -534,6 +574,11 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     let mut scene = loaders::load_scene(&p.scene)?;
     apply_camera(&mut scene, p)?;
     if let Some(degrees) = p.orbit {
+        if matches!(scene.camera_path, Some(CameraPath::Keys { .. })) {
+            return Err(Error::input(
+                "--orbit replaces this scene's [[camera_key]] path: leave out one of them",
+            ));
+        }
         scene.camera_path = Some(CameraPath::orbit(scene.camera_or_framing(), degrees)?);
     }
     if let Some(f) = p.frame.or(scene.camera_path.as_ref().map(|_| scene.time)) {
@@ -679,6 +724,25 @@ fn check_outputs<'a>(paths: impl IntoIterator<Item = &'a Path>) -> Result<()> {
     Ok(())
 }
 
+/// Refuses, before any work, a results directory that could not be made (a file in its place
+/// or its parent's); it is made when the first results are written, so a run that fails
+/// before then leaves nothing behind.
+pub fn check_results_dir(dir: &Path) -> Result<()> {
+    for ancestor in dir.ancestors().filter(|a| !a.as_os_str().is_empty()) {
+        if ancestor.is_dir() {
+            return Ok(());
+        }
+        if ancestor.exists() {
+            return Err(Error::input(format!(
+                "cannot create '{}': '{}' is not a directory",
+                dir.display(),
+                ancestor.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Writes an experiment's results as `DIR/NAME.json` and `DIR/NAME.csv` and says where.
 pub fn write_results(
     dir: &Path,
@@ -765,7 +829,13 @@ fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
         match (stats.k, tail) {
             (Some(k), _) if stats.method == "bucket" => eprintln!("note: {dropped} fragments collided in buckets that already held two and were dropped (k={k}; a larger even --k splits each pixel's depth range finer)"),
             (Some(k), Tail::Blend) => eprintln!("note: {dropped} fragments beyond k={k} were blended into the tail"),
-            (Some(k), Tail::Drop) => eprintln!("note: {dropped} fragments beyond k={k} were dropped (--tail blend keeps them as one term)"),
+            (Some(k), Tail::Drop) => {
+                let blends = stats.method.parse::<MethodId>().is_ok_and(|m| {
+                    method_options::applies(method_options::Opt::Tail, m, None)
+                });
+                let hint = if blends { " (--tail blend keeps them as one term)" } else { "" };
+                eprintln!("note: {dropped} fragments beyond k={k} were dropped{hint}")
+            }
             (None, _) => eprintln!("warning: {dropped} fragments dropped"),
         }
     }
@@ -794,6 +864,7 @@ fn render(a: RenderArgs) -> Result<()> {
     }
     let (scene, options) = prepare_render(&a.method, &a.picture)?;
     check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
+    strata::output::check_png_name(&a.output)?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",
         options.width, options.height, a.method.method
@@ -821,6 +892,12 @@ fn render(a: RenderArgs) -> Result<()> {
 /// `--cache-dir DIR`, made if missing: refused now, not after a long preprocess, when it cannot
 /// be a directory.
 fn cache_dir(dir: &Path) -> Result<PathBuf> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::input(format!(
+            "--cache-dir '{}' is not a directory",
+            dir.display()
+        )));
+    }
     std::fs::create_dir_all(dir)
         .map_err(|e| Error::input(format!("--cache-dir {}: {e}", dir.display())))?;
     Ok(dir.to_path_buf())
@@ -829,6 +906,7 @@ fn cache_dir(dir: &Path) -> Result<PathBuf> {
 /// The scene and options of a render: the picture's, then the method options.
 pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     let (scene, mut options) = prepare(picture)?;
+    method_options::check_given(a, picture)?;
     if let Some(r) = a.robustness {
         if options.k_auto.is_none() {
             return Err(Error::input("--robustness applies to --k auto"));
@@ -868,6 +946,12 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
                 a.method
             )));
         }
+        let max = strata::methods::kbuffer::max_k(MethodId::Kpeel);
+        if !(1..=max).contains(&m) {
+            return Err(Error::input(format!(
+                "--layers-per-pass {m} is outside 1..{max}"
+            )));
+        }
         if options.k.is_some_and(|k| k != m) {
             return Err(Error::input(
                 "--layers-per-pass and --k name the same thing for kpeel: give one",
@@ -903,34 +987,71 @@ fn parse_frames(range: &str) -> Result<std::ops::Range<u32>> {
     if end <= a {
         return Err(bad());
     }
+    if (end - a) as usize > MAX_FRAMES {
+        return Err(Error::input(format!(
+            "--frames '{range}' is {} frames; one run writes at most {MAX_FRAMES}",
+            end - a
+        )));
+    }
     Ok(a..end)
 }
 
-/// `pattern` with its %d or %0Nd replaced by `n`.
+/// `pattern` with its one %d or %0Nd replaced by `n` (%% is a literal %, as is a % that starts
+/// no frame number).
 fn frame_path(pattern: &Path, n: u32) -> Result<PathBuf> {
     let text = pattern.to_string_lossy();
-    let bad = || {
+    let bad = |why: &str| {
         Error::input(format!(
-            "-o '{text}' needs a %d or %0Nd for the frame number with --frames (e.g. frame_%04d.png)"
+            "-o '{text}' {why} with --frames (e.g. frame_%04d.png)"
         ))
     };
-    let at = text.find('%').ok_or_else(bad)?;
-    let rest = &text[at + 1..];
-    let d = rest.find('d').ok_or_else(bad)?;
-    let width = &rest[..d];
-    let digits = if width.is_empty() {
-        0
-    } else if width.starts_with('0') && width.len() <= 2 {
-        width.parse::<usize>().map_err(|_| bad())?
-    } else {
-        return Err(bad());
-    };
-    Ok(PathBuf::from(format!(
-        "{}{n:0digits$}{}",
-        &text[..at],
-        &rest[d + 1..]
-    )))
+    let mut path = String::with_capacity(text.len() + 10);
+    let mut numbers = 0;
+    let mut rest = text.as_ref();
+    while let Some(at) = rest.find('%') {
+        path.push_str(&rest[..at]);
+        let after = &rest[at + 1..];
+        if let Some(tail) = after.strip_prefix('%') {
+            path.push('%');
+            rest = tail;
+            continue;
+        }
+        // %d, or %0Nd with N of 1 or 2 digits.
+        let spec = match after.find('d') {
+            Some(d) if d == 0 => Some((0, d)),
+            Some(d)
+                if d <= 3
+                    && after.starts_with('0')
+                    && after[1..d].bytes().all(|b| b.is_ascii_digit()) =>
+            {
+                Some((after[1..d].parse::<usize>().unwrap_or(0), d))
+            }
+            _ => None,
+        };
+        match spec {
+            Some((digits, d)) => {
+                numbers += 1;
+                path.push_str(&format!("{n:0digits$}"));
+                rest = &after[d + 1..];
+            }
+            None => {
+                path.push('%');
+                rest = after;
+            }
+        }
+    }
+    path.push_str(rest);
+    match numbers {
+        0 => Err(bad("needs a %d or %0Nd for the frame number")),
+        1 => Ok(PathBuf::from(path)),
+        _ => Err(bad(
+            "has more than one %d or %0Nd; the frame number goes in one place",
+        )),
+    }
 }
+
+/// The most frames one `render --frames` writes.
+const MAX_FRAMES: usize = 100_000;
 
 /// `strata render --frames`: each time step of the animation with one renderer — the GPU
 /// moves the objects and the camera follows its path, nothing is rebuilt between frames — PNGs
@@ -940,11 +1061,17 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
     if a.picture.frame.is_some() {
         return Err(Error::input("--frame and --frames exclude each other"));
     }
-    let first = frame_path(&a.output, frames.start)?;
-    let last = frame_path(&a.output, frames.end - 1)?;
-    check_outputs(std::iter::once(first.as_path()).chain(a.stats.as_deref()))?;
-    if last != first {
-        check_outputs([last.as_path()])?;
+    let paths: Vec<PathBuf> = frames
+        .clone()
+        .map(|n| frame_path(&a.output, n))
+        .collect::<Result<_>>()?;
+    // Distinct by their numbers; each checked alone (a check of all together is quadratic).
+    for path in &paths {
+        strata::output::check_target(path)?;
+    }
+    strata::output::check_png_name(&paths[0])?;
+    if let Some(stats) = &a.stats {
+        check_outputs([paths[0].as_path(), stats.as_path()])?;
     }
     let picture = PictureArgs {
         frame: Some(frames.start as f32),
@@ -963,39 +1090,67 @@ fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
     };
     let mut lines = String::new();
     let mut last = None;
-    for n in frames.clone() {
-        let (image, stats) = match renderer.as_mut() {
-            None => strata::reference::render(&scene.at_time(n as f32), &options)?,
-            Some(r) => {
-                r.set_time(n as f32);
-                r.render_method(a.method.method, None)?
-            }
-        };
-        let path = frame_path(&a.output, n)?;
-        save_png(&image.to_rgba8(options.effect), &path)?;
-        let mut stats = stats;
-        stats.frame = n as u64;
-        lines += &serde_json::to_string(&stats).map_err(|e| Error::runtime(e.to_string()))?;
-        lines.push('\n');
-        last = Some((stats, path, options.tail));
-        bar.inc(1);
-    }
+    let mut written = 0;
+    let mut frame_by_frame = || -> Result<()> {
+        for (n, path) in frames.clone().zip(&paths) {
+            let (image, stats) = match renderer.as_mut() {
+                None => strata::reference::render(&scene.at_time(n as f32), &options)?,
+                Some(r) => {
+                    r.set_time(n as f32);
+                    r.render_method(a.method.method, None)?
+                }
+            };
+            save_png(&image.to_rgba8(options.effect), path)?;
+            written += 1;
+            let mut stats = stats;
+            stats.frame = n as u64;
+            lines += &serde_json::to_string(&stats).map_err(|e| Error::runtime(e.to_string()))?;
+            lines.push('\n');
+            last = Some((stats, path, options.tail));
+            bar.inc(1);
+        }
+        if let Some(path) = &a.stats {
+            let mut outputs = Outputs::new();
+            outputs.add(path, std::mem::take(&mut lines).into_bytes())?;
+            outputs.commit()?;
+        }
+        Ok(())
+    };
+    let done = frame_by_frame();
     bar.finish_and_clear();
-    if let Some(path) = &a.stats {
-        let mut outputs = Outputs::new();
-        outputs.add(path, lines.into_bytes())?;
-        outputs.commit()?;
+    if let Err(e) = done {
+        // A sequence is written whole or not at all, like any other output.
+        for path in &paths[..written] {
+            let _ = std::fs::remove_file(path);
+        }
+        return Err(match written {
+            0 => e,
+            _ => with_context(
+                e,
+                &format!("the {written} frames written before were removed"),
+            ),
+        });
     }
     if let Some((stats, path, tail)) = last {
-        summary(&stats, &path, tail);
+        summary(&stats, path, tail);
         eprintln!("{} frames written", frames.len());
     }
     Ok(())
 }
 
+/// `e` with `note` after its message, of the same kind.
+fn with_context(e: Error, note: &str) -> Error {
+    match e {
+        Error::Input(m) => Error::Input(format!("{m} ({note})")),
+        Error::Unsupported(m) => Error::Unsupported(format!("{m} ({note})")),
+        Error::Runtime(m) => Error::Runtime(format!("{m} ({note})")),
+    }
+}
+
 fn reference(a: ReferenceArgs) -> Result<()> {
     let (scene, options) = prepare(&a.picture)?;
     check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
+    strata::output::check_png_name(&a.output)?;
     let busy = spinner(format!(
         "rendering {}x{} with the CPU reference",
         options.width, options.height
@@ -1017,6 +1172,7 @@ fn reference(a: ReferenceArgs) -> Result<()> {
 fn compare(a: CompareArgs) -> Result<()> {
     if let Some(d) = &a.diff {
         check_outputs([d.as_path()])?;
+        strata::output::check_png_name(d)?;
     }
     let ia = strata::metrics::load_png(&a.a)?;
     let ib = strata::metrics::load_png(&a.b)?;
@@ -1179,6 +1335,7 @@ fn convex(a: ConvexArgs) -> Result<()> {
     let (scene, options) = prepare(&picture)?;
     if let Some(out) = &a.out {
         check_outputs([out.as_path()])?;
+        strata::output::check_png_name(out)?;
     }
     let triangles = convex::triangles_of(&scene);
     let bar = indicatif::ProgressBar::new(100).with_message("decomposing");
@@ -1298,6 +1455,7 @@ fn histogram(a: HistogramArgs) -> Result<()> {
     let (scene, options) = prepare(&picture)?;
     if let Some(out) = &a.out {
         check_outputs([out.as_path()])?;
+        strata::output::check_png_name(out)?;
     }
     let hist = if a.cpu {
         let (image, _) = strata::reference::render(&scene, &options)?;

@@ -501,8 +501,150 @@ fn k_buffer_bad_options_are_one_line_and_exit_2() {
     );
     assert_bad_input(
         &["render", "--method", "dual", "--k", "auto"],
-        "k-buffer methods",
+        "--k does not apply to dual",
     );
+    assert_bad_input(
+        &["render", "--method", "kpeel", "--layers-per-pass", "0"],
+        "--layers-per-pass 0 is outside 1..",
+    );
+}
+
+/// An option the method does not read is refused, naming the methods that read it; options
+/// it reads pass.
+#[test]
+fn options_the_method_does_not_read_are_refused() {
+    let layers = "builtin:layers?n=2";
+    for (args, message) in [
+        (
+            &["--method", "abuffer-ll", "--k", "5"][..],
+            "--k does not apply to abuffer-ll; it applies to reference, abuffer-fixed",
+        ),
+        (&["--method", "kb", "--heap-size", "3"], "kplus-semiheap"),
+        (&["--method", "kb", "--moments", "6"], "applies to mboit"),
+        (&["--method", "kb", "--weight", "eq9"], "applies to wboit"),
+        (
+            &["--method", "wboit", "--depth-scale", "2", "--tail", "blend"],
+            "--tail does not apply to wboit",
+        ),
+        (
+            &["--method", "kb", "--max-tries", "9"],
+            "--max-tries does not apply to kb",
+        ),
+        (
+            &["--method", "abuffer-fixed", "--culling", "off"],
+            "--culling",
+        ),
+        (&["--method", "kb", "--cache-dir", "."], "applies to convex"),
+        (&["--seed", "5"], "--seed applies to --order random"),
+        (
+            &["--method", "kb", "--temporal-refresh", "5"],
+            "applies to --temporal on",
+        ),
+    ] {
+        let mut all = vec!["render", layers];
+        all.extend(args);
+        assert_bad_input(&all, message);
+    }
+    let dir = workdir("options-read");
+    let out = dir.join("out.png");
+    for args in [
+        &["--method", "abuffer-fixed", "--k", "2", "--tail", "blend"][..],
+        &["--method", "kpeel", "--layers", "2", "--k", "1"],
+        &["--method", "wboit", "--weight", "eq8", "--depth-scale", "2"],
+        &["--method", "kb", "--order", "random", "--seed", "3"],
+        &["--method", "f2b", "--budget-mb", "64"],
+    ] {
+        let mut all = vec![
+            "render",
+            layers,
+            "--size",
+            "16x16",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        all.extend(args);
+        let o = strata(&all);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    }
+}
+
+/// A frame sequence is checked whole before the first frame: a frame that cannot be written
+/// leaves none behind. One %d takes the frame number; %% is a percent sign.
+#[test]
+fn frame_sequences_are_written_whole_or_not_at_all() {
+    let dir = workdir("frames-whole");
+    std::fs::create_dir_all(dir.join("seq_1.png")).unwrap();
+    let pattern = dir.join("seq_%d.png");
+    let o = strata(&[
+        "render",
+        "builtin:layers?n=2",
+        "--size",
+        "16x16",
+        "--frames",
+        "0..3",
+        "-o",
+        pattern.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("seq_1.png"), "{}", stderr(&o));
+    assert!(!dir.join("seq_0.png").exists(), "frame 0 was left behind");
+    for (pattern, message) in [
+        ("two_%d_%d.png", "more than one %d"),
+        ("none.png", "needs a %d"),
+        ("frame_%d.jpg", "must end in .png"),
+    ] {
+        let o = strata(&[
+            "render",
+            "builtin:layers?n=2",
+            "--size",
+            "16x16",
+            "--frames",
+            "0..2",
+            "-o",
+            dir.join(pattern).to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{pattern}: {}", stderr(&o));
+        assert!(stderr(&o).contains(message), "{pattern}: {}", stderr(&o));
+    }
+    let o = strata(&[
+        "render",
+        "builtin:layers?n=2",
+        "--size",
+        "16x16",
+        "--frames",
+        "0..2",
+        "-o",
+        dir.join("100%%_%02d.png").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("100%_01.png").exists());
+    let o = strata(&["render", "--frames", "0..200000"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("at most 100000"), "{}", stderr(&o));
+}
+
+/// Clap's errors keep to one line that still names the problem.
+#[test]
+fn command_line_errors_name_what_is_missing() {
+    let o = strata(&["compare", "a.png"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("<B>") && err.lines().count() == 1, "{err}");
+    let o = strata(&[]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.contains("a command is required: one of render") && err.lines().count() == 1,
+        "{err}"
+    );
+    let o = strata(&["render", "--size"]);
+    assert!(!stderr(&o).contains("expected one of: )"), "{}", stderr(&o));
+    let dir = workdir("png-name");
+    let jpg = dir.join("picture.jpg");
+    let o = strata(&["render", "--size", "16x16", "-o", jpg.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("must end in .png"), "{}", stderr(&o));
+    assert!(!jpg.exists());
 }
 
 /// `--k auto` picks k from the GPU histogram; the stats name it with the predicted and
@@ -662,6 +804,21 @@ fn camera_keys_move_the_camera() {
     assert_bad_input(
         &["render", scene.to_str().unwrap(), "--eye", "1,2,3"],
         "camera_key",
+    );
+    assert_bad_input(
+        &["render", scene.to_str().unwrap(), "--orbit", "5"],
+        "--orbit replaces this scene's [[camera_key]] path",
+    );
+    assert_bad_input(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--method",
+            "convex",
+            "--cache-dir",
+            scene.to_str().unwrap(),
+        ],
+        "is not a directory",
     );
 }
 
@@ -1651,4 +1808,39 @@ fn exported_gltf_renders_the_same_picture() {
     }
     // assert_bad_input adds `-o out.png`: not a glTF name.
     assert_bad_input(&["export", "builtin:demo"], "must end in .glb or .gltf");
+}
+
+/// `--layers N` peels N layers once: what lies deeper is counted as dropped, and the frame is
+/// not peeled again (its passes are N's).
+#[test]
+fn fixed_layers_peel_once() {
+    let dir = workdir("fixed-layers");
+    let out = dir.join("out.png");
+    let stats = dir.join("stats.json");
+    for (method, passes) in [("f2b", 2), ("dual", 2), ("kpeel", 1)] {
+        let o = strata(&[
+            "render",
+            "builtin:layers?n=8",
+            "--size",
+            "32x32",
+            "--method",
+            method,
+            "--layers",
+            "2",
+            "-o",
+            out.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{method}: {}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        assert_eq!(v["geometry_passes"], passes, "{method}: {v}");
+        // Two layers kept, the rest dropped (kpeel's k of 8 keeps all 8).
+        let count = |key: &str| v[key].as_u64().unwrap();
+        assert_eq!(v["max_depth_complexity"], 8, "{v}");
+        let dropped = count("fragments_generated") - count("fragments_stored");
+        assert_eq!(count("fragments_dropped"), dropped, "{method}: {v}");
+        assert_eq!(dropped > 0, method != "kpeel", "{method}: {v}");
+    }
 }

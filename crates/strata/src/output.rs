@@ -136,6 +136,9 @@ impl Outputs {
 
     /// Adds `img` as an 8-bit RGBA PNG.
     pub fn add_png(&mut self, path: &Path, img: &RgbaImage) -> Result<()> {
+        // What is wrong with the target itself (a directory, a device) comes first.
+        check_target(path)?;
+        check_png_name(path)?;
         self.add(path, encode_png(img)?)
     }
 
@@ -222,6 +225,23 @@ fn write_temporary(target: &Path, bytes: &[u8]) -> std::io::Result<PathBuf> {
         return Ok(tmp);
     }
     Err(std::io::Error::other("no free temporary file name"))
+}
+
+/// Refuses a PNG's path unless its name ends in `.png` (any case): a picture under another
+/// extension would be misread by whatever opens it.
+pub fn check_png_name(path: &Path) -> Result<()> {
+    let png = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if png {
+        Ok(())
+    } else {
+        Err(Error::input(format!(
+            "cannot write '{}': strata writes PNG images, and the name must end in .png",
+            path.display()
+        )))
+    }
 }
 
 /// `img` encoded as an 8-bit RGBA PNG.

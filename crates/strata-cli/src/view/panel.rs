@@ -331,6 +331,8 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
     });
     ui.add_enabled_ui(applies(Opt::Tail, id, pipeline), |ui| {
         choice(ui, "tail", &mut m.tail);
+    });
+    ui.add_enabled_ui(applies(Opt::Culling, id, pipeline), |ui| {
         let mut culling = m.culling == Toggle::On;
         ui.checkbox(&mut culling, "culling");
         m.culling = if culling { Toggle::On } else { Toggle::Off };

@@ -9,31 +9,7 @@ use strata::scene::{Camera, CameraPath, Projection};
 
 use crate::{MethodArgs, PictureArgs, PipelineArg, Toggle};
 
-/// An option of the panel that only some methods or pipelines read.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Opt {
-    K,
-    /// The tail and culling of k-buffers.
-    Tail,
-    MaxTries,
-    Layers,
-    LayersPerPass,
-    HeapSize,
-    /// `--buckets`: bucket's split.
-    Buckets,
-    Weight,
-    RasterCompute,
-    Budget,
-    Tonemap,
-    Deferred,
-    /// `--order`: every method but `sorted` (its own order) and `f2b` (ties in draw order).
-    Order,
-    /// `--temporal`: the slot k-buffers that choose at capture time.
-    Temporal,
-    /// `--msaa`: every method but the 8-byte multi-depth tests (with a pipeline too: the
-    /// transparent surfaces are anti-aliased over the lit frame).
-    Msaa,
-}
+pub use crate::method_options::{applies, Opt};
 
 /// The family a method is listed under, and its methods in catalogue order (the reference
 /// excluded: it renders on the CPU, through "Compare with reference").
@@ -52,43 +28,6 @@ pub fn families() -> Vec<(&'static str, Vec<MethodId>)> {
         }
     }
     out
-}
-
-fn family(id: MethodId) -> &'static str {
-    methods::catalogue()
-        .into_iter()
-        .find(|m| m.id == id.as_str())
-        .map(|m| m.family)
-        .unwrap_or("")
-}
-
-/// Whether `method` (with `pipeline`) reads option `opt`; the panel greys out the others.
-pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> bool {
-    use MethodId::*;
-    let kbuffer = matches!(family(method), "kbuffer" | "kplus");
-    let locking = matches!(
-        method,
-        KbPs | KbLl | KplusArray | KplusArrayR | KplusHeap | KplusSbuffer | KplusSemiheap
-    );
-    match opt {
-        Opt::K => kbuffer || matches!(method, Kpeel | AbufferFixed | Bucket),
-        Opt::Tail => kbuffer,
-        Opt::MaxTries => locking,
-        Opt::Layers => matches!(method, F2b | Dual),
-        Opt::LayersPerPass => method == Kpeel,
-        Opt::HeapSize => method == KplusSemiheap,
-        Opt::Buckets => method == Bucket,
-        Opt::Weight => method == Wboit,
-        Opt::RasterCompute => strata::raster::supports(method),
-        Opt::Budget => {
-            kbuffer || matches!(method, AbufferLl | Sbuffer | Kpeel | AbufferFixed | Bucket)
-        }
-        Opt::Tonemap => matches!(pipeline, Some(PipelineArg::Forward | PipelineArg::Deferred)),
-        Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
-        Opt::Order => !matches!(method, Sorted | F2b),
-        Opt::Temporal => strata::methods::kbuffer::temporal::takes(method),
-        Opt::Msaa => strata::frame::msaa::supported(method),
-    }
 }
 
 /// An orbit around a target: drag to turn, pan the target, wheel to move closer.
@@ -331,13 +270,16 @@ impl ViewState {
                 push("layers-per-pass", n.to_string());
             }
         }
-        if let Some(b) = m.budget_mb {
+        if let Some(b) = m.budget_mb.filter(|_| applies(Opt::Budget, id, p.pipeline)) {
             push("budget-mb", b.to_string());
         }
         if let Some(r) = m.robustness {
             push("robustness", r.to_string());
         }
-        if let Some(h) = m.heap_size {
+        if let Some(h) = m
+            .heap_size
+            .filter(|_| applies(Opt::HeapSize, id, p.pipeline))
+        {
             push("heap-size", h.to_string());
         }
         if applies(Opt::Buckets, id, p.pipeline) && m.buckets != strata::BucketSplit::Uniform {
@@ -347,14 +289,22 @@ impl ViewState {
             push("weight", value_name(&m.weight));
             push("depth-scale", m.depth_scale.to_string());
         }
+        if applies(Opt::Moments, id, p.pipeline) && m.moments != 4 {
+            push("moments", m.moments.to_string());
+        }
         if applies(Opt::Tail, id, p.pipeline) {
             push("tail", value_name(&m.tail));
+        }
+        if applies(Opt::Culling, id, p.pipeline) {
             push("culling", value_name(&m.culling));
         }
-        if let Some(t) = m.max_tries {
+        if let Some(t) = m
+            .max_tries
+            .filter(|_| applies(Opt::MaxTries, id, p.pipeline))
+        {
             push("max-tries", t.to_string());
         }
-        if let Some(l) = m.layers {
+        if let Some(l) = m.layers.filter(|_| applies(Opt::Layers, id, p.pipeline)) {
             push("layers", l.to_string());
         }
         if applies(Opt::Temporal, id, p.pipeline) && m.temporal == Toggle::On {
@@ -471,7 +421,13 @@ mod tests {
         assert!(applies(Opt::MaxTries, KplusArray, None));
         assert!(!applies(Opt::MaxTries, KbMdt32, None), "MDT takes no lock");
         assert!(applies(Opt::Layers, Dual, None));
-        assert!(!applies(Opt::Layers, Kpeel, None));
+        assert!(
+            applies(Opt::Layers, Kpeel, None),
+            "kpeel's passes: ⌈layers / k⌉"
+        );
+        assert!(
+            applies(Opt::Tail, AbufferFixed, None) && !applies(Opt::Culling, AbufferFixed, None)
+        );
         assert!(applies(Opt::Weight, Wboit, None));
         assert!(!applies(Opt::Weight, Mboit, None));
         assert!(applies(Opt::Msaa, Sbuffer, None));

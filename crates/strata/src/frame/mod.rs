@@ -270,6 +270,9 @@ impl Default for RenderOptions {
     }
 }
 
+/// The longest side of a picture, in pixels.
+pub const MAX_SIDE: u32 = 16384;
+
 impl RenderOptions {
     pub fn pixels(&self) -> u64 {
         self.width as u64 * self.height as u64
@@ -280,15 +283,15 @@ impl RenderOptions {
     }
 
     pub fn validate(&self) -> Result<()> {
-        if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
+        if self.width == 0 || self.height == 0 || self.width > MAX_SIDE || self.height > MAX_SIDE {
             return Err(Error::input(format!(
-                "size {}x{} is out of range (1..16384 per side)",
+                "size {}x{} is out of range (1..{MAX_SIDE} per side)",
                 self.width, self.height
             )));
         }
         if let Some(band) = self.band {
             if band.top % BAND_ALIGN != 0
-                || band.full_height > 16384
+                || band.full_height > MAX_SIDE
                 || band.top as u64 + self.height as u64 > band.full_height as u64
             {
                 return Err(Error::input(format!(

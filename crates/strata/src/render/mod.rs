@@ -275,7 +275,7 @@ impl<'g> Renderer<'g> {
                 Err(e) if outgrew_binding(&e) => {
                     if rows == BAND_ALIGN {
                         return Err(Error::unsupported(format!(
-                            "{e}; {w}x{h} does not fit even in bands of {BAND_ALIGN} rows"
+                            "{w}x{h} does not fit even in bands of {BAND_ALIGN} rows: {e}"
                         )));
                     }
                     rows = (rows / 2 / BAND_ALIGN * BAND_ALIGN).max(BAND_ALIGN);

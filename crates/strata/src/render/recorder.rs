@@ -895,7 +895,7 @@ pub(crate) fn max_resolved_pixels(gpu: &Gpu) -> u64 {
 fn per_pixel_context(e: Error, (w, h): (u32, u32)) -> Error {
     match e {
         Error::Unsupported(msg) if msg.contains(crate::error::OVER_BINDING) => Error::unsupported(
-            format!("{msg} at --size {w}x{h} (a smaller --size or --k needs less)"),
+            format!("{msg} at {w}x{h} (a smaller --size or --k needs less)"),
         ),
         other => other,
     }

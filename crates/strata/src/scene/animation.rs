@@ -141,10 +141,10 @@ impl CameraPath {
                 base,
                 degrees_per_frame,
             } => {
-                let turn = Quat::from_axis_angle(
-                    base.up.normalize(),
-                    (degrees_per_frame * t).to_radians(),
-                );
+                // In f64 and reduced to one turn: a large rate times a late frame stays finite.
+                let degrees = (f64::from(*degrees_per_frame) * f64::from(t)).rem_euclid(360.0);
+                let turn =
+                    Quat::from_axis_angle(base.up.normalize(), (degrees as f32).to_radians());
                 Camera {
                     eye: base.target + turn * (base.eye - base.target),
                     ..*base
@@ -227,6 +227,17 @@ impl Scene {
 mod tests {
     use super::*;
     use crate::scene::Projection;
+
+    #[test]
+    fn a_fast_orbit_late_in_time_stays_on_its_circle() {
+        let path = CameraPath::orbit(base(), 1e30).unwrap();
+        let eye = path.camera_at(1e30).eye;
+        assert!(eye.is_finite(), "{eye}");
+        assert!((eye.length() - 5.0).abs() < 1e-4, "{eye}");
+        // A whole number of turns is the start.
+        let turned = CameraPath::orbit(base(), 360.0).unwrap().camera_at(7.0).eye;
+        assert!(turned.abs_diff_eq(base().eye, 1e-4), "{turned}");
+    }
 
     fn base() -> Camera {
         Camera {

@@ -96,6 +96,8 @@ pub struct KPeel {
     finish: wgpu::ComputePipeline,
     /// The depth complexity the last frame measured.
     measured: Option<u32>,
+    /// The last frame peeled `--layers` layers, not a measured count.
+    layers_fixed: bool,
     null_target: Option<NullTarget>,
 }
 
@@ -133,6 +135,7 @@ impl KPeel {
             finish: pipeline("cs_kpeel_finish"),
             frame,
             measured: None,
+            layers_fixed: false,
             null_target: None,
         })
     }
@@ -174,6 +177,7 @@ impl Method for KPeel {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let k = k_of(ctx.options, MethodId::Kpeel)?;
         let layers = layers_for(ctx, self.measured);
+        self.layers_fixed = ctx.options.layers.is_some();
         let passes = layers.div_ceil(k);
         // --msaa: each sample's slots, and its running composite after them.
         let samples = super::sample_storage(MethodId::Kpeel, ctx.options.msaa) as u64;
@@ -282,7 +286,7 @@ impl Method for KPeel {
         let Some(words) = words else {
             return MethodStats::default();
         };
-        let mut stats = peel_feedback(&mut self.measured, recorded, totals);
+        let mut stats = peel_feedback(&mut self.measured, recorded, totals, self.layers_fixed);
         stats.lock_failures = Some(super::lock_failures(words));
         stats
     }

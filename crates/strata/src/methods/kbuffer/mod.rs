@@ -321,7 +321,7 @@ pub fn check_memory(
     ctx.check_budget(total_bytes)?;
     if buffer_bytes > ctx.gpu.max_storage_binding() {
         return Err(Error::unsupported(format!(
-            "{method}: needs a {:.1} MiB buffer, {} ({:.1} MiB); lower --k or --size",
+            "{method}: needs a {:.1} MiB buffer, {} ({:.1} MiB)",
             buffer_bytes as f64 / 1048576.0,
             crate::error::OVER_BINDING,
             ctx.gpu.max_storage_binding() as f64 / 1048576.0

@@ -56,15 +56,18 @@ pub(crate) fn layers_for(ctx: &FrameContext<'_>, measured: Option<u32>) -> u32 {
         .clamp(1, MAX_LAYERS)
 }
 
-/// Feedback of a peeling frame: the depth complexity it measured, and whether it peeled enough.
+/// Feedback of a peeling frame: the depth complexity it measured, and whether it peeled enough
+/// (a frame that peeled the `--layers` asked for is complete: what lies deeper is counted as
+/// dropped, and peeling the same count again would not change it).
 pub(crate) fn peel_feedback(
     measured: &mut Option<u32>,
     recorded: &Recorded,
     totals: &Totals,
+    layers_fixed: bool,
 ) -> MethodStats {
     *measured = Some(totals.max_depth.max(1));
     MethodStats {
-        incomplete: totals.max_depth as u64 > recorded.capacity,
+        incomplete: !layers_fixed && totals.max_depth as u64 > recorded.capacity,
         ..Default::default()
     }
 }
@@ -95,6 +98,8 @@ pub struct FrontToBack {
     accumulate: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     measured: Option<u32>,
+    /// The last frame peeled `--layers` layers, not a measured count.
+    layers_fixed: bool,
     cache: ResourceCache,
 }
 
@@ -212,6 +217,7 @@ impl FrontToBack {
             peel_layout,
             accumulate_layout,
             measured: None,
+            layers_fixed: false,
             cache: ResourceCache::default(),
         }
     }
@@ -245,6 +251,7 @@ impl Method for FrontToBack {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
+        self.layers_fixed = ctx.options.layers.is_some();
         let samples = self.samples;
         ctx.check_budget(ctx.pixels() * f2b_pixel_bytes(samples))?;
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
@@ -406,7 +413,7 @@ impl Method for FrontToBack {
         if words.is_none() {
             return MethodStats::default();
         }
-        peel_feedback(&mut self.measured, recorded, totals)
+        peel_feedback(&mut self.measured, recorded, totals, self.layers_fixed)
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {
@@ -426,6 +433,8 @@ pub struct Dual {
     finish: wgpu::ComputePipeline,
     null_target: Option<NullTarget>,
     measured: Option<u32>,
+    /// The last frame peeled `--layers` layers, not a measured count.
+    layers_fixed: bool,
     /// Bytes per key: 8 with 64-bit atomics (exact with ties), else 4.
     key_bytes: u64,
     cache: ResourceCache,
@@ -505,6 +514,7 @@ impl Dual {
             advance_layout,
             null_target: None,
             measured: None,
+            layers_fixed: false,
             key_bytes: if wide { 8 } else { 4 },
             cache: ResourceCache::default(),
         }
@@ -516,6 +526,7 @@ impl Method for Dual {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
+        self.layers_fixed = ctx.options.layers.is_some();
         let samples = ctx.scene.samples;
         if samples > 1 && self.key_bytes < 8 {
             return Err(Error::unsupported(format!(
@@ -649,9 +660,9 @@ impl Method for Dual {
         let Some(words) = words else {
             return MethodStats::default();
         };
-        let mut stats = peel_feedback(&mut self.measured, recorded, totals);
-        // Pixels with layers left after the last pass.
-        stats.incomplete |= words[0] > 0;
+        let mut stats = peel_feedback(&mut self.measured, recorded, totals, self.layers_fixed);
+        // Pixels with layers left after the last pass (beyond `--layers`: dropped, as asked).
+        stats.incomplete |= !self.layers_fixed && words[0] > 0;
         stats
     }
 

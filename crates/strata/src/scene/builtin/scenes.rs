@@ -337,7 +337,7 @@ pub(crate) const BALLS_FPS: f32 = 30.0;
 /// (0, 0.7, 3.8) looking at the centre. `scene.time` = frame.
 pub(super) fn balls(p: &Params) -> Result<Scene> {
     let count = p.int("count", 1000, 1, 1_000_000)? as usize;
-    let frame = p.float("frame", 0.0, -1.0e6, 1.0e6)?;
+    let frame = p.float("frame", 0.0, 0.0, 1.0e6)?;
     let segments = p.int("segments", 12, 3, 256)? as u32;
     let default_radius = 0.04 * (1000.0 / count as f32).cbrt();
     let radius = p.float("radius", default_radius, 1e-4, 10.0)?;

@@ -183,6 +183,12 @@ pub(super) fn parse(
     for node in roots {
         ctx.visit(&node, Mat4::IDENTITY, 0)?;
     }
+    if ctx.skipped_modes > 0 && ctx.parts.is_empty() {
+        return Err(Error::input(format!(
+            "{what}: no TRIANGLES primitive to draw ({} of other modes, which strata does not draw)",
+            ctx.skipped_modes
+        )));
+    }
     if ctx.skipped_modes > 0 {
         warnings.push(format!(
             "{what}: skipped {} primitive(s) that are not TRIANGLES",
@@ -455,6 +461,15 @@ impl Ctx<'_> {
                 .push(self.light_of(world, &light, node.index())?);
         }
         if let Some(mesh) = node.mesh() {
+            // Zero or subnormal: a zero scale somewhere flattens the mesh to nothing (a scene
+            // file's scale = 0 is refused the same way).
+            if world.determinant().abs() < f32::MIN_POSITIVE {
+                return Err(Error::input(format!(
+                    "{}: node {} has a singular transform (a zero scale?), which flattens its mesh",
+                    self.what,
+                    node.index()
+                )));
+            }
             let mesh_name = mesh
                 .name()
                 .map(str::to_string)
@@ -725,8 +740,14 @@ struct MaterialExtras {
 fn convert_material(m: &::gltf::Material, what: &str) -> Result<Option<Material>> {
     let pbr = m.pbr_metallic_roughness();
     let [r, g, b, a] = pbr.base_color_factor();
+    if ![r, g, b, a].iter().all(|c| (0.0..=1.0).contains(c)) {
+        return Err(Error::input(format!(
+            "{what}: material {} has baseColorFactor [{r}, {g}, {b}, {a}], outside [0, 1]",
+            m.index().map_or("default".to_string(), |i| i.to_string())
+        )));
+    }
     let opacity = match m.alpha_mode() {
-        AlphaMode::Blend => a.clamp(0.0, 1.0),
+        AlphaMode::Blend => a,
         AlphaMode::Opaque => 1.0,
         AlphaMode::Mask => {
             if a < m.alpha_cutoff().unwrap_or(0.5) {

@@ -173,7 +173,14 @@ fn check_face_indices(text: &str, what: &str) -> Result<()> {
             Some("v") => counts[0] += 1,
             Some("vt") => counts[1] += 1,
             Some("vn") => counts[2] += 1,
-            Some("f") | Some("l") => {
+            Some(kind @ ("f" | "l")) => {
+                let corners = words.clone().take_while(|w| !w.starts_with('#')).count();
+                if kind == "f" && corners < 3 {
+                    return Err(Error::input(format!(
+                        "{what}: line {}: a face with {corners} vertices (a face needs at least 3; a line is 'l')",
+                        line_no + 1
+                    )));
+                }
                 for word in words {
                     for (k, field) in word.split('/').take(3).enumerate() {
                         let Ok(x) = field.parse::<i64>() else {

@@ -121,6 +121,15 @@ fn obj_with_out_of_range_index_is_rejected() {
 }
 
 #[test]
+fn obj_face_with_two_vertices_is_rejected() {
+    let e = scene_error("two_vertex_face.obj");
+    assert!(
+        e.contains("line 5") && e.contains("a face with 2 vertices"),
+        "{e}"
+    );
+}
+
+#[test]
 fn obj_without_faces_is_rejected() {
     let e = scene_error("empty.obj");
     assert!(e.contains("no triangles"), "{e}");
@@ -229,6 +238,19 @@ fn gltf_mask_cutoff_and_mirroring() {
 #[test]
 fn malformed_gltf_is_a_one_line_error() {
     scene_error("malformed.gltf");
+}
+
+#[test]
+fn gltf_that_would_draw_nothing_or_misread_is_rejected() {
+    let e = scene_error("zero_scale.gltf");
+    assert!(e.contains("node 0 has a singular transform"), "{e}");
+    let e = scene_error("alpha_over_one.gltf");
+    assert!(
+        e.contains("baseColorFactor") && e.contains("outside [0, 1]"),
+        "{e}"
+    );
+    let e = scene_error("lines_only.gltf");
+    assert!(e.contains("no TRIANGLES primitive"), "{e}");
 }
 
 // --- TOML --------------------------------------------------------------------------------------
@@ -425,7 +447,11 @@ fn toml_errors_name_element_and_problem() {
         ),
         (
             format!("[render]\nsize = [0, 10]\n{cube}"),
-            "size [0, 10] must be positive",
+            "render (line 1): size [0, 10] must be 1..16384 per side",
+        ),
+        (
+            format!("[render]\nsize = [100000, 10]\n{cube}"),
+            "render (line 1): size [100000, 10] must be 1..16384 per side",
         ),
         (
             format!("[camera]\neye = [0, 0, 5]\nnear = 2.0\nfar = 1.0\n{cube}"),

@@ -354,8 +354,15 @@ pub(crate) fn parse(
 
     if let (Some(r), Some(label)) = (def.render, render_label) {
         if let Some([w, h]) = r.size {
-            if w == 0 || h == 0 {
-                return Err(ctx.err(&label, format!("size [{w}, {h}] must be positive")));
+            let side = 1..=crate::frame::MAX_SIDE;
+            if !side.contains(&w) || !side.contains(&h) {
+                return Err(ctx.err(
+                    &label,
+                    format!(
+                        "size [{w}, {h}] must be 1..{} per side",
+                        crate::frame::MAX_SIDE
+                    ),
+                ));
             }
         }
         let background = r
