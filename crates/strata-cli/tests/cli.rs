@@ -574,17 +574,20 @@ fn options_the_method_does_not_read_are_refused() {
 fn frame_sequences_are_written_whole_or_not_at_all() {
     let dir = workdir("frames-whole");
     std::fs::create_dir_all(dir.join("seq_1.png")).unwrap();
-    let pattern = dir.join("seq_%d.png");
-    let o = strata(&[
-        "render",
-        "builtin:layers?n=2",
-        "--size",
-        "16x16",
-        "--frames",
-        "0..3",
-        "-o",
-        pattern.to_str().unwrap(),
-    ]);
+    let render_frames = |frames: &str, pattern: &str| {
+        let pattern = dir.join(pattern);
+        strata(&[
+            "render",
+            "builtin:layers?n=2",
+            "--size",
+            "16x16",
+            "--frames",
+            frames,
+            "-o",
+            pattern.to_str().unwrap(),
+        ])
+    };
+    let o = render_frames("0..3", "seq_%d.png");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("seq_1.png"), "{}", stderr(&o));
     assert!(!dir.join("seq_0.png").exists(), "frame 0 was left behind");
@@ -593,32 +596,14 @@ fn frame_sequences_are_written_whole_or_not_at_all() {
         ("none.png", "needs a %d"),
         ("frame_%d.jpg", "must end in .png"),
     ] {
-        let o = strata(&[
-            "render",
-            "builtin:layers?n=2",
-            "--size",
-            "16x16",
-            "--frames",
-            "0..2",
-            "-o",
-            dir.join(pattern).to_str().unwrap(),
-        ]);
+        let o = render_frames("0..2", pattern);
         assert_eq!(o.status.code(), Some(2), "{pattern}: {}", stderr(&o));
         assert!(stderr(&o).contains(message), "{pattern}: {}", stderr(&o));
     }
-    let o = strata(&[
-        "render",
-        "builtin:layers?n=2",
-        "--size",
-        "16x16",
-        "--frames",
-        "0..2",
-        "-o",
-        dir.join("100%%_%02d.png").to_str().unwrap(),
-    ]);
+    let o = render_frames("0..2", "100%%_%02d.png");
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.join("100%_01.png").exists());
-    let o = strata(&["render", "--frames", "0..200000"]);
+    let o = render_frames("0..200000", "many_%d.png");
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("at most 100000"), "{}", stderr(&o));
 }
