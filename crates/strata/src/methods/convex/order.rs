@@ -494,13 +494,19 @@ pub fn plan(
         .collect();
     let culled = (n - visible.len()) as u32;
     let footprints = Footprints::new(dec, &rects, view_proj, (width, height), samples);
-    // Nodes: 2g is group g whole, or its front cap when it is a container; 2g + 1 its back cap.
-    let caps = |g: u32| -> &'static [u32] {
-        if dec.container[g as usize] {
-            &[0, 1]
-        } else {
-            &[0]
-        }
+    // Nodes: g is group g whole, or its front cap when it is a container; n + i is the back
+    // cap of the i-th container (few groups are: the graph stays about one node per group).
+    let containers: Vec<u32> = (0..n as u32)
+        .filter(|&g| dec.container[g as usize])
+        .collect();
+    let back_cap = |g: u32| {
+        let i = containers.binary_search(&g).expect("a container");
+        (n + i) as u32
+    };
+    let caps = |g: u32| std::iter::once(g).chain(dec.container[g as usize].then(|| back_cap(g)));
+    let group_of = |node: u32| match (node as usize).checked_sub(n) {
+        None => node,
+        Some(i) => containers[i],
     };
     let distance: Vec<f32> = dec
         .groups
@@ -537,9 +543,9 @@ pub fn plan(
                         _ => (by_distance(), true),
                     };
                     let (first, second) = if a_first { (a, b) } else { (b, a) };
-                    for &f in caps(first) {
-                        for &s in caps(second) {
-                            edge(2 * first + f, 2 * second + s);
+                    for f in caps(first) {
+                        for s in caps(second) {
+                            edge(f, s);
                         }
                     }
                     return PairEdges {
@@ -549,9 +555,9 @@ pub fn plan(
                     };
                 }
             };
-            for &c in caps(inner) {
-                edge(2 * outer, 2 * inner + c);
-                edge(2 * inner + c, 2 * outer + 1);
+            for c in caps(inner) {
+                edge(outer, c);
+                edge(c, back_cap(outer));
             }
             PairEdges {
                 edges,
@@ -562,32 +568,31 @@ pub fn plan(
         .collect();
     let overlapping = meeting.len() as u64;
     let unseparated = ordered.iter().filter(|o| o.unseparated).count() as u64;
-    let containers = visible
+    // A container's front cap comes before its back cap.
+    let mut edges: Vec<(u32, u32)> = visible
         .iter()
         .filter(|&&g| dec.container[g as usize])
-        .map(|&g| (2 * g, 2 * g + 1));
-    let mut edges: Vec<(u32, u32)> = containers.collect();
+        .map(|&g| (g, back_cap(g)))
+        .collect();
     edges.par_extend(
         ordered
             .par_iter()
             .flat_map_iter(|o| o.edges[..o.count].iter().copied()),
     );
-    let graph = Graph::new(2 * n, &edges);
-    let nodes: Vec<u32> = visible
-        .iter()
-        .flat_map(|&g| caps(g).iter().map(move |&c| 2 * g + c))
-        .collect();
-    let (node_passes, cycles_broken) = graph.passes(&nodes, |node| distance[node as usize / 2]);
+    let graph = Graph::new(n + containers.len(), &edges);
+    let nodes: Vec<u32> = visible.iter().flat_map(|&g| caps(g)).collect();
+    let (node_passes, cycles_broken) =
+        graph.passes(&nodes, |node| distance[group_of(node) as usize]);
     let passes = node_passes
         .into_iter()
         .map(|pass| {
             pass.into_iter()
                 .map(|node| {
-                    let g = node / 2;
-                    let cap = match (dec.container[g as usize], node % 2) {
+                    let g = group_of(node);
+                    let cap = match (dec.container[g as usize], node == g) {
                         (false, _) => Cap::Whole,
-                        (true, 0) => Cap::Front,
-                        (true, _) => Cap::Back,
+                        (true, true) => Cap::Front,
+                        (true, false) => Cap::Back,
                     };
                     (g, cap)
                 })
@@ -696,11 +701,11 @@ impl Graph {
         distance: impl Fn(u32) -> f32 + Sync,
         parallel_from: usize,
     ) -> (Vec<Vec<u32>>, u32) {
-        const UNPLACED: u32 = u32::MAX;
-        let pass_of: Vec<AtomicU32> = (0..self.indegree.len())
-            .map(|_| AtomicU32::new(UNPLACED))
-            .collect();
-        let placed = |o: u32| pass_of[o as usize].load(Ordering::Relaxed) != UNPLACED;
+        // A node's state: its count of unplaced predecessors until it is placed, then its pass
+        // with PLACED set (one word, so each neighbour visited costs one memory access).
+        const PLACED: u32 = 1 << 31;
+        let state = &self.indegree;
+        let placed = |o: u32| state[o as usize].load(Ordering::Relaxed) & PLACED != 0;
         // Nearest first, ties by node: an integer key (distances are signed in an
         // orthographic view).
         let mut by_distance: Vec<u64> = nodes
@@ -712,7 +717,7 @@ impl Graph {
         let mut frontier: Vec<u32> = nodes
             .par_iter()
             .copied()
-            .filter(|&g| self.indegree[g as usize].load(Ordering::Relaxed) == 0)
+            .filter(|&g| state[g as usize].load(Ordering::Relaxed) == 0)
             .collect();
         let mut next = Vec::new();
         let mut cycles_broken = 0;
@@ -732,18 +737,19 @@ impl Graph {
             let place = |&g: &u32| {
                 let pass = self
                     .neighbours(g)
-                    .filter(|&(o, _)| placed(o))
-                    .map(|(o, _)| pass_of[o as usize].load(Ordering::Relaxed) + 1)
+                    .map(|(o, _)| state[o as usize].load(Ordering::Relaxed))
+                    .filter(|s| s & PLACED != 0)
+                    .map(|s| (s & !PLACED) + 1)
                     .max()
                     .unwrap_or(0);
-                pass_of[g as usize].store(pass, Ordering::Relaxed);
+                state[g as usize].store(pass | PLACED, Ordering::Relaxed);
             };
-            // A successor is left ready by the one placement that takes its count to zero.
+            // A successor is left ready by the one placement that takes its count to zero
+            // (no successor of a frontier node is placed in the same level, so a count never
+            // meets a pass).
             let released = |&g: &u32| {
                 self.neighbours(g).filter_map(|(o, after)| {
-                    (after
-                        && !placed(o)
-                        && self.indegree[o as usize].fetch_sub(1, Ordering::Relaxed) == 1)
+                    (after && !placed(o) && state[o as usize].fetch_sub(1, Ordering::Relaxed) == 1)
                         .then_some(o)
                 })
             };
@@ -760,7 +766,7 @@ impl Graph {
         }
         let mut passes: Vec<Vec<u32>> = Vec::new();
         for &g in nodes {
-            let pass = pass_of[g as usize].load(Ordering::Relaxed) as usize;
+            let pass = (state[g as usize].load(Ordering::Relaxed) & !PLACED) as usize;
             if passes.len() <= pass {
                 passes.resize(pass + 1, Vec::new());
             }
