@@ -668,10 +668,9 @@ impl KFrame {
         let px = ctx.pixels();
         let samples = params.sample_slots.max(1);
         let tail_bytes = tail_bytes(px * samples as u64, params.tail_blend != 0);
-        let temporal = self.temporal.frame(ctx)?;
         let total = storage.bytes
             + sample_frame_bytes_besides_storage(px, samples, params.tail_blend != 0)
-            + temporal.bytes;
+            + temporal::TemporalState::bytes(ctx);
         check_memory(ctx, self.id.as_str(), storage.bytes, total)?;
         let none = wgpu::BufferUsages::empty();
         // Tests read the per-pixel words and the storage back (the lists against the reference).
@@ -702,6 +701,7 @@ impl KFrame {
         }
         let tail = cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, none)?;
         let buffer = cache.storage(gpu, storage.label, storage.bytes, readable)?;
+        let temporal = self.temporal.frame(ctx)?;
         let group = binding::group(
             &gpu.device,
             "strata.kbuffer.group",

@@ -117,8 +117,6 @@ pub struct TemporalBindings {
     pub current: wgpu::Buffer,
     pub triangle_objects: wgpu::Buffer,
     pub to_previous: wgpu::Buffer,
-    /// Bytes the interfaces take (0 when off).
-    pub bytes: u64,
     pub on: bool,
 }
 
@@ -154,7 +152,17 @@ impl TemporalState {
         }
     }
 
-    /// This frame's bindings: writes the parameters and clears the interface it records.
+    /// Bytes this frame's interfaces take (0 when culling is off), before [`TemporalState::frame`]
+    /// makes them: a frame checks its memory budget before anything advances.
+    pub fn bytes(ctx: &FrameContext<'_>) -> u64 {
+        match ctx.options.temporal {
+            None => 0,
+            Some(_) => 2 * (ctx.pixels() + 2) * 4 + std::mem::size_of::<TemporalParams>() as u64,
+        }
+    }
+
+    /// This frame's bindings: writes the parameters, clears the interface it records and
+    /// advances to the next frame's, so it is the frame's last step that can fail.
     pub fn frame(&mut self, ctx: &mut FrameContext<'_>) -> Result<TemporalBindings> {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
@@ -178,7 +186,6 @@ impl TemporalState {
                 current: self.stubs[1].clone(),
                 triangle_objects,
                 to_previous,
-                bytes: 0,
                 on: false,
             });
         };
@@ -222,7 +229,6 @@ impl TemporalState {
             current,
             triangle_objects,
             to_previous,
-            bytes: 2 * words * 4 + std::mem::size_of::<TemporalParams>() as u64,
             on: true,
         };
         self.last = Some((view_proj, w, h));
@@ -357,6 +363,35 @@ mod tests {
                 "worst frame: {worst:.3}% over 2/255"
             );
         }
+    }
+
+    /// A frame refused by its memory budget records nothing, so it must not advance the
+    /// interfaces: the next frame culls against the last recorded one.
+    #[test]
+    fn a_refused_frame_leaves_the_interface_to_the_next() {
+        use crate::render::recorder::FrameRecorder;
+        let scene = loaders::load_scene("builtin:nvpro?objects=24&subdiv=8&seed=4").unwrap();
+        let options = temporal_options(0);
+        let mut rec = FrameRecorder::new(gpu(), &scene, MethodId::KplusHeap, &options).unwrap();
+        let frame = |rec: &mut FrameRecorder| {
+            let mut encoder = gpu().device.create_command_encoder(&Default::default());
+            let recorded = rec.record(&mut encoder, &Default::default(), None);
+            gpu().queue.submit([encoder.finish()]);
+            recorded
+        };
+        frame(&mut rec).unwrap();
+        assert!(rec.wait_stats().unwrap().stats.culled_temporal == Some(0));
+        let starved = RenderOptions {
+            budget_mb: Some(0.01),
+            ..options.clone()
+        };
+        rec.set_options(&starved).unwrap();
+        let e = frame(&mut rec).unwrap_err().to_string();
+        assert!(e.contains("--budget-mb"), "{e}");
+        rec.set_options(&options).unwrap();
+        frame(&mut rec).unwrap();
+        let culled = rec.wait_stats().unwrap().stats.culled_temporal.unwrap();
+        assert!(culled > 0, "the frame after a refused one culled nothing");
     }
 
     #[test]
