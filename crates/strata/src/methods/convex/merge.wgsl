@@ -10,8 +10,11 @@
 @group(1) @binding(2) var<storage, read> slots: array<Fragment>;
 // Per pixel: fragments generated over the frame's passes.
 @group(1) @binding(3) var<storage, read_write> generated: array<u32>;
-// [0]: order violations (pixel-passes), [1]: pixel-passes with fragments past LAYERS.
+// 64-bit counts (low word first): [0, 1] order violations (pixel-passes), [2, 3] pixel-passes
+// with fragments past LAYERS.
 @group(1) @binding(4) var<storage, read_write> counters: array<atomic<u32>>;
+const VIOLATIONS: u32 = 0u;
+const OVERFLOWS: u32 = 2u;
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 @group(1) @binding(6) var<storage, read> touched: array<u32>;
 @group(1) @binding(7) var<storage, read> touched_count: u32;
@@ -51,6 +54,14 @@ fn cs_merge(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
+// Adds one to the 64-bit count at words (at, at + 1): a frame of many passes over a large,
+// multisampled screen can pass 2^32 pixel-passes.
+fn count_one(at: u32) {
+    if atomicAdd(&counters[at], 1u) == 0xffffffffu {
+        atomicAdd(&counters[at + 1u], 1u);
+    }
+}
+
 fn merge_pixel(i: u32) {
     let claimed = claims[i];
     if claimed == 0u {
@@ -59,7 +70,7 @@ fn merge_pixel(i: u32) {
     claims[i] = 0u;
     generated[i] += claimed;
     if claimed > LAYERS {
-        atomicAdd(&counters[1], 1u);
+        count_one(OVERFLOWS);
     }
     let n = min(claimed, LAYERS);
     var f: array<Fragment, LAYERS>;
@@ -75,7 +86,7 @@ fn merge_pixel(i: u32) {
     var s = state[i];
     let last = Fragment(s.last_depth, s.last_tag, 0u, 0u);
     if s.count > 0u && fragment_before(f[0], last) {
-        atomicAdd(&counters[0], 1u);
+        count_one(VIOLATIONS);
     }
     for (var a = 0u; a < n; a++) {
         composite_front(&s, f[a]);

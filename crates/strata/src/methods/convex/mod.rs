@@ -25,7 +25,7 @@
 //!
 //! Every triangle is drawn once per frame (containers' twice, each fragment kept once).
 //! Memory: (16·layers + 44)·W·H + 12 bytes per triangle (the index buffer; a container's
-//! twice) + 56 — two layers' worth when no group is paired, whatever the depth complexity.
+//! twice) + 64 — two layers' worth when no group is paired, whatever the depth complexity.
 //!
 //! With `--msaa S` a pixel has S sample entries with their own claims, slots and state: a
 //! fragment, shaded once, is captured at each sample it covers (a pixel on a part's edge gets
@@ -91,7 +91,7 @@ struct CurrentPlan {
 const PIXEL_BYTES: u64 = 44;
 /// Bytes besides the per-pixel ones and the index buffer: counters, the touched count, the
 /// merge's indirect arguments and their reset value.
-const FIXED_BYTES: u64 = 8 + 16 + 16 + 16;
+const FIXED_BYTES: u64 = 16 + 16 + 16 + 16;
 /// Invocations per merge workgroup; the merge dispatch grows by one workgroup per this many
 /// touched pixels.
 const MERGE_WORKGROUP: u32 = 64;
@@ -464,7 +464,7 @@ impl Method for Convex {
         let counters = self.cache.storage(
             gpu,
             "strata.convex.counters",
-            8,
+            16,
             wgpu::BufferUsages::COPY_SRC,
         )?;
         let touched = self
@@ -573,7 +573,7 @@ impl Method for Convex {
             pass.dispatch_workgroups_indirect(&merge_args, 0);
         }
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &merge_group]);
-        ctx.readback.words(&counters, 0, 2);
+        ctx.readback.words(&counters, 0, 4);
         let d = &self.decomposition.stats;
         Ok(Recorded {
             geometry_passes: plan.passes.len() as u32,
@@ -606,8 +606,8 @@ impl Method for Convex {
     ) -> MethodStats {
         let convex = recorded.convex.clone().map(|mut c| {
             if let Some(w) = words {
-                c.order_violations = Some(w[0] as u64);
-                c.overflowing_pixels = Some(w[1] as u64);
+                c.order_violations = Some(crate::frame::wide(w, 0));
+                c.overflowing_pixels = Some(crate::frame::wide(w, 2));
             }
             c
         });
