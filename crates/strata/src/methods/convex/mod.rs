@@ -44,7 +44,9 @@
 //! The paper captures a piece's two layers with 32-bit MAX blending into two zero-cleared
 //! targets; WebGPU has no MAX blending on 32-bit float targets everywhere, so the capture writes
 //! storage behind a per-pixel counter, which also keeps a paired group's four layers and counts
-//! (as dropped) what a non-convex configuration would put past them.
+//! (as dropped) what a non-convex configuration would put past them. Which fragments an
+//! overflowing entry keeps is the order they arrived in: on a GPU that runs a pixel's fragments
+//! at once, such pixels (counted in `overflowing_pixels`) may differ from run to run.
 //!
 //! Exact where every overlapping pair has a plane or nests: then the passes follow depth order in
 //! every pixel and the result equals the reference. Pairs without either (adjacent parts on a

@@ -77,6 +77,8 @@ fn capture_sorted_list(p: u32, f: Fragment) {
             position += 1u;
         }
         if position >= kp.k {
+            // A node taken before a lost exchange stays unlinked: it is pool this frame used,
+            // so it counts in the measured need that sizes the next frame's pool.
             tail_add(p, f);
             return;
         }
