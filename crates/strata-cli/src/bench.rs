@@ -45,6 +45,7 @@ pub struct BenchArgs {
     /// List the named experiments.
     #[arg(long)]
     list: bool,
+    /// An ad-hoc run's scene (with --methods), or the one scene a named experiment runs on.
     #[arg(long)]
     scene: Option<String>,
     /// Comma-separated method ids.
@@ -59,8 +60,11 @@ pub struct BenchArgs {
     /// k for the methods of an ad-hoc run.
     #[arg(long)]
     k: Option<u32>,
+    /// Frame size, WxH (default: the experiment's, which is smaller on a CPU adapter; 512x512
+    /// for an ad-hoc run).
     #[arg(long)]
     pub(crate) size: Option<String>,
+    /// Sets every material's opacity.
     #[arg(long)]
     alpha: Option<f32>,
     #[arg(long, value_enum, default_value = "transparency")]
@@ -500,14 +504,19 @@ pub fn device_slug(gpu: &Gpu) -> String {
         .join("-")
 }
 
-/// What every standalone experiment's results file starts with (flattened into it).
+/// What every standalone experiment's results file starts with (flattened into it): the same
+/// provenance as a frame-loop experiment's.
 #[derive(Clone, Serialize)]
 pub(crate) struct Header {
     pub(crate) experiment: &'static str,
     pub(crate) adapter: String,
     pub(crate) backend: String,
+    pub(crate) device_type: String,
+    pub(crate) driver: String,
     /// True when the adapter is a CPU (lavapipe): the figures measure a CPU, not a GPU.
     pub(crate) cpu_figures: bool,
+    pub(crate) commit: Option<String>,
+    pub(crate) unix_time: u64,
 }
 
 impl Header {
@@ -516,9 +525,30 @@ impl Header {
             experiment,
             adapter: gpu.info.name.clone(),
             backend: gpu.backend_name(),
+            device_type: device_type(gpu),
+            driver: driver(gpu),
             cpu_figures,
+            commit: commit(),
+            unix_time: unix_time(),
         }
     }
+}
+
+fn device_type(gpu: &Gpu) -> String {
+    format!("{:?}", gpu.info.device_type)
+}
+
+fn driver(gpu: &Gpu) -> String {
+    format!("{} {}", gpu.info.driver, gpu.info.driver_info)
+        .trim()
+        .to_string()
+}
+
+pub(crate) fn unix_time() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0)
 }
 
 /// A number with `digits` decimals, or nothing (a table's empty cell).
@@ -820,16 +850,11 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
         alpha,
         adapter: gpu.info.name.clone(),
         backend: gpu.backend_name(),
-        device_type: format!("{:?}", gpu.info.device_type),
-        driver: format!("{} {}", gpu.info.driver, gpu.info.driver_info)
-            .trim()
-            .to_string(),
+        device_type: device_type(gpu),
+        driver: driver(gpu),
         cpu_figures,
         commit: commit(),
-        unix_time: std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_secs())
-            .unwrap_or(0),
+        unix_time: unix_time(),
         warmup: a.warmup,
         results,
     };

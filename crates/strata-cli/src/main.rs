@@ -49,11 +49,13 @@ enum Command {
     Compare(CompareArgs),
     /// List every method with its family, exactness, geometry passes and memory.
     Methods {
+        /// Print the catalogue as JSON.
         #[arg(long)]
         json: bool,
     },
     /// Report the GPU adapter, backend, driver, features and limits.
     Info {
+        /// Print the report as JSON.
         #[arg(long)]
         json: bool,
     },
@@ -132,10 +134,8 @@ pub struct PictureArgs {
     #[arg(long)]
     pub fov: Option<f32>,
     /// Samples per pixel: 1, or 4 and 8 for multisample anti-aliasing at the standard sample
-    /// positions (fragments shaded once per pixel, composited per sample; the methods that
-    /// store every fragment: abuffer-ll, abuffer-fixed, kb-ab-ll, kb-ab-fixed, sbuffer,
-    /// kb-sbuffer; wboit, mboit, unsorted, sorted; and the reference). 8 where the device has it
-    /// (lavapipe: 4).
+    /// positions (fragments shaded once per pixel, composited per sample; every method but
+    /// kb-mdt64 and kb-mdt-pack, and the reference). 8 where the device has it (lavapipe: 4).
     #[arg(long, default_value_t = 1)]
     pub msaa: u32,
 }
@@ -208,7 +208,7 @@ pub struct MethodArgs {
     pub method: MethodId,
     /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
     /// the lock-free storage methods (abuffer-fixed, kb-ab-fixed, kb-mdt*, abuffer-ll, kb-ab-ll,
-    /// sbuffer, kb-sbuffer, dual, kb).
+    /// sbuffer, kb-sbuffer, dual, kb, kpeel).
     #[arg(long, value_enum, default_value = "hw")]
     pub raster: strata::frame::Raster,
     /// kpeel: layers captured per geometry pass (seed 002's multi-layer peeling: ⌈N/M⌉ passes;
@@ -271,7 +271,8 @@ pub struct MethodArgs {
     /// --order random: the seed its per-frame permutations draw from.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Reverse-reprojection culling (seed 000; kplus-*, kb-ps, kb): each frame culls, before any
+    /// Reverse-reprojection culling (seed 000; kplus-array, kplus-heap, kplus-array-r,
+    /// kplus-semiheap, kb-ps, kb): each frame culls, before any
     /// lock, fragments that lay behind last frame's (k+1)-th nearest depth. Approximate: the
     /// first frame culls nothing, moving objects can be culled wrongly until their tile
     /// refreshes.
@@ -311,6 +312,7 @@ struct CompareArgs {
     /// Write a heatmap of per-pixel differences.
     #[arg(long)]
     diff: Option<PathBuf>,
+    /// Print the metrics as JSON.
     #[arg(long)]
     json: bool,
 }
@@ -319,11 +321,13 @@ struct CompareArgs {
 struct HistogramArgs {
     #[arg(default_value = "builtin:demo")]
     scene: String,
-    #[arg(long)]
+    /// Image size, WxH (default: the scene's, else 512x512).
+    #[arg(long, allow_hyphen_values = true)]
     size: Option<String>,
     /// Write the histogram as a bar chart PNG (log scale).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Print the histogram as JSON.
     #[arg(long)]
     json: bool,
     /// Count with the CPU reference instead of the GPU (the GPU's check).
@@ -376,12 +380,14 @@ struct ConvexArgs {
     /// The model or scene to decompose.
     #[arg(default_value = "builtin:teapot")]
     scene: String,
-    #[arg(long)]
+    /// The view's size, WxH, for its passes and --out (default: the scene's, else 512x512).
+    #[arg(long, allow_hyphen_values = true)]
     size: Option<String>,
     /// Render the decomposition to this PNG: one opaque color per group (paired groups
     /// darker), from the scene's camera.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Print the statistics as JSON.
     #[arg(long)]
     json: bool,
     /// Keep the decomposition in DIR: read when there, written when made.

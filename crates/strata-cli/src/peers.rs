@@ -185,7 +185,6 @@ impl Row {
 struct Report {
     #[serde(flatten)]
     header: crate::bench::Header,
-    commit: Option<String>,
     width: u32,
     height: u32,
     frames: u32,
@@ -383,7 +382,6 @@ fn run_scenes(
     result?;
     let report = Report {
         header: crate::bench::Header::new("peers", gpu, cpu_figures),
-        commit: crate::bench::commit(),
         width,
         height,
         frames,

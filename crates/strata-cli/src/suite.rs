@@ -192,10 +192,7 @@ pub fn run(gpu: &Gpu, a: &BenchArgs) -> Result<()> {
             seconds,
             error,
             commit: bench::commit(),
-            unix_time: std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map(|d| d.as_secs())
-                .unwrap_or(0),
+            unix_time: bench::unix_time(),
             overrides: overrides.clone(),
         });
         suite_bar.inc(1);
