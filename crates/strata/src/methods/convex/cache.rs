@@ -121,10 +121,8 @@ fn encode(key: Key, d: &Decomposition) -> Vec<u8> {
         }
     }
     // In pair order, so the same decomposition always writes the same bytes.
-    let mut pairs: Vec<_> = d.relations.iter().collect();
-    pairs.sort_unstable_by_key(|(k, _)| **k);
-    out.u64(pairs.len() as u64);
-    for (&(i, j), r) in pairs {
+    out.u64(d.relations.len() as u64);
+    for ((i, j), r) in d.relations.iter() {
         out.u32(i);
         out.u32(j);
         match r {
@@ -190,11 +188,14 @@ fn decode(bytes: &[u8], key: Key) -> Result<Decomposition, String> {
         });
     }
     let pair_count = r.u64()?;
-    let mut relations = Relations::default();
+    let mut pairs = Vec::new();
     for _ in 0..pair_count {
         let (i, j) = (r.u32()?, r.u32()?);
         if i >= j || j as usize >= groups.len() {
             return Err(format!("pair ({i}, {j}) of {} groups", groups.len()));
+        }
+        if pairs.last().is_some_and(|&(last, _)| last >= (i, j)) {
+            return Err(format!("pair ({i}, {j}) out of order"));
         }
         let relation = match r.u32()? {
             0 => Relation::Plane(Separation {
@@ -206,8 +207,9 @@ fn decode(bytes: &[u8], key: Key) -> Result<Decomposition, String> {
             3 => Relation::Inseparable,
             tag => return Err(format!("unknown relation {tag}")),
         };
-        relations.insert((i, j), relation);
+        pairs.push(((i, j), relation));
     }
+    let relations = Relations::from_pairs(pairs);
     if !r.0.is_empty() {
         return Err(format!("{} bytes past the end", r.0.len()));
     }

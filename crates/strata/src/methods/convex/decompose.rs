@@ -37,8 +37,63 @@ use rustc_hash::FxHashMap;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-/// How the groups of each pair (i < j) whose boxes overlap relate.
-pub type Relations = FxHashMap<(u32, u32), Relation>;
+/// How the groups of each pair (i < j) whose boxes overlap relate: a row per group i of its
+/// pairs by ascending j (24 bytes a pair, in pair order as the cache file stores them; a hash
+/// map took more memory and its reading from the cache hashed every pair).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Relations {
+    /// Group i's pairs are `row[first[i]..first[i + 1]]`, each (j, relation).
+    first: Vec<u32>,
+    row: Vec<(u32, Relation)>,
+}
+
+impl Relations {
+    /// From pairs (i < j), each given once, in any order.
+    pub fn from_pairs(mut pairs: Vec<((u32, u32), Relation)>) -> Relations {
+        pairs.par_sort_unstable_by_key(|&(pair, _)| pair);
+        let rows = pairs.last().map_or(0, |&((i, _), _)| i as usize + 1);
+        let mut first = vec![0u32; rows + 1];
+        for &((i, _), _) in &pairs {
+            first[i as usize + 1] += 1;
+        }
+        for i in 0..rows {
+            first[i + 1] += first[i];
+        }
+        Relations {
+            first,
+            row: pairs.into_iter().map(|((_, j), r)| (j, r)).collect(),
+        }
+    }
+
+    /// How `i` and `j` (i < j) relate, when their boxes overlap.
+    pub fn get(&self, i: u32, j: u32) -> Option<Relation> {
+        let (start, end) = (self.first.get(i as usize)?, self.first.get(i as usize + 1)?);
+        let row = &self.row[*start as usize..*end as usize];
+        row.binary_search_by_key(&j, |&(other, _)| other)
+            .ok()
+            .map(|k| row[k].1)
+    }
+
+    pub fn len(&self) -> usize {
+        self.row.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.row.is_empty()
+    }
+
+    /// Every pair (i < j) and its relation, in pair order.
+    pub fn iter(&self) -> impl Iterator<Item = ((u32, u32), Relation)> + '_ {
+        self.first
+            .windows(2)
+            .enumerate()
+            .flat_map(move |(i, range)| {
+                self.row[range[0] as usize..range[1] as usize]
+                    .iter()
+                    .map(move |&(j, r)| ((i as u32, j), r))
+            })
+    }
+}
 
 /// Region growing stops a part at this many triangles: the convexity test of a candidate grows
 /// with the part's size (less than linearly, through the chunk bounds), so parts are bounded to
@@ -666,12 +721,10 @@ impl Decomposition {
         let relations = relate(triangles, &mesh, &groups, tolerance);
         let mut partner = vec![u32::MAX; groups.len()];
         // In pair order, so the groups are the same every run.
-        let mut inseparable: Vec<(u32, u32)> = relations
+        let inseparable = relations
             .iter()
-            .filter(|(_, r)| **r == Relation::Inseparable)
-            .map(|(&k, _)| k)
-            .collect();
-        inseparable.sort_unstable();
+            .filter(|&(_, r)| r == Relation::Inseparable)
+            .map(|(pair, _)| pair);
         for (a, b) in inseparable {
             if partner[a as usize] == u32::MAX && partner[b as usize] == u32::MAX {
                 partner[a as usize] = b;
@@ -702,7 +755,7 @@ impl Decomposition {
             relate(triangles, &mesh, &groups, tolerance)
         };
         progress(1.0);
-        let count = |r: Relation| relations.values().filter(|&&x| x == r).count() as u64;
+        let count = |r: Relation| relations.iter().filter(|&(_, x)| x == r).count() as u64;
         let layers_per_group = 2 * groups.iter().map(|g| g.parts).max().unwrap_or(1);
         let stats = DecompositionStats {
             triangles: triangles.len() as u64,
@@ -727,7 +780,7 @@ impl Decomposition {
         stats: DecompositionStats,
     ) -> Decomposition {
         let mut container = vec![false; groups.len()];
-        for (&(i, j), r) in &relations {
+        for ((i, j), r) in relations.iter() {
             match r {
                 Relation::Contains => container[i as usize] = true,
                 Relation::Inside => container[j as usize] = true,
@@ -748,8 +801,8 @@ impl Decomposition {
     /// nothing found.
     pub fn relation(&self, a: u32, b: u32) -> Relation {
         let (i, j) = (a.min(b), a.max(b));
-        let r = match self.relations.get(&(i, j)) {
-            Some(r) => *r,
+        let r = match self.relations.get(i, j) {
+            Some(r) => r,
             None => axis_separation(&self.groups[i as usize], &self.groups[j as usize])
                 .map_or(Relation::Inseparable, Relation::Plane),
         };
@@ -928,7 +981,7 @@ fn relate(triangles: &[[Vec3; 3]], mesh: &Mesh, groups: &[Group], tolerance: f32
             pair.relate((a, &groups[a as usize]), (b, &groups[b as usize]))
         })
         .collect();
-    pairs.into_iter().zip(relations).collect()
+    Relations::from_pairs(pairs.into_iter().zip(relations).collect())
 }
 
 struct Pair<'a> {

@@ -248,7 +248,7 @@ fn relations_hold_on_the_models() {
                 .collect()
         };
         let slack = 2.0 * d.tolerance;
-        for (&(a, b), r) in &d.relations {
+        for ((a, b), r) in d.relations.iter() {
             match r {
                 Relation::Plane(s) => {
                     assert!(points(a)
@@ -259,7 +259,7 @@ fn relations_hold_on_the_models() {
                         .all(|p| s.normal.dot(*p) >= s.offset - slack));
                 }
                 Relation::Contains | Relation::Inside => {
-                    let (outer, inner) = if *r == Relation::Contains {
+                    let (outer, inner) = if r == Relation::Contains {
                         (a, b)
                     } else {
                         (b, a)
