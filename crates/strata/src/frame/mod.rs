@@ -393,6 +393,8 @@ pub struct FrameStats {
     pub fragments_dropped: Option<u64>,
     pub max_depth_complexity: Option<u32>,
     pub bytes_allocated: Option<u64>,
+    /// The method's storage, or the compute rasterizer's work items, ran out: the fragment
+    /// counts are then lower bounds (the frame is incomplete and exact mode renders it again).
     pub overflow: Option<bool>,
     pub lock_failures: Option<u64>,
     /// How the capture's atomics are ordered on this adapter (k-buffer methods): "acquire-release

@@ -91,7 +91,11 @@ fn cs_raster(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
             let l1 = (p.x * e2.y - e2.x * p.y) / area;
             let l2 = (e1.x * p.y - p.x * e1.y) / area;
             let l = vec3<f32>(1.0 - l1 - l2, l1, l2);
-            let depth = dot(l, vec3<f32>(corners[0].z, corners[1].z, corners[2].z));
+            // A centre on a near-clipped edge can interpolate to just below 0 (or to -0.0), which
+            // keys made of a depth's bits (kpeel, MDT, dual) would sort last; the GPU's path
+            // clamps depth to the viewport's range, and so does this one.
+            let interpolated = dot(l, vec3<f32>(corners[0].z, corners[1].z, corners[2].z));
+            let depth = select(interpolated, 0.0, !(interpolated > 0.0));
             let pw = l * vec3<f32>(corners[0].inv_w, corners[1].inv_w, corners[2].inv_w);
             let inv_w = pw.x + pw.y + pw.z;
             let weights = (corners[0].weights * pw.x + corners[1].weights * pw.y + corners[2].weights * pw.z) / inv_w;

@@ -509,6 +509,7 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
     let first = frame();
     let raster = first.stats.compute_raster.clone().unwrap();
     assert!(raster.overflow && first.incomplete, "{raster:?}");
+    assert_eq!(first.stats.overflow, Some(true), "the frame's own flag");
     assert!(raster.tile_items > raster.item_capacity);
     let second = frame();
     let raster = second.stats.compute_raster.clone().unwrap();

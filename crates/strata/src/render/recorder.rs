@@ -816,7 +816,12 @@ impl FrameRecorder {
                     + p.order_words.map_or(0, |o| o.1)
                     + self.scene.animation.as_ref().map_or(0, |a| a.bytes()),
             ),
-            overflow: ms.overflow,
+            // The compute rasterizer's work items overflowing leaves fragments that no counter
+            // saw: the frame says it overflowed (and is incomplete), its counts are lower bounds.
+            overflow: match compute_raster.as_ref().filter(|r| r.overflow) {
+                Some(_) => Some(true),
+                None => ms.overflow,
+            },
             lock_failures: ms.lock_failures,
             memory_ordering: p.recorded.memory_ordering.map(String::from),
             bands: None,
