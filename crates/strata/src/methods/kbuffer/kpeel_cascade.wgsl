@@ -4,7 +4,10 @@
 // slot and a larger key is a nearer fragment — which keeps the pixel's k nearest sorted with no
 // lock; keys are unique per pixel, so nothing is lost or swapped at equal depths. A colors pass
 // writes each fragment whose key was kept into the slot holding it and raises FILLED past it; the
-// kpeel resolve then composites the slots as it does the locked capture's.
+// kpeel resolve then composites the slots as it does the locked capture's. The colors pass finds
+// a fragment's slot by its tag alone and takes the depth from the key: it is another pipeline,
+// which may round the interpolated depth differently, and a kept key whose fragment missed its
+// slot would leave FILLED over a slot this pass never wrote.
 // Needs SHADER_INT64_ATOMIC_ALL_OPS.
 
 @group(2) @binding(0) var<storage, read_write> peel_keys: array<atomic<u64>>;
@@ -41,21 +44,20 @@ fn fs_kpeel_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
         discard;
     }
     let p = kpixel(v.position);
-    let f = scene_fragment(v, front_facing);
-    if !peel_pending(p, f) {
-        discard;
-    }
-    let key = peel_key(f);
+    var f = scene_fragment(v, front_facing);
+    // The tag's word of a key, as peel_key writes it.
+    let tag_word = ~f.tag;
     let base = p * kp.k;
     for (var i = 0u; i < kp.k; i++) {
         let stored = atomicLoad(&peel_keys[base + i]);
-        if stored == key {
-            store_slot(p, i, f);
-            atomicMax(&pixels[pixel_word(p, FILLED)], i + 1u);
+        // Kept keys fill the slots from the first: an empty one ends them.
+        if stored == u64(0u) {
             break;
         }
-        // Keys are sorted nearest first: a farther one means this fragment was not kept.
-        if stored < key {
+        if u32(stored) == tag_word {
+            f.depth = bitcast<f32>(~u32(stored >> 32u));
+            store_slot(p, i, f);
+            atomicMax(&pixels[pixel_word(p, FILLED)], i + 1u);
             break;
         }
     }
