@@ -38,7 +38,10 @@ fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool, 
     let p = kpixel(v.position);
     let start = region_start(p);
     let n = atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
-    if start < arrayLength(&pool) && n < arrayLength(&pool) - start {
+    // Within the pixel's own region even if this pass meets a fragment the count pass did not
+    // (on the compute rasterizer the two passes are two pipelines, which may round a depth
+    // against the opaque one differently).
+    if n < region_size(p) && start < arrayLength(&pool) && n < arrayLength(&pool) - start {
         pool[start + n] = scene_fragment_covering(v, front_facing, mask);
     } else {
         counter_add(COUNTER_OVERFLOWED, 1u);

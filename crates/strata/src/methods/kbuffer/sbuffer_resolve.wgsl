@@ -1,9 +1,10 @@
-// Resolve access to the S-buffer: a pixel's region, cut at the pool's end.
+// Resolve access to the S-buffer: a pixel's region (never past what the count pass sized it
+// for), cut at the pool's end.
 
 fn stored_count(p: u32) -> u32 {
     let start = region_start(p);
     let room = select(0u, arrayLength(&pool) - start, start < arrayLength(&pool));
-    return min(atomicLoad(&pixels[pixel_word(p, FILLED)]), room);
+    return min(min(atomicLoad(&pixels[pixel_word(p, FILLED)]), region_size(p)), room);
 }
 
 fn stored_fragment(p: u32, i: u32) -> Fragment {
