@@ -520,7 +520,6 @@ pub fn plan(
         width,
         height,
     );
-    let tr = std::time::Instant::now();
     // Each meeting pair's "comes before" edges (at most 4: two caps on each side), and whether
     // it had no plane.
     let ordered: Vec<PairEdges> = meeting
@@ -567,7 +566,6 @@ pub fn plan(
             }
         })
         .collect();
-    eprintln!("T rel {:.1}", tr.elapsed().as_secs_f64() * 1e3);
     let overlapping = meeting.len() as u64;
     let unseparated = ordered.iter().filter(|o| o.unseparated).count() as u64;
     // A container's front cap comes before its back cap.
