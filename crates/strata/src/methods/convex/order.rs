@@ -627,8 +627,9 @@ struct Graph {
     /// [`AFTER`] set when it comes after node i.
     first: Vec<u32>,
     neighbours: Vec<u32>,
-    /// Each node's count of predecessors not yet placed.
-    indegree: Vec<AtomicU32>,
+    /// Each node's state: its count of predecessors not yet placed, until [`Graph::passes`]
+    /// places it.
+    state: Vec<AtomicU32>,
 }
 
 /// The bit of a [`Graph`] neighbour entry that says it comes after the node.
@@ -668,7 +669,7 @@ impl Graph {
         Graph {
             first,
             neighbours,
-            indegree: indegree.into_iter().map(AtomicU32::new).collect(),
+            state: indegree.into_iter().map(AtomicU32::new).collect(),
         }
     }
 
@@ -704,7 +705,7 @@ impl Graph {
         // A node's state: its count of unplaced predecessors until it is placed, then its pass
         // with PLACED set (one word, so each neighbour visited costs one memory access).
         const PLACED: u32 = 1 << 31;
-        let state = &self.indegree;
+        let state = &self.state;
         let placed = |o: u32| state[o as usize].load(Ordering::Relaxed) & PLACED != 0;
         // Nearest first, ties by node: an integer key (distances are signed in an
         // orthographic view).
@@ -844,7 +845,7 @@ mod tests {
         distance: &[f32],
     ) -> (Vec<BTreeSet<u32>>, u32) {
         let mut indegree: Vec<u32> = graph
-            .indegree
+            .state
             .iter()
             .map(|d| d.load(Ordering::Relaxed))
             .collect();
