@@ -78,6 +78,10 @@ pub struct BenchArgs {
     /// With `all`: every experiment but these (comma-separated names).
     #[arg(long)]
     pub(crate) skip: Option<String>,
+    /// Wall-clock seconds the experiment may spend: once spent, the runs not yet started are
+    /// recorded as skipped (results are written after every run either way).
+    #[arg(long)]
+    pub(crate) budget_s: Option<f64>,
 }
 
 impl BenchArgs {
@@ -184,6 +188,7 @@ struct Experiment {
 /// Every k-buffer method of the k+-buffer paper's comparison (kb-mdt64 where the adapter has
 /// 64-bit atomics).
 const K_METHODS: &[&str] = &[
+    "kb-keys",
     "kplus-array",
     "kplus-array-r",
     "kplus-heap",
@@ -419,7 +424,7 @@ const EXPERIMENTS: &[Experiment] = &[
     },
 ];
 
-#[derive(Serialize)]
+#[derive(Clone, Serialize)]
 pub(crate) struct MethodResult {
     scene: String,
     label: String,
@@ -757,9 +762,27 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
     }
     let dir = results_dir(gpu, a);
     crate::check_results_dir(&dir)?;
+    let budget = Budget::new(a.budget_s)?;
     let bar = frames_bar((scenes.len() * runs.len()) as u64 * (a.warmup + frames) as u64);
     let mut results = Vec::new();
     let mut base_options = None;
+    let report = |results: &[MethodResult], options: &strata::RenderOptions| BenchReport {
+        experiment: name.clone(),
+        scene: scenes.join(", "),
+        width: options.width,
+        height: options.height,
+        effect: options.effect.name().into(),
+        alpha,
+        adapter: gpu.info.name.clone(),
+        backend: gpu.backend_name(),
+        device_type: device_type(gpu),
+        driver: driver(gpu),
+        cpu_figures,
+        commit: commit(),
+        unix_time: unix_time(),
+        warmup: a.warmup,
+        results: results.to_vec(),
+    };
     for scene in &scenes {
         let picture = PictureArgs {
             size: Some(size.clone()),
@@ -768,12 +791,33 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             ..PictureArgs::for_scene(scene.clone())
         };
         let (scene_data, options) = prepare(&picture)?;
+        if let Some(why) = budget.spent() {
+            for run in &runs {
+                bar.inc((a.warmup + frames) as u64);
+                let mut r = skipped(run, frames, why.clone());
+                r.scene = scene.clone();
+                results.push(r);
+            }
+            {
+                let so_far = report(&results, &options);
+                crate::write_results_so_far(&dir, &name, &so_far, csv(&so_far));
+            }
+            base_options = Some(options);
+            continue;
+        }
         let full_reference = if quality {
             Some(strata::reference::render(&scene_data, &options)?.0)
         } else {
             None
         };
         for run in &runs {
+            if let Some(why) = budget.spent() {
+                bar.inc((a.warmup + frames) as u64);
+                let mut r = skipped(run, frames, why);
+                r.scene = scene.clone();
+                results.push(r);
+                continue;
+            }
             bar.set_message(format!("{} {}", short_scene(scene), run.label));
             let mut options = options.clone();
             options.k = run.k;
@@ -835,31 +879,47 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
                 }
                 Err(e) => return Err(e),
             }
+            {
+                let so_far = report(&results, &options);
+                crate::write_results_so_far(&dir, &name, &so_far, csv(&so_far));
+            }
         }
         base_options = Some(options);
     }
     let base_options = base_options.expect("at least one scene");
-    let scene = scenes.join(", ");
     bar.finish_and_clear();
-    let report = BenchReport {
-        experiment: name.clone(),
-        scene,
-        width: base_options.width,
-        height: base_options.height,
-        effect: base_options.effect.name().into(),
-        alpha,
-        adapter: gpu.info.name.clone(),
-        backend: gpu.backend_name(),
-        device_type: device_type(gpu),
-        driver: driver(gpu),
-        cpu_figures,
-        commit: commit(),
-        unix_time: unix_time(),
-        warmup: a.warmup,
-        results,
-    };
+    let report = report(&results, &base_options);
     print_table(&report);
     crate::write_results(&dir, &name, &report, csv(&report))
+}
+
+/// `--budget-s`: the wall-clock time an experiment may spend, from its start.
+pub(crate) struct Budget {
+    start: std::time::Instant,
+    seconds: Option<f64>,
+}
+
+impl Budget {
+    pub(crate) fn new(seconds: Option<f64>) -> Result<Budget> {
+        if let Some(s) = seconds {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(Error::input(format!(
+                    "--budget-s {s} is not a positive number of seconds"
+                )));
+            }
+        }
+        Ok(Budget {
+            start: std::time::Instant::now(),
+            seconds,
+        })
+    }
+
+    /// Why no further run may start, once the budget is spent.
+    pub(crate) fn spent(&self) -> Option<String> {
+        let limit = self.seconds?;
+        (self.start.elapsed().as_secs_f64() >= limit)
+            .then(|| format!("not run: the experiment's --budget-s {limit} was spent"))
+    }
 }
 
 /// An experiment's progress bar over `len` frames (or steps), its message naming the current

@@ -247,7 +247,7 @@ pub struct MethodArgs {
     /// k-buffers cull fragments behind a full pixel's farthest before taking the lock.
     #[arg(long, value_enum, default_value = "on")]
     pub culling: Toggle,
-    /// Spin-lock tries per fragment for the locking k-buffers (default 65536).
+    /// Spin-lock tries per fragment for the locking k-buffers (default 65536, at most 1048576).
     #[arg(long)]
     pub max_tries: Option<u32>,
     /// Depth peeling (f2b, dual): peel this many layers (default: the scene's depth complexity,
@@ -922,9 +922,6 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
     options.budget_mb = a.budget_mb;
     options.tail = a.tail;
     options.culling = a.culling == Toggle::On;
-    if a.max_tries == Some(0) {
-        return Err(Error::input("--max-tries must be at least 1"));
-    }
     options.max_tries = a.max_tries;
     options.layers = a.layers;
     options.heap_size = a.heap_size;

@@ -11,10 +11,22 @@ use crate::scene::Scene;
 
 pub fn gpu() -> &'static Gpu {
     static GPU: OnceLock<Gpu> = OnceLock::new();
-    GPU.get_or_init(|| match Gpu::new() {
+    GPU.get_or_init(|| {
+        // lavapipe: more threads than cores, so workgroups of the contention harness
+        // (methods::kbuffer::contention) interleave at any instruction. Set before the first
+        // Vulkan call, inside this one-time initialisation.
+        if std::env::var_os("LP_NUM_THREADS").is_none() {
+            std::env::set_var("LP_NUM_THREADS", "8");
+        }
+        new_gpu()
+    })
+}
+
+fn new_gpu() -> Gpu {
+    match Gpu::new() {
         Ok(g) => g,
         Err(e) => panic!("GPU tests need an adapter (lavapipe in CI): {e}"),
-    })
+    }
 }
 
 pub fn render_gpu(
@@ -46,5 +58,58 @@ pub fn assert_close(
     let e = expected.to_rgba8(effect);
     if let Err(msg) = crate::metrics::testing::check_image(name, &a, &e, max_diff, max_fraction) {
         panic!("{msg}");
+    }
+}
+
+/// [`assert_close`]'s check, returning the failure instead of panicking.
+pub fn check_close(
+    name: &str,
+    actual: &LinearImage,
+    expected: &LinearImage,
+    effect: crate::Effect,
+    max_diff: u8,
+    max_fraction: f64,
+) -> Result<(), String> {
+    let a = actual.to_rgba8(effect);
+    let e = expected.to_rgba8(effect);
+    crate::metrics::testing::check_image(name, &a, &e, max_diff, max_fraction).map(|_| ())
+}
+
+/// The failures of a test that checks several methods: every method runs, and the test fails
+/// at the end naming each failing method and why, so one run on a scarce GPU says everything.
+#[derive(Default)]
+pub struct Failures(Vec<String>);
+
+impl Failures {
+    /// Records `method`'s failure, if any.
+    pub fn check(&mut self, method: &str, result: Result<(), String>) {
+        if let Err(why) = result {
+            self.0.push(format!("{method}: {why}"));
+        }
+    }
+
+    /// Records a frame's lock failures first, as the cause of whatever else differs: returns
+    /// false (and records it) when the frame lost fragments to its locks, so the caller skips
+    /// the picture checks that would only repeat it.
+    pub fn locks_held(&mut self, method: &str, stats: &crate::FrameStats) -> bool {
+        let failures = stats.lock_failures.unwrap_or(0);
+        if failures > 0 {
+            self.0.push(format!(
+                "{method}: {failures} lock failures (memory ordering: {})",
+                stats.memory_ordering.as_deref().unwrap_or("-")
+            ));
+        }
+        failures == 0
+    }
+
+    /// Panics with every failure recorded.
+    pub fn finish(self, test: &str) {
+        if !self.0.is_empty() {
+            panic!(
+                "{test}: {} failure(s):\n{}",
+                self.0.len(),
+                self.0.join("\n")
+            );
+        }
     }
 }

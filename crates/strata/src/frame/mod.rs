@@ -179,7 +179,8 @@ pub struct RenderOptions {
     pub tail: Tail,
     /// k-buffers: cull fragments behind a full pixel's maximum before taking the lock.
     pub culling: bool,
-    /// k-buffers: spin-lock tries per fragment (default 65536).
+    /// k-buffers: spin-lock tries per fragment (default 65536, at most
+    /// [`crate::methods::kbuffer::MAX_TRIES_LIMIT`]).
     pub max_tries: Option<u32>,
     /// Depth peeling: a fixed number of layers per frame; by default the last frame's depth
     /// complexity.
@@ -283,6 +284,17 @@ impl RenderOptions {
     }
 
     pub fn validate(&self) -> Result<()> {
+        if let Some(tries) = self.max_tries {
+            let limit = crate::methods::kbuffer::MAX_TRIES_LIMIT;
+            if tries == 0 {
+                return Err(Error::input("--max-tries must be at least 1"));
+            }
+            if tries > limit {
+                return Err(Error::input(format!(
+                    "--max-tries {tries} is over {limit}: a fragment spinning that long on a starved lock could outlast the GPU's watchdog"
+                )));
+            }
+        }
         if self.width == 0 || self.height == 0 || self.width > MAX_SIDE || self.height > MAX_SIDE {
             return Err(Error::input(format!(
                 "size {}x{} is out of range (1..{MAX_SIDE} per side)",

@@ -346,6 +346,7 @@ mod gpu_tests {
                     "kb-ab-ll",
                     "kb-ab-fixed",
                     "kb-sbuffer",
+                    "kb-keys",
                     "kplus-array",
                     "kplus-heap",
                     "kplus-array-r",

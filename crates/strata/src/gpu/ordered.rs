@@ -1,21 +1,31 @@
 //! Acquire/release atomics for capture stages, where the adapter takes SPIR-V passthrough
 //! shaders (`PASSTHROUGH_SHADERS`, Vulkan).
 //!
-//! WGSL atomics are relaxed and naga 30 has no way to ask for more: a lock holder's slot stores
-//! are visible to the next holder in practice, not by guarantee. Here the composed WGSL of a
+//! WGSL atomics are relaxed and naga 30 has no way to ask for more. Here the composed WGSL of a
 //! capture stage is compiled by naga to SPIR-V as wgpu would (restricted indexing, bounded
-//! loops), then every atomic instruction gets memory semantics on storage memory
-//! (UniformMemory): loads Acquire, stores Release, read-modify-writes AcquireRelease, the
-//! failure case of a compare-exchange Acquire. The lock's exchange then acquires the previous
-//! holder's writes and the unlock releases this holder's; a published count or list link
-//! releases the stores before it. The vertex stage stays on wgpu's own path.
+//! loops), then the atomics of the functions whose names ask for it get memory semantics on
+//! storage memory (UniformMemory), which orders the function's atomic and the plain and relaxed
+//! accesses around it:
+//! - `acquire_*`: loads, read-modify-writes and both cases of a compare-exchange Acquire (taking
+//!   the lock; reading a publication count or a list link before what it publishes);
+//! - `release_*`: stores, read-modify-writes and the success case of a compare-exchange
+//!   Release (dropping the lock; publishing a count or a link after the stores it covers).
+//! Every other atomic stays relaxed: a slot access inside the lock is ordered by the lock's
+//! acquire and release, and on NVIDIA each ordered access is a fence or an L1 bypass, which
+//! would lengthen the critical section every waiter queues behind. A function with an ordering
+//! name whose atomic cannot take that ordering (an acquire store, a release load) is an error.
+//! The vertex stage stays on wgpu's own path.
 
 use std::borrow::Cow;
+use std::collections::HashMap;
 
 use crate::gpu::Gpu;
 
+const OP_NAME: u32 = 5;
 const OP_TYPE_INT: u32 = 21;
 const OP_CONSTANT: u32 = 43;
+const OP_FUNCTION: u32 = 54;
+const OP_FUNCTION_END: u32 = 56;
 const OP_ATOMIC_LOAD: u32 = 227;
 const OP_ATOMIC_STORE: u32 = 228;
 const OP_ATOMIC_EXCHANGE: u32 = 229;
@@ -27,77 +37,149 @@ const OP_ATOMIC_RMW: std::ops::RangeInclusive<u32> = 232..=242;
 const UNIFORM_MEMORY: u32 = 0x40;
 const ACQUIRE: u32 = 0x2;
 const RELEASE: u32 = 0x4;
-const ACQUIRE_RELEASE: u32 = 0x8;
+
+/// The ordering a WGSL function asks of the atomics in its body, by the start of its name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Order {
+    Acquire,
+    Release,
+}
+
+impl Order {
+    pub fn of(function: &str) -> Option<Order> {
+        if function.starts_with("acquire_") {
+            Some(Order::Acquire)
+        } else if function.starts_with("release_") {
+            Some(Order::Release)
+        } else {
+            None
+        }
+    }
+}
 
 /// Whether captures on this adapter can be given acquire/release atomics.
 pub fn available(gpu: &Gpu) -> bool {
     gpu.has(wgpu::Features::PASSTHROUGH_SHADERS) && gpu.info.backend == wgpu::Backend::Vulkan
 }
 
-/// Gives every atomic instruction of a SPIR-V module acquire/release semantics on storage
-/// memory; returns the module and how many instructions changed. A module without a 32-bit
-/// unsigned integer type has no atomics to change and is returned as it is.
-pub fn with_acquire_release(words: &[u32]) -> (Vec<u32>, usize) {
+/// A SPIR-V literal string's text (UTF-8, NUL-terminated, packed little-endian in words).
+fn literal_string(words: &[u32]) -> String {
+    let bytes: Vec<u8> = words
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .take_while(|&b| b != 0)
+        .collect();
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
+/// Which atomics the rewrite ordered: (function name, opcode, order), in module order.
+pub type OrderedAtomics = Vec<(String, u32, Order)>;
+
+/// Gives the atomics of the `acquire_*` and `release_*` functions of a SPIR-V module (compiled
+/// with names, `WriterFlags::DEBUG`) their ordering on storage memory; returns the module and the
+/// atomics it ordered. A module without a 32-bit unsigned integer type has no atomics and is
+/// returned as it is.
+pub fn with_ordering(words: &[u32]) -> Result<(Vec<u32>, OrderedAtomics), String> {
     const HEADER: usize = 5;
+    let instructions = || {
+        let mut at = HEADER;
+        std::iter::from_fn(move || {
+            (at < words.len()).then(|| {
+                let count = ((words[at] >> 16) as usize).max(1);
+                let range = at..(at + count).min(words.len());
+                at += count;
+                range
+            })
+        })
+    };
     let mut uint = None;
-    let mut at = HEADER;
-    while at < words.len() {
-        let (count, op) = ((words[at] >> 16) as usize, words[at] & 0xffff);
-        if op == OP_TYPE_INT && words[at + 2] == 32 && words[at + 3] == 0 {
-            uint = Some(words[at + 1]);
-            break;
+    let mut names = HashMap::new();
+    for range in instructions() {
+        let ins = &words[range];
+        match ins[0] & 0xffff {
+            OP_TYPE_INT if uint.is_none() && ins.get(2) == Some(&32) && ins.get(3) == Some(&0) => {
+                uint = Some(ins[1])
+            }
+            OP_NAME if ins.len() > 2 => {
+                names.insert(ins[1], literal_string(&ins[2..]));
+            }
+            _ => {}
         }
-        at += count.max(1);
     }
     let Some(uint) = uint else {
-        return (words.to_vec(), 0);
+        return Ok((words.to_vec(), Vec::new()));
     };
     let bound = words[3];
-    let (acquire, release, acquire_release) = (bound, bound + 1, bound + 2);
-    let mut out = Vec::with_capacity(words.len() + 12);
+    let (acquire, release) = (bound, bound + 1);
+    let mut out = Vec::with_capacity(words.len() + 8);
     out.extend_from_slice(&words[..HEADER]);
-    out[3] = bound + 3;
-    let mut changed = 0;
-    let mut at = HEADER;
-    while at < words.len() {
-        let count = ((words[at] >> 16) as usize).max(1);
-        let op = words[at] & 0xffff;
-        let mut instruction = words[at..(at + count).min(words.len())].to_vec();
-        let semantics: &[(usize, u32)] = match op {
-            OP_ATOMIC_LOAD => &[(5, acquire)],
-            OP_ATOMIC_STORE => &[(3, release)],
-            OP_ATOMIC_EXCHANGE => &[(5, acquire_release)],
-            OP_ATOMIC_COMPARE_EXCHANGE | OP_ATOMIC_COMPARE_EXCHANGE_WEAK => {
-                &[(5, acquire_release), (6, acquire)]
+    out[3] = bound + 2;
+    let mut ordered = Vec::new();
+    let mut function: Option<(&str, Order)> = None;
+    for range in instructions() {
+        let mut ins = words[range].to_vec();
+        let op = ins[0] & 0xffff;
+        match op {
+            OP_FUNCTION if ins.len() > 2 => {
+                function = names
+                    .get(&ins[2])
+                    .and_then(|name| Order::of(name).map(|o| (name.as_str(), o)));
             }
-            op if OP_ATOMIC_RMW.contains(&op) => &[(5, acquire_release)],
-            _ => &[],
-        };
-        for &(operand, id) in semantics {
-            if operand < instruction.len() {
-                instruction[operand] = id;
+            OP_FUNCTION_END => function = None,
+            _ => {}
+        }
+        if let Some((name, order)) = function {
+            let is_rmw = OP_ATOMIC_RMW.contains(&op) || op == OP_ATOMIC_EXCHANGE;
+            let semantics: &[(usize, u32)] = match (op, order) {
+                (OP_ATOMIC_LOAD, Order::Acquire) => &[(5, acquire)],
+                (OP_ATOMIC_STORE, Order::Release) => &[(3, release)],
+                (OP_ATOMIC_COMPARE_EXCHANGE | OP_ATOMIC_COMPARE_EXCHANGE_WEAK, Order::Acquire) => {
+                    &[(5, acquire), (6, acquire)]
+                }
+                (OP_ATOMIC_COMPARE_EXCHANGE | OP_ATOMIC_COMPARE_EXCHANGE_WEAK, Order::Release) => {
+                    &[(5, release)]
+                }
+                (_, Order::Acquire) if is_rmw => &[(5, acquire)],
+                (_, Order::Release) if is_rmw => &[(5, release)],
+                (OP_ATOMIC_LOAD | OP_ATOMIC_STORE, _) => {
+                    return Err(format!(
+                        "{name}: an atomic {} cannot be {order:?}",
+                        if op == OP_ATOMIC_LOAD {
+                            "load"
+                        } else {
+                            "store"
+                        }
+                    ))
+                }
+                _ => &[],
+            };
+            for &(operand, id) in semantics {
+                if operand < ins.len() {
+                    ins[operand] = id;
+                }
+            }
+            if !semantics.is_empty() {
+                ordered.push((name.to_string(), op, order));
             }
         }
-        changed += !semantics.is_empty() as usize;
-        out.extend_from_slice(&instruction);
-        if op == OP_TYPE_INT && instruction.get(1) == Some(&uint) {
+        out.extend_from_slice(&ins);
+        if op == OP_TYPE_INT && ins.get(1) == Some(&uint) {
             for (id, value) in [
                 (acquire, UNIFORM_MEMORY | ACQUIRE),
                 (release, UNIFORM_MEMORY | RELEASE),
-                (acquire_release, UNIFORM_MEMORY | ACQUIRE_RELEASE),
             ] {
                 out.extend_from_slice(&[4 << 16 | OP_CONSTANT, uint, id, value]);
             }
         }
-        at += count;
     }
-    (out, changed)
+    Ok((out, ordered))
 }
 
 /// An entry point's name and workgroup size (zero for render stages).
 pub type EntryPoint = (String, [u32; 3]);
 
-/// Compiles composed WGSL to SPIR-V the way wgpu does for Vulkan, with acquire/release atomics.
+/// Compiles composed WGSL to SPIR-V the way wgpu does for Vulkan, with the ordering its
+/// `acquire_*` and `release_*` functions ask for.
 pub fn spirv(label: &str, source: &str) -> Result<(Vec<u32>, Vec<EntryPoint>), String> {
     let module = naga::front::wgsl::parse_str(source)
         .map_err(|e| format!("{label}: {}", e.emit_to_string(source)))?;
@@ -118,6 +200,11 @@ pub fn spirv(label: &str, source: &str) -> Result<(Vec<u32>, Vec<EntryPoint>), S
         force_loop_bounding: true,
         ..Default::default()
     };
+    // Function names, which say which atomics are ordered (release builds leave them out).
+    let options = naga::back::spv::Options {
+        flags: options.flags | naga::back::spv::WriterFlags::DEBUG,
+        ..options
+    };
     let words = naga::back::spv::write_vec(&module, &info, &options, None)
         .map_err(|e| format!("{label}: {e}"))?;
     let entries = module
@@ -125,7 +212,8 @@ pub fn spirv(label: &str, source: &str) -> Result<(Vec<u32>, Vec<EntryPoint>), S
         .iter()
         .map(|e| (e.name.clone(), e.workgroup_size))
         .collect();
-    Ok((with_acquire_release(&words).0, entries))
+    let (words, _) = with_ordering(&words).map_err(|e| format!("{label}: {e}"))?;
+    Ok((words, entries))
 }
 
 /// A passthrough shader module of `source` (composed WGSL) with acquire/release atomics, or
@@ -170,10 +258,31 @@ pub fn module(gpu: &Gpu, label: &str, source: &str) -> Option<wgpu::ShaderModule
 mod tests {
     use super::*;
 
-    /// Every atomic of a lock-based capture stage is rewritten, and the result still compiles
-    /// into a SPIR-V module with the new constants.
+    /// The atomics of a module and the semantics operand of each (the word's value is an id).
+    fn atomics(words: &[u32]) -> Vec<(u32, Vec<u32>)> {
+        let mut all = Vec::new();
+        let mut at = 5;
+        while at < words.len() {
+            let count = ((words[at] >> 16) as usize).max(1);
+            let op = words[at] & 0xffff;
+            if (OP_ATOMIC_LOAD..=242).contains(&op) {
+                let operands = match op {
+                    OP_ATOMIC_STORE => vec![3],
+                    OP_ATOMIC_COMPARE_EXCHANGE | OP_ATOMIC_COMPARE_EXCHANGE_WEAK => vec![5, 6],
+                    _ => vec![5],
+                };
+                all.push((op, operands.iter().map(|&o| words[at + o]).collect()));
+            }
+            at += count;
+        }
+        all
+    }
+
+    /// In a lock-based capture only the lock and the publication words are ordered: the lock's
+    /// exchange acquires, its release store releases, the direct stores' count is published
+    /// with a release add and read with an acquire load; every slot access stays relaxed.
     #[test]
-    fn every_atomic_gets_acquire_release_semantics() {
+    fn only_the_lock_and_publication_words_are_ordered() {
         let source =
             crate::gpu::shader::with_shared(&crate::methods::kbuffer::slots_capture_source());
         let module = naga::front::wgsl::parse_str(&source).unwrap();
@@ -183,24 +292,61 @@ mod tests {
         )
         .validate(&module)
         .unwrap();
-        let words = naga::back::spv::write_vec(&module, &info, &Default::default(), None).unwrap();
-        let (patched, changed) = with_acquire_release(&words);
-        let atomics = |w: &[u32]| {
-            let mut n = 0;
-            let mut at = 5;
-            while at < w.len() {
-                let op = w[at] & 0xffff;
-                if (OP_ATOMIC_LOAD..=242).contains(&op) {
-                    n += 1;
-                }
-                at += ((w[at] >> 16) as usize).max(1);
-            }
-            n
+        let options = naga::back::spv::Options {
+            flags: naga::back::spv::WriterFlags::DEBUG,
+            ..Default::default()
         };
-        assert!(changed > 20, "{changed} atomics changed");
-        assert_eq!(changed, atomics(&words));
-        assert_eq!(atomics(&patched), atomics(&words));
-        assert_eq!(patched.len(), words.len() + 12);
-        assert_eq!(patched[3], words[3] + 3);
+        let words = naga::back::spv::write_vec(&module, &info, &options, None).unwrap();
+        let (patched, ordered) = with_ordering(&words).unwrap();
+        let has = |name: &str, op: u32, order: Order| {
+            ordered
+                .iter()
+                .any(|(n, o, r)| n == name && *o == op && *r == order)
+        };
+        assert!(
+            has("acquire_lock", OP_ATOMIC_EXCHANGE, Order::Acquire),
+            "{ordered:?}"
+        );
+        assert!(
+            has("release_lock", OP_ATOMIC_STORE, Order::Release),
+            "{ordered:?}"
+        );
+        assert!(has("release_published", 234, Order::Release), "{ordered:?}");
+        assert!(
+            has("acquire_published", OP_ATOMIC_LOAD, Order::Acquire),
+            "{ordered:?}"
+        );
+        let (bound, before, after) = (words[3], atomics(&words), atomics(&patched));
+        assert_eq!(before.len(), after.len());
+        assert!(after.len() > 20, "{} atomics", after.len());
+        // The new constants are the two ids past the old bound.
+        let ordered_ids = |(_, ids): &(u32, Vec<u32>)| ids.iter().any(|&id| id >= bound);
+        assert_eq!(
+            after.iter().filter(|a| ordered_ids(a)).count(),
+            ordered.len()
+        );
+        assert!(before.iter().all(|a| !ordered_ids(a)));
+        assert!(ordered.len() < after.len() / 4, "{ordered:?}");
+        assert_eq!(patched.len(), words.len() + 8);
+        assert_eq!(patched[3], bound + 2);
+        // What the device compiles is the same rewrite.
+        let (compiled, _) = spirv("test", &source).unwrap();
+        assert_eq!(
+            atomics(&compiled).iter().filter(|a| ordered_ids(a)).count(),
+            ordered.len()
+        );
+    }
+
+    /// An ordering an atomic cannot take is refused, naming the function.
+    #[test]
+    fn an_acquire_store_is_refused() {
+        let source = "@group(0) @binding(0) var<storage, read_write> w: array<atomic<u32>>;\n\
+            fn acquire_wrong(i: u32) { atomicStore(&w[i], 1u); }\n\
+            @compute @workgroup_size(1) fn main() { acquire_wrong(0u); }";
+        let err = spirv("test", source).unwrap_err();
+        assert!(
+            err.contains("acquire_wrong") && err.contains("store"),
+            "{err}"
+        );
     }
 }

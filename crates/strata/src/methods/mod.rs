@@ -46,6 +46,7 @@ pub enum MethodId {
     KbMdt32,
     KbMdt64,
     KbMdtPack,
+    KbKeys,
     KbAbLl,
     KbLl,
     Sbuffer,
@@ -60,7 +61,7 @@ pub enum MethodId {
 }
 
 impl MethodId {
-    pub const ALL: [MethodId; 27] = [
+    pub const ALL: [MethodId; 28] = [
         MethodId::Reference,
         MethodId::Unsorted,
         MethodId::Sorted,
@@ -77,6 +78,7 @@ impl MethodId {
         MethodId::KbMdt32,
         MethodId::KbMdt64,
         MethodId::KbMdtPack,
+        MethodId::KbKeys,
         MethodId::KbAbLl,
         MethodId::KbLl,
         MethodId::Sbuffer,
@@ -108,6 +110,7 @@ impl MethodId {
             MethodId::KbMdt32 => "kb-mdt32",
             MethodId::KbMdt64 => "kb-mdt64",
             MethodId::KbMdtPack => "kb-mdt-pack",
+            MethodId::KbKeys => "kb-keys",
             MethodId::KbAbLl => "kb-ab-ll",
             MethodId::KbLl => "kb-ll",
             MethodId::Sbuffer => "sbuffer",
@@ -410,6 +413,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             summary: "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
         },
         MethodInfo {
+            id: "kb-keys",
+            family: "kbuffer",
+            exact: true,
+            geometry_passes: "2",
+            memory: KB_MEMORY,
+            summary: "lock-free exact k-buffer: an atomicMax cascade of 64-bit (depth, primitive) keys keeps the k nearest sorted, payloads stored by tag in a second geometry pass; nothing spins or fails (SHADER_INT64_ATOMIC_ALL_OPS)",
+        },
+        MethodInfo {
             id: "kb-ab-ll",
             family: "kbuffer",
             exact: true,
@@ -481,6 +492,7 @@ pub fn create(
         MethodId::KbMdt32 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt32)?),
         MethodId::KbMdt64 => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Mdt64)?),
         MethodId::KbMdtPack => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Pack)?),
+        MethodId::KbKeys => Box::new(MdtKBuffer::new(gpu, scene, id, Mdt::Keys)?),
         MethodId::KplusArray => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusArray)),
         MethodId::KplusHeap => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusHeap)),
         MethodId::KplusArrayR => Box::new(SlotKBuffer::new(gpu, scene, id, Variant::KplusArrayR)),

@@ -95,6 +95,8 @@ pub fn traffic(id: MethodId, c: &FrameCounts) -> Option<Traffic> {
         ),
         KbMdt32 => (2 * (4 + 16) * c.stored, c.stored, 0),
         KbMdt64 | KbMdtPack => (2 * 8 * c.stored, c.stored, 0),
+        // Keys cleared and cascaded, payloads written once and read by the resolve.
+        KbKeys => (2 * 16 * c.stored, c.stored, 0),
         Kpeel => (
             2 * SLOT_BYTES * c.stored + 2 * KEY_BYTES * c.geometry_passes * c.pixels,
             c.stored,

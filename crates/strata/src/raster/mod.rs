@@ -34,7 +34,8 @@
 //! twice too large, and is bounded by the device's largest storage binding.
 //!
 //! Methods: those whose geometry passes store only into storage buffers with lock-free atomics —
-//! the MDT cascades (`kb-mdt32`, `kb-mdt64`, `kb-mdt-pack`: seed 002's MDTS), the fixed arrays
+//! the MDT cascades (`kb-mdt32`, `kb-mdt64`, `kb-mdt-pack`: seed 002's MDTS; `kb-keys`' exact
+//! (depth, primitive) keys), the fixed arrays
 //! (`abuffer-fixed`, `kb-ab-fixed`: its FABS), the linked lists `abuffer-ll` and `kb-ab-ll`, the
 //! S-buffers `sbuffer` and `kb-sbuffer`, `dual`'s atomic min/max, `kb` (whose unlocked
 //! read-modify-writes race by design on either path), and `kpeel` — seed 002's multi-layer
@@ -115,6 +116,7 @@ pub fn supports(id: MethodId) -> bool {
             | KbMdt32
             | KbMdt64
             | KbMdtPack
+            | KbKeys
             | AbufferLl
             | KbAbLl
             | Sbuffer
@@ -124,13 +126,10 @@ pub fn supports(id: MethodId) -> bool {
     )
 }
 
-/// The methods that take a spin lock or compare-exchange chains in their capture.
+/// The methods that take a spin lock or compare-exchange chains in their capture (kpeel's
+/// compute capture is its lock-free cascade instead).
 fn locks(id: MethodId) -> bool {
-    use MethodId::*;
-    matches!(
-        id,
-        KplusArray | KplusHeap | KplusArrayR | KplusSemiheap | KbPs | KbLl | KplusSbuffer
-    )
+    id != MethodId::Kpeel && crate::methods::kbuffer::orders(id)
 }
 
 /// The error for a method the compute rasterizer cannot capture for.
@@ -143,8 +142,14 @@ pub fn check_method(id: MethodId, raster: Raster) -> Result<()> {
         } else {
             "it draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of"
         };
+        let supported: Vec<&str> = MethodId::ALL
+            .into_iter()
+            .filter(|&m| supports(m))
+            .map(MethodId::as_str)
+            .collect();
         return Err(Error::unsupported(format!(
-            "--raster compute: {id} is not supported: {why}; use --raster hw, or one of abuffer-fixed, kb-ab-fixed, kb-mdt32, kb-mdt64, kb-mdt-pack, abuffer-ll, kb-ab-ll, sbuffer, kb-sbuffer, dual, kpeel, kb"
+            "--raster compute: {id} is not supported: {why}; use --raster hw, or one of {}",
+            supported.join(", ")
         )));
     }
     Ok(())

@@ -36,20 +36,24 @@ fn sorted_insert(p: u32, f: Fragment) {
 const UNLOCKED: u32 = 0u;
 const LOCKED: u32 = 1u;
 
-// The capture step of kb (UNLOCKED) and kb-ps (LOCKED).
+// The capture step of kb (UNLOCKED) and kb-ps (LOCKED); kb-ps tests the culling bound again
+// before each try (see insert_locked).
 fn capture_sorted(p: u32, f: Fragment, locking: u32) {
     count_seen(p);
-    if culled(p, f) {
-        tail_add(p, f);
-        return;
-    }
-    if locking == UNLOCKED {
-        sorted_insert(p, f);
-        return;
-    }
     var waiting = true;
+    if locking == UNLOCKED {
+        if culled(p, f) {
+            tail_add(p, f);
+        } else {
+            sorted_insert(p, f);
+        }
+        waiting = false;
+    }
     for (var t = 0u; t < kp.max_tries && waiting; t++) {
-        if try_lock(p) {
+        if culled(p, f) {
+            tail_add(p, f);
+            waiting = false;
+        } else if try_lock(p) {
             sorted_insert(p, f);
             unlock(p);
             waiting = false;

@@ -38,11 +38,10 @@ fn fs_kpeel_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     }
 }
 
+// Decided by the kept key alone: no opaque test here (another pipeline may round it otherwise,
+// and a kept key whose fragment this pass discarded would leave its slot unwritten under FILLED).
 @fragment
 fn fs_kpeel_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    if behind_opaque(v.position) {
-        discard;
-    }
     let p = kpixel(v.position);
     var f = scene_fragment(v, front_facing);
     // The tag's word of a key, as peel_key writes it.

@@ -123,15 +123,16 @@ fn capture_locked(p: u32, f: Fragment, variant: u32) {
     insert_locked(p, f, variant);
 }
 
-// Culling, then the insertion under the pixel's lock (the fragment is already counted).
+// The insertion under the pixel's lock (the fragment is already counted). A waiter tests the
+// culling bound again before each try: the bound only falls, so a fragment culled while it
+// waited is behind the k nearest for good and goes to the tail without the lock.
 fn insert_locked(p: u32, f: Fragment, variant: u32) {
-    if culled(p, f) {
-        tail_add(p, f);
-        return;
-    }
     var waiting = true;
     for (var t = 0u; t < kp.max_tries && waiting; t++) {
-        if try_lock(p) {
+        if culled(p, f) {
+            tail_add(p, f);
+            waiting = false;
+        } else if try_lock(p) {
             let n = atomicLoad(&pixels[pixel_word(p, FILLED)]);
             if variant == VARIANT_ARRAY {
                 array_insert(p, n, f);
@@ -148,44 +149,38 @@ fn insert_locked(p: u32, f: Fragment, variant: u32) {
 }
 
 // Revised max-array: the first k fragments take slots from the seen counter without the lock
-// ("fast store") and publish themselves in FILLED; later fragments take the lock, wait (within
-// the try bound) until all k slots are published, find the maximum once (a published bound marks
-// it found), then replace as the max-array does. The fast stores come first in program order,
-// each finished before the slow path starts: a slow fragment never waits on a fast store of its
-// own SIMD group.
+// ("fast store") and publish themselves in FILLED (release); later fragments wait until all k
+// are published (acquire: their stores are then visible) before they try the lock, find the
+// maximum once (a published bound marks it found), then replace as the max-array does. The fast
+// stores come first in program order, in an `if` of their own, so a SIMD group finishes them
+// before any of its lanes waits: a slow fragment never waits on a fast store of its own group.
 fn capture_array_r(p: u32, f: Fragment) {
     let s = count_seen(p);
-    if s < kp.k {
+    let fast = s < kp.k;
+    if fast {
         store_slot(p, s, f);
-        atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+        release_published(pixel_word(p, FILLED), 1u);
     }
-    if s < kp.k {
-        return;
-    }
-    if culled(p, f) {
-        tail_add(p, f);
-        return;
-    }
-    var waiting = true;
+    var waiting = !fast;
     for (var t = 0u; t < kp.max_tries && waiting; t++) {
-        if try_lock(p) {
-            // While a fast store is still being written, let it finish: try again.
-            if atomicLoad(&pixels[pixel_word(p, FILLED)]) >= kp.k {
-                if atomicLoad(&pixels[pixel_word(p, BOUND)]) == 0u {
-                    array_replace_max(p, load_slot(p, 0u));
-                    publish_bound(p, load_slot(p, 0u).depth);
-                }
-                let m = load_slot(p, 0u);
-                if fragment_before(f, m) {
-                    tail_add(p, m);
-                    array_replace_max(p, f);
-                    publish_bound(p, load_slot(p, 0u).depth);
-                } else {
-                    tail_add(p, f);
-                }
-                waiting = false;
+        if culled(p, f) {
+            tail_add(p, f);
+            waiting = false;
+        } else if acquire_published(pixel_word(p, FILLED)) >= kp.k && try_lock(p) {
+            if atomicLoad(&pixels[pixel_word(p, BOUND)]) == 0u {
+                array_replace_max(p, load_slot(p, 0u));
+                publish_bound(p, load_slot(p, 0u).depth);
+            }
+            let m = load_slot(p, 0u);
+            if fragment_before(f, m) {
+                tail_add(p, m);
+                array_replace_max(p, f);
+                publish_bound(p, load_slot(p, 0u).depth);
+            } else {
+                tail_add(p, f);
             }
             unlock(p);
+            waiting = false;
         }
     }
     if waiting {

@@ -29,6 +29,25 @@ fn node_next(link: u32) -> u32 {
     return atomicLoad(&nodes[node_word(link) + 4u]);
 }
 
+// kb-ll's ordered link words (gpu::ordered): a walk acquires each link it follows, so the node
+// it reaches reads as its inserter wrote it; an insertion releases its node's fields and `next`
+// with the compare-exchange that links it.
+fn acquire_head(p: u32) -> u32 {
+    return atomicLoad(&pixels[pixel_word(p, HEAD)]);
+}
+
+fn acquire_next(link: u32) -> u32 {
+    return atomicLoad(&nodes[node_word(link) + 4u]);
+}
+
+fn release_link_head(p: u32, expected: u32, link: u32) -> bool {
+    return atomicCompareExchangeWeak(&pixels[pixel_word(p, HEAD)], expected, link).exchanged;
+}
+
+fn release_link_after(prev: u32, expected: u32, link: u32) -> bool {
+    return atomicCompareExchangeWeak(&nodes[node_word(prev) + 4u], expected, link).exchanged;
+}
+
 fn pool_nodes() -> u32 {
     return arrayLength(&nodes) / 5u;
 }
@@ -69,11 +88,11 @@ fn capture_sorted_list(p: u32, f: Fragment) {
     for (var t = 0u; t < kp.max_tries; t++) {
         // Walk to the first node not before f; `prev` is the predecessor's link (0: the head).
         var prev = 0u;
-        var cur = atomicLoad(&pixels[pixel_word(p, HEAD)]);
+        var cur = acquire_head(p);
         var position = 0u;
         while cur != 0u && position < kp.k && fragment_before(node_fragment(cur), f) {
             prev = cur;
-            cur = node_next(cur);
+            cur = acquire_next(cur);
             position += 1u;
         }
         if position >= kp.k {
@@ -91,9 +110,9 @@ fn capture_sorted_list(p: u32, f: Fragment) {
         atomicStore(&nodes[node_word(link) + 4u], cur);
         var swapped = false;
         if prev == 0u {
-            swapped = atomicCompareExchangeWeak(&pixels[pixel_word(p, HEAD)], cur, link).exchanged;
+            swapped = release_link_head(p, cur, link);
         } else {
-            swapped = atomicCompareExchangeWeak(&nodes[node_word(prev) + 4u], cur, link).exchanged;
+            swapped = release_link_after(prev, cur, link);
         }
         if swapped {
             return;

@@ -1,5 +1,7 @@
 // Resolve access to the linked lists: sequential reads follow a cursor, so visiting a list in
-// order costs one step per fragment. Walks stop after the pool's size in nodes.
+// order costs one step per fragment. A pixel's list holds at most the fragments it saw, each in
+// one node of the pool: walks stop after min(seen, pool) nodes, so no list a racing writer left
+// malformed (a cycle through a stale link) can run on.
 
 var<private> cursor_index: u32 = 0xffffffffu;
 var<private> cursor_link: u32 = 0u;
@@ -7,7 +9,7 @@ var<private> cursor_link: u32 = 0u;
 fn stored_count(p: u32) -> u32 {
     var n = 0u;
     var at = atomicLoad(&pixels[pixel_word(p, HEAD)]);
-    let limit = pool_nodes();
+    let limit = min(atomicLoad(&pixels[pixel_word(p, SEEN)]), pool_nodes());
     while at != 0u && n < limit {
         n += 1u;
         at = node_next(at);

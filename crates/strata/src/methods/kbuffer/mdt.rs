@@ -13,6 +13,12 @@
 //!   arrays. Translucency and `--tail blend` are unsupported (no facing; a displaced key carries
 //!   half a color).
 //!
+//! - `kb-keys`: the lock-free exact k-buffer (keys.wgsl). A keys pass cascades 64-bit keys of
+//!   (depth bits, tag) — unique per pixel, so exact with ties — and a colors pass stores each
+//!   kept fragment's payload in the slot holding its key, found by its tag; the rest join the
+//!   tail. 16 bytes per slot (key, payload); SHADER_INT64_ATOMIC_ALL_OPS. Nothing spins, nothing
+//!   fails, relaxed atomics suffice: what the seeds' spin-lock k-buffers keep, on any GPU.
+//!
 //! Passes: clear; capture (1 or 2 geometry passes); the shared k resolve. Per pixel 16 bytes of
 //! counters and 20 of tail sums with `--tail blend`, as the other k-buffers.
 
@@ -28,6 +34,7 @@ pub enum Mdt {
     Mdt32,
     Mdt64,
     Pack,
+    Keys,
 }
 
 impl Mdt {
@@ -36,17 +43,20 @@ impl Mdt {
         match self {
             Mdt::Mdt32 => 20,
             Mdt::Mdt64 | Mdt::Pack => 8,
+            Mdt::Keys => 16,
         }
     }
 }
 
 const MDT_WGSL: &str = include_str!("mdt.wgsl");
 const MDT64_WGSL: &str = include_str!("mdt64.wgsl");
+pub(super) const KEYS_WGSL: &str = include_str!("keys.wgsl");
 
 pub fn capture_source(mdt: Mdt) -> String {
     match mdt {
         Mdt::Mdt64 => [STORAGE_WGSL, MDT64_WGSL].join("\n"),
-        _ => [STORAGE_WGSL, MDT_WGSL].join("\n"),
+        Mdt::Keys => [STORAGE_WGSL, KEYS_WGSL].join("\n"),
+        Mdt::Mdt32 | Mdt::Pack => [STORAGE_WGSL, MDT_WGSL].join("\n"),
     }
 }
 
@@ -60,6 +70,13 @@ pub fn resolve_source(mdt: Mdt) -> String {
         ]
         .join("\n"),
         Mdt::Mdt64 => [STORAGE_WGSL, MDT64_WGSL, RESOLVE_WGSL].join("\n"),
+        Mdt::Keys => [
+            STORAGE_WGSL,
+            KEYS_WGSL,
+            include_str!("keys_resolve.wgsl"),
+            RESOLVE_WGSL,
+        ]
+        .join("\n"),
         Mdt::Pack => [
             STORAGE_WGSL,
             MDT_WGSL,
@@ -79,9 +96,15 @@ pub struct MdtKBuffer {
 
 impl MdtKBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, mdt: Mdt) -> Result<MdtKBuffer> {
-        if mdt == Mdt::Mdt64 && !gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) {
+        if matches!(mdt, Mdt::Mdt64 | Mdt::Keys)
+            && !gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS)
+        {
+            let instead = match mdt {
+                Mdt::Keys => "kplus-heap or kb-ab-ll",
+                _ => "kb-mdt32 or kb-mdt-pack",
+            };
             return Err(Error::unsupported(format!(
-                "kb-mdt64 needs 64-bit storage atomics (SHADER_INT64_ATOMIC_ALL_OPS), which '{}' lacks; use kb-mdt32 or kb-mdt-pack",
+                "{id} needs 64-bit storage atomics (SHADER_INT64_ATOMIC_ALL_OPS), which '{}' lacks; use {instead}",
                 gpu.info.name
             )));
         }
@@ -95,6 +118,10 @@ impl MdtKBuffer {
                 ("capture_color", pipeline("fs_mdt32_color")),
             ],
             Mdt::Mdt64 => vec![("capture", pipeline("fs_mdt64"))],
+            Mdt::Keys => vec![
+                ("capture_keys", pipeline("fs_keys")),
+                ("capture_colors", pipeline("fs_keys_colors")),
+            ],
             Mdt::Pack => vec![("capture", pipeline("fs_mdt_pack"))],
         };
         Ok(MdtKBuffer { mdt, frame, passes })
@@ -103,7 +130,8 @@ impl MdtKBuffer {
 
 impl Method for MdtKBuffer {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        if self.mdt != Mdt::Mdt32 && ctx.options.effect == Effect::Translucency {
+        if matches!(self.mdt, Mdt::Mdt64 | Mdt::Pack) && ctx.options.effect == Effect::Translucency
+        {
             return Err(Error::unsupported(format!(
                 "{} keeps no primitive or facing per fragment, which translucency needs; use kb-mdt32",
                 self.frame.id

@@ -68,6 +68,7 @@
 //! starts the locked path (a compiler that merges the two branches again could undo this; the
 //! waiting fragment would then count as a lock failure).
 
+pub mod contention;
 pub mod kpeel;
 pub mod list;
 pub mod mdt;
@@ -128,6 +129,9 @@ pub const DEFAULT_K: u32 = 16;
 /// fragments of a test pixel queue for it: 65536 tries leave room for that queue (4096 was
 /// chosen on lavapipe) and still bound the spin to milliseconds.
 pub const DEFAULT_MAX_TRIES: u32 = 1 << 16;
+/// The most tries `--max-tries` accepts: every waiting fragment spins at most this long, a bound
+/// that keeps a starving pixel within a frame's time instead of the driver's reset.
+pub const MAX_TRIES_LIMIT: u32 = 1 << 20;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Variant {
@@ -227,7 +231,7 @@ pub fn max_k(id: MethodId) -> u32 {
         | MethodId::KplusSemiheap => 256,
         MethodId::KbLl => 256,
         MethodId::KplusHeap | MethodId::KplusSbuffer | MethodId::Kpeel => 1024,
-        MethodId::KbMdt32 | MethodId::KbMdt64 | MethodId::KbMdtPack => 512,
+        MethodId::KbMdt32 | MethodId::KbMdt64 | MethodId::KbMdtPack | MethodId::KbKeys => 512,
         _ => 4096,
     }
 }
@@ -290,6 +294,7 @@ pub fn sample_storage(id: MethodId, msaa: u32) -> u32 {
             | MethodId::KplusSemiheap
             | MethodId::KbLl
             | MethodId::KbMdt32
+            | MethodId::KbKeys
             | MethodId::Kpeel
             | MethodId::KplusSbuffer
     );
@@ -506,6 +511,16 @@ pub struct CaptureModule {
     pub source: String,
 }
 
+/// Whether a method's capture orders memory through a lock or list links (the ordered words of
+/// storage.wgsl and list.wgsl): without acquire/release atomics it is unsound.
+pub fn orders(id: MethodId) -> bool {
+    use MethodId::*;
+    matches!(
+        id,
+        KplusArray | KplusHeap | KplusArrayR | KplusSemiheap | KbPs | KbLl | KplusSbuffer | Kpeel
+    )
+}
+
 /// What every k-buffer method records the same way: the group-1 layout, the resolve pipeline,
 /// the buffers kept between frames, and a frame — clear, capture passes, resolve, counters.
 pub struct KFrame {
@@ -522,6 +537,8 @@ pub struct KFrame {
     /// Between `begin_capture` and `end_capture`: the group and what the frame records.
     external: Option<(wgpu::BindGroup, Recorded)>,
     memory_ordering: &'static str,
+    /// Why this method cannot run on this adapter: its capture needs ordering the adapter lacks.
+    unordered: Option<String>,
     temporal: temporal::TemporalState,
     /// With `--temporal on`: the interface this frame writes, whose last words count the culled.
     temporal_interface: Option<wgpu::Buffer>,
@@ -561,6 +578,7 @@ impl KFrame {
             counters: None,
             external: None,
             memory_ordering: "relaxed",
+            unordered: None,
             temporal: temporal::TemporalState::new(gpu),
             temporal_interface: None,
         }
@@ -609,13 +627,27 @@ impl KFrame {
         } else {
             None
         };
-        self.memory_ordering = if ordered.is_some() {
-            "acquire-release (SPIR-V passthrough), coherent storage"
-        } else if gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT) {
-            "relaxed, coherent storage"
-        } else {
-            "relaxed"
+        let coherent = gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT);
+        self.memory_ordering = match (ordered.is_some() && orders(self.id), coherent) {
+            (true, true) => {
+                "acquire-release on the lock, counts and links (SPIR-V passthrough), coherent storage"
+            }
+            (true, false) => "acquire-release on the lock, counts and links (SPIR-V passthrough)",
+            (false, true) => "relaxed, coherent storage",
+            (false, false) => "relaxed",
         };
+        // A lock or a link chain without ordering can read stale slots or last frame's links:
+        // such a method is refused on this adapter (on the GPU's rasterizer; the compute
+        // rasterizer refuses it itself).
+        self.unordered = (orders(self.id) && ordered.is_none() && scene.raster_layout.is_none())
+            .then(|| {
+                format!(
+                    "{} takes a per-pixel lock or links lists concurrently, which needs acquire/release atomics (SPIR-V passthrough on Vulkan); '{}' ({}) has none, so its captures could read stale slots; use kb-keys where the adapter has 64-bit atomics, else abuffer-ll, sbuffer or kpeel",
+                    self.id,
+                    gpu.info.name,
+                    gpu.backend_name()
+                )
+            });
         CaptureModule {
             wgsl: shader::module(&gpu.device, &label, &source),
             ordered,
@@ -664,6 +696,9 @@ impl KFrame {
         params: KParams,
         storage: Storage,
     ) -> Result<(wgpu::BindGroup, u64)> {
+        if let Some(why) = &self.unordered {
+            return Err(Error::unsupported(why.clone()));
+        }
         let gpu = ctx.gpu;
         let px = ctx.pixels();
         let samples = params.sample_slots.max(1);

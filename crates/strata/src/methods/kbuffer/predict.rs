@@ -66,6 +66,7 @@ pub fn frame_bytes(
         MethodId::KbMdt32 => per_pixel(Mdt::Mdt32.slot_bytes()),
         MethodId::KbMdt64 => per_pixel(Mdt::Mdt64.slot_bytes()),
         MethodId::KbMdtPack => per_pixel(Mdt::Pack.slot_bytes()),
+        MethodId::KbKeys => per_pixel(Mdt::Keys.slot_bytes()),
         MethodId::KplusSbuffer => {
             // --msaa: a region per sample pixel, each as deep as its pixel at most.
             let regions = px * samples as u64;

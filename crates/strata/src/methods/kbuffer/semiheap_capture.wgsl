@@ -46,32 +46,28 @@ fn semiheap_insert(p: u32, heap_size: u32, f: Fragment) {
     publish_bound(p, load_slot(p, 0u).depth);
 }
 
-// The capture step of kplus-semiheap. The direct stores come first in program order, each
-// finished before the locked path starts (see capture_array_r).
+// The capture step of kplus-semiheap. The direct stores come first in program order, in an `if`
+// of their own, and are published in FILLED's low half (release); a later fragment waits until
+// all are published (acquire) before it tries the lock (see capture_array_r), and tests the
+// culling bound again before each try (see insert_locked).
 fn capture_semiheap(p: u32, f: Fragment) {
     let direct = kp.k - kp.aux;
     let s = count_seen(p);
-    if s < direct {
+    let fast = s < direct;
+    if fast {
         store_slot(p, kp.aux + s, f);
-        atomicAdd(&pixels[pixel_word(p, FILLED)], 1u);
+        release_published(pixel_word(p, FILLED), 1u);
     }
-    if s < direct {
-        return;
-    }
-    if culled(p, f) {
-        tail_add(p, f);
-        return;
-    }
-    var waiting = true;
+    var waiting = !fast;
     for (var t = 0u; t < kp.max_tries && waiting; t++) {
-        if try_lock(p) {
+        if culled(p, f) {
+            tail_add(p, f);
+            waiting = false;
+        } else if (acquire_published(pixel_word(p, FILLED)) & 0xffffu) >= direct && try_lock(p) {
             let filled = atomicLoad(&pixels[pixel_word(p, FILLED)]);
-            // While a direct store of this pixel is still being written, let it finish.
-            if (filled & 0xffffu) >= direct {
-                semiheap_insert(p, filled >> 16u, f);
-                waiting = false;
-            }
+            semiheap_insert(p, filled >> 16u, f);
             unlock(p);
+            waiting = false;
         }
     }
     if waiting {

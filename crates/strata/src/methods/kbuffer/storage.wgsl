@@ -71,8 +71,13 @@ fn pixel_fragments_word(p: u32) -> u32 {
 }
 
 // The samples whose storage a fragment covering `mask` enters: bit s for `sample_pixel(p, s)`;
-// without per-sample storage bit 0 alone, the pixel's own.
+// without per-sample storage bit 0 alone, the pixel's own. None for an empty mask: a helper
+// invocation (derivatives) covers no sample, and its atomics return undefined values, so it
+// must never reach a lock or a link loop.
 fn storage_samples(mask: u32) -> u32 {
+    if mask == 0u {
+        return 0u;
+    }
     if kp.sample_slots <= 1u {
         return 1u;
     }
@@ -124,18 +129,43 @@ fn tail_add(p: u32, f: Fragment) {
     tail_add_wide(w + 8u, u32(-log(1.0 - a) * TAIL_SCALE));
 }
 
-// Test-and-test-and-set on the pixel's lock word. Callers loop with a bounded number of tries
-// and do the critical section inside the loop body, then break: a thread that fails keeps no
-// lock, so lanes of one SIMD group make progress with or without independent thread scheduling.
-// A try that sees the lock held fails on a load, without the exchange's write: spinners then
-// leave the cache line (shared by a pixel's sample words with --msaa) to the holder.
+// Ordered accesses. Where the adapter takes SPIR-V passthrough (gpu::ordered), the atomics of
+// functions named acquire_* and release_* get that ordering on storage memory; every other atomic
+// stays relaxed. Only these words order others: the lock (its holder's slot accesses), the count
+// that publishes lock-free slot stores to a lock holder, and a list's links.
+
+// Takes the pixel's lock word: acquires the previous holder's writes.
+fn acquire_lock(word: u32) -> bool {
+    return atomicExchange(&pixels[word], 1u) == 0u;
+}
+
+// Drops the lock: releases this holder's writes to the next.
+fn release_lock(word: u32) {
+    atomicStore(&pixels[word], 0u);
+}
+
+// Adds n to a per-pixel word that publishes the stores before it; returns the old value.
+fn release_published(word: u32, n: u32) -> u32 {
+    return atomicAdd(&pixels[word], n);
+}
+
+// Reads a per-pixel word that publishes stores: what it counts is visible after it.
+fn acquire_published(word: u32) -> u32 {
+    return atomicLoad(&pixels[word]);
+}
+
+// Test-and-test-and-set on the pixel's lock word, one try. Callers loop with a bounded number
+// of tries, do the critical section inside the `if` that took the lock, and leave the loop only
+// by its condition: lanes of a SIMD group that failed wait at the `if`'s merge while the winner
+// works. A try that sees the lock held fails on a relaxed load, without the exchange's write:
+// spinners leave the cache line (shared by a pixel's sample words with --msaa) to the holder.
 fn try_lock(p: u32) -> bool {
     let word = pixel_word(p, LOCK);
-    return atomicLoad(&pixels[word]) == 0u && atomicExchange(&pixels[word], 1u) == 0u;
+    return atomicLoad(&pixels[word]) == 0u && acquire_lock(word);
 }
 
 fn unlock(p: u32) {
-    atomicExchange(&pixels[pixel_word(p, LOCK)], 0u);
+    release_lock(pixel_word(p, LOCK));
 }
 
 fn lock_failed(p: u32, f: Fragment) {

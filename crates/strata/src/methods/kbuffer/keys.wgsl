@@ -1,0 +1,93 @@
+// kb-keys: the lock-free exact k-buffer. Each slot is two 64-bit words: a key — the depth's bits
+// above the fragment's tag, inverted so that 0 marks an empty slot and a larger key is a nearer
+// fragment — and the payload (the color's two f16 pairs). Keys are unique per pixel, so the
+// (depth, primitive) order is total and nothing is lost or swapped at equal depths.
+// A keys pass sends each fragment's key through an atomicMax cascade over its pixel's k slots
+// (the key displaced from a slot carries on to the next), which keeps the k nearest sorted with
+// no lock; a key not nearer than a full pixel's k-th is culled before the cascade. A colors pass
+// finds each fragment's slot by its tag and stores its payload there; a fragment whose key was
+// not kept goes to the tail. Nothing spins and nothing can fail: relaxed atomics suffice, since
+// the passes are separated by the render pass boundary. Needs SHADER_INT64_ATOMIC_ALL_OPS.
+
+@group(1) @binding(1) var<storage, read_write> key_slots: array<atomic<u64>>;
+
+fn fragment_key(f: Fragment) -> u64 {
+    return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));
+}
+
+fn key_word(p: u32, i: u32) -> u32 {
+    return (p * kp.k + i) * 2u;
+}
+
+// The keys pass for one storage pixel: counts the fragment and cascades its key unless the
+// pixel is full of nearer ones.
+fn cascade_key(p: u32, f: Fragment) {
+    count_seen(p);
+    var key = fragment_key(f);
+    if kp.culling != 0u {
+        let farthest = atomicLoad(&key_slots[key_word(p, kp.k - 1u)]);
+        if farthest != u64(0u) && key <= farthest {
+            return;
+        }
+    }
+    for (var i = 0u; i < kp.k; i++) {
+        let old = atomicMax(&key_slots[key_word(p, i)], key);
+        if old == u64(0u) {
+            break;
+        }
+        key = min(key, old);
+    }
+}
+
+// The colors pass for one storage pixel: the slot whose key carries the fragment's tag gets its
+// payload. Which slot is decided by the kept key alone — not by a depth or an opaque test this
+// pass would compute again — so a kept key always gets its payload.
+fn store_payload(p: u32, f: Fragment) -> bool {
+    let tag_word = ~f.tag;
+    for (var i = 0u; i < kp.k; i++) {
+        let w = key_word(p, i);
+        let stored = atomicLoad(&key_slots[w]);
+        // Kept keys fill the slots from the first: an empty one ends them.
+        if stored == u64(0u) {
+            break;
+        }
+        if u32(stored & u64(0xffffffffu)) == tag_word {
+            atomicStore(&key_slots[w + 1u], (u64(f.ba) << 32u) | u64(f.rg));
+            return true;
+        }
+    }
+    return false;
+}
+
+@fragment
+fn fs_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let pixel = kpixel(v.position);
+    let f = scene_fragment_covering(v, front_facing, mask);
+    count_pixel_fragment(pixel);
+    let samples = storage_samples(mask);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) != 0u {
+            cascade_key(sample_pixel(pixel, s), f);
+        }
+    }
+}
+
+@fragment
+fn fs_keys_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    let pixel = kpixel(v.position);
+    let f = scene_fragment_covering(v, front_facing, mask);
+    let samples = storage_samples(mask);
+    let hidden = behind_opaque(v.position);
+    for (var s = 0u; s < kp.sample_slots; s++) {
+        if ((samples >> s) & 1u) != 0u {
+            let p = sample_pixel(pixel, s);
+            // Not kept: beyond the k nearest (the keys pass hid nothing it kept).
+            if !store_payload(p, f) && !hidden {
+                tail_add(p, f);
+            }
+        }
+    }
+}

@@ -1,0 +1,22 @@
+// Resolve access to kb-keys' slots: the kept keys form a prefix of each pixel's slots, already
+// in (depth, primitive) order.
+
+fn stored_count(p: u32) -> u32 {
+    var n = 0u;
+    while n < kp.k && atomicLoad(&key_slots[key_word(p, n)]) != u64(0u) {
+        n += 1u;
+    }
+    return n;
+}
+
+fn stored_fragment(p: u32, i: u32) -> Fragment {
+    let w = key_word(p, i);
+    let key = ~atomicLoad(&key_slots[w]);
+    let payload = atomicLoad(&key_slots[w + 1u]);
+    return Fragment(
+        bitcast<f32>(u32(key >> 32u)),
+        u32(key & u64(0xffffffffu)),
+        u32(payload & u64(0xffffffffu)),
+        u32(payload >> 32u),
+    );
+}
