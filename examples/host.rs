@@ -4,7 +4,7 @@
 //! it renders a few frames into an offscreen texture and writes the last one as a PNG.
 //!
 //! ```sh
-//! cargo run --release -p strata --example host -- host.png kplus-heap
+//! cargo run --release -p strata --example host -- host.png kb-ab-ll
 //! ```
 //!
 //! The scene is `builtin:demo` with unlit materials (the application's shader does no
@@ -400,7 +400,7 @@ fn background_linear(b: Background) -> [f32; 3] {
 fn main() {
     let mut args = std::env::args().skip(1);
     let out = args.next().unwrap_or_else(|| "host.png".into());
-    let method = args.next().unwrap_or_else(|| "kplus-heap".into());
+    let method = args.next().unwrap_or_else(|| "kb-ab-ll".into());
     let result = method
         .parse::<MethodId>()
         .and_then(|m| run(m, 512, 3))

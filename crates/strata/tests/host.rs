@@ -15,18 +15,22 @@ const MAX_FRACTION: f64 = 0.001;
 
 #[test]
 fn host_example_matches_the_reference() {
-    for method in [
-        MethodId::AbufferLl,
-        MethodId::KplusHeap,
-        MethodId::KbAbFixed,
-    ] {
+    // A locking capture compiled by the application runs relaxed atomics: refused.
+    let refused = host::run(MethodId::KplusHeap, 32, 1)
+        .err()
+        .expect("kplus-heap is refused");
+    assert!(
+        refused.to_string().contains("relaxed") && refused.to_string().contains("kb-ab-fixed"),
+        "{refused}"
+    );
+    for method in [MethodId::AbufferLl, MethodId::KbAbFixed, MethodId::KbAbLl] {
         let run = host::run(method, 96, 3).unwrap_or_else(|e| panic!("{method}: {e}"));
         let options = RenderOptions {
             width: 96,
             height: 96,
             effect: Effect::Transparency,
             background: run.background,
-            k: (method == MethodId::KplusHeap).then_some(16),
+            k: (method == MethodId::KbAbLl).then_some(16),
             ..Default::default()
         };
         let (expected, reference) = strata::reference::render(&run.scene, &options).unwrap();

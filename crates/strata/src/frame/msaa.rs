@@ -356,7 +356,13 @@ mod gpu_tests {
                     "kb-ll",
                     "kb-mdt32",
                     "kplus-sbuffer",
-                ] {
+                ]
+                .into_iter()
+                .filter(|&m| {
+                    // kb races where a pixel's fragments run at once (see
+                    // k_methods_with_k_at_depth_complexity_equal_the_full_reference).
+                    m != "kb" || crate::testing::gpu().info.device_type == wgpu::DeviceType::Cpu
+                }) {
                     let (actual, stats) = render_gpu(&scene, &three, method);
                     let name = format!("msaa{msaa}-k3-{method}-{spec}");
                     assert_close(&name, &actual, &expected, effect, MAX_DIFF, MAX_FRACTION);

@@ -774,6 +774,12 @@ impl KFrame {
         ctx: &mut FrameContext<'_>,
         (params, storage, mut recorded): (KParams, Storage, Recorded),
     ) -> Result<wgpu::BindGroup> {
+        if orders(self.id) {
+            return Err(Error::unsupported(format!(
+                "{}'s capture takes a per-pixel lock or links lists concurrently, which needs acquire/release atomics, and an application's own capture shader runs WGSL's relaxed ones; capture with kb-ab-fixed, kb-ab-ll, abuffer-ll or abuffer-fixed",
+                self.id
+            )));
+        }
         let (group, bytes) = self.begin(ctx, params, storage)?;
         recorded.bytes_allocated = bytes;
         self.external = Some((group.clone(), recorded));

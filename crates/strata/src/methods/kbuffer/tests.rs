@@ -113,7 +113,15 @@ fn k_methods_with_k_at_depth_complexity_equal_the_full_reference() {
             ..opts.clone()
         },
     );
-    for method in EXACT_K_METHODS.iter().chain(["abuffer-fixed", "kb"].iter()) {
+    // kb's unlocked insertions race when fragments of a pixel run at once (its documented flaw,
+    // which the contention harness shows): exact only where they never do (lavapipe's fragment
+    // stage); on a GPU its error is measured (bench), not asserted.
+    let unlocked: &[&str] = if crate::testing::gpu().info.device_type == wgpu::DeviceType::Cpu {
+        &["abuffer-fixed", "kb"]
+    } else {
+        &["abuffer-fixed"]
+    };
+    for method in EXACT_K_METHODS.iter().chain(unlocked.iter()) {
         let (actual, stats) = render_gpu(&s, &opts, method);
         assert_close(
             &format!("layers-full-{method}"),
@@ -896,11 +904,25 @@ struct RasterAgreement {
     /// depth is their plane's at the pixel centre, outside the triangle.
     max_depth_error: [f64; 2],
     worst: [Option<(u32, u32, u32)>; 2],
+    /// Fragments both have whose facing differs.
+    facing_differs: Vec<(u32, u32, u32)>,
+    /// The largest |device − reference| of a shaded color channel or opacity (linear), and where.
+    max_color_error: f64,
+    worst_color: Option<(u32, u32, u32)>,
 }
 
-/// A fragment as the device's rasterizer made it: window depth and covered samples (bit i:
-/// sample i; 0 single-sampled), by primitive.
-pub(crate) type DeviceFragments = std::collections::HashMap<u32, (f32, u32)>;
+/// A fragment as the device made it: window depth, covered samples (bit i: sample i; 0
+/// single-sampled), facing and shaded color (RGB and opacity, as stored: f16).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DeviceFragment {
+    pub depth: f32,
+    pub mask: u32,
+    pub front_facing: bool,
+    pub color: [f32; 4],
+}
+
+/// A pixel's device fragments by primitive.
+pub(crate) type DeviceFragments = std::collections::HashMap<u32, DeviceFragment>;
 
 /// Renders `abuffer-ll` (every fragment kept in its pixel's list) with `opts`' size, samples and
 /// rasterizer, and reads the lists back: per pixel, each fragment's primitive, window depth and
@@ -938,13 +960,27 @@ pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFra
                 let w = 5 * (link - 1) as usize;
                 let tag = node_words[w + 1];
                 let mask = (tag >> 1) & ((1 << mask_bits) - 1);
+                let half = |word: u32, high: bool| {
+                    half::f16::from_bits((if high { word >> 16 } else { word }) as u16).to_f32()
+                };
+                let (rg, ba) = (node_words[w + 2], node_words[w + 3]);
                 // A device may shade one primitive's pixel in more than one invocation, each
                 // with its own samples (lavapipe does at some edges with --msaa): one fragment
                 // covering their union, as the resolve sees it.
                 device
                     .entry(tag >> (1 + mask_bits))
-                    .and_modify(|(_, covered)| *covered |= mask)
-                    .or_insert((f32::from_bits(node_words[w]), mask));
+                    .and_modify(|f: &mut DeviceFragment| f.mask |= mask)
+                    .or_insert(DeviceFragment {
+                        depth: f32::from_bits(node_words[w]),
+                        mask,
+                        front_facing: tag & 1 == 1,
+                        color: [
+                            half(rg, false),
+                            half(rg, true),
+                            half(ba, false),
+                            half(ba, true),
+                        ],
+                    });
                 link = node_words[w + 4];
                 steps += 1;
                 assert!(steps <= node_words.len() / 5, "a cycle in pixel {p}'s list");
@@ -954,8 +990,8 @@ pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFra
         .collect()
 }
 
-/// The reference's fragments at the depths and samples the device's rasterizer gave them, in
-/// the device's depth order, and how many fragments only one of the two has (coverage at pixel
+/// The reference's fragments at the depths, samples, facing and shaded colors the device gave
+/// them, in the device's depth order (what is left is what a method does with them), and how many fragments only one of the two has (coverage at pixel
 /// centres on an edge: those are left out).
 pub(crate) fn reference_fragments_at_device_depths(
     s: &Scene,
@@ -975,17 +1011,21 @@ pub(crate) fn reference_fragments_at_device_depths(
             let mut list: Vec<_> = list
                 .into_iter()
                 .filter_map(|f| {
-                    let Some((depth, mask)) = device.remove(&f.prim) else {
+                    let Some(d) = device.remove(&f.prim) else {
                         unmatched += 1;
                         return None;
                     };
+                    let [r, g, b, a] = d.color.map(f64::from);
                     Some(crate::resolve::RefFragment {
-                        depth: f64::from(depth),
+                        depth: f64::from(d.depth),
                         coverage: if opts.msaa > 1 {
-                            mask as u8
+                            d.mask as u8
                         } else {
                             f.coverage
                         },
+                        front_facing: d.front_facing,
+                        color: [r, g, b],
+                        alpha: a,
                         ..f
                     })
                 })
@@ -1018,10 +1058,25 @@ fn raster_agreement(
         agreement.reference += expected.len();
         for f in expected {
             match device.remove(&f.prim) {
-                Some((depth, mask)) => {
-                    if msaa > 1 && mask != u32::from(f.coverage) {
+                Some(d) => {
+                    if msaa > 1 && d.mask != u32::from(f.coverage) {
                         agreement.masks_differ.push((x, y, f.prim));
                     }
+                    if d.front_facing != f.front_facing {
+                        agreement.facing_differs.push((x, y, f.prim));
+                    }
+                    let expected = [f.color[0], f.color[1], f.color[2], f.alpha];
+                    let color_error = d
+                        .color
+                        .iter()
+                        .zip(expected)
+                        .map(|(&c, e)| (f64::from(c) - e).abs())
+                        .fold(0.0, f64::max);
+                    if color_error > agreement.max_color_error {
+                        agreement.max_color_error = color_error;
+                        agreement.worst_color = Some((x, y, f.prim));
+                    }
+                    let (depth, mask) = (d.depth, d.mask);
                     let error = (depth as f64 - f.depth).abs();
                     let partial = usize::from(msaa > 1 && mask != (1 << msaa) - 1);
                     if error > agreement.max_depth_error[partial] {
@@ -1046,6 +1101,9 @@ const DEPTH_AGREEMENT: f64 = 1e-6;
 /// to the pixel centre beyond the triangle, which magnifies rounding on steep triangles
 /// (lavapipe: ≤ 1.7e-6 below).
 const EXTRAPOLATED_DEPTH_AGREEMENT: f64 = 1e-5;
+/// Shaded color and opacity, stored as f16 (relative precision 2⁻¹¹), against the reference's
+/// f64 shading of the same fragment.
+const COLOR_AGREEMENT: f64 = 2e-3;
 
 /// The device's rasterizer, read back fragment by fragment through `abuffer-ll`'s lists, against
 /// the reference's: the same fragments (pixel and primitive) but for pixel centres on an edge
@@ -1058,6 +1116,7 @@ const EXTRAPOLATED_DEPTH_AGREEMENT: f64 = 1e-5;
 #[test]
 fn the_devices_fragments_are_the_references() {
     use crate::raster::Raster::{Compute, Hw};
+    let mut failures = Vec::new();
     for (spec, size, msaa, raster) in [
         ("builtin:nvpro?objects=48&subdiv=10&seed=4", 48, 1, Hw),
         ("builtin:nvpro?objects=160&subdiv=10&seed=3", 64, 1, Hw),
@@ -1070,7 +1129,8 @@ fn the_devices_fragments_are_the_references() {
         let summary = format!(
             "{spec} at {size}², --msaa {msaa}, {raster:?} rasterizer: {} fragments; only the reference's (x, y, \
              primitive): {} {:?}; only the device's: {} {:?}; other samples covered: {} {:?}; \
-             depth error up to {:.3e} at {:?}, partly covering fragments {:.3e} at {:?}",
+             depth error up to {:.3e} at {:?}, partly covering fragments {:.3e} at {:?}; \
+             facing differs: {} {:?}; shaded color or opacity differs by up to {:.4} at {:?}",
             a.reference,
             a.missing.len(),
             first(&a.missing),
@@ -1081,14 +1141,23 @@ fn the_devices_fragments_are_the_references() {
             a.max_depth_error[0],
             a.worst[0],
             a.max_depth_error[1],
-            a.worst[1]
+            a.worst[1],
+            a.facing_differs.len(),
+            first(&a.facing_differs),
+            a.max_color_error,
+            a.worst_color,
         );
+        eprintln!("{summary}");
         let differing = (a.missing.len() + a.extra.len() + a.masks_differ.len()) as f64;
-        assert!(differing <= a.reference as f64 * MAX_FRACTION, "{summary}");
-        assert!(a.max_depth_error[0] <= DEPTH_AGREEMENT, "{summary}");
-        assert!(
-            a.max_depth_error[1] <= EXTRAPOLATED_DEPTH_AGREEMENT,
-            "{summary}"
-        );
+        let agrees = differing <= a.reference as f64 * MAX_FRACTION
+            && a.max_depth_error[0] <= DEPTH_AGREEMENT
+            && a.max_depth_error[1] <= EXTRAPOLATED_DEPTH_AGREEMENT
+            && a.facing_differs.is_empty()
+            && a.max_color_error <= COLOR_AGREEMENT;
+        if !agrees {
+            failures.push(summary);
+        }
     }
+    // Every case is measured before the test fails: a GPU run reports them all.
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
