@@ -694,6 +694,8 @@ pub(crate) fn results_dir(gpu: &Gpu, a: &BenchArgs) -> PathBuf {
 pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>) -> Result<()> {
     let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
     if let Some((_, _, run)) = STANDALONE.iter().find(|e| experiment == Some(e.0)) {
+        // Sets the deadline the standalone experiment reads (`out_of_time`).
+        Budget::new(a.budget_s)?;
         return run(gpu, a.size.as_deref(), a.frames, &results_dir(gpu, a));
     }
     let k_flag = a.k;
@@ -893,6 +895,16 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
     crate::write_results(&dir, &name, &report, csv(&report))
 }
 
+/// The process's `--budget-s` deadline, which the standalone experiments read too.
+static DEADLINE: std::sync::OnceLock<(Instant, f64)> = std::sync::OnceLock::new();
+
+/// Why a standalone experiment may start no further run: `--budget-s` was spent.
+pub(crate) fn out_of_time() -> Option<String> {
+    let (at, limit) = DEADLINE.get()?;
+    (Instant::now() >= *at)
+        .then(|| format!("not run: the experiment's --budget-s {limit} was spent"))
+}
+
 /// `--budget-s`: the wall-clock time an experiment may spend, from its start.
 pub(crate) struct Budget {
     start: std::time::Instant,
@@ -908,10 +920,11 @@ impl Budget {
                 )));
             }
         }
-        Ok(Budget {
-            start: std::time::Instant::now(),
-            seconds,
-        })
+        let start = Instant::now();
+        if let Some(s) = seconds {
+            let _ = DEADLINE.set((start + std::time::Duration::from_secs_f64(s), s));
+        }
+        Ok(Budget { start, seconds })
     }
 
     /// Why no further run may start, once the budget is spent.

@@ -255,6 +255,9 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     };
     let mut rows = Vec::new();
     for spec in MODELS {
+        if crate::bench::out_of_time().is_some() {
+            break;
+        }
         bar.set_message(format!("loading {spec}"));
         let mut scene = loaders::load_scene(spec)?;
         scene.override_alpha(MODEL_ALPHA);
@@ -273,6 +276,9 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         rows = partial.write(dir, rows);
     }
     for layers in STACK_LAYERS {
+        if crate::bench::out_of_time().is_some() {
+            break;
+        }
         let spec = format!("builtin:stack?layers={layers}&columns=2&segments={segments}");
         bar.set_message(format!("loading {spec}"));
         let scene = loaders::load_scene(&spec)?;
@@ -290,7 +296,8 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         rows = partial.write(dir, rows);
     }
     bar.finish_and_clear();
-    let report = partial.report(rows, true);
+    // Not complete when --budget-s cut it short.
+    let report = partial.report(rows, crate::bench::out_of_time().is_none());
     print(&report);
     crate::write_results(dir, "convex", &report, csv(&report))
 }

@@ -127,6 +127,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     let warmup = 2;
     let bar =
         crate::bench::frames_bar((scenes.len() * RUNS.len()) as u64 * (warmup + frames) as u64);
+    let report = |rows| report_of(gpu, cpu_figures, (width, height, frames), scenes, rows);
     let mut rows = Vec::new();
     for spec in scenes {
         bar.set_message(format!("loading {spec}"));
@@ -159,6 +160,11 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
                 tile_items: None,
                 error: None,
             };
+            if let Some(why) = crate::bench::out_of_time() {
+                row.error = Some(why);
+                rows.push(row);
+                continue;
+            }
             // A configuration the device cannot hold (memory) is recorded, not fatal.
             match measure(
                 gpu,
@@ -183,9 +189,25 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
                 Err(e) => row.error = Some(e.to_string()),
             }
             rows.push(row);
+            let so_far = report(rows);
+            crate::write_results_so_far(dir, "cuda-renderer", &so_far, csv(&so_far));
+            rows = so_far.rows;
         }
     }
     bar.finish_and_clear();
+    let report = report(rows);
+    print(&report);
+    crate::write_results(dir, "cuda-renderer", &report, csv(&report))
+}
+
+/// The report of the rows measured so far, with each scene's ratios.
+fn report_of(
+    gpu: &Gpu,
+    cpu_figures: bool,
+    (width, height, frames): (u32, u32, u32),
+    scenes: &[&str],
+    rows: Vec<Row>,
+) -> Report {
     let ratios = scenes
         .iter()
         .map(|spec| {
@@ -208,16 +230,14 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
             }
         })
         .collect();
-    let report = Report {
+    Report {
         header: crate::bench::Header::new("cuda-renderer", gpu, cpu_figures),
         width,
         height,
         frames,
         rows,
         ratios,
-    };
-    print(&report);
-    crate::write_results(dir, "cuda-renderer", &report, csv(&report))
+    }
 }
 
 fn ms(v: Option<f64>) -> String {

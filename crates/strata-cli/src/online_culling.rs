@@ -320,6 +320,9 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     for seq in &mut sequences {
         for &(order, seed) in &orders {
             for config in &CONFIGS {
+                if crate::bench::out_of_time().is_some() {
+                    break;
+                }
                 bar.set_message(format!("{} {} {}", seq.name, order.name(), config.name));
                 let opts = options(size, config, order, seed, temporal_default_refresh());
                 rows.push(run_one(gpu, seq, &opts, config)?);
@@ -330,6 +333,9 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     }
     let temporal = &CONFIGS[3];
     for refresh in sweep {
+        if crate::bench::out_of_time().is_some() {
+            break;
+        }
         bar.set_message(format!("refresh {refresh}"));
         let opts = options(size, temporal, Order::Random, 0, refresh);
         let mut row = run_one(gpu, &mut sequences[0], &opts, temporal)?;
@@ -338,7 +344,8 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let report = report(rows, true);
+    // Not complete when --budget-s cut it short.
+    let report = report(rows, crate::bench::out_of_time().is_none());
     print(&report);
     crate::write_results(dir, "online-culling", &report, csv(&report))
 }

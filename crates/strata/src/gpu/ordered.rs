@@ -10,6 +10,7 @@
 //!   the lock; reading a publication count or a list link before what it publishes);
 //! - `release_*`: stores, read-modify-writes and the success case of a compare-exchange
 //!   Release (dropping the lock; publishing a count or a link after the stores it covers).
+//!
 //! Every other atomic stays relaxed: a slot access inside the lock is ordered by the lock's
 //! acquire and release, and on NVIDIA each ordered access is a fence or an L1 bypass, which
 //! would lengthen the critical section every waiter queues behind. A function with an ordering
