@@ -304,9 +304,9 @@ pub fn catalogue() -> Vec<MethodInfo> {
             id: "kpeel",
             family: "peeling",
             exact: true,
-            geometry_passes: "ceil(N/k) (N: the last frame's depth complexity, or --layers)",
-            memory: "16·(k+1)·W·H + 152",
-            summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per geometry pass, by a k+-buffer capture; A-buffer results in bounded memory, equal-depth fragments included",
+            geometry_passes: "ceil(N/k), twice that with the lock-free capture (N: the last frame's depth complexity, or --layers)",
+            memory: "16·(k+1)·W·H + 152, +8·k·W·H with the lock-free capture",
+            summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per pass, by a lock-free cascade of 64-bit keys (a keys and a colors geometry pass; single-sampled, SHADER_INT64_ATOMIC_ALL_OPS) or else a k+-buffer capture under a lock; A-buffer results in bounded memory, equal-depth fragments included",
         },
         MethodInfo {
             id: "convex",

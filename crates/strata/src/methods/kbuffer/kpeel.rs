@@ -17,10 +17,13 @@
 //! fragment of a pixel, so nothing is lost at equal depths: exact, equal to the A-buffer (k = 1
 //! is front-to-back peeling one layer per pass; k ≥ N is a one-pass k+-buffer).
 //!
-//! With `--raster compute` the capture is lock-free (kpeel_cascade.wgsl, seed 002's multi-layer
-//! peeling over MDTS): per pass a *keys* pass cascades 64-bit (depth, tag) keys with atomicMax
-//! through the pixel's k slots and a *colors* pass writes the kept fragments into their slots, so
-//! 2·P geometry passes; 8 more bytes per slot for the keys; needs SHADER_INT64_ATOMIC_ALL_OPS.
+//! Where the adapter has SHADER_INT64_ATOMIC_ALL_OPS, the capture is lock-free on both
+//! rasterizers when single-sampled (kpeel_cascade.wgsl, seed 002's multi-layer peeling over
+//! MDTS, the capture of `kb-keys`): per pass a *keys* pass cascades 64-bit (depth, tag) keys
+//! with atomicMax through the pixel's k slots and a *colors* pass writes the kept fragments into
+//! their slots, so 2·P geometry passes and 8 more bytes per slot for the keys; nothing spins.
+//! Without those atomics (and with `--msaa`, whose samples peel on their own) the hardware
+//! rasterizer takes the locked k+-buffer capture; `--raster compute` needs the cascade.
 //!
 //! With `--msaa S` every sample peels on its own (per-sample storage, [`crate::frame::msaa`]):
 //! a fragment, shaded once, enters the capture of each covered sample where it is still behind
@@ -106,7 +109,17 @@ impl KPeel {
         let id = MethodId::Kpeel;
         let source = resolve_source();
         let mut frame = KFrame::with_resolve(gpu, scene, id, &source, "cs_kpeel_resolve");
-        let module = frame.capture_module(gpu, scene, capture_source(), true);
+        let lock_free = gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) && scene.samples == 1;
+        let cascade = if scene.raster_layout.is_some() || lock_free {
+            Some(Cascade::new(gpu, scene, &frame)?)
+        } else {
+            None
+        };
+        // The locked capture orders its lock (the cascade needs no ordering: the frame then
+        // reports relaxed atomics and no adapter refuses it).
+        let module = cascade
+            .is_none()
+            .then(|| frame.capture_module(gpu, scene, capture_source(), true));
         let compute = crate::gpu::shader::module(&gpu.device, "strata.kpeel.compute", &source);
         let layouts = [&scene.frame_layout, &frame.layout];
         let pipeline = |entry: &str| {
@@ -118,14 +131,10 @@ impl KPeel {
                 &layouts,
             )
         };
-        let cascade = match scene.raster_layout {
-            Some(_) => Some(Cascade::new(gpu, scene, &frame)?),
-            None => None,
-        };
         let stage = |entry: &str| {
-            cascade
-                .is_none()
-                .then(|| frame.capture_pipeline(gpu, scene, &module, entry))
+            module
+                .as_ref()
+                .map(|module| frame.capture_pipeline(gpu, scene, module, entry))
         };
         Ok(KPeel {
             capture: stage("fs_kpeel"),
@@ -150,23 +159,26 @@ impl Cascade {
             )));
         }
         let layout = binding::layout(&gpu.device, "strata.kpeel.keys.layout", &[Slot::StorageRw]);
-        // The stage is compiled only for the compute rasterizer (the GPU path's module would
-        // need 64-bit atomics on every adapter).
-        let stage = [capture_source().as_str(), CASCADE_WGSL].join("\n");
+        // Compiled only where the adapter has 64-bit atomics.
+        let stage = super::coherent(gpu, [capture_source().as_str(), CASCADE_WGSL].join("\n"));
         let layouts = [&scene.frame_layout, &frame.layout, &layout];
-        let compute_stage = |entry: &str| {
-            crate::raster::compute_stage(
+        let module = crate::gpu::shader::module(&gpu.device, "strata.kpeel.cascade", &stage);
+        let storage_stage = |entry: &str| {
+            crate::raster::storage_stage(
                 gpu,
                 scene,
-                &format!("strata.kpeel.{entry}"),
-                &stage,
-                entry,
+                crate::raster::StageSpec {
+                    label: &format!("strata.kpeel.{entry}"),
+                    stage: &stage,
+                    modules: (&module, &module),
+                    entry,
+                },
                 &layouts,
             )
         };
         Ok(Cascade {
-            keys: compute_stage("fs_kpeel_keys"),
-            colors: compute_stage("fs_kpeel_colors"),
+            keys: storage_stage("fs_kpeel_keys"),
+            colors: storage_stage("fs_kpeel_colors"),
             layout,
             cache: ResourceCache::default(),
         })

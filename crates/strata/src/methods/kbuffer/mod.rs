@@ -39,34 +39,40 @@
 //! `kplus-array-r`, `kb-ps`, and `kb`'s unlocked equivalent) accept k ≤ 256, `kplus-heap`'s O(log k)
 //! one k ≤ 1024, the MDT cascades (O(k) atomics per fragment) k ≤ 512, `kb-ll`'s walks k ≤ 256;
 //! the A-buffers select k ≤ 4096 in the resolve. These are conservative bounds, not measured
-//! GPU limits: no GPU was available to measure them.
+//! GPU limits.
 //!
 //! Spin lock guarantees: every word a critical section touches is accessed atomically, so no
 //! holder reads a stale cached copy of the previous holder's writes. Where the adapter offers
 //! MEMORY_DECORATION_COHERENT the storage is also declared `@coherent` (SPIR-V Coherent). Where
-//! it takes SPIR-V passthrough shaders (Vulkan), the slot and list captures run with
-//! acquire/release atomics (`gpu::ordered`): the lock, `kplus-array-r`'s publication count and
-//! the list links then order the stores they protect by the SPIR-V memory model. Elsewhere WGSL
-//! atomics are relaxed and fragment shaders have no fences, so that ordering is what GPUs do in
-//! practice (atomics go to the coherent cache level), not a guarantee. `FrameStats.memory_ordering`
-//! reports which. The locking methods are exact when `lock_failures` is 0. Every walk is
-//! bounded.
+//! it takes SPIR-V passthrough shaders (Vulkan), the captures that order memory run their
+//! `acquire_*` and `release_*` functions (storage.wgsl, list.wgsl) with that ordering
+//! (`gpu::ordered`): the lock's exchange and release, the count that publishes lock-free slot
+//! stores (kplus-array-r, kplus-semiheap) and kb-ll's links; every other atomic stays relaxed.
+//! Without passthrough (Metal, DX12, GL) those captures are refused ([`orders`]), and an
+//! application's own capture shader (relaxed WGSL) may call only the lock-free ones.
+//! `FrameStats.memory_ordering` reports which. The locking methods are exact when
+//! `lock_failures` is 0. Every walk is bounded: list walks by min(seen, pool), kb-ll's
+//! insertion walk by k.
 //!
-//! The lock is taken with a test-and-test-and-set inside a loop of at most `max_tries` tries. The
-//! winner's critical section sits inside the `if` that took the lock, and the loop ends only at
-//! its own condition, never by a `return` or `break` from that `if`. Lanes of one SIMD group that
-//! failed the try therefore wait at the `if`'s merge while the winner works, and try again after
-//! its unlock. The first form returned from inside the `if`. On an H100 it counted 20 to 2540
-//! lock failures in a test frame at 4096 tries, and at 65536 tries one frame of 1500 balls took
-//! seconds. That is what happens when the failed lanes spend their whole try budget before the
-//! winner's critical section runs. Lavapipe runs both sides of the branch on every iteration and
-//! never showed it. The present form has not yet run on a GPU. A fragment that never gets the lock is counted in
-//! `lock_failures` (and joins the tail), never silently lost. `kplus-array-r` and
-//! `kplus-semiheap` store their first fragments without the lock, and their locked path waits,
-//! within the try bound, until those stores are published; the unlocked stores come first in
-//! program order, in an `if` of their own, so a SIMD group finishes them before any of its lanes
-//! starts the locked path (a compiler that merges the two branches again could undo this; the
-//! waiting fragment would then count as a lock failure).
+//! The lock is taken with a test-and-test-and-set inside a loop of at most `max_tries` tries
+//! (at most [`MAX_TRIES_LIMIT`]). The loop has no `return`, `break` or `continue`: the winner's
+//! critical section sits inside the `if` that took the lock and the loop ends only at its own
+//! condition, so lanes of one SIMD group that failed the try wait at the `if`'s merge while the
+//! winner works. Before each try a waiter tests the culling bound again (it only falls: a
+//! fragment culled while waiting goes to the tail without the lock). The first form returned
+//! from inside the `if`; on an H100 it counted 20 to 2540 lock failures in a test frame at 4096
+//! tries and took seconds per frame at 65536. The present form ran on an H100 on 2026-11-26 with
+//! no lock failure in any test or benchmark (`bench/gpu-runs/2026-11-26-h100`). A fragment that
+//! never gets the lock is counted in `lock_failures` (and joins the tail), never silently lost.
+//! `kplus-array-r` and `kplus-semiheap` store their first fragments without the lock, in an `if`
+//! of their own that comes first in program order, and publish them with a release add; a later
+//! fragment waits (within the try bound) until the acquired count says all are published
+//! before it tries the lock.
+//!
+//! `kb-keys` ([`mdt`]) keeps the k nearest with no lock at all: an atomicMax cascade of 64-bit
+//! (depth, tag) keys and a second pass that stores each kept payload by its tag. The contention
+//! harness ([`contention`]) drives every capture function from compute dispatches into a few
+//! pixels at once, on lavapipe's parallel threads and on GPUs.
 
 pub mod contention;
 pub mod kpeel;
