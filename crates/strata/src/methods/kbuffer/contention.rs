@@ -56,6 +56,10 @@ pub struct Case {
     /// Distinct depths a pixel's fragments draw from: few make many exact ties.
     pub depths: u32,
     pub seed: u64,
+    /// Counted lock failures are allowed: each may cost its pixel one of its k nearest (the
+    /// fragment went to the tail), and no more. On a CPU adapter with more threads than cores a
+    /// lock holder can be descheduled for longer than any bounded spin; on a GPU none is allowed.
+    pub allow_starvation: bool,
 }
 
 impl Case {
@@ -69,6 +73,7 @@ impl Case {
             culling: true,
             depths: 48,
             seed,
+            allow_starvation: false,
         }
     }
 }
@@ -202,9 +207,15 @@ fn nearest(inputs: &[Input], pixel: u32, keep: usize) -> Vec<(u32, u32)> {
 /// disagreements are named.
 pub fn check(case: &Case, inputs: &[Input], outcome: &Outcome) -> std::result::Result<(), String> {
     let mut problems = Vec::new();
-    if outcome.lock_failures > 0 {
+    if outcome.lock_failures > 0 && !case.allow_starvation {
         problems.push(format!("{} lock failures", outcome.lock_failures));
     }
+    // Fragments a counted lock failure sent to the tail, which a pixel's kept set may lack.
+    let mut starved = if case.allow_starvation {
+        outcome.lock_failures
+    } else {
+        0
+    };
     if outcome.lost > 0 {
         problems.push(format!("{} fragments lost", outcome.lost));
     }
@@ -221,7 +232,10 @@ pub fn check(case: &Case, inputs: &[Input], outcome: &Outcome) -> std::result::R
             _ => (k, k),
         };
         let stored = outcome.stored[p as usize] as usize;
-        if stored != expected_count {
+        // A starved fragment among a pixel's first k leaves the pixel one short only while
+        // fewer than k others arrived; any other count is a defect.
+        let short = expected_count.saturating_sub(stored) as u64;
+        if stored != expected_count && !(stored < expected_count && short <= starved) {
             problems.push(format!(
                 "pixel {p} stores {stored}, expected {expected_count}"
             ));
@@ -244,14 +258,21 @@ pub fn check(case: &Case, inputs: &[Input], outcome: &Outcome) -> std::result::R
                 .total_cmp(&f32::from_bits(b.0))
                 .then(a.1.cmp(&b.1))
         });
+        // With s starved fragments the kept set is the k nearest of the others: it lies within
+        // the k + s nearest and lacks at most s of the k nearest.
+        let slack = starved.min(case.per_pixel as u64) as usize;
         let expected = nearest(inputs, p, keep);
-        if kept != expected {
-            let missing = expected.iter().filter(|e| !kept.contains(e)).count();
-            let duplicates = kept.windows(2).filter(|w| w[0] == w[1]).count();
+        let within = nearest(inputs, p, keep + slack);
+        let missing = expected.iter().filter(|e| !kept.contains(e)).count();
+        let duplicates = kept.windows(2).filter(|w| w[0] == w[1]).count();
+        let outside = kept.iter().filter(|f| !within.contains(f)).count();
+        if kept != expected && (missing > slack || duplicates > 0 || outside > 0) {
             problems.push(format!(
-                "pixel {p}: kept set differs ({missing} of its {keep} nearest missing, {duplicates} stored twice)"
+                "pixel {p}: kept set differs ({missing} of its {keep} nearest missing, {duplicates} stored twice, {outside} beyond the {} nearest)",
+                keep + slack
             ));
         }
+        starved -= (missing as u64).min(starved);
     }
     if problems.is_empty() {
         Ok(())
@@ -349,7 +370,8 @@ impl<'g> Harness<'g> {
         let params = KParams {
             k: case.k,
             stride: case.k,
-            max_tries: super::DEFAULT_MAX_TRIES,
+            // The longest spin allowed: what is measured is the protocol, not the try budget.
+            max_tries: super::MAX_TRIES_LIMIT,
             culling: case.culling as u32,
             tail_blend: 0,
             aux: if case.method == MethodId::KplusSemiheap {

@@ -15,9 +15,16 @@ fn repetitions() -> u64 {
 
 /// Runs `reps` cases of `method` at `k`; returns the failures.
 fn failures(harness: &Harness<'_>, method: MethodId, k: u32, reps: u64) -> Vec<String> {
+    // lavapipe runs more threads than cores: a descheduled lock holder can outlast any spin,
+    // so counted lock failures are allowed there (each costing at most one of the k nearest);
+    // on a GPU none is.
+    let cpu = gpu().info.device_type == wgpu::DeviceType::Cpu;
     (0..reps)
         .filter_map(|seed| {
-            let case = Case::new(method, k, seed);
+            let case = Case {
+                allow_starvation: cpu,
+                ..Case::new(method, k, seed)
+            };
             let (inputs, outcome) = harness.run(&case).unwrap();
             check(&case, &inputs, &outcome).err()
         })
