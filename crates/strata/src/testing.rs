@@ -54,9 +54,7 @@ pub fn assert_close(
     max_diff: u8,
     max_fraction: f64,
 ) {
-    let a = actual.to_rgba8(effect);
-    let e = expected.to_rgba8(effect);
-    if let Err(msg) = crate::metrics::testing::check_image(name, &a, &e, max_diff, max_fraction) {
+    if let Err(msg) = check_close(name, actual, expected, effect, max_diff, max_fraction) {
         panic!("{msg}");
     }
 }
@@ -100,6 +98,37 @@ impl Failures {
             ));
         }
         failures == 0
+    }
+
+    /// Checks an exact method's picture against the reference (max |Δ| ≤ 2/255 on ≥ 99.9% of
+    /// pixels) and against the reference's fragments at the device's own depths, coverage and
+    /// shading (`at_device`), where every pixel must match unless `unmatched` fragments only one
+    /// side has: there a difference is the method's, not the rasterizer's.
+    pub fn check_exact_picture(
+        &mut self,
+        method: &str,
+        name: &str,
+        actual: &LinearImage,
+        (expected, at_device, unmatched): (&LinearImage, &LinearImage, u64),
+        effect: crate::Effect,
+    ) {
+        const MAX_DIFF: u8 = 2;
+        const MAX_FRACTION: f64 = 0.001;
+        let at_device_fraction = if unmatched == 0 { 0.0 } else { MAX_FRACTION };
+        for (suffix, truth, fraction) in [
+            ("", expected, MAX_FRACTION),
+            ("-device-depths", at_device, at_device_fraction),
+        ] {
+            let result = check_close(
+                &format!("{name}{suffix}"),
+                actual,
+                truth,
+                effect,
+                MAX_DIFF,
+                fraction,
+            );
+            self.check(method, result);
+        }
     }
 
     /// Panics with every failure recorded.

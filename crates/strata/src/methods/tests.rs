@@ -8,7 +8,7 @@
 
 use crate::frame::{Effect, RenderOptions};
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, check_close, render_gpu, render_reference, Failures};
+use crate::testing::{assert_close, render_gpu, render_reference, Failures};
 
 const EXACT_METHODS: [&str; 5] = ["f2b", "dual", "abuffer-ll", "sbuffer", "kpeel"];
 const MAX_DIFF: u8 = 2;
@@ -36,28 +36,12 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
         if !failures.locks_held(method, &stats) {
             continue;
         }
-        let effect = opts.effect.name();
-        failures.check(
+        failures.check_exact_picture(
             method,
-            check_close(
-                &format!("{name}-{method}-{effect}"),
-                &actual,
-                &expected,
-                opts.effect,
-                MAX_DIFF,
-                MAX_FRACTION,
-            ),
-        );
-        failures.check(
-            method,
-            check_close(
-                &format!("{name}-{method}-{effect}-device-depths"),
-                &actual,
-                &at_device,
-                opts.effect,
-                MAX_DIFF,
-                if unmatched == 0 { 0.0 } else { MAX_FRACTION },
-            ),
+            &format!("{name}-{method}-{}", opts.effect.name()),
+            &actual,
+            (&expected, &at_device, unmatched),
+            opts.effect,
         );
         assert!(stats.geometry_passes.unwrap() >= 1);
     }

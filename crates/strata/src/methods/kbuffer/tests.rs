@@ -9,7 +9,7 @@
 
 use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, check_close, render_gpu, render_reference, Failures};
+use crate::testing::{assert_close, render_gpu, render_reference, Failures};
 
 const EXACT_K_METHODS: [&str; 9] = [
     "kb-keys",
@@ -59,27 +59,12 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
         if !failures.locks_held(method, &stats) {
             continue;
         }
-        failures.check(
+        failures.check_exact_picture(
             method,
-            check_close(
-                &format!("{name}-{method}-k{k}"),
-                &actual,
-                &expected,
-                opts.effect,
-                MAX_DIFF,
-                MAX_FRACTION,
-            ),
-        );
-        failures.check(
-            method,
-            check_close(
-                &format!("{name}-{method}-k{k}-device-depths"),
-                &actual,
-                &at_device,
-                opts.effect,
-                MAX_DIFF,
-                if unmatched == 0 { 0.0 } else { MAX_FRACTION },
-            ),
+            &format!("{name}-{method}-k{k}"),
+            &actual,
+            (&expected, &at_device, unmatched),
+            opts.effect,
         );
         assert_eq!(stats.k, opts.k);
         // Counts are exact too (coverage may differ on the few edge pixels the image bar allows).
