@@ -325,6 +325,14 @@ pub fn catalogue() -> Vec<MethodInfo> {
             summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
         },
         MethodInfo {
+            id: "kb-keys",
+            family: "kbuffer",
+            exact: true,
+            geometry_passes: "2",
+            memory: KB_MEMORY,
+            summary: "lock-free exact k-buffer: an atomicMax cascade of 64-bit (depth, primitive) keys keeps the k nearest sorted, payloads stored by tag in a second geometry pass; nothing spins or fails (SHADER_INT64_ATOMIC_ALL_OPS)",
+        },
+        MethodInfo {
             id: "kb",
             family: "kbuffer",
             exact: false,
@@ -411,14 +419,6 @@ pub fn catalogue() -> Vec<MethodInfo> {
             geometry_passes: "1",
             memory: "8·k·W·H + 16·W·H + 152",
             summary: "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
-        },
-        MethodInfo {
-            id: "kb-keys",
-            family: "kbuffer",
-            exact: true,
-            geometry_passes: "2",
-            memory: KB_MEMORY,
-            summary: "lock-free exact k-buffer: an atomicMax cascade of 64-bit (depth, primitive) keys keeps the k nearest sorted, payloads stored by tag in a second geometry pass; nothing spins or fails (SHADER_INT64_ATOMIC_ALL_OPS)",
         },
         MethodInfo {
             id: "kb-ab-ll",
