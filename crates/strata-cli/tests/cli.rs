@@ -531,6 +531,14 @@ fn options_the_method_does_not_read_are_refused() {
             "--max-tries does not apply to kb",
         ),
         (
+            &["--method", "kplus-heap", "--max-tries", "2000000"],
+            "--max-tries 2000000 is over 1048576",
+        ),
+        (
+            &["--method", "kplus-heap", "--max-tries", "0"],
+            "--max-tries must be at least 1",
+        ),
+        (
             &["--method", "abuffer-fixed", "--culling", "off"],
             "--culling",
         ),
