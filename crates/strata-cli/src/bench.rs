@@ -758,9 +758,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
         return Err(Error::input("--frames must be at least 1"));
     }
     for r in &runs {
-        if strata::methods::info(&r.method).is_none() {
-            return Err(strata::methods::unknown_method(&r.method));
-        }
+        r.method.parse::<strata::MethodId>()?;
     }
     let dir = results_dir(gpu, a);
     crate::check_results_dir(&dir)?;

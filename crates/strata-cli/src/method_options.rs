@@ -1,7 +1,7 @@
 //! Which method options each method reads: the viewer greys out the others, and `strata
 //! render` refuses them when given (an option that silently does nothing misleads).
 
-use strata::methods::{self, MethodId};
+use strata::methods::{MethodId, MethodOption};
 
 use crate::{MethodArgs, PictureArgs, PipelineArg, Toggle};
 use strata::error::{Error, Result};
@@ -39,42 +39,30 @@ pub enum Opt {
     CacheDir,
 }
 
-fn family(id: MethodId) -> &'static str {
-    methods::catalogue()
-        .into_iter()
-        .find(|m| m.id == id.as_str())
-        .map(|m| m.family)
-        .unwrap_or("")
-}
-
 /// Whether `method` (with `pipeline`) reads option `opt`.
 pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> bool {
-    use MethodId::*;
-    let kbuffer = matches!(family(method), "kbuffer" | "kplus");
-    let locking = matches!(
-        method,
-        KbPs | KbLl | KplusArray | KplusArrayR | KplusHeap | KplusSbuffer | KplusSemiheap
-    );
+    let d = method.descriptor();
+    let reads = |o: MethodOption| d.reads(o);
     match opt {
-        Opt::K => kbuffer || matches!(method, Kpeel | AbufferFixed | Bucket | Reference),
-        Opt::Tail => kbuffer || method == AbufferFixed,
-        Opt::Culling => kbuffer,
-        Opt::MaxTries => locking,
-        Opt::Layers => matches!(method, F2b | Dual | Kpeel),
-        Opt::LayersPerPass => method == Kpeel,
-        Opt::HeapSize => method == KplusSemiheap,
-        Opt::Buckets => method == Bucket,
-        Opt::Weight => method == Wboit,
-        Opt::Moments => method == Mboit,
-        Opt::RasterCompute => strata::raster::supports(method),
+        Opt::K => reads(MethodOption::K),
+        Opt::Tail => reads(MethodOption::Tail),
+        Opt::Culling => reads(MethodOption::Culling),
+        Opt::MaxTries => reads(MethodOption::MaxTries),
+        Opt::Layers => reads(MethodOption::Layers),
+        Opt::LayersPerPass => reads(MethodOption::LayersPerPass),
+        Opt::HeapSize => reads(MethodOption::HeapSize),
+        Opt::Buckets => reads(MethodOption::Buckets),
+        Opt::Weight => reads(MethodOption::Weight),
+        Opt::Moments => reads(MethodOption::Moments),
+        Opt::CacheDir => reads(MethodOption::CacheDir),
+        Opt::RasterCompute => d.compute_raster.yes(),
         // Every GPU method's allocations are checked against it.
-        Opt::Budget => method != Reference,
+        Opt::Budget => method != MethodId::Reference,
         Opt::Tonemap => matches!(pipeline, Some(PipelineArg::Forward | PipelineArg::Deferred)),
         Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
-        Opt::Order => !matches!(method, Sorted | F2b),
-        Opt::Temporal => strata::methods::kbuffer::temporal::takes(method),
-        Opt::Msaa => strata::frame::msaa::supported(method),
-        Opt::CacheDir => method == Convex,
+        Opt::Order => d.takes_order,
+        Opt::Temporal => d.temporal,
+        Opt::Msaa => d.msaa.yes(),
     }
 }
 
@@ -100,8 +88,7 @@ const METHOD_FLAGS: [(&str, &str, Opt); 12] = [
 pub fn check_given(a: &MethodArgs, picture: &PictureArgs) -> Result<()> {
     let given = |id: &str| a.given.iter().any(|g| g == id);
     let refuse = |flag: &str, opt: Opt| {
-        let readers: Vec<&str> = MethodId::ALL
-            .into_iter()
+        let readers: Vec<&str> = MethodId::all()
             .filter(|&m| applies(opt, m, picture.pipeline))
             .map(MethodId::as_str)
             .collect();

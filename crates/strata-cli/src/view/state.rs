@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use strata::frame::Raster;
-use strata::methods::{self, MethodId};
+use strata::methods::MethodId;
 use strata::scene::{Camera, CameraPath, Projection};
 
 use crate::{MethodArgs, PictureArgs, PipelineArg, Toggle};
@@ -15,16 +15,11 @@ pub use crate::method_options::{applies, Opt};
 /// excluded: it renders on the CPU, through "Compare with reference").
 pub fn families() -> Vec<(&'static str, Vec<MethodId>)> {
     let mut out: Vec<(&'static str, Vec<MethodId>)> = Vec::new();
-    for info in methods::catalogue() {
-        let Ok(id) = info.id.parse::<MethodId>() else {
-            continue;
-        };
-        if id == MethodId::Reference {
-            continue;
-        }
-        match out.iter_mut().find(|(f, _)| *f == info.family) {
+    for id in MethodId::gpu_methods() {
+        let family = id.descriptor().family.name();
+        match out.iter_mut().find(|(f, _)| *f == family) {
             Some((_, list)) => list.push(id),
-            None => out.push((info.family, vec![id])),
+            None => out.push((family, vec![id])),
         }
     }
     out
@@ -453,7 +448,7 @@ mod tests {
     #[test]
     fn every_gpu_method_is_listed_once_under_its_family() {
         let listed: Vec<MethodId> = families().into_iter().flat_map(|(_, m)| m).collect();
-        let gpu = methods::catalogue().len() - 1;
+        let gpu = strata::methods::catalogue().count() - 1;
         assert_eq!(listed.len(), gpu);
         assert!(!listed.contains(&MethodId::Reference));
         let mut unique = listed.clone();

@@ -110,10 +110,10 @@ pub fn max_triangles(samples: u32) -> u64 {
     1u64 << (31 - coverage_bits(samples))
 }
 
-/// The methods that take `--msaa`: all but the multi-depth tests with 8-byte keys, which keep
-/// no primitive or coverage per fragment (see [`check_method`]).
+/// The methods that take `--msaa` (all but the multi-depth tests with 8-byte keys, which keep
+/// no primitive or coverage per fragment).
 pub fn supported(method: MethodId) -> bool {
-    !matches!(method, MethodId::KbMdt64 | MethodId::KbMdtPack)
+    method.descriptor().msaa.yes()
 }
 
 /// `--msaa` against the other options.
@@ -178,15 +178,9 @@ pub fn check_method(method: MethodId, options: &RenderOptions, triangles: u64) -
     if samples <= 1 {
         return Ok(());
     }
-    if !supported(method) {
+    if let crate::methods::Support::No(why) = method.descriptor().msaa {
         return Err(Error::unsupported(format!(
-            "{method} does not support --msaa: its 8-byte keys hold depth and color but no primitive or coverage mask, so per-sample storage could not count a fragment once over the samples it covers; use kb-mdt32"
-        )));
-    }
-    if method == MethodId::F2b && triangles > crate::methods::peeling::F2B_MSAA_MAX_TRIANGLES {
-        return Err(Error::unsupported(format!(
-            "f2b --msaa {samples} takes at most {} triangles (its layer's tag travels as an exact float, as 32-bit integer targets cannot be multisampled); the scene has {triangles}",
-            crate::methods::peeling::F2B_MSAA_MAX_TRIANGLES
+            "{method} does not support --msaa: {why}"
         )));
     }
     if triangles > max_triangles(samples) {
@@ -230,7 +224,7 @@ mod tests {
         let err = check_method(MethodId::KbMdt64, &with(4), 10).unwrap_err();
         assert!(err.to_string().contains("kb-mdt32"), "{err}");
         // Every other method takes it.
-        for m in MethodId::ALL {
+        for m in MethodId::all() {
             let takes = check_method(m, &with(4), 10).is_ok();
             assert_eq!(takes, supported(m), "{m}");
         }

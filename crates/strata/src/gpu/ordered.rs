@@ -60,7 +60,18 @@ impl Order {
 
 /// Whether captures on this adapter can be given acquire/release atomics.
 pub fn available(gpu: &Gpu) -> bool {
-    gpu.has(wgpu::Features::PASSTHROUGH_SHADERS) && gpu.info.backend == wgpu::Backend::Vulkan
+    gpu.has(wgpu::Features::PASSTHROUGH_SHADERS)
+        && gpu.info.backend == wgpu::Backend::Vulkan
+        && !relaxed_for_diagnosis()
+}
+
+/// `STRATA_RELAXED_CAPTURES=1`, a diagnostic: every capture keeps WGSL's relaxed atomics even
+/// where the adapter has the ordered path, and the methods that need ordering run without it
+/// instead of being refused (their `memory_ordering` says so). Comparing a GPU run with and
+/// without it tells a fault of the acquire/release modules from one of a method's protocol. It
+/// is unsound wherever fragments of one pixel run at once: never for pictures.
+pub fn relaxed_for_diagnosis() -> bool {
+    std::env::var_os("STRATA_RELAXED_CAPTURES").is_some_and(|v| v == "1")
 }
 
 /// A SPIR-V literal string's text (UTF-8, NUL-terminated, packed little-endian in words).

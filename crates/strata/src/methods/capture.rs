@@ -37,18 +37,7 @@ pub fn supported(method: MethodId) -> bool {
 
 /// The capture step each method's `strata_capture` calls, on pixel `p` and fragment `f`.
 fn call(method: MethodId) -> Option<&'static str> {
-    Some(match method {
-        MethodId::KplusArray => "capture_locked(p, f, VARIANT_ARRAY)",
-        MethodId::KplusHeap => "capture_locked(p, f, VARIANT_HEAP)",
-        MethodId::KplusArrayR => "capture_array_r(p, f)",
-        MethodId::KplusSemiheap => "capture_semiheap(p, f)",
-        MethodId::Kb => "capture_sorted(p, f, UNLOCKED)",
-        MethodId::KbPs => "capture_sorted(p, f, LOCKED)",
-        MethodId::AbufferFixed | MethodId::KbAbFixed => "capture_fixed(p, f)",
-        MethodId::AbufferLl | MethodId::KbAbLl => "capture_list(p, f)",
-        MethodId::KbLl => "capture_sorted_list(p, f)",
-        _ => return None,
-    })
+    method.descriptor().app_capture
 }
 
 /// WGSL defining `strata_capture` for `method`, its bindings at `@group(group)`.

@@ -66,44 +66,68 @@ pub struct Traffic {
     pub global_atomics: u64,
 }
 
+/// Which of the models above a method's frame follows (its descriptor's `traffic`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TrafficModel {
+    /// The CPU reference: no GPU traffic.
+    None,
+    /// Per-pixel state read and written per geometry pass; with `atomic_per_fragment` one
+    /// atomic per generated fragment (`dual`'s min/max keys).
+    PerPixelState {
+        atomic_per_fragment: bool,
+    },
+    Lists,
+    Sbuffers,
+    /// Slot arrays; `atomics`: one per stored fragment (a counter or a lock; `kb` takes none).
+    Slots {
+        atomics: bool,
+    },
+    /// Multi-depth tests: `bytes` per stored fragment written and read (key, and color where a
+    /// second pass fetches it).
+    Keys {
+        bytes: u64,
+    },
+    Kpeel,
+    Convex,
+    Bucket,
+}
+
 /// The traffic model of `id` for a frame with `counts` (see the module docs); `None` for the
 /// CPU reference.
 pub fn traffic(id: MethodId, c: &FrameCounts) -> Option<Traffic> {
-    use MethodId::*;
     let present = (RESOLVED_BYTES + 8) * c.pixels;
-    let (bytes, pixel_atomics, global_atomics) = match id {
-        Reference => return None,
-        Unsorted | Sorted | Wboit | Mboit | F2b => {
-            (2 * c.geometry_passes * c.bytes_allocated, 0, 0)
-        }
-        Dual => (2 * c.geometry_passes * c.bytes_allocated, c.generated, 0),
-        AbufferLl | KbAbLl | KbLl => (
+    let (bytes, pixel_atomics, global_atomics) = match id.descriptor().traffic {
+        TrafficModel::None => return None,
+        TrafficModel::PerPixelState {
+            atomic_per_fragment,
+        } => (
+            2 * c.geometry_passes * c.bytes_allocated,
+            if atomic_per_fragment { c.generated } else { 0 },
+            0,
+        ),
+        TrafficModel::Lists => (
             2 * NODE_BYTES * c.stored + 2 * 4 * c.pixels,
             c.stored,
             c.stored,
         ),
-        Sbuffer | KbSbuffer | KplusSbuffer => (
+        TrafficModel::Sbuffers => (
             2 * FRAGMENT_BYTES * c.stored + 2 * 2 * 4 * c.pixels,
             2 * c.generated,
             0,
         ),
-        Kb => (2 * SLOT_BYTES * c.stored + 2 * PIXEL_BYTES * c.pixels, 0, 0),
-        AbufferFixed | KbPs | KbAbFixed | KplusArray | KplusArrayR | KplusHeap | KplusSemiheap => (
+        TrafficModel::Slots { atomics } => (
             2 * SLOT_BYTES * c.stored + 2 * PIXEL_BYTES * c.pixels,
-            c.stored,
+            if atomics { c.stored } else { 0 },
             0,
         ),
-        KbMdt32 => (2 * (4 + 16) * c.stored, c.stored, 0),
-        KbMdt64 | KbMdtPack => (2 * 8 * c.stored, c.stored, 0),
-        // Keys cleared and cascaded, payloads written once and read by the resolve.
-        KbKeys => (2 * 16 * c.stored, c.stored, 0),
-        Kpeel => (
+        TrafficModel::Keys { bytes } => (2 * bytes * c.stored, c.stored, 0),
+        TrafficModel::Kpeel => (
             2 * SLOT_BYTES * c.stored + 2 * KEY_BYTES * c.geometry_passes * c.pixels,
             c.stored,
             0,
         ),
-        Convex => (2 * 16 * c.stored + 2 * CONVEX_MERGE_BYTES * c.pixels, 0, 0),
-        Bucket => (
+        TrafficModel::Convex => (2 * 16 * c.stored + 2 * CONVEX_MERGE_BYTES * c.pixels, 0, 0),
+        TrafficModel::Bucket => (
             2 * 16 * c.stored + 2 * (8 + 16 + 8) * c.pixels,
             c.generated + c.stored,
             0,

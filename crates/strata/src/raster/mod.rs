@@ -68,7 +68,7 @@ use crate::gpu::passes::{
     capture_pipeline_with, dispatch_with, GeometryStage, NullTarget, Workgroups,
 };
 use crate::gpu::{shader, Gpu, ResourceCache};
-use crate::methods::MethodId;
+use crate::methods::{MethodId, Support};
 
 pub const SETUP_WGSL: &str = include_str!("setup.wgsl");
 pub const BIN_WGSL: &str = include_str!("bin.wgsl");
@@ -108,49 +108,22 @@ impl Raster {
 
 /// The methods the compute rasterizer can capture for (see the module docs).
 pub fn supports(id: MethodId) -> bool {
-    use MethodId::*;
-    matches!(
-        id,
-        Kb | AbufferFixed
-            | KbAbFixed
-            | KbMdt32
-            | KbMdt64
-            | KbMdtPack
-            | KbKeys
-            | AbufferLl
-            | KbAbLl
-            | Sbuffer
-            | KbSbuffer
-            | Dual
-            | Kpeel
-    )
-}
-
-/// The methods that take a spin lock or compare-exchange chains in their capture (kpeel's
-/// compute capture is its lock-free cascade instead).
-fn locks(id: MethodId) -> bool {
-    id != MethodId::Kpeel && crate::methods::kbuffer::orders(id)
+    id.descriptor().compute_raster.yes()
 }
 
 /// The error for a method the compute rasterizer cannot capture for.
 pub fn check_method(id: MethodId, raster: Raster) -> Result<()> {
-    if raster == Raster::Compute && !supports(id) {
-        let why = if id == MethodId::Convex {
-            "it draws each pass's groups through their own index ranges, in an order made per frame"
-        } else if locks(id) {
-            "its capture's locks need acquire/release atomics, which compute captures lack (WGSL atomics are relaxed)"
-        } else {
-            "it draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of"
-        };
-        let supported: Vec<&str> = MethodId::ALL
-            .into_iter()
-            .filter(|&m| supports(m))
-            .map(MethodId::as_str)
-            .collect();
-        return Err(Error::unsupported(format!(
-            "--raster compute: {id} is not supported: {why}; use --raster hw, or one of {}",
-            supported.join(", ")
-        )));
+    if raster == Raster::Compute {
+        if let Support::No(why) = id.descriptor().compute_raster {
+            let supported: Vec<&str> = MethodId::all()
+                .filter(|&m| supports(m))
+                .map(MethodId::as_str)
+                .collect();
+            return Err(Error::unsupported(format!(
+                "--raster compute: {id} is not supported: {why}; use --raster hw, or one of {}",
+                supported.join(", ")
+            )));
+        }
     }
     Ok(())
 }

@@ -204,7 +204,7 @@ fn every_supported_method_matches_the_gpu_path_and_the_reference() {
             continue; // unlocked read-modify-writes race by design; its picture is not fixed
         }
         let stats = assert_matches_hw("nvpro-small", &scene, size, method);
-        if method.info().exact {
+        if method.descriptor().exact {
             let (actual, _) = render(&scene, &options(size, Raster::Compute), method);
             // The exact methods' usual tolerance (methods/tests.rs): 2/255 on 99.9% of pixels.
             assert_close(

@@ -377,7 +377,7 @@ impl FrameRecorder {
         if let Some(animation) = &mut self.scene.animation {
             animation.record(&self.gpu, encoder, &mut self.timer);
         }
-        if self.method == MethodId::Sorted {
+        if self.method.descriptor().sorts_centroids {
             self.scene.refresh_centroids();
         }
         if let Some(order) = &self.order {
@@ -801,7 +801,7 @@ impl FrameRecorder {
             k: p.recorded.k,
             effect: self.options.effect.name().to_string(),
             geometry_passes: Some(p.recorded.geometry_passes),
-            exact: Some(p.method.info().exact),
+            exact: Some(p.method.descriptor().exact),
             gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
             gpu_ms,
             fragments_generated: totals.map(|t| t.generated + ms.culled_temporal.unwrap_or(0)),

@@ -10,6 +10,8 @@
 //! of the scene, so it refuses an application's draw callback. Limits: wrong wherever triangles overlap out of order (that is the
 //! point); translucency gets Fresnel opacity but no absorption, which needs ordered neighbours.
 
+pub mod descriptor;
+
 use crate::error::{Error, Result};
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};

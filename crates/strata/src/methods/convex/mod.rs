@@ -58,6 +58,7 @@
 
 pub mod cache;
 pub mod decompose;
+pub mod descriptor;
 pub mod order;
 
 use std::path::Path;

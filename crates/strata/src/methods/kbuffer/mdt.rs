@@ -38,6 +38,17 @@ pub enum Mdt {
 }
 
 impl Mdt {
+    /// The multi-depth test of a method, if it is one.
+    pub fn of(id: MethodId) -> Option<Mdt> {
+        Some(match id {
+            MethodId::KbMdt32 => Mdt::Mdt32,
+            MethodId::KbMdt64 => Mdt::Mdt64,
+            MethodId::KbMdtPack => Mdt::Pack,
+            MethodId::KbKeys => Mdt::Keys,
+            _ => return None,
+        })
+    }
+
     /// Bytes per slot.
     pub fn slot_bytes(self) -> u64 {
         match self {

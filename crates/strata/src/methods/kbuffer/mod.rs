@@ -75,6 +75,7 @@
 //! pixels at once, on lavapipe's parallel threads and on GPUs.
 
 pub mod contention;
+pub mod descriptor;
 pub mod kpeel;
 pub mod list;
 pub mod mdt;
@@ -229,17 +230,7 @@ pub fn slots_capture_source() -> String {
 
 /// The largest k a method accepts (see the module docs).
 pub fn max_k(id: MethodId) -> u32 {
-    match id {
-        MethodId::KplusArray
-        | MethodId::KplusArrayR
-        | MethodId::KbPs
-        | MethodId::Kb
-        | MethodId::KplusSemiheap => 256,
-        MethodId::KbLl => 256,
-        MethodId::KplusHeap | MethodId::KplusSbuffer | MethodId::Kpeel => 1024,
-        MethodId::KbMdt32 | MethodId::KbMdt64 | MethodId::KbMdtPack | MethodId::KbKeys => 512,
-        _ => 4096,
-    }
+    id.descriptor().max_k
 }
 
 /// The k the options ask for, checked against the method's limit.
@@ -290,21 +281,7 @@ fn pixel_words_bytes(pixels: u64, sample_slots: u32) -> u64 {
 /// sample's k nearest in its own storage (their choice of which to keep is per sample), the
 /// others store fragments per pixel with their coverage masks.
 pub fn sample_storage(id: MethodId, msaa: u32) -> u32 {
-    let per_sample = matches!(
-        id,
-        MethodId::KplusArray
-            | MethodId::KplusHeap
-            | MethodId::KplusArrayR
-            | MethodId::Kb
-            | MethodId::KbPs
-            | MethodId::KplusSemiheap
-            | MethodId::KbLl
-            | MethodId::KbMdt32
-            | MethodId::KbKeys
-            | MethodId::Kpeel
-            | MethodId::KplusSbuffer
-    );
-    if per_sample && msaa > 1 {
+    if id.descriptor().per_sample_storage && msaa > 1 {
         msaa
     } else {
         1
@@ -520,11 +497,12 @@ pub struct CaptureModule {
 /// Whether a method's capture orders memory through a lock or list links (the ordered words of
 /// storage.wgsl and list.wgsl): without acquire/release atomics it is unsound.
 pub fn orders(id: MethodId) -> bool {
-    use MethodId::*;
-    matches!(
-        id,
-        KplusArray | KplusHeap | KplusArrayR | KplusSemiheap | KbPs | KbLl | KplusSbuffer | Kpeel
-    )
+    id.descriptor().orders()
+}
+
+/// The methods whose captures need ordered atomics ([`orders`]).
+pub fn ordered_methods() -> impl Iterator<Item = MethodId> {
+    MethodId::gpu_methods().filter(|&m| orders(m))
 }
 
 /// What every k-buffer method records the same way: the group-1 layout, the resolve pipeline,
@@ -634,7 +612,11 @@ impl KFrame {
             None
         };
         let coherent = gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT);
+        let diagnosis = crate::gpu::ordered::relaxed_for_diagnosis();
         self.memory_ordering = match (ordered.is_some() && orders(self.id), coherent) {
+            _ if diagnosis && orders(self.id) => {
+                "relaxed (STRATA_RELAXED_CAPTURES diagnostic: unsound where fragments of a pixel run at once)"
+            }
             (true, true) => {
                 "acquire-release on the lock, counts and links (SPIR-V passthrough), coherent storage"
             }
@@ -645,7 +627,10 @@ impl KFrame {
         // A lock or a link chain without ordering can read stale slots or last frame's links:
         // such a method is refused on this adapter (on the GPU's rasterizer; the compute
         // rasterizer refuses it itself).
-        self.unordered = (orders(self.id) && ordered.is_none() && scene.raster_layout.is_none())
+        self.unordered = (orders(self.id)
+            && ordered.is_none()
+            && scene.raster_layout.is_none()
+            && !diagnosis)
             .then(|| {
                 format!(
                     "{} takes a per-pixel lock or links lists concurrently, which needs acquire/release atomics (SPIR-V passthrough on Vulkan); '{}' ({}) has none, so its captures could read stale slots; use kb-keys where the adapter has 64-bit atomics, else abuffer-ll, sbuffer or kpeel",

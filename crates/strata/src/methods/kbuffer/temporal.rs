@@ -73,19 +73,22 @@ pub const DEFAULT_EPSILON: f32 = 1e-5;
 
 /// Whether `method`'s capture takes temporal culling.
 pub fn takes(method: MethodId) -> bool {
-    use MethodId::*;
-    matches!(
-        method,
-        KplusArray | KplusHeap | KplusArrayR | KplusSemiheap | KbPs | Kb
-    )
+    method.descriptor().temporal
 }
 
 /// Refuses `--temporal on` where it cannot apply.
 pub fn check(method: MethodId, temporal: Option<TemporalCulling>) -> Result<()> {
     match temporal {
-        Some(_) if !takes(method) => Err(Error::unsupported(format!(
-            "--temporal on applies to kplus-array, kplus-heap, kplus-array-r, kplus-semiheap, kb-ps and kb, not {method}"
-        ))),
+        Some(_) if !takes(method) => {
+            let takers: Vec<&str> = MethodId::all()
+                .filter(|&m| takes(m))
+                .map(MethodId::as_str)
+                .collect();
+            Err(Error::unsupported(format!(
+                "--temporal on applies to {}, not {method}",
+                takers.join(", ")
+            )))
+        }
         Some(t) if !(t.epsilon.is_finite() && t.epsilon >= 0.0) => Err(Error::input(format!(
             "--temporal-epsilon {} must be a non-negative number",
             t.epsilon

@@ -33,6 +33,7 @@
 //! WebGPU lacks, hence the storage atomics.
 
 pub mod bucket;
+pub mod descriptor;
 
 use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};

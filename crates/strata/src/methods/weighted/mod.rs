@@ -20,6 +20,7 @@
 //! do, and per sample the same closed form.
 
 pub mod cpu;
+pub mod descriptor;
 pub mod mboit;
 
 use bytemuck::{Pod, Zeroable};

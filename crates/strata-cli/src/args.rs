@@ -1,0 +1,471 @@
+//! The arguments shared by the commands that make a picture (`PictureArgs`, `MethodArgs`) and
+//! what they become: a scene and the render options.
+
+use clap::{Args, ValueEnum};
+use std::path::{Path, PathBuf};
+use strata::error::{Error, Result};
+use strata::frame::{Effect, RenderOptions, Tail};
+use strata::methods::MethodId;
+use strata::scene::{loaders, Background, CameraPath, Scene, Shading};
+
+/// Options shared by everything that makes a picture.
+#[derive(Args, Clone, Debug)]
+pub struct PictureArgs {
+    /// A scene file (.toml, .obj, .ply, .gltf, .glb) or builtin:NAME?key=value&...
+    #[arg(default_value = "builtin:demo")]
+    pub scene: String,
+    /// Image size, WxH (default: the scene's, else 512x512).
+    #[arg(long, allow_hyphen_values = true)]
+    pub size: Option<String>,
+    #[arg(long, value_enum, default_value = "transparency")]
+    pub effect: Effect,
+    /// unlit | lit: overrides every material's shading.
+    #[arg(long)]
+    pub shading: Option<String>,
+    /// checker | #rrggbb (sRGB)
+    #[arg(long)]
+    pub background: Option<String>,
+    /// Sets every material's opacity.
+    #[arg(long)]
+    pub alpha: Option<f32>,
+    /// Per-pixel capacity for k-buffer methods; for `reference`, keep each pixel's k nearest.
+    #[arg(long)]
+    pub k: Option<String>,
+    /// Animation time in frames: moves the scene's animated objects (builtin:balls) and its
+    /// camera path ([[camera_key]] in a scene file, or --orbit).
+    #[arg(long)]
+    pub frame: Option<f32>,
+    /// Camera path: orbit the camera about its target (around its up axis) at DEG degrees per
+    /// frame, for any scene; --frame and --frames pick the time.
+    #[arg(long, allow_hyphen_values = true)]
+    pub orbit: Option<f32>,
+    /// Light opaque objects forward (every light per fragment) or deferred (G-buffer and light
+    /// volumes), the method drawing only the transparent ones over them; none: every surface,
+    /// opaque ones too, through the method. Default: the scene's (builtin:demo: deferred), else
+    /// none.
+    #[arg(long, value_enum)]
+    pub pipeline: Option<PipelineArg>,
+    /// Add N coloured point lights, a deterministic field over the scene's bounds.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_LIGHTS as i64))]
+    pub lights: Option<u32>,
+    /// The lit pipelines' tone map (neutral: colors below 0.8 unchanged, highlights roll off).
+    #[arg(long, value_enum, default_value = "neutral")]
+    pub tonemap: strata::frame::Tonemap,
+    /// Camera position X,Y,Z (default: the scene's camera, else auto-framed).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<[f32; 3]>,
+    /// The point the camera looks at, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub target: Option<[f32; 3]>,
+    /// The camera's up direction, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees (perspective cameras), in (0, 180).
+    #[arg(long)]
+    pub fov: Option<f32>,
+    /// Samples per pixel: 1, or 4 and 8 for multisample anti-aliasing at the standard sample
+    /// positions (fragments shaded once per pixel, composited per sample; every method but
+    /// kb-mdt64 and kb-mdt-pack, and the reference). 8 where the device has it (lavapipe: 4).
+    #[arg(long, default_value_t = 1)]
+    pub msaa: u32,
+}
+
+impl PictureArgs {
+    /// The picture options' defaults for `scene` (what the command line gives without options).
+    pub fn for_scene(scene: impl Into<String>) -> PictureArgs {
+        PictureArgs {
+            scene: scene.into(),
+            size: None,
+            effect: Effect::Transparency,
+            shading: None,
+            background: None,
+            alpha: None,
+            k: None,
+            frame: None,
+            orbit: None,
+            pipeline: None,
+            lights: None,
+            tonemap: Default::default(),
+            eye: None,
+            target: None,
+            up: None,
+            fov: None,
+            msaa: 1,
+        }
+    }
+}
+
+/// `X,Y,Z` as three finite numbers.
+pub fn parse_vec3(s: &str) -> std::result::Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not X,Y,Z (three numbers)"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        _ => Err(format!("'{s}' is not X,Y,Z (three finite numbers)")),
+    }
+}
+
+/// The method and its options (`render` and `view`).
+#[derive(Args, Clone, Debug)]
+pub struct MethodArgs {
+    /// Method id (see `strata methods`).
+    #[arg(
+        long,
+        value_enum,
+        default_value = "abuffer-ll",
+        hide_possible_values = true
+    )]
+    pub method: MethodId,
+    /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
+    /// the lock-free storage methods (abuffer-fixed, kb-ab-fixed, kb-mdt*, abuffer-ll, kb-ab-ll,
+    /// sbuffer, kb-sbuffer, dual, kb, kpeel).
+    #[arg(long, value_enum, default_value = "hw")]
+    pub raster: strata::frame::Raster,
+    /// kpeel: layers captured per geometry pass (seed 002's multi-layer peeling: ⌈N/M⌉ passes;
+    /// 1 is depth peeling). The same as --k for kpeel.
+    #[arg(long)]
+    pub layers_per_pass: Option<u32>,
+    /// Memory a method may allocate, MiB.
+    #[arg(long)]
+    pub budget_mb: Option<f64>,
+    /// With --k auto: the fraction of the fragments k must capture, in (0, 1] (default 0.95);
+    /// k is the smallest that does within --budget-mb.
+    #[arg(long)]
+    pub robustness: Option<f64>,
+    /// kplus-semiheap: slots of its max-heap (default 1, the paper's); the other k - h are
+    /// unordered.
+    #[arg(long)]
+    pub heap_size: Option<u32>,
+    /// bucket: split each pixel's depth range into k/2 equal buckets (uniform, the paper's
+    /// method) or share the buckets among the occupied parts of a 1024-part histogram
+    /// (adaptive, one more geometry pass).
+    #[arg(long, value_enum, default_value = "uniform")]
+    pub buckets: strata::BucketSplit,
+    /// wboit: the weight function (McGuire & Bavoil 2013, equations 7-10).
+    #[arg(long, value_enum, default_value = "eq7")]
+    pub weight: strata::Weight,
+    /// wboit: multiplies view-space distances before the weight function (its constants assume
+    /// distances of 0.1 to 500 units).
+    #[arg(long, default_value_t = 1.0)]
+    pub depth_scale: f64,
+    /// mboit: power moments, 4, 6 or 8 (more follow more layers, at more memory and work).
+    #[arg(long, default_value_t = 4)]
+    pub moments: u32,
+    /// Fragments beyond k (k-buffer methods).
+    #[arg(long, value_enum, default_value = "drop")]
+    pub tail: Tail,
+    /// k-buffers cull fragments behind a full pixel's farthest before taking the lock.
+    #[arg(long, value_enum, default_value = "on")]
+    pub culling: Toggle,
+    /// Spin-lock tries per fragment for the locking k-buffers (default 65536, at most 1048576).
+    #[arg(long)]
+    pub max_tries: Option<u32>,
+    /// Depth peeling (f2b, dual): peel this many layers (default: the scene's depth complexity,
+    /// measured by the frame itself).
+    #[arg(long)]
+    pub layers: Option<u32>,
+    /// --pipeline deferred: screen-space ambient occlusion on the ambient term.
+    #[arg(long)]
+    pub ssao: bool,
+    /// --pipeline deferred: the G-buffer's normal encoding.
+    #[arg(long, value_enum, default_value = "spheremap")]
+    pub normal_encoding: strata::frame::NormalEncoding,
+    /// --pipeline deferred: write a G-buffer view instead of the picture.
+    #[arg(long, value_enum)]
+    pub gbuffer_debug: Option<strata::frame::GbufferView>,
+    /// Resubmit the triangles every frame sorted on the GPU by centroid depth (front: nearest
+    /// first; back: farthest first), randomly permuted (random), or as the scene lists them
+    /// (scene); the statistics report the Kendall distance to depth order.
+    #[arg(long, value_enum)]
+    pub order: Option<strata::order::Order>,
+    /// --order random: the seed its per-frame permutations draw from.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Reverse-reprojection culling (seed 000; kplus-array, kplus-heap, kplus-array-r,
+    /// kplus-semiheap, kb-ps, kb): each frame culls, before any
+    /// lock, fragments that lay behind last frame's (k+1)-th nearest depth. Approximate: the
+    /// first frame culls nothing, moving objects can be culled wrongly until their tile
+    /// refreshes.
+    #[arg(long, value_enum, default_value = "off")]
+    pub temporal: Toggle,
+    /// --temporal on: frames between refreshes of each 16x16 tile, which then skips culling (0:
+    /// never).
+    #[arg(long, default_value_t = strata::methods::kbuffer::temporal::DEFAULT_REFRESH)]
+    pub temporal_refresh: u32,
+    /// --temporal on: window depth a fragment must lie behind the interface to be culled.
+    #[arg(long, default_value_t = strata::methods::kbuffer::temporal::DEFAULT_EPSILON)]
+    pub temporal_epsilon: f32,
+    /// Keep preprocesses (convex's decomposition of a mesh) in DIR between runs: read when
+    /// there, written when made.
+    #[arg(long)]
+    pub cache_dir: Option<PathBuf>,
+    /// The options above given on the command line (clap ids), so that those the method does
+    /// not read are refused; empty where the options were not parsed from a command line.
+    #[arg(skip)]
+    pub given: Vec<String>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Toggle {
+    On,
+    Off,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PipelineArg {
+    None,
+    Forward,
+    Deferred,
+}
+
+/// `--lights` stops here: every transparent fragment loops over the whole list.
+pub const MAX_LIGHTS: u32 = 65536;
+/// The light field is the same for every run.
+pub const LIGHT_FIELD_SEED: u64 = 1;
+
+pub fn parse_size(s: &str) -> Result<(u32, u32)> {
+    let bad = || {
+        Error::input(format!(
+            "--size '{s}' is not WxH with integers in 1..{} (e.g. 512x512)",
+            strata::frame::MAX_SIDE
+        ))
+    };
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    let side = 1..=strata::frame::MAX_SIDE;
+    if !side.contains(&w) || !side.contains(&h) {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+/// Loads the scene and applies the picture options to it; returns the render options.
+pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
+    let effect = p.effect;
+    let (k, k_auto) = match p.k.as_deref() {
+        None => (None, None),
+        Some("auto") => (
+            None,
+            Some(strata::methods::kbuffer::predict::DEFAULT_ROBUSTNESS),
+        ),
+        Some(s) => {
+            let k = s.parse::<u32>().ok().filter(|&k| k > 0).ok_or_else(|| {
+                Error::input(format!("--k '{s}' is not a positive integer or 'auto'"))
+            })?;
+            (Some(k), None)
+        }
+    };
+    if let Some(a) = p.alpha {
+        if !(0.0..=1.0).contains(&a) {
+            return Err(Error::input(format!("--alpha {a} is outside [0, 1]")));
+        }
+    }
+    if let Some(f) = p.frame {
+        if !f.is_finite() || f < 0.0 {
+            return Err(Error::input(format!(
+                "--frame {f} must be a non-negative number"
+            )));
+        }
+    }
+    let mut scene = loaders::load_scene(&p.scene)?;
+    apply_camera(&mut scene, p)?;
+    if let Some(degrees) = p.orbit {
+        if matches!(scene.camera_path, Some(CameraPath::Keys { .. })) {
+            return Err(Error::input(
+                "--orbit replaces this scene's [[camera_key]] path: leave out one of them",
+            ));
+        }
+        scene.camera_path = Some(CameraPath::orbit(scene.camera_or_framing(), degrees)?);
+    }
+    if let Some(f) = p.frame.or(scene.camera_path.as_ref().map(|_| scene.time)) {
+        scene.set_time(f);
+    }
+    if let Some(a) = p.alpha {
+        scene.override_alpha(a);
+    }
+    if let Some(n) = p.lights {
+        if n > MAX_LIGHTS {
+            return Err(Error::input(format!(
+                "--lights {n} is more than {MAX_LIGHTS}"
+            )));
+        }
+        scene.add_light_field(n, LIGHT_FIELD_SEED);
+    }
+    let shading = p
+        .shading
+        .as_deref()
+        .map(str::parse::<Shading>)
+        .transpose()?
+        .or(scene.defaults.shading);
+    if let Some(s) = shading {
+        scene.override_shading(s);
+    }
+    let background = match p.background.as_deref() {
+        Some(b) => b.parse::<Background>()?,
+        None => scene.defaults.background.unwrap_or_default(),
+    };
+    let (width, height) = match p.size.as_deref() {
+        Some(s) => parse_size(s)?,
+        None => scene
+            .defaults
+            .size
+            .map(|[w, h]| (w, h))
+            .unwrap_or((512, 512)),
+    };
+    let options = RenderOptions {
+        width,
+        height,
+        effect,
+        background,
+        k,
+        k_auto,
+        pipeline: match p.pipeline {
+            None => scene.defaults.pipeline,
+            Some(PipelineArg::None) => None,
+            Some(PipelineArg::Forward) => Some(strata::frame::Pipeline::Forward),
+            Some(PipelineArg::Deferred) => Some(strata::frame::Pipeline::Deferred),
+        },
+        tonemap: p.tonemap,
+        msaa: p.msaa,
+        ..Default::default()
+    };
+    options.validate()?;
+    Ok((scene, options))
+}
+
+/// `--eye`, `--target`, `--up`, `--fov` over the scene's camera (or its framing); `--up` and
+/// `--fov` also apply to a camera path's keys, which `--eye` and `--target` cannot override.
+pub fn apply_camera(scene: &mut Scene, p: &PictureArgs) -> Result<()> {
+    if p.eye.is_none() && p.target.is_none() && p.up.is_none() && p.fov.is_none() {
+        return Ok(());
+    }
+    if let Some(path) = &mut scene.camera_path {
+        if p.eye.is_some() || p.target.is_some() {
+            return Err(Error::input(
+                "--eye and --target fix the camera, but this scene's [[camera_key]] path moves it: leave them out, or the keys",
+            ));
+        }
+        let mut moved = PictureArgs {
+            eye: None,
+            target: None,
+            ..p.clone()
+        };
+        moved.scene.clear();
+        let mut base = Scene {
+            camera: Some(*path.base()),
+            ..Scene::default()
+        };
+        apply_camera(&mut base, &moved)?;
+        *path.base_mut() = base.camera.expect("set above");
+        return Ok(());
+    }
+    let mut camera = scene.camera_or_framing();
+    if let Some(e) = p.eye {
+        camera.eye = e.into();
+    }
+    if let Some(t) = p.target {
+        camera.target = t.into();
+    }
+    if let Some(u) = p.up {
+        camera.up = u.into();
+    }
+    if let Some(f) = p.fov {
+        if !(f > 0.0 && f < 180.0) {
+            return Err(Error::input(format!(
+                "--fov {f} is outside (0, 180) degrees"
+            )));
+        }
+        match &mut camera.projection {
+            strata::scene::Projection::Perspective { fov_y_deg } => *fov_y_deg = f,
+            strata::scene::Projection::Orthographic { .. } => {
+                return Err(Error::input(
+                    "--fov applies to perspective cameras; this scene's camera is orthographic",
+                ))
+            }
+        }
+    }
+    let forward = camera.target - camera.eye;
+    if forward.length_squared() == 0.0 || forward.cross(camera.up).length_squared() == 0.0 {
+        return Err(Error::input(
+            "the camera's eye, target and up do not define a view (eye = target, or up along the view direction)",
+        ));
+    }
+    scene.camera = Some(camera);
+    Ok(())
+}
+
+/// `--cache-dir DIR`, made if missing: refused now, not after a long preprocess, when it cannot
+/// be a directory.
+pub fn cache_dir(dir: &Path) -> Result<PathBuf> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::input(format!(
+            "--cache-dir '{}' is not a directory",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Error::input(format!("--cache-dir {}: {e}", dir.display())))?;
+    Ok(dir.to_path_buf())
+}
+
+/// The scene and options of a render: the picture's, then the method options.
+pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, RenderOptions)> {
+    let (scene, mut options) = prepare(picture)?;
+    crate::method_options::check_given(a, picture)?;
+    if let Some(r) = a.robustness {
+        if options.k_auto.is_none() {
+            return Err(Error::input("--robustness applies to --k auto"));
+        }
+        options.k_auto = Some(r);
+    }
+    options.budget_mb = a.budget_mb;
+    options.tail = a.tail;
+    options.culling = a.culling == Toggle::On;
+    options.max_tries = a.max_tries;
+    options.layers = a.layers;
+    options.heap_size = a.heap_size;
+    options.buckets = a.buckets;
+    options.weight = a.weight;
+    options.depth_scale = a.depth_scale;
+    options.moments = a.moments;
+    options.ssao = a.ssao;
+    options.normal_encoding = a.normal_encoding;
+    options.gbuffer_debug = a.gbuffer_debug;
+    options.raster = a.raster;
+    options.order = a.order;
+    options.order_seed = a.seed;
+    options.temporal =
+        (a.temporal == Toggle::On).then_some(strata::methods::kbuffer::temporal::TemporalCulling {
+            refresh: a.temporal_refresh,
+            epsilon: a.temporal_epsilon,
+        });
+    strata::methods::kbuffer::temporal::check(a.method, options.temporal)?;
+    options.cache_dir = a.cache_dir.as_deref().map(cache_dir).transpose()?;
+    if let Some(m) = a.layers_per_pass {
+        let d = a.method.descriptor();
+        if !d.reads(strata::methods::MethodOption::LayersPerPass) {
+            return Err(Error::input(format!(
+                "--layers-per-pass applies to kpeel (multi-layer peeling), not {}",
+                a.method
+            )));
+        }
+        let max = d.max_k;
+        if !(1..=max).contains(&m) {
+            return Err(Error::input(format!(
+                "--layers-per-pass {m} is outside 1..{max}"
+            )));
+        }
+        if options.k.is_some_and(|k| k != m) {
+            return Err(Error::input(
+                "--layers-per-pass and --k name the same thing for kpeel: give one",
+            ));
+        }
+        options.k = Some(m);
+    }
+    options.validate()?;
+    Ok((scene, options))
+}

@@ -1,0 +1,69 @@
+//! `strata methods`: the method table as a catalogue.
+
+use strata::error::{Error, Result};
+use strata::methods::{self, MethodId};
+
+/// The rasterizers a method runs on (`--raster`).
+pub fn rasters(m: &methods::Descriptor) -> &'static str {
+    match (m.id, m.compute_raster) {
+        (MethodId::Reference, _) => "cpu",
+        (_, methods::Support::Yes) => "hw,compute",
+        _ => "hw",
+    }
+}
+
+/// The `--msaa` sample counts a method takes (8 only where the device rasterizes it).
+pub fn msaa_counts(m: &methods::Descriptor) -> Vec<u32> {
+    if m.msaa.yes() {
+        strata::frame::msaa::SAMPLE_COUNTS.to_vec()
+    } else {
+        vec![1]
+    }
+}
+
+pub fn list_methods(json: bool) -> Result<()> {
+    let all: Vec<&methods::Descriptor> = methods::catalogue().collect();
+    if json {
+        let entries: Vec<serde_json::Value> = all
+            .iter()
+            .map(|m| {
+                let mut v = serde_json::to_value(m).unwrap_or_default();
+                v["raster"] = rasters(m).split(',').collect::<Vec<_>>().into();
+                v["msaa"] = msaa_counts(m).into();
+                v
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&entries).map_err(|e| Error::runtime(e.to_string()))?
+        );
+        return Ok(());
+    }
+    let width =
+        |f: &dyn Fn(&methods::Descriptor) -> usize| all.iter().map(|m| f(m)).max().unwrap_or(0);
+    let (wi, wf, wp, wm) = (
+        width(&|m| m.name.len()),
+        width(&|m| m.family.name().len()),
+        width(&|m| m.geometry_passes.chars().count()),
+        width(&|m| m.memory.chars().count()),
+    );
+    println!(
+        "{:<wi$}  {:<wf$}  exact  {:<10}  {:<5}  {:<wp$}  {:<wm$}  summary",
+        "id", "family", "raster", "msaa", "geometry passes", "memory (bytes)"
+    );
+    for m in &all {
+        let msaa: Vec<String> = msaa_counts(m).iter().map(u32::to_string).collect();
+        println!(
+            "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<5}  {:<wp$}  {:<wm$}  {}",
+            m.name,
+            m.family.name(),
+            if m.exact { "yes" } else { "no" },
+            rasters(m),
+            msaa.join(","),
+            m.geometry_passes,
+            m.memory,
+            m.summary
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,32 @@
+//! The baselines' entries in the method table.
+
+use crate::methods::table::{Descriptor, Family};
+use crate::methods::{Method, MethodId};
+
+fn create(
+    id: MethodId,
+    gpu: &crate::gpu::Gpu,
+    scene: &crate::frame::SceneGpu,
+    _: &crate::frame::RenderOptions,
+) -> crate::error::Result<Box<dyn Method>> {
+    Ok(Box::new(super::Blend::new(
+        gpu,
+        scene,
+        id == MethodId::Sorted,
+    )))
+}
+
+pub const UNSORTED: Descriptor = Descriptor {
+    memory: "(8·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
+    summary: "alpha blending in submission order (no OIT)",
+    ..Descriptor::new(MethodId::Unsorted, "unsorted", Family::Baseline, create)
+};
+
+pub const SORTED: Descriptor = Descriptor {
+    memory: "(8·S + 4)·W·H + 12·triangles; S samples per pixel (--msaa, else 1)",
+    summary: "alpha blending after a back-to-front sort of triangle centroids",
+    // Its own order: triangle centroids, sorted each frame.
+    takes_order: false,
+    sorts_centroids: true,
+    ..Descriptor::new(MethodId::Sorted, "sorted", Family::Baseline, create)
+};

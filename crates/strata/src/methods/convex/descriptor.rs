@@ -1,0 +1,27 @@
+//! convex's entry in the method table.
+
+use crate::methods::table::{Descriptor, Family, MethodOption, Support};
+use crate::methods::traffic::TrafficModel;
+use crate::methods::{Method, MethodId};
+
+fn create(
+    _: MethodId,
+    gpu: &crate::gpu::Gpu,
+    scene: &crate::frame::SceneGpu,
+    options: &crate::frame::RenderOptions,
+) -> crate::error::Result<Box<dyn Method>> {
+    Ok(Box::new(super::Convex::new(gpu, scene, options)?))
+}
+
+pub const CONVEX: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "1 read of the geometry, split over P passes (P: groups in the deepest chain of groups whose screen footprints meet)",
+    memory: "(16·L + 44)·W·H + 12·triangles + 64; L = 2, or 4 with paired groups",
+    summary: "convex polyhedra (seed 001): convex parts by region growing, ordered per frame by separating planes and nesting; each pass captures groups that cannot share a pixel (2 layers per part) and merges them front to back; exact when the order holds, order_violations counted",
+    reads: &[MethodOption::CacheDir],
+    traffic: TrafficModel::Convex,
+    compute_raster: Support::No(
+        "it draws each pass's groups through their own index ranges, in an order made per frame",
+    ),
+    ..Descriptor::new(MethodId::Convex, "convex", Family::Convex, create)
+};

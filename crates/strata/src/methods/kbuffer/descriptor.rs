@@ -1,0 +1,295 @@
+//! The entries in the method table of everything built on the k-buffer machinery (storage.wgsl):
+//! the A-buffers, the k-buffers, the k+-buffers and kpeel.
+
+use crate::methods::table::{Descriptor, Family, MethodOption, Ordering, Support};
+use crate::methods::traffic::TrafficModel;
+use crate::methods::{Method, MethodId};
+
+use super::list::ListKBuffer;
+use super::mdt::{Mdt, MdtKBuffer};
+use super::{SlotKBuffer, Variant};
+
+fn create(
+    id: MethodId,
+    gpu: &crate::gpu::Gpu,
+    scene: &crate::frame::SceneGpu,
+    options: &crate::frame::RenderOptions,
+) -> crate::error::Result<Box<dyn Method>> {
+    if let Some(variant) = Variant::of(id) {
+        return Ok(Box::new(SlotKBuffer::new(gpu, scene, id, variant)));
+    }
+    if let Some(mdt) = Mdt::of(id) {
+        return Ok(Box::new(MdtKBuffer::new(gpu, scene, id, mdt)?));
+    }
+    Ok(match id {
+        MethodId::Sbuffer | MethodId::KbSbuffer | MethodId::KplusSbuffer => {
+            Box::new(super::sbuffer::SBuffer::new(gpu, scene, id, options))
+        }
+        MethodId::Kpeel => Box::new(super::kpeel::KPeel::new(gpu, scene)?),
+        _ => Box::new(ListKBuffer::new(gpu, scene, id, options)),
+    })
+}
+
+/// Memory of the k-slot methods; `SLOT_BYTES` etc. keep it true.
+const KB_MEMORY: &str = "16·(k+1)·W·H + 112 + 40·(W·H with --tail blend, else 1)";
+
+const COMPUTE: Support = Support::Yes;
+const LOCKS_NEED_ORDER: Support = Support::No(
+    "its capture's locks need acquire/release atomics, which compute captures lack (WGSL atomics are relaxed)",
+);
+
+/// A k-buffer proper: reads `--k`, `--tail` and `--culling`; a locking one `--max-tries` too.
+const K: &[MethodOption] = &[MethodOption::K, MethodOption::Tail, MethodOption::Culling];
+const K_LOCKED: &[MethodOption] = &[
+    MethodOption::K,
+    MethodOption::Tail,
+    MethodOption::Culling,
+    MethodOption::MaxTries,
+];
+
+pub const ABUFFER_LL: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "1 (+1 when the node pool overflows)",
+    memory: "20·nodes + 16·W·H + 152 (nodes ≥ F)",
+    summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
+    compute_raster: COMPUTE,
+    app_capture: Some("capture_list(p, f)"),
+    traffic: TrafficModel::Lists,
+    ..Descriptor::new(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer, create)
+};
+
+pub const SBUFFER: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "2 (+2 when the pool overflows)",
+    memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 152",
+    summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
+    compute_raster: COMPUTE,
+    traffic: TrafficModel::Sbuffers,
+    ..Descriptor::new(MethodId::Sbuffer, "sbuffer", Family::Abuffer, create)
+};
+
+pub const KPEEL: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "ceil(N/k), twice that with the lock-free capture (N: the last frame's depth complexity, or --layers)",
+    memory: "16·(k+1)·W·H + 152, +8·k·W·H with the lock-free capture",
+    summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per pass, by a lock-free cascade of 64-bit keys (a keys and a colors geometry pass; single-sampled, SHADER_INT64_ATOMIC_ALL_OPS) or else a k+-buffer capture under a lock; A-buffer results in bounded memory, equal-depth fragments included",
+    compute_raster: COMPUTE,
+    per_sample_storage: true,
+    ordering: Ordering::LockedFallback,
+    reads: &[MethodOption::K, MethodOption::Layers, MethodOption::LayersPerPass],
+    max_k: 1024,
+    traffic: TrafficModel::Kpeel,
+    ..Descriptor::new(MethodId::Kpeel, "kpeel", Family::Peeling, create)
+};
+
+pub const ABUFFER_FIXED: Descriptor = Descriptor {
+    memory: KB_MEMORY,
+    summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
+    compute_raster: COMPUTE,
+    app_capture: Some("capture_fixed(p, f)"),
+    reads: &[MethodOption::K, MethodOption::Tail],
+    traffic: TrafficModel::Slots { atomics: true },
+    ..Descriptor::new(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer, create)
+};
+
+pub const KB_KEYS: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "2",
+    memory: KB_MEMORY,
+    summary: "lock-free exact k-buffer: an atomicMax cascade of 64-bit (depth, primitive) keys keeps the k nearest sorted, payloads stored by tag in a second geometry pass; nothing spins or fails (SHADER_INT64_ATOMIC_ALL_OPS)",
+    compute_raster: COMPUTE,
+    per_sample_storage: true,
+    reads: K,
+    max_k: 512,
+    // Keys cleared and cascaded, payloads written once and read by the resolve.
+    traffic: TrafficModel::Keys { bytes: 16 },
+    ..Descriptor::new(MethodId::KbKeys, "kb-keys", Family::Kbuffer, create)
+};
+
+pub const KB: Descriptor = Descriptor {
+    memory: KB_MEMORY,
+    summary: "original k-buffer: sorted insertion with no lock (read-modify-write hazards between fragments of a pixel)",
+    compute_raster: COMPUTE,
+    per_sample_storage: true,
+    temporal: true,
+    app_capture: Some("capture_sorted(p, f, UNLOCKED)"),
+    reads: K,
+    max_k: 256,
+    traffic: TrafficModel::Slots { atomics: false },
+    ..Descriptor::new(MethodId::Kb, "kb", Family::Kbuffer, create)
+};
+
+pub const KB_PS: Descriptor = Descriptor {
+    exact: true,
+    memory: KB_MEMORY,
+    summary: "k-buffer with sorted insertion inside a per-pixel spin lock (pixel synchronisation emulated)",
+    compute_raster: LOCKS_NEED_ORDER,
+    per_sample_storage: true,
+    temporal: true,
+    ordering: Ordering::Locks,
+    app_capture: Some("capture_sorted(p, f, LOCKED)"),
+    reads: K_LOCKED,
+    max_k: 256,
+    traffic: TrafficModel::Slots { atomics: true },
+    ..Descriptor::new(MethodId::KbPs, "kb-ps", Family::Kbuffer, create)
+};
+
+pub const KB_AB_FIXED: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "1 (+1 when the array overflows)",
+    memory: "16·(n+1)·W·H + 112 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
+    summary:
+        "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
+    compute_raster: COMPUTE,
+    app_capture: Some("capture_fixed(p, f)"),
+    reads: K,
+    traffic: TrafficModel::Slots { atomics: true },
+    ..Descriptor::new(MethodId::KbAbFixed, "kb-ab-fixed", Family::Kbuffer, create)
+};
+
+pub const KPLUS_ARRAY: Descriptor = Descriptor {
+    exact: true,
+    memory: KB_MEMORY,
+    summary:
+        "k+-buffer max-array: k nearest captured unsorted under a spin lock, max in slot 0, culling",
+    compute_raster: LOCKS_NEED_ORDER,
+    per_sample_storage: true,
+    temporal: true,
+    ordering: Ordering::Locks,
+    app_capture: Some("capture_locked(p, f, VARIANT_ARRAY)"),
+    reads: K_LOCKED,
+    max_k: 256,
+    traffic: TrafficModel::Slots { atomics: true },
+    ..Descriptor::new(MethodId::KplusArray, "kplus-array", Family::Kplus, create)
+};
+
+pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
+    summary: "k+-buffer revised max-array: the first k fragments stored without the lock",
+    app_capture: Some("capture_array_r(p, f)"),
+    ..Descriptor {
+        id: MethodId::KplusArrayR,
+        name: "kplus-array-r",
+        ..KPLUS_ARRAY
+    }
+};
+
+pub const KPLUS_HEAP: Descriptor = Descriptor {
+    summary:
+        "k+-buffer max-heap: sift-up while filling, replace-root and sift-down when full, culling",
+    app_capture: Some("capture_locked(p, f, VARIANT_HEAP)"),
+    max_k: 1024,
+    ..Descriptor {
+        id: MethodId::KplusHeap,
+        name: "kplus-heap",
+        ..KPLUS_ARRAY
+    }
+};
+
+pub const KPLUS_SBUFFER: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "2 (+2 when the pool overflows)",
+    memory: "16·Σmin(f,k) + 20·W·H + 4·(W·H + W·H/256 + …) + 112 + 40·(W·H with --tail blend, else 1); f: a pixel's fragments",
+    summary: "memory-aware k+-buffer: a count pass, a GPU prefix sum giving each pixel exactly min(f, k) slots, then lock-free appends (f ≤ k) or a max-array (k ≤ 16) / max-heap under a spin lock",
+    compute_raster: LOCKS_NEED_ORDER,
+    per_sample_storage: true,
+    ordering: Ordering::Locks,
+    reads: K_LOCKED,
+    max_k: 1024,
+    traffic: TrafficModel::Sbuffers,
+    ..Descriptor::new(MethodId::KplusSbuffer, "kplus-sbuffer", Family::Kplus, create)
+};
+
+pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
+    summary: "semi-heap k-buffer (seed 000): a max-heap of the h farthest (--heap-size, default 1) and an unordered rest; the first k - h fragments stored without the lock, culling against the heap top",
+    app_capture: Some("capture_semiheap(p, f)"),
+    reads: &[
+        MethodOption::K,
+        MethodOption::Tail,
+        MethodOption::Culling,
+        MethodOption::MaxTries,
+        MethodOption::HeapSize,
+    ],
+    ..Descriptor {
+        id: MethodId::KplusSemiheap,
+        name: "kplus-semiheap",
+        ..KPLUS_ARRAY
+    }
+};
+
+pub const KB_MDT32: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "2",
+    memory: "20·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
+    summary: "multi-depth test: atomicMax cascade of depth keys, colors fetched in a second geometry pass (ties beyond k share keys)",
+    compute_raster: COMPUTE,
+    per_sample_storage: true,
+    reads: K,
+    max_k: 512,
+    traffic: TrafficModel::Keys { bytes: 4 + 16 },
+    ..Descriptor::new(MethodId::KbMdt32, "kb-mdt32", Family::Kbuffer, create)
+};
+
+/// Why the multi-depth tests with 8-byte keys refuse `--msaa`.
+const EIGHT_BYTE_KEYS: Support = Support::No(
+    "its 8-byte keys hold depth and color but no primitive or coverage mask, so per-sample storage could not count a fragment once over the samples it covers; use kb-mdt32",
+);
+
+pub const KB_MDT64: Descriptor = Descriptor {
+    memory: "8·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
+    summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
+    compute_raster: COMPUTE,
+    msaa: EIGHT_BYTE_KEYS,
+    reads: K,
+    max_k: 512,
+    traffic: TrafficModel::Keys { bytes: 8 },
+    ..Descriptor::new(MethodId::KbMdt64, "kb-mdt64", Family::Kbuffer, create)
+};
+
+pub const KB_MDT_PACK: Descriptor = Descriptor {
+    memory: "8·k·W·H + 16·W·H + 152",
+    summary:
+        "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
+    compute_raster: COMPUTE,
+    msaa: EIGHT_BYTE_KEYS,
+    reads: K,
+    max_k: 512,
+    traffic: TrafficModel::Keys { bytes: 8 },
+    ..Descriptor::new(MethodId::KbMdtPack, "kb-mdt-pack", Family::Kbuffer, create)
+};
+
+pub const KB_AB_LL: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "1 (+1 when the node pool overflows)",
+    memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
+    summary: "A-buffer linked lists, the k nearest selected in resolve",
+    compute_raster: COMPUTE,
+    app_capture: Some("capture_list(p, f)"),
+    reads: K,
+    traffic: TrafficModel::Lists,
+    ..Descriptor::new(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer, create)
+};
+
+pub const KB_SBUFFER: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "2 (+2 when the pool overflows)",
+    memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 112 + 40·(W·H with --tail blend, else 1)",
+    summary: "every fragment in S-buffer regions, the k nearest selected in resolve",
+    compute_raster: COMPUTE,
+    reads: K,
+    traffic: TrafficModel::Sbuffers,
+    ..Descriptor::new(MethodId::KbSbuffer, "kb-sbuffer", Family::Kbuffer, create)
+};
+
+pub const KB_LL: Descriptor = Descriptor {
+    geometry_passes: "1 (+1 when the node pool overflows)",
+    memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
+    summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",
+    compute_raster: LOCKS_NEED_ORDER,
+    per_sample_storage: true,
+    ordering: Ordering::Locks,
+    app_capture: Some("capture_sorted_list(p, f)"),
+    reads: K_LOCKED,
+    max_k: 256,
+    traffic: TrafficModel::Lists,
+    ..Descriptor::new(MethodId::KbLl, "kb-ll", Family::Kbuffer, create)
+};

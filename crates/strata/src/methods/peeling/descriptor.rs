@@ -1,0 +1,59 @@
+//! The peeling methods' entries in the method table (kpeel's is in `kbuffer`, with its code).
+
+use crate::methods::table::{Descriptor, Family, MethodOption, Support};
+use crate::methods::traffic::TrafficModel;
+use crate::methods::{Method, MethodId};
+
+fn create(
+    id: MethodId,
+    gpu: &crate::gpu::Gpu,
+    scene: &crate::frame::SceneGpu,
+    options: &crate::frame::RenderOptions,
+) -> crate::error::Result<Box<dyn Method>> {
+    let triangles = scene.triangle_count as u64;
+    if id == MethodId::F2b && options.msaa > 1 && triangles > super::F2B_MSAA_MAX_TRIANGLES {
+        return Err(crate::error::Error::unsupported(format!(
+            "f2b --msaa {} takes at most {} triangles (its layer's tag travels as an exact float, as 32-bit integer targets cannot be multisampled); the scene has {triangles}",
+            options.msaa,
+            super::F2B_MSAA_MAX_TRIANGLES
+        )));
+    }
+    Ok(match id {
+        MethodId::Dual => Box::new(super::Dual::new(gpu, scene)),
+        MethodId::Bucket => Box::new(super::bucket::Bucket::new(gpu, scene)?),
+        _ => Box::new(super::FrontToBack::new(gpu, scene)),
+    })
+}
+
+pub const F2B: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "N (the last frame's depth complexity, or --layers)",
+    memory: "56·W·H",
+    summary: "front-to-back depth peeling, one layer per geometry pass",
+    reads: &[MethodOption::Layers],
+    // Ties peel in draw order.
+    takes_order: false,
+    ..Descriptor::new(MethodId::F2b, "f2b", Family::Peeling, create)
+};
+
+pub const DUAL: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "ceil(N/2)+1 (N: the last frame's depth complexity, or --layers)",
+    memory: "140·W·H with 64-bit atomics, else 124·W·H",
+    summary: "dual depth peeling: nearest and farthest layer per pass; exact with ties given 64-bit atomic min/max (else fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
+    reads: &[MethodOption::Layers],
+    compute_raster: Support::Yes,
+    traffic: TrafficModel::PerPixelState {
+        atomic_per_fragment: true,
+    },
+    ..Descriptor::new(MethodId::Dual, "dual", Family::Peeling, create)
+};
+
+pub const BUCKET: Descriptor = Descriptor {
+    geometry_passes: "3 (4 with --buckets adaptive)",
+    memory: "(16·k + 16·ceil(k/4) + 16)·W·H + 16, +128·W·H with --buckets adaptive; with --msaa S: (S·(16·k + 16·ceil(k/4) + 4) + 8·S + 16)·W·H + 16; k even, at most 32 and 4 × the color targets the device blends at once",
+    summary: "bucket depth peeling (Liu et al. 2009): each pixel's depth range split into k/2 buckets (uniform, or adaptive: shared among the occupied parts of a 1024-part histogram), every bucket's nearest and farthest depth kept by MAX blending into ceil(k/4) RGBA32F targets in one geometry pass, colors claimed in a second; a third fragment in a bucket collides and is counted as dropped",
+    reads: &[MethodOption::K, MethodOption::Buckets],
+    traffic: TrafficModel::Bucket,
+    ..Descriptor::new(MethodId::Bucket, "bucket", Family::Peeling, create)
+};

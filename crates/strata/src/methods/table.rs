@@ -1,0 +1,251 @@
+//! The method table: one [`Descriptor`] per method, holding everything the rest of strata
+//! decides per method — its name, family, exactness, what it can run with (rasterizers,
+//! `--msaa`, temporal culling, an application's capture, `--order`), the memory ordering its
+//! capture needs, the options it reads, its k range, its catalogue text and its constructor.
+//!
+//! Each family's folder defines its descriptors next to the code they describe; `methods/mod.rs`
+//! registers them in catalogue order ([`super::TABLE`]). Code outside a method's folder asks the
+//! descriptor ([`MethodId::descriptor`]) instead of matching on ids, and the lists in error
+//! messages, `strata methods` and the CLI's option checks come from the table.
+
+use serde::Serialize;
+
+use crate::error::Result;
+use crate::frame::{RenderOptions, SceneGpu};
+use crate::gpu::Gpu;
+
+use super::traffic::TrafficModel;
+use super::{Method, MethodId};
+
+/// The family a method is listed under.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Family {
+    Reference,
+    Baseline,
+    Weighted,
+    Peeling,
+    Abuffer,
+    Kbuffer,
+    Kplus,
+    Convex,
+}
+
+impl Family {
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Reference => "reference",
+            Family::Baseline => "baseline",
+            Family::Weighted => "weighted",
+            Family::Peeling => "peeling",
+            Family::Abuffer => "abuffer",
+            Family::Kbuffer => "kbuffer",
+            Family::Kplus => "kplus",
+            Family::Convex => "convex",
+        }
+    }
+
+    /// The k-buffers proper (kbuffer and kplus): they read `--k`, `--tail` and `--culling`.
+    pub fn is_kbuffer(self) -> bool {
+        matches!(self, Family::Kbuffer | Family::Kplus)
+    }
+}
+
+impl Serialize for Family {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+/// Whether a method can run with something, and if not, why (the reason completes "… is not
+/// supported: ").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Support {
+    Yes,
+    No(&'static str),
+}
+
+impl Support {
+    pub fn yes(self) -> bool {
+        self == Support::Yes
+    }
+}
+
+/// The memory ordering a method's capture needs between fragments of one pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ordering {
+    /// Relaxed atomics suffice: nothing spins and no reader follows another fragment's writes.
+    Relaxed,
+    /// A per-pixel spin lock or compare-exchange chains of list links: acquire/release on the
+    /// lock, the publication counts and the links, bounded by `--max-tries`.
+    Locks,
+    /// kpeel: its lock-free key cascade needs none, its fallback capture (the k+-buffer's, under
+    /// a lock, for `--msaa` or without 64-bit atomics) does.
+    LockedFallback,
+}
+
+/// A method parameter that only some methods read (`Descriptor::reads`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodOption {
+    /// `--k`: how many fragments a pixel keeps.
+    K,
+    /// `--tail`: what becomes of the fragments past k.
+    Tail,
+    /// `--culling`: the test against a full pixel's farthest kept fragment.
+    Culling,
+    /// `--max-tries`: the bound on a lock's or a link's retries.
+    MaxTries,
+    /// `--layers`: the peeling passes.
+    Layers,
+    /// `--layers-per-pass`.
+    LayersPerPass,
+    /// `--heap-size`: kplus-semiheap's heap.
+    HeapSize,
+    /// `--buckets`: bucket's split.
+    Buckets,
+    /// `--weight` and `--depth-scale`.
+    Weight,
+    /// `--moments`.
+    Moments,
+    /// `--cache-dir`: the preprocesses kept between runs.
+    CacheDir,
+}
+
+/// Builds a method's GPU state for a scene.
+pub type Constructor = fn(MethodId, &Gpu, &SceneGpu, &RenderOptions) -> Result<Box<dyn Method>>;
+
+/// Everything strata knows about one method outside its own code.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Descriptor {
+    /// The method's name on the command line, in files and in statistics.
+    #[serde(rename = "id")]
+    pub name: &'static str,
+    #[serde(skip)]
+    pub id: MethodId,
+    pub family: Family,
+    /// Equal to the reference (in the sense its catalogue text states).
+    pub exact: bool,
+    /// Geometry passes, N being the scene's depth complexity.
+    pub geometry_passes: &'static str,
+    /// Bytes the method allocates, W·H pixels, F fragments in the frame.
+    pub memory: &'static str,
+    pub summary: &'static str,
+    /// Whether it runs on strata's compute rasterizer (`--raster compute`).
+    #[serde(skip)]
+    pub compute_raster: Support,
+    /// Whether it takes `--msaa 4|8`.
+    #[serde(skip)]
+    pub msaa: Support,
+    /// With `--msaa`, each sample keeps its own storage (capture-time k-buffers choose what to
+    /// keep per sample); else fragments are stored per pixel with their coverage masks.
+    #[serde(skip)]
+    pub per_sample_storage: bool,
+    /// Whether it takes `--temporal on` (the slot k-buffers that choose at capture time).
+    #[serde(skip)]
+    pub temporal: bool,
+    #[serde(skip)]
+    pub ordering: Ordering,
+    /// The capture step an application's fragment shader calls (`methods::capture`), on pixel
+    /// `p` and fragment `f`; `None` where there is no such single-pass capture.
+    #[serde(skip)]
+    pub app_capture: Option<&'static str>,
+    /// It sorts the scene's triangles by centroid each frame: the recorder refreshes the
+    /// centroids (of an animated scene) before it records.
+    #[serde(skip)]
+    pub sorts_centroids: bool,
+    /// Whether `--order` applies (every method but those with an order of their own).
+    #[serde(skip)]
+    pub takes_order: bool,
+    /// The method parameters it reads.
+    #[serde(skip)]
+    pub reads: &'static [MethodOption],
+    /// Its memory-traffic model ([`super::traffic`]).
+    #[serde(skip)]
+    pub traffic: TrafficModel,
+    /// The largest `--k` it accepts (a pixel's fragments serialize on its lock or cascade).
+    #[serde(skip)]
+    pub max_k: u32,
+    #[serde(skip)]
+    pub create: Constructor,
+}
+
+impl Descriptor {
+    /// A descriptor with the commonest answers: hardware rasterizer only, `--msaa` with
+    /// per-pixel storage, no temporal culling, relaxed atomics, no application capture,
+    /// `--order` taken, no parameters.
+    pub const fn new(
+        id: MethodId,
+        name: &'static str,
+        family: Family,
+        create: Constructor,
+    ) -> Descriptor {
+        Descriptor {
+            name,
+            id,
+            family,
+            exact: false,
+            geometry_passes: "1",
+            memory: "",
+            summary: "",
+            compute_raster: Support::No(
+                "it draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of",
+            ),
+            msaa: Support::Yes,
+            per_sample_storage: false,
+            temporal: false,
+            ordering: Ordering::Relaxed,
+            app_capture: None,
+            sorts_centroids: false,
+            takes_order: true,
+            reads: &[],
+            max_k: 4096,
+            traffic: TrafficModel::PerPixelState {
+                atomic_per_fragment: false,
+            },
+            create,
+        }
+    }
+
+    /// Whether it reads `option`.
+    pub fn reads(&self, option: MethodOption) -> bool {
+        self.reads.contains(&option)
+    }
+
+    /// Whether its capture needs acquire/release atomics (a lock, list links, or kpeel's
+    /// fallback capture): without them it is unsound.
+    pub fn orders(&self) -> bool {
+        self.ordering != Ordering::Relaxed
+    }
+
+    /// Whether its capture spins on a lock or retries compare-exchange chains (`--max-tries`).
+    pub fn locks(&self) -> bool {
+        self.ordering == Ordering::Locks
+    }
+}
+
+fn refuse_reference(
+    _: MethodId,
+    _: &Gpu,
+    _: &SceneGpu,
+    _: &RenderOptions,
+) -> Result<Box<dyn Method>> {
+    Err(crate::error::Error::input(
+        "method 'reference' runs on the CPU: use strata::reference::render",
+    ))
+}
+
+/// The CPU reference (`crate::reference`): what the exact methods are compared with.
+pub const REFERENCE: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "0 (CPU)",
+    memory: "host: 64·F",
+    summary:
+        "CPU exact renderer: every fragment, sorted by depth then primitive, composited in f64",
+    reads: &[MethodOption::K],
+    traffic: TrafficModel::None,
+    ..Descriptor::new(
+        MethodId::Reference,
+        "reference",
+        Family::Reference,
+        refuse_reference,
+    )
+};
