@@ -50,78 +50,18 @@ use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
-use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::frame::passes::{self, screen_pipeline};
 use crate::frame::scene_gpu::SceneGpu;
 use crate::frame::uniforms::{self, GpuLight};
 use crate::frame::RenderOptions;
+pub use crate::frame::{GbufferView, LightingStats, NormalEncoding, Tonemap};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{self, screen_pipeline};
 use crate::gpu::timing::Timer;
 use crate::gpu::{shader, Gpu};
+pub use crate::scene::Pipeline;
 use crate::scene::{Camera, Scene};
-
-/// How opaque surfaces are lit (`--pipeline`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum Pipeline {
-    /// One depth-tested pass shading every fragment with every light.
-    Forward,
-    /// G-buffer, light volumes, composite (seed 004).
-    Deferred,
-}
-
-/// The display transform of the lit pipelines (`--tonemap`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum Tonemap {
-    /// Clamp only.
-    None,
-    /// Khronos PBR Neutral's highlight compression without its toe: channels below 0.8 pass
-    /// unchanged, brighter colors roll off towards 1 and desaturate (see `encoding::tone_map`).
-    #[default]
-    Neutral,
-    /// c / (1 + c) per channel.
-    Reinhard,
-}
-
-/// How the G-buffer stores normals (`--normal-encoding`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum NormalEncoding {
-    /// Seed 004's spheremap transform of the view-space normal.
-    #[default]
-    Spheremap,
-    /// Octahedral mapping (bounded error over every direction).
-    Octahedral,
-}
-
-/// A G-buffer view (`--gbuffer-debug`), written instead of the picture.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "kebab-case")]
-pub enum GbufferView {
-    Albedo,
-    Normal,
-    Specular,
-    Material,
-    Depth,
-    Lights,
-    /// The normal encoding's angular error per pixel: a heatmap in hundredths of a degree.
-    NormalError,
-    /// The ambient occlusion factor (with `--ssao`; white without).
-    Occlusion,
-}
-
-impl GbufferView {
-    fn index(self) -> u32 {
-        self as u32
-    }
-}
 
 /// G-buffer layouts for the bandwidth comparison.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -138,25 +78,6 @@ pub fn gbuffer_bytes_per_pixel(layout: GbufferLayout) -> u64 {
         GbufferLayout::Compressed => 4 + 4 + 4,
         GbufferLayout::Traditional => 3 * 8 + 4,
     }
-}
-
-/// What a lit frame reports (`FrameStats::lighting`).
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-pub struct LightingStats {
-    pub pipeline: String,
-    /// Lights of the scene (ambient ones excluded: they are a term of the composite).
-    pub lights: u32,
-    /// Deferred: lights drawn as spheres, cones and full-screen triangles, and culled.
-    pub sphere_volumes: Option<u32>,
-    pub cone_volumes: Option<u32>,
-    pub full_screen_lights: Option<u32>,
-    pub culled_lights: Option<u32>,
-    /// Deferred: G-buffer bytes per pixel (compressed layout).
-    pub gbuffer_bytes_per_pixel: Option<u64>,
-    /// Bytes of the pipeline's targets.
-    pub bytes_allocated: u64,
-    pub tonemap: Tonemap,
-    pub ssao: bool,
 }
 
 /// Keep in sync with `DeferredParams` in deferred_common.wgsl.

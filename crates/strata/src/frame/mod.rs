@@ -15,11 +15,14 @@
 //! [`crate::FrameRecorder`] (in `render`, above the methods) drives this for an application;
 //! [`crate::Renderer`] is the batch renderer on top of it that the CLI and the tests use.
 
+pub mod colormap;
 pub mod msaa;
+pub mod passes;
 pub mod present;
 pub mod scene_gpu;
 pub mod stats;
 pub mod uniforms;
+pub mod values;
 
 use std::collections::BTreeMap;
 use std::str::FromStr;
@@ -27,13 +30,17 @@ use std::str::FromStr;
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
-pub use crate::deferred::{GbufferView, LightingStats, NormalEncoding, Pipeline, Tonemap};
 use crate::error::{Error, Result};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
+pub use crate::scene::{Pipeline, MAX_SIDE};
 
-pub use crate::raster::{ComputeRasterStats, Raster};
+pub use crate::gpu::readback::ReadbackList;
 pub use scene_gpu::SceneGpu;
+pub use values::{
+    ComputeRasterStats, ConvexStats, GbufferView, LightingStats, NormalEncoding, Raster,
+    TemporalCulling, Tonemap, MAX_TRIES_LIMIT,
+};
 
 /// How a pixel's depth-ordered fragments become a color.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
@@ -180,7 +187,7 @@ pub struct RenderOptions {
     /// k-buffers: cull fragments behind a full pixel's maximum before taking the lock.
     pub culling: bool,
     /// k-buffers: spin-lock tries per fragment (default 65536, at most
-    /// [`crate::methods::kbuffer::MAX_TRIES_LIMIT`]).
+    /// [`MAX_TRIES_LIMIT`]).
     pub max_tries: Option<u32>,
     /// Depth peeling: a fixed number of layers per frame; by default the last frame's depth
     /// complexity.
@@ -225,7 +232,7 @@ pub struct RenderOptions {
     pub order_seed: u64,
     /// `--temporal on`: reverse-reprojection culling against last frame's (k+1)-th depths
     /// ([`crate::methods::kbuffer::temporal`]).
-    pub temporal: Option<crate::methods::kbuffer::temporal::TemporalCulling>,
+    pub temporal: Option<TemporalCulling>,
     /// `--cache-dir`: preprocesses (convex's decomposition) are kept here between runs, read
     /// when present and written when made (`None`: in memory only).
     pub cache_dir: Option<std::path::PathBuf>,
@@ -271,9 +278,6 @@ impl Default for RenderOptions {
     }
 }
 
-/// The longest side of a picture, in pixels.
-pub const MAX_SIDE: u32 = 16384;
-
 impl RenderOptions {
     pub fn pixels(&self) -> u64 {
         self.width as u64 * self.height as u64
@@ -285,7 +289,7 @@ impl RenderOptions {
 
     pub fn validate(&self) -> Result<()> {
         if let Some(tries) = self.max_tries {
-            let limit = crate::methods::kbuffer::MAX_TRIES_LIMIT;
+            let limit = MAX_TRIES_LIMIT;
             if tries == 0 {
                 return Err(Error::input("--max-tries must be at least 1"));
             }
@@ -447,7 +451,7 @@ pub struct FrameStats {
     /// `convex`: groups, passes, draws, pairs ordered without a plane, and `order_violations`
     /// (pixel-passes where the order failed).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub convex: Option<crate::methods::convex::ConvexStats>,
+    pub convex: Option<ConvexStats>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the
@@ -487,7 +491,7 @@ pub struct MethodStats {
     /// resolve: the frame's totals add them as generated and dropped).
     pub culled_temporal: Option<u64>,
     /// `convex`: the frame's order and its violations.
-    pub convex: Option<crate::methods::convex::ConvexStats>,
+    pub convex: Option<ConvexStats>,
 }
 
 /// What a method recorded: known on the CPU when the frame is recorded.
@@ -503,7 +507,7 @@ pub struct Recorded {
     /// The frame ran with temporal culling.
     pub temporal: bool,
     /// `convex`: its order for this frame (violations come back with the statistics).
-    pub convex: Option<crate::methods::convex::ConvexStats>,
+    pub convex: Option<ConvexStats>,
 }
 
 /// Frame totals every resolve adds each pixel to (`report_pixel` in composite.wgsl); 64-bit
@@ -564,23 +568,6 @@ pub struct FrameTargets<'a> {
     pub opaque_depth: Option<&'a wgpu::TextureView>,
 }
 
-/// Buffer ranges a method asks to have read back with its frame's statistics, in order.
-#[derive(Default)]
-pub struct ReadbackList {
-    pub(crate) entries: Vec<(wgpu::Buffer, u64, u64)>,
-}
-
-impl ReadbackList {
-    /// Reads `words` u32 words of `buffer` (which needs COPY_SRC) from byte `offset`.
-    pub fn words(&mut self, buffer: &wgpu::Buffer, offset: u64, words: u64) {
-        self.entries.push((buffer.clone(), offset, words));
-    }
-
-    pub fn total_words(&self) -> u64 {
-        self.entries.iter().map(|e| e.2).sum()
-    }
-}
-
 /// What a method gets to record one frame.
 pub struct FrameContext<'a> {
     /// The method's id, which labels its passes `strata.<method>.<pass>`.
@@ -602,7 +589,20 @@ pub struct FrameContext<'a> {
     /// The method's counters to read back with the frame's statistics.
     pub readback: &'a mut ReadbackList,
     /// With `--raster compute`: the compute rasterizer the storage geometry passes go through.
-    pub raster: Option<&'a mut crate::raster::ComputeRaster>,
+    pub raster: Option<&'a mut dyn ComputeCapture>,
+}
+
+/// What draws a storage-only capture pass in compute instead of the GPU's rasterizer (strata's
+/// compute rasterizer, `crate::raster::ComputeRaster`): the frame holds it, and
+/// [`passes::storage_geometry_pass`] hands it the method's compute capture stage and groups.
+pub trait ComputeCapture {
+    fn capture(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        name: &'static str,
+        pipeline: &wgpu::ComputePipeline,
+        groups: &[&wgpu::BindGroup],
+    );
 }
 
 impl FrameContext<'_> {

@@ -62,9 +62,9 @@
 //! early fragment tests to cull the samples an application's multisampled depth hides).
 
 use crate::error::{Error, Result};
+use crate::frame::passes::NullTarget;
 use crate::frame::RenderOptions;
-use crate::gpu::{passes::NullTarget, Gpu};
-use crate::methods::MethodId;
+use crate::gpu::Gpu;
 
 /// The sample counts `--msaa` takes.
 pub const SAMPLE_COUNTS: [u32; 3] = [1, 4, 8];
@@ -110,12 +110,6 @@ pub fn max_triangles(samples: u32) -> u64 {
     1u64 << (31 - coverage_bits(samples))
 }
 
-/// The methods that take `--msaa` (all but the multi-depth tests with 8-byte keys, which keep
-/// no primitive or coverage per fragment).
-pub fn supported(method: MethodId) -> bool {
-    method.descriptor().msaa.yes()
-}
-
 /// `--msaa` against the other options.
 pub fn check_options(options: &RenderOptions) -> Result<()> {
     let samples = options.msaa;
@@ -132,7 +126,7 @@ pub fn check_options(options: &RenderOptions) -> Result<()> {
             "--msaa {samples} does not work with {what} yet; use --msaa 1"
         )))
     };
-    if options.raster == crate::raster::Raster::Compute {
+    if options.raster == crate::frame::Raster::Compute {
         return refuse("--raster compute (the compute rasterizer samples pixel centers)");
     }
     if options.temporal.is_some() {
@@ -172,18 +166,9 @@ pub fn check_device(gpu: &Gpu, samples: u32) -> Result<()> {
     )))
 }
 
-/// `--msaa` against the method and the scene's size.
-pub fn check_method(method: MethodId, options: &RenderOptions, triangles: u64) -> Result<()> {
-    let samples = options.msaa;
-    if samples <= 1 {
-        return Ok(());
-    }
-    if let crate::methods::Support::No(why) = method.descriptor().msaa {
-        return Err(Error::unsupported(format!(
-            "{method} does not support --msaa: {why}"
-        )));
-    }
-    if triangles > max_triangles(samples) {
+/// `--msaa` against the scene's size (which methods take it is in their descriptors).
+pub fn check_triangles(samples: u32, triangles: u64) -> Result<()> {
+    if samples > 1 && triangles > max_triangles(samples) {
         return Err(Error::unsupported(format!(
             "--msaa {samples} takes at most {} triangles (each fragment's tag holds the triangle's index and the {samples}-bit coverage mask); the scene has {triangles}",
             max_triangles(samples)
@@ -221,16 +206,9 @@ mod tests {
         };
         assert!(check_options(&with(2)).is_err());
         assert!(check_options(&with(4)).is_ok());
-        let err = check_method(MethodId::KbMdt64, &with(4), 10).unwrap_err();
-        assert!(err.to_string().contains("kb-mdt32"), "{err}");
-        // Every other method takes it.
-        for m in MethodId::all() {
-            let takes = check_method(m, &with(4), 10).is_ok();
-            assert_eq!(takes, supported(m), "{m}");
-        }
-        assert!(check_method(MethodId::AbufferLl, &with(8), 1 << 23).is_ok());
-        assert!(check_method(MethodId::AbufferLl, &with(8), (1 << 23) + 1).is_err());
-        assert!(check_method(MethodId::KbMdt64, &with(1), 10).is_ok());
+        assert!(check_triangles(8, 1 << 23).is_ok());
+        assert!(check_triangles(8, (1 << 23) + 1).is_err());
+        assert!(check_triangles(1, u64::MAX).is_ok());
     }
 }
 

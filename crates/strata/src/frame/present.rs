@@ -51,7 +51,7 @@ impl Present {
         });
         let lut: Vec<u32> = (0..256)
             .map(|i| {
-                let [r, g, b] = crate::metrics::colormap::colormap(i as f32 / 255.0);
+                let [r, g, b] = super::colormap::colormap(i as f32 / 255.0);
                 r as u32 | (g as u32) << 8 | (b as u32) << 16
             })
             .collect();

@@ -51,7 +51,8 @@ pub struct SceneGpu {
     /// which [`SceneGpu::draw`] draws through.
     pub draw_indices: Option<wgpu::Buffer>,
     /// With `--raster compute`: the layout of the compute rasterizer's group, which the methods'
-    /// compute captures place after their own (`None`: the GPU's rasterizer).
+    /// compute captures place after their own (`None`: the GPU's rasterizer). The recorder sets
+    /// it (`crate::raster::raster_layout`) before it creates a method.
     pub raster_layout: Option<wgpu::BindGroupLayout>,
     /// Samples per pixel of the storage geometry passes (`--msaa`).
     pub samples: u32,
@@ -154,8 +155,7 @@ impl SceneGpu {
             lighting,
             centroids: centroids(&vertices[..triangle_count as usize * 3]),
             draw_indices: None,
-            raster_layout: (options.raster == crate::raster::Raster::Compute)
-                .then(|| crate::raster::raster_layout(gpu)),
+            raster_layout: None,
             samples: options.msaa,
             animation: None,
             motion: None,
@@ -311,7 +311,7 @@ fn centroids(vertices: &[GpuVertex]) -> Vec<glam::Vec3> {
 pub fn check_fits(
     limits: &wgpu::Limits,
     triangles: u64,
-    raster: crate::raster::Raster,
+    raster: crate::frame::Raster,
 ) -> Result<()> {
     let mib = |bytes: u64| bytes as f64 / 1048576.0;
     let vertex_bytes = triangles * 3 * std::mem::size_of::<GpuVertex>() as u64;
@@ -332,7 +332,7 @@ pub fn check_fits(
             mib(binding)
         )));
     }
-    if raster == crate::raster::Raster::Compute && vertex_bytes > binding {
+    if raster == crate::frame::Raster::Compute && vertex_bytes > binding {
         return Err(Error::unsupported(format!(
             "--raster compute reads the scene's vertices from one storage binding: {triangles} triangles take {:.0} MiB, more than the device's {:.0} MiB; use --raster hw",
             mib(vertex_bytes),
@@ -345,7 +345,7 @@ pub fn check_fits(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::raster::Raster;
+    use crate::frame::Raster;
 
     /// Lavapipe's limits: 128 MiB storage bindings, 2 GiB buffers.
     fn lavapipe() -> wgpu::Limits {

@@ -103,3 +103,20 @@ pub fn read_rgba16f(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<[f32; 4]>>
         })
         .collect())
 }
+
+/// Buffer ranges a method asks to have read back with its frame's statistics, in order.
+#[derive(Default)]
+pub struct ReadbackList {
+    pub(crate) entries: Vec<(wgpu::Buffer, u64, u64)>,
+}
+
+impl ReadbackList {
+    /// Reads `words` u32 words of `buffer` (which needs COPY_SRC) from byte `offset`.
+    pub fn words(&mut self, buffer: &wgpu::Buffer, offset: u64, words: u64) {
+        self.entries.push((buffer.clone(), offset, words));
+    }
+
+    pub fn total_words(&self) -> u64 {
+        self.entries.iter().map(|e| e.2).sum()
+    }
+}

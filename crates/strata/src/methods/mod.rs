@@ -205,10 +205,11 @@ pub fn create(
     scene: &SceneGpu,
     options: &RenderOptions,
 ) -> Result<Box<dyn Method>> {
-    crate::raster::check_method(id, options.raster)?;
-    crate::frame::msaa::check_method(id, options, scene.triangle_count as u64)?;
+    let descriptor = id.descriptor();
+    descriptor.check_raster(options.raster)?;
+    descriptor.check_msaa(options.msaa, scene.triangle_count as u64)?;
     crate::frame::msaa::check_device(gpu, options.msaa)?;
-    (id.descriptor().create)(id, gpu, scene, options)
+    (descriptor.create)(id, gpu, scene, options)
 }
 
 #[cfg(test)]

@@ -10,8 +10,8 @@
 
 use serde::Serialize;
 
-use crate::error::Result;
-use crate::frame::{RenderOptions, SceneGpu};
+use crate::error::{Error, Result};
+use crate::frame::{Raster, RenderOptions, SceneGpu};
 use crate::gpu::Gpu;
 
 use super::traffic::TrafficModel;
@@ -220,6 +220,40 @@ impl Descriptor {
     pub fn locks(&self) -> bool {
         self.ordering == Ordering::Locks
     }
+
+    /// Refuses `--raster compute` where it cannot capture on the compute rasterizer, naming
+    /// the methods that can.
+    pub fn check_raster(&self, raster: Raster) -> Result<()> {
+        match (raster, self.compute_raster) {
+            (Raster::Compute, Support::No(why)) => {
+                let supported: Vec<&str> = super::TABLE
+                    .iter()
+                    .filter(|d| d.compute_raster.yes())
+                    .map(|d| d.name)
+                    .collect();
+                Err(Error::unsupported(format!(
+                    "--raster compute: {} is not supported: {why}; use --raster hw, or one of {}",
+                    self.name,
+                    supported.join(", ")
+                )))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Refuses `--msaa 4|8` where it cannot take it, and scenes too large for the samples' tags.
+    pub fn check_msaa(&self, samples: u32, triangles: u64) -> Result<()> {
+        if samples <= 1 {
+            return Ok(());
+        }
+        if let Support::No(why) = self.msaa {
+            return Err(Error::unsupported(format!(
+                "{} does not support --msaa: {why}",
+                self.name
+            )));
+        }
+        crate::frame::msaa::check_triangles(samples, triangles)
+    }
 }
 
 fn refuse_reference(
@@ -228,7 +262,7 @@ fn refuse_reference(
     _: &SceneGpu,
     _: &RenderOptions,
 ) -> Result<Box<dyn Method>> {
-    Err(crate::error::Error::input(
+    Err(Error::input(
         "method 'reference' runs on the CPU: use strata::reference::render",
     ))
 }

@@ -744,7 +744,7 @@ fn poisoned_storage_changes_nothing_multisampled() {
     opts.msaa = 4;
     check_poisoned(
         &opts,
-        frame_test_methods().filter(|&m| crate::frame::msaa::supported(m)),
+        frame_test_methods().filter(|&m| m.descriptor().msaa.yes()),
     );
 }
 

@@ -6,12 +6,12 @@
 //! counts) is the check.
 
 use crate::error::Result;
-use crate::frame::{FrameContext, SceneGpu};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     capture_pipeline_with, compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage,
     NullTarget,
 };
+use crate::frame::{FrameContext, SceneGpu};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{shader, Gpu, ResourceCache};
 
 /// Keep in sync with HISTOGRAM_BINS in gpu_histogram.wgsl.

@@ -4,10 +4,11 @@
 //! All comparisons work on the 8-bit sRGB-encoded R, G and B channels of the PNGs strata writes;
 //! alpha is ignored. The first image of a pair is the reference (this matters only for FLIP).
 
-pub mod colormap;
+pub use crate::frame::colormap;
 mod font;
 pub mod gpu_histogram;
 mod heatmap;
+pub mod picture;
 pub mod testing;
 
 use std::fmt;
@@ -20,6 +21,7 @@ use crate::error::{Error, Result};
 
 pub use colormap::colormap;
 pub use heatmap::{complexity_heatmap, diff_heatmap, DIFF_SATURATION, LEGEND_MIN_SIZE};
+pub use picture::LinearImage;
 
 /// How far apart two images are, as printed by `strata compare` (and written by `--json`).
 #[derive(Serialize, Debug, Clone, Copy, PartialEq)]
@@ -191,18 +193,8 @@ pub fn load_png(path: &Path) -> Result<RgbaImage> {
     Ok(img.into_rgba8())
 }
 
+pub use crate::gpu::timing::median;
 pub use crate::output::save_png;
-
-/// The median of `values` (the mean of the middle two for an even count); NaN when empty.
-pub fn median(mut values: Vec<f64>) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => values[n / 2],
-        _ => (values[n / 2 - 1] + values[n / 2]) * 0.5,
-    }
-}
 
 /// Depth-complexity histogram: bin `i` counts the pixels with exactly `i` fragments. The result
 /// has `max + 1` bins, `max` being the largest count (so memory grows with it); empty input gives

@@ -37,8 +37,8 @@ use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::frame::ReadbackList;
 use crate::gpu::binding::{self, Slot};
+use crate::gpu::readback::ReadbackList;
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::scene::Camera;

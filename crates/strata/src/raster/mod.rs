@@ -59,16 +59,15 @@
 pub mod wide;
 
 use bytemuck::{Pod, Zeroable};
-use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::frame::{FrameContext, ReadbackList, RenderOptions, SceneGpu};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     capture_pipeline_with, dispatch_with, GeometryStage, NullTarget, Workgroups,
 };
+pub use crate::frame::{ComputeRasterStats, Raster};
+use crate::frame::{FrameContext, ReadbackList, RenderOptions, SceneGpu};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{shader, Gpu, ResourceCache};
-use crate::methods::{MethodId, Support};
 
 pub const SETUP_WGSL: &str = include_str!("setup.wgsl");
 pub const BIN_WGSL: &str = include_str!("bin.wgsl");
@@ -84,49 +83,6 @@ const COUNTER_ITEMS: usize = 0;
 const COUNTER_TRIANGLES: usize = 2;
 /// Bytes of counters, dispatch arguments and parameters.
 pub const CONSTANT_BYTES: u64 = 16 + 16 + 16;
-
-/// Which rasterizer turns triangles into fragments.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum Raster {
-    /// The GPU's fixed-function rasterizer.
-    #[default]
-    Hw,
-    /// strata's compute-shader rasterizer (this module).
-    Compute,
-}
-
-impl Raster {
-    pub fn name(self) -> &'static str {
-        match self {
-            Raster::Hw => "hw",
-            Raster::Compute => "compute",
-        }
-    }
-}
-
-/// The methods the compute rasterizer can capture for (see the module docs).
-pub fn supports(id: MethodId) -> bool {
-    id.descriptor().compute_raster.yes()
-}
-
-/// The error for a method the compute rasterizer cannot capture for.
-pub fn check_method(id: MethodId, raster: Raster) -> Result<()> {
-    if raster == Raster::Compute {
-        if let Support::No(why) = id.descriptor().compute_raster {
-            let supported: Vec<&str> = MethodId::all()
-                .filter(|&m| supports(m))
-                .map(MethodId::as_str)
-                .collect();
-            return Err(Error::unsupported(format!(
-                "--raster compute: {id} is not supported: {why}; use --raster hw, or one of {}",
-                supported.join(", ")
-            )));
-        }
-    }
-    Ok(())
-}
 
 /// Keep in sync with `RasterParams` in bin.wgsl, args.wgsl and raster.wgsl.
 #[repr(C)]
@@ -270,27 +226,13 @@ pub fn compute_stage(
         });
     let mut all = layouts.to_vec();
     all.push(raster_layout);
-    GeometryStage::Compute(crate::gpu::passes::compute_pipeline(
+    GeometryStage::Compute(crate::frame::passes::compute_pipeline(
         gpu,
         label,
         &module,
         "cs_raster",
         &all,
     ))
-}
-
-/// What the compute rasterizer reports about a frame.
-#[derive(Clone, Debug, Default, Serialize, PartialEq)]
-pub struct ComputeRasterStats {
-    /// Triangles of the clipped polygons' fans that reached the viewport.
-    pub triangles_set_up: u64,
-    /// (Triangle, 8×8 tile) work items the frame needed.
-    pub tile_items: u64,
-    /// Work items the frame's buffer held.
-    pub item_capacity: u64,
-    /// More items were needed than held: fragments were lost and the frame is incomplete.
-    pub overflow: bool,
-    pub bytes_allocated: u64,
 }
 
 /// The compute rasterizer's feedback on a frame.
@@ -324,6 +266,18 @@ pub struct ComputeRaster {
     frame: Option<FrameBinding>,
 }
 
+impl crate::frame::ComputeCapture for ComputeRaster {
+    fn capture(
+        &mut self,
+        ctx: &mut FrameContext<'_>,
+        name: &'static str,
+        pipeline: &wgpu::ComputePipeline,
+        groups: &[&wgpu::BindGroup],
+    ) {
+        ComputeRaster::capture(self, ctx, name, pipeline, groups);
+    }
+}
+
 impl ComputeRaster {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, options: &RenderOptions) -> ComputeRaster {
         let bin_layout = binding::layout(
@@ -348,7 +302,7 @@ impl ComputeRaster {
                 label: Some("strata.raster.args"),
                 source: wgpu::ShaderSource::Wgsl(ARGS_WGSL.into()),
             });
-        let compute = crate::gpu::passes::compute_pipeline;
+        let compute = crate::frame::passes::compute_pipeline;
         let tiles = screen_tiles(options.width, options.height);
         ComputeRaster {
             bin: compute(

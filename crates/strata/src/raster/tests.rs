@@ -1,4 +1,5 @@
 use super::*;
+use crate::methods::MethodId;
 use proptest::prelude::*;
 
 /// Coordinates the guard band allows: ±2²⁹ subpixels, differences below 2³⁰.
@@ -199,7 +200,7 @@ fn every_supported_method_matches_the_gpu_path_and_the_reference() {
     let scene = loaders::load_scene("builtin:nvpro?objects=24&subdiv=10&seed=5").unwrap();
     let size = 48;
     let expected = crate::testing::render_reference(&scene, &options(size, Raster::Hw));
-    for method in MethodId::gpu_methods().filter(|m| supports(*m)) {
+    for method in MethodId::gpu_methods().filter(|m| m.descriptor().compute_raster.yes()) {
         if method == MethodId::Kb {
             continue; // unlocked read-modify-writes race by design; its picture is not fixed
         }
@@ -224,7 +225,7 @@ fn every_supported_method_matches_the_gpu_path_and_the_reference() {
 #[test]
 fn color_target_methods_refuse_the_compute_path() {
     let scene = loaders::load_scene("builtin:layers?n=2").unwrap();
-    for method in MethodId::gpu_methods().filter(|m| !supports(*m)) {
+    for method in MethodId::gpu_methods().filter(|m| !m.descriptor().compute_raster.yes()) {
         let mut r = crate::Renderer::new(gpu(), &scene, &options(16, Raster::Compute)).unwrap();
         let e = r.render_method(method, None).unwrap_err().to_string();
         assert!(

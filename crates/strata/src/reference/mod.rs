@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use crate::error::Result;
 use crate::frame::uniforms::{self, GpuLight, LightingSetup};
 use crate::frame::{Effect, FrameStats, RenderOptions};
-use crate::render::LinearImage;
+use crate::metrics::LinearImage;
 use crate::resolve::{composite, RefFragment};
 use crate::scene::{Camera, Material, Projection, Scene, Shading};
 

@@ -138,6 +138,8 @@ impl FrameRecorder {
                 )
             }
         };
+        scene_gpu.raster_layout =
+            (options.raster == Raster::Compute).then(|| crate::raster::raster_layout(gpu));
         let raster = (options.raster == Raster::Compute)
             .then(|| ComputeRaster::new(gpu, &scene_gpu, options));
         let order = attach_order(gpu, options, &mut scene_gpu)?;
@@ -587,7 +589,10 @@ impl FrameRecorder {
             output: &self.output,
             draw,
             readback,
-            raster: self.raster.as_mut(),
+            raster: self
+                .raster
+                .as_mut()
+                .map(|r| r as &mut dyn crate::frame::ComputeCapture),
         };
         f(method.as_mut(), &mut ctx)
     }

@@ -9,14 +9,19 @@ pub mod animation;
 pub mod builtin;
 pub mod export;
 pub mod loaders;
+pub mod pipeline;
 pub mod subdivide;
 
 pub use animation::{CameraKey, CameraPath, ObjectMotion, Orbit};
+pub use pipeline::Pipeline;
 
 use glam::{Mat4, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+
+/// The longest side of a picture, in pixels.
+pub const MAX_SIDE: u32 = 16384;
 
 /// The most triangles a scene may have, whatever its source: about 4 GiB of host memory at this
 /// size (the objects' meshes and the flattened upload). Built-in scenes and loaders check their
@@ -391,7 +396,7 @@ pub struct RenderDefaults {
     pub background: Option<Background>,
     pub shading: Option<Shading>,
     /// The pipeline the scene is meant for (`--pipeline` overrides it).
-    pub pipeline: Option<crate::deferred::Pipeline>,
+    pub pipeline: Option<crate::scene::Pipeline>,
 }
 
 #[derive(Clone, Debug, Default)]

@@ -13,12 +13,12 @@
 pub mod descriptor;
 
 use crate::error::{Error, Result};
-use crate::frame::{FrameContext, Recorded, SceneGpu};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     capture_pipeline_with, color_geometry_pass, color_pass_drawing, compute_pipeline,
     dispatch_pixels,
 };
+use crate::frame::{FrameContext, Recorded, SceneGpu};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
 

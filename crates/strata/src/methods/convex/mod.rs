@@ -65,12 +65,12 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use glam::Vec3;
-use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::frame::passes::{capture_pipeline_with, compute_pipeline, dispatch_pixels, NullTarget};
+pub use crate::frame::ConvexStats;
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{capture_pipeline_with, compute_pipeline, dispatch_pixels, NullTarget};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
 use crate::scene::GpuVertex;
@@ -101,36 +101,6 @@ const MERGE_WORKGROUP: u32 = 64;
 /// Above this many passes a frame is timed as one span ("passes") instead of per pass, so the
 /// timestamp query set does not run out.
 const MAX_TIMED_PASSES: usize = 500;
-
-/// What `convex` reports about a frame (`FrameStats::convex`).
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct ConvexStats {
-    /// Convex parts, and the groups they were drawn as.
-    pub parts: u32,
-    pub groups: u32,
-    /// Groups outside the view this frame.
-    pub culled: u32,
-    /// Capture passes this frame (each followed by a merge).
-    pub passes: u32,
-    /// Draw calls over all passes.
-    pub draws: u32,
-    /// Pairs of groups whose screen rectangles overlap, and those of them ordered by centroid
-    /// for want of a plane.
-    pub overlapping_pairs: u64,
-    pub unseparated_pairs: u64,
-    /// Cycles the sort broke.
-    pub cycles_broken: u32,
-    /// Fragments per pixel and pass the capture keeps (2 per convex part of a group).
-    pub layers: u32,
-    /// CPU milliseconds of this frame's order (0 when the view did not change).
-    pub order_ms: f64,
-    pub preprocess_ms: f64,
-    /// Pixel-passes whose nearest fragment lay in front of what was already merged (the order
-    /// failed there).
-    pub order_violations: Option<u64>,
-    /// Pixel-passes that received more fragments than `layers` (the excess is dropped).
-    pub overflowing_pixels: Option<u64>,
-}
 
 pub struct Convex {
     decomposition: Arc<Decomposition>,

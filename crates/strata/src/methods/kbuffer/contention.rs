@@ -25,8 +25,8 @@ use bytemuck::{Pod, Zeroable};
 
 use super::{group_layout, KParams, COUNTERS, COUNTER_LOCK_FAILURES, COUNTER_LOST, STORAGE_WGSL};
 use crate::error::{Error, Result};
+use crate::frame::passes::compute_pipeline;
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::compute_pipeline;
 use crate::gpu::{shader, Gpu};
 use crate::methods::MethodId;
 

@@ -42,11 +42,11 @@ use super::{
     SLOTS_WGSL, SLOT_BYTES, STORAGE_WGSL,
 };
 use crate::error::{Error, Result};
-use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage, NullTarget,
 };
+use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::peeling::{layers_for, peel_feedback};
 use crate::methods::{Method, MethodId};

@@ -15,8 +15,8 @@ use super::{
     COUNTER_LOST, COUNTER_OVERFLOWED, RESOLVE_WGSL, STORAGE_WGSL,
 };
 use crate::error::Result;
+use crate::frame::passes::GeometryStage;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
-use crate::gpu::passes::GeometryStage;
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 

@@ -24,8 +24,8 @@
 
 use super::{k_of, lock_failures, params_for, KFrame, Storage, RESOLVE_WGSL, STORAGE_WGSL};
 use crate::error::{Error, Result};
+use crate::frame::passes::GeometryStage;
 use crate::frame::{Effect, FrameContext, MethodStats, Recorded, SceneGpu, Tail, Totals};
-use crate::gpu::passes::GeometryStage;
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 

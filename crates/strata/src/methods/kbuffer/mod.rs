@@ -88,11 +88,11 @@ pub mod cpu;
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
-use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Tail, Totals};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage, NullTarget,
 };
+use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Tail, Totals};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
@@ -136,9 +136,7 @@ pub const DEFAULT_K: u32 = 16;
 /// fragments of a test pixel queue for it: 65536 tries leave room for that queue (4096 was
 /// chosen on lavapipe) and still bound the spin to milliseconds.
 pub const DEFAULT_MAX_TRIES: u32 = 1 << 16;
-/// The most tries `--max-tries` accepts: every waiting fragment spins at most this long, a bound
-/// that keeps a starving pixel within a frame's time instead of the driver's reset.
-pub const MAX_TRIES_LIMIT: u32 = 1 << 20;
+pub use crate::frame::MAX_TRIES_LIMIT;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Variant {

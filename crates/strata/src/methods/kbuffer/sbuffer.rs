@@ -30,11 +30,11 @@ use super::{
     RESOLVE_WGSL, SLOT_ACCESS_WGSL, STORAGE_WGSL,
 };
 use crate::error::Result;
-use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     compute_pipeline, dispatch, storage_geometry_pass, GeometryStage, NullTarget,
 };
+use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 

@@ -31,6 +31,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
 
 use crate::error::{Error, Result};
+pub use crate::frame::values::{TemporalCulling, DEFAULT_EPSILON, DEFAULT_REFRESH};
 use crate::frame::FrameContext;
 use crate::gpu::Gpu;
 use crate::methods::MethodId;
@@ -49,27 +50,6 @@ pub struct TemporalParams {
     pub height: u32,
     pub moving: u32,
 }
-
-/// `--temporal on` and its settings.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TemporalCulling {
-    /// Frames between refreshes of one tile (0: never refresh).
-    pub refresh: u32,
-    /// How far (window depth) behind the interface a fragment must lie to be culled.
-    pub epsilon: f32,
-}
-
-impl Default for TemporalCulling {
-    fn default() -> Self {
-        TemporalCulling {
-            refresh: DEFAULT_REFRESH,
-            epsilon: DEFAULT_EPSILON,
-        }
-    }
-}
-
-pub const DEFAULT_REFRESH: u32 = 8;
-pub const DEFAULT_EPSILON: f32 = 1e-5;
 
 /// Whether `method`'s capture takes temporal culling.
 pub fn takes(method: MethodId) -> bool {

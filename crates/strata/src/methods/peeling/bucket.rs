@@ -54,12 +54,12 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
-use crate::frame::{BucketSplit, FrameContext, Recorded, RenderOptions, SceneGpu};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     capture_pipeline_with, color_geometry_pass, color_pass_drawing, compute_pipeline,
     dispatch_pixels, screen_pipeline, storage_geometry_pass, GeometryStage, NullTarget,
 };
+use crate::frame::{BucketSplit, FrameContext, Recorded, RenderOptions, SceneGpu};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::kbuffer::DEFAULT_K;
 use crate::methods::Method;

@@ -36,12 +36,12 @@ pub mod bucket;
 pub mod descriptor;
 
 use crate::error::{Error, Result};
-use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     attachment, capture_pipeline_with, compute_pipeline, dispatch_pixels, storage_geometry_pass,
     GeometryStage, NullTarget,
 };
+use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
 

@@ -26,11 +26,11 @@ pub mod mboit;
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::Result;
-use crate::frame::{FrameContext, Recorded, SceneGpu};
-use crate::gpu::binding::{self, Slot};
-use crate::gpu::passes::{
+use crate::frame::passes::{
     capture_pipeline_with, color_geometry_pass, compute_pipeline, dispatch_pixels,
 };
+use crate::frame::{FrameContext, Recorded, SceneGpu};
+use crate::gpu::binding::{self, Slot};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::Method;
 

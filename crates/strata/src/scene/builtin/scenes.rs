@@ -580,7 +580,7 @@ pub(super) fn demo() -> Result<Scene> {
             )
         });
     }
-    scene.defaults.pipeline = Some(crate::deferred::Pipeline::Deferred);
+    scene.defaults.pipeline = Some(crate::scene::Pipeline::Deferred);
     // A dark backdrop so that the pools of light read; `--background` overrides it.
     scene.defaults.background = Some(crate::scene::Background::Color([0.018, 0.02, 0.026]));
     Ok(scene)

@@ -223,7 +223,7 @@ struct RenderExtras {
     /// `checker`, `#rrggbb`, or linear `[r, g, b]`.
     background: Option<serde_json::Value>,
     shading: Option<Shading>,
-    pipeline: Option<crate::deferred::Pipeline>,
+    pipeline: Option<crate::scene::Pipeline>,
 }
 
 impl SceneExtras {

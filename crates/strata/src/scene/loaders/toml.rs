@@ -83,7 +83,7 @@ struct RenderDef {
     size: Option<[u32; 2]>,
     background: Option<String>,
     shading: Option<Shading>,
-    pipeline: Option<crate::deferred::Pipeline>,
+    pipeline: Option<crate::scene::Pipeline>,
 }
 
 #[derive(Deserialize, Default, Clone, Copy)]
@@ -354,13 +354,13 @@ pub(crate) fn parse(
 
     if let (Some(r), Some(label)) = (def.render, render_label) {
         if let Some([w, h]) = r.size {
-            let side = 1..=crate::frame::MAX_SIDE;
+            let side = 1..=crate::scene::MAX_SIDE;
             if !side.contains(&w) || !side.contains(&h) {
                 return Err(ctx.err(
                     &label,
                     format!(
                         "size [{w}, {h}] must be 1..{} per side",
-                        crate::frame::MAX_SIDE
+                        crate::scene::MAX_SIDE
                     ),
                 ));
             }

@@ -1,0 +1,217 @@
+//! Passes of a frame: capture pipelines over the scene's vertices, geometry passes into the
+//! frame's encoder, and timed pixel dispatches. The pipeline builders that need no frame are in
+//! [`crate::frame::passes`] (re-exported here, so a method imports its passes from one place).
+
+use crate::frame::FrameContext;
+pub use crate::gpu::passes::{attachment, compute_pipeline, screen_pipeline, NullTarget};
+use crate::gpu::{binding, Gpu};
+
+/// A render pipeline drawing the scene with `vs_scene` and the stage's fragment entry point,
+/// with no culling (every surface layer counts).
+pub fn capture_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    fragment_entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
+    capture_pipeline_with(
+        gpu,
+        label,
+        (module, module),
+        fragment_entry,
+        layouts,
+        targets,
+        depth,
+        1,
+    )
+}
+
+/// [`capture_pipeline`] with the fragment stage from its own module (a passthrough one),
+/// rasterizing `samples` samples per pixel (`--msaa`; the targets must have as many).
+#[allow(clippy::too_many_arguments)]
+pub fn capture_pipeline_with(
+    gpu: &Gpu,
+    label: &str,
+    (module, fragment_module): (&wgpu::ShaderModule, &wgpu::ShaderModule),
+    fragment_entry: &str,
+    layouts: &[&wgpu::BindGroupLayout],
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth: Option<wgpu::DepthStencilState>,
+    samples: u32,
+) -> wgpu::RenderPipeline {
+    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
+    gpu.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_scene"),
+                compilation_options: Default::default(),
+                buffers: &[Some(crate::scene::GpuVertex::layout())],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: depth,
+            multisample: wgpu::MultisampleState {
+                count: samples,
+                ..Default::default()
+            },
+            fragment: Some(wgpu::FragmentState {
+                module: fragment_module,
+                entry_point: Some(fragment_entry),
+                compilation_options: Default::default(),
+                targets,
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+/// Records a geometry pass of `pipeline` with `groups` bound from index 0 into color `targets`,
+/// each cleared to its color first, drawing the frame's geometry.
+pub fn color_geometry_pass(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::RenderPipeline,
+    groups: &[&wgpu::BindGroup],
+    targets: &[(&wgpu::TextureView, wgpu::Color)],
+) {
+    let (scene, draw) = (ctx.scene, ctx.draw);
+    color_pass_drawing(ctx, name, pipeline, groups, targets, &|pass| {
+        scene.draw(pass, draw)
+    });
+}
+
+/// [`color_geometry_pass`] with the method's own draws (`draw` binds what it reads).
+pub fn color_pass_drawing(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::RenderPipeline,
+    groups: &[&wgpu::BindGroup],
+    targets: &[(&wgpu::TextureView, wgpu::Color)],
+    draw: &dyn Fn(&mut wgpu::RenderPass<'_>),
+) {
+    let label = ctx.label(name);
+    let attachments: Vec<_> = targets
+        .iter()
+        .map(|(view, clear)| attachment(view, *clear))
+        .collect();
+    let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(&label),
+        color_attachments: &attachments,
+        depth_stencil_attachment: None,
+        timestamp_writes: ctx.timer.render_pass(name),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    for (i, group) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*group), &[]);
+    }
+    draw(&mut pass);
+}
+
+/// Runs a compute pipeline over every pixel (8×8 workgroups) in its own timed pass.
+pub fn dispatch_pixels(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+) {
+    let workgroups = ctx.pixel_workgroups();
+    dispatch(ctx, name, pipeline, groups, workgroups);
+}
+
+/// Runs a compute pipeline over `(x, y)` workgroups in its own timed pass.
+pub fn dispatch(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    (x, y): (u32, u32),
+) {
+    dispatch_with(ctx, name, pipeline, groups, Workgroups::Direct(x, y));
+}
+
+/// How many workgroups a compute pass runs.
+pub enum Workgroups<'a> {
+    Direct(u32, u32),
+    /// From the first three words of a buffer written on the GPU.
+    Indirect(&'a wgpu::Buffer),
+}
+
+/// Runs a compute pipeline over `workgroups` in its own timed pass.
+pub fn dispatch_with(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    workgroups: Workgroups<'_>,
+) {
+    let label = ctx.label(name);
+    let mut pass = ctx
+        .encoder
+        .begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(&label),
+            timestamp_writes: ctx.timer.compute_pass(name),
+        });
+    pass.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*g), &[]);
+    }
+    match workgroups {
+        Workgroups::Direct(0, _) => {}
+        Workgroups::Direct(x, y) => pass.dispatch_workgroups(x, y, 1),
+        Workgroups::Indirect(args) => pass.dispatch_workgroups_indirect(args, 0),
+    }
+}
+
+/// A geometry stage that writes only storage buffers, on the scene's rasterizer: a render
+/// pipeline (the GPU's rasterizer) or the compute rasterizer's capture
+/// ([`crate::raster::storage_stage`]).
+pub enum GeometryStage {
+    Hw(wgpu::RenderPipeline),
+    Compute(wgpu::ComputePipeline),
+}
+
+/// Records a timed geometry pass drawing into storage buffers only: over a [`NullTarget`] with
+/// the GPU's rasterizer, or through the frame's compute rasterizer.
+pub fn storage_geometry_pass(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    target: &NullTarget,
+    stage: &GeometryStage,
+    groups: &[&wgpu::BindGroup],
+) {
+    let pipeline = match stage {
+        GeometryStage::Hw(pipeline) => pipeline,
+        GeometryStage::Compute(pipeline) => {
+            if let Some(raster) = ctx.raster.take() {
+                raster.capture(ctx, name, pipeline, groups);
+                ctx.raster = Some(raster);
+            }
+            return;
+        }
+    };
+    let (scene, draw) = (ctx.scene, ctx.draw);
+    let label = ctx.label(name);
+    let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(&label),
+        color_attachments: &[target.attachment()],
+        depth_stencil_attachment: None,
+        timestamp_writes: ctx.timer.render_pass(name),
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*g), &[]);
+    }
+    scene.draw(&mut pass, draw);
+}

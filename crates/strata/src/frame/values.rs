@@ -1,0 +1,165 @@
+//! Value types the layers above share: the rasterizer a frame uses, and what the compute
+//! rasterizer, temporal culling and `convex` put into a frame's statistics. They live here,
+//! below the code that produces them, so that options and statistics need nothing above `frame`.
+
+use serde::Serialize;
+
+/// Which rasterizer turns triangles into fragments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Raster {
+    /// The GPU's fixed-function rasterizer.
+    #[default]
+    Hw,
+    /// strata's compute-shader rasterizer (`crate::raster`).
+    Compute,
+}
+
+impl Raster {
+    pub fn name(self) -> &'static str {
+        match self {
+            Raster::Hw => "hw",
+            Raster::Compute => "compute",
+        }
+    }
+}
+
+/// What the compute rasterizer reports about a frame.
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct ComputeRasterStats {
+    /// Triangles of the clipped polygons' fans that reached the viewport.
+    pub triangles_set_up: u64,
+    /// (Triangle, 8×8 tile) work items the frame needed.
+    pub tile_items: u64,
+    /// Work items the frame's buffer held.
+    pub item_capacity: u64,
+    /// More items were needed than held: fragments were lost and the frame is incomplete.
+    pub overflow: bool,
+    pub bytes_allocated: u64,
+}
+
+/// `--temporal on` and its settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TemporalCulling {
+    /// Frames between refreshes of one tile (0: never refresh).
+    pub refresh: u32,
+    /// How far (window depth) behind the interface a fragment must lie to be culled.
+    pub epsilon: f32,
+}
+
+impl Default for TemporalCulling {
+    fn default() -> Self {
+        TemporalCulling {
+            refresh: DEFAULT_REFRESH,
+            epsilon: DEFAULT_EPSILON,
+        }
+    }
+}
+
+pub const DEFAULT_REFRESH: u32 = 8;
+
+pub const DEFAULT_EPSILON: f32 = 1e-5;
+
+/// What `convex` reports about a frame (`FrameStats::convex`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ConvexStats {
+    /// Convex parts, and the groups they were drawn as.
+    pub parts: u32,
+    pub groups: u32,
+    /// Groups outside the view this frame.
+    pub culled: u32,
+    /// Capture passes this frame (each followed by a merge).
+    pub passes: u32,
+    /// Draw calls over all passes.
+    pub draws: u32,
+    /// Pairs of groups whose screen rectangles overlap, and those of them ordered by centroid
+    /// for want of a plane.
+    pub overlapping_pairs: u64,
+    pub unseparated_pairs: u64,
+    /// Cycles the sort broke.
+    pub cycles_broken: u32,
+    /// Fragments per pixel and pass the capture keeps (2 per convex part of a group).
+    pub layers: u32,
+    /// CPU milliseconds of this frame's order (0 when the view did not change).
+    pub order_ms: f64,
+    pub preprocess_ms: f64,
+    /// Pixel-passes whose nearest fragment lay in front of what was already merged (the order
+    /// failed there).
+    pub order_violations: Option<u64>,
+    /// Pixel-passes that received more fragments than `layers` (the excess is dropped).
+    pub overflowing_pixels: Option<u64>,
+}
+
+/// The most tries `--max-tries` accepts: every waiting fragment spins at most this long, a bound
+/// that keeps a starving pixel within a frame's time instead of the driver's reset.
+pub const MAX_TRIES_LIMIT: u32 = 1 << 20;
+
+/// The display transform of the lit pipelines (`--tonemap`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Tonemap {
+    /// Clamp only.
+    None,
+    /// Khronos PBR Neutral's highlight compression without its toe: channels below 0.8 pass
+    /// unchanged, brighter colors roll off towards 1 and desaturate (see `encoding::tone_map`).
+    #[default]
+    Neutral,
+    /// c / (1 + c) per channel.
+    Reinhard,
+}
+
+/// How the G-buffer stores normals (`--normal-encoding`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum NormalEncoding {
+    /// Seed 004's spheremap transform of the view-space normal.
+    #[default]
+    Spheremap,
+    /// Octahedral mapping (bounded error over every direction).
+    Octahedral,
+}
+
+/// A G-buffer view (`--gbuffer-debug`), written instead of the picture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum GbufferView {
+    Albedo,
+    Normal,
+    Specular,
+    Material,
+    Depth,
+    Lights,
+    /// The normal encoding's angular error per pixel: a heatmap in hundredths of a degree.
+    NormalError,
+    /// The ambient occlusion factor (with `--ssao`; white without).
+    Occlusion,
+}
+
+impl GbufferView {
+    pub fn index(self) -> u32 {
+        self as u32
+    }
+}
+
+/// What a lit frame reports (`FrameStats::lighting`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct LightingStats {
+    pub pipeline: String,
+    /// Lights of the scene (ambient ones excluded: they are a term of the composite).
+    pub lights: u32,
+    /// Deferred: lights drawn as spheres, cones and full-screen triangles, and culled.
+    pub sphere_volumes: Option<u32>,
+    pub cone_volumes: Option<u32>,
+    pub full_screen_lights: Option<u32>,
+    pub culled_lights: Option<u32>,
+    /// Deferred: G-buffer bytes per pixel (compressed layout).
+    pub gbuffer_bytes_per_pixel: Option<u64>,
+    /// Bytes of the pipeline's targets.
+    pub bytes_allocated: u64,
+    pub tonemap: Tonemap,
+    pub ssao: bool,
+}
