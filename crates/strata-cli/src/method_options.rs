@@ -6,57 +6,48 @@ use strata::methods::{MethodId, MethodOption};
 use crate::{MethodArgs, PictureArgs, PipelineArg, Toggle};
 use strata::error::{Error, Result};
 
-/// An option that only some methods or pipelines read.
+/// An option that only some methods or pipelines read: a method parameter (the method's
+/// descriptor lists those it reads), or one that a capability or the pipeline decides.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Opt {
-    /// `--k`: how many fragments a pixel keeps.
-    K,
-    /// `--tail`: what becomes of the fragments past k.
-    Tail,
-    /// `--culling`: the k-buffers' test against a full pixel's farthest fragment.
-    Culling,
-    MaxTries,
-    Layers,
-    LayersPerPass,
-    HeapSize,
-    /// `--buckets`: bucket's split.
-    Buckets,
-    /// `--weight` and `--depth-scale`.
-    Weight,
-    Moments,
+    Method(MethodOption),
+    /// `--raster compute`.
     RasterCompute,
+    /// `--budget-mb`: every GPU method's allocations are checked against it.
     Budget,
+    /// `--tonemap` (the lit pipelines).
     Tonemap,
+    /// The deferred pipeline's options.
     Deferred,
-    /// `--order`: every method but `sorted` (its own order) and `f2b` (ties in draw order).
+    /// `--order`: every method but those with an order of their own.
     Order,
     /// `--temporal`: the slot k-buffers that choose at capture time.
     Temporal,
-    /// `--msaa`: every method but the 8-byte multi-depth tests (with a pipeline too: the
-    /// transparent surfaces are anti-aliased over the lit frame).
+    /// `--msaa` (with a pipeline too: the transparent surfaces are anti-aliased over the lit
+    /// frame).
     Msaa,
-    /// `--cache-dir`: the preprocesses kept between runs (convex's decomposition).
-    CacheDir,
+}
+
+impl Opt {
+    pub const K: Opt = Opt::Method(MethodOption::K);
+    pub const TAIL: Opt = Opt::Method(MethodOption::Tail);
+    pub const CULLING: Opt = Opt::Method(MethodOption::Culling);
+    pub const MAX_TRIES: Opt = Opt::Method(MethodOption::MaxTries);
+    pub const LAYERS: Opt = Opt::Method(MethodOption::Layers);
+    pub const LAYERS_PER_PASS: Opt = Opt::Method(MethodOption::LayersPerPass);
+    pub const HEAP_SIZE: Opt = Opt::Method(MethodOption::HeapSize);
+    pub const BUCKETS: Opt = Opt::Method(MethodOption::Buckets);
+    pub const WEIGHT: Opt = Opt::Method(MethodOption::Weight);
+    pub const MOMENTS: Opt = Opt::Method(MethodOption::Moments);
+    pub const CACHE_DIR: Opt = Opt::Method(MethodOption::CacheDir);
 }
 
 /// Whether `method` (with `pipeline`) reads option `opt`.
 pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> bool {
     let d = method.descriptor();
-    let reads = |o: MethodOption| d.reads(o);
     match opt {
-        Opt::K => reads(MethodOption::K),
-        Opt::Tail => reads(MethodOption::Tail),
-        Opt::Culling => reads(MethodOption::Culling),
-        Opt::MaxTries => reads(MethodOption::MaxTries),
-        Opt::Layers => reads(MethodOption::Layers),
-        Opt::LayersPerPass => reads(MethodOption::LayersPerPass),
-        Opt::HeapSize => reads(MethodOption::HeapSize),
-        Opt::Buckets => reads(MethodOption::Buckets),
-        Opt::Weight => reads(MethodOption::Weight),
-        Opt::Moments => reads(MethodOption::Moments),
-        Opt::CacheDir => reads(MethodOption::CacheDir),
+        Opt::Method(o) => d.reads(o),
         Opt::RasterCompute => d.compute_raster.yes(),
-        // Every GPU method's allocations are checked against it.
         Opt::Budget => method != MethodId::Reference,
         Opt::Tonemap => matches!(pipeline, Some(PipelineArg::Forward | PipelineArg::Deferred)),
         Opt::Deferred => pipeline == Some(PipelineArg::Deferred),
@@ -70,17 +61,17 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
 /// (clap id, flag, option).
 const METHOD_FLAGS: [(&str, &str, Opt); 12] = [
     ("k", "--k", Opt::K),
-    ("tail", "--tail", Opt::Tail),
-    ("culling", "--culling", Opt::Culling),
-    ("max_tries", "--max-tries", Opt::MaxTries),
-    ("layers", "--layers", Opt::Layers),
-    ("heap_size", "--heap-size", Opt::HeapSize),
-    ("buckets", "--buckets", Opt::Buckets),
-    ("weight", "--weight", Opt::Weight),
-    ("depth_scale", "--depth-scale", Opt::Weight),
-    ("moments", "--moments", Opt::Moments),
+    ("tail", "--tail", Opt::TAIL),
+    ("culling", "--culling", Opt::CULLING),
+    ("max_tries", "--max-tries", Opt::MAX_TRIES),
+    ("layers", "--layers", Opt::LAYERS),
+    ("heap_size", "--heap-size", Opt::HEAP_SIZE),
+    ("buckets", "--buckets", Opt::BUCKETS),
+    ("weight", "--weight", Opt::WEIGHT),
+    ("depth_scale", "--depth-scale", Opt::WEIGHT),
+    ("moments", "--moments", Opt::MOMENTS),
     ("budget_mb", "--budget-mb", Opt::Budget),
-    ("cache_dir", "--cache-dir", Opt::CacheDir),
+    ("cache_dir", "--cache-dir", Opt::CACHE_DIR),
 ];
 
 /// Refuses an option given on the command line (`a.given`) that the method does not read,

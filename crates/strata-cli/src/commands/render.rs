@@ -79,7 +79,7 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
             (Some(k), Tail::Blend) => eprintln!("note: {dropped} fragments beyond k={k} were blended into the tail"),
             (Some(k), Tail::Drop) => {
                 let blends = stats.method.parse::<MethodId>().is_ok_and(|m| {
-                    crate::method_options::applies(crate::method_options::Opt::Tail, m, None)
+                    crate::method_options::applies(crate::method_options::Opt::TAIL, m, None)
                 });
                 let hint = if blends { " (--tail blend keeps them as one term)" } else { "" };
                 eprintln!("note: {dropped} fragments beyond k={k} were dropped{hint}")

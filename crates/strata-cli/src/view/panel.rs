@@ -329,15 +329,15 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             optional(ui, "robustness", &mut m.robustness, 0.95, 0.01..=1.0);
         }
     });
-    ui.add_enabled_ui(applies(Opt::Tail, id, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::TAIL, id, pipeline), |ui| {
         choice(ui, "tail", &mut m.tail);
     });
-    ui.add_enabled_ui(applies(Opt::Culling, id, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::CULLING, id, pipeline), |ui| {
         let mut culling = m.culling == Toggle::On;
         ui.checkbox(&mut culling, "culling");
         m.culling = if culling { Toggle::On } else { Toggle::Off };
     });
-    ui.add_enabled_ui(applies(Opt::MaxTries, id, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::MAX_TRIES, id, pipeline), |ui| {
         optional(
             ui,
             "max tries",
@@ -346,16 +346,16 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             1..=1 << 24,
         );
     });
-    ui.add_enabled_ui(applies(Opt::Layers, id, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::LAYERS, id, pipeline), |ui| {
         optional(ui, "layers", &mut m.layers, 8, 1..=1024);
     });
-    ui.add_enabled_ui(applies(Opt::HeapSize, id, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::HEAP_SIZE, id, pipeline), |ui| {
         optional(ui, "heap size", &mut m.heap_size, 1, 1..=256);
     });
-    ui.add_enabled_ui(applies(Opt::Buckets, id, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::BUCKETS, id, pipeline), |ui| {
         choice(ui, "buckets", &mut m.buckets);
     });
-    ui.add_enabled_ui(applies(Opt::Weight, id, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::WEIGHT, id, pipeline), |ui| {
         choice(ui, "weight", &mut m.weight);
         ui.horizontal(|ui| {
             ui.label("depth scale");

@@ -260,7 +260,7 @@ impl ViewState {
         if m.raster != Raster::Hw {
             push("raster", value_name(&m.raster));
         }
-        if applies(Opt::LayersPerPass, id, p.pipeline) {
+        if applies(Opt::LAYERS_PER_PASS, id, p.pipeline) {
             if let Some(n) = m.layers_per_pass {
                 push("layers-per-pass", n.to_string());
             }
@@ -273,33 +273,33 @@ impl ViewState {
         }
         if let Some(h) = m
             .heap_size
-            .filter(|_| applies(Opt::HeapSize, id, p.pipeline))
+            .filter(|_| applies(Opt::HEAP_SIZE, id, p.pipeline))
         {
             push("heap-size", h.to_string());
         }
-        if applies(Opt::Buckets, id, p.pipeline) && m.buckets != strata::BucketSplit::Uniform {
+        if applies(Opt::BUCKETS, id, p.pipeline) && m.buckets != strata::BucketSplit::Uniform {
             push("buckets", value_name(&m.buckets));
         }
-        if applies(Opt::Weight, id, p.pipeline) {
+        if applies(Opt::WEIGHT, id, p.pipeline) {
             push("weight", value_name(&m.weight));
             push("depth-scale", m.depth_scale.to_string());
         }
-        if applies(Opt::Moments, id, p.pipeline) && m.moments != 4 {
+        if applies(Opt::MOMENTS, id, p.pipeline) && m.moments != 4 {
             push("moments", m.moments.to_string());
         }
-        if applies(Opt::Tail, id, p.pipeline) {
+        if applies(Opt::TAIL, id, p.pipeline) {
             push("tail", value_name(&m.tail));
         }
-        if applies(Opt::Culling, id, p.pipeline) {
+        if applies(Opt::CULLING, id, p.pipeline) {
             push("culling", value_name(&m.culling));
         }
         if let Some(t) = m
             .max_tries
-            .filter(|_| applies(Opt::MaxTries, id, p.pipeline))
+            .filter(|_| applies(Opt::MAX_TRIES, id, p.pipeline))
         {
             push("max-tries", t.to_string());
         }
-        if let Some(l) = m.layers.filter(|_| applies(Opt::Layers, id, p.pipeline)) {
+        if let Some(l) = m.layers.filter(|_| applies(Opt::LAYERS, id, p.pipeline)) {
             push("layers", l.to_string());
         }
         if applies(Opt::Temporal, id, p.pipeline) && m.temporal == Toggle::On {
@@ -411,20 +411,20 @@ mod tests {
         assert!(applies(Opt::K, KplusHeap, None));
         assert!(applies(Opt::K, Kpeel, None));
         assert!(!applies(Opt::K, AbufferLl, None));
-        assert!(applies(Opt::K, Bucket, None) && applies(Opt::Buckets, Bucket, None));
-        assert!(!applies(Opt::Tail, Wboit, None));
-        assert!(applies(Opt::MaxTries, KplusArray, None));
-        assert!(!applies(Opt::MaxTries, KbMdt32, None), "MDT takes no lock");
-        assert!(applies(Opt::Layers, Dual, None));
+        assert!(applies(Opt::K, Bucket, None) && applies(Opt::BUCKETS, Bucket, None));
+        assert!(!applies(Opt::TAIL, Wboit, None));
+        assert!(applies(Opt::MAX_TRIES, KplusArray, None));
+        assert!(!applies(Opt::MAX_TRIES, KbMdt32, None), "MDT takes no lock");
+        assert!(applies(Opt::LAYERS, Dual, None));
         assert!(
-            applies(Opt::Layers, Kpeel, None),
+            applies(Opt::LAYERS, Kpeel, None),
             "kpeel's passes: ⌈layers / k⌉"
         );
         assert!(
-            applies(Opt::Tail, AbufferFixed, None) && !applies(Opt::Culling, AbufferFixed, None)
+            applies(Opt::TAIL, AbufferFixed, None) && !applies(Opt::CULLING, AbufferFixed, None)
         );
-        assert!(applies(Opt::Weight, Wboit, None));
-        assert!(!applies(Opt::Weight, Mboit, None));
+        assert!(applies(Opt::WEIGHT, Wboit, None));
+        assert!(!applies(Opt::WEIGHT, Mboit, None));
         assert!(applies(Opt::Msaa, Sbuffer, None));
         assert!(applies(Opt::Msaa, KplusHeap, None));
         assert!(!applies(Opt::Msaa, KbMdt64, None));
