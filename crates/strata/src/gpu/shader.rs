@@ -13,14 +13,19 @@ pub fn with_shared(stage: &str) -> String {
     [SCENE, COLOR, FRAGMENT, COMPOSITE, stage].join("\n")
 }
 
-/// A compute or fragment stage that reads its targets with `textureLoad(t, pixel, i)` where `i`
-/// is the mip level (0) single-sampled and the sample multisampled: with `samples > 1` its
-/// `texture_2d<f32>` bindings become `texture_multisampled_2d<f32>` (`--msaa`).
-pub fn multisampled(source: &str, samples: u32) -> String {
+/// A compute or fragment stage that declares its render targets' bindings as `TargetTexture`
+/// and reads them with `textureLoad(t, pixel, i)` (`i` the mip level, 0, single-sampled; the
+/// sample multisampled): the alias it needs for `samples` per pixel, then the stage.
+pub fn with_target_samples(source: &str, samples: u32) -> String {
+    format!("alias TargetTexture = {};\n{source}", texture_type(samples))
+}
+
+/// The WGSL type of a sampled float target with `samples` per pixel (`--msaa`).
+pub fn texture_type(samples: u32) -> &'static str {
     if samples > 1 {
-        source.replace("texture_2d<f32>", "texture_multisampled_2d<f32>")
+        "texture_multisampled_2d<f32>"
     } else {
-        source.to_string()
+        "texture_2d<f32>"
     }
 }
 

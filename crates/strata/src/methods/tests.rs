@@ -60,7 +60,7 @@ fn exact_methods_match_reference_on_random_layers() {
 fn every_stage_validates() {
     let stages = [
         ("blend", include_str!("baseline/blend.wgsl")),
-        ("blend.finish", include_str!("baseline/finish.wgsl")),
+        ("blend.finish", &super::baseline::finish_source(1)),
         ("f2b.peel", include_str!("peeling/f2b_peel.wgsl")),
         (
             "f2b.accumulate",
@@ -78,10 +78,7 @@ fn every_stage_validates() {
             "wboit.accumulate",
             include_str!("weighted/wboit_accumulate.wgsl"),
         ),
-        (
-            "wboit.composite",
-            include_str!("weighted/wboit_composite.wgsl"),
-        ),
+        ("wboit.composite", &super::weighted::composite_source(1)),
         (
             "wboit.composite.msaa",
             &super::weighted::composite_source(4),

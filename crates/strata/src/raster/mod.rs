@@ -117,42 +117,28 @@ pub fn raster_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     )
 }
 
-/// The method's storage-only fragment stage `stage` (WGSL composed after the shared sources)
-/// with `entry` turned into a function the raster stage calls; the raster bindings at group
-/// `raster_group`. An error when `entry` is not a storage-only fragment stage over
-/// `SceneVarying`.
+/// The compute capture of a method's storage-only fragment stage `entry`: its module `stage`
+/// (WGSL composed after the shared sources) declares the entry's capture step
+/// `{entry}_capture(v: SceneVarying, front_facing: bool, mask: u32)`, which its `@fragment`
+/// wrapper calls and the raster stage calls here with full coverage (the compute rasterizer
+/// samples pixel centers; `--msaa` refuses it). The raster bindings are at group
+/// `raster_group`. An error when the stage declares no such step.
 pub fn capture_source(stage: &str, entry: &str, raster_group: usize) -> Result<String> {
-    let with_facing =
-        format!("fn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool) {{");
-    let with_mask = format!(
-        "fn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {{"
-    );
-    let without = format!("fn {entry}(v: SceneVarying) {{");
-    // The compute rasterizer samples pixel centers only (`--msaa` refuses it): full coverage.
-    let call = if stage.contains(&with_mask) {
-        format!("{entry}(v, front_facing, 0xffffffffu)")
-    } else if stage.contains(&with_facing) {
-        format!("{entry}(v, front_facing)")
-    } else if stage.contains(&without) {
-        format!("{entry}(v)")
-    } else {
+    let step = format!("{entry}_capture");
+    if !stage.contains(&format!(
+        "fn {step}(v: SceneVarying, front_facing: bool, mask: u32) {{"
+    )) {
         return Err(Error::unsupported(format!(
-            "{entry} is not a storage-only fragment stage the compute rasterizer can call"
+            "{entry} declares no capture step ({step}) the compute rasterizer can call"
         )));
-    };
-    let functions = stage
-        .replace("@fragment\n", "")
-        .replace(
-            "@builtin(front_facing) front_facing: bool",
-            "front_facing: bool",
-        )
-        .replace("@builtin(sample_mask) mask: u32", "mask: u32")
-        .replace("discard;", "return;");
+    }
     let source = [
-        functions.as_str(),
+        stage,
         SETUP_WGSL,
         RASTER_WGSL,
-        &format!("fn raster_capture(v: SceneVarying, front_facing: bool) {{\n    {call};\n}}\n"),
+        &format!(
+            "fn raster_capture(v: SceneVarying, front_facing: bool) {{\n    {step}(v, front_facing, 0xffffffffu);\n}}\n"
+        ),
     ]
     .join("\n")
     .replace("RASTER_GROUP", &raster_group.to_string());

@@ -3,7 +3,7 @@
 // the samples' colors, averaged.
 
 @group(1) @binding(0) var<storage, read_write> counts: array<u32>;
-@group(1) @binding(1) var blended: texture_2d<f32>;
+@group(1) @binding(1) var blended: TargetTexture;
 @group(1) @binding(2) var<storage, read_write> output: array<Resolved>;
 
 @compute @workgroup_size(8, 8)

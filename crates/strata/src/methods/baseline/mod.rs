@@ -108,7 +108,7 @@ impl Blend {
 
 /// The finish stage, reading the multisampled target with `--msaa`.
 pub fn finish_source(samples: u32) -> String {
-    shader::multisampled(include_str!("finish.wgsl"), samples)
+    shader::with_target_samples(include_str!("finish.wgsl"), samples)
 }
 
 impl Method for Blend {

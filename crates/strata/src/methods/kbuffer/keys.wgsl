@@ -59,10 +59,10 @@ fn store_payload(p: u32, f: Fragment) -> bool {
     return false;
 }
 
-@fragment
-fn fs_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+// fs_keys's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let pixel = kpixel(v.position);
     let f = scene_fragment_covering(v, front_facing, mask);
@@ -76,7 +76,12 @@ fn fs_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(
 }
 
 @fragment
-fn fs_keys_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+fn fs_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_keys_capture(v, front_facing, mask);
+}
+
+// fs_keys_colors's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_keys_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let pixel = kpixel(v.position);
     let f = scene_fragment_covering(v, front_facing, mask);
     let samples = storage_samples(mask);
@@ -90,4 +95,9 @@ fn fs_keys_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool, @b
             }
         }
     }
+}
+
+@fragment
+fn fs_keys_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_keys_colors_capture(v, front_facing, mask);
 }

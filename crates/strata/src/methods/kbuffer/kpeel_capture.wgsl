@@ -6,10 +6,10 @@
 
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 
-@fragment
-fn fs_kpeel(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+// fs_kpeel's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_kpeel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let p = kpixel(v.position);
     let f = scene_fragment_covering(v, front_facing, mask);
@@ -24,15 +24,20 @@ fn fs_kpeel(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin
     }
 }
 
+@fragment
+fn fs_kpeel(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_kpeel_capture(v, front_facing, mask);
+}
+
 // --msaa's account, a geometry pass after the last resolve (the per-pixel words cleared): each
 // fragment once at its pixel, once at each sample it covers (a sample's depth complexity), and
 // as stored when some covered sample composited it (not pending there: per sample, peeling
 // composites in order). The counts go to sample pixel 0's FILLED word and to each sample's
 // SEEN word.
-@fragment
-fn fs_kpeel_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+// fs_kpeel_account's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_kpeel_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let p = kpixel(v.position);
     let f = scene_fragment_covering(v, front_facing, mask);
@@ -50,4 +55,9 @@ fn fs_kpeel_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, 
     if stored {
         atomicAdd(&pixels[pixel_word(sample_pixel(p, 0u), FILLED)], 1u);
     }
+}
+
+@fragment
+fn fs_kpeel_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_kpeel_account_capture(v, front_facing, mask);
 }

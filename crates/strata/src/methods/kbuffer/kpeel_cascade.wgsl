@@ -16,15 +16,15 @@ fn peel_key(f: Fragment) -> u64 {
     return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));
 }
 
-@fragment
-fn fs_kpeel_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+// fs_kpeel_keys's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_kpeel_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let p = kpixel(v.position);
     let f = scene_fragment(v, front_facing);
     if !peel_pending(p, f) {
-        discard;
+        return;
     }
     count_seen(p);
     var key = peel_key(f);
@@ -38,10 +38,15 @@ fn fs_kpeel_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
     }
 }
 
+@fragment
+fn fs_kpeel_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    fs_kpeel_keys_capture(v, front_facing, 0xffffffffu);
+}
+
 // Decided by the kept key alone: no opaque test here (another pipeline may round it otherwise,
 // and a kept key whose fragment this pass discarded would leave its slot unwritten under FILLED).
-@fragment
-fn fs_kpeel_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+// fs_kpeel_colors's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_kpeel_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let p = kpixel(v.position);
     var f = scene_fragment(v, front_facing);
     // The tag's word of a key, as peel_key writes it.
@@ -60,4 +65,9 @@ fn fs_kpeel_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
             break;
         }
     }
+}
+
+@fragment
+fn fs_kpeel_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    fs_kpeel_colors_capture(v, front_facing, 0xffffffffu);
 }

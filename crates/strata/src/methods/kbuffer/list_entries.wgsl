@@ -1,18 +1,23 @@
 // The built-in capture entry points of the linked-list methods.
 
-@fragment
-fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+// fs_ab_ll's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_ab_ll_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     capture_list(kpixel(v.position), scene_fragment_covering(v, front_facing, mask));
 }
 
-// kb-ll: sorted insertion into the pixel's list, or with --msaa into each covered sample's.
 @fragment
-fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_ab_ll_capture(v, front_facing, mask);
+}
+
+// kb-ll: sorted insertion into the pixel's list, or with --msaa into each covered sample's.
+// fs_sorted_ll's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_sorted_ll_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let p = kpixel(v.position);
     let f = scene_fragment_covering(v, front_facing, mask);
@@ -23,4 +28,9 @@ fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @bui
             capture_sorted_list(sample_pixel(p, s), f);
         }
     }
+}
+
+@fragment
+fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_sorted_ll_capture(v, front_facing, mask);
 }

@@ -24,10 +24,10 @@ fn fragment_of64(key: u64) -> Fragment {
     return fragment_new(bitcast<f32>(0xffffffffu - u32(key >> 32u)), 0u, false, c);
 }
 
-@fragment
-fn fs_mdt64(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+// fs_mdt64's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_mdt64_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let p = kpixel(v.position);
     count_seen(p);
@@ -48,6 +48,11 @@ fn fs_mdt64(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
         key = min(old, key);
     }
     tail_add(p, fragment_of64(key));
+}
+
+@fragment
+fn fs_mdt64(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
+    fs_mdt64_capture(v, front_facing, 0xffffffffu);
 }
 
 fn stored_count(p: u32) -> u32 {

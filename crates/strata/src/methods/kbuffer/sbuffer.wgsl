@@ -22,18 +22,23 @@ fn set_region_start(p: u32, start: u32) {
     atomicStore(&pixels[pixel_word(p, OFFSET)], start);
 }
 
-@fragment
-fn fs_sbuffer_count(v: SceneVarying) {
+// fs_sbuffer_count's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_sbuffer_count_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     count_seen(kpixel(v.position));
 }
 
 @fragment
-fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+fn fs_sbuffer_count(v: SceneVarying) {
+    fs_sbuffer_count_capture(v, true, 0xffffffffu);
+}
+
+// fs_sbuffer_store's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_sbuffer_store_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let p = kpixel(v.position);
     let start = region_start(p);
@@ -46,4 +51,9 @@ fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool, 
     } else {
         counter_add(COUNTER_OVERFLOWED, 1u);
     }
+}
+
+@fragment
+fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_sbuffer_store_capture(v, front_facing, mask);
 }

@@ -319,17 +319,12 @@ fn max_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     })
 }
 
-/// The color stage with its layer textures multisampled at `samples` > 1.
+/// The color stage with its layer textures (`LayerTexture`) multisampled at `samples` > 1.
 fn color_stage_for(source: &str, samples: u32) -> String {
-    if samples == 1 {
-        return source.to_string();
-    }
-    (0..LAYER_LABELS.len()).fold(source.to_string(), |s, i| {
-        s.replace(
-            &format!("var layer{i}: texture_2d<f32>"),
-            &format!("var layer{i}: texture_multisampled_2d<f32>"),
-        )
-    })
+    format!(
+        "alias LayerTexture = {};\n{source}",
+        shader::texture_type(samples)
+    )
 }
 
 impl Bucket {

@@ -11,14 +11,14 @@
 @group(1) @binding(1) var bounds: texture_2d<f32>;
 @group(1) @binding(3) var<storage, read_write> claims: array<atomic<u32>>;
 @group(1) @binding(4) var<storage, read_write> records: array<Fragment>;
-@group(1) @binding(6) var layer0: texture_2d<f32>;
-@group(1) @binding(7) var layer1: texture_2d<f32>;
-@group(1) @binding(8) var layer2: texture_2d<f32>;
-@group(1) @binding(9) var layer3: texture_2d<f32>;
-@group(1) @binding(10) var layer4: texture_2d<f32>;
-@group(1) @binding(11) var layer5: texture_2d<f32>;
-@group(1) @binding(12) var layer6: texture_2d<f32>;
-@group(1) @binding(13) var layer7: texture_2d<f32>;
+@group(1) @binding(6) var layer0: LayerTexture;
+@group(1) @binding(7) var layer1: LayerTexture;
+@group(1) @binding(8) var layer2: LayerTexture;
+@group(1) @binding(9) var layer3: LayerTexture;
+@group(1) @binding(10) var layer4: LayerTexture;
+@group(1) @binding(11) var layer5: LayerTexture;
+@group(1) @binding(12) var layer6: LayerTexture;
+@group(1) @binding(13) var layer7: LayerTexture;
 
 // Sample s of target layer `layer` at `pixel` (the mip level, 0, when single-sampled).
 fn bucket_pair(layer: u32, pixel: vec2<u32>, s: u32) -> vec4<f32> {
@@ -56,10 +56,10 @@ fn claim(e: u32, slot: u32) -> bool {
     return (atomicOr(&claims[e], bit) & bit) == 0u;
 }
 
-@fragment
-fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+// fs_color's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_color_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let pixel = pixel_of(v.position);
     let p = pixel_index(pixel);
@@ -95,4 +95,9 @@ fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin
     if shaded && frame.coverage_bits != 0u {
         atomicAdd(&claims[kept_word(p)], 1u);
     }
+}
+
+@fragment
+fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_color_capture(v, front_facing, mask);
 }

@@ -6,14 +6,19 @@
 @group(1) @binding(1) var bounds: texture_2d<f32>;
 @group(1) @binding(2) var<storage, read_write> histogram_bits: array<atomic<u32>>;
 
-@fragment
-fn fs_histogram(v: SceneVarying) {
+// fs_histogram's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_histogram_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let pixel = pixel_of(v.position);
     let range = textureLoad(bounds, pixel, 0);
     let part = bucket_of(v.position.z, -range.x, range.y, SUBINTERVALS);
     let word = pixel_index(pixel) * HISTOGRAM_WORDS + part / 32u;
     atomicOr(&histogram_bits[word], 1u << (part % 32u));
+}
+
+@fragment
+fn fs_histogram(v: SceneVarying) {
+    fs_histogram_capture(v, true, 0xffffffffu);
 }

@@ -140,7 +140,7 @@ pub fn moments_source() -> String {
 
 /// The shade stage for `moments` power moments, reading multisampled moments with `--msaa`.
 pub fn shade_source(samples: u32, moments: u32) -> String {
-    shader::multisampled(
+    shader::with_target_samples(
         &[
             &format!("const MBOIT_MOMENTS: u32 = {moments}u;"),
             MATH_WGSL,
@@ -153,7 +153,7 @@ pub fn shade_source(samples: u32, moments: u32) -> String {
 
 /// The composite stage, reading multisampled targets with `--msaa`.
 pub fn composite_source(samples: u32) -> String {
-    shader::multisampled(include_str!("mboit_composite.wgsl"), samples)
+    shader::with_target_samples(include_str!("mboit_composite.wgsl"), samples)
 }
 
 impl Mboit {

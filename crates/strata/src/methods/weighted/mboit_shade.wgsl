@@ -5,10 +5,10 @@
 // moments those past the fourth come from a third target. MBOIT_MOMENTS is prepended by the
 // method: each count compiles its own stage, so the generic solver's loops have constant bounds.
 
-@group(1) @binding(1) var b0_target: texture_2d<f32>;
-@group(1) @binding(2) var moments_target: texture_2d<f32>;
+@group(1) @binding(1) var b0_target: TargetTexture;
+@group(1) @binding(2) var moments_target: TargetTexture;
 // With four moments the moments target again (not read).
-@group(1) @binding(3) var moments_high: texture_2d<f32>;
+@group(1) @binding(3) var moments_high: TargetTexture;
 
 // The transmittance at warped depth z of sample si (the mip level, 0, single-sampled).
 fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool) -> f32 {

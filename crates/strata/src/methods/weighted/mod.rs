@@ -141,7 +141,7 @@ impl Wboit {
 
 /// The composite stage, reading multisampled targets with `--msaa`.
 pub fn composite_source(samples: u32) -> String {
-    shader::multisampled(include_str!("wboit_composite.wgsl"), samples)
+    shader::with_target_samples(include_str!("wboit_composite.wgsl"), samples)
 }
 
 impl Method for Wboit {

@@ -3,8 +3,8 @@
 // targets then multisampled) each sample's, averaged.
 
 @group(1) @binding(0) var<storage, read_write> counts: array<u32>;
-@group(1) @binding(1) var accumulation: texture_2d<f32>;
-@group(1) @binding(2) var revealage: texture_2d<f32>;
+@group(1) @binding(1) var accumulation: TargetTexture;
+@group(1) @binding(2) var revealage: TargetTexture;
 @group(1) @binding(3) var<storage, read_write> output: array<Resolved>;
 
 @compute @workgroup_size(8, 8)
