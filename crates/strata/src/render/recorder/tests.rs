@@ -1,0 +1,81 @@
+use super::*;
+use crate::scene::loaders;
+use crate::testing::gpu;
+
+fn resolved_after_one_frame(rec: &mut FrameRecorder) -> Vec<u8> {
+    let g = gpu();
+    let mut enc = g.device.create_command_encoder(&Default::default());
+    rec.record(&mut enc, &Default::default(), None).unwrap();
+    g.queue.submit([enc.finish()]);
+    rec.wait_stats().unwrap();
+    let size = rec.options().pixels() * RESOLVED_BYTES;
+    crate::gpu::readback::read_buffer(g, rec.resolved(), size).unwrap()
+}
+
+/// An animation's next time step written into the same recorder gives the frame a fresh
+/// recorder of that step gives (same camera).
+#[test]
+fn animated_geometry_updates_in_place() {
+    let s0 = loaders::load_scene("builtin:balls?count=40&frame=0").unwrap();
+    let s1 = loaders::load_scene("builtin:balls?count=40&frame=3").unwrap();
+    let options = RenderOptions {
+        width: 32,
+        height: 32,
+        ..Default::default()
+    };
+    let mut rec = FrameRecorder::new(gpu(), &s0, MethodId::KplusHeap, &options).unwrap();
+    let first = resolved_after_one_frame(&mut rec);
+    rec.set_geometry(&s1).unwrap();
+    let moved = resolved_after_one_frame(&mut rec);
+    assert!(first != moved, "the balls moved");
+    let mut fresh = FrameRecorder::new(gpu(), &s1, MethodId::KplusHeap, &options).unwrap();
+    fresh.set_camera(&s0.camera_or_framing());
+    assert!(moved == resolved_after_one_frame(&mut fresh));
+}
+
+/// Real-time `--k auto`: the first frame guesses within the budget; each later frame takes
+/// its k from the latest histogram back (frame t's for frame t + 1 when the application
+/// waits a frame), and the k follows the animation's depth complexity.
+#[test]
+fn auto_k_follows_the_last_histogram() {
+    let g = gpu();
+    let sparse = loaders::load_scene("builtin:balls?count=6&frame=0").unwrap();
+    let dense = loaders::load_scene("builtin:balls?count=120&frame=0").unwrap();
+    let options = RenderOptions {
+        width: 48,
+        height: 48,
+        k_auto: Some(1.0),
+        ..Default::default()
+    };
+    let mut rec = FrameRecorder::new(g, &sparse, MethodId::KplusSbuffer, &options).unwrap();
+    let frame = |rec: &mut FrameRecorder| {
+        let mut enc = g.device.create_command_encoder(&Default::default());
+        rec.record(&mut enc, &Default::default(), None).unwrap();
+        g.queue.submit([enc.finish()]);
+        rec.wait_stats().unwrap().stats
+    };
+    let first = frame(&mut rec);
+    let auto = first.k_auto.clone().unwrap();
+    assert_eq!(first.k, Some(DEFAULT_K));
+    assert_eq!(auto.histogram_frame, None);
+    let depth = first.max_depth_complexity.unwrap();
+    let second = frame(&mut rec);
+    let auto = second.k_auto.clone().unwrap();
+    assert_eq!(auto.histogram_frame, Some(0));
+    assert_eq!(
+        second.k,
+        Some(depth.max(1)),
+        "R = 1 keeps the deepest pixel"
+    );
+    assert_eq!(auto.achieved_robustness, Some(1.0));
+    rec.set_geometry(&dense).unwrap();
+    let third = frame(&mut rec);
+    assert_eq!(
+        third.k, second.k,
+        "frame 2's k comes from frame 1's histogram"
+    );
+    let fourth = frame(&mut rec);
+    assert_eq!(fourth.k_auto.unwrap().histogram_frame, Some(2));
+    assert_eq!(fourth.k, third.max_depth_complexity);
+    assert!(fourth.k > second.k, "more balls, deeper pixels");
+}
