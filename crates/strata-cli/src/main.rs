@@ -1,22 +1,12 @@
 //! `strata`: render, compare and benchmark multi-fragment methods from the command line.
 
 mod args;
-mod auto_k;
-mod bandwidth;
 mod bench;
 mod claims;
 mod commands;
-mod compare;
-mod convex_experiment;
-mod cuda_renderer;
-mod deferred_lights;
 mod files;
 mod method_options;
-mod online_culling;
-mod peers;
 mod report;
-mod scale;
-mod suite;
 mod view;
 
 use std::process::ExitCode;
