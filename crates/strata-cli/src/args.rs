@@ -28,9 +28,10 @@ pub struct PictureArgs {
     /// Sets every material's opacity.
     #[arg(long)]
     pub alpha: Option<f32>,
-    /// Per-pixel capacity for k-buffer methods; for `reference`, keep each pixel's k nearest.
-    #[arg(long)]
-    pub k: Option<String>,
+    /// Per-pixel capacity for k-buffer methods (a positive integer, or `auto`: chosen from the
+    /// depth-complexity histogram); for `reference`, keep each pixel's k nearest.
+    #[arg(long, value_parser = parse_k)]
+    pub k: Option<KArg>,
     /// Animation time in frames: moves the scene's animated objects (builtin:balls) and its
     /// camera path ([[camera_key]] in a scene file, or --orbit).
     #[arg(long)]
@@ -243,21 +244,44 @@ pub fn parse_size(s: &str) -> Result<(u32, u32)> {
     Ok((w, h))
 }
 
+/// `--k`: a count of fragments per pixel, or `auto`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KArg {
+    Count(u32),
+    Auto,
+}
+
+impl std::fmt::Display for KArg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            KArg::Count(k) => write!(f, "{k}"),
+            KArg::Auto => f.write_str("auto"),
+        }
+    }
+}
+
+/// Parses `--k`.
+pub fn parse_k(s: &str) -> std::result::Result<KArg, String> {
+    if s == "auto" {
+        return Ok(KArg::Auto);
+    }
+    s.parse::<u32>()
+        .ok()
+        .filter(|&k| k > 0)
+        .map(KArg::Count)
+        .ok_or_else(|| "not a positive integer or 'auto'".to_string())
+}
+
 /// Loads the scene and applies the picture options to it; returns the render options.
 pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     let effect = p.effect;
-    let (k, k_auto) = match p.k.as_deref() {
+    let (k, k_auto) = match p.k {
         None => (None, None),
-        Some("auto") => (
+        Some(KArg::Auto) => (
             None,
             Some(strata::methods::kbuffer::predict::DEFAULT_ROBUSTNESS),
         ),
-        Some(s) => {
-            let k = s.parse::<u32>().ok().filter(|&k| k > 0).ok_or_else(|| {
-                Error::input(format!("--k '{s}' is not a positive integer or 'auto'"))
-            })?;
-            (Some(k), None)
-        }
+        Some(KArg::Count(k)) => (Some(k), None),
     };
     if let Some(a) = p.alpha {
         if !(0.0..=1.0).contains(&a) {

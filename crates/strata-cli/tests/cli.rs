@@ -1203,7 +1203,7 @@ fn regression(name: &str) -> String {
 fn negative_option_values_reach_their_range_checks() {
     let spheres = "builtin:spheres?layers=2&segments=8";
     assert_bad_input(&["render", spheres, "--alpha", "-1"], "--alpha -1");
-    assert_bad_input(&["render", spheres, "--k", "-1"], "--k '-1'");
+    assert_bad_input(&["render", spheres, "--k", "-1"], "'-1' for '--k");
     assert_bad_input(&["render", spheres, "--budget-mb", "-1"], "--budget-mb -1");
     assert_bad_input(&["render", spheres, "--fov", "-5"], "--fov -5");
     assert_bad_input(&["render", spheres, "--lights", "-3"], "--lights");

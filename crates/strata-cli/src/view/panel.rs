@@ -10,6 +10,7 @@ use strata::methods::kbuffer::DEFAULT_K;
 use strata::methods::MethodId;
 
 use super::state::{applies, families, value_name, Opt, ViewState};
+use crate::args::KArg;
 use crate::{PipelineArg, Toggle};
 
 /// Width of the panel, points.
@@ -290,11 +291,11 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
     ui.add_enabled_ui(applies(Opt::K, id, pipeline), |ui| {
         let k = &mut state.picture.k;
         ui.horizontal(|ui| {
-            let mut auto = k.as_deref() == Some("auto");
-            let mut n: u32 = k
-                .as_deref()
-                .and_then(|s| s.parse().ok())
-                .unwrap_or(DEFAULT_K);
+            let mut auto = *k == Some(KArg::Auto);
+            let mut n: u32 = match *k {
+                Some(KArg::Count(n)) => n,
+                _ => DEFAULT_K,
+            };
             let bucket = id == MethodId::Bucket;
             let label = if id == MethodId::Kpeel {
                 "k (layers per pass)"
@@ -313,11 +314,7 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
                 ui.add_enabled(!auto, egui::DragValue::new(&mut n).range(1..=256));
                 ui.checkbox(&mut auto, "auto");
             }
-            let new = if auto {
-                Some("auto".to_string())
-            } else {
-                Some(n.to_string())
-            };
+            let new = Some(if auto { KArg::Auto } else { KArg::Count(n) });
             if new != *k && (k.is_some() || n != DEFAULT_K || auto) {
                 *k = new;
             }
@@ -325,7 +322,7 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
     });
     ui.add_enabled_ui(applies(Opt::Budget, id, pipeline), |ui| {
         optional(ui, "budget MiB", &mut m.budget_mb, 64.0, 0.01..=65536.0);
-        if state.picture.k.as_deref() == Some("auto") {
+        if state.picture.k == Some(KArg::Auto) {
             optional(ui, "robustness", &mut m.robustness, 0.95, 0.01..=1.0);
         }
     });

@@ -218,14 +218,13 @@ impl ViewState {
             push("size", s.clone());
         }
         push("effect", value_name(&p.effect));
-        for (name, v) in [
-            ("shading", &p.shading),
-            ("background", &p.background),
-            ("k", &p.k),
-        ] {
+        for (name, v) in [("shading", &p.shading), ("background", &p.background)] {
             if let Some(v) = v {
                 push(name, v.clone());
             }
+        }
+        if let Some(k) = p.k {
+            push("k", k.to_string());
         }
         if let Some(a) = p.alpha {
             push("alpha", a.to_string());
@@ -367,7 +366,7 @@ fn rebuild_key(s: &ViewState) -> String {
                 m.budget_mb.map(f64::to_bits),
                 m.robustness.map(f64::to_bits)
             ),
-            (p.k.as_deref() == Some("auto")),
+            (p.k == Some(crate::args::KArg::Auto)),
         )
     )
 }
@@ -467,7 +466,7 @@ mod tests {
         s.method.method = MethodId::KplusHeap;
         assert_eq!(s.change_from(&before), Change::Method);
         assert_eq!(s.camera().eye, before.camera().eye);
-        s.picture.k = Some("8".into());
+        s.picture.k = Some(crate::args::KArg::Count(8));
         assert_eq!(s.change_from(&before), Change::Options);
         let moved = s.clone();
         s.method.raster = Raster::Compute;
