@@ -13,6 +13,7 @@
 //! with strata's CPU reference of the same scene.
 
 use std::borrow::Cow;
+use strata::frame::FrameOptions;
 
 use strata::gpu::Gpu;
 use strata::scene::{loaders, Background, Scene, Shading};
@@ -129,9 +130,12 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
     let background =
         Background::Color(BACKGROUND_SRGB.map(|c| strata::scene::srgb_to_linear(c as f32 / 255.0)));
     let options = RenderOptions {
-        width: size,
-        height: size,
-        background,
+        frame: FrameOptions {
+            width: size,
+            height: size,
+            background,
+            ..Default::default()
+        },
         ..Default::default()
     };
     let mut oit = FrameRecorder::new(&gpu, &transparent, method, &options)?;

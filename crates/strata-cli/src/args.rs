@@ -4,7 +4,10 @@
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
 use strata::error::{Error, Result};
-use strata::frame::{Effect, RenderOptions, Tail};
+use strata::frame::{
+    BuildOptions, Effect, FrameOptions, KBufferOptions, Lighting, PeelingOptions, RenderOptions,
+    Tail, WeightedOptions,
+};
 use strata::methods::MethodId;
 use strata::scene::{loaders, Background, CameraPath, Scene, Shading};
 
@@ -341,21 +344,29 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
             .unwrap_or((512, 512)),
     };
     let options = RenderOptions {
-        width,
-        height,
-        effect,
-        background,
-        k,
-        k_auto,
-        pipeline: match p.pipeline {
-            None => scene.defaults.pipeline,
-            Some(PipelineArg::None) => None,
-            Some(PipelineArg::Forward) => Some(strata::frame::Pipeline::Forward),
-            Some(PipelineArg::Deferred) => Some(strata::frame::Pipeline::Deferred),
+        build: BuildOptions {
+            msaa: p.msaa,
+            lighting: Lighting {
+                pipeline: match p.pipeline {
+                    None => scene.defaults.pipeline,
+                    Some(PipelineArg::None) => None,
+                    Some(PipelineArg::Forward) => Some(strata::frame::Pipeline::Forward),
+                    Some(PipelineArg::Deferred) => Some(strata::frame::Pipeline::Deferred),
+                },
+                tonemap: p.tonemap,
+                ..Default::default()
+            },
+            ..Default::default()
         },
-        tonemap: p.tonemap,
-        msaa: p.msaa,
-        ..Default::default()
+        frame: FrameOptions {
+            width,
+            height,
+            effect,
+            background,
+            k,
+            k_auto,
+            ..Default::default()
+        },
     };
     options.validate()?;
     Ok((scene, options))
@@ -441,34 +452,42 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
     let (scene, mut options) = prepare(picture)?;
     crate::method_options::check_given(a, picture)?;
     if let Some(r) = a.robustness {
-        if options.k_auto.is_none() {
+        if options.frame.k_auto.is_none() {
             return Err(Error::input("--robustness applies to --k auto"));
         }
-        options.k_auto = Some(r);
+        options.frame.k_auto = Some(r);
     }
-    options.budget_mb = a.budget_mb;
-    options.tail = a.tail;
-    options.culling = a.culling == Toggle::On;
-    options.max_tries = a.max_tries;
-    options.layers = a.layers;
-    options.heap_size = a.heap_size;
-    options.buckets = a.buckets;
-    options.weight = a.weight;
-    options.depth_scale = a.depth_scale;
-    options.moments = a.moments;
-    options.ssao = a.ssao;
-    options.normal_encoding = a.normal_encoding;
-    options.gbuffer_debug = a.gbuffer_debug;
-    options.raster = a.raster;
-    options.order = a.order;
-    options.order_seed = a.seed;
-    options.temporal =
+    options.frame.budget_mb = a.budget_mb;
+    options.frame.kbuffer = KBufferOptions {
+        tail: a.tail,
+        culling: a.culling == Toggle::On,
+        max_tries: a.max_tries,
+        heap_size: a.heap_size,
+        ..Default::default()
+    };
+    options.frame.peeling = PeelingOptions {
+        layers: a.layers,
+        buckets: a.buckets,
+    };
+    options.frame.weighted = WeightedOptions {
+        weight: a.weight,
+        depth_scale: a.depth_scale,
+        moments: a.moments,
+    };
+    let lighting = &mut options.build.lighting;
+    lighting.ssao = a.ssao;
+    lighting.normal_encoding = a.normal_encoding;
+    lighting.gbuffer_debug = a.gbuffer_debug;
+    options.build.raster = a.raster;
+    options.frame.order = a.order;
+    options.frame.order_seed = a.seed;
+    options.frame.temporal =
         (a.temporal == Toggle::On).then_some(strata::methods::kbuffer::temporal::TemporalCulling {
             refresh: a.temporal_refresh,
             epsilon: a.temporal_epsilon,
         });
-    strata::methods::kbuffer::temporal::check(a.method, options.temporal)?;
-    options.cache_dir = a.cache_dir.as_deref().map(cache_dir).transpose()?;
+    strata::methods::kbuffer::temporal::check(a.method, options.frame.temporal)?;
+    options.build.cache_dir = a.cache_dir.as_deref().map(cache_dir).transpose()?;
     if let Some(m) = a.layers_per_pass {
         let d = a.method.descriptor();
         if !d.reads(strata::methods::MethodOption::LayersPerPass) {
@@ -483,12 +502,12 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
                 "--layers-per-pass {m} is outside 1..{max}"
             )));
         }
-        if options.k.is_some_and(|k| k != m) {
+        if options.frame.k.is_some_and(|k| k != m) {
             return Err(Error::input(
                 "--layers-per-pass and --k name the same thing for kpeel: give one",
             ));
         }
-        options.k = Some(m);
+        options.frame.k = Some(m);
     }
     options.validate()?;
     Ok((scene, options))

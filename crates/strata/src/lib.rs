@@ -20,7 +20,10 @@ pub mod scene;
 pub(crate) mod testing;
 
 pub use error::{Error, Result};
-pub use frame::{BucketSplit, Effect, FrameStats, FrameTargets, RenderOptions, Tail, Weight};
+pub use frame::{
+    BucketSplit, BuildOptions, Effect, FrameOptions, FrameStats, FrameTargets, RenderOptions, Tail,
+    Weight,
+};
 pub use methods::kbuffer::DEFAULT_MAX_TRIES;
 pub use methods::MethodId;
 pub use render::{FrameRecorder, LinearImage, Renderer};

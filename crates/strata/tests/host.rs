@@ -4,6 +4,7 @@
 #[path = "../../../examples/host.rs"]
 mod host;
 
+use strata::frame::FrameOptions;
 use strata::{Effect, MethodId, RenderOptions};
 
 /// Tolerance: the exact-method bar (max |Δ| ≤ 2/255 on ≥ 99.9% of pixels; see
@@ -26,11 +27,14 @@ fn host_example_matches_the_reference() {
     for method in [MethodId::AbufferLl, MethodId::KbAbFixed, MethodId::KbAbLl] {
         let run = host::run(method, 96, 3).unwrap_or_else(|e| panic!("{method}: {e}"));
         let options = RenderOptions {
-            width: 96,
-            height: 96,
-            effect: Effect::Transparency,
-            background: run.background,
-            k: (method == MethodId::KbAbLl).then_some(16),
+            frame: FrameOptions {
+                width: 96,
+                height: 96,
+                effect: Effect::Transparency,
+                background: run.background,
+                k: (method == MethodId::KbAbLl).then_some(16),
+                ..Default::default()
+            },
             ..Default::default()
         };
         let (expected, reference) = strata::reference::render(&run.scene, &options).unwrap();

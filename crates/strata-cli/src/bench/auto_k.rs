@@ -8,6 +8,7 @@
 
 use crate::bench::opt;
 use std::path::Path;
+use strata::frame::FrameOptions;
 
 use serde::Serialize;
 use strata::error::Result;
@@ -112,10 +113,13 @@ pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Res
         for bytes_per_pixel in BUDGET_BYTES_PER_PIXEL {
             let budget_mb = bytes_per_pixel * pixels / 1048576.0;
             let options = RenderOptions {
-                width,
-                height,
-                k_auto: Some(ROBUSTNESS),
-                budget_mb: Some(budget_mb),
+                frame: FrameOptions {
+                    width,
+                    height,
+                    k_auto: Some(ROBUSTNESS),
+                    budget_mb: Some(budget_mb),
+                    ..Default::default()
+                },
                 ..Default::default()
             };
             bar.set_message(format!("{method} {budget_mb:.1} MiB orbit"));

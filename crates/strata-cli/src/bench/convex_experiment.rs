@@ -20,6 +20,7 @@
 
 use crate::bench::opt;
 use std::path::Path;
+use strata::frame::FrameOptions;
 
 use glam::Vec3;
 use serde::Serialize;
@@ -168,9 +169,12 @@ fn run_case(gpu: &Gpu, case: &Case<'_>, bar: &indicatif::ProgressBar, rows: &mut
         bar.set_message(format!("{method} on {}", case.spec));
         let k = matches!(method, "kb-mdt32" | "abuffer-fixed").then_some(case.k);
         let options = RenderOptions {
-            width: case.size.0,
-            height: case.size.1,
-            k,
+            frame: FrameOptions {
+                width: case.size.0,
+                height: case.size.1,
+                k,
+                ..Default::default()
+            },
             ..Default::default()
         };
         let mut row = Row {

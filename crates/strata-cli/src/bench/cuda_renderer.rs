@@ -9,6 +9,7 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
+use strata::frame::{BuildOptions, FrameOptions};
 
 use serde::Serialize;
 use strata::error::Result;
@@ -136,11 +137,16 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
         for (label, method, raster, k) in RUNS {
             bar.set_message(format!("{label} on {spec}"));
             let options = RenderOptions {
-                width,
-                height,
-                k,
-                raster,
-                ..Default::default()
+                build: BuildOptions {
+                    raster,
+                    ..Default::default()
+                },
+                frame: FrameOptions {
+                    width,
+                    height,
+                    k,
+                    ..Default::default()
+                },
             };
             let mut row = Row {
                 scene: spec.to_string(),

@@ -9,6 +9,7 @@
 //! frame is the pipeline's.
 
 use std::path::Path;
+use strata::frame::{BuildOptions, FrameOptions, Lighting};
 
 use serde::Serialize;
 use strata::deferred::{gbuffer_bytes_per_pixel, GbufferLayout, Pipeline};
@@ -88,10 +89,18 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
             };
             bar.set_message(format!("{name}, {lights} lights"));
             let options = RenderOptions {
-                width,
-                height,
-                pipeline: Some(pipeline),
-                ..Default::default()
+                build: BuildOptions {
+                    lighting: Lighting {
+                        pipeline: Some(pipeline),
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                },
+                frame: FrameOptions {
+                    width,
+                    height,
+                    ..Default::default()
+                },
             };
             let run = Run::plain(METHOD);
             let (result, last) = measure(gpu, &scene, &options, &run, warmup, frames, &bar)?;

@@ -299,7 +299,7 @@ pub(crate) fn measure_views(
     let mut recorder = FrameRecorder::new(gpu, scene, method, options)?;
     let target = gpu.texture_2d(
         "strata.bench.target",
-        (options.width, options.height),
+        (options.frame.width, options.frame.height),
         wgpu::TextureFormat::Rgba8UnormSrgb,
         wgpu::TextureUsages::RENDER_ATTACHMENT,
     );

@@ -569,9 +569,9 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
     let report = |results: &[MethodResult], options: &strata::RenderOptions| BenchReport {
         experiment: name.clone(),
         scene: scenes.join(", "),
-        width: options.width,
-        height: options.height,
-        effect: options.effect.name().into(),
+        width: options.frame.width,
+        height: options.frame.height,
+        effect: options.frame.effect.name().into(),
         alpha,
         adapter: gpu.info.name.clone(),
         backend: gpu.backend_name(),
@@ -620,26 +620,27 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             }
             bar.set_message(format!("{} {}", short_scene(scene), run.label));
             let mut options = options.clone();
-            options.k = run.k;
-            options.culling = run.culling;
-            options.weight = run.weight;
-            options.depth_scale = run.depth_scale;
-            options.msaa = run.msaa;
-            options.moments = run.moments;
-            options.buckets = run.buckets;
+            options.frame.k = run.k;
+            options.frame.kbuffer.culling = run.culling;
+            options.frame.weighted.weight = run.weight;
+            options.frame.weighted.depth_scale = run.depth_scale;
+            options.build.msaa = run.msaa;
+            options.frame.weighted.moments = run.moments;
+            options.frame.peeling.buckets = run.buckets;
             match measure(gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r) {
                 Ok(mut result) => {
                     result.scene = scene.clone();
                     if let Some(full) = &full_reference {
-                        let effect = options.effect;
+                        let effect = options.frame.effect;
                         let (image, _) =
                             Renderer::new(gpu, &scene_data, &options)?.render(&run.method)?;
                         let picture = image.to_rgba8(effect);
                         // A multisampled run against the reference at its sample count.
-                        let truth = if options.msaa > 1 {
-                            let exact = strata::RenderOptions {
-                                k: None,
-                                ..options.clone()
+                        let truth = if options.build.msaa > 1 {
+                            let exact = {
+                                let mut options = options.clone();
+                                options.frame.k = None;
+                                options
                             };
                             strata::reference::render(&scene_data, &exact)?
                                 .0

@@ -23,6 +23,7 @@
 
 use crate::bench::opt;
 use std::path::Path;
+use strata::frame::{FrameOptions, KBufferOptions};
 
 use serde::Serialize;
 use strata::error::Result;
@@ -163,16 +164,22 @@ fn options(
     refresh: u32,
 ) -> RenderOptions {
     RenderOptions {
-        width: size.0,
-        height: size.1,
-        k: Some(K),
-        culling: config.culling,
-        order: Some(order),
-        order_seed: seed,
-        temporal: config.temporal.then_some(TemporalCulling {
-            refresh,
+        frame: FrameOptions {
+            width: size.0,
+            height: size.1,
+            k: Some(K),
+            kbuffer: KBufferOptions {
+                culling: config.culling,
+                ..Default::default()
+            },
+            order: Some(order),
+            order_seed: seed,
+            temporal: config.temporal.then_some(TemporalCulling {
+                refresh,
+                ..Default::default()
+            }),
             ..Default::default()
-        }),
+        },
         ..Default::default()
     }
 }
@@ -240,10 +247,11 @@ fn run_one(gpu: &Gpu, seq: &mut Sequence, options: &RenderOptions, config: &Conf
                     let exact = match &mut exact_renderer {
                         Some(r) => r,
                         None => {
-                            let options = RenderOptions {
-                                temporal: None,
-                                order: None,
-                                ..options.clone()
+                            let options = {
+                                let mut options = options.clone();
+                                options.frame.temporal = None;
+                                options.frame.order = None;
+                                options
                             };
                             exact_renderer.insert(Renderer::new(gpu, &seq.scene, &options)?)
                         }
@@ -262,11 +270,11 @@ fn run_one(gpu: &Gpu, seq: &mut Sequence, options: &RenderOptions, config: &Conf
     Ok(Row {
         sequence: seq.name.clone(),
         triangles: seq.scene.triangle_count(),
-        order: options.order.map_or("scene", |o| o.name()),
-        seed: (options.order == Some(Order::Random)).then_some(options.order_seed),
+        order: options.frame.order.map_or("scene", |o| o.name()),
+        seed: (options.frame.order == Some(Order::Random)).then_some(options.frame.order_seed),
         config: config.name,
         method: config.method,
-        refresh: options.temporal.map(|t| t.refresh),
+        refresh: options.frame.temporal.map(|t| t.refresh),
         frames: rendered,
         gpu_ms: median(times),
         kendall_tau: median(taus),

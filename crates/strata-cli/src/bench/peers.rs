@@ -264,7 +264,7 @@ fn run_scenes(
             let glb = scratch.join(format!("{short}.glb"));
             let defaults = strata::scene::export::ExportDefaults {
                 size: Some([width, height]),
-                background: Some(options.background),
+                background: Some(options.frame.background),
             };
             let bytes = strata::scene::export::to_gltf(
                 &scene,
@@ -276,7 +276,7 @@ fn run_scenes(
             bar.set_message(format!("{short}: reference"));
             let truth = strata::reference::render(&scene, &options)?
                 .0
-                .to_rgba8(options.effect);
+                .to_rgba8(options.frame.effect);
             let save = |label: &str, img: &image::RgbaImage| -> Result<String> {
                 let name = format!("peers-{short}-{}.png", label.replace([' ', '='], "-"));
                 strata::render::save_png(img, &dir.join(&name))?;
@@ -287,8 +287,8 @@ fn run_scenes(
             for (label, method, k, tail) in STRATA_RUNS {
                 bar.set_message(format!("{short}: strata {label}"));
                 let mut options = options.clone();
-                options.k = k;
-                options.tail = tail;
+                options.frame.k = k;
+                options.frame.kbuffer.tail = tail;
                 let run = match k {
                     Some(k) => Run::with_k(method, k, true),
                     None => Run::plain(method),
@@ -298,7 +298,7 @@ fn run_scenes(
                 match measure(gpu, &scene, &options, &run, warmup, frames, &quiet) {
                     Ok((m, _)) => {
                         let (image, _) = Renderer::new(gpu, &scene, &options)?.render(method)?;
-                        let img = image.to_rgba8(options.effect);
+                        let img = image.to_rgba8(options.frame.effect);
                         row.median_gpu_ms = m.median_gpu_ms;
                         row.median_wall_ms = Some(m.median_wall_ms);
                         row.bytes_allocated = m.bytes_allocated;

@@ -93,11 +93,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     let (cpu_figures, (width, height), frames) =
         standalone_setup(gpu, size, frames, ((256, 256), (1920, 1080)), (3, 10))?;
     let warmup = 2;
-    let options = RenderOptions {
-        width,
-        height,
-        ..Default::default()
-    };
+    let options = RenderOptions::sized(width, height);
     options.validate()?;
     let bar = crate::bench::frames_bar(MILLIONS.len() as u64 * (2 + warmup + frames) as u64);
     let mut rows = Vec::new();

@@ -70,11 +70,18 @@ pub fn convex(a: ConvexArgs) -> Result<()> {
     bar.finish_and_clear();
     let camera = scene.camera_or_framing();
     let view_proj = strata::frame::uniforms::band_projection(&camera, &options);
-    let plan = order::plan(&d, &camera, view_proj, options.width, options.height, 1);
+    let plan = order::plan(
+        &d,
+        &camera,
+        view_proj,
+        options.frame.width,
+        options.frame.height,
+        1,
+    );
     let report = ConvexReport {
         decomposition: d.stats.clone(),
-        width: options.width,
-        height: options.height,
+        width: options.frame.width,
+        height: options.frame.height,
         passes: plan.passes.len(),
         culled: plan.culled,
         overlapping_pairs: plan.overlapping,

@@ -62,8 +62,8 @@ pub fn export(a: ExportArgs) -> Result<()> {
     };
     let (scene, options) = prepare(&picture)?;
     let defaults = strata::scene::export::ExportDefaults {
-        size: a.size.map(|_| [options.width, options.height]),
-        background: a.background.map(|_| options.background),
+        size: a.size.map(|_| [options.frame.width, options.frame.height]),
+        background: a.background.map(|_| options.frame.background),
     };
     let bytes = strata::scene::export::to_gltf(&scene, &defaults, container)?;
     let mut outputs = strata::output::Outputs::new();

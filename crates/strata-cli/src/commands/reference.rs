@@ -21,7 +21,7 @@ pub fn reference(a: ReferenceArgs) -> Result<()> {
     strata::output::check_png_name(&a.output)?;
     let busy = spinner(format!(
         "rendering {}x{} with the CPU reference",
-        options.width, options.height
+        options.frame.width, options.frame.height
     ));
     let rendered = strata::reference::render(&scene, &options);
     busy.finish_and_clear();
@@ -29,10 +29,10 @@ pub fn reference(a: ReferenceArgs) -> Result<()> {
     write_outputs(
         &image,
         &stats,
-        options.effect,
+        options.frame.effect,
         &a.output,
         a.stats.as_deref(),
     )?;
-    summary(&stats, &a.output, options.tail);
+    summary(&stats, &a.output, options.frame.kbuffer.tail);
     Ok(())
 }

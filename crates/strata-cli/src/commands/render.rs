@@ -115,7 +115,7 @@ pub fn render(a: RenderArgs) -> Result<()> {
     strata::output::check_png_name(&a.output)?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",
-        options.width, options.height, a.method.method
+        options.frame.width, options.frame.height, a.method.method
     ));
     let rendered = if a.method.method == MethodId::Reference {
         strata::reference::render(&scene, &options)
@@ -129,11 +129,11 @@ pub fn render(a: RenderArgs) -> Result<()> {
     write_outputs(
         &image,
         &stats,
-        options.effect,
+        options.frame.effect,
         &a.output,
         a.stats.as_deref(),
     )?;
-    summary(&stats, &a.output, options.tail);
+    summary(&stats, &a.output, options.frame.kbuffer.tail);
     Ok(())
 }
 
@@ -274,13 +274,13 @@ pub fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
                     r.render_method(a.method.method, None)?
                 }
             };
-            save_png(&image.to_rgba8(options.effect), path)?;
+            save_png(&image.to_rgba8(options.frame.effect), path)?;
             written += 1;
             let mut stats = stats;
             stats.frame = n as u64;
             lines += &serde_json::to_string(&stats).map_err(|e| Error::runtime(e.to_string()))?;
             lines.push('\n');
-            last = Some((stats, path, options.tail));
+            last = Some((stats, path, options.frame.kbuffer.tail));
             bar.inc(1);
         }
         if let Some(path) = &a.stats {

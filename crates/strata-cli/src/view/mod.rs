@@ -70,7 +70,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
     }
     let mut picture = args.picture.clone();
     // The scene's default pipeline, made explicit so the panel and the command line show it.
-    picture.pipeline = Some(match options.pipeline {
+    picture.pipeline = Some(match options.build.lighting.pipeline {
         None => PipelineArg::None,
         Some(strata::frame::Pipeline::Forward) => PipelineArg::Forward,
         Some(strata::frame::Pipeline::Deferred) => PipelineArg::Deferred,
@@ -194,8 +194,8 @@ impl Gfx {
         let attributes = Window::default_attributes()
             .with_title("strata view")
             .with_inner_size(PhysicalSize::new(
-                PANEL_WIDTH as u32 + options.width.max(320),
-                options.height.max(800),
+                PANEL_WIDTH as u32 + options.frame.width.max(320),
+                options.frame.height.max(800),
             ));
         let window = Arc::new(
             event_loop
@@ -578,7 +578,7 @@ fn start_compare(gfx: &Gfx, compare: &mut Option<CompareJob>, panel: &mut Panel)
     let (send, result) = mpsc::channel();
     std::thread::spawn(move || {
         let rendered = strata::reference::render(&scene, &options)
-            .map(|(image, _)| image.to_rgba8(options.effect));
+            .map(|(image, _)| image.to_rgba8(options.frame.effect));
         let _ = send.send(rendered);
     });
     *compare = Some(CompareJob::Running {

@@ -136,10 +136,12 @@ impl Viewport {
                     self.time = scene.time;
                     self.scene = scene;
                 }
-                self.recorder.set_options(&options)?;
+                self.recorder.set_frame_options(&options.frame)?;
                 self.recorder.set_method(state.method.method)?;
                 self.recorder.set_camera(&state.camera());
-                if (self.target.width(), self.target.height()) != (options.width, options.height) {
+                if (self.target.width(), self.target.height())
+                    != (options.frame.width, options.frame.height)
+                {
                     self.target = target(&self.gpu, &options);
                 }
                 self.write_background(&options);
@@ -155,7 +157,7 @@ impl Viewport {
     }
 
     fn write_background(&self, options: &RenderOptions) {
-        let params = match options.background {
+        let params = match options.frame.background {
             Background::Checker => BackgroundParams {
                 light: rgba(Background::Checker.at(0, 0)),
                 dark: rgba(Background::Checker.at(16, 0)),
@@ -178,7 +180,7 @@ impl Viewport {
     /// map draws it), then the method.
     pub fn record(&mut self, encoder: &mut wgpu::CommandEncoder) -> Result<u64> {
         let view = self.target.create_view(&Default::default());
-        if self.recorder.options().pipeline.is_none() {
+        if self.recorder.options().build.lighting.pipeline.is_none() {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("strata.view.background"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -248,14 +250,14 @@ impl Viewport {
     /// one to the image's maximum).
     pub fn comparable_picture(&self) -> Result<image::RgbaImage> {
         let options = self.recorder.options();
-        if options.effect != strata::frame::Effect::Complexity {
+        if options.frame.effect != strata::frame::Effect::Complexity {
             return self.read_target();
         }
         let counts = self.read_counts()?;
         Ok(strata::metrics::complexity_heatmap(
             &counts,
-            options.width,
-            options.height,
+            options.frame.width,
+            options.frame.height,
             None,
         ))
     }
@@ -285,7 +287,7 @@ fn rgba(c: [f32; 3]) -> [f32; 4] {
 fn target(gpu: &Gpu, options: &RenderOptions) -> wgpu::Texture {
     gpu.texture_2d(
         "strata.view.target",
-        (options.width, options.height),
+        (options.frame.width, options.frame.height),
         TARGET_FORMAT,
         wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING

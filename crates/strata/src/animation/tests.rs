@@ -92,21 +92,18 @@ fn gpu_moved_vertices_equal_the_cpu_scene_at_that_time() {
 fn pictures_at_a_time_equal_the_reference_at_that_time() {
     let mut scene = loaders::load_scene("builtin:balls?count=40").unwrap();
     scene.camera_path = Some(crate::scene::CameraPath::orbit(scene.camera.unwrap(), 2.0).unwrap());
-    let base = RenderOptions {
-        width: 64,
-        height: 64,
-        ..Default::default()
-    };
+    let base = RenderOptions::sized(64, 64);
     let runs = [
         ("abuffer-ll", None, None),
         ("kplus-heap", Some(8), Some(crate::order::Order::Front)),
         ("sorted", None, None),
     ];
     for (method, k, order) in runs {
-        let options = RenderOptions {
-            k,
-            order,
-            ..base.clone()
+        let options = {
+            let mut options = base.clone();
+            options.frame.k = k;
+            options.frame.order = order;
+            options
         };
         let mut r = Renderer::new(gpu(), &scene, &options).unwrap();
         for t in [0.0, 6.0, 25.0] {
@@ -121,7 +118,7 @@ fn pictures_at_a_time_equal_the_reference_at_that_time() {
                 &format!("animated-{method}-{t}"),
                 &actual,
                 &expected,
-                options.effect,
+                options.frame.effect,
                 2,
                 0.001,
             );

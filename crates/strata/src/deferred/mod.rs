@@ -186,7 +186,7 @@ fn view(t: &wgpu::Texture) -> wgpu::TextureView {
 
 impl Targets {
     fn new(gpu: &Gpu, pipeline: Pipeline, options: &RenderOptions) -> Targets {
-        let size = (options.width, options.height);
+        let size = (options.frame.width, options.frame.height);
         let deferred = pipeline == Pipeline::Deferred;
         // Targets a pipeline does not use stay 1×1 (bind groups still name them).
         let sized = |used: bool| if used { size } else { (1, 1) };
@@ -199,7 +199,7 @@ impl Targets {
                 usage | wgpu::TextureUsages::COPY_SRC,
             )
         };
-        let debug_normals = options.gbuffer_debug == Some(GbufferView::NormalError);
+        let debug_normals = options.build.lighting.gbuffer_debug == Some(GbufferView::NormalError);
         let targets = Targets {
             size,
             hdr: make("strata.lit.hdr", HDR_FORMAT, true),
@@ -216,9 +216,13 @@ impl Targets {
             ao_raw: make(
                 "strata.deferred.ssao.raw",
                 AO_FORMAT,
-                deferred && options.ssao,
+                deferred && options.build.lighting.ssao,
             ),
-            ao: make("strata.deferred.ssao", AO_FORMAT, deferred && options.ssao),
+            ao: make(
+                "strata.deferred.ssao",
+                AO_FORMAT,
+                deferred && options.build.lighting.ssao,
+            ),
             bytes: 0,
         };
         let bytes = [
@@ -614,9 +618,9 @@ impl LitFrame {
     /// Moves the camera (and takes new options: size, tone map, background); rewrites the
     /// uniforms and the visible-light list.
     pub fn set_camera(&mut self, camera: &Camera, options: &RenderOptions) {
-        if (options.width, options.height) != self.targets.size
-            || options.ssao != self.options.ssao
-            || options.gbuffer_debug != self.options.gbuffer_debug
+        if (options.frame.width, options.frame.height) != self.targets.size
+            || options.build.lighting.ssao != self.options.build.lighting.ssao
+            || options.build.lighting.gbuffer_debug != self.options.build.lighting.gbuffer_debug
         {
             self.targets = Targets::new(&self.gpu, self.pipeline, options);
             self.groups = Self::make_groups(
@@ -630,7 +634,7 @@ impl LitFrame {
         }
         self.options = options.clone();
         self.scene.update(&self.gpu, camera, options);
-        let aspect = options.width as f32 / options.height as f32;
+        let aspect = options.frame.width as f32 / options.frame.height as f32;
         let view_proj: Mat4 = camera.view_projection(aspect);
         self.visible = volumes::classify(&self.lights, camera, aspect);
         if !self.visible.indices.is_empty() {
@@ -642,10 +646,15 @@ impl LitFrame {
         }
         let params = DeferredParams {
             inv_view_proj: view_proj.inverse().to_cols_array_2d(),
-            normal_encoding: options.normal_encoding as u32,
-            ssao: options.ssao as u32,
-            debug_view: options.gbuffer_debug.map(GbufferView::index).unwrap_or(0),
-            tonemap: options.tonemap as u32,
+            normal_encoding: options.build.lighting.normal_encoding as u32,
+            ssao: options.build.lighting.ssao as u32,
+            debug_view: options
+                .build
+                .lighting
+                .gbuffer_debug
+                .map(GbufferView::index)
+                .unwrap_or(0),
+            tonemap: options.build.lighting.tonemap as u32,
             ssao_radius: self.ssao_radius,
             ssao_strength: SSAO_STRENGTH,
             cone_first: self.cone_first,
@@ -687,8 +696,8 @@ impl LitFrame {
             gbuffer_bytes_per_pixel: deferred
                 .then(|| gbuffer_bytes_per_pixel(GbufferLayout::Compressed)),
             bytes_allocated: self.targets.bytes,
-            tonemap: self.options.tonemap,
-            ssao: deferred && self.options.ssao,
+            tonemap: self.options.build.lighting.tonemap,
+            ssao: deferred && self.options.build.lighting.ssao,
         }
     }
 
@@ -739,7 +748,8 @@ impl LitFrame {
             view(&self.targets.normal),
             view(&self.targets.exact_normal),
         );
-        let exact_normals = self.options.gbuffer_debug == Some(GbufferView::NormalError);
+        let exact_normals =
+            self.options.build.lighting.gbuffer_debug == Some(GbufferView::NormalError);
         {
             let mut colors = vec![
                 passes::attachment(&albedo, clear),
@@ -766,7 +776,7 @@ impl LitFrame {
             scene.bind(&mut pass);
             pass.draw(0..triangles, 0..1);
         }
-        if self.options.ssao {
+        if self.options.build.lighting.ssao {
             let (ao_raw, ao) = (view(&self.targets.ao_raw), view(&self.targets.ao));
             self.full_screen(
                 encoder,
@@ -820,7 +830,7 @@ impl LitFrame {
             &frame,
             Pass::Composite,
         );
-        if self.options.gbuffer_debug.is_some() {
+        if self.options.build.lighting.gbuffer_debug.is_some() {
             self.full_screen(
                 encoder,
                 timer,

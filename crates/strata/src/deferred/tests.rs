@@ -2,6 +2,7 @@
 //! only difference), light volumes against the per-fragment loop, and the full frame against
 //! the reference.
 
+use crate::frame::{BuildOptions, FrameOptions, Lighting};
 use glam::{Mat4, Vec3};
 
 use super::*;
@@ -149,10 +150,18 @@ fn mixed_lights() -> Vec<Light> {
 
 fn options(pipeline: Option<Pipeline>, size: u32) -> RenderOptions {
     RenderOptions {
-        width: size,
-        height: size,
-        pipeline,
-        ..Default::default()
+        build: BuildOptions {
+            lighting: Lighting {
+                pipeline,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+        frame: FrameOptions {
+            width: size,
+            height: size,
+            ..Default::default()
+        },
     }
 }
 
@@ -226,9 +235,10 @@ fn deferred_equals_forward_with_the_octahedral_encoding_and_many_lights() {
         "abuffer-ll",
     )
     .0;
-    let opts = RenderOptions {
-        normal_encoding: NormalEncoding::Octahedral,
-        ..options(Some(Pipeline::Deferred), size)
+    let opts = {
+        let mut options = options(Some(Pipeline::Deferred), size);
+        options.build.lighting.normal_encoding = NormalEncoding::Octahedral;
+        options
     };
     let (deferred, stats) = render(&scene, &opts, "abuffer-ll");
     assert_close(
@@ -319,9 +329,10 @@ fn forward_pipeline_with_exact_methods_equals_the_reference() {
         }
     }
     for (method, k) in [("f2b", None), ("kplus-heap", Some(1))] {
-        let opts = RenderOptions {
-            k,
-            ..options(Some(Pipeline::Forward), 64)
+        let opts = {
+            let mut options = options(Some(Pipeline::Forward), 64);
+            options.frame.k = k;
+            options
         };
         let (image, _) = render(&scene, &opts, method);
         let expected = render_reference(&scene, &opts);
@@ -343,15 +354,16 @@ fn forward_pipeline_with_exact_methods_equals_the_reference() {
 fn composite_over_deferred(scene: &Scene, opts: &RenderOptions) -> (LinearImage, u32) {
     let (opaque, transparent) = scene.split_by_opacity();
     let (lit_opaque, _) = render(&opaque, opts, "abuffer-ll");
-    let single = RenderOptions {
-        msaa: 1,
-        ..opts.clone()
+    let single = {
+        let mut options = opts.clone();
+        options.build.msaa = 1;
+        options
     };
     let opaque_fragments = crate::reference::fragments(&opaque, &single).unwrap();
     let transparent_fragments = crate::reference::fragments(&transparent, opts).unwrap();
-    let samples = opts.msaa.max(1);
+    let samples = opts.build.msaa.max(1);
     let full = ((1u32 << samples) - 1) as u8;
-    let keep = opts.k.map_or(usize::MAX, |k| k as usize);
+    let keep = opts.frame.k.map_or(usize::MAX, |k| k as usize);
     let mut partly_covered = 0;
     let pixels = transparent_fragments
         .iter()
@@ -383,7 +395,7 @@ fn composite_over_deferred(scene: &Scene, opts: &RenderOptions) -> (LinearImage,
             ]
         })
         .collect();
-    let (width, height) = (opts.width, opts.height);
+    let (width, height) = (opts.frame.width, opts.frame.height);
     (
         LinearImage {
             width,
@@ -401,16 +413,18 @@ fn composite_over_deferred(scene: &Scene, opts: &RenderOptions) -> (LinearImage,
 fn the_transparent_method_over_the_deferred_image_equals_the_reference_composite() {
     let scene = room(mixed_lights());
     let size = 80;
-    let opts = RenderOptions {
-        tonemap: Tonemap::None,
-        background: crate::scene::Background::Color([0.02, 0.03, 0.05]),
-        ..options(Some(Pipeline::Deferred), size)
+    let opts = {
+        let mut options = options(Some(Pipeline::Deferred), size);
+        options.build.lighting.tonemap = Tonemap::None;
+        options.frame.background = crate::scene::Background::Color([0.02, 0.03, 0.05]);
+        options
     };
     let (expected, _) = composite_over_deferred(&scene, &opts);
     for method in ["abuffer-ll", "dual", "kplus-array"] {
-        let opts = RenderOptions {
-            k: Some(4),
-            ..opts.clone()
+        let opts = {
+            let mut options = opts.clone();
+            options.frame.k = Some(4);
+            options
         };
         let (actual, _) = render(&scene, &opts, method);
         assert_close(
@@ -432,12 +446,13 @@ fn the_transparent_method_over_the_deferred_image_equals_the_reference_composite
 fn multisampled_transparency_over_the_single_sampled_deferred_image() {
     let scene = room(mixed_lights());
     let size = 80;
-    let opts = RenderOptions {
-        tonemap: Tonemap::None,
-        background: crate::scene::Background::Color([0.02, 0.03, 0.05]),
-        msaa: 4,
-        k: Some(4),
-        ..options(Some(Pipeline::Deferred), size)
+    let opts = {
+        let mut options = options(Some(Pipeline::Deferred), size);
+        options.build.lighting.tonemap = Tonemap::None;
+        options.frame.background = crate::scene::Background::Color([0.02, 0.03, 0.05]);
+        options.build.msaa = 4;
+        options.frame.k = Some(4);
+        options
     };
     let (expected, partly_covered) = composite_over_deferred(&scene, &opts);
     assert!(partly_covered > 20, "{partly_covered} edge pixels");
@@ -515,10 +530,11 @@ fn the_normal_error_view_measures_the_encoding_within_its_bound() {
         (NormalEncoding::Spheremap, 0.48),
         (NormalEncoding::Octahedral, 0.36),
     ] {
-        let opts = RenderOptions {
-            normal_encoding: encoding,
-            gbuffer_debug: Some(GbufferView::NormalError),
-            ..options(Some(Pipeline::Deferred), 64)
+        let opts = {
+            let mut options = options(Some(Pipeline::Deferred), 64);
+            options.build.lighting.normal_encoding = encoding;
+            options.build.lighting.gbuffer_debug = Some(GbufferView::NormalError);
+            options
         };
         let mut renderer = crate::Renderer::new(gpu(), &scene, &opts).unwrap();
         renderer.render("abuffer-ll").unwrap();
@@ -550,9 +566,10 @@ fn every_gbuffer_view_renders_and_differs_from_the_picture() {
         GbufferView::NormalError,
         GbufferView::Occlusion,
     ] {
-        let opts = RenderOptions {
-            gbuffer_debug: Some(view),
-            ..options(Some(Pipeline::Deferred), 48)
+        let opts = {
+            let mut options = options(Some(Pipeline::Deferred), 48);
+            options.build.lighting.gbuffer_debug = Some(view);
+            options
         };
         let image = render(&scene, &opts, "abuffer-ll").0;
         assert_ne!(image.pixels, picture.pixels, "{view:?}");
@@ -579,9 +596,10 @@ fn ssao_darkens_the_floor_by_the_cube_and_not_the_open_floor() {
         "abuffer-ll",
     )
     .0;
-    let opts = RenderOptions {
-        ssao: true,
-        ..options(Some(Pipeline::Deferred), size)
+    let opts = {
+        let mut options = options(Some(Pipeline::Deferred), size);
+        options.build.lighting.ssao = true;
+        options
     };
     let (occluded, stats) = render(&scene, &opts, "abuffer-ll");
     assert!(stats.gpu_ms.unwrap().contains_key("deferred.ssao"));
@@ -651,13 +669,15 @@ fn splitting_by_opacity_keeps_order_materials_and_camera() {
 #[test]
 fn options_that_need_the_deferred_pipeline_say_so() {
     for opts in [
-        RenderOptions {
-            ssao: true,
-            ..options(Some(Pipeline::Forward), 16)
+        {
+            let mut options = options(Some(Pipeline::Forward), 16);
+            options.build.lighting.ssao = true;
+            options
         },
-        RenderOptions {
-            gbuffer_debug: Some(GbufferView::Normal),
-            ..options(None, 16)
+        {
+            let mut options = options(None, 16);
+            options.build.lighting.gbuffer_debug = Some(GbufferView::Normal);
+            options
         },
     ] {
         let e = opts.validate().unwrap_err().to_string();

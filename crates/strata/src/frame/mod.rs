@@ -17,6 +17,7 @@
 
 pub mod colormap;
 pub mod msaa;
+pub mod options;
 pub mod passes;
 pub mod present;
 pub mod scene_gpu;
@@ -25,7 +26,6 @@ pub mod uniforms;
 pub mod values;
 
 use std::collections::BTreeMap;
-use std::str::FromStr;
 
 use bytemuck::{Pod, Zeroable};
 use serde::Serialize;
@@ -36,6 +36,10 @@ use crate::gpu::Gpu;
 pub use crate::scene::{Pipeline, MAX_SIDE};
 
 pub use crate::gpu::readback::ReadbackList;
+pub use options::{
+    Band, BucketSplit, BuildOptions, Effect, FrameOptions, KBufferOptions, Lighting,
+    PeelingOptions, RenderOptions, Tail, Weight, WeightedOptions, BAND_ALIGN, MAX_LAYERS,
+};
 pub use scene_gpu::SceneGpu;
 pub use values::{
     ComputeRasterStats, ConvexStats, GbufferView, LightingStats, NormalEncoding, Raster,
@@ -43,350 +47,6 @@ pub use values::{
 };
 
 /// How a pixel's depth-ordered fragments become a color.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum Effect {
-    #[default]
-    Transparency,
-    Translucency,
-    Complexity,
-}
-
-impl FromStr for Effect {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "transparency" => Ok(Effect::Transparency),
-            "translucency" => Ok(Effect::Translucency),
-            "complexity" => Ok(Effect::Complexity),
-            _ => Err(Error::input(format!(
-                "unknown effect '{s}' (expected transparency, translucency or complexity)"
-            ))),
-        }
-    }
-}
-
-impl Effect {
-    pub fn name(self) -> &'static str {
-        match self {
-            Effect::Transparency => "transparency",
-            Effect::Translucency => "translucency",
-            Effect::Complexity => "complexity",
-        }
-    }
-}
-
-/// What k-buffer methods do with fragments beyond the k nearest.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum Tail {
-    /// Discard them (counted in `fragments_dropped`).
-    #[default]
-    Drop,
-    /// Blend them, unsorted, into one tail term behind the k nearest (weighted average color,
-    /// opacity from the sum of their optical depths), as engines do.
-    Blend,
-}
-
-/// The weight function of weighted blended OIT: McGuire & Bavoil 2013, equations 7–10.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum Weight {
-    /// α·clamp(10 / (10⁻⁵ + (|z|/5)² + (|z|/200)⁶), 10⁻², 3·10³).
-    #[default]
-    Eq7,
-    /// α·clamp(10 / (10⁻⁵ + (|z|/10)³ + (|z|/200)⁶), 10⁻², 3·10³).
-    Eq8,
-    /// α·clamp(0.03 / (10⁻⁵ + (|z|/200)⁴), 10⁻², 3·10³).
-    Eq9,
-    /// α·max(10⁻², 3·10³·(1 − d)³), d the window depth.
-    Eq10,
-}
-
-impl Weight {
-    pub fn index(self) -> u32 {
-        self as u32
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Weight::Eq7 => "eq7",
-            Weight::Eq8 => "eq8",
-            Weight::Eq9 => "eq9",
-            Weight::Eq10 => "eq10",
-        }
-    }
-}
-
-/// How `bucket` splits each pixel's depth range into buckets (`--buckets`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum BucketSplit {
-    /// k/2 equal parts of the depth range (Liu et al. 2009's bucket depth peeling).
-    #[default]
-    Uniform,
-    /// The paper's adaptive variant: a histogram pass marks which of 1024 equal parts hold
-    /// fragments, and the buckets are shared among the occupied parts only.
-    Adaptive,
-}
-
-impl BucketSplit {
-    pub fn name(self) -> &'static str {
-        match self {
-            BucketSplit::Uniform => "uniform",
-            BucketSplit::Adaptive => "adaptive",
-        }
-    }
-}
-
-impl FromStr for Tail {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "drop" => Ok(Tail::Drop),
-            "blend" => Ok(Tail::Blend),
-            _ => Err(Error::input(format!("--tail '{s}' is not drop or blend"))),
-        }
-    }
-}
-
-/// A horizontal band of a taller picture: this picture's rows are rows `top..top + height` of a
-/// picture `full_height` rows high and as wide. The projection is cropped to the band, so bands
-/// rendered one after another make the whole picture (how [`crate::Renderer`] renders pictures
-/// whose per-pixel buffers outgrow the device's storage bindings).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Band {
-    pub full_height: u32,
-    pub top: u32,
-}
-
-/// Band tops are multiples of this many rows: the checkerboard background's period, so that
-/// every band continues its pattern.
-pub const BAND_ALIGN: u32 = 32;
-
-/// Everything about a picture that is not the scene.
-#[derive(Clone, Debug)]
-pub struct RenderOptions {
-    pub width: u32,
-    pub height: u32,
-    pub effect: Effect,
-    pub background: crate::scene::Background,
-    /// Per-pixel capacity for k-buffer methods, and the reference's `--k`.
-    pub k: Option<u32>,
-    /// Memory a method may allocate, in MiB.
-    pub budget_mb: Option<f64>,
-    /// Initial node pool of the linked-list methods (nodes); by default sized from the last
-    /// frame's measured need.
-    pub abuffer_initial_nodes: Option<u64>,
-    /// k-buffers: fragments beyond k.
-    pub tail: Tail,
-    /// k-buffers: cull fragments behind a full pixel's maximum before taking the lock.
-    pub culling: bool,
-    /// k-buffers: spin-lock tries per fragment (default 65536, at most
-    /// [`MAX_TRIES_LIMIT`]).
-    pub max_tries: Option<u32>,
-    /// Depth peeling: a fixed number of layers per frame; by default the last frame's depth
-    /// complexity.
-    pub layers: Option<u32>,
-    /// kplus-semiheap: slots of the max-heap H (default 1, the paper's), the rest unordered.
-    pub heap_size: Option<u32>,
-    /// bucket: how each pixel's depth range splits into buckets.
-    pub buckets: BucketSplit,
-    /// wboit: the weight function.
-    pub weight: Weight,
-    /// wboit: view-space distances are multiplied by this before the weight function, whose
-    /// constants assume distances of 0.1 to 500 units.
-    pub depth_scale: f64,
-    /// mboit: power moments, 4 (default), 6 or 8.
-    pub moments: u32,
-    /// `--k auto --robustness R`: each frame's k is chosen from the last depth-complexity
-    /// histogram to capture the fraction R of the fragments within `budget_mb` (see
-    /// [`crate::methods::kbuffer::predict`]); `k` is then ignored.
-    pub k_auto: Option<f64>,
-    /// Value the fragment-pool allocation counters start from each frame (normally 0). Tests
-    /// start them near 2³² to show that they saturate instead of wrapping.
-    pub allocation_counter_start: u32,
-    /// `--pipeline`: opaque objects lit forward or deferred, the method over them (see
-    /// [`crate::deferred`]); `None`: every surface, opaque ones too, goes through the method.
-    pub pipeline: Option<Pipeline>,
-    /// The lit pipelines' tone map.
-    pub tonemap: Tonemap,
-    /// Deferred: screen-space ambient occlusion.
-    pub ssao: bool,
-    /// Deferred: how the G-buffer stores normals.
-    pub normal_encoding: NormalEncoding,
-    /// Deferred: write a G-buffer view instead of the picture.
-    pub gbuffer_debug: Option<GbufferView>,
-    /// Which rasterizer makes the fragments of the storage geometry passes (`--raster`).
-    pub raster: Raster,
-    /// The picture is a band of a taller one (`None`: the whole picture).
-    pub band: Option<Band>,
-    /// `--order`: the triangles' submission order, rebuilt on the GPU every frame, and its
-    /// Kendall distance to depth order in the statistics (`None`: the scene's order, unmeasured).
-    pub order: Option<crate::order::Order>,
-    /// `--seed`: random orders draw their permutations from it and the frame number.
-    pub order_seed: u64,
-    /// `--temporal on`: reverse-reprojection culling against last frame's (k+1)-th depths
-    /// ([`crate::methods::kbuffer::temporal`]).
-    pub temporal: Option<TemporalCulling>,
-    /// `--cache-dir`: preprocesses (convex's decomposition) are kept here between runs, read
-    /// when present and written when made (`None`: in memory only).
-    pub cache_dir: Option<std::path::PathBuf>,
-    /// `--msaa`: samples per pixel (1, 4 or 8) at the standard sample positions; each captured
-    /// fragment carries its coverage mask and resolves composite per sample ([`msaa`]).
-    pub msaa: u32,
-}
-
-impl Default for RenderOptions {
-    fn default() -> Self {
-        RenderOptions {
-            width: 512,
-            height: 512,
-            effect: Effect::Transparency,
-            background: crate::scene::Background::Checker,
-            k: None,
-            budget_mb: None,
-            abuffer_initial_nodes: None,
-            tail: Tail::Drop,
-            culling: true,
-            max_tries: None,
-            layers: None,
-            k_auto: None,
-            heap_size: None,
-            buckets: BucketSplit::Uniform,
-            weight: Weight::Eq7,
-            moments: 4,
-            depth_scale: 1.0,
-            allocation_counter_start: 0,
-            pipeline: None,
-            tonemap: Tonemap::default(),
-            ssao: false,
-            normal_encoding: NormalEncoding::default(),
-            gbuffer_debug: None,
-            raster: Raster::Hw,
-            band: None,
-            order: None,
-            order_seed: 0,
-            temporal: None,
-            cache_dir: None,
-            msaa: 1,
-        }
-    }
-}
-
-impl RenderOptions {
-    pub fn pixels(&self) -> u64 {
-        self.width as u64 * self.height as u64
-    }
-
-    pub fn budget_bytes(&self) -> Option<u64> {
-        self.budget_mb.map(|m| (m * 1048576.0) as u64)
-    }
-
-    pub fn validate(&self) -> Result<()> {
-        if let Some(tries) = self.max_tries {
-            let limit = MAX_TRIES_LIMIT;
-            if tries == 0 {
-                return Err(Error::input("--max-tries must be at least 1"));
-            }
-            if tries > limit {
-                return Err(Error::input(format!(
-                    "--max-tries {tries} is over {limit}: a fragment spinning that long on a starved lock could outlast the GPU's watchdog"
-                )));
-            }
-        }
-        if self.width == 0 || self.height == 0 || self.width > MAX_SIDE || self.height > MAX_SIDE {
-            return Err(Error::input(format!(
-                "size {}x{} is out of range (1..{MAX_SIDE} per side)",
-                self.width, self.height
-            )));
-        }
-        if let Some(band) = self.band {
-            if band.top % BAND_ALIGN != 0
-                || band.full_height > MAX_SIDE
-                || band.top as u64 + self.height as u64 > band.full_height as u64
-            {
-                return Err(Error::input(format!(
-                    "band of {} rows at row {} is not inside a picture of {} rows with its top a multiple of {BAND_ALIGN}",
-                    self.height, band.top, band.full_height
-                )));
-            }
-            if self.temporal.is_some() {
-                return Err(Error::unsupported(format!(
-                    "--temporal on reprojects whole frames, and {}x{} is too large for this device to render at once; use a smaller --size",
-                    self.width, band.full_height
-                )));
-            }
-            if self.pipeline.is_some() {
-                return Err(Error::unsupported(format!(
-                    "--pipeline renders the whole picture at once (its screen-space passes see the whole frame), and {}x{} is too large for this device to do so; use a smaller --size",
-                    self.width, band.full_height
-                )));
-            }
-        }
-        if let (Some(order), Raster::Compute) = (self.order, self.raster) {
-            return Err(Error::unsupported(format!(
-                "--order {} changes the order the GPU's rasterizer receives triangles in; --raster compute has none (use --raster hw)",
-                order.name()
-            )));
-        }
-        if let Some(b) = self.budget_mb {
-            if b.is_nan() || b <= 0.0 {
-                return Err(Error::input(format!("--budget-mb {b} must be positive")));
-            }
-        }
-        if !(self.depth_scale.is_finite() && self.depth_scale > 0.0) {
-            return Err(Error::input(format!(
-                "--depth-scale {} must be a positive number",
-                self.depth_scale
-            )));
-        }
-        if ![4, 6, 8].contains(&self.moments) {
-            return Err(Error::input(format!(
-                "--moments {} is not 4, 6 or 8 (mboit's power moments)",
-                self.moments
-            )));
-        }
-        if let Some(r) = self.k_auto {
-            if !(r > 0.0 && r <= 1.0) {
-                return Err(Error::input(format!(
-                    "--robustness {r} is outside (0, 1] (the fraction of fragments to capture)"
-                )));
-            }
-        }
-        if self.pipeline != Some(Pipeline::Deferred) {
-            if self.ssao {
-                return Err(Error::input(
-                    "--ssao needs --pipeline deferred (it reads the G-buffer)",
-                ));
-            }
-            if let Some(v) = self.gbuffer_debug {
-                let name = serde_json::to_value(v).unwrap_or_default();
-                return Err(Error::input(format!(
-                    "--gbuffer-debug {} needs --pipeline deferred",
-                    name.as_str().unwrap_or("view")
-                )));
-            }
-        }
-        msaa::check_options(self)?;
-        if let Some(l) = self.layers {
-            if l == 0 || l > MAX_LAYERS {
-                return Err(Error::input(format!(
-                    "--layers {l} is outside 1..{MAX_LAYERS}"
-                )));
-            }
-        }
-        Ok(())
-    }
-}
-
-/// Peeling never records more layers than this in one frame.
-pub const MAX_LAYERS: u32 = 1024;
-
 /// What every frame reports (`--stats FILE.json`). Unknown values are `None` (`null`).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct FrameStats {
@@ -575,6 +235,9 @@ pub struct FrameContext<'a> {
     pub gpu: &'a Gpu,
     pub scene: &'a SceneGpu,
     pub options: &'a RenderOptions,
+    /// The frame's k: the options' `k`, or with `--k auto` the one the recorder chose for this
+    /// frame (the caller's options keep theirs).
+    pub k: Option<u32>,
     /// The caller's encoder: every pass of the frame goes here; nothing is submitted.
     pub encoder: &'a mut wgpu::CommandEncoder,
     pub timer: &'a mut Timer,
@@ -621,7 +284,7 @@ impl FrameContext<'_> {
     }
 
     pub fn size(&self) -> (u32, u32) {
-        (self.options.width, self.options.height)
+        (self.options.frame.width, self.options.frame.height)
     }
 
     /// The memory ledger's rule: a method allocating `bytes` for this frame stays within
@@ -632,13 +295,14 @@ impl FrameContext<'_> {
                 "{}: needs {:.2} MiB at {}x{}{}, more than --budget-mb {}",
                 self.method,
                 bytes as f64 / 1048576.0,
-                self.options.width,
-                self.options.height,
+                self.options.frame.width,
+                self.options.frame.height,
                 self.options
+                    .frame
                     .k
                     .map(|k| format!(" and k={k}"))
                     .unwrap_or_default(),
-                self.options.budget_mb.unwrap_or(0.0)
+                self.options.frame.budget_mb.unwrap_or(0.0)
             ))),
             _ => Ok(()),
         }
@@ -647,8 +311,8 @@ impl FrameContext<'_> {
     /// Workgroups of 8×8 covering the image.
     pub fn pixel_workgroups(&self) -> (u32, u32) {
         (
-            self.options.width.div_ceil(8),
-            self.options.height.div_ceil(8),
+            self.options.frame.width.div_ceil(8),
+            self.options.frame.height.div_ceil(8),
         )
     }
 }

@@ -112,7 +112,7 @@ pub fn max_triangles(samples: u32) -> u64 {
 
 /// `--msaa` against the other options.
 pub fn check_options(options: &RenderOptions) -> Result<()> {
-    let samples = options.msaa;
+    let samples = options.build.msaa;
     if !SAMPLE_COUNTS.contains(&samples) {
         return Err(Error::input(format!(
             "--msaa {samples} is not 1, 4 or 8 (the sample counts every wgpu backend supports)"
@@ -126,10 +126,10 @@ pub fn check_options(options: &RenderOptions) -> Result<()> {
             "--msaa {samples} does not work with {what} yet; use --msaa 1"
         )))
     };
-    if options.raster == crate::frame::Raster::Compute {
+    if options.build.raster == crate::frame::Raster::Compute {
         return refuse("--raster compute (the compute rasterizer samples pixel centers)");
     }
-    if options.temporal.is_some() {
+    if options.frame.temporal.is_some() {
         return refuse("--temporal on");
     }
     Ok(())
@@ -180,6 +180,7 @@ pub fn check_triangles(samples: u32, triangles: u64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::BuildOptions;
 
     #[test]
     fn positions_are_distinct_inside_the_pixel_and_on_the_sixteenth_grid() {
@@ -201,7 +202,10 @@ mod tests {
     #[test]
     fn bad_counts_and_combinations_are_refused() {
         let with = |msaa| RenderOptions {
-            msaa,
+            build: BuildOptions {
+                msaa,
+                ..Default::default()
+            },
             ..Default::default()
         };
         assert!(check_options(&with(2)).is_err());
@@ -225,10 +229,11 @@ mod gpu_tests {
     const MAX_FRACTION: f64 = 0.001;
 
     fn multisampled(size: u32, effect: Effect, msaa: u32, k: Option<u32>) -> RenderOptions {
-        RenderOptions {
-            msaa,
-            k,
-            ..options(size, effect)
+        {
+            let mut options = options(size, effect);
+            options.build.msaa = msaa;
+            options.frame.k = k;
+            options
         }
     }
 
@@ -365,10 +370,11 @@ mod gpu_tests {
         let expected = render_reference(&scene, &two);
         let (_, selected) = render_gpu(&scene, &two, "kb-ab-ll");
         assert!(selected.fragments_dropped.unwrap() > 0);
-        let layers = RenderOptions {
-            layers: Some(2),
-            k: Some(1),
-            ..two.clone()
+        let layers = {
+            let mut options = two.clone();
+            options.frame.peeling.layers = Some(2);
+            options.frame.k = Some(1);
+            options
         };
         for method in ["f2b", "kpeel"] {
             let mut r = crate::Renderer::new(crate::testing::gpu(), &scene, &layers).unwrap();
@@ -377,7 +383,7 @@ mod gpu_tests {
                 method,
                 &img,
                 &expected,
-                layers.effect,
+                layers.frame.effect,
                 MAX_DIFF,
                 MAX_FRACTION,
             );
@@ -410,7 +416,7 @@ mod gpu_tests {
                 &name,
                 &unsorted,
                 &expected,
-                opts.effect,
+                opts.frame.effect,
                 MAX_DIFF,
                 MAX_FRACTION,
             );
@@ -420,7 +426,7 @@ mod gpu_tests {
                 &name,
                 &sorted,
                 &expected,
-                opts.effect,
+                opts.frame.effect,
                 MAX_DIFF,
                 MAX_FRACTION,
             );
@@ -438,9 +444,10 @@ mod gpu_tests {
     fn fully_covered_pixels_equal_the_single_sample_result() {
         let scene = load_scene("builtin:layers?n=8&coverage=0.6&order=random&seed=5").unwrap();
         let single = options(48, Effect::Transparency);
-        let four = RenderOptions {
-            msaa: 4,
-            ..single.clone()
+        let four = {
+            let mut options = single.clone();
+            options.build.msaa = 4;
+            options
         };
         let lists = crate::reference::fragments(&scene, &four).unwrap();
         let (one, _) = render_gpu(&scene, &single, "abuffer-ll");
@@ -466,10 +473,11 @@ mod gpu_tests {
     fn a_half_covered_edge_pixel_gets_half_the_contribution() {
         // 32 pixels span x ∈ [-1, 1]: the layer's right edge at 16.5 pixels.
         let scene = load_scene("builtin:layers?n=1&coverage=0.515625").unwrap();
-        let opts = RenderOptions {
-            msaa: 4,
-            background: Background::Color([0.2, 0.3, 0.4]),
-            ..options(32, Effect::Transparency)
+        let opts = {
+            let mut options = options(32, Effect::Transparency);
+            options.build.msaa = 4;
+            options.frame.background = Background::Color([0.2, 0.3, 0.4]);
+            options
         };
         for method in [
             "abuffer-ll",

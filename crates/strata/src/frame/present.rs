@@ -168,6 +168,7 @@ mod tests {
 #[cfg(test)]
 mod format_tests {
     use super::TESTED_FORMATS;
+    use crate::frame::FrameOptions;
     use crate::frame::FrameTargets;
     use crate::scene::{loaders, Background};
     use crate::testing::gpu;
@@ -246,10 +247,13 @@ mod format_tests {
         let scene = loaders::load_scene("builtin:spheres?layers=6").unwrap();
         let bg = [0.05f32, 0.2, 0.4];
         let options = RenderOptions {
-            width: 48,
-            height: 40,
-            effect: Effect::Transparency,
-            background: Background::Color(bg),
+            frame: FrameOptions {
+                width: 48,
+                height: 40,
+                effect: Effect::Transparency,
+                background: Background::Color(bg),
+                ..Default::default()
+            },
             ..Default::default()
         };
         let (expected, _) = Renderer::new(g, &scene, &options)
@@ -260,7 +264,7 @@ mod format_tests {
         for format in TESTED_FORMATS {
             let target = g.texture_2d(
                 "strata.test.target",
-                (options.width, options.height),
+                (options.frame.width, options.frame.height),
                 format,
                 wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
             );

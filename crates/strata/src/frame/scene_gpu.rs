@@ -85,7 +85,7 @@ impl SceneGpu {
             scene.validate()?;
         }
         let triangles = scene.triangle_count() as u64;
-        check_fits(&gpu.limits, triangles, options.raster)?;
+        check_fits(&gpu.limits, triangles, options.build.raster)?;
         let TriangleList {
             mut vertices,
             materials: mut triangle_materials,
@@ -156,7 +156,7 @@ impl SceneGpu {
             centroids: centroids(&vertices[..triangle_count as usize * 3]),
             draw_indices: None,
             raster_layout: None,
-            samples: options.msaa,
+            samples: options.build.msaa,
             animation: None,
             motion: None,
         };

@@ -138,14 +138,14 @@ pub fn checker_colors() -> ([f32; 3], [f32; 3]) {
 /// The camera's view-projection for the picture, cropped to its band: the full picture's
 /// projection followed by the map that takes the band's rows to the whole of clip space.
 pub fn band_projection(camera: &Camera, options: &RenderOptions) -> Mat4 {
-    let Some(band) = options.band else {
-        return camera.view_projection(options.width as f32 / options.height as f32);
+    let Some(band) = options.frame.band else {
+        return camera.view_projection(options.frame.width as f32 / options.frame.height as f32);
     };
     let full = band.full_height as f32;
-    let full_projection = camera.view_projection(options.width as f32 / full);
+    let full_projection = camera.view_projection(options.frame.width as f32 / full);
     // Clip-space y of the band's centre (y up, rows down) and how much the band is magnified.
-    let centre = 1.0 - (2.0 * band.top as f32 + options.height as f32) / full;
-    let scale = full / options.height as f32;
+    let centre = 1.0 - (2.0 * band.top as f32 + options.frame.height as f32) / full;
+    let scale = full / options.frame.height as f32;
     let crop = Mat4::from_cols(
         glam::Vec4::X,
         glam::Vec4::new(0.0, scale, 0.0, 0.0),
@@ -163,7 +163,7 @@ pub fn frame_uniforms(
     let view = camera.view();
     let view_proj: Mat4 = band_projection(camera, options);
     let (light, dark) = checker_colors();
-    let (checker, background) = match options.background {
+    let (checker, background) = match options.frame.background {
         Background::Checker => (1, [0.0; 3]),
         Background::Color(c) => (0, c),
     };
@@ -177,8 +177,8 @@ pub fn frame_uniforms(
         checker_light: [light[0], light[1], light[2], 1.0],
         checker_dark: [dark[0], dark[1], dark[2], 1.0],
         ambient: [setup.ambient[0], setup.ambient[1], setup.ambient[2], 0.0],
-        size: [options.width, options.height],
-        effect: match options.effect {
+        size: [options.frame.width, options.frame.height],
+        effect: match options.frame.effect {
             Effect::Transparency => 0,
             Effect::Translucency => 1,
             Effect::Complexity => 2,
@@ -189,7 +189,7 @@ pub fn frame_uniforms(
         orthographic: matches!(camera.projection, Projection::Orthographic { .. }) as u32,
         headlight: setup.headlight as u32,
         checker,
-        coverage_bits: crate::frame::msaa::coverage_bits(options.msaa),
+        coverage_bits: crate::frame::msaa::coverage_bits(options.build.msaa),
         _pad: [0; 2],
     }
 }

@@ -206,9 +206,9 @@ pub fn create(
     options: &RenderOptions,
 ) -> Result<Box<dyn Method>> {
     let descriptor = id.descriptor();
-    descriptor.check_raster(options.raster)?;
-    descriptor.check_msaa(options.msaa, scene.triangle_count as u64)?;
-    crate::frame::msaa::check_device(gpu, options.msaa)?;
+    descriptor.check_raster(options.build.raster)?;
+    descriptor.check_msaa(options.build.msaa, scene.triangle_count as u64)?;
+    crate::frame::msaa::check_device(gpu, options.build.msaa)?;
     (descriptor.create)(id, gpu, scene, options)
 }
 

@@ -6,6 +6,7 @@
 //! center within rounding distance of an edge can be covered by one and not the other; colors
 //! also differ by f32 shading and f16 fragment storage, which stays far below 2/255.
 
+use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions};
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference, Failures};
@@ -16,9 +17,12 @@ const MAX_FRACTION: f64 = 0.001;
 
 pub(crate) fn options(size: u32, effect: Effect) -> RenderOptions {
     RenderOptions {
-        width: size,
-        height: size,
-        effect,
+        frame: FrameOptions {
+            width: size,
+            height: size,
+            effect,
+            ..Default::default()
+        },
         ..Default::default()
     }
 }
@@ -38,10 +42,10 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
         }
         failures.check_exact_picture(
             method,
-            &format!("{name}-{method}-{}", opts.effect.name()),
+            &format!("{name}-{method}-{}", opts.frame.effect.name()),
             &actual,
             (&expected, &at_device, unmatched),
-            opts.effect,
+            opts.frame.effect,
         );
         assert!(stats.geometry_passes.unwrap() >= 1);
     }
@@ -152,8 +156,11 @@ fn exact_methods_match_reference_on_spheres_with_translucency() {
         m.absorption = 0.0;
     }
     let without = render_reference(&s, &opts);
-    let c = crate::metrics::compare(&with.to_rgba8(opts.effect), &without.to_rgba8(opts.effect))
-        .unwrap();
+    let c = crate::metrics::compare(
+        &with.to_rgba8(opts.frame.effect),
+        &without.to_rgba8(opts.frame.effect),
+    )
+    .unwrap();
     assert!(c.pct_over_2 > 20.0, "{c:?}");
 }
 
@@ -203,7 +210,7 @@ fn a_scene_beyond_one_storage_binding_matches_the_reference() {
             &format!("beyond-binding-{method}"),
             &actual,
             &expected,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -227,7 +234,7 @@ fn pictures_in_bands_match_the_reference() {
             &format!("bands-{method}"),
             &actual,
             &expected,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -255,7 +262,7 @@ fn pictures_beyond_the_bindings_render_in_bands_that_halve_as_needed() {
     gpu.limits.max_storage_buffer_binding_size = 512 << 10;
     let s = scene("builtin:layers?n=4&coverage=1&order=random&seed=2");
     let mut opts = options(128, Effect::Transparency);
-    opts.k = Some(8);
+    opts.frame.k = Some(8);
     let expected = render_reference(&s, &opts);
     // abuffer-ll's pool outgrows the binding after its first frame; kplus-array's arrays when
     // they are allocated.
@@ -266,7 +273,7 @@ fn pictures_beyond_the_bindings_render_in_bands_that_halve_as_needed() {
             &format!("halving-bands-{method}"),
             &actual,
             &expected,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -282,7 +289,7 @@ fn pictures_beyond_the_bindings_render_in_bands_that_halve_as_needed() {
 fn pictures_beyond_the_host_image_limit_are_refused_up_front() {
     let s = scene("builtin:layers?n=2");
     let mut opts = options(8192, Effect::Transparency);
-    opts.width = 8193;
+    opts.frame.width = 8193;
     let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
         .err()
         .expect("refused");
@@ -337,7 +344,7 @@ fn layers_composite_to_the_closed_form() {
     ));
     let background = [0.2f64, 0.3, 0.4];
     let mut opts = options(32, Effect::Transparency);
-    opts.background = crate::scene::Background::Color(background.map(|c| c as f32));
+    opts.frame.background = crate::scene::Background::Color(background.map(|c| c as f32));
     let mut expected = [0.0f64; 3];
     let mut t = 1.0f64;
     for (color, alpha) in crate::scene::builtin::layer_colors(n) {
@@ -385,7 +392,7 @@ fn exact_methods_are_deterministic() {
 fn abuffer_pool_overflow_is_detected_and_the_image_stays_exact() {
     let s = scene("builtin:spheres?layers=12");
     let mut opts = options(64, Effect::Transparency);
-    opts.abuffer_initial_nodes = Some(16);
+    opts.frame.kbuffer.initial_nodes = Some(16);
     let (actual, stats) = render_gpu(&s, &opts, "abuffer-ll");
     assert_eq!(stats.overflow, Some(true));
     assert_eq!(stats.geometry_passes, Some(2));
@@ -395,12 +402,12 @@ fn abuffer_pool_overflow_is_detected_and_the_image_stays_exact() {
         "overflow-abuffer-ll",
         &actual,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         MAX_FRACTION,
     );
     // A pool that fits reports no overflow.
-    opts.abuffer_initial_nodes = None;
+    opts.frame.kbuffer.initial_nodes = None;
     assert_eq!(render_gpu(&s, &opts, "abuffer-ll").1.overflow, Some(false));
 }
 
@@ -408,8 +415,8 @@ fn abuffer_pool_overflow_is_detected_and_the_image_stays_exact() {
 fn abuffer_budget_too_small_is_a_clear_error() {
     let s = scene("builtin:spheres?layers=12");
     let mut opts = options(64, Effect::Transparency);
-    opts.budget_mb = Some(0.02);
-    opts.abuffer_initial_nodes = Some(16);
+    opts.frame.budget_mb = Some(0.02);
+    opts.frame.kbuffer.initial_nodes = Some(16);
     let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
     let e = r.render("abuffer-ll").unwrap_err();
     assert!(matches!(e, crate::Error::Input(_)), "{e}");
@@ -428,7 +435,7 @@ fn baselines_are_exact_where_order_is_trivial() {
         "layers-sorted",
         &sorted,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         MAX_FRACTION,
     );
@@ -438,15 +445,15 @@ fn baselines_are_exact_where_order_is_trivial() {
         "layers-unsorted",
         &unsorted,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         MAX_FRACTION,
     );
     // And out of order, unsorted blending is visibly wrong: the reason OIT exists.
     let (wrong, _) = render_gpu(&shuffled, &opts, "unsorted");
     let c = crate::metrics::compare(
-        &wrong.to_rgba8(opts.effect),
-        &expected.to_rgba8(opts.effect),
+        &wrong.to_rgba8(opts.frame.effect),
+        &expected.to_rgba8(opts.frame.effect),
     )
     .unwrap();
     assert!(
@@ -495,7 +502,7 @@ fn opaque_depth_rejects_fragments_behind_it() {
             &format!("opaque-{method}"),
             &actual,
             &expected,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -545,7 +552,7 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
         );
     }
     let mut opts = opts;
-    opts.abuffer_initial_nodes = Some(5000);
+    opts.frame.kbuffer.initial_nodes = Some(5000);
     assert_eq!(
         render_gpu(&s, &opts, "abuffer-ll").1.bytes_allocated,
         Some(20 * 5000 + 16 * px + 152)
@@ -564,7 +571,7 @@ fn golden_demo_translucency() {
     );
     let opts = options(96, Effect::Translucency);
     let s = scene("builtin:demo");
-    let reference = render_reference(&s, &opts).to_rgba8(opts.effect);
+    let reference = render_reference(&s, &opts).to_rgba8(opts.frame.effect);
     if std::env::var_os("STRATA_BLESS").is_some() {
         reference.save(&path).unwrap();
     }
@@ -579,7 +586,7 @@ fn golden_demo_translucency() {
     let (gpu, _) = render_gpu(&s, &opts, "abuffer-ll");
     if let Err(m) = crate::metrics::testing::check_image(
         "golden-abuffer-ll",
-        &gpu.to_rgba8(opts.effect),
+        &gpu.to_rgba8(opts.frame.effect),
         &golden,
         MAX_DIFF,
         MAX_FRACTION,
@@ -607,7 +614,7 @@ fn draw_callback_issues_the_geometry() {
             &format!("callback-{method}"),
             &actual,
             &expected,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -620,14 +627,14 @@ fn draw_callback_issues_the_geometry() {
 fn second_frame_equals_the_first_for_every_method() {
     let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
     let mut opts = options(40, Effect::Transparency);
-    opts.k = Some(6);
+    opts.frame.k = Some(6);
     let mut shared = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
     // `kb` races by design: on a GPU that shades a pixel's fragments concurrently its frames may
     // differ, so it is left out.
     for m in super::MethodId::gpu_methods().filter(|&m| m != super::MethodId::Kb) {
         let roomy = room_for_every_fragment(m, &opts);
         let mut own;
-        let r = if roomy.k == opts.k {
+        let r = if roomy.frame.k == opts.frame.k {
             &mut shared
         } else {
             own = crate::Renderer::new(crate::testing::gpu(), &s, &roomy).unwrap();
@@ -646,7 +653,7 @@ fn second_frame_equals_the_first_for_every_method() {
 fn room_for_every_fragment(m: super::MethodId, opts: &RenderOptions) -> RenderOptions {
     let mut opts = opts.clone();
     if m == super::MethodId::AbufferFixed {
-        opts.k = Some(64);
+        opts.frame.k = Some(64);
     }
     opts
 }
@@ -682,7 +689,7 @@ pub(crate) fn check_poisoned(opts: &RenderOptions, methods: impl Iterator<Item =
             if differing > 0 {
                 Err(format!(
                     "(--msaa {}) poisoned memory changed {differing} pixels; fragments stored {:?} then {:?}, dropped {:?} then {:?}",
-                    opts.msaa, a.fragments_stored, b.fragments_stored, a.fragments_dropped, b.fragments_dropped
+                    opts.build.msaa, a.fragments_stored, b.fragments_stored, a.fragments_dropped, b.fragments_dropped
                 ))
             } else if (a.fragments_generated, a.fragments_dropped)
                 != (b.fragments_generated, b.fragments_dropped)
@@ -704,8 +711,8 @@ pub(crate) fn check_poisoned(opts: &RenderOptions, methods: impl Iterator<Item =
 #[test]
 fn poisoned_storage_changes_nothing() {
     let mut opts = options(40, Effect::Translucency);
-    opts.k = Some(6);
-    opts.tail = crate::Tail::Blend;
+    opts.frame.k = Some(6);
+    opts.frame.kbuffer.tail = crate::Tail::Blend;
     // kb-mdt64 and kb-mdt-pack refuse translucency (and kb-mdt-pack a blended tail).
     let methods = frame_test_methods()
         .filter(|m| !matches!(m, super::MethodId::KbMdt64 | super::MethodId::KbMdtPack));
@@ -718,16 +725,16 @@ fn poisoned_storage_changes_nothing() {
 #[test]
 fn poisoned_storage_changes_nothing_without_culling() {
     let mut opts = options(40, Effect::Translucency);
-    opts.k = Some(6);
-    opts.tail = crate::Tail::Blend;
-    opts.culling = false;
+    opts.frame.k = Some(6);
+    opts.frame.kbuffer.tail = crate::Tail::Blend;
+    opts.frame.kbuffer.culling = false;
     check_poisoned(&opts, super::kbuffer::ordered_methods());
 }
 
 #[test]
 fn poisoned_storage_changes_nothing_with_the_tail_dropped() {
     let mut opts = options(40, Effect::Translucency);
-    opts.k = Some(6);
+    opts.frame.k = Some(6);
     check_poisoned(&opts, super::kbuffer::ordered_methods());
 }
 
@@ -736,9 +743,9 @@ fn poisoned_storage_changes_nothing_with_the_tail_dropped() {
 #[test]
 fn poisoned_storage_changes_nothing_multisampled() {
     let mut opts = options(32, Effect::Translucency);
-    opts.k = Some(6);
-    opts.tail = crate::Tail::Blend;
-    opts.msaa = 4;
+    opts.frame.k = Some(6);
+    opts.frame.kbuffer.tail = crate::Tail::Blend;
+    opts.build.msaa = 4;
     check_poisoned(
         &opts,
         frame_test_methods().filter(|&m| m.descriptor().msaa.yes()),
@@ -763,7 +770,7 @@ fn a_second_frame_keeps_nothing_of_the_first() {
     {
         let mut opts = options(24, Effect::Transparency);
         // bucket's k is even (two per bucket).
-        opts.k = Some(if m == super::MethodId::Bucket { 4 } else { 3 });
+        opts.frame.k = Some(if m == super::MethodId::Bucket { 4 } else { 3 });
         let opts = room_for_every_fragment(m, &opts);
         let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
         r.render_method(m, Some(&draw_near)).unwrap();
@@ -811,8 +818,8 @@ fn sorted_refuses_a_draw_callback() {
 fn allocation_counters_saturate_instead_of_wrapping() {
     let s = scene("builtin:spheres?layers=6");
     let mut opts = options(32, Effect::Transparency);
-    opts.k = Some(4);
-    opts.allocation_counter_start = u32::MAX - 8;
+    opts.frame.k = Some(4);
+    opts.frame.kbuffer.allocation_counter_start = u32::MAX - 8;
     let gpu = crate::testing::gpu();
     for m in [
         super::MethodId::AbufferLl,
@@ -860,7 +867,7 @@ fn dual_peels_coincident_faces_in_primitive_order() {
         "coincident-f2b",
         &f2b,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         MAX_FRACTION,
     );
@@ -871,7 +878,7 @@ fn dual_peels_coincident_faces_in_primitive_order() {
             "coincident-dual",
             &dual,
             &expected,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -901,7 +908,7 @@ fn value_enum_names_are_the_ids() {
 fn sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
     let s = scene("builtin:spheres?layers=12");
     let mut opts = options(64, Effect::Transparency);
-    opts.abuffer_initial_nodes = Some(16);
+    opts.frame.kbuffer.initial_nodes = Some(16);
     let (actual, stats) = render_gpu(&s, &opts, "sbuffer");
     assert_eq!(stats.overflow, Some(true));
     assert_eq!(stats.geometry_passes, Some(4));
@@ -911,11 +918,11 @@ fn sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
         "overflow-sbuffer",
         &actual,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         MAX_FRACTION,
     );
-    opts.budget_mb = Some(0.2);
+    opts.frame.budget_mb = Some(0.2);
     let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
     let e = r.render("sbuffer").unwrap_err();
     assert!(
@@ -930,7 +937,7 @@ fn sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
 fn sbuffer_is_exact_with_a_three_level_prefix_sum() {
     let s = scene("builtin:layers?n=6&coverage=0.7&order=random&seed=8");
     let mut opts = options(320, Effect::Transparency);
-    opts.height = 300;
+    opts.frame.height = 300;
     assert_eq!(
         crate::methods::kbuffer::sbuffer::scan_levels(opts.pixels())
             .0
@@ -943,7 +950,7 @@ fn sbuffer_is_exact_with_a_three_level_prefix_sum() {
         "sbuffer-3-levels",
         &actual,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         MAX_FRACTION,
     );
@@ -957,7 +964,7 @@ fn sbuffer_is_exact_with_a_three_level_prefix_sum() {
 fn every_method_keeps_within_the_budget() {
     let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
     let mut opts = options(32, Effect::Transparency);
-    opts.k = Some(4);
+    opts.frame.k = Some(4);
     let mib = |bytes: u64| bytes as f64 / 1048576.0;
     for m in super::MethodId::gpu_methods() {
         let (_, stats) = render_gpu(&s, &opts, m.as_str());
@@ -965,7 +972,7 @@ fn every_method_keeps_within_the_budget() {
         assert!(bytes > 0, "{m}: reports no allocation");
         for budget in [bytes, bytes - 1] {
             let mut tight = opts.clone();
-            tight.budget_mb = Some(mib(budget));
+            tight.frame.budget_mb = Some(mib(budget));
             let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &tight).unwrap();
             match r.render(m.as_str()) {
                 Ok((_, st)) => {
@@ -981,14 +988,14 @@ fn every_method_keeps_within_the_budget() {
                 }
             }
         }
-        opts.budget_mb = Some(0.001);
+        opts.frame.budget_mb = Some(0.001);
         let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
         let e = r.render(m.as_str()).expect_err("1 KiB holds no method");
         assert!(
             matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
             "{m}: {e}"
         );
-        opts.budget_mb = None;
+        opts.frame.budget_mb = None;
     }
 }
 

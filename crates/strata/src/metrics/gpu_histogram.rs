@@ -122,11 +122,7 @@ mod tests {
 
     fn gpu_histogram(spec: &str, size: u32) -> (FrameStats, Vec<u64>) {
         let scene = loaders::load_scene(spec).unwrap();
-        let options = RenderOptions {
-            width: size,
-            height: size,
-            ..Default::default()
-        };
+        let options = RenderOptions::sized(size, size);
         let g = gpu();
         let mut rec = FrameRecorder::new(g, &scene, MethodId::Unsorted, &options).unwrap();
         rec.set_histogram(true);

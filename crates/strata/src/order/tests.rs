@@ -2,6 +2,7 @@
 //! orders, exact pictures whatever the order, and the combinations that refuse it.
 
 use super::*;
+use crate::frame::FrameOptions;
 use crate::frame::{FrameStats, RenderOptions};
 use crate::gpu::readback;
 use crate::methods::MethodId;
@@ -45,10 +46,13 @@ fn order_names_parse_back() {
 fn frames(spec: &str, method: MethodId, order: Order, count: u64) -> FrameStats {
     let scene = loaders::load_scene(spec).unwrap();
     let options = RenderOptions {
-        width: 64,
-        height: 64,
-        order: Some(order),
-        order_seed: 5,
+        frame: FrameOptions {
+            width: 64,
+            height: 64,
+            order: Some(order),
+            order_seed: 5,
+            ..Default::default()
+        },
         ..Default::default()
     };
     let mut rec = FrameRecorder::new(gpu(), &scene, method, &options).unwrap();
@@ -200,30 +204,32 @@ fn exact_pictures_do_not_change_with_the_order() {
         ("kplus-heap", Some(8), Some(8)),
     ] {
         let base = RenderOptions {
-            width: 64,
-            height: 64,
-            k,
+            frame: FrameOptions {
+                width: 64,
+                height: 64,
+                k,
+                ..Default::default()
+            },
             ..Default::default()
         };
-        let expected = render_reference(
-            &scene,
-            &RenderOptions {
-                k: keeps,
-                ..base.clone()
-            },
-        );
+        let expected = render_reference(&scene, &{
+            let mut options = base.clone();
+            options.frame.k = keeps;
+            options
+        });
         for order in [Order::Back, Order::Random, Order::Front] {
-            let options = RenderOptions {
-                order: Some(order),
-                order_seed: 3,
-                ..base.clone()
+            let options = {
+                let mut options = base.clone();
+                options.frame.order = Some(order);
+                options.frame.order_seed = 3;
+                options
             };
             let (actual, stats) = crate::testing::render_gpu(&scene, &options, method);
             assert_close(
                 &format!("order-{}-{method}", order.name()),
                 &actual,
                 &expected,
-                options.effect,
+                options.frame.effect,
                 2,
                 0.001,
             );
@@ -237,9 +243,12 @@ fn exact_pictures_do_not_change_with_the_order() {
 fn orders_refuse_what_has_no_submission_order() {
     let s = scene("builtin:layers?n=4");
     let options = RenderOptions {
-        width: 32,
-        height: 32,
-        order: Some(Order::Back),
+        frame: FrameOptions {
+            width: 32,
+            height: 32,
+            order: Some(Order::Back),
+            ..Default::default()
+        },
         ..Default::default()
     };
     let sorted = crate::Renderer::new(gpu(), &s, &options)
@@ -255,17 +264,19 @@ fn orders_refuse_what_has_no_submission_order() {
         .unwrap_err()
         .to_string();
     assert!(f2b.contains("--order back"), "{f2b}");
-    let scene_order = RenderOptions {
-        order: Some(Order::Scene),
-        ..options.clone()
+    let scene_order = {
+        let mut options = options.clone();
+        options.frame.order = Some(Order::Scene);
+        options
     };
     assert!(crate::Renderer::new(gpu(), &s, &scene_order)
         .unwrap()
         .render("f2b")
         .is_ok());
-    let compute = RenderOptions {
-        raster: crate::raster::Raster::Compute,
-        ..options.clone()
+    let compute = {
+        let mut options = options.clone();
+        options.build.raster = crate::raster::Raster::Compute;
+        options
     };
     let e = compute.validate().unwrap_err().to_string();
     assert!(e.contains("--raster compute"), "{e}");

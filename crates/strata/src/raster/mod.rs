@@ -289,7 +289,7 @@ impl ComputeRaster {
                 source: wgpu::ShaderSource::Wgsl(ARGS_WGSL.into()),
             });
         let compute = crate::frame::passes::compute_pipeline;
-        let tiles = screen_tiles(options.width, options.height);
+        let tiles = screen_tiles(options.frame.width, options.frame.height);
         ComputeRaster {
             bin: compute(
                 gpu,
@@ -329,7 +329,7 @@ impl ComputeRaster {
         let params = RasterParams {
             triangles,
             capacity: capacity as u32,
-            guard: guard_band(options.width, options.height),
+            guard: guard_band(options.frame.width, options.frame.height),
             _pad: 0,
         };
         let cache = &mut self.cache;

@@ -1,4 +1,5 @@
 use super::*;
+use crate::frame::{BuildOptions, FrameOptions};
 use crate::methods::MethodId;
 use proptest::prelude::*;
 
@@ -125,10 +126,15 @@ use crate::FrameStats;
 
 fn options(size: u32, raster: Raster) -> RenderOptions {
     RenderOptions {
-        width: size,
-        height: size,
-        raster,
-        ..Default::default()
+        build: BuildOptions {
+            raster,
+            ..Default::default()
+        },
+        frame: FrameOptions {
+            width: size,
+            height: size,
+            ..Default::default()
+        },
     }
 }
 
@@ -452,7 +458,7 @@ fn multi_layer_peeling_matches_the_reference_on_both_paths() {
     for raster in [Raster::Hw, Raster::Compute] {
         for m in [1, 4, 16] {
             let mut opts = options(size, raster);
-            opts.k = Some(m);
+            opts.frame.k = Some(m);
             let (actual, _) = render(&scene, &opts, MethodId::Kpeel);
             assert_close(
                 &format!("kpeel-m{m}-{}", raster.name()),
@@ -503,7 +509,7 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
     let scene = loaders::load_scene("builtin:layers?n=24&coverage=1").unwrap();
     let mut opts = options(64, Raster::Compute);
     // A fixed array, so no pool of the method's own grows from what the first frame measured.
-    opts.k = Some(32);
+    opts.frame.k = Some(32);
     let mut rec = crate::FrameRecorder::new(gpu(), &scene, MethodId::AbufferFixed, &opts).unwrap();
     let mut frame = || {
         let mut encoder = gpu().device.create_command_encoder(&Default::default());

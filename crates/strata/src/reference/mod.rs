@@ -128,7 +128,7 @@ pub fn view_distance(camera: &Camera, depth: f64) -> f64 {
 pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFragment>>> {
     scene.validate()?;
     options.validate()?;
-    let (w, h) = (options.width, options.height);
+    let (w, h) = (options.frame.width, options.frame.height);
     let camera = scene.camera_or_framing();
     let view_proj = camera.view_projection(w as f32 / h as f32).as_dmat4();
     let tris = scene.triangles();
@@ -140,7 +140,7 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
             .normalize_or(Vec3::Z)
             .as_dvec3(),
         orthographic: matches!(camera.projection, Projection::Orthographic { .. }),
-        translucency: options.effect == Effect::Translucency,
+        translucency: options.frame.effect == Effect::Translucency,
     };
 
     let setups: Vec<raster::SetupTriangle> = tris
@@ -154,7 +154,7 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
                 &view_proj,
                 w,
                 h,
-                options.msaa,
+                options.build.msaa,
                 &mut out,
             );
             out
@@ -191,10 +191,10 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
                 let prim = t.prim as usize;
                 let corners = &tris.vertices[prim * 3..prim * 3 + 3];
                 let material = tris.materials[prim] as usize;
-                cover_samples(t, y0..y1, options.msaa, |s| {
+                cover_samples(t, y0..y1, options.build.msaa, |s| {
                     // Depth clipping (multisampled: per sample, in `cover_samples`), and the
                     // opaque test against the cleared depth (1.0) at the center.
-                    let clipped = if options.msaa > 1 {
+                    let clipped = if options.build.msaa > 1 {
                         s.depth.is_nan() || s.depth >= 1.0
                     } else {
                         !(0.0..1.0).contains(&s.depth)
@@ -238,17 +238,17 @@ use raster::cover_samples;
 /// pixel's nearest opaque surface, shaded, replaces the background, the transparent fragments in
 /// front of it (strictly nearer) are composited over it, and the result is tone-mapped.
 pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, FrameStats)> {
-    if options.k_auto.is_some() {
+    if options.frame.k_auto.is_some() {
         return Err(crate::Error::input(
             "the reference takes --k N, not --k auto (a GPU frame's stats name the k it chose)",
         ));
     }
-    if options.ssao || options.gbuffer_debug.is_some() {
+    if options.build.lighting.ssao || options.build.lighting.gbuffer_debug.is_some() {
         return Err(crate::Error::input(
             "the reference has no G-buffer: --ssao and --gbuffer-debug are GPU-only",
         ));
     }
-    let (lists, opaque) = match options.pipeline {
+    let (lists, opaque) = match options.build.lighting.pipeline {
         None => (fragments(scene, options)?, None),
         Some(_) => {
             scene.validate()?;
@@ -262,10 +262,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(LinearImage, Fr
             };
             // The pipeline's lit opaque frame is single-sampled (frame::msaa): its nearest
             // surface at the pixel center.
-            let single = RenderOptions {
-                msaa: 1,
-                ..options.clone()
-            };
+            let mut single = options.clone();
+            single.build.msaa = 1;
             let nearest: Vec<Option<RefFragment>> = part(&opaque, &single)?
                 .into_iter()
                 .map(|l| l.into_iter().next())
@@ -293,10 +291,10 @@ pub fn render_lists(
     opaque: Option<&[Option<RefFragment>]>,
     options: &RenderOptions,
 ) -> (LinearImage, FrameStats) {
-    let (w, h) = (options.width, options.height);
-    let translucency = options.effect == Effect::Translucency;
-    let keep = options.k.map(|k| k as usize).unwrap_or(usize::MAX);
-    let samples = options.msaa.max(1);
+    let (w, h) = (options.frame.width, options.frame.height);
+    let translucency = options.frame.effect == Effect::Translucency;
+    let keep = options.frame.k.map(|k| k as usize).unwrap_or(usize::MAX);
+    let samples = options.build.msaa.max(1);
     // Per pixel: the color, averaged over samples that each composite their own k nearest,
     // and the fragments some sample kept.
     let resolved: Vec<([f32; 4], u64)> = lists
@@ -304,7 +302,7 @@ pub fn render_lists(
         .enumerate()
         .map(|(i, list)| {
             let (x, y) = (i as u32 % w, i as u32 / w);
-            let mut bg = options.background.at(x, y).map(|c| c as f64);
+            let mut bg = options.frame.background.at(x, y).map(|c| c as f64);
             if let Some(Some(o)) = opaque.map(|o| &o[i]) {
                 bg = o.color;
             }
@@ -326,7 +324,7 @@ pub fn render_lists(
             }
             let mut c = sum.map(|s| s / samples as f64);
             if opaque.is_some() {
-                c = crate::deferred::encoding::tone_map(options.tonemap, c);
+                c = crate::deferred::encoding::tone_map(options.build.lighting.tonemap, c);
             }
             let kept = kept_by_any.iter().filter(|k| **k).count();
             (
@@ -342,8 +340,8 @@ pub fn render_lists(
         method: "reference".into(),
         width: w,
         height: h,
-        k: options.k,
-        effect: options.effect.name().into(),
+        k: options.frame.k,
+        effect: options.frame.effect.name().into(),
         geometry_passes: Some(0),
         exact: Some(true),
         gpu_ms: None,
@@ -386,13 +384,17 @@ pub fn render_lists(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::{BuildOptions, FrameOptions};
     use crate::scene::loaders::load_scene;
 
     fn opts(k: Option<u32>) -> RenderOptions {
         RenderOptions {
-            width: 48,
-            height: 48,
-            k,
+            frame: FrameOptions {
+                width: 48,
+                height: 48,
+                k,
+                ..Default::default()
+            },
             ..Default::default()
         }
     }
@@ -415,6 +417,7 @@ mod tests {
         let lists = fragments(&scene, &opts(None)).unwrap();
         let center = (24 * 48 + 24) as usize;
         let bg = RenderOptions::default()
+            .frame
             .background
             .at(24, 24)
             .map(|c| c as f64);
@@ -441,11 +444,16 @@ mod tests {
         let scene = load_scene("builtin:layers?n=1&coverage=0.515625").unwrap();
         for msaa in [4, 8] {
             let o = RenderOptions {
-                width: 32,
-                height: 32,
-                msaa,
-                background: crate::scene::Background::Color([0.2, 0.3, 0.4]),
-                ..Default::default()
+                build: BuildOptions {
+                    msaa,
+                    ..Default::default()
+                },
+                frame: FrameOptions {
+                    width: 32,
+                    height: 32,
+                    background: crate::scene::Background::Color([0.2, 0.3, 0.4]),
+                    ..Default::default()
+                },
             };
             let lists = fragments(&scene, &o).unwrap();
             let (img, _) = render(&scene, &o).unwrap();

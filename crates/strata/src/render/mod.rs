@@ -52,24 +52,24 @@ impl<'g> Renderer<'g> {
     pub fn new(gpu: &'g Gpu, scene: &Scene, options: &RenderOptions) -> Result<Renderer<'g>> {
         options.validate()?;
         let max_dim = gpu.limits.max_texture_dimension_2d;
-        if options.width > max_dim || options.height > max_dim {
+        if options.frame.width > max_dim || options.frame.height > max_dim {
             return Err(Error::unsupported(format!(
                 "size {}x{} exceeds the device's texture limit {max_dim}",
-                options.width, options.height
+                options.frame.width, options.frame.height
             )));
         }
         if options.pixels() > MAX_PICTURE_PIXELS {
             return Err(Error::unsupported(format!(
                 "--size {}x{} is {} pixels, more than strata renders in one picture ({MAX_PICTURE_PIXELS}, 8192x8192: 1 GiB of image in host memory)",
-                options.width,
-                options.height,
+                options.frame.width,
+                options.frame.height,
                 options.pixels()
             )));
         }
         scene.validate()?;
         let opaque = gpu.texture_2d(
             "strata.opaque_depth",
-            (options.width, options.height),
+            (options.frame.width, options.frame.height),
             wgpu::TextureFormat::Depth32Float,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         );
@@ -170,7 +170,7 @@ impl<'g> Renderer<'g> {
         method: MethodId,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<(LinearImage, FrameStats)> {
-        let (w, h) = (self.options.width, self.options.height);
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
         let fits = self.options.pixels() <= recorder::max_resolved_pixels(self.gpu);
         let rows = match self.max_band_rows {
             Some(rows) if rows < h => rows,
@@ -201,7 +201,7 @@ impl<'g> Renderer<'g> {
         draw: Option<&DrawCallback<'_>>,
         mut rows: u32,
     ) -> Result<(LinearImage, FrameStats)> {
-        let (w, h) = (self.options.width, self.options.height);
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
         if self.opaque_lent.get() {
             return Err(Error::unsupported(format!(
                 "{w}x{h} is rendered in bands of {rows} rows, which cannot take the application's opaque depth (Renderer::opaque_depth); use a smaller size"
@@ -212,14 +212,12 @@ impl<'g> Renderer<'g> {
         let mut top = 0;
         while top < h {
             let band_rows = rows.min(h - top);
-            let options = RenderOptions {
-                height: band_rows,
-                band: Some(Band {
-                    full_height: h,
-                    top,
-                }),
-                ..self.options.clone()
-            };
+            let mut options = self.options.clone();
+            options.frame.height = band_rows;
+            options.frame.band = Some(Band {
+                full_height: h,
+                top,
+            });
             let opaque = self.band_depth(w, band_rows);
             match self.render_picture(method, draw, &options, &opaque) {
                 Ok((image, stats)) => {
@@ -282,8 +280,10 @@ impl<'g> Renderer<'g> {
         let recorder = match &mut self.recorder {
             Some(r) => {
                 r.set_method(method)?;
-                if r.options().band != options.band || r.options().height != options.height {
-                    r.set_options(options)?;
+                if r.options().frame.band != options.frame.band
+                    || r.options().frame.height != options.frame.height
+                {
+                    r.set_frame_options(&options.frame)?;
                 }
                 r
             }
@@ -303,10 +303,11 @@ impl<'g> Renderer<'g> {
         };
         // A pipeline draws the opaque objects and their depth itself; multisampled frames take
         // no single-sampled opaque depth, so the cleared one is passed only when it was lent.
-        let opaque_used = options.msaa <= 1 || self.opaque_lent.get();
+        let opaque_used = options.build.msaa <= 1 || self.opaque_lent.get();
         let targets = FrameTargets {
             color: None,
-            opaque_depth: (options.pipeline.is_none() && opaque_used).then_some(opaque),
+            opaque_depth: (options.build.lighting.pipeline.is_none() && opaque_used)
+                .then_some(opaque),
         };
         let (mut submits, mut blocking, mut passes, mut overflowed) = (0, 0, 0, false);
         let mut report = None;
@@ -349,8 +350,8 @@ impl<'g> Renderer<'g> {
         stats.submits = submits + 1;
         stats.blocking_readbacks = blocking;
         let resolved: Vec<Resolved> = bytemuck::pod_collect_to_vec(&bytes);
-        let (w, h) = (options.width, options.height);
-        let background = options.background;
+        let (w, h) = (options.frame.width, options.frame.height);
+        let background = options.frame.background;
         if let Some(lit) = recorder.lit() {
             let hdr = readback::read_rgba16f(self.gpu, lit.hdr())?;
             stats.blocking_readbacks += 1;
@@ -365,7 +366,7 @@ impl<'g> Renderer<'g> {
                 stats,
             ));
         }
-        let top = options.band.map_or(0, |b| b.top);
+        let top = options.frame.band.map_or(0, |b| b.top);
         let pixels = resolved
             .iter()
             .enumerate()
@@ -439,13 +440,14 @@ fn merge_band(mut sum: FrameStats, band: FrameStats) -> FrameStats {
 /// surfaces): over the background, tone-mapped; a G-buffer view as it is (the normal error as a
 /// heatmap in hundredths of a degree).
 fn lit_pixels(options: &RenderOptions, hdr: &[[f32; 4]], resolved: &[Resolved]) -> Vec<[f32; 4]> {
-    let w = options.width;
+    let w = options.frame.width;
     let counts = resolved.iter().map(|r| r.count as f32);
-    match options.gbuffer_debug {
+    match options.build.lighting.gbuffer_debug {
         Some(GbufferView::NormalError) => {
             let centidegrees: Vec<u32> =
                 hdr.iter().map(|p| (p[0] * 100.0).round() as u32).collect();
-            let map = crate::metrics::complexity_heatmap(&centidegrees, w, options.height, None);
+            let map =
+                crate::metrics::complexity_heatmap(&centidegrees, w, options.frame.height, None);
             map.pixels()
                 .zip(counts)
                 .map(|(p, n)| {
@@ -464,10 +466,11 @@ fn lit_pixels(options: &RenderOptions, hdr: &[[f32; 4]], resolved: &[Resolved]) 
             .zip(counts)
             .enumerate()
             .map(|(i, (p, n))| {
-                let bg = options.background.at(i as u32 % w, i as u32 / w);
+                let bg = options.frame.background.at(i as u32 % w, i as u32 / w);
                 let t = 1.0 - p[3] as f64;
                 let over = [0, 1, 2].map(|c| p[c] as f64 + t * bg[c] as f64);
-                let [r, g, b] = crate::deferred::encoding::tone_map(options.tonemap, over);
+                let [r, g, b] =
+                    crate::deferred::encoding::tone_map(options.build.lighting.tonemap, over);
                 [r as f32, g as f32, b as f32, n]
             })
             .collect(),

@@ -43,8 +43,9 @@ use crate::error::{Error, Result};
 use crate::frame::present::{Present, PresentParams};
 use crate::frame::stats::StatsRing;
 use crate::frame::{
-    AutoKStats, DrawCallback, Effect, FrameContext, FrameStats, FrameTargets, MethodStats,
-    ReadbackList, Recorded, RenderOptions, SceneGpu, Totals, RESOLVED_BYTES, TOTAL_WORDS,
+    AutoKStats, DrawCallback, Effect, FrameContext, FrameOptions, FrameStats, FrameTargets,
+    MethodStats, ReadbackList, Recorded, RenderOptions, SceneGpu, Totals, RESOLVED_BYTES,
+    TOTAL_WORDS,
 };
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
@@ -86,7 +87,10 @@ pub struct FrameReport {
 pub struct FrameRecorder {
     gpu: Gpu,
     scene: SceneGpu,
+    /// The caller's options, as given.
     options: RenderOptions,
+    /// The k of the frame being recorded: the options' `k`, or with `--k auto` the chosen one.
+    frame_k: Option<u32>,
     method: MethodId,
     methods: BTreeMap<MethodId, Box<dyn Method>>,
     timer: Timer,
@@ -127,7 +131,7 @@ impl FrameRecorder {
     ) -> Result<FrameRecorder> {
         options.validate()?;
         check_size(gpu, options)?;
-        let (mut scene_gpu, lit) = match options.pipeline {
+        let (mut scene_gpu, lit) = match options.build.lighting.pipeline {
             None => (SceneGpu::new(gpu, scene, options)?, None),
             Some(pipeline) => {
                 scene.validate()?;
@@ -139,8 +143,8 @@ impl FrameRecorder {
             }
         };
         scene_gpu.raster_layout =
-            (options.raster == Raster::Compute).then(|| crate::raster::raster_layout(gpu));
-        let raster = (options.raster == Raster::Compute)
+            (options.build.raster == Raster::Compute).then(|| crate::raster::raster_layout(gpu));
+        let raster = (options.build.raster == Raster::Compute)
             .then(|| ComputeRaster::new(gpu, &scene_gpu, options));
         let order = attach_order(gpu, options, &mut scene_gpu)?;
         let mut recorder = FrameRecorder {
@@ -149,6 +153,7 @@ impl FrameRecorder {
             gpu: gpu.clone(),
             scene: scene_gpu,
             options: options.clone(),
+            frame_k: options.frame.k,
             method,
             methods: BTreeMap::new(),
             timer: Timer::new(gpu),
@@ -182,7 +187,7 @@ impl FrameRecorder {
 
     /// Switches method; its pipelines are built on first use and kept.
     pub fn set_method(&mut self, method: MethodId) -> Result<()> {
-        crate::methods::kbuffer::temporal::check(method, self.options.temporal)?;
+        crate::methods::kbuffer::temporal::check(method, self.options.frame.temporal)?;
         if !self.methods.contains_key(&method) {
             let m = methods::create(method, &self.gpu, &self.scene, &self.options)?;
             self.methods.insert(method, m);
@@ -270,8 +275,8 @@ impl FrameRecorder {
     /// Changes the frame size; pipelines are kept and per-pixel buffers follow on the next frame.
     pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
         let mut options = self.options.clone();
-        options.width = width;
-        options.height = height;
+        options.frame.width = width;
+        options.frame.height = height;
         options.validate()?;
         check_size(&self.gpu, &options)?;
         self.output = output_buffer(&self.gpu, &options)?;
@@ -282,32 +287,25 @@ impl FrameRecorder {
         Ok(())
     }
 
-    /// Per-pixel options that need no new pipelines (k, tail, culling, tries, layers, effect);
-    /// the size changes through [`FrameRecorder::resize`].
-    pub fn set_options(&mut self, options: &RenderOptions) -> Result<()> {
+    /// The options of the next frames: size, effect, k and every family's parameters, order,
+    /// temporal culling. What the recorder was made with ([`crate::frame::BuildOptions`]) stays;
+    /// another rasterizer, sample count or pipeline needs another recorder.
+    pub fn set_frame_options(&mut self, frame: &FrameOptions) -> Result<()> {
+        let options = RenderOptions {
+            build: self.options.build.clone(),
+            frame: frame.clone(),
+        };
         options.validate()?;
-        if options.pipeline != self.options.pipeline {
-            return Err(Error::input(
-                "the pipeline is chosen when the recorder is made; make another for another pipeline",
-            ));
+        let old = &self.options.frame;
+        if (frame.width, frame.height) != (old.width, old.height) {
+            self.resize(frame.width, frame.height)?;
         }
-        if options.raster != self.options.raster {
-            return Err(Error::input(
-                "the rasterizer is chosen when the recorder is made; make another for --raster",
-            ));
+        let old = &self.options.frame;
+        if (frame.order, frame.order_seed) != (old.order, old.order_seed) {
+            self.order = attach_order(&self.gpu, &options, &mut self.scene)?;
         }
-        if options.msaa != self.options.msaa {
-            return Err(Error::input(
-                "the sample count is chosen when the recorder is made; make another for --msaa",
-            ));
-        }
-        if (options.width, options.height) != (self.options.width, self.options.height) {
-            self.resize(options.width, options.height)?;
-        }
-        if (options.order, options.order_seed) != (self.options.order, self.options.order_seed) {
-            self.order = attach_order(&self.gpu, options, &mut self.scene)?;
-        }
-        self.options = options.clone();
+        self.frame_k = frame.k;
+        self.options = options;
         let camera = self.scene.camera;
         self.set_camera(&camera);
         Ok(())
@@ -346,7 +344,7 @@ impl FrameRecorder {
         targets: &FrameTargets<'_>,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<u64> {
-        if self.options.msaa > 1 && targets.opaque_depth.is_some() {
+        if self.options.build.msaa > 1 && targets.opaque_depth.is_some() {
             return Err(Error::unsupported(
                 "an opaque depth with --msaa: strata tests fragments against a single-sampled opaque depth only, yet",
             ));
@@ -395,7 +393,7 @@ impl FrameRecorder {
             lit.record(encoder, &mut self.timer);
         }
         let mut readback = ReadbackList::default();
-        let size = (self.options.width, self.options.height);
+        let size = (self.options.frame.width, self.options.frame.height);
         let recorded = self.with_method(encoder, &frame, &mut readback, draw, |m, ctx| {
             let recorded = m.record(ctx).map_err(|e| per_pixel_context(e, size))?;
             // The ledger's backstop: every method checks before it allocates.
@@ -415,7 +413,8 @@ impl FrameRecorder {
     /// With `--k auto`: sets the frame's k from the latest histogram that came back (the first
     /// frame guesses within the budget) and keeps the histogram on.
     fn choose_k(&mut self) -> Result<Option<AutoKStats>> {
-        let Some(robustness) = self.options.k_auto else {
+        let Some(robustness) = self.options.frame.k_auto else {
+            self.frame_k = self.options.frame.k;
             return Ok(None);
         };
         if self.histogram.is_none() {
@@ -429,10 +428,10 @@ impl FrameRecorder {
             DEFAULT_K,
             &self.options,
         )?;
-        self.options.k = Some(choice.k);
+        self.frame_k = Some(choice.k);
         Ok(Some(AutoKStats {
             robustness_target: robustness,
-            budget_mb: self.options.budget_mb,
+            budget_mb: self.options.frame.budget_mb,
             k_budget: choice.k_budget,
             histogram_frame: last.map(|h| h.0),
             predicted_robustness: last.map(|_| choice.predicted_robustness),
@@ -457,6 +456,7 @@ impl FrameRecorder {
             gpu: &self.gpu,
             scene: &self.scene,
             options: &self.options,
+            k: self.frame_k,
             encoder,
             timer: &mut self.timer,
             frame_group: &frame.group,
@@ -490,12 +490,12 @@ impl FrameRecorder {
     /// and returns the bind group its capture pipeline places. The application's pass follows
     /// in the same encoder, then [`FrameRecorder::end_capture`].
     pub fn begin_capture(&mut self, encoder: &mut wgpu::CommandEncoder) -> Result<wgpu::BindGroup> {
-        if self.options.k_auto.is_some() {
+        if self.options.frame.k_auto.is_some() {
             return Err(Error::unsupported(
                 "--k auto counts fragments with strata's own geometry pass, which an application's capture replaces: set k",
             ));
         }
-        if self.options.msaa > 1 {
+        if self.options.build.msaa > 1 {
             return Err(Error::unsupported(
                 "an application's capture with --msaa: `strata_capture` takes no coverage mask yet; use record",
             ));
@@ -510,7 +510,7 @@ impl FrameRecorder {
                 "an application's capture pass rasterizes with its own pipeline: it needs --raster hw",
             ));
         }
-        if self.options.temporal.is_some() {
+        if self.options.frame.temporal.is_some() {
             return Err(Error::unsupported(
                 "--temporal on reprojects strata's own fragments: an application's capture pass has no temporal test",
             ));
@@ -582,6 +582,7 @@ impl FrameRecorder {
             gpu: &self.gpu,
             scene: &self.scene,
             options: &self.options,
+            k: self.frame_k,
             encoder,
             timer: &mut self.timer,
             frame_group: &frame.group,
@@ -616,14 +617,14 @@ impl FrameRecorder {
             )
         });
         let present_to = match &hdr {
-            Some(_) if self.options.gbuffer_debug.is_some() => None,
+            Some(_) if self.options.build.lighting.gbuffer_debug.is_some() => None,
             Some((view, format)) => Some((view, *format)),
             None => color,
         };
         if let Some((view, format)) = present_to {
             let params = PresentParams {
-                size: [self.options.width, self.options.height],
-                complexity: (self.options.effect == Effect::Complexity) as u32,
+                size: [self.options.frame.width, self.options.frame.height],
+                complexity: (self.options.frame.effect == Effect::Complexity) as u32,
                 complexity_full: recorded.k.unwrap_or(64).max(1),
             };
             let stamps = self.timer.render_pass("present");
@@ -801,10 +802,10 @@ impl FrameRecorder {
         let stats = FrameStats {
             frame: p.frame,
             method: p.method.as_str().to_string(),
-            width: self.options.width,
-            height: self.options.height,
+            width: self.options.frame.width,
+            height: self.options.frame.height,
             k: p.recorded.k,
-            effect: self.options.effect.name().to_string(),
+            effect: self.options.frame.effect.name().to_string(),
             geometry_passes: Some(p.recorded.geometry_passes),
             exact: Some(p.method.descriptor().exact),
             gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
@@ -834,9 +835,9 @@ impl FrameRecorder {
             depth_histogram_clipped: histogram.map(|h| h[h.len() - 1] as u64),
             k_auto: auto_k,
             lighting: self.lit.as_ref().map(LitFrame::stats),
-            raster: self.options.raster.name().to_string(),
+            raster: self.options.build.raster.name().to_string(),
             compute_raster,
-            order: self.options.order.map(|o| o.name().to_string()),
+            order: self.options.frame.order.map(|o| o.name().to_string()),
             kendall_tau: match (&words, p.order_words) {
                 (Some(w), Some((start, _))) => Some(crate::order::kendall_tau(
                     &w[start as usize..start as usize + 2],
@@ -864,8 +865,9 @@ fn attach_order(
     scene: &mut SceneGpu,
 ) -> Result<Option<TriangleOrder>> {
     let order = options
+        .frame
         .order
-        .map(|o| TriangleOrder::new(gpu, o, options.order_seed, &scene.centroids))
+        .map(|o| TriangleOrder::new(gpu, o, options.frame.order_seed, &scene.centroids))
         .transpose()?;
     scene.draw_indices = order.as_ref().and_then(|o| o.indices().cloned());
     if let Some(animation) = &mut scene.animation {
@@ -877,7 +879,7 @@ fn attach_order(
 /// Refuses, before anything is allocated, a picture size the device cannot hold: a side over
 /// its texture limit, or more pixels than one storage binding of resolved colors holds.
 fn check_size(gpu: &Gpu, options: &RenderOptions) -> Result<()> {
-    let (w, h) = (options.width, options.height);
+    let (w, h) = (options.frame.width, options.frame.height);
     let max_dim = gpu.limits.max_texture_dimension_2d;
     if w > max_dim || h > max_dim {
         return Err(Error::unsupported(format!(
@@ -923,7 +925,7 @@ fn output_buffer(gpu: &Gpu, options: &RenderOptions) -> Result<wgpu::Buffer> {
 fn no_opaque_depth(gpu: &Gpu, options: &RenderOptions) -> wgpu::Texture {
     let texture = gpu.texture_2d(
         "strata.frame.no_opaque_depth",
-        (options.width, options.height),
+        (options.frame.width, options.frame.height),
         wgpu::TextureFormat::Depth32Float,
         wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
     );

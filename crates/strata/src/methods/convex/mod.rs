@@ -218,7 +218,7 @@ impl Convex {
         Ok(Self::with_decomposition(
             gpu,
             scene,
-            decomposition_of(&triangles, options.cache_dir.as_deref(), &|_| {}),
+            decomposition_of(&triangles, options.build.cache_dir.as_deref(), &|_| {}),
         ))
     }
 
@@ -400,7 +400,7 @@ impl Method for Convex {
                 "convex draws its own groups pass by pass in visibility order and cannot take an application's draw callback; use an order-independent method",
             ));
         }
-        if let Some(order) = ctx.options.order {
+        if let Some(order) = ctx.options.frame.order {
             return Err(Error::unsupported(format!(
                 "convex submits its groups in visibility order itself; --order {} applies to the other methods",
                 order.name()

@@ -298,10 +298,10 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
     let expected = render_reference(scene, opts);
     let (actual, stats) = render_gpu(scene, opts, "convex");
     assert_close(
-        &format!("convex-{name}-{}", opts.effect.name()),
+        &format!("convex-{name}-{}", opts.frame.effect.name()),
         &actual,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         2,
         0.001,
     );
@@ -341,9 +341,10 @@ fn convex_equals_the_reference_on_layers() {
 #[test]
 fn convex_equals_the_multisampled_reference_on_layers() {
     let s = scene("builtin:layers?n=16&coverage=0.75&order=random&seed=3");
-    let opts = RenderOptions {
-        msaa: 4,
-        ..options(48, Effect::Transparency)
+    let opts = {
+        let mut options = options(48, Effect::Transparency);
+        options.build.msaa = 4;
+        options
     };
     check_exact("msaa4-layers", &s, &opts);
     let (_, convex) = render_gpu(&s, &opts, "convex");
@@ -378,9 +379,10 @@ fn convex_orders_a_sliver_between_pixel_centres_when_multisampled() {
         near: 0.1,
         far: 100.0,
     });
-    let opts = RenderOptions {
-        msaa: 4,
-        ..options(8, Effect::Transparency)
+    let opts = {
+        let mut options = options(8, Effect::Transparency);
+        options.build.msaa = 4;
+        options
     };
     check_exact("msaa4-sliver", &s, &opts);
 }
@@ -400,9 +402,10 @@ fn convex_counts_where_multisampled_silhouettes_leave_the_center_depth_order() {
         (Effect::Translucency, 0.015, 30.0),
     ] {
         let s = scene("builtin:spheres?layers=8&segments=24");
-        let opts = RenderOptions {
-            msaa: 4,
-            ..options(48, effect)
+        let opts = {
+            let mut options = options(48, effect);
+            options.build.msaa = 4;
+            options
         };
         let expected = render_reference(&s, &opts);
         let (actual, stats) = render_gpu(&s, &opts, "convex");

@@ -187,12 +187,12 @@ impl Cascade {
 
 impl Method for KPeel {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        let k = k_of(ctx.options, MethodId::Kpeel)?;
+        let k = k_of(ctx.k, MethodId::Kpeel)?;
         let layers = layers_for(ctx, self.measured);
-        self.layers_fixed = ctx.options.layers.is_some();
+        self.layers_fixed = ctx.options.frame.peeling.layers.is_some();
         let passes = layers.div_ceil(k);
         // --msaa: each sample's slots, and its running composite after them.
-        let samples = super::sample_storage(MethodId::Kpeel, ctx.options.msaa) as u64;
+        let samples = super::sample_storage(MethodId::Kpeel, ctx.options.build.msaa) as u64;
         let sample_states = if samples > 1 {
             samples * crate::frame::RESOLVED_BYTES
         } else {

@@ -80,16 +80,16 @@ impl ListKBuffer {
         let k = if self.id == MethodId::AbufferLl {
             u32::MAX
         } else {
-            k_of(ctx.options, self.id)?
+            k_of(ctx.k, self.id)?
         };
-        let sample_slots = super::sample_storage(self.id, ctx.options.msaa);
+        let sample_slots = super::sample_storage(self.id, ctx.options.build.msaa);
         let bytes = self.pool.fit(
             ctx,
             self.id,
             super::sample_frame_bytes_besides_storage(
                 ctx.pixels(),
                 sample_slots,
-                ctx.options.tail == crate::Tail::Blend,
+                ctx.options.frame.kbuffer.tail == crate::Tail::Blend,
             ),
             0,
         )?;

@@ -141,18 +141,19 @@ impl MdtKBuffer {
 
 impl Method for MdtKBuffer {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        if matches!(self.mdt, Mdt::Mdt64 | Mdt::Pack) && ctx.options.effect == Effect::Translucency
+        if matches!(self.mdt, Mdt::Mdt64 | Mdt::Pack)
+            && ctx.options.frame.effect == Effect::Translucency
         {
             return Err(Error::unsupported(format!(
                 "{} keeps no primitive or facing per fragment, which translucency needs; use kb-mdt32",
                 self.frame.id
             )));
         }
-        if self.mdt == Mdt::Pack && ctx.options.tail == Tail::Blend {
+        if self.mdt == Mdt::Pack && ctx.options.frame.kbuffer.tail == Tail::Blend {
             return Err(Error::unsupported("kb-mdt-pack cannot blend a tail: a displaced key carries half a color; use --tail drop"));
         }
-        let k = k_of(ctx.options, self.frame.id)?;
-        let sample_slots = super::sample_storage(self.frame.id, ctx.options.msaa);
+        let k = k_of(ctx.k, self.frame.id)?;
+        let sample_slots = super::sample_storage(self.frame.id, ctx.options.build.msaa);
         let storage = Storage {
             label: "strata.kbuffer.keys",
             bytes: ctx.pixels() * sample_slots as u64 * k as u64 * self.mdt.slot_bytes(),

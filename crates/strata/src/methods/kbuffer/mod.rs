@@ -231,9 +231,9 @@ pub fn max_k(id: MethodId) -> u32 {
     id.descriptor().max_k
 }
 
-/// The k the options ask for, checked against the method's limit.
-pub fn k_of(options: &RenderOptions, id: MethodId) -> Result<u32> {
-    let k = options.k.unwrap_or(DEFAULT_K);
+/// The frame's k ([`FrameContext::k`]; `None`: the default), checked against the method's limit.
+pub fn k_of(k: Option<u32>, id: MethodId) -> Result<u32> {
+    let k = k.unwrap_or(DEFAULT_K);
     let max = max_k(id);
     if k == 0 || k > max {
         return Err(Error::input(format!(
@@ -288,7 +288,7 @@ pub fn sample_storage(id: MethodId, msaa: u32) -> u32 {
 
 /// kplus-semiheap's |H|: `--heap-size`, default 1 (the paper's), at most k.
 pub fn heap_size(options: &RenderOptions, k: u32) -> Result<u32> {
-    let h = options.heap_size.unwrap_or(1);
+    let h = options.frame.kbuffer.heap_size.unwrap_or(1);
     if h == 0 || h > k {
         return Err(Error::input(format!(
             "--heap-size {h} is outside 1..{k} (k)"
@@ -345,11 +345,16 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
     KParams {
         k,
         stride,
-        max_tries: options.max_tries.unwrap_or(DEFAULT_MAX_TRIES).max(1),
-        culling: options.culling as u32,
-        tail_blend: (options.tail == Tail::Blend) as u32,
+        max_tries: options
+            .frame
+            .kbuffer
+            .max_tries
+            .unwrap_or(DEFAULT_MAX_TRIES)
+            .max(1),
+        culling: options.frame.kbuffer.culling as u32,
+        tail_blend: (options.frame.kbuffer.tail == Tail::Blend) as u32,
         aux: count_by_seen as u32,
-        width: options.width,
+        width: options.frame.width,
         pixels: (ctx.pixels()).min(u32::MAX as u64) as u32,
         sample_slots: 1,
         _pad: [0; 3],
@@ -381,7 +386,9 @@ impl Pool {
     pub fn new(options: &RenderOptions, item_bytes: u64) -> Pool {
         Pool {
             capacity: options
-                .abuffer_initial_nodes
+                .frame
+                .kbuffer
+                .initial_nodes
                 .unwrap_or(options.pixels() * Self::FIRST_GUESS_PER_PIXEL)
                 .max(1),
             item_bytes,
@@ -410,12 +417,12 @@ impl Pool {
         if max == 0 {
             return Err(Error::input(format!(
                 "{id}: --budget-mb {} cannot even hold the {}x{} per-pixel words ({fixed_bytes} bytes)",
-                ctx.options.budget_mb.unwrap_or(0.0),
-                ctx.options.width,
-                ctx.options.height,
+                ctx.options.frame.budget_mb.unwrap_or(0.0),
+                ctx.options.frame.width,
+                ctx.options.frame.height,
             )));
         }
-        self.limit = (max, ctx.options.budget_mb.is_some());
+        self.limit = (max, ctx.options.frame.budget_mb.is_some());
         self.capacity = self.capacity.clamp(1, max);
         Ok(self.capacity * self.item_bytes)
     }
@@ -715,7 +722,7 @@ impl KFrame {
             wgpu::BufferUsages::COPY_SRC,
         )?;
         let counters_init = &self.counters_init;
-        let start = ctx.options.allocation_counter_start;
+        let start = ctx.options.frame.kbuffer.allocation_counter_start;
         if self.counter_start != Some(start) {
             let mut init = [0u32; COUNTERS as usize];
             init[COUNTER_ALLOCATED] = start;
@@ -848,7 +855,7 @@ impl SlotKBuffer {
 
     /// The frame's k, storage and parameters.
     fn plan(&self, ctx: &FrameContext<'_>) -> Result<(KParams, Storage, Recorded)> {
-        let k = k_of(ctx.options, self.frame.id)?;
+        let k = k_of(ctx.k, self.frame.id)?;
         // kb-ab-fixed stores every fragment: its array takes the depth complexity the last
         // frame measured (at least k).
         let stride = if self.variant == Variant::KbAbFixed {
@@ -856,7 +863,7 @@ impl SlotKBuffer {
         } else {
             k
         };
-        let sample_slots = sample_storage(self.frame.id, ctx.options.msaa);
+        let sample_slots = sample_storage(self.frame.id, ctx.options.build.msaa);
         let storage = Storage {
             label: "strata.kbuffer.slots",
             bytes: ctx.pixels() * sample_slots as u64 * stride as u64 * SLOT_BYTES,
@@ -876,9 +883,9 @@ impl SlotKBuffer {
         if self.variant == Variant::KplusSemiheap {
             params.aux = heap_size(ctx.options, k)?;
         }
-        temporal::check(self.frame.id, ctx.options.temporal)?;
+        temporal::check(self.frame.id, ctx.options.frame.temporal)?;
         let recorded = Recorded {
-            temporal: ctx.options.temporal.is_some(),
+            temporal: ctx.options.frame.temporal.is_some(),
             ..recorded
         };
         Ok((params, storage, recorded))

@@ -52,8 +52,9 @@ pub fn frame_bytes(
     options: &RenderOptions,
 ) -> Option<u64> {
     let px = options.pixels();
-    let samples = sample_storage(id, options.msaa);
-    let fixed = sample_frame_bytes_besides_storage(px, samples, options.tail == Tail::Blend);
+    let samples = sample_storage(id, options.build.msaa);
+    let fixed =
+        sample_frame_bytes_besides_storage(px, samples, options.frame.kbuffer.tail == Tail::Blend);
     let k = k as u64;
     let per_pixel = |bytes: u64| Some(fixed + bytes * k * px * samples as u64);
     match id {
@@ -102,9 +103,9 @@ pub fn choose_k(
     let k_budget = budget_bound(max_k(id), bytes, options.budget_bytes()).ok_or_else(|| {
         Error::input(format!(
             "{id}: --budget-mb {} cannot hold even k = 1 at {}x{} ({:.2} MiB needed)",
-            options.budget_mb.unwrap_or(0.0),
-            options.width,
-            options.height,
+            options.frame.budget_mb.unwrap_or(0.0),
+            options.frame.width,
+            options.frame.height,
             bytes(1) as f64 / 1048576.0
         ))
     })?;
@@ -176,13 +177,17 @@ pub fn select(histogram: &[u64], robustness: f64, k_budget: u32) -> KChoice {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::FrameOptions;
     use proptest::prelude::*;
 
     fn options(size: u32, budget_mb: Option<f64>) -> RenderOptions {
         RenderOptions {
-            width: size,
-            height: size,
-            budget_mb,
+            frame: FrameOptions {
+                width: size,
+                height: size,
+                budget_mb,
+                ..Default::default()
+            },
             ..Default::default()
         }
     }

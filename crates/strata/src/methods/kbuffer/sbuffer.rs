@@ -237,12 +237,12 @@ impl Method for SBuffer {
         let k = if self.id == MethodId::Sbuffer {
             u32::MAX
         } else {
-            k_of(ctx.options, self.id)?
+            k_of(ctx.k, self.id)?
         };
         let gpu = ctx.gpu;
         let pixels = ctx.pixels();
         // --msaa: kplus-sbuffer gives each sample pixel its own region.
-        let sample_slots = super::sample_storage(self.id, ctx.options.msaa);
+        let sample_slots = super::sample_storage(self.id, ctx.options.build.msaa);
         let regions = pixels * sample_slots as u64;
         let (levels, scan_words) = self.scan_levels(gpu, regions)?;
         // kplus-sbuffer's region starts share the pool's buffer.
@@ -254,7 +254,7 @@ impl Method for SBuffer {
         let fixed = super::sample_frame_bytes_besides_storage(
             pixels,
             sample_slots,
-            ctx.options.tail == crate::Tail::Blend,
+            ctx.options.frame.kbuffer.tail == crate::Tail::Blend,
         ) + header
             + scan_words * 4;
         // A larger k than the need was measured at (--k auto following the scene) needs at most

@@ -138,7 +138,7 @@ impl TemporalState {
     /// Bytes this frame's interfaces take (0 when culling is off), before [`TemporalState::frame`]
     /// makes them: a frame checks its memory budget before anything advances.
     pub fn bytes(ctx: &FrameContext<'_>) -> u64 {
-        match ctx.options.temporal {
+        match ctx.options.frame.temporal {
             None => 0,
             Some(_) => 2 * (ctx.pixels() + 2) * 4 + std::mem::size_of::<TemporalParams>() as u64,
         }
@@ -154,7 +154,7 @@ impl TemporalState {
             None => self.motion_stubs.clone(),
         };
         let moving = ctx.scene.animation.is_some() as u32;
-        let Some(settings) = ctx.options.temporal else {
+        let Some(settings) = ctx.options.frame.temporal else {
             self.last = None;
             let params = TemporalParams {
                 width: w,
@@ -229,6 +229,7 @@ pub fn culled(words: &[u32]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::FrameOptions;
     use crate::frame::{RenderOptions, Tail};
     use crate::scene::loaders;
     use crate::testing::{assert_close, gpu, render_reference};
@@ -236,13 +237,16 @@ mod tests {
 
     fn temporal_options(refresh: u32) -> RenderOptions {
         RenderOptions {
-            width: 64,
-            height: 64,
-            k: Some(4),
-            temporal: Some(TemporalCulling {
-                refresh,
+            frame: FrameOptions {
+                width: 64,
+                height: 64,
+                k: Some(4),
+                temporal: Some(TemporalCulling {
+                    refresh,
+                    ..Default::default()
+                }),
                 ..Default::default()
-            }),
+            },
             ..Default::default()
         }
     }
@@ -281,7 +285,7 @@ mod tests {
                         &format!("temporal-{method}-{refresh}-{frame}"),
                         &image,
                         &expected,
-                        options.effect,
+                        options.frame.effect,
                         2,
                         0.001,
                     );
@@ -295,9 +299,10 @@ mod tests {
     /// kplus-semiheap and temporal culling: fragments culled, and per frame the share of pixels
     /// over 2/255 against `reference --k 4` of the scene at that time.
     fn moving_balls(options: &RenderOptions, on_gpu: bool, frames: u32) -> (u64, Vec<f64>) {
-        let exact = RenderOptions {
-            temporal: None,
-            ..options.clone()
+        let exact = {
+            let mut options = options.clone();
+            options.frame.temporal = None;
+            options
         };
         let scene = loaders::load_scene("builtin:balls?count=200").unwrap();
         let mut r = Renderer::new(gpu(), &scene, options).unwrap();
@@ -313,8 +318,8 @@ mod tests {
             culled += stats.culled_temporal.unwrap();
             let expected = render_reference(&moved, &exact);
             let c = crate::metrics::compare(
-                &expected.to_rgba8(options.effect),
-                &image.to_rgba8(options.effect),
+                &expected.to_rgba8(options.frame.effect),
+                &image.to_rgba8(options.frame.effect),
             )
             .unwrap();
             over.push(c.pct_over_2);
@@ -364,14 +369,15 @@ mod tests {
         };
         frame(&mut rec).unwrap();
         assert!(rec.wait_stats().unwrap().stats.culled_temporal == Some(0));
-        let starved = RenderOptions {
-            budget_mb: Some(0.01),
-            ..options.clone()
+        let starved = {
+            let mut options = options.clone();
+            options.frame.budget_mb = Some(0.01);
+            options
         };
-        rec.set_options(&starved).unwrap();
+        rec.set_frame_options(&starved.frame).unwrap();
         let e = frame(&mut rec).unwrap_err().to_string();
         assert!(e.contains("--budget-mb"), "{e}");
-        rec.set_options(&options).unwrap();
+        rec.set_frame_options(&options.frame).unwrap();
         frame(&mut rec).unwrap();
         let culled = rec.wait_stats().unwrap().stats.culled_temporal.unwrap();
         assert!(culled > 0, "the frame after a refused one culled nothing");
@@ -380,16 +386,24 @@ mod tests {
     #[test]
     fn culled_fragments_join_the_tail() {
         let scene = loaders::load_scene("builtin:nvpro?objects=24&subdiv=8&seed=4").unwrap();
-        let options = RenderOptions {
-            tail: Tail::Blend,
-            ..temporal_options(0)
+        let options = {
+            let mut options = temporal_options(0);
+            options.frame.kbuffer.tail = Tail::Blend;
+            options
         };
         let mut r = Renderer::new(gpu(), &scene, &options).unwrap();
         let (first, _) = r.render("kplus-heap").unwrap();
         let (second, stats) = r.render("kplus-heap").unwrap();
         assert!(stats.culled_temporal.unwrap() > 0);
         // The tail's sums are integers, so the same fragments give the same tail in any order.
-        assert_close("temporal-tail", &second, &first, options.effect, 1, 0.0);
+        assert_close(
+            "temporal-tail",
+            &second,
+            &first,
+            options.frame.effect,
+            1,
+            0.0,
+        );
     }
 
     #[test]

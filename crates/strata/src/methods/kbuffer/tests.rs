@@ -7,6 +7,7 @@
 //! there every pixel must match, since which k are nearest no longer depends on rounding, so
 //! on any GPU a failure of that comparison is the method's, not the rasterizer's.
 
+use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference, Failures};
@@ -31,18 +32,22 @@ fn scene(spec: &str) -> Scene {
 
 pub(crate) fn options(size: u32, k: u32) -> RenderOptions {
     RenderOptions {
-        width: size,
-        height: size,
-        k: Some(k),
+        frame: FrameOptions {
+            width: size,
+            height: size,
+            k: Some(k),
+            ..Default::default()
+        },
         ..Default::default()
     }
 }
 
 /// Options for the whole A-buffer picture (no k).
 fn all_fragments(size: u32) -> RenderOptions {
-    RenderOptions {
-        k: None,
-        ..options(size, 1)
+    {
+        let mut options = options(size, 1);
+        options.frame.k = None;
+        options
     }
 }
 
@@ -53,7 +58,7 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
     let (lists, unmatched) = reference_fragments_at_device_depths(s, opts);
     let (at_device, _) = crate::reference::render_lists(&lists, None, opts);
     let mut failures = Failures::default();
-    let k = opts.k.unwrap();
+    let k = opts.frame.k.unwrap();
     for &method in methods {
         let (actual, stats) = render_gpu(s, opts, method);
         if !failures.locks_held(method, &stats) {
@@ -64,9 +69,9 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
             &format!("{name}-{method}-k{k}"),
             &actual,
             (&expected, &at_device, unmatched),
-            opts.effect,
+            opts.frame.effect,
         );
-        assert_eq!(stats.k, opts.k);
+        assert_eq!(stats.k, opts.frame.k);
         // Counts are exact too (coverage may differ on the few edge pixels the image bar allows).
         let generated = stats.fragments_generated.unwrap() as f64;
         let truth = reference_stats.fragments_generated.unwrap() as f64;
@@ -91,13 +96,11 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
 fn k_methods_with_k_at_depth_complexity_equal_the_full_reference() {
     let s = scene("builtin:layers?n=12&coverage=0.75&order=random&seed=5");
     let mut opts = options(48, 12);
-    let full = render_reference(
-        &s,
-        &RenderOptions {
-            k: None,
-            ..opts.clone()
-        },
-    );
+    let full = render_reference(&s, &{
+        let mut options = opts.clone();
+        options.frame.k = None;
+        options
+    });
     // kb's unlocked insertions race when fragments of a pixel run at once (its documented flaw,
     // which the contention harness shows): exact only where they never do (lavapipe's fragment
     // stage); on a GPU its error is measured (bench), not asserted.
@@ -112,14 +115,14 @@ fn k_methods_with_k_at_depth_complexity_equal_the_full_reference() {
             &format!("layers-full-{method}"),
             &actual,
             &full,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
         assert_eq!(stats.fragments_dropped, Some(0), "{method}");
         assert_eq!(stats.max_depth_complexity, Some(12), "{method}");
     }
-    opts.k = Some(40);
+    opts.frame.k = Some(40);
     check_k("layers-k40", &s, &opts, &EXACT_K_METHODS);
 }
 
@@ -144,7 +147,7 @@ fn k_methods_keep_the_k_nearest_on_the_dragon_with_translucency() {
     let mut s = scene("builtin:dragon");
     s.override_alpha(0.5);
     let mut opts = options(96, 4);
-    opts.effect = Effect::Translucency;
+    opts.frame.effect = Effect::Translucency;
     check_k("dragon", &s, &opts, &EXACT_K_METHODS);
 }
 
@@ -167,7 +170,7 @@ fn culling_off_gives_the_same_picture() {
     let s = scene("builtin:nvpro?objects=96&subdiv=10&seed=8");
     let mut opts = options(48, 8);
     let expected = render_reference(&s, &opts);
-    opts.culling = false;
+    opts.frame.kbuffer.culling = false;
     for method in [
         "kplus-array",
         "kplus-heap",
@@ -180,7 +183,7 @@ fn culling_off_gives_the_same_picture() {
             &format!("noculling-{method}"),
             &actual,
             &expected,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -197,8 +200,8 @@ fn tail_blend_composites_the_rest_as_one_term() {
         "builtin:layers?n={n}&coverage=1&order=random&seed=4"
     ));
     let mut opts = options(16, k as u32);
-    opts.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
-    opts.tail = Tail::Blend;
+    opts.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
+    opts.frame.kbuffer.tail = Tail::Blend;
     let layers = crate::scene::builtin::layer_colors(n);
     let mut color = [0.0f64; 3];
     let mut t = 1.0f64;
@@ -267,21 +270,22 @@ fn memory_follows_the_catalogue_formula() {
             "{method}"
         );
     }
-    opts.tail = Tail::Blend;
+    opts.frame.kbuffer.tail = Tail::Blend;
     assert_eq!(
         render_gpu(&s, &opts, "kplus-heap").1.bytes_allocated,
         Some(16 * (k + 1) * px + 112 + 40 * px)
     );
     // --msaa 4: each sample's own slots, words and tail, and a fragment count per pixel.
-    let four = RenderOptions {
-        msaa: 4,
-        ..opts.clone()
+    let four = {
+        let mut options = opts.clone();
+        options.build.msaa = 4;
+        options
     };
     assert_eq!(
         render_gpu(&s, &four, "kplus-heap").1.bytes_allocated,
         Some(16 * (k + 1) * px * 4 + 4 * px + 112 + 40 * px * 4)
     );
-    opts.tail = Tail::Drop;
+    opts.frame.kbuffer.tail = Tail::Drop;
     assert_eq!(
         render_gpu(&s, &opts, "kb-mdt32").1.bytes_allocated,
         Some(20 * k * px + 16 * px + 152)
@@ -293,7 +297,7 @@ fn memory_follows_the_catalogue_formula() {
             "{method}"
         );
     }
-    opts.abuffer_initial_nodes = Some(3000);
+    opts.frame.kbuffer.initial_nodes = Some(3000);
     for method in ["kb-ab-ll", "kb-ll"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
@@ -314,9 +318,9 @@ fn memory_follows_the_catalogue_formula() {
         render_gpu(&s, &opts, "kplus-sbuffer").1.bytes_allocated,
         Some(16 * 3000 + 20 * px + 4 * 403 + 152)
     );
-    opts.abuffer_initial_nodes = None;
+    opts.frame.kbuffer.initial_nodes = None;
     // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
-    opts.tail = Tail::Drop;
+    opts.frame.kbuffer.tail = Tail::Drop;
     let (_, stats) = render_gpu(&s, &opts, "kb-ab-fixed");
     assert_eq!(stats.bytes_allocated, Some(16 * 7 * px + 112 + 40));
 }
@@ -339,7 +343,7 @@ fn kplus_sbuffer_regions_hold_exactly_min_f_k() {
         let need: u64 = counts.iter().map(|&f| f.min(k) as u64).sum();
         assert!(counts.iter().any(|&f| f > 0 && f <= k) && counts.iter().any(|&f| f > k));
         // A pool too small at first: the next frame's is the measured need + 25%.
-        opts.abuffer_initial_nodes = Some(16);
+        opts.frame.kbuffer.initial_nodes = Some(16);
         let (_, stats) = render_gpu(&s, &opts, "kplus-sbuffer");
         assert_eq!(stats.geometry_passes, Some(4));
         let px = opts.pixels();
@@ -359,7 +363,7 @@ fn kplus_sbuffer_regions_hold_exactly_min_f_k() {
 fn kplus_sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
     let s = scene("builtin:layers?n=12&coverage=0.75&order=random&seed=5");
     let mut opts = options(48, 8);
-    opts.abuffer_initial_nodes = Some(64);
+    opts.frame.kbuffer.initial_nodes = Some(64);
     let (_, stats) = render_gpu(&s, &opts, "kplus-sbuffer");
     assert_eq!(stats.overflow, Some(true));
     assert_eq!(stats.geometry_passes, Some(4));
@@ -375,7 +379,7 @@ fn kplus_sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
 fn impossible_budget_is_a_clear_error() {
     let s = scene("builtin:layers?n=6");
     let mut opts = options(64, 64);
-    opts.budget_mb = Some(1.0);
+    opts.frame.budget_mb = Some(1.0);
     let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
     let e = r.render("kplus-heap").expect_err("budget too small");
     assert!(
@@ -438,7 +442,7 @@ fn mdt32_keeps_the_k_nearest() {
     let mut s = scene("builtin:dragon");
     s.override_alpha(0.5);
     let mut opts = options(96, 4);
-    opts.effect = Effect::Translucency;
+    opts.frame.effect = Effect::Translucency;
     check_k("dragon", &s, &opts, &["kb-mdt32"]);
 }
 
@@ -451,22 +455,20 @@ fn mdt32_keeps_the_k_nearest() {
 fn packed_mdt_error_is_that_of_their_quantization() {
     let s = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
     let opts = options(64, 8);
-    let expected = render_reference(&s, &opts).to_rgba8(opts.effect);
+    let expected = render_reference(&s, &opts).to_rgba8(opts.frame.effect);
     for (method, max_rmse) in [("kb-mdt64", 1.0 / 255.0), ("kb-mdt-pack", 2.0 / 255.0)] {
         let (actual, stats) = render_gpu(&s, &opts, method);
-        let c = crate::metrics::compare(&expected, &actual.to_rgba8(opts.effect)).unwrap();
+        let c = crate::metrics::compare(&expected, &actual.to_rgba8(opts.frame.effect)).unwrap();
         eprintln!("{method}: {c:?}");
         assert!(c.rmse < max_rmse, "{method}: {c:?}");
         assert_eq!(
             stats.max_depth_complexity,
             Some(
-                render_reference(
-                    &s,
-                    &RenderOptions {
-                        k: None,
-                        ..opts.clone()
-                    }
-                )
+                render_reference(&s, &{
+                    let mut options = opts.clone();
+                    options.frame.k = None;
+                    options
+                })
                 .max_count()
             )
         );
@@ -477,7 +479,7 @@ fn packed_mdt_error_is_that_of_their_quantization() {
 fn packed_mdt_reject_translucency_with_a_clear_error() {
     let s = scene("builtin:layers?n=4");
     let mut opts = options(16, 4);
-    opts.effect = Effect::Translucency;
+    opts.frame.effect = Effect::Translucency;
     for method in ["kb-mdt64", "kb-mdt-pack"] {
         let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
         let e = r.render(method).expect_err("unsupported");
@@ -548,8 +550,8 @@ fn bright_tails_do_not_wrap_their_sums() {
         m.shading = crate::scene::Shading::Unlit;
     }
     let mut opts = options(4, 1);
-    opts.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
-    opts.tail = Tail::Blend;
+    opts.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
+    opts.frame.kbuffer.tail = Tail::Blend;
     for method in ["kplus-heap", "kplus-array", "abuffer-fixed"] {
         let (img, stats) = render_gpu(&s, &opts, method);
         assert_eq!(
@@ -629,9 +631,9 @@ fn auto_k_reaches_the_robustness_the_budget_allows() {
     ];
     for (method, robustness, budget_mb) in cases {
         let mut opts = options(64, 1);
-        opts.k = None;
-        opts.k_auto = Some(robustness);
-        opts.budget_mb = budget_mb;
+        opts.frame.k = None;
+        opts.frame.k_auto = Some(robustness);
+        opts.frame.budget_mb = budget_mb;
         let (actual, stats) = render_gpu(&s, &opts, method);
         let label = format!("{method} R={robustness} budget={budget_mb:?}");
         let auto = stats.k_auto.clone().expect("k_auto stats");
@@ -658,28 +660,28 @@ fn auto_k_reaches_the_robustness_the_budget_allows() {
         }
         // Minimal: k − 1 would not have reached R.
         let mut fewer = opts.clone();
-        fewer.k_auto = None;
+        fewer.frame.k_auto = None;
         if k > 1 && achieved >= robustness {
-            fewer.k = Some(k - 1);
+            fewer.frame.k = Some(k - 1);
             let (_, st) = crate::reference::render(&s, &fewer).unwrap();
             let r = st.fragments_stored.unwrap() as f64 / st.fragments_generated.unwrap() as f64;
             assert!(r < robustness, "{label}: k−1 reaches {r}");
         }
-        fewer.k = Some(k);
+        fewer.frame.k = Some(k);
         let expected = render_reference(&s, &fewer);
         assert_close(
             &format!("auto-k-{method}"),
             &actual,
             &expected,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
     }
     // One budget cuts k below what R asks for: reported, not hidden.
     let mut opts = options(64, 1);
-    opts.k_auto = Some(0.99);
-    opts.budget_mb = Some(0.4);
+    opts.frame.k_auto = Some(0.99);
+    opts.frame.budget_mb = Some(0.4);
     let (_, stats) = render_gpu(&s, &opts, "kplus-array");
     let auto = stats.k_auto.unwrap();
     assert_eq!(stats.k, Some(auto.k_budget));
@@ -690,15 +692,15 @@ fn auto_k_reaches_the_robustness_the_budget_allows() {
 fn auto_k_errors_are_clear() {
     let s = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
     let mut opts = options(64, 1);
-    opts.k_auto = Some(0.9);
-    opts.budget_mb = Some(0.05);
+    opts.frame.k_auto = Some(0.9);
+    opts.frame.budget_mb = Some(0.05);
     let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
     let e = r.render("kplus-heap").unwrap_err();
     assert!(e.to_string().contains("cannot hold even k = 1"), "{e}");
-    opts.budget_mb = None;
+    opts.frame.budget_mb = None;
     let e = r.render("f2b").unwrap_err();
     assert!(e.to_string().contains("k-buffer methods"), "{e}");
-    opts.k_auto = Some(0.0);
+    opts.frame.k_auto = Some(0.0);
     assert!(crate::Renderer::new(crate::testing::gpu(), &s, &opts).is_err());
 }
 
@@ -716,7 +718,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
             &format!("kpeel-k{k}"),
             &actual,
             &full,
-            opts.effect,
+            opts.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -724,7 +726,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         assert_eq!(stats.max_depth_complexity, Some(24));
         assert_eq!(stats.lock_failures, Some(0));
         // --layers fixes the passes: ⌈24/k⌉ in one frame.
-        opts.layers = Some(24);
+        opts.frame.peeling.layers = Some(24);
         let (_, stats) = render_gpu(&s, &opts, "kpeel");
         // With 64-bit atomics the capture is the lock-free key cascade: a keys and a colors
         // pass per layer group, and 8 bytes of key per slot.
@@ -741,7 +743,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
             Some(16 * (k as u64 + 1) * 48 * 48 + 152 + keys)
         );
         // Too few layers: what was not reached is reported as dropped.
-        opts.layers = Some(k);
+        opts.frame.peeling.layers = Some(k);
         let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
         let (_, stats) = r.render("kpeel").unwrap();
         if k < 24 {
@@ -770,7 +772,7 @@ fn kpeel_loses_nothing_at_equal_depths() {
         "kpeel-coincident",
         &actual,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         MAX_FRACTION,
     );
@@ -798,7 +800,7 @@ fn unified_buffer_spans_z_buffer_to_a_buffer() {
             &format!("unified-a-buffer-{method}"),
             &actual,
             &render_reference(&s, &full),
-            full.effect,
+            full.frame.effect,
             MAX_DIFF,
             MAX_FRACTION,
         );
@@ -822,7 +824,7 @@ fn semiheap_keeps_the_k_nearest_for_every_heap_size() {
     ] {
         for (k, h) in [(4, 1), (4, 4), (16, 1), (16, 5)] {
             let mut opts = options(size, k);
-            opts.heap_size = Some(h);
+            opts.frame.kbuffer.heap_size = Some(h);
             check_k(
                 &format!("{name}-semiheap-h{h}"),
                 s,
@@ -832,7 +834,7 @@ fn semiheap_keeps_the_k_nearest_for_every_heap_size() {
         }
     }
     let mut opts = options(16, 4);
-    opts.heap_size = Some(5);
+    opts.frame.kbuffer.heap_size = Some(5);
     let mut r = crate::Renderer::new(crate::testing::gpu(), &layers, &opts).unwrap();
     let e = r.render("kplus-semiheap").unwrap_err();
     assert!(e.to_string().contains("--heap-size 5"), "{e}");
@@ -933,12 +935,17 @@ pub(crate) type DeviceFragments = std::collections::HashMap<u32, DeviceFragment>
 /// stage's position is invariant).
 pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFragments> {
     use crate::gpu::readback::read_u32s;
-    let opts = RenderOptions {
-        k: None,
-        ..opts.clone()
+    let opts = {
+        let mut options = opts.clone();
+        options.frame.k = None;
+        options
     };
     // The tag: primitive << (1 + mask bits) | mask << 1 | front-facing (no mask single-sampled).
-    let mask_bits = if opts.msaa > 1 { opts.msaa } else { 0 };
+    let mask_bits = if opts.build.msaa > 1 {
+        opts.build.msaa
+    } else {
+        0
+    };
     let gpu = crate::testing::gpu();
     let mut r = crate::Renderer::new(gpu, s, &opts).unwrap();
     let (_, stats) = r.render("abuffer-ll").unwrap();
@@ -950,7 +957,7 @@ pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFra
         buffer("strata.kbuffer.pixels"),
         buffer("strata.kbuffer.nodes"),
     );
-    let count = (opts.width * opts.height) as usize;
+    let count = (opts.frame.width * opts.frame.height) as usize;
     let pixel_words = read_u32s(gpu, pixels, 4 * count as u64).unwrap();
     let node_words = read_u32s(gpu, nodes, nodes.size() / 4).unwrap();
     (0..count)
@@ -1001,7 +1008,7 @@ pub(crate) fn reference_fragments_at_device_depths(
     opts: &RenderOptions,
 ) -> (Vec<Vec<crate::resolve::RefFragment>>, u64) {
     assert!(
-        opts.pipeline.is_none(),
+        opts.build.lighting.pipeline.is_none(),
         "the whole scene's fragments, no opaque split"
     );
     let lists = crate::reference::fragments(s, opts).unwrap();
@@ -1021,7 +1028,7 @@ pub(crate) fn reference_fragments_at_device_depths(
                     let [r, g, b, a] = d.color.map(f64::from);
                     Some(crate::resolve::RefFragment {
                         depth: f64::from(d.depth),
-                        coverage: if opts.msaa > 1 {
+                        coverage: if opts.build.msaa > 1 {
                             d.mask as u8
                         } else {
                             f.coverage
@@ -1048,10 +1055,11 @@ fn raster_agreement(
     msaa: u32,
     raster: crate::raster::Raster,
 ) -> RasterAgreement {
-    let opts = RenderOptions {
-        msaa,
-        raster,
-        ..all_fragments(size)
+    let opts = {
+        let mut options = all_fragments(size);
+        options.build.msaa = msaa;
+        options.build.raster = raster;
+        options
     };
     let devices = device_fragments(s, &opts);
     let reference = crate::reference::fragments(s, &opts).unwrap();

@@ -58,7 +58,7 @@ use crate::frame::passes::{
     capture_pipeline_with, color_geometry_pass, color_pass_drawing, compute_pipeline,
     dispatch_pixels, screen_pipeline, storage_geometry_pass, GeometryStage, NullTarget,
 };
-use crate::frame::{BucketSplit, FrameContext, Recorded, RenderOptions, SceneGpu};
+use crate::frame::{BucketSplit, FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::{shader, Gpu, ResourceCache};
 use crate::methods::kbuffer::DEFAULT_K;
@@ -118,8 +118,8 @@ pub fn device_max_slots(limits: &wgpu::Limits) -> u32 {
 
 /// `--k` for bucket: an input error when it is odd or outside 2..=32, unsupported where the
 /// device blends too few targets at once.
-pub fn slots_of(options: &RenderOptions, limits: &wgpu::Limits) -> Result<u32> {
-    let k = options.k.unwrap_or(DEFAULT_K);
+pub fn slots_of(k: Option<u32>, limits: &wgpu::Limits) -> Result<u32> {
+    let k = k.unwrap_or(DEFAULT_K);
     if !(2..=MAX_SLOTS).contains(&k) || !k.is_multiple_of(2) {
         return Err(Error::input(format!(
             "--k {k}: bucket keeps two fragments per bucket and one claim bit per slot, so k must be even and within 2..{MAX_SLOTS}"
@@ -490,10 +490,10 @@ impl Bucket {
 impl Method for Bucket {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let slots = slots_of(ctx.options, &gpu.limits)?;
+        let slots = slots_of(ctx.k, &gpu.limits)?;
         let layers = target_layers(slots);
         let px = ctx.pixels();
-        let split = ctx.options.buckets;
+        let split = ctx.options.frame.peeling.buckets;
         let adaptive = split == BucketSplit::Adaptive;
         let samples = self.samples;
         let bytes = frame_bytes(px, slots, split, samples);

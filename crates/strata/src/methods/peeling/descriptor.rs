@@ -11,10 +11,10 @@ fn create(
     options: &crate::frame::RenderOptions,
 ) -> crate::error::Result<Box<dyn Method>> {
     let triangles = scene.triangle_count as u64;
-    if id == MethodId::F2b && options.msaa > 1 && triangles > super::F2B_MSAA_MAX_TRIANGLES {
+    if id == MethodId::F2b && options.build.msaa > 1 && triangles > super::F2B_MSAA_MAX_TRIANGLES {
         return Err(crate::error::Error::unsupported(format!(
             "f2b --msaa {} takes at most {} triangles (its layer's tag travels as an exact float, as 32-bit integer targets cannot be multisampled); the scene has {triangles}",
-            options.msaa,
+            options.build.msaa,
             super::F2B_MSAA_MAX_TRIANGLES
         )));
     }

@@ -51,6 +51,8 @@ pub const FIRST_GUESS_LAYERS: u32 = 8;
 /// Layers for the next frame: fixed by the options, else the last measured depth complexity.
 pub(crate) fn layers_for(ctx: &FrameContext<'_>, measured: Option<u32>) -> u32 {
     ctx.options
+        .frame
+        .peeling
         .layers
         .or(measured)
         .unwrap_or(FIRST_GUESS_LAYERS)
@@ -241,6 +243,7 @@ impl Method for FrontToBack {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         if let Some(order) = ctx
             .options
+            .frame
             .order
             .filter(|o| *o != crate::order::Order::Scene)
         {
@@ -252,7 +255,7 @@ impl Method for FrontToBack {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
-        self.layers_fixed = ctx.options.layers.is_some();
+        self.layers_fixed = ctx.options.frame.peeling.layers.is_some();
         let samples = self.samples;
         ctx.check_budget(ctx.pixels() * f2b_pixel_bytes(samples))?;
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
@@ -527,7 +530,7 @@ impl Method for Dual {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
-        self.layers_fixed = ctx.options.layers.is_some();
+        self.layers_fixed = ctx.options.frame.peeling.layers.is_some();
         let samples = ctx.scene.samples;
         if samples > 1 && self.key_bytes < 8 {
             return Err(Error::unsupported(format!(

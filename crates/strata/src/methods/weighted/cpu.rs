@@ -26,11 +26,11 @@ pub fn wboit(fragments: &[RefFragment], background: [f64; 3], options: &RenderOp
     let (mut sum, mut weights, mut revealage) = ([0.0f64; 3], 0.0f64, 1.0f64);
     for f in fragments {
         let w = weight(
-            options.weight,
+            options.frame.weighted.weight,
             f.alpha,
             f.distance,
             f.depth,
-            options.depth_scale,
+            options.frame.weighted.depth_scale,
         );
         for (s, c) in sum.iter_mut().zip(f.color) {
             *s += c * f.alpha * w;

@@ -292,7 +292,7 @@ impl Mboit {
 impl Method for Mboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let moments = ctx.options.moments;
+        let moments = ctx.options.frame.weighted.moments;
         let high_bytes = if moments > 4 {
             high_format(moments).1
         } else {

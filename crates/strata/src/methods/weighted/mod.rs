@@ -180,8 +180,8 @@ impl Method for Wboit {
             wgpu::BufferUsages::empty(),
         )?;
         let params = WboitParams {
-            weight: ctx.options.weight.index(),
-            depth_scale: ctx.options.depth_scale as f32,
+            weight: ctx.options.frame.weighted.weight.index(),
+            depth_scale: ctx.options.frame.weighted.depth_scale as f32,
             _pad: [0; 2],
         };
         let params = self

@@ -4,6 +4,7 @@
 //! so on the ≤ 6 layers used here the weighted average moves by under 6·2⁻¹¹ ≈ 0.3%, below 1/255.
 
 use super::cpu;
+use crate::frame::{BuildOptions, FrameOptions, WeightedOptions};
 use crate::frame::{Effect, RenderOptions, Weight};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
@@ -20,12 +21,12 @@ fn per_pixel(
     pixel: impl Fn(&[crate::resolve::RefFragment], [f64; 3]) -> [f64; 3],
 ) -> LinearImage {
     let lists = crate::reference::fragments(scene, options).unwrap();
-    let w = options.width;
+    let w = options.frame.width;
     let pixels = lists
         .iter()
         .enumerate()
         .map(|(i, l)| {
-            let bg = options.background.at(i as u32 % w, i as u32 / w);
+            let bg = options.frame.background.at(i as u32 % w, i as u32 / w);
             let bg = [bg[0] as f64, bg[1] as f64, bg[2] as f64];
             let c = pixel(l, bg);
             [c[0] as f32, c[1] as f32, c[2] as f32, l.len() as f32]
@@ -33,7 +34,7 @@ fn per_pixel(
         .collect();
     LinearImage {
         width: w,
-        height: options.height,
+        height: options.frame.height,
         pixels,
     }
 }
@@ -48,11 +49,17 @@ fn wboit_equals_its_closed_form_for_every_weight() {
         // Scales that put the layers' distances in each weight's steep part.
         for depth_scale in [1.0, 10.0, 60.0] {
             let opts = RenderOptions {
-                width: 40,
-                height: 40,
-                weight,
-                depth_scale,
-                background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+                frame: FrameOptions {
+                    width: 40,
+                    height: 40,
+                    weighted: WeightedOptions {
+                        weight,
+                        depth_scale,
+                        ..Default::default()
+                    },
+                    background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+                    ..Default::default()
+                },
                 ..Default::default()
             };
             let expected = closed_form(&scene, &opts);
@@ -77,10 +84,15 @@ fn wboit_equals_its_closed_form_for_every_weight() {
 fn multisampled_wboit_averages_the_samples_closed_forms() {
     let scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
     let opts = RenderOptions {
-        width: 40,
-        height: 40,
-        msaa: 4,
-        ..Default::default()
+        build: BuildOptions {
+            msaa: 4,
+            ..Default::default()
+        },
+        frame: FrameOptions {
+            width: 40,
+            height: 40,
+            ..Default::default()
+        },
     };
     let expected = per_pixel(&scene, &opts, |l, bg| {
         let mut sum = [0.0; 3];
@@ -105,7 +117,11 @@ fn multisampled_wboit_averages_the_samples_closed_forms() {
         0.001,
     );
     // Anti-aliased: the edges differ from the single-sampled picture.
-    let single = RenderOptions { msaa: 1, ..opts };
+    let single = {
+        let mut options = opts;
+        options.build.msaa = 1;
+        options
+    };
     let (aliased, _) = render_gpu(&scene, &single, "wboit");
     let moved = (0..aliased.pixels.len())
         .filter(|&i| (aliased.pixels[i][0] - actual.pixels[i][0]).abs() > 0.02)
@@ -119,10 +135,16 @@ fn multisampled_wboit_averages_the_samples_closed_forms() {
 fn wboit_weights_differ_and_the_depth_scale_matters() {
     let scene = loaders::load_scene("builtin:nvpro?objects=96&subdiv=10&seed=8").unwrap();
     let opts = |weight, depth_scale| RenderOptions {
-        width: 32,
-        height: 32,
-        weight,
-        depth_scale,
+        frame: FrameOptions {
+            width: 32,
+            height: 32,
+            weighted: WeightedOptions {
+                weight,
+                depth_scale,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
         ..Default::default()
     };
     let (a, _) = render_gpu(&scene, &opts(Weight::Eq7, 1.0), "wboit");
@@ -158,7 +180,7 @@ fn settings(moments: u32) -> cpu::MboitSettings {
 fn mboit_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
     let camera = scene.camera_or_framing();
     per_pixel(scene, options, |l, bg| {
-        cpu::mboit(l, bg, &camera, settings(options.moments))
+        cpu::mboit(l, bg, &camera, settings(options.frame.weighted.moments))
     })
 }
 
@@ -170,11 +192,16 @@ fn multisampled_mboit_equals_its_closed_form() {
     let mut scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
     scene.override_alpha(0.4);
     let opts = RenderOptions {
-        width: 40,
-        height: 40,
-        msaa: 4,
-        background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
-        ..Default::default()
+        build: BuildOptions {
+            msaa: 4,
+            ..Default::default()
+        },
+        frame: FrameOptions {
+            width: 40,
+            height: 40,
+            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+            ..Default::default()
+        },
     };
     let camera = scene.camera_or_framing();
     let expected = per_pixel(&scene, &opts, |l, bg| {
@@ -195,14 +222,16 @@ fn multisampled_mboit_equals_its_closed_form() {
     let mut layers =
         loaders::load_scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3").unwrap();
     layers.override_alpha(0.4);
-    let four = RenderOptions {
-        width: 37,
-        height: 37,
-        ..opts
+    let four = {
+        let mut options = opts;
+        options.frame.width = 37;
+        options.frame.height = 37;
+        options
     };
-    let single = RenderOptions {
-        msaa: 1,
-        ..four.clone()
+    let single = {
+        let mut options = four.clone();
+        options.build.msaa = 1;
+        options
     };
     let (aliased, _) = render_gpu(&layers, &single, "mboit");
     let (smooth, _) = render_gpu(&layers, &four, "mboit");
@@ -239,9 +268,12 @@ fn mboit_equals_its_closed_form() {
         let mut scene = loaders::load_scene(spec).unwrap();
         scene.override_alpha(0.4);
         let opts = RenderOptions {
-            width: 40,
-            height: 40,
-            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+            frame: FrameOptions {
+                width: 40,
+                height: 40,
+                background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+                ..Default::default()
+            },
             ..Default::default()
         };
         let expected = mboit_closed_form(&scene, &opts);
@@ -274,17 +306,21 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
     let mut scene = loaders::load_scene("builtin:nvpro?objects=400&subdiv=10&seed=3").unwrap();
     scene.override_alpha(0.4);
     let base = RenderOptions {
-        width: 40,
-        height: 40,
-        background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+        frame: FrameOptions {
+            width: 40,
+            height: 40,
+            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+            ..Default::default()
+        },
         ..Default::default()
     };
     let exact = crate::testing::render_reference(&scene, &base);
     let mut errors = Vec::new();
     for (moments, high_bytes) in [(4, 0), (6, 8), (8, 16)] {
-        let opts = RenderOptions {
-            moments,
-            ..base.clone()
+        let opts = {
+            let mut options = base.clone();
+            options.frame.weighted.moments = moments;
+            options
         };
         let expected = mboit_closed_form(&scene, &opts);
         let (actual, stats) = render_gpu(&scene, &opts, "mboit");
@@ -320,9 +356,10 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
         let mut scene = loaders::load_scene(spec).unwrap();
         scene.override_alpha(0.4);
         for moments in [6, 8] {
-            let opts = RenderOptions {
-                moments,
-                ..base.clone()
+            let opts = {
+                let mut options = base.clone();
+                options.frame.weighted.moments = moments;
+                options
             };
             let expected = mboit_closed_form(&scene, &opts);
             let (actual, _) = render_gpu(&scene, &opts, "mboit");

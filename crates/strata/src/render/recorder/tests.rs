@@ -18,11 +18,7 @@ fn resolved_after_one_frame(rec: &mut FrameRecorder) -> Vec<u8> {
 fn animated_geometry_updates_in_place() {
     let s0 = loaders::load_scene("builtin:balls?count=40&frame=0").unwrap();
     let s1 = loaders::load_scene("builtin:balls?count=40&frame=3").unwrap();
-    let options = RenderOptions {
-        width: 32,
-        height: 32,
-        ..Default::default()
-    };
+    let options = RenderOptions::sized(32, 32);
     let mut rec = FrameRecorder::new(gpu(), &s0, MethodId::KplusHeap, &options).unwrap();
     let first = resolved_after_one_frame(&mut rec);
     rec.set_geometry(&s1).unwrap();
@@ -42,9 +38,12 @@ fn auto_k_follows_the_last_histogram() {
     let sparse = loaders::load_scene("builtin:balls?count=6&frame=0").unwrap();
     let dense = loaders::load_scene("builtin:balls?count=120&frame=0").unwrap();
     let options = RenderOptions {
-        width: 48,
-        height: 48,
-        k_auto: Some(1.0),
+        frame: FrameOptions {
+            width: 48,
+            height: 48,
+            k_auto: Some(1.0),
+            ..Default::default()
+        },
         ..Default::default()
     };
     let mut rec = FrameRecorder::new(g, &sparse, MethodId::KplusSbuffer, &options).unwrap();

@@ -24,18 +24,24 @@ use crate::methods::kbuffer::tests::{options, reference_fragments_at_device_dept
 /// (coverage at pixel centres on an edge).
 fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage, u64, u64) {
     let (lists, unmatched) = reference_fragments_at_device_depths(scene, opts);
-    let translucency = opts.effect == Effect::Translucency;
-    let samples = opts.msaa.max(1);
+    let translucency = opts.frame.effect == Effect::Translucency;
+    let samples = opts.build.msaa.max(1);
     let mut kept_total = 0;
     let pixels = lists
         .iter()
         .enumerate()
         .map(|(i, list)| {
-            let (x, y) = (i as u32 % opts.width, i as u32 / opts.width);
+            let (x, y) = (i as u32 % opts.frame.width, i as u32 / opts.frame.width);
             let depths: Vec<f32> = list.iter().map(|f| f.depth as f32).collect();
             let coverage: Vec<u32> = list.iter().map(|f| f.coverage as u32).collect();
-            let kept = select_samples(&depths, &coverage, samples, slots, opts.buckets);
-            let bg = opts.background.at(x, y).map(|c| c as f64);
+            let kept = select_samples(
+                &depths,
+                &coverage,
+                samples,
+                slots,
+                opts.frame.peeling.buckets,
+            );
+            let bg = opts.frame.background.at(x, y).map(|c| c as f64);
             let mut sum = [0.0f64; 3];
             for s in 0..samples {
                 let own: Vec<_> = list
@@ -53,8 +59,8 @@ fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage
         })
         .collect();
     let image = LinearImage {
-        width: opts.width,
-        height: opts.height,
+        width: opts.frame.width,
+        height: opts.frame.height,
         pixels,
     };
     (image, kept_total, unmatched)
@@ -64,7 +70,7 @@ fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage
 /// own fragment depths, so exactly: a difference is a fault of `bucket`, not rounding); its
 /// statistics.
 fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate::FrameStats {
-    let k = opts.k.expect("bucket tests give k");
+    let k = opts.frame.k.expect("bucket tests give k");
     let (expected, kept, unmatched) = twin_picture(s, opts, k);
     let (actual, stats) = render_gpu(s, opts, "bucket");
     let generated = stats.fragments_generated.unwrap();
@@ -78,7 +84,7 @@ fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate
         name,
         &actual,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         if unmatched == 0 { 0.0 } else { MAX_FRACTION },
     );
@@ -99,7 +105,7 @@ fn bucket_against_the_reference(name: &str, s: &Scene, opts: &RenderOptions) -> 
         name,
         &actual,
         &expected,
-        opts.effect,
+        opts.frame.effect,
         MAX_DIFF,
         MAX_FRACTION,
     );
@@ -179,7 +185,7 @@ fn bucket_keeps_what_its_cpu_twin_keeps() {
     ] {
         let s = scene(spec);
         let mut opts = options(size, k);
-        opts.buckets = split;
+        opts.frame.peeling.buckets = split;
         let stats = bucket_against_its_twin(&format!("bucket-twin-k{k}"), &s, &opts);
         assert!(
             stats.fragments_dropped.unwrap() > 0,
@@ -206,8 +212,8 @@ fn multisampled_bucket_keeps_what_its_cpu_twin_keeps() {
     ] {
         let s = scene(spec);
         let mut opts = options(48, k);
-        opts.msaa = 4;
-        opts.buckets = split;
+        opts.build.msaa = 4;
+        opts.frame.peeling.buckets = split;
         let name = format!("bucket-msaa-{}-k{k}", split.name());
         let stats = bucket_against_its_twin(&name, &s, &opts);
         assert_eq!(
@@ -223,7 +229,7 @@ fn multisampled_bucket_keeps_what_its_cpu_twin_keeps() {
 fn without_collisions_bucket_equals_the_reference() {
     let s = scene("builtin:spheres?layers=8");
     let mut opts = options(64, 32);
-    opts.effect = Effect::Translucency;
+    opts.frame.effect = Effect::Translucency;
     let stats = bucket_against_the_reference("bucket-exact", &s, &opts);
     assert_eq!(stats.fragments_dropped, Some(0));
 }
@@ -237,7 +243,7 @@ fn the_adaptive_split_keeps_what_uniform_buckets_lose() {
     let mut opts = options(64, 8);
     let (_, uniform) = render_gpu(&s, &opts, "bucket");
     assert!(uniform.fragments_dropped.unwrap() > 0);
-    opts.buckets = BucketSplit::Adaptive;
+    opts.frame.peeling.buckets = BucketSplit::Adaptive;
     let adaptive = bucket_against_the_reference("bucket-adaptive", &s, &opts);
     assert_eq!(adaptive.fragments_dropped, Some(0));
     assert_eq!(adaptive.geometry_passes, Some(4));
@@ -251,8 +257,8 @@ fn the_adaptive_split_keeps_what_uniform_buckets_lose() {
 #[test]
 fn poisoned_storage_changes_nothing_with_the_adaptive_split() {
     let mut opts = crate::methods::tests::options(40, Effect::Translucency);
-    opts.k = Some(6);
-    opts.buckets = BucketSplit::Adaptive;
+    opts.frame.k = Some(6);
+    opts.frame.peeling.buckets = BucketSplit::Adaptive;
     crate::methods::tests::check_poisoned(&opts, [crate::MethodId::Bucket].into_iter());
 }
 
@@ -285,7 +291,7 @@ fn bad_k_and_compute_raster_are_refused() {
         );
     }
     let mut opts = options(16, 8);
-    opts.raster = crate::raster::Raster::Compute;
+    opts.build.raster = crate::raster::Raster::Compute;
     let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
         .and_then(|mut r| r.render("bucket").map(|_| ()))
         .unwrap_err();
@@ -295,12 +301,12 @@ fn bad_k_and_compute_raster_are_refused() {
 #[test]
 fn device_limits_bound_the_slots() {
     let mut limits = wgpu::Limits::default();
-    let e = slots_of(&options(4, 16), &limits).unwrap_err();
+    let e = slots_of(Some(16), &limits).unwrap_err();
     assert!(
         matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("--k 8"),
         "{e}"
     );
-    assert_eq!(slots_of(&options(4, 8), &limits).unwrap(), 8);
+    assert_eq!(slots_of(Some(8), &limits).unwrap(), 8);
     // WebGPU's defaults: 32 bytes per sample, two RGBA32F targets.
     assert_eq!(device_max_slots(&limits), 8);
     limits.max_color_attachment_bytes_per_sample = 128;
