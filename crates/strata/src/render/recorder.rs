@@ -8,10 +8,11 @@
 //!
 //! let gpu = Gpu::from_device(device, queue);
 //! let scene = loaders::load_scene("builtin:spheres?layers=8")?;
-//! let options = RenderOptions { width: 1280, height: 720, ..Default::default() };
+//! let options = RenderOptions::sized(1280, 720);
 //! let mut oit = FrameRecorder::new(&gpu, &scene, MethodId::KplusHeap, &options)?;
 //! loop {
-//!     // oit.set_camera(&camera) when the view moves; oit.resize(w, h) with the window.
+//!     // oit.set_camera(&camera) when the view moves; oit.resize(w, h) with the window;
+//!     // oit.set_frame_options(&frame) for another k, effect, tail, ... (`FrameOptions`).
 //!     let mut encoder = gpu.device.create_command_encoder(&Default::default());
 //!     // ... the application's opaque pass writes `color` and `depth` ...
 //!     let targets = FrameTargets {
