@@ -19,15 +19,15 @@ pub struct PictureArgs {
     pub scene: String,
     /// Image size, WxH (default: the scene's, else 512x512).
     #[arg(long, allow_hyphen_values = true)]
-    pub size: Option<String>,
+    pub size: Option<Size>,
     #[arg(long, value_enum, default_value = "transparency")]
     pub effect: Effect,
-    /// unlit | lit: overrides every material's shading.
-    #[arg(long)]
-    pub shading: Option<String>,
+    /// Overrides every material's shading.
+    #[arg(long, value_enum)]
+    pub shading: Option<Shading>,
     /// checker | #rrggbb (sRGB)
     #[arg(long)]
-    pub background: Option<String>,
+    pub background: Option<BackgroundArg>,
     /// Sets every material's opacity.
     #[arg(long)]
     pub alpha: Option<f32>,
@@ -55,18 +55,8 @@ pub struct PictureArgs {
     /// The lit pipelines' tone map (neutral: colors below 0.8 unchanged, highlights roll off).
     #[arg(long, value_enum, default_value = "neutral")]
     pub tonemap: strata::frame::Tonemap,
-    /// Camera position X,Y,Z (default: the scene's camera, else auto-framed).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub eye: Option<[f32; 3]>,
-    /// The point the camera looks at, X,Y,Z.
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub target: Option<[f32; 3]>,
-    /// The camera's up direction, X,Y,Z.
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub up: Option<[f32; 3]>,
-    /// Vertical field of view in degrees (perspective cameras), in (0, 180).
-    #[arg(long)]
-    pub fov: Option<f32>,
+    #[command(flatten)]
+    pub camera: CameraArgs,
     /// Samples per pixel: 1, or 4 and 8 for multisample anti-aliasing at the standard sample
     /// positions (fragments shaded once per pixel, composited per sample; every method but
     /// kb-mdt64 and kb-mdt-pack, and the reference). 8 where the device has it (lavapipe: 4).
@@ -90,11 +80,109 @@ impl PictureArgs {
             pipeline: None,
             lights: None,
             tonemap: Default::default(),
-            eye: None,
-            target: None,
-            up: None,
-            fov: None,
+            camera: CameraArgs::default(),
             msaa: 1,
+        }
+    }
+}
+
+/// The camera over the scene's (render, view, export).
+#[derive(Args, Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraArgs {
+    /// Camera position X,Y,Z (default: the scene's camera, else auto-framed).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<[f32; 3]>,
+    /// The point the camera looks at, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub target: Option<[f32; 3]>,
+    /// The camera's up direction, X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees (perspective cameras), in (0, 180).
+    #[arg(long)]
+    pub fov: Option<f32>,
+}
+
+impl CameraArgs {
+    pub fn is_empty(&self) -> bool {
+        *self == CameraArgs::default()
+    }
+}
+
+/// `--size WxH`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Size {
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Size {
+    pub const fn new(width: u32, height: u32) -> Size {
+        Size { width, height }
+    }
+}
+
+impl std::str::FromStr for Size {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Size, String> {
+        let side = 1..=strata::frame::MAX_SIDE;
+        let parsed = s.split_once(['x', 'X']).and_then(|(w, h)| {
+            let (w, h) = (w.trim().parse().ok()?, h.trim().parse().ok()?);
+            (side.contains(&w) && side.contains(&h)).then_some(Size::new(w, h))
+        });
+        parsed.ok_or_else(|| {
+            format!(
+                "not WxH with integers in 1..{} (e.g. 512x512)",
+                strata::frame::MAX_SIDE
+            )
+        })
+    }
+}
+
+impl std::fmt::Display for Size {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}x{}", self.width, self.height)
+    }
+}
+
+/// `--background`: the checkerboard or an sRGB color, kept as written so that the viewer's
+/// command line repeats it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackgroundArg {
+    Checker,
+    Srgb([u8; 3]),
+}
+
+impl BackgroundArg {
+    pub fn background(self) -> Background {
+        match self {
+            BackgroundArg::Checker => Background::Checker,
+            BackgroundArg::Srgb(c) => {
+                Background::Color(c.map(|v| strata::scene::srgb_to_linear(v as f32 / 255.0)))
+            }
+        }
+    }
+}
+
+impl std::str::FromStr for BackgroundArg {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<BackgroundArg, String> {
+        if s == "checker" {
+            return Ok(BackgroundArg::Checker);
+        }
+        let hex = s.strip_prefix('#').filter(|h| h.len() == 6 && h.is_ascii());
+        let channel = |h: &str, i: usize| u8::from_str_radix(&h[i..i + 2], 16).ok();
+        hex.and_then(|h| Some([channel(h, 0)?, channel(h, 2)?, channel(h, 4)?]))
+            .map(BackgroundArg::Srgb)
+            .ok_or_else(|| "neither 'checker' nor a color '#rrggbb'".to_string())
+    }
+}
+
+impl std::fmt::Display for BackgroundArg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BackgroundArg::Checker => f.write_str("checker"),
+            BackgroundArg::Srgb([r, g, b]) => write!(f, "#{r:02x}{g:02x}{b:02x}"),
         }
     }
 }
@@ -230,23 +318,6 @@ pub const MAX_LIGHTS: u32 = 65536;
 /// The light field is the same for every run.
 pub const LIGHT_FIELD_SEED: u64 = 1;
 
-pub fn parse_size(s: &str) -> Result<(u32, u32)> {
-    let bad = || {
-        Error::input(format!(
-            "--size '{s}' is not WxH with integers in 1..{} (e.g. 512x512)",
-            strata::frame::MAX_SIDE
-        ))
-    };
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    let side = 1..=strata::frame::MAX_SIDE;
-    if !side.contains(&w) || !side.contains(&h) {
-        return Err(bad());
-    }
-    Ok((w, h))
-}
-
 /// `--k`: a count of fragments per pixel, or `auto`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum KArg {
@@ -299,7 +370,7 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
         }
     }
     let mut scene = loaders::load_scene(&p.scene)?;
-    apply_camera(&mut scene, p)?;
+    apply_camera(&mut scene, &p.camera)?;
     if let Some(degrees) = p.orbit {
         if matches!(scene.camera_path, Some(CameraPath::Keys { .. })) {
             return Err(Error::input(
@@ -322,21 +393,16 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
         }
         scene.add_light_field(n, LIGHT_FIELD_SEED);
     }
-    let shading = p
-        .shading
-        .as_deref()
-        .map(str::parse::<Shading>)
-        .transpose()?
-        .or(scene.defaults.shading);
+    let shading = p.shading.or(scene.defaults.shading);
     if let Some(s) = shading {
         scene.override_shading(s);
     }
-    let background = match p.background.as_deref() {
-        Some(b) => b.parse::<Background>()?,
+    let background = match p.background {
+        Some(b) => b.background(),
         None => scene.defaults.background.unwrap_or_default(),
     };
-    let (width, height) = match p.size.as_deref() {
-        Some(s) => parse_size(s)?,
+    let (width, height) = match p.size {
+        Some(s) => (s.width, s.height),
         None => scene
             .defaults
             .size
@@ -374,8 +440,8 @@ pub fn prepare(p: &PictureArgs) -> Result<(Scene, RenderOptions)> {
 
 /// `--eye`, `--target`, `--up`, `--fov` over the scene's camera (or its framing); `--up` and
 /// `--fov` also apply to a camera path's keys, which `--eye` and `--target` cannot override.
-pub fn apply_camera(scene: &mut Scene, p: &PictureArgs) -> Result<()> {
-    if p.eye.is_none() && p.target.is_none() && p.up.is_none() && p.fov.is_none() {
+pub fn apply_camera(scene: &mut Scene, p: &CameraArgs) -> Result<()> {
+    if p.is_empty() {
         return Ok(());
     }
     if let Some(path) = &mut scene.camera_path {
@@ -384,12 +450,11 @@ pub fn apply_camera(scene: &mut Scene, p: &PictureArgs) -> Result<()> {
                 "--eye and --target fix the camera, but this scene's [[camera_key]] path moves it: leave them out, or the keys",
             ));
         }
-        let mut moved = PictureArgs {
+        let moved = CameraArgs {
             eye: None,
             target: None,
-            ..p.clone()
+            ..*p
         };
-        moved.scene.clear();
         let mut base = Scene {
             camera: Some(*path.base()),
             ..Scene::default()

@@ -15,8 +15,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use strata::error::{Error, Result};
 
 pub use args::{
-    apply_camera, cache_dir, parse_size, parse_vec3, prepare, prepare_render, MethodArgs,
-    PictureArgs, PipelineArg, Toggle, MAX_LIGHTS,
+    apply_camera, cache_dir, parse_vec3, prepare, prepare_render, BackgroundArg, CameraArgs,
+    MethodArgs, PictureArgs, PipelineArg, Size, Toggle, MAX_LIGHTS,
 };
 pub use commands::compare::{compare, CompareArgs};
 pub use commands::convex::{convex, ConvexArgs, ConvexReport};

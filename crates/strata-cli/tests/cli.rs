@@ -1219,7 +1219,7 @@ fn negative_option_values_reach_their_range_checks() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).starts_with("error: --size '-1x64'"),
+        stderr(&o).starts_with("error: invalid value '-1x64' for '--size <SIZE>': not WxH"),
         "{}",
         stderr(&o)
     );

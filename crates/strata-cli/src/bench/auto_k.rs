@@ -93,7 +93,7 @@ fn frame(gpu: &Gpu, recorder: &mut FrameRecorder) -> Result<FrameStats> {
     Ok(recorder.wait_stats()?.stats)
 }
 
-pub fn run(gpu: &Gpu, size: Option<&str>, steps: Option<u32>, dir: &Path) -> Result<()> {
+pub fn run(gpu: &Gpu, size: Option<crate::Size>, steps: Option<u32>, dir: &Path) -> Result<()> {
     let (cpu_figures, (width, height), steps) = standalone_setup(
         gpu,
         size,

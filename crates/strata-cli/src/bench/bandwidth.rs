@@ -59,7 +59,7 @@ struct Report {
     rows: Vec<Row>,
 }
 
-pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path) -> Result<()> {
     let (cpu_figures, (width, height), frames) =
         standalone_setup(gpu, size, frames, ((192, 192), (1024, 1024)), (3, 10))?;
     eprintln!("bandwidth: probing the device's copy bandwidth and atomic rates");
@@ -76,7 +76,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
     let mut rows = Vec::new();
     for spec in scenes {
         let picture = PictureArgs {
-            size: Some(format!("{width}x{height}")),
+            size: Some(crate::Size::new(width, height)),
             alpha: Some(ALPHA),
             ..PictureArgs::for_scene(spec.to_string())
         };

@@ -234,7 +234,7 @@ fn run_case(gpu: &Gpu, case: &Case<'_>, bar: &indicatif::ProgressBar, rows: &mut
     }
 }
 
-pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path) -> Result<()> {
     let (cpu_figures, model_size, frames) =
         standalone_setup(gpu, size, frames, ((128, 128), (512, 512)), (4, 16))?;
     let (views, stack_size, segments) = if cpu_figures {

@@ -117,7 +117,7 @@ struct Report {
     ratios: Vec<Ratio>,
 }
 
-pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path) -> Result<()> {
     let (cpu_figures, (width, height), frames) =
         standalone_setup(gpu, size, frames, ((256, 256), (1024, 1024)), (5, 20))?;
     let scenes: &[&str] = if cpu_figures {

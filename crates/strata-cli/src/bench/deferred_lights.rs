@@ -65,7 +65,7 @@ struct Report {
     layouts: Vec<Layout>,
 }
 
-pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path) -> Result<()> {
     let (cpu_figures, (width, height), frames) =
         standalone_setup(gpu, size, frames, ((256, 192), (1024, 768)), (7, 20))?;
     let counts: &[u32] = if cpu_figures {

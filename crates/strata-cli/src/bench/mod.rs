@@ -39,6 +39,8 @@ use strata::render::Renderer;
 use strata::FrameRecorder;
 use strata::MethodId;
 
+use crate::Size;
+
 use crate::{prepare, PictureArgs};
 
 #[derive(Args)]
@@ -81,7 +83,7 @@ pub struct BenchArgs {
     /// Frame size, WxH (default: the experiment's, which is smaller on a CPU adapter; 512x512
     /// for an ad-hoc run).
     #[arg(long)]
-    pub(crate) size: Option<String>,
+    pub(crate) size: Option<Size>,
     /// Sets every material's opacity.
     #[arg(long)]
     alpha: Option<f32>,
@@ -115,8 +117,8 @@ struct Experiment {
     /// The scenes, each run with every configuration.
     scenes: &'static [&'static str],
     /// Size on a GPU, and on a CPU adapter (lavapipe), where the full size would take hours.
-    size_gpu: &'static str,
-    size_cpu: &'static str,
+    size_gpu: Size,
+    size_cpu: Size,
     alpha: Option<f32>,
     frames: u32,
     runs: fn() -> Vec<Run>,
@@ -152,8 +154,8 @@ const EXPERIMENTS: &[Experiment] = &[
             "builtin:demo",
             "builtin:balls",
         ],
-        size_gpu: "1024x1024",
-        size_cpu: "192x192",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(192, 192),
         alpha: None,
         frames: 5,
         runs: || {
@@ -182,8 +184,8 @@ const EXPERIMENTS: &[Experiment] = &[
         name: "msaa",
         description: "issue 13: every family that takes --msaa at 1, 4 and 8 samples per pixel (8 where the device rasterizes it): time, memory, fragments stored (a pixel on a mesh edge stores one per primitive touching it), abuffer-fixed's drops at k = 16 (edges overflowing per-pixel arrays), kplus-heap's and kb-mdt32's per-sample storage (each sample its own k: S times the memory, nothing lost at edges), and peeling and convex per sample (f2b, kpeel: one more geometry pass, the account)",
         scenes: &["builtin:dragon", "builtin:spheres", "builtin:nvpro?objects=1024&subdiv=16&seed=0"],
-        size_gpu: "1024x1024",
-        size_cpu: "160x160",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(160, 160),
         alpha: Some(0.5),
         frames: 5,
         runs: || {
@@ -217,8 +219,8 @@ const EXPERIMENTS: &[Experiment] = &[
             "builtin:nvpro?objects=1024&subdiv=16&seed=0",
             "builtin:layers?n=32&coverage=0.75&order=random&seed=1",
         ],
-        size_gpu: "1024x1024",
-        size_cpu: "192x192",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(192, 192),
         alpha: Some(0.5),
         frames: 5,
         runs: || {
@@ -240,8 +242,8 @@ const EXPERIMENTS: &[Experiment] = &[
         name: "realtime",
         description: "real-time frames of every GPU method on the dragon (opacity 0.5) and nvpro: GPU ms and frames per second, no blocking readback",
         scenes: &["builtin:dragon", "builtin:nvpro?objects=1024&subdiv=16&seed=0"],
-        size_gpu: "1024x1024",
-        size_cpu: "192x192",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(192, 192),
         alpha: Some(0.5),
         frames: 10,
         runs: || {
@@ -256,8 +258,8 @@ const EXPERIMENTS: &[Experiment] = &[
         name: "foundation",
         description: "exact baselines on the dragon (opacity 0.5): f2b, dual, abuffer-ll, sorted and the CPU reference",
         scenes: &["builtin:dragon"],
-        size_gpu: "512x512",
-        size_cpu: "512x512",
+        size_gpu: Size::new(512, 512),
+        size_cpu: Size::new(512, 512),
         alpha: Some(0.5),
         frames: 5,
         runs: || ["f2b", "dual", "abuffer-ll", "sorted", "reference"].iter().map(|m| Run::plain(m)).collect(),
@@ -267,8 +269,8 @@ const EXPERIMENTS: &[Experiment] = &[
         name: "kbuffer-k",
         description: "seed 003 Fig. 6: 128 layers over 75% of the screen, k = 4..64, every k-buffer method",
         scenes: &["builtin:layers?n=128&coverage=0.75&order=random&seed=1"],
-        size_gpu: "1024x1024",
-        size_cpu: "128x128",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(128, 128),
         alpha: None,
         frames: 5,
         runs: || {
@@ -283,8 +285,8 @@ const EXPERIMENTS: &[Experiment] = &[
         name: "kbuffer-culling",
         description: "seed 003 Fig. 7: culling on and off for kplus-array, kplus-heap, kb-ps, kb-mdt32 at k = 4, 16, 64",
         scenes: &["builtin:layers?n=128&coverage=0.75&order=random&seed=1"],
-        size_gpu: "1024x1024",
-        size_cpu: "128x128",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(128, 128),
         alpha: None,
         frames: 5,
         runs: || {
@@ -310,8 +312,8 @@ const EXPERIMENTS: &[Experiment] = &[
             "builtin:layers?n=64&coverage=0.5&order=random&seed=1",
             "builtin:layers?n=64&coverage=1&order=random&seed=1",
         ],
-        size_gpu: "1024x1024",
-        size_cpu: "128x128",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(128, 128),
         alpha: None,
         frames: 5,
         runs: || {
@@ -332,8 +334,8 @@ const EXPERIMENTS: &[Experiment] = &[
             "builtin:layers?n=64&coverage=1&order=random&seed=1",
             "builtin:layers?n=128&coverage=1&order=random&seed=1",
         ],
-        size_gpu: "1024x1024",
-        size_cpu: "96x96",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(96, 96),
         alpha: None,
         frames: 5,
         runs: || {
@@ -354,8 +356,8 @@ const EXPERIMENTS: &[Experiment] = &[
         name: "kbuffer-quality",
         description: "seed 003 Fig. 10: image error of every k-buffer method at k = 16 against the exact reference, with heatmaps",
         scenes: &["builtin:nvpro?objects=1024&subdiv=16&seed=0"],
-        size_gpu: "1024x1024",
-        size_cpu: "256x256",
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(256, 256),
         alpha: None,
         frames: 3,
         runs: || K_METHODS.iter().map(|m| Run::with_k(m, 16, true)).collect(),
@@ -364,7 +366,7 @@ const EXPERIMENTS: &[Experiment] = &[
 ];
 
 /// An experiment with its own runner: (GPU, `--size`, `--frames`, output folder).
-type StandaloneRun = fn(&Gpu, Option<&str>, Option<u32>, &Path) -> Result<()>;
+type StandaloneRun = fn(&Gpu, Option<Size>, Option<u32>, &Path) -> Result<()>;
 
 /// The experiments that report their own tables: name, description, runner.
 const STANDALONE: [(&str, &str, StandaloneRun); 8] = [
@@ -414,14 +416,14 @@ const STANDALONE: [(&str, &str, StandaloneRun); 8] = [
 /// or the default for the adapter's kind (`cpu` on lavapipe, `gpu` otherwise), likewise frames.
 pub(crate) fn standalone_setup(
     gpu: &Gpu,
-    size: Option<&str>,
+    size: Option<Size>,
     frames: Option<u32>,
     (cpu_size, gpu_size): ((u32, u32), (u32, u32)),
     (cpu_frames, gpu_frames): (u32, u32),
 ) -> Result<(bool, (u32, u32), u32)> {
     let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
     let size = match size {
-        Some(s) => crate::parse_size(s)?,
+        Some(s) => (s.width, s.height),
         None if cpu_figures => cpu_size,
         None => gpu_size,
     };
@@ -496,7 +498,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
     if let Some((_, _, run)) = STANDALONE.iter().find(|e| experiment == Some(e.0)) {
         // Sets the deadline the standalone experiment reads (`out_of_time`).
         Budget::new(a.budget_s)?;
-        return run(gpu, a.size.as_deref(), a.frames, &results_dir(gpu, a));
+        return run(gpu, a.size, a.frames, &results_dir(gpu, a));
     }
     let k_flag = a.k;
     let (name, scenes, runs, size, alpha, frames, quality) = match experiment {
@@ -520,7 +522,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
                     None => e.scenes.iter().map(|s| s.to_string()).collect(),
                 },
                 (e.runs)(),
-                a.size.clone().unwrap_or(default_size.into()),
+                a.size.unwrap_or(default_size),
                 a.alpha.or(e.alpha),
                 a.frames.unwrap_or(e.frames),
                 e.quality,
@@ -547,7 +549,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
                 "adhoc".to_string(),
                 vec![scene],
                 runs,
-                a.size.clone().unwrap_or("512x512".into()),
+                a.size.unwrap_or(Size::new(512, 512)),
                 a.alpha,
                 a.frames.unwrap_or(10),
                 false,
@@ -585,7 +587,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
     };
     for scene in &scenes {
         let picture = PictureArgs {
-            size: Some(size.clone()),
+            size: Some(size),
             effect: a.effect,
             alpha,
             ..PictureArgs::for_scene(scene.clone())

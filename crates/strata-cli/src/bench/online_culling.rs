@@ -292,7 +292,7 @@ fn to_rgba(image: &LinearImage) -> image::RgbaImage {
     image.to_rgba8(Effect::Transparency)
 }
 
-pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path) -> Result<()> {
     let (cpu_figures, size, frames) =
         standalone_setup(gpu, size, frames, ((128, 128), (640, 480)), (4, 16))?;
     let frames = frames.max(2);

@@ -223,7 +223,7 @@ fn pygfx_python(peers: &Path) -> std::result::Result<PathBuf, String> {
     }
 }
 
-pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path) -> Result<()> {
     run_scenes(gpu, &SCENES, size, frames, dir)
 }
 
@@ -231,7 +231,7 @@ pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Re
 fn run_scenes(
     gpu: &Gpu,
     scenes: &[(&str, Option<f32>)],
-    size: Option<&str>,
+    size: Option<crate::Size>,
     frames: Option<u32>,
     dir: &Path,
 ) -> Result<()> {
@@ -253,9 +253,9 @@ fn run_scenes(
         for &(spec, alpha) in scenes {
             let short = crate::bench::short_scene(spec).trim_start_matches("builtin:");
             let picture = PictureArgs {
-                size: Some(format!("{width}x{height}")),
-                shading: Some("unlit".into()),
-                background: Some(BACKGROUND.into()),
+                size: Some(crate::Size::new(width, height)),
+                shading: Some(strata::scene::Shading::Unlit),
+                background: Some(BACKGROUND.parse().expect("a color")),
                 pipeline: Some(PipelineArg::None),
                 alpha,
                 ..PictureArgs::for_scene(spec)

@@ -89,7 +89,7 @@ fn host_memory() -> (Option<f64>, Option<f64>) {
     (field("VmRSS:"), field("VmHWM:"))
 }
 
-pub fn run(gpu: &Gpu, size: Option<&str>, frames: Option<u32>, dir: &Path) -> Result<()> {
+pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path) -> Result<()> {
     let (cpu_figures, (width, height), frames) =
         standalone_setup(gpu, size, frames, ((256, 256), (1920, 1080)), (3, 10))?;
     let warmup = 2;

@@ -16,7 +16,7 @@ pub struct ConvexArgs {
     pub scene: String,
     /// The view's size, WxH, for its passes and --out (default: the scene's, else 512x512).
     #[arg(long, allow_hyphen_values = true)]
-    pub size: Option<String>,
+    pub size: Option<crate::Size>,
     /// Render the decomposition to this PNG: one opaque color per group (paired groups
     /// darker), from the scene's camera.
     #[arg(long)]

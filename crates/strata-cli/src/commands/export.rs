@@ -1,9 +1,10 @@
 //! `strata export`: a scene as glTF 2.0.
 
-use crate::{parse_vec3, prepare, PictureArgs, MAX_LIGHTS};
+use crate::{prepare, BackgroundArg, CameraArgs, PictureArgs, Size, MAX_LIGHTS};
 use clap::Args;
 use std::path::PathBuf;
 use strata::error::Result;
+use strata::scene::Shading;
 
 #[derive(Args)]
 pub struct ExportArgs {
@@ -15,13 +16,13 @@ pub struct ExportArgs {
     pub output: PathBuf,
     /// Image size WxH the file records as its picture default (with the camera's aspect ratio).
     #[arg(long, allow_hyphen_values = true)]
-    pub size: Option<String>,
+    pub size: Option<Size>,
     /// checker | #rrggbb (sRGB): the background the file records as its picture default.
     #[arg(long)]
-    pub background: Option<String>,
-    /// unlit | lit: every material's shading (unlit materials get KHR_materials_unlit).
-    #[arg(long)]
-    pub shading: Option<String>,
+    pub background: Option<BackgroundArg>,
+    /// Every material's shading (unlit materials get KHR_materials_unlit).
+    #[arg(long, value_enum)]
+    pub shading: Option<Shading>,
     /// Sets every material's opacity.
     #[arg(long)]
     pub alpha: Option<f32>,
@@ -31,33 +32,20 @@ pub struct ExportArgs {
     /// Add N coloured point lights, a deterministic field over the scene's bounds.
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=MAX_LIGHTS as i64))]
     pub lights: Option<u32>,
-    /// Camera position X,Y,Z (default: the scene's camera, else auto-framed).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub eye: Option<[f32; 3]>,
-    /// The point the camera looks at, X,Y,Z.
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub target: Option<[f32; 3]>,
-    /// The camera's up direction, X,Y,Z.
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub up: Option<[f32; 3]>,
-    /// Vertical field of view in degrees (perspective cameras), in (0, 180).
-    #[arg(long)]
-    pub fov: Option<f32>,
+    #[command(flatten)]
+    pub camera: CameraArgs,
 }
 
 pub fn export(a: ExportArgs) -> Result<()> {
     let container = strata::scene::export::GltfContainer::for_path(&a.output)?;
     let picture = PictureArgs {
-        size: a.size.clone(),
-        background: a.background.clone(),
+        size: a.size,
+        background: a.background,
         shading: a.shading,
         alpha: a.alpha,
         frame: a.frame,
         lights: a.lights,
-        eye: a.eye,
-        target: a.target,
-        up: a.up,
-        fov: a.fov,
+        camera: a.camera,
         ..PictureArgs::for_scene(a.scene)
     };
     let (scene, options) = prepare(&picture)?;

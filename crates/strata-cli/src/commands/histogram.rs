@@ -16,7 +16,7 @@ pub struct HistogramArgs {
     pub scene: String,
     /// Image size, WxH (default: the scene's, else 512x512).
     #[arg(long, allow_hyphen_values = true)]
-    pub size: Option<String>,
+    pub size: Option<crate::Size>,
     /// Write the histogram as a bar chart PNG (log scale).
     #[arg(long)]
     pub out: Option<PathBuf>,

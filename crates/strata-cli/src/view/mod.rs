@@ -541,7 +541,7 @@ impl App {
 fn load_scene(state: &mut ViewState, spec: &str) {
     let mut picture = state.picture.clone();
     picture.scene = spec.to_string();
-    (picture.eye, picture.target, picture.up, picture.fov) = (None, None, None, None);
+    picture.camera = Default::default();
     picture.frame = None;
     if let Ok((scene, _)) = crate::prepare_render(&state.method, &picture) {
         state.home = scene.camera_or_framing();

@@ -8,9 +8,10 @@ use egui::{Color32, Key, PointerButton, Sense, Stroke};
 use strata::frame::{FrameStats, Raster};
 use strata::methods::kbuffer::DEFAULT_K;
 use strata::methods::MethodId;
+use strata::scene::Shading;
 
 use super::state::{applies, families, value_name, Opt, ViewState};
-use crate::args::KArg;
+use crate::args::{BackgroundArg, KArg};
 use crate::{PipelineArg, Toggle};
 
 /// Width of the panel, points.
@@ -400,7 +401,7 @@ fn picture_controls(ui: &mut egui::Ui, state: &mut ViewState, readouts: &Readout
         ui.label("x");
         ui.add(egui::DragValue::new(&mut h).range(1..=4096));
         if (w, h) != readouts.target_size {
-            p.size = Some(format!("{w}x{h}"));
+            p.size = Some(crate::Size::new(w, h));
         }
     });
     ui.horizontal(|ui| {
@@ -412,30 +413,28 @@ fn picture_controls(ui: &mut egui::Ui, state: &mut ViewState, readouts: &Readout
     });
     ui.horizontal(|ui| {
         ui.label("background");
-        let mut checker = p.background.as_deref().is_none_or(|b| b == "checker");
+        let (mut checker, mut color) = match p.background {
+            None | Some(BackgroundArg::Checker) => (true, [32, 48, 64]),
+            Some(BackgroundArg::Srgb(c)) => (false, c),
+        };
         if ui.radio(checker, "checker").clicked() {
             checker = true;
-            p.background = Some("checker".into());
+            p.background = Some(BackgroundArg::Checker);
         }
-        let mut color = p
-            .background
-            .as_deref()
-            .and_then(parse_hex)
-            .unwrap_or([32, 48, 64]);
         if ui.radio(!checker, "color").clicked() {
             checker = false;
-            p.background = Some(hex(color));
+            p.background = Some(BackgroundArg::Srgb(color));
         }
         if !checker && ui.color_edit_button_srgb(&mut color).changed() {
-            p.background = Some(hex(color));
+            p.background = Some(BackgroundArg::Srgb(color));
         }
     });
     egui::ComboBox::from_label("shading")
-        .selected_text(p.shading.clone().unwrap_or_else(|| "scene's".into()))
+        .selected_text(p.shading.map_or("scene's".into(), |s| value_name(&s)))
         .show_ui(ui, |ui| {
             ui.selectable_value(&mut p.shading, None, "scene's");
-            ui.selectable_value(&mut p.shading, Some("unlit".into()), "unlit");
-            ui.selectable_value(&mut p.shading, Some("lit".into()), "lit");
+            ui.selectable_value(&mut p.shading, Some(Shading::Unlit), "unlit");
+            ui.selectable_value(&mut p.shading, Some(Shading::Lit), "lit");
         });
 }
 
@@ -461,13 +460,13 @@ fn animation_controls(ui: &mut egui::Ui, state: &mut ViewState) {
 fn camera_controls(ui: &mut egui::Ui, state: &mut ViewState) {
     ui.horizontal(|ui| {
         if let strata::scene::Projection::Perspective { fov_y_deg } = state.home.projection {
-            let mut fov = state.picture.fov.unwrap_or(fov_y_deg);
+            let mut fov = state.picture.camera.fov.unwrap_or(fov_y_deg);
             ui.label("field of view");
             if ui
                 .add(egui::Slider::new(&mut fov, 5.0..=120.0).suffix("°"))
                 .changed()
             {
-                state.picture.fov = Some(fov);
+                state.picture.camera.fov = Some(fov);
             }
         }
         if ui.button("Reset view").clicked() {
@@ -706,17 +705,4 @@ fn compare_controls(ui: &mut egui::Ui, panel: &mut Panel, actions: &mut Vec<Acti
         }
         _ => {}
     }
-}
-
-fn parse_hex(s: &str) -> Option<[u8; 3]> {
-    let h = s.strip_prefix('#')?;
-    if h.len() != 6 {
-        return None;
-    }
-    let c = |i: usize| u8::from_str_radix(&h[i..i + 2], 16).ok();
-    Some([c(0)?, c(2)?, c(4)?])
-}
-
-fn hex(c: [u8; 3]) -> String {
-    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }

@@ -146,7 +146,7 @@ impl ViewState {
         camera.target = self.orbit.target;
         camera.up = self.orbit.up;
         if let (Some(f), Projection::Perspective { fov_y_deg }) =
-            (self.picture.fov, &mut camera.projection)
+            (self.picture.camera.fov, &mut camera.projection)
         {
             *fov_y_deg = f;
         }
@@ -156,9 +156,10 @@ impl ViewState {
     /// Writes the orbit into the picture's camera options, so the command line carries it.
     pub fn commit_camera(&mut self) {
         let c = self.camera();
-        self.picture.eye = Some(c.eye.into());
-        self.picture.target = Some(c.target.into());
-        self.picture.up = Some(c.up.into());
+        let picture = &mut self.picture.camera;
+        picture.eye = Some(c.eye.into());
+        picture.target = Some(c.target.into());
+        picture.up = Some(c.up.into());
     }
 
     pub fn reset_view(&mut self) {
@@ -197,7 +198,7 @@ impl ViewState {
             Change::Options
         } else if self.method.method != old.method.method {
             Change::Method
-        } else if self.orbit != old.orbit || self.picture.fov != old.picture.fov {
+        } else if self.orbit != old.orbit || self.picture.camera.fov != old.picture.camera.fov {
             Change::Camera
         } else {
             Change::None
@@ -214,14 +215,15 @@ impl ViewState {
             args.push(shell_quote(&value));
         };
         push("method", m.method.as_str().into());
-        if let Some(s) = &p.size {
-            push("size", s.clone());
+        if let Some(s) = p.size {
+            push("size", s.to_string());
         }
         push("effect", value_name(&p.effect));
-        for (name, v) in [("shading", &p.shading), ("background", &p.background)] {
-            if let Some(v) = v {
-                push(name, v.clone());
-            }
+        if let Some(s) = p.shading {
+            push("shading", value_name(&s));
+        }
+        if let Some(b) = p.background {
+            push("background", b.to_string());
         }
         if let Some(k) = p.k {
             push("k", k.to_string());
@@ -244,12 +246,17 @@ impl ViewState {
         if p.pipeline.is_some_and(|pl| pl != PipelineArg::None) {
             push("tonemap", value_name(&p.tonemap));
         }
-        for (name, v) in [("eye", p.eye), ("target", p.target), ("up", p.up)] {
+        let camera = &p.camera;
+        for (name, v) in [
+            ("eye", camera.eye),
+            ("target", camera.target),
+            ("up", camera.up),
+        ] {
             if let Some([x, y, z]) = v {
                 push(name, format!("{x},{y},{z}"));
             }
         }
-        if let Some(f) = p.fov {
+        if let Some(f) = camera.fov {
             push("fov", f.to_string());
         }
         let id = m.method;
@@ -352,7 +359,7 @@ fn shell_quote(s: &str) -> String {
 fn rebuild_key(s: &ViewState) -> impl PartialEq {
     let (p, m) = (&s.picture, &s.method);
     (
-        (p.scene.clone(), p.shading.clone(), p.alpha, p.lights),
+        (p.scene.clone(), p.shading, p.alpha, p.lights),
         (p.pipeline, p.tonemap, p.msaa, m.raster),
         (
             m.ssao,
@@ -367,7 +374,7 @@ fn rebuild_key(s: &ViewState) -> impl PartialEq {
 fn options_key(s: &ViewState) -> impl PartialEq {
     let (p, m) = (&s.picture, &s.method);
     (
-        (p.size.clone(), p.effect, p.background.clone(), p.k),
+        (p.size, p.effect, p.background, p.k),
         (m.tail, m.culling, m.max_tries, m.heap_size),
         (m.layers, m.layers_per_pass, m.buckets),
         (m.weight, m.depth_scale, m.moments),
@@ -494,7 +501,7 @@ mod tests {
         ]);
         s.orbit.rotate(33.0, 12.0);
         s.orbit.zoom(1.5);
-        s.picture.fov = Some(37.5);
+        s.picture.camera.fov = Some(37.5);
         s.set_time(12.5);
         s.commit_camera();
         let line = s.command_line();

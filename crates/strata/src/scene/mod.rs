@@ -44,6 +44,7 @@ pub(crate) fn check_triangle_estimate(what: &str, triangles: u64) -> Result<()> 
 
 /// How a fragment's color is computed from its material.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Shading {
     /// Fragment color = material color.
