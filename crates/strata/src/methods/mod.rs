@@ -147,15 +147,11 @@ pub trait Method {
     /// `ctx.readback`. Never submits, never waits.
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded>;
 
-    /// Reads the counters a frame asked for (`None` when its statistics were skipped), with
-    /// the frame totals, and applies feedback to the next frame.
-    /// Methods without counters or feedback report nothing beyond the frame totals.
-    fn stats(
-        &mut self,
-        recorded: &Recorded,
-        totals: &Totals,
-        words: Option<&[u32]>,
-    ) -> MethodStats {
+    /// Reads the counters a frame asked for, with the frame totals, and applies feedback to the
+    /// next frame; not called for a frame whose statistics were skipped (it then reports what
+    /// it recorded and nothing it read). Methods without counters or feedback report nothing
+    /// beyond the frame totals.
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: &[u32]) -> MethodStats {
         let _ = (recorded, totals, words);
         MethodStats::default()
     }
@@ -209,7 +205,14 @@ pub fn create(
     descriptor.check_raster(options.build.raster)?;
     descriptor.check_msaa(options.build.msaa, scene.triangle_count as u64)?;
     crate::frame::msaa::check_device(gpu, options.build.msaa)?;
-    (descriptor.create)(id, gpu, scene, options)
+    (descriptor.create)(
+        id,
+        &table::Setup {
+            gpu,
+            scene,
+            options,
+        },
+    )
 }
 
 #[cfg(test)]

@@ -111,7 +111,14 @@ pub enum MethodOption {
 }
 
 /// Builds a method's GPU state for a scene.
-pub type Constructor = fn(MethodId, &Gpu, &SceneGpu, &RenderOptions) -> Result<Box<dyn Method>>;
+pub type Constructor = fn(MethodId, &Setup<'_>) -> Result<Box<dyn Method>>;
+
+/// What a method is made with: the device, the scene on it and the options.
+pub struct Setup<'a> {
+    pub gpu: &'a Gpu,
+    pub scene: &'a SceneGpu,
+    pub options: &'a RenderOptions,
+}
 
 /// Everything strata knows about one method outside its own code.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -256,12 +263,7 @@ impl Descriptor {
     }
 }
 
-fn refuse_reference(
-    _: MethodId,
-    _: &Gpu,
-    _: &SceneGpu,
-    _: &RenderOptions,
-) -> Result<Box<dyn Method>> {
+fn refuse_reference(_: MethodId, _: &Setup<'_>) -> Result<Box<dyn Method>> {
     Err(Error::input(
         "method 'reference' runs on the CPU: use strata::reference::render",
     ))

@@ -751,9 +751,12 @@ impl FrameRecorder {
             (Some(w), Some((start, n))) => Some(w[start as usize..(start + n) as usize].to_vec()),
             _ => None,
         };
-        let ms: MethodStats = match self.methods.get_mut(&p.method) {
-            Some(m) => m.stats(&p.recorded, &totals.unwrap_or_default(), method_words),
-            None => MethodStats::default(),
+        let ms: MethodStats = match (self.methods.get_mut(&p.method), method_words) {
+            (Some(m), Some(words)) => m.stats(&p.recorded, &totals.unwrap_or_default(), words),
+            _ => MethodStats {
+                convex: p.recorded.convex.clone(),
+                ..Default::default()
+            },
         };
         let mut incomplete = ms.incomplete;
         let mut cannot_complete = ms.cannot_complete;

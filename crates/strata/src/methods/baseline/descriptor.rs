@@ -1,14 +1,10 @@
 //! The baselines' entries in the method table.
 
-use crate::methods::table::{Descriptor, Family};
+use crate::methods::table::{Descriptor, Family, Setup};
 use crate::methods::{Method, MethodId};
 
-fn create(
-    id: MethodId,
-    gpu: &crate::gpu::Gpu,
-    scene: &crate::frame::SceneGpu,
-    _: &crate::frame::RenderOptions,
-) -> crate::error::Result<Box<dyn Method>> {
+fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
+    let Setup { gpu, scene, .. } = *made;
     Ok(Box::new(super::Blend::new(
         gpu,
         scene,

@@ -1,15 +1,15 @@
 //! convex's entry in the method table.
 
-use crate::methods::table::{Descriptor, Family, MethodOption, Support};
+use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
-fn create(
-    _: MethodId,
-    gpu: &crate::gpu::Gpu,
-    scene: &crate::frame::SceneGpu,
-    options: &crate::frame::RenderOptions,
-) -> crate::error::Result<Box<dyn Method>> {
+fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
+    let Setup {
+        gpu,
+        scene,
+        options,
+    } = *made;
     Ok(Box::new(super::Convex::new(gpu, scene, options)?))
 }
 

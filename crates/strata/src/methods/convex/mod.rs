@@ -571,17 +571,10 @@ impl Method for Convex {
         })
     }
 
-    fn stats(
-        &mut self,
-        recorded: &Recorded,
-        _totals: &Totals,
-        words: Option<&[u32]>,
-    ) -> MethodStats {
+    fn stats(&mut self, recorded: &Recorded, _totals: &Totals, words: &[u32]) -> MethodStats {
         let convex = recorded.convex.clone().map(|mut c| {
-            if let Some(w) = words {
-                c.order_violations = Some(crate::frame::wide(w, 0));
-                c.overflowing_pixels = Some(crate::frame::wide(w, 2));
-            }
+            c.order_violations = Some(crate::frame::wide(words, 0));
+            c.overflowing_pixels = Some(crate::frame::wide(words, 2));
             c
         });
         MethodStats {

@@ -1,7 +1,7 @@
 //! The entries in the method table of everything built on the k-buffer machinery (storage.wgsl):
 //! the A-buffers, the k-buffers, the k+-buffers and kpeel.
 
-use crate::methods::table::{Descriptor, Family, MethodOption, Ordering, Support};
+use crate::methods::table::{Descriptor, Family, MethodOption, Ordering, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
@@ -9,12 +9,12 @@ use super::list::ListKBuffer;
 use super::mdt::{Mdt, MdtKBuffer};
 use super::{SlotKBuffer, Variant};
 
-fn create(
-    id: MethodId,
-    gpu: &crate::gpu::Gpu,
-    scene: &crate::frame::SceneGpu,
-    options: &crate::frame::RenderOptions,
-) -> crate::error::Result<Box<dyn Method>> {
+fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
+    let Setup {
+        gpu,
+        scene,
+        options,
+    } = *made;
     if let Some(variant) = Variant::of(id) {
         return Ok(Box::new(SlotKBuffer::new(gpu, scene, id, variant)));
     }

@@ -289,15 +289,7 @@ impl Method for KPeel {
         })
     }
 
-    fn stats(
-        &mut self,
-        recorded: &Recorded,
-        totals: &Totals,
-        words: Option<&[u32]>,
-    ) -> MethodStats {
-        let Some(words) = words else {
-            return MethodStats::default();
-        };
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: &[u32]) -> MethodStats {
         let mut stats = peel_feedback(&mut self.measured, recorded, totals, self.layers_fixed);
         stats.lock_failures = Some(super::lock_failures(words));
         stats

@@ -137,10 +137,7 @@ impl Method for ListKBuffer {
         self.frame.end_capture(ctx)
     }
 
-    fn stats(&mut self, recorded: &Recorded, _: &Totals, words: Option<&[u32]>) -> MethodStats {
-        let Some(words) = words else {
-            return MethodStats::default();
-        };
+    fn stats(&mut self, recorded: &Recorded, _: &Totals, words: &[u32]) -> MethodStats {
         let overflowed = wide(words, COUNTER_OVERFLOWED);
         let allocated = (words[COUNTER_ALLOCATED] as u64).min(recorded.capacity);
         let mut stats = self.pool.feedback(

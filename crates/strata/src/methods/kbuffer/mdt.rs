@@ -176,9 +176,9 @@ impl Method for MdtKBuffer {
         })
     }
 
-    fn stats(&mut self, _: &Recorded, _: &Totals, words: Option<&[u32]>) -> MethodStats {
+    fn stats(&mut self, _: &Recorded, _: &Totals, words: &[u32]) -> MethodStats {
         MethodStats {
-            lock_failures: words.map(lock_failures),
+            lock_failures: Some(lock_failures(words)),
             ..Default::default()
         }
     }

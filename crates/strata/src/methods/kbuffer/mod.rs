@@ -914,15 +914,7 @@ impl Method for SlotKBuffer {
         self.frame.end_capture(ctx)
     }
 
-    fn stats(
-        &mut self,
-        recorded: &Recorded,
-        totals: &Totals,
-        words: Option<&[u32]>,
-    ) -> MethodStats {
-        let Some(words) = words else {
-            return MethodStats::default();
-        };
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: &[u32]) -> MethodStats {
         let over = totals.max_depth as u64 > recorded.capacity;
         let mut stats = MethodStats {
             lock_failures: Some(lock_failures(words)),

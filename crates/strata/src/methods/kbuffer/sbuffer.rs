@@ -318,15 +318,7 @@ impl Method for SBuffer {
         })
     }
 
-    fn stats(
-        &mut self,
-        recorded: &Recorded,
-        totals: &Totals,
-        words: Option<&[u32]>,
-    ) -> MethodStats {
-        let Some(words) = words else {
-            return MethodStats::default();
-        };
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: &[u32]) -> MethodStats {
         // A saturated total (2³² − 1 or more slots) needs more than any pool holds.
         let needed = match words.get(COUNTERS as usize) {
             Some(&u32::MAX) | None => totals.generated.max(u32::MAX as u64),

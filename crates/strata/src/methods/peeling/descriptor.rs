@@ -1,15 +1,15 @@
 //! The peeling methods' entries in the method table (kpeel's is in `kbuffer`, with its code).
 
-use crate::methods::table::{Descriptor, Family, MethodOption, Support};
+use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
-fn create(
-    id: MethodId,
-    gpu: &crate::gpu::Gpu,
-    scene: &crate::frame::SceneGpu,
-    options: &crate::frame::RenderOptions,
-) -> crate::error::Result<Box<dyn Method>> {
+fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
+    let Setup {
+        gpu,
+        scene,
+        options,
+    } = *made;
     let triangles = scene.triangle_count as u64;
     if id == MethodId::F2b && options.build.msaa > 1 && triangles > super::F2B_MSAA_MAX_TRIANGLES {
         return Err(crate::error::Error::unsupported(format!(

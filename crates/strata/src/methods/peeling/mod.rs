@@ -408,15 +408,7 @@ impl Method for FrontToBack {
         })
     }
 
-    fn stats(
-        &mut self,
-        recorded: &Recorded,
-        totals: &Totals,
-        words: Option<&[u32]>,
-    ) -> MethodStats {
-        if words.is_none() {
-            return MethodStats::default();
-        }
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, _: &[u32]) -> MethodStats {
         peel_feedback(&mut self.measured, recorded, totals, self.layers_fixed)
     }
 
@@ -655,15 +647,7 @@ impl Method for Dual {
         })
     }
 
-    fn stats(
-        &mut self,
-        recorded: &Recorded,
-        totals: &Totals,
-        words: Option<&[u32]>,
-    ) -> MethodStats {
-        let Some(words) = words else {
-            return MethodStats::default();
-        };
+    fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: &[u32]) -> MethodStats {
         let mut stats = peel_feedback(&mut self.measured, recorded, totals, self.layers_fixed);
         // Pixels with layers left after the last pass (beyond `--layers`: dropped, as asked).
         stats.incomplete |= !self.layers_fixed && words[0] > 0;

@@ -1,14 +1,10 @@
 //! The weighted methods' entries in the method table.
 
-use crate::methods::table::{Descriptor, Family, MethodOption};
+use crate::methods::table::{Descriptor, Family, MethodOption, Setup};
 use crate::methods::{Method, MethodId};
 
-fn create(
-    id: MethodId,
-    gpu: &crate::gpu::Gpu,
-    scene: &crate::frame::SceneGpu,
-    _: &crate::frame::RenderOptions,
-) -> crate::error::Result<Box<dyn Method>> {
+fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
+    let Setup { gpu, scene, .. } = *made;
     Ok(if id == MethodId::Mboit {
         Box::new(super::mboit::Mboit::new(gpu, scene)?)
     } else {
