@@ -6,7 +6,7 @@
 //! recording the next, since it measures the choice (k, predicted and achieved robustness),
 //! not speed; its GPU times are those of single frames, not of a steady loop.
 
-use crate::bench::opt;
+use crate::bench::{csv_of, fixed, opt, print_rows, Column};
 use std::path::Path;
 use strata::frame::FrameOptions;
 
@@ -163,29 +163,41 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, steps: Option<u32>, dir: &Path)
     crate::write_results(dir, "auto-k", &report, csv(&report))
 }
 
+fn columns() -> Vec<Column<'static, Row>> {
+    type C = Column<'static, Row>;
+    let pct = |v: Option<f64>| {
+        v.map(|v| format!("{:.1}%", 100.0 * v))
+            .unwrap_or("-".into())
+    };
+    vec![
+        C::csv("sequence", |r| r.sequence.to_string()).shown_left("sequence", 13),
+        C::csv("step", |r| r.step.to_string()).shown("step", 4),
+        C::csv("method", |r| r.method.to_string()).shown_left("method", 14),
+        C::csv("budget_mb", |r| format!("{:.3}", r.budget_mb))
+            .shown_as("budget MiB", 9, |r| format!("{:.2}", r.budget_mb)),
+        C::csv("k", |r| opt(r.k)).shown("k", 4),
+        C::csv("k_budget", |r| opt(r.k_budget)).shown("k_budget", 8),
+        C::csv("histogram_frame", |r| opt(r.histogram_frame)),
+        C::csv("predicted_robustness", |r| fixed(r.predicted_robustness, 4)).shown_as(
+            "predicted",
+            9,
+            move |r| pct(r.predicted_robustness),
+        ),
+        C::csv("achieved_robustness", |r| fixed(r.achieved_robustness, 4)).shown_as(
+            "achieved",
+            9,
+            move |r| pct(r.achieved_robustness),
+        ),
+        C::csv("max_depth_complexity", |r| opt(r.max_depth_complexity)).shown("depth", 6),
+        C::csv("fragments", |r| opt(r.fragments)),
+        C::csv("bytes_allocated", |r| opt(r.bytes_allocated)),
+        C::csv("overflow", |r| opt(r.overflow)).shown("overflow", 8),
+        C::csv("gpu_ms", |r| fixed(r.gpu_ms, 3)),
+    ]
+}
+
 fn csv(r: &Report) -> String {
-    let mut s = String::from("sequence,step,method,budget_mb,k,k_budget,histogram_frame,predicted_robustness,achieved_robustness,max_depth_complexity,fragments,bytes_allocated,overflow,gpu_ms\n");
-    for row in &r.rows {
-        s += &[
-            row.sequence.to_string(),
-            row.step.to_string(),
-            row.method.to_string(),
-            format!("{:.3}", row.budget_mb),
-            opt(row.k),
-            opt(row.k_budget),
-            opt(row.histogram_frame),
-            opt(row.predicted_robustness.map(|v| format!("{v:.4}"))),
-            opt(row.achieved_robustness.map(|v| format!("{v:.4}"))),
-            opt(row.max_depth_complexity),
-            opt(row.fragments),
-            opt(row.bytes_allocated),
-            opt(row.overflow),
-            opt(row.gpu_ms.map(|v| format!("{v:.3}"))),
-        ]
-        .join(",");
-        s.push('\n');
-    }
-    s
+    csv_of(&columns(), &r.rows)
 }
 
 fn print(r: &Report) {
@@ -202,35 +214,5 @@ fn print(r: &Report) {
             ""
         }
     );
-    println!(
-        "{:<13} {:>4} {:<14} {:>9} {:>4} {:>8} {:>9} {:>9} {:>6}",
-        "sequence",
-        "step",
-        "method",
-        "budget MiB",
-        "k",
-        "k_budget",
-        "predicted",
-        "achieved",
-        "depth"
-    );
-    for row in &r.rows {
-        let pct = |v: Option<f64>| {
-            v.map(|v| format!("{:.1}%", 100.0 * v))
-                .unwrap_or("-".into())
-        };
-        println!(
-            "{:<13} {:>4} {:<14} {:>9.2} {:>4} {:>8} {:>9} {:>9} {:>6} {:>8}",
-            row.sequence,
-            row.step,
-            row.method.as_str(),
-            row.budget_mb,
-            opt(row.k),
-            opt(row.k_budget),
-            pct(row.predicted_robustness),
-            pct(row.achieved_robustness),
-            opt(row.max_depth_complexity),
-            opt(row.overflow)
-        );
-    }
+    print_rows(&columns(), &r.rows, |_| None);
 }

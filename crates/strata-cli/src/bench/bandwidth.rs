@@ -6,7 +6,7 @@
 //! On a GPU: the dragon (opacity 0.5) and nvpro at 1024²; on lavapipe the dragon at 192² (CPU
 //! figures: a CPU's memory system and a software rasterizer, so the ratios are large).
 
-use crate::bench::fixed;
+use crate::bench::{csv_of, fixed, opt, print_rows, scene_column, Column};
 use std::path::Path;
 
 use serde::Serialize;
@@ -145,27 +145,29 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
     crate::write_results(dir, "bandwidth", &report, csv(&report))
 }
 
+fn columns() -> Vec<Column<'static, Row>> {
+    type C = Column<'static, Row>;
+    let mib = |r: &Row, digits| fixed(r.traffic.map(|t| t.bytes as f64 / 1048576.0), digits);
+    vec![
+        scene_column(|r: &Row| &r.scene),
+        C::csv("method", |r| r.method.clone()).shown_left("method", 16),
+        C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3))
+            .shown_as("GPU ms", 10, |r| fixed(r.median_gpu_ms, 2)),
+        C::csv("traffic_mib", move |r| mib(r, 2)).shown_as("traffic MiB", 12, move |r| mib(r, 1)),
+        C::csv("pixel_atomics", |r| opt(r.traffic.map(|t| t.pixel_atomics))),
+        C::csv("global_atomics", |r| {
+            opt(r.traffic.map(|t| t.global_atomics))
+        }),
+        C::csv("floor_ms", |r| fixed(r.floor_ms, 4))
+            .shown_as("floor ms", 10, |r| fixed(r.floor_ms, 3)),
+        C::csv("bound", |r| opt(r.bound)).shown("bound", 15),
+        C::csv("measured_over_floor", |r| fixed(r.measured_over_floor, 1)).shown("ms/floor", 10),
+        C::csv("skipped", |r| opt(r.skipped.as_deref()).replace(',', ";")),
+    ]
+}
+
 fn csv(r: &Report) -> String {
-    let mut out = String::from(
-        "scene,method,median_gpu_ms,traffic_mib,pixel_atomics,global_atomics,floor_ms,bound,measured_over_floor,skipped\n",
-    );
-    for row in &r.rows {
-        let t = row.traffic.as_ref();
-        out += &format!(
-            "{},{},{},{},{},{},{},{},{},{}\n",
-            row.scene.replace(',', ";"),
-            row.method,
-            fixed(row.median_gpu_ms, 3),
-            fixed(t.map(|t| t.bytes as f64 / 1048576.0), 2),
-            t.map(|t| t.pixel_atomics.to_string()).unwrap_or_default(),
-            t.map(|t| t.global_atomics.to_string()).unwrap_or_default(),
-            fixed(row.floor_ms, 4),
-            row.bound.unwrap_or(""),
-            fixed(row.measured_over_floor, 1),
-            row.skipped.as_deref().unwrap_or("").replace(',', ";"),
-        );
-    }
-    out
+    csv_of(&columns(), &r.rows)
 }
 
 fn print(r: &Report) {
@@ -181,24 +183,5 @@ fn print(r: &Report) {
         d.atomics_per_pixel_g_per_s,
         d.atomics_one_word_g_per_s
     );
-    println!(
-        "{:<10} {:<16} {:>10} {:>12} {:>10} {:>15} {:>10}",
-        "scene", "method", "GPU ms", "traffic MiB", "floor ms", "bound", "ms/floor"
-    );
-    for row in &r.rows {
-        let scene = crate::bench::short_scene(&row.scene).trim_start_matches("builtin:");
-        if let Some(why) = &row.skipped {
-            println!("{scene:<10} {:<16} skipped: {why}", row.method);
-            continue;
-        }
-        println!(
-            "{scene:<10} {:<16} {:>10} {:>12} {:>10} {:>15} {:>10}",
-            row.method,
-            fixed(row.median_gpu_ms, 2),
-            fixed(row.traffic.map(|t| t.bytes as f64 / 1048576.0), 1),
-            fixed(row.floor_ms, 3),
-            row.bound.unwrap_or(""),
-            fixed(row.measured_over_floor, 1),
-        );
-    }
+    print_rows(&columns(), &r.rows, |row| row.skipped.clone());
 }

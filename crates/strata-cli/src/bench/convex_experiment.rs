@@ -18,7 +18,7 @@
 //! two in flight, medians of the frames' own GPU timestamps). A configuration the device cannot
 //! hold is recorded with its error, not fatal.
 
-use crate::bench::opt;
+use crate::bench::{csv_of, fixed, opt, print_rows, Column};
 use std::path::Path;
 use strata::frame::FrameOptions;
 
@@ -362,39 +362,50 @@ impl Partial {
     }
 }
 
-fn ms(v: Option<f64>) -> String {
-    v.map(|v| format!("{v:.3}")).unwrap_or_default()
+fn columns() -> Vec<Column<'static, Row>> {
+    type C = Column<'static, Row>;
+    let mib = |r: &Row| fixed(r.bytes_allocated.map(|b| b as f64 / 1048576.0), 2);
+    vec![
+        C::csv("table", |r| r.table.to_string()),
+        C::csv("scene", |r| format!("\"{}\"", r.scene)).printed_left("scene", 44, |r| {
+            r.scene.trim_start_matches("builtin:").to_string()
+        }),
+        C::csv("triangles", |r| r.triangles.to_string()).shown("triangles", 9),
+        C::csv("method", |r| r.method.to_string()).shown_left("method", 14),
+        C::csv("k", |r| opt(r.k)),
+        C::csv("views", |r| r.views.to_string()),
+        C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3)).shown_as("GPU ms", 11, |r| match &r
+            .error
+        {
+            Some(_) => "error".to_string(),
+            None => fixed(r.median_gpu_ms, 3),
+        }),
+        C::csv("median_wall_ms", |r| format!("{:.3}", r.median_wall_ms)),
+        C::csv("mean_passes", |r| fixed(r.mean_passes, 1)).shown("passes", 8),
+        C::csv("bytes_allocated", |r| opt(r.bytes_allocated)).shown_as("MiB", 9, mib),
+        C::csv("max_depth_complexity", |r| opt(r.max_depth_complexity)),
+        C::csv("fragments_dropped", |r| opt(r.fragments_dropped)),
+        C::csv("convex_groups", |r| {
+            opt(r.convex.as_ref().map(|c| c.groups))
+        }),
+        C::csv("convex_mean_order_ms", |r| {
+            fixed(r.convex.as_ref().map(|c| c.mean_order_ms), 3)
+        }),
+        C::csv("convex_order_violations", |r| {
+            opt(r.convex.as_ref().map(|c| c.order_violations))
+        })
+        .shown("violations", 10),
+        C::csv("error", |r| {
+            format!(
+                "\"{}\"",
+                r.error.as_deref().unwrap_or_default().replace('"', "'")
+            )
+        }),
+    ]
 }
 
 fn csv(r: &Report) -> String {
-    let mut out = String::from(
-        "table,scene,triangles,method,k,views,median_gpu_ms,median_wall_ms,mean_passes,bytes_allocated,max_depth_complexity,fragments_dropped,convex_groups,convex_mean_order_ms,convex_order_violations,error\n",
-    );
-    for row in &r.rows {
-        let c = row.convex.as_ref();
-        out += &format!(
-            "{},\"{}\",{},{},{},{},{},{:.3},{},{},{},{},{},{},{},\"{}\"\n",
-            row.table,
-            row.scene,
-            row.triangles,
-            row.method,
-            opt(row.k),
-            row.views,
-            ms(row.median_gpu_ms),
-            row.median_wall_ms,
-            row.mean_passes
-                .map(|p| format!("{p:.1}"))
-                .unwrap_or_default(),
-            opt(row.bytes_allocated),
-            opt(row.max_depth_complexity),
-            opt(row.fragments_dropped),
-            opt(c.map(|c| c.groups)),
-            ms(c.map(|c| c.mean_order_ms)),
-            opt(c.map(|c| c.order_violations)),
-            row.error.as_deref().unwrap_or_default().replace('"', "'"),
-        );
-    }
-    out
+    csv_of(&columns(), &r.rows)
 }
 
 fn print(r: &Report) {
@@ -403,35 +414,7 @@ fn print(r: &Report) {
         "convex on {}{label}: models at {}x{} (median over views), layered spheres at {}x{}",
         r.header.adapter, r.model_size.0, r.model_size.1, r.stack_size.0, r.stack_size.1
     );
-    println!(
-        "{:<44} {:>9} {:<14} {:>11} {:>8} {:>9} {:>10}",
-        "scene", "triangles", "method", "GPU ms", "passes", "MiB", "violations"
-    );
-    for row in &r.rows {
-        let passes = row
-            .mean_passes
-            .map(|p| format!("{p:.1}"))
-            .unwrap_or_default();
-        let mib = row
-            .bytes_allocated
-            .map(|b| format!("{:.2}", b as f64 / 1048576.0))
-            .unwrap_or_default();
-        let violations = opt(row.convex.as_ref().map(|c| c.order_violations));
-        let time = match &row.error {
-            Some(_) => "error".to_string(),
-            None => ms(row.median_gpu_ms),
-        };
-        println!(
-            "{:<44} {:>9} {:<14} {:>11} {:>8} {:>9} {:>10}",
-            row.scene.trim_start_matches("builtin:"),
-            row.triangles,
-            row.method,
-            time,
-            passes,
-            mib,
-            violations
-        );
-    }
+    print_rows(&columns(), &r.rows, |_| None);
     println!(
         "{:<44} {:>8} {:>8} {:>8} {:>8}",
         "speedup of convex over", "f2b", "dual", "mdt32", "abuf-fix"

@@ -18,7 +18,7 @@ use strata::gpu::Gpu;
 use strata::scene::loaders;
 use strata::RenderOptions;
 
-use crate::bench::{measure, standalone_setup, Run};
+use crate::bench::{csv_of, fixed, measure, opt, print_rows, standalone_setup, Column, Run};
 
 pub const DESCRIPTION: &str = "seed 002 Table 1: compute-rasterizer MDTS and FABS vs the hardware abuffer-fixed, f2b, dual, abuffer-ll and kplus-array on bunny, dragon and procedural scenes up to 10M triangles (lavapipe: up to ~1M): frame time, passes, compute time by stage";
 
@@ -246,43 +246,32 @@ fn report_of(
     }
 }
 
-fn ms(v: Option<f64>) -> String {
-    v.map(|v| format!("{v:.3}")).unwrap_or_default()
-}
-
 fn stage(row: &Row, name: &str) -> Option<f64> {
     row.median_gpu_ms_per_pass.as_ref()?.get(name).copied()
 }
 
+fn columns() -> Vec<Column<'static, Row>> {
+    type C = Column<'static, Row>;
+    let capture = |r: &Row| fixed(stage(r, "capture").or(stage(r, "capture_depth")), 3);
+    vec![
+        C::csv("scene", |r| r.scene.clone()),
+        C::csv("triangles", |r| r.triangles.to_string()),
+        C::csv("run", |r| r.label.to_string()).shown_left("run", 36),
+        C::csv("raster", |r| r.raster.to_string()),
+        C::csv("geometry_passes", |r| opt(r.geometry_passes)).shown("passes", 6),
+        C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3)).shown("gpu ms", 10),
+        C::csv("bin_ms", |r| fixed(stage(r, "raster.bin"), 3)).shown("bin ms", 9),
+        C::csv("capture_ms", capture).shown("capture ms", 10),
+        C::csv("resolve_ms", |r| fixed(stage(r, "resolve"), 3)),
+        C::csv("fragments", |r| opt(r.fragments)),
+        C::csv("dropped", |r| opt(r.fragments_dropped)).shown("dropped", 9),
+        C::csv("bytes", |r| opt(r.bytes_allocated)),
+        C::csv("error", |r| opt(r.error.as_deref()).replace(',', ";")),
+    ]
+}
+
 fn csv(r: &Report) -> String {
-    let mut out = String::from(
-        "scene,triangles,run,raster,geometry_passes,median_gpu_ms,bin_ms,capture_ms,resolve_ms,fragments,dropped,bytes,error\n",
-    );
-    for row in &r.rows {
-        out += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            row.scene,
-            row.triangles,
-            row.label,
-            row.raster,
-            row.geometry_passes
-                .map(|n| n.to_string())
-                .unwrap_or_default(),
-            ms(row.median_gpu_ms),
-            ms(stage(row, "raster.bin")),
-            ms(stage(row, "capture").or(stage(row, "capture_depth"))),
-            ms(stage(row, "resolve")),
-            row.fragments.map(|n| n.to_string()).unwrap_or_default(),
-            row.fragments_dropped
-                .map(|n| n.to_string())
-                .unwrap_or_default(),
-            row.bytes_allocated
-                .map(|n| n.to_string())
-                .unwrap_or_default(),
-            row.error.as_deref().unwrap_or("").replace(',', ";"),
-        );
-    }
-    out
+    csv_of(&columns(), &r.rows)
 }
 
 fn print(r: &Report) {
@@ -291,32 +280,9 @@ fn print(r: &Report) {
         "cuda-renderer on {}{label}: {}x{}, median of {} frames",
         r.header.adapter, r.width, r.height, r.frames
     );
-    let mut scene = "";
-    for row in &r.rows {
-        if row.scene != scene {
-            scene = &row.scene;
-            println!("{} ({} triangles)", row.scene, row.triangles);
-            println!(
-                "  {:<36} {:>6} {:>10} {:>9} {:>10} {:>9}",
-                "run", "passes", "gpu ms", "bin ms", "capture ms", "dropped"
-            );
-        }
-        match &row.error {
-            Some(e) => println!("  {:<36} {e}", row.label),
-            None => println!(
-                "  {:<36} {:>6} {:>10} {:>9} {:>10} {:>9}",
-                row.label,
-                row.geometry_passes
-                    .map(|n| n.to_string())
-                    .unwrap_or_default(),
-                ms(row.median_gpu_ms),
-                ms(stage(row, "raster.bin")),
-                ms(stage(row, "capture").or(stage(row, "capture_depth"))),
-                row.fragments_dropped
-                    .map(|n| n.to_string())
-                    .unwrap_or_default()
-            ),
-        }
+    for rows in r.rows.chunk_by(|a, b| a.scene == b.scene) {
+        println!("{} ({} triangles)", rows[0].scene, rows[0].triangles);
+        print_rows(&columns(), rows, |row| row.error.clone());
     }
     for ratio in &r.ratios {
         let f = |v: Option<f64>| v.map(|v| format!("{v:.2}")).unwrap_or("-".into());

@@ -18,7 +18,7 @@ use strata::gpu::Gpu;
 use strata::scene::loaders;
 use strata::RenderOptions;
 
-use crate::bench::{measure, standalone_setup, Run};
+use crate::bench::{csv_of, measure, opt, standalone_setup, Column, Run};
 
 pub const DESCRIPTION: &str = "seed 004 Figs. 13-14: forward vs deferred frame time over 1..4096 lights (lavapipe: 1..1024) on ~100K opaque triangles, and G-buffer bytes per pixel and traffic at 60 fps, traditional vs compressed";
 
@@ -166,18 +166,15 @@ fn ms(v: Option<f64>) -> String {
 }
 
 fn csv(r: &Report) -> String {
-    let mut out = String::from("pipeline,lights,lights_drawn,median_gpu_ms,median_wall_ms\n");
-    for row in &r.rows {
-        out += &format!(
-            "{},{},{},{},{:.3}\n",
-            row.pipeline,
-            row.lights,
-            row.lights_drawn.map(|n| n.to_string()).unwrap_or_default(),
-            ms(row.median_gpu_ms),
-            row.median_wall_ms
-        );
-    }
-    out
+    type C = Column<'static, Row>;
+    let columns = [
+        C::csv("pipeline", |r| r.pipeline.to_string()),
+        C::csv("lights", |r| r.lights.to_string()),
+        C::csv("lights_drawn", |r| opt(r.lights_drawn)),
+        C::csv("median_gpu_ms", |r| ms(r.median_gpu_ms)),
+        C::csv("median_wall_ms", |r| format!("{:.3}", r.median_wall_ms)),
+    ];
+    csv_of(&columns, &r.rows)
 }
 
 fn print(r: &Report) {
@@ -197,7 +194,7 @@ fn print(r: &Report) {
                 f.lights,
                 ms(f.median_gpu_ms),
                 ms(d.median_gpu_ms),
-                d.lights_drawn.map(|n| n.to_string()).unwrap_or_default()
+                opt(d.lights_drawn)
             );
         }
     }

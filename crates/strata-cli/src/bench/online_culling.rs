@@ -21,7 +21,7 @@
 //! A run past [`RUN_BUDGET`] of wall time renders no more frames (its row's `frames` says how
 //! many it did), and the results are written after every run.
 
-use crate::bench::opt;
+use crate::bench::{csv_of, fixed, opt, Column};
 use std::path::Path;
 use strata::frame::{FrameOptions, KBufferOptions};
 
@@ -376,29 +376,27 @@ fn temporal_default_refresh() -> u32 {
 }
 
 fn csv(r: &Report) -> String {
-    let mut s = String::from("sequence,triangles,order,seed,config,method,refresh,frames,gpu_ms,kendall_tau,fragments,culled_temporal_fraction,lock_failures,rmse_max,pct_over_2_max\n");
-    for row in &r.rows {
-        s += &[
-            row.sequence.clone(),
-            row.triangles.to_string(),
-            row.order.to_string(),
-            opt(row.seed),
-            row.config.to_string(),
-            row.method.to_string(),
-            opt(row.refresh),
-            row.frames.to_string(),
-            opt(row.gpu_ms.map(|v| format!("{v:.3}"))),
-            opt(row.kendall_tau.map(|v| format!("{v:.4}"))),
-            opt(row.fragments),
-            opt(row.culled_temporal_fraction.map(|v| format!("{v:.4}"))),
-            row.lock_failures.to_string(),
-            opt(row.rmse_max.map(|v| format!("{v:.5}"))),
-            opt(row.pct_over_2_max.map(|v| format!("{v:.3}"))),
-        ]
-        .join(",");
-        s.push('\n');
-    }
-    s
+    type C = Column<'static, Row>;
+    let columns = [
+        C::csv("sequence", |r| r.sequence.clone()),
+        C::csv("triangles", |r| r.triangles.to_string()),
+        C::csv("order", |r| r.order.to_string()),
+        C::csv("seed", |r| opt(r.seed)),
+        C::csv("config", |r| r.config.to_string()),
+        C::csv("method", |r| r.method.to_string()),
+        C::csv("refresh", |r| opt(r.refresh)),
+        C::csv("frames", |r| r.frames.to_string()),
+        C::csv("gpu_ms", |r| fixed(r.gpu_ms, 3)),
+        C::csv("kendall_tau", |r| fixed(r.kendall_tau, 4)),
+        C::csv("fragments", |r| opt(r.fragments)),
+        C::csv("culled_temporal_fraction", |r| {
+            fixed(r.culled_temporal_fraction, 4)
+        }),
+        C::csv("lock_failures", |r| r.lock_failures.to_string()),
+        C::csv("rmse_max", |r| fixed(r.rmse_max, 5)),
+        C::csv("pct_over_2_max", |r| fixed(r.pct_over_2_max, 3)),
+    ];
+    csv_of(&columns, &r.rows)
 }
 
 /// The paper's Table 1 shape: per sequence and configuration, the best (front), the mean of the

@@ -20,7 +20,7 @@
 //! are written beside the results. A peer that is not installed or built (`peers/setup`) is
 //! recorded as skipped with the reason.
 
-use crate::bench::fixed;
+use crate::bench::{csv_of, fixed, opt, print_rows, scene_column, Column};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -433,29 +433,33 @@ fn run_harness(
     serde_json::from_str(&text).map_err(|e| format!("{peer}'s timings: {e}"))
 }
 
+fn columns() -> Vec<Column<'static, Row>> {
+    type C = Column<'static, Row>;
+    let error = |r: &Row, value: fn(&strata::metrics::Comparison) -> f64, digits| {
+        fixed(r.error_vs_reference.as_ref().map(value), digits)
+    };
+    vec![
+        scene_column(|r: &Row| &r.scene),
+        C::csv("renderer", |r| r.renderer.clone()),
+        C::csv("label", |r| r.label.clone()).shown_left("configuration", 28),
+        C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3))
+            .shown_as("GPU ms", 9, |r| fixed(r.median_gpu_ms, 2)),
+        C::csv("median_wall_ms", |r| fixed(r.median_wall_ms, 3))
+            .shown_as("wall ms", 9, |r| fixed(r.median_wall_ms, 2)),
+        C::csv("bytes_allocated", |r| opt(r.bytes_allocated)).shown_as("MiB", 9, |r| {
+            fixed(r.bytes_allocated.map(|b| b as f64 / 1048576.0), 1)
+        }),
+        C::csv("rmse", move |r| error(r, |e| e.rmse, 5))
+            .shown_as("RMSE", 8, move |r| error(r, |e| e.rmse, 4)),
+        C::csv("flip_mean", move |r| error(r, |e| e.flip_mean, 5))
+            .shown_as("FLIP", 7, move |r| error(r, |e| e.flip_mean, 4)),
+        C::csv("pct_over_2", move |r| error(r, |e| e.pct_over_2, 3)),
+        C::csv("skipped", |r| opt(r.skipped.as_deref()).replace(',', ";")),
+    ]
+}
+
 fn csv(r: &Report) -> String {
-    let mut out = String::from(
-        "scene,renderer,label,median_gpu_ms,median_wall_ms,bytes_allocated,rmse,flip_mean,pct_over_2,skipped\n",
-    );
-    for row in &r.rows {
-        let e = row.error_vs_reference.as_ref();
-        out += &format!(
-            "{},{},{},{},{},{},{},{},{},{}\n",
-            row.scene.replace(',', ";"),
-            row.renderer,
-            row.label,
-            fixed(row.median_gpu_ms, 3),
-            fixed(row.median_wall_ms, 3),
-            row.bytes_allocated
-                .map(|b| b.to_string())
-                .unwrap_or_default(),
-            fixed(e.map(|e| e.rmse), 5),
-            fixed(e.map(|e| e.flip_mean), 5),
-            fixed(e.map(|e| e.pct_over_2), 3),
-            row.skipped.as_deref().unwrap_or("").replace(',', ";"),
-        );
-    }
-    out
+    csv_of(&columns(), &r.rows)
 }
 
 fn print(r: &Report) {
@@ -468,25 +472,5 @@ fn print(r: &Report) {
         r.background,
         r.frames
     );
-    println!(
-        "{:<10} {:<28} {:>9} {:>9} {:>9} {:>8} {:>7}",
-        "scene", "configuration", "GPU ms", "wall ms", "MiB", "RMSE", "FLIP"
-    );
-    for row in &r.rows {
-        let scene = crate::bench::short_scene(&row.scene).trim_start_matches("builtin:");
-        if let Some(why) = &row.skipped {
-            println!("{scene:<10} {:<28} skipped: {why}", row.label);
-            continue;
-        }
-        let e = row.error_vs_reference.as_ref();
-        println!(
-            "{scene:<10} {:<28} {:>9} {:>9} {:>9} {:>8} {:>7}",
-            row.label,
-            fixed(row.median_gpu_ms, 2),
-            fixed(row.median_wall_ms, 2),
-            fixed(row.bytes_allocated.map(|b| b as f64 / 1048576.0), 1),
-            fixed(e.map(|e| e.rmse), 4),
-            fixed(e.map(|e| e.flip_mean), 4),
-        );
-    }
+    print_rows(&columns(), &r.rows, |row| row.skipped.clone());
 }

@@ -10,7 +10,7 @@
 //! the size needs; the generator keeps the spheres' density, so depth complexity stays about the
 //! same while the triangle count grows.
 
-use crate::bench::{fixed, opt};
+use crate::bench::{csv_of, fixed, opt, print_rows, Column};
 use std::path::Path;
 use std::time::Instant;
 
@@ -153,27 +153,38 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
     crate::write_results(dir, "scale", &report, csv(&report))
 }
 
+fn columns() -> Vec<Column<'static, Row>> {
+    type C = Column<'static, Row>;
+    let mib = |bytes: u64| bytes as f64 / 1048576.0;
+    vec![
+        C::csv("triangles", |r| r.triangles.to_string()).shown("triangles", 10),
+        C::csv("load_ms", |r| format!("{:.1}", r.load_ms))
+            .shown_as("load ms", 9, |r| format!("{:.0}", r.load_ms)),
+        C::csv("upload_ms", |r| format!("{:.1}", r.upload_ms))
+            .shown_as("upload ms", 10, |r| format!("{:.0}", r.upload_ms)),
+        C::csv("scene_gpu_mib", move |r| {
+            format!("{:.1}", mib(r.scene_gpu_bytes))
+        })
+        .shown_as("scene MiB", 9, move |r| {
+            format!("{:.0}", mib(r.scene_gpu_bytes))
+        }),
+        C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3))
+            .shown_as("GPU ms", 10, |r| fixed(r.median_gpu_ms, 2)),
+        C::csv("median_wall_ms", |r| format!("{:.3}", r.median_wall_ms)).shown_as(
+            "wall ms",
+            10,
+            |r| format!("{:.1}", r.median_wall_ms),
+        ),
+        C::csv("method_mib", move |r| fixed(r.method_bytes.map(mib), 1)).shown("method MiB", 10),
+        C::csv("fragments", |r| opt(r.fragments)),
+        C::csv("max_depth_complexity", |r| opt(r.max_depth_complexity)),
+        C::csv("host_rss_mib", |r| fixed(r.host_rss_mib, 0)).shown("RSS MiB", 9),
+        C::csv("host_peak_mib", |r| fixed(r.host_peak_mib, 0)).shown("peak MiB", 9),
+    ]
+}
+
 fn csv(r: &Report) -> String {
-    let mut out = String::from(
-        "triangles,load_ms,upload_ms,scene_gpu_mib,median_gpu_ms,median_wall_ms,method_mib,fragments,max_depth_complexity,host_rss_mib,host_peak_mib\n",
-    );
-    for row in &r.rows {
-        out += &format!(
-            "{},{:.1},{:.1},{:.1},{},{:.3},{},{},{},{},{}\n",
-            row.triangles,
-            row.load_ms,
-            row.upload_ms,
-            row.scene_gpu_bytes as f64 / 1048576.0,
-            fixed(row.median_gpu_ms, 3),
-            row.median_wall_ms,
-            fixed(row.method_bytes.map(|b| b as f64 / 1048576.0), 1),
-            opt(row.fragments),
-            opt(row.max_depth_complexity),
-            fixed(row.host_rss_mib, 0),
-            fixed(row.host_peak_mib, 0),
-        );
-    }
-    out
+    csv_of(&columns(), &r.rows)
 }
 
 fn print(r: &Report) {
@@ -182,32 +193,7 @@ fn print(r: &Report) {
         "scale on {}{label}: {} at {}x{}, median of {} frames",
         r.header.adapter, r.method, r.width, r.height, r.frames
     );
-    println!(
-        "{:>10} {:>9} {:>10} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9}",
-        "triangles",
-        "load ms",
-        "upload ms",
-        "scene MiB",
-        "GPU ms",
-        "wall ms",
-        "method MiB",
-        "RSS MiB",
-        "peak MiB"
-    );
-    for row in &r.rows {
-        println!(
-            "{:>10} {:>9.0} {:>10.0} {:>9.0} {:>10} {:>10.1} {:>10} {:>9} {:>9}",
-            row.triangles,
-            row.load_ms,
-            row.upload_ms,
-            row.scene_gpu_bytes as f64 / 1048576.0,
-            fixed(row.median_gpu_ms, 2),
-            row.median_wall_ms,
-            fixed(row.method_bytes.map(|b| b as f64 / 1048576.0), 1),
-            fixed(row.host_rss_mib, 0),
-            fixed(row.host_peak_mib, 0),
-        );
-    }
+    print_rows(&columns(), &r.rows, |_| None);
 }
 
 #[cfg(test)]

@@ -1,10 +1,147 @@
-//! The printed table and the CSV of a run of methods, and the histogram chart.
+//! The table writer every experiment uses (`Column`: one list of columns gives the CSV and the
+//! printed table), the run of methods' columns, and the histogram chart.
 
 use super::*;
 
 pub(crate) fn fmt_ms(v: Option<f64>) -> String {
     v.map(|v| format!("{v:.2}"))
         .unwrap_or_else(|| "null".into())
+}
+
+/// One column of an experiment's rows: its CSV header and cell, and, when the printed table
+/// shows it, its heading, width, alignment and printed cell. An experiment lists its columns
+/// once; its CSV and its printed table both come from that list and its row type (whose serde
+/// form is the JSON's).
+pub(crate) struct Column<'a, R> {
+    name: &'static str,
+    cell: Cell<'a, R>,
+    printed: Option<Printed<'a, R>>,
+}
+
+type Cell<'a, R> = Box<dyn Fn(&R) -> String + 'a>;
+
+struct Printed<'a, R> {
+    heading: &'static str,
+    width: usize,
+    left: bool,
+    /// `None`: the CSV's cell.
+    cell: Option<Cell<'a, R>>,
+}
+
+impl<'a, R> Column<'a, R> {
+    /// A column of the CSV only.
+    pub(crate) fn csv(name: &'static str, cell: impl Fn(&R) -> String + 'a) -> Self {
+        Column {
+            name,
+            cell: Box::new(cell),
+            printed: None,
+        }
+    }
+
+    /// Printed too, right-aligned in `width` characters, with the CSV's cell.
+    pub(crate) fn shown(self, heading: &'static str, width: usize) -> Self {
+        self.printed(heading, width, false, None)
+    }
+
+    /// Printed too, left-aligned in `width` characters, with the CSV's cell.
+    pub(crate) fn shown_left(self, heading: &'static str, width: usize) -> Self {
+        self.printed(heading, width, true, None)
+    }
+
+    /// Printed too, right-aligned in `width` characters, as `cell` writes it.
+    pub(crate) fn shown_as(
+        self,
+        heading: &'static str,
+        width: usize,
+        cell: impl Fn(&R) -> String + 'a,
+    ) -> Self {
+        self.printed(heading, width, false, Some(Box::new(cell)))
+    }
+
+    /// Printed too, left-aligned in `width` characters, as `cell` writes it.
+    pub(crate) fn printed_left(
+        self,
+        heading: &'static str,
+        width: usize,
+        cell: impl Fn(&R) -> String + 'a,
+    ) -> Self {
+        self.printed(heading, width, true, Some(Box::new(cell)))
+    }
+
+    fn printed(
+        mut self,
+        heading: &'static str,
+        width: usize,
+        left: bool,
+        cell: Option<Cell<'a, R>>,
+    ) -> Self {
+        self.printed = Some(Printed {
+            heading,
+            width,
+            left,
+            cell,
+        });
+        self
+    }
+}
+
+/// The scene a row measured: its spec in the CSV (commas as semicolons), its short name printed.
+pub(crate) fn scene_column<'a, R: 'a>(scene: fn(&R) -> &String) -> Column<'a, R> {
+    Column::csv("scene", move |r| scene(r).replace(',', ";")).printed_left("scene", 10, move |r| {
+        short_scene(scene(r))
+            .trim_start_matches("builtin:")
+            .to_string()
+    })
+}
+
+/// The CSV of `rows`: a header line, then a line per row.
+pub(crate) fn csv_of<R>(columns: &[Column<'_, R>], rows: &[R]) -> String {
+    let mut out = columns.iter().map(|c| c.name).collect::<Vec<_>>().join(",");
+    out.push('\n');
+    for row in rows {
+        out += &columns
+            .iter()
+            .map(|c| (c.cell)(row))
+            .collect::<Vec<_>>()
+            .join(",");
+        out.push('\n');
+    }
+    out
+}
+
+/// Prints the headings and a line per row; a row `skipped` names a reason for shows its leading
+/// left-aligned cells (what it is) and the reason.
+pub(crate) fn print_rows<R>(
+    columns: &[Column<'_, R>],
+    rows: &[R],
+    skipped: impl Fn(&R) -> Option<String>,
+) {
+    let shown: Vec<&Printed<'_, R>> = columns.iter().filter_map(|c| c.printed.as_ref()).collect();
+    let pad = |p: &Printed<'_, R>, text: &str| {
+        if p.left {
+            format!("{text:<w$}", w = p.width)
+        } else {
+            format!("{text:>w$}", w = p.width)
+        }
+    };
+    let line: Vec<String> = shown.iter().map(|p| pad(p, p.heading)).collect();
+    println!("{}", line.join(" "));
+    for row in rows {
+        let cell = |c: &Column<'_, R>| {
+            let p = c.printed.as_ref().expect("shown columns only");
+            pad(p, &p.cell.as_ref().unwrap_or(&c.cell)(row))
+        };
+        let printed = columns.iter().filter(|c| c.printed.is_some());
+        let line: Vec<String> = match skipped(row) {
+            Some(why) => printed
+                .take_while(|c| c.printed.as_ref().is_some_and(|p| p.left))
+                .map(cell)
+                .chain([format!("skipped: {why}")])
+                .collect(),
+            None => printed.map(cell).collect(),
+        };
+        println!("{}", line.join(" "));
+    }
 }
 
 pub(crate) fn print_table(r: &BenchReport) {
@@ -23,101 +160,80 @@ pub(crate) fn print_table(r: &BenchReport) {
             ""
         }
     );
-    let multi_scene = r.results.iter().any(|m| m.scene != r.results[0].scene);
-    println!(
-        "{:<28} {:>10} {:>10} {:>8} {:>7} {:>10} {:>8} {:>9} {:>8} {:>9} {:>8}",
-        "run",
-        "gpu ms",
-        "wall ms",
-        "fps",
-        "passes",
-        "fragments",
-        "dropped",
-        "max depth",
-        "MiB",
-        "locks",
-        "RMSE"
-    );
-    for m in &r.results {
-        let label = if multi_scene {
-            format!(
-                "{} {}",
-                short_scene(&m.scene).trim_start_matches("builtin:"),
-                m.label
-            )
-        } else {
-            m.label.clone()
-        };
-        if let Some(why) = &m.skipped {
-            println!("{label:<28} skipped: {why}");
-            continue;
-        }
-        let opt = |v: Option<u64>| v.map(|p| p.to_string()).unwrap_or_default();
-        println!(
-            "{:<28} {:>10} {:>10.2} {:>8} {:>7} {:>10} {:>8} {:>9} {:>8.1} {:>9} {:>8}",
-            label,
-            fmt_ms(m.median_gpu_ms),
-            m.median_wall_ms,
-            m.fps.map(|f| format!("{f:.1}")).unwrap_or_default(),
-            opt(m.geometry_passes.map(u64::from)),
-            opt(m.fragments),
-            opt(m.fragments_dropped),
-            opt(m.max_depth_complexity.map(u64::from)),
-            m.bytes_allocated.unwrap_or(0) as f64 / 1048576.0,
-            opt(m.lock_failures),
-            m.error_vs_reference
-                .map(|c| format!("{:.4}", c.rmse))
-                .unwrap_or_default(),
-        );
-    }
+    print_rows(&columns(r), &r.results, |m| m.skipped.clone());
 }
 
 pub(crate) fn csv(r: &BenchReport) -> String {
-    let mut s = String::from(
-        "experiment,scene,width,height,adapter,cpu_figures,commit,label,method,k,culling,msaa,median_gpu_ms,median_wall_ms,fps,blocking_readbacks,geometry_passes,fragments,fragments_dropped,max_depth_complexity,bytes_allocated,gpu_ms_per_mib,lock_failures,rmse,flip_mean,pct_over_2,rmse_vs_k,flip_vs_k,pct_over_2_vs_k,skipped\n",
-    );
-    let opt = |v: Option<String>| v.unwrap_or_default();
-    for m in &r.results {
-        let err = |c: Option<strata::metrics::Comparison>| match c {
-            Some(c) => format!("{:.6},{:.6},{:.4}", c.rmse, c.flip_mean, c.pct_over_2),
-            None => ",,".into(),
-        };
-        s += &[
-            r.experiment.clone(),
-            m.scene.clone(),
-            r.width.to_string(),
-            r.height.to_string(),
-            r.adapter.replace(',', " "),
-            r.cpu_figures.to_string(),
-            opt(r.commit.clone()),
-            m.label.clone(),
-            m.method.clone(),
-            opt(m.k.map(|k| k.to_string())),
-            m.culling.to_string(),
-            m.msaa.to_string(),
-            opt(m.median_gpu_ms.map(|v| format!("{v:.3}"))),
-            if m.median_wall_ms.is_finite() {
-                format!("{:.3}", m.median_wall_ms)
+    csv_of(&columns(r), &r.results)
+}
+
+/// The columns of a run of methods.
+fn columns(r: &BenchReport) -> Vec<Column<'_, MethodResult>> {
+    type C<'a> = Column<'a, MethodResult>;
+    let multi_scene = r.results.iter().any(|m| m.scene != r.results[0].scene);
+    let error = |name,
+                 pick: fn(&MethodResult) -> Option<strata::metrics::Comparison>,
+                 digits,
+                 value: fn(&strata::metrics::Comparison) -> f64| {
+        C::csv(name, move |m| fixed(pick(m).map(|c| value(&c)), digits))
+    };
+    vec![
+        C::csv("experiment", |_| r.experiment.clone()),
+        C::csv("scene", |m| m.scene.clone()),
+        C::csv("width", |_| r.width.to_string()),
+        C::csv("height", |_| r.height.to_string()),
+        C::csv("adapter", |_| r.adapter.replace(',', " ")),
+        C::csv("cpu_figures", |_| r.cpu_figures.to_string()),
+        C::csv("commit", |_| opt(r.commit.clone())),
+        C::csv("label", |m| m.label.clone()).printed_left("run", 28, move |m| {
+            if multi_scene {
+                format!(
+                    "{} {}",
+                    short_scene(&m.scene).trim_start_matches("builtin:"),
+                    m.label
+                )
             } else {
-                String::new()
-            },
-            opt(m.fps.map(|v| format!("{v:.2}"))),
-            opt(m.blocking_readbacks.map(|v| v.to_string())),
-            opt(m.geometry_passes.map(|v| v.to_string())),
-            opt(m.fragments.map(|v| v.to_string())),
-            opt(m.fragments_dropped.map(|v| v.to_string())),
-            opt(m.max_depth_complexity.map(|v| v.to_string())),
-            opt(m.bytes_allocated.map(|v| v.to_string())),
-            opt(m.gpu_ms_per_mib.map(|v| format!("{v:.4}"))),
-            opt(m.lock_failures.map(|v| v.to_string())),
-            err(m.error_vs_reference),
-            err(m.error_vs_reference_k),
-            opt(m.skipped.clone().map(|w| w.replace(',', ";"))),
-        ]
-        .join(",");
-        s.push('\n');
-    }
-    s
+                m.label.clone()
+            }
+        }),
+        C::csv("method", |m| m.method.clone()),
+        C::csv("k", |m| opt(m.k)),
+        C::csv("culling", |m| m.culling.to_string()),
+        C::csv("msaa", |m| m.msaa.to_string()),
+        C::csv("median_gpu_ms", |m| fixed(m.median_gpu_ms, 3))
+            .shown_as("gpu ms", 10, |m| fmt_ms(m.median_gpu_ms)),
+        C::csv("median_wall_ms", |m| {
+            fixed(Some(m.median_wall_ms).filter(|v| v.is_finite()), 3)
+        })
+        .shown_as("wall ms", 10, |m| format!("{:.2}", m.median_wall_ms)),
+        C::csv("fps", |m| fixed(m.fps, 2)).shown_as("fps", 8, |m| fixed(m.fps, 1)),
+        C::csv("blocking_readbacks", |m| opt(m.blocking_readbacks)),
+        C::csv("geometry_passes", |m| opt(m.geometry_passes)).shown("passes", 7),
+        C::csv("fragments", |m| opt(m.fragments)).shown("fragments", 10),
+        C::csv("fragments_dropped", |m| opt(m.fragments_dropped)).shown("dropped", 8),
+        C::csv("max_depth_complexity", |m| opt(m.max_depth_complexity)).shown("max depth", 9),
+        C::csv("bytes_allocated", |m| opt(m.bytes_allocated)).shown_as("MiB", 8, |m| {
+            format!("{:.1}", m.bytes_allocated.unwrap_or(0) as f64 / 1048576.0)
+        }),
+        C::csv("gpu_ms_per_mib", |m| fixed(m.gpu_ms_per_mib, 4)),
+        C::csv("lock_failures", |m| opt(m.lock_failures)).shown("locks", 9),
+        error("rmse", |m| m.error_vs_reference, 6, |c| c.rmse).shown_as("RMSE", 8, |m| {
+            fixed(m.error_vs_reference.map(|c| c.rmse), 4)
+        }),
+        error("flip_mean", |m| m.error_vs_reference, 6, |c| c.flip_mean),
+        error("pct_over_2", |m| m.error_vs_reference, 4, |c| c.pct_over_2),
+        error("rmse_vs_k", |m| m.error_vs_reference_k, 6, |c| c.rmse),
+        error("flip_vs_k", |m| m.error_vs_reference_k, 6, |c| c.flip_mean),
+        error(
+            "pct_over_2_vs_k",
+            |m| m.error_vs_reference_k,
+            4,
+            |c| c.pct_over_2,
+        ),
+        C::csv("skipped", |m| {
+            opt(m.skipped.clone().map(|w| w.replace(',', ";")))
+        }),
+    ]
 }
 
 /// A bar chart of a depth-complexity histogram (pixels per fragment count, log scale).
