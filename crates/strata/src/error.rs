@@ -22,6 +22,16 @@ pub enum Error {
 /// (a smaller picture, band or k needs less): [`crate::Renderer`] then renders in bands.
 pub const OVER_BINDING: &str = "more than the device binds";
 
+/// A piece of the input as an error message quotes it: at most 60 characters, cut with "…", so a
+/// long or binary value cannot flood the one line.
+pub fn quoted(input: &str) -> String {
+    const MAX: usize = 60;
+    match input.char_indices().nth(MAX) {
+        None => input.to_string(),
+        Some((cut, _)) => format!("{}…", &input[..cut]),
+    }
+}
+
 impl Error {
     pub fn input(msg: impl Into<String>) -> Self {
         Error::Input(msg.into())

@@ -51,7 +51,8 @@ pub fn build(spec: &str) -> Result<Scene> {
         m if models::MODEL_NAMES.contains(&m) => &["subdivide"],
         _ => {
             return Err(Error::input(format!(
-                "unknown builtin scene '{name}' (available: {})",
+                "unknown builtin scene '{}' (available: {})",
+                crate::error::quoted(name),
                 NAMES.join(", ")
             )))
         }
@@ -102,6 +103,12 @@ mod tests {
         assert_eq!(
             e,
             "unknown builtin scene 'foo' (available: demo, layers, spheres, stack, nvpro, balls, dragon, bunny, suzanne, spot, teapot)"
+        );
+        let long = "x".repeat(10_000);
+        let e = build(&long).unwrap_err().to_string();
+        assert!(
+            e.len() < 300 && e.contains(&format!("'{}…'", &long[..60])),
+            "{e}"
         );
         let e = build("layers?m=3").unwrap_err().to_string();
         assert!(

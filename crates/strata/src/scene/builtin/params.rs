@@ -3,7 +3,7 @@
 
 use std::str::FromStr;
 
-use crate::error::{Error, Result};
+use crate::error::{quoted, Error, Result};
 
 #[derive(Debug)]
 pub(crate) struct Params<'a> {
@@ -20,7 +20,8 @@ impl<'a> Params<'a> {
         for piece in query.split('&').filter(|p| !p.is_empty()) {
             let Some((key, value)) = piece.split_once('=') else {
                 return Err(Error::input(format!(
-                    "{what}: parameter '{piece}' needs a value (key=value)"
+                    "{what}: parameter '{}' needs a value (key=value)",
+                    quoted(piece)
                 )));
             };
             let (key, value) = (key.trim(), value.trim());
@@ -31,7 +32,8 @@ impl<'a> Params<'a> {
                     format!("expected {}", allowed.join(", "))
                 };
                 return Err(Error::input(format!(
-                    "{what}: unknown parameter '{key}' ({expected})"
+                    "{what}: unknown parameter '{}' ({expected})",
+                    quoted(key)
                 )));
             }
             if pairs.iter().any(|(k, _)| *k == key) {
@@ -51,9 +53,13 @@ impl<'a> Params<'a> {
     fn parsed<T: FromStr>(&self, key: &str, default: T, kind: &str) -> Result<T> {
         match self.raw(key) {
             None => Ok(default),
-            Some(v) => v
-                .parse()
-                .map_err(|_| Error::input(format!("{}: {key}='{v}' is not {kind}", self.what))),
+            Some(v) => v.parse().map_err(|_| {
+                Error::input(format!(
+                    "{}: {key}='{}' is not {kind}",
+                    self.what,
+                    quoted(v)
+                ))
+            }),
         }
     }
 

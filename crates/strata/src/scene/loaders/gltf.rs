@@ -177,6 +177,7 @@ pub(super) fn parse(
         parts: Vec::new(),
         materials: HashMap::new(),
         skipped_modes: 0,
+        hidden_nodes: 0,
         camera: None,
         lights: Vec::new(),
     };
@@ -193,6 +194,12 @@ pub(super) fn parse(
         warnings.push(format!(
             "{what}: skipped {} primitive(s) that are not TRIANGLES",
             ctx.skipped_modes
+        ));
+    }
+    if ctx.hidden_nodes > 0 {
+        warnings.push(format!(
+            "{what}: {} mesh node(s) with a zero scale draw nothing",
+            ctx.hidden_nodes
         ));
     }
     let mut scene = GltfScene {
@@ -431,6 +438,8 @@ struct Ctx<'a> {
     /// Converted materials by glTF index; `None` means "cut out" (MASK below cutoff).
     materials: HashMap<usize, Option<Material>>,
     skipped_modes: usize,
+    /// Mesh nodes whose transform is singular (a zero scale: glTF's way to hide a node).
+    hidden_nodes: usize,
     camera: Option<CameraSource>,
     lights: Vec<(Light, bool)>,
 }
@@ -460,16 +469,12 @@ impl Ctx<'_> {
             self.lights
                 .push(self.light_of(world, &light, node.index())?);
         }
-        if let Some(mesh) = node.mesh() {
-            // Zero or subnormal: a zero scale somewhere flattens the mesh to nothing (a scene
-            // file's scale = 0 is refused the same way).
-            if world.determinant().abs() < f32::MIN_POSITIVE {
-                return Err(Error::input(format!(
-                    "{}: node {} has a singular transform (a zero scale?), which flattens its mesh",
-                    self.what,
-                    node.index()
-                )));
-            }
+        let mesh = node.mesh();
+        if mesh.is_some() && world.determinant().abs() < f32::MIN_POSITIVE {
+            // Zero or subnormal: a zero scale somewhere flattens the mesh to nothing, which
+            // glTF files use to hide a node.
+            self.hidden_nodes += 1;
+        } else if let Some(mesh) = mesh {
             let mesh_name = mesh
                 .name()
                 .map(str::to_string)

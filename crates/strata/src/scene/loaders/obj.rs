@@ -51,7 +51,29 @@ pub(crate) fn parse_obj_text(
     mtl: &dyn Fn(&Path) -> MtlLookup,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Part>> {
-    check_face_indices(text, what)?;
+    let degenerate = check_face_indices(text, what)?;
+    let kept: String;
+    let text = match degenerate.first() {
+        None => text,
+        Some(first) => {
+            warnings.push(format!(
+                "{what}: skipped {} face(s) with fewer than 3 vertices (the first at line {}; a line is 'l')",
+                degenerate.len(),
+                first + 1
+            ));
+            // Blank lines keep the others' numbers for later messages.
+            kept = text
+                .lines()
+                .enumerate()
+                .map(|(i, line)| match degenerate.binary_search(&i) {
+                    Ok(_) => "",
+                    Err(_) => line,
+                })
+                .collect::<Vec<_>>()
+                .join("\n");
+            &kept
+        }
+    };
     let mtl_warnings = RefCell::new(Vec::new());
     let loader = |lib: &Path| -> tobj::MTLLoadResult {
         let fail = |msg: String| {
@@ -160,10 +182,12 @@ fn convert_material(m: &tobj::Material, what: &str, warnings: &mut Vec<String>) 
     out
 }
 
-/// Checks every face's position/texcoord/normal references against what is defined so far.
+/// Checks every face's position/texcoord/normal references against what is defined so far
 /// (`tobj` would return a less precise error for positions, and can overflow on a texcoord or
-/// normal index of 0.)
-fn check_face_indices(text: &str, what: &str) -> Result<()> {
+/// normal index of 0); returns the lines (from 0) of the faces with fewer than 3 corners, which
+/// draw nothing and are skipped.
+fn check_face_indices(text: &str, what: &str) -> Result<Vec<usize>> {
+    let mut degenerate = Vec::new();
     let mut counts = [0i64; 3];
     const KINDS: [&str; 3] = ["vertex", "texcoord", "normal"];
     const PLURALS: [&str; 3] = ["vertices", "texcoords", "normals"];
@@ -176,10 +200,8 @@ fn check_face_indices(text: &str, what: &str) -> Result<()> {
             Some(kind @ ("f" | "l")) => {
                 let corners = words.clone().take_while(|w| !w.starts_with('#')).count();
                 if kind == "f" && corners < 3 {
-                    return Err(Error::input(format!(
-                        "{what}: line {}: a face with {corners} vertices (a face needs at least 3; a line is 'l')",
-                        line_no + 1
-                    )));
+                    degenerate.push(line_no);
+                    continue;
                 }
                 for word in words {
                     for (k, field) in word.split('/').take(3).enumerate() {
@@ -207,7 +229,7 @@ fn check_face_indices(text: &str, what: &str) -> Result<()> {
             _ => {}
         }
     }
-    Ok(())
+    Ok(degenerate)
 }
 
 /// Rejects what would make `tobj` panic in an MTL file: a color line with fewer than three

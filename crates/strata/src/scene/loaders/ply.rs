@@ -109,6 +109,16 @@ fn one_line(e: impl std::fmt::Display) -> String {
         .join(" ")
 }
 
+/// A binary read's error in one line: ply-rs wraps the end of the file inside a list in an
+/// error of another kind whose message is the inner error's debug form.
+fn binary_error(e: &std::io::Error) -> String {
+    let text = e.to_string();
+    if e.kind() == std::io::ErrorKind::UnexpectedEof || text.contains("UnexpectedEof") {
+        return "the file ends early".into();
+    }
+    one_line(text.split(" Error: Error {").next().unwrap_or(&text))
+}
+
 const SCALAR_TYPES: [&str; 16] = [
     "char", "uchar", "short", "ushort", "int", "uint", "float", "double", "int8", "uint8", "int16",
     "uint16", "int32", "uint32", "float32", "float64",
@@ -125,7 +135,7 @@ fn check_header(bytes: &[u8], what: &str) -> Result<()> {
         let line = String::from_utf8_lossy(raw);
         let line = line.trim();
         let bad = |expected: &str| {
-            let shown: String = line.chars().take(60).collect();
+            let shown = crate::error::quoted(line);
             Error::input(format!(
                 "{what}: header line {}: '{shown}': expected {expected}",
                 i + 1
@@ -270,11 +280,7 @@ impl ElementReader<'_, '_> {
                         parser.read_big_endian_element(self.reader, def)
                     };
                     read.map_err(|e| {
-                        let why = if e.kind() == std::io::ErrorKind::UnexpectedEof {
-                            "the file ends early".to_string()
-                        } else {
-                            one_line(e)
-                        };
+                        let why = binary_error(&e);
                         Error::input(format!("{what}: binary {name} {i} of {}: {why}", def.count))
                     })?
                 }
@@ -457,7 +463,7 @@ mod tests {
 
     #[test]
     fn malformed_inputs_are_one_line_errors() {
-        let cases: [(&[u8], &str); 7] = [
+        let cases: [(&[u8], &str); 8] = [
             (b"hello", "not a PLY file"),
             (b"ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\nend_header\n", "count below 10^18"),
             (b"ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n", "no 'vertex' element"),
@@ -465,6 +471,7 @@ mod tests {
             (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "vertex index 7 is out of range"),
             (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n", "file ends at vertex 2 of 3 declared"),
             (b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\x00\x00", "binary vertex 0 of 3: the file ends early"),
+            (b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x03\x00\x00\x00\x00", "binary face 0 of 1: the file ends early"),
         ];
         for (src, needle) in cases {
             let e = parse(src, "bad.ply", "bad").unwrap_err().to_string();
