@@ -8,6 +8,7 @@ use strata::frame::{
     BuildOptions, Effect, FrameOptions, KBufferOptions, Lighting, PeelingOptions, RenderOptions,
     Tail, WeightedOptions,
 };
+use strata::methods::choice::Goal;
 use strata::methods::MethodId;
 use strata::scene::{loaders, Background, CameraPath, Scene, Shading};
 
@@ -200,17 +201,55 @@ pub fn parse_vec3(s: &str) -> std::result::Result<[f32; 3], String> {
     }
 }
 
+/// `--method`: a method id, or `auto` with an optional goal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodArg {
+    Id(MethodId),
+    /// `auto[:exact|bounded|approximate]` (no goal: bounded when `--k` or `--budget-mb` is
+    /// given, else exact).
+    Auto(Option<Goal>),
+}
+
+/// Parses `--method`.
+pub fn parse_method(s: &str) -> std::result::Result<MethodArg, String> {
+    let goal = |g: &str| match g {
+        "exact" => Some(Goal::Exact),
+        "bounded" => Some(Goal::Bounded),
+        "approximate" => Some(Goal::Approximate),
+        _ => None,
+    };
+    match s.split_once(':') {
+        None if s == "auto" => Ok(MethodArg::Auto(None)),
+        Some(("auto", g)) => goal(g).map(|g| MethodArg::Auto(Some(g))).ok_or_else(|| {
+            "auto's goal is exact, bounded or approximate (auto:exact, auto:bounded, auto:approximate)".to_string()
+        }),
+        _ => s
+            .parse::<MethodId>()
+            .map(MethodArg::Id)
+            .map_err(|e| e.to_string()),
+    }
+}
+
+impl std::fmt::Display for MethodArg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MethodArg::Id(id) => f.write_str(id.as_str()),
+            MethodArg::Auto(None) => f.write_str("auto"),
+            MethodArg::Auto(Some(g)) => write!(f, "auto:{}", format!("{g:?}").to_lowercase()),
+        }
+    }
+}
+
 /// The method and its options (`render` and `view`).
 #[derive(Args, Clone, Debug)]
 pub struct MethodArgs {
-    /// Method id (see `strata methods`).
-    #[arg(
-        long,
-        value_enum,
-        default_value = "abuffer-ll",
-        hide_possible_values = true
-    )]
-    pub method: MethodId,
+    /// Method id (see `strata methods`), or auto[:exact|bounded|approximate]: the best method
+    /// this adapter runs for that goal (default: bounded with --k or --budget-mb, else exact).
+    #[arg(long, value_parser = parse_method, default_value = "abuffer-ll")]
+    pub method: MethodArg,
+    /// What `auto` chose and why (set by [`MethodArgs::resolve`]).
+    #[arg(skip)]
+    pub chosen: Option<strata::methods::choice::Choice>,
     /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
     /// the lock-free storage methods (abuffer-fixed, kb-ab-fixed, kb-mdt*, abuffer-ll, kb-ab-ll,
     /// sbuffer, kb-sbuffer, dual, kb, kpeel).
@@ -512,6 +551,31 @@ pub fn cache_dir(dir: &Path) -> Result<PathBuf> {
     Ok(dir.to_path_buf())
 }
 
+impl MethodArgs {
+    /// The method: `--method`'s id, or the one `auto` chose.
+    pub fn id(&self) -> MethodId {
+        match (self.method, &self.chosen) {
+            (MethodArg::Id(id), _) => id,
+            (MethodArg::Auto(_), Some(c)) => c.method,
+            (MethodArg::Auto(_), None) => unreachable!("--method auto is resolved before use"),
+        }
+    }
+
+    /// With `--method auto`: chooses on the adapter strata opens (see
+    /// `strata::methods::choice`) and says which and why on stderr.
+    pub fn resolve(&mut self, picture: &PictureArgs) -> Result<()> {
+        let MethodArg::Auto(goal) = self.method else {
+            return Ok(());
+        };
+        let bounded = picture.k.is_some() || self.budget_mb.is_some();
+        let goal = goal.unwrap_or(if bounded { Goal::Bounded } else { Goal::Exact });
+        let choice = strata::methods::choice::choose(&strata::gpu::Gpu::new()?, goal);
+        eprintln!("method auto: {} ({})", choice.method, choice.why);
+        self.chosen = Some(choice);
+        Ok(())
+    }
+}
+
 /// The scene and options of a render: the picture's, then the method options.
 pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, RenderOptions)> {
     let (scene, mut options) = prepare(picture)?;
@@ -551,14 +615,14 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
             refresh: a.temporal_refresh,
             epsilon: a.temporal_epsilon,
         });
-    strata::methods::kbuffer::temporal::check(a.method, options.frame.temporal)?;
+    strata::methods::kbuffer::temporal::check(a.id(), options.frame.temporal)?;
     options.build.cache_dir = a.cache_dir.as_deref().map(cache_dir).transpose()?;
     if let Some(m) = a.layers_per_pass {
-        let d = a.method.descriptor();
+        let d = a.id().descriptor();
         if !d.reads(strata::methods::MethodOption::LayersPerPass) {
             return Err(Error::input(format!(
                 "--layers-per-pass applies to kpeel (multi-layer peeling), not {}",
-                a.method
+                a.id()
             )));
         }
         let max = d.max_k;

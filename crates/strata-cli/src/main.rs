@@ -186,7 +186,12 @@ fn command() -> clap::Command {
     negative_numbers(Cli::command())
 }
 
-fn run(command: Command) -> Result<()> {
+fn run(mut command: Command) -> Result<()> {
+    match &mut command {
+        Command::Render(a) => a.method.resolve(&a.picture)?,
+        Command::View(a) => a.method.resolve(&a.picture)?,
+        _ => {}
+    }
     match command {
         Command::Render(a) => render(a),
         Command::Reference(a) => reference(a),

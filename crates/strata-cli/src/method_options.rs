@@ -85,12 +85,12 @@ pub fn check_given(a: &MethodArgs, picture: &PictureArgs) -> Result<()> {
             .collect();
         Err(Error::input(format!(
             "{flag} does not apply to {}; it applies to {}",
-            a.method,
+            a.id(),
             readers.join(", ")
         )))
     };
     for (id, flag, opt) in METHOD_FLAGS {
-        if given(id) && !applies(opt, a.method, picture.pipeline) {
+        if given(id) && !applies(opt, a.id(), picture.pipeline) {
             return refuse(flag, opt);
         }
     }

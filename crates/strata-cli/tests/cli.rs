@@ -1200,6 +1200,40 @@ fn regression(name: &str) -> String {
 }
 
 #[test]
+fn method_auto_chooses_says_why_and_refuses_an_unknown_goal() {
+    let dir = workdir("method-auto");
+    let (out, stats) = (dir.join("auto.png"), dir.join("auto.json"));
+    let o = strata(&[
+        "render",
+        "builtin:spheres?layers=2&segments=8",
+        "--method",
+        "auto:bounded",
+        "--size",
+        "32x32",
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).starts_with("method auto: "), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let method = json["method"].as_str().unwrap();
+    assert!(["kb-keys", "kplus-heap", "f2b"].contains(&method), "{json}");
+    assert!(
+        json["method_choice"]
+            .as_str()
+            .is_some_and(|w| !w.is_empty()),
+        "{json}"
+    );
+    assert_bad_input(
+        &["render", "builtin:spheres", "--method", "auto:fast"],
+        "auto's goal is exact, bounded or approximate",
+    );
+}
+
+#[test]
 fn negative_option_values_reach_their_range_checks() {
     let spheres = "builtin:spheres?layers=2&segments=8";
     assert_bad_input(&["render", spheres, "--alpha", "-1"], "--alpha -1");

@@ -115,17 +115,20 @@ pub fn render(a: RenderArgs) -> Result<()> {
     strata::output::check_png_name(&a.output)?;
     let busy = spinner(format!(
         "rendering {}x{} with {}",
-        options.frame.width, options.frame.height, a.method.method
+        options.frame.width,
+        options.frame.height,
+        a.method.id()
     ));
-    let rendered = if a.method.method == MethodId::Reference {
+    let rendered = if a.method.id() == MethodId::Reference {
         strata::reference::render(&scene, &options)
     } else {
         Gpu::new().and_then(|gpu| {
-            Renderer::new(&gpu, &scene, &options)?.render_method(a.method.method, None)
+            Renderer::new(&gpu, &scene, &options)?.render_method(a.method.id(), None)
         })
     };
     busy.finish_and_clear();
-    let (image, stats) = rendered?;
+    let (image, mut stats) = rendered?;
+    stats.method_choice = a.method.chosen.as_ref().map(|c| c.why.clone());
     write_outputs(
         &image,
         &stats,
@@ -252,7 +255,7 @@ pub fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
         ..a.picture.clone()
     };
     let (scene, options) = prepare_render(&a.method, &picture)?;
-    let gpu = if a.method.method == MethodId::Reference {
+    let gpu = if a.method.id() == MethodId::Reference {
         None
     } else {
         Some(Gpu::new()?)
@@ -271,13 +274,14 @@ pub fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
                 None => strata::reference::render(&scene.at_time(n as f32), &options)?,
                 Some(r) => {
                     r.set_time(n as f32);
-                    r.render_method(a.method.method, None)?
+                    r.render_method(a.method.id(), None)?
                 }
             };
             save_png(&image.to_rgba8(options.frame.effect), path)?;
             written += 1;
             let mut stats = stats;
             stats.frame = n as u64;
+            stats.method_choice = a.method.chosen.as_ref().map(|c| c.why.clone());
             lines += &serde_json::to_string(&stats).map_err(|e| Error::runtime(e.to_string()))?;
             lines.push('\n');
             last = Some((stats, path, options.frame.kbuffer.tail));

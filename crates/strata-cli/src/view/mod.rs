@@ -51,7 +51,7 @@ pub struct ViewArgs {
 
 pub fn run(args: ViewArgs) -> Result<()> {
     // Everything that can fail without a window fails before one opens.
-    if args.method.method == MethodId::Reference {
+    if args.method.id() == MethodId::Reference {
         return Err(Error::input(
             "strata view shows the GPU methods; the reference is its \"Compare with reference\" button",
         ));

@@ -11,7 +11,7 @@ use strata::methods::MethodId;
 use strata::scene::Shading;
 
 use super::state::{applies, families, value_name, Opt, ViewState};
-use crate::args::{BackgroundArg, KArg};
+use crate::args::{BackgroundArg, KArg, MethodArg};
 use crate::{PipelineArg, Toggle};
 
 /// Width of the panel, points.
@@ -258,17 +258,17 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
     let m = &mut state.method;
     let pipeline = state.picture.pipeline;
     egui::ComboBox::from_label("method")
-        .selected_text(m.method.as_str())
+        .selected_text(m.id().as_str())
         .height(600.0)
         .show_ui(ui, |ui| {
             for (family, ids) in families() {
                 ui.label(egui::RichText::new(family).strong());
                 for id in ids {
-                    ui.selectable_value(&mut m.method, id, format!("  {id}"));
+                    ui.selectable_value(&mut m.method, MethodArg::Id(id), format!("  {id}"));
                 }
             }
         });
-    let id = m.method;
+    let id = m.id();
     // A method that cannot take MSAA renders single-sampled rather than failing.
     if !applies(Opt::Msaa, id, pipeline) || m.raster != Raster::Hw {
         state.picture.msaa = 1;
@@ -486,10 +486,10 @@ fn lighting_controls(ui: &mut egui::Ui, state: &mut ViewState) {
         ui.add(egui::DragValue::new(&mut lights).range(0..=4096));
     });
     p.lights = (lights > 0).then_some(lights);
-    ui.add_enabled_ui(applies(Opt::Tonemap, m.method, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::Tonemap, m.id(), pipeline), |ui| {
         choice(ui, "tone map", &mut p.tonemap);
     });
-    ui.add_enabled_ui(applies(Opt::Deferred, m.method, pipeline), |ui| {
+    ui.add_enabled_ui(applies(Opt::Deferred, m.id(), pipeline), |ui| {
         ui.checkbox(&mut m.ssao, "SSAO");
         choice(ui, "normal encoding", &mut m.normal_encoding);
         egui::ComboBox::from_label("G-buffer view")

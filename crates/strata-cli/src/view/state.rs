@@ -196,7 +196,7 @@ impl ViewState {
             Change::Geometry
         } else if options_key(self) != options_key(old) {
             Change::Options
-        } else if self.method.method != old.method.method {
+        } else if self.method.id() != old.method.id() {
             Change::Method
         } else if self.orbit != old.orbit || self.picture.camera.fov != old.picture.camera.fov {
             Change::Camera
@@ -214,7 +214,7 @@ impl ViewState {
             args.push(format!("--{name}"));
             args.push(shell_quote(&value));
         };
-        push("method", m.method.as_str().into());
+        push("method", m.id().as_str().into());
         if let Some(s) = p.size {
             push("size", s.to_string());
         }
@@ -259,7 +259,7 @@ impl ViewState {
         if let Some(f) = camera.fov {
             push("fov", f.to_string());
         }
-        let id = m.method;
+        let id = m.id();
         if p.msaa != 1 {
             push("msaa", p.msaa.to_string());
         }
@@ -457,7 +457,7 @@ mod tests {
         s.orbit.zoom(2.0);
         s.commit_camera();
         let before = s.clone();
-        s.method.method = MethodId::KplusHeap;
+        s.method.method = crate::args::MethodArg::Id(MethodId::KplusHeap);
         assert_eq!(s.change_from(&before), Change::Method);
         assert_eq!(s.camera().eye, before.camera().eye);
         s.picture.k = Some(crate::args::KArg::Count(8));
@@ -511,7 +511,7 @@ mod tests {
         let crate::Command::Render(r) = cli.command else {
             panic!("not a render command: {line}")
         };
-        assert_eq!(r.method.method, MethodId::KplusHeap);
+        assert_eq!(r.method.id(), MethodId::KplusHeap);
         let (scene, options) = crate::prepare_render(&r.method, &r.picture).unwrap();
         let (_, view_options) = crate::prepare_render(&s.method, &s.picture).unwrap();
         assert_eq!(scene.camera_or_framing(), s.camera());

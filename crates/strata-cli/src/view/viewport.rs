@@ -61,7 +61,7 @@ pub struct Viewport {
 impl Viewport {
     pub fn new(gpu: &Gpu, state: &ViewState) -> Result<Viewport> {
         let (scene, options) = prepared(state)?;
-        let recorder = FrameRecorder::new(gpu, &scene, state.method.method, &options)?;
+        let recorder = FrameRecorder::new(gpu, &scene, state.method.id(), &options)?;
         let module = gpu
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -122,11 +122,11 @@ impl Viewport {
             Change::Time => {
                 self.recorder.set_time(state.time());
                 self.time = state.time();
-                self.recorder.set_method(state.method.method)?;
+                self.recorder.set_method(state.method.id())?;
                 self.recorder.set_camera(&state.camera());
             }
             Change::Camera | Change::Method => {
-                self.recorder.set_method(state.method.method)?;
+                self.recorder.set_method(state.method.id())?;
                 self.recorder.set_camera(&state.camera());
             }
             Change::Options | Change::Geometry => {
@@ -137,7 +137,7 @@ impl Viewport {
                     self.scene = scene;
                 }
                 self.recorder.set_frame_options(&options.frame)?;
-                self.recorder.set_method(state.method.method)?;
+                self.recorder.set_method(state.method.id())?;
                 self.recorder.set_camera(&state.camera());
                 if (self.target.width(), self.target.height())
                     != (options.frame.width, options.frame.height)
@@ -270,7 +270,7 @@ impl Viewport {
 
 /// The scene and render options of a state, through the same path as `strata render`.
 pub fn prepared(state: &ViewState) -> Result<(Scene, RenderOptions)> {
-    if state.method.method == MethodId::Reference {
+    if state.method.id() == MethodId::Reference {
         return Err(Error::input(
             "the viewer shows the GPU methods; the reference is its \"Compare with reference\"",
         ));

@@ -53,6 +53,9 @@ pub struct FrameStats {
     /// The frame these statistics belong to (frames count from 0 per recorder).
     pub frame: u64,
     pub method: String,
+    /// With `--method auto`: why this method was chosen ([`crate::methods::choice`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub method_choice: Option<String>,
     pub width: u32,
     pub height: u32,
     pub k: Option<u32>,

@@ -69,7 +69,15 @@ impl Gpu {
 
     async fn new_async() -> Result<Gpu> {
         let instance = wgpu::Instance::new(Self::instance_descriptor());
-        Self::open(&instance, None).await
+        Self::open(&instance, None, wgpu::Features::empty()).await
+    }
+
+    /// Like [`Gpu::new`], without the optional features `missing`: the same adapter standing in
+    /// for one that lacks them (what `--method auto` and the refusals then do can be checked on
+    /// any machine).
+    pub fn new_without(missing: wgpu::Features) -> Result<Gpu> {
+        let instance = wgpu::Instance::new(Self::instance_descriptor());
+        pollster::block_on(Self::open(&instance, None, missing))
     }
 
     /// The instance [`Gpu::new`] opens its adapter from: the backends of `WGPU_BACKEND`
@@ -87,10 +95,14 @@ impl Gpu {
     /// Like [`Gpu::new`], choosing among the adapters of `instance` that can present to
     /// `surface` (a window's).
     pub fn for_surface(instance: &wgpu::Instance, surface: &wgpu::Surface<'_>) -> Result<Gpu> {
-        pollster::block_on(Self::open(instance, Some(surface)))
+        pollster::block_on(Self::open(instance, Some(surface), wgpu::Features::empty()))
     }
 
-    async fn open(instance: &wgpu::Instance, surface: Option<&wgpu::Surface<'_>>) -> Result<Gpu> {
+    async fn open(
+        instance: &wgpu::Instance,
+        surface: Option<&wgpu::Surface<'_>>,
+        missing: wgpu::Features,
+    ) -> Result<Gpu> {
         let backends = Self::backends();
         let mut adapters = instance.enumerate_adapters(backends).await;
         if let Some(surface) = surface {
@@ -126,7 +138,7 @@ impl Gpu {
             }
         };
         let info = adapter.get_info();
-        let features = adapter.features() & wanted_features();
+        let features = adapter.features() & wanted_features() - missing;
         let limits = adapter.limits();
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {

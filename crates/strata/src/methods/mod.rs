@@ -10,6 +10,7 @@
 
 pub mod baseline;
 pub mod capture;
+pub mod choice;
 pub mod convex;
 pub mod kbuffer;
 pub mod peeling;

@@ -338,6 +338,7 @@ pub fn render_lists(
     let pixels: Vec<[f32; 4]> = resolved.into_iter().map(|r| r.0).collect();
     let stats = FrameStats {
         method: "reference".into(),
+        method_choice: None,
         width: w,
         height: h,
         k: options.frame.k,

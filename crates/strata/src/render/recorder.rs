@@ -806,6 +806,7 @@ impl FrameRecorder {
         let stats = FrameStats {
             frame: p.frame,
             method: p.method.as_str().to_string(),
+            method_choice: None,
             width: self.options.frame.width,
             height: self.options.frame.height,
             k: p.recorded.k,
