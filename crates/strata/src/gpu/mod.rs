@@ -138,7 +138,7 @@ impl Gpu {
             }
         };
         let info = adapter.get_info();
-        let features = adapter.features() & wanted_features() - missing;
+        let features = adapter.features() & (wanted_features() - missing);
         let limits = adapter.limits();
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
