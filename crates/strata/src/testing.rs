@@ -104,6 +104,16 @@ impl Failures {
     /// pixels) and against the reference's fragments at the device's own depths, coverage and
     /// shading (`at_device`), where every pixel must match unless `unmatched` fragments only one
     /// side has: there a difference is the method's, not the rasterizer's.
+    /// The frame of an exact method says it is exact (`FrameStats::exact`: nothing dropped
+    /// beyond its k, no lock failure, no order violation).
+    pub fn frame_says_exact(&mut self, method: &str, stats: &crate::FrameStats) {
+        let result = match stats.exact {
+            Some(true) => Ok(()),
+            other => Err(format!("the frame says exact: {other:?}")),
+        };
+        self.check(method, result);
+    }
+
     pub fn check_exact_picture(
         &mut self,
         method: &str,

@@ -61,9 +61,11 @@ pub struct FrameStats {
     pub k: Option<u32>,
     pub effect: String,
     pub geometry_passes: Option<u32>,
-    /// Whether the method is exact by design (the catalogue's flag; a k-buffer's exactness is
-    /// that of its k nearest). Approximate methods (wboit, mboit, unsorted, ...) say false: their
-    /// error is measured against the reference, never hidden.
+    /// Whether this frame is exact: the method is exact by design (the catalogue's flag; a
+    /// k-buffer's exactness is that of its k nearest) and the frame kept to it — nothing
+    /// dropped beyond the k or layers asked for, no lock failure, no order violation (convex),
+    /// nothing culled by temporal culling, no overflow. Approximate methods (wboit, mboit,
+    /// unsorted, ...) say false: their error is measured against the reference, never hidden.
     pub exact: Option<bool>,
     pub gpu_ms: Option<BTreeMap<String, f64>>,
     pub gpu_ms_total: Option<f64>,

@@ -40,6 +40,7 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
         if !failures.locks_held(method, &stats) {
             continue;
         }
+        failures.frame_says_exact(method, &stats);
         failures.check_exact_picture(
             method,
             &format!("{name}-{method}-{}", opts.frame.effect.name()),

@@ -51,7 +51,7 @@ use crate::frame::{
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::methods::kbuffer::{predict, DEFAULT_K};
-use crate::methods::{self, Method, MethodId};
+use crate::methods::{self, Method, MethodId, MethodOption};
 use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
 use crate::order::TriangleOrder;
 use crate::raster::{ComputeRaster, Raster};
@@ -759,7 +759,7 @@ impl FrameRecorder {
             },
         };
         let mut incomplete = ms.incomplete;
-        let mut cannot_complete = ms.cannot_complete;
+        let mut cannot_complete = ms.cannot_complete.clone();
         let compute_raster = match (&words, p.raster_words, &mut self.raster) {
             (Some(w), Some((start, capacity)), Some(raster)) => {
                 let start = start as usize;
@@ -812,7 +812,12 @@ impl FrameRecorder {
             k: p.recorded.k,
             effect: self.options.frame.effect.name().to_string(),
             geometry_passes: Some(p.recorded.geometry_passes),
-            exact: Some(p.method.descriptor().exact),
+            exact: Some(frame_exact(
+                p.method,
+                totals.map_or(0, |t| t.dropped),
+                &ms,
+                compute_raster.as_ref().is_some_and(|r| r.overflow),
+            )),
             gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
             gpu_ms,
             fragments_generated: totals.map(|t| t.generated + ms.culled_temporal.unwrap_or(0)),
@@ -860,6 +865,24 @@ impl FrameRecorder {
             cannot_complete,
         }
     }
+}
+
+/// Whether a frame of `method` kept to the method's exactness (see `FrameStats::exact`), given
+/// the fragments it dropped and what the method read back.
+fn frame_exact(method: MethodId, dropped: u64, ms: &MethodStats, raster_overflow: bool) -> bool {
+    let d = method.descriptor();
+    // Fragments beyond the k or the layers asked for are dropped by design.
+    let drops_by_design = d.reads(MethodOption::K) || d.reads(MethodOption::Layers);
+    d.exact
+        && (dropped == 0 || drops_by_design)
+        && ms.lock_failures.unwrap_or(0) == 0
+        && ms.culled_temporal.unwrap_or(0) == 0
+        && ms.overflow != Some(true)
+        && !raster_overflow
+        && ms
+            .convex
+            .as_ref()
+            .is_none_or(|c| c.order_violations.unwrap_or(0) == 0)
 }
 
 /// The submission order `options` ask for, made for `scene`'s triangles and attached to its

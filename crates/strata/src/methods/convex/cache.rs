@@ -21,7 +21,7 @@ use super::decompose::{
 
 const MAGIC: &[u8; 8] = b"STRATAcx";
 /// Bumped whenever the decomposition's algorithm or this layout changes.
-const FORMAT_VERSION: u32 = 2;
+const FORMAT_VERSION: u32 = 3;
 
 /// What identifies a geometry's decomposition.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -134,6 +134,7 @@ fn encode(key: Key, d: &Decomposition) -> Vec<u8> {
             Relation::Contains => out.u32(1),
             Relation::Inside => out.u32(2),
             Relation::Inseparable => out.u32(3),
+            Relation::Coplanar => out.u32(4),
         }
     }
     out.0
@@ -205,6 +206,7 @@ fn decode(bytes: &[u8], key: Key) -> Result<Decomposition, String> {
             1 => Relation::Contains,
             2 => Relation::Inside,
             3 => Relation::Inseparable,
+            4 => Relation::Coplanar,
             tag => return Err(format!("unknown relation {tag}")),
         };
         pairs.push(((i, j), relation));

@@ -4,8 +4,10 @@
 //!
 //! A *part* is a set of triangles lying on the boundary of their own convex hull, each facing
 //! out of it: every vertex of the part lies on or below every triangle's plane (within
-//! [`Decomposition::tolerance`]). A ray from the eye therefore meets a part at most twice — once
-//! on a front-facing triangle, once on a back-facing one — whether or not the part is closed.
+//! [`Decomposition::tolerance`]), and no two of its edge-neighbours lie in one plane facing the
+//! same way over each other (duplicated faces). A ray from the eye therefore meets a part at
+//! most twice — once on a front-facing triangle, once on a back-facing one — whether or not the
+//! part is closed.
 //! Region growing takes the first unassigned triangle in primitive order as seed and adds
 //! edge-neighbours for which that condition still holds both ways (the new triangle's vertices
 //! below every plane of the part, the part's vertices below the new triangle's plane), breadth
@@ -177,6 +179,37 @@ struct Mesh {
 }
 
 impl Mesh {
+    /// Whether face `g` and its edge neighbour `h` lie in one plane, face the same way and
+    /// overlap there (a duplicated face, or one folded back over another): a ray through the
+    /// overlap would meet a part holding both more than twice.
+    fn overlap_in_plane(&self, g: u32, h: u32, tolerance: f32) -> bool {
+        let (Some((gn, gd)), Some((hn, _))) = (self.planes[g as usize], self.planes[h as usize])
+        else {
+            return false;
+        };
+        if gn.dot(hn) <= 0.0 {
+            return false;
+        }
+        let (cg, ch) = (self.corners[g as usize], self.corners[h as usize]);
+        let only_g: Vec<u32> = cg.into_iter().filter(|v| !ch.contains(v)).collect();
+        let only_h: Vec<u32> = ch.into_iter().filter(|v| !cg.contains(v)).collect();
+        match (only_g.as_slice(), only_h.as_slice()) {
+            // The same three vertices.
+            ([], []) => true,
+            (&[pg], &[ph]) => {
+                let at = |v: u32| self.positions[v as usize];
+                if (gn.dot(at(ph)) - gd).abs() > tolerance {
+                    return false;
+                }
+                let shared: Vec<Vec3> = cg.into_iter().filter(|v| ch.contains(v)).map(at).collect();
+                let (a, b) = (shared[0], shared[1]);
+                let side = |p: Vec3| (b - a).cross(p - a).dot(gn);
+                side(at(pg)) * side(at(ph)) > 0.0
+            }
+            _ => false,
+        }
+    }
+
     fn centroid(&self, face: u32) -> Vec3 {
         let c = self.corners[face as usize];
         (self.positions[c[0] as usize]
@@ -376,6 +409,13 @@ fn grow_component(
                 continue;
             };
             let corners = mesh.corners[g as usize];
+            let overlaps_member = mesh.neighbours[g as usize]
+                .iter()
+                .any(|&h| part_of[local(h)] == id && mesh.overlap_in_plane(g, h, tolerance));
+            if overlaps_member {
+                rejected_by[gl] = id;
+                continue;
+            }
             let new_below_part = corners.iter().all(|&v| {
                 vertex_in.get(&v) == Some(&id)
                     || planes.holds(mesh.positions[v as usize], tolerance, margin)
@@ -619,6 +659,13 @@ pub(crate) fn grow_parts_plainly(triangles: &[[Vec3; 3]], tolerance: f32) -> Vec
             let Some((gn, gd)) = mesh.planes[gi] else {
                 continue;
             };
+            let overlaps_member = mesh.neighbours[gi]
+                .iter()
+                .any(|&h| part_of[h as usize] == id && mesh.overlap_in_plane(g, h, tolerance));
+            if overlaps_member {
+                rejected_by[gi] = id;
+                continue;
+            }
             let new_below_part = mesh.corners[gi].iter().all(|&v| {
                 vertex_in[v as usize] == id || {
                     let p = mesh.positions[v as usize];
@@ -799,6 +846,16 @@ impl Decomposition {
         }
     }
 
+    /// The lowest primitive of group `g` (the order of coincident groups).
+    pub fn first_primitive(&self, g: u32) -> u32 {
+        self.groups[g as usize]
+            .triangles
+            .iter()
+            .copied()
+            .min()
+            .unwrap_or(u32::MAX)
+    }
+
     /// How groups `a` and `b` relate, seen from `a`: a plane with `a` below it (pairs whose
     /// boxes overlap, when one was found; along an axis when the boxes are apart), nesting, or
     /// nothing found.
@@ -806,8 +863,18 @@ impl Decomposition {
         let (i, j) = (a.min(b), a.max(b));
         let r = match self.relations.get(i, j) {
             Some(r) => r,
-            None => axis_separation(&self.groups[i as usize], &self.groups[j as usize])
-                .map_or(Relation::Inseparable, Relation::Plane),
+            None => {
+                let (gi, gj) = (&self.groups[i as usize], &self.groups[j as usize]);
+                match axis_separation(gi, gj) {
+                    None => Relation::Inseparable,
+                    Some(s)
+                        if coplanar_in(&s, gi.points.iter().chain(&gj.points), self.tolerance) =>
+                    {
+                        Relation::Coplanar
+                    }
+                    Some(s) => Relation::Plane(s),
+                }
+            }
         };
         if a == i {
             r

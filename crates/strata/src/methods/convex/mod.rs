@@ -49,7 +49,11 @@
 //! at once, such pixels (counted in `overflowing_pixels`) may differ from run to run.
 //!
 //! Exact where every overlapping pair has a plane or nests: then the passes follow depth order in
-//! every pixel and the result equals the reference. Pairs without either (adjacent parts on a
+//! every pixel and the result equals the reference. Coincident surfaces (parts lying in one
+//! plane: decals, doubled faces) are such pairs: a part never holds two faces of one plane
+//! over each other, and coplanar groups are ordered by their lowest primitive from either
+//! side, as the reference orders equal depths. A frame that broke the order or dropped a
+//! fragment says `exact: false`. Pairs without either (adjacent parts on a
 //! curved scanned surface whose shared boundary is not planar, once each has a partner) are
 //! ordered by centroid distance: the frame counts the pixels where that broke the order
 //! (`order_violations`), and the error against the reference is measured, not hidden. Limits:

@@ -540,6 +540,9 @@ pub fn plan(
                         Relation::Plane(s) => {
                             (viewer.below_first(&s).unwrap_or_else(by_distance), false)
                         }
+                        Relation::Coplanar => {
+                            (dec.first_primitive(a) < dec.first_primitive(b), false)
+                        }
                         _ => (by_distance(), true),
                     };
                     let (first, second) = if a_first { (a, b) } else { (b, a) };

@@ -277,6 +277,14 @@ fn relations_hold_on_the_models() {
                     }
                 }
                 Relation::Inseparable => {}
+                Relation::Coplanar => {
+                    let first = points(a)[0];
+                    let n = (points(a)[1] - first)
+                        .cross(points(a)[2] - first)
+                        .normalize();
+                    let on_plane = |q: &Vec3| n.dot(*q - first).abs() <= slack;
+                    assert!(points(a).iter().chain(&points(b)).all(on_plane));
+                }
             }
         }
     }
@@ -309,6 +317,7 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
     assert_eq!(c.order_violations, Some(0), "{name}: {c:?}");
     assert_eq!(c.unseparated_pairs, 0, "{name}: {c:?}");
     assert_eq!(stats.fragments_dropped, Some(0), "{name}");
+    assert_eq!(stats.exact, Some(true), "{name}");
     assert!(c.passes >= 1 && c.passes < 64, "{name}: {c:?}");
 }
 
@@ -486,6 +495,8 @@ fn convex_on_meshes_counts_its_violations_and_stays_close() {
         );
         // Violations are where the error is: none would mean the counter is not counting.
         assert!(violations > 0 || over == 0.0, "{model}");
+        // The frame says what it was (issue 46): a broken order is not exact.
+        assert_eq!(stats.exact, Some(violations == 0), "{model}");
     }
 }
 
@@ -548,4 +559,81 @@ fn a_decomposition_survives_the_disk_cache_and_a_damaged_file_is_made_again() {
         assert_eq!(rewritten.relations, made.relations);
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `n` quads in one plane, each its own object of its own color (coincident surfaces: decals,
+/// coplanar labels), seen orthographically; with `depths` > 1, `n` quads in each of `depths`
+/// parallel planes. `tilt`: the planes turned off the axes (their boxes then overlap, and the
+/// plane comes from the pair's search instead of an axis).
+fn coincident_quads(n: usize, depths: usize, tilt: bool) -> Scene {
+    let mut text = String::from(
+        "[camera]\neye = [0.3, 0.2, 5.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0, 1, 0]\nprojection = \"orthographic\"\nheight = 1.5\n",
+    );
+    for d in 0..depths {
+        for i in 0..n {
+            let hue = (d * n + i) as f32 / (n * depths) as f32;
+            text += &format!(
+                "[[object]]\nmesh = \"builtin:quad\"\ncolor = [{:.3}, {:.3}, {:.3}]\nopacity = 0.5\nshading = \"unlit\"\nrotate_deg = [{}, {}, 0.0]\ntranslate = [0.0, 0.0, {:.1}]\n",
+                hue,
+                1.0 - hue,
+                0.5 + 0.4 * (hue - 0.5),
+                if tilt { 25.0 } else { 0.0 },
+                if tilt { 35.0 } else { 0.0 },
+                -(d as f32)
+            );
+        }
+    }
+    let mut warnings = Vec::new();
+    let s = loaders::toml::parse(
+        &text,
+        "coincident.toml",
+        std::path::Path::new("."),
+        &mut warnings,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(warnings.is_empty(), "{warnings:?}");
+    s
+}
+
+/// Coincident surfaces (2, 3 and 8 deep, and 3 deep at 4 depths) are ordered by primitive as the
+/// reference orders them, single-sampled and with --msaa 4, with nothing dropped.
+#[test]
+fn convex_equals_the_reference_on_coincident_surfaces() {
+    for (n, depths, tilt) in [
+        (2, 1, false),
+        (3, 1, false),
+        (8, 1, false),
+        (3, 4, false),
+        (3, 1, true),
+        (3, 4, true),
+    ] {
+        let s = coincident_quads(n, depths, tilt);
+        let name = format!(
+            "coincident-{n}x{depths}{}",
+            if tilt { "-tilted" } else { "" }
+        );
+        check_exact(&name, &s, &options(32, Effect::Transparency));
+        let mut msaa = options(32, Effect::Transparency);
+        msaa.build.msaa = 4;
+        check_exact(&format!("{name}-msaa4"), &s, &msaa);
+    }
+}
+
+/// One mesh whose faces are duplicated (a CAD export's doubled faces): the copies go to parts
+/// of their own and are ordered by primitive.
+#[test]
+fn convex_equals_the_reference_on_duplicated_faces() {
+    let quad = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n";
+    let copies = "f 1 2 3\nf 1 3 4\n".repeat(3);
+    let dir = std::env::temp_dir().join(format!("strata-duplicated-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("doubled.obj");
+    std::fs::write(&path, format!("{quad}{copies}")).unwrap();
+    let mut s = scene(path.to_str().unwrap());
+    s.override_alpha(0.5);
+    let triangles = triangles_of(&s);
+    let d = Decomposition::new(&triangles, &|_| {});
+    assert_eq!(d.stats.parts, 3, "each copy is a part of its own");
+    check_exact("duplicated-faces", &s, &options(32, Effect::Transparency));
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -64,6 +64,7 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
         if !failures.locks_held(method, &stats) {
             continue;
         }
+        failures.frame_says_exact(method, &stats);
         failures.check_exact_picture(
             method,
             &format!("{name}-{method}-k{k}"),

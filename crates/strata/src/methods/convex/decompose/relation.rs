@@ -30,6 +30,15 @@ pub(super) fn axis_separation(a: &Group, b: &Group) -> Option<Separation> {
     })
 }
 
+/// Whether every point lies on the plane `s` (within `tolerance`).
+pub(super) fn coplanar_in<'a>(
+    s: &Separation,
+    mut points: impl Iterator<Item = &'a Vec3>,
+    tolerance: f32,
+) -> bool {
+    points.all(|p| (s.normal.dot(*p) - s.offset).abs() <= tolerance)
+}
+
 /// How two groups `(a, b)` relate, from `a`'s side.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Relation {
@@ -42,6 +51,10 @@ pub enum Relation {
     Inside,
     /// No candidate plane separates them and neither holds the other.
     Inseparable,
+    /// Both lie in one plane (coincident surfaces: decals, doubled faces): wherever they share
+    /// a pixel their fragments have one depth, which the reference orders by primitive, so the
+    /// group holding the lower primitives comes first from either side.
+    Coplanar,
 }
 
 impl Relation {
@@ -54,6 +67,7 @@ impl Relation {
             Relation::Contains => Relation::Inside,
             Relation::Inside => Relation::Contains,
             Relation::Inseparable => Relation::Inseparable,
+            Relation::Coplanar => Relation::Coplanar,
         }
     }
 }
@@ -169,6 +183,9 @@ impl Pair<'_> {
     fn relate(&self, (ia, a): (u32, &Group), (ib, b): (u32, &Group)) -> Relation {
         let (pa, pb) = (&a.points, &b.points);
         if let Some(s) = self.separate((ia, a, pa), (ib, b, pb)) {
+            if coplanar_in(&s, pa.iter().chain(pb), self.tolerance) {
+                return Relation::Coplanar;
+            }
             return Relation::Plane(s);
         }
         let boxed = |outer: &Group, inner: &Group| {
