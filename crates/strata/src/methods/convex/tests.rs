@@ -619,21 +619,29 @@ fn convex_equals_the_reference_on_coincident_surfaces() {
     }
 }
 
-/// One mesh whose faces are duplicated (a CAD export's doubled faces): the copies go to parts
-/// of their own and are ordered by primitive.
+/// One mesh whose faces are duplicated (a CAD export's doubled faces) 2, 3 and 8 times: the
+/// copies go to parts of their own and are ordered by primitive, with and without --msaa 4.
 #[test]
 fn convex_equals_the_reference_on_duplicated_faces() {
-    let quad = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n";
-    let copies = "f 1 2 3\nf 1 3 4\n".repeat(3);
     let dir = std::env::temp_dir().join(format!("strata-duplicated-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("doubled.obj");
-    std::fs::write(&path, format!("{quad}{copies}")).unwrap();
-    let mut s = scene(path.to_str().unwrap());
-    s.override_alpha(0.5);
-    let triangles = triangles_of(&s);
-    let d = Decomposition::new(&triangles, &|_| {});
-    assert_eq!(d.stats.parts, 3, "each copy is a part of its own");
-    check_exact("duplicated-faces", &s, &options(32, Effect::Transparency));
+    for copies in [2, 3, 8] {
+        let quad = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n";
+        let faces = "f 1 2 3\nf 1 3 4\n".repeat(copies);
+        let path = dir.join(format!("doubled{copies}.obj"));
+        std::fs::write(&path, format!("{quad}{faces}")).unwrap();
+        let mut s = scene(path.to_str().unwrap());
+        s.override_alpha(0.5);
+        let d = Decomposition::new(&triangles_of(&s), &|_| {});
+        assert_eq!(
+            d.stats.parts as usize, copies,
+            "each copy is a part of its own"
+        );
+        let name = format!("duplicated-faces-{copies}");
+        check_exact(&name, &s, &options(32, Effect::Transparency));
+        let mut msaa = options(32, Effect::Transparency);
+        msaa.build.msaa = 4;
+        check_exact(&format!("{name}-msaa4"), &s, &msaa);
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
