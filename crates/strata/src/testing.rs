@@ -104,12 +104,21 @@ impl Failures {
     /// pixels) and against the reference's fragments at the device's own depths, coverage and
     /// shading (`at_device`), where every pixel must match unless `unmatched` fragments only one
     /// side has: there a difference is the method's, not the rasterizer's.
-    /// The frame of an exact method says it is exact (`FrameStats::exact`: nothing dropped
-    /// beyond its k, no lock failure, no order violation).
+    /// A frame that matched the reference says what the catalogue says of its method
+    /// (`FrameStats::exact`: an exact method's frame is exact when nothing was dropped beyond
+    /// its k, no lock failed and no order broke).
     pub fn frame_says_exact(&mut self, method: &str, stats: &crate::FrameStats) {
-        let result = match stats.exact {
-            Some(true) => Ok(()),
-            other => Err(format!("the frame says exact: {other:?}")),
+        let catalogue = method
+            .parse::<crate::MethodId>()
+            .map(|m| m.descriptor().exact)
+            .ok();
+        let result = if stats.exact == catalogue {
+            Ok(())
+        } else {
+            Err(format!(
+                "the frame says exact: {:?}, the catalogue {catalogue:?}",
+                stats.exact
+            ))
         };
         self.check(method, result);
     }

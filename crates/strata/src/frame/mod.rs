@@ -142,6 +142,15 @@ pub struct AutoKStats {
     pub achieved_robustness: Option<f64>,
 }
 
+/// Why no later frame of this size can be complete: the message, and where one storage
+/// binding is what is short, what the frame needed and what a binding holds (in one unit), from
+/// which the batch renderer predicts the bands that could fit.
+#[derive(Clone, Debug)]
+pub struct Shortfall {
+    pub why: String,
+    pub binding: Option<(u64, u64)>,
+}
+
 /// What a method reports about its frame once its counters are back.
 #[derive(Clone, Debug, Default)]
 pub struct MethodStats {
@@ -151,7 +160,7 @@ pub struct MethodStats {
     /// method has already grown for the next frame. Exact mode renders again.
     pub incomplete: bool,
     /// Why no later frame can be complete either (memory limits): exact mode's error.
-    pub cannot_complete: Option<String>,
+    pub cannot_complete: Option<Shortfall>,
     /// With `--temporal on`: fragments culled by last frame's interface (never counted by the
     /// resolve: the frame's totals add them as generated and dropped).
     pub culled_temporal: Option<u64>,

@@ -284,6 +284,25 @@ fn pictures_beyond_the_bindings_render_in_bands_that_halve_as_needed() {
     }
 }
 
+/// A picture whose fragments cannot fit one binding even spread over bands of 32 rows is
+/// refused from what its first frame measured, instead of after halving band after band (a
+/// 300K-face model once took 37 s to say so on lavapipe).
+#[test]
+fn pictures_that_no_band_can_hold_are_refused_from_what_the_first_frame_measured() {
+    let mut gpu = crate::testing::gpu().clone();
+    gpu.limits.max_storage_buffer_binding_size = 256 << 10;
+    let s = scene("builtin:layers?n=32&coverage=1&order=random&seed=2");
+    let opts = options(128, Effect::Transparency);
+    let mut r = crate::Renderer::new(&gpu, &s, &opts).unwrap();
+    let e = r.render("abuffer-ll").unwrap_err();
+    assert!(matches!(e, crate::Error::Unsupported(_)), "{e}");
+    let e = e.to_string();
+    assert!(
+        e.contains("does not fit even in bands of 32 rows") && e.contains("on average"),
+        "{e}"
+    );
+}
+
 /// Pictures are refused, before anything is allocated, beyond 8192×8192 pixels (a 1 GiB
 /// host image); that size itself is accepted.
 #[test]

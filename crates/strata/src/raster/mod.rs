@@ -225,7 +225,7 @@ pub fn compute_stage(
 pub struct RasterReport {
     pub stats: ComputeRasterStats,
     pub incomplete: bool,
-    pub cannot_complete: Option<String>,
+    pub cannot_complete: Option<crate::frame::Shortfall>,
 }
 
 /// This frame's binding of the rasterizer's buffers.
@@ -452,11 +452,12 @@ impl ComputeRaster {
                 bytes_allocated: capacity * ITEM_BYTES + CONSTANT_BYTES,
             },
             incomplete: overflow,
-            cannot_complete: (needed > limit).then(|| {
-                format!(
+            cannot_complete: (needed > limit).then(|| crate::frame::Shortfall {
+                why: format!(
                     "--raster compute: the frame needs {needed} tile items ({:.1} MiB), more than the device's largest storage buffer holds ({limit})",
                     (needed * ITEM_BYTES) as f64 / 1048576.0
-                )
+                ),
+                binding: Some((needed, limit)),
             }),
         }
     }

@@ -42,6 +42,8 @@ pub struct Renderer<'g> {
     /// A cleared depth texture of one band's size, for banded pictures.
     band_opaque: Option<wgpu::Texture>,
     max_band_rows: Option<u32>,
+    /// What the last picture that outgrew a binding needed and what a binding holds.
+    shortfall: Option<(u64, u64)>,
     recorder: Option<FrameRecorder>,
     /// The time set by [`Renderer::set_time`]: the GPU moves the scene there (the CPU scene
     /// stays at its own time).
@@ -82,6 +84,7 @@ impl<'g> Renderer<'g> {
             opaque_lent: std::cell::Cell::new(false),
             band_opaque: None,
             max_band_rows: None,
+            shortfall: None,
             recorder: None,
             time: None,
         })
@@ -178,9 +181,9 @@ impl<'g> Renderer<'g> {
                 let options = self.options.clone();
                 let opaque = self.opaque.create_view(&Default::default());
                 match self.render_picture(method, draw, &options, &opaque) {
-                    // A method's per-pixel buffers outgrew a binding: halves will hold them.
+                    // A method's buffers outgrew a binding: bands will hold them.
                     Err(e) if outgrew_binding(&e) && h > BAND_ALIGN && !self.opaque_lent.get() => {
-                        (h / 2 / BAND_ALIGN * BAND_ALIGN).max(BAND_ALIGN)
+                        self.smaller_bands(h, &e)?
                     }
                     done => return done,
                 }
@@ -234,7 +237,7 @@ impl<'g> Renderer<'g> {
                             "{w}x{h} does not fit even in bands of {BAND_ALIGN} rows: {e}"
                         )));
                     }
-                    rows = (rows / 2 / BAND_ALIGN * BAND_ALIGN).max(BAND_ALIGN);
+                    rows = self.smaller_bands(band_rows, &e)?;
                 }
                 Err(e) => return Err(e),
             }
@@ -249,6 +252,26 @@ impl<'g> Renderer<'g> {
             },
             stats,
         ))
+    }
+
+    /// The rows of the next bands after a picture (or band) of `rows` rows outgrew a binding
+    /// with `e`: where the frame said what it needed, the rows that need what a binding holds
+    /// at the frame's average density — refused at once when even a band of [`BAND_ALIGN`]
+    /// rows needs more on average, since some band then needs at least that much — else half.
+    fn smaller_bands(&mut self, rows: u32, e: &Error) -> Result<u32> {
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
+        let align = |r: u64| ((r / BAND_ALIGN as u64 * BAND_ALIGN as u64) as u32).max(BAND_ALIGN);
+        let Some((need, limit)) = self.shortfall.take().filter(|&(need, _)| need > 0) else {
+            return Ok(align(rows as u64 / 2));
+        };
+        let per_band = need as f64 * BAND_ALIGN as f64 / rows as f64;
+        if per_band > limit as f64 {
+            return Err(Error::unsupported(format!(
+                "{w}x{h} does not fit even in bands of {BAND_ALIGN} rows: {e}; a band of {BAND_ALIGN} rows needs {:.1} times what one binding holds, on average",
+                per_band / limit as f64
+            )));
+        }
+        Ok(align(rows as u64 * limit / need).min(align(rows as u64 / 2)))
     }
 
     /// A cleared depth texture of one band's size (kept while the size stays).
@@ -327,8 +350,9 @@ impl<'g> Renderer<'g> {
             overflowed |= r.stats.overflow == Some(true) || r.incomplete;
             let incomplete = r.incomplete;
             if incomplete {
-                if let Some(why) = r.cannot_complete {
-                    return Err(Error::input(why));
+                if let Some(short) = r.cannot_complete {
+                    self.shortfall = short.binding;
+                    return Err(Error::input(short.why));
                 }
             }
             report = Some(r.stats);

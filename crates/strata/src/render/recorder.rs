@@ -81,7 +81,7 @@ pub struct FrameReport {
     pub stats: FrameStats,
     pub incomplete: bool,
     /// Why no later frame can be complete either.
-    pub cannot_complete: Option<String>,
+    pub cannot_complete: Option<crate::frame::Shortfall>,
 }
 
 /// Records frames of one scene with one method (switchable) into the application's encoders.

@@ -448,8 +448,8 @@ impl Pool {
         MethodStats {
             overflow: Some(overflowed),
             incomplete: overflowed,
-            cannot_complete: (needed > max).then(|| {
-                format!(
+            cannot_complete: (needed > max).then(|| crate::frame::Shortfall {
+                why: format!(
                     "{id}: the frame has {needed} fragments ({:.1} MiB of pool), {} ({:.1} MiB)",
                     mib(needed),
                     if by_budget {
@@ -458,7 +458,8 @@ impl Pool {
                         crate::error::OVER_BINDING
                     },
                     mib(max)
-                )
+                ),
+                binding: (!by_budget).then_some((needed, max)),
             }),
             ..Default::default()
         }
