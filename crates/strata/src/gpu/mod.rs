@@ -45,6 +45,31 @@ pub struct Gpu {
     pub limits: wgpu::Limits,
 }
 
+/// Runs `make` (pipelines, layouts, buffers: setup) under a validation error scope, so that what
+/// this device cannot make — a limit or a format it lacks — comes back as one line naming `what`
+/// and the device's reason instead of wgpu's uncaptured-error panic.
+pub fn validated<T>(gpu: &Gpu, what: &str, make: impl FnOnce() -> Result<T>) -> Result<T> {
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let made = make();
+    match pollster::block_on(scope.pop()) {
+        None => made,
+        Some(e) => {
+            // wgpu's message is "Validation Error", "Caused by:" and the reason on later lines.
+            let text = e.to_string();
+            let reason: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty() && *l != "Validation Error" && *l != "Caused by:")
+                .collect();
+            Err(Error::unsupported(format!(
+                "{what} cannot run on '{}': {}",
+                gpu.info.name,
+                reason.join(": ")
+            )))
+        }
+    }
+}
+
 /// What `strata info` reports.
 #[derive(Debug, Clone, Serialize)]
 pub struct GpuReport {
@@ -69,7 +94,7 @@ impl Gpu {
 
     async fn new_async() -> Result<Gpu> {
         let instance = wgpu::Instance::new(Self::instance_descriptor());
-        Self::open(&instance, None, wgpu::Features::empty()).await
+        Self::open(&instance, None, wgpu::Features::empty(), None).await
     }
 
     /// Like [`Gpu::new`], without the optional features `missing`: the same adapter standing in
@@ -77,7 +102,14 @@ impl Gpu {
     /// any machine).
     pub fn new_without(missing: wgpu::Features) -> Result<Gpu> {
         let instance = wgpu::Instance::new(Self::instance_descriptor());
-        pollster::block_on(Self::open(&instance, None, missing))
+        pollster::block_on(Self::open(&instance, None, missing, None))
+    }
+
+    /// Like [`Gpu::new_without`], the device also opened with `limits` (each at most the
+    /// adapter's): a stand-in for smaller adapters, such as downlevel storage limits.
+    pub fn new_restricted(missing: wgpu::Features, limits: wgpu::Limits) -> Result<Gpu> {
+        let instance = wgpu::Instance::new(Self::instance_descriptor());
+        pollster::block_on(Self::open(&instance, None, missing, Some(limits)))
     }
 
     /// The instance [`Gpu::new`] opens its adapter from: the backends of `WGPU_BACKEND`
@@ -95,13 +127,19 @@ impl Gpu {
     /// Like [`Gpu::new`], choosing among the adapters of `instance` that can present to
     /// `surface` (a window's).
     pub fn for_surface(instance: &wgpu::Instance, surface: &wgpu::Surface<'_>) -> Result<Gpu> {
-        pollster::block_on(Self::open(instance, Some(surface), wgpu::Features::empty()))
+        pollster::block_on(Self::open(
+            instance,
+            Some(surface),
+            wgpu::Features::empty(),
+            None,
+        ))
     }
 
     async fn open(
         instance: &wgpu::Instance,
         surface: Option<&wgpu::Surface<'_>>,
         missing: wgpu::Features,
+        limits: Option<wgpu::Limits>,
     ) -> Result<Gpu> {
         let backends = Self::backends();
         let mut adapters = instance.enumerate_adapters(backends).await;
@@ -139,7 +177,7 @@ impl Gpu {
         };
         let info = adapter.get_info();
         let features = adapter.features() & (wanted_features() - missing);
-        let limits = adapter.limits();
+        let limits = limits.unwrap_or_else(|| adapter.limits());
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("strata.device"),

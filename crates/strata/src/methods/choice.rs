@@ -115,3 +115,44 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod restricted {
+    use crate::gpu::Gpu;
+    use crate::methods::MethodId;
+    use crate::testing::gpu;
+    use crate::{RenderOptions, Renderer};
+
+    /// On a device with fewer storage bindings per stage than the capture methods use (a stand-in
+    /// for smaller adapters), every method renders or refuses with one line naming the device
+    /// and its reason: never wgpu's uncaptured-error panic.
+    #[test]
+    fn methods_refuse_what_a_small_device_cannot_make_in_one_line() {
+        let scene =
+            crate::scene::loaders::load_scene("builtin:spheres?layers=2&segments=8").unwrap();
+        let options = RenderOptions::sized(16, 16);
+        let mut outcomes = Vec::new();
+        for storage in [4, 2] {
+            let mut limits = gpu().limits.clone();
+            limits.max_storage_buffers_per_shader_stage = storage;
+            let small = Gpu::new_restricted(wgpu::Features::empty(), limits).expect("opens");
+            for method in MethodId::gpu_methods() {
+                let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    Renderer::new(&small, &scene, &options)
+                        .and_then(|mut r| r.render_method(method, None))
+                }));
+                outcomes.push(match outcome {
+                    Ok(Ok(_)) => format!("{storage} storage buffers, {method}: rendered"),
+                    Ok(Err(e)) => format!("{storage} storage buffers, {method}: refused: {e}"),
+                    Err(_) => format!("{storage} storage buffers, {method}: PANICKED"),
+                });
+            }
+        }
+        eprintln!("{}", outcomes.join("\n"));
+        assert!(
+            !outcomes.iter().any(|o| o.ends_with("PANICKED")),
+            "{outcomes:#?}"
+        );
+        assert!(outcomes.iter().all(|o| !o.contains('\n')), "{outcomes:#?}");
+    }
+}

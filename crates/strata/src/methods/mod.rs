@@ -206,14 +206,16 @@ pub fn create(
     descriptor.check_raster(options.build.raster)?;
     descriptor.check_msaa(options.build.msaa, scene.triangle_count as u64)?;
     crate::frame::msaa::check_device(gpu, options.build.msaa)?;
-    (descriptor.create)(
-        id,
-        &table::Setup {
-            gpu,
-            scene,
-            options,
-        },
-    )
+    crate::gpu::validated(gpu, id.as_str(), || {
+        (descriptor.create)(
+            id,
+            &table::Setup {
+                gpu,
+                scene,
+                options,
+            },
+        )
+    })
 }
 
 #[cfg(test)]

@@ -124,7 +124,20 @@ struct OpenFrame {
 }
 
 impl FrameRecorder {
+    /// A recorder of `scene` with `method`; what this device cannot make (a limit it lacks) is
+    /// refused in one line ([`crate::gpu::validated`]).
     pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        method: MethodId,
+        options: &RenderOptions,
+    ) -> Result<FrameRecorder> {
+        crate::gpu::validated(gpu, "strata's frame", || {
+            Self::made(gpu, scene, method, options)
+        })
+    }
+
+    fn made(
         gpu: &Gpu,
         scene: &Scene,
         method: MethodId,
