@@ -247,9 +247,9 @@ pub struct MethodArgs {
     /// this adapter runs for that goal (default: bounded with --k or --budget-mb, else exact).
     #[arg(long, value_parser = parse_method, default_value = "abuffer-ll")]
     pub method: MethodArg,
-    /// What `auto` chose and why (set by [`MethodArgs::resolve`]).
+    /// What `auto` chose and why, then its fallbacks (set by [`MethodArgs::resolve`]).
     #[arg(skip)]
-    pub chosen: Option<strata::methods::choice::Choice>,
+    pub candidates: Vec<strata::methods::choice::Choice>,
     /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
     /// the lock-free storage methods (abuffer-fixed, kb-ab-fixed, kb-mdt*, abuffer-ll, kb-ab-ll,
     /// sbuffer, kb-sbuffer, dual, kb, kpeel).
@@ -554,11 +554,32 @@ pub fn cache_dir(dir: &Path) -> Result<PathBuf> {
 impl MethodArgs {
     /// The method: `--method`'s id, or the one `auto` chose.
     pub fn id(&self) -> MethodId {
-        match (self.method, &self.chosen) {
+        match (self.method, self.candidates.first()) {
             (MethodArg::Id(id), _) => id,
             (MethodArg::Auto(_), Some(c)) => c.method,
             (MethodArg::Auto(_), None) => unreachable!("--method auto is resolved before use"),
         }
+    }
+
+    /// Why `auto` chose the method (`None` for a named one).
+    pub fn choice(&self) -> Option<String> {
+        self.candidates.first().map(|c| c.why.clone())
+    }
+
+    /// After the chosen method was refused with `why`: with `auto`, moves to the next candidate
+    /// (saying so) and returns true; else false.
+    pub fn fall_back(&mut self, why: &str) -> bool {
+        if self.candidates.len() < 2 {
+            return false;
+        }
+        let refused = self.candidates.remove(0);
+        let next = &mut self.candidates[0];
+        eprintln!(
+            "method auto: {} cannot run here; {} instead",
+            refused.method, next.method
+        );
+        next.why = format!("{} ({} was refused: {why})", next.why, refused.method);
+        true
     }
 
     /// With `--method auto`: chooses on the adapter strata opens (see
@@ -569,9 +590,9 @@ impl MethodArgs {
         };
         let bounded = picture.k.is_some() || self.budget_mb.is_some();
         let goal = goal.unwrap_or(if bounded { Goal::Bounded } else { Goal::Exact });
-        let choice = strata::methods::choice::choose(&strata::gpu::Gpu::new()?, goal);
-        eprintln!("method auto: {} ({})", choice.method, choice.why);
-        self.chosen = Some(choice);
+        self.candidates = strata::methods::choice::candidates(&strata::gpu::Gpu::new()?, goal);
+        let first = &self.candidates[0];
+        eprintln!("method auto: {} ({})", first.method, first.why);
         Ok(())
     }
 }

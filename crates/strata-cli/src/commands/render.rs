@@ -106,7 +106,7 @@ pub fn spinner(message: String) -> indicatif::ProgressBar {
     bar
 }
 
-pub fn render(a: RenderArgs) -> Result<()> {
+pub fn render(mut a: RenderArgs) -> Result<()> {
     if let Some(range) = a.frames.clone() {
         return render_sequence(a, &range);
     }
@@ -122,13 +122,16 @@ pub fn render(a: RenderArgs) -> Result<()> {
     let rendered = if a.method.id() == MethodId::Reference {
         strata::reference::render(&scene, &options)
     } else {
-        Gpu::new().and_then(|gpu| {
-            Renderer::new(&gpu, &scene, &options)?.render_method(a.method.id(), None)
+        Gpu::new().and_then(|gpu| loop {
+            match Renderer::new(&gpu, &scene, &options)?.render_method(a.method.id(), None) {
+                Err(Error::Unsupported(why)) if a.method.fall_back(&why) => continue,
+                done => break done,
+            }
         })
     };
     busy.finish_and_clear();
     let (image, mut stats) = rendered?;
-    stats.method_choice = a.method.chosen.as_ref().map(|c| c.why.clone());
+    stats.method_choice = a.method.choice();
     write_outputs(
         &image,
         &stats,
@@ -281,7 +284,7 @@ pub fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
             written += 1;
             let mut stats = stats;
             stats.frame = n as u64;
-            stats.method_choice = a.method.chosen.as_ref().map(|c| c.why.clone());
+            stats.method_choice = a.method.choice();
             lines += &serde_json::to_string(&stats).map_err(|e| Error::runtime(e.to_string()))?;
             lines.push('\n');
             last = Some((stats, path, options.frame.kbuffer.tail));

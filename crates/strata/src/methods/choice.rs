@@ -1,14 +1,16 @@
 //! `--method auto`: the method an application gets when it says what it needs instead of naming
 //! one, chosen from what the adapter has.
 //!
-//! | goal | choice, in order of preference |
+//! | goal | candidates, best first |
 //! |---|---|
-//! | [`Goal::Exact`] | abuffer-ll: every fragment, sorted per pixel at resolve, in one geometry pass; its relaxed, lock-free capture runs on any adapter with fragment storage, and its pool follows the last frame's count |
-//! | [`Goal::Bounded`] (exact for each pixel's k nearest, memory fixed per pixel) | kb-keys with 64-bit atomics (lock-free); else kplus-heap where captures get acquire/release atomics; else f2b depth peeling (exact at any depth, 56 bytes per pixel, one geometry pass per layer) |
-//! | [`Goal::Approximate`] (fastest) | wboit: one geometry pass into two targets, no per-pixel storage |
+//! | [`Goal::Exact`] | abuffer-ll (every fragment, sorted per pixel at resolve, in one geometry pass; its relaxed, lock-free capture needs no ordered atomics, and its pool follows the last frame's count); f2b |
+//! | [`Goal::Bounded`] (exact for each pixel's k nearest, memory fixed per pixel) | kb-keys where there are 64-bit atomics (lock-free); kplus-heap where captures get acquire/release atomics; f2b depth peeling (exact at any depth, 56 bytes per pixel, one geometry pass per layer) |
+//! | [`Goal::Approximate`] (fastest) | wboit (one geometry pass into two targets, no per-pixel storage); mboit |
 //!
-//! The choice names its reason ([`Choice::why`]), which the CLI prints and writes into the
-//! statistics (`FrameStats::method_choice`).
+//! [`candidates`] filters by the adapter's features; a device that still refuses one for a
+//! limit (a method's setup runs under `crate::gpu::validated`) moves to the next: `strata
+//! render --method auto` does, and says so. Each choice names its reason ([`Choice::why`]),
+//! which the CLI prints and writes into the statistics (`FrameStats::method_choice`).
 
 use crate::gpu::{ordered, Gpu};
 
@@ -35,29 +37,61 @@ pub struct Choice {
 
 /// The best method for `goal` on `gpu` (see the module docs).
 pub fn choose(gpu: &Gpu, goal: Goal) -> Choice {
+    candidates(gpu, goal).remove(0)
+}
+
+/// Every method that serves `goal` on `gpu`'s features, best first: the first is
+/// [`choose`]'s; where a device refuses it for a limit (`crate::gpu::validated`), the next
+/// is the fallback.
+pub fn candidates(gpu: &Gpu, goal: Goal) -> Vec<Choice> {
     let adapter = &gpu.info.name;
     let choice = |method, why: String| Choice { method, why };
-    match goal {
-        Goal::Exact => choice(
-            MethodId::AbufferLl,
-            "exact at any depth complexity in one geometry pass, with a lock-free capture that needs no ordered atomics".into(),
-        ),
-        Goal::Bounded if gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) => choice(
-            MethodId::KbKeys,
-            format!("'{adapter}' has 64-bit storage atomics: the lock-free k-buffer keeps each pixel's k nearest without a lock"),
-        ),
-        Goal::Bounded if ordered::available(gpu) => choice(
-            MethodId::KplusHeap,
-            format!("'{adapter}' lacks 64-bit storage atomics but gives captures acquire/release atomics: the k+-buffer's max-heap under a per-pixel lock"),
-        ),
-        Goal::Bounded => choice(
+    let peeling = || {
+        choice(
             MethodId::F2b,
-            format!("'{adapter}' has neither 64-bit storage atomics nor ordered atomics for a lock: depth peeling, exact in fixed memory at one geometry pass per layer"),
-        ),
-        Goal::Approximate => choice(
-            MethodId::Wboit,
-            "the fastest approximation: one geometry pass into two blended targets, no per-pixel storage".into(),
-        ),
+            "depth peeling: exact in fixed memory (56 bytes per pixel), one geometry pass per layer"
+                .into(),
+        )
+    };
+    match goal {
+        Goal::Exact => vec![
+            choice(
+                MethodId::AbufferLl,
+                "exact at any depth complexity in one geometry pass, with a lock-free capture that needs no ordered atomics".into(),
+            ),
+            peeling(),
+        ],
+        Goal::Bounded => {
+            let mut list = Vec::new();
+            if gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) {
+                list.push(choice(
+                    MethodId::KbKeys,
+                    format!("'{adapter}' has 64-bit storage atomics: the lock-free k-buffer keeps each pixel's k nearest without a lock"),
+                ));
+            }
+            if ordered::available(gpu) {
+                list.push(choice(
+                    MethodId::KplusHeap,
+                    format!("'{adapter}' gives captures acquire/release atomics: the k+-buffer's max-heap under a per-pixel lock"),
+                ));
+            }
+            let mut last = peeling();
+            if list.is_empty() {
+                last.why = format!("'{adapter}' has neither 64-bit storage atomics nor ordered atomics for a lock: {}", last.why);
+            }
+            list.push(last);
+            list
+        }
+        Goal::Approximate => vec![
+            choice(
+                MethodId::Wboit,
+                "the fastest approximation: one geometry pass into two blended targets, no per-pixel storage".into(),
+            ),
+            choice(
+                MethodId::Mboit,
+                "moment-based OIT: two geometry passes, closer to the reference than weighted blending".into(),
+            ),
+        ],
     }
 }
 
@@ -154,5 +188,46 @@ mod restricted {
             "{outcomes:#?}"
         );
         assert!(outcomes.iter().all(|o| !o.contains('\n')), "{outcomes:#?}");
+    }
+
+    /// Where the device refuses the first candidates for a limit (8 storage buffers per stage:
+    /// the k-buffers bind 10), the next ones are tried in order: depth peeling renders, exact.
+    #[test]
+    fn candidates_fall_back_to_what_a_small_device_can_make() {
+        let mut limits = gpu().limits.clone();
+        limits.max_storage_buffers_per_shader_stage = 8;
+        let small = Gpu::new_restricted(wgpu::Features::empty(), limits).expect("opens");
+        let scene =
+            crate::scene::loaders::load_scene("builtin:spheres?layers=4&segments=8").unwrap();
+        let options = RenderOptions::sized(32, 32);
+        let list = super::candidates(&small, super::Goal::Bounded);
+        assert_eq!(list.last().map(|c| c.method), Some(MethodId::F2b));
+        let mut rendered = None;
+        for c in &list {
+            match Renderer::new(&small, &scene, &options)
+                .and_then(|mut r| r.render_method(c.method, None))
+            {
+                Ok((image, _)) => {
+                    rendered = Some((c.method, image));
+                    break;
+                }
+                Err(e) => assert!(
+                    matches!(e, crate::Error::Unsupported(_)),
+                    "{}: {e}",
+                    c.method
+                ),
+            }
+        }
+        let (method, image) = rendered.expect("a candidate renders");
+        assert_eq!(method, MethodId::F2b);
+        let expected = crate::testing::render_reference(&scene, &options);
+        crate::testing::assert_close(
+            "auto-fallback",
+            &image,
+            &expected,
+            options.frame.effect,
+            2,
+            0.001,
+        );
     }
 }
