@@ -662,3 +662,19 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
     options.validate()?;
     Ok((scene, options))
 }
+
+/// `strata view`'s arguments (the viewer itself is the `view` feature).
+#[derive(Args)]
+pub struct ViewArgs {
+    #[command(flatten)]
+    pub picture: PictureArgs,
+    #[command(flatten)]
+    pub method: MethodArgs,
+    /// Render --frames frames, save the window (panel included) to this PNG and exit; prints
+    /// where the 3D area is and the view as a `strata render` command.
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
+    /// With --screenshot: frames to render before saving.
+    #[arg(long, requires = "screenshot", default_value_t = 3)]
+    pub frames: u32,
+}

@@ -7,6 +7,7 @@ mod commands;
 mod files;
 mod method_options;
 mod report;
+#[cfg(feature = "view")]
 mod view;
 
 use std::process::ExitCode;
@@ -80,7 +81,7 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Explore the methods live in a window: every option, per-pass timings, statistics, a
     /// diff against the reference.
-    View(view::ViewArgs),
+    View(args::ViewArgs),
 }
 
 /// A command-line error as one line: clap's first line, with what it lists on the following
@@ -203,8 +204,20 @@ fn run(mut command: Command) -> Result<()> {
         Command::Export(a) => export(a),
         Command::Bench(a) => bench::run(a),
         Command::Report(a) => report::run(a),
-        Command::View(a) => view::run(a),
+        Command::View(a) => run_view(a),
     }
+}
+
+#[cfg(feature = "view")]
+fn run_view(a: args::ViewArgs) -> Result<()> {
+    view::run(a)
+}
+
+#[cfg(not(feature = "view"))]
+fn run_view(_: args::ViewArgs) -> Result<()> {
+    Err(Error::unsupported(
+        "this strata was built without the viewer: `scripts/strata view` builds it (or cargo's --features view)",
+    ))
 }
 
 /// `e` with `note` after its message, of the same kind.

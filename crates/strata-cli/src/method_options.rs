@@ -9,6 +9,7 @@ use strata::error::{Error, Result};
 /// An option that only some methods or pipelines read: a method parameter (the method's
 /// descriptor lists those it reads), or one that a capability or the pipeline decides.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(not(feature = "view"), allow(dead_code))]
 pub enum Opt {
     Method(MethodOption),
     /// `--raster compute`.
@@ -28,6 +29,7 @@ pub enum Opt {
     Msaa,
 }
 
+#[cfg_attr(not(feature = "view"), allow(dead_code))]
 impl Opt {
     pub const K: Opt = Opt::Method(MethodOption::K);
     pub const TAIL: Opt = Opt::Method(MethodOption::Tail);

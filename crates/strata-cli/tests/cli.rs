@@ -980,219 +980,225 @@ fn compute_raster_renders_the_gpu_paths_picture() {
     );
 }
 
-/// An X display for `strata view`: the environment's, or a private Xvfb stopped on drop.
-struct Display {
-    name: String,
-    xvfb: Option<std::process::Child>,
-}
+/// `strata view`'s tests (the viewer is the `view` feature).
+#[cfg(feature = "view")]
+mod view {
+    use super::*;
 
-impl Drop for Display {
-    fn drop(&mut self) {
-        if let Some(child) = &mut self.xvfb {
-            // SIGTERM lets Xvfb remove its lock and socket; a killed one leaves them, and a later
-            // Xvfb on that number would refuse to start while its stale socket looked alive.
-            let _ = Command::new("kill")
-                .args(["-TERM", &child.id().to_string()])
-                .status();
-            for _ in 0..100 {
-                if matches!(child.try_wait(), Ok(Some(_))) {
-                    return;
+    /// An X display for `strata view`: the environment's, or a private Xvfb stopped on drop.
+    struct Display {
+        name: String,
+        xvfb: Option<std::process::Child>,
+    }
+
+    impl Drop for Display {
+        fn drop(&mut self) {
+            if let Some(child) = &mut self.xvfb {
+                // SIGTERM lets Xvfb remove its lock and socket; a killed one leaves them, and a later
+                // Xvfb on that number would refuse to start while its stale socket looked alive.
+                let _ = Command::new("kill")
+                    .args(["-TERM", &child.id().to_string()])
+                    .status();
+                for _ in 0..100 {
+                    if matches!(child.try_wait(), Ok(Some(_))) {
+                        return;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(20));
                 }
-                std::thread::sleep(std::time::Duration::from_millis(20));
+                let _ = child.kill();
+                let _ = child.wait();
             }
-            let _ = child.kill();
-            let _ = child.wait();
         }
     }
-}
 
-fn display() -> Display {
-    if let Some(d) = std::env::var_os("DISPLAY").filter(|d| !d.is_empty()) {
-        return Display {
-            name: d.to_string_lossy().into_owned(),
-            xvfb: None,
+    fn display() -> Display {
+        if let Some(d) = std::env::var_os("DISPLAY").filter(|d| !d.is_empty()) {
+            return Display {
+                name: d.to_string_lossy().into_owned(),
+                xvfb: None,
+            };
+        }
+        static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        // A number no server (live or dead) holds: its lock and socket must not exist yet.
+        let taken = |n: u32| {
+            PathBuf::from(format!("/tmp/.X{n}-lock")).exists()
+                || PathBuf::from(format!("/tmp/.X11-unix/X{n}")).exists()
         };
-    }
-    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    // A number no server (live or dead) holds: its lock and socket must not exist yet.
-    let taken = |n: u32| {
-        PathBuf::from(format!("/tmp/.X{n}-lock")).exists()
-            || PathBuf::from(format!("/tmp/.X11-unix/X{n}")).exists()
-    };
-    let n = (0..64)
-        .map(|_| {
-            100 + std::process::id() % 500 * 4
-                + NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        })
-        .find(|&n| !taken(n))
-        .expect("a free X display number");
-    let name = format!(":{n}");
-    let child = Command::new("Xvfb")
-        .args([name.as_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("DISPLAY is unset and Xvfb cannot start: install it (Debian: apt-get install xvfb; scripts/test does)");
-    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-    for _ in 0..200 {
-        if socket.exists() {
-            break;
+        let n = (0..64)
+            .map(|_| {
+                100 + std::process::id() % 500 * 4
+                    + NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+            })
+            .find(|&n| !taken(n))
+            .expect("a free X display number");
+        let name = format!(":{n}");
+        let child = Command::new("Xvfb")
+            .args([name.as_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("DISPLAY is unset and Xvfb cannot start: install it (Debian: apt-get install xvfb; scripts/test does)");
+        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+        for _ in 0..200 {
+            if socket.exists() {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(25));
         }
-        std::thread::sleep(std::time::Duration::from_millis(25));
+        assert!(socket.exists(), "Xvfb {name} did not start");
+        Display {
+            name,
+            xvfb: Some(child),
+        }
     }
-    assert!(socket.exists(), "Xvfb {name} did not start");
-    Display {
-        name,
-        xvfb: Some(child),
+
+    /// Runs `strata view ... --screenshot` on `display`; returns the 3D area (x, y, w, h) and the
+    /// view-as-command line it printed.
+    fn view_screenshot(display: &Display, args: &[&str], shot: &Path) -> ([u32; 4], String) {
+        let o = Command::new(env!("CARGO_BIN_EXE_strata"))
+            .arg("view")
+            .args(args)
+            .args(["--screenshot", shot.to_str().unwrap(), "--frames", "4"])
+            .env("DISPLAY", &display.name)
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .expect("run strata view");
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let area: Vec<u32> = out
+            .lines()
+            .find_map(|l| l.strip_prefix("3d-area: "))
+            .expect("the 3D area is printed")
+            .split(' ')
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let command = out
+            .lines()
+            .find_map(|l| l.strip_prefix("command: "))
+            .expect("the view as a command is printed")
+            .to_string();
+        ([area[0], area[1], area[2], area[3]], command)
     }
-}
 
-/// Runs `strata view ... --screenshot` on `display`; returns the 3D area (x, y, w, h) and the
-/// view-as-command line it printed.
-fn view_screenshot(display: &Display, args: &[&str], shot: &Path) -> ([u32; 4], String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_strata"))
-        .arg("view")
-        .args(args)
-        .args(["--screenshot", shot.to_str().unwrap(), "--frames", "4"])
-        .env("DISPLAY", &display.name)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .expect("run strata view");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let out = String::from_utf8_lossy(&o.stdout).into_owned();
-    let area: Vec<u32> = out
-        .lines()
-        .find_map(|l| l.strip_prefix("3d-area: "))
-        .expect("the 3D area is printed")
-        .split(' ')
-        .map(|v| v.parse().unwrap())
-        .collect();
-    let command = out
-        .lines()
-        .find_map(|l| l.strip_prefix("command: "))
-        .expect("the view as a command is printed")
-        .to_string();
-    ([area[0], area[1], area[2], area[3]], command)
-}
+    /// The 3D area of a window screenshot.
+    fn crop(shot: &Path, [x, y, w, h]: [u32; 4], to: &Path) {
+        let img = image::open(shot).unwrap().to_rgba8();
+        image::imageops::crop_imm(&img, x, y, w, h)
+            .to_image()
+            .save(to)
+            .unwrap();
+    }
 
-/// The 3D area of a window screenshot.
-fn crop(shot: &Path, [x, y, w, h]: [u32; 4], to: &Path) {
-    let img = image::open(shot).unwrap().to_rgba8();
-    image::imageops::crop_imm(&img, x, y, w, h)
-        .to_image()
-        .save(to)
-        .unwrap();
-}
+    fn max_abs_diff(a: &Path, b: &Path) -> u64 {
+        let o = strata(&[
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        c["max_abs_diff"].as_u64().unwrap()
+    }
 
-fn max_abs_diff(a: &Path, b: &Path) -> u64 {
-    let o = strata(&[
-        "compare",
-        a.to_str().unwrap(),
-        b.to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    c["max_abs_diff"].as_u64().unwrap()
-}
-
-#[test]
-fn view_screenshot_shows_the_render_of_the_same_view() {
-    let dir = workdir("view");
-    let display = display();
-    let shot = dir.join("window.png");
-    let picture = [
-        "builtin:spheres",
-        "--size",
-        "160x120",
-        "--method",
-        "kplus-heap",
-    ];
-    let (area, _) = view_screenshot(&display, &picture, &shot);
-    assert_eq!((area[2], area[3]), (160, 120), "the whole picture is shown");
-    let window = image::open(&shot).unwrap();
-    assert!(
-        window.width() >= area[0] + 160 && area[0] > 0,
-        "panel on the left"
-    );
-    let shown = dir.join("shown.png");
-    crop(&shot, area, &shown);
-    let rendered = dir.join("render.png");
-    let mut args = vec!["render"];
-    args.extend(picture);
-    args.extend(["-o", rendered.to_str().unwrap()]);
-    let o = strata(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let d = max_abs_diff(&shown, &rendered);
-    assert!(
-        d <= 2,
-        "the viewer's picture differs from render's by {d}/255"
-    );
-}
-
-#[test]
-fn view_as_command_reproduces_the_view() {
-    let dir = workdir("view-command");
-    let display = display();
-    let shot = dir.join("window.png");
-    let (area, command) = view_screenshot(
-        &display,
-        &[
-            "builtin:demo",
+    #[test]
+    fn view_screenshot_shows_the_render_of_the_same_view() {
+        let dir = workdir("view");
+        let display = display();
+        let shot = dir.join("window.png");
+        let picture = [
+            "builtin:spheres",
             "--size",
-            "128x96",
+            "160x120",
             "--method",
-            "kb-mdt32",
-            "--k",
-            "4",
-            "--eye",
-            "2.5,1.5,3",
-            "--fov",
-            "50",
-        ],
-        &shot,
-    );
-    assert!(command.starts_with("strata render "), "{command}");
-    assert!(command.contains("--pipeline deferred"), "{command}");
-    let shown = dir.join("shown.png");
-    crop(&shot, area, &shown);
-    let rendered = dir.join("command.png");
-    let mut words: Vec<String> = command
-        .split(' ')
-        .skip(1)
-        .map(|w| w.trim_matches('\'').to_string())
-        .collect();
-    let out = words.iter().position(|w| w == "-o").expect("-o") + 1;
-    words[out] = rendered.to_str().unwrap().to_string();
-    let words: Vec<&str> = words.iter().map(String::as_str).collect();
-    let o = strata(&words);
-    assert!(o.status.success(), "{command}: {}", stderr(&o));
-    let d = max_abs_diff(&shown, &rendered);
-    assert!(d <= 2, "{command} differs from the view by {d}/255");
-}
+            "kplus-heap",
+        ];
+        let (area, _) = view_screenshot(&display, &picture, &shot);
+        assert_eq!((area[2], area[3]), (160, 120), "the whole picture is shown");
+        let window = image::open(&shot).unwrap();
+        assert!(
+            window.width() >= area[0] + 160 && area[0] > 0,
+            "panel on the left"
+        );
+        let shown = dir.join("shown.png");
+        crop(&shot, area, &shown);
+        let rendered = dir.join("render.png");
+        let mut args = vec!["render"];
+        args.extend(picture);
+        args.extend(["-o", rendered.to_str().unwrap()]);
+        let o = strata(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let d = max_abs_diff(&shown, &rendered);
+        assert!(
+            d <= 2,
+            "the viewer's picture differs from render's by {d}/255"
+        );
+    }
 
-#[test]
-fn view_without_a_display_says_so() {
-    let dir = workdir("view-nodisplay");
-    let shot = dir.join("w.png");
-    let o = Command::new(env!("CARGO_BIN_EXE_strata"))
-        .args(["view", "--screenshot", shot.to_str().unwrap()])
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    let err = stderr(&o);
-    assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("DISPLAY"), "{err}");
-    assert!(!shot.exists());
-    let missing = dir.join("no/such/dir/w.png");
-    let o = strata(&["view", "--screenshot", missing.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("does not exist"), "{}", stderr(&o));
-    let o = strata(&["view", "--method", "reference"]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    #[test]
+    fn view_as_command_reproduces_the_view() {
+        let dir = workdir("view-command");
+        let display = display();
+        let shot = dir.join("window.png");
+        let (area, command) = view_screenshot(
+            &display,
+            &[
+                "builtin:demo",
+                "--size",
+                "128x96",
+                "--method",
+                "kb-mdt32",
+                "--k",
+                "4",
+                "--eye",
+                "2.5,1.5,3",
+                "--fov",
+                "50",
+            ],
+            &shot,
+        );
+        assert!(command.starts_with("strata render "), "{command}");
+        assert!(command.contains("--pipeline deferred"), "{command}");
+        let shown = dir.join("shown.png");
+        crop(&shot, area, &shown);
+        let rendered = dir.join("command.png");
+        let mut words: Vec<String> = command
+            .split(' ')
+            .skip(1)
+            .map(|w| w.trim_matches('\'').to_string())
+            .collect();
+        let out = words.iter().position(|w| w == "-o").expect("-o") + 1;
+        words[out] = rendered.to_str().unwrap().to_string();
+        let words: Vec<&str> = words.iter().map(String::as_str).collect();
+        let o = strata(&words);
+        assert!(o.status.success(), "{command}: {}", stderr(&o));
+        let d = max_abs_diff(&shown, &rendered);
+        assert!(d <= 2, "{command} differs from the view by {d}/255");
+    }
+
+    #[test]
+    fn view_without_a_display_says_so() {
+        let dir = workdir("view-nodisplay");
+        let shot = dir.join("w.png");
+        let o = Command::new(env!("CARGO_BIN_EXE_strata"))
+            .args(["view", "--screenshot", shot.to_str().unwrap()])
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        let err = stderr(&o);
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains("DISPLAY"), "{err}");
+        assert!(!shot.exists());
+        let missing = dir.join("no/such/dir/w.png");
+        let o = strata(&["view", "--screenshot", missing.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains("does not exist"), "{}", stderr(&o));
+        let o = strata(&["view", "--method", "reference"]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    }
 }
 
 fn regression(name: &str) -> String {

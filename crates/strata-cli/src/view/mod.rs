@@ -19,7 +19,6 @@ use std::path::{Path, PathBuf};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::Instant;
 
-use clap::Args;
 use strata::error::{Error, Result};
 use strata::gpu::Gpu;
 use strata::methods::MethodId;
@@ -29,25 +28,11 @@ use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Window, WindowId};
 
-use crate::{MethodArgs, PictureArgs, PipelineArg};
+use crate::args::ViewArgs;
+use crate::PipelineArg;
 use panel::{Action, CompareStatus, Panel, Readouts, Shown, PANEL_WIDTH};
 use state::{Change, Orbit, ViewState};
 use viewport::{Blit, Viewport};
-
-#[derive(Args)]
-pub struct ViewArgs {
-    #[command(flatten)]
-    pub picture: PictureArgs,
-    #[command(flatten)]
-    pub method: MethodArgs,
-    /// Render --frames frames, save the window (panel included) to this PNG and exit; prints
-    /// where the 3D area is and the view as a `strata render` command.
-    #[arg(long)]
-    pub screenshot: Option<PathBuf>,
-    /// With --screenshot: frames to render before saving.
-    #[arg(long, requires = "screenshot", default_value_t = 3)]
-    pub frames: u32,
-}
 
 pub fn run(args: ViewArgs) -> Result<()> {
     // Everything that can fail without a window fails before one opens.
