@@ -46,7 +46,7 @@ fn lut() -> &'static [[u8; 3]; LUT_SIZE] {
     })
 }
 
-/// The crate's heatmap colormap: `t` in [0,1] (clamped; NaN reads as 0) to an sRGB 8-bit colour.
+/// The crate's heatmap colormap: `t` in \[0,1\] (clamped; NaN reads as 0) to an sRGB 8-bit colour.
 /// `colormap(0.0)` is black and `colormap(1.0)` is pale yellow. Sampled from a 256-entry table.
 pub fn colormap(t: f32) -> [u8; 3] {
     let t = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) };

@@ -13,7 +13,7 @@
 //!
 //! Each probe is timed on the wall clock as the difference between a submission of `2n`
 //! repetitions and one of `n` (after a warm-up, `n` doubled until a submission lasts
-//! [`MIN_SECONDS`]), so submission and wait overheads cancel; the median of [`TRIALS`]
+//! `MIN_SECONDS`), so submission and wait overheads cancel; the median of [`TRIALS`]
 //! differences is kept. That works without timestamp queries and times the
 //! copies, which no pass encloses. Every probe checks its result (the copy's bytes, the
 //! counters' sum), so a probe that did not run cannot report a rate.
@@ -56,7 +56,7 @@ pub struct ProbeSizes {
     /// Increments per atomic probe.
     pub increments: u32,
     /// Repetitions in the shorter of the two timed submissions to start from (doubled until
-    /// it lasts [`MIN_SECONDS`]).
+    /// it lasts `MIN_SECONDS`).
     pub repeats: u32,
 }
 

@@ -19,7 +19,7 @@ fn opaque([r, g, b]: [u8; 3]) -> Rgba<u8> {
 }
 
 /// Difference heatmap of two images: each pixel's max channel |Δ| over R, G and B (alpha is
-/// ignored) mapped through [`colormap`](super::colormap).
+/// ignored) mapped through [`colormap`](super::colormap::colormap).
 ///
 /// Scale: no difference is black; a difference of 1/255 is already a visible dark indigo
 /// (`colormap(0.2)`), and the colour rises linearly to pale yellow at [`DIFF_SATURATION`]
@@ -41,7 +41,7 @@ pub fn diff_heatmap(a: &RgbaImage, b: &RgbaImage) -> RgbaImage {
 /// Depth-complexity heatmap: `counts` holds one fragment count per pixel, row-major from the top
 /// left, `width * height` of them.
 ///
-/// Scale: 0 fragments is black; 1..=max map linearly onto [`colormap`](super::colormap) from a
+/// Scale: 0 fragments is black; 1..=max map linearly onto [`colormap`](super::colormap::colormap) from a
 /// visible dark indigo (`colormap(0.2)`) to pale yellow, and counts above max saturate. `max` is
 /// `max_count` when given, else the largest count in the image; either way at least 1.
 ///

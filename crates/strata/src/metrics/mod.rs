@@ -26,7 +26,7 @@ pub use picture::LinearImage;
 /// How far apart two images are, as printed by `strata compare` (and written by `--json`).
 #[derive(Serialize, Debug, Clone, Copy, PartialEq)]
 pub struct Comparison {
-    /// Root-mean-square error over all pixels and the R, G, B channels, in [0,1] units
+    /// Root-mean-square error over all pixels and the R, G, B channels, in \[0,1\] units
     /// (a channel difference of 255 counts as 1.0).
     pub rmse: f64,
     /// Peak signal-to-noise ratio in dB with peak 1.0: `-20·log10(rmse)`. `f64::INFINITY` for

@@ -90,7 +90,7 @@ fn write_failure_images(name: &str, actual: &RgbaImage, expected: &RgbaImage) ->
 }
 
 /// Checks `actual` against `expected`: it passes when at most `max_fraction_over` (a fraction in
-/// [0,1], not a percentage) of the pixels have a largest R, G, B |Δ| over `max_channel_diff`
+/// \[0,1\], not a percentage) of the pixels have a largest R, G, B |Δ| over `max_channel_diff`
 /// 8-bit levels, and returns the full [`Comparison`] (FLIP against `expected`) for further
 /// checks.
 ///

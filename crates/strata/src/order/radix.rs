@@ -181,7 +181,7 @@ impl RadixSort {
         self.count
     }
 
-    /// Records the sort of pair 0 (keys[0], values[0]) into `encoder`, each dispatch its own
+    /// Records the sort of pair 0 (`keys[0]`, `values[0]`) into `encoder`, each dispatch its own
     /// compute pass labelled `strata.<label>.<stage>`, timed under `timer_name`.
     pub fn record(
         &self,

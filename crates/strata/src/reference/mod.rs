@@ -232,7 +232,7 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
 
 use raster::cover_samples;
 
-/// Renders the exact picture. `options.k` keeps each pixel's k nearest fragments.
+/// Renders the exact picture. `options.frame.k` keeps each pixel's k nearest fragments.
 ///
 /// With `options.pipeline` the scene splits by opacity as the GPU pipelines split it: each
 /// pixel's nearest opaque surface, shaded, replaces the background, the transparent fragments in

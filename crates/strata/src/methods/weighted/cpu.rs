@@ -57,7 +57,7 @@ pub fn mboit_depth(camera: &Camera, distance: f64) -> f64 {
 }
 
 /// The fraction of the absorbance in front of warped depth `z` from normalized moments
-/// (E[z], E[z²], E[z³], E[z⁴]), biased by `bias` toward [`BIAS_MOMENTS`], with weight
+/// (E\[z\], E\[z²\], E\[z³\], E\[z⁴\]), biased by `bias` toward `BIAS_MOMENTS`, with weight
 /// `overestimation` at `z`: the quadratic through `z` and the two other points of support of the
 /// canonical representation, integrated against the moments.
 pub fn absorbance_fraction(moments: [f64; 4], z: f64, bias: f64, overestimation: f64) -> f64 {
@@ -176,9 +176,9 @@ pub fn polynomial_roots(c: &[f64]) -> Vec<f64> {
 /// WGSL takes as many, converging to f32).
 pub const ROOT_STEPS: u32 = 48;
 
-/// [`absorbance_fraction`] for 6 or 8 power moments (E[z], …, E[z^2n]): the Hankel system
+/// [`absorbance_fraction`] for 6 or 8 power moments (E\[z\], …, E\[z^2n\]): the Hankel system
 /// B·c = (1, z, …, zⁿ) solved through L·D·Lᵀ, the n other points of support as the roots of
-/// Σ cᵢ·xⁱ, the interpolating polynomial of degree n through (z, η) and (xᵢ, [xᵢ < z]) in Newton
+/// Σ cᵢ·xⁱ, the interpolating polynomial of degree n through (z, η) and (xᵢ, \[xᵢ < z\]) in Newton
 /// form, and its expectation under the moments.
 pub fn absorbance_fraction_n(moments: &[f64], z: f64, bias: f64, overestimation: f64) -> f64 {
     let n = moments.len() / 2;

@@ -27,7 +27,7 @@
 //! support as the roots of Σ cᵢ·xⁱ (each bracketed between the roots of its derivative and found
 //! by Newton's steps that bisection keeps in the bracket, at most 48: bounded, and no cubic or
 //! quartic formula to lose precision in f32), the
-//! interpolating polynomial through (z, η) and (xᵢ, [xᵢ < z]), and its expectation. The bias
+//! interpolating polynomial through (z, η) and (xᵢ, \[xᵢ < z\]), and its expectation. The bias
 //! vectors are the paper's code's for 32-bit moments; the bias amounts for 6 and 8 moments
 //! ([`MOMENT_BIAS_6`], [`MOMENT_BIAS_8`]) were measured here, as the smallest that keeps the f32
 //! result within 2/255 of the f64 closed form on the tests' scenes.
