@@ -173,6 +173,8 @@ impl<'g> Renderer<'g> {
         method: MethodId,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<(LinearImage, FrameStats)> {
+        // A shortfall describes the picture that measured it, never a later one.
+        self.shortfall = None;
         let (w, h) = (self.options.frame.width, self.options.frame.height);
         let fits = self.options.pixels() <= recorder::max_resolved_pixels(self.gpu);
         let rows = match self.max_band_rows {
