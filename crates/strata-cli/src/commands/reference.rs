@@ -1,6 +1,7 @@
 //! `strata reference`: the exact CPU picture.
 
-use crate::{check_outputs, prepare, spinner, summary, write_outputs, PictureArgs};
+use crate::commands::render::finish_picture;
+use crate::{check_outputs, prepare, spinner, PictureArgs};
 use clap::Args;
 use std::path::PathBuf;
 use strata::error::Result;
@@ -26,13 +27,5 @@ pub fn reference(a: ReferenceArgs) -> Result<()> {
     let rendered = strata::reference::render(&scene, &options);
     busy.finish_and_clear();
     let (image, stats) = rendered?;
-    write_outputs(
-        &image,
-        &stats,
-        options.frame.effect,
-        &a.output,
-        a.stats.as_deref(),
-    )?;
-    summary(&stats, &a.output, options.frame.kbuffer.tail);
-    Ok(())
+    finish_picture(&image, &stats, &options, &a.output, a.stats.as_deref())
 }

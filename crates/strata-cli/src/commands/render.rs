@@ -27,6 +27,19 @@ pub struct RenderArgs {
     pub frames: Option<String>,
 }
 
+/// Writes a picture and its statistics (all or nothing), then prints its summary.
+pub fn finish_picture(
+    image: &strata::LinearImage,
+    stats: &FrameStats,
+    options: &strata::RenderOptions,
+    output: &Path,
+    stats_path: Option<&Path>,
+) -> Result<()> {
+    write_outputs(image, stats, options.frame.effect, output, stats_path)?;
+    summary(stats, output, options.frame.kbuffer.tail);
+    Ok(())
+}
+
 pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     let ms = stats
         .gpu_ms_total
@@ -132,15 +145,7 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
     busy.finish_and_clear();
     let (image, mut stats) = rendered?;
     stats.method_choice = a.method.choice();
-    write_outputs(
-        &image,
-        &stats,
-        options.frame.effect,
-        &a.output,
-        a.stats.as_deref(),
-    )?;
-    summary(&stats, &a.output, options.frame.kbuffer.tail);
-    Ok(())
+    finish_picture(&image, &stats, &options, &a.output, a.stats.as_deref())
 }
 
 /// The frames of `--frames A..B` or `A..=B`.
