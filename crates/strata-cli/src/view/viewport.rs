@@ -91,8 +91,8 @@ impl Viewport {
         let background = screen_pipeline(
             gpu,
             "strata.view.background",
-            &module,
-            ("vs_fullscreen", "fs_background"),
+            (&module, "vs_fullscreen"),
+            (&module, "fs_background"),
             &[&layout],
             &[Some(TARGET_FORMAT.into())],
             None,
@@ -362,8 +362,8 @@ impl Blit {
         let pipeline = screen_pipeline(
             gpu,
             "strata.view.blit",
-            &module,
-            ("vs_fullscreen", "fs_blit"),
+            (&module, "vs_fullscreen"),
+            (&module, "fs_blit"),
             &[&layout],
             &[Some(format.into())],
             None,

@@ -1,3 +1,5 @@
+#define_import_path strata::color
+
 // Colors: the sRGB transfer functions (the one WGSL copy; the Rust one is in scene/mod.rs) and
 // the per-pixel result every resolve writes and the present pass reads. No bindings.
 // Keep `Resolved` in sync with `Resolved` in crates/strata/src/frame/mod.rs.
@@ -6,9 +8,9 @@ struct Resolved {
     // Premultiplied linear color, alpha = 1 − transmittance.
     color: vec4<f32>,
     count: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 fn linear_to_srgb(c: f32) -> f32 {

@@ -1,3 +1,8 @@
+#define_import_path strata::composite
+#import strata::scene::{EFFECT_TRANSLUCENCY, frame, materials, tag_prim, triangle_materials}
+#import strata::fragment::{Fragment, fragment_color}
+#import strata::color::{Resolved}
+
 // The shared resolve: turns a pixel's fragments, visited in depth order, into a color.
 // Front-to-back:  C += T·α·c; T *= (1 − α), with Beer–Lambert attenuation exp(−σ·d) over each
 // gap between consecutive fragments for the translucency effect. Back-to-front (dual peeling's

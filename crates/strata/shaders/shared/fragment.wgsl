@@ -1,3 +1,5 @@
+#define_import_path strata::fragment
+
 // The fragment record every multi-fragment method stores: 16 bytes.
 // depth: window-space z; tag: primitive index << 1 | front-facing bit; color as two f16 pairs.
 // Keep in sync with `Fragment` in crates/strata/src/resolve/mod.rs. No bindings: applications'

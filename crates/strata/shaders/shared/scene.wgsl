@@ -1,3 +1,6 @@
+#define_import_path strata::scene
+#import strata::fragment::{Fragment, fragment_new}
+
 // Scene bindings (group 0), the vertex stage every capture pass shares, and shading.
 // Keep in sync with `FrameUniforms`, `GpuVertex`, `GpuMaterial`, `GpuLight` in Rust
 // (crates/strata/src/render/uniforms.rs and scene/mod.rs).
@@ -23,8 +26,8 @@ struct Frame {
     // With --msaa: samples per pixel, each fragment's tag then carries their coverage mask
     // (see `fragment_covering`); 0 single-sampled.
     coverage_bits: u32,
-    _pad1: u32,
-    _pad2: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 struct Material {

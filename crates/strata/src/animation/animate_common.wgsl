@@ -1,3 +1,5 @@
+#define_import_path strata::animation::animate_common
+
 // Shared by the animation stages (object transforms, moved vertices).
 // Keep in sync with `AnimationParams` and `GpuMotion` in crates/strata/src/animation/mod.rs.
 
@@ -10,9 +12,9 @@ struct AnimationParams {
     grid_x: u32,
     // 1 when the moved vertices' triangle centroids are also written (for --order).
     write_centroids: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 // One object's motion: its object-space mesh scaled by `scale` and carried along the orbit
@@ -27,8 +29,8 @@ struct Motion {
     phase: f32,
     scale: f32,
     moving: u32,
-    _pad0: u32,
-    _pad1: u32,
+    pad_a: u32,
+    pad_b: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: AnimationParams;

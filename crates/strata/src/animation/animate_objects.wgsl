@@ -1,3 +1,6 @@
+#define_import_path strata::animation::animate_objects
+#import strata::animation::animate_common::{Motion, params, thread_index}
+
 // One thread per object: its transform at this frame's time, and the transform that carries a
 // point of the object from where it is now to where it was in the previous frame (temporal
 // culling reprojects with it).

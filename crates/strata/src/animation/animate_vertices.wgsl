@@ -1,3 +1,6 @@
+#define_import_path strata::animation::animate_vertices
+#import strata::animation::animate_common::{params, thread_index}
+
 // One thread per triangle of one chunk (the bindings below start at the chunk's first
 // triangle): its three rest vertices through its object's transform into the scene's vertex
 // buffer (`GpuVertex`: position, normal), and with --order its centroid.

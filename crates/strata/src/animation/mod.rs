@@ -21,13 +21,15 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
+use crate::gpu::shader::{Library, Stage};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::scene::{ObjectMotion, Scene};
 
-const COMMON: &str = include_str!("animate_common.wgsl");
 const OBJECTS: &str = include_str!("animate_objects.wgsl");
 const VERTICES: &str = include_str!("animate_vertices.wgsl");
+/// The animation's WGSL modules (`strata::animation::…`).
+pub const LIBRARY: Library = &[include_str!("animate_common.wgsl"), OBJECTS, VERTICES];
 
 /// Threads per workgroup of both passes.
 const WORKGROUP: u32 = 64;
@@ -183,12 +185,10 @@ impl SceneAnimation {
         };
         let models = transforms("models");
         let to_previous = transforms("to_previous");
-        let module = |name: &str, stage: &str| {
-            gpu.device
-                .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(&format!("strata.animation.{name}")),
-                    source: wgpu::ShaderSource::Wgsl([COMMON, stage].join("\n").into()),
-                })
+        let module = |name: &str, stage: &'static str| {
+            Stage::new(format!("strata.animation.{name}"), stage)
+                .with(LIBRARY)
+                .module(&gpu.device)
         };
         let objects_layout = binding::layout(
             &gpu.device,

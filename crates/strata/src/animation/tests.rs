@@ -21,7 +21,7 @@ fn animation_structs_match_wgsl() {
 #[test]
 fn animation_stages_validate() {
     for (label, stage) in [("objects", OBJECTS), ("vertices", VERTICES)] {
-        crate::gpu::shader::validate_source(label, &[COMMON, stage].join("\n"));
+        crate::gpu::shader::validate(&crate::gpu::shader::Stage::new(label, stage).with(LIBRARY));
     }
 }
 

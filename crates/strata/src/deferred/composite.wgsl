@@ -1,3 +1,7 @@
+#define_import_path strata::deferred::composite
+#import strata::scene::{SHADING_UNLIT, blinn_phong_terms, frame, materials, view_direction}
+#import strata::deferred::deferred_common::{ambient_occlusion, gbuffer_depth, light_diffuse, light_specular, params, read_surface}
+
 // Composite: albedo × (ambient · occlusion + diffuse) + specular per covered pixel, unlit
 // materials their albedo; the headlight (a scene without lights) is evaluated here. Uncovered
 // pixels are left clear for the transparent method and the tone map's background.

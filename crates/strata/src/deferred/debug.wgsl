@@ -1,3 +1,9 @@
+#define_import_path strata::deferred::debug
+#import strata::scene::{frame}
+#import strata::color::{srgb_to_linear}
+#import strata::composite::{view_distance}
+#import strata::deferred::deferred_common::{MAX_EXPONENT, ambient_occlusion, decode_normal, exact_normal, gbuffer_albedo, gbuffer_depth, gbuffer_normal, light_diffuse, light_specular, params}
+
 // G-buffer debug views (seed 004's Figs. 4–6 and 9), written over the lit frame as display
 // values (sRGB-decoded so the PNG shows them as they are): albedo; the view-space normal as
 // n·0.5 + 0.5; the specular exponent / 128; the material id as a hashed color; the stored depth

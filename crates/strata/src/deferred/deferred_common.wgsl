@@ -1,3 +1,6 @@
+#define_import_path strata::deferred::deferred_common
+#import strata::scene::{frame}
+
 // What every deferred stage shares: the group-1 bindings (each pass's layout names the subset it
 // reads, so no pass binds a target it renders to), the normal encodings, and reading a G-buffer
 // pixel back into a surface. Keep `DeferredParams` in sync with `DeferredParams` in

@@ -1,3 +1,6 @@
+#define_import_path strata::deferred::forward
+#import strata::scene::{SceneVarying, shade}
+
 // Forward pipeline's opaque pass: every opaque fragment that passes the depth test is shaded
 // with every light of the scene (the loop in `shade`), seed 004's comparison. Output alpha 1
 // marks covered pixels for the tone map.

@@ -1,3 +1,7 @@
+#define_import_path strata::deferred::gbuffer
+#import strata::scene::{SceneVarying, facing_normal, frame, materials, view_direction}
+#import strata::deferred::deferred_common::{MAX_EXPONENT, encode_normal}
+
 // G-buffer pass (seed 004's compressed layout): the opaque surfaces, depth-tested, write albedo
 // and material id, the encoded view-space normal with the specular exponent, and depth. Normals
 // turn towards the viewer first (two-sided lighting, as `shade`).

@@ -1,3 +1,7 @@
+#define_import_path strata::deferred::lighting
+#import strata::scene::{frame, light_terms, lights, view_direction}
+#import strata::deferred::deferred_common::{gbuffer_depth, params, read_surface, visible_lights, volume_vertices}
+
 // Lighting pass: each visible light draws its volume — a sphere for point lights (and spots with
 // wide cones), a cone for spots, a full-screen triangle for directional lights and for volumes
 // reaching past the far plane. Volumes draw their back faces with depth test GREATER_EQUAL

@@ -58,8 +58,9 @@ use crate::frame::uniforms::{self, GpuLight};
 use crate::frame::RenderOptions;
 pub use crate::frame::{GbufferView, LightingStats, NormalEncoding, Tonemap};
 use crate::gpu::binding::{self, Slot};
+use crate::gpu::shader::{Library, Stage};
 use crate::gpu::timing::Timer;
-use crate::gpu::{shader, Gpu};
+use crate::gpu::Gpu;
 pub use crate::scene::Pipeline;
 use crate::scene::{Camera, Scene};
 
@@ -145,9 +146,26 @@ const DEBUG_SLOTS: [(u32, Slot); 8] = [
 ];
 const TONEMAP_SLOTS: [(u32, Slot); 2] = [(0, Slot::Uniform), (11, Slot::TextureFloat)];
 
-/// A stage's WGSL: the shared files, the deferred bindings and helpers, the stage.
-pub fn stage_source(stage: &str) -> String {
-    [include_str!("deferred_common.wgsl"), stage].join("\n")
+/// The deferred bindings and helpers, and the full-screen triangle's vertex stage.
+const COMMON_WGSL: &str = include_str!("deferred_common.wgsl");
+
+/// The pipeline's WGSL modules (`strata::deferred::…`): the deferred bindings and helpers, and
+/// the stages.
+pub const LIBRARY: Library = &[
+    COMMON_WGSL,
+    include_str!("gbuffer.wgsl"),
+    include_str!("forward.wgsl"),
+    include_str!("lighting.wgsl"),
+    include_str!("composite.wgsl"),
+    include_str!("ssao.wgsl"),
+    include_str!("debug.wgsl"),
+    include_str!("tonemap.wgsl"),
+];
+
+/// The pipeline's stage `index` in [`STAGES`].
+pub fn stage(index: usize) -> Stage {
+    let (label, source) = STAGES[index];
+    Stage::new(label, source).with(LIBRARY)
 }
 
 pub const STAGES: [(&str, &str); 7] = [
@@ -161,8 +179,7 @@ pub const STAGES: [(&str, &str); 7] = [
 ];
 
 fn module(gpu: &Gpu, index: usize) -> wgpu::ShaderModule {
-    let (label, stage) = STAGES[index];
-    shader::module(&gpu.device, label, &stage_source(stage))
+    stage(index).module(&gpu.device)
 }
 
 /// Per-pixel targets, re-made when the size changes.
@@ -256,6 +273,7 @@ struct Passes {
     composite: wgpu::RenderPipeline,
     debug: wgpu::RenderPipeline,
     tonemap_module: wgpu::ShaderModule,
+    fullscreen_module: wgpu::ShaderModule,
     tonemap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
     layouts: Layouts,
 }
@@ -306,6 +324,8 @@ impl Passes {
         let modules: Vec<wgpu::ShaderModule> = (0..STAGES.len()).map(|i| module(gpu, i)).collect();
         let [gbuffer_m, forward_m, lighting_m, composite_m, ssao_m, debug_m, tonemap_m] =
             <[wgpu::ShaderModule; 7]>::try_from(modules).expect("seven stages");
+        // The full-screen triangle's vertex stage (deferred_common.wgsl as the top level).
+        let fullscreen_m = Stage::new("strata.deferred.fullscreen", COMMON_WGSL).module(device);
         let write_less = depth_state(true, wgpu::CompareFunction::Less);
         let additive = wgpu::BlendState {
             color: wgpu::BlendComponent {
@@ -324,8 +344,8 @@ impl Passes {
             screen_pipeline(
                 gpu,
                 label,
-                &lighting_m,
-                (entry, "fs_light"),
+                (&lighting_m, entry),
+                (&lighting_m, "fs_light"),
                 &[frame_layout, &layouts.lighting],
                 &light_targets,
                 Some(wgpu::Face::Front),
@@ -336,8 +356,8 @@ impl Passes {
             screen_pipeline(
                 gpu,
                 label,
-                module,
-                ("vs_fullscreen", entry),
+                (&fullscreen_m, "vs_fullscreen"),
+                (module, entry),
                 &[frame_layout, layout],
                 &[target(format, None)],
                 None,
@@ -395,8 +415,8 @@ impl Passes {
             full_screen_lights: screen_pipeline(
                 gpu,
                 "strata.deferred.lighting.full_screen",
-                &lighting_m,
-                ("vs_fullscreen_light", "fs_light"),
+                (&lighting_m, "vs_fullscreen_light"),
+                (&lighting_m, "fs_light"),
                 &[frame_layout, &layouts.lighting],
                 &light_targets,
                 None,
@@ -417,6 +437,7 @@ impl Passes {
                 HDR_FORMAT,
             ),
             tonemap_module: tonemap_m,
+            fullscreen_module: fullscreen_m,
             tonemap: HashMap::new(),
             layouts,
         }
@@ -889,13 +910,14 @@ impl LitFrame {
     ) {
         let gpu = &self.gpu;
         let (module, layouts) = (&self.passes.tonemap_module, &self.passes.layouts);
+        let fullscreen = &self.passes.fullscreen_module;
         let frame_layout = &self.scene.frame_layout;
         let pipeline = self.passes.tonemap.entry(format).or_insert_with(|| {
             screen_pipeline(
                 gpu,
                 "strata.tonemap",
-                module,
-                ("vs_fullscreen", "fs_tonemap"),
+                (fullscreen, "vs_fullscreen"),
+                (module, "fs_tonemap"),
                 &[frame_layout, &layouts.tonemap],
                 &[target_state(format)],
                 None,

@@ -1,3 +1,8 @@
+#define_import_path strata::deferred::ssao
+#import strata::scene::{frame}
+#import strata::composite::{view_distance}
+#import strata::deferred::deferred_common::{ambient_occlusion_raw, gbuffer_depth, params, read_surface}
+
 // Screen-space ambient occlusion from the G-buffer: 16 samples in the hemisphere around each
 // surface's normal (a fixed kernel, denser near the point, rotated per pixel in a 4×4 pattern),
 // each projected to the screen and occluded when the G-buffer surface there lies in front of it

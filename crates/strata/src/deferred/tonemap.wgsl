@@ -1,3 +1,7 @@
+#define_import_path strata::deferred::tonemap
+#import strata::scene::{background_at}
+#import strata::deferred::deferred_common::{hdr_color, params}
+
 // Tone map: the lit frame (premultiplied, alpha = coverage) OVER the picture's background, then
 // the tone map the options name; the CPU twin is `encoding::tone_map`.
 

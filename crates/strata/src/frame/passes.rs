@@ -20,7 +20,7 @@ pub fn capture_pipeline(
     capture_pipeline_with(
         gpu,
         label,
-        (module, module),
+        module,
         fragment_entry,
         layouts,
         targets,
@@ -29,13 +29,14 @@ pub fn capture_pipeline(
     )
 }
 
-/// [`capture_pipeline`] with the fragment stage from its own module (a passthrough one),
-/// rasterizing `samples` samples per pixel (`--msaa`; the targets must have as many).
+/// [`capture_pipeline`] rasterizing `samples` samples per pixel (`--msaa`; the targets must have
+/// as many). The vertex stage is the scene's ([`Gpu::scene_vertex_module`]); the fragment stage
+/// comes from `fragment_module` (a stage's module, or its passthrough twin).
 #[allow(clippy::too_many_arguments)]
 pub fn capture_pipeline_with(
     gpu: &Gpu,
     label: &str,
-    (module, fragment_module): (&wgpu::ShaderModule, &wgpu::ShaderModule),
+    fragment_module: &wgpu::ShaderModule,
     fragment_entry: &str,
     layouts: &[&wgpu::BindGroupLayout],
     targets: &[Option<wgpu::ColorTargetState>],
@@ -48,7 +49,7 @@ pub fn capture_pipeline_with(
             label: Some(label),
             layout: Some(&layout),
             vertex: wgpu::VertexState {
-                module,
+                module: gpu.scene_vertex_module(),
                 entry_point: Some("vs_scene"),
                 compilation_options: Default::default(),
                 buffers: &[Some(crate::scene::GpuVertex::layout())],

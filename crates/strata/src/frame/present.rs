@@ -7,7 +7,8 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu};
+use crate::gpu::shader::Stage;
+use crate::gpu::Gpu;
 
 /// Keep in sync with `PresentParams` in present.wgsl.
 #[repr(C)]
@@ -41,14 +42,7 @@ impl Present {
             "strata.present.layout",
             &[Slot::Uniform, Slot::Storage, Slot::Storage],
         );
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("strata.present"),
-            source: wgpu::ShaderSource::Wgsl(
-                [shader::COLOR, include_str!("present.wgsl")]
-                    .join("\n")
-                    .into(),
-            ),
-        });
+        let module = Stage::new("strata.present", include_str!("present.wgsl")).module(device);
         let lut: Vec<u32> = (0..256)
             .map(|i| {
                 let [r, g, b] = super::colormap::colormap(i as f32 / 255.0);

@@ -1,7 +1,10 @@
+#define_import_path strata::frame::present
+#import strata::color::{Resolved, srgb_to_linear}
+
 // The present pass: one full-screen triangle that blends each pixel's resolved color OVER the
 // application's color target (premultiplied "over": src + (1 − src.a)·dst, in linear space; an
 // sRGB target encodes after blending). The complexity effect draws an opaque heatmap instead.
-// Keep `PresentParams` in sync with `PresentParams` in present.rs. color.wgsl is prepended.
+// Keep `PresentParams` in sync with `PresentParams` in present.rs.
 
 struct PresentParams {
     size: vec2<u32>,

@@ -22,6 +22,7 @@ use serde::Serialize;
 use wgpu::util::DeviceExt;
 
 use crate::error::{Error, Result};
+use crate::gpu::shader::Stage;
 use crate::gpu::Gpu;
 
 const SHADER: &str = include_str!("bandwidth.wgsl");
@@ -190,12 +191,7 @@ impl<'g> Probes<'g> {
                 Slot::StorageRw,
             ],
         );
-        let module = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("strata.bandwidth"),
-                source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-            });
+        let module = Stage::new("strata.bandwidth", SHADER).module(&gpu.device);
         let pipeline = |entry: &str| {
             let layout = binding::pipeline_layout(&gpu.device, "strata.bandwidth", &[&layout]);
             gpu.device
@@ -372,7 +368,9 @@ mod tests {
     #[test]
     fn probe_params_layout_matches_wgsl() {
         assert_eq!(std::mem::size_of::<ProbeParams>(), 16);
-        let module = naga::front::wgsl::parse_str(SHADER).expect("bandwidth.wgsl parses");
+        let module = Stage::new("bandwidth", SHADER)
+            .compose()
+            .expect("bandwidth.wgsl composes");
         let ty = module
             .types
             .iter()
@@ -387,7 +385,7 @@ mod tests {
             }
             other => panic!("ProbeParams is {other:?}"),
         }
-        crate::gpu::shader::validate_source("bandwidth", SHADER);
+        crate::gpu::shader::validate(&Stage::new("bandwidth", SHADER));
     }
 
     /// Small probes on the test adapter: each checks its own result, so a copy that moved the

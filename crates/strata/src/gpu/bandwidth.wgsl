@@ -1,3 +1,5 @@
+#define_import_path strata::gpu::bandwidth
+
 // The device probes of `bench bandwidth`: a streaming copy through the shader cores and atomic
 // increments at three contention levels. Every loop is bounded by the probe's own count.
 

@@ -43,6 +43,9 @@ pub struct Gpu {
     pub info: wgpu::AdapterInfo,
     pub features: wgpu::Features,
     pub limits: wgpu::Limits,
+    /// The scene's vertex stage (`vs_scene`), composed once per device: every geometry pass
+    /// draws with it, whatever module its fragment stage comes from.
+    scene_vertex: std::sync::OnceLock<wgpu::ShaderModule>,
 }
 
 /// Runs `make` (pipelines, layouts, buffers: setup) under a validation error scope, so that what
@@ -196,6 +199,7 @@ impl Gpu {
             info,
             features,
             limits,
+            scene_vertex: Default::default(),
         })
     }
 
@@ -211,7 +215,15 @@ impl Gpu {
             limits: device.limits(),
             device,
             queue,
+            scene_vertex: Default::default(),
         }
+    }
+
+    /// The module of the scene's vertex stage `vs_scene` (shaders/shared/scene.wgsl).
+    pub fn scene_vertex_module(&self) -> &wgpu::ShaderModule {
+        self.scene_vertex.get_or_init(|| {
+            shader::Stage::new("strata.scene.vertex", shader::SCENE).module(&self.device)
+        })
     }
 
     /// A 2D texture of one mip level and sample.

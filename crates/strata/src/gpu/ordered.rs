@@ -20,6 +20,7 @@
 use std::borrow::Cow;
 use std::collections::HashMap;
 
+use crate::gpu::shader::Stage;
 use crate::gpu::Gpu;
 
 const OP_NAME: u32 = 5;
@@ -190,17 +191,18 @@ pub fn with_ordering(words: &[u32]) -> Result<(Vec<u32>, OrderedAtomics), String
 /// An entry point's name and workgroup size (zero for render stages).
 pub type EntryPoint = (String, [u32; 3]);
 
-/// Compiles composed WGSL to SPIR-V the way wgpu does for Vulkan, with the ordering its
-/// `acquire_*` and `release_*` functions ask for.
-pub fn spirv(label: &str, source: &str) -> Result<(Vec<u32>, Vec<EntryPoint>), String> {
-    let module = naga::front::wgsl::parse_str(source)
-        .map_err(|e| format!("{label}: {}", e.emit_to_string(source)))?;
+/// Compiles a composed stage to SPIR-V the way wgpu does for Vulkan, with the ordering its
+/// `acquire_*` and `release_*` functions ask for (naga_oil keeps an imported function's name
+/// as the prefix of its decorated one).
+pub fn spirv(stage: &Stage) -> Result<(Vec<u32>, Vec<EntryPoint>), String> {
+    let label = &stage.label;
+    let module = stage.compose()?;
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::all(),
     )
     .validate(&module)
-    .map_err(|e| format!("{label}: {}", e.emit_to_string(source)))?;
+    .map_err(|e| format!("{label}: {e}"))?;
     let restrict = naga::proc::BoundsCheckPolicy::Restrict;
     let options = naga::back::spv::Options {
         bounds_check_policies: naga::proc::BoundsCheckPolicies {
@@ -228,14 +230,15 @@ pub fn spirv(label: &str, source: &str) -> Result<(Vec<u32>, Vec<EntryPoint>), S
     Ok((words, entries))
 }
 
-/// A passthrough shader module of `source` (composed WGSL) with acquire/release atomics, or
-/// `None` where the adapter cannot take one or the compilation fails (the caller then uses the
-/// WGSL module: relaxed atomics).
-pub fn module(gpu: &Gpu, label: &str, source: &str) -> Option<wgpu::ShaderModule> {
+/// A passthrough shader module of `stage` with acquire/release atomics, or `None` where the
+/// adapter cannot take one or the compilation fails (the caller then uses the stage's own
+/// module: relaxed atomics).
+pub fn module(gpu: &Gpu, stage: &Stage) -> Option<wgpu::ShaderModule> {
     if !available(gpu) {
         return None;
     }
-    let (words, entries) = match spirv(label, source) {
+    let label = stage.label.as_str();
+    let (words, entries) = match spirv(stage) {
         Ok(r) => r,
         Err(e) => {
             log::warn!("{e}; using relaxed atomics");
@@ -269,6 +272,14 @@ pub fn module(gpu: &Gpu, label: &str, source: &str) -> Option<wgpu::ShaderModule
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::methods::kbuffer::{definitions, Layout, LIBRARY, SLOTS_ENTRIES_WGSL};
+
+    /// The slot methods' capture stage.
+    fn slots_capture() -> Stage {
+        Stage::new("slots.capture", SLOTS_ENTRIES_WGSL)
+            .with(LIBRARY)
+            .defs(&definitions(Layout::Slots, 1, false))
+    }
 
     /// The atomics of a module and the semantics operand of each (the word's value is an id).
     fn atomics(words: &[u32]) -> Vec<(u32, Vec<u32>)> {
@@ -295,9 +306,7 @@ mod tests {
     /// with a release add and read with an acquire load; every slot access stays relaxed.
     #[test]
     fn only_the_lock_and_publication_words_are_ordered() {
-        let source =
-            crate::gpu::shader::with_shared(&crate::methods::kbuffer::slots_capture_source());
-        let module = naga::front::wgsl::parse_str(&source).unwrap();
+        let module = slots_capture().compose().unwrap();
         let info = naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
             naga::valid::Capabilities::all(),
@@ -313,7 +322,7 @@ mod tests {
         let has = |name: &str, op: u32, order: Order| {
             ordered
                 .iter()
-                .any(|(n, o, r)| n == name && *o == op && *r == order)
+                .any(|(n, o, r)| n.starts_with(name) && *o == op && *r == order)
         };
         assert!(
             has("acquire_lock", OP_ATOMIC_EXCHANGE, Order::Acquire),
@@ -342,7 +351,7 @@ mod tests {
         assert_eq!(patched.len(), words.len() + 8);
         assert_eq!(patched[3], bound + 2);
         // What the device compiles is the same rewrite.
-        let (compiled, _) = spirv("test", &source).unwrap();
+        let (compiled, _) = spirv(&slots_capture()).unwrap();
         assert_eq!(
             atomics(&compiled).iter().filter(|a| ordered_ids(a)).count(),
             ordered.len()
@@ -355,7 +364,7 @@ mod tests {
         let source = "@group(0) @binding(0) var<storage, read_write> w: array<atomic<u32>>;\n\
             fn acquire_wrong(i: u32) { atomicStore(&w[i], 1u); }\n\
             @compute @workgroup_size(1) fn main() { acquire_wrong(0u); }";
-        let err = spirv("test", source).unwrap_err();
+        let err = spirv(&Stage::new("test", source)).unwrap_err();
         assert!(
             err.contains("acquire_wrong") && err.contains("store"),
             "{err}"

@@ -4,13 +4,14 @@
 
 use crate::gpu::{binding, Gpu};
 
-/// A pipeline drawing `vertex_entry` (no vertex buffers) into `targets`.
+/// A pipeline drawing the vertex stage `vertex` (module and entry point; no vertex buffers) and
+/// the fragment stage `fragment` into `targets`.
 #[allow(clippy::too_many_arguments)]
 pub fn screen_pipeline(
     gpu: &Gpu,
     label: &str,
-    module: &wgpu::ShaderModule,
-    (vertex_entry, fragment_entry): (&str, &str),
+    (vertex_module, vertex_entry): (&wgpu::ShaderModule, &str),
+    (fragment_module, fragment_entry): (&wgpu::ShaderModule, &str),
     layouts: &[&wgpu::BindGroupLayout],
     targets: &[Option<wgpu::ColorTargetState>],
     cull_mode: Option<wgpu::Face>,
@@ -22,7 +23,7 @@ pub fn screen_pipeline(
             label: Some(label),
             layout: Some(&layout),
             vertex: wgpu::VertexState {
-                module,
+                module: vertex_module,
                 entry_point: Some(vertex_entry),
                 compilation_options: Default::default(),
                 buffers: &[],
@@ -34,7 +35,7 @@ pub fn screen_pipeline(
             depth_stencil: depth,
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
-                module,
+                module: fragment_module,
                 entry_point: Some(fragment_entry),
                 compilation_options: Default::default(),
                 targets,

@@ -1,56 +1,376 @@
-//! WGSL composition. WGSL has no includes, so a stage's module is the shared sources it names
-//! followed by the stage file; naga validates the result in tests.
+//! WGSL composition with naga_oil.
+//!
+//! Every WGSL file is a module: its first line names it (`#define_import_path strata::…`) and
+//! its `#import` lines name what it uses from the modules below it, so no file depends on the
+//! order in which sources are put together. A [`Stage`] is one top-level source (the file with
+//! the entry points), the [`Library`]s its imports come from, and its shader definitions
+//! ([`Defs`]): `#ifdef NAME` picks a variant (multisampled targets, 64-bit keys, coherent
+//! storage, a storage layout's accessors) and `#{NAME}` places a number (bind group indices,
+//! array sizes). Composition happens on the CPU, once per pipeline; the result goes to wgpu as
+//! naga IR, and tests compose every stage, so shader errors fail without a GPU.
 
-/// Shared WGSL, in dependency order. Keep the Rust twins in sync (see each file's header).
+use std::borrow::Cow;
+use std::collections::{BTreeMap, HashMap};
+use std::sync::{LazyLock, Mutex};
+
+use naga_oil::compose::{
+    get_preprocessor_data, ComposableModuleDescriptor, Composer, NagaModuleDescriptor,
+    ShaderDefValue, ShaderLanguage, ShaderType,
+};
+
+/// The WGSL modules of a layer or a method family: each entry is one file's source.
+pub type Library = &'static [&'static str];
+
 pub const SCENE: &str = include_str!("../../shaders/shared/scene.wgsl");
 pub const COLOR: &str = include_str!("../../shaders/shared/color.wgsl");
 pub const FRAGMENT: &str = include_str!("../../shaders/shared/fragment.wgsl");
 pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
 
-/// Everything a capture or resolve stage may call: scene bindings (group 0), the vertex stage,
-/// shading, the fragment record and the compositing state machine.
-pub fn with_shared(stage: &str) -> String {
-    [SCENE, COLOR, FRAGMENT, COMPOSITE, stage].join("\n")
-}
+/// What every stage may import: scene bindings (group 0), the vertex stage and shading
+/// (`strata::scene`), colors (`strata::color`), the fragment record (`strata::fragment`) and the
+/// compositing state machine (`strata::composite`).
+pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE];
 
-/// A compute or fragment stage that declares its render targets' bindings as `TargetTexture`
-/// and reads them with `textureLoad(t, pixel, i)` (`i` the mip level, 0, single-sampled; the
-/// sample multisampled): the alias it needs for `samples` per pixel, then the stage.
-pub fn with_target_samples(source: &str, samples: u32) -> String {
-    format!("alias TargetTexture = {};\n{source}", texture_type(samples))
-}
+/// The shader definitions a stage is composed with.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Defs(BTreeMap<String, ShaderDefValue>);
 
-/// The WGSL type of a sampled float target with `samples` per pixel (`--msaa`).
-pub fn texture_type(samples: u32) -> &'static str {
-    if samples > 1 {
-        "texture_multisampled_2d<f32>"
-    } else {
-        "texture_2d<f32>"
+impl Defs {
+    /// `#ifdef name` holds.
+    pub fn flag(mut self, name: &str) -> Defs {
+        self.0.insert(name.to_owned(), ShaderDefValue::Bool(true));
+        self
+    }
+
+    /// `#ifdef name` holds when `on`.
+    pub fn flag_if(self, name: &str, on: bool) -> Defs {
+        if on {
+            self.flag(name)
+        } else {
+            self
+        }
+    }
+
+    /// `#{name}` is `value`.
+    pub fn value(mut self, name: &str, value: u32) -> Defs {
+        self.0.insert(name.to_owned(), ShaderDefValue::UInt(value));
+        self
+    }
+
+    /// These definitions and `other`'s (which win where both name one).
+    pub fn merged(mut self, other: &Defs) -> Defs {
+        self.0.extend(other.0.iter().map(|(k, v)| (k.clone(), *v)));
+        self
+    }
+
+    fn map(&self) -> std::collections::HashMap<String, ShaderDefValue> {
+        self.0.iter().map(|(k, v)| (k.clone(), *v)).collect()
     }
 }
 
-pub fn module(device: &wgpu::Device, label: &str, stage: &str) -> wgpu::ShaderModule {
-    device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(with_shared(stage).into()),
-    })
+/// The multisampled-target definition: stages that declare their targets as `TargetTexture`
+/// read them with `textureLoad(t, pixel, i)` (`i` the mip level, 0, single-sampled; the sample
+/// multisampled).
+pub fn target_samples(samples: u32) -> Defs {
+    Defs::default().flag_if("MULTISAMPLED", samples > 1)
 }
 
-/// Validates a composed module with naga (used by tests, so shader errors fail without a GPU).
-#[cfg(test)]
-pub fn validate(label: &str, stage: &str) {
-    validate_source(label, &with_shared(stage));
+/// A shader stage to compose: a top-level source, the libraries its imports come from (the
+/// shared one always), its definitions, and modules made for it alone (registered under their
+/// own names, replacing an earlier module of that name).
+#[derive(Clone, Debug)]
+pub struct Stage {
+    pub label: String,
+    source: Cow<'static, str>,
+    libraries: Vec<Library>,
+    made: Vec<String>,
+    defs: Defs,
 }
 
-/// Validates a complete WGSL module with naga (tests).
-#[cfg(test)]
-pub fn validate_source(label: &str, src: &str) {
-    let module = naga::front::wgsl::parse_str(src)
-        .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(src)));
+impl Stage {
+    pub fn new(label: impl Into<String>, source: impl Into<Cow<'static, str>>) -> Stage {
+        Stage {
+            label: label.into(),
+            source: source.into(),
+            libraries: vec![SHARED],
+            made: Vec::new(),
+            defs: Defs::default(),
+        }
+    }
+
+    /// Imports may also come from `library`.
+    pub fn with(mut self, library: Library) -> Stage {
+        if !self.libraries.iter().any(|l| std::ptr::eq(*l, library)) {
+            self.libraries.push(library);
+        }
+        self
+    }
+
+    /// Adds a module made at run time (a generated bridge), named by its own
+    /// `#define_import_path`.
+    pub fn with_module(mut self, source: String) -> Stage {
+        self.made.push(source);
+        self
+    }
+
+    /// Composed with `defs` too.
+    pub fn defs(mut self, defs: &Defs) -> Stage {
+        self.defs = self.defs.merged(defs);
+        self
+    }
+
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+
+    pub fn libraries(&self) -> &[Library] {
+        &self.libraries
+    }
+
+    pub fn definitions(&self) -> &Defs {
+        &self.defs
+    }
+
+    /// The module path the top-level source names itself by, if any.
+    pub fn module_name(&self) -> Option<String> {
+        get_preprocessor_data(&self.source).0
+    }
+
+    /// The stage as one naga module, or the composer's message.
+    pub fn compose(&self) -> Result<naga::Module, String> {
+        let mut library = LIBRARY.lock().unwrap_or_else(|e| e.into_inner());
+        library.compose(self)
+    }
+
+    /// The stage's shader module. strata's stages compose (tested), so a failure is a bug in
+    /// strata and panics with the composer's message.
+    pub fn module(&self, device: &wgpu::Device) -> wgpu::ShaderModule {
+        let module = self
+            .compose()
+            .unwrap_or_else(|e| panic!("{}: {e}", self.label));
+        device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(&self.label),
+            source: wgpu::ShaderSource::Naga(Cow::Owned(module)),
+        })
+    }
+
+    /// The composed stage written back as plain WGSL (for an application that concatenates it
+    /// into its own shader).
+    pub fn wgsl(&self) -> Result<String, String> {
+        let module = self.compose()?;
+        let info = validator()
+            .validate(&module)
+            .map_err(|e| format!("{}: {e}", self.label))?;
+        naga::back::wgsl::write_string(&module, &info, naga::back::wgsl::WriterFlags::empty())
+            .map_err(|e| format!("{}: {e}", self.label))
+    }
+}
+
+fn validator() -> naga::valid::Validator {
     naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::all(),
     )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(src)));
+}
+
+/// The process's composer and what it holds: naga_oil caches each module per set of
+/// definitions, so a module is parsed once however many stages import it.
+static LIBRARY: LazyLock<Mutex<ModuleLibrary>> = LazyLock::new(|| {
+    Mutex::new(ModuleLibrary {
+        composer: Composer::default().with_capabilities(naga::valid::Capabilities::all()),
+        sources: HashMap::new(),
+        headers: HashMap::new(),
+        module_defs: Defs::default(),
+    })
+});
+
+struct ModuleLibrary {
+    composer: Composer,
+    /// Each registered module's source, so that a made module of the same name replaces it.
+    sources: HashMap<String, String>,
+    /// The name and imports of each static library source, by address.
+    headers: HashMap<(usize, usize), (Option<String>, Vec<String>)>,
+    /// Definitions every module is registered with (none for strata's own composer, whose
+    /// stages give theirs when composed; an application's composer gets the stage's).
+    module_defs: Defs,
+}
+
+/// A static source's identity: its address and length.
+fn key(source: &str) -> (usize, usize) {
+    (source.as_ptr() as usize, source.len())
+}
+
+impl ModuleLibrary {
+    fn compose(&mut self, stage: &Stage) -> Result<naga::Module, String> {
+        let mut known: HashMap<String, &str> = HashMap::new();
+        for source in stage.libraries.iter().flat_map(|l| l.iter().copied()) {
+            if let Some(name) = self.name_of(source) {
+                known.insert(name, source);
+            }
+        }
+        for source in &stage.made {
+            let name = get_preprocessor_data(source)
+                .0
+                .ok_or_else(|| format!("{}: a made module names no import path", stage.label))?;
+            known.insert(name, source);
+        }
+        let (_, imports, _) = get_preprocessor_data(&stage.source);
+        for import in imports {
+            self.add(&import.import, &known, &stage.label, &mut Vec::new())?;
+        }
+        self.composer
+            .make_naga_module(NagaModuleDescriptor {
+                source: &stage.source,
+                file_path: &stage.label,
+                shader_type: ShaderType::Wgsl,
+                shader_defs: stage.defs.map(),
+                additional_imports: &[],
+            })
+            .map_err(|e| e.emit_to_string(&self.composer))
+    }
+
+    /// The module path a library source names itself by (its first line).
+    fn name_of(&mut self, source: &'static str) -> Option<String> {
+        self.headers_of(source).0.clone()
+    }
+
+    fn imports_of(&mut self, source: &str) -> Vec<String> {
+        match self.headers.get(&key(source)) {
+            Some((_, imports)) => imports.clone(),
+            None => get_preprocessor_data(source)
+                .1
+                .into_iter()
+                .map(|i| i.import)
+                .collect(),
+        }
+    }
+
+    /// A library source's name and imports, read once: library sources are static.
+    fn headers_of(&mut self, source: &'static str) -> &(Option<String>, Vec<String>) {
+        self.headers.entry(key(source)).or_insert_with(|| {
+            let (name, imports, _) = get_preprocessor_data(source);
+            (name, imports.into_iter().map(|i| i.import).collect())
+        })
+    }
+
+    /// Registers module `name` after the modules it imports. A module registered from another
+    /// source (a made module, or the library's after one) is replaced, and naga_oil drops the
+    /// modules that import it, which are then registered again.
+    fn add(
+        &mut self,
+        name: &str,
+        known: &HashMap<String, &str>,
+        label: &str,
+        path: &mut Vec<String>,
+    ) -> Result<(), String> {
+        if path.iter().any(|p| p == name) {
+            return Err(format!(
+                "{label}: modules import each other: {} → {name}",
+                path.join(" → ")
+            ));
+        }
+        let source = *known.get(name).ok_or_else(|| {
+            format!("{label}: no library given to the stage has the module {name}")
+        })?;
+        path.push(name.to_owned());
+        for import in self.imports_of(source) {
+            self.add(&import, known, label, path)?;
+        }
+        path.pop();
+        if self.composer.contains_module(name) {
+            if self.sources.get(name).is_some_and(|s| s == source) {
+                return Ok(());
+            }
+            self.composer.remove_composable_module(name);
+        }
+        let added = self
+            .composer
+            .add_composable_module(ComposableModuleDescriptor {
+                source,
+                file_path: name,
+                language: ShaderLanguage::Wgsl,
+                shader_defs: self.module_defs.map(),
+                ..Default::default()
+            })
+            .map(|_| ());
+        added.map_err(|e| e.emit_to_string(&self.composer))?;
+        self.sources.insert(name.to_owned(), source.to_string());
+        Ok(())
+    }
+}
+
+/// Registers `stage`'s top-level source (which must name itself with `#define_import_path`)
+/// and the modules it imports from the stage's libraries in an application's naga_oil
+/// `composer`, each with the stage's definitions, so that the application's shaders import it.
+/// Modules of the same names already there are replaced.
+pub fn add_to_composer(composer: &mut Composer, stage: &Stage) -> Result<(), String> {
+    let name = stage
+        .module_name()
+        .ok_or_else(|| format!("{}: the stage names no import path", stage.label))?;
+    let mut library = ModuleLibrary {
+        composer: std::mem::take(composer),
+        sources: HashMap::new(),
+        headers: HashMap::new(),
+        module_defs: stage.defs.clone(),
+    };
+    let mut known: HashMap<String, &str> = HashMap::new();
+    for source in stage.libraries.iter().flat_map(|l| l.iter().copied()) {
+        if let Some(module) = library.name_of(source) {
+            known.insert(module, source);
+        }
+    }
+    known.insert(name.clone(), &stage.source);
+    let added = library.add(&name, &known, &stage.label, &mut Vec::new());
+    *composer = library.composer;
+    added
+}
+
+/// Composes `stage` and validates the result with naga (tests: shader errors fail without a
+/// GPU).
+#[cfg(test)]
+pub fn validate(stage: &Stage) {
+    let module = stage
+        .compose()
+        .unwrap_or_else(|e| panic!("{}: {e}", stage.label));
+    validator()
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}: {e:?}", stage.label));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shared modules compose on their own, each as a stage's top level.
+    #[test]
+    fn shared_modules_compose() {
+        for (label, source) in [
+            ("scene", SCENE),
+            ("color", COLOR),
+            ("fragment", FRAGMENT),
+            ("composite", COMPOSITE),
+        ] {
+            validate(&Stage::new(label, source));
+        }
+    }
+
+    /// A made module replaces the earlier one of its name, and a missing module is named.
+    #[test]
+    fn made_modules_replace_and_missing_ones_are_named() {
+        let top = "#import strata::test_made::value\n@compute @workgroup_size(1)\nfn main() {\n    _ = value();\n}\n";
+        for v in [1u32, 2] {
+            let made = format!(
+                "#define_import_path strata::test_made\nfn value() -> u32 {{\n    return {v}u;\n}}\n"
+            );
+            let stage = Stage::new("made", top).with_module(made);
+            let wgsl = stage.wgsl().unwrap();
+            assert!(wgsl.contains(&format!("return {v}u;")), "{wgsl}");
+        }
+        let missing = Stage::new(
+            "missing",
+            "#import strata::nowhere::x\nfn f() -> u32 {\n    return x;\n}\n",
+        );
+        let e = missing.compose().unwrap_err();
+        assert!(e.contains("strata::nowhere"), "{e}");
+    }
 }

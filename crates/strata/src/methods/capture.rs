@@ -6,7 +6,7 @@
 //!
 //! ```wgsl
 //! // strata::methods::capture::wgsl(MethodId::KplusHeap, 1) is appended to the application's
-//! // shader source (plain concatenation); it declares @group(1) bindings 0..5 and defines:
+//! // shader source (plain WGSL, composed by strata); it declares @group(1) bindings and defines:
 //! fn strata_capture(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_facing: bool)
 //! ```
 //!
@@ -26,8 +26,8 @@
 //! capture.
 
 use crate::error::{Error, Result};
-use crate::gpu::shader;
-use crate::methods::kbuffer::{list, slots_capture_functions, Variant};
+use crate::gpu::shader::{self, Stage};
+use crate::methods::kbuffer::{self, Layout, Variant};
 use crate::methods::MethodId;
 
 /// The methods whose capture an application's shader can call.
@@ -35,28 +35,30 @@ pub fn supported(method: MethodId) -> bool {
     call(method).is_some()
 }
 
-/// The capture step each method's `strata_capture` calls, on pixel `p` and fragment `f`.
+/// The capture step each method's `strata_capture` calls, on pixel `p` and fragment `f` (a
+/// WGSL call with module-qualified names).
 fn call(method: MethodId) -> Option<&'static str> {
     method.descriptor().app_capture
 }
 
-/// WGSL defining `strata_capture` for `method`, its bindings at `@group(group)`.
-pub fn wgsl(method: MethodId, group: u32) -> Result<String> {
+/// The module `strata::capture` of `method` with its bindings at `@group(group)`: strata's
+/// k-buffer modules and `strata_capture`, which builds the fragment and calls the method's step.
+pub fn stage(method: MethodId, group: u32) -> Result<Stage> {
     let step = call(method).ok_or_else(|| {
         Error::unsupported(format!(
             "{method} has no capture an application's shader can call (single-pass slot and list methods do)"
         ))
     })?;
-    let functions = if Variant::of(method).is_some() {
-        slots_capture_functions()
+    let layout = if Variant::of(method).is_some() {
+        Layout::Slots
     } else {
-        list::capture_functions()
+        Layout::List
     };
-    let source = [
-        shader::FRAGMENT,
-        &functions,
-        &format!(
-            "
+    let source = format!(
+        "#define_import_path strata::capture
+#import strata::fragment::fragment_new
+#import strata::kbuffer::storage::kpixel
+
 // The application's entry into strata's capture.
 fn strata_capture(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_facing: bool) {{
     let a = premultiplied.a;
@@ -66,35 +68,27 @@ fn strata_capture(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_
     {step};
 }}
 "
-        ),
-    ]
-    .join("\n");
-    Ok(source.replace("@group(1)", &format!("@group({group})")))
+    );
+    Ok(Stage::new(format!("strata.capture.{method}"), source)
+        .with(kbuffer::LIBRARY)
+        .defs(&kbuffer::definitions(layout, group, false)))
+}
+
+/// WGSL defining `strata_capture` for `method`, its bindings at `@group(group)`: the composed
+/// module written back as one plain source, for an application to append to its own.
+pub fn wgsl(method: MethodId, group: u32) -> Result<String> {
+    stage(method, group)?.wgsl().map_err(Error::runtime)
 }
 
 /// Adds the capture of `method` to a naga_oil composer as the module `strata::capture`, its
 /// bindings at `@group(group)`: an application's shader then writes
 /// `#import strata::capture::strata_capture` and calls it.
-#[cfg(feature = "naga_oil")]
 pub fn add_to_composer(
     composer: &mut naga_oil::compose::Composer,
     method: MethodId,
     group: u32,
 ) -> Result<()> {
-    let source = format!(
-        "#define_import_path strata::capture\n{}",
-        wgsl(method, group)?
-    );
-    composer
-        .add_composable_module(naga_oil::compose::ComposableModuleDescriptor {
-            source: &source,
-            file_path: "strata/capture.wgsl",
-            language: naga_oil::compose::ShaderLanguage::Wgsl,
-            as_name: None,
-            additional_imports: &[],
-            shader_defs: Default::default(),
-        })
-        .map(|_| ())
+    shader::add_to_composer(composer, &stage(method, group)?)
         .map_err(|e| Error::runtime(format!("naga_oil: {e}")))
 }
 
@@ -127,7 +121,6 @@ fn fs_app(@builtin(position) p: vec4<f32>, @builtin(front_facing) ff: bool) {
     }
 
     /// An application shader composed with naga_oil imports the capture and validates.
-    #[cfg(feature = "naga_oil")]
     #[test]
     fn naga_oil_composes_the_capture() {
         use naga_oil::compose::{Composer, NagaModuleDescriptor, ShaderType};

@@ -63,9 +63,26 @@ fn exact_methods_match_reference_on_random_layers() {
 /// Every stage's composed WGSL validates with naga, so a shader error fails without a GPU.
 #[test]
 fn every_stage_validates() {
-    let stages = [
-        ("blend", include_str!("baseline/blend.wgsl")),
-        ("blend.finish", &super::baseline::finish_source(1)),
+    use super::{baseline, peeling, weighted};
+    use crate::gpu::shader::{validate, Stage};
+    let mut stages = vec![baseline::blend_stage()];
+    for samples in [1, 4] {
+        stages.push(baseline::finish_stage(samples));
+        stages.push(weighted::composite_stage(samples));
+        stages.push(weighted::mboit::composite_stage(samples));
+        for moments in [4, 6, 8] {
+            stages.push(weighted::mboit::shade_stage(samples, moments));
+        }
+    }
+    stages.push(weighted::mboit::moments_stage());
+    stages.push(
+        Stage::new(
+            "wboit.accumulate",
+            include_str!("weighted/wboit_accumulate.wgsl"),
+        )
+        .with(weighted::LIBRARY),
+    );
+    for (label, source) in [
         ("f2b.peel", include_str!("peeling/f2b_peel.wgsl")),
         (
             "f2b.accumulate",
@@ -79,49 +96,23 @@ fn every_stage_validates() {
             "f2b.accumulate.msaa",
             include_str!("peeling/f2b_accumulate_samples.wgsl"),
         ),
-        (
-            "wboit.accumulate",
-            include_str!("weighted/wboit_accumulate.wgsl"),
-        ),
-        ("wboit.composite", &super::weighted::composite_source(1)),
-        (
-            "wboit.composite.msaa",
-            &super::weighted::composite_source(4),
-        ),
-        ("blend.finish.msaa", &super::baseline::finish_source(4)),
-        ("mboit.moments", &super::weighted::mboit::moments_source()),
-        ("mboit.shade", &super::weighted::mboit::shade_source(1, 4)),
-        (
-            "mboit.shade.msaa",
-            &super::weighted::mboit::shade_source(4, 4),
-        ),
-        ("mboit.shade.6", &super::weighted::mboit::shade_source(1, 6)),
-        (
-            "mboit.shade.8.msaa",
-            &super::weighted::mboit::shade_source(4, 8),
-        ),
-        (
-            "mboit.composite",
-            &super::weighted::mboit::composite_source(1),
-        ),
-        (
-            "mboit.composite.msaa",
-            &super::weighted::mboit::composite_source(4),
-        ),
-    ];
-    for (label, src) in stages {
-        crate::gpu::shader::validate(label, src);
-    }
-    for (bits, key) in [
-        ("32", include_str!("peeling/dual_key32.wgsl")),
-        ("64", include_str!("peeling/dual_key64.wgsl")),
     ] {
-        for (stage, src) in [
-            ("peel", include_str!("peeling/dual_peel.wgsl")),
-            ("advance", include_str!("peeling/dual_advance.wgsl")),
-        ] {
-            crate::gpu::shader::validate(&format!("dual.{stage}{bits}"), &[key, src].join("\n"));
-        }
+        stages.push(Stage::new(label, source).with(peeling::LIBRARY));
+    }
+    for wide in [false, true] {
+        stages.push(peeling::dual_stage(
+            "dual.peel",
+            peeling::DUAL_PEEL_WGSL,
+            wide,
+        ));
+        stages.push(peeling::dual_stage(
+            "dual.advance",
+            peeling::DUAL_ADVANCE_WGSL,
+            wide,
+        ));
+    }
+    for stage in &stages {
+        validate(stage);
     }
 }
 

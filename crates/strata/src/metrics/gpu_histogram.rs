@@ -12,7 +12,8 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::Stage;
+use crate::gpu::{Gpu, ResourceCache};
 
 /// Keep in sync with HISTOGRAM_BINS in gpu_histogram.wgsl.
 pub const HISTOGRAM_BINS: u64 = 1024;
@@ -32,11 +33,8 @@ impl GpuHistogram {
             "strata.histogram.layout",
             &[Slot::StorageRw, Slot::StorageRw],
         );
-        let module = shader::module(
-            &gpu.device,
-            "strata.histogram",
-            include_str!("gpu_histogram.wgsl"),
-        );
+        let module =
+            Stage::new("strata.histogram", include_str!("gpu_histogram.wgsl")).module(&gpu.device);
         let layouts = [&scene.frame_layout, &layout];
         GpuHistogram {
             // Always the GPU's rasterizer: coverage is the same on both paths (tested), and
@@ -44,7 +42,7 @@ impl GpuHistogram {
             count: GeometryStage::Hw(capture_pipeline_with(
                 gpu,
                 "strata.histogram.count",
-                (&module, &module),
+                &module,
                 "fs_histogram_count",
                 &layouts,
                 &[NullTarget::target_state()],

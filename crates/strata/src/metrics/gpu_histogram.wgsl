@@ -1,3 +1,6 @@
+#define_import_path strata::metrics::gpu_histogram
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of}
+
 // The GPU depth-complexity histogram: a count pass (every fragment of a pixel, as the frame's
 // methods see them: tested against the opaque depth, no culling) and a binning pass over the
 // pixels. Bin i counts the pixels with exactly i fragments; the last bin, the pixels with

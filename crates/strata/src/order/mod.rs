@@ -39,6 +39,7 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::readback::ReadbackList;
+use crate::gpu::shader::{Library, Stage};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::scene::Camera;
@@ -175,12 +176,11 @@ pub struct TriangleOrder {
     kendall_group: wgpu::BindGroup,
 }
 
-fn module(gpu: &Gpu, label: &str, stage: &str) -> wgpu::ShaderModule {
-    gpu.device
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(label),
-            source: wgpu::ShaderSource::Wgsl([COMMON, stage].join("\n").into()),
-        })
+/// The stages' WGSL modules.
+pub const LIBRARY: Library = &[COMMON, KEYS, INDICES, KENDALL];
+
+fn module(gpu: &Gpu, label: &str, stage: &'static str) -> wgpu::ShaderModule {
+    Stage::new(label, stage).with(LIBRARY).module(&gpu.device)
 }
 
 impl TriangleOrder {
@@ -223,7 +223,7 @@ impl TriangleOrder {
         let sorted = sort.as_ref().map_or(&unused, |s| &s.values[0]);
         let sort_keys = sort.as_ref().map_or(&unused, |s| &s.keys[0]);
         let pipeline = |name: &str,
-                        stage: &str,
+                        stage: &'static str,
                         entry: &str,
                         slots: &[Slot],
                         resources: &[wgpu::BindingResource<'_>]| {

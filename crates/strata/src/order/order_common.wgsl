@@ -1,3 +1,5 @@
+#define_import_path strata::order::order_common
+
 // Shared by the triangle-order stages (keys, draw indices, Kendall sampling).
 // Keep in sync with `OrderParams` in crates/strata/src/order/mod.rs.
 
@@ -11,9 +13,9 @@ struct OrderParams {
     // Workgroups per row of a two-dimensional dispatch (one dimension holds 65535).
     grid_x: u32,
     samples: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 const MODE_SCENE: u32 = 0u;

@@ -1,3 +1,6 @@
+#define_import_path strata::order::order_indices
+#import strata::order::order_common::{params, thread_index}
+
 // One thread per sorted position: the triangle there becomes three vertex numbers of the index
 // buffer every geometry pass draws through (vertex 3t + i is corner i of triangle t).
 

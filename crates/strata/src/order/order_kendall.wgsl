@@ -1,3 +1,6 @@
+#define_import_path strata::order::order_kendall
+#import strata::order::order_common::{MODE_SCENE, params, scramble, thread_index}
+
 // One thread per sampled pair of submission positions i < j: the pair is discordant when the
 // triangle submitted first lies farther than the one submitted later. Pairs of equal depth
 // count in neither total, so front to back gives 0 and back to front 1.

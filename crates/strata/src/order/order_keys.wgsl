@@ -1,3 +1,6 @@
+#define_import_path strata::order::order_keys
+#import strata::order::order_common::{MODE_BACK, MODE_RANDOM, MODE_SCENE, params, scramble, thread_index}
+
 // One thread per triangle: its centroid's view depth as an orderable integer, and the key the
 // sort orders by (the depth, its complement for back to front, or a hash for a random order).
 

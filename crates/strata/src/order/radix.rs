@@ -13,6 +13,7 @@ use wgpu::util::DeviceExt;
 
 use crate::error::Result;
 use crate::gpu::binding::{self, Slot};
+use crate::gpu::shader::{Library, Stage};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 
@@ -64,12 +65,11 @@ pub struct RadixSort {
     groups: Vec<[wgpu::BindGroup; 3]>,
 }
 
-fn module(gpu: &Gpu, label: &str, stage: &str) -> wgpu::ShaderModule {
-    gpu.device
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(label),
-            source: wgpu::ShaderSource::Wgsl([COMMON, stage].join("\n").into()),
-        })
+/// The stages' WGSL modules.
+pub const LIBRARY: Library = &[COMMON, COUNT, SCAN, SCATTER];
+
+fn module(gpu: &Gpu, label: &str, stage: &'static str) -> wgpu::ShaderModule {
+    Stage::new(label, stage).with(LIBRARY).module(&gpu.device)
 }
 
 impl RadixSort {
@@ -103,11 +103,12 @@ impl RadixSort {
                 Slot::StorageRw,
             ],
         );
-        let pipeline = |name: &str, stage: &str, entry: &str, layout: &wgpu::BindGroupLayout| {
-            let label = format!("strata.{label}.{name}");
-            let module = module(gpu, &label, stage);
-            crate::gpu::passes::compute_pipeline(gpu, &label, &module, entry, &[layout])
-        };
+        let pipeline =
+            |name: &str, stage: &'static str, entry: &str, layout: &wgpu::BindGroupLayout| {
+                let label = format!("strata.{label}.{name}");
+                let module = module(gpu, &label, stage);
+                crate::gpu::passes::compute_pipeline(gpu, &label, &module, entry, &[layout])
+            };
         let count_pipeline = pipeline("count", COUNT, "count_digits", &count_layout);
         let scan_pipeline = pipeline("scan", SCAN, "scan_digits", &scan_layout);
         let scatter_pipeline = pipeline("scatter", SCATTER, "scatter_keys", &scatter_layout);
@@ -236,7 +237,9 @@ mod tests {
     #[test]
     fn radix_stages_validate() {
         for (label, stage) in [("count", COUNT), ("scan", SCAN), ("scatter", SCATTER)] {
-            crate::gpu::shader::validate_source(label, &[COMMON, stage].join("\n"));
+            crate::gpu::shader::validate(
+                &crate::gpu::shader::Stage::new(label, stage).with(LIBRARY),
+            );
         }
     }
 

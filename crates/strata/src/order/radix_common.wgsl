@@ -1,3 +1,5 @@
+#define_import_path strata::order::radix_common
+
 // Shared by the radix sort's stages: 4-bit digits, blocks of 1024 keys per workgroup of 256.
 // Keep in sync with `RadixPass` in crates/strata/src/order/radix.rs.
 

@@ -1,3 +1,6 @@
+#define_import_path strata::order::radix_count
+#import strata::order::radix_common::{BLOCK, DIGITS, ITEMS, block_index, digit_of, radix}
+
 // One workgroup per block: how many of its keys have each digit, stored digit-major
 // (block_digits[d * blocks + b]) so that one scan turns the counts into scatter offsets.
 

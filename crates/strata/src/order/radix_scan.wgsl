@@ -1,3 +1,6 @@
+#define_import_path strata::order::radix_scan
+#import strata::order::radix_common::{DIGITS, radix}
+
 // One workgroup: the digit-major block counts become exclusive prefix sums in place, so entry
 // (d, b) is where block b's first key of digit d goes. Each thread sums a contiguous chunk,
 // the 256 chunk sums are scanned in workgroup memory, then each chunk is rewritten.

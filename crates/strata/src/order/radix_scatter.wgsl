@@ -1,3 +1,6 @@
+#define_import_path strata::order::radix_scatter
+#import strata::order::radix_common::{BLOCK, DIGITS, ITEMS, block_index, digit_of, radix}
+
 // One workgroup per block, in four rounds of 256 keys: each key moves to its digit's next
 // free place for this block. A key's rank among the round's keys of its digit comes from an
 // inclusive scan over the workgroup of one-hot digit counters — sixteen 16-bit counters packed

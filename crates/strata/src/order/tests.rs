@@ -20,7 +20,7 @@ fn order_params_layout_matches_wgsl() {
 #[test]
 fn order_stages_validate() {
     for (label, stage) in [("keys", KEYS), ("indices", INDICES), ("kendall", KENDALL)] {
-        crate::gpu::shader::validate_source(label, &[COMMON, stage].join("\n"));
+        crate::gpu::shader::validate(&crate::gpu::shader::Stage::new(label, stage).with(LIBRARY));
     }
 }
 

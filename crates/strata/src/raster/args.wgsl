@@ -1,3 +1,5 @@
+#define_import_path strata::raster::args
+
 // Turns the bin stage's item count into the raster stage's indirect dispatch: 64 items per
 // workgroup, at most 65535 workgroups per dimension.
 

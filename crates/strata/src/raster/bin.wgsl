@@ -1,3 +1,6 @@
+#define_import_path strata::raster::bin
+#import strata::raster::setup::{MAX_CORNERS, TILE, clipped_triangle, fan_triangle}
+
 // Bin stage of the compute rasterizer: one thread per triangle sets it up and appends one work
 // item per 8×8-pixel tile its clipped triangles' bounding boxes touch, so that no thread of the
 // raster stage walks more than 64 pixels, however large the triangle.

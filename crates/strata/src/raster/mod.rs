@@ -67,12 +67,15 @@ use crate::frame::passes::{
 pub use crate::frame::{ComputeRasterStats, Raster};
 use crate::frame::{FrameContext, ReadbackList, RenderOptions, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::{Defs, Library, Stage};
+use crate::gpu::{Gpu, ResourceCache};
 
-pub const SETUP_WGSL: &str = include_str!("setup.wgsl");
-pub const BIN_WGSL: &str = include_str!("bin.wgsl");
-pub const ARGS_WGSL: &str = include_str!("args.wgsl");
-pub const RASTER_WGSL: &str = include_str!("raster.wgsl");
+/// The rasterizer's WGSL modules (`strata::raster::…`): setup, bin, args and the raster stage.
+pub const LIBRARY: Library = &[SETUP_WGSL, BIN_WGSL, ARGS_WGSL, RASTER_WGSL];
+const SETUP_WGSL: &str = include_str!("setup.wgsl");
+const BIN_WGSL: &str = include_str!("bin.wgsl");
+const ARGS_WGSL: &str = include_str!("args.wgsl");
+const RASTER_WGSL: &str = include_str!("raster.wgsl");
 
 /// Pixels per side of a bin tile (TILE in setup.wgsl).
 pub const TILE: u32 = 8;
@@ -100,11 +103,16 @@ pub fn guard_band(width: u32, height: u32) -> f32 {
     ((1u32 << 22) / width.max(height).max(1)) as f32 - 1.0
 }
 
-/// The bin stage's WGSL (before the shared sources): setup's raster bindings are its group 1.
-pub fn bin_source() -> String {
-    [SETUP_WGSL, BIN_WGSL]
-        .join("\n")
-        .replace("RASTER_GROUP", "1")
+/// The bin stage: setup's raster bindings are its group 1.
+pub fn bin_stage() -> Stage {
+    Stage::new("strata.raster.bin", BIN_WGSL)
+        .with(LIBRARY)
+        .defs(&Defs::default().value("RASTER_GROUP", 1))
+}
+
+/// The args stage (no scene bindings).
+pub fn args_stage() -> Stage {
+    Stage::new("strata.raster.args", ARGS_WGSL).with(LIBRARY)
 }
 
 /// The layout of the raster stage's bindings (params, items, counters, the scene's vertices), which every method's
@@ -117,32 +125,47 @@ pub fn raster_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     )
 }
 
-/// The compute capture of a method's storage-only fragment stage `entry`: its module `stage`
-/// (WGSL composed after the shared sources) declares the entry's capture step
+/// The compute capture of a method's storage-only fragment stage `entry`: its `stage` (a
+/// library module, named by its `#define_import_path`) declares the entry's capture step
 /// `{entry}_capture(v: SceneVarying, front_facing: bool, mask: u32)`, which its `@fragment`
-/// wrapper calls and the raster stage calls here with full coverage (the compute rasterizer
-/// samples pixel centers; `--msaa` refuses it). The raster bindings are at group
-/// `raster_group`. An error when the stage declares no such step.
-pub fn capture_source(stage: &str, entry: &str, raster_group: usize) -> Result<String> {
+/// wrapper calls. The raster stage calls it through a module made here
+/// (`strata::raster::capture`) with full coverage (the compute rasterizer samples pixel
+/// centers; `--msaa` refuses it). The raster bindings are at group `raster_group`. An error when
+/// the stage declares no such step.
+pub fn capture_stage(stage: &Stage, entry: &str, raster_group: usize) -> Result<Stage> {
     let step = format!("{entry}_capture");
-    if !stage.contains(&format!(
+    if !stage.source().contains(&format!(
         "fn {step}(v: SceneVarying, front_facing: bool, mask: u32) {{"
     )) {
         return Err(Error::unsupported(format!(
             "{entry} declares no capture step ({step}) the compute rasterizer can call"
         )));
     }
-    let source = [
-        stage,
-        SETUP_WGSL,
-        RASTER_WGSL,
-        &format!(
-            "fn raster_capture(v: SceneVarying, front_facing: bool) {{\n    {step}(v, front_facing, 0xffffffffu);\n}}\n"
-        ),
-    ]
-    .join("\n")
-    .replace("RASTER_GROUP", &raster_group.to_string());
-    Ok(shader::with_shared(&source))
+    let module = stage.module_name().ok_or_else(|| {
+        Error::unsupported(format!(
+            "{}: the stage names no module to import {step} from",
+            stage.label
+        ))
+    })?;
+    let bridge = format!(
+        "#define_import_path strata::raster::capture
+#import strata::scene::SceneVarying
+#import {module}::{step}
+
+fn raster_capture(v: SceneVarying, front_facing: bool) {{
+    {step}(v, front_facing, 0xffffffffu);
+}}
+"
+    );
+    let raster = Stage::new(format!("{}.compute", stage.label), RASTER_WGSL)
+        .with(LIBRARY)
+        .with_module(bridge)
+        .defs(stage.definitions())
+        .defs(&Defs::default().value("RASTER_GROUP", raster_group as u32));
+    Ok(stage
+        .libraries()
+        .iter()
+        .fold(raster, |raster, library| raster.with(library)))
 }
 
 /// A storage-only geometry stage of a method: `modules` (the WGSL module and, where made, its
@@ -150,8 +173,9 @@ pub fn capture_source(stage: &str, entry: &str, raster_group: usize) -> Result<S
 /// for the compute rasterizer, and the fragment entry point.
 pub struct StageSpec<'a> {
     pub label: &'a str,
-    pub stage: &'a str,
-    pub modules: (&'a wgpu::ShaderModule, &'a wgpu::ShaderModule),
+    pub stage: &'a Stage,
+    /// The fragment stage's module (or its passthrough twin with ordered atomics).
+    pub module: &'a wgpu::ShaderModule,
     pub entry: &'a str,
 }
 
@@ -169,7 +193,7 @@ pub fn storage_stage(
         return GeometryStage::Hw(capture_pipeline_with(
             gpu,
             spec.label,
-            spec.modules,
+            spec.module,
             spec.entry,
             layouts,
             &[NullTarget::target_state()],
@@ -187,14 +211,14 @@ pub fn storage_stage(
     )
 }
 
-/// The compute rasterizer's capture of `stage`'s fragment `entry` (see [`capture_source`]) with
+/// The compute rasterizer's capture of `stage`'s fragment `entry` (see [`capture_stage`]) with
 /// the method's `layouts`, the rasterizer's group after them. Only for scenes on the compute
 /// rasterizer.
 pub fn compute_stage(
     gpu: &Gpu,
     scene: &SceneGpu,
     label: &str,
-    stage: &str,
+    stage: &Stage,
     entry: &str,
     layouts: &[&wgpu::BindGroupLayout],
 ) -> GeometryStage {
@@ -202,14 +226,10 @@ pub fn compute_stage(
         .raster_layout
         .as_ref()
         .expect("a compute stage is made for a scene on the compute rasterizer");
-    let source = capture_source(stage, entry, layouts.len())
+    let mut raster = capture_stage(stage, entry, layouts.len())
         .expect("strata's storage stages have the capture signature (tested)");
-    let module = gpu
-        .device
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(label),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
+    raster.label = label.to_owned();
+    let module = raster.module(&gpu.device);
     let mut all = layouts.to_vec();
     all.push(raster_layout);
     GeometryStage::Compute(crate::frame::passes::compute_pipeline(
@@ -281,13 +301,8 @@ impl ComputeRaster {
             "strata.raster.args.layout",
             &[Slot::Uniform, Slot::Storage, Slot::StorageRw],
         );
-        let bin_module = shader::module(&gpu.device, "strata.raster.bin", &bin_source());
-        let args_module = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("strata.raster.args"),
-                source: wgpu::ShaderSource::Wgsl(ARGS_WGSL.into()),
-            });
+        let bin_module = bin_stage().module(&gpu.device);
+        let args_module = args_stage().module(&gpu.device);
         let compute = crate::frame::passes::compute_pipeline;
         let tiles = screen_tiles(options.frame.width, options.frame.height);
         ComputeRaster {

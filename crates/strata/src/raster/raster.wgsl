@@ -1,8 +1,14 @@
+#define_import_path strata::raster::raster
+#import strata::scene::{SceneVarying, behind_opaque, triangle_materials}
+#import strata::raster::capture::{raster_capture}
+#import strata::raster::setup::{HALF_SUBPIXEL, TILE, clipped_triangle, fan_triangle, scene_vertex, wide_add, wide_mul, wide_negate, wide_negative, wide_zero}
+
 // Raster stage of the compute rasterizer: one thread per work item (a fan triangle and an
 // 8×8-pixel tile) sets the triangle up again, tests the tile's pixel centers against its edges,
 // interpolates what `vs_scene` passes the fragment stage and hands each covered fragment in
-// front of the opaque depth to the method's capture, `raster_capture` (appended per method).
-// The bindings' group is the one after the method's groups (RASTER_GROUP is replaced).
+// front of the opaque depth to the method's capture, `raster_capture` (the module
+// strata::raster::capture, made per method). The bindings' group is the one after the method's
+// groups (the definition RASTER_GROUP).
 
 // Keep in sync with `RasterParams` in crates/strata/src/raster/mod.rs.
 struct RasterParams {
@@ -12,9 +18,9 @@ struct RasterParams {
     _pad: u32,
 }
 
-@group(RASTER_GROUP) @binding(0) var<uniform> rp: RasterParams;
-@group(RASTER_GROUP) @binding(1) var<storage, read> items: array<u32>;
-@group(RASTER_GROUP) @binding(2) var<storage, read> raster_counters: array<u32>;
+@group(#{RASTER_GROUP}) @binding(0) var<uniform> rp: RasterParams;
+@group(#{RASTER_GROUP}) @binding(1) var<storage, read> items: array<u32>;
+@group(#{RASTER_GROUP}) @binding(2) var<storage, read> raster_counters: array<u32>;
 
 @compute @workgroup_size(64)
 fn cs_raster(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -42,12 +48,12 @@ fn cs_raster(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgrou
     if any(lo > hi) {
         return;
     }
-    let front_facing = wide_negative(t.area2);
+    let front_facing = wide_negative(t.doubled_area);
     // Orient the edges so the interior is where all three edge functions are positive; a pixel
     // center exactly on an edge counts only for top edges (horizontal, interior below) and left
     // edges (going up the screen, y down): the others get a bias of −1.
     var order = array<u32, 3>(0u, 1u, 2u);
-    if wide_negative(t.area2) {
+    if wide_negative(t.doubled_area) {
         order = array<u32, 3>(0u, 2u, 1u);
     }
     var corners = t.corners;

@@ -1,3 +1,6 @@
+#define_import_path strata::raster::setup
+#import strata::scene::{frame}
+
 // Triangle setup of the compute rasterizer, shared by its bin and raster stages. It follows the
 // GPU path and the CPU reference (crates/strata/src/reference/raster.rs): the vertex transform
 // of `vs_scene`, clipping at the near plane (and at a guard band far outside the viewport),
@@ -6,8 +9,8 @@
 // perspective-correctly, both from the unsnapped window positions.
 
 // The scene's vertex buffer (`GpuVertex`, six floats: position, normal) read as storage; the
-// group is the stage's raster bindings (RASTER_GROUP is replaced).
-@group(RASTER_GROUP) @binding(3) var<storage, read> scene_vertices: array<f32>;
+// group is the stage's raster bindings (the definition RASTER_GROUP).
+@group(#{RASTER_GROUP}) @binding(3) var<storage, read> scene_vertices: array<f32>;
 
 struct SceneVertex {
     position: vec3<f32>,
@@ -156,7 +159,7 @@ struct SetupTriangle {
     corners: array<WindowCorner, 3>,
     // Doubled signed area in subpixels², y down; negative is counter-clockwise on screen, which
     // is front-facing.
-    area2: vec2<u32>,
+    doubled_area: vec2<u32>,
     // Candidate pixels, inclusive, clamped to the viewport; empty when min > max.
     min: vec2<i32>,
     max: vec2<i32>,
@@ -173,7 +176,7 @@ fn fan_triangle(polygon: Polygon, j: u32) -> SetupTriangle {
     let a = t.corners[0].snapped;
     let b = t.corners[1].snapped;
     let c = t.corners[2].snapped;
-    t.area2 = wide_add(wide_mul(b.x - a.x, c.y - a.y), wide_negate(wide_mul(c.x - a.x, b.y - a.y)));
+    t.doubled_area = wide_add(wide_mul(b.x - a.x, c.y - a.y), wide_negate(wide_mul(c.x - a.x, b.y - a.y)));
     let lo = min(a, min(b, c));
     let hi = max(a, max(b, c));
     // Pixel p is a candidate when its center p + 1/2 lies in [lo, hi] (arithmetic shifts floor).
@@ -182,6 +185,6 @@ fn fan_triangle(polygon: Polygon, j: u32) -> SetupTriangle {
     t.min = max(first, vec2<i32>(0));
     t.max = min(last, vec2<i32>(frame.size) - vec2<i32>(1));
     let positive_w = t.corners[0].inv_w > 0.0 && t.corners[1].inv_w > 0.0 && t.corners[2].inv_w > 0.0;
-    t.valid = j + 2u < polygon.count && !wide_zero(t.area2) && positive_w && all(t.min <= t.max);
+    t.valid = j + 2u < polygon.count && !wide_zero(t.doubled_area) && positive_w && all(t.min <= t.max);
     return t;
 }

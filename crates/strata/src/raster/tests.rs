@@ -38,28 +38,25 @@ fn guard_band_bounds_window_coordinates() {
 
 // ---- Shaders -------------------------------------------------------------------------------
 
-fn validate(label: &str, src: &str) {
-    let module = naga::front::wgsl::parse_str(src)
-        .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(src)));
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(src)));
-}
+use crate::gpu::shader::validate;
 
 /// The bin and args stages, and every method's fragment stage compiled for the compute
 /// rasterizer, validate with naga (so a shader error fails without a GPU).
 #[test]
 fn every_compute_capture_validates() {
-    use crate::methods::kbuffer::{kpeel, list, mdt, sbuffer, slots_capture_source};
-    validate("raster.bin", &shader::with_shared(&bin_source()));
-    validate("raster.args", ARGS_WGSL);
-    let dual = |key: &str| [key, include_str!("../methods/peeling/dual_peel.wgsl")].join("\n");
-    let stages: Vec<(String, &[&str])> = vec![
+    use crate::gpu::shader::Stage;
+    use crate::methods::kbuffer::{self, definitions, kpeel, list, mdt, sbuffer, Layout};
+    use crate::methods::peeling;
+    validate(&bin_stage());
+    validate(&args_stage());
+    let kbuffer = |source: &'static str, layout: Layout| {
+        Stage::new("capture", source)
+            .with(kbuffer::LIBRARY)
+            .defs(&definitions(layout, 1, false))
+    };
+    let mut stages: Vec<(Stage, &[&str])> = vec![
         (
-            slots_capture_source(),
+            kbuffer(kbuffer::SLOTS_ENTRIES_WGSL, Layout::Slots),
             &[
                 "fs_kplus_array",
                 "fs_kplus_heap",
@@ -71,49 +68,49 @@ fn every_compute_capture_validates() {
             ],
         ),
         (
-            mdt::capture_source(mdt::Mdt::Mdt32),
+            kbuffer(mdt::Mdt::Mdt32.capture_source(), Layout::Mdt32),
             &["fs_mdt32_depth", "fs_mdt32_color", "fs_mdt_pack"],
         ),
-        (mdt::capture_source(mdt::Mdt::Mdt64), &["fs_mdt64"]),
-        (list::capture_source(), &["fs_ab_ll", "fs_sorted_ll"]),
         (
-            sbuffer::capture_source(MethodId::Sbuffer),
+            kbuffer(mdt::Mdt::Mdt64.capture_source(), Layout::Mdt64),
+            &["fs_mdt64"],
+        ),
+        (
+            kbuffer(list::ENTRIES_WGSL, Layout::List),
+            &["fs_ab_ll", "fs_sorted_ll"],
+        ),
+        (
+            kbuffer(sbuffer::capture_source(MethodId::Sbuffer), Layout::Sbuffer),
             &["fs_sbuffer_count", "fs_sbuffer_store"],
         ),
         (
-            sbuffer::capture_source(MethodId::KplusSbuffer),
+            kbuffer(
+                sbuffer::capture_source(MethodId::KplusSbuffer),
+                Layout::KplusSbuffer,
+            ),
             &["fs_kplus_sbuffer_count", "fs_kplus_sbuffer_store"],
         ),
-        (kpeel::capture_source(), &["fs_kpeel"]),
+        (kbuffer(kpeel::CAPTURE_WGSL, Layout::Slots), &["fs_kpeel"]),
         (
-            [kpeel::capture_source().as_str(), kpeel::CASCADE_WGSL].join("\n"),
+            kbuffer(kpeel::CASCADE_WGSL, Layout::Slots),
             &["fs_kpeel_keys", "fs_kpeel_colors"],
         ),
-        (
-            dual(include_str!("../methods/peeling/dual_key32.wgsl")),
-            &["fs_bounds", "fs_peel"],
-        ),
-        (
-            dual(include_str!("../methods/peeling/dual_key64.wgsl")),
-            &["fs_bounds", "fs_peel"],
-        ),
     ];
+    for wide in [false, true] {
+        stages.push((
+            peeling::dual_stage("dual", peeling::DUAL_PEEL_WGSL, wide),
+            &["fs_bounds", "fs_peel"],
+        ));
+    }
     for (stage, entries) in &stages {
         for entry in *entries {
             // The rasterizer's group follows the method's (kpeel's cascade has a group 2).
-            let group = if stage.contains("@group(2)") { 3 } else { 2 };
-            let src = capture_source(stage, entry, group).unwrap();
-            assert!(!src.contains("RASTER_GROUP"));
-            validate(entry, &src);
+            let group = if entry.starts_with("fs_kpeel_") { 3 } else { 2 };
+            validate(&capture_stage(stage, entry, group).unwrap());
         }
     }
     // A stage that writes a color has no compute twin.
-    assert!(capture_source(
-        include_str!("../methods/baseline/blend.wgsl"),
-        "fs_blend",
-        2
-    )
-    .is_err());
+    assert!(capture_stage(&crate::methods::baseline::blend_stage(), "fs_blend", 2).is_err());
 }
 
 // ---- The compute path against the GPU's rasterizer and the reference -------------------------

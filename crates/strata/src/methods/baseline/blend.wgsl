@@ -1,3 +1,6 @@
+#define_import_path strata::baseline::blend
+#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
+
 // unsorted / sorted: one geometry pass of premultiplied "over" blending in draw order.
 // The count of every pixel's fragments goes to a storage buffer for the complexity effect.
 

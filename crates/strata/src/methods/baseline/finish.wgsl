@@ -1,3 +1,12 @@
+#define_import_path strata::baseline::finish
+#import strata::scene::{frame, pixel_index, report_pixel}
+#import strata::color::{Resolved}
+#ifdef MULTISAMPLED
+alias TargetTexture = texture_multisampled_2d<f32>;
+#else
+alias TargetTexture = texture_2d<f32>;
+#endif
+
 // The blended color is already premultiplied with alpha = 1 − transmittance: it becomes the
 // pixel's result as it is, with the fragment count. With --msaa (the target then multisampled)
 // the samples' colors, averaged.

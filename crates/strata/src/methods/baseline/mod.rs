@@ -19,7 +19,8 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::{self, Stage};
+use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::Method;
 
 const BLEND_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -52,11 +53,11 @@ impl Blend {
             "strata.blend.finish.layout",
             &[Slot::StorageRw, target, Slot::StorageRw],
         );
-        let module = shader::module(&gpu.device, "strata.blend", include_str!("blend.wgsl"));
+        let module = blend_stage().module(&gpu.device);
         let blend = capture_pipeline_with(
             gpu,
             "strata.blend",
-            (&module, &module),
+            &module,
             "fs_blend",
             &[&scene.frame_layout, &blend_layout],
             &[Some(wgpu::ColorTargetState {
@@ -67,7 +68,7 @@ impl Blend {
             None,
             samples,
         );
-        let module = shader::module(&gpu.device, "strata.blend.finish", &finish_source(samples));
+        let module = finish_stage(samples).module(&gpu.device);
         let finish = compute_pipeline(
             gpu,
             "strata.blend.finish",
@@ -107,8 +108,14 @@ impl Blend {
 }
 
 /// The finish stage, reading the multisampled target with `--msaa`.
-pub fn finish_source(samples: u32) -> String {
-    shader::with_target_samples(include_str!("finish.wgsl"), samples)
+pub fn finish_stage(samples: u32) -> Stage {
+    Stage::new("strata.blend.finish", include_str!("finish.wgsl"))
+        .defs(&shader::target_samples(samples))
+}
+
+/// The blended capture (its own stage: it writes a color).
+pub fn blend_stage() -> Stage {
+    Stage::new("strata.blend", include_str!("blend.wgsl"))
 }
 
 impl Method for Blend {

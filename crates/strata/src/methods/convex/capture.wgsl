@@ -1,10 +1,16 @@
+#define_import_path strata::convex::capture
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment, scene_fragment_covering}
+#import strata::fragment::{Fragment}
+const LAYERS: u32 = #{CONVEX_LAYERS}u;
+const MERGE_WORKGROUP: u32 = #{MERGE_WORKGROUP}u;
+
 // convex capture pass: the groups of one pass, which cannot share a pixel, each give a pixel at
 // most LAYERS fragments (two per convex part: the front-facing and the back-facing layer). They
 // are appended unsorted behind the pixel's claim counter; the merge sorts them. A container is
 // drawn twice, its front cap (fs_front) before what it holds and its back cap (fs_back) after.
 // The first claim of a pixel in a pass lists the pixel, so the merge visits only the pixels the
 // pass reached (a pass's groups cover a small part of the screen). LAYERS and MERGE_WORKGROUP
-// are prepended by the method.
+// come from the method's definitions (CONVEX_LAYERS, MERGE_WORKGROUP).
 
 @group(1) @binding(0) var<storage, read_write> claims: array<atomic<u32>>;
 @group(1) @binding(1) var<storage, read_write> slots: array<Fragment>;

@@ -1,9 +1,17 @@
+#define_import_path strata::convex::merge
+#import strata::scene::{frame, pixel_index, report_pixel, report_samples}
+#import strata::color::{Resolved}
+#import strata::fragment::{Fragment, fragment_before}
+#import strata::composite::{Composite, composite_finish, composite_front, composite_new}
+const LAYERS: u32 = #{CONVEX_LAYERS}u;
+const MERGE_WORKGROUP: u32 = #{MERGE_WORKGROUP}u;
+
 // convex merge: after each capture pass, every pixel sorts the fragments its pass left (at most
 // LAYERS) and composites them behind what earlier passes merged. A pass's nearest fragment in
 // front of the last merged one in (depth, primitive) order is an order violation: counted, and
 // composited where it arrived (the order could not be kept). init and finish bracket the frame.
-// The merge visits only the pixels the pass listed (sample entries with --msaa, capture.wgsl). LAYERS and MERGE_WORKGROUP are prepended by
-// the method.
+// The merge visits only the pixels the pass listed (sample entries with --msaa, capture.wgsl). LAYERS and MERGE_WORKGROUP come from
+// the method's definitions (CONVEX_LAYERS, MERGE_WORKGROUP).
 
 @group(1) @binding(0) var<storage, read_write> state: array<Composite>;
 @group(1) @binding(1) var<storage, read_write> claims: array<u32>;

@@ -75,7 +75,8 @@ use crate::frame::passes::{capture_pipeline_with, compute_pipeline, dispatch_pix
 pub use crate::frame::ConvexStats;
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::{Defs, Stage};
+use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::Method;
 use crate::scene::GpuVertex;
 use decompose::Decomposition;
@@ -188,9 +189,15 @@ fn read_or_make(
     d
 }
 
-/// The constants the stages are compiled with, for `layers` fragments per pixel and pass.
-fn shader_constants(layers: u32) -> String {
-    format!("const LAYERS: u32 = {layers}u;\nconst MERGE_WORKGROUP: u32 = {MERGE_WORKGROUP}u;\n")
+/// The convex stages (capture.wgsl, merge.wgsl) for `layers` fragments per pixel and pass.
+pub fn stages(layers: u32) -> [Stage; 2] {
+    let defs = Defs::default()
+        .value("CONVEX_LAYERS", layers)
+        .value("MERGE_WORKGROUP", MERGE_WORKGROUP);
+    [
+        Stage::new("strata.convex.capture", include_str!("capture.wgsl")).defs(&defs),
+        Stage::new("strata.convex.merge", include_str!("merge.wgsl")).defs(&defs),
+    ]
 }
 
 /// The scene's triangles read back from its vertex buffer (setup, not steady state).
@@ -279,17 +286,13 @@ impl Convex {
                 usage: wgpu::BufferUsages::COPY_SRC,
             },
         );
-        let constant = shader_constants(layers);
-        let module = shader::module(
-            device,
-            "strata.convex.capture",
-            &(constant.clone() + include_str!("capture.wgsl")),
-        );
+        let [capture_stage, merge_stage] = stages(layers);
+        let module = capture_stage.module(device);
         let capture = |entry: &str| {
             capture_pipeline_with(
                 gpu,
                 &format!("strata.convex.{entry}"),
-                (&module, &module),
+                &module,
                 entry,
                 &[&scene.frame_layout, &capture_layout],
                 &[NullTarget::target_state()],
@@ -298,11 +301,7 @@ impl Convex {
             )
         };
         let (whole, front, back) = (capture("fs_whole"), capture("fs_front"), capture("fs_back"));
-        let module = shader::module(
-            device,
-            "strata.convex.merge",
-            &(constant + include_str!("merge.wgsl")),
-        );
+        let module = merge_stage.module(device);
         let layouts = [&scene.frame_layout, &merge_layout];
         Convex {
             init: compute_pipeline(gpu, "strata.convex.init", &module, "cs_init", &layouts),

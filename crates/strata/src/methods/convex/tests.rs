@@ -441,12 +441,8 @@ fn convex_counts_where_multisampled_silhouettes_leave_the_center_depth_order() {
 #[test]
 fn convex_stages_validate() {
     for layers in [2, 4] {
-        let constant = super::shader_constants(layers);
-        for (label, src) in [
-            ("convex.capture", include_str!("capture.wgsl")),
-            ("convex.merge", include_str!("merge.wgsl")),
-        ] {
-            crate::gpu::shader::validate(label, &(constant.clone() + src));
+        for stage in super::stages(layers) {
+            crate::gpu::shader::validate(&stage);
         }
     }
 }

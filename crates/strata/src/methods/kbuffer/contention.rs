@@ -23,11 +23,15 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use super::{group_layout, KParams, COUNTERS, COUNTER_LOCK_FAILURES, COUNTER_LOST, STORAGE_WGSL};
+use super::{
+    definitions, group_layout, KParams, Layout, COUNTERS, COUNTER_LOCK_FAILURES, COUNTER_LOST,
+    LIBRARY,
+};
 use crate::error::{Error, Result};
 use crate::frame::passes::compute_pipeline;
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu};
+use crate::gpu::shader::Stage;
+use crate::gpu::Gpu;
 use crate::methods::MethodId;
 
 const HARNESS_WGSL: &str = include_str!("contention.wgsl");
@@ -94,53 +98,50 @@ pub fn subjects() -> [MethodId; 9] {
     ]
 }
 
-/// The method's capture functions, its `harness_capture` step, its resolve accessors and the
-/// harness entry points; and how many capture passes it takes.
-pub fn source(method: MethodId) -> Result<(String, u32)> {
+/// The harness stage of `method` on a storage of its layout, `coherent` where the adapter
+/// takes it: the harness entry points over the layout's accessors, and a module made for the
+/// method (`strata::kbuffer::harness_step`) whose `harness_capture` is its capture step; and how
+/// many capture passes it takes.
+pub fn stage(method: MethodId, coherent: bool) -> Result<(Stage, u32)> {
     use MethodId::*;
-    let slots = super::slots_capture_functions();
-    let (capture, step, accessors, passes) = match method {
-        KplusArray => (slots, "capture_locked(p, f, VARIANT_ARRAY);", super::SLOTS_RESOLVE_WGSL, 1),
-        KplusHeap => (slots, "capture_locked(p, f, VARIANT_HEAP);", super::SLOTS_RESOLVE_WGSL, 1),
-        KplusArrayR => (slots, "capture_array_r(p, f);", super::SLOTS_RESOLVE_WGSL, 1),
-        KplusSemiheap => (
-            slots,
-            "capture_semiheap(p, f);",
-            include_str!("semiheap_resolve.wgsl"),
-            1,
-        ),
-        KbPs => (slots, "capture_sorted(p, f, LOCKED);", super::SLOTS_RESOLVE_WGSL, 1),
-        Kb => (slots, "capture_sorted(p, f, UNLOCKED);", super::SLOTS_RESOLVE_WGSL, 1),
-        KbLl => (
-            super::list::capture_functions(),
-            "capture_sorted_list(p, f);",
-            include_str!("list_resolve.wgsl"),
-            1,
-        ),
-        AbufferLl => (
-            super::list::capture_functions(),
-            "capture_list(p, f);",
-            include_str!("list_resolve.wgsl"),
-            1,
-        ),
-        KbKeys => (
-            [STORAGE_WGSL, super::mdt::KEYS_WGSL].join("\n"),
-            "if capture_pass == 0u { cascade_key(p, f); } else if !store_payload(p, f) { tail_add(p, f); }",
-            include_str!("keys_resolve.wgsl"),
-            2,
-        ),
+    let (layout, passes) = match method {
+        KplusArray | KplusHeap | KplusArrayR | KbPs | Kb => (Layout::Slots, 1),
+        KplusSemiheap => (Layout::Semiheap, 1),
+        KbLl | AbufferLl => (Layout::List, 1),
+        KbKeys => (Layout::Keys, 2),
         _ => {
             return Err(Error::unsupported(format!(
                 "the contention harness does not drive {method}"
             )))
         }
     };
-    let step =
-        format!("fn harness_capture(capture_pass: u32, p: u32, f: Fragment) {{\n    {step}\n}}");
-    Ok((
-        [capture.as_str(), &step, accessors, HARNESS_WGSL].join("\n"),
-        passes,
-    ))
+    // Two passes: the keys' cascade, then the payloads of the keys that stayed.
+    let step = match (method, method.descriptor().app_capture) {
+        (KbKeys, _) => "if capture_pass == 0u {\n        strata::kbuffer::keys::cascade_key(p, f);\n    } else if !strata::kbuffer::keys::store_payload(p, f) {\n        strata::kbuffer::storage::tail_add(p, f);\n    }".to_owned(),
+        (_, Some(step)) => format!("{step};"),
+        (_, None) => unreachable!("every single-pass method the harness drives has a capture step"),
+    };
+    let step_module = format!(
+        "#define_import_path strata::kbuffer::harness_step\n#import strata::fragment::Fragment\n\nfn harness_capture(capture_pass: u32, p: u32, f: Fragment) {{\n    {step}\n}}\n"
+    );
+    let stage = Stage::new(format!("strata.contention.{method}"), HARNESS_WGSL)
+        .with(LIBRARY)
+        .with_module(step_module)
+        .defs(&definitions(layout, 1, coherent));
+    Ok((stage, passes))
+}
+
+/// `stage` with a seeded defect: the family module holding `from` made with `to` in its place.
+fn with_defect(stage: Stage, (from, to): (&str, &str)) -> Result<Stage> {
+    let holder = LIBRARY
+        .iter()
+        .find(|source| source.contains(from))
+        .ok_or_else(|| {
+            Error::input(format!(
+                "the defect's text is in no k-buffer module: {from}"
+            ))
+        })?;
+    Ok(stage.with_module(holder.replace(from, to)))
 }
 
 /// A fragment as the harness feeds it: pixel, depth, tag.
@@ -316,11 +317,12 @@ impl<'g> Harness<'g> {
         gpu: &'g Gpu,
         method: MethodId,
         ordered: bool,
-        defect: Option<&dyn Fn(String) -> String>,
+        defect: Option<(&str, &str)>,
     ) -> Result<Harness<'g>> {
-        let (mut source, passes) = source(method)?;
+        let coherent = gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT);
+        let (mut stage, passes) = stage(method, coherent)?;
         if let Some(defect) = defect {
-            source = defect(source);
+            stage = with_defect(stage, defect)?;
         }
         if method == MethodId::KbKeys && !gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) {
             return Err(Error::unsupported(format!(
@@ -329,13 +331,13 @@ impl<'g> Harness<'g> {
             )));
         }
         let device = &gpu.device;
-        let label = format!("strata.contention.{method}");
+        let label = stage.label.clone();
         let ordered_module = match ordered {
-            true => crate::gpu::ordered::module(gpu, &label, &shader::with_shared(&source)),
+            true => crate::gpu::ordered::module(gpu, &stage),
             false => None,
         };
         let ordered = ordered_module.is_some();
-        let module = ordered_module.unwrap_or_else(|| shader::module(device, &label, &source));
+        let module = ordered_module.unwrap_or_else(|| stage.module(device));
         let empty = binding::layout(device, "strata.contention.empty", &[]);
         let kbuffer = group_layout(gpu);
         let layout = binding::layout(

@@ -1,8 +1,14 @@
+#define_import_path strata::kbuffer::contention
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::access::{stored_count, stored_fragment}
+#import strata::kbuffer::harness_step::harness_capture
+
 // The contention harness (contention.rs): a method's capture step driven from compute
 // dispatches, so that many invocations — across workgroups, which lavapipe runs on parallel CPU
-// threads, and within one — insert fragments into a few pixels at once. The method's source
-// before this file defines `harness_capture(capture_pass, p, f)` (its capture step; `capture_pass` for methods
-// of two passes) and the resolve accessors `stored_count` / `stored_fragment`.
+// threads, and within one — insert fragments into a few pixels at once. The module
+// `strata::kbuffer::harness_step`, made for the method, defines `harness_capture(capture_pass,
+// p, f)` (its capture step; `capture_pass` for methods of two passes); the storage layout's
+// accessors read back what it stored.
 
 struct HarnessParams {
     fragments: u32,

@@ -53,7 +53,7 @@ pub const ABUFFER_LL: Descriptor = Descriptor {
     memory: "20·nodes + 16·W·H + 152 (nodes ≥ F)",
     summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
     compute_raster: COMPUTE,
-    app_capture: Some("capture_list(p, f)"),
+    app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
     traffic: TrafficModel::Lists,
     ..Descriptor::new(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer, create)
 };
@@ -86,7 +86,7 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
     compute_raster: COMPUTE,
-    app_capture: Some("capture_fixed(p, f)"),
+    app_capture: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
     reads: &[MethodOption::K, MethodOption::Tail],
     traffic: TrafficModel::Slots { atomics: true },
     ..Descriptor::new(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer, create)
@@ -112,7 +112,7 @@ pub const KB: Descriptor = Descriptor {
     compute_raster: COMPUTE,
     per_sample_storage: true,
     temporal: true,
-    app_capture: Some("capture_sorted(p, f, UNLOCKED)"),
+    app_capture: Some("strata::kbuffer::kb_capture::capture_sorted(p, f, strata::kbuffer::kb_capture::UNLOCKED)"),
     reads: K,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: false },
@@ -127,7 +127,7 @@ pub const KB_PS: Descriptor = Descriptor {
     per_sample_storage: true,
     temporal: true,
     ordering: Ordering::Locks,
-    app_capture: Some("capture_sorted(p, f, LOCKED)"),
+    app_capture: Some("strata::kbuffer::kb_capture::capture_sorted(p, f, strata::kbuffer::kb_capture::LOCKED)"),
     reads: K_LOCKED,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: true },
@@ -141,7 +141,7 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
     summary:
         "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
     compute_raster: COMPUTE,
-    app_capture: Some("capture_fixed(p, f)"),
+    app_capture: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
     reads: K,
     traffic: TrafficModel::Slots { atomics: true },
     ..Descriptor::new(MethodId::KbAbFixed, "kb-ab-fixed", Family::Kbuffer, create)
@@ -156,7 +156,7 @@ pub const KPLUS_ARRAY: Descriptor = Descriptor {
     per_sample_storage: true,
     temporal: true,
     ordering: Ordering::Locks,
-    app_capture: Some("capture_locked(p, f, VARIANT_ARRAY)"),
+    app_capture: Some("strata::kbuffer::kplus_capture::capture_locked(p, f, strata::kbuffer::kplus_capture::VARIANT_ARRAY)"),
     reads: K_LOCKED,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: true },
@@ -165,7 +165,7 @@ pub const KPLUS_ARRAY: Descriptor = Descriptor {
 
 pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
     summary: "k+-buffer revised max-array: the first k fragments stored without the lock",
-    app_capture: Some("capture_array_r(p, f)"),
+    app_capture: Some("strata::kbuffer::kplus_capture::capture_array_r(p, f)"),
     ..Descriptor {
         id: MethodId::KplusArrayR,
         name: "kplus-array-r",
@@ -176,7 +176,7 @@ pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
 pub const KPLUS_HEAP: Descriptor = Descriptor {
     summary:
         "k+-buffer max-heap: sift-up while filling, replace-root and sift-down when full, culling",
-    app_capture: Some("capture_locked(p, f, VARIANT_HEAP)"),
+    app_capture: Some("strata::kbuffer::kplus_capture::capture_locked(p, f, strata::kbuffer::kplus_capture::VARIANT_HEAP)"),
     max_k: 1024,
     ..Descriptor {
         id: MethodId::KplusHeap,
@@ -201,7 +201,7 @@ pub const KPLUS_SBUFFER: Descriptor = Descriptor {
 
 pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
     summary: "semi-heap k-buffer (seed 000): a max-heap of the h farthest (--heap-size, default 1) and an unordered rest; the first k - h fragments stored without the lock, culling against the heap top",
-    app_capture: Some("capture_semiheap(p, f)"),
+    app_capture: Some("strata::kbuffer::semiheap_capture::capture_semiheap(p, f)"),
     reads: &[
         MethodOption::K,
         MethodOption::Tail,
@@ -263,7 +263,7 @@ pub const KB_AB_LL: Descriptor = Descriptor {
     memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
     summary: "A-buffer linked lists, the k nearest selected in resolve",
     compute_raster: COMPUTE,
-    app_capture: Some("capture_list(p, f)"),
+    app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
     reads: K,
     traffic: TrafficModel::Lists,
     ..Descriptor::new(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer, create)
@@ -287,7 +287,7 @@ pub const KB_LL: Descriptor = Descriptor {
     compute_raster: LOCKS_NEED_ORDER,
     per_sample_storage: true,
     ordering: Ordering::Locks,
-    app_capture: Some("capture_sorted_list(p, f)"),
+    app_capture: Some("strata::kbuffer::list::capture_sorted_list(p, f)"),
     reads: K_LOCKED,
     max_k: 256,
     traffic: TrafficModel::Lists,

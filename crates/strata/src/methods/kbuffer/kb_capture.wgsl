@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::kb_capture
+#import strata::kbuffer::storage::{FILLED, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, tail_add, try_lock, unlock}
+#import strata::fragment::{Fragment, fragment_before}
+#import strata::kbuffer::slot_access::{load_slot, store_slot}
+
 // The k-buffer with sorted insertion (Bavoil et al. 2007): slots kept in (depth, primitive)
 // order, a new fragment shifts the farther ones back and the last falls out.
 // `kb` does it with no lock: concurrent fragments of one pixel read, modify and write the same

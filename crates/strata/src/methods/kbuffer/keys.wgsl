@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::keys
+#import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, kp, kpixel, sample_pixel, storage_samples, tail_add}
+
 // kb-keys: the lock-free exact k-buffer. Each slot is two 64-bit words: a key — the depth's bits
 // above the fragment's tag, inverted so that 0 marks an empty slot and a larger key is a nearer
 // fragment — and the payload (the color's two f16 pairs). Keys are unique per pixel, so the
@@ -9,7 +14,11 @@
 // not kept goes to the tail. Nothing spins and nothing can fail: relaxed atomics suffice, since
 // the passes are separated by the render pass boundary. Needs SHADER_INT64_ATOMIC_ALL_OPS.
 
-@group(1) @binding(1) var<storage, read_write> key_slots: array<atomic<u64>>;
+#ifdef COHERENT
+@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> key_slots: array<atomic<u64>>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> key_slots: array<atomic<u64>>;
+#endif
 
 fn fragment_key(f: Fragment) -> u64 {
     return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));

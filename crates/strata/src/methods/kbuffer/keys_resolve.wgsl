@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::keys_resolve
+#import strata::kbuffer::storage::{kp}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::keys::{key_slots, key_word}
+
 // Resolve access to kb-keys' slots: the kept keys form a prefix of each pixel's slots, already
 // in (depth, primitive) order.
 

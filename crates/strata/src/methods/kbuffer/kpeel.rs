@@ -37,10 +37,7 @@
 //! memory does not grow with the depth complexity. With `--msaa S`: S× the slots and words,
 //! 32·S per pixel of running composites, 4 per pixel. Limits: k ≤ 1024 (the max-heap's lock).
 
-use super::{
-    k_of, params_for, slots_capture_functions, KFrame, Storage, RESOLVE_WGSL, SLOTS_RESOLVE_WGSL,
-    SLOTS_WGSL, SLOT_BYTES, STORAGE_WGSL,
-};
+use super::{k_of, params_for, KFrame, Layout, Storage, SLOT_BYTES};
 use crate::error::{Error, Result};
 use crate::frame::passes::{
     compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage, NullTarget,
@@ -51,29 +48,9 @@ use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::peeling::{layers_for, peel_feedback};
 use crate::methods::{Method, MethodId};
 
-const STATE_WGSL: &str = include_str!("kpeel_state.wgsl");
+pub const CAPTURE_WGSL: &str = include_str!("kpeel_capture.wgsl");
 pub const CASCADE_WGSL: &str = include_str!("kpeel_cascade.wgsl");
-
-pub fn capture_source() -> String {
-    [
-        slots_capture_functions().as_str(),
-        STATE_WGSL,
-        include_str!("kpeel_capture.wgsl"),
-    ]
-    .join("\n")
-}
-
-pub fn resolve_source() -> String {
-    [
-        STORAGE_WGSL,
-        SLOTS_WGSL,
-        SLOTS_RESOLVE_WGSL,
-        RESOLVE_WGSL,
-        STATE_WGSL,
-        include_str!("kpeel_resolve.wgsl"),
-    ]
-    .join("\n")
-}
+pub const RESOLVE_WGSL: &str = include_str!("kpeel_resolve.wgsl");
 
 /// The compute rasterizer's lock-free capture: the keys buffer's layout, the keys and colors
 /// stages (kpeel_cascade.wgsl).
@@ -107,8 +84,8 @@ pub struct KPeel {
 impl KPeel {
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<KPeel> {
         let id = MethodId::Kpeel;
-        let source = resolve_source();
-        let mut frame = KFrame::with_resolve(gpu, scene, id, &source, "cs_kpeel_resolve");
+        let resolve = super::stage(gpu, "strata.kpeel.resolve", RESOLVE_WGSL, Layout::Slots);
+        let mut frame = KFrame::with_resolve(gpu, scene, id, &resolve, "cs_kpeel_resolve");
         let lock_free = gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) && scene.samples == 1;
         let cascade = if scene.raster_layout.is_some() || lock_free {
             Some(Cascade::new(gpu, scene, &frame)?)
@@ -119,8 +96,8 @@ impl KPeel {
         // reports relaxed atomics and no adapter refuses it).
         let module = cascade
             .is_none()
-            .then(|| frame.capture_module(gpu, scene, capture_source(), true));
-        let compute = crate::gpu::shader::module(&gpu.device, "strata.kpeel.compute", &source);
+            .then(|| frame.capture_module(gpu, scene, CAPTURE_WGSL, Layout::Slots, true));
+        let compute = resolve.module(&gpu.device);
         let layouts = [&scene.frame_layout, &frame.layout];
         let pipeline = |entry: &str| {
             compute_pipeline(
@@ -160,9 +137,9 @@ impl Cascade {
         }
         let layout = binding::layout(&gpu.device, "strata.kpeel.keys.layout", &[Slot::StorageRw]);
         // Compiled only where the adapter has 64-bit atomics.
-        let stage = super::coherent(gpu, [capture_source().as_str(), CASCADE_WGSL].join("\n"));
+        let stage = super::stage(gpu, "strata.kpeel.cascade", CASCADE_WGSL, Layout::Slots);
         let layouts = [&scene.frame_layout, &frame.layout, &layout];
-        let module = crate::gpu::shader::module(&gpu.device, "strata.kpeel.cascade", &stage);
+        let module = stage.module(&gpu.device);
         let storage_stage = |entry: &str| {
             crate::raster::storage_stage(
                 gpu,
@@ -170,7 +147,7 @@ impl Cascade {
                 crate::raster::StageSpec {
                     label: &format!("strata.kpeel.{entry}"),
                     stage: &stage,
-                    modules: (&module, &module),
+                    module: &module,
                     entry,
                 },
                 &layouts,

@@ -1,10 +1,15 @@
+#define_import_path strata::kbuffer::kpeel_capture
+#import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
+#import strata::kbuffer::storage::{FILLED, count_pixel_fragment, count_seen, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples}
+#import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, capture_locked}
+#import strata::kbuffer::kpeel_state::{peel_pending}
+
 // k-depth peeling capture (seed 003 §4.3): each geometry pass keeps the k nearest fragments
 // strictly after the pixel's last composited one in (depth, primitive) order — a k+-buffer
 // capture (max-array for k ≤ 16, max-heap above) behind that bound. Ordering by the pair, not
 // the depth alone, loses nothing at exactly equal depths. With --msaa every sample peels on its
 // own: a fragment enters the capture of each covered sample it is still pending at.
 
-@group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 
 // fs_kpeel's capture step: its fragment stage below and the compute rasterizer call it.
 fn fs_kpeel_capture(v: SceneVarying, front_facing: bool, mask: u32) {

@@ -1,3 +1,10 @@
+#define_import_path strata::kbuffer::kpeel_cascade
+#import strata::scene::{SceneVarying, behind_opaque, scene_fragment}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::storage::{FILLED, count_seen, kp, kpixel, pixel_word, pixels}
+#import strata::kbuffer::kpeel_state::{peel_pending}
+#import strata::kbuffer::slot_access::{store_slot}
+
 // k-depth peeling's lock-free capture, for the compute rasterizer (seed 002's multi-layer peeling
 // over MDTS cascades). A keys pass sends each fragment behind the pixel's bound through an
 // atomicMax cascade of 64-bit keys — depth bits above the tag, inverted so that 0 marks an empty

@@ -1,3 +1,12 @@
+#define_import_path strata::kbuffer::kpeel_resolve
+#import strata::scene::{frame, report_pixel, report_samples}
+#import strata::color::{Resolved}
+#import strata::composite::{composite_finish, composite_new}
+#import strata::kbuffer::storage::{FILLED, SEEN, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel}
+#import strata::kbuffer::resolve::{Tail, composite_stored}
+#import strata::kbuffer::access::{stored_count}
+#import strata::kbuffer::kpeel_state::{kpeel_state, kpeel_store}
+
 // k-depth peeling's compute passes: init (an empty composite per pixel, or per sample with
 // --msaa), resolve after each geometry pass (the captured layers composited behind the running
 // result), finish (the accounting; with --msaa the samples' average).

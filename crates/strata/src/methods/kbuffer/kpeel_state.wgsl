@@ -1,3 +1,10 @@
+#define_import_path strata::kbuffer::kpeel_state
+#import strata::color::{Resolved}
+#import strata::fragment::{Fragment, fragment_before}
+#import strata::composite::{Composite, view_distance}
+#import strata::kbuffer::storage::{kp, output}
+#import strata::kbuffer::slots::{slots}
+
 // k-depth peeling's running composite between passes: a valid Resolved at every step
 // (premultiplied color, alpha = 1 − transmittance, count), its spare words holding the last
 // composited fragment — the next pass's bound — and the exact transmittance. The view distance
@@ -30,8 +37,8 @@ fn kpeel_load(q: u32) -> Resolved {
 
 fn kpeel_state(q: u32) -> Composite {
     let r = kpeel_load(q);
-    let depth = bitcast<f32>(r._pad0);
-    return Composite(r.color.rgb, bitcast<f32>(r._pad2), r.count, depth, r._pad1, view_distance(depth));
+    let depth = bitcast<f32>(r.pad_a);
+    return Composite(r.color.rgb, bitcast<f32>(r.pad_c), r.count, depth, r.pad_b, view_distance(depth));
 }
 
 fn kpeel_store(q: u32, s: Composite) {
@@ -52,16 +59,16 @@ fn kpeel_store(q: u32, s: Composite) {
     atomicStore(&slots[w + 2u], bitcast<u32>(r.color.b));
     atomicStore(&slots[w + 3u], bitcast<u32>(r.color.a));
     atomicStore(&slots[w + 4u], r.count);
-    atomicStore(&slots[w + 5u], r._pad0);
-    atomicStore(&slots[w + 6u], r._pad1);
-    atomicStore(&slots[w + 7u], r._pad2);
+    atomicStore(&slots[w + 5u], r.pad_a);
+    atomicStore(&slots[w + 6u], r.pad_b);
+    atomicStore(&slots[w + 7u], r.pad_c);
 }
 
 // The last composited fragment of a (sample) pixel (ordering fields only; meaningless while
 // count is 0).
 fn kpeel_bound(q: u32) -> Fragment {
     let r = kpeel_load(q);
-    return Fragment(bitcast<f32>(r._pad0), r._pad1, 0u, 0u);
+    return Fragment(bitcast<f32>(r.pad_a), r.pad_b, 0u, 0u);
 }
 
 // True for a fragment a pass may still capture at (sample) pixel q: behind its last composited

@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::kplus_capture
+#import strata::kbuffer::storage::{BOUND, FILLED, acquire_published, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, release_published, tail_add, try_lock, unlock}
+#import strata::fragment::{Fragment, fragment_before}
+#import strata::kbuffer::slot_access::{load_key, load_slot, store_slot}
+
 // k+-buffer capture (Vasilakis et al. 2015): the k nearest fragments, unsorted, in one pass.
 // max-array keeps the farthest stored fragment in slot 0; max-heap keeps a binary max-heap.
 // Fragments strictly behind the published bound of a full pixel (storage.wgsl) are culled before

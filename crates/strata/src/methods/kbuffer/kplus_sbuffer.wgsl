@@ -1,3 +1,6 @@
+#define_import_path strata::kbuffer::kplus_sbuffer
+#import strata::kbuffer::storage::{SEEN, kp, pixel_word, pixels}
+
 // The memory-aware k+-buffer (seed 003 §4.1): k+-buffer slots in S-buffer regions. The count
 // pass counts each pixel's fragments (SEEN); the prefix sum (sbuffer_scan.wgsl) over
 // min(SEEN, k) gives each pixel a region of exactly that many slots; the store pass fills it.
@@ -6,7 +9,11 @@
 // does not fit in the pool (a pool sized from an earlier frame's need) stores nothing and counts
 // its fragments as overflowed; its resolve sees no fragments.
 
-@group(1) @binding(1) var<storage, read_write> slots: array<atomic<u32>>;
+#ifdef COHERENT
+@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> slots: array<atomic<u32>>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> slots: array<atomic<u32>>;
+#endif
 
 fn region_start(p: u32) -> u32 {
     return atomicLoad(&slots[p]);
@@ -34,16 +41,4 @@ fn region_fits(p: u32) -> bool {
     let pool_slots = (arrayLength(&slots) - header_words()) / 4u;
     let start = region_start(p);
     return start <= pool_slots && region_size(p) <= pool_slots - start;
-}
-
-// Resolve access: the stored fragments of a region that fits.
-fn stored_count(p: u32) -> u32 {
-    if !region_fits(p) {
-        return 0u;
-    }
-    return min(atomicLoad(&pixels[pixel_word(p, FILLED)]), region_size(p));
-}
-
-fn stored_fragment(p: u32, i: u32) -> Fragment {
-    return load_slot(p, i);
 }

@@ -11,8 +11,8 @@
 //! storage binding; a frame needing more is an error in exact mode. Memory: 20 bytes per node,
 //! 16 per pixel of counters and head, 40 per pixel of tail sums with `--tail blend`.
 use super::{
-    k_of, lock_failures, params_for, KFrame, KParams, Pool, Storage, COUNTER_ALLOCATED,
-    COUNTER_LOST, COUNTER_OVERFLOWED, RESOLVE_WGSL, STORAGE_WGSL,
+    k_of, lock_failures, params_for, KFrame, KParams, Layout, Pool, Storage, COUNTER_ALLOCATED,
+    COUNTER_LOST, COUNTER_OVERFLOWED,
 };
 use crate::error::Result;
 use crate::frame::passes::GeometryStage;
@@ -22,30 +22,8 @@ use crate::methods::{Method, MethodId};
 
 pub const NODE_BYTES: u64 = 20;
 
-const LIST_WGSL: &str = include_str!("list.wgsl");
-
-/// The capture steps of the list methods, without entry points or scene bindings.
-pub fn capture_functions() -> String {
-    [STORAGE_WGSL, LIST_WGSL].join("\n")
-}
-
-pub fn capture_source() -> String {
-    [
-        capture_functions().as_str(),
-        include_str!("list_entries.wgsl"),
-    ]
-    .join("\n")
-}
-
-pub fn resolve_source() -> String {
-    [
-        STORAGE_WGSL,
-        LIST_WGSL,
-        include_str!("list_resolve.wgsl"),
-        RESOLVE_WGSL,
-    ]
-    .join("\n")
-}
+/// The list methods' capture entry points (list_entries.wgsl).
+pub const ENTRIES_WGSL: &str = include_str!("list_entries.wgsl");
 
 pub struct ListKBuffer {
     id: MethodId,
@@ -57,8 +35,8 @@ pub struct ListKBuffer {
 
 impl ListKBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> ListKBuffer {
-        let mut frame = KFrame::new(gpu, scene, id, &resolve_source());
-        let module = frame.capture_module(gpu, scene, capture_source(), true);
+        let mut frame = KFrame::new(gpu, scene, id, Layout::List);
+        let module = frame.capture_module(gpu, scene, ENTRIES_WGSL, Layout::List, true);
         let entry = if id == MethodId::KbLl {
             "fs_sorted_ll"
         } else {

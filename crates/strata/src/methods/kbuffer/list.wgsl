@@ -1,3 +1,7 @@
+#define_import_path strata::kbuffer::list
+#import strata::kbuffer::storage::{COUNTER_ALLOCATED, COUNTER_LOST, COUNTER_OVERFLOWED, count_seen, counter_add, counters, kp, pixel_word, pixels, tail_add}
+#import strata::fragment::{Fragment, fragment_before}
+
 // Per-pixel linked lists for the k-buffer family: nodes of 5 atomic words (depth bits, tag, rg,
 // ba, next) in one pool; a pixel's HEAD word (pixels[.., FILLED]) and every `next` hold node
 // index + 1, 0 ending the list. counters[COUNTER_ALLOCATED] hands out nodes; once it reaches the
@@ -12,7 +16,11 @@
 //   `max_tries` failed exchanges the fragment is lost and counted. A place beyond the k-th node
 //   means the fragment is not among the k nearest: it is culled without taking a node.
 
-@group(1) @binding(1) var<storage, read_write> nodes: array<atomic<u32>>;
+#ifdef COHERENT
+@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> nodes: array<atomic<u32>>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> nodes: array<atomic<u32>>;
+#endif
 
 const HEAD: u32 = 1u;
 

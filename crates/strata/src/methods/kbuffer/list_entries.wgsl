@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::list_entries
+#import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
+#import strata::kbuffer::storage::{count_pixel_fragment, kp, kpixel, sample_pixel, storage_samples}
+#import strata::kbuffer::list::{capture_list, capture_sorted_list}
+
 // The built-in capture entry points of the linked-list methods.
 
 // fs_ab_ll's capture step: its fragment stage below and the compute rasterizer call it.

@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::list_resolve
+#import strata::kbuffer::storage::{SEEN, pixel_word, pixels}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::list::{HEAD, node_fragment, node_next, pool_nodes}
+
 // Resolve access to the linked lists: sequential reads follow a cursor, so visiting a list in
 // order costs one step per fragment. A pixel's list holds at most the fragments it saw, each in
 // one node of the pool: walks stop after min(seen, pool) nodes, so no list a racing writer left

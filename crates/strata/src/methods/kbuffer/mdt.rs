@@ -22,7 +22,7 @@
 //! Passes: clear; capture (1 or 2 geometry passes); the shared k resolve. Per pixel 16 bytes of
 //! counters and 20 of tail sums with `--tail blend`, as the other k-buffers.
 
-use super::{k_of, lock_failures, params_for, KFrame, Storage, RESOLVE_WGSL, STORAGE_WGSL};
+use super::{k_of, lock_failures, params_for, KFrame, Layout, Storage};
 use crate::error::{Error, Result};
 use crate::frame::passes::GeometryStage;
 use crate::frame::{Effect, FrameContext, MethodStats, Recorded, SceneGpu, Tail, Totals};
@@ -59,42 +59,24 @@ impl Mdt {
     }
 }
 
-const MDT_WGSL: &str = include_str!("mdt.wgsl");
-const MDT64_WGSL: &str = include_str!("mdt64.wgsl");
-pub(super) const KEYS_WGSL: &str = include_str!("keys.wgsl");
-
-pub fn capture_source(mdt: Mdt) -> String {
-    match mdt {
-        Mdt::Mdt64 => [STORAGE_WGSL, MDT64_WGSL].join("\n"),
-        Mdt::Keys => [STORAGE_WGSL, KEYS_WGSL].join("\n"),
-        Mdt::Mdt32 | Mdt::Pack => [STORAGE_WGSL, MDT_WGSL].join("\n"),
+impl Mdt {
+    /// The capture stage's source: its entry points and steps.
+    pub fn capture_source(self) -> &'static str {
+        match self {
+            Mdt::Mdt64 => include_str!("mdt64.wgsl"),
+            Mdt::Keys => include_str!("keys.wgsl"),
+            Mdt::Mdt32 | Mdt::Pack => include_str!("mdt.wgsl"),
+        }
     }
-}
 
-pub fn resolve_source(mdt: Mdt) -> String {
-    match mdt {
-        Mdt::Mdt32 => [
-            STORAGE_WGSL,
-            MDT_WGSL,
-            include_str!("mdt32_resolve.wgsl"),
-            RESOLVE_WGSL,
-        ]
-        .join("\n"),
-        Mdt::Mdt64 => [STORAGE_WGSL, MDT64_WGSL, RESOLVE_WGSL].join("\n"),
-        Mdt::Keys => [
-            STORAGE_WGSL,
-            KEYS_WGSL,
-            include_str!("keys_resolve.wgsl"),
-            RESOLVE_WGSL,
-        ]
-        .join("\n"),
-        Mdt::Pack => [
-            STORAGE_WGSL,
-            MDT_WGSL,
-            include_str!("pack_resolve.wgsl"),
-            RESOLVE_WGSL,
-        ]
-        .join("\n"),
+    /// How the resolve reads the stored keys.
+    pub fn layout(self) -> Layout {
+        match self {
+            Mdt::Mdt32 => Layout::Mdt32,
+            Mdt::Mdt64 => Layout::Mdt64,
+            Mdt::Keys => Layout::Keys,
+            Mdt::Pack => Layout::Pack,
+        }
     }
 }
 
@@ -119,9 +101,9 @@ impl MdtKBuffer {
                 gpu.info.name
             )));
         }
-        let mut frame = KFrame::new(gpu, scene, id, &resolve_source(mdt));
+        let mut frame = KFrame::new(gpu, scene, id, mdt.layout());
         // No lock and no publication: the cascades need no ordering beyond atomicity.
-        let module = frame.capture_module(gpu, scene, capture_source(mdt), false);
+        let module = frame.capture_module(gpu, scene, mdt.capture_source(), mdt.layout(), false);
         let pipeline = |entry: &str| frame.capture_pipeline(gpu, scene, &module, entry);
         let passes = match mdt {
             Mdt::Mdt32 => vec![

@@ -1,3 +1,9 @@
+#define_import_path strata::kbuffer::mdt
+#import strata::scene::{SceneVarying, behind_opaque, scene_fragment, scene_fragment_covering}
+#import strata::color::{linear_to_srgb, srgb_to_linear}
+#import strata::fragment::{Fragment, fragment_color, fragment_new}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, kp, kpixel, sample_pixel, storage_samples, tail_add}
+
 // Multi-depth-test k-buffers (seed 002's MDTS) with 32-bit keys: each fragment runs an atomicMax
 // cascade over its pixel's k keys — the key displaced from a slot carries on to the next — so
 // the keys stay sorted with no lock. Keys are stored inverted (0xffffffff − key) so that 0 marks
@@ -8,7 +14,11 @@
 //   bits above 12 bits of color in two keys (R6 G6 | B6 A6, sRGB-encoded): two cascades whose
 //   slot i belong to the same fragment unless two keys tie in the top 20 bits.
 
-@group(1) @binding(1) var<storage, read_write> keys: array<atomic<u32>>;
+#ifdef COHERENT
+@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> keys: array<atomic<u32>>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> keys: array<atomic<u32>>;
+#endif
 
 fn slots_in_frame() -> u32 {
     return kp.pixels * kp.sample_slots * kp.k;

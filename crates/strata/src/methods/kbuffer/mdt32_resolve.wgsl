@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::mdt32_resolve
+#import strata::kbuffer::storage::{kp}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::mdt::{key_count, key_depth, keys, slots_in_frame}
+
 // Resolve access to kb-mdt32's keys and colors. A slot whose color no fragment claimed (a depth
 // tie lost in the color pass) has zero color and opacity.
 

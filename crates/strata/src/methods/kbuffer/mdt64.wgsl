@@ -1,8 +1,18 @@
+#define_import_path strata::kbuffer::mdt64
+#import strata::scene::{SceneVarying, behind_opaque, scene_fragment}
+#import strata::color::{linear_to_srgb, srgb_to_linear}
+#import strata::fragment::{Fragment, fragment_color, fragment_new}
+#import strata::kbuffer::storage::{count_seen, kp, kpixel, tail_add}
+
 // kb-mdt64: one atomicMax cascade on 64-bit keys — inverted depth bits above 32 bits of color
 // (sRGB-encoded RGB and alpha, 8 bits each) — so one geometry pass keeps the k nearest with their
 // colors (needs SHADER_INT64_ATOMIC_ALL_OPS). 0 marks an empty slot.
 
-@group(1) @binding(1) var<storage, read_write> keys64: array<atomic<u64>>;
+#ifdef COHERENT
+@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> keys64: array<atomic<u64>>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> keys64: array<atomic<u64>>;
+#endif
 
 fn srgb8(c: f32) -> u32 {
     return u32(round(linear_to_srgb(c) * 255.0));

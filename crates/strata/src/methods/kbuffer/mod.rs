@@ -93,7 +93,8 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Tail, Totals};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::{Defs, Library, Stage};
+use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
 /// Keep in sync with `KParams` in storage.wgsl.
@@ -183,47 +184,105 @@ impl Variant {
     }
 }
 
-/// Per-pixel words, counters, tail, and temporal culling's bindings (temporal.wgsl).
-pub const STORAGE_WGSL: &str = concat!(
+/// The family's WGSL modules (`strata::kbuffer::…`): storage and its accessors, each method's
+/// capture steps and entry points, the shared resolve.
+pub const LIBRARY: Library = &[
     include_str!("storage.wgsl"),
-    "\n",
-    include_str!("temporal.wgsl")
-);
-pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
-/// Fixed per-pixel slot arrays and their accessors.
-pub const SLOTS_WGSL: &str = concat!(
+    include_str!("temporal.wgsl"),
     include_str!("slots.wgsl"),
-    "\n",
-    include_str!("slot_access.wgsl")
-);
-pub const SLOT_ACCESS_WGSL: &str = include_str!("slot_access.wgsl");
-pub const SLOTS_RESOLVE_WGSL: &str = include_str!("slots_resolve.wgsl");
-pub const KPLUS_CAPTURE_WGSL: &str = include_str!("kplus_capture.wgsl");
-pub const KB_CAPTURE_WGSL: &str = include_str!("kb_capture.wgsl");
-pub const FIXED_CAPTURE_WGSL: &str = include_str!("fixed_capture.wgsl");
-pub const SEMIHEAP_CAPTURE_WGSL: &str = include_str!("semiheap_capture.wgsl");
+    include_str!("slot_access.wgsl"),
+    include_str!("access.wgsl"),
+    include_str!("slots_resolve.wgsl"),
+    include_str!("kplus_capture.wgsl"),
+    include_str!("kb_capture.wgsl"),
+    include_str!("fixed_capture.wgsl"),
+    include_str!("semiheap_capture.wgsl"),
+    include_str!("semiheap_resolve.wgsl"),
+    include_str!("slots_entries.wgsl"),
+    include_str!("list.wgsl"),
+    include_str!("list_entries.wgsl"),
+    include_str!("list_resolve.wgsl"),
+    include_str!("mdt.wgsl"),
+    include_str!("mdt32_resolve.wgsl"),
+    include_str!("pack_resolve.wgsl"),
+    include_str!("mdt64.wgsl"),
+    include_str!("keys.wgsl"),
+    include_str!("keys_resolve.wgsl"),
+    include_str!("sbuffer.wgsl"),
+    include_str!("sbuffer_resolve.wgsl"),
+    include_str!("sbuffer_scan.wgsl"),
+    include_str!("kplus_sbuffer.wgsl"),
+    include_str!("kplus_sbuffer_resolve.wgsl"),
+    include_str!("kplus_sbuffer_entries.wgsl"),
+    include_str!("kpeel_state.wgsl"),
+    include_str!("kpeel_capture.wgsl"),
+    include_str!("kpeel_cascade.wgsl"),
+    include_str!("kpeel_resolve.wgsl"),
+    include_str!("resolve.wgsl"),
+];
 
-/// The capture steps of every slot method, without entry points or scene bindings: what an
-/// application's fragment shader includes (see `methods::capture`).
-pub fn slots_capture_functions() -> String {
-    [
-        STORAGE_WGSL,
-        SLOTS_WGSL,
-        KPLUS_CAPTURE_WGSL,
-        KB_CAPTURE_WGSL,
-        FIXED_CAPTURE_WGSL,
-        SEMIHEAP_CAPTURE_WGSL,
-    ]
-    .join("\n")
+pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
+pub const SLOTS_ENTRIES_WGSL: &str = include_str!("slots_entries.wgsl");
+
+/// Where a method keeps its fragments, which picks the accessors its stages import
+/// (`STORAGE_*` in resolve.wgsl, slot_access.wgsl and sbuffer_scan.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    Slots,
+    Semiheap,
+    List,
+    Mdt32,
+    Pack,
+    Mdt64,
+    Keys,
+    Sbuffer,
+    KplusSbuffer,
 }
 
-/// The built-in capture module of the slot methods.
-pub fn slots_capture_source() -> String {
-    [
-        slots_capture_functions().as_str(),
-        include_str!("slots_entries.wgsl"),
-    ]
-    .join("\n")
+impl Layout {
+    pub const ALL: [Layout; 9] = [
+        Layout::Slots,
+        Layout::Semiheap,
+        Layout::List,
+        Layout::Mdt32,
+        Layout::Pack,
+        Layout::Mdt64,
+        Layout::Keys,
+        Layout::Sbuffer,
+        Layout::KplusSbuffer,
+    ];
+
+    fn definition(self) -> &'static str {
+        match self {
+            Layout::Slots => "STORAGE_SLOTS",
+            Layout::Semiheap => "STORAGE_SEMIHEAP",
+            Layout::List => "STORAGE_LIST",
+            Layout::Mdt32 => "STORAGE_MDT32",
+            Layout::Pack => "STORAGE_PACK",
+            Layout::Mdt64 => "STORAGE_MDT64",
+            Layout::Keys => "STORAGE_KEYS",
+            Layout::Sbuffer => "STORAGE_SBUFFER",
+            Layout::KplusSbuffer => "STORAGE_KPLUS_SBUFFER",
+        }
+    }
+}
+
+/// The family's definitions: the storage layout, the method's bind group (`KBUFFER_GROUP`: 1 in
+/// strata's own passes, the application's choice for its capture), and `COHERENT` where the
+/// adapter takes `@coherent` on the fragment storage and the per-pixel words (see module docs).
+pub fn definitions(layout: Layout, group: u32, coherent: bool) -> Defs {
+    Defs::default()
+        .flag(layout.definition())
+        .value("KBUFFER_GROUP", group)
+        .flag_if("COHERENT", coherent)
+}
+
+/// A stage of the family: `source` with the family's modules and definitions on `gpu`.
+pub fn stage(gpu: &Gpu, label: impl Into<String>, source: &'static str, layout: Layout) -> Stage {
+    let coherent = gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT);
+    Stage::new(label, source)
+        .with(LIBRARY)
+        .defs(&definitions(layout, 1, coherent))
 }
 
 /// The largest k a method accepts (see the module docs).
@@ -474,30 +533,13 @@ pub struct Storage {
     pub clear: bool,
 }
 
-/// Declares a method's storage as `@coherent` where the adapter supports it (see module docs).
-pub fn coherent(gpu: &Gpu, source: String) -> String {
-    if !gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT) {
-        return source;
-    }
-    source
-        .replace(
-            "@group(1) @binding(1) var<storage, read_write>",
-            "@group(1) @binding(1) @coherent var<storage, read_write>",
-        )
-        .replace(
-            "@group(1) @binding(2) var<storage, read_write>",
-            "@group(1) @binding(2) @coherent var<storage, read_write>",
-        )
-}
-
 /// A capture stage: the WGSL module (vertex stage, and fragment stage without ordering) and,
 /// where the adapter takes it, the fragment stage with acquire/release atomics.
 pub struct CaptureModule {
     pub wgsl: wgpu::ShaderModule,
     pub ordered: Option<wgpu::ShaderModule>,
-    /// The stage's WGSL (after the shared sources), which the compute rasterizer compiles
-    /// again with its own entry point.
-    pub source: String,
+    /// The stage, which the compute rasterizer composes again with its own entry point.
+    pub stage: Stage,
 }
 
 /// Whether a method's capture orders memory through a lock or list links (the ordered words of
@@ -535,21 +577,23 @@ pub struct KFrame {
 }
 
 impl KFrame {
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, resolve_source: &str) -> KFrame {
-        Self::with_resolve(gpu, scene, id, resolve_source, "cs_resolve")
+    /// A frame with the family's resolve (resolve.wgsl) over the method's storage `layout`.
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, layout: Layout) -> KFrame {
+        let stage = stage(gpu, format!("strata.{id}.resolve"), RESOLVE_WGSL, layout);
+        Self::with_resolve(gpu, scene, id, &stage, "cs_resolve")
     }
 
-    /// A frame whose resolve is the entry point `entry` of `resolve_source`.
+    /// A frame whose resolve is the entry point `entry` of `resolve`.
     pub fn with_resolve(
         gpu: &Gpu,
         scene: &SceneGpu,
         id: MethodId,
-        resolve_source: &str,
+        resolve: &Stage,
         entry: &str,
     ) -> KFrame {
         let layout = group_layout(gpu);
         let label = format!("strata.{id}.resolve");
-        let module = shader::module(&gpu.device, &label, &coherent(gpu, resolve_source.into()));
+        let module = resolve.module(&gpu.device);
         let resolve =
             compute_pipeline(gpu, &label, &module, entry, &[&scene.frame_layout, &layout]);
         KFrame {
@@ -588,32 +632,29 @@ impl KFrame {
             scene,
             crate::raster::StageSpec {
                 label: &format!("strata.{}.{entry}", self.id),
-                stage: &module.source,
-                modules: (
-                    &module.wgsl,
-                    module.ordered.as_ref().unwrap_or(&module.wgsl),
-                ),
+                stage: &module.stage,
+                module: module.ordered.as_ref().unwrap_or(&module.wgsl),
                 entry,
             },
             &[&scene.frame_layout, &self.layout],
         )
     }
 
-    /// A capture module for `source` (made coherent where the adapter can); with `ordered`, its
+    /// The capture module of `source` over the method's storage `layout`; with `ordered`, its
     /// fragment stages also get acquire/release atomics where the adapter can
     /// ([`crate::gpu::ordered`]) and the scene is drawn by the GPU's rasterizer.
     pub fn capture_module(
         &mut self,
         gpu: &Gpu,
         scene: &SceneGpu,
-        source: String,
+        source: &'static str,
+        layout: Layout,
         ordered: bool,
     ) -> CaptureModule {
-        let label = format!("strata.{}.capture", self.id);
-        let source = coherent(gpu, source);
+        let stage = stage(gpu, format!("strata.{}.capture", self.id), source, layout);
         // Compute captures keep WGSL's relaxed atomics (see `raster::storage_stage`).
         let ordered = if ordered && scene.raster_layout.is_none() {
-            crate::gpu::ordered::module(gpu, &label, &shader::with_shared(&source))
+            crate::gpu::ordered::module(gpu, &stage)
         } else {
             None
         };
@@ -646,9 +687,9 @@ impl KFrame {
                 )
             });
         CaptureModule {
-            wgsl: shader::module(&gpu.device, &label, &source),
+            wgsl: stage.module(&gpu.device),
             ordered,
-            source,
+            stage,
         }
     }
 
@@ -834,18 +875,13 @@ pub struct SlotKBuffer {
 
 impl SlotKBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, variant: Variant) -> SlotKBuffer {
-        let access = if variant == Variant::KplusSemiheap {
-            include_str!("semiheap_resolve.wgsl")
+        let layout = if variant == Variant::KplusSemiheap {
+            Layout::Semiheap
         } else {
-            SLOTS_RESOLVE_WGSL
+            Layout::Slots
         };
-        let mut frame = KFrame::new(
-            gpu,
-            scene,
-            id,
-            &[STORAGE_WGSL, SLOTS_WGSL, access, RESOLVE_WGSL].join("\n"),
-        );
-        let module = frame.capture_module(gpu, scene, slots_capture_source(), true);
+        let mut frame = KFrame::new(gpu, scene, id, layout);
+        let module = frame.capture_module(gpu, scene, SLOTS_ENTRIES_WGSL, layout, true);
         SlotKBuffer {
             variant,
             capture: frame.capture_pipeline(gpu, scene, &module, variant.entry()),

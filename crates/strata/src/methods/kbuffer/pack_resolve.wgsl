@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::pack_resolve
+#import strata::kbuffer::storage::{kp}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::mdt::{key_count, keys, slots_in_frame, unpack_keys}
+
 // Resolve access to kb-mdt-pack's two key arrays: slot i of each is taken as one fragment.
 
 fn stored_count(p: u32) -> u32 {

@@ -1,11 +1,18 @@
+#define_import_path strata::kbuffer::resolve
+#import strata::scene::{fragment_coverage, frame, report_pixel}
+#import strata::color::{Resolved}
+#import strata::fragment::{Fragment, fragment_before, fragment_color}
+#import strata::composite::{Composite, composite_finish, composite_front, composite_new}
+#import strata::kbuffer::access::{stored_count, stored_fragment}
+#import strata::kbuffer::storage::{SEEN, TAIL_WORDS, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail_word}
+
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
 // Up to LOCAL_CAPACITY stored fragments are copied to a local array and sorted — insertion sort
 // up to 16, bitonic sort above; longer lists use the k-depth sort (seed 003, Algorithm 4): chunks
 // of CHUNK nearest fragments selected with a max-array, sorted and composited, the last one
 // composited bounding the next selection. Fragments beyond k join the tail (--tail blend).
-// The storage file prepended to this one defines `stored_count(p)` and `stored_fragment(p, i)`.
+// `stored_count(p)` and `stored_fragment(p, i)` are the storage layout's (access.wgsl).
 
-@group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 
 const LOCAL_CAPACITY: u32 = 64u;
 const CHUNK: u32 = 32u;

@@ -25,10 +25,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use super::{
-    k_of, params_for, KFrame, Pool, Storage, COUNTERS, COUNTER_OVERFLOWED, KPLUS_CAPTURE_WGSL,
-    RESOLVE_WGSL, SLOT_ACCESS_WGSL, STORAGE_WGSL,
-};
+use super::{k_of, params_for, KFrame, Layout, Pool, Storage, COUNTERS, COUNTER_OVERFLOWED};
 use crate::error::Result;
 use crate::frame::passes::{
     compute_pipeline, dispatch, storage_geometry_pass, GeometryStage, NullTarget,
@@ -44,7 +41,7 @@ const SCAN_BLOCK: u64 = 256;
 const MAX_GROUPS_X: u64 = 65535;
 
 const SBUFFER_WGSL: &str = include_str!("sbuffer.wgsl");
-const SCAN_WGSL: &str = include_str!("sbuffer_scan.wgsl");
+pub const SCAN_WGSL: &str = include_str!("sbuffer_scan.wgsl");
 
 /// Keep in sync with `ScanLevel` in sbuffer_scan.wgsl.
 #[repr(C)]
@@ -84,36 +81,23 @@ pub fn scan_levels(n: u64) -> (Vec<ScanLevel>, u64) {
     }
 }
 
-const KPLUS_SBUFFER_WGSL: &str = include_str!("kplus_sbuffer.wgsl");
-
-/// The storage and region access of `id` (sbuffer.wgsl, or kplus_sbuffer.wgsl and the slots).
-fn storage_source(id: MethodId) -> Vec<&'static str> {
+/// The storage layout of `id`: S-buffer regions of pooled fragments, or k+-buffer slots in
+/// regions.
+pub fn layout(id: MethodId) -> Layout {
     if id == MethodId::KplusSbuffer {
-        vec![STORAGE_WGSL, KPLUS_SBUFFER_WGSL, SLOT_ACCESS_WGSL]
+        Layout::KplusSbuffer
     } else {
-        vec![STORAGE_WGSL, SBUFFER_WGSL]
+        Layout::Sbuffer
     }
 }
 
-pub fn resolve_source(id: MethodId) -> String {
-    let mut parts = storage_source(id);
-    if id != MethodId::KplusSbuffer {
-        parts.push(include_str!("sbuffer_resolve.wgsl"));
-    }
-    parts.push(RESOLVE_WGSL);
-    parts.join("\n")
-}
-
-pub fn capture_source(id: MethodId) -> String {
-    let mut parts = storage_source(id);
+/// The capture stage's source of `id` (its count and store entry points).
+pub fn capture_source(id: MethodId) -> &'static str {
     if id == MethodId::KplusSbuffer {
-        parts.extend([
-            KPLUS_CAPTURE_WGSL,
-            include_str!("kplus_sbuffer_entries.wgsl"),
-        ]);
+        include_str!("kplus_sbuffer_entries.wgsl")
+    } else {
+        SBUFFER_WGSL
     }
-    parts.push(SCAN_WGSL);
-    parts.join("\n")
 }
 
 /// A prefix sum's levels for one frame size: each level's parameters and bind group, and the
@@ -148,9 +132,11 @@ pub struct SBuffer {
 impl SBuffer {
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> SBuffer {
         let kplus = id == MethodId::KplusSbuffer;
-        let mut frame = KFrame::new(gpu, scene, id, &resolve_source(id));
+        let mut frame = KFrame::new(gpu, scene, id, layout(id));
         // The k+-buffer's spin lock wants acquire/release ordering where the adapter has it.
-        let module = frame.capture_module(gpu, scene, capture_source(id), kplus);
+        let module = frame.capture_module(gpu, scene, capture_source(id), layout(id), kplus);
+        let scan = super::stage(gpu, format!("strata.{id}.scan"), SCAN_WGSL, layout(id))
+            .module(&gpu.device);
         let (count, store) = if kplus {
             ("fs_kplus_sbuffer_count", "fs_kplus_sbuffer_store")
         } else {
@@ -163,13 +149,7 @@ impl SBuffer {
         );
         let layouts = [&scene.frame_layout, &frame.layout, &scan_layout];
         let compute = |entry: &str| {
-            compute_pipeline(
-                gpu,
-                &format!("strata.{id}.{entry}"),
-                &module.wgsl,
-                entry,
-                &layouts,
-            )
+            compute_pipeline(gpu, &format!("strata.{id}.{entry}"), &scan, entry, &layouts)
         };
         SBuffer {
             id,

@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::sbuffer
+#import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::storage::{COUNTER_OVERFLOWED, FILLED, SEEN, count_seen, counter_add, kpixel, pixel_word, pixels}
+
 // The S-buffer (seed 003 §4): every pixel's fragments in one contiguous region of a shared pool.
 // A count pass counts each pixel's fragments (SEEN); an exclusive prefix sum over the pixels
 // (sbuffer_scan.wgsl) gives each pixel its region's start (OFFSET, the lock word, which no
@@ -5,7 +10,11 @@
 // Pixels without fragments take no memory. A region past the pool's end (a pool sized from an
 // earlier frame's need) is cut there, and its lost fragments are counted (COUNTER_OVERFLOWED).
 
-@group(1) @binding(1) var<storage, read_write> pool: array<Fragment>;
+#ifdef COHERENT
+@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> pool: array<Fragment>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> pool: array<Fragment>;
+#endif
 
 const OFFSET: u32 = 2u;
 

@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::sbuffer_resolve
+#import strata::kbuffer::storage::{FILLED, pixel_word, pixels}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::sbuffer::{pool, region_size, region_start}
+
 // Resolve access to the S-buffer: a pixel's region (never past what the count pass sized it
 // for), cut at the pool's end.
 

@@ -1,8 +1,15 @@
+#define_import_path strata::kbuffer::sbuffer_scan
+#ifdef STORAGE_KPLUS_SBUFFER
+#import strata::kbuffer::kplus_sbuffer::{region_size, set_region_start}
+#else
+#import strata::kbuffer::sbuffer::{region_size, set_region_start}
+#endif
+
 // The S-buffer's exclusive prefix sum over the pixels' region sizes, in levels of 256: `gather`
 // copies each pixel's `region_size` into level 0 of `scan`; `scan_blocks` replaces each block of 256 values of a level by
 // its exclusive prefix sums and writes the block's total into the next level; `add_block_offsets`
 // adds each block's scanned total back, top level down; `scatter` hands the results to
-// `set_region_start`. The storage file before this one defines both. Sums saturate at 2³² − 1
+// `set_region_start`. The storage layout's module (sbuffer.wgsl, or kplus_sbuffer.wgsl with STORAGE_KPLUS_SBUFFER) defines both. Sums saturate at 2³² − 1
 // instead of wrapping, so a frame with more fragments than a u32 counts gets starts past any pool
 // (its regions then count as overflowed) rather than starts that overlap other regions. Keep `ScanLevel` in sync with `ScanLevel` in sbuffer.rs.
 

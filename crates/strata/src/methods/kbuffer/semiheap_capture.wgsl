@@ -1,3 +1,9 @@
+#define_import_path strata::kbuffer::semiheap_capture
+#import strata::kbuffer::storage::{FILLED, acquire_published, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, release_published, tail_add, try_lock, unlock}
+#import strata::fragment::{Fragment, fragment_before}
+#import strata::kbuffer::slot_access::{load_key, load_slot, store_slot}
+#import strata::kbuffer::kplus_capture::{heap_sift_down, heap_sift_up}
+
 // The semi-heap k-buffer (seed 000, `kplus-semiheap`): each pixel's k slots are a max-heap H of
 // |H| = h slots (0..h), holding the h farthest of the cached fragments, and an unordered
 // sequence S (h..k) with the rest. The first k − h fragments take S's slots from the seen counter

@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::semiheap_resolve
+#import strata::kbuffer::storage::{FILLED, kp, pixel_word, pixels}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::slot_access::{load_slot}
+
 // Resolve access to the semi-heap: H's fragments (slots 0..|H|), then S's (slots h..).
 
 fn stored_count(p: u32) -> u32 {

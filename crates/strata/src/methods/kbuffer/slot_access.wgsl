@@ -1,5 +1,14 @@
-// Slot accessors over `slots` and a `slot_word(p, i)` (the word of slot i of pixel p) that the
-// file before this one defines: fixed arrays (slots.wgsl) or S-buffer regions (kplus_sbuffer.wgsl).
+#define_import_path strata::kbuffer::slot_access
+#import strata::fragment::{Fragment}
+#ifdef STORAGE_KPLUS_SBUFFER
+#import strata::kbuffer::kplus_sbuffer::{slot_word, slots}
+#else
+#import strata::kbuffer::slots::{slot_word, slots}
+#endif
+
+// Slot accessors over `slots` and a `slot_word(p, i)` (the word of slot i of pixel p) of the
+// storage layout: fixed arrays (slots.wgsl) or, with STORAGE_KPLUS_SBUFFER, S-buffer regions
+// (kplus_sbuffer.wgsl).
 
 fn load_slot(p: u32, i: u32) -> Fragment {
     let w = slot_word(p, i);

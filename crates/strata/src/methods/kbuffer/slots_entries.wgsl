@@ -1,3 +1,13 @@
+#define_import_path strata::kbuffer::slots_entries
+#import strata::scene::{SceneVarying, behind_opaque, scene_fragment, scene_fragment_covering}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_temporal_cull, kp, kpixel, sample_pixel, storage_samples, tail_add}
+#import strata::kbuffer::temporal::{note_outside, temporally_culled}
+#import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, capture_array_r, capture_locked}
+#import strata::kbuffer::kb_capture::{LOCKED, UNLOCKED, capture_sorted}
+#import strata::kbuffer::fixed_capture::{capture_fixed}
+#import strata::kbuffer::semiheap_capture::{capture_semiheap}
+
 // The built-in capture entry points of the slot k-buffers: the scene's rasterized fragments,
 // tested against the opaque depth and (except the fixed arrays) temporal culling, through each
 // method's capture step.

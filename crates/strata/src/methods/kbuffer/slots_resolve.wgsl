@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::slots_resolve
+#import strata::kbuffer::storage::{FILLED, SEEN, kp, pixel_word, pixels}
+#import strata::fragment::{Fragment}
+#import strata::kbuffer::slot_access::{load_slot}
+
 // Resolve access to fixed per-pixel slot arrays (k+-buffers, kb, kb-ps, the fixed A-buffers).
 
 fn stored_count(p: u32) -> u32 {

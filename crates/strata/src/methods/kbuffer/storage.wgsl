@@ -1,3 +1,8 @@
+#define_import_path strata::kbuffer::storage
+#import strata::color::{Resolved}
+#import strata::fragment::{Fragment, fragment_color}
+#import strata::kbuffer::temporal::{culling_interface, note_outside}
+
 // k-buffer family storage, shared by its capture and resolve stages.
 // Keep `KParams` in sync with `KParams` in kbuffer/mod.rs and the COUNTER_ indices with
 // `Counters` there.
@@ -23,16 +28,22 @@ struct KParams {
     // --msaa with per-sample storage (the capture-time k-buffers): S, each pixel's storage
     // being S sample pixels `p * S + s` with their own words, slots and tail; else 1.
     sample_slots: u32,
-    // Padding to 16 bytes; naga_oil's composer refused the names `_pad0` and `spare0`.
+    // Padding to 16 bytes; naga_oil's composer refused the names `pad_a` and `spare0`.
     spare_a: u32,
     spare_b: u32,
     spare_c: u32,
 }
 
-@group(1) @binding(0) var<uniform> kp: KParams;
-@group(1) @binding(2) var<storage, read_write> pixels: array<atomic<u32>>;
-@group(1) @binding(3) var<storage, read_write> counters: array<atomic<u32>>;
-@group(1) @binding(4) var<storage, read_write> tail: array<atomic<u32>>;
+@group(#{KBUFFER_GROUP}) @binding(0) var<uniform> kp: KParams;
+#ifdef COHERENT
+@group(#{KBUFFER_GROUP}) @binding(2) @coherent var<storage, read_write> pixels: array<atomic<u32>>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(2) var<storage, read_write> pixels: array<atomic<u32>>;
+#endif
+@group(#{KBUFFER_GROUP}) @binding(3) var<storage, read_write> counters: array<atomic<u32>>;
+@group(#{KBUFFER_GROUP}) @binding(4) var<storage, read_write> tail: array<atomic<u32>>;
+// The resolved pixels (the resolve's output; k-depth peeling's running composite).
+@group(#{KBUFFER_GROUP}) @binding(5) var<storage, read_write> output: array<Resolved>;
 
 const SEEN: u32 = 0u;
 const FILLED: u32 = 1u;
@@ -194,4 +205,13 @@ fn culled(p: u32, f: Fragment) -> bool {
     }
     let bound = atomicLoad(&pixels[pixel_word(p, BOUND)]);
     return bound != 0u && f.depth > bitcast<f32>(bound - 1u);
+}
+
+// Counts a fragment temporal culling rejected.
+fn count_temporal_cull() {
+    let at = kp.pixels;
+    let old = atomicAdd(&culling_interface[at], 1u);
+    if old == 0xffffffffu {
+        atomicAdd(&culling_interface[at + 1u], 1u);
+    }
 }

@@ -1,3 +1,5 @@
+#define_import_path strata::kbuffer::temporal
+
 // Reverse-reprojection temporal culling (seed 000), shared by every k-buffer stage.
 // Keep `Temporal` in sync with `TemporalParams` in kbuffer/temporal.rs.
 //
@@ -27,14 +29,14 @@ struct Temporal {
     moving: u32,
 }
 
-@group(1) @binding(6) var<storage, read> temporal: Temporal;
-@group(1) @binding(7) var<storage, read> previous_culling_interface: array<u32>;
+@group(#{KBUFFER_GROUP}) @binding(6) var<storage, read> temporal: Temporal;
+@group(#{KBUFFER_GROUP}) @binding(7) var<storage, read> previous_culling_interface: array<u32>;
 // One word per pixel, then the frame's count of culled fragments (64-bit, low word first).
-@group(1) @binding(8) var<storage, read_write> culling_interface: array<atomic<u32>>;
+@group(#{KBUFFER_GROUP}) @binding(8) var<storage, read_write> culling_interface: array<atomic<u32>>;
 // With `moving`: each triangle's object, and per object the transform from where it is this
 // frame to where it was last frame.
-@group(1) @binding(9) var<storage, read> motion_triangle_objects: array<u32>;
-@group(1) @binding(10) var<storage, read> motion_to_previous: array<mat4x4<f32>>;
+@group(#{KBUFFER_GROUP}) @binding(9) var<storage, read> motion_triangle_objects: array<u32>;
+@group(#{KBUFFER_GROUP}) @binding(10) var<storage, read> motion_to_previous: array<mat4x4<f32>>;
 
 const REFRESH_TILE: u32 = 16u;
 
@@ -42,15 +44,6 @@ const REFRESH_TILE: u32 = 16u;
 fn note_outside(p: u32, depth: f32) {
     if temporal.record != 0u {
         atomicMax(&culling_interface[p], ~bitcast<u32>(depth));
-    }
-}
-
-// Counts a fragment temporal culling rejected.
-fn count_temporal_cull() {
-    let at = kp.pixels;
-    let old = atomicAdd(&culling_interface[at], 1u);
-    if old == 0xffffffffu {
-        atomicAdd(&culling_interface[at + 1u], 1u);
     }
 }
 

@@ -389,46 +389,47 @@ fn impossible_budget_is_a_clear_error() {
     );
 }
 
+/// Every stage the family builds composes and validates, with and without coherent storage.
 #[test]
 fn kbuffer_stages_validate() {
     use super::*;
+    use crate::gpu::shader::{validate, Stage};
     use crate::methods::MethodId;
-    let stages = [
-        ("slots.capture", slots_capture_source()),
-        (
-            "slots.resolve",
-            [STORAGE_WGSL, SLOTS_WGSL, SLOTS_RESOLVE_WGSL, RESOLVE_WGSL].join("\n"),
-        ),
-        ("mdt.capture", mdt::capture_source(mdt::Mdt::Mdt32)),
-        ("list.capture", list::capture_source()),
-        ("list.resolve", list::resolve_source()),
-        ("mdt64.capture", mdt::capture_source(mdt::Mdt::Mdt64)),
-        ("mdt32.resolve", mdt::resolve_source(mdt::Mdt::Mdt32)),
-        ("mdt64.resolve", mdt::resolve_source(mdt::Mdt::Mdt64)),
-        ("mdt_pack.resolve", mdt::resolve_source(mdt::Mdt::Pack)),
-        ("keys.capture", mdt::capture_source(mdt::Mdt::Keys)),
-        ("keys.resolve", mdt::resolve_source(mdt::Mdt::Keys)),
-        (
-            "sbuffer.capture",
-            sbuffer::capture_source(MethodId::Sbuffer),
-        ),
-        (
-            "sbuffer.resolve",
-            sbuffer::resolve_source(MethodId::Sbuffer),
-        ),
-        (
-            "kplus-sbuffer.capture",
-            sbuffer::capture_source(MethodId::KplusSbuffer),
-        ),
-        (
-            "kplus-sbuffer.resolve",
-            sbuffer::resolve_source(MethodId::KplusSbuffer),
-        ),
-        ("kpeel.capture", kpeel::capture_source()),
-        ("kpeel.resolve", kpeel::resolve_source()),
+    let mut stages: Vec<(&str, &'static str, Layout)> = vec![
+        ("slots.capture", SLOTS_ENTRIES_WGSL, Layout::Slots),
+        ("list.capture", list::ENTRIES_WGSL, Layout::List),
+        ("kpeel.capture", kpeel::CAPTURE_WGSL, Layout::Slots),
+        ("kpeel.cascade", kpeel::CASCADE_WGSL, Layout::Slots),
+        ("kpeel.resolve", kpeel::RESOLVE_WGSL, Layout::Slots),
     ];
-    for (label, src) in stages {
-        crate::gpu::shader::validate(label, &src);
+    for mdt in [
+        mdt::Mdt::Mdt32,
+        mdt::Mdt::Mdt64,
+        mdt::Mdt::Keys,
+        mdt::Mdt::Pack,
+    ] {
+        stages.push(("mdt.capture", mdt.capture_source(), mdt.layout()));
+    }
+    for id in [MethodId::Sbuffer, MethodId::KplusSbuffer] {
+        stages.push((
+            "sbuffer.capture",
+            sbuffer::capture_source(id),
+            sbuffer::layout(id),
+        ));
+        stages.push(("sbuffer.scan", sbuffer::SCAN_WGSL, sbuffer::layout(id)));
+    }
+    for layout in Layout::ALL {
+        stages.push(("resolve", RESOLVE_WGSL, layout));
+    }
+    for (label, source, layout) in stages {
+        for coherent in [false, true] {
+            let label = format!("{label} {layout:?} coherent={coherent}");
+            validate(
+                &Stage::new(label, source)
+                    .with(LIBRARY)
+                    .defs(&definitions(layout, 1, coherent)),
+            );
+        }
     }
 }
 
@@ -869,9 +870,12 @@ fn braced_block(source: &str, at: usize) -> &str {
 fn lock_winners_leave_their_loop_only_through_its_condition() {
     let mut loops = 0;
     for (file, source) in [
-        ("kplus_capture.wgsl", super::KPLUS_CAPTURE_WGSL),
-        ("kb_capture.wgsl", super::KB_CAPTURE_WGSL),
-        ("semiheap_capture.wgsl", super::SEMIHEAP_CAPTURE_WGSL),
+        ("kplus_capture.wgsl", include_str!("kplus_capture.wgsl")),
+        ("kb_capture.wgsl", include_str!("kb_capture.wgsl")),
+        (
+            "semiheap_capture.wgsl",
+            include_str!("semiheap_capture.wgsl"),
+        ),
     ] {
         for (at, _) in source.match_indices("for (") {
             let body = braced_block(source, at);

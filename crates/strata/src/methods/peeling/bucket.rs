@@ -60,7 +60,8 @@ use crate::frame::passes::{
 };
 use crate::frame::{BucketSplit, FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::{self, Stage};
+use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::kbuffer::DEFAULT_K;
 use crate::methods::Method;
 
@@ -77,7 +78,6 @@ pub struct BucketParams {
     pub adaptive: u32,
 }
 
-const COMMON: &str = include_str!("bucket_common.wgsl");
 const BOUNDS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 const BUCKET_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// What the targets are cleared to (`NO_DEPTH` in bucket_common.wgsl).
@@ -137,46 +137,37 @@ pub fn slots_of(k: Option<u32>, limits: &wgpu::Limits) -> Result<u32> {
     Ok(k)
 }
 
-/// The sort stage for `layers` target layers: the shared routing, the stage file, and the
-/// generated output struct and entry point (one member per layer).
-pub fn sort_stage(layers: u32) -> String {
+/// The sort stage for `layers` target layers: the routing (bucket_sort.wgsl) and a generated
+/// output struct and entry point (one member per layer).
+pub fn sort_stage(layers: u32) -> Stage {
     let members: Vec<String> = (0..layers)
         .map(|i| format!("    @location({i}) layer{i}: vec4<f32>,"))
         .collect();
     let values: Vec<String> = (0..layers)
         .map(|i| format!("bucket_channels({i}u, b, z)"))
         .collect();
-    format!(
-        "{COMMON}\n{}\nstruct BucketTargets {{\n{}\n}}\n\n@fragment\nfn fs_sort(v: SceneVarying) -> BucketTargets {{\n    if behind_opaque(v.position) {{\n        discard;\n    }}\n    let b = fragment_bucket(v);\n    let z = v.position.z;\n    return BucketTargets({});\n}}\n",
-        include_str!("bucket_sort.wgsl"),
+    let source = format!(
+        "#import strata::scene::{{SceneVarying, behind_opaque}}\n#import strata::peeling::bucket_sort::{{bucket_channels, fragment_bucket}}\n\nstruct BucketTargets {{\n{}\n}}\n\n@fragment\nfn fs_sort(v: SceneVarying) -> BucketTargets {{\n    if behind_opaque(v.position) {{\n        discard;\n    }}\n    let b = fragment_bucket(v);\n    let z = v.position.z;\n    return BucketTargets({});\n}}\n",
         members.join("\n"),
         values.join(", ")
-    )
+    );
+    Stage::new("strata.bucket.sort", source).with(super::LIBRARY)
 }
 
-/// The bucket-depth-peeling stages besides the generated sort (for validation in tests).
-pub fn stages() -> [(&'static str, String); 5] {
+/// The bucket-depth-peeling stages besides the generated sort, the color stage's layer
+/// textures multisampled at `samples` > 1.
+pub fn stages(samples: u32) -> [Stage; 5] {
+    let stage = |label: &str, source: &'static str| Stage::new(label, source).with(super::LIBRARY);
     [
-        (
-            "bucket.bounds",
-            [COMMON, include_str!("bucket_bounds.wgsl")].join("\n"),
+        stage("strata.bucket.bounds", include_str!("bucket_bounds.wgsl")),
+        stage("strata.bucket.reduce", include_str!("bucket_reduce.wgsl")),
+        stage(
+            "strata.bucket.histogram",
+            include_str!("bucket_histogram.wgsl"),
         ),
-        (
-            "bucket.reduce",
-            [COMMON, include_str!("bucket_reduce.wgsl")].join("\n"),
-        ),
-        (
-            "bucket.histogram",
-            [COMMON, include_str!("bucket_histogram.wgsl")].join("\n"),
-        ),
-        (
-            "bucket.color",
-            [COMMON, include_str!("bucket_color.wgsl")].join("\n"),
-        ),
-        (
-            "bucket.resolve",
-            [COMMON, include_str!("bucket_resolve.wgsl")].join("\n"),
-        ),
+        stage("strata.bucket.color", include_str!("bucket_color.wgsl"))
+            .defs(&shader::target_samples(samples)),
+        stage("strata.bucket.resolve", include_str!("bucket_resolve.wgsl")),
     ]
 }
 
@@ -319,14 +310,6 @@ fn max_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     })
 }
 
-/// The color stage with its layer textures (`LayerTexture`) multisampled at `samples` > 1.
-fn color_stage_for(source: &str, samples: u32) -> String {
-    format!(
-        "alias LayerTexture = {};\n{source}",
-        shader::texture_type(samples)
-    )
-}
-
 impl Bucket {
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Bucket> {
         if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
@@ -388,12 +371,13 @@ impl Bucket {
                 Slot::StorageRw,
             ],
         );
-        let [bounds_stage, reduce_stage, histogram_stage, color_stage, resolve_stage] = stages();
-        let module = shader::module(device, "strata.bucket.bounds", &bounds_stage.1);
+        let [bounds_stage, reduce_stage, histogram_stage, color_stage, resolve_stage] =
+            stages(samples);
+        let module = bounds_stage.module(device);
         let bounds = capture_pipeline_with(
             gpu,
             "strata.bucket.bounds",
-            (&module, &module),
+            &module,
             "fs_bounds",
             &[&scene.frame_layout, &bounds_layout],
             &[max_target(BOUNDS_FORMAT)],
@@ -401,44 +385,43 @@ impl Bucket {
             samples,
         );
         let reduce = (samples > 1).then(|| {
-            let module = shader::module(device, "strata.bucket.reduce", &reduce_stage.1);
+            let module = reduce_stage.module(device);
             screen_pipeline(
                 gpu,
                 "strata.bucket.reduce",
-                &module,
-                ("vs_reduce", "fs_reduce"),
+                (&module, "vs_reduce"),
+                (&module, "fs_reduce"),
                 &[&scene.frame_layout, &reduce_layout],
                 &[Some(BOUNDS_FORMAT.into())],
                 None,
                 None,
             )
         });
-        let module = shader::module(device, "strata.bucket.histogram", &histogram_stage.1);
+        let module = histogram_stage.module(device);
         let histogram = crate::raster::storage_stage(
             gpu,
             scene,
             crate::raster::StageSpec {
                 label: "strata.bucket.histogram",
-                stage: &histogram_stage.1,
-                modules: (&module, &module),
+                stage: &histogram_stage,
+                module: &module,
                 entry: "fs_histogram",
             },
             &[&scene.frame_layout, &histogram_layout],
         );
-        let color_source = color_stage_for(&color_stage.1, samples);
-        let module = shader::module(device, "strata.bucket.color", &color_source);
+        let module = color_stage.module(device);
         let color = crate::raster::storage_stage(
             gpu,
             scene,
             crate::raster::StageSpec {
                 label: "strata.bucket.color",
-                stage: &color_source,
-                modules: (&module, &module),
+                stage: &color_stage,
+                module: &module,
                 entry: "fs_color",
             },
             &[&scene.frame_layout, &color_layout],
         );
-        let module = shader::module(device, "strata.bucket.resolve", &resolve_stage.1);
+        let module = resolve_stage.module(device);
         let resolve = compute_pipeline(
             gpu,
             "strata.bucket.resolve",
@@ -469,12 +452,12 @@ impl Bucket {
     /// The sort pipeline for `layers` target layers, built when the layer count changes.
     fn sort_pipeline(&mut self, gpu: &Gpu, layers: u32) -> &wgpu::RenderPipeline {
         if self.sort.as_ref().is_none_or(|(l, _)| *l != layers) {
-            let module = shader::module(&gpu.device, "strata.bucket.sort", &sort_stage(layers));
+            let module = sort_stage(layers).module(&gpu.device);
             let targets: Vec<_> = (0..layers).map(|_| max_target(BUCKET_FORMAT)).collect();
             let pipeline = capture_pipeline_with(
                 gpu,
                 "strata.bucket.sort",
-                (&module, &module),
+                &module,
                 "fs_sort",
                 &[&self.frame_layout, &self.sort_layout],
                 &targets,

@@ -1,3 +1,7 @@
+#define_import_path strata::peeling::bucket_bounds
+#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of}
+#import strata::peeling::bucket_common::{NO_DEPTH}
+
 // Bucket depth peeling, pass 1 (bounds): every fragment writes (−z, z) into an Rg32Float
 // target with MAX blending, leaving each pixel's nearest depth (negated) and its farthest; it
 // also counts the pixel's fragments for the resolve's account.

@@ -1,3 +1,8 @@
+#define_import_path strata::peeling::bucket_color
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment_covering}
+#import strata::fragment::{Fragment}
+#import strata::peeling::bucket_common::{covered_samples, kept_word, params, route, sample_entry, samples_per_pixel}
+
 // Bucket depth peeling, the color pass: at each sample it covers, a fragment whose depth is its
 // bucket's nearest claims slot 2b, one at its farthest slot 2b + 1 (one atomicOr on the sample
 // entry's claim word), and the claimant stores its shaded record there (shaded once, for every
@@ -11,14 +16,26 @@
 @group(1) @binding(1) var bounds: texture_2d<f32>;
 @group(1) @binding(3) var<storage, read_write> claims: array<atomic<u32>>;
 @group(1) @binding(4) var<storage, read_write> records: array<Fragment>;
-@group(1) @binding(6) var layer0: LayerTexture;
-@group(1) @binding(7) var layer1: LayerTexture;
-@group(1) @binding(8) var layer2: LayerTexture;
-@group(1) @binding(9) var layer3: LayerTexture;
-@group(1) @binding(10) var layer4: LayerTexture;
-@group(1) @binding(11) var layer5: LayerTexture;
-@group(1) @binding(12) var layer6: LayerTexture;
-@group(1) @binding(13) var layer7: LayerTexture;
+// The layer textures: multisampled with --msaa (a composable module cannot alias their type).
+#ifdef MULTISAMPLED
+@group(1) @binding(6) var layer0: texture_multisampled_2d<f32>;
+@group(1) @binding(7) var layer1: texture_multisampled_2d<f32>;
+@group(1) @binding(8) var layer2: texture_multisampled_2d<f32>;
+@group(1) @binding(9) var layer3: texture_multisampled_2d<f32>;
+@group(1) @binding(10) var layer4: texture_multisampled_2d<f32>;
+@group(1) @binding(11) var layer5: texture_multisampled_2d<f32>;
+@group(1) @binding(12) var layer6: texture_multisampled_2d<f32>;
+@group(1) @binding(13) var layer7: texture_multisampled_2d<f32>;
+#else
+@group(1) @binding(6) var layer0: texture_2d<f32>;
+@group(1) @binding(7) var layer1: texture_2d<f32>;
+@group(1) @binding(8) var layer2: texture_2d<f32>;
+@group(1) @binding(9) var layer3: texture_2d<f32>;
+@group(1) @binding(10) var layer4: texture_2d<f32>;
+@group(1) @binding(11) var layer5: texture_2d<f32>;
+@group(1) @binding(12) var layer6: texture_2d<f32>;
+@group(1) @binding(13) var layer7: texture_2d<f32>;
+#endif
 
 // Sample s of target layer `layer` at `pixel` (the mip level, 0, when single-sampled).
 fn bucket_pair(layer: u32, pixel: vec2<u32>, s: u32) -> vec4<f32> {

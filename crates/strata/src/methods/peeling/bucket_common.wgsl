@@ -1,4 +1,7 @@
-// Bucket depth peeling's routing and parameters, shared by its passes (prepended to each stage).
+#define_import_path strata::peeling::bucket_common
+#import strata::scene::{frame}
+
+// Bucket depth peeling's routing and parameters, shared by its passes.
 // A pixel's depth range [nearest, farthest] (the bounds pass) is split into equal parts over
 // depth in fixed point with 31 fraction bits: exact integer arithmetic, so every pass, and the
 // CPU twin (`bucket::select`), routes a depth to the same bucket. Bucket b keeps

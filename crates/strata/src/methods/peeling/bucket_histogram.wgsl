@@ -1,3 +1,7 @@
+#define_import_path strata::peeling::bucket_histogram
+#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of}
+#import strata::peeling::bucket_common::{HISTOGRAM_WORDS, SUBINTERVALS, bucket_of}
+
 // Bucket depth peeling with --buckets adaptive, the histogram pass (between bounds and sort):
 // each fragment sets the bit of its part of the pixel's range, 1024 equal parts. The paper ORs
 // bits into render targets with logic-op blending; WebGPU has no logic ops, so one storage

@@ -1,3 +1,7 @@
+#define_import_path strata::peeling::bucket_sort
+#import strata::scene::{SceneVarying, pixel_index, pixel_of}
+#import strata::peeling::bucket_common::{NO_DEPTH, route}
+
 // Bucket depth peeling, pass 2 (sort): a fragment of bucket b writes −z to slot 2b and z to
 // slot 2b + 1 of the bucket targets, NO_DEPTH everywhere else; MAX blending keeps each bucket's
 // nearest and farthest depth — dual depth peeling inside every bucket, all buckets in one

@@ -1,3 +1,19 @@
+#define_import_path strata::peeling::dual_advance
+#import strata::scene::{frame, pixel_index, report_pixel, report_samples}
+#import strata::color::{Resolved}
+#import strata::fragment::{Fragment}
+#import strata::composite::{Composite, composite_back, composite_back_new, composite_front, composite_join, composite_new}
+#ifdef WIDE_KEYS
+#import strata::peeling::dual_key64::{no_max, no_min}
+#else
+#import strata::peeling::dual_key32::{no_max, no_min}
+#endif
+#ifdef WIDE_KEYS
+alias Key = u64;
+#else
+alias Key = u32;
+#endif
+
 // dual peeling between passes: composites the peeled front layer front-to-back and the back
 // layer back-to-front, then makes the next bounds current and counts pixels with layers left.
 // With --msaa each of a pixel's S sample entries (`p * S + s`) peels on its own, finish

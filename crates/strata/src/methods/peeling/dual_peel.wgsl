@@ -1,4 +1,14 @@
-// dual peeling capture passes over a `Key` (dual_key32.wgsl or dual_key64.wgsl, prepended).
+#define_import_path strata::peeling::dual_peel
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment}
+#import strata::fragment::{Fragment}
+#ifdef WIDE_KEYS
+#import strata::peeling::dual_key64::{fragment_key}
+#else
+#import strata::peeling::dual_key32::{fragment_key}
+#endif
+
+// dual peeling capture passes over keys of 64 bits (WIDE_KEYS: dual_key64.wgsl) or 32
+// (dual_key32.wgsl); a composable module cannot name its key type with an alias.
 // bounds: nearest and farthest key per pixel. peel: the fragment at the current nearest key
 // goes to the front slot, the one at the farthest to the back slot, everything between bounds
 // the next pass. hits: per pixel the front and back slots' claims and (third word) every
@@ -8,17 +18,30 @@
 // sample entries hits holds per pixel its fragments (bounds pass) and those some sample
 // composited (account pass).
 
-@group(1) @binding(0) var<storage, read> bounds: array<Key>;
-@group(1) @binding(1) var<storage, read_write> next_bounds: array<atomic<Key>>;
+#ifdef WIDE_KEYS
+@group(1) @binding(0) var<storage, read> bounds: array<u64>;
+@group(1) @binding(1) var<storage, read_write> next_bounds: array<atomic<u64>>;
+#else
+@group(1) @binding(0) var<storage, read> bounds: array<u32>;
+@group(1) @binding(1) var<storage, read_write> next_bounds: array<atomic<u32>>;
+#endif
 @group(1) @binding(2) var<storage, read_write> layers: array<Fragment>;
 @group(1) @binding(3) var<storage, read_write> hits: array<atomic<u32>>;
 
-fn widen_next(i: u32, key: Key) {
+#ifdef WIDE_KEYS
+fn widen_next(i: u32, key: u64) {
+#else
+fn widen_next(i: u32, key: u32) {
+#endif
     atomicMin(&next_bounds[2u * i], key);
     atomicMax(&next_bounds[2u * i + 1u], key);
 }
 
-fn key_of(v: SceneVarying, front_facing: bool) -> Key {
+#ifdef WIDE_KEYS
+fn key_of(v: SceneVarying, front_facing: bool) -> u64 {
+#else
+fn key_of(v: SceneVarying, front_facing: bool) -> u32 {
+#endif
     return fragment_key(v.position.z, (v.prim << 1u) | select(0u, 1u, front_facing));
 }
 
@@ -72,7 +95,11 @@ fn fs_bounds(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builti
 }
 
 // One fragment at sample entry i: into a slot at its bounds, or widening the next bounds.
-fn peel_at(i: u32, key: Key, f: Fragment) {
+#ifdef WIDE_KEYS
+fn peel_at(i: u32, key: u64, f: Fragment) {
+#else
+fn peel_at(i: u32, key: u32, f: Fragment) {
+#endif
     let lo = bounds[2u * i];
     let hi = bounds[2u * i + 1u];
     if key < lo || key > hi {

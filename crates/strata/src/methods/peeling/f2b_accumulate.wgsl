@@ -1,3 +1,9 @@
+#define_import_path strata::peeling::f2b_accumulate
+#import strata::scene::{frame, pixel_index, report_pixel}
+#import strata::color::{Resolved}
+#import strata::fragment::{fragment_new}
+#import strata::composite::{Composite, composite_finish, composite_front, composite_new}
+
 // f2b accumulate pass: composites the layer just peeled behind the pixel's running result.
 // finish: the result, and the pixel's account (its fragment count from the first peel pass).
 

@@ -1,3 +1,9 @@
+#define_import_path strata::peeling::f2b_accumulate_samples
+#import strata::scene::{frame, pixel_index, report_samples}
+#import strata::color::{Resolved}
+#import strata::fragment::{fragment_new}
+#import strata::composite::{Composite, composite_finish, composite_front, composite_new}
+
 // f2b's compute passes with --msaa: a running composite per sample; accumulate composites each
 // sample's layer behind it; finish averages the samples and reports the account pass's counts.
 

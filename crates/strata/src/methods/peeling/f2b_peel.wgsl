@@ -1,3 +1,7 @@
+#define_import_path strata::peeling::f2b_peel
+#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
+#import strata::composite::{Composite}
+
 // f2b peel pass: keeps fragments strictly after the last captured one in (depth, primitive)
 // order; the depth test (LESS, primitive order among equals) picks the nearest of them.
 

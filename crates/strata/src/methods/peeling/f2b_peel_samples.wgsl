@@ -1,3 +1,7 @@
+#define_import_path strata::peeling::f2b_peel_samples
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, shade}
+#import strata::composite::{Composite}
+
 // f2b peel pass with --msaa: every sample peels on its own, shading stays once per fragment.
 // A fragment covers the samples still waiting for it — those whose last captured (depth,
 // primitive) it strictly follows — through its output sample mask, and writes its center depth

@@ -42,7 +42,27 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::{Defs, Library, Stage};
+use crate::gpu::{Gpu, ResourceCache};
+
+/// The peeling family's WGSL modules (`strata::peeling::…`).
+pub const LIBRARY: Library = &[
+    include_str!("f2b_peel.wgsl"),
+    include_str!("f2b_peel_samples.wgsl"),
+    include_str!("f2b_accumulate.wgsl"),
+    include_str!("f2b_accumulate_samples.wgsl"),
+    include_str!("dual_key32.wgsl"),
+    include_str!("dual_key64.wgsl"),
+    DUAL_PEEL_WGSL,
+    DUAL_ADVANCE_WGSL,
+    include_str!("bucket_common.wgsl"),
+    include_str!("bucket_bounds.wgsl"),
+    include_str!("bucket_reduce.wgsl"),
+    include_str!("bucket_histogram.wgsl"),
+    include_str!("bucket_sort.wgsl"),
+    include_str!("bucket_color.wgsl"),
+    include_str!("bucket_resolve.wgsl"),
+];
 use crate::methods::Method;
 
 /// Layers a first frame peels before it has measured its depth complexity.
@@ -143,7 +163,8 @@ impl FrontToBack {
         } else {
             include_str!("f2b_peel.wgsl")
         };
-        let module = shader::module(device, "strata.f2b.peel", peel_source);
+        let peel_stage = Stage::new("strata.f2b.peel", peel_source).with(LIBRARY);
+        let module = peel_stage.module(device);
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,
@@ -155,7 +176,7 @@ impl FrontToBack {
             capture_pipeline_with(
                 gpu,
                 &format!("strata.f2b.{entry}"),
-                (&module, &module),
+                &module,
                 entry,
                 &[&scene.frame_layout, &peel_layout],
                 &[
@@ -188,8 +209,8 @@ impl FrontToBack {
                 scene,
                 crate::raster::StageSpec {
                     label: "strata.f2b.account",
-                    stage: peel_source,
-                    modules: (&module, &module),
+                    stage: &peel_stage,
+                    module: &module,
                     entry: "fs_account",
                 },
                 &[&scene.frame_layout, &peel_layout],
@@ -200,7 +221,9 @@ impl FrontToBack {
         } else {
             include_str!("f2b_accumulate.wgsl")
         };
-        let module = shader::module(device, "strata.f2b.accumulate", accumulate_source);
+        let module = Stage::new("strata.f2b.accumulate", accumulate_source)
+            .with(LIBRARY)
+            .module(device);
         let layouts = [&scene.frame_layout, &accumulate_layout];
         FrontToBack {
             init: compute_pipeline(gpu, "strata.f2b.init", &module, "cs_init", &layouts),
@@ -446,6 +469,16 @@ fn dual_bytes(px: u64, samples: u32, key_bytes: u64) -> u64 {
     }
 }
 
+pub const DUAL_PEEL_WGSL: &str = include_str!("dual_peel.wgsl");
+pub const DUAL_ADVANCE_WGSL: &str = include_str!("dual_advance.wgsl");
+
+/// A dual-peeling stage over 64-bit keys (`wide`, exact) or 32-bit ones (dual_key*.wgsl).
+pub fn dual_stage(label: &str, source: &'static str, wide: bool) -> Stage {
+    Stage::new(label, source)
+        .with(LIBRARY)
+        .defs(&Defs::default().flag_if("WIDE_KEYS", wide))
+}
+
 /// Whether the adapter has the 64-bit atomic min/max dual peeling's exact keys need.
 pub fn has_wide_keys(gpu: &Gpu) -> bool {
     gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX)
@@ -456,11 +489,6 @@ impl Dual {
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Dual {
         let device = &gpu.device;
         let wide = has_wide_keys(gpu);
-        let key = if wide {
-            include_str!("dual_key64.wgsl")
-        } else {
-            include_str!("dual_key32.wgsl")
-        };
         let peel_layout = binding::layout(
             device,
             "strata.dual.peel.layout",
@@ -473,8 +501,8 @@ impl Dual {
         );
         let advance_layout =
             binding::layout(device, "strata.dual.advance.layout", &[Slot::StorageRw; 8]);
-        let stage = [key, include_str!("dual_peel.wgsl")].join("\n");
-        let module = shader::module(device, "strata.dual.peel", &stage);
+        let stage = dual_stage("strata.dual.peel", DUAL_PEEL_WGSL, wide);
+        let module = stage.module(device);
         let layouts = [&scene.frame_layout, &peel_layout];
         let geometry_stage = |label, entry| {
             crate::raster::storage_stage(
@@ -483,7 +511,7 @@ impl Dual {
                 crate::raster::StageSpec {
                     label,
                     stage: &stage,
-                    modules: (&module, &module),
+                    module: &module,
                     entry,
                 },
                 &layouts,
@@ -493,11 +521,7 @@ impl Dual {
         let peel = geometry_stage("strata.dual.peel", "fs_peel");
         let account =
             (scene.samples > 1).then(|| geometry_stage("strata.dual.account", "fs_account"));
-        let module = shader::module(
-            device,
-            "strata.dual.advance",
-            &[key, include_str!("dual_advance.wgsl")].join("\n"),
-        );
+        let module = dual_stage("strata.dual.advance", DUAL_ADVANCE_WGSL, wide).module(device);
         let layouts = [&scene.frame_layout, &advance_layout];
         Dual {
             init: compute_pipeline(gpu, "strata.dual.init", &module, "cs_init", &layouts),

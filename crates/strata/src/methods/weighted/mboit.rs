@@ -44,7 +44,8 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::{self, Stage};
+use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::Method;
 
 const B0_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
@@ -58,8 +59,6 @@ pub const MBOIT_COUNT_BYTES: u64 = 4;
 pub const MOMENT_BIAS: f32 = 5e-7;
 /// The paper's overestimation.
 pub const OVERESTIMATION: f32 = 0.25;
-
-const MATH_WGSL: &str = include_str!("mboit_math.wgsl");
 
 /// Keep in sync with `MboitParams` in mboit_math.wgsl.
 #[repr(C)]
@@ -134,26 +133,22 @@ fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     })
 }
 
-pub fn moments_source() -> String {
-    [MATH_WGSL, include_str!("mboit_moments.wgsl")].join("\n")
+pub fn moments_stage() -> Stage {
+    Stage::new("strata.mboit.moments", include_str!("mboit_moments.wgsl")).with(super::LIBRARY)
 }
 
 /// The shade stage for `moments` power moments, reading multisampled moments with `--msaa`.
-pub fn shade_source(samples: u32, moments: u32) -> String {
-    shader::with_target_samples(
-        &[
-            &format!("const MBOIT_MOMENTS: u32 = {moments}u;"),
-            MATH_WGSL,
-            include_str!("mboit_shade.wgsl"),
-        ]
-        .join("\n"),
-        samples,
-    )
+pub fn shade_stage(samples: u32, moments: u32) -> Stage {
+    Stage::new("strata.mboit.shade", include_str!("mboit_shade.wgsl"))
+        .with(super::LIBRARY)
+        .defs(&shader::target_samples(samples).value("MBOIT_MOMENTS", moments))
 }
 
 /// The composite stage, reading multisampled targets with `--msaa`.
-pub fn composite_source(samples: u32) -> String {
-    shader::with_target_samples(include_str!("mboit_composite.wgsl"), samples)
+pub fn composite_stage(samples: u32) -> Stage {
+    Stage::new("strata.mboit.composite", super::COMPOSITE_WGSL)
+        .with(super::LIBRARY)
+        .defs(&shader::target_samples(samples).flag("MOMENTS"))
 }
 
 impl Mboit {
@@ -185,29 +180,29 @@ impl Mboit {
             "strata.mboit.composite.layout",
             &[Slot::StorageRw, texture, texture, Slot::StorageRw],
         );
-        let module = shader::module(device, "strata.mboit.moments", &moments_source());
+        let module = moments_stage().module(device);
         let moments = capture_pipeline_with(
             gpu,
             "strata.mboit.moments",
-            (&module, &module),
+            &module,
             "fs_moments",
             &[&scene.frame_layout, &moments_layout],
             &[target(B0_FORMAT), target(MOMENTS_FORMAT)],
             None,
             samples,
         );
-        let module = shader::module(device, "strata.mboit.shade", &shade_source(samples, 4));
+        let module = shade_stage(samples, 4).module(device);
         let shade = capture_pipeline_with(
             gpu,
             "strata.mboit.shade",
-            (&module, &module),
+            &module,
             "fs_shade",
             &[&scene.frame_layout, &shade_layout],
             &[target(ACCUMULATION_FORMAT)],
             None,
             samples,
         );
-        let module = shader::module(device, "strata.mboit.composite", &composite_source(samples));
+        let module = composite_stage(samples).module(device);
         let composite = compute_pipeline(
             gpu,
             "strata.mboit.composite",
@@ -245,7 +240,7 @@ impl Mboit {
                 "mboit --moments {moments} blends {bytes} bytes of moments per sample, and this device's render targets take {allowed} (max_color_attachment_bytes_per_sample); use --moments 6 or 4"
             )));
         }
-        let module = shader::module(&gpu.device, "strata.mboit.moments", &moments_source());
+        let module = moments_stage().module(&gpu.device);
         let entry = if moments == 6 {
             "fs_moments6"
         } else {
@@ -254,7 +249,7 @@ impl Mboit {
         let pipeline = capture_pipeline_with(
             gpu,
             "strata.mboit.moments",
-            (&module, &module),
+            &module,
             entry,
             &[scene_layout, &self.moments_layout],
             &[
@@ -265,15 +260,11 @@ impl Mboit {
             None,
             self.samples,
         );
-        let module = shader::module(
-            &gpu.device,
-            "strata.mboit.shade",
-            &shade_source(self.samples, moments),
-        );
+        let module = shade_stage(self.samples, moments).module(&gpu.device);
         let shade = capture_pipeline_with(
             gpu,
             "strata.mboit.shade",
-            (&module, &module),
+            &module,
             "fs_shade",
             &[scene_layout, &self.shade_layout],
             &[target(ACCUMULATION_FORMAT)],

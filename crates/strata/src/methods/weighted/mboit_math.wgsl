@@ -1,3 +1,7 @@
+#define_import_path strata::weighted::mboit_math
+#import strata::scene::{frame}
+#import strata::composite::{view_distance}
+
 // Moment-based OIT (Münstermann et al. 2018): the moments a fragment adds and the transmittance
 // reconstructed from four, six or eight power moments. Keep `MboitParams` in sync with
 // `MboitParams` in weighted/mboit.rs, and the reconstructions with `cpu::absorbance_fraction`
@@ -8,8 +12,8 @@ struct MboitParams {
     // own constant, MBOIT_MOMENTS in the shade stage).
     bias: f32,
     overestimation: f32,
-    _pad0: u32,
-    _pad1: u32,
+    pad_a: u32,
+    pad_b: u32,
 }
 
 @group(1) @binding(0) var<uniform> mp: MboitParams;

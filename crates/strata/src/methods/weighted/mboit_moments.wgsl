@@ -1,3 +1,7 @@
+#define_import_path strata::weighted::mboit_moments
+#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
+#import strata::weighted::mboit_math::{mboit_absorbance, mboit_depth}
+
 // mboit pass 1: every fragment adds its absorbance a = −ln(1 − α) to b0 and a·(z, z², z³, z⁴) to
 // the moments (additive blending into 32-bit float targets), and counts itself; with 6 or 8
 // moments a·(z⁵, z⁶[, z⁷, z⁸]) go to a third target.

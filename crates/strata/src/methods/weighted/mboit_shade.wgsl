@@ -1,8 +1,18 @@
+#define_import_path strata::weighted::mboit_shade
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_of, shade}
+#import strata::weighted::mboit_math::{MBOIT_MAX_ALPHA, mboit_depth, mboit_transmittance, mboit_transmittance_n}
+const MBOIT_MOMENTS: u32 = #{MBOIT_MOMENTS}u;
+#ifdef MULTISAMPLED
+alias TargetTexture = texture_multisampled_2d<f32>;
+#else
+alias TargetTexture = texture_2d<f32>;
+#endif
+
 // mboit pass 2: every fragment adds its color weighted by α and by the transmittance the moments
 // give in front of it, (T·α·c, T·α), into the accumulation target (additive blending). With
 // --msaa (the targets then multisampled) T is the mean over the samples the fragment covers of
 // each sample's own transmittance: shading stays once per pixel and primitive. With 6 or 8
-// moments those past the fourth come from a third target. MBOIT_MOMENTS is prepended by the
+// moments those past the fourth come from a third target. MBOIT_MOMENTS is the definition of the
 // method: each count compiles its own stage, so the generic solver's loops have constant bounds.
 
 @group(1) @binding(1) var b0_target: TargetTexture;

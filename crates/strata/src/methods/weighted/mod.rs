@@ -31,7 +31,20 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::{shader, Gpu, ResourceCache};
+use crate::gpu::shader::{self, Library, Stage};
+use crate::gpu::{Gpu, ResourceCache};
+
+/// The composite of wboit and (with `MOMENTS`) mboit.
+const COMPOSITE_WGSL: &str = include_str!("composite.wgsl");
+
+/// The weighted family's WGSL modules (`strata::weighted::…`).
+pub const LIBRARY: Library = &[
+    include_str!("wboit_accumulate.wgsl"),
+    COMPOSITE_WGSL,
+    include_str!("mboit_math.wgsl"),
+    include_str!("mboit_moments.wgsl"),
+    include_str!("mboit_shade.wgsl"),
+];
 use crate::methods::Method;
 
 const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -78,11 +91,12 @@ impl Wboit {
             "strata.wboit.composite.layout",
             &[Slot::StorageRw, target, target, Slot::StorageRw],
         );
-        let module = shader::module(
-            device,
+        let module = Stage::new(
             "strata.wboit.accumulate",
             include_str!("wboit_accumulate.wgsl"),
-        );
+        )
+        .with(LIBRARY)
+        .module(device);
         let additive = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
@@ -96,7 +110,7 @@ impl Wboit {
         let accumulate = capture_pipeline_with(
             gpu,
             "strata.wboit.accumulate",
-            (&module, &module),
+            &module,
             "fs_wboit",
             &[&scene.frame_layout, &accumulate_layout],
             &[
@@ -120,7 +134,7 @@ impl Wboit {
             None,
             samples,
         );
-        let module = shader::module(device, "strata.wboit.composite", &composite_source(samples));
+        let module = composite_stage(samples).module(device);
         let composite = compute_pipeline(
             gpu,
             "strata.wboit.composite",
@@ -140,8 +154,10 @@ impl Wboit {
 }
 
 /// The composite stage, reading multisampled targets with `--msaa`.
-pub fn composite_source(samples: u32) -> String {
-    shader::with_target_samples(include_str!("wboit_composite.wgsl"), samples)
+pub fn composite_stage(samples: u32) -> Stage {
+    Stage::new("strata.wboit.composite", COMPOSITE_WGSL)
+        .with(LIBRARY)
+        .defs(&shader::target_samples(samples))
 }
 
 impl Method for Wboit {

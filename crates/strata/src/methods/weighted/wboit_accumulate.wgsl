@@ -1,3 +1,7 @@
+#define_import_path strata::weighted::wboit_accumulate
+#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
+#import strata::composite::{view_distance}
+
 // wboit accumulate pass (McGuire & Bavoil 2013): every fragment adds its weighted premultiplied
 // color and weighted alpha to the accumulation target (blend ONE, ONE) and multiplies the
 // revealage target by 1 − α (blend ZERO, ONE_MINUS_SRC). Keep `WboitParams` in sync with
@@ -6,8 +10,8 @@
 struct WboitParams {
     weight: u32,
     depth_scale: f32,
-    _pad0: u32,
-    _pad1: u32,
+    pad_a: u32,
+    pad_b: u32,
 }
 
 @group(1) @binding(0) var<uniform> wp: WboitParams;

@@ -101,17 +101,6 @@ fn the_unlocked_k_buffer_races() {
     );
 }
 
-/// A seeded defect: the source with `from` replaced by `to` (which must occur).
-fn defect(from: &'static str, to: &'static str) -> impl Fn(String) -> String {
-    move |source: String| {
-        assert!(
-            source.contains(from),
-            "the defect's text is not in the source: {from}"
-        );
-        source.replace(from, to)
-    }
-}
-
 /// Seeded protocol defects fail the harness: the critical section outside the lock (a lock
 /// every try takes), and a cascade's read-modify-write of a slot done as a load and a store.
 #[test]
@@ -139,8 +128,7 @@ fn seeded_protocol_defects_fail() {
     ];
     let mut missed = Vec::new();
     for (method, what, from, to) in cases {
-        let seeded = defect(from, to);
-        let harness = Harness::new(gpu, method, false, Some(&seeded)).unwrap();
+        let harness = Harness::new(gpu, method, false, Some((from, to))).unwrap();
         if failures(&harness, method, 16, 20).is_empty() {
             missed.push(format!("{method}: {what}"));
         }
@@ -155,11 +143,11 @@ fn seeded_protocol_defects_fail() {
 #[test]
 fn publication_before_the_store_is_reported_when_caught() {
     let gpu = gpu();
-    let seeded = defect(
+    let seeded = (
         "        store_slot(p, s, f);\n        release_published(pixel_word(p, FILLED), 1u);",
         "        release_published(pixel_word(p, FILLED), 1u);\n        store_slot(p, s, f);",
     );
-    let harness = Harness::new(gpu, MethodId::KplusArrayR, false, Some(&seeded)).unwrap();
+    let harness = Harness::new(gpu, MethodId::KplusArrayR, false, Some(seeded)).unwrap();
     let caught = failures(&harness, MethodId::KplusArrayR, 16, 20).len();
     eprintln!("publication before the store: caught in {caught} of 20 runs");
     let sound = Harness::new(gpu, MethodId::KplusArrayR, false, None).unwrap();
@@ -192,8 +180,8 @@ fn inputs_are_shuffled_with_ties() {
 #[test]
 fn harness_params_layout_matches_wgsl() {
     assert_eq!(std::mem::size_of::<HarnessParams>(), 16);
-    crate::gpu::shader::validate("contention.keys", &source(MethodId::KbKeys).unwrap().0);
+    crate::gpu::shader::validate(&stage(MethodId::KbKeys, true).unwrap().0);
     for method in subjects() {
-        crate::gpu::shader::validate(&format!("contention.{method}"), &source(method).unwrap().0);
+        crate::gpu::shader::validate(&stage(method, true).unwrap().0);
     }
 }

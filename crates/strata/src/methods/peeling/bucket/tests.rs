@@ -118,23 +118,22 @@ fn scene(spec: &str) -> Scene {
 
 #[test]
 fn stages_validate() {
-    for (label, src) in stages() {
-        if label != "bucket.color" {
-            crate::gpu::shader::validate(label, &src);
+    for samples in [1, 4] {
+        for stage in stages(samples) {
+            crate::gpu::shader::validate(&stage);
         }
     }
-    let color = &stages()[3];
-    assert_eq!(color.0, "bucket.color");
-    crate::gpu::shader::validate("bucket.color", &color_stage_for(&color.1, 1));
-    crate::gpu::shader::validate("bucket.color.msaa", &color_stage_for(&color.1, 4));
     for layers in 1..=8 {
-        crate::gpu::shader::validate(&format!("bucket.sort{layers}"), &sort_stage(layers));
+        crate::gpu::shader::validate(&sort_stage(layers));
     }
 }
 
 #[test]
 fn params_layout_matches_wgsl() {
-    let module = naga::front::wgsl::parse_str(&crate::gpu::shader::with_shared(COMMON)).unwrap();
+    let module =
+        crate::gpu::shader::Stage::new("bucket_common", include_str!("../bucket_common.wgsl"))
+            .compose()
+            .unwrap();
     let (_, ty) = module
         .types
         .iter()

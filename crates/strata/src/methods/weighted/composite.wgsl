@@ -1,0 +1,60 @@
+#define_import_path strata::weighted::composite
+#import strata::scene::{frame, pixel_index, report_pixel}
+#import strata::color::{Resolved}
+#ifdef MULTISAMPLED
+alias TargetTexture = texture_multisampled_2d<f32>;
+#else
+alias TargetTexture = texture_2d<f32>;
+#endif
+
+// The weighted methods' composite: per pixel the weighted average color of its fragments over
+// the coverage they have together, premultiplied, with the fragment count; with --msaa (the
+// targets then multisampled) each sample's, averaged.
+// - wboit: the coverage is 1 − revealage, the blended Π(1 − α).
+// - mboit (MOMENTS): transmittance-weighted colors over the exact coverage 1 − exp(−b0) =
+//   1 − Π(1 − α).
+
+@group(1) @binding(0) var<storage, read_write> counts: array<u32>;
+#ifdef MOMENTS
+@group(1) @binding(1) var b0_target: TargetTexture;
+@group(1) @binding(2) var accumulation: TargetTexture;
+#else
+@group(1) @binding(1) var accumulation: TargetTexture;
+@group(1) @binding(2) var revealage: TargetTexture;
+#endif
+@group(1) @binding(3) var<storage, read_write> output: array<Resolved>;
+
+// Sample `si`'s premultiplied color and coverage (single-sampled `si` is the mip level, 0).
+fn sample_color(pixel: vec2<i32>, si: u32) -> vec4<f32> {
+#ifdef MOMENTS
+    let coverage = 1.0 - exp(-textureLoad(b0_target, pixel, si).r);
+    let sum = textureLoad(accumulation, pixel, si);
+    if sum.a > 0.0 {
+        return vec4<f32>(sum.rgb / sum.a * coverage, coverage);
+    }
+    return vec4<f32>(0.0);
+#else
+    let sum = textureLoad(accumulation, pixel, si);
+    let coverage = 1.0 - textureLoad(revealage, pixel, si).r;
+    // The paper clamps the weight sum away from 0 and from f16 overflow.
+    let average = sum.rgb / clamp(sum.a, 1e-4, 5e4);
+    return vec4<f32>(average * coverage, coverage);
+#endif
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_composite(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let pixel = vec2<i32>(id.xy);
+    let i = pixel_index(id.xy);
+    let count = counts[i];
+    let samples = max(frame.coverage_bits, 1u);
+    var color = vec4<f32>(0.0);
+    for (var si = 0u; si < samples && count > 0u; si++) {
+        color += sample_color(pixel, si);
+    }
+    output[i] = Resolved(color / f32(samples), count, 0u, 0u, 0u);
+    report_pixel(count, count);
+}
