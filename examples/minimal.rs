@@ -1,7 +1,7 @@
-//! The smallest application using strata: its own device, its own opaque pass into its own color
-//! and depth targets, then strata drawing a scene's transparent objects over them, exact.
-//! Headless: `cargo run --release -p strata --example minimal -- minimal.png`. `tests/minimal.rs`
-//! checks the picture against strata's CPU reference with the wall added as an opaque object.
+//! The smallest application using strata: its own device and opaque pass into its own targets,
+//! then strata drawing a scene's transparent objects over them, exact. Headless: `cargo run
+//! --release -p strata --example minimal -- minimal.png`; `tests/minimal.rs` checks the picture
+//! against strata's CPU reference with the wall added as an opaque object.
 
 use strata::frame::FrameTargets;
 
@@ -38,30 +38,17 @@ pub fn run() -> Result<image::RgbaImage, Box<dyn std::error::Error>> {
         required_limits: adapter.limits(),
         ..Default::default()
     }))?;
-    let target = |format, usage| {
-        device.create_texture(&wgpu::TextureDescriptor {
-            label: None,
-            size: wgpu::Extent3d {
-                width: SIZE,
-                height: SIZE,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | usage,
-            view_formats: &[],
-        })
-    };
+    // strata: the application's device.
+    let gpu = strata::gpu::Gpu::from_device(device.clone(), queue.clone());
+    let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT;
+    let target = |format, usage| gpu.texture_2d("app", (SIZE, SIZE), format, attachment | usage);
     let color = target(FORMAT, wgpu::TextureUsages::COPY_SRC);
     // strata tests its fragments against this depth, so it is bindable.
     let depth = target(DEPTH, wgpu::TextureUsages::TEXTURE_BINDING);
     let color_view = color.create_view(&Default::default());
     let depth_view = depth.create_view(&Default::default());
 
-    // strata: the application's device, the scene, a recorder.
-    let gpu = strata::gpu::Gpu::from_device(device.clone(), queue.clone());
+    // strata: the scene, a recorder.
     let scene = scene()?;
     let options = strata::RenderOptions::sized(SIZE, SIZE);
     let mut oit = strata::FrameRecorder::new(&gpu, &scene, strata::MethodId::AbufferLl, &options)?;
@@ -82,9 +69,10 @@ pub fn run() -> Result<image::RgbaImage, Box<dyn std::error::Error>> {
             return array<vec4<f32>, 6>({corners})[i]; }}
         @fragment fn fs() -> @location(0) vec4<f32> {{ return vec4<f32>({r}, {g}, {b}, 1.0); }}"
     );
+    let source = wgpu::ShaderSource::Wgsl(shader.into());
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: None,
-        source: wgpu::ShaderSource::Wgsl(shader.into()),
+        source,
     });
     let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: None,
@@ -114,26 +102,23 @@ pub fn run() -> Result<image::RgbaImage, Box<dyn std::error::Error>> {
         cache: None,
     });
     let [r, g, b] = BACKGROUND.map(f64::from);
+    let store = wgpu::StoreOp::Store;
     for _ in 0..3 {
         let mut encoder = device.create_command_encoder(&Default::default());
-        let clear = wgpu::Operations {
-            load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
-            store: wgpu::StoreOp::Store,
-        };
-        let far = wgpu::Operations {
-            load: wgpu::LoadOp::Clear(1.0),
-            store: wgpu::StoreOp::Store,
-        };
+        let clear = wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 });
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
                 view: &color_view,
                 depth_slice: None,
                 resolve_target: None,
-                ops: clear,
+                ops: wgpu::Operations { load: clear, store },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &depth_view,
-                depth_ops: Some(far),
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store,
+                }),
                 stencil_ops: None,
             }),
             ..Default::default()

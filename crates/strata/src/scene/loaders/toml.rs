@@ -1,4 +1,4 @@
-//! TOML scene files (DESIGN.md, "Scene file (TOML)").
+//! TOML scene files (the README's "Scene files (TOML)" shows one with every key).
 //!
 //! Unknown keys are errors (typos must not pass silently). Errors name the file, the element —
 //! `render`, `camera`, `material N`, `object N`, `light N`, `camera_key N`, counted from 1 in file order — and the
