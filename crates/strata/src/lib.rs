@@ -1,6 +1,64 @@
-//! strata — multi-fragment rendering on the GPU with wgpu.
+//! strata — multi-fragment rendering on the GPU with wgpu: order-independent transparency,
+//! translucency and depth complexity, with every family of technique (depth peeling,
+//! A-buffers, k-buffers, multi-depth-test atomics, a compute rasterizer, convex ordering), a
+//! deferred many-light pipeline and an exact CPU reference.
 //!
-//! See `ARCHITECTURE.md` at the repository root for the layout and the path of a frame.
+//! # From a wgpu renderer to an exact transparent pass
+//! 1. **Wrap your device.** [`gpu::Gpu::from_device`] takes your `wgpu::Device` and `Queue`.
+//!    Request [`gpu::wanted_features`] (as far as the adapter has them) when you create the
+//!    device: 64-bit atomics, timestamps and coherent storage widen the methods you can use.
+//! 2. **Describe what is transparent.** A [`scene::Scene`] holds the meshes, materials and
+//!    lights strata draws; build one, or load a file or a built-in with
+//!    [`scene::loaders::load_scene`].
+//! 3. **Make a recorder** with [`FrameRecorder::new`]: the scene, a method ([`MethodId`]; or
+//!    let [`methods::choice::choose`] pick the best one your adapter runs for a [`methods::choice::Goal`])
+//!    and [`RenderOptions`] (`build`: fixed for the recorder; `frame`: may change between frames
+//!    with [`FrameRecorder::set_frame_options`]).
+//! 4. **Every frame**, after your opaque pass has written your color target and a
+//!    `Depth32Float` depth (with `TEXTURE_BINDING` usage), call [`FrameRecorder::record`] with
+//!    your encoder. strata tests its fragments against your depth and composites OVER your
+//!    color, premultiplied; it records into your encoder and never submits or waits.
+//! 5. **Read the statistics** with [`FrameRecorder::poll_stats`]: a frame or more later, each
+//!    frame's [`FrameStats`] (milliseconds per pass, fragments generated, stored and dropped,
+//!    whether the frame was exact, overflow and what grew for the next frame).
+//!
+//! ```no_run
+//! use strata::{frame::FrameTargets, gpu::Gpu, scene::loaders, FrameRecorder, MethodId};
+//!
+//! fn transparent_pass(
+//!     device: &wgpu::Device,
+//!     queue: &wgpu::Queue,
+//!     color: &wgpu::TextureView, // your color target, already holding the opaque scene
+//!     depth: &wgpu::TextureView, // its Depth32Float depth, bindable
+//! ) -> strata::Result<()> {
+//!     let gpu = Gpu::from_device(device.clone(), queue.clone());
+//!     let scene = loaders::load_scene("builtin:spheres?layers=8")?;
+//!     let options = strata::RenderOptions::sized(1280, 720);
+//!     let mut oit = FrameRecorder::new(&gpu, &scene, MethodId::AbufferLl, &options)?;
+//!     // Every frame (and `oit.set_camera(&camera)` when the camera moves):
+//!     let mut encoder = device.create_command_encoder(&Default::default());
+//!     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+//!     let targets = FrameTargets { color: Some((color, format)), opaque_depth: Some(depth) };
+//!     oit.record(&mut encoder, &targets, None)?;
+//!     queue.submit([encoder.finish()]);
+//!     for stats in oit.poll_stats() {
+//!         println!("frame {}: {:?} fragments dropped", stats.frame, stats.fragments_dropped);
+//!     }
+//!     Ok(())
+//! }
+//! ```
+//!
+//! **Your own shaders** can capture into strata instead of its draw:
+//! [`FrameRecorder::capture_wgsl`] gives the WGSL of `strata_capture(position, premultiplied,
+//! id, front_facing)` for your fragment shader (or [`methods::capture::add_to_composer`] adds it
+//! to your naga_oil composer), [`FrameRecorder::begin_capture`] the bind group your pass binds,
+//! and [`FrameRecorder::end_capture`] resolves. `examples/minimal.rs` and `examples/host.rs` in
+//! the repository are complete headless applications, checked against the reference in its
+//! tests.
+//!
+//! **Exact methods** equal the CPU reference ([`reference`]) in (depth, primitive) order;
+//! approximate ones (weighted, moment-based) publish their error. `ARCHITECTURE.md` in the
+//! repository describes the layers and the path of a frame.
 
 pub mod animation;
 pub mod deferred;

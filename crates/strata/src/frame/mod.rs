@@ -184,6 +184,17 @@ pub struct Recorded {
     pub convex: Option<ConvexStats>,
 }
 
+impl Recorded {
+    /// A frame of `geometry_passes` passes over the scene that allocated `bytes_allocated`.
+    pub fn passes(geometry_passes: u32, bytes_allocated: u64) -> Recorded {
+        Recorded {
+            geometry_passes,
+            bytes_allocated,
+            ..Default::default()
+        }
+    }
+}
+
 /// Frame totals every resolve adds each pixel to (`report_pixel` in composite.wgsl); 64-bit
 /// sums are two words, low first, carried on overflow of the low word.
 /// Keep in sync with the TOTAL_ constants in shaders/shared/scene.wgsl.

@@ -206,11 +206,7 @@ impl Method for Blend {
         }
         let frame_group = ctx.frame_group;
         dispatch_pixels(ctx, "finish", &self.finish, &[frame_group, &finish_group]);
-        Ok(Recorded {
-            geometry_passes: 1,
-            bytes_allocated: bytes,
-            ..Default::default()
-        })
+        Ok(Recorded::passes(1, bytes))
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {

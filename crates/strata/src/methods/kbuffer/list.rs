@@ -94,26 +94,7 @@ impl ListKBuffer {
 }
 
 impl Method for ListKBuffer {
-    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        let (params, storage, mut recorded) = self.plan(ctx)?;
-        recorded.bytes_allocated =
-            self.frame
-                .record(ctx, params, storage, &[("capture", &self.capture)])?;
-        Ok(recorded)
-    }
-
-    fn capture_layout(&self) -> Option<&wgpu::BindGroupLayout> {
-        Some(&self.frame.layout)
-    }
-
-    fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
-        let plan = self.plan(ctx)?;
-        self.frame.begin_capture(ctx, plan)
-    }
-
-    fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        self.frame.end_capture(ctx)
-    }
+    one_capture_pass_method!();
 
     fn stats(&mut self, recorded: &Recorded, _: &Totals, words: &[u32]) -> MethodStats {
         let overflowed = wide(words, COUNTER_OVERFLOWED);

@@ -74,6 +74,34 @@
 //! harness ([`contention`]) drives every capture function from compute dispatches into a few
 //! pixels at once, on lavapipe's parallel threads and on GPUs.
 
+/// The `Method` functions of a k-buffer drawn in one capture pass over a [`KFrame`], for a type
+/// with fields `frame` and `capture` and a `plan(ctx)` giving the frame's parameters, storage
+/// and record: recording it, and the application capture (begin, end).
+macro_rules! one_capture_pass_method {
+    () => {
+        fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+            let (params, storage, mut recorded) = self.plan(ctx)?;
+            recorded.bytes_allocated =
+                self.frame
+                    .record(ctx, params, storage, &[("capture", &self.capture)])?;
+            Ok(recorded)
+        }
+
+        fn capture_layout(&self) -> Option<&wgpu::BindGroupLayout> {
+            Some(&self.frame.layout)
+        }
+
+        fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
+            let plan = self.plan(ctx)?;
+            self.frame.begin_capture(ctx, plan)
+        }
+
+        fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
+            self.frame.end_capture(ctx)
+        }
+    };
+}
+
 pub mod contention;
 pub mod descriptor;
 pub mod kpeel;
@@ -930,26 +958,7 @@ impl SlotKBuffer {
 }
 
 impl Method for SlotKBuffer {
-    fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        let (params, storage, mut recorded) = self.plan(ctx)?;
-        recorded.bytes_allocated =
-            self.frame
-                .record(ctx, params, storage, &[("capture", &self.capture)])?;
-        Ok(recorded)
-    }
-
-    fn capture_layout(&self) -> Option<&wgpu::BindGroupLayout> {
-        Some(&self.frame.layout)
-    }
-
-    fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
-        let plan = self.plan(ctx)?;
-        self.frame.begin_capture(ctx, plan)
-    }
-
-    fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        self.frame.end_capture(ctx)
-    }
+    one_capture_pass_method!();
 
     fn stats(&mut self, recorded: &Recorded, totals: &Totals, words: &[u32]) -> MethodStats {
         let over = totals.max_depth as u64 > recorded.capacity;

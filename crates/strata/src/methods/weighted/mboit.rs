@@ -382,11 +382,7 @@ impl Method for Mboit {
             &self.composite,
             &[frame_group, &composite_group],
         );
-        Ok(Recorded {
-            geometry_passes: 2,
-            bytes_allocated: bytes,
-            ..Default::default()
-        })
+        Ok(Recorded::passes(2, bytes))
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {

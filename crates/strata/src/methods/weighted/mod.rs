@@ -239,11 +239,7 @@ impl Method for Wboit {
             &self.composite,
             &[frame_group, &composite_group],
         );
-        Ok(Recorded {
-            geometry_passes: 1,
-            bytes_allocated: bytes,
-            ..Default::default()
-        })
+        Ok(Recorded::passes(1, bytes))
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {
