@@ -56,7 +56,7 @@
 //! the repository are complete headless applications, checked against the reference in its
 //! tests.
 //!
-//! **Exact methods** equal the CPU reference ([`reference`]) in (depth, primitive) order;
+//! **Exact methods** equal the CPU reference ([`mod@reference`]) in (depth, primitive) order;
 //! approximate ones (weighted, moment-based) publish their error. `ARCHITECTURE.md` in the
 //! repository describes the layers and the path of a frame.
 
