@@ -19,7 +19,12 @@ use strata::{FrameRecorder, MethodId, RenderOptions};
 
 use crate::bench::standalone_setup;
 
-pub const DESCRIPTION: &str = "seed 003 Figs. 3-4: the k --k auto picks (R = 0.95) per view of a dragon orbit and per frame of balls, kplus-heap and kplus-sbuffer, budgets of 64 and 256 bytes per pixel";
+/// The experiment `bench auto-k` runs.
+pub const EXPERIMENT: super::Standalone = super::Standalone {
+    name: "auto-k",
+    description: "seed 003 Figs. 3-4: the k --k auto picks (R = 0.95) per view of a dragon orbit and per frame of balls, kplus-heap and kplus-sbuffer, budgets of 64 and 256 bytes per pixel",
+    run,
+};
 
 const ROBUSTNESS: f64 = 0.95;
 const BUDGET_BYTES_PER_PIXEL: [f64; 2] = [64.0, 256.0];

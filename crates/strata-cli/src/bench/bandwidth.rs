@@ -19,7 +19,12 @@ use strata::MethodId;
 use crate::bench::{measure, standalone_setup, Run};
 use crate::PictureArgs;
 
-pub const DESCRIPTION: &str = "memory-traffic floors: the device's copy bandwidth and atomic rates, then every GPU method's frame time against the floor its bytes and atomics set (measured / floor)";
+/// The experiment `bench bandwidth` runs.
+pub const EXPERIMENT: super::Standalone = super::Standalone {
+    name: "bandwidth",
+    description: "memory-traffic floors: the device's copy bandwidth and atomic rates, then every GPU method's frame time against the floor its bytes and atomics set (measured / floor)",
+    run,
+};
 
 /// The scenes on a GPU; lavapipe runs the first only.
 const SCENES: [&str; 2] = [

@@ -32,7 +32,12 @@ use strata::RenderOptions;
 
 use crate::bench::{measure_views, standalone_setup, Run};
 
-pub const DESCRIPTION: &str = "seed 001 Tables 1-3: convex vs f2b, dual, kb-mdt32 and abuffer-fixed on teapot, bunny, spot, the dragon and the dragon subdivided to 1.6M triangles over views around each (512², lavapipe 128²), and on the layered spheres at 16..96 layers (1024², lavapipe 256² with smaller spheres): frame time, passes, memory";
+/// The experiment `bench convex` runs.
+pub const EXPERIMENT: super::Standalone = super::Standalone {
+    name: "convex",
+    description: "seed 001 Tables 1-3: convex vs f2b, dual, kb-mdt32 and abuffer-fixed on teapot, bunny, spot, the dragon and the dragon subdivided to 1.6M triangles over views around each (512², lavapipe 128²), and on the layered spheres at 16..96 layers (1024², lavapipe 256² with smaller spheres): frame time, passes, memory",
+    run,
+};
 
 const MODELS: [&str; 5] = [
     "builtin:teapot",

@@ -20,7 +20,12 @@ use strata::RenderOptions;
 
 use crate::bench::{csv_of, fixed, measure, opt, print_rows, standalone_setup, Column, Run};
 
-pub const DESCRIPTION: &str = "seed 002 Table 1: compute-rasterizer MDTS and FABS vs the hardware abuffer-fixed, f2b, dual, abuffer-ll and kplus-array on bunny, dragon and procedural scenes up to 10M triangles (lavapipe: up to ~1M): frame time, passes, compute time by stage";
+/// The experiment `bench cuda-renderer` runs.
+pub const EXPERIMENT: super::Standalone = super::Standalone {
+    name: "cuda-renderer",
+    description: "seed 002 Table 1: compute-rasterizer MDTS and FABS vs the hardware abuffer-fixed, f2b, dual, abuffer-ll and kplus-array on bunny, dragon and procedural scenes up to 10M triangles (lavapipe: up to ~1M): frame time, passes, compute time by stage",
+    run,
+};
 
 /// Scenes from small to large; the last ones only on a GPU.
 const SCENES_CPU: [&str; 3] = [

@@ -20,7 +20,12 @@ use strata::RenderOptions;
 
 use crate::bench::{csv_of, measure, opt, standalone_setup, Column, Run};
 
-pub const DESCRIPTION: &str = "seed 004 Figs. 13-14: forward vs deferred frame time over 1..4096 lights (lavapipe: 1..1024) on ~100K opaque triangles, and G-buffer bytes per pixel and traffic at 60 fps, traditional vs compressed";
+/// The experiment `bench deferred-lights` runs.
+pub const EXPERIMENT: super::Standalone = super::Standalone {
+    name: "deferred-lights",
+    description: "seed 004 Figs. 13-14: forward vs deferred frame time over 1..4096 lights (lavapipe: 1..1024) on ~100K opaque triangles, and G-buffer bytes per pixel and traffic at 60 fps, traditional vs compressed",
+    run,
+};
 
 /// About 100K triangles: 196 UV spheres of 528 triangles (the G-buffer holds 256 materials).
 const SCENE: &str = "builtin:nvpro?objects=196&subdiv=24&seed=0";

@@ -368,48 +368,24 @@ const EXPERIMENTS: &[Experiment] = &[
 /// An experiment with its own runner: (GPU, `--size`, `--frames`, output folder).
 type StandaloneRun = fn(&Gpu, Option<Size>, Option<u32>, &Path) -> Result<()>;
 
-/// The experiments that report their own tables: name, description, runner.
-const STANDALONE: [(&str, &str, StandaloneRun); 8] = [
-    (
-        "auto-k",
-        crate::bench::auto_k::DESCRIPTION,
-        crate::bench::auto_k::run,
-    ),
-    (
-        "deferred-lights",
-        crate::bench::deferred_lights::DESCRIPTION,
-        crate::bench::deferred_lights::run,
-    ),
-    (
-        "cuda-renderer",
-        crate::bench::cuda_renderer::DESCRIPTION,
-        crate::bench::cuda_renderer::run,
-    ),
-    (
-        "scale",
-        crate::bench::scale::DESCRIPTION,
-        crate::bench::scale::run,
-    ),
-    (
-        "online-culling",
-        crate::bench::online_culling::DESCRIPTION,
-        crate::bench::online_culling::run,
-    ),
-    (
-        "convex",
-        crate::bench::convex_experiment::DESCRIPTION,
-        crate::bench::convex_experiment::run,
-    ),
-    (
-        "peers",
-        crate::bench::peers::DESCRIPTION,
-        crate::bench::peers::run,
-    ),
-    (
-        "bandwidth",
-        crate::bench::bandwidth::DESCRIPTION,
-        crate::bench::bandwidth::run,
-    ),
+/// An experiment that reports its own table: its name, what `bench --list` says of it, and its
+/// runner.
+pub(crate) struct Standalone {
+    pub name: &'static str,
+    pub description: &'static str,
+    pub run: StandaloneRun,
+}
+
+/// The experiments that report their own tables, in the order `bench all` runs them.
+const STANDALONE: [Standalone; 8] = [
+    crate::bench::auto_k::EXPERIMENT,
+    crate::bench::deferred_lights::EXPERIMENT,
+    crate::bench::cuda_renderer::EXPERIMENT,
+    crate::bench::scale::EXPERIMENT,
+    crate::bench::online_culling::EXPERIMENT,
+    crate::bench::convex_experiment::EXPERIMENT,
+    crate::bench::peers::EXPERIMENT,
+    crate::bench::bandwidth::EXPERIMENT,
 ];
 
 /// Size, frame count and whether figures are CPU figures for a standalone experiment: `--size`
@@ -439,8 +415,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
         for e in EXPERIMENTS {
             println!("{:<16} {}", e.name, e.description);
         }
-        for (name, description, _) in STANDALONE {
-            println!("{name:<16} {description}");
+        for e in STANDALONE {
+            println!("{:<16} {}", e.name, e.description);
         }
         return Ok(());
     }
@@ -481,7 +457,7 @@ pub(crate) fn experiment_names() -> Vec<&'static str> {
     EXPERIMENTS
         .iter()
         .map(|e| e.name)
-        .chain(STANDALONE.iter().map(|e| e.0))
+        .chain(STANDALONE.iter().map(|e| e.name))
         .collect()
 }
 
@@ -495,10 +471,10 @@ pub(crate) fn results_dir(gpu: &Gpu, a: &BenchArgs) -> PathBuf {
 /// Runs the named experiment `experiment`, or the ad-hoc run of `--scene` and `--methods`.
 pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>) -> Result<()> {
     let cpu_figures = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    if let Some((_, _, run)) = STANDALONE.iter().find(|e| experiment == Some(e.0)) {
+    if let Some(e) = STANDALONE.iter().find(|e| experiment == Some(e.name)) {
         // Sets the deadline the standalone experiment reads (`out_of_time`).
         Budget::new(a.budget_s)?;
-        return run(gpu, a.size, a.frames, &results_dir(gpu, a));
+        return (e.run)(gpu, a.size, a.frames, &results_dir(gpu, a));
     }
     let k_flag = a.k;
     let (name, scenes, runs, size, alpha, frames, quality) = match experiment {

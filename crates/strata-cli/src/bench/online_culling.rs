@@ -36,7 +36,12 @@ use strata::{Effect, LinearImage, MethodId, RenderOptions, Renderer};
 
 use crate::bench::standalone_setup;
 
-pub const DESCRIPTION: &str = "seed 000 Table 1: balls and a >= 1M-triangle scene x order (front, random, back) x {kplus-heap without / with culling, kplus-semiheap, + temporal culling}: frame ms, culled fraction, error; and temporal culling's refresh period";
+/// The experiment `bench online-culling` runs.
+pub const EXPERIMENT: super::Standalone = super::Standalone {
+    name: "online-culling",
+    description: "seed 000 Table 1: balls and a >= 1M-triangle scene x order (front, random, back) x {kplus-heap without / with culling, kplus-semiheap, + temporal culling}: frame ms, culled fraction, error; and temporal culling's refresh period",
+    run,
+};
 
 const K: u32 = 16;
 

@@ -34,7 +34,12 @@ use strata::Tail;
 use crate::bench::{measure, standalone_setup, Run};
 use crate::{prepare, PictureArgs, PipelineArg};
 
-pub const DESCRIPTION: &str = "issue 16: strata against its peers on the same scenes: Bevy 0.19's OIT (peers/bevy-oit) and pygfx 0.17's blend, weighted_blend, dither and bayer (peers/pygfx_oit.py) against abuffer-ll, kb-ab-ll and kplus-heap at k = 8 with tail blend (Bevy's default shape), wboit and unsorted on nvpro, the dragon (opacity 0.5), the demo and balls, unlit on one background: ms, memory, error against the reference, pictures";
+/// The experiment `bench peers` runs.
+pub const EXPERIMENT: super::Standalone = super::Standalone {
+    name: "peers",
+    description: "issue 16: strata against its peers on the same scenes: Bevy 0.19's OIT (peers/bevy-oit) and pygfx 0.17's blend, weighted_blend, dither and bayer (peers/pygfx_oit.py) against abuffer-ll, kb-ab-ll and kplus-heap at k = 8 with tail blend (Bevy's default shape), wboit and unsorted on nvpro, the dragon (opacity 0.5), the demo and balls, unlit on one background: ms, memory, error against the reference, pictures",
+    run,
+};
 
 /// The scenes and the opacity each is drawn at (the dragon is opaque by default).
 const SCENES: [(&str, Option<f32>); 4] = [

@@ -23,7 +23,12 @@ use strata::RenderOptions;
 
 use crate::bench::{measure, standalone_setup, Run};
 
-pub const DESCRIPTION: &str = "scenes of 1M..12M triangles (nvpro, 120-triangle spheres) with abuffer-ll: load, flatten+upload and frame time, GPU bytes and host memory";
+/// The experiment `bench scale` runs.
+pub const EXPERIMENT: super::Standalone = super::Standalone {
+    name: "scale",
+    description: "scenes of 1M..12M triangles (nvpro, 120-triangle spheres) with abuffer-ll: load, flatten+upload and frame time, GPU bytes and host memory",
+    run,
+};
 
 const MILLIONS: [u64; 5] = [1, 2, 4, 8, 12];
 const TRIANGLES_PER_SPHERE: u64 = 120;

@@ -138,7 +138,7 @@ impl Stage {
 
     /// The stage as one naga module, or the composer's message.
     pub fn compose(&self) -> Result<naga::Module, String> {
-        let mut library = LIBRARY.lock().unwrap_or_else(|e| e.into_inner());
+        let mut library = COMPOSER.lock().unwrap_or_else(|e| e.into_inner());
         library.compose(self)
     }
 
@@ -175,7 +175,7 @@ fn validator() -> naga::valid::Validator {
 
 /// The process's composer and what it holds: naga_oil caches each module per set of
 /// definitions, so a module is parsed once however many stages import it.
-static LIBRARY: LazyLock<Mutex<ModuleLibrary>> = LazyLock::new(|| {
+static COMPOSER: LazyLock<Mutex<ModuleLibrary>> = LazyLock::new(|| {
     Mutex::new(ModuleLibrary {
         composer: Composer::default().with_capabilities(naga::valid::Capabilities::all()),
         sources: HashMap::new(),

@@ -22,6 +22,27 @@ pub fn before(a: &Fragment, b: &Fragment) -> bool {
     a.depth < b.depth || (a.depth == b.depth && a.tag < b.tag)
 }
 
+/// `new(k)` and `is_full` of the caches of up to `k` fragments in `slots`.
+macro_rules! k_slots {
+    ($($cache:ident),*) => {$(
+        impl $cache {
+            pub fn new(k: usize) -> Self {
+                Self {
+                    k,
+                    slots: Vec::with_capacity(k),
+                }
+            }
+
+            /// Whether all `k` slots are taken.
+            pub fn is_full(&self) -> bool {
+                self.slots.len() >= self.k
+            }
+        }
+    )*};
+}
+
+k_slots!(MaxArray, MaxHeap, SortedArray);
+
 /// The k+-buffer max-array: up to `k` fragments, the maximum (farthest by [`before`]) in slot 0
 /// once there are two or more, the others in no particular order.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,18 +52,6 @@ pub struct MaxArray {
 }
 
 impl MaxArray {
-    pub fn new(k: usize) -> Self {
-        Self {
-            k,
-            slots: Vec::with_capacity(k),
-        }
-    }
-
-    /// Whether all `k` slots are taken.
-    pub fn is_full(&self) -> bool {
-        self.slots.len() >= self.k
-    }
-
     /// `culled`: `f` strictly behind the depth of a full array's maximum — it cannot enter.
     /// (Depth only: the GPU reads one word outside the lock; ties go through the lock.)
     pub fn culled(&self, f: &Fragment) -> bool {
@@ -107,18 +116,6 @@ pub struct MaxHeap {
 }
 
 impl MaxHeap {
-    pub fn new(k: usize) -> Self {
-        Self {
-            k,
-            slots: Vec::with_capacity(k),
-        }
-    }
-
-    /// Whether all `k` slots are taken.
-    pub fn is_full(&self) -> bool {
-        self.slots.len() >= self.k
-    }
-
     /// `culled`: `f` strictly behind the depth of a full heap's root — it cannot enter.
     pub fn culled(&self, f: &Fragment) -> bool {
         self.k == 0 || (self.is_full() && f.depth > self.slots[0].depth)
@@ -269,18 +266,6 @@ pub struct SortedArray {
 }
 
 impl SortedArray {
-    pub fn new(k: usize) -> Self {
-        Self {
-            k,
-            slots: Vec::with_capacity(k),
-        }
-    }
-
-    /// Whether all `k` slots are taken.
-    pub fn is_full(&self) -> bool {
-        self.slots.len() >= self.k
-    }
-
     /// `culled_sorted`: `f` strictly behind the depth of a full array's last fragment.
     pub fn culled(&self, f: &Fragment) -> bool {
         self.k == 0 || (self.is_full() && f.depth > self.slots[self.k - 1].depth)

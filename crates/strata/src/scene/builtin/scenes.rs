@@ -144,16 +144,23 @@ pub(super) fn layers(p: &Params) -> Result<Scene> {
 // ---------------------------------------------------------------------------------------------
 // spheres
 
+/// The `layers` parameter (default 16, 2..=512) of a scene `name` of closed `shell`s, each of
+/// which gives a pixel two layers: it must be even.
+fn even_layers(p: &Params, name: &str, shell: &str) -> Result<u64> {
+    let layers = p.int("layers", 16, 2, 512)?;
+    if layers % 2 != 0 {
+        return Err(Error::input(format!(
+            "builtin:{name}: layers={layers} must be even (each {shell} gives 2 layers)"
+        )));
+    }
+    Ok(layers)
+}
+
 /// `spheres?layers=16&segments=48`: `layers/2` concentric UV spheres, radii evenly spaced from
 /// 0.3 to 1.0 (a single sphere has radius 1), innermost first; each its own hue, opacity 0.3,
 /// lit by two point lights; perspective camera on +Z looking at the centre.
 pub(super) fn spheres(p: &Params) -> Result<Scene> {
-    let layers = p.int("layers", 16, 2, 512)?;
-    if layers % 2 != 0 {
-        return Err(Error::input(format!(
-            "builtin:spheres: layers={layers} must be even (each shell gives 2 layers)"
-        )));
-    }
+    let layers = even_layers(p, "spheres", "shell")?;
     let segments = p.int("segments", 48, 3, 4096)? as u32;
     let count = (layers / 2) as usize;
     crate::scene::check_triangle_estimate(
@@ -200,12 +207,7 @@ pub(super) fn spheres(p: &Params) -> Result<Scene> {
 /// by two point lights; an orthographic camera on +Z looks down the columns. The defaults are the
 /// paper's: 4 columns of 39,600-triangle spheres, 1,267,200 triangles at 16 layers.
 pub(super) fn stack(p: &Params) -> Result<Scene> {
-    let layers = p.int("layers", 16, 2, 512)?;
-    if layers % 2 != 0 {
-        return Err(Error::input(format!(
-            "builtin:stack: layers={layers} must be even (each sphere gives 2 layers)"
-        )));
-    }
+    let layers = even_layers(p, "stack", "sphere")?;
     let columns = p.int("columns", 2, 1, 64)? as usize;
     let segments = p.int("segments", 200, 3, 4096)? as u32;
     let depth = (layers / 2) as usize;
