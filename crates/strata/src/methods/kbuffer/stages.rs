@@ -1,0 +1,106 @@
+//! The k-buffer family's shader stages: its WGSL modules, the storage layouts whose accessors
+//! a stage imports, and the definitions every stage of the family is composed with.
+
+use crate::gpu::shader::{Defs, Library, Stage};
+use crate::gpu::Gpu;
+
+/// The family's WGSL modules (`strata::kbuffer::…`): storage and its accessors, each method's
+/// capture steps and entry points, the shared resolve.
+pub const LIBRARY: Library = &[
+    include_str!("storage.wgsl"),
+    include_str!("temporal.wgsl"),
+    include_str!("slots.wgsl"),
+    include_str!("slot_access.wgsl"),
+    include_str!("access.wgsl"),
+    include_str!("slots_resolve.wgsl"),
+    include_str!("kplus_capture.wgsl"),
+    include_str!("kb_capture.wgsl"),
+    include_str!("fixed_capture.wgsl"),
+    include_str!("semiheap_capture.wgsl"),
+    include_str!("semiheap_resolve.wgsl"),
+    include_str!("slots_entries.wgsl"),
+    include_str!("list.wgsl"),
+    include_str!("list_entries.wgsl"),
+    include_str!("list_resolve.wgsl"),
+    include_str!("mdt.wgsl"),
+    include_str!("mdt32_resolve.wgsl"),
+    include_str!("pack_resolve.wgsl"),
+    include_str!("mdt64.wgsl"),
+    include_str!("keys.wgsl"),
+    include_str!("keys_resolve.wgsl"),
+    include_str!("sbuffer.wgsl"),
+    include_str!("sbuffer_resolve.wgsl"),
+    include_str!("sbuffer_scan.wgsl"),
+    include_str!("kplus_sbuffer.wgsl"),
+    include_str!("kplus_sbuffer_resolve.wgsl"),
+    include_str!("kplus_sbuffer_entries.wgsl"),
+    include_str!("kpeel_state.wgsl"),
+    include_str!("kpeel_capture.wgsl"),
+    include_str!("kpeel_cascade.wgsl"),
+    include_str!("kpeel_resolve.wgsl"),
+    include_str!("resolve.wgsl"),
+];
+
+pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
+pub const SLOTS_ENTRIES_WGSL: &str = include_str!("slots_entries.wgsl");
+
+/// Where a method keeps its fragments, which picks the accessors its stages import
+/// (`STORAGE_*` in resolve.wgsl, slot_access.wgsl and sbuffer_scan.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    Slots,
+    Semiheap,
+    List,
+    Mdt32,
+    Pack,
+    Mdt64,
+    Keys,
+    Sbuffer,
+    KplusSbuffer,
+}
+
+impl Layout {
+    pub const ALL: [Layout; 9] = [
+        Layout::Slots,
+        Layout::Semiheap,
+        Layout::List,
+        Layout::Mdt32,
+        Layout::Pack,
+        Layout::Mdt64,
+        Layout::Keys,
+        Layout::Sbuffer,
+        Layout::KplusSbuffer,
+    ];
+
+    fn definition(self) -> &'static str {
+        match self {
+            Layout::Slots => "STORAGE_SLOTS",
+            Layout::Semiheap => "STORAGE_SEMIHEAP",
+            Layout::List => "STORAGE_LIST",
+            Layout::Mdt32 => "STORAGE_MDT32",
+            Layout::Pack => "STORAGE_PACK",
+            Layout::Mdt64 => "STORAGE_MDT64",
+            Layout::Keys => "STORAGE_KEYS",
+            Layout::Sbuffer => "STORAGE_SBUFFER",
+            Layout::KplusSbuffer => "STORAGE_KPLUS_SBUFFER",
+        }
+    }
+}
+
+/// The family's definitions: the storage layout, the method's bind group (`KBUFFER_GROUP`: 1 in
+/// strata's own passes, the application's choice for its capture), and `COHERENT` where the
+/// adapter takes `@coherent` on the fragment storage and the per-pixel words (see module docs).
+pub fn definitions(layout: Layout, group: u32, coherent: bool) -> Defs {
+    Defs::default()
+        .flag(layout.definition())
+        .value("KBUFFER_GROUP", group)
+        .flag_if("COHERENT", coherent)
+}
+
+/// A stage of the family: `source` with the family's modules and definitions on `gpu`.
+pub fn stage(gpu: &Gpu, label: impl Into<String>, source: &'static str, layout: Layout) -> Stage {
+    let coherent = gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT);
+    Stage::new(label, source)
+        .with(LIBRARY)
+        .defs(&definitions(layout, 1, coherent))
+}
