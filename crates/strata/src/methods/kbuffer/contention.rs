@@ -119,7 +119,11 @@ pub fn stage(method: MethodId, coherent: bool) -> Result<(Stage, u32)> {
     let step = match (method, method.descriptor().app_capture) {
         (KbKeys, _) => "if capture_pass == 0u {\n        strata::kbuffer::keys::cascade_key(p, f);\n    } else if !strata::kbuffer::keys::store_payload(p, f) {\n        strata::kbuffer::storage::tail_add(p, f);\n    }".to_owned(),
         (_, Some(step)) => format!("{step};"),
-        (_, None) => unreachable!("every single-pass method the harness drives has a capture step"),
+        (_, None) => {
+            return Err(Error::unsupported(format!(
+                "{method} declares no capture step for the contention harness"
+            )))
+        }
     };
     let step_module = format!(
         "#define_import_path strata::kbuffer::harness_step\n#import strata::fragment::Fragment\n\nfn harness_capture(capture_pass: u32, p: u32, f: Fragment) {{\n    {step}\n}}\n"
