@@ -152,7 +152,10 @@ pub struct Descriptor {
     #[serde(skip)]
     pub ordering: Ordering,
     /// The capture step an application's fragment shader calls (`methods::capture`), on pixel
-    /// `p` and fragment `f`; `None` where there is no such single-pass capture.
+    /// `p` and fragment `f`: a WGSL call whose names are module-qualified
+    /// (`strata::kbuffer::list::capture_list(p, f)`), so that the generated `strata::capture`
+    /// and the contention harness need no import list; `None` where there is no such
+    /// single-pass capture.
     #[serde(skip)]
     pub app_capture: Option<&'static str>,
     /// It sorts the scene's triangles by centroid each frame: the recorder refreshes the
