@@ -68,8 +68,10 @@ pub mod gpu;
 pub mod methods;
 pub mod metrics;
 pub mod order;
+#[cfg(feature = "png")]
 pub mod output;
 pub mod raster;
+#[cfg(feature = "reference")]
 pub mod reference;
 pub mod render;
 pub mod resolve;

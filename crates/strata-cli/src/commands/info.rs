@@ -24,6 +24,6 @@ pub fn info(json: bool) -> Result<()> {
             .unwrap_or_else(|| "unsupported".into())
     );
     println!("features  {}", r.features.join(", "));
-    println!("limits    {}", r.limits);
+    println!("limits    {}", serde_json::json!(r.limits));
     Ok(())
 }

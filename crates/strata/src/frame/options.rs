@@ -441,10 +441,9 @@ impl Lighting {
             ));
         }
         if let Some(v) = self.gbuffer_debug {
-            let name = serde_json::to_value(v).unwrap_or_default();
             return Err(Error::input(format!(
                 "--gbuffer-debug {} needs --pipeline deferred",
-                name.as_str().unwrap_or("view")
+                v.name()
             )));
         }
         Ok(())

@@ -143,6 +143,20 @@ impl GbufferView {
     pub fn index(self) -> u32 {
         self as u32
     }
+
+    /// The view's name on the command line and in statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            GbufferView::Albedo => "albedo",
+            GbufferView::Normal => "normal",
+            GbufferView::Specular => "specular",
+            GbufferView::Material => "material",
+            GbufferView::Depth => "depth",
+            GbufferView::Lights => "lights",
+            GbufferView::NormalError => "normal-error",
+            GbufferView::Occlusion => "occlusion",
+        }
+    }
 }
 
 /// What a lit frame reports (`FrameStats::lighting`).
@@ -162,4 +176,26 @@ pub struct LightingStats {
     pub bytes_allocated: u64,
     pub tonemap: Tonemap,
     pub ssao: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::GbufferView;
+
+    #[test]
+    fn gbuffer_view_names_are_their_serialized_names() {
+        use GbufferView::*;
+        for v in [
+            Albedo,
+            Normal,
+            Specular,
+            Material,
+            Depth,
+            Lights,
+            NormalError,
+            Occlusion,
+        ] {
+            assert_eq!(serde_json::to_value(v).unwrap(), v.name());
+        }
+    }
 }

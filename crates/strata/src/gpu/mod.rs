@@ -84,7 +84,7 @@ pub struct GpuReport {
     pub vendor: u32,
     pub device: u32,
     pub features: Vec<String>,
-    pub limits: serde_json::Value,
+    pub limits: std::collections::BTreeMap<&'static str, u64>,
     pub timestamp_period_ns: Option<f32>,
 }
 
@@ -461,19 +461,46 @@ pub fn garbage(size: u64) -> Vec<u8> {
         .collect()
 }
 
-fn limits_json(l: &wgpu::Limits) -> serde_json::Value {
-    serde_json::json!({
-        "max_texture_dimension_2d": l.max_texture_dimension_2d,
-        "max_storage_buffer_binding_size": l.max_storage_buffer_binding_size,
-        "max_buffer_size": l.max_buffer_size,
-        "max_storage_buffers_per_shader_stage": l.max_storage_buffers_per_shader_stage,
-        "max_storage_textures_per_shader_stage": l.max_storage_textures_per_shader_stage,
-        "max_bind_groups": l.max_bind_groups,
-        "max_color_attachments": l.max_color_attachments,
-        "max_color_attachment_bytes_per_sample": l.max_color_attachment_bytes_per_sample,
-        "max_compute_workgroup_size_x": l.max_compute_workgroup_size_x,
-        "max_compute_invocations_per_workgroup": l.max_compute_invocations_per_workgroup,
-        "max_compute_workgroups_per_dimension": l.max_compute_workgroups_per_dimension,
-        "max_uniform_buffer_binding_size": l.max_uniform_buffer_binding_size,
-    })
+fn limits_json(l: &wgpu::Limits) -> std::collections::BTreeMap<&'static str, u64> {
+    std::collections::BTreeMap::from([
+        (
+            "max_texture_dimension_2d",
+            l.max_texture_dimension_2d as u64,
+        ),
+        (
+            "max_storage_buffer_binding_size",
+            l.max_storage_buffer_binding_size,
+        ),
+        ("max_buffer_size", l.max_buffer_size),
+        (
+            "max_storage_buffers_per_shader_stage",
+            l.max_storage_buffers_per_shader_stage as u64,
+        ),
+        (
+            "max_storage_textures_per_shader_stage",
+            l.max_storage_textures_per_shader_stage as u64,
+        ),
+        ("max_bind_groups", l.max_bind_groups as u64),
+        ("max_color_attachments", l.max_color_attachments as u64),
+        (
+            "max_color_attachment_bytes_per_sample",
+            l.max_color_attachment_bytes_per_sample as u64,
+        ),
+        (
+            "max_compute_workgroup_size_x",
+            l.max_compute_workgroup_size_x as u64,
+        ),
+        (
+            "max_compute_invocations_per_workgroup",
+            l.max_compute_invocations_per_workgroup as u64,
+        ),
+        (
+            "max_compute_workgroups_per_dimension",
+            l.max_compute_workgroups_per_dimension as u64,
+        ),
+        (
+            "max_uniform_buffer_binding_size",
+            l.max_uniform_buffer_binding_size,
+        ),
+    ])
 }

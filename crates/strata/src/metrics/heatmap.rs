@@ -1,21 +1,22 @@
 //! Heatmaps: per-pixel image difference and per-pixel fragment count (depth complexity), the
 //! latter with a legend drawn in its bottom-right corner.
 
-use image::{Rgba, RgbaImage};
+#[cfg(feature = "png")]
+use image::RgbaImage;
 
 use super::colormap::ramp;
 use super::font::{self, GLYPH_H};
-use super::max_channel_diff;
 
 /// A max-channel difference of this many 8-bit levels (32/255) or more saturates the diff
 /// heatmap.
+#[cfg(feature = "metrics")]
 pub const DIFF_SATURATION: u8 = 32;
 
 /// Images smaller than this on either side get no legend.
 pub const LEGEND_MIN_SIZE: u32 = 48;
 
-fn opaque([r, g, b]: [u8; 3]) -> Rgba<u8> {
-    Rgba([r, g, b, 255])
+fn opaque([r, g, b]: [u8; 3]) -> [u8; 4] {
+    [r, g, b, 255]
 }
 
 /// Difference heatmap of two images: each pixel's max channel |Δ| over R, G and B (alpha is
@@ -25,16 +26,17 @@ fn opaque([r, g, b]: [u8; 3]) -> Rgba<u8> {
 /// (`colormap(0.2)`), and the colour rises linearly to pale yellow at [`DIFF_SATURATION`]
 /// (32/255), where it saturates. If the sizes differ, the output covers both images and every
 /// pixel that lies outside either one is drawn saturated. Output is sRGB 8-bit with alpha 255.
+#[cfg(feature = "metrics")]
 pub fn diff_heatmap(a: &RgbaImage, b: &RgbaImage) -> RgbaImage {
     let width = a.width().max(b.width());
     let height = a.height().max(b.height());
     let full = DIFF_SATURATION as u32;
     RgbaImage::from_fn(width, height, |x, y| {
         let d = match (a.get_pixel_checked(x, y), b.get_pixel_checked(x, y)) {
-            (Some(pa), Some(pb)) => max_channel_diff(pa, pb) as u32,
+            (Some(pa), Some(pb)) => super::compare::max_channel_diff(pa, pb) as u32,
             _ => full,
         };
-        opaque(ramp(d, full))
+        image::Rgba(opaque(ramp(d, full)))
     })
 }
 
@@ -55,12 +57,28 @@ pub fn diff_heatmap(a: &RgbaImage, b: &RgbaImage) -> RgbaImage {
 ///
 /// # Panics
 /// If `counts.len() != width * height`.
+#[cfg(feature = "png")]
 pub fn complexity_heatmap(
     counts: &[u32],
     width: u32,
     height: u32,
     max_count: Option<u32>,
 ) -> RgbaImage {
+    let pixels = complexity_heatmap_pixels(counts, width, height, max_count);
+    RgbaImage::from_raw(width, height, pixels.into_iter().flatten().collect())
+        .expect("one pixel per count")
+}
+
+/// [`complexity_heatmap`]'s pixels, row-major from the top left, without the `image` crate.
+///
+/// # Panics
+/// If `counts.len() != width * height`.
+pub fn complexity_heatmap_pixels(
+    counts: &[u32],
+    width: u32,
+    height: u32,
+    max_count: Option<u32>,
+) -> Vec<[u8; 4]> {
     assert_eq!(
         counts.len() as u64,
         width as u64 * height as u64,
@@ -70,14 +88,22 @@ pub fn complexity_heatmap(
     let max = max_count
         .unwrap_or_else(|| counts.iter().copied().max().unwrap_or(0))
         .max(1);
-    let mut img = RgbaImage::new(width, height);
-    for (pixel, &count) in img.pixels_mut().zip(counts) {
-        *pixel = opaque(ramp(count, max));
-    }
+    let mut canvas = Canvas {
+        width,
+        height,
+        pixels: counts.iter().map(|&c| opaque(ramp(c, max))).collect(),
+    };
     if let Some(layout) = legend_layout(width, height, max) {
-        draw_legend(&mut img, &layout, max);
+        draw_legend(&mut canvas, &layout, max);
     }
-    img
+    canvas.pixels
+}
+
+/// The pixels a legend is drawn into, row-major from the top left.
+struct Canvas {
+    width: u32,
+    height: u32,
+    pixels: Vec<[u8; 4]>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -269,33 +295,33 @@ pub(crate) fn legend_layout(width: u32, height: u32, max: u32) -> Option<LegendL
 }
 
 /// Fills `r` (clipped to the image) with `f(old) -> new`.
-fn shade_rect(img: &mut RgbaImage, r: Rect, mut f: impl FnMut(Rgba<u8>) -> Rgba<u8>) {
-    let x1 = r.right().min(img.width());
-    let y1 = r.bottom().min(img.height());
+fn shade_rect(img: &mut Canvas, r: Rect, mut f: impl FnMut([u8; 4]) -> [u8; 4]) {
+    let x1 = r.right().min(img.width);
+    let y1 = r.bottom().min(img.height);
     for y in r.y.min(y1)..y1 {
         for x in r.x.min(x1)..x1 {
-            let p = img.get_pixel_mut(x, y);
+            let p = &mut img.pixels[(y * img.width + x) as usize];
             *p = f(*p);
         }
     }
 }
 
-fn fill_rect(img: &mut RgbaImage, r: Rect, color: Rgba<u8>) {
+fn fill_rect(img: &mut Canvas, r: Rect, color: [u8; 4]) {
     shade_rect(img, r, |_| color);
 }
 
-const FRAME_COLOR: Rgba<u8> = Rgba([150, 150, 150, 255]);
-const TICK_COLOR: Rgba<u8> = Rgba([220, 220, 220, 255]);
-const TEXT_COLOR: Rgba<u8> = Rgba([240, 240, 240, 255]);
+const FRAME_COLOR: [u8; 4] = [150, 150, 150, 255];
+const TICK_COLOR: [u8; 4] = [220, 220, 220, 255];
+const TEXT_COLOR: [u8; 4] = [240, 240, 240, 255];
 /// The legend box lets this fraction (out of 256) of the heatmap show through.
 const BOX_SHOW_THROUGH: u16 = 64;
 
-fn draw_legend(img: &mut RgbaImage, layout: &LegendLayout, max: u32) {
+fn draw_legend(img: &mut Canvas, layout: &LegendLayout, max: u32) {
     let s = layout.scale;
     // Dark semi-opaque box: 75 % black over the heatmap.
     shade_rect(img, layout.boxr, |p| {
         let dim = |c: u8| ((c as u16 * BOX_SHOW_THROUGH) / 256) as u8;
-        Rgba([dim(p[0]), dim(p[1]), dim(p[2]), 255])
+        [dim(p[0]), dim(p[1]), dim(p[2]), 255]
     });
     // Frame around the bar, so the black "0" end stays visible on the dark box.
     let bar = layout.bar;
@@ -358,6 +384,11 @@ fn draw_legend(img: &mut RgbaImage, layout: &LegendLayout, max: u32) {
 mod tests {
     use super::*;
     use crate::metrics::colormap::{colormap, RAMP_FLOOR};
+    use image::{Rgba, RgbaImage};
+
+    fn opaque(rgb: [u8; 3]) -> Rgba<u8> {
+        Rgba(super::opaque(rgb))
+    }
 
     fn inside(inner: Rect, outer: Rect) -> bool {
         inner.x >= outer.x

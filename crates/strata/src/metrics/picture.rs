@@ -1,6 +1,8 @@
 //! The picture a frame or the reference makes, before encoding.
 
+#[cfg(feature = "png")]
 use crate::frame::Effect;
+#[cfg(feature = "png")]
 use crate::scene::linear_to_srgb;
 
 /// A rendered frame before encoding: per pixel linear RGB and the number of fragments composited.
@@ -27,6 +29,7 @@ impl LinearImage {
 
     /// The picture as 8-bit sRGB: colors for the transparency effects, a heatmap with a legend
     /// for `complexity`.
+    #[cfg(feature = "png")]
     pub fn to_rgba8(&self, effect: Effect) -> image::RgbaImage {
         if effect == Effect::Complexity {
             return super::complexity_heatmap(&self.counts(), self.width, self.height, None);

@@ -339,7 +339,7 @@ fn degenerate_and_sub_pixel_triangles_match() {
         [0.6, 0.1, 0.0],
     ];
     let mut indices = vec![0, 1, 2, 3, 4, 5, 1, 1, 1];
-    let mut rng = crate::scene::builtin::rng::SplitMix64::new(7);
+    let mut rng = crate::scene::rng::SplitMix64::new(7);
     for _ in 0..3000 {
         let c = [
             rng.range(-0.95, 0.95),
@@ -365,12 +365,12 @@ fn degenerate_and_sub_pixel_triangles_match() {
 #[test]
 fn shared_edges_cover_each_pixel_exactly_once() {
     let n = 24;
-    let mut rng = crate::scene::builtin::rng::SplitMix64::new(3);
+    let mut rng = crate::scene::rng::SplitMix64::new(3);
     let mut positions = Vec::new();
     for j in 0..=n {
         for i in 0..=n {
             let interior = i > 0 && j > 0 && i < n && j < n;
-            let jitter = |rng: &mut crate::scene::builtin::rng::SplitMix64| {
+            let jitter = |rng: &mut crate::scene::rng::SplitMix64| {
                 if interior {
                     // Less than a quarter cell: no triangle folds over.
                     rng.range(-0.012, 0.012)

@@ -27,7 +27,9 @@ pub const MAX_EXACT_FRAMES: u32 = 4;
 /// of host memory (and its PNG 256 MiB more). Larger ones are refused before anything is made.
 pub const MAX_PICTURE_PIXELS: u64 = 8192 * 8192;
 
-pub use crate::metrics::{save_png, LinearImage};
+#[cfg(feature = "png")]
+pub use crate::metrics::save_png;
+pub use crate::metrics::LinearImage;
 
 /// Renders a scene with the GPU methods in exact mode. Holds one [`FrameRecorder`] (the scene
 /// buffers and each method's resources), so a second picture reuses what the first sized.
@@ -472,9 +474,13 @@ fn lit_pixels(options: &RenderOptions, hdr: &[[f32; 4]], resolved: &[Resolved]) 
         Some(GbufferView::NormalError) => {
             let centidegrees: Vec<u32> =
                 hdr.iter().map(|p| (p[0] * 100.0).round() as u32).collect();
-            let map =
-                crate::metrics::complexity_heatmap(&centidegrees, w, options.frame.height, None);
-            map.pixels()
+            let map = crate::metrics::complexity_heatmap_pixels(
+                &centidegrees,
+                w,
+                options.frame.height,
+                None,
+            );
+            map.iter()
                 .zip(counts)
                 .map(|(p, n)| {
                     let c = |i: usize| srgb_to_linear(p[i] as f32 / 255.0);

@@ -6,10 +6,14 @@
 //! use to break depth ties.
 
 pub mod animation;
+#[cfg(feature = "scenes")]
 pub mod builtin;
+#[cfg(feature = "scenes")]
 pub mod export;
+#[cfg(feature = "scenes")]
 pub mod loaders;
 pub mod pipeline;
+pub(crate) mod rng;
 pub mod subdivide;
 
 pub use animation::{CameraKey, CameraPath, ObjectMotion, Orbit};
@@ -29,9 +33,11 @@ pub const MAX_SIDE: u32 = 16384;
 pub const MAX_SCENE_TRIANGLES: u64 = 1 << 25;
 
 /// Host bytes one triangle costs while a scene is built and uploaded (meshes and flat vertices).
+#[cfg(feature = "scenes")]
 const HOST_BYTES_PER_TRIANGLE: u64 = 132;
 
 /// Refuses `triangles` over [`MAX_SCENE_TRIANGLES`], naming `what` makes them.
+#[cfg(feature = "scenes")]
 pub(crate) fn check_triangle_estimate(what: &str, triangles: u64) -> Result<()> {
     if triangles <= MAX_SCENE_TRIANGLES {
         return Ok(());
@@ -373,6 +379,21 @@ impl Background {
     }
 }
 
+/// Linear RGB from hue (turns, [0,1)), saturation and value.
+pub fn hsv(h: f32, s: f32, v: f32) -> [f32; 3] {
+    let h6 = h.rem_euclid(1.0) * 6.0;
+    let f = h6 - h6.floor();
+    let (p, q, t) = (v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f)));
+    match h6 as u32 {
+        0 => [v, t, p],
+        1 => [q, v, p],
+        2 => [p, v, t],
+        3 => [p, q, v],
+        4 => [t, p, v],
+        _ => [v, p, q],
+    }
+}
+
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {
         c / 12.92
@@ -545,7 +566,7 @@ impl Scene {
             .element_product();
         let overlap = count as f32 * 4.0 / 3.0 * std::f32::consts::PI * range.powi(3) / volume;
         let intensity = 1.5 / overlap.max(1.0).sqrt();
-        let mut rng = builtin::rng::SplitMix64::new(seed ^ 0x6c69_6768_7473);
+        let mut rng = rng::SplitMix64::new(seed ^ 0x6c69_6768_7473);
         for _ in 0..count {
             let t = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
             let hue = rng.next_f32();

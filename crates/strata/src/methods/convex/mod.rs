@@ -615,7 +615,7 @@ pub fn pieces_scene(
         let value = if g.parts > 1 { 0.55 } else { 0.95 };
         let material = pieces.add_material(Material {
             name: format!("group {i}"),
-            color: crate::scene::builtin::scenes::hsv(hue, 0.65, value),
+            color: crate::scene::hsv(hue, 0.65, value),
             opacity: 1.0,
             ..Material::default()
         });

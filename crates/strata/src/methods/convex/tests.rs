@@ -114,7 +114,7 @@ proptest! {
                     .map(|t| [0, 1, 2].map(|i| wavy(Vec3::from(s.positions[t[i] as usize])))),
             );
         }
-        crate::scene::builtin::rng::SplitMix64::new(seed).shuffle(&mut triangles);
+        crate::scene::rng::SplitMix64::new(seed).shuffle(&mut triangles);
         let tolerance = 1e-5;
         prop_assert_eq!(
             convex_parts(&triangles, tolerance),

@@ -16,7 +16,6 @@
 mod models;
 mod params;
 pub(crate) mod primitives;
-pub(crate) mod rng;
 pub(crate) mod scenes;
 
 pub use primitives::{cube, quad, uv_sphere, uv_sphere_triangles};

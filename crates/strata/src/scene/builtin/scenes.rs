@@ -8,27 +8,13 @@ use glam::{Mat4, Quat, Vec3};
 use super::models::model_mesh;
 use super::params::Params;
 use super::primitives::{cube, uv_sphere, uv_sphere_triangles};
-use super::rng::SplitMix64;
 use crate::error::{Error, Result};
+use crate::scene::hsv;
+use crate::scene::rng::SplitMix64;
 use crate::scene::{
     Camera, Light, LightKind, Material, Mesh, Object, ObjectMotion, Orbit, Projection,
     RenderDefaults, Scene, Shading,
 };
-
-/// Linear RGB from hue (turns, [0,1)), saturation and value.
-pub(crate) fn hsv(h: f32, s: f32, v: f32) -> [f32; 3] {
-    let h6 = h.rem_euclid(1.0) * 6.0;
-    let f = h6 - h6.floor();
-    let (p, q, t) = (v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f)));
-    match h6 as u32 {
-        0 => [v, t, p],
-        1 => [q, v, p],
-        2 => [p, v, t],
-        3 => [p, q, v],
-        4 => [t, p, v],
-        _ => [v, p, q],
-    }
-}
 
 fn point_light(position: Vec3, color: [f32; 3], intensity: f32, range: f32) -> Light {
     Light {

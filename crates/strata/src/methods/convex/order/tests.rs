@@ -160,7 +160,7 @@ proptest! {
         scale in 0.01f32..2000.0,
         seed in 0u64..1000,
     ) {
-        let mut rng = crate::scene::builtin::rng::SplitMix64::new(seed);
+        let mut rng = crate::scene::rng::SplitMix64::new(seed);
         let centre = Vec2::new(rng.next_f32(), rng.next_f32()) * 1000.0;
         let points: Vec<Vec2> = (0..count)
             .map(|i| {

@@ -1,5 +1,7 @@
 //! A tiny deterministic PRNG (SplitMix64) so built-in scenes are the same on every machine and
-//! every run for a given seed, without an external crate.
+//! every run for a given seed, without an external crate. The core draws only light
+//! placements with it; the built-in scenes (feature `scenes`) and tests use the rest.
+#![cfg_attr(not(feature = "scenes"), allow(dead_code))]
 
 pub(crate) struct SplitMix64 {
     state: u64,
