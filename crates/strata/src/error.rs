@@ -3,8 +3,10 @@
 
 use thiserror::Error;
 
+/// strata's result type.
 pub type Result<T> = std::result::Result<T, Error>;
 
+/// What went wrong, in one line.
 #[derive(Debug, Error)]
 pub enum Error {
     /// Bad input: a missing or malformed file, a bad option value, an impossible budget.
@@ -33,12 +35,15 @@ pub fn quoted(input: &str) -> String {
 }
 
 impl Error {
+    /// A [`Error::Input`] error.
     pub fn input(msg: impl Into<String>) -> Self {
         Error::Input(msg.into())
     }
+    /// A [`Error::Unsupported`] error.
     pub fn unsupported(msg: impl Into<String>) -> Self {
         Error::Unsupported(msg.into())
     }
+    /// A [`Error::Runtime`] error.
     pub fn runtime(msg: impl Into<String>) -> Self {
         Error::Runtime(msg.into())
     }

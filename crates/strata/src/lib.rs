@@ -8,8 +8,8 @@
 //!    Request [`gpu::wanted_features`] (as far as the adapter has them) when you create the
 //!    device: 64-bit atomics, timestamps and coherent storage widen the methods you can use.
 //! 2. **Describe what is transparent.** A [`scene::Scene`] holds the meshes, materials and
-//!    lights strata draws; build one, or load a file or a built-in with
-//!    [`scene::loaders::load_scene`].
+//!    lights strata draws; build one, or (feature `scenes`) load a file or a built-in with
+//!    `scene::loaders::load_scene`.
 //! 3. **Make a recorder** with [`FrameRecorder::new`]: the scene, a method ([`MethodId`]; or
 //!    let [`methods::choice::choose`] pick the best one your adapter runs for a [`methods::choice::Goal`])
 //!    and [`RenderOptions`] (`build`: fixed for the recorder; `frame`: may change between frames
@@ -56,9 +56,11 @@
 //! the repository are complete headless applications, checked against the reference in its
 //! tests.
 //!
-//! **Exact methods** equal the CPU reference ([`mod@reference`]) in (depth, primitive) order;
+//! **Exact methods** equal the CPU reference (`strata::reference`, feature `reference`) in (depth, primitive) order;
 //! approximate ones (weighted, moment-based) publish their error. `ARCHITECTURE.md` in the
 //! repository describes the layers and the path of a frame.
+
+#![warn(missing_docs)]
 
 pub mod animation;
 pub mod deferred;

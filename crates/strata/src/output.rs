@@ -112,6 +112,7 @@ pub struct Outputs {
 }
 
 impl Outputs {
+    /// No files yet.
     pub fn new() -> Outputs {
         Outputs::default()
     }

@@ -40,11 +40,17 @@ const VERTEX_BYTES: u64 = 3 * std::mem::size_of::<crate::scene::GpuVertex>() as 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct AnimationParams {
+    /// The time (frames) this frame shows.
     pub time: f32,
+    /// The time the previous frame showed (for the motion since).
     pub previous_time: f32,
+    /// Objects in the scene.
     pub objects: u32,
+    /// Workgroups per row of the two-dimensional dispatch.
     pub grid_x: u32,
+    /// 1 when the moved triangles' centroids are written too (for `--order`).
     pub write_centroids: u32,
+    /// Padding to WGSL's 16-byte alignment.
     pub _pad: [u32; 3],
 }
 
@@ -52,14 +58,23 @@ pub struct AnimationParams {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuMotion {
+    /// The orbit's centre.
     pub centre: [f32; 3],
+    /// The orbit's radius.
     pub radius: f32,
+    /// First unit vector of the orbit's plane.
     pub u: [f32; 3],
+    /// Radians per frame.
     pub angular_speed: f32,
+    /// Second unit vector of the orbit's plane.
     pub v: [f32; 3],
+    /// Angle at time 0, in radians.
     pub phase: f32,
+    /// Uniform scale of the object-space mesh.
     pub scale: f32,
+    /// 0: the object stays where its rest vertices are (world space).
     pub moving: u32,
+    /// Padding to WGSL's 16-byte alignment.
     pub _pad: [u32; 2],
 }
 
@@ -314,6 +329,7 @@ impl SceneAnimation {
         self.time = t;
     }
 
+    /// The time the next recorded frame shows.
     pub fn time(&self) -> f32 {
         self.time
     }

@@ -85,14 +85,23 @@ pub fn gbuffer_bytes_per_pixel(layout: GbufferLayout) -> u64 {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct DeferredParams {
+    /// Clip to world, to rebuild positions from depth.
     pub inv_view_proj: [[f32; 4]; 4],
+    /// [`NormalEncoding`] as the shaders number it.
     pub normal_encoding: u32,
+    /// 1 with screen-space ambient occlusion.
     pub ssao: u32,
+    /// The debug view's [`GbufferView::index`] (read by the debug pass only).
     pub debug_view: u32,
+    /// [`Tonemap`] as the shaders number it: 0 none, 1 neutral, 2 Reinhard.
     pub tonemap: u32,
+    /// SSAO's sampling radius in world units (a fraction of the scene's bounding box diagonal).
     pub ssao_radius: f32,
+    /// How strongly SSAO darkens (0: not at all).
     pub ssao_strength: f32,
+    /// First vertex of the cone mesh in the volume vertex buffer.
     pub cone_first: u32,
+    /// Padding to WGSL's 16-byte alignment.
     pub _pad: u32,
 }
 
@@ -168,6 +177,7 @@ pub fn stage(index: usize) -> Stage {
     Stage::new(label, source).with(LIBRARY)
 }
 
+/// The pipeline's stages: (label, WGSL source), in the order [`stage`] indexes them.
 pub const STAGES: [(&str, &str); 7] = [
     ("strata.deferred.gbuffer", include_str!("gbuffer.wgsl")),
     ("strata.forward.opaque", include_str!("forward.wgsl")),
@@ -621,6 +631,7 @@ impl LitFrame {
         }
     }
 
+    /// Forward or deferred.
     pub fn pipeline(&self) -> Pipeline {
         self.pipeline
     }
@@ -701,6 +712,7 @@ impl LitFrame {
         self.scene.set_time(t);
     }
 
+    /// What the lit frame reports: lights drawn and culled, G-buffer size, bytes allocated.
     pub fn stats(&self) -> LightingStats {
         let deferred = self.pipeline == Pipeline::Deferred;
         let v = &self.visible;

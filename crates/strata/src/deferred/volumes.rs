@@ -20,9 +20,13 @@ pub const MAX_CONE_DEG: f32 = 75.0;
 
 /// The unit meshes as one triangle list (xyz, w = 1): the sphere's vertices, then the cone's.
 pub struct VolumeMeshes {
+    /// Every vertex, the sphere's first.
     pub vertices: Vec<[f32; 4]>,
+    /// Vertices of the sphere.
     pub sphere_vertices: u32,
+    /// Index of the cone's first vertex.
     pub cone_first: u32,
+    /// Vertices of the cone.
     pub cone_vertices: u32,
 }
 
@@ -131,6 +135,7 @@ pub fn cone_mesh() -> Vec<[Vec3; 3]> {
     tris
 }
 
+/// The unit sphere and cone that bound point and spot lights.
 pub fn meshes() -> VolumeMeshes {
     let flat = |tris: Vec<[Vec3; 3]>| -> Vec<[f32; 4]> {
         tris.iter()
@@ -155,9 +160,13 @@ pub fn meshes() -> VolumeMeshes {
 /// then the cones, then the full-screen lights.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct VisibleLights {
+    /// Indices of the visible lights: spheres, then cones, then full-screen ones.
     pub indices: Vec<u32>,
+    /// Lights drawn as spheres.
     pub spheres: u32,
+    /// Lights drawn as cones.
     pub cones: u32,
+    /// Lights drawn as full-screen triangles.
     pub full_screen: u32,
     /// Lights whose volume lies wholly outside the view frustum.
     pub culled: u32,

@@ -52,14 +52,20 @@ pub use values::{
 pub struct FrameStats {
     /// The frame these statistics belong to (frames count from 0 per recorder).
     pub frame: u64,
+    /// The method's id (`strata methods` lists them).
     pub method: String,
     /// With `--method auto`: why this method was chosen ([`crate::methods::choice`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub method_choice: Option<String>,
+    /// Frame width in pixels.
     pub width: u32,
+    /// Frame height in pixels.
     pub height: u32,
+    /// Fragments kept per pixel (k-buffers, kpeel, fixed arrays); `None` for methods without a k.
     pub k: Option<u32>,
+    /// The effect rendered: "transparency", "translucency" or "complexity".
     pub effect: String,
+    /// Passes over the scene's geometry this frame recorded (peeling: one per layer).
     pub geometry_passes: Option<u32>,
     /// Whether this frame is exact: the method is exact by design (the catalogue's flag; a
     /// k-buffer's exactness is that of its k nearest) and the frame kept to it — nothing
@@ -67,16 +73,24 @@ pub struct FrameStats {
     /// nothing culled by temporal culling, no overflow. Approximate methods (wboit, mboit,
     /// unsorted, ...) say false: their error is measured against the reference, never hidden.
     pub exact: Option<bool>,
+    /// GPU milliseconds per pass name (same-named passes added); `None` without timestamp queries.
     pub gpu_ms: Option<BTreeMap<String, f64>>,
+    /// The sum of `gpu_ms`.
     pub gpu_ms_total: Option<f64>,
+    /// Fragments the capture saw (after the opaque depth test), summed over the frame's pixels.
     pub fragments_generated: Option<u64>,
+    /// Fragments the method kept in its storage.
     pub fragments_stored: Option<u64>,
+    /// Fragments the method could not keep (beyond k, a full pool, culled).
     pub fragments_dropped: Option<u64>,
+    /// The largest fragment count of any pixel.
     pub max_depth_complexity: Option<u32>,
+    /// Bytes of GPU memory the method allocated for this frame.
     pub bytes_allocated: Option<u64>,
     /// The method's storage, or the compute rasterizer's work items, ran out: the fragment
     /// counts are then lower bounds (the frame is incomplete and exact mode renders it again).
     pub overflow: Option<bool>,
+    /// Capture invocations that gave up on a per-pixel lock after `--max-tries` (the frame is then not exact).
     pub lock_failures: Option<u64>,
     /// How the capture's atomics are ordered on this adapter (k-buffer methods): "acquire-release
     /// (SPIR-V passthrough)", or "relaxed" with or without coherent storage.
@@ -122,7 +136,9 @@ pub struct FrameStats {
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the
     /// application submits).
     pub submits: u32,
+    /// The adapter's name.
     pub adapter: Option<String>,
+    /// The backend (Vulkan, Metal, DX12, GL).
     pub backend: Option<String>,
 }
 
@@ -131,6 +147,7 @@ pub struct FrameStats {
 pub struct AutoKStats {
     /// The robustness ratio R asked for.
     pub robustness_target: f64,
+    /// The memory budget (`--budget-mb`), if any.
     pub budget_mb: Option<f64>,
     /// The largest k the budget holds by the method's memory formula.
     pub k_budget: u32,
@@ -147,14 +164,18 @@ pub struct AutoKStats {
 /// which the batch renderer predicts the bands that could fit.
 #[derive(Clone, Debug)]
 pub struct Shortfall {
+    /// One line saying what cannot fit.
     pub why: String,
+    /// (bytes the frame needed, bytes one storage binding holds), when a binding is what is short.
     pub binding: Option<(u64, u64)>,
 }
 
 /// What a method reports about its frame once its counters are back.
 #[derive(Clone, Debug, Default)]
 pub struct MethodStats {
+    /// The method's storage ran out this frame (see [`FrameStats::overflow`]).
     pub overflow: Option<bool>,
+    /// Lock acquisitions that gave up (see [`FrameStats::lock_failures`]).
     pub lock_failures: Option<u64>,
     /// The frame is missing fragments that a larger pool or more layers would have kept; the
     /// method has already grown for the next frame. Exact mode renders again.
@@ -171,8 +192,11 @@ pub struct MethodStats {
 /// What a method recorded: known on the CPU when the frame is recorded.
 #[derive(Clone, Debug, Default)]
 pub struct Recorded {
+    /// Passes over the scene's geometry the method recorded.
     pub geometry_passes: u32,
+    /// The k the frame ran with, for methods that have one.
     pub k: Option<u32>,
+    /// Bytes of GPU memory the method allocated.
     pub bytes_allocated: u64,
     /// The size this frame ran with where it is fed back (pool nodes, array stride, layers).
     pub capacity: u64,
@@ -200,9 +224,13 @@ impl Recorded {
 /// Keep in sync with the TOTAL_ constants in shaders/shared/scene.wgsl.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Totals {
+    /// Fragments every resolve saw.
     pub generated: u64,
+    /// Fragments the method kept.
     pub stored: u64,
+    /// Fragments the method dropped.
     pub dropped: u64,
+    /// The largest per-pixel fragment count.
     pub max_depth: u32,
 }
 
@@ -210,6 +238,7 @@ pub struct Totals {
 pub const TOTAL_WORDS: u64 = 8;
 
 impl Totals {
+    /// The totals from the words of the totals buffer, as the shaders wrote them.
     pub fn from_words(w: &[u32]) -> Totals {
         let wide = |i: usize| w[i] as u64 | (w[i + 1] as u64) << 32;
         Totals {
@@ -232,10 +261,13 @@ pub fn wide(words: &[u32], at: usize) -> u64 {
 pub struct Resolved {
     /// Premultiplied linear RGB and alpha = 1 − transmittance.
     pub color: [f32; 4],
+    /// Fragments composited into this pixel.
     pub count: u32,
+    /// Padding to WGSL's 16-byte alignment.
     pub _pad: [u32; 3],
 }
 
+/// Bytes of one [`Resolved`].
 pub const RESOLVED_BYTES: u64 = std::mem::size_of::<Resolved>() as u64;
 
 /// Issues draw calls into a geometry pass whose pipeline and bind groups the method has set and
@@ -249,7 +281,9 @@ pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
 /// it are rejected; `None`: nothing opaque).
 #[derive(Clone, Copy, Default)]
 pub struct FrameTargets<'a> {
+    /// The application's color target and its format; the frame is composited OVER it.
     pub color: Option<(&'a wgpu::TextureView, wgpu::TextureFormat)>,
+    /// The depth of the application's opaque surfaces.
     pub opaque_depth: Option<&'a wgpu::TextureView>,
 }
 
@@ -257,14 +291,18 @@ pub struct FrameTargets<'a> {
 pub struct FrameContext<'a> {
     /// The method's id, which labels its passes `strata.<method>.<pass>`.
     pub method: &'static str,
+    /// The device.
     pub gpu: &'a Gpu,
+    /// The scene's buffers on the device.
     pub scene: &'a SceneGpu,
+    /// The recorder's options.
     pub options: &'a RenderOptions,
     /// The frame's k: the options' `k`, or with `--k auto` the one the recorder chose for this
     /// frame (the caller's options keep theirs).
     pub k: Option<u32>,
     /// The caller's encoder: every pass of the frame goes here; nothing is submitted.
     pub encoder: &'a mut wgpu::CommandEncoder,
+    /// GPU timing of the frame's passes.
     pub timer: &'a mut Timer,
     /// Group 0 bound to the scene in primitive order.
     pub frame_group: &'a wgpu::BindGroup,
@@ -284,6 +322,7 @@ pub struct FrameContext<'a> {
 /// compute rasterizer, `crate::raster::ComputeRaster`): the frame holds it, and
 /// [`passes::storage_geometry_pass`] hands it the method's compute capture stage and groups.
 pub trait ComputeCapture {
+    /// Records the storage capture of every triangle of the scene into `name`'s passes: `pipeline` is the method's compute capture stage, `groups` its bind groups after group 0.
     fn capture(
         &mut self,
         ctx: &mut FrameContext<'_>,
@@ -299,6 +338,7 @@ impl FrameContext<'_> {
         self.scene.draw(pass, self.draw);
     }
 
+    /// Pixels of the frame.
     pub fn pixels(&self) -> u64 {
         self.options.pixels()
     }
@@ -308,6 +348,7 @@ impl FrameContext<'_> {
         format!("strata.{}.{pass}", self.method)
     }
 
+    /// The frame's (width, height) in pixels.
     pub fn size(&self) -> (u32, u32) {
         (self.options.frame.width, self.options.frame.height)
     }

@@ -8,7 +8,7 @@
 //! is the samples' average (premultiplied, so blending it over a background equals averaging
 //! the samples blended over it): an edge pixel half covered by a layer gets half its
 //! contribution, a fully covered pixel exactly the single-sample result, and shading costs what
-//! it costs without MSAA. The reference ([`crate::reference`]) supersamples the same way, so the
+//! it costs without MSAA. The CPU reference (`crate::reference`) supersamples the same way, so the
 //! exact methods stay testable against it. How each family keeps its samples:
 //!
 //! - **Every fragment per pixel** (`abuffer-ll`, `abuffer-fixed`, `sbuffer`, `kb-ab-ll`,

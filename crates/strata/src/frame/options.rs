@@ -20,13 +20,17 @@ use crate::frame::values::{GbufferView, NormalEncoding, Raster, TemporalCulling,
 use crate::frame::MAX_TRIES_LIMIT;
 use crate::scene::{Background, Pipeline, MAX_SIDE};
 
+/// What a frame shows (`--effect`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Effect {
+    /// Fragments composited front to back (C += T·α·c).
     #[default]
     Transparency,
+    /// Transparency plus a Schlick Fresnel term and Beer–Lambert absorption over the thickness between entering and leaving surfaces.
     Translucency,
+    /// Fragments per pixel, as a heatmap (depth complexity).
     Complexity,
 }
 
@@ -45,6 +49,7 @@ impl FromStr for Effect {
 }
 
 impl Effect {
+    /// The effect's name on the command line and in statistics.
     pub fn name(self) -> &'static str {
         match self {
             Effect::Transparency => "transparency",
@@ -84,10 +89,12 @@ pub enum Weight {
 }
 
 impl Weight {
+    /// The weight's number as the shaders read it (0 = eq7).
     pub fn index(self) -> u32 {
         self as u32
     }
 
+    /// The weight's name on the command line and in statistics.
     pub fn name(self) -> &'static str {
         match self {
             Weight::Eq7 => "eq7",
@@ -112,6 +119,7 @@ pub enum BucketSplit {
 }
 
 impl BucketSplit {
+    /// The split's name on the command line and in statistics.
     pub fn name(self) -> &'static str {
         match self {
             BucketSplit::Uniform => "uniform",
@@ -137,7 +145,9 @@ impl FromStr for Tail {
 /// whose per-pixel buffers outgrow the device's storage bindings).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Band {
+    /// Rows of the whole picture.
     pub full_height: u32,
+    /// The band's first row in the whole picture (a multiple of [`BAND_ALIGN`]).
     pub top: u32,
 }
 
@@ -148,7 +158,9 @@ pub const BAND_ALIGN: u32 = 32;
 /// Everything about a picture that is not the scene.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderOptions {
+    /// What the recorder is made with.
     pub build: BuildOptions,
+    /// What may change between frames.
     pub frame: FrameOptions,
 }
 
@@ -184,6 +196,7 @@ pub struct Lighting {
     /// Opaque objects lit forward or deferred, the method over them; `None`: every surface,
     /// opaque ones too, goes through the method.
     pub pipeline: Option<Pipeline>,
+    /// How the lit frame's HDR color maps to the display.
     pub tonemap: Tonemap,
     /// Deferred: screen-space ambient occlusion.
     pub ssao: bool,
@@ -196,9 +209,13 @@ pub struct Lighting {
 /// What may change from one frame of a recorder to the next.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameOptions {
+    /// Frame width in pixels.
     pub width: u32,
+    /// Frame height in pixels.
     pub height: u32,
+    /// What the frame shows.
     pub effect: Effect,
+    /// What lies behind everything when strata composites the picture itself (exact mode; a recorder composites over the application's target instead).
     pub background: Background,
     /// The picture is a band of a taller one (`None`: the whole picture).
     pub band: Option<Band>,
@@ -210,8 +227,11 @@ pub struct FrameOptions {
     pub k_auto: Option<f64>,
     /// Memory a method may allocate, in MiB.
     pub budget_mb: Option<f64>,
+    /// The k-buffer family's parameters.
     pub kbuffer: KBufferOptions,
+    /// Depth peeling's parameters.
     pub peeling: PeelingOptions,
+    /// Weighted blended and moment OIT's parameters.
     pub weighted: WeightedOptions,
     /// `--order`: the triangles' submission order, rebuilt on the GPU every frame, and its
     /// Kendall distance to depth order in the statistics (`None`: the scene's order, unmeasured).
@@ -320,10 +340,12 @@ impl RenderOptions {
         }
     }
 
+    /// Pixels of the frame.
     pub fn pixels(&self) -> u64 {
         self.frame.pixels()
     }
 
+    /// `budget_mb` in bytes.
     pub fn budget_bytes(&self) -> Option<u64> {
         self.frame.budget_bytes()
     }
@@ -367,10 +389,12 @@ impl RenderOptions {
 }
 
 impl FrameOptions {
+    /// Pixels of the frame.
     pub fn pixels(&self) -> u64 {
         self.width as u64 * self.height as u64
     }
 
+    /// `budget_mb` in bytes.
     pub fn budget_bytes(&self) -> Option<u64> {
         self.budget_mb.map(|m| (m * 1048576.0) as u64)
     }

@@ -142,6 +142,7 @@ pub fn dispatch(
 
 /// How many workgroups a compute pass runs.
 pub enum Workgroups<'a> {
+    /// (x, y) workgroups; a pass with x = 0 dispatches nothing.
     Direct(u32, u32),
     /// From the first three words of a buffer written on the GPU.
     Indirect(&'a wgpu::Buffer),
@@ -177,7 +178,9 @@ pub fn dispatch_with(
 /// pipeline (the GPU's rasterizer) or the compute rasterizer's capture
 /// ([`crate::raster::storage_stage`]).
 pub enum GeometryStage {
+    /// A render pipeline: the GPU's rasterizer, over a [`NullTarget`].
     Hw(wgpu::RenderPipeline),
+    /// The compute rasterizer's capture pipeline.
     Compute(wgpu::ComputePipeline),
 }
 

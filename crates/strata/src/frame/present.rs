@@ -14,8 +14,11 @@ use crate::gpu::Gpu;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct PresentParams {
+    /// Frame size in pixels.
     pub size: [u32; 2],
+    /// 1 to draw the fragment counts as an opaque heatmap (the complexity effect), 0 to blend the color OVER.
     pub complexity: u32,
+    /// The count at which the heatmap saturates.
     pub complexity_full: u32,
 }
 
@@ -26,6 +29,7 @@ pub const TESTED_FORMATS: [wgpu::TextureFormat; 3] = [
     wgpu::TextureFormat::Rgba16Float,
 ];
 
+/// The present pass's layout, shader and one pipeline per target format it has met.
 pub struct Present {
     layout: wgpu::BindGroupLayout,
     module: wgpu::ShaderModule,
@@ -35,6 +39,7 @@ pub struct Present {
 }
 
 impl Present {
+    /// Makes the layout, shader and colormap; pipelines are made on first use per format.
     pub fn new(gpu: &Gpu) -> Present {
         let device = &gpu.device;
         let layout = binding::layout(

@@ -31,18 +31,25 @@ pub const FRAME_SLOTS: [Slot; 6] = [
 /// pixel never sees 2³² fragments in one geometry pass, so per-pixel u32 counters cannot wrap.
 pub const MAX_TRIANGLES: u64 = (u32::MAX / 3) as u64;
 
+/// The scene on the device: its vertices, materials, lights, the frame's uniforms and totals, and group 0's layout, which every capture stage binds.
 pub struct SceneGpu {
+    /// Triangles of the scene (three vertices each).
     pub triangle_count: u32,
     /// Three [`GpuVertex`] per triangle; bound at vertex-buffer slot 0 by [`SceneGpu::bind`].
     pub vertices: wgpu::Buffer,
     /// Each triangle's material index.
     pub triangle_materials: wgpu::Buffer,
+    /// [`crate::frame::uniforms::GpuMaterial`]s, indexed by `triangle_materials`.
     pub materials: wgpu::Buffer,
+    /// [`crate::frame::uniforms::GpuLight`]s.
     pub lights: wgpu::Buffer,
+    /// The frame's [`crate::frame::uniforms::FrameUniforms`].
     pub uniforms: wgpu::Buffer,
     /// Frame totals (see [`super::Totals`]), cleared at the start of every frame.
     pub totals: wgpu::Buffer,
+    /// Group 0's layout: uniforms, materials, lights, opaque depth, totals.
     pub frame_layout: wgpu::BindGroupLayout,
+    /// The camera the uniforms were last written for.
     pub camera: Camera,
     lighting: LightingSetup,
     /// Every triangle's centroid, for methods that order triangles on the CPU.
@@ -73,6 +80,7 @@ struct CpuMotion {
 }
 
 impl SceneGpu {
+    /// Uploads `scene`, refusing one over [`MAX_TRIANGLES`] or larger than the device's buffers.
     pub fn new(gpu: &Gpu, scene: &Scene, options: &RenderOptions) -> Result<SceneGpu> {
         scene.validate()?;
         Self::new_allow_empty(gpu, scene, options)

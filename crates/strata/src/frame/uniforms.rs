@@ -13,25 +13,42 @@ use crate::scene::{
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct FrameUniforms {
+    /// Clip from world, cropped to the frame's band.
     pub view_proj: [[f32; 4]; 4],
+    /// View from world (the camera's).
     pub view: [[f32; 4]; 4],
+    /// The camera's position (w unused).
     pub eye: [f32; 4],
+    /// Unit direction from the scene towards the camera, for orthographic views (w unused).
     pub to_camera: [f32; 4],
+    /// The background's linear RGB (w unused), for a plain background.
     pub background: [f32; 4],
+    /// The checkerboard's light squares, linear RGB (w unused).
     pub checker_light: [f32; 4],
+    /// The checkerboard's dark squares, linear RGB (w unused).
     pub checker_dark: [f32; 4],
+    /// Ambient radiance, linear RGB (w unused).
     pub ambient: [f32; 4],
+    /// Target size in pixels.
     pub size: [u32; 2],
+    /// `Effect` as the shaders number it: 0 transparency, 1 translucency, 2 complexity.
     pub effect: u32,
+    /// Lights in the lights buffer.
     pub light_count: u32,
+    /// Near plane distance.
     pub near: f32,
+    /// Far plane distance.
     pub far: f32,
+    /// 1 for an orthographic camera.
     pub orthographic: u32,
+    /// 1 when the scene has no lights and a light at the eye shades it.
     pub headlight: u32,
+    /// 1 when the background is the checkerboard.
     pub checker: u32,
     /// Samples per pixel with `--msaa` (4 or 8), whose coverage mask each fragment's tag carries
     /// ([`crate::frame::msaa`]); 0 single-sampled.
     pub coverage_bits: u32,
+    /// Padding to WGSL's 16-byte alignment.
     pub _pad: [u32; 2],
 }
 
@@ -39,10 +56,15 @@ pub struct FrameUniforms {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuMaterial {
+    /// Linear RGB.
     pub color: [f32; 3],
+    /// Alpha of the surface (0 clear, 1 opaque).
     pub opacity: f32,
+    /// Absorption coefficient of the translucency effect, per unit of distance.
     pub absorption: f32,
+    /// Index of refraction (translucency's Fresnel term).
     pub ior: f32,
+    /// 0 unlit, 1 lit.
     pub shading: u32,
     /// The specular exponent ([`Material::exponent`]).
     pub shininess: f32,
@@ -52,12 +74,19 @@ pub struct GpuMaterial {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuLight {
+    /// World position (point and spot lights).
     pub position: [f32; 3],
+    /// 0 point, 1 spot, 2 directional.
     pub kind: u32,
+    /// Unit direction the light shines along (spot and directional lights).
     pub direction: [f32; 3],
+    /// Cosine of the spot's outer half-angle.
     pub cos_outer: f32,
+    /// Color times intensity, linear RGB.
     pub radiance: [f32; 3],
+    /// Distance where the light's attenuation is windowed to zero.
     pub range: f32,
+    /// Cosine of the angle where the spot starts to fade.
     pub cos_inner: f32,
     /// a, b, c of the attenuation 1 / (a + b·d + c·d²).
     pub attenuation: [f32; 3],
@@ -66,8 +95,11 @@ pub struct GpuLight {
 /// The shading parameters both the GPU and the CPU reference derive from a scene.
 #[derive(Clone, Debug)]
 pub struct LightingSetup {
+    /// Ambient radiance, linear RGB (the scene's ambient lights summed, or the default).
     pub ambient: [f32; 3],
+    /// A light at the eye shades the scene, which has no lights.
     pub headlight: bool,
+    /// The scene's other lights as the shaders read them.
     pub lights: Vec<GpuLight>,
 }
 
@@ -76,6 +108,7 @@ pub const DEFAULT_AMBIENT: f32 = 0.1;
 /// Spot lights fade from full at this fraction of their angle to zero at the angle.
 pub const SPOT_INNER_FRACTION: f32 = 0.8;
 
+/// The ambient term and lights the GPU and the reference shade a scene with.
 pub fn lighting(scene: &Scene) -> LightingSetup {
     let mut ambient = [0.0f32; 3];
     let mut has_ambient = false;
@@ -114,6 +147,7 @@ pub fn lighting(scene: &Scene) -> LightingSetup {
     }
 }
 
+/// A material as the shaders read it.
 pub fn gpu_material(m: &Material) -> GpuMaterial {
     GpuMaterial {
         color: m.color,
@@ -155,6 +189,7 @@ pub fn band_projection(camera: &Camera, options: &RenderOptions) -> Mat4 {
     crop * full_projection
 }
 
+/// The uniforms of a frame seen through `camera` with `options` and the lighting `setup`.
 pub fn frame_uniforms(
     camera: &Camera,
     options: &RenderOptions,

@@ -17,6 +17,7 @@ pub enum Raster {
 }
 
 impl Raster {
+    /// The rasterizer's name on the command line and in statistics.
     pub fn name(self) -> &'static str {
         match self {
             Raster::Hw => "hw",
@@ -36,6 +37,7 @@ pub struct ComputeRasterStats {
     pub item_capacity: u64,
     /// More items were needed than held: fragments were lost and the frame is incomplete.
     pub overflow: bool,
+    /// Bytes of the rasterizer's buffers (triangles, items).
     pub bytes_allocated: u64,
 }
 
@@ -57,8 +59,10 @@ impl Default for TemporalCulling {
     }
 }
 
+/// Default frames between refreshes of a tile (`--temporal-refresh`).
 pub const DEFAULT_REFRESH: u32 = 8;
 
+/// Default depth margin of the culling test (`--temporal-epsilon`).
 pub const DEFAULT_EPSILON: f32 = 1e-5;
 
 /// What `convex` reports about a frame (`FrameStats::convex`).
@@ -66,6 +70,7 @@ pub const DEFAULT_EPSILON: f32 = 1e-5;
 pub struct ConvexStats {
     /// Convex parts, and the groups they were drawn as.
     pub parts: u32,
+    /// Groups the parts were drawn as.
     pub groups: u32,
     /// Groups outside the view this frame.
     pub culled: u32,
@@ -76,6 +81,7 @@ pub struct ConvexStats {
     /// Pairs of groups whose screen rectangles overlap, and those of them ordered by centroid
     /// for want of a plane.
     pub overlapping_pairs: u64,
+    /// Overlapping pairs ordered by centroid, without a separating plane.
     pub unseparated_pairs: u64,
     /// Cycles the sort broke.
     pub cycles_broken: u32,
@@ -83,6 +89,7 @@ pub struct ConvexStats {
     pub layers: u32,
     /// CPU milliseconds of this frame's order (0 when the view did not change).
     pub order_ms: f64,
+    /// CPU milliseconds the convex decomposition took when it was made (a cached one keeps that time).
     pub preprocess_ms: f64,
     /// Pixel-passes whose nearest fragment lay in front of what was already merged (the order
     /// failed there).
@@ -127,11 +134,17 @@ pub enum NormalEncoding {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum GbufferView {
+    /// Base color.
     Albedo,
+    /// The view-space normal as n·0.5 + 0.5.
     Normal,
+    /// The specular exponent / 128.
     Specular,
+    /// The material id as a hashed color.
     Material,
+    /// The stored depth (view distance / far).
     Depth,
+    /// The light buffers' diffuse + specular.
     Lights,
     /// The normal encoding's angular error per pixel: a heatmap in hundredths of a degree.
     NormalError,
@@ -140,6 +153,7 @@ pub enum GbufferView {
 }
 
 impl GbufferView {
+    /// The view's number as the debug shader reads it.
     pub fn index(self) -> u32 {
         self as u32
     }
@@ -162,19 +176,25 @@ impl GbufferView {
 /// What a lit frame reports (`FrameStats::lighting`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct LightingStats {
+    /// "forward" or "deferred".
     pub pipeline: String,
     /// Lights of the scene (ambient ones excluded: they are a term of the composite).
     pub lights: u32,
     /// Deferred: lights drawn as spheres, cones and full-screen triangles, and culled.
     pub sphere_volumes: Option<u32>,
+    /// Spot lights drawn as cone volumes.
     pub cone_volumes: Option<u32>,
+    /// Lights drawn as full-screen triangles (directional ones, and volumes reaching past the far plane).
     pub full_screen_lights: Option<u32>,
+    /// Lights culled because their volume is outside the view.
     pub culled_lights: Option<u32>,
     /// Deferred: G-buffer bytes per pixel (compressed layout).
     pub gbuffer_bytes_per_pixel: Option<u64>,
     /// Bytes of the pipeline's targets.
     pub bytes_allocated: u64,
+    /// The tone map applied to the HDR frame.
     pub tonemap: Tonemap,
+    /// Screen-space ambient occlusion was on.
     pub ssao: bool,
 }
 

@@ -43,9 +43,13 @@ const WORKGROUP: u32 = 256;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ProbeParams {
+    /// Elements the probe moves: 16-byte vectors to stream, or increments.
     pub count: u32,
+    /// Words the increments are spread over: increment i goes to word i % words.
     pub words: u32,
+    /// Invocations of the grid (each loops over its share of `count`).
     pub invocations: u32,
+    /// Padding to 16 bytes.
     pub _pad: u32,
 }
 
@@ -88,6 +92,7 @@ pub struct DeviceRates {
     pub atomics_per_pixel_g_per_s: f64,
     /// ... all on one word.
     pub atomics_one_word_g_per_s: f64,
+    /// How much each probe moved.
     pub sizes: ProbeSizes,
 }
 

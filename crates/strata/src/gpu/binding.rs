@@ -4,6 +4,7 @@
 /// The kind of one binding; its index is its position in the slice.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Slot {
+    /// Uniform buffer (visible to every stage).
     Uniform,
     /// Read-only storage buffer (visible to every stage).
     Storage,
@@ -73,6 +74,7 @@ fn entry(binding: u32, slot: Slot) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// A bind group layout with one binding per slot, numbered from 0.
 pub fn layout(device: &wgpu::Device, label: &str, slots: &[Slot]) -> wgpu::BindGroupLayout {
     let entries: Vec<_> = slots
         .iter()
@@ -142,6 +144,7 @@ pub fn group(
     })
 }
 
+/// A pipeline layout of `groups`, in group order.
 pub fn pipeline_layout(
     device: &wgpu::Device,
     label: &str,

@@ -38,10 +38,15 @@ pub fn wanted_features() -> wgpu::Features {
 pub struct Gpu {
     /// The adapter, when strata opened the device itself.
     pub adapter: Option<wgpu::Adapter>,
+    /// The device strata records with (the application's, or its own).
     pub device: wgpu::Device,
+    /// Its queue.
     pub queue: wgpu::Queue,
+    /// The adapter's name, backend and driver.
     pub info: wgpu::AdapterInfo,
+    /// The features the device was opened with.
     pub features: wgpu::Features,
+    /// The device's limits.
     pub limits: wgpu::Limits,
     /// The scene's vertex stage (`vs_scene`), composed once per device: every geometry pass
     /// draws with it, whatever module its fragment stage comes from.
@@ -76,15 +81,25 @@ pub fn validated<T>(gpu: &Gpu, what: &str, make: impl FnOnce() -> Result<T>) -> 
 /// What `strata info` reports.
 #[derive(Debug, Clone, Serialize)]
 pub struct GpuReport {
+    /// The adapter's name.
     pub adapter: String,
+    /// Its backend (vulkan, metal, dx12, gl).
     pub backend: String,
+    /// Integrated, discrete, virtual or CPU.
     pub device_type: String,
+    /// The driver's name.
     pub driver: String,
+    /// The driver's version text.
     pub driver_info: String,
+    /// PCI vendor id.
     pub vendor: u32,
+    /// PCI device id.
     pub device: u32,
+    /// The adapter's features, by name.
     pub features: Vec<String>,
+    /// The limits strata's methods run into, by name.
     pub limits: std::collections::BTreeMap<&'static str, u64>,
+    /// Nanoseconds per timestamp tick; `None` without timestamp queries.
     pub timestamp_period_ns: Option<f32>,
 }
 
@@ -262,10 +277,12 @@ impl Gpu {
         })
     }
 
+    /// Whether the device was opened with every feature in `f`.
     pub fn has(&self, f: wgpu::Features) -> bool {
         self.features.contains(f)
     }
 
+    /// The backend in lower case (vulkan, metal, dx12, gl).
     pub fn backend_name(&self) -> String {
         self.info.backend.to_string().to_lowercase()
     }
@@ -285,6 +302,7 @@ impl Gpu {
             .min(self.limits.max_buffer_size)
     }
 
+    /// What `strata info` prints about this device.
     pub fn report(&self) -> GpuReport {
         let features = self
             .adapter

@@ -43,11 +43,14 @@ const RELEASE: u32 = 0x4;
 /// The ordering a WGSL function asks of the atomics in its body, by the start of its name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Order {
+    /// The function's atomics are acquire loads (`acquire_` functions).
     Acquire,
+    /// The function's atomics are release stores (`release_` functions).
     Release,
 }
 
 impl Order {
+    /// The ordering `function`'s name asks for, if any.
     pub fn of(function: &str) -> Option<Order> {
         if function.starts_with("acquire_") {
             Some(Order::Acquire)

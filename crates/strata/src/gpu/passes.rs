@@ -45,6 +45,7 @@ pub fn screen_pipeline(
         })
 }
 
+/// A compute pipeline of `module`'s `entry` over bind groups of `layouts`.
 pub fn compute_pipeline(
     gpu: &Gpu,
     label: &str,
@@ -90,8 +91,10 @@ pub struct NullTarget {
 }
 
 impl NullTarget {
+    /// The format of the target: the smallest color format every backend renders to.
     pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R8Unorm;
 
+    /// A `width` × `height` target of `samples` samples per pixel.
     pub fn new(gpu: &Gpu, label: &str, (width, height): (u32, u32), samples: u32) -> NullTarget {
         let t = gpu.texture_2d_samples(
             label,
@@ -125,6 +128,7 @@ impl NullTarget {
         slot.as_ref().expect("set above")
     }
 
+    /// The color target state of a pipeline that draws into a null target: nothing is written.
     pub fn target_state() -> Option<wgpu::ColorTargetState> {
         Some(wgpu::ColorTargetState {
             format: Self::FORMAT,
@@ -133,6 +137,7 @@ impl NullTarget {
         })
     }
 
+    /// The render pass's color attachment: cleared, never stored.
     pub fn attachment(&self) -> Option<wgpu::RenderPassColorAttachment<'_>> {
         Some(wgpu::RenderPassColorAttachment {
             view: &self.view,

@@ -40,6 +40,7 @@ pub fn map_and_read(gpu: &Gpu, staging: &wgpu::Buffer) -> Result<Vec<u8>> {
     Ok(data)
 }
 
+/// Reads `count` u32 words of `src` (which needs COPY_SRC), waiting for the GPU.
 pub fn read_u32s(gpu: &Gpu, src: &wgpu::Buffer, count: u64) -> Result<Vec<u32>> {
     Ok(bytemuck::pod_collect_to_vec(&read_buffer(
         gpu,
@@ -116,6 +117,7 @@ impl ReadbackList {
         self.entries.push((buffer.clone(), offset, words));
     }
 
+    /// Words of every range together.
     pub fn total_words(&self) -> u64 {
         self.entries.iter().map(|e| e.2).sum()
     }

@@ -21,9 +21,13 @@ use naga_oil::compose::{
 /// The WGSL modules of a layer or a method family: each entry is one file's source.
 pub type Library = &'static [&'static str];
 
+/// `strata::scene`: group 0's bindings, `vs_scene` and shading.
 pub const SCENE: &str = include_str!("../../shaders/shared/scene.wgsl");
+/// `strata::color`: color conversions.
 pub const COLOR: &str = include_str!("../../shaders/shared/color.wgsl");
+/// `strata::fragment`: the 16-byte fragment record and the (depth, primitive) order.
 pub const FRAGMENT: &str = include_str!("../../shaders/shared/fragment.wgsl");
+/// `strata::composite`: compositing and `Resolved`.
 pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
 
 /// What every stage may import: scene bindings (group 0), the vertex stage and shading
@@ -80,6 +84,7 @@ pub fn target_samples(samples: u32) -> Defs {
 /// own names, replacing an earlier module of that name).
 #[derive(Clone, Debug)]
 pub struct Stage {
+    /// Names the module in wgpu's messages and composition errors.
     pub label: String,
     source: Cow<'static, str>,
     libraries: Vec<Library>,
@@ -88,6 +93,7 @@ pub struct Stage {
 }
 
 impl Stage {
+    /// A stage of `source` (a naga_oil module) that may import the shared library.
     pub fn new(label: impl Into<String>, source: impl Into<Cow<'static, str>>) -> Stage {
         Stage {
             label: label.into(),
@@ -119,14 +125,17 @@ impl Stage {
         self
     }
 
+    /// The top-level WGSL source.
     pub fn source(&self) -> &str {
         &self.source
     }
 
+    /// The libraries its imports come from.
     pub fn libraries(&self) -> &[Library] {
         &self.libraries
     }
 
+    /// The shader definitions it is composed with.
     pub fn definitions(&self) -> &Defs {
         &self.defs
     }

@@ -13,6 +13,7 @@ const MAX_QUERIES: u32 = 4096;
 /// A range of a buffer to read back: (buffer, byte offset, u32 words).
 pub type ReadRange = (wgpu::Buffer, u64, u64);
 
+/// Timestamp pairs of one frame's passes in a query set, resolved into a buffer read back with the frame's statistics.
 pub struct Timer {
     set: Option<wgpu::QuerySet>,
     resolve: Option<wgpu::Buffer>,
@@ -22,6 +23,7 @@ pub struct Timer {
 }
 
 impl Timer {
+    /// A timer for `gpu`; without TIMESTAMP_QUERY it times nothing.
     pub fn new(gpu: &Gpu) -> Timer {
         let enabled = gpu.has(wgpu::Features::TIMESTAMP_QUERY);
         let set = enabled.then(|| {
@@ -65,6 +67,7 @@ impl Timer {
         Some((set, index))
     }
 
+    /// The timestamp writes of a render pass named `name`; `None` when the adapter cannot time or the query set is full.
     pub fn render_pass(
         &mut self,
         name: &'static str,
@@ -77,6 +80,7 @@ impl Timer {
             })
     }
 
+    /// As [`Timer::render_pass`], for a compute pass.
     pub fn compute_pass(
         &mut self,
         name: &'static str,

@@ -31,7 +31,9 @@ pub enum Goal {
 /// The method chosen, and why.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Choice {
+    /// The method.
     pub method: MethodId,
+    /// Why it was chosen, in one line.
     pub why: String,
 }
 

@@ -33,33 +33,61 @@ pub use table::{Descriptor, Family, MethodOption, Ordering, Support};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum MethodId {
+    /// The exact CPU reference (runs on the CPU, not as a GPU method).
     Reference,
+    /// Alpha blending in submission order.
     Unsorted,
+    /// Alpha blending after a back-to-front sort of the triangles' centroids.
     Sorted,
+    /// Front-to-back depth peeling.
     F2b,
+    /// Dual depth peeling: the nearest and farthest layer per pass.
     Dual,
+    /// Per-pixel linked lists of every fragment, sorted at resolve.
     AbufferLl,
+    /// Fixed arrays of k slots per pixel; fragments past k are counted and dropped.
     AbufferFixed,
+    /// The original k-buffer: sorted insertion without a lock (its races kept).
     Kb,
+    /// Sorted insertion inside a per-pixel spin lock (pixel synchronization emulated).
     KbPs,
+    /// Every fragment in fixed arrays; the k nearest chosen at resolve.
     KbAbFixed,
+    /// k+-buffer: the k nearest unsorted under a spin lock, with a max-array.
     KplusArray,
+    /// k+-buffer with the revised max-array: the first k fragments stored without the lock.
     KplusArrayR,
+    /// k+-buffer with a max-heap: O(log k) replacement.
     KplusHeap,
+    /// Multi-depth test: an atomicMax cascade of 32-bit depths, colors in a second pass.
     KbMdt32,
+    /// Multi-depth test with 64-bit keys of depth and 8-bit color.
     KbMdt64,
+    /// Multi-depth test with 20 depth bits and 12 color bits packed, two cascades.
     KbMdtPack,
+    /// Lock-free exact k-buffer: an atomicMax cascade of 64-bit (depth, primitive) keys.
     KbKeys,
+    /// Every fragment in linked lists; the k nearest chosen at resolve.
     KbAbLl,
+    /// Sorted linked-list insertion by compare-exchange; losses counted.
     KbLl,
+    /// S-buffer: a count pass, a prefix sum, every pixel's fragments in one region.
     Sbuffer,
+    /// Every fragment in S-buffer regions; the k nearest chosen at resolve.
     KbSbuffer,
+    /// Memory-aware k+-buffer: min(f, k) slots per pixel from a prefix sum.
     KplusSbuffer,
+    /// k-depth peeling: the k nearest behind the last composited fragment, per pass.
     Kpeel,
+    /// Weighted blended OIT (approximate).
     Wboit,
+    /// Moment-based OIT (approximate).
     Mboit,
+    /// Semi-heap k-buffer: a max-heap of the farthest few and an unordered rest.
     KplusSemiheap,
+    /// Convex polyhedra ordered per frame by separating planes and nesting.
     Convex,
+    /// Bucket depth peeling: each pixel's depth range in buckets, one geometry pass.
     Bucket,
 }
 
@@ -106,6 +134,7 @@ impl MethodId {
             .expect("every method id is registered in TABLE")
     }
 
+    /// The method's name on the command line, in files and in statistics.
     pub fn as_str(self) -> &'static str {
         self.descriptor().name
     }
@@ -187,6 +216,7 @@ pub fn catalogue() -> impl Iterator<Item = &'static Descriptor> {
     TABLE.iter().copied()
 }
 
+/// The error for an id that names no method, listing the ones that exist.
 pub fn unknown_method(id: &str) -> Error {
     let ids: Vec<_> = catalogue().map(|m| m.name).collect();
     Error::input(format!(

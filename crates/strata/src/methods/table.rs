@@ -20,17 +20,26 @@ use super::{Method, MethodId};
 /// The family a method is listed under.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Family {
+    /// The CPU reference.
     Reference,
+    /// Alpha blending without a per-pixel order (unsorted, sorted).
     Baseline,
+    /// Weighted blended and moment-based OIT.
     Weighted,
+    /// Depth peeling (f2b, dual, bucket, kpeel).
     Peeling,
+    /// A-buffers: every fragment stored (lists, fixed arrays, S-buffers).
     Abuffer,
+    /// k-buffers: the k nearest kept, without a lock or with one per insertion.
     Kbuffer,
+    /// k+-buffers: the k nearest kept under a lock, with culling.
     Kplus,
+    /// Convex polyhedra ordering.
     Convex,
 }
 
 impl Family {
+    /// The family's name in `strata methods` and statistics.
     pub fn name(self) -> &'static str {
         match self {
             Family::Reference => "reference",
@@ -60,11 +69,14 @@ impl Serialize for Family {
 /// supported: ").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Support {
+    /// It can.
     Yes,
+    /// It cannot, and why.
     No(&'static str),
 }
 
 impl Support {
+    /// Whether it can.
     pub fn yes(self) -> bool {
         self == Support::Yes
     }
@@ -115,8 +127,11 @@ pub type Constructor = fn(MethodId, &Setup<'_>) -> Result<Box<dyn Method>>;
 
 /// What a method is made with: the device, the scene on it and the options.
 pub struct Setup<'a> {
+    /// The device.
     pub gpu: &'a Gpu,
+    /// The scene on the device.
     pub scene: &'a SceneGpu,
+    /// The options the method is made with.
     pub options: &'a RenderOptions,
 }
 
@@ -126,8 +141,10 @@ pub struct Descriptor {
     /// The method's name on the command line, in files and in statistics.
     #[serde(rename = "id")]
     pub name: &'static str,
+    /// The method's id.
     #[serde(skip)]
     pub id: MethodId,
+    /// The family it is listed under.
     pub family: Family,
     /// Equal to the reference (in the sense its catalogue text states).
     pub exact: bool,
@@ -135,6 +152,7 @@ pub struct Descriptor {
     pub geometry_passes: &'static str,
     /// Bytes the method allocates, W·H pixels, F fragments in the frame.
     pub memory: &'static str,
+    /// One line saying what the method does (the README's method table).
     pub summary: &'static str,
     /// Whether it runs on strata's compute rasterizer (`--raster compute`).
     #[serde(skip)]
@@ -149,6 +167,7 @@ pub struct Descriptor {
     /// Whether it takes `--temporal on` (the slot k-buffers that choose at capture time).
     #[serde(skip)]
     pub temporal: bool,
+    /// The memory ordering its capture needs.
     #[serde(skip)]
     pub ordering: Ordering,
     /// The capture step an application's fragment shader calls (`methods::capture`), on pixel
@@ -174,6 +193,7 @@ pub struct Descriptor {
     /// The largest `--k` it accepts (a pixel's fragments serialize on its lock or cascade).
     #[serde(skip)]
     pub max_k: u32,
+    /// Makes the method's GPU state for a scene.
     #[serde(skip)]
     pub create: Constructor,
 }

@@ -46,12 +46,15 @@ use crate::methods::MethodId;
 /// What one frame of a method did, from its [`crate::frame::FrameStats`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameCounts {
+    /// Pixels of the frame.
     pub pixels: u64,
     /// Fragments rasterized (after the opaque depth test).
     pub generated: u64,
     /// Fragments the method kept.
     pub stored: u64,
+    /// Passes over the scene's geometry.
     pub geometry_passes: u64,
+    /// Bytes the method allocated.
     pub bytes_allocated: u64,
 }
 
@@ -74,21 +77,29 @@ pub enum TrafficModel {
     /// Per-pixel state read and written per geometry pass; with `atomic_per_fragment` one
     /// atomic per generated fragment (`dual`'s min/max keys).
     PerPixelState {
+        /// One atomic per generated fragment.
         atomic_per_fragment: bool,
     },
+    /// Linked lists: a node written and read per stored fragment, a head per pixel.
     Lists,
+    /// S-buffers: a count and an offset per pixel, a fragment written and read per stored fragment.
     Sbuffers,
     /// Slot arrays; `atomics`: one per stored fragment (a counter or a lock; `kb` takes none).
     Slots {
+        /// One atomic per stored fragment.
         atomics: bool,
     },
     /// Multi-depth tests: `bytes` per stored fragment written and read (key, and color where a
     /// second pass fetches it).
     Keys {
+        /// Bytes per stored fragment.
         bytes: u64,
     },
+    /// k-depth peeling: slots per stored fragment, the key array per pass.
     Kpeel,
+    /// Convex: fragments per pass and the per-pixel merge state.
     Convex,
+    /// Bucket peeling: per-bucket depths and colors per pixel.
     Bucket,
 }
 
@@ -146,11 +157,13 @@ const CONVEX_MERGE_BYTES: u64 = 16 + 4;
 /// A frame's floor on a device: the time its traffic takes at the measured rates.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Floor {
+    /// Milliseconds the traffic takes at the device's rates.
     pub ms: f64,
     /// Which resource sets the floor: "bandwidth", "pixel atomics" or "global atomics".
     pub bound: &'static str,
 }
 
+/// The time `t` takes on a device with `rates`: the slowest of its bandwidth and atomic terms.
 pub fn floor(t: &Traffic, rates: &DeviceRates) -> Floor {
     let candidates = [
         (t.bytes as f64 / rates.bandwidth_bytes_per_s(), "bandwidth"),

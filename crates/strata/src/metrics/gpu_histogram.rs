@@ -18,6 +18,7 @@ use crate::gpu::{Gpu, ResourceCache};
 /// Keep in sync with HISTOGRAM_BINS in gpu_histogram.wgsl.
 pub const HISTOGRAM_BINS: u64 = 1024;
 
+/// The GPU depth-complexity histogram a frame can record: a counting pass over the scene, then a pass that bins each pixel's count.
 pub struct GpuHistogram {
     layout: wgpu::BindGroupLayout,
     count: GeometryStage,
@@ -27,6 +28,7 @@ pub struct GpuHistogram {
 }
 
 impl GpuHistogram {
+    /// The histogram's layout and pipelines for `scene`'s device and rasterizer.
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> GpuHistogram {
         let layout = binding::layout(
             &gpu.device,

@@ -69,7 +69,7 @@ pub fn complexity_heatmap(
         .expect("one pixel per count")
 }
 
-/// [`complexity_heatmap`]'s pixels, row-major from the top left, without the `image` crate.
+/// `complexity_heatmap`'s pixels (feature `png`), row-major from the top left, without the `image` crate.
 ///
 /// # Panics
 /// If `counts.len() != width * height`.

@@ -1,6 +1,6 @@
 //! Pictures and their measures: the linear picture a frame makes, depth-complexity heatmaps and
 //! histograms (core), 8-bit pictures and PNG files (feature `png`), and comparing two renders
-//! with difference heatmaps and helpers for image tests ([`testing`]; feature `metrics`).
+//! with difference heatmaps and helpers for image tests (`testing`; feature `metrics`).
 //!
 //! All comparisons work on the 8-bit sRGB-encoded R, G and B channels of the PNGs strata writes;
 //! alpha is ignored. The first image of a pair is the reference (this matters only for FLIP).

@@ -8,17 +8,21 @@ use crate::scene::linear_to_srgb;
 /// A rendered frame before encoding: per pixel linear RGB and the number of fragments composited.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LinearImage {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
     /// Row-major from the top-left: `[r, g, b, fragment count]`.
     pub pixels: Vec<[f32; 4]>,
 }
 
 impl LinearImage {
+    /// Each pixel's fragment count.
     pub fn counts(&self) -> Vec<u32> {
         self.pixels.iter().map(|p| p[3].round() as u32).collect()
     }
 
+    /// The largest fragment count of any pixel.
     pub fn max_count(&self) -> u32 {
         self.pixels
             .iter()

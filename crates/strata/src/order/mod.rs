@@ -69,6 +69,7 @@ pub enum Order {
 }
 
 impl Order {
+    /// The order's name on the command line and in statistics.
     pub fn name(self) -> &'static str {
         match self {
             Order::Scene => "scene",
@@ -108,12 +109,19 @@ impl FromStr for Order {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct OrderParams {
+    /// A point p lies at view depth dot(depth_row.xyz, p) + depth_row.w (larger is farther).
     pub depth_row: [f32; 4],
+    /// Triangles to order.
     pub count: u32,
+    /// Which key the keys pass writes (the [`Order`]).
     pub mode: u32,
+    /// Random permutations and the Kendall samples draw from it; it changes every frame.
     pub seed: u32,
+    /// Workgroups per row of the two-dimensional dispatch.
     pub grid_x: u32,
+    /// Pairs sampled for the Kendall distance.
     pub samples: u32,
+    /// Padding to 16-byte alignment.
     pub _pad: [u32; 3],
 }
 
@@ -298,14 +306,17 @@ impl TriangleOrder {
         Ok(order)
     }
 
+    /// The order this sorter makes.
     pub fn order(&self) -> Order {
         self.order
     }
 
+    /// The seed of this frame's random draws.
     pub fn seed(&self) -> u64 {
         self.seed
     }
 
+    /// Triangles ordered.
     pub fn count(&self) -> u32 {
         self.count
     }
@@ -315,6 +326,7 @@ impl TriangleOrder {
         self.indices.as_ref()
     }
 
+    /// Bytes of the order's buffers.
     pub fn bytes(&self) -> u64 {
         bytes(self.order, self.count)
     }

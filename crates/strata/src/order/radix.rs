@@ -34,9 +34,13 @@ pub const MAX_GRID: u32 = 65535;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct RadixPass {
+    /// The digit this pass sorts by is (key >> shift) & 15.
     pub shift: u32,
+    /// Pairs to sort.
     pub count: u32,
+    /// Blocks of 1024 keys.
     pub blocks: u32,
+    /// Workgroups per row of the two-dimensional dispatch.
     pub grid_x: u32,
 }
 
@@ -52,11 +56,13 @@ pub fn bytes(count: u32) -> u64 {
     16 * count.max(1) as u64 + 4 * DIGITS * blocks + PASSES as u64 * 16
 }
 
+/// A stable GPU radix sort of (u32 key, u32 value) pairs, 4 bits per pass.
 pub struct RadixSort {
     count: u32,
     blocks: u32,
     /// Keys and values: the caller writes pair 0, which holds the sorted pairs afterwards.
     pub keys: [wgpu::Buffer; 2],
+    /// Values, moved with their keys.
     pub values: [wgpu::Buffer; 2],
     count_pipeline: wgpu::ComputePipeline,
     scan_pipeline: wgpu::ComputePipeline,
@@ -178,6 +184,7 @@ impl RadixSort {
         })
     }
 
+    /// Pairs the sort holds.
     pub fn count(&self) -> u32 {
         self.count
     }

@@ -23,7 +23,7 @@
 //!   function (`discard` becomes `return`: the stages write only storage).
 //!
 //! Coverage is the GPU path's rule as the CPU reference implements it
-//! ([`crate::reference::raster`]): pixel centers, top-left rule, 8 subpixel bits (lavapipe's
+//! (`crate::reference::raster`): pixel centers, top-left rule, 8 subpixel bits (lavapipe's
 //! and NVIDIA's `subPixelPrecisionBits`). Depth and attributes are computed in f32 from the same
 //! inputs as the GPU's, so they agree to rounding, not bit for bit.
 //!
@@ -79,6 +79,7 @@ const RASTER_WGSL: &str = include_str!("raster.wgsl");
 
 /// Pixels per side of a bin tile (TILE in setup.wgsl).
 pub const TILE: u32 = 8;
+/// Bytes of one (triangle, tile) work item.
 pub const ITEM_BYTES: u64 = 8;
 /// Counter words (COUNTER_ in bin.wgsl): work items (64-bit), fan triangles set up (64-bit).
 pub const COUNTER_WORDS: u64 = 4;
@@ -91,9 +92,13 @@ pub const CONSTANT_BYTES: u64 = 16 + 16 + 16;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct RasterParams {
+    /// Triangles of the scene.
     pub triangles: u32,
+    /// Work items the item buffer holds.
     pub capacity: u32,
+    /// Clipping guard band: |x|, |y| ≤ guard·w keeps window coordinates inside the edge functions' range.
     pub guard: f32,
+    /// Padding to 16 bytes.
     pub _pad: u32,
 }
 
@@ -172,10 +177,13 @@ fn raster_capture(v: SceneVarying, front_facing: bool) {{
 /// acquire/release twin) for the GPU's rasterizer, `stage` (the WGSL the modules were made of)
 /// for the compute rasterizer, and the fragment entry point.
 pub struct StageSpec<'a> {
+    /// Names the pipelines.
     pub label: &'a str,
+    /// The WGSL the modules were made of (the compute rasterizer composes its capture from it).
     pub stage: &'a Stage,
     /// The fragment stage's module (or its passthrough twin with ordered atomics).
     pub module: &'a wgpu::ShaderModule,
+    /// The fragment entry point.
     pub entry: &'a str,
 }
 
@@ -243,8 +251,11 @@ pub fn compute_stage(
 
 /// The compute rasterizer's feedback on a frame.
 pub struct RasterReport {
+    /// The frame's statistics.
     pub stats: ComputeRasterStats,
+    /// Work items overflowed: the frame lost fragments and exact mode renders it again.
     pub incomplete: bool,
+    /// Why no later frame can be complete either.
     pub cannot_complete: Option<crate::frame::Shortfall>,
 }
 
@@ -285,6 +296,7 @@ impl crate::frame::ComputeCapture for ComputeRaster {
 }
 
 impl ComputeRaster {
+    /// The rasterizer's pipelines for `scene`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, options: &RenderOptions) -> ComputeRaster {
         let bin_layout = binding::layout(
             &gpu.device,
@@ -482,6 +494,7 @@ impl ComputeRaster {
         self.frame.as_ref().map_or(0, |f| f.capacity)
     }
 
+    /// The rasterizer's buffers.
     pub fn resources(&self) -> &ResourceCache {
         &self.cache
     }

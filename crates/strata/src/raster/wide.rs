@@ -1,21 +1,26 @@
 //! CPU twin of setup.wgsl's 64-bit integers as (low, high) 32-bit words, for property tests
 //! against `i64`. Keep in sync with `wide_*` in setup.wgsl.
 
+/// A 64-bit integer as (low, high) words, as setup.wgsl keeps it.
 pub type Wide = [u32; 2];
 
+/// `v` as words.
 pub fn from_i64(v: i64) -> Wide {
     [v as u32, (v >> 32) as u32]
 }
 
+/// The words as an i64.
 pub fn to_i64(w: Wide) -> i64 {
     ((w[1] as u64) << 32 | w[0] as u64) as i64
 }
 
+/// a + b, carrying from the low word.
 pub fn add(a: Wide, b: Wide) -> Wide {
     let lo = a[0].wrapping_add(b[0]);
     [lo, a[1].wrapping_add(b[1]).wrapping_add((lo < a[0]) as u32)]
 }
 
+/// −a (two's complement).
 pub fn negate(a: Wide) -> Wide {
     let lo = (!a[0]).wrapping_add(1);
     [lo, (!a[1]).wrapping_add((lo == 0) as u32)]
@@ -37,10 +42,12 @@ pub fn mul(a: i32, b: i32) -> Wide {
     }
 }
 
+/// Whether a < 0.
 pub fn negative(a: Wide) -> bool {
     (a[1] as i32) < 0
 }
 
+/// Whether a = 0.
 pub fn zero(a: Wide) -> bool {
     a == [0, 0]
 }

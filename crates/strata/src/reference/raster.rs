@@ -46,6 +46,7 @@ fn clip_polygon(poly: Vec<(DVec4, DVec3)>, distance: impl Fn(DVec4) -> f64) -> V
 /// needs. A near-clipped triangle becomes several of these with the same primitive index.
 #[derive(Clone, Debug)]
 pub struct SetupTriangle {
+    /// The scene's triangle index.
     pub prim: u32,
     /// Snapped window x, y in subpixel units (y down): coverage.
     pub xy: [[i64; 2]; 3],
@@ -62,6 +63,7 @@ pub struct SetupTriangle {
     pub area2: i64,
     /// Pixel bounds, inclusive, clamped to the viewport.
     pub min: [u32; 2],
+    /// Largest pixel x, y covered (inclusive).
     pub max: [u32; 2],
 }
 
@@ -190,10 +192,15 @@ fn barycentrics(w: &[[f64; 2]; 3], x: f64, y: f64) -> [f64; 3] {
 /// triangle's corners at the pixel center, and the samples covered (bit i: sample i) with their
 /// depths inside the depth range.
 pub struct Sample {
+    /// Pixel column.
     pub x: u32,
+    /// Pixel row (0 at the top).
     pub y: u32,
+    /// Window depth at the pixel center (0 near, 1 far).
     pub depth: f64,
+    /// Barycentric weights of the original corners.
     pub weights: DVec3,
+    /// Samples covered: bit i is sample i.
     pub coverage: u32,
 }
 

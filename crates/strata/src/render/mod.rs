@@ -53,6 +53,7 @@ pub struct Renderer<'g> {
 }
 
 impl<'g> Renderer<'g> {
+    /// A renderer of `scene` with `options` (validated), refusing sizes over the device's largest texture.
     pub fn new(gpu: &'g Gpu, scene: &Scene, options: &RenderOptions) -> Result<Renderer<'g>> {
         options.validate()?;
         let max_dim = gpu.limits.max_texture_dimension_2d;
@@ -92,6 +93,7 @@ impl<'g> Renderer<'g> {
         })
     }
 
+    /// The options pictures are rendered with.
     pub fn options(&self) -> &RenderOptions {
         &self.options
     }

@@ -78,7 +78,9 @@ struct Pending {
 
 /// Statistics of one frame, with whether exact mode must render it again.
 pub struct FrameReport {
+    /// The frame's statistics.
     pub stats: FrameStats,
+    /// The frame lost fragments a larger pool or more layers would have kept: exact mode renders it again.
     pub incomplete: bool,
     /// Why no later frame can be complete either.
     pub cannot_complete: Option<crate::frame::Shortfall>,
@@ -186,10 +188,12 @@ impl FrameRecorder {
         Ok(recorder)
     }
 
+    /// The options the recorder was made with, and the current frame options.
     pub fn options(&self) -> &RenderOptions {
         &self.options
     }
 
+    /// The method the recorder records.
     pub fn method(&self) -> MethodId {
         self.method
     }

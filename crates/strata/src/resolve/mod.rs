@@ -15,6 +15,7 @@ use bytemuck::{Pod, Zeroable};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct Fragment {
+    /// Window depth (0 near, 1 far).
     pub depth: f32,
     /// primitive index << 1 | front-facing bit
     pub tag: u32,
@@ -28,11 +29,17 @@ pub struct Fragment {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct CompositeState {
+    /// Premultiplied color composited so far.
     pub color: [f32; 3],
+    /// What the fragments so far let through.
     pub transmittance: f32,
+    /// Fragments composited so far.
     pub count: u32,
+    /// Depth of the last fragment composited.
     pub last_depth: f32,
+    /// Tag of the last fragment composited (translucency's entering and leaving surfaces).
     pub last_tag: u32,
+    /// View distance of the last fragment composited (translucency's thickness).
     pub last_distance: f32,
 }
 
@@ -41,9 +48,13 @@ pub struct CompositeState {
 pub struct RefFragment {
     /// Window-space depth (0 near, 1 far).
     pub depth: f64,
+    /// The scene's triangle index.
     pub prim: u32,
+    /// Whether the triangle faces the camera.
     pub front_facing: bool,
+    /// Linear RGB, not premultiplied.
     pub color: [f64; 3],
+    /// Opacity.
     pub alpha: f64,
     /// Absorption σ of its material.
     pub absorption: f64,

@@ -17,17 +17,22 @@ use crate::error::{Error, Result};
 /// A circular path: `centre + radius·(cos a·u + sin a·v)` with `a = angular_speed·t + phase`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Orbit {
+    /// The orbit's centre, world space.
     pub centre: Vec3,
+    /// The orbit's radius.
     pub radius: f32,
     /// Orthonormal vectors spanning the orbit's plane.
     pub u: Vec3,
+    /// The second vector of the plane, orthogonal to `u`.
     pub v: Vec3,
     /// Radians per frame.
     pub angular_speed: f32,
+    /// Angle at time 0, in radians.
     pub phase: f32,
 }
 
 impl Orbit {
+    /// The point on the orbit at time `t` (frames).
     pub fn position(&self, t: f32) -> Vec3 {
         let a = reduced_angle(self.angular_speed * t + self.phase);
         self.centre + self.radius * (a.cos() * self.u + a.sin() * self.v)
@@ -53,7 +58,9 @@ pub fn reduced_angle(a: f32) -> f32 {
 pub struct ObjectMotion {
     /// The object-space mesh (shared between objects that look alike).
     pub local: Arc<Mesh>,
+    /// Uniform scale of the object-space mesh.
     pub scale: f32,
+    /// The path the object's origin follows.
     pub orbit: Orbit,
 }
 
@@ -78,7 +85,9 @@ impl ObjectMotion {
 pub struct CameraKey {
     /// Frames.
     pub time: f32,
+    /// Where the camera is at `time`.
     pub eye: Vec3,
+    /// What it looks at then.
     pub target: Vec3,
 }
 
@@ -87,12 +96,19 @@ pub struct CameraKey {
 pub enum CameraPath {
     /// The base camera turned about its up axis through its target, at `degrees_per_frame`.
     Orbit {
+        /// The camera at time 0.
         base: Camera,
+        /// Degrees the camera turns per frame.
         degrees_per_frame: f32,
     },
     /// Eye and target interpolated linearly between keys (sorted by time), held before the
     /// first and after the last.
-    Keys { base: Camera, keys: Vec<CameraKey> },
+    Keys {
+        /// The camera whose projection, up and planes the path keeps.
+        base: Camera,
+        /// The keyframes, by increasing time.
+        keys: Vec<CameraKey>,
+    },
 }
 
 impl CameraPath {
@@ -122,12 +138,14 @@ impl CameraPath {
         })
     }
 
+    /// The camera the path moves.
     pub fn base(&self) -> &Camera {
         match self {
             CameraPath::Orbit { base, .. } | CameraPath::Keys { base, .. } => base,
         }
     }
 
+    /// The camera the path moves, to change its projection or planes.
     pub fn base_mut(&mut self) -> &mut Camera {
         match self {
             CameraPath::Orbit { base, .. } | CameraPath::Keys { base, .. } => base,

@@ -25,7 +25,9 @@ use crate::scene::{Background, Camera, LightKind, Mesh, Projection, Scene, Shadi
 /// The container: binary `.glb`, or `.gltf` JSON with the buffer as a base64 `data:` URI.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GltfContainer {
+    /// A binary `.glb` file.
     Glb,
+    /// A `.gltf` JSON file with the buffer inside as a base64 `data:` URI.
     Embedded,
 }
 
@@ -50,7 +52,9 @@ impl GltfContainer {
 /// The picture defaults written into the file (what `render` would otherwise take from options).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ExportDefaults {
+    /// Picture size in pixels.
     pub size: Option<[u32; 2]>,
+    /// The background.
     pub background: Option<Background>,
 }
 

@@ -76,6 +76,7 @@ impl std::str::FromStr for Shading {
 /// Surface appearance of one object.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// The material's name in its scene file (for messages).
     pub name: String,
     /// Linear RGB.
     pub color: [f32; 3],
@@ -85,6 +86,7 @@ pub struct Material {
     pub absorption: f32,
     /// Index of refraction for Schlick Fresnel (translucency effect).
     pub ior: f32,
+    /// Lit (Blinn–Phong under the scene's lights) or unlit (its color as is).
     pub shading: Shading,
     /// Blinn–Phong specular exponent, an integer in 1..=1023 (the deferred G-buffer stores it in
     /// 10 bits, so every pipeline uses the rounded value; see [`Material::exponent`]).
@@ -120,12 +122,16 @@ impl Default for Material {
 /// An indexed triangle mesh. Normals are per vertex; when a loader finds none they are computed.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
+    /// Vertex positions.
     pub positions: Vec<[f32; 3]>,
+    /// Unit vertex normals, one per position.
     pub normals: Vec<[f32; 3]>,
+    /// Three indices per triangle into `positions`.
     pub indices: Vec<u32>,
 }
 
 impl Mesh {
+    /// Triangles of the mesh.
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
     }
@@ -223,34 +229,48 @@ impl Mesh {
 /// A mesh placed in the world with a material (index into [`Scene::materials`]).
 #[derive(Clone, Debug)]
 pub struct Object {
+    /// The object's name in its scene file (for messages).
     pub name: String,
     /// World-space mesh.
     pub mesh: Mesh,
+    /// Index into [`Scene::materials`].
     pub material: usize,
 }
 
+/// How a camera projects the view.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {
+    /// A perspective projection.
     Perspective {
+        /// Vertical field of view in degrees.
         fov_y_deg: f32,
     },
     /// `height` is the world-space height of the view.
     Orthographic {
+        /// World-space height of the view.
         height: f32,
     },
 }
 
+/// A right-handed camera looking from `eye` at `target`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Where the camera is, in world space.
     pub eye: Vec3,
+    /// The point it looks at.
     pub target: Vec3,
+    /// Which way is up (need not be orthogonal to the view direction).
     pub up: Vec3,
+    /// Perspective or orthographic.
     pub projection: Projection,
+    /// Distance of the near clipping plane.
     pub near: f32,
+    /// Distance of the far clipping plane.
     pub far: f32,
 }
 
 impl Camera {
+    /// World to view space.
     pub fn view(&self) -> Mat4 {
         Mat4::look_at_rh(self.eye, self.target, self.up)
     }
@@ -269,6 +289,7 @@ impl Camera {
         }
     }
 
+    /// World to clip space for a view of `aspect` = width / height.
     pub fn view_projection(&self, aspect: f32) -> Mat4 {
         self.projection(aspect) * self.view()
     }
@@ -292,23 +313,34 @@ impl Camera {
     }
 }
 
+/// What kind of light a [`Light`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LightKind {
+    /// Light from a point, in every direction.
     Point,
+    /// Light from a point, inside a cone along `direction`.
     Spot,
+    /// Parallel light along `direction` from infinitely far away.
     Directional,
+    /// Light from everywhere: a constant term added to every lit surface.
     Ambient,
 }
 
+/// A light of the scene; the fields a kind does not use are ignored.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Light {
+    /// What kind of light this is.
     pub kind: LightKind,
+    /// World position (point and spot lights).
     pub position: Vec3,
+    /// Direction the light travels (spot and directional lights).
     pub direction: Vec3,
+    /// Spot lights: the cone's half-angle in degrees.
     pub angle_deg: f32,
     /// Linear RGB.
     pub color: [f32; 3],
+    /// Multiplies `color`.
     pub intensity: f32,
     /// Radius of the light volume (point, spot); also where attenuation reaches zero.
     pub range: f32,
@@ -394,6 +426,7 @@ pub fn hsv(h: f32, s: f32, v: f32) -> [f32; 3] {
     }
 }
 
+/// The sRGB transfer function's inverse: an encoded value in [0, 1] to linear.
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {
         c / 12.92
@@ -402,6 +435,7 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
+/// The sRGB transfer function: a linear value in [0, 1] to its encoding.
 pub fn linear_to_srgb(c: f32) -> f32 {
     let c = c.clamp(0.0, 1.0);
     if c <= 0.003_130_8 {
@@ -414,20 +448,28 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 /// Picture defaults a scene file may carry (`[render]`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderDefaults {
+    /// Picture size in pixels (width, height).
     pub size: Option<[u32; 2]>,
+    /// What lies behind the scene.
     pub background: Option<Background>,
+    /// Shading of materials that do not set their own.
     pub shading: Option<Shading>,
     /// The pipeline the scene is meant for (`--pipeline` overrides it).
     pub pipeline: Option<crate::scene::Pipeline>,
 }
 
+/// Everything strata draws: objects, their materials, lights and camera, and how they move.
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
+    /// The meshes and their materials.
     pub objects: Vec<Object>,
+    /// Materials the objects index.
     pub materials: Vec<Material>,
     /// `None`: auto-framed from the bounds.
     pub camera: Option<Camera>,
+    /// The scene's lights; with none, a light at the eye shades it.
     pub lights: Vec<Light>,
+    /// Picture defaults the scene carries.
     pub defaults: RenderDefaults,
     /// Animation time of the scene, in frames (see [`Scene::set_time`]).
     pub time: f32,
@@ -444,11 +486,14 @@ pub struct Scene {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuVertex {
+    /// World-space position.
     pub position: [f32; 3],
+    /// Unit world-space normal.
     pub normal: [f32; 3],
 }
 
 impl GpuVertex {
+    /// Locations 0 (position) and 1 (normal), as `vs_scene` reads them.
     pub const ATTRIBUTES: [wgpu::VertexAttribute; 2] =
         wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3];
 
@@ -466,7 +511,9 @@ impl GpuVertex {
 /// triangle's material index.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriangleList {
+    /// Three vertices per triangle, in primitive order.
     pub vertices: Vec<GpuVertex>,
+    /// Each triangle's index into the materials buffer.
     pub materials: Vec<u32>,
 }
 
@@ -483,15 +530,18 @@ fn hue_color(hue: f32, saturation: f32) -> [f32; 3] {
 }
 
 impl Scene {
+    /// Adds `m` and gives its index, for [`Object::material`].
     pub fn add_material(&mut self, m: Material) -> usize {
         self.materials.push(m);
         self.materials.len() - 1
     }
 
+    /// Triangles over every object.
     pub fn triangle_count(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.triangle_count()).sum()
     }
 
+    /// The world-space bounding box (min, max) of every object; inverted (+∞, −∞) when there are none.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.objects.iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),

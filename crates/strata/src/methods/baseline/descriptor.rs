@@ -12,12 +12,14 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
     )))
 }
 
+/// `unsorted`.
 pub const UNSORTED: Descriptor = Descriptor {
     memory: "(8·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
     summary: "alpha blending in submission order (no OIT)",
     ..Descriptor::new(MethodId::Unsorted, "unsorted", Family::Baseline, create)
 };
 
+/// `sorted`.
 pub const SORTED: Descriptor = Descriptor {
     memory: "(8·S + 4)·W·H + 12·triangles; S samples per pixel (--msaa, else 1)",
     summary: "alpha blending after a back-to-front sort of triangle centroids",

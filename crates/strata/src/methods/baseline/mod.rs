@@ -26,8 +26,10 @@ use crate::methods::Method;
 const BLEND_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Bytes of the blend target per sample, and of the fragment count per pixel.
 pub const SAMPLE_BYTES: u64 = 8;
+/// Bytes of the fragment count per pixel.
 pub const COUNT_BYTES: u64 = 4;
 
+/// `unsorted` and `sorted`: one geometry pass blending into a half-float target, in submission or centroid order.
 pub struct Blend {
     sort: bool,
     blend_layout: wgpu::BindGroupLayout,
@@ -40,6 +42,7 @@ pub struct Blend {
 }
 
 impl Blend {
+    /// The blend pipelines; `sort` orders the triangles back to front by centroid every frame.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, sort: bool) -> Blend {
         let samples = scene.samples;
         let target = if samples > 1 {

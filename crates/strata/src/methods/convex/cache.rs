@@ -26,7 +26,9 @@ const FORMAT_VERSION: u32 = 3;
 /// What identifies a geometry's decomposition.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Key {
+    /// A hash of the triangles' positions.
     pub hash: u64,
+    /// Triangles of the geometry.
     pub triangles: u64,
 }
 

@@ -79,10 +79,12 @@ impl Relations {
             .map(|k| row[k].1)
     }
 
+    /// Rows of the table (groups).
     pub fn len(&self) -> usize {
         self.row.len()
     }
 
+    /// Whether there are no rows.
     pub fn is_empty(&self) -> bool {
         self.row.is_empty()
     }
@@ -116,8 +118,11 @@ pub struct Group {
     pub parts: u32,
     /// Primitive indices, the group's triangles in order.
     pub triangles: Vec<u32>,
+    /// The group's bounding box, low corner.
     pub lo: Vec3,
+    /// The group's bounding box, high corner.
     pub hi: Vec3,
+    /// The mean of its triangles' centroids.
     pub centroid: Vec3,
     /// The group's distinct vertices: their projection's hull bounds its screen footprint.
     pub points: Vec<Vec3>,
@@ -127,13 +132,16 @@ pub struct Group {
 /// the second on or above it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Separation {
+    /// The plane's unit normal.
     pub normal: Vec3,
+    /// The plane is `normal · x = offset`.
     pub offset: f32,
 }
 
 /// What the preprocess found.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DecompositionStats {
+    /// Triangles decomposed.
     pub triangles: u64,
     /// Convex parts from region growing.
     pub parts: u32,
@@ -150,6 +158,7 @@ pub struct DecompositionStats {
     pub unseparated: u64,
     /// Layers a pixel can need from one group: 2 per part.
     pub layers_per_group: u32,
+    /// CPU milliseconds the preprocess took.
     pub preprocess_ms: f64,
     /// Read from the disk cache in this many ms (`preprocess_ms` is then the run that made it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -159,6 +168,7 @@ pub struct DecompositionStats {
 /// Convex groups of a triangle list and the planes between them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Decomposition {
+    /// The groups, in primitive order.
     pub groups: Vec<Group>,
     /// How each pair (i < j) of groups whose boxes overlap relates.
     pub relations: Relations,
@@ -166,6 +176,7 @@ pub struct Decomposition {
     pub container: Vec<bool>,
     /// Distance within which a point counts as on a plane: a millionth of the scene's extent.
     pub tolerance: f32,
+    /// What the preprocess found.
     pub stats: DecompositionStats,
 }
 

@@ -13,6 +13,7 @@ fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>
     Ok(Box::new(super::Convex::new(gpu, scene, options)?))
 }
 
+/// `convex`.
 pub const CONVEX: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 read of the geometry, split over P passes (P: groups in the deepest chain of groups whose screen footprints meet)",

@@ -107,6 +107,7 @@ const MERGE_WORKGROUP: u32 = 64;
 /// timestamp query set does not run out.
 const MAX_TIMED_PASSES: usize = 500;
 
+/// `convex`: the decomposition, made once per geometry, and the per-frame order, passes and merge.
 pub struct Convex {
     decomposition: Arc<Decomposition>,
     layers: u32,
@@ -219,6 +220,7 @@ fn positions(vertices: &[GpuVertex]) -> Vec<[Vec3; 3]> {
 }
 
 impl Convex {
+    /// Decomposes `scene` (or reads the decomposition from `--cache-dir`) and makes the pipelines.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, options: &RenderOptions) -> Result<Convex> {
         if scene.animation.is_some() {
             return Err(Error::unsupported(
@@ -322,6 +324,7 @@ impl Convex {
         }
     }
 
+    /// The groups, planes and statistics of the preprocess.
     pub fn decomposition(&self) -> &Decomposition {
         &self.decomposition
     }

@@ -35,12 +35,14 @@ use crate::scene::{Camera, Projection};
 /// Where the rays come from.
 #[derive(Clone, Copy, Debug)]
 pub enum Viewer {
+    /// A perspective view's eye.
     Eye(Vec3),
     /// An orthographic view's direction.
     Toward(Vec3),
 }
 
 impl Viewer {
+    /// The viewer of `camera`.
     pub fn of(camera: &Camera) -> Viewer {
         match camera.projection {
             Projection::Perspective { .. } => Viewer::Eye(camera.eye),
@@ -83,6 +85,7 @@ pub struct FramePlan {
     pub unseparated: u64,
     /// Times the sort met a cycle and took the nearest remaining group instead.
     pub cycles_broken: u32,
+    /// CPU milliseconds of the order.
     pub order_ms: f64,
 }
 
@@ -466,8 +469,11 @@ fn hulls_apart(a: &[Vec2], b: &[Vec2]) -> bool {
 /// what it holds) the front-facing or the back-facing ones.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Cap {
+    /// Every fragment.
     Whole,
+    /// Front-facing fragments only.
     Front,
+    /// Back-facing fragments only.
     Back,
 }
 

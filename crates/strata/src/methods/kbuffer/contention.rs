@@ -50,15 +50,21 @@ struct HarnessParams {
 /// One run of the harness.
 #[derive(Clone, Debug)]
 pub struct Case {
+    /// The k-buffer method under test.
     pub method: MethodId,
+    /// Pixels the fragments are spread over.
     pub pixels: u32,
+    /// Fragments per pixel.
     pub per_pixel: u32,
+    /// Fragments a pixel keeps.
     pub k: u32,
     /// kplus-semiheap's heap size.
     pub heap_size: u32,
+    /// Whether the capture culls behind a full pixel's farthest kept fragment.
     pub culling: bool,
     /// Distinct depths a pixel's fragments draw from: few make many exact ties.
     pub depths: u32,
+    /// Seed of the fragments' depths and shuffle.
     pub seed: u64,
     /// Counted lock failures are allowed: each may cost its pixel one of its k nearest (the
     /// fragment went to the tail), and no more. On a CPU adapter with more threads than cores a
@@ -67,6 +73,7 @@ pub struct Case {
 }
 
 impl Case {
+    /// A case of `method` keeping `k` with the harness's default sizes, drawn from `seed`.
     pub fn new(method: MethodId, k: u32, seed: u64) -> Case {
         Case {
             method,
@@ -151,8 +158,11 @@ fn with_defect(stage: Stage, (from, to): (&str, &str)) -> Result<Stage> {
 /// A fragment as the harness feeds it: pixel, depth, tag.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Input {
+    /// The pixel the fragment lands on.
     pub pixel: u32,
+    /// Its depth.
     pub depth: f32,
+    /// Its tag: primitive << 1 | front-facing.
     pub tag: u32,
 }
 
@@ -187,10 +197,15 @@ pub fn inputs(case: &Case) -> Vec<Input> {
 /// order; the fragments each pixel saw; the counters.
 #[derive(Clone, Debug, Default)]
 pub struct Outcome {
+    /// Each pixel's stored count.
     pub stored: Vec<u32>,
+    /// Each pixel's stored (depth bits, tag) pairs, in stored order.
     pub kept: Vec<Vec<(u32, u32)>>,
+    /// Fragments each pixel saw.
     pub seen: Vec<u32>,
+    /// Fragments that gave up on a lock.
     pub lock_failures: u64,
+    /// Fragments lost.
     pub lost: u64,
 }
 

@@ -26,6 +26,7 @@ pub fn before(a: &Fragment, b: &Fragment) -> bool {
 macro_rules! k_slots {
     ($($cache:ident),*) => {$(
         impl $cache {
+            /// An empty cache of up to `k` fragments.
             pub fn new(k: usize) -> Self {
                 Self {
                     k,
@@ -47,7 +48,9 @@ k_slots!(MaxArray, MaxHeap, SortedArray);
 /// once there are two or more, the others in no particular order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MaxArray {
+    /// Fragments kept at most.
     pub k: usize,
+    /// The kept fragments.
     pub slots: Vec<Fragment>,
 }
 
@@ -111,7 +114,9 @@ impl MaxArray {
 /// 2i + 1 and 2i + 2), the maximum at the root.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MaxHeap {
+    /// Fragments kept at most.
     pub k: usize,
+    /// The heap's fragments.
     pub slots: Vec<Fragment>,
 }
 
@@ -195,9 +200,13 @@ impl MaxHeap {
 /// farthest of those cached once the pixel is full), and `rest`, up to k − h fragments unordered.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SemiHeap {
+    /// Fragments kept at most.
     pub k: usize,
+    /// Fragments the heap holds at most.
     pub h: usize,
+    /// The h farthest.
     pub heap: MaxHeap,
+    /// The others, unordered.
     pub rest: Vec<Fragment>,
 }
 
@@ -213,6 +222,7 @@ impl SemiHeap {
         }
     }
 
+    /// Whether the cache holds k fragments.
     pub fn is_full(&self) -> bool {
         self.heap.is_full() && self.rest.len() == self.k - self.h
     }
@@ -261,7 +271,9 @@ impl SemiHeap {
 /// The k-buffer with sorted insertion (`kb`, `kb-ps`): up to `k` fragments in [`before`] order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SortedArray {
+    /// Fragments kept at most.
     pub k: usize,
+    /// The kept fragments, nearest first.
     pub slots: Vec<Fragment>,
 }
 

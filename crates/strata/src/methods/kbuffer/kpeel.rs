@@ -48,8 +48,11 @@ use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::peeling::{layers_for, peel_feedback};
 use crate::methods::{Method, MethodId};
 
+/// kpeel's capture stage (the k+-buffer's under a lock).
 pub const CAPTURE_WGSL: &str = include_str!("kpeel_capture.wgsl");
+/// kpeel's lock-free key cascade stage.
 pub const CASCADE_WGSL: &str = include_str!("kpeel_cascade.wgsl");
+/// kpeel's resolve, compositing a pass's k nearest and keeping where it stopped.
 pub const RESOLVE_WGSL: &str = include_str!("kpeel_resolve.wgsl");
 
 /// The compute rasterizer's lock-free capture: the keys buffer's layout, the keys and colors
@@ -64,6 +67,7 @@ struct Cascade {
 /// Bytes per key of the compute capture's cascade.
 pub const KEY_BYTES: u64 = 8;
 
+/// `kpeel`: k nearest per pass behind the last composited (depth, primitive), until every pixel is done.
 pub struct KPeel {
     frame: KFrame,
     /// The locked capture, on the GPU's rasterizer.
@@ -82,6 +86,7 @@ pub struct KPeel {
 }
 
 impl KPeel {
+    /// The pipelines for `scene`: the key cascade where there are 64-bit atomics and one sample per pixel, else the locked capture.
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<KPeel> {
         let id = MethodId::Kpeel;
         let resolve = super::stage(gpu, "strata.kpeel.resolve", RESOLVE_WGSL, Layout::Slots);

@@ -20,11 +20,13 @@ use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, Sce
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
+/// Bytes of one list node: a fragment and the next node's index.
 pub const NODE_BYTES: u64 = 20;
 
 /// The list methods' capture entry points (list_entries.wgsl).
 pub const ENTRIES_WGSL: &str = include_str!("list_entries.wgsl");
 
+/// The linked-list methods (`abuffer-ll`, `kb-ab-ll`, `kb-ll`): a node pool sized from the last frame's need.
 pub struct ListKBuffer {
     id: MethodId,
     frame: KFrame,
@@ -34,6 +36,7 @@ pub struct ListKBuffer {
 }
 
 impl ListKBuffer {
+    /// The method `id` for `scene`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> ListKBuffer {
         let mut frame = KFrame::new(gpu, scene, id, Layout::List);
         let module = frame.capture_module(gpu, scene, ENTRIES_WGSL, Layout::List, true);

@@ -29,11 +29,16 @@ use crate::frame::{Effect, FrameContext, MethodStats, Recorded, SceneGpu, Tail, 
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
+/// Which multi-depth test.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mdt {
+    /// `kb-mdt32`: 32-bit depth cascade, colors in a second pass.
     Mdt32,
+    /// `kb-mdt64`: 64-bit keys of depth and 8-bit color.
     Mdt64,
+    /// `kb-mdt-pack`: 20 depth bits and 12 color bits, two cascades.
     Pack,
+    /// `kb-keys`: 64-bit (depth, primitive) keys, payloads stored by tag.
     Keys,
 }
 
@@ -80,6 +85,7 @@ impl Mdt {
     }
 }
 
+/// The atomicMax-cascade methods.
 pub struct MdtKBuffer {
     mdt: Mdt,
     frame: KFrame,
@@ -88,6 +94,7 @@ pub struct MdtKBuffer {
 }
 
 impl MdtKBuffer {
+    /// The method `id` of `mdt` for `scene`, refusing an adapter without the atomics it needs.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, mdt: Mdt) -> Result<MdtKBuffer> {
         if matches!(mdt, Mdt::Mdt64 | Mdt::Keys)
             && !gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS)

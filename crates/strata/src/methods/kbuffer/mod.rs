@@ -131,36 +131,52 @@ pub use stages::{definitions, stage, Layout, LIBRARY, RESOLVE_WGSL, SLOTS_ENTRIE
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct KParams {
+    /// Fragments a pixel keeps.
     pub k: u32,
+    /// Slots per pixel in storage (k, or a fixed A-buffer's measured need).
     pub stride: u32,
+    /// Lock or link tries before a fragment counts as a lock failure.
     pub max_tries: u32,
+    /// 1 with `--culling on`: fragments behind a full pixel's farthest kept one are dropped before the lock.
     pub culling: u32,
+    /// 1 with `--tail blend`: fragments past k blend into the tail term.
     pub tail_blend: u32,
     /// A method's own parameter: fixed A-buffers 1 when their stored count is min(seen, stride);
     /// kplus-semiheap its heap size h.
     pub aux: u32,
+    /// Frame width in pixels.
     pub width: u32,
+    /// Pixels of the frame.
     pub pixels: u32,
     /// `--msaa` with per-sample storage: S, each pixel's storage being S sample pixels with
     /// their own words, slots and tail (see [`sample_storage`]); else 1.
     pub sample_slots: u32,
+    /// Padding to 16 bytes.
     pub _pad: [u32; 3],
 }
 
 /// Counter words, as storage.wgsl's COUNTER_ constants (64-bit counters take two words).
 pub const COUNTERS: u64 = 8;
+/// 64-bit count of fragments that gave up on a lock.
 pub const COUNTER_LOCK_FAILURES: usize = 0;
+/// 64-bit count of pool items allocated (lists, S-buffers).
 pub const COUNTER_ALLOCATED: usize = 2;
+/// 64-bit count of fragments lost (a full pool, a failed link).
 pub const COUNTER_LOST: usize = 4;
+/// Nonzero when the pool overflowed.
 pub const COUNTER_OVERFLOWED: usize = 6;
 
 /// Bytes of per-frame constants: parameters (48), counters and their initial values (2 × 32),
 /// the tail stub (40) when the tail is dropped.
 pub const CONSTANT_BYTES: u64 = 152;
+/// Bytes of one stored fragment slot.
 pub const SLOT_BYTES: u64 = 16;
+/// Bytes of one pixel's words (seen, filled, lock, bound).
 pub const PIXEL_BYTES: u64 = 16;
+/// Bytes of the tail term a pixel keeps with `--tail blend`.
 pub const TAIL_BYTES: u64 = 40;
 
+/// `--k` when not given.
 pub const DEFAULT_K: u32 = 16;
 /// Spin-lock tries per fragment before it counts as a lock failure. A failed try is one load of
 /// the lock word, while a holder's critical section is tens of ordered atomics and up to 150
@@ -169,15 +185,24 @@ pub const DEFAULT_K: u32 = 16;
 pub const DEFAULT_MAX_TRIES: u32 = 1 << 16;
 pub use crate::frame::MAX_TRIES_LIMIT;
 
+/// The slot-array methods, which share one capture and resolve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Variant {
+    /// `kplus-array`.
     KplusArray,
+    /// `kplus-heap`.
     KplusHeap,
+    /// `kplus-array-r`.
     KplusArrayR,
+    /// `kb`.
     Kb,
+    /// `kb-ps`.
     KbPs,
+    /// `abuffer-fixed`.
     AbufferFixed,
+    /// `kb-ab-fixed`.
     KbAbFixed,
+    /// `kplus-semiheap`.
     KplusSemiheap,
 }
 
@@ -199,6 +224,7 @@ impl Variant {
         matches!(self, Variant::AbufferFixed | Variant::KbAbFixed)
     }
 
+    /// The variant of `id`, if it is a slot-array method.
     pub fn of(id: MethodId) -> Option<Variant> {
         Some(match id {
             MethodId::KplusArray => Variant::KplusArray,
@@ -304,6 +330,7 @@ pub fn check_memory(
     Ok(())
 }
 
+/// Group 1's layout, shared by every k-buffer method: parameters, counters, pixels, slots, tail, temporal culling's buffers.
 pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     binding::layout(
         &gpu.device,
@@ -328,6 +355,7 @@ pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
     )
 }
 
+/// The frame's [`KParams`] for `k` and `stride`; `count_by_seen`: a fixed A-buffer's stored count is min(seen, stride).
 pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bool) -> KParams {
     let options = ctx.options;
     KParams {
@@ -371,6 +399,7 @@ impl Pool {
     const FIRST_GUESS_PER_PIXEL: u64 = 4;
     const MIN_ITEMS: u64 = 1024;
 
+    /// A pool for items of `item_bytes`, first sized by `--initial-nodes` or 4 per pixel.
     pub fn new(options: &RenderOptions, item_bytes: u64) -> Pool {
         Pool {
             capacity: options
@@ -456,7 +485,9 @@ impl Pool {
 
 /// The fragment storage of a k-buffer frame.
 pub struct Storage {
+    /// Names the buffer.
     pub label: &'static str,
+    /// Its size in bytes.
     pub bytes: u64,
     /// Zeroed before capture (cascades and their empty-slot marker need it).
     pub clear: bool,
@@ -465,7 +496,9 @@ pub struct Storage {
 /// A capture stage: the WGSL module (vertex stage, and fragment stage without ordering) and,
 /// where the adapter takes it, the fragment stage with acquire/release atomics.
 pub struct CaptureModule {
+    /// The module without ordered atomics.
     pub wgsl: wgpu::ShaderModule,
+    /// The fragment stage with acquire/release atomics, where the adapter has them.
     pub ordered: Option<wgpu::ShaderModule>,
     /// The stage, which the compute rasterizer composes again with its own entry point.
     pub stage: Stage,
@@ -485,7 +518,9 @@ pub fn ordered_methods() -> impl Iterator<Item = MethodId> {
 /// What every k-buffer method records the same way: the group-1 layout, the resolve pipeline,
 /// the buffers kept between frames, and a frame — clear, capture passes, resolve, counters.
 pub struct KFrame {
+    /// The method.
     pub id: MethodId,
+    /// Group 1's layout.
     pub layout: wgpu::BindGroupLayout,
     resolve: wgpu::ComputePipeline,
     cache: ResourceCache,
@@ -627,6 +662,7 @@ impl KFrame {
         self.memory_ordering
     }
 
+    /// The buffers kept between frames.
     pub fn resources(&self) -> Vec<&ResourceCache> {
         vec![&self.cache]
     }
@@ -803,6 +839,7 @@ pub struct SlotKBuffer {
 }
 
 impl SlotKBuffer {
+    /// The method `id` of `variant` for `scene`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, variant: Variant) -> SlotKBuffer {
         let layout = if variant == Variant::KplusSemiheap {
             Layout::Semiheap

@@ -27,6 +27,7 @@ pub const DEFAULT_ROBUSTNESS: f64 = 0.95;
 /// The k chosen for a frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KChoice {
+    /// The k chosen.
     pub k: u32,
     /// The largest k the budget holds (the method's limit without a budget).
     pub k_budget: u32,

@@ -41,15 +41,20 @@ const SCAN_BLOCK: u64 = 256;
 const MAX_GROUPS_X: u64 = 65535;
 
 const SBUFFER_WGSL: &str = include_str!("sbuffer.wgsl");
+/// The prefix sum's stages.
 pub const SCAN_WGSL: &str = include_str!("sbuffer_scan.wgsl");
 
 /// Keep in sync with `ScanLevel` in sbuffer_scan.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Eq)]
 pub struct ScanLevel {
+    /// Where this level's values start in the scan buffer.
     pub offset: u32,
+    /// How many values the level has.
     pub len: u32,
+    /// Where its block totals (the next level) start.
     pub sums: u32,
+    /// Workgroups along x of a dispatch (wider dispatches wrap into y).
     pub groups_x: u32,
 }
 
@@ -109,6 +114,7 @@ struct ScanPlan {
     buffer: wgpu::Buffer,
 }
 
+/// The S-buffer methods (`sbuffer`, `kb-sbuffer`, `kplus-sbuffer`): count, prefix sum, store, resolve.
 pub struct SBuffer {
     id: MethodId,
     frame: KFrame,
@@ -130,6 +136,7 @@ pub struct SBuffer {
 }
 
 impl SBuffer {
+    /// The method `id` for `scene`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> SBuffer {
         let kplus = id == MethodId::KplusSbuffer;
         let mut frame = KFrame::new(gpu, scene, id, layout(id));

@@ -41,25 +41,37 @@ pub const LIBRARY: Library = &[
     include_str!("resolve.wgsl"),
 ];
 
+/// The k-buffers' shared resolve.
 pub const RESOLVE_WGSL: &str = include_str!("resolve.wgsl");
+/// The slot-array methods' capture entries.
 pub const SLOTS_ENTRIES_WGSL: &str = include_str!("slots_entries.wgsl");
 
 /// Where a method keeps its fragments, which picks the accessors its stages import
 /// (`STORAGE_*` in resolve.wgsl, slot_access.wgsl and sbuffer_scan.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Layout {
+    /// Fixed per-pixel slot arrays.
     Slots,
+    /// kplus-semiheap's heap and rest.
     Semiheap,
+    /// Linked lists from a node pool.
     List,
+    /// 32-bit depth cascade.
     Mdt32,
+    /// Packed depth and color cascades.
     Pack,
+    /// 64-bit depth and color keys.
     Mdt64,
+    /// 64-bit (depth, primitive) keys and stored payloads.
     Keys,
+    /// S-buffer regions.
     Sbuffer,
+    /// kplus-sbuffer's min(f, k) regions.
     KplusSbuffer,
 }
 
 impl Layout {
+    /// Every layout.
     pub const ALL: [Layout; 9] = [
         Layout::Slots,
         Layout::Semiheap,

@@ -40,14 +40,23 @@ use crate::methods::MethodId;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct TemporalParams {
+    /// Last frame's view-projection, to reproject this frame's fragments.
     pub previous_view_proj: [[f32; 4]; 4],
+    /// How far (window depth) behind the interface a fragment must lie to be culled.
     pub epsilon: f32,
+    /// Frames between refreshes of one tile.
     pub refresh_period: u32,
+    /// The frame's number, which picks the tiles that refresh.
     pub frame: u32,
+    /// 1 when last frame's interface is valid for this frame.
     pub cull: u32,
+    /// 1 when this frame records its interface.
     pub record: u32,
+    /// Frame width in pixels.
     pub width: u32,
+    /// Frame height in pixels.
     pub height: u32,
+    /// 1 when the scene's objects move on the GPU.
     pub moving: u32,
 }
 
@@ -95,15 +104,22 @@ pub struct TemporalState {
 /// What a frame binds: the parameters, last frame's interface, this frame's, and the objects'
 /// motion (stubs when nothing moves).
 pub struct TemporalBindings {
+    /// The [`TemporalParams`].
     pub params: wgpu::Buffer,
+    /// Last frame's interface.
     pub previous: wgpu::Buffer,
+    /// This frame's interface, and the count of culled fragments.
     pub current: wgpu::Buffer,
+    /// Each triangle's object (moving scenes).
     pub triangle_objects: wgpu::Buffer,
+    /// Per object, the transform from where it is to where it was last frame.
     pub to_previous: wgpu::Buffer,
+    /// Whether temporal culling runs this frame.
     pub on: bool,
 }
 
 impl TemporalState {
+    /// No interface yet, and stub bindings for frames without temporal culling.
     pub fn new(gpu: &Gpu) -> TemporalState {
         let stub = |label: &str| {
             gpu.device.create_buffer(&wgpu::BufferDescriptor {

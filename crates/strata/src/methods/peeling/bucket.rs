@@ -72,9 +72,13 @@ pub const MAX_SLOTS: u32 = 32;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct BucketParams {
+    /// Buckets per pixel (k/2).
     pub buckets: u32,
+    /// Slots per pixel: two per bucket.
     pub slots: u32,
+    /// Target layers the slots take (four channels each).
     pub layers: u32,
+    /// 1 with `--buckets adaptive`.
     pub adaptive: u32,
 }
 
@@ -252,6 +256,7 @@ pub fn select_samples(
     kept
 }
 
+/// `bucket`: the bounds, histogram, color and resolve pipelines and their targets.
 pub struct Bucket {
     bounds_layout: wgpu::BindGroupLayout,
     reduce_layout: wgpu::BindGroupLayout,
@@ -311,6 +316,7 @@ fn max_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
 }
 
 impl Bucket {
+    /// Makes the pipelines for `scene`, refusing a device without FLOAT32_BLENDABLE.
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Bucket> {
         if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
             return Err(Error::unsupported(format!(

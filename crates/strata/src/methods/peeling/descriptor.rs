@@ -25,6 +25,7 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
     })
 }
 
+/// `f2b`.
 pub const F2B: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "N (the last frame's depth complexity, or --layers)",
@@ -36,6 +37,7 @@ pub const F2B: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::F2b, "f2b", Family::Peeling, create)
 };
 
+/// `dual`.
 pub const DUAL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "ceil(N/2)+1 (N: the last frame's depth complexity, or --layers)",
@@ -49,6 +51,7 @@ pub const DUAL: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::Dual, "dual", Family::Peeling, create)
 };
 
+/// `bucket`.
 pub const BUCKET: Descriptor = Descriptor {
     geometry_passes: "3 (4 with --buckets adaptive)",
     memory: "(16·k + 16·ceil(k/4) + 16)·W·H + 16, +128·W·H with --buckets adaptive; with --msaa S: (S·(16·k + 16·ceil(k/4) + 4) + 8·S + 16)·W·H + 16; k even, at most 32 and 4 × the color targets the device blends at once",

@@ -108,6 +108,7 @@ const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const TAG_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
+/// `f2b`: one geometry pass per layer, each peeling the nearest fragment behind the last.
 pub struct FrontToBack {
     peel_layout: wgpu::BindGroupLayout,
     accumulate_layout: wgpu::BindGroupLayout,
@@ -127,6 +128,7 @@ pub struct FrontToBack {
 }
 
 impl FrontToBack {
+    /// The peel and accumulate pipelines for `scene`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> FrontToBack {
         let device = &gpu.device;
         let samples = scene.samples;
@@ -440,6 +442,7 @@ impl Method for FrontToBack {
     }
 }
 
+/// `dual`: the nearest and the farthest layer per geometry pass, composited from both ends.
 pub struct Dual {
     peel_layout: wgpu::BindGroupLayout,
     advance_layout: wgpu::BindGroupLayout,
@@ -469,7 +472,9 @@ fn dual_bytes(px: u64, samples: u32, key_bytes: u64) -> u64 {
     }
 }
 
+/// `dual`'s peel stage.
 pub const DUAL_PEEL_WGSL: &str = include_str!("dual_peel.wgsl");
+/// `dual`'s stage between passes: composites the peeled layers and makes the next bounds current.
 pub const DUAL_ADVANCE_WGSL: &str = include_str!("dual_advance.wgsl");
 
 /// A dual-peeling stage over 64-bit keys (`wide`, exact) or 32-bit ones (dual_key*.wgsl).
@@ -486,6 +491,7 @@ pub fn has_wide_keys(gpu: &Gpu) -> bool {
 }
 
 impl Dual {
+    /// The peel and advance pipelines for `scene`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Dual {
         let device = &gpu.device;
         let wide = has_wide_keys(gpu);

@@ -296,8 +296,11 @@ fn mboit_resolve(
 /// `mboit`'s settings: the moment bias β, the overestimation η, and the power moments (4, 6, 8).
 #[derive(Clone, Copy, Debug)]
 pub struct MboitSettings {
+    /// The moment bias β.
     pub bias: f64,
+    /// The overestimation η.
     pub overestimation: f64,
+    /// Power moments: 4, 6 or 8.
     pub moments: usize,
 }
 

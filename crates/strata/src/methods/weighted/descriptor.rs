@@ -12,6 +12,7 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
     })
 }
 
+/// `wboit`.
 pub const WBOIT: Descriptor = Descriptor {
     memory: "(10·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
     summary: "weighted blended OIT (McGuire & Bavoil 2013): weighted average color over exact coverage, weights of eqs. 7-10 (--weight, --depth-scale); what engines ship",
@@ -19,6 +20,7 @@ pub const WBOIT: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::Wboit, "wboit", Family::Weighted, create)
 };
 
+/// `mboit`.
 pub const MBOIT: Descriptor = Descriptor {
     geometry_passes: "2",
     memory: "(28·S + 4)·W·H, +8·S with --moments 6, +16·S with 8; S samples per pixel (--msaa, else 1)",

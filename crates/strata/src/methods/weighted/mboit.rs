@@ -64,8 +64,11 @@ pub const OVERESTIMATION: f32 = 0.25;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct MboitParams {
+    /// The moment bias β.
     pub bias: f32,
+    /// The overestimation η.
     pub overestimation: f32,
+    /// Padding to 16 bytes.
     pub _pad: [u32; 2],
 }
 
@@ -82,7 +85,9 @@ pub fn moment_bias(moments: u32) -> f32 {
     }
 }
 
+/// The bias with 6 moments.
 pub const MOMENT_BIAS_6: f32 = 5e-7;
+/// The bias with 8 moments.
 pub const MOMENT_BIAS_8: f32 = 2e-6;
 
 /// The third target's format and bytes per sample for 6 and 8 moments.
@@ -101,6 +106,7 @@ struct HighStage {
     shade: wgpu::RenderPipeline,
 }
 
+/// `mboit`: a pass accumulating moments, a pass weighting each fragment by the transmittance they reconstruct, a composite.
 pub struct Mboit {
     moments_layout: wgpu::BindGroupLayout,
     shade_layout: wgpu::BindGroupLayout,
@@ -133,6 +139,7 @@ fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     })
 }
 
+/// The moment accumulation stage.
 pub fn moments_stage() -> Stage {
     Stage::new("strata.mboit.moments", include_str!("mboit_moments.wgsl")).with(super::LIBRARY)
 }
@@ -152,6 +159,7 @@ pub fn composite_stage(samples: u32) -> Stage {
 }
 
 impl Mboit {
+    /// The pipelines for `scene`, refusing a device without FLOAT32_BLENDABLE.
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Mboit> {
         if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
             return Err(Error::unsupported(

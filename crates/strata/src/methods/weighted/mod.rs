@@ -58,11 +58,15 @@ pub const WBOIT_COUNT_BYTES: u64 = 4;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct WboitParams {
+    /// [`crate::Weight::index`]: which of the paper's weight functions.
     pub weight: u32,
+    /// Scales view depth in the weight functions (`--depth-scale`).
     pub depth_scale: f32,
+    /// Padding to 16 bytes.
     pub _pad: [u32; 2],
 }
 
+/// `wboit`: one geometry pass accumulating weighted colors and revealage, then a composite.
 pub struct Wboit {
     accumulate_layout: wgpu::BindGroupLayout,
     composite_layout: wgpu::BindGroupLayout,
@@ -73,6 +77,7 @@ pub struct Wboit {
 }
 
 impl Wboit {
+    /// The accumulate and composite pipelines for `scene`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Wboit {
         let device = &gpu.device;
         let accumulate_layout = binding::layout(
