@@ -76,6 +76,24 @@ fn strata_capture(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_
 
 /// WGSL defining `strata_capture` for `method`, its bindings at `@group(group)`: the composed
 /// module written back as one plain source, for an application to append to its own.
+///
+/// ```
+/// use strata::{methods::capture, MethodId};
+///
+/// let capture = capture::wgsl(MethodId::AbufferLl, 1)?;
+/// assert!(capture.contains("fn strata_capture("));
+/// // Append it to your shader and call it from your fragment stage:
+/// let shader = format!(
+///     "{capture}
+/// @fragment
+/// fn fs_glass(@builtin(position) p: vec4<f32>, @builtin(front_facing) front: bool,
+///             @location(0) color: vec4<f32>, @location(1) @interpolate(flat) id: u32) {{
+///     strata_capture(p, vec4(color.rgb * color.a, color.a), id, front);
+/// }}"
+/// );
+/// naga::front::wgsl::parse_str(&shader).expect("the application's shader parses");
+/// # Ok::<(), strata::Error>(())
+/// ```
 pub fn wgsl(method: MethodId, group: u32) -> Result<String> {
     stage(method, group)?.wgsl().map_err(Error::runtime)
 }

@@ -38,6 +38,16 @@ pub struct Choice {
 }
 
 /// The best method for `goal` on `gpu` (see the module docs).
+///
+/// ```
+/// use strata::methods::choice::{choose, Goal};
+///
+/// let gpu = strata::gpu::Gpu::new()?; // or Gpu::from_device with your own
+/// let choice = choose(&gpu, Goal::Bounded);
+/// assert!(choice.method.descriptor().exact);
+/// println!("{}: {}", choice.method, choice.why);
+/// # Ok::<(), strata::Error>(())
+/// ```
 pub fn choose(gpu: &Gpu, goal: Goal) -> Choice {
     candidates(gpu, goal).remove(0)
 }
