@@ -45,8 +45,7 @@ use crate::frame::present::{Present, PresentParams};
 use crate::frame::stats::StatsRing;
 use crate::frame::{
     AutoKStats, DrawCallback, Effect, FrameContext, FrameOptions, FrameStats, FrameTargets,
-    MethodStats, ReadbackList, Recorded, RenderOptions, SceneGpu, Totals, RESOLVED_BYTES,
-    TOTAL_WORDS,
+    MethodStats, ReadbackList, Recorded, RenderOptions, SceneGpu, Totals, TOTAL_WORDS,
 };
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
@@ -56,6 +55,11 @@ use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
 use crate::order::TriangleOrder;
 use crate::raster::{ComputeRaster, Raster};
 use crate::scene::{Camera, CameraPath, Scene};
+
+mod targets;
+pub use targets::clear_depth_pass;
+pub(crate) use targets::max_resolved_pixels;
+use targets::{check_size, no_opaque_depth, output_buffer, per_pixel_context};
 
 /// How long `wait_stats` waits for mapping callbacks once the GPU is idle.
 const STATS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
@@ -919,82 +923,6 @@ fn attach_order(
         animation.bind(gpu, &scene.vertices, order.as_ref().map(|o| o.centroids()));
     }
     Ok(order)
-}
-
-/// Refuses, before anything is allocated, a picture size the device cannot hold: a side over
-/// its texture limit, or more pixels than one storage binding of resolved colors holds.
-fn check_size(gpu: &Gpu, options: &RenderOptions) -> Result<()> {
-    let (w, h) = (options.frame.width, options.frame.height);
-    let max_dim = gpu.limits.max_texture_dimension_2d;
-    if w > max_dim || h > max_dim {
-        return Err(Error::unsupported(format!(
-            "--size {w}x{h} exceeds the device's texture limit of {max_dim} pixels a side"
-        )));
-    }
-    let max_pixels = max_resolved_pixels(gpu);
-    if options.pixels() > max_pixels {
-        let side = (max_pixels as f64).sqrt() as u64;
-        return Err(Error::unsupported(format!(
-            "--size {w}x{h} is {} pixels; this device binds {:.0} MiB in one buffer, which holds the resolved colors of at most {max_pixels} pixels ({side}x{side})",
-            options.pixels(),
-            gpu.max_storage_binding() as f64 / 1048576.0
-        )));
-    }
-    Ok(())
-}
-
-/// The most pixels whose resolved colors one storage binding holds.
-pub(crate) fn max_resolved_pixels(gpu: &Gpu) -> u64 {
-    gpu.max_storage_binding() / RESOLVED_BYTES
-}
-
-/// A method's buffer that outgrows one binding grows with the picture: say at which size.
-fn per_pixel_context(e: Error, (w, h): (u32, u32)) -> Error {
-    match e {
-        Error::Unsupported(msg) if msg.contains(crate::error::OVER_BINDING) => Error::unsupported(
-            format!("{msg} at {w}x{h} (a smaller --size or --k needs less)"),
-        ),
-        other => other,
-    }
-}
-
-fn output_buffer(gpu: &Gpu, options: &RenderOptions) -> Result<wgpu::Buffer> {
-    gpu.storage_buffer(
-        "strata.frame.resolved",
-        options.pixels() * RESOLVED_BYTES,
-        wgpu::BufferUsages::COPY_SRC,
-    )
-}
-
-/// The depth of "nothing opaque": cleared once when it is made (a setup step, not a frame).
-fn no_opaque_depth(gpu: &Gpu, options: &RenderOptions) -> wgpu::Texture {
-    let texture = gpu.texture_2d(
-        "strata.frame.no_opaque_depth",
-        (options.frame.width, options.frame.height),
-        wgpu::TextureFormat::Depth32Float,
-        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-    );
-    super::clear_depth(gpu, &texture.create_view(&Default::default()), 1.0);
-    texture
-}
-
-/// Records a pass that clears a depth view to `value`.
-pub fn clear_depth_pass(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, value: f32) {
-    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("strata.clear_depth"),
-        color_attachments: &[],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view,
-            depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Clear(value),
-                store: wgpu::StoreOp::Store,
-            }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
 }
 
 #[cfg(test)]
