@@ -1,4 +1,5 @@
 use super::*;
+use crate::frame::RESOLVED_BYTES;
 use crate::scene::loaders;
 use crate::testing::gpu;
 
