@@ -85,14 +85,25 @@ pub fn check_given(a: &MethodArgs, picture: &PictureArgs) -> Result<()> {
             .filter(|&m| applies(opt, m, picture.pipeline))
             .map(MethodId::as_str)
             .collect();
+        let tails = if opt == Opt::WEIGHT {
+            " (and, with --tail weighted, to the k-buffers)"
+        } else {
+            ""
+        };
         Err(Error::input(format!(
-            "{flag} does not apply to {}; it applies to {}",
+            "{flag} does not apply to {}; it applies to {}{tails}",
             a.id(),
             readers.join(", ")
         )))
     };
+    // A weighted tail weighs by --weight and --depth-scale.
+    let weighted_tail =
+        a.tail == strata::Tail::Weighted && applies(Opt::TAIL, a.id(), picture.pipeline);
     for (id, flag, opt) in METHOD_FLAGS {
-        if given(id) && !applies(opt, a.id(), picture.pipeline) {
+        if given(id)
+            && !applies(opt, a.id(), picture.pipeline)
+            && !(opt == Opt::WEIGHT && weighted_tail)
+        {
             return refuse(flag, opt);
         }
     }

@@ -521,7 +521,14 @@ fn options_the_method_does_not_read_are_refused() {
         ),
         (&["--method", "kb", "--heap-size", "3"], "kplus-semiheap"),
         (&["--method", "kb", "--moments", "6"], "applies to mboit"),
-        (&["--method", "kb", "--weight", "eq9"], "applies to wboit"),
+        (
+            &["--method", "kb", "--weight", "eq9"],
+            "applies to wboit (and, with --tail weighted, to the k-buffers)",
+        ),
+        (
+            &["--method", "abuffer-ll", "--tail", "weighted"],
+            "--tail does not apply to abuffer-ll",
+        ),
         (
             &["--method", "wboit", "--depth-scale", "2", "--tail", "blend"],
             "--tail does not apply to wboit",
@@ -559,6 +566,26 @@ fn options_the_method_does_not_read_are_refused() {
         &["--method", "abuffer-fixed", "--k", "2", "--tail", "blend"][..],
         &["--method", "kpeel", "--layers", "2", "--k", "1"],
         &["--method", "wboit", "--weight", "eq8", "--depth-scale", "2"],
+        &[
+            "--method",
+            "kplus-heap",
+            "--k",
+            "1",
+            "--tail",
+            "weighted",
+            "--weight",
+            "eq10",
+        ],
+        &[
+            "--method",
+            "kb-ab-ll",
+            "--k",
+            "1",
+            "--tail",
+            "weighted",
+            "--depth-scale",
+            "2",
+        ],
         &["--method", "kb", "--order", "random", "--seed", "3"],
         &["--method", "f2b", "--budget-mb", "64"],
     ] {

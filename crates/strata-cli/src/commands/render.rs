@@ -89,7 +89,7 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     if dropped > 0 {
         match (stats.k, tail) {
             (Some(k), _) if stats.method == "bucket" => eprintln!("note: {dropped} fragments collided in buckets that already held two and were dropped (k={k}; a larger even --k splits each pixel's depth range finer)"),
-            (Some(k), Tail::Blend) => eprintln!("note: {dropped} fragments beyond k={k} were blended into the tail"),
+            (Some(k), Tail::Blend | Tail::Weighted) => eprintln!("note: {dropped} fragments beyond k={k} were blended into the tail"),
             (Some(k), Tail::Drop) => {
                 let blends = stats.method.parse::<MethodId>().is_ok_and(|m| {
                     crate::method_options::applies(crate::method_options::Opt::TAIL, m, None)

@@ -353,7 +353,9 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
     ui.add_enabled_ui(applies(Opt::BUCKETS, id, pipeline), |ui| {
         choice(ui, "buckets", &mut m.buckets);
     });
-    ui.add_enabled_ui(applies(Opt::WEIGHT, id, pipeline), |ui| {
+    // A weighted tail weighs by --weight and --depth-scale too.
+    let weighted_tail = m.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, pipeline);
+    ui.add_enabled_ui(applies(Opt::WEIGHT, id, pipeline) || weighted_tail, |ui| {
         choice(ui, "weight", &mut m.weight);
         ui.horizontal(|ui| {
             ui.label("depth scale");

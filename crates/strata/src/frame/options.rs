@@ -70,6 +70,22 @@ pub enum Tail {
     /// Blend them, unsorted, into one tail term behind the k nearest (weighted average color,
     /// opacity from the sum of their optical depths), as engines do.
     Blend,
+    /// Hybrid transparency (Maule et al. 2013): the tail as weighted blended OIT — its color the
+    /// average weighted by α·w(z) of McGuire & Bavoil's equations (`--weight`, `--depth-scale`),
+    /// its opacity as `blend`'s — behind the k nearest, so nearer tail fragments count more.
+    Weighted,
+}
+
+impl Tail {
+    /// Whether fragments beyond k are kept as a tail term (blended or weighted).
+    pub fn kept(self) -> bool {
+        self != Tail::Drop
+    }
+
+    /// The mode as the shaders number it (`KParams::tail_blend`): 0 drop, 1 blend, 2 weighted.
+    pub fn index(self) -> u32 {
+        self as u32
+    }
 }
 
 /// The weight function of weighted blended OIT: McGuire & Bavoil 2013, equations 7–10.
@@ -134,7 +150,10 @@ impl FromStr for Tail {
         match s {
             "drop" => Ok(Tail::Drop),
             "blend" => Ok(Tail::Blend),
-            _ => Err(Error::input(format!("--tail '{s}' is not drop or blend"))),
+            "weighted" => Ok(Tail::Weighted),
+            _ => Err(Error::input(format!(
+                "--tail '{s}' is not drop, blend or weighted"
+            ))),
         }
     }
 }

@@ -29,11 +29,14 @@ pub const COLOR: &str = include_str!("../../shaders/shared/color.wgsl");
 pub const FRAGMENT: &str = include_str!("../../shaders/shared/fragment.wgsl");
 /// `strata::composite`: compositing and `Resolved`.
 pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
+/// `strata::weight`: weighted blended OIT's weight functions.
+pub const WEIGHT: &str = include_str!("../../shaders/shared/weight.wgsl");
 
 /// What every stage may import: scene bindings (group 0), the vertex stage and shading
 /// (`strata::scene`), colors (`strata::color`), the fragment record (`strata::fragment`) and the
-/// compositing state machine (`strata::composite`).
-pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE];
+/// compositing state machine (`strata::composite`), and the weights of weighted blended OIT
+/// (`strata::weight`).
+pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT];
 
 /// The shader definitions a stage is composed with.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]

@@ -31,9 +31,10 @@ pub enum Goal {
 /// The method chosen, and why.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Choice {
-    /// The method.
+    /// The method to run; [`crate::methods::create`] builds it.
     pub method: MethodId,
-    /// Why it was chosen, in one line.
+    /// One line on why it was chosen, naming the adapter's missing features on a fallback;
+    /// the CLI prints it and records it as `FrameStats::method_choice`.
     pub why: String,
 }
 

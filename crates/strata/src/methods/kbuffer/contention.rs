@@ -403,7 +403,9 @@ impl<'g> Harness<'g> {
             width: case.pixels,
             pixels: case.pixels,
             sample_slots: 1,
-            _pad: [0; 3],
+            tail_weight: 0,
+            tail_depth_p: 0.0,
+            tail_depth_q: 0.0,
         };
         let (storage_bytes, poison) = match case.method {
             MethodId::AbufferLl | MethodId::KbLl => (20 * fragments, true),

@@ -47,7 +47,7 @@ const K_LOCKED: &[MethodOption] = &[
     MethodOption::MaxTries,
 ];
 
-/// `abuffer-ll`.
+/// The method table's entry for `abuffer-ll`.
 pub const ABUFFER_LL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 (+1 when the node pool overflows)",
@@ -59,7 +59,7 @@ pub const ABUFFER_LL: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer, create)
 };
 
-/// `sbuffer`.
+/// The method table's entry for `sbuffer`.
 pub const SBUFFER: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2 (+2 when the pool overflows)",
@@ -70,7 +70,7 @@ pub const SBUFFER: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::Sbuffer, "sbuffer", Family::Abuffer, create)
 };
 
-/// `kpeel`.
+/// The method table's entry for `kpeel`.
 pub const KPEEL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "ceil(N/k), twice that with the lock-free capture (N: the last frame's depth complexity, or --layers)",
@@ -85,7 +85,7 @@ pub const KPEEL: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::Kpeel, "kpeel", Family::Peeling, create)
 };
 
-/// `abuffer-fixed`.
+/// The method table's entry for `abuffer-fixed`.
 pub const ABUFFER_FIXED: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
@@ -96,7 +96,7 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer, create)
 };
 
-/// `kb-keys`.
+/// The method table's entry for `kb-keys`.
 pub const KB_KEYS: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2",
@@ -111,7 +111,7 @@ pub const KB_KEYS: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KbKeys, "kb-keys", Family::Kbuffer, create)
 };
 
-/// `kb`.
+/// The method table's entry for `kb`.
 pub const KB: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "original k-buffer: sorted insertion with no lock (read-modify-write hazards between fragments of a pixel)",
@@ -125,7 +125,7 @@ pub const KB: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::Kb, "kb", Family::Kbuffer, create)
 };
 
-/// `kb-ps`.
+/// The method table's entry for `kb-ps`.
 pub const KB_PS: Descriptor = Descriptor {
     exact: true,
     memory: KB_MEMORY,
@@ -141,7 +141,7 @@ pub const KB_PS: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KbPs, "kb-ps", Family::Kbuffer, create)
 };
 
-/// `kb-ab-fixed`.
+/// The method table's entry for `kb-ab-fixed`.
 pub const KB_AB_FIXED: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 (+1 when the array overflows)",
@@ -155,7 +155,7 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KbAbFixed, "kb-ab-fixed", Family::Kbuffer, create)
 };
 
-/// `kplus-array`.
+/// The method table's entry for `kplus-array`.
 pub const KPLUS_ARRAY: Descriptor = Descriptor {
     exact: true,
     memory: KB_MEMORY,
@@ -172,7 +172,7 @@ pub const KPLUS_ARRAY: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KplusArray, "kplus-array", Family::Kplus, create)
 };
 
-/// `kplus-sbuffer`.
+/// The method table's entry for `kplus-array-r`.
 pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
     summary: "k+-buffer revised max-array: the first k fragments stored without the lock",
     app_capture: Some("strata::kbuffer::kplus_capture::capture_array_r(p, f)"),
@@ -183,7 +183,7 @@ pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
     }
 };
 
-/// `kplus-sbuffer`.
+/// The method table's entry for `kplus-heap`.
 pub const KPLUS_HEAP: Descriptor = Descriptor {
     summary:
         "k+-buffer max-heap: sift-up while filling, replace-root and sift-down when full, culling",
@@ -196,7 +196,7 @@ pub const KPLUS_HEAP: Descriptor = Descriptor {
     }
 };
 
-/// `kplus-sbuffer`.
+/// The method table's entry for `kplus-sbuffer`.
 pub const KPLUS_SBUFFER: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2 (+2 when the pool overflows)",
@@ -211,7 +211,7 @@ pub const KPLUS_SBUFFER: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KplusSbuffer, "kplus-sbuffer", Family::Kplus, create)
 };
 
-/// `kb-mdt32`.
+/// The method table's entry for `kplus-semiheap`.
 pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
     summary: "semi-heap k-buffer (seed 000): a max-heap of the h farthest (--heap-size, default 1) and an unordered rest; the first k - h fragments stored without the lock, culling against the heap top",
     app_capture: Some("strata::kbuffer::semiheap_capture::capture_semiheap(p, f)"),
@@ -229,7 +229,7 @@ pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
     }
 };
 
-/// `kb-mdt32`.
+/// The method table's entry for `kb-mdt32`.
 pub const KB_MDT32: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2",
@@ -248,7 +248,7 @@ const EIGHT_BYTE_KEYS: Support = Support::No(
     "its 8-byte keys hold depth and color but no primitive or coverage mask, so per-sample storage could not count a fragment once over the samples it covers; use kb-mdt32",
 );
 
-/// `kb-mdt64`.
+/// The method table's entry for `kb-mdt64`.
 pub const KB_MDT64: Descriptor = Descriptor {
     memory: "8·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
@@ -260,7 +260,7 @@ pub const KB_MDT64: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KbMdt64, "kb-mdt64", Family::Kbuffer, create)
 };
 
-/// `kb-mdt-pack`.
+/// The method table's entry for `kb-mdt-pack`.
 pub const KB_MDT_PACK: Descriptor = Descriptor {
     memory: "8·k·W·H + 16·W·H + 152",
     summary:
@@ -273,7 +273,7 @@ pub const KB_MDT_PACK: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KbMdtPack, "kb-mdt-pack", Family::Kbuffer, create)
 };
 
-/// `kb-ab-ll`.
+/// The method table's entry for `kb-ab-ll`.
 pub const KB_AB_LL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 (+1 when the node pool overflows)",
@@ -286,7 +286,7 @@ pub const KB_AB_LL: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer, create)
 };
 
-/// `kb-sbuffer`.
+/// The method table's entry for `kb-sbuffer`.
 pub const KB_SBUFFER: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2 (+2 when the pool overflows)",
@@ -298,7 +298,7 @@ pub const KB_SBUFFER: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KbSbuffer, "kb-sbuffer", Family::Kbuffer, create)
 };
 
-/// `kb-ll`.
+/// The method table's entry for `kb-ll`.
 pub const KB_LL: Descriptor = Descriptor {
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≤ F",

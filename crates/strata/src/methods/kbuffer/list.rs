@@ -70,7 +70,7 @@ impl ListKBuffer {
             super::sample_frame_bytes_besides_storage(
                 ctx.pixels(),
                 sample_slots,
-                ctx.options.frame.kbuffer.tail == crate::Tail::Blend,
+                ctx.options.frame.kbuffer.tail.kept(),
             ),
             0,
         )?;

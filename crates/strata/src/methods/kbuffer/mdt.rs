@@ -25,7 +25,7 @@
 use super::{k_of, lock_failures, params_for, KFrame, Layout, Storage};
 use crate::error::{Error, Result};
 use crate::frame::passes::GeometryStage;
-use crate::frame::{Effect, FrameContext, MethodStats, Recorded, SceneGpu, Tail, Totals};
+use crate::frame::{Effect, FrameContext, MethodStats, Recorded, SceneGpu, Totals};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 
@@ -138,7 +138,7 @@ impl Method for MdtKBuffer {
                 self.frame.id
             )));
         }
-        if self.mdt == Mdt::Pack && ctx.options.frame.kbuffer.tail == Tail::Blend {
+        if self.mdt == Mdt::Pack && ctx.options.frame.kbuffer.tail.kept() {
             return Err(Error::unsupported("kb-mdt-pack cannot blend a tail: a displaced key carries half a color; use --tail drop"));
         }
         let k = k_of(ctx.k, self.frame.id)?;

@@ -120,7 +120,7 @@ use crate::error::{Error, Result};
 use crate::frame::passes::{
     compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage, NullTarget,
 };
-use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Tail, Totals};
+use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::Stage;
 use crate::gpu::{Gpu, ResourceCache};
@@ -139,7 +139,8 @@ pub struct KParams {
     pub max_tries: u32,
     /// 1 with `--culling on`: fragments behind a full pixel's farthest kept one are dropped before the lock.
     pub culling: u32,
-    /// 1 with `--tail blend`: fragments past k blend into the tail term.
+    /// [`crate::Tail::index`]: fragments past k are dropped (0), blended (1) or weighted (2) into
+    /// the tail term.
     pub tail_blend: u32,
     /// A method's own parameter: fixed A-buffers 1 when their stored count is min(seen, stride);
     /// kplus-semiheap its heap size h.
@@ -151,8 +152,29 @@ pub struct KParams {
     /// `--msaa` with per-sample storage: S, each pixel's storage being S sample pixels with
     /// their own words, slots and tail (see [`sample_storage`]); else 1.
     pub sample_slots: u32,
-    /// Padding to 16 bytes.
-    pub _pad: [u32; 3],
+    /// `--tail weighted`: the weight function ([`crate::Weight::index`]) in the low byte, and
+    /// [`TAIL_ORTHOGRAPHIC`] for an orthographic view.
+    pub tail_weight: u32,
+    /// `--tail weighted`: p of [`tail_depth`].
+    pub tail_depth_p: f32,
+    /// `--tail weighted`: q of [`tail_depth`].
+    pub tail_depth_q: f32,
+}
+
+/// `KParams::tail_weight`'s flag for an orthographic view.
+pub const TAIL_ORTHOGRAPHIC: u32 = 0x100;
+
+/// (p, q) that take a window depth d to its view distance times `scale`, as the weighted tail's
+/// weight reads it: p / (q − d) in a perspective view, p + q·d in an orthographic one. The
+/// capture computes it from these two numbers instead of the scene's uniforms, which an
+/// application's capture does not bind.
+pub fn tail_depth(camera: &crate::scene::Camera, scale: f64) -> (f32, f32) {
+    let (n, f) = (camera.near as f64, camera.far as f64);
+    let (p, q) = match camera.projection {
+        crate::scene::Projection::Orthographic { .. } => (scale * n, scale * (f - n)),
+        crate::scene::Projection::Perspective { .. } => (scale * n * f / (f - n), f / (f - n)),
+    };
+    (p as f32, q as f32)
 }
 
 /// Counter words, as storage.wgsl's COUNTER_ constants (64-bit counters take two words).
@@ -358,6 +380,8 @@ pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
 /// The frame's [`KParams`] for `k` and `stride`; `count_by_seen`: a fixed A-buffer's stored count is min(seen, stride).
 pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bool) -> KParams {
     let options = ctx.options;
+    let (tail_depth_p, tail_depth_q) =
+        tail_depth(&ctx.scene.camera, options.frame.weighted.depth_scale);
     KParams {
         k,
         stride,
@@ -368,12 +392,18 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
             .unwrap_or(DEFAULT_MAX_TRIES)
             .max(1),
         culling: options.frame.kbuffer.culling as u32,
-        tail_blend: (options.frame.kbuffer.tail == Tail::Blend) as u32,
+        tail_blend: options.frame.kbuffer.tail.index(),
         aux: count_by_seen as u32,
         width: options.frame.width,
         pixels: (ctx.pixels()).min(u32::MAX as u64) as u32,
         sample_slots: 1,
-        _pad: [0; 3],
+        tail_weight: options.frame.weighted.weight.index()
+            | match ctx.scene.camera.projection {
+                crate::scene::Projection::Orthographic { .. } => TAIL_ORTHOGRAPHIC,
+                crate::scene::Projection::Perspective { .. } => 0,
+            },
+        tail_depth_p,
+        tail_depth_q,
     }
 }
 
@@ -485,9 +515,10 @@ impl Pool {
 
 /// The fragment storage of a k-buffer frame.
 pub struct Storage {
-    /// Names the buffer.
+    /// The buffer's debug label, also its key in the frame's [`ResourceCache`] (kept between
+    /// frames while the size holds).
     pub label: &'static str,
-    /// Its size in bytes.
+    /// Size in bytes this frame needs; a change re-creates the buffer.
     pub bytes: u64,
     /// Zeroed before capture (cascades and their empty-slot marker need it).
     pub clear: bool,
@@ -496,7 +527,8 @@ pub struct Storage {
 /// A capture stage: the WGSL module (vertex stage, and fragment stage without ordering) and,
 /// where the adapter takes it, the fragment stage with acquire/release atomics.
 pub struct CaptureModule {
-    /// The module without ordered atomics.
+    /// The module with relaxed atomics only, which the capture pipelines use where
+    /// [`CaptureModule::ordered`] is None.
     pub wgsl: wgpu::ShaderModule,
     /// The fragment stage with acquire/release atomics, where the adapter has them.
     pub ordered: Option<wgpu::ShaderModule>,
@@ -518,9 +550,9 @@ pub fn ordered_methods() -> impl Iterator<Item = MethodId> {
 /// What every k-buffer method records the same way: the group-1 layout, the resolve pipeline,
 /// the buffers kept between frames, and a frame — clear, capture passes, resolve, counters.
 pub struct KFrame {
-    /// The method.
+    /// The method this frame records, which names its pipelines and labels.
     pub id: MethodId,
-    /// Group 1's layout.
+    /// Group 1's layout ([`group_layout`]), which the method's capture pipelines are built on.
     pub layout: wgpu::BindGroupLayout,
     resolve: wgpu::ComputePipeline,
     cache: ResourceCache,

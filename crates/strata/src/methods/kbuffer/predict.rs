@@ -18,7 +18,7 @@ use super::{
     SLOT_BYTES,
 };
 use crate::error::{Error, Result};
-use crate::frame::{RenderOptions, Tail};
+use crate::frame::RenderOptions;
 use crate::methods::MethodId;
 
 /// `--robustness` when `--k auto` is given alone (the paper's figures use 95%).
@@ -54,8 +54,7 @@ pub fn frame_bytes(
 ) -> Option<u64> {
     let px = options.pixels();
     let samples = sample_storage(id, options.build.msaa);
-    let fixed =
-        sample_frame_bytes_besides_storage(px, samples, options.frame.kbuffer.tail == Tail::Blend);
+    let fixed = sample_frame_bytes_besides_storage(px, samples, options.frame.kbuffer.tail.kept());
     let k = k as u64;
     let per_pixel = |bytes: u64| Some(fixed + bytes * k * px * samples as u64);
     match id {

@@ -4,7 +4,7 @@
 #import strata::fragment::{Fragment, fragment_before, fragment_color}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 #import strata::kbuffer::access::{stored_count, stored_fragment}
-#import strata::kbuffer::storage::{SEEN, TAIL_WORDS, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail_word}
+#import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, TAIL_WORDS, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail_weight_of, tail_word}
 
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
 // Up to LOCAL_CAPACITY stored fragments are copied to a local array and sorted — insertion sort
@@ -24,14 +24,18 @@ struct Tail {
 
 fn tail_sums(p: u32) -> Tail {
     let w = p * TAIL_WORDS;
-    let s = vec4<f32>(tail_word(w), tail_word(w + 2u), tail_word(w + 4u), tail_word(w + 6u));
+    var s = vec4<f32>(tail_word(w), tail_word(w + 2u), tail_word(w + 4u), tail_word(w + 6u));
+    if kp.tail_blend == TAIL_WEIGHTED {
+        s /= TAIL_WEIGHTED_SCALE;
+    }
     return Tail(s, tail_word(w + 8u));
 }
 
 fn tail_add_local(t: ptr<function, Tail>, f: Fragment) {
     let c = fragment_color(f);
     let a = clamp(c.a, 0.0, 0.999);
-    (*t).sum += vec4<f32>(a * c.rgb, a);
+    let weight = tail_weight_of(f, a);
+    (*t).sum += vec4<f32>(weight * c.rgb, weight);
     (*t).optical_depth += -log(1.0 - a);
 }
 

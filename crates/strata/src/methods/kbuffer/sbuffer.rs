@@ -241,7 +241,7 @@ impl Method for SBuffer {
         let fixed = super::sample_frame_bytes_besides_storage(
             pixels,
             sample_slots,
-            ctx.options.frame.kbuffer.tail == crate::Tail::Blend,
+            ctx.options.frame.kbuffer.tail.kept(),
         ) + header
             + scan_words * 4;
         // A larger k than the need was measured at (--k auto following the scene) needs at most

@@ -2,6 +2,7 @@
 #import strata::color::{Resolved}
 #import strata::fragment::{Fragment, fragment_color}
 #import strata::kbuffer::temporal::{culling_interface, note_outside}
+#import strata::weight::{oit_weight}
 
 // k-buffer family storage, shared by its capture and resolve stages.
 // Keep `KParams` in sync with `KParams` in kbuffer/mod.rs and the COUNTER_ indices with
@@ -28,10 +29,13 @@ struct KParams {
     // --msaa with per-sample storage (the capture-time k-buffers): S, each pixel's storage
     // being S sample pixels `p * S + s` with their own words, slots and tail; else 1.
     sample_slots: u32,
-    // Padding to 16 bytes; naga_oil's composer refused the names `pad_a` and `spare0`.
-    spare_a: u32,
-    spare_b: u32,
-    spare_c: u32,
+    // --tail weighted: the weight function (Weight::index) in the low byte, TAIL_ORTHOGRAPHIC,
+    // and the two constants that take a window depth to the scaled view distance the weight
+    // reads (`tail_distance`), so a capture needs no scene bindings (the contention harness and
+    // an application's capture have none).
+    tail_weight: u32,
+    tail_depth_p: f32,
+    tail_depth_q: f32,
 }
 
 @group(#{KBUFFER_GROUP}) @binding(0) var<uniform> kp: KParams;
@@ -60,6 +64,13 @@ const COUNTER_OVERFLOWED: u32 = 6u;
 // wrap them).
 const TAIL_SCALE: f32 = 65536.0;
 const TAIL_WORDS: u32 = 10u;
+// KParams::tail_blend: 1 blends the tail by α, 2 by α·w(z) (--tail weighted).
+const TAIL_WEIGHTED: u32 = 2u;
+// The weighted tail's color and weight sums carry this many times TAIL_SCALE: its weights span
+// 10⁻²·α to 3·10³, so the small ones keep their precision (the sums go in as 64-bit values; a
+// pixel would need about 2^21 tail fragments of the largest weight to wrap them).
+const TAIL_WEIGHTED_SCALE: f32 = 256.0;
+const TAIL_ORTHOGRAPHIC: u32 = 0x100u;
 
 fn pixel_word(p: u32, word: u32) -> u32 {
     return p * 4u + word;
@@ -118,11 +129,38 @@ fn tail_add_wide(at: u32, n: u32) {
     }
 }
 
+// Adds v ≥ 0 (under 2^56) to the 64-bit sum at words (at, at + 1).
+fn tail_add_value(at: u32, v: f32) {
+    let high = u32(v / 4294967296.0);
+    tail_add_wide(at, u32(v - f32(high) * 4294967296.0));
+    if high > 0u {
+        atomicAdd(&tail[at + 1u], high);
+    }
+}
+
+// How much a tail fragment of opacity `a` counts in the tail's color: α, or with --tail weighted
+// α·w(z) of weighted blended OIT, nearer fragments counting more.
+fn tail_weight_of(f: Fragment, a: f32) -> f32 {
+    if kp.tail_blend == TAIL_WEIGHTED {
+        return oit_weight(kp.tail_weight & 0xffu, 1.0, a, tail_distance(f.depth), f.depth);
+    }
+    return a;
+}
+
+// The view distance of window depth `depth`, times --depth-scale: p / (q − depth) in a
+// perspective view, p + q·depth in an orthographic one (see `TailDepth` in kbuffer/mod.rs).
+fn tail_distance(depth: f32) -> f32 {
+    if (kp.tail_weight & TAIL_ORTHOGRAPHIC) != 0u {
+        return kp.tail_depth_p + kp.tail_depth_q * depth;
+    }
+    return kp.tail_depth_p / (kp.tail_depth_q - depth);
+}
+
 fn tail_word(at: u32) -> f32 {
     return (f32(atomicLoad(&tail[at])) + f32(atomicLoad(&tail[at + 1u])) * 4294967296.0) / TAIL_SCALE;
 }
 
-// Blends a fragment beyond the k nearest into the pixel's unsorted tail (--tail blend), and
+// Blends a fragment beyond the k nearest into the pixel's unsorted tail (--tail blend|weighted), and
 // notes it for temporal culling's interface (temporal.wgsl): every fragment the cache does not
 // keep passes here.
 fn tail_add(p: u32, f: Fragment) {
@@ -133,10 +171,18 @@ fn tail_add(p: u32, f: Fragment) {
     let c = fragment_color(f);
     let a = clamp(c.a, 0.0, 0.999);
     let w = p * TAIL_WORDS;
-    tail_add_wide(w, u32(a * clamp(c.r, 0.0, 64.0) * TAIL_SCALE));
-    tail_add_wide(w + 2u, u32(a * clamp(c.g, 0.0, 64.0) * TAIL_SCALE));
-    tail_add_wide(w + 4u, u32(a * clamp(c.b, 0.0, 64.0) * TAIL_SCALE));
-    tail_add_wide(w + 6u, u32(a * TAIL_SCALE));
+    if kp.tail_blend == TAIL_WEIGHTED {
+        let weight = tail_weight_of(f, a) * (TAIL_SCALE * TAIL_WEIGHTED_SCALE);
+        tail_add_value(w, weight * clamp(c.r, 0.0, 64.0));
+        tail_add_value(w + 2u, weight * clamp(c.g, 0.0, 64.0));
+        tail_add_value(w + 4u, weight * clamp(c.b, 0.0, 64.0));
+        tail_add_value(w + 6u, weight);
+    } else {
+        tail_add_wide(w, u32(a * clamp(c.r, 0.0, 64.0) * TAIL_SCALE));
+        tail_add_wide(w + 2u, u32(a * clamp(c.g, 0.0, 64.0) * TAIL_SCALE));
+        tail_add_wide(w + 4u, u32(a * clamp(c.b, 0.0, 64.0) * TAIL_SCALE));
+        tail_add_wide(w + 6u, u32(a * TAIL_SCALE));
+    }
     tail_add_wide(w + 8u, u32(-log(1.0 - a) * TAIL_SCALE));
 }
 

@@ -250,6 +250,82 @@ fn tail_blend_composites_the_rest_as_one_term() {
     }
 }
 
+/// `--tail weighted` (hybrid transparency, Maule et al. 2013): the k nearest exact, the rest one
+/// term behind them whose color is their average weighted by α·w(z) of weighted blended OIT and
+/// whose opacity is `--tail blend`'s. Checked per pixel against the reference's fragments with
+/// the CPU weights, for a weight of view distance (eq7) and one of window depth (eq10), in the
+/// captures that keep a tail (kplus-heap, kb-ps, kplus-sbuffer) and in one that selects at
+/// resolve (kb-ab-fixed).
+#[test]
+fn tail_weighted_weighs_the_rest_by_depth() {
+    let k = 4;
+    let s = scene("builtin:layers?n=10&coverage=1&order=random&seed=4");
+    let mut opts = options(16, k as u32);
+    opts.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
+    opts.frame.kbuffer.tail = Tail::Weighted;
+    for weight in [crate::Weight::Eq7, crate::Weight::Eq10] {
+        opts.frame.weighted.weight = weight;
+        let mut lists = crate::reference::fragments(&s, &opts).unwrap();
+        let expected: Vec<[f64; 3]> = lists
+            .iter_mut()
+            .map(|list| {
+                list.sort_by(|a, b| a.depth.total_cmp(&b.depth).then(a.prim.cmp(&b.prim)));
+                let (mut color, mut t) = ([0.0f64; 3], 1.0f64);
+                for f in list.iter().take(k) {
+                    for (c, fc) in color.iter_mut().zip(f.color) {
+                        *c += t * f.alpha * fc;
+                    }
+                    t *= 1.0 - f.alpha;
+                }
+                let (mut sum, mut total, mut depth) = ([0.0f64; 3], 0.0f64, 0.0f64);
+                for f in list.iter().skip(k) {
+                    let w = crate::methods::weighted::cpu::weight(
+                        weight,
+                        f.alpha,
+                        f.distance,
+                        f.depth,
+                        opts.frame.weighted.depth_scale,
+                    );
+                    for (s, fc) in sum.iter_mut().zip(f.color) {
+                        *s += w * fc;
+                    }
+                    total += w;
+                    depth += -(1.0 - f.alpha).ln();
+                }
+                if total > 0.0 {
+                    let opacity = 1.0 - (-depth).exp();
+                    for i in 0..3 {
+                        color[i] += t * opacity * sum[i] / total;
+                    }
+                }
+                color
+            })
+            .collect();
+        // The weights differ enough over the layers' depths that this is not `--tail blend`.
+        let mut blend = opts.clone();
+        blend.frame.kbuffer.tail = Tail::Blend;
+        let (blended, _) = render_gpu(&s, &blend, "kplus-heap");
+        let mut differs = false;
+        for method in ["kplus-heap", "kb-ps", "kb-ab-fixed", "kplus-sbuffer"] {
+            let (img, _) = render_gpu(&s, &opts, method);
+            for (p, (e, b)) in img.pixels.iter().zip(expected.iter().zip(&blended.pixels)) {
+                for i in 0..3 {
+                    // 64-bit fixed-point tail sums and f16 colors: 1e-3 linear.
+                    assert!(
+                        (p[i] as f64 - e[i]).abs() < 1e-3,
+                        "{method} {weight:?}: {p:?} vs {e:?}"
+                    );
+                    differs |= (p[i] - b[i]).abs() > 1e-3;
+                }
+            }
+        }
+        assert!(
+            differs,
+            "{weight:?}: the weighted tail equals the blended one"
+        );
+    }
+}
+
 #[test]
 fn memory_follows_the_catalogue_formula() {
     let s = scene("builtin:layers?n=6");
