@@ -28,6 +28,7 @@ pub mod values;
 use std::collections::BTreeMap;
 
 use bytemuck::{Pod, Zeroable};
+#[cfg(feature = "serde")]
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -48,14 +49,15 @@ pub use values::{
 
 /// How a pixel's depth-ordered fragments become a color.
 /// What every frame reports (`--stats FILE.json`). Unknown values are `None` (`null`).
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct FrameStats {
     /// The frame these statistics belong to (frames count from 0 per recorder).
     pub frame: u64,
     /// The method's id (`strata methods` lists them).
     pub method: String,
     /// With `--method auto`: why this method was chosen ([`crate::methods::choice`]).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub method_choice: Option<String>,
     /// Frame width in pixels.
     pub width: u32,
@@ -97,17 +99,17 @@ pub struct FrameStats {
     pub memory_ordering: Option<String>,
     /// Horizontal bands the picture was rendered in, when its per-pixel buffers outgrew the
     /// device's storage bindings (counters are summed over bands, GPU times too).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub bands: Option<u32>,
     /// With the GPU histogram on ([`crate::FrameRecorder::set_histogram`]): pixels per fragment
     /// count, bin i = exactly i fragments, up to the last non-empty bin.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub depth_histogram: Option<Vec<u64>>,
     /// Pixels with 1023 or more fragments: the histogram's last bin, which counts them together.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub depth_histogram_clipped: Option<u64>,
     /// With `--k auto`: how this frame's k (`k`) was chosen and what it captured.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub k_auto: Option<AutoKStats>,
     /// With `--pipeline`: the lit opaque frame (pipeline, lights drawn and culled, G-buffer
     /// bytes).
@@ -118,18 +120,18 @@ pub struct FrameStats {
     pub compute_raster: Option<ComputeRasterStats>,
     /// With `--temporal on`: fragments culled before any lock by last frame's interface
     /// (included in `fragments_generated` and `fragments_dropped`).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub culled_temporal: Option<u64>,
     /// With `--order`: the submission order.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub order: Option<String>,
     /// With `--order`: the sampled normalized Kendall tau distance between the submission
     /// order and front-to-back depth order (0: front to back, 1: back to front).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub kendall_tau: Option<f64>,
     /// `convex`: groups, passes, draws, pairs ordered without a plane, and `order_violations`
     /// (pixel-passes where the order failed).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub convex: Option<ConvexStats>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
@@ -143,7 +145,8 @@ pub struct FrameStats {
 }
 
 /// How `--k auto` chose a frame's k.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct AutoKStats {
     /// The robustness ratio R asked for.
     pub robustness_target: f64,

@@ -12,6 +12,7 @@
 use std::path::PathBuf;
 use std::str::FromStr;
 
+#[cfg(feature = "serde")]
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -21,9 +22,10 @@ use crate::frame::MAX_TRIES_LIMIT;
 use crate::scene::{Background, Pipeline, MAX_SIDE};
 
 /// What a frame shows (`--effect`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Effect {
     /// Fragments composited front to back (C += T·α·c).
     #[default]
@@ -60,9 +62,10 @@ impl Effect {
 }
 
 /// What k-buffer methods do with fragments beyond the k nearest.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Tail {
     /// Discard them (counted in `fragments_dropped`).
     #[default]
@@ -89,9 +92,10 @@ impl Tail {
 }
 
 /// The weight function of weighted blended OIT: McGuire & Bavoil 2013, equations 7–10.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Weight {
     /// α·clamp(10 / (10⁻⁵ + (|z|/5)² + (|z|/200)⁶), 10⁻², 3·10³).
     #[default]
@@ -122,9 +126,10 @@ impl Weight {
 }
 
 /// How `bucket` splits each pixel's depth range into buckets (`--buckets`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum BucketSplit {
     /// k/2 equal parts of the depth range (Liu et al. 2009's bucket depth peeling).
     #[default]

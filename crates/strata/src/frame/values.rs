@@ -2,12 +2,14 @@
 //! rasterizer, temporal culling and `convex` put into a frame's statistics. They live here,
 //! below the code that produces them, so that options and statistics need nothing above `frame`.
 
+#[cfg(feature = "serde")]
 use serde::Serialize;
 
 /// Which rasterizer turns triangles into fragments.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Raster {
     /// The GPU's fixed-function rasterizer.
     #[default]
@@ -27,7 +29,8 @@ impl Raster {
 }
 
 /// What the compute rasterizer reports about a frame.
-#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct ComputeRasterStats {
     /// Triangles of the clipped polygons' fans that reached the viewport.
     pub triangles_set_up: u64,
@@ -66,7 +69,8 @@ pub const DEFAULT_REFRESH: u32 = 8;
 pub const DEFAULT_EPSILON: f32 = 1e-5;
 
 /// What `convex` reports about a frame (`FrameStats::convex`).
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct ConvexStats {
     /// Convex parts, and the groups they were drawn as.
     pub parts: u32,
@@ -103,9 +107,10 @@ pub struct ConvexStats {
 pub const MAX_TRIES_LIMIT: u32 = 1 << 20;
 
 /// The display transform of the lit pipelines (`--tonemap`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Tonemap {
     /// Clamp only.
     None,
@@ -118,9 +123,10 @@ pub enum Tonemap {
 }
 
 /// How the G-buffer stores normals (`--normal-encoding`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum NormalEncoding {
     /// Seed 004's spheremap transform of the view-space normal.
     #[default]
@@ -130,9 +136,10 @@ pub enum NormalEncoding {
 }
 
 /// A G-buffer view (`--gbuffer-debug`), written instead of the picture.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "kebab-case")]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 pub enum GbufferView {
     /// Base color.
     Albedo,
@@ -174,7 +181,8 @@ impl GbufferView {
 }
 
 /// What a lit frame reports (`FrameStats::lighting`).
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct LightingStats {
     /// "forward" or "deferred".
     pub pipeline: String,

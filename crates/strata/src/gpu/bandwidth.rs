@@ -18,6 +18,7 @@
 //! copies, which no pass encloses. Every probe checks its result (the copy's bytes, the
 //! counters' sum), so a probe that did not run cannot report a rate.
 
+#[cfg(feature = "serde")]
 use serde::Serialize;
 use wgpu::util::DeviceExt;
 
@@ -54,7 +55,8 @@ pub struct ProbeParams {
 }
 
 /// How much each probe moves.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct ProbeSizes {
     /// Bytes of the buffer copied (and of its destination).
     pub copy_bytes: u64,
@@ -80,7 +82,8 @@ impl ProbeSizes {
 }
 
 /// The device's measured rates.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct DeviceRates {
     /// Bytes read plus written per second by `copy_buffer_to_buffer`, in GB/s (10^9 bytes).
     pub copy_gb_per_s: f64,

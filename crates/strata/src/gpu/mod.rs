@@ -12,6 +12,7 @@ pub mod readback;
 pub mod shader;
 pub mod timing;
 
+#[cfg(feature = "serde")]
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -79,7 +80,8 @@ pub fn validated<T>(gpu: &Gpu, what: &str, make: impl FnOnce() -> Result<T>) -> 
 }
 
 /// What `strata info` reports.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct GpuReport {
     /// The adapter's name.
     pub adapter: String,

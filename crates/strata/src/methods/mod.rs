@@ -21,6 +21,7 @@ pub mod weighted;
 use std::fmt;
 use std::str::FromStr;
 
+#[cfg(feature = "serde")]
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -165,6 +166,7 @@ impl FromStr for MethodId {
     }
 }
 
+#[cfg(feature = "serde")]
 impl Serialize for MethodId {
     fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
         s.serialize_str(self.as_str())

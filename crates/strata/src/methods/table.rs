@@ -8,6 +8,7 @@
 //! descriptor ([`MethodId::descriptor`]) instead of matching on ids, and the lists in error
 //! messages, `strata methods` and the CLI's option checks come from the table.
 
+#[cfg(feature = "serde")]
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -59,6 +60,7 @@ impl Family {
     }
 }
 
+#[cfg(feature = "serde")]
 impl Serialize for Family {
     fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
         s.serialize_str(self.name())
@@ -136,13 +138,14 @@ pub struct Setup<'a> {
 }
 
 /// Everything strata knows about one method outside its own code.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct Descriptor {
     /// The method's name on the command line, in files and in statistics.
-    #[serde(rename = "id")]
+    #[cfg_attr(feature = "serde", serde(rename = "id"))]
     pub name: &'static str,
     /// The method's id.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub id: MethodId,
     /// The family it is listed under.
     pub family: Family,
@@ -155,46 +158,46 @@ pub struct Descriptor {
     /// One line saying what the method does (the README's method table).
     pub summary: &'static str,
     /// Whether it runs on strata's compute rasterizer (`--raster compute`).
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub compute_raster: Support,
     /// Whether it takes `--msaa 4|8`.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub msaa: Support,
     /// With `--msaa`, each sample keeps its own storage (capture-time k-buffers choose what to
     /// keep per sample); else fragments are stored per pixel with their coverage masks.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub per_sample_storage: bool,
     /// Whether it takes `--temporal on` (the slot k-buffers that choose at capture time).
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub temporal: bool,
     /// The memory ordering its capture needs.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub ordering: Ordering,
     /// The capture step an application's fragment shader calls (`methods::capture`), on pixel
     /// `p` and fragment `f`: a WGSL call whose names are module-qualified
     /// (`strata::kbuffer::list::capture_list(p, f)`), so that the generated `strata::capture`
     /// and the contention harness need no import list; `None` where there is no such
     /// single-pass capture.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub app_capture: Option<&'static str>,
     /// It sorts the scene's triangles by centroid each frame: the recorder refreshes the
     /// centroids (of an animated scene) before it records.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub sorts_centroids: bool,
     /// Whether `--order` applies (every method but those with an order of their own).
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub takes_order: bool,
     /// The method parameters it reads.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub reads: &'static [MethodOption],
     /// Its memory-traffic model ([`super::traffic`]).
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub traffic: TrafficModel,
     /// The largest `--k` it accepts (a pixel's fragments serialize on its lock or cascade).
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub max_k: u32,
     /// Makes the method's GPU state for a scene.
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub create: Constructor,
 }
 

@@ -35,6 +35,7 @@
 //! are lower bounds of what a capture writes (a k-buffer's replacements write more), so the
 //! floor stays a floor.
 
+#[cfg(feature = "serde")]
 use serde::Serialize;
 
 use crate::frame::RESOLVED_BYTES;
@@ -59,7 +60,8 @@ pub struct FrameCounts {
 }
 
 /// A frame's unavoidable traffic.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct Traffic {
     /// Bytes read plus bytes written.
     pub bytes: u64,
@@ -155,7 +157,8 @@ pub fn traffic(id: MethodId, c: &FrameCounts) -> Option<Traffic> {
 const CONVEX_MERGE_BYTES: u64 = 16 + 4;
 
 /// A frame's floor on a device: the time its traffic takes at the measured rates.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct Floor {
     /// Milliseconds the traffic takes at the device's rates.
     pub ms: f64,

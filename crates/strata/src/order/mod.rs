@@ -34,6 +34,7 @@ pub mod radix;
 use std::str::FromStr;
 
 use bytemuck::{Pod, Zeroable};
+#[cfg(feature = "serde")]
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -54,9 +55,10 @@ const KENDALL: &str = include_str!("order_kendall.wgsl");
 pub const KENDALL_SAMPLES: u32 = 65536;
 
 /// The order triangles are submitted in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Order {
     /// The scene's own order (measured, not changed).
     Scene,

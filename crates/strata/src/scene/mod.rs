@@ -20,6 +20,7 @@ pub use animation::{CameraKey, CameraPath, ObjectMotion, Orbit};
 pub use pipeline::Pipeline;
 
 use glam::{Mat4, Vec3};
+#[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -49,9 +50,10 @@ pub(crate) fn check_triangle_estimate(what: &str, triangles: u64) -> Result<()> 
 }
 
 /// How a fragment's color is computed from its material.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Shading {
     /// Fragment color = material color.
     Unlit,
@@ -314,8 +316,9 @@ impl Camera {
 }
 
 /// What kind of light a [`Light`] is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum LightKind {
     /// Light from a point, in every direction.
     Point,

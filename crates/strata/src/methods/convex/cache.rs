@@ -21,7 +21,7 @@ use super::decompose::{
 
 const MAGIC: &[u8; 8] = b"STRATAcx";
 /// Bumped whenever the decomposition's algorithm or this layout changes.
-const FORMAT_VERSION: u32 = 3;
+const FORMAT_VERSION: u32 = 4;
 
 /// What identifies a geometry's decomposition.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -105,11 +105,15 @@ fn encode(key: Key, d: &Decomposition) -> Vec<u8> {
     out.u64(key.hash);
     out.u64(key.triangles);
     out.f32(d.tolerance);
-    let stats = serde_json::to_vec(&d.stats).expect("statistics serialize");
-    out.u32(stats.len() as u32);
-    out.bytes(&stats);
-    // serde_json does not round-trip every f64 exactly: the one timing goes in as bits.
-    out.u64(d.stats.preprocess_ms.to_bits());
+    let s = &d.stats;
+    out.u64(s.triangles);
+    for v in [s.parts, s.groups, s.paired, s.layers_per_group] {
+        out.u32(v);
+    }
+    for v in [s.overlapping_pairs, s.nested, s.unseparated] {
+        out.u64(v);
+    }
+    out.u64(s.preprocess_ms.to_bits());
     out.u32(d.groups.len() as u32);
     for g in &d.groups {
         out.u32(g.parts);
@@ -164,10 +168,21 @@ fn decode(bytes: &[u8], key: Key) -> Result<Decomposition, String> {
         return Err("made for other triangles".into());
     }
     let tolerance = r.f32()?;
-    let stats_len = r.u32()? as usize;
-    let mut stats: DecompositionStats =
-        serde_json::from_slice(r.take(stats_len)?).map_err(|e| format!("statistics: {e}"))?;
-    stats.preprocess_ms = f64::from_bits(r.u64()?);
+    let triangles = r.u64()?;
+    let [parts, groups, paired, layers_per_group] = [r.u32()?, r.u32()?, r.u32()?, r.u32()?];
+    let [overlapping_pairs, nested, unseparated] = [r.u64()?, r.u64()?, r.u64()?];
+    let stats = DecompositionStats {
+        triangles,
+        parts,
+        groups,
+        paired,
+        overlapping_pairs,
+        nested,
+        unseparated,
+        layers_per_group,
+        preprocess_ms: f64::from_bits(r.u64()?),
+        read_from_cache_ms: None,
+    };
     let group_count = r.u32()? as usize;
     let mut groups = Vec::with_capacity(group_count.min(bytes.len()));
     for _ in 0..group_count {

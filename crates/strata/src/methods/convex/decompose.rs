@@ -139,7 +139,8 @@ pub struct Separation {
 }
 
 /// What the preprocess found.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct DecompositionStats {
     /// Triangles decomposed.
     pub triangles: u64,
@@ -161,7 +162,7 @@ pub struct DecompositionStats {
     /// CPU milliseconds the preprocess took.
     pub preprocess_ms: f64,
     /// Read from the disk cache in this many ms (`preprocess_ms` is then the run that made it).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub read_from_cache_ms: Option<f64>,
 }
 
