@@ -210,20 +210,14 @@ pub struct LightingStats {
 mod tests {
     use super::GbufferView;
 
+    /// Every view's name is its serialized name and its command-line value (the tests build
+    /// with the `clap` feature, whose value list is every variant).
     #[test]
     fn gbuffer_view_names_are_their_serialized_names() {
-        use GbufferView::*;
-        for v in [
-            Albedo,
-            Normal,
-            Specular,
-            Material,
-            Depth,
-            Lights,
-            NormalError,
-            Occlusion,
-        ] {
+        for &v in <GbufferView as clap::ValueEnum>::value_variants() {
             assert_eq!(serde_json::to_value(v).unwrap(), v.name());
+            let value = clap::ValueEnum::to_possible_value(&v).unwrap();
+            assert_eq!(value.get_name(), v.name());
         }
     }
 }
