@@ -101,11 +101,14 @@ impl<T> StatsRing<T> {
         self.collect()
     }
 
-    /// True when some slot waits for its mapping.
+    /// True when some slot holds a frame not yet collected: waiting for its mapping, or mapped
+    /// since the last [`StatsRing::poll`] looked. A mapping callback may run on any thread that
+    /// polls the device, so a slot can turn MAPPED between `poll`'s look and this call; a waiter
+    /// that counted only PENDING slots would give up on a frame that has just arrived.
     pub fn pending(&self) -> bool {
         self.slots
             .iter()
-            .any(|s| s.state.load(Ordering::Acquire) == PENDING)
+            .any(|s| s.state.load(Ordering::Acquire) != FREE)
     }
 
     fn collect(&mut self) -> Vec<(T, Option<Vec<u32>>)> {
@@ -133,5 +136,24 @@ impl<T> StatsRing<T> {
             done.push((tag, words.flatten()));
         }
         done
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_slot_mapped_by_another_thread_is_still_pending_until_collected() {
+        let ring = StatsRing::<u64>::default();
+        assert!(!ring.pending());
+        // Another thread's device poll ran the mapping callback after this thread's `poll`
+        // looked: the frame has not been collected, so a waiter must look again.
+        ring.slots[2].state.store(MAPPED, Ordering::Release);
+        assert!(ring.pending());
+        ring.slots[2].state.store(FAILED, Ordering::Release);
+        assert!(ring.pending());
+        ring.slots[2].state.store(FREE, Ordering::Release);
+        assert!(!ring.pending());
     }
 }
