@@ -44,7 +44,7 @@ pub use options::{
 pub use scene_gpu::SceneGpu;
 pub use values::{
     ComputeRasterStats, ConvexStats, GbufferView, LightingStats, NormalEncoding, Raster,
-    TemporalCulling, Tonemap, MAX_TRIES_LIMIT,
+    TemporalCulling, TiledStats, Tonemap, MAX_TRIES_LIMIT,
 };
 
 /// How a pixel's depth-ordered fragments become a color.
@@ -116,8 +116,12 @@ pub struct FrameStats {
     pub lighting: Option<LightingStats>,
     /// The rasterizer of the storage geometry passes: "hw" or "compute".
     pub raster: String,
-    /// With `--raster compute`: its work items, capacity and overflow.
+    /// With `--raster compute`, or a method with its own compute rasterizer (`tiled`): its
+    /// work items, capacity and overflow.
     pub compute_raster: Option<ComputeRasterStats>,
+    /// `tiled`: its rounds per tile and lists.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub tiled: Option<TiledStats>,
     /// With `--temporal on`: fragments culled before any lock by last frame's interface
     /// (included in `fragments_generated` and `fragments_dropped`).
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
@@ -190,6 +194,10 @@ pub struct MethodStats {
     pub culled_temporal: Option<u64>,
     /// `convex`: the frame's order and its violations.
     pub convex: Option<ConvexStats>,
+    /// A method with its own compute rasterizer (`tiled`): its work items.
+    pub compute_raster: Option<ComputeRasterStats>,
+    /// `tiled`: its rounds per tile and lists.
+    pub tiled: Option<TiledStats>,
 }
 
 /// What a method recorded: known on the CPU when the frame is recorded.

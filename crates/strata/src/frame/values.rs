@@ -44,6 +44,19 @@ pub struct ComputeRasterStats {
     pub bytes_allocated: u64,
 }
 
+/// What `tiled` reports about a frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
+pub struct TiledStats {
+    /// Tiles by the rounds their pass ran: entry r counts the tiles that ran r rounds (0: no
+    /// triangle met the tile), the last entry those that ran that many or more.
+    pub tile_rounds: Vec<u64>,
+    /// The most fragments one pixel had.
+    pub deepest_pixel: u32,
+    /// Bytes of the per-tile lists, their starts and counts.
+    pub list_bytes: u64,
+}
+
 /// `--temporal on` and its settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TemporalCulling {

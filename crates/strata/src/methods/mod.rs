@@ -15,6 +15,7 @@ pub mod convex;
 pub mod kbuffer;
 pub mod peeling;
 pub mod table;
+pub mod tiled;
 pub mod traffic;
 pub mod weighted;
 
@@ -90,6 +91,8 @@ pub enum MethodId {
     Convex,
     /// Bucket depth peeling: each pixel's depth range in buckets, one geometry pass.
     Bucket,
+    /// Exact OIT in compute: each 8×8 tile's fragments sorted inside one workgroup.
+    Tiled,
 }
 
 /// The method table in catalogue order (the order of `strata methods`): each family's folder
@@ -107,6 +110,7 @@ pub static TABLE: &[&Descriptor] = &[
     &kbuffer::descriptor::SBUFFER,
     &kbuffer::descriptor::KPEEL,
     &convex::descriptor::CONVEX,
+    &tiled::descriptor::TILED,
     &kbuffer::descriptor::ABUFFER_FIXED,
     &kbuffer::descriptor::KB_KEYS,
     &kbuffer::descriptor::KB,

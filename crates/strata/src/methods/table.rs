@@ -37,6 +37,8 @@ pub enum Family {
     Kplus,
     /// Convex polyhedra ordering.
     Convex,
+    /// Tiled compute: fragments sorted per screen tile inside a workgroup.
+    Tiled,
 }
 
 impl Family {
@@ -51,6 +53,7 @@ impl Family {
             Family::Kbuffer => "kbuffer",
             Family::Kplus => "kplus",
             Family::Convex => "convex",
+            Family::Tiled => "tiled",
         }
     }
 

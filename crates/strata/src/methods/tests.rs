@@ -11,7 +11,7 @@ use crate::frame::{Effect, RenderOptions};
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference, Failures};
 
-const EXACT_METHODS: [&str; 5] = ["f2b", "dual", "abuffer-ll", "sbuffer", "kpeel"];
+const EXACT_METHODS: [&str; 6] = ["f2b", "dual", "abuffer-ll", "sbuffer", "kpeel", "tiled"];
 const MAX_DIFF: u8 = 2;
 const MAX_FRACTION: f64 = 0.001;
 

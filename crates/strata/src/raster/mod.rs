@@ -70,9 +70,11 @@ use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Library, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 
-/// The rasterizer's WGSL modules (`strata::raster::…`): setup, bin, args and the raster stage.
-pub const LIBRARY: Library = &[SETUP_WGSL, BIN_WGSL, ARGS_WGSL, RASTER_WGSL];
+/// The rasterizer's WGSL modules (`strata::raster::…`): setup, the work items, bin, args and the
+/// raster stage.
+pub const LIBRARY: Library = &[SETUP_WGSL, ITEMS_WGSL, BIN_WGSL, ARGS_WGSL, RASTER_WGSL];
 const SETUP_WGSL: &str = include_str!("setup.wgsl");
+const ITEMS_WGSL: &str = include_str!("items.wgsl");
 const BIN_WGSL: &str = include_str!("bin.wgsl");
 const ARGS_WGSL: &str = include_str!("args.wgsl");
 const RASTER_WGSL: &str = include_str!("raster.wgsl");
@@ -487,6 +489,12 @@ impl ComputeRaster {
                 binding: Some((needed, limit)),
             }),
         }
+    }
+
+    /// This frame's raster bind group (params, items, counters, the scene's vertices), for a
+    /// method's own passes over the items after [`ComputeRaster::capture`] binned them.
+    pub fn frame_group(&self) -> Option<&wgpu::BindGroup> {
+        self.frame.as_ref().map(|f| &f.raster_group)
     }
 
     /// Work items this frame's buffer holds.

@@ -1,5 +1,5 @@
 #define_import_path strata::raster::setup
-#import strata::scene::{frame}
+#import strata::scene::{SceneVarying, frame, triangle_materials}
 
 // Triangle setup of the compute rasterizer, shared by its bin and raster stages. It follows the
 // GPU path and the CPU reference (crates/strata/src/reference/raster.rs): the vertex transform
@@ -187,4 +187,91 @@ fn fan_triangle(polygon: Polygon, j: u32) -> SetupTriangle {
     let positive_w = t.corners[0].inv_w > 0.0 && t.corners[1].inv_w > 0.0 && t.corners[2].inv_w > 0.0;
     t.valid = j + 2u < polygon.count && !wide_zero(t.doubled_area) && positive_w && all(t.min <= t.max);
     return t;
+}
+
+// The edges of a set-up triangle, oriented so that its interior is where all three edge
+// functions are positive. A pixel center exactly on an edge counts only for top edges
+// (horizontal, interior below) and left edges (going up the screen, y down): the others are
+// `strict`.
+struct Edges {
+    origin: array<vec2<i32>, 3>,
+    delta: array<vec2<i32>, 3>,
+    strict: array<bool, 3>,
+}
+
+fn oriented_edges(t: SetupTriangle) -> Edges {
+    var order = array<u32, 3>(0u, 1u, 2u);
+    if wide_negative(t.doubled_area) {
+        order = array<u32, 3>(0u, 2u, 1u);
+    }
+    var corners = t.corners;
+    var e: Edges;
+    for (var i = 0u; i < 3u; i++) {
+        let a = corners[order[i]].snapped;
+        let d = corners[order[(i + 1u) % 3u]].snapped - a;
+        e.origin[i] = a;
+        e.delta[i] = d;
+        e.strict[i] = !(d.y < 0 || (d.y == 0 && d.x > 0));
+    }
+    return e;
+}
+
+// Edge i's function at the subpixel point s: dx·(y − ay) − dy·(x − ax), exact in 64 bits.
+fn edge_value(e: Edges, i: u32, s: vec2<i32>) -> vec2<u32> {
+    var origin = e.origin;
+    var delta = e.delta;
+    let a = origin[i];
+    let d = delta[i];
+    return wide_add(wide_mul(d.x, s.y - a.y), wide_negate(wide_mul(d.y, s.x - a.x)));
+}
+
+// Whether the center of `pixel` is inside `t` (the raster stage's rule, at one pixel).
+fn covers(t: SetupTriangle, pixel: vec2<i32>) -> bool {
+    if !t.valid || any(pixel < t.min) || any(pixel > t.max) {
+        return false;
+    }
+    let e = oriented_edges(t);
+    var strict = e.strict;
+    let center = pixel * 256 + vec2<i32>(HALF_SUBPIXEL);
+    for (var i = 0u; i < 3u; i++) {
+        let value = edge_value(e, i, center);
+        if wide_negative(value) || (strict[i] && wide_zero(value)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// What `vs_scene` passes the fragment stage at the center of `pixel`, inside primitive
+// `prim`'s fan triangle `t`: depth interpolated linearly in the window, world position and
+// normal perspective-correctly, both from the unsnapped window positions.
+fn varying_at(t: SetupTriangle, prim: u32, pixel: vec2<i32>) -> SceneVarying {
+    var corners = t.corners;
+    let w0 = corners[0].window;
+    let e1 = corners[1].window - w0;
+    let e2 = corners[2].window - w0;
+    let area = e1.x * e2.y - e2.x * e1.y;
+    let center = vec2<f32>(f32(pixel.x) + 0.5, f32(pixel.y) + 0.5);
+    let p = center - w0;
+    let l1 = (p.x * e2.y - e2.x * p.y) / area;
+    let l2 = (e1.x * p.y - p.x * e1.y) / area;
+    let l = vec3<f32>(1.0 - l1 - l2, l1, l2);
+    // A centre on a near-clipped edge can interpolate to just below 0 (or to -0.0), which
+    // keys made of a depth's bits (kpeel, MDT, dual, tiled) would sort last; the GPU's path
+    // clamps depth to the viewport's range, and so does this one.
+    let interpolated = dot(l, vec3<f32>(corners[0].z, corners[1].z, corners[2].z));
+    let depth = select(interpolated, 0.0, !(interpolated > 0.0));
+    let pw = l * vec3<f32>(corners[0].inv_w, corners[1].inv_w, corners[2].inv_w);
+    let inv_w = pw.x + pw.y + pw.z;
+    let weights = (corners[0].weights * pw.x + corners[1].weights * pw.y + corners[2].weights * pw.z) / inv_w;
+    let v0 = scene_vertex(prim, 0u);
+    let v1 = scene_vertex(prim, 1u);
+    let v2 = scene_vertex(prim, 2u);
+    var v: SceneVarying;
+    v.position = vec4<f32>(center, depth, inv_w);
+    v.world = v0.position * weights.x + v1.position * weights.y + v2.position * weights.z;
+    v.normal = v0.normal * weights.x + v1.normal * weights.y + v2.normal * weights.z;
+    v.prim = prim;
+    v.material = triangle_materials[prim];
+    return v;
 }

@@ -362,6 +362,7 @@ pub fn render_lists(
         lighting: None,
         raster: "cpu".to_string(),
         compute_raster: None,
+        tiled: None,
         culled_temporal: None,
         order: None,
         kendall_tau: None,

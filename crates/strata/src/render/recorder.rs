@@ -792,6 +792,10 @@ impl FrameRecorder {
             }
             _ => None,
         };
+        // The frame's own rasterizer's memory is the recorder's to add; a method's own
+        // rasterizer (tiled) counts in the method's bytes.
+        let recorder_raster_bytes = compute_raster.as_ref().map_or(0, |r| r.bytes_allocated);
+        let compute_raster = compute_raster.or_else(|| ms.compute_raster.clone());
         let mut auto_k = p.auto_k.map(|mut a| {
             a.achieved_robustness = totals.map(|t| match t.generated {
                 0 => 1.0,
@@ -849,7 +853,7 @@ impl FrameRecorder {
             max_depth_complexity: totals.map(|t| t.max_depth),
             bytes_allocated: Some(
                 p.recorded.bytes_allocated
-                    + compute_raster.as_ref().map_or(0, |r| r.bytes_allocated)
+                    + recorder_raster_bytes
                     + p.order_words.map_or(0, |o| o.1)
                     + self.scene.animation.as_ref().map_or(0, |a| a.bytes()),
             ),
@@ -866,8 +870,14 @@ impl FrameRecorder {
             depth_histogram_clipped: histogram.map(|h| h[h.len() - 1] as u64),
             k_auto: auto_k,
             lighting: self.lit.as_ref().map(LitFrame::stats),
-            raster: self.options.build.raster.name().to_string(),
+            raster: match ms.compute_raster {
+                Some(_) => Raster::Compute,
+                None => self.options.build.raster,
+            }
+            .name()
+            .to_string(),
             compute_raster,
+            tiled: ms.tiled.clone(),
             order: self.options.frame.order.map(|o| o.name().to_string()),
             kendall_tau: match (&words, p.order_words) {
                 (Some(w), Some((start, _))) => Some(crate::order::kendall_tau(

@@ -1,0 +1,26 @@
+//! `tiled`'s entry in the method table.
+
+use crate::methods::table::{Descriptor, Family, Setup, Support};
+use crate::methods::{Method, MethodId};
+
+fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
+    let Setup {
+        gpu,
+        scene,
+        options,
+    } = *made;
+    Ok(Box::new(super::Tiled::new(gpu, scene, options)?))
+}
+
+/// `tiled`.
+pub const TILED: Descriptor = Descriptor {
+    exact: true,
+    geometry_passes: "1 (binning), then ⌈f/16⌉ rounds over a tile's list for a tile whose deepest pixel has f fragments",
+    memory: "12·I + 8·⌈W/8⌉·⌈H/8⌉ + 132; I (triangle, 8×8 tile) items, sized from the last frame's need",
+    summary: "exact OIT in compute: triangles binned into 8×8 tiles, each tile's pixels sorted and composited inside one workgroup in rounds of 16 nearest fragments; no per-pixel atomics or locks, deterministic",
+    compute_raster: Support::Yes,
+    msaa: Support::No("it samples pixel centers in compute, as the compute rasterizer does"),
+    // Its fragments are ordered by (depth, primitive) inside each tile, whatever the list order.
+    takes_order: false,
+    ..Descriptor::new(MethodId::Tiled, "tiled", Family::Tiled, create)
+};

@@ -1,0 +1,72 @@
+#define_import_path strata::tiled::sort
+#import strata::raster::items::{item_at, item_thread, items_written, rp}
+#import strata::tiled::lists::{tile_codes, tile_counts, tile_of, tile_starts, tp}
+
+// Sorts the rasterizer's work items into one list per tile: a count per tile, an exclusive
+// prefix sum over the tiles, a scatter. The order inside a list is the scatter's arrival order;
+// nothing depends on it, as the tile pass orders each pixel's fragments by (depth, primitive).
+
+@compute @workgroup_size(64)
+fn cs_count(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let index = item_thread(id, groups);
+    if index >= items_written() {
+        return;
+    }
+    let item = item_at(index);
+    let tile = tile_of(item.tile);
+    if tile < tp.tiles && item.prim < rp.triangles {
+        atomicAdd(&tile_counts[tile], 1u);
+    }
+}
+
+const SCAN_THREADS: u32 = 256u;
+var<workgroup> partial: array<u32, SCAN_THREADS>;
+
+// One workgroup: each thread sums a run of consecutive tiles, the runs' sums are scanned in
+// workgroup memory, and each thread writes its run's starts and zeroes its counts.
+@compute @workgroup_size(256)
+fn cs_scan(@builtin(local_invocation_index) lid: u32) {
+    let run = (tp.tiles + SCAN_THREADS - 1u) / SCAN_THREADS;
+    let first = lid * run;
+    let last = min(first + run, tp.tiles);
+    var sum = 0u;
+    for (var t = first; t < last; t++) {
+        sum += atomicLoad(&tile_counts[t]);
+    }
+    partial[lid] = sum;
+    workgroupBarrier();
+    for (var step = 1u; step < SCAN_THREADS; step <<= 1u) {
+        var before = 0u;
+        if lid >= step {
+            before = partial[lid - step];
+        }
+        workgroupBarrier();
+        partial[lid] += before;
+        workgroupBarrier();
+    }
+    var at = partial[lid] - sum;
+    for (var t = first; t < last; t++) {
+        let count = atomicLoad(&tile_counts[t]);
+        tile_starts[t] = at;
+        at += count;
+        atomicStore(&tile_counts[t], 0u);
+    }
+}
+
+@compute @workgroup_size(64)
+fn cs_scatter(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let index = item_thread(id, groups);
+    if index >= items_written() {
+        return;
+    }
+    let item = item_at(index);
+    let tile = tile_of(item.tile);
+    if tile >= tp.tiles || item.prim >= rp.triangles {
+        return;
+    }
+    // The count pass saw this item, so the tile's list has room for it.
+    let slot = tile_starts[tile] + atomicAdd(&tile_counts[tile], 1u);
+    if slot < tp.capacity {
+        tile_codes[slot] = (item.prim << 3u) | item.fan;
+    }
+}

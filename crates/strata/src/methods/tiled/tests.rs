@@ -1,0 +1,170 @@
+use super::*;
+use crate::frame::{Effect, Raster};
+use crate::methods::tests::options;
+use crate::methods::MethodId;
+use crate::scene::{loaders, Scene};
+use crate::testing::{assert_close, gpu, render_gpu, render_reference};
+
+const MAX_DIFF: u8 = 2;
+const MAX_FRACTION: f64 = 0.001;
+
+fn scene(spec: &str) -> Scene {
+    loaders::load_scene(spec).unwrap()
+}
+
+fn frames(
+    scene: &Scene,
+    opts: &crate::frame::RenderOptions,
+    n: usize,
+) -> Vec<crate::render::recorder::FrameReport> {
+    let mut rec = crate::FrameRecorder::new(gpu(), scene, MethodId::Tiled, opts).unwrap();
+    (0..n)
+        .map(|_| {
+            let mut encoder = gpu().device.create_command_encoder(&Default::default());
+            rec.record(&mut encoder, &Default::default(), None).unwrap();
+            gpu().queue.submit([encoder.finish()]);
+            rec.wait_stats().unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn stages_validate() {
+    crate::gpu::shader::validate(&sort_stage());
+    crate::gpu::shader::validate(&tile_stage());
+}
+
+#[test]
+fn params_layout_matches_wgsl() {
+    assert_eq!(std::mem::size_of::<TiledParams>(), 16);
+    assert!(TILE_WGSL.contains(&format!("const KEEP: u32 = {KEEP}u;")));
+    assert!(LISTS_WGSL.contains(&format!("const COUNTER_WORDS: u32 = {COUNTER_WORDS}u;")));
+    assert!(LISTS_WGSL.contains(&format!("const ROUND_BINS: u32 = {ROUND_BINS}u;")));
+    assert!(LISTS_WGSL.contains(&format!("const COUNTER_DEEPEST: u32 = {COUNTER_DEEPEST}u;")));
+}
+
+/// The same coverage, depths and order as the exact methods on the compute rasterizer: the
+/// picture equals abuffer-ll's there, bit for bit, on every effect.
+#[test]
+fn equals_abuffer_ll_on_the_compute_rasterizer_bit_for_bit() {
+    let s = scene("builtin:nvpro?objects=96&subdiv=12&seed=2");
+    for effect in [
+        Effect::Transparency,
+        Effect::Translucency,
+        Effect::Complexity,
+    ] {
+        let opts = options(72, effect);
+        let mut compute = opts.clone();
+        compute.build.raster = Raster::Compute;
+        let (tiled, stats) = render_gpu(&s, &opts, "tiled");
+        let (lists, _) = render_gpu(&s, &compute, "abuffer-ll");
+        assert!(
+            tiled == lists,
+            "{}: tiled differs from abuffer-ll --raster compute",
+            effect.name()
+        );
+        assert_eq!(stats.raster, "compute");
+        assert_eq!(stats.exact, Some(true));
+    }
+}
+
+/// Pixels deeper than a round's 16 fragments take more rounds and stay exact, with layers in
+/// random order and four coincident faces (told apart by their primitive, none lost).
+#[test]
+fn deep_pixels_take_more_rounds_and_stay_exact() {
+    let mut s = scene("builtin:layers?n=40&coverage=0.9&order=random&seed=4");
+    for i in 1..4 {
+        s.objects[i].mesh.positions = s.objects[0].mesh.positions.clone();
+    }
+    for effect in [Effect::Transparency, Effect::Complexity] {
+        let opts = options(48, effect);
+        let (actual, stats) = render_gpu(&s, &opts, "tiled");
+        let expected = render_reference(&s, &opts);
+        assert_close(
+            &format!("tiled-deep-{}", effect.name()),
+            &actual,
+            &expected,
+            effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        assert_eq!(stats.fragments_dropped, Some(0));
+        assert_eq!(stats.max_depth_complexity, Some(40));
+        let tiled = stats.tiled.unwrap();
+        assert_eq!(tiled.deepest_pixel, 40);
+        // 40 fragments: rounds of 16, 16 and 8.
+        assert_eq!(tiled.tile_rounds.len(), 4, "{:?}", tiled.tile_rounds);
+        assert!(tiled.tile_rounds[3] > 0, "{:?}", tiled.tile_rounds);
+        let tiles: u64 = tiled.tile_rounds.iter().sum();
+        assert_eq!(tiles, 36, "6×6 tiles of 48×48 pixels");
+    }
+}
+
+/// The determinism check: 20 renders of nvpro, byte for byte the same.
+#[test]
+fn twenty_renders_are_identical() {
+    let s = scene("builtin:nvpro?objects=96&subdiv=12&seed=7");
+    let opts = options(64, Effect::Translucency);
+    let first = render_gpu(&s, &opts, "tiled").0;
+    for run in 1..20 {
+        assert!(
+            render_gpu(&s, &opts, "tiled").0 == first,
+            "run {run} differs"
+        );
+    }
+}
+
+/// Too few work items for the first frame: it reports the overflow and is incomplete, the items
+/// grow, and the next frame is whole.
+#[test]
+fn an_item_overflow_is_reported_and_grown_out_of() {
+    let s = scene("builtin:layers?n=24&coverage=1");
+    let reports = frames(&s, &options(64, Effect::Transparency), 2);
+    let raster = reports[0].stats.compute_raster.clone().unwrap();
+    assert!(raster.overflow && reports[0].incomplete, "{raster:?}");
+    assert_eq!(reports[0].stats.overflow, Some(true));
+    let raster = reports[1].stats.compute_raster.clone().unwrap();
+    assert!(!raster.overflow && !reports[1].incomplete, "{raster:?}");
+    assert_eq!(reports[1].stats.fragments_generated, Some(24 * 64 * 64));
+    assert_eq!(reports[1].stats.exact, Some(true));
+    let bytes = reports[1].stats.bytes_allocated.unwrap();
+    let tiled = reports[1].stats.tiled.clone().unwrap();
+    assert_eq!(
+        bytes,
+        raster.bytes_allocated + tiled.list_bytes + COUNTER_WORDS * 4 + 16,
+        "the catalogue's formula"
+    );
+}
+
+/// Its buffers and the rasterizer's poisoned before a frame change nothing.
+#[test]
+fn poisoned_buffers_change_nothing() {
+    let s = scene("builtin:nvpro?objects=32&subdiv=10&seed=2");
+    let opts = options(40, Effect::Transparency);
+    let mut r = crate::Renderer::new(gpu(), &s, &opts).unwrap();
+    let (clean, a) = r.render_method(MethodId::Tiled, None).unwrap();
+    r.recorder().unwrap().poison();
+    let (poisoned, b) = r.render_method(MethodId::Tiled, None).unwrap();
+    assert!(clean == poisoned, "poisoned memory changed the picture");
+    assert_eq!(a.fragments_generated, b.fragments_generated);
+}
+
+/// Sizes that are not multiples of a tile, and a camera inside the scene (near clipping).
+#[test]
+fn partial_tiles_and_near_clipping_match_the_reference() {
+    let s = scene("builtin:nvpro?objects=64&subdiv=10&seed=3");
+    for (w, h) in [(37, 21), (9, 50)] {
+        let mut opts = options(w, Effect::Transparency);
+        opts.frame.height = h;
+        let (actual, _) = render_gpu(&s, &opts, "tiled");
+        let expected = render_reference(&s, &opts);
+        assert_close(
+            &format!("tiled-{w}x{h}"),
+            &actual,
+            &expected,
+            opts.frame.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+    }
+}
