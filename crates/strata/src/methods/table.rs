@@ -183,6 +183,10 @@ pub struct Descriptor {
     /// single-pass capture.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub app_capture: Option<&'static str>,
+    /// Whether it takes an application's draw callback (it draws what the application issues),
+    /// and if not, why: it draws the scene's triangles itself.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub draw_callback: Support,
     /// It sorts the scene's triangles by centroid each frame: the recorder refreshes the
     /// centroids (of an animated scene) before it records.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -230,6 +234,7 @@ impl Descriptor {
             temporal: false,
             ordering: Ordering::Relaxed,
             app_capture: None,
+            draw_callback: Support::Yes,
             sorts_centroids: false,
             takes_order: true,
             reads: &[],
@@ -274,6 +279,17 @@ impl Descriptor {
                 )))
             }
             _ => Ok(()),
+        }
+    }
+
+    /// Refuses an application's draw callback where the method draws the scene itself.
+    pub fn check_draw_callback(&self) -> Result<()> {
+        match self.draw_callback {
+            Support::No(why) => Err(Error::unsupported(format!(
+                "{} cannot take an application's draw callback: {why}; use an order-independent method",
+                self.name
+            ))),
+            Support::Yes => Ok(()),
         }
     }
 

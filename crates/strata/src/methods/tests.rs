@@ -616,7 +616,11 @@ fn draw_callback_issues_the_geometry() {
     let opts = options(24, Effect::Transparency);
     let expected = render_reference(&half, &opts);
     let vertices = half.triangle_count() as u32 * 3;
-    for method in EXACT_METHODS {
+    let drawing = EXACT_METHODS.iter().filter(|m| {
+        let id: super::MethodId = m.parse().unwrap();
+        id.descriptor().draw_callback.yes()
+    });
+    for method in drawing {
         let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
         let (actual, _) = r
             .render_with(method, &|pass| pass.draw(0..vertices, 0..1))
@@ -775,10 +779,8 @@ fn a_second_frame_keeps_nothing_of_the_first() {
     let total = full.triangle_count() as u32 * 3;
     let draw_near = move |pass: &mut wgpu::RenderPass<'_>| pass.draw(0..split, 0..1);
     let draw_far = move |pass: &mut wgpu::RenderPass<'_>| pass.draw(split..total, 0..1);
-    // `sorted` and `convex` draw every triangle themselves and refuse a callback (tested below).
-    for m in frame_test_methods()
-        .filter(|&m| !matches!(m, super::MethodId::Sorted | super::MethodId::Convex))
-    {
+    // Methods that draw every triangle themselves refuse a callback (tested below).
+    for m in frame_test_methods().filter(|&m| m.descriptor().draw_callback.yes()) {
         let mut opts = options(24, Effect::Transparency);
         // bucket's k is even (two per bucket).
         opts.frame.k = Some(if m == super::MethodId::Bucket { 4 } else { 3 });
@@ -798,12 +800,23 @@ fn a_second_frame_keeps_nothing_of_the_first() {
     }
 }
 
-/// `sorted` and `convex` draw the scene's triangles through their own index buffers, so an
-/// application's draw callback would be ignored: it is refused instead.
+/// `sorted` and `convex` draw the scene's triangles through their own index buffers, `tiled`
+/// rasterizes them itself: an application's draw callback would be ignored, so it is refused.
 #[test]
-fn sorted_refuses_a_draw_callback() {
+fn methods_drawing_the_scene_themselves_refuse_a_draw_callback() {
     let s = scene("builtin:layers?n=4");
-    for method in ["sorted", "convex"] {
+    let refusing: Vec<_> = super::MethodId::gpu_methods()
+        .filter(|m| !m.descriptor().draw_callback.yes())
+        .collect();
+    assert_eq!(
+        refusing,
+        [
+            super::MethodId::Sorted,
+            super::MethodId::Convex,
+            super::MethodId::Tiled
+        ]
+    );
+    for method in refusing.iter().map(|m| m.as_str()) {
         let mut r = crate::Renderer::new(
             crate::testing::gpu(),
             &s,

@@ -381,6 +381,9 @@ impl FrameRecorder {
             (Some(lit), None) => Some(lit.depth().create_view(&Default::default())),
             (None, _) => None,
         };
+        if draw.is_some() {
+            self.method.descriptor().check_draw_callback()?;
+        }
         if let Some(raster) = &mut self.raster {
             if draw.is_some() {
                 return Err(Error::unsupported(

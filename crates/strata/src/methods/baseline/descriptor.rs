@@ -1,6 +1,6 @@
 //! The baselines' entries in the method table.
 
-use crate::methods::table::{Descriptor, Family, Setup};
+use crate::methods::table::{Descriptor, Family, Setup, Support};
 use crate::methods::{Method, MethodId};
 
 fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
@@ -26,5 +26,6 @@ pub const SORTED: Descriptor = Descriptor {
     // Its own order: triangle centroids, sorted each frame.
     takes_order: false,
     sorts_centroids: true,
+    draw_callback: Support::No("it orders every triangle of the scene itself"),
     ..Descriptor::new(MethodId::Sorted, "sorted", Family::Baseline, create)
 };

@@ -125,11 +125,6 @@ impl Method for Blend {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let (w, h) = (ctx.options.frame.width, ctx.options.frame.height);
-        if self.sort && ctx.draw.is_some() {
-            return Err(Error::unsupported(
-                "sorted orders every triangle of the scene itself and cannot take an application's draw callback; use an order-independent method",
-            ));
-        }
         if let (true, Some(order)) = (self.sort, ctx.options.frame.order) {
             return Err(Error::unsupported(format!(
                 "sorted submits triangles back to front itself; --order {} applies to the other methods",

@@ -20,6 +20,9 @@ pub const CONVEX: Descriptor = Descriptor {
     memory: "(16·L + 44)·W·H + 12·triangles + 64; L = 2, or 4 with paired groups",
     summary: "convex polyhedra (seed 001): convex parts by region growing, ordered per frame by separating planes and nesting; each pass captures groups that cannot share a pixel (2 layers per part) and merges them front to back; exact when the order holds, order_violations counted",
     reads: &[MethodOption::CacheDir],
+    draw_callback: Support::No(
+        "it draws its own groups pass by pass in visibility order",
+    ),
     traffic: TrafficModel::Convex,
     compute_raster: Support::No(
         "it draws each pass's groups through their own index ranges, in an order made per frame",

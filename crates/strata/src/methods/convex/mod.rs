@@ -401,11 +401,6 @@ impl Convex {
 
 impl Method for Convex {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        if ctx.draw.is_some() {
-            return Err(Error::unsupported(
-                "convex draws its own groups pass by pass in visibility order and cannot take an application's draw callback; use an order-independent method",
-            ));
-        }
         if let Some(order) = ctx.options.frame.order {
             return Err(Error::unsupported(format!(
                 "convex submits its groups in visibility order itself; --order {} applies to the other methods",

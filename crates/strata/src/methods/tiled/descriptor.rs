@@ -19,6 +19,7 @@ pub const TILED: Descriptor = Descriptor {
     memory: "12·I + 8·⌈W/8⌉·⌈H/8⌉ + 132; I (triangle, 8×8 tile) items, sized from the last frame's need",
     summary: "exact OIT in compute: triangles binned into 8×8 tiles, each tile's pixels sorted and composited inside one workgroup in rounds of 16 nearest fragments; no per-pixel atomics or locks, deterministic",
     compute_raster: Support::Yes,
+    draw_callback: Support::No("it rasterizes the scene's triangles itself, in compute"),
     msaa: Support::No("it samples pixel centers in compute, as the compute rasterizer does"),
     // Its fragments are ordered by (depth, primitive) inside each tile, whatever the list order.
     takes_order: false,

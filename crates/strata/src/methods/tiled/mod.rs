@@ -155,11 +155,6 @@ fn list_bytes(capacity: u64, tiles: u64) -> u64 {
 
 impl Method for Tiled {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        if ctx.draw.is_some() {
-            return Err(Error::unsupported(
-                "tiled rasterizes the scene's triangles itself in compute and cannot take an application's draw callback; use a method with an application capture",
-            ));
-        }
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let (tiles_x, tiles_y) = (w.div_ceil(TILE), h.div_ceil(TILE));
