@@ -20,6 +20,8 @@ pub struct Run {
     pub(crate) moments: u32,
     /// bucket's split of the depth range.
     pub(crate) buckets: strata::BucketSplit,
+    /// The rasterizer of the storage geometry passes (`--raster`).
+    pub(crate) raster: strata::frame::Raster,
 }
 
 impl Run {
@@ -34,6 +36,16 @@ impl Run {
             msaa: 1,
             moments: 4,
             buckets: strata::BucketSplit::Uniform,
+            raster: strata::frame::Raster::Hw,
+        }
+    }
+
+    /// `self` on the compute rasterizer (`--raster compute`).
+    pub(crate) fn on_compute(self) -> Run {
+        Run {
+            label: format!("{} raster=compute", self.label),
+            raster: strata::frame::Raster::Compute,
+            ..self
         }
     }
 

@@ -255,6 +255,32 @@ const EXPERIMENTS: &[Experiment] = &[
         quality: false,
     },
     Experiment {
+        name: "tiled",
+        description: "issue 42: tiled (exact, in compute, 8×8 tiles sorted inside a workgroup) against abuffer-ll and kb-ab-ll k=16 on both rasterizers, kb-mdt-pack k=16, f2b and dual, on the dragon, nvpro and the layered-spheres stack (opacity 0.5): GPU ms, bytes, fragments",
+        scenes: &[
+            "builtin:dragon",
+            "builtin:nvpro?objects=1024&subdiv=16&seed=0",
+            "builtin:spheres?layers=12",
+        ],
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(192, 192),
+        alpha: Some(0.5),
+        frames: 5,
+        runs: || {
+            vec![
+                Run::plain("tiled"),
+                Run::plain("abuffer-ll"),
+                Run::plain("abuffer-ll").on_compute(),
+                Run::with_k("kb-ab-ll", 16, true),
+                Run::with_k("kb-ab-ll", 16, true).on_compute(),
+                Run::with_k("kb-mdt-pack", 16, true),
+                Run::plain("f2b"),
+                Run::plain("dual"),
+            ]
+        },
+        quality: false,
+    },
+    Experiment {
         name: "foundation",
         description: "exact baselines on the dragon (opacity 0.5): f2b, dual, abuffer-ll, sorted and the CPU reference",
         scenes: &["builtin:dragon"],
@@ -603,6 +629,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             options.frame.weighted.weight = run.weight;
             options.frame.weighted.depth_scale = run.depth_scale;
             options.build.msaa = run.msaa;
+            options.build.raster = run.raster;
             options.frame.weighted.moments = run.moments;
             options.frame.peeling.buckets = run.buckets;
             match measure(gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r) {

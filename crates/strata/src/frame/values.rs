@@ -48,12 +48,18 @@ pub struct ComputeRasterStats {
 #[derive(Clone, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct TiledStats {
-    /// Tiles by the rounds their pass ran: entry r counts the tiles that ran r rounds (0: no
-    /// triangle met the tile), the last entry those that ran that many or more.
+    /// Rounds of the tile pass the frame recorded (from the last frame's deepest pixel).
+    pub rounds: u32,
+    /// Tiles by the rounds they ran: entry r counts the tiles that ran r rounds (0: no triangle
+    /// met the tile), the last entry those that ran that many or more.
     pub tile_rounds: Vec<u64>,
     /// The most fragments one pixel had.
     pub deepest_pixel: u32,
-    /// Bytes of the per-tile lists, their starts and counts.
+    /// Pixels with fragments left after the last round (the frame is incomplete).
+    pub unfinished_pixels: u64,
+    /// The longest tile list (items).
+    pub longest_list: u32,
+    /// Bytes of the per-tile lists, their starts, counts and rounds, and the pixels' state.
     pub list_bytes: u64,
 }
 

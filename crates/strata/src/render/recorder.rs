@@ -842,6 +842,7 @@ impl FrameRecorder {
             geometry_passes: Some(p.recorded.geometry_passes),
             exact: Some(frame_exact(
                 p.method,
+                p.recorded.k,
                 totals.map_or(0, |t| t.dropped),
                 &ms,
                 compute_raster.as_ref().is_some_and(|r| r.overflow),
@@ -903,10 +904,17 @@ impl FrameRecorder {
 
 /// Whether a frame of `method` kept to the method's exactness (see `FrameStats::exact`), given
 /// the fragments it dropped and what the method read back.
-fn frame_exact(method: MethodId, dropped: u64, ms: &MethodStats, raster_overflow: bool) -> bool {
+fn frame_exact(
+    method: MethodId,
+    k: Option<u32>,
+    dropped: u64,
+    ms: &MethodStats,
+    raster_overflow: bool,
+) -> bool {
     let d = method.descriptor();
-    // Fragments beyond the k or the layers asked for are dropped by design.
-    let drops_by_design = d.reads(MethodOption::K) || d.reads(MethodOption::Layers);
+    // Fragments beyond the k the frame ran with, or the layers asked for, are dropped by design.
+    let drops_by_design =
+        (d.reads(MethodOption::K) && k.is_some()) || d.reads(MethodOption::Layers);
     d.exact
         && (dropped == 0 || drops_by_design)
         && ms.lock_failures.unwrap_or(0) == 0

@@ -1,6 +1,6 @@
 //! `tiled`'s entry in the method table.
 
-use crate::methods::table::{Descriptor, Family, Setup, Support};
+use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 use crate::methods::{Method, MethodId};
 
 fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
@@ -15,12 +15,13 @@ fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>
 /// `tiled`.
 pub const TILED: Descriptor = Descriptor {
     exact: true,
-    geometry_passes: "1 (binning), then ⌈f/16⌉ rounds over a tile's list for a tile whose deepest pixel has f fragments",
-    memory: "12·I + 8·⌈W/8⌉·⌈H/8⌉ + 132; I (triangle, 8×8 tile) items, sized from the last frame's need",
+    geometry_passes: "1 (binning), then R = ⌈N/16⌉ rounds over the tile lists (N: the last frame's depth complexity), each run only by tiles with fragments left",
+    memory: "12·I + 12·⌈W/8⌉·⌈H/8⌉ + 36·W·H + 164; I (triangle, 8×8 tile) items, sized from the last frame's need",
     summary: "exact OIT in compute: triangles binned into 8×8 tiles, each tile's pixels sorted and composited inside one workgroup in rounds of 16 nearest fragments; no per-pixel atomics or locks, deterministic",
     compute_raster: Support::Yes,
     draw_callback: Support::No("it rasterizes the scene's triangles itself, in compute"),
     msaa: Support::No("it samples pixel centers in compute, as the compute rasterizer does"),
+    reads: &[MethodOption::K],
     // Its fragments are ordered by (depth, primitive) inside each tile, whatever the list order.
     takes_order: false,
     ..Descriptor::new(MethodId::Tiled, "tiled", Family::Tiled, create)

@@ -1,8 +1,10 @@
 #define_import_path strata::tiled::lists
 #import strata::color::{Resolved}
+#import strata::composite::{Composite, composite_new}
 
 // tiled's bindings (group 1): each 8×8-pixel tile's list of (primitive, fan triangle) codes,
-// the counters the frame reads back, and the resolved output.
+// each pixel's compositing state between rounds, the counters the frame reads back, and the
+// resolved output.
 
 // Keep in sync with `TiledParams` in crates/strata/src/methods/tiled/mod.rs.
 struct TiledParams {
@@ -10,7 +12,13 @@ struct TiledParams {
     tiles: u32,
     // Codes the list buffer holds (the rasterizer's item capacity).
     capacity: u32,
-    _pad: u32,
+    // Fragments a pixel composites at most (--k); 0: all of them.
+    k: u32,
+    // Rounds recorded this frame.
+    rounds: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 @group(1) @binding(0) var<uniform> tp: TiledParams;
@@ -25,14 +33,75 @@ struct TiledParams {
 @group(1) @binding(4) var<storage, read_write> tiled_counters: array<atomic<u32>>;
 // Each pixel's result.
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
+// Each pixel's compositing state, STATE_WORDS words; all zero (progress FRESH) before the
+// first round.
+@group(1) @binding(6) var<storage, read_write> pixel_state: array<u32>;
+// Rounds each tile ran.
+@group(1) @binding(7) var<storage, read_write> tile_rounds: array<u32>;
 
-// Tiles by the rounds their tile pass ran: bin r for r rounds, the last bin for ROUND_BINS − 1
-// or more (a tile without items runs none).
+// Tiles by the rounds they ran: bin r for r rounds, the last bin for ROUND_BINS − 1 or more.
 const COUNTER_ROUNDS: u32 = 0u;
 const ROUND_BINS: u32 = 16u;
 // The most fragments one pixel had.
 const COUNTER_DEEPEST: u32 = 16u;
-const COUNTER_WORDS: u32 = 17u;
+// Pixels with fragments left behind their last round.
+const COUNTER_UNFINISHED: u32 = 17u;
+// The longest tile list.
+const COUNTER_LONGEST_LIST: u32 = 18u;
+// Pixel rounds whose walk of the list ended early (a loop cut short by the adapter).
+const COUNTER_CUT_SHORT: u32 = 19u;
+// The rounds the frame recorded.
+const COUNTER_ROUNDS_RECORDED: u32 = 20u;
+const COUNTER_WORDS: u32 = 21u;
+
+// A pixel's state: the front-to-back composite so far (color, transmittance, count, the
+// last fragment's depth, tag and view distance: the bound of the next round) and its progress.
+const STATE_WORDS: u32 = 9u;
+// Progress: no round yet, done, or 2 + the fragments left behind the last one composited.
+const PROGRESS_FRESH: u32 = 0u;
+const PROGRESS_DONE: u32 = 1u;
+const PROGRESS_LEFT: u32 = 2u;
+
+struct PixelState {
+    s: Composite,
+    progress: u32,
+}
+
+fn load_state(p: u32) -> PixelState {
+    let w = p * STATE_WORDS;
+    let progress = pixel_state[w + 8u];
+    if progress == PROGRESS_FRESH {
+        return PixelState(composite_new(), progress);
+    }
+    let s = Composite(
+        vec3<f32>(bitcast<f32>(pixel_state[w]), bitcast<f32>(pixel_state[w + 1u]), bitcast<f32>(pixel_state[w + 2u])),
+        bitcast<f32>(pixel_state[w + 3u]),
+        pixel_state[w + 4u],
+        bitcast<f32>(pixel_state[w + 5u]),
+        pixel_state[w + 6u],
+        bitcast<f32>(pixel_state[w + 7u]),
+    );
+    return PixelState(s, progress);
+}
+
+fn store_state(p: u32, state: PixelState) {
+    let w = p * STATE_WORDS;
+    let s = state.s;
+    pixel_state[w] = bitcast<u32>(s.color.r);
+    pixel_state[w + 1u] = bitcast<u32>(s.color.g);
+    pixel_state[w + 2u] = bitcast<u32>(s.color.b);
+    pixel_state[w + 3u] = bitcast<u32>(s.transmittance);
+    pixel_state[w + 4u] = s.count;
+    pixel_state[w + 5u] = bitcast<u32>(s.last_depth);
+    pixel_state[w + 6u] = s.last_tag;
+    pixel_state[w + 7u] = bitcast<u32>(s.last_distance);
+    pixel_state[w + 8u] = state.progress;
+}
+
+// Fragments left behind the last one composited.
+fn fragments_left(progress: u32) -> u32 {
+    return select(0u, progress - PROGRESS_LEFT, progress >= PROGRESS_LEFT);
+}
 
 fn tile_of(tile: vec2<i32>) -> u32 {
     return u32(tile.y) * tp.tiles_x + u32(tile.x);

@@ -9,25 +9,28 @@
 //! - **count**, **scan**, **scatter**: the items are counted per tile, the counts scanned (one
 //!   workgroup) into list starts, and each item's (primitive, fan triangle) code is scattered
 //!   into its tile's list.
-//! - **tile** (one workgroup of 64 threads per tile, a thread per pixel): the tile's list is
+//! - **round** × R (one workgroup of 64 threads per tile, a thread per pixel): the tile's list is
 //!   walked in chunks of 64 triangles, set up once per chunk in workgroup memory; each thread
-//!   keeps its pixel's 16 nearest fragments behind a bound in registers, sorted by (depth,
-//!   primitive), and composites them front to back at the end of the round. A pixel with more
-//!   sets its bound to the last fragment it composited and the tile walks its list again, so
-//!   only deep tiles pay more rounds (⌈f/16⌉ for a tile whose deepest pixel has f fragments),
-//!   nothing is lost at equal depths, and the result is exact at any depth complexity. The
-//!   resolved pixel is written directly. Coverage, depth and attributes are the compute
-//!   rasterizer's (`strata::raster::setup`), so its pictures equal the other compute-rasterized
-//!   exact methods' bit for bit.
+//!   keeps its pixel's 16 nearest fragments behind its bound (the last fragment it composited)
+//!   in registers, sorted by (depth, primitive), and composites them front to back onto its
+//!   state. Tiles whose pixels have nothing left skip the round. R is the last frame's deepest
+//!   pixel's ⌈f/16⌉ (2 for a first frame); pixels with fragments left after R rounds make the
+//!   frame incomplete (counted as dropped; exact mode renders again with enough rounds).
+//! - **finish**: each pixel's result from its state, the frame's totals and the rounds per tile.
 //!
-//! Deterministic: a pixel's fragments are composited in (depth, primitive) order whatever the
-//! order the scatter filled a list in, so a frame gives the same bytes every run.
+//! Coverage, depth and attributes are the compute rasterizer's (`strata::raster::setup`), so its
+//! pictures equal the other compute-rasterized exact methods' bit for bit. Deterministic: a
+//! pixel's fragments are composited in (depth, primitive) order whatever order the scatter filled
+//! a list in, so a frame gives the same bytes every run. `--k N` composites each pixel's N
+//! nearest and counts the rest as dropped.
 //!
 //! Memory: the rasterizer's 8 bytes per item and 48 of constants, 4 bytes per item for the tile
-//! lists, 8 per tile (count, start), 68 of counters and 16 of parameters. Limits: triangles
-//! < 2²⁹ (a list code holds the primitive and 3 bits of fan triangle); `--msaa`, temporal culling,
-//! `--order` and an application's draw callback are not supported (it reads the scene's
-//! triangles itself).
+//! lists, 12 per tile (count, start, rounds), 36 per pixel (state), 84 of counters and 32 of
+//! parameters. Limits: triangles < 2²⁹ (a list code holds the primitive and 3 bits of fan
+//! triangle); `--msaa`, temporal culling, `--order` and an application's draw callback are not
+//! supported (it reads the scene's triangles itself). On lavapipe, whose invocations stop
+//! looping after 65535 iterations in all, a round can walk a list of a few thousand chunks of
+//! triangles at most; a walk cut short is counted and the frame refused with the reason.
 
 pub mod descriptor;
 
@@ -52,12 +55,20 @@ const TILE_WGSL: &str = include_str!("tile.wgsl");
 pub const KEEP: u32 = 16;
 /// Bytes of one list code.
 pub const CODE_BYTES: u64 = 4;
-/// Bytes per tile: its item count and its list's start.
-pub const TILE_BYTES: u64 = 8;
-/// Counter words (COUNTER_ in lists.wgsl): tiles by rounds, then the deepest pixel.
-pub const COUNTER_WORDS: u64 = 17;
+/// Bytes per tile: its item count, its list's start and its rounds.
+pub const TILE_BYTES: u64 = 12;
+/// Bytes per pixel of compositing state between rounds (STATE_WORDS in lists.wgsl).
+pub const STATE_BYTES: u64 = 36;
+/// Counter words (COUNTER_ in lists.wgsl).
+pub const COUNTER_WORDS: u64 = 21;
 const ROUND_BINS: usize = 16;
 const COUNTER_DEEPEST: usize = 16;
+const COUNTER_UNFINISHED: usize = 17;
+const COUNTER_LONGEST_LIST: usize = 18;
+const COUNTER_CUT_SHORT: usize = 19;
+const COUNTER_ROUNDS_RECORDED: usize = 20;
+/// Rounds of a first frame, before any depth complexity was measured.
+pub const FIRST_ROUNDS: u32 = 2;
 /// The most triangles a list code can name.
 pub const MAX_TRIANGLES: u32 = 1 << 29;
 
@@ -71,8 +82,12 @@ pub struct TiledParams {
     pub tiles: u32,
     /// Codes the list buffer holds.
     pub capacity: u32,
-    /// Padding to 16 bytes.
-    pub _pad: u32,
+    /// Fragments a pixel composites at most (`--k`); 0: all.
+    pub k: u32,
+    /// Rounds recorded this frame.
+    pub rounds: u32,
+    /// Padding to 32 bytes.
+    pub _pad: [u32; 3],
 }
 
 /// The stages, with the rasterizer's bindings in group 2 (after the frame's and tiled's).
@@ -83,12 +98,17 @@ pub fn stage(label: &str, source: &'static str) -> Stage {
         .defs(&Defs::default().value("RASTER_GROUP", 2))
 }
 
+/// Rounds that composite `fragments` per pixel (at least one).
+pub fn rounds_for(fragments: u32) -> u32 {
+    fragments.div_ceil(KEEP).max(1)
+}
+
 /// The list sort's stage (entries `cs_count`, `cs_scan`, `cs_scatter`).
 pub fn sort_stage() -> Stage {
     stage("strata.tiled.sort", SORT_WGSL)
 }
 
-/// The tile pass's stage (entry `cs_tile`).
+/// The tile pass's stage (entries `cs_round`, `cs_finish`).
 pub fn tile_stage() -> Stage {
     stage("strata.tiled.tile", TILE_WGSL)
 }
@@ -101,8 +121,11 @@ pub struct Tiled {
     count: wgpu::ComputePipeline,
     scan: wgpu::ComputePipeline,
     scatter: wgpu::ComputePipeline,
-    tile: wgpu::ComputePipeline,
+    round: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
     cache: ResourceCache,
+    /// Rounds the next frame records: from the last frame's deepest pixel.
+    rounds: u32,
 }
 
 impl Tiled {
@@ -128,6 +151,8 @@ impl Tiled {
                 Slot::StorageRw,
                 Slot::StorageRw,
                 Slot::StorageRw,
+                Slot::StorageRw,
+                Slot::StorageRw,
             ],
         );
         let raster_layout = crate::raster::raster_layout(gpu);
@@ -141,16 +166,28 @@ impl Tiled {
             count: pipeline("strata.tiled.count", &sort, "cs_count"),
             scan: pipeline("strata.tiled.scan", &sort, "cs_scan"),
             scatter: pipeline("strata.tiled.scatter", &sort, "cs_scatter"),
-            tile: pipeline("strata.tiled.tile", &tile, "cs_tile"),
+            round: pipeline("strata.tiled.round", &tile, "cs_round"),
+            finish: pipeline("strata.tiled.finish", &tile, "cs_finish"),
             layout,
             cache: ResourceCache::default(),
+            rounds: FIRST_ROUNDS,
         })
     }
 }
 
-/// Bytes of the lists and tile words for `capacity` items and `tiles` tiles.
-fn list_bytes(capacity: u64, tiles: u64) -> u64 {
-    capacity * CODE_BYTES + tiles * TILE_BYTES
+impl Tiled {
+    /// Pixels the state buffer holds.
+    fn state_pixels(&self) -> u64 {
+        self.cache
+            .get("strata.tiled.state")
+            .map_or(0, |b| b.size() / STATE_BYTES)
+    }
+}
+
+/// Bytes of the lists, the tile words and the pixels' state for `capacity` items, `tiles` tiles
+/// and `pixels` pixels.
+fn list_bytes(capacity: u64, tiles: u64, pixels: u64) -> u64 {
+    capacity * CODE_BYTES + tiles * TILE_BYTES + pixels * STATE_BYTES
 }
 
 impl Method for Tiled {
@@ -161,16 +198,25 @@ impl Method for Tiled {
         let tiles = tiles_x as u64 * tiles_y as u64;
         self.raster.prepare(gpu, ctx.options, ctx.scene)?;
         let capacity = self.raster.frame_capacity();
+        let pixels = ctx.pixels();
         let bytes = self.raster.bytes()
-            + list_bytes(capacity, tiles)
+            + list_bytes(capacity, tiles, pixels)
             + COUNTER_WORDS * 4
             + std::mem::size_of::<TiledParams>() as u64;
         ctx.check_budget(bytes)?;
+        let k = ctx.k.unwrap_or(0);
+        // With --k the rounds need not go past the k nearest.
+        let rounds = match k {
+            0 => self.rounds,
+            k => self.rounds.min(rounds_for(k)),
+        };
         let params = TiledParams {
             tiles_x,
             tiles: tiles as u32,
             capacity: capacity as u32,
-            _pad: 0,
+            k,
+            rounds,
+            _pad: [0; 3],
         };
         let cache = &mut self.cache;
         let params = cache.uniform(gpu, "strata.tiled.params", bytemuck::bytes_of(&params));
@@ -178,6 +224,8 @@ impl Method for Tiled {
         let counts = cache.storage(gpu, "strata.tiled.counts", tiles * 4, none)?;
         let starts = cache.storage(gpu, "strata.tiled.starts", tiles * 4, none)?;
         let codes = cache.storage(gpu, "strata.tiled.codes", capacity * CODE_BYTES, none)?;
+        let state = cache.storage(gpu, "strata.tiled.state", pixels * STATE_BYTES, none)?;
+        let tile_rounds = cache.storage(gpu, "strata.tiled.rounds", tiles * 4, none)?;
         let counters = cache.storage(
             gpu,
             "strata.tiled.counters",
@@ -195,9 +243,13 @@ impl Method for Tiled {
                 codes.as_entire_binding(),
                 counters.as_entire_binding(),
                 ctx.output.as_entire_binding(),
+                state.as_entire_binding(),
+                tile_rounds.as_entire_binding(),
             ],
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
+        ctx.encoder.clear_buffer(&state, 0, None);
+        ctx.encoder.clear_buffer(&tile_rounds, 0, None);
         ctx.encoder.clear_buffer(&counters, 0, None);
         let frame_group = ctx.frame_group;
         // The first capture bins the scene's triangles into the rasterizer's items.
@@ -213,17 +265,16 @@ impl Method for Tiled {
         );
         self.raster
             .capture(ctx, "scatter", &self.scatter, &[frame_group, &group]);
-        dispatch(
-            ctx,
-            "tile",
-            &self.tile,
-            &[frame_group, &group, &raster_group],
-            (tiles_x, tiles_y),
-        );
+        let groups = [frame_group, &group, &raster_group];
+        for _ in 0..rounds {
+            dispatch(ctx, "round", &self.round, &groups, (tiles_x, tiles_y));
+        }
+        dispatch(ctx, "finish", &self.finish, &groups, (tiles_x, tiles_y));
         self.raster.read_counters(ctx.readback);
         ctx.readback.words(&counters, 0, COUNTER_WORDS);
         Ok(Recorded {
             capacity,
+            k: (k > 0).then_some(k),
             ..Recorded::passes(1, bytes)
         })
     }
@@ -238,18 +289,36 @@ impl Method for Tiled {
         while tile_rounds.len() > 1 && tile_rounds.last() == Some(&0) {
             tile_rounds.pop();
         }
-        let tiles = self
-            .cache
-            .get("strata.tiled.counts")
-            .map_or(0, |b| b.size() / 4);
+        let tiles: u64 = counters[..ROUND_BINS].iter().map(|&n| n as u64).sum();
+        let deepest = counters[COUNTER_DEEPEST];
+        let unfinished = counters[COUNTER_UNFINISHED] as u64;
+        let longest_list = counters[COUNTER_LONGEST_LIST];
+        // Enough rounds for the deepest pixel next frame; after an item overflow the deepest
+        // pixel seen is only a lower bound.
+        self.rounds = match report.stats.overflow {
+            true => self.rounds.max(rounds_for(deepest)),
+            false => rounds_for(deepest),
+        };
+        let cut_short = counters[COUNTER_CUT_SHORT];
+        let cannot_complete = report.cannot_complete.or_else(|| {
+            (cut_short > 0).then(|| crate::frame::Shortfall {
+                why: format!(
+                    "tiled: the adapter ended {cut_short} pixels' walks of their tile lists early (the longest list holds {longest_list} triangles); lavapipe stops a shader invocation's loops after 65535 iterations in all, which a GPU does not: render smaller or use another exact method here"
+                ),
+                binding: None,
+            })
+        });
         MethodStats {
             overflow: Some(report.stats.overflow),
-            incomplete: report.incomplete,
-            cannot_complete: report.cannot_complete,
+            incomplete: report.incomplete || unfinished > 0 || cut_short > 0,
+            cannot_complete,
             tiled: Some(TiledStats {
+                rounds: counters[COUNTER_ROUNDS_RECORDED],
                 tile_rounds,
-                deepest_pixel: counters[COUNTER_DEEPEST],
-                list_bytes: list_bytes(recorded.capacity, tiles),
+                deepest_pixel: deepest,
+                unfinished_pixels: unfinished,
+                longest_list,
+                list_bytes: list_bytes(recorded.capacity, tiles, self.state_pixels()),
             }),
             compute_raster: Some(report.stats),
             ..Default::default()

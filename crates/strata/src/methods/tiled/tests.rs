@@ -36,11 +36,23 @@ fn stages_validate() {
 
 #[test]
 fn params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<TiledParams>(), 16);
+    assert_eq!(std::mem::size_of::<TiledParams>(), 32);
     assert!(TILE_WGSL.contains(&format!("const KEEP: u32 = {KEEP}u;")));
-    assert!(LISTS_WGSL.contains(&format!("const COUNTER_WORDS: u32 = {COUNTER_WORDS}u;")));
-    assert!(LISTS_WGSL.contains(&format!("const ROUND_BINS: u32 = {ROUND_BINS}u;")));
-    assert!(LISTS_WGSL.contains(&format!("const COUNTER_DEEPEST: u32 = {COUNTER_DEEPEST}u;")));
+    assert!(LISTS_WGSL.contains(&format!("const STATE_WORDS: u32 = {}u;", STATE_BYTES / 4)));
+    for (name, value) in [
+        ("COUNTER_WORDS", COUNTER_WORDS as usize),
+        ("ROUND_BINS", ROUND_BINS),
+        ("COUNTER_DEEPEST", COUNTER_DEEPEST),
+        ("COUNTER_UNFINISHED", COUNTER_UNFINISHED),
+        ("COUNTER_LONGEST_LIST", COUNTER_LONGEST_LIST),
+        ("COUNTER_CUT_SHORT", COUNTER_CUT_SHORT),
+        ("COUNTER_ROUNDS_RECORDED", COUNTER_ROUNDS_RECORDED),
+    ] {
+        assert!(
+            LISTS_WGSL.contains(&format!("const {name}: u32 = {value}u;")),
+            "{name}"
+        );
+    }
 }
 
 /// The same coverage, depths and order as the exact methods on the compute rasterizer: the
@@ -92,7 +104,10 @@ fn deep_pixels_take_more_rounds_and_stay_exact() {
         assert_eq!(stats.max_depth_complexity, Some(40));
         let tiled = stats.tiled.unwrap();
         assert_eq!(tiled.deepest_pixel, 40);
-        // 40 fragments: rounds of 16, 16 and 8.
+        // 40 fragments: rounds of 16, 16 and 8 (exact mode rendered again after a first frame of
+        // two rounds left fragments).
+        assert_eq!(tiled.rounds, 3);
+        assert_eq!(tiled.unfinished_pixels, 0);
         assert_eq!(tiled.tile_rounds.len(), 4, "{:?}", tiled.tile_rounds);
         assert!(tiled.tile_rounds[3] > 0, "{:?}", tiled.tile_rounds);
         let tiles: u64 = tiled.tile_rounds.iter().sum();
@@ -131,7 +146,7 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
     let tiled = reports[1].stats.tiled.clone().unwrap();
     assert_eq!(
         bytes,
-        raster.bytes_allocated + tiled.list_bytes + COUNTER_WORDS * 4 + 16,
+        raster.bytes_allocated + tiled.list_bytes + COUNTER_WORDS * 4 + 32,
         "the catalogue's formula"
     );
 }
@@ -166,5 +181,75 @@ fn partial_tiles_and_near_clipping_match_the_reference() {
             MAX_DIFF,
             MAX_FRACTION,
         );
+    }
+}
+
+/// A tile list of 600 triangles walked for 19 rounds: every fragment of every pixel, in order.
+/// (One invocation looping over every round lost fragments here on lavapipe, whose invocations
+/// stop looping after 65535 iterations in all.)
+#[test]
+fn long_lists_over_many_rounds_lose_nothing() {
+    let s = scene("builtin:layers?n=300&coverage=1&order=random&seed=2");
+    let opts = options(16, Effect::Transparency);
+    let mut compute = opts.clone();
+    compute.build.raster = Raster::Compute;
+    let (tiled, stats) = render_gpu(&s, &opts, "tiled");
+    let (lists, _) = render_gpu(&s, &compute, "abuffer-ll");
+    assert!(
+        tiled == lists,
+        "tiled differs from abuffer-ll --raster compute"
+    );
+    let t = stats.tiled.unwrap();
+    assert_eq!((t.rounds, t.deepest_pixel, t.longest_list), (19, 300, 600));
+    assert_eq!(stats.fragments_generated, Some(300 * 16 * 16));
+}
+
+/// First frames record two rounds; a deeper frame is incomplete, counts what it left as
+/// dropped, and the next frame records enough rounds.
+#[test]
+fn rounds_follow_the_last_frames_deepest_pixel() {
+    let s = scene("builtin:layers?n=40&coverage=1&order=random&seed=5");
+    // One tile, whose items fit the rasterizer's first buffer.
+    let reports = frames(&s, &options(8, Effect::Transparency), 2);
+    assert_eq!(
+        reports[0].stats.compute_raster.as_ref().unwrap().overflow,
+        false
+    );
+    let first = reports[0].stats.tiled.clone().unwrap();
+    assert_eq!((first.rounds, first.deepest_pixel), (FIRST_ROUNDS, 40));
+    assert_eq!(first.unfinished_pixels, 64);
+    assert!(reports[0].incomplete);
+    assert_eq!(reports[0].stats.fragments_dropped, Some(8 * 64));
+    assert_eq!(reports[0].stats.exact, Some(false));
+    let second = reports[1].stats.tiled.clone().unwrap();
+    assert_eq!((second.rounds, second.unfinished_pixels), (3, 0));
+    assert!(!reports[1].incomplete);
+    assert_eq!(reports[1].stats.fragments_dropped, Some(0));
+}
+
+/// `--k N` composites each pixel's N nearest, like the reference with k, and counts the rest as
+/// dropped.
+#[test]
+fn k_composites_the_k_nearest() {
+    let s = scene("builtin:layers?n=40&coverage=0.9&order=random&seed=6");
+    for k in [5, 16, 21] {
+        let mut opts = options(32, Effect::Transparency);
+        opts.frame.k = Some(k);
+        let (actual, stats) = render_gpu(&s, &opts, "tiled");
+        let expected = render_reference(&s, &opts);
+        assert_close(
+            &format!("tiled-k{k}"),
+            &actual,
+            &expected,
+            opts.frame.effect,
+            MAX_DIFF,
+            MAX_FRACTION,
+        );
+        assert_eq!(
+            stats.fragments_stored.unwrap(),
+            stats.fragments_generated.unwrap() - stats.fragments_dropped.unwrap()
+        );
+        assert!(stats.fragments_dropped.unwrap() > 0, "k = {k}");
+        assert_eq!(stats.tiled.unwrap().rounds, rounds_for(k));
     }
 }

@@ -4,17 +4,21 @@
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::items::{rp}
 #import strata::raster::setup::{SetupTriangle, clipped_triangle, covers, fan_triangle, varying_at, wide_negative}
-#import strata::tiled::lists::{COUNTER_DEEPEST, COUNTER_ROUNDS, ROUND_BINS, output, tile_codes, tile_counts, tile_starts, tiled_counters, tp}
+#import strata::tiled::lists::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_UNFINISHED, PROGRESS_DONE, PROGRESS_LEFT, PixelState, ROUND_BINS, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp}
 
-// The tile pass: one workgroup per 8×8-pixel tile, one thread per pixel, no atomics on pixel
-// data. Each round walks the tile's list in chunks of CHUNK triangles: the threads set one
-// triangle each up into workgroup memory, then every thread tests its pixel against the chunk
-// and keeps the KEEP nearest fragments strictly behind its bound, sorted by (depth, primitive)
-// in its own registers. At the end of a round each thread composites what it kept, front to
-// back; a pixel that had more than KEEP candidates moves its bound to the last one composited
-// and the tile goes over its list again. Only tiles with a pixel deeper than KEEP pay another
-// round, fragments at equal depths are told apart by their primitive, and the result does not
-// depend on the order of the list: the same frame gives the same bytes.
+// One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
+// thread per pixel, no atomics on pixel data. The tile's list is walked in chunks of CHUNK
+// triangles: the threads set one triangle each up into workgroup memory, then every thread
+// tests its pixel against the chunk and keeps the KEEP nearest fragments strictly behind its
+// bound — the last fragment it composited — sorted by (depth, primitive) in its registers. At the
+// end of the round it composites them front to back after what earlier rounds composited. Only
+// tiles with a pixel that has fragments left run a round, fragments at equal depths are told
+// apart by their primitive, and the result does not depend on the order of the list: the same
+// frame gives the same bytes.
+//
+// One round per dispatch bounds each invocation's loops by its tile's list: lavapipe ends the
+// loops of an invocation after 65535 iterations in all, which a loop over every round of a
+// deep tile passed (lanes count what they walked, and a walk cut short is reported).
 
 const CHUNK: u32 = 64u;
 // Keep in sync with `KEEP` in mod.rs.
@@ -23,8 +27,8 @@ const KEEP: u32 = 16u;
 var<workgroup> chunk: array<SetupTriangle, CHUNK>;
 var<workgroup> chunk_prims: array<u32, CHUNK>;
 var<workgroup> list_length: u32;
-var<workgroup> wants_more: atomic<u32>;
-var<workgroup> another_round: u32;
+var<workgroup> active_lanes: atomic<u32>;
+var<workgroup> any_active: u32;
 
 // Inserts `f` into the `kept` fragments, nearest first; a full array drops its farthest (which
 // the caller checked lies behind `f`).
@@ -38,102 +42,141 @@ fn keep(kept: ptr<function, array<Fragment, KEEP>>, count: ptr<function, u32>, f
     *count = min(*count + 1u, KEEP);
 }
 
+// Fragments a pixel that composited `count` may composite this round.
+fn round_limit(count: u32) -> u32 {
+    if tp.k == 0u {
+        return KEEP;
+    }
+    return min(KEEP, tp.k - min(count, tp.k));
+}
+
 @compute @workgroup_size(8, 8)
-fn cs_tile(
+fn cs_round(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let tile = group.y * tp.tiles_x + group.x;
+    let pixel = vec2<i32>(group.xy * 8u + local.xy);
+    let on_screen = all(vec2<u32>(pixel) < frame.size);
+    let p = pixel_index(vec2<u32>(min(vec2<i32>(frame.size) - 1, pixel)));
+    var composite = composite_new();
+    var progress = PROGRESS_DONE;
+    if on_screen {
+        let state = load_state(p);
+        composite = state.s;
+        progress = state.progress;
+    }
+    let limit = round_limit(composite.count);
+    let working = progress != PROGRESS_DONE && limit > 0u;
+    if lid == 0u {
+        atomicStore(&active_lanes, 0u);
+        list_length = atomicLoad(&tile_counts[tile]);
+    }
+    workgroupBarrier();
+    if working {
+        atomicAdd(&active_lanes, 1u);
+    }
+    workgroupBarrier();
+    if lid == 0u {
+        any_active = atomicLoad(&active_lanes);
+    }
+    let n = workgroupUniformLoad(&list_length);
+    if workgroupUniformLoad(&any_active) == 0u || n == 0u {
+        return;
+    }
+    if lid == 0u {
+        tile_rounds[tile] += 1u;
+        atomicMax(&tiled_counters[COUNTER_LONGEST_LIST], n);
+    }
+    let start = tile_starts[tile];
+    let bounded = composite.count > 0u;
+    let bound = Fragment(composite.last_depth, composite.last_tag, 0u, 0u);
+    var kept: array<Fragment, KEEP>;
+    var count = 0u;
+    var candidates = 0u;
+    var walked = 0u;
+    for (var base = 0u; base < n; base += CHUNK) {
+        // Everyone is done with the previous chunk before it is overwritten.
+        workgroupBarrier();
+        if base + lid < n {
+            let code = tile_codes[start + base + lid];
+            let prim = code >> 3u;
+            chunk_prims[lid] = prim;
+            var t = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
+            t.valid = t.valid && prim < rp.triangles;
+            chunk[lid] = t;
+        }
+        workgroupBarrier();
+        // A thread with nothing left still takes part in the barriers above.
+        if working {
+            let chunk_size = min(CHUNK, n - base);
+            for (var j = 0u; j < chunk_size; j++) {
+                walked += 1u;
+                let t = chunk[j];
+                if !covers(t, pixel) {
+                    continue;
+                }
+                let prim = chunk_prims[j];
+                let v = varying_at(t, prim, pixel);
+                // The GPU path clips at the far plane and tests the opaque depth with LESS.
+                if v.position.z > 1.0 || behind_opaque(v.position) {
+                    continue;
+                }
+                let front_facing = wide_negative(t.doubled_area);
+                let key = Fragment(v.position.z, (prim << 1u) | select(0u, 1u, front_facing), 0u, 0u);
+                if bounded && !fragment_before(bound, key) {
+                    continue;
+                }
+                candidates += 1u;
+                if count == KEEP && !fragment_before(key, kept[KEEP - 1u]) {
+                    continue;
+                }
+                keep(&kept, &count, scene_fragment(v, front_facing));
+            }
+        }
+    }
+    if !working {
+        return;
+    }
+    if walked != n {
+        atomicAdd(&tiled_counters[COUNTER_CUT_SHORT], 1u);
+    }
+    let composited = min(count, limit);
+    for (var i = 0u; i < composited; i++) {
+        composite_front(&composite, kept[i]);
+    }
+    let left = select(PROGRESS_DONE, PROGRESS_LEFT + candidates - composited, candidates > composited);
+    store_state(p, PixelState(composite, left));
+}
+
+// After the last round: each pixel's result, its fragments (those left behind the last round
+// are counted as generated and dropped), and the tile's rounds.
+@compute @workgroup_size(8, 8)
+fn cs_finish(
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(local_invocation_id) local: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
     let tile = group.y * tp.tiles_x + group.x;
     if lid == 0u {
-        atomicStore(&wants_more, 0u);
-        list_length = atomicLoad(&tile_counts[tile]);
-    }
-    let n = workgroupUniformLoad(&list_length);
-    let start = tile_starts[tile];
-    let pixel = vec2<i32>(group.xy * 8u + local.xy);
-    let on_screen = all(vec2<u32>(pixel) < frame.size);
-    var s = composite_new();
-    var bound = Fragment(0.0, 0u, 0u, 0u);
-    var bounded = false;
-    var done = !on_screen;
-    // A round that is not the pixel's last composites KEEP of its fragments, and a pixel has at
-    // most one fragment per item: n / KEEP + 1 rounds finish every pixel.
-    let rounds = select(0u, n / KEEP + 1u, n > 0u);
-    var ran = 0u;
-    for (var round = 0u; round < rounds; round++) {
-        ran += 1u;
-        var kept: array<Fragment, KEEP>;
-        var count = 0u;
-        var candidates = 0u;
-        for (var base = 0u; base < n; base += CHUNK) {
-            // Everyone is done with the previous chunk before it is overwritten.
-            workgroupBarrier();
-            if base + lid < n {
-                let code = tile_codes[start + base + lid];
-                let prim = code >> 3u;
-                chunk_prims[lid] = prim;
-                var t = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
-                t.valid = t.valid && prim < rp.triangles;
-                chunk[lid] = t;
-            }
-            workgroupBarrier();
-            // A thread that is done still takes part in the barriers above.
-            if !done {
-                let chunk_size = min(CHUNK, n - base);
-                for (var j = 0u; j < chunk_size; j++) {
-                    let t = chunk[j];
-                    if !covers(t, pixel) {
-                        continue;
-                    }
-                    let prim = chunk_prims[j];
-                    let v = varying_at(t, prim, pixel);
-                    // The GPU path clips at the far plane and tests the opaque depth with LESS.
-                    if v.position.z > 1.0 || behind_opaque(v.position) {
-                        continue;
-                    }
-                    let front_facing = wide_negative(t.doubled_area);
-                    let key = Fragment(v.position.z, (prim << 1u) | select(0u, 1u, front_facing), 0u, 0u);
-                    if bounded && !fragment_before(bound, key) {
-                        continue;
-                    }
-                    candidates += 1u;
-                    if count == KEEP && !fragment_before(key, kept[KEEP - 1u]) {
-                        continue;
-                    }
-                    keep(&kept, &count, scene_fragment(v, front_facing));
-                }
-            }
-        }
-        if !done {
-            for (var i = 0u; i < count; i++) {
-                composite_front(&s, kept[i]);
-            }
-            if candidates > KEEP {
-                bound = kept[KEEP - 1u];
-                bounded = true;
-                atomicOr(&wants_more, 1u);
-            } else {
-                done = true;
-            }
-        }
-        workgroupBarrier();
-        if lid == 0u {
-            another_round = atomicExchange(&wants_more, 0u);
-        }
-        if workgroupUniformLoad(&another_round) == 0u {
-            break;
+        atomicAdd(&tiled_counters[COUNTER_ROUNDS + min(tile_rounds[tile], ROUND_BINS - 1u)], 1u);
+        if tile == 0u {
+            atomicStore(&tiled_counters[COUNTER_ROUNDS_RECORDED], tp.rounds);
         }
     }
-    if lid == 0u {
-        atomicAdd(&tiled_counters[COUNTER_ROUNDS + min(ran, ROUND_BINS - 1u)], 1u);
-    }
-    if !on_screen {
+    let pixel = group.xy * 8u + local.xy;
+    if any(pixel >= frame.size) {
         return;
     }
-    // Every fragment of the pixel was composited, once.
-    let total = s.count;
+    let p = pixel_index(pixel);
+    let state = load_state(p);
+    let left = fragments_left(state.progress);
+    let total = state.s.count + left;
+    if left > 0u && (tp.k == 0u || state.s.count < tp.k) {
+        atomicAdd(&tiled_counters[COUNTER_UNFINISHED], 1u);
+    }
     atomicMax(&tiled_counters[COUNTER_DEEPEST], total);
-    output[pixel_index(vec2<u32>(pixel))] = composite_finish(s);
-    report_pixel(total, total);
+    output[p] = composite_finish(state.s);
+    report_pixel(total, state.s.count);
 }
