@@ -225,34 +225,70 @@ fn edge_value(e: Edges, i: u32, s: vec2<i32>) -> vec2<u32> {
     return wide_add(wide_mul(d.x, s.y - a.y), wide_negate(wide_mul(d.y, s.x - a.x)));
 }
 
-// Whether the center of `pixel` is inside `t` (the raster stage's rule, at one pixel).
-fn covers(t: SetupTriangle, pixel: vec2<i32>) -> bool {
-    if !t.valid || any(pixel < t.min) || any(pixel > t.max) {
-        return false;
+// The pixel centers of the 8×8 tile `tile` inside `t`, as a 64-bit mask (bit (y − 8·tile.y)·8
+// + x − 8·tile.x, low word first): the edge functions evaluated exactly at the first center
+// and stepped by whole pixels.
+fn tile_coverage(t: SetupTriangle, tile: vec2<i32>) -> vec2<u32> {
+    var mask = vec2<u32>(0u);
+    let corner = tile * TILE;
+    let lo = max(t.min, corner);
+    let hi = min(t.max, corner + vec2<i32>(TILE - 1));
+    if !t.valid || any(lo > hi) {
+        return mask;
     }
-    let e = oriented_edges(t);
-    var strict = e.strict;
-    let center = pixel * 256 + vec2<i32>(HALF_SUBPIXEL);
+    let edges = oriented_edges(t);
+    var strict = edges.strict;
+    var delta = edges.delta;
+    var edge: array<vec2<u32>, 3>;
+    var step_x: array<vec2<u32>, 3>;
+    var step_y: array<vec2<u32>, 3>;
+    let start = lo * 256 + vec2<i32>(HALF_SUBPIXEL);
     for (var i = 0u; i < 3u; i++) {
-        let value = edge_value(e, i, center);
-        if wide_negative(value) || (strict[i] && wide_zero(value)) {
-            return false;
+        edge[i] = edge_value(edges, i, start);
+        step_x[i] = wide_mul(-delta[i].y, 256);
+        step_y[i] = wide_mul(delta[i].x, 256);
+    }
+    for (var y = lo.y; y <= hi.y; y++) {
+        var row = edge;
+        for (var x = lo.x; x <= hi.x; x++) {
+            var inside = true;
+            for (var i = 0u; i < 3u; i++) {
+                if wide_negative(row[i]) || (strict[i] && wide_zero(row[i])) {
+                    inside = false;
+                }
+                row[i] = wide_add(row[i], step_x[i]);
+            }
+            if inside {
+                let bit = u32((y - corner.y) * TILE + x - corner.x);
+                mask[bit / 32u] |= 1u << (bit % 32u);
+            }
+        }
+        for (var i = 0u; i < 3u; i++) {
+            edge[i] = wide_add(edge[i], step_y[i]);
         }
     }
-    return true;
+    return mask;
 }
 
-// What `vs_scene` passes the fragment stage at the center of `pixel`, inside primitive
-// `prim`'s fan triangle `t`: depth interpolated linearly in the window, world position and
-// normal perspective-correctly, both from the unsnapped window positions.
-fn varying_at(t: SetupTriangle, prim: u32, pixel: vec2<i32>) -> SceneVarying {
+// The pixel of bit `bit` of tile `tile`'s coverage mask.
+fn tile_pixel(tile: vec2<i32>, bit: u32) -> vec2<i32> {
+    return tile * TILE + vec2<i32>(i32(bit % 8u), i32(bit / 8u));
+}
+
+// Where `pixel`'s center lies in `t`: its barycentric weights in the window (from the
+// unsnapped positions) and its depth, interpolated linearly and clamped as the GPU's path does.
+struct Barycentrics {
+    l: vec3<f32>,
+    depth: f32,
+}
+
+fn barycentrics_at(t: SetupTriangle, pixel: vec2<i32>) -> Barycentrics {
     var corners = t.corners;
     let w0 = corners[0].window;
     let e1 = corners[1].window - w0;
     let e2 = corners[2].window - w0;
     let area = e1.x * e2.y - e2.x * e1.y;
-    let center = vec2<f32>(f32(pixel.x) + 0.5, f32(pixel.y) + 0.5);
-    let p = center - w0;
+    let p = vec2<f32>(f32(pixel.x) + 0.5, f32(pixel.y) + 0.5) - w0;
     let l1 = (p.x * e2.y - e2.x * p.y) / area;
     let l2 = (e1.x * p.y - p.x * e1.y) / area;
     let l = vec3<f32>(1.0 - l1 - l2, l1, l2);
@@ -260,15 +296,33 @@ fn varying_at(t: SetupTriangle, prim: u32, pixel: vec2<i32>) -> SceneVarying {
     // keys made of a depth's bits (kpeel, MDT, dual, tiled) would sort last; the GPU's path
     // clamps depth to the viewport's range, and so does this one.
     let interpolated = dot(l, vec3<f32>(corners[0].z, corners[1].z, corners[2].z));
-    let depth = select(interpolated, 0.0, !(interpolated > 0.0));
-    let pw = l * vec3<f32>(corners[0].inv_w, corners[1].inv_w, corners[2].inv_w);
+    return Barycentrics(l, select(interpolated, 0.0, !(interpolated > 0.0)));
+}
+
+// The window position `vs_scene` gives the fragment stage at `pixel`'s center (depth only: w
+// is `varying_at`'s).
+fn window_position(pixel: vec2<i32>, depth: f32) -> vec4<f32> {
+    return vec4<f32>(f32(pixel.x) + 0.5, f32(pixel.y) + 0.5, depth, 1.0);
+}
+
+// What `vs_scene` passes the fragment stage at the center of `pixel`, inside primitive
+// `prim`'s fan triangle `t`: depth interpolated linearly in the window, world position and
+// normal perspective-correctly, both from the unsnapped window positions.
+fn varying_at(t: SetupTriangle, prim: u32, pixel: vec2<i32>) -> SceneVarying {
+    return varying_from(t, prim, pixel, barycentrics_at(t, pixel));
+}
+
+// `varying_at` from the pixel's barycentrics, already computed.
+fn varying_from(t: SetupTriangle, prim: u32, pixel: vec2<i32>, b: Barycentrics) -> SceneVarying {
+    var corners = t.corners;
+    let pw = b.l * vec3<f32>(corners[0].inv_w, corners[1].inv_w, corners[2].inv_w);
     let inv_w = pw.x + pw.y + pw.z;
     let weights = (corners[0].weights * pw.x + corners[1].weights * pw.y + corners[2].weights * pw.z) / inv_w;
     let v0 = scene_vertex(prim, 0u);
     let v1 = scene_vertex(prim, 1u);
     let v2 = scene_vertex(prim, 2u);
     var v: SceneVarying;
-    v.position = vec4<f32>(center, depth, inv_w);
+    v.position = vec4<f32>(f32(pixel.x) + 0.5, f32(pixel.y) + 0.5, b.depth, inv_w);
     v.world = v0.position * weights.x + v1.position * weights.y + v2.position * weights.z;
     v.normal = v0.normal * weights.x + v1.normal * weights.y + v2.normal * weights.z;
     v.prim = prim;

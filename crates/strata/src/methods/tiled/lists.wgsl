@@ -27,7 +27,8 @@ struct TiledParams {
 @group(1) @binding(1) var<storage, read_write> tile_counts: array<atomic<u32>>;
 // Where each tile's list starts in `tile_codes`.
 @group(1) @binding(2) var<storage, read_write> tile_starts: array<u32>;
-// primitive << 3 | fan triangle, grouped by tile.
+// Per item, grouped by tile: primitive << 3 | fan triangle, then the 64-bit mask of the tile's
+// pixel centers it covers (bit y·8 + x, low word first).
 @group(1) @binding(3) var<storage, read_write> tile_codes: array<u32>;
 // Keep the COUNTER_ indices in sync with mod.rs.
 @group(1) @binding(4) var<storage, read_write> tiled_counters: array<atomic<u32>>;
@@ -102,6 +103,8 @@ fn store_state(p: u32, state: PixelState) {
 fn fragments_left(progress: u32) -> u32 {
     return select(0u, progress - PROGRESS_LEFT, progress >= PROGRESS_LEFT);
 }
+
+const CODE_WORDS: u32 = 3u;
 
 fn tile_of(tile: vec2<i32>) -> u32 {
     return u32(tile.y) * tp.tiles_x + u32(tile.x);

@@ -8,10 +8,10 @@
 //!   frame reports itself incomplete and exact mode renders it again.
 //! - **count**, **scan**, **scatter**: the items are counted per tile, the counts scanned (one
 //!   workgroup) into list starts, and each item's (primitive, fan triangle) code is scattered
-//!   into its tile's list.
+//!   into its tile's list with the 64-bit mask of the tile's pixel centers it covers.
 //! - **round** × R (one workgroup of 64 threads per tile, a thread per pixel): the tile's list is
 //!   walked in chunks of 64 triangles, set up once per chunk in workgroup memory; each thread
-//!   keeps its pixel's 16 nearest fragments behind its bound (the last fragment it composited)
+//!   tests its bit of each triangle's mask and keeps its pixel's 16 nearest fragments behind its bound (the last fragment it composited)
 //!   in registers, sorted by (depth, primitive), and composites them front to back onto its
 //!   state. Tiles whose pixels have nothing left skip the round. R is the last frame's deepest
 //!   pixel's ⌈f/16⌉ (2 for a first frame); pixels with fragments left after R rounds make the
@@ -24,8 +24,8 @@
 //! a list in, so a frame gives the same bytes every run. `--k N` composites each pixel's N
 //! nearest and counts the rest as dropped.
 //!
-//! Memory: the rasterizer's 8 bytes per item and 48 of constants, 4 bytes per item for the tile
-//! lists, 12 per tile (count, start, rounds), 36 per pixel (state), 84 of counters and 32 of
+//! Memory: the rasterizer's 8 bytes per item and 48 of constants, 12 bytes per item for the tile
+//! lists (code and mask), 12 per tile (count, start, rounds), 36 per pixel (state), 84 of counters and 32 of
 //! parameters. Limits: triangles < 2²⁹ (a list code holds the primitive and 3 bits of fan
 //! triangle); `--msaa`, temporal culling, `--order` and an application's draw callback are not
 //! supported (it reads the scene's triangles itself). On lavapipe, whose invocations stop
@@ -53,8 +53,8 @@ const TILE_WGSL: &str = include_str!("tile.wgsl");
 
 /// Fragments a pixel keeps per round (KEEP in tile.wgsl).
 pub const KEEP: u32 = 16;
-/// Bytes of one list code.
-pub const CODE_BYTES: u64 = 4;
+/// Bytes of one list entry: the code and the 64-bit coverage mask (CODE_WORDS in lists.wgsl).
+pub const CODE_BYTES: u64 = 12;
 /// Bytes per tile: its item count, its list's start and its rounds.
 pub const TILE_BYTES: u64 = 12;
 /// Bytes per pixel of compositing state between rounds (STATE_WORDS in lists.wgsl).

@@ -1,9 +1,12 @@
 #define_import_path strata::tiled::sort
 #import strata::raster::items::{item_at, item_thread, items_written, rp}
-#import strata::tiled::lists::{tile_codes, tile_counts, tile_of, tile_starts, tp}
+#import strata::raster::setup::{clipped_triangle, fan_triangle, tile_coverage}
+#import strata::tiled::lists::{CODE_WORDS, tile_codes, tile_counts, tile_of, tile_starts, tp}
 
 // Sorts the rasterizer's work items into one list per tile: a count per tile, an exclusive
-// prefix sum over the tiles, a scatter. The order inside a list is the scatter's arrival order;
+// prefix sum over the tiles, a scatter that stores each item's code with the 64-bit mask of the
+// tile's pixel centers its triangle covers (the raster stage's rule, evaluated once here so
+// that the tile pass tests a bit per pixel). The order inside a list is the scatter's arrival order;
 // nothing depends on it, as the tile pass orders each pixel's fragments by (depth, primitive).
 
 @compute @workgroup_size(64)
@@ -66,7 +69,12 @@ fn cs_scatter(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     }
     // The count pass saw this item, so the tile's list has room for it.
     let slot = tile_starts[tile] + atomicAdd(&tile_counts[tile], 1u);
-    if slot < tp.capacity {
-        tile_codes[slot] = (item.prim << 3u) | item.fan;
+    if slot >= tp.capacity {
+        return;
     }
+    let mask = tile_coverage(fan_triangle(clipped_triangle(item.prim, rp.guard), item.fan), item.tile);
+    let at = slot * CODE_WORDS;
+    tile_codes[at] = (item.prim << 3u) | item.fan;
+    tile_codes[at + 1u] = mask.x;
+    tile_codes[at + 2u] = mask.y;
 }

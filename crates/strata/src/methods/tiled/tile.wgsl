@@ -3,13 +3,14 @@
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::items::{rp}
-#import strata::raster::setup::{SetupTriangle, clipped_triangle, covers, fan_triangle, varying_at, wide_negative}
-#import strata::tiled::lists::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_UNFINISHED, PROGRESS_DONE, PROGRESS_LEFT, PixelState, ROUND_BINS, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp}
+#import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
+#import strata::tiled::lists::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_UNFINISHED, CODE_WORDS, PROGRESS_DONE, PROGRESS_LEFT, PixelState, ROUND_BINS, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp}
 
 // One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
-// thread per pixel, no atomics on pixel data. The tile's list is walked in chunks of CHUNK
-// triangles: the threads set one triangle each up into workgroup memory, then every thread
-// tests its pixel against the chunk and keeps the KEEP nearest fragments strictly behind its
+// thread per pixel (thread lid owns bit lid of the coverage masks), no atomics on pixel data.
+// The tile's list is walked in chunks of CHUNK triangles: the threads set one triangle each up
+// into workgroup memory, then every thread tests its pixel's bit of each triangle's coverage
+// mask (made by the scatter) and keeps the KEEP nearest fragments strictly behind its
 // bound — the last fragment it composited — sorted by (depth, primitive) in its registers. At the
 // end of the round it composites them front to back after what earlier rounds composited. Only
 // tiles with a pixel that has fragments left run a round, fragments at equal depths are told
@@ -26,6 +27,7 @@ const KEEP: u32 = 16u;
 
 var<workgroup> chunk: array<SetupTriangle, CHUNK>;
 var<workgroup> chunk_prims: array<u32, CHUNK>;
+var<workgroup> chunk_masks: array<vec2<u32>, CHUNK>;
 var<workgroup> list_length: u32;
 var<workgroup> active_lanes: atomic<u32>;
 var<workgroup> any_active: u32;
@@ -100,12 +102,19 @@ fn cs_round(
         // Everyone is done with the previous chunk before it is overwritten.
         workgroupBarrier();
         if base + lid < n {
-            let code = tile_codes[start + base + lid];
+            let at = (start + base + lid) * CODE_WORDS;
+            let code = tile_codes[at];
             let prim = code >> 3u;
+            var mask = vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]);
+            if prim >= rp.triangles {
+                mask = vec2<u32>(0u);
+            }
             chunk_prims[lid] = prim;
-            var t = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
-            t.valid = t.valid && prim < rp.triangles;
-            chunk[lid] = t;
+            chunk_masks[lid] = mask;
+            // A triangle that covers no pixel center of the tile needs no setup.
+            if any(mask != vec2<u32>(0u)) {
+                chunk[lid] = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
+            }
         }
         workgroupBarrier();
         // A thread with nothing left still takes part in the barriers above.
@@ -113,18 +122,19 @@ fn cs_round(
             let chunk_size = min(CHUNK, n - base);
             for (var j = 0u; j < chunk_size; j++) {
                 walked += 1u;
-                let t = chunk[j];
-                if !covers(t, pixel) {
+                if ((chunk_masks[j][lid / 32u] >> (lid % 32u)) & 1u) == 0u {
                     continue;
                 }
+                let t = chunk[j];
                 let prim = chunk_prims[j];
-                let v = varying_at(t, prim, pixel);
+                // The depth first: the attributes and shading only for a fragment that is kept.
+                let b = barycentrics_at(t, pixel);
                 // The GPU path clips at the far plane and tests the opaque depth with LESS.
-                if v.position.z > 1.0 || behind_opaque(v.position) {
+                if b.depth > 1.0 || behind_opaque(window_position(pixel, b.depth)) {
                     continue;
                 }
                 let front_facing = wide_negative(t.doubled_area);
-                let key = Fragment(v.position.z, (prim << 1u) | select(0u, 1u, front_facing), 0u, 0u);
+                let key = Fragment(b.depth, (prim << 1u) | select(0u, 1u, front_facing), 0u, 0u);
                 if bounded && !fragment_before(bound, key) {
                     continue;
                 }
@@ -132,7 +142,7 @@ fn cs_round(
                 if count == KEEP && !fragment_before(key, kept[KEEP - 1u]) {
                     continue;
                 }
-                keep(&kept, &count, scene_fragment(v, front_facing));
+                keep(&kept, &count, scene_fragment(varying_from(t, prim, pixel, b), front_facing));
             }
         }
     }
