@@ -29,8 +29,9 @@ var<workgroup> chunk: array<SetupTriangle, CHUNK>;
 var<workgroup> chunk_prims: array<u32, CHUNK>;
 var<workgroup> chunk_masks: array<vec2<u32>, CHUNK>;
 var<workgroup> list_length: u32;
-var<workgroup> active_lanes: atomic<u32>;
-var<workgroup> any_active: u32;
+// The lanes (pixels) with fragments left: a triangle none of them covers needs no setup.
+var<workgroup> working_bits: array<atomic<u32>, 2>;
+var<workgroup> working_mask: vec2<u32>;
 
 // Inserts `f` into the `kept` fragments, nearest first; a full array drops its farthest (which
 // the caller checked lies behind `f`).
@@ -72,19 +73,21 @@ fn cs_round(
     let limit = round_limit(composite.count);
     let working = progress != PROGRESS_DONE && limit > 0u;
     if lid == 0u {
-        atomicStore(&active_lanes, 0u);
+        atomicStore(&working_bits[0], 0u);
+        atomicStore(&working_bits[1], 0u);
         list_length = atomicLoad(&tile_counts[tile]);
     }
     workgroupBarrier();
     if working {
-        atomicAdd(&active_lanes, 1u);
+        atomicOr(&working_bits[lid / 32u], 1u << (lid % 32u));
     }
     workgroupBarrier();
     if lid == 0u {
-        any_active = atomicLoad(&active_lanes);
+        working_mask = vec2<u32>(atomicLoad(&working_bits[0]), atomicLoad(&working_bits[1]));
     }
     let n = workgroupUniformLoad(&list_length);
-    if workgroupUniformLoad(&any_active) == 0u || n == 0u {
+    let lanes = workgroupUniformLoad(&working_mask);
+    if all(lanes == vec2<u32>(0u)) || n == 0u {
         return;
     }
     if lid == 0u {
@@ -105,13 +108,14 @@ fn cs_round(
             let at = (start + base + lid) * CODE_WORDS;
             let code = tile_codes[at];
             let prim = code >> 3u;
-            var mask = vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]);
+            // Only the bits of pixels with fragments left.
+            var mask = vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]) & lanes;
             if prim >= rp.triangles {
                 mask = vec2<u32>(0u);
             }
             chunk_prims[lid] = prim;
             chunk_masks[lid] = mask;
-            // A triangle that covers no pixel center of the tile needs no setup.
+            // A triangle that covers none of those pixels needs no setup.
             if any(mask != vec2<u32>(0u)) {
                 chunk[lid] = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
             }
