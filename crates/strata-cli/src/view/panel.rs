@@ -569,7 +569,19 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
                 "max depth complexity",
                 n(s.max_depth_complexity.map(u64::from)),
             );
+            if let Some(t) = &s.tiled {
+                row("tiled rounds", t.rounds.to_string());
+                row("unfinished pixels", t.unfinished_pixels.to_string());
+                row("longest tile list", t.longest_list.to_string());
+            }
         });
+    if let Some(t) = &s.tiled {
+        egui::CollapsingHeader::new("tiles by rounds run (log)")
+            .default_open(true)
+            .show(ui, |ui| {
+                histogram_chart(ui, &t.tile_rounds, "rounds", "tiles")
+            });
+    }
     if let Some(passes) = &s.gpu_ms {
         egui::CollapsingHeader::new("GPU ms per pass")
             .default_open(true)
@@ -589,7 +601,7 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
     if let Some(hist) = readouts.histogram {
         egui::CollapsingHeader::new("depth complexity (pixels per fragment count, log)")
             .default_open(true)
-            .show(ui, |ui| histogram_chart(ui, hist));
+            .show(ui, |ui| histogram_chart(ui, hist, "fragments", "pixels"));
     }
 }
 
@@ -642,7 +654,9 @@ fn pass_graph(ui: &mut egui::Ui, readouts: &Readouts<'_>, passes: &BTreeMap<Stri
     );
 }
 
-fn histogram_chart(ui: &mut egui::Ui, hist: &[u64]) {
+/// Bars of `hist` on a log scale: bin i counts the `counted` (pixels, tiles) with i `binned`
+/// (fragments, rounds).
+fn histogram_chart(ui: &mut egui::Ui, hist: &[u64], binned: &str, counted: &str) {
     let size = egui::vec2(ui.available_width(), 80.0);
     let (response, painter) = ui.allocate_painter(size, Sense::hover());
     let rect = response.rect;
@@ -663,7 +677,7 @@ fn histogram_chart(ui: &mut egui::Ui, hist: &[u64]) {
         );
     }
     ui.small(format!(
-        "0 … {} fragments; {} pixels at the tallest bar",
+        "0 … {} {binned}; {} {counted} at the tallest bar",
         bins - 1,
         top as u64
     ));

@@ -212,10 +212,7 @@ fn rounds_follow_the_last_frames_deepest_pixel() {
     let s = scene("builtin:layers?n=40&coverage=1&order=random&seed=5");
     // One tile, whose items fit the rasterizer's first buffer.
     let reports = frames(&s, &options(8, Effect::Transparency), 2);
-    assert_eq!(
-        reports[0].stats.compute_raster.as_ref().unwrap().overflow,
-        false
-    );
+    assert!(!reports[0].stats.compute_raster.as_ref().unwrap().overflow);
     let first = reports[0].stats.tiled.clone().unwrap();
     assert_eq!((first.rounds, first.deepest_pixel), (FIRST_ROUNDS, 40));
     assert_eq!(first.unfinished_pixels, 64);
