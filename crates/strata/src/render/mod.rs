@@ -460,10 +460,33 @@ fn merge_band(mut sum: FrameStats, band: FrameStats) -> FrameStats {
             *total.entry(pass).or_default() += ms;
         }
     }
+    sum.tiled = match (sum.tiled.take(), band.tiled) {
+        (Some(a), Some(b)) => Some(merge_tiled(a, b)),
+        (a, b) => a.or(b),
+    };
     sum.submits += band.submits;
     sum.blocking_readbacks += band.blocking_readbacks;
     sum.bands = Some(sum.bands.unwrap_or(1) + 1);
     sum
+}
+
+/// `tiled`'s statistics of two bands: tiles and pixels add up, the rest is the larger.
+fn merge_tiled(
+    a: crate::frame::TiledStats,
+    b: crate::frame::TiledStats,
+) -> crate::frame::TiledStats {
+    let bins = a.tile_rounds.len().max(b.tile_rounds.len());
+    let at = |v: &[u64], i: usize| v.get(i).copied().unwrap_or(0);
+    crate::frame::TiledStats {
+        rounds: a.rounds.max(b.rounds),
+        tile_rounds: (0..bins)
+            .map(|i| at(&a.tile_rounds, i) + at(&b.tile_rounds, i))
+            .collect(),
+        deepest_pixel: a.deepest_pixel.max(b.deepest_pixel),
+        unfinished_pixels: a.unfinished_pixels + b.unfinished_pixels,
+        longest_list: a.longest_list.max(b.longest_list),
+        list_bytes: a.list_bytes.max(b.list_bytes),
+    }
 }
 
 /// The picture of a lit frame from its HDR image (the method presented over the opaque

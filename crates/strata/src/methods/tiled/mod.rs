@@ -141,6 +141,16 @@ impl Tiled {
                 scene.triangle_count
             )));
         }
+        let (vertex_bytes, binding) = (scene.vertices.size(), gpu.max_storage_binding());
+        if vertex_bytes > binding {
+            let mib = |b: u64| b as f64 / 1048576.0;
+            return Err(Error::unsupported(format!(
+                "tiled reads the scene's vertices from one storage binding: {} triangles take {:.0} MiB, more than the device's {:.0} MiB; use an exact method on the GPU's rasterizer (abuffer-ll, kpeel)",
+                scene.triangle_count,
+                mib(vertex_bytes),
+                mib(binding)
+            )));
+        }
         let layout = binding::layout(
             &gpu.device,
             "strata.tiled.layout",

@@ -251,3 +251,41 @@ fn k_composites_the_k_nearest() {
         assert_eq!(stats.tiled.unwrap().rounds, rounds_for(k));
     }
 }
+
+/// A scene whose vertices outgrow one storage binding is refused up front in one line, never
+/// by wgpu's validation panic.
+#[test]
+fn vertices_beyond_one_storage_binding_are_refused_in_one_line() {
+    let s = scene("builtin:nvpro?objects=32&subdiv=10&seed=2");
+    let mut limits = gpu().limits.clone();
+    limits.max_storage_buffer_binding_size = 64 << 10;
+    let small = Gpu::new_restricted(wgpu::Features::empty(), limits).unwrap();
+    let e = crate::Renderer::new(&small, &s, &options(16, Effect::Transparency))
+        .and_then(|mut r| r.render_method(MethodId::Tiled, None))
+        .expect_err("refused");
+    let message = e.to_string();
+    assert!(
+        message.contains("one storage binding") && !message.contains('\n'),
+        "{message}"
+    );
+}
+
+/// In bands, the picture is the whole frame's and the statistics add up over the bands.
+#[test]
+fn bands_add_up_to_the_whole_frame() {
+    let s = scene("builtin:layers?n=20&coverage=0.8&order=random&seed=8");
+    let opts = options(64, Effect::Transparency);
+    let (whole, one) = render_gpu(&s, &opts, "tiled");
+    let mut r = crate::Renderer::new(gpu(), &s, &opts).unwrap();
+    r.set_max_band_rows(Some(crate::frame::BAND_ALIGN));
+    let (banded, stats) = r.render_method(MethodId::Tiled, None).unwrap();
+    assert_eq!(stats.bands, Some(2));
+    assert!(banded == whole, "bands changed the picture");
+    assert_eq!(stats.fragments_generated, one.fragments_generated);
+    let (a, b) = (stats.tiled.unwrap(), one.tiled.unwrap());
+    assert_eq!(a.tile_rounds.iter().sum::<u64>(), 64);
+    assert_eq!(
+        (a.deepest_pixel, a.tile_rounds),
+        (b.deepest_pixel, b.tile_rounds)
+    );
+}
