@@ -37,8 +37,9 @@ pub struct ReportArgs {
 
 /// The figure a chart and table show, the first a row has: GPU time, else wall time.
 const TIME_FIELDS: &[&str] = &["median_gpu_ms", "gpu_ms", "median_wall_ms"];
-/// Experiments compared on wall-clock time for every row (some renderers have no GPU timer).
-const WALL_CLOCK_EXPERIMENTS: &[&str] = &["peers"];
+/// Experiments compared on wall-clock time for every row: some renderers have no GPU timer
+/// (peers), and lavapipe's timestamps miss `tiled`'s rounds.
+const WALL_CLOCK_EXPERIMENTS: &[&str] = &["peers", "tiled"];
 
 /// What `experiment`'s chart and table show: the row fields it is read from, in order of
 /// preference, and what the figure is.

@@ -517,7 +517,7 @@ fn options_the_method_does_not_read_are_refused() {
     for (args, message) in [
         (
             &["--method", "abuffer-ll", "--k", "5"][..],
-            "--k does not apply to abuffer-ll; it applies to reference, bucket, kpeel, abuffer-fixed",
+            "--k does not apply to abuffer-ll; it applies to reference, bucket, kpeel, tiled, abuffer-fixed",
         ),
         (&["--method", "kb", "--heap-size", "3"], "kplus-semiheap"),
         (&["--method", "kb", "--moments", "6"], "applies to mboit"),
