@@ -4,12 +4,8 @@ use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 use crate::methods::{Method, MethodId};
 
 fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
-    let Setup {
-        gpu,
-        scene,
-        options,
-    } = *made;
-    Ok(Box::new(super::Tiled::new(gpu, scene, options)?))
+    let tiled = super::Tiled::new(made.gpu, made.scene, made.options)?;
+    Ok(Box::new(tiled))
 }
 
 /// `tiled`.

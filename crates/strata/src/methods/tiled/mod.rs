@@ -151,20 +151,11 @@ impl Tiled {
                 mib(binding)
             )));
         }
-        let layout = binding::layout(
-            &gpu.device,
-            "strata.tiled.layout",
-            &[
-                Slot::Uniform,
-                Slot::StorageRw,
-                Slot::StorageRw,
-                Slot::StorageRw,
-                Slot::StorageRw,
-                Slot::StorageRw,
-                Slot::StorageRw,
-                Slot::StorageRw,
-            ],
-        );
+        // Parameters, then the counts, starts, lists, counters, output, state and rounds.
+        let slots: Vec<Slot> = std::iter::once(Slot::Uniform)
+            .chain([Slot::StorageRw; 7])
+            .collect();
+        let layout = binding::layout(&gpu.device, "strata.tiled.layout", &slots);
         let raster_layout = crate::raster::raster_layout(gpu);
         let layouts = [&scene.frame_layout, &layout, &raster_layout];
         let sort = sort_stage().module(&gpu.device);

@@ -1,5 +1,5 @@
 #define_import_path strata::tiled::sort
-#import strata::raster::items::{item_at, item_thread, items_written, rp}
+#import strata::raster::items::{Item, item_at, item_thread, items_written, rp}
 #import strata::raster::setup::{clipped_triangle, fan_triangle, tile_coverage}
 #import strata::tiled::lists::{CODE_WORDS, tile_codes, tile_counts, tile_of, tile_starts, tp}
 
@@ -9,16 +9,29 @@
 // that the tile pass tests a bit per pixel). The order inside a list is the scatter's arrival order;
 // nothing depends on it, as the tile pass orders each pixel's fragments by (depth, primitive).
 
-@compute @workgroup_size(64)
-fn cs_count(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+// The work item a thread of the count and scatter passes owns, and its tile's index; `valid`
+// is false past the items written or for an item no tile list takes.
+struct ListedItem {
+    item: Item,
+    tile: u32,
+    valid: bool,
+}
+
+fn listed_item(id: vec3<u32>, groups: vec3<u32>) -> ListedItem {
     let index = item_thread(id, groups);
     if index >= items_written() {
-        return;
+        return ListedItem(Item(0u, 0u, vec2<i32>(0)), 0u, false);
     }
     let item = item_at(index);
     let tile = tile_of(item.tile);
-    if tile < tp.tiles && item.prim < rp.triangles {
-        atomicAdd(&tile_counts[tile], 1u);
+    return ListedItem(item, tile, tile < tp.tiles && item.prim < rp.triangles);
+}
+
+@compute @workgroup_size(64)
+fn cs_count(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let listed = listed_item(id, groups);
+    if listed.valid {
+        atomicAdd(&tile_counts[listed.tile], 1u);
     }
 }
 
@@ -58,15 +71,12 @@ fn cs_scan(@builtin(local_invocation_index) lid: u32) {
 
 @compute @workgroup_size(64)
 fn cs_scatter(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let index = item_thread(id, groups);
-    if index >= items_written() {
+    let listed = listed_item(id, groups);
+    if !listed.valid {
         return;
     }
-    let item = item_at(index);
-    let tile = tile_of(item.tile);
-    if tile >= tp.tiles || item.prim >= rp.triangles {
-        return;
-    }
+    let item = listed.item;
+    let tile = listed.tile;
     // The count pass saw this item, so the tile's list has room for it.
     let slot = tile_starts[tile] + atomicAdd(&tile_counts[tile], 1u);
     if slot >= tp.capacity {

@@ -12,6 +12,24 @@ fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap()
 }
 
+/// tiled's picture and statistics, after checking that its picture equals abuffer-ll's on the
+/// compute rasterizer bit for bit.
+fn equal_to_compute_lists(
+    s: &Scene,
+    opts: &crate::frame::RenderOptions,
+    what: &str,
+) -> crate::FrameStats {
+    let mut compute = opts.clone();
+    compute.build.raster = Raster::Compute;
+    let (tiled, stats) = render_gpu(s, opts, "tiled");
+    let (lists, _) = render_gpu(s, &compute, "abuffer-ll");
+    assert!(
+        tiled == lists,
+        "{what}: tiled differs from abuffer-ll --raster compute"
+    );
+    stats
+}
+
 fn frames(
     scene: &Scene,
     opts: &crate::frame::RenderOptions,
@@ -66,16 +84,7 @@ fn equals_abuffer_ll_on_the_compute_rasterizer_bit_for_bit() {
         Effect::Translucency,
         Effect::Complexity,
     ] {
-        let opts = options(72, effect);
-        let mut compute = opts.clone();
-        compute.build.raster = Raster::Compute;
-        let (tiled, stats) = render_gpu(&s, &opts, "tiled");
-        let (lists, _) = render_gpu(&s, &compute, "abuffer-ll");
-        assert!(
-            tiled == lists,
-            "{}: tiled differs from abuffer-ll --raster compute",
-            effect.name()
-        );
+        let stats = equal_to_compute_lists(&s, &options(72, effect), effect.name());
         assert_eq!(stats.raster, "compute");
         assert_eq!(stats.exact, Some(true));
     }
@@ -191,15 +200,7 @@ fn partial_tiles_and_near_clipping_match_the_reference() {
 #[test]
 fn long_lists_over_many_rounds_lose_nothing() {
     let s = scene("builtin:layers?n=300&coverage=1&order=random&seed=2");
-    let opts = options(16, Effect::Transparency);
-    let mut compute = opts.clone();
-    compute.build.raster = Raster::Compute;
-    let (tiled, stats) = render_gpu(&s, &opts, "tiled");
-    let (lists, _) = render_gpu(&s, &compute, "abuffer-ll");
-    assert!(
-        tiled == lists,
-        "tiled differs from abuffer-ll --raster compute"
-    );
+    let stats = equal_to_compute_lists(&s, &options(16, Effect::Transparency), "300 layers");
     let t = stats.tiled.unwrap();
     assert_eq!((t.rounds, t.deepest_pixel, t.longest_list), (19, 300, 600));
     assert_eq!(stats.fragments_generated, Some(300 * 16 * 16));
