@@ -28,7 +28,12 @@
 //!   per-pixel merge state read and written once;
 //! - `bucket`: its bounds target (8 bytes), at least one bucket target layer (16), the count
 //!   and the claim word (8) written and read once per pixel, each stored record written and
-//!   read once, one atomic per fragment (its count) and one per stored fragment (its claim).
+//!   read once, one atomic per fragment (its count) and one per stored fragment (its claim);
+//! - `tiled`: each pixel's state ([`STATE_BYTES`]) written and read once, and at least one list
+//!   entry (the rasterizer's item, [`ITEM_BYTES`], and its code and mask, [`CODE_BYTES`]) written
+//!   and read per 64 stored fragments (an entry serves at most a tile's 64 pixels), with two
+//!   atomics on its tile's count (count and scatter) — a loose floor: the lists' real length is not
+//!   in the frame's counters.
 //!
 //! The floor time is the largest of bytes over bandwidth and atomics over their measured rates
 //! (the resources work in parallel, so their sum would not be a lower bound). Stored counts
@@ -42,7 +47,9 @@ use crate::frame::RESOLVED_BYTES;
 use crate::gpu::bandwidth::DeviceRates;
 use crate::methods::kbuffer::{kpeel::KEY_BYTES, list::NODE_BYTES, sbuffer::FRAGMENT_BYTES};
 use crate::methods::kbuffer::{PIXEL_BYTES, SLOT_BYTES};
+use crate::methods::tiled::{CODE_BYTES, STATE_BYTES};
 use crate::methods::MethodId;
+use crate::raster::ITEM_BYTES;
 
 /// What one frame of a method did, from its [`crate::frame::FrameStats`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -103,6 +110,8 @@ pub enum TrafficModel {
     Convex,
     /// Bucket peeling: per-bucket depths and colors per pixel.
     Bucket,
+    /// `tiled`: per-pixel state, and list entries each serving up to a tile's pixels.
+    Tiled,
 }
 
 /// The traffic model of `id` for a frame with `counts` (see the module docs); `None` for the
@@ -140,6 +149,14 @@ pub fn traffic(id: MethodId, c: &FrameCounts) -> Option<Traffic> {
             0,
         ),
         TrafficModel::Convex => (2 * 16 * c.stored + 2 * CONVEX_MERGE_BYTES * c.pixels, 0, 0),
+        TrafficModel::Tiled => {
+            let entries = c.stored.div_ceil(64);
+            (
+                2 * STATE_BYTES * c.pixels + 2 * (ITEM_BYTES + CODE_BYTES) * entries,
+                2 * entries,
+                0,
+            )
+        }
         TrafficModel::Bucket => (
             2 * 16 * c.stored + 2 * (8 + 16 + 8) * c.pixels,
             c.generated + c.stored,
@@ -226,6 +243,14 @@ mod tests {
         let f2b = traffic(MethodId::F2b, &COUNTS).unwrap();
         assert_eq!(f2b.bytes, 2 * 3 * 56_000 + 40 * 1000);
         assert_eq!(traffic(MethodId::Reference, &COUNTS), None);
+    }
+
+    #[test]
+    fn tiled_moves_its_state_twice_and_an_entry_per_64_fragments() {
+        let t = traffic(MethodId::Tiled, &COUNTS).unwrap();
+        // 8000 fragments: at least 125 entries of 8 + 12 bytes, written and read; 36-byte state.
+        assert_eq!(t.bytes, 2 * 36 * 1000 + 2 * 20 * 125 + 40 * 1000);
+        assert_eq!((t.pixel_atomics, t.global_atomics), (250, 0));
     }
 
     #[test]

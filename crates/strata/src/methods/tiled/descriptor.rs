@@ -18,6 +18,7 @@ pub const TILED: Descriptor = Descriptor {
     draw_callback: Support::No("it rasterizes the scene's triangles itself, in compute"),
     msaa: Support::No("it samples pixel centers in compute, as the compute rasterizer does"),
     reads: &[MethodOption::K],
+    traffic: crate::methods::traffic::TrafficModel::Tiled,
     // Its fragments are ordered by (depth, primitive) inside each tile, whatever the list order.
     takes_order: false,
     ..Descriptor::new(MethodId::Tiled, "tiled", Family::Tiled, create)
