@@ -290,3 +290,24 @@ fn bands_add_up_to_the_whole_frame() {
         (b.deepest_pixel, b.tile_rounds)
     );
 }
+
+/// The deferred pipeline's transparent part: over the lit opaque surfaces (whose depth it
+/// tests), tiled's picture is abuffer-ll's.
+#[test]
+fn the_deferred_pipelines_transparent_part_is_abuffer_lls() {
+    let s = scene("builtin:demo");
+    let mut opts = options(48, Effect::Transparency);
+    opts.build.lighting.pipeline = Some(crate::scene::Pipeline::Deferred);
+    let (tiled, stats) = render_gpu(&s, &opts, "tiled");
+    let (lists, reference) = render_gpu(&s, &opts, "abuffer-ll");
+    assert_close(
+        "tiled-deferred",
+        &tiled,
+        &lists,
+        opts.frame.effect,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    assert!(stats.lighting.is_some());
+    assert_eq!(stats.fragments_generated, reference.fragments_generated);
+}
