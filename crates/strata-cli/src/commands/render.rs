@@ -101,7 +101,13 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
         }
     }
     if stats.overflow == Some(true) && stats.geometry_passes > Some(1) && dropped == 0 {
-        eprintln!("note: the fragment pool overflowed; it was grown and the frame re-rendered (output exact)");
+        // The statistics are the last render's: name what can overflow with this method.
+        let what = match (&stats.tiled, &stats.compute_raster) {
+            (Some(_), _) => "the compute rasterizer's work items",
+            (None, Some(_)) => "the fragment pool or the compute rasterizer's work items",
+            (None, None) => "the fragment pool",
+        };
+        eprintln!("note: {what} overflowed and grew; the frame was re-rendered (output exact)");
     }
     if stats.lock_failures.unwrap_or(0) > 0 {
         eprintln!(
