@@ -18,8 +18,8 @@
 // frame gives the same bytes.
 //
 // One round per dispatch bounds each invocation's loops by its tile's list: lavapipe ends the
-// loops of an invocation after 65535 iterations in all, which a loop over every round of a
-// deep tile passed (lanes count what they walked, and a walk cut short is reported).
+// loops of an invocation after 65535 iterations in all, which one loop over every round of a
+// deep tile exceeded (lanes count what they walked, and a walk cut short is reported).
 
 const CHUNK: u32 = 64u;
 // Keep in sync with `KEEP` in mod.rs.
