@@ -54,8 +54,6 @@ struct Row {
 struct Report {
     #[serde(flatten)]
     header: crate::bench::Header,
-    width: u32,
-    height: u32,
     robustness: f64,
     rows: Vec<Row>,
 }
@@ -158,9 +156,7 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, steps: Option<u32>, dir: &Path)
     }
     bar.finish_and_clear();
     let report = Report {
-        header: crate::bench::Header::new("auto-k", gpu, cpu_figures),
-        width,
-        height,
+        header: crate::bench::Header::new("auto-k", gpu, cpu_figures, (width, height)),
         robustness: ROBUSTNESS,
         rows,
     };
@@ -208,8 +204,8 @@ fn csv(r: &Report) -> String {
 fn print(r: &Report) {
     println!(
         "auto-k — {}x{} R = {} on {} ({}){}",
-        r.width,
-        r.height,
+        r.header.width,
+        r.header.height,
         r.robustness,
         r.header.adapter,
         r.header.backend,

@@ -56,8 +56,6 @@ struct Row {
 struct Report {
     #[serde(flatten)]
     header: crate::bench::Header,
-    width: u32,
-    height: u32,
     frames: u32,
     alpha: f32,
     device: DeviceRates,
@@ -138,9 +136,7 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
     }
     bar.finish_and_clear();
     let report = Report {
-        header: crate::bench::Header::new("bandwidth", gpu, cpu_figures),
-        width,
-        height,
+        header: crate::bench::Header::new("bandwidth", gpu, cpu_figures, (width, height)),
         frames,
         alpha: ALPHA,
         device,

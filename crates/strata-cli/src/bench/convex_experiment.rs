@@ -105,7 +105,6 @@ struct Speedup {
 struct Report {
     #[serde(flatten)]
     header: crate::bench::Header,
-    model_size: (u32, u32),
     stack_size: (u32, u32),
     frames: u32,
     /// False while the run is under way: the results are written after every scene, so a run
@@ -257,8 +256,7 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
     let per_case = (views + frames) as u64 * METHODS.len() as u64;
     let bar = crate::bench::frames_bar(cases as u64 * per_case);
     let partial = Partial {
-        header: crate::bench::Header::new("convex", gpu, cpu_figures),
-        model_size,
+        header: crate::bench::Header::new("convex", gpu, cpu_figures, model_size),
         stack_size,
         frames,
     };
@@ -314,7 +312,6 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
 /// What a report holds besides its rows.
 struct Partial {
     header: crate::bench::Header,
-    model_size: (u32, u32),
     stack_size: (u32, u32),
     frames: u32,
 }
@@ -350,7 +347,6 @@ impl Partial {
             .collect();
         Report {
             header: self.header.clone(),
-            model_size: self.model_size,
             stack_size: self.stack_size,
             frames: self.frames,
             complete,
@@ -417,7 +413,7 @@ fn print(r: &Report) {
     let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
         "convex on {}{label}: models at {}x{} (median over views), layered spheres at {}x{}",
-        r.header.adapter, r.model_size.0, r.model_size.1, r.stack_size.0, r.stack_size.1
+        r.header.adapter, r.header.width, r.header.height, r.stack_size.0, r.stack_size.1
     );
     print_rows(&columns(), &r.rows, |_| None);
     println!(
@@ -477,8 +473,9 @@ mod tests {
                 cpu_figures: true,
                 commit: None,
                 unix_time: 0,
+                width: 8,
+                height: 8,
             },
-            model_size: (8, 8),
             stack_size: (8, 8),
             frames: 4,
         };

@@ -115,8 +115,6 @@ struct Ratio {
 struct Report {
     #[serde(flatten)]
     header: crate::bench::Header,
-    width: u32,
-    height: u32,
     frames: u32,
     rows: Vec<Row>,
     ratios: Vec<Ratio>,
@@ -242,9 +240,7 @@ fn report_of(
         })
         .collect();
     Report {
-        header: crate::bench::Header::new("cuda-renderer", gpu, cpu_figures),
-        width,
-        height,
+        header: crate::bench::Header::new("cuda-renderer", gpu, cpu_figures, (width, height)),
         frames,
         rows,
         ratios,
@@ -283,7 +279,7 @@ fn print(r: &Report) {
     let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
         "cuda-renderer on {}{label}: {}x{}, median of {} frames",
-        r.header.adapter, r.width, r.height, r.frames
+        r.header.adapter, r.header.width, r.header.height, r.frames
     );
     for rows in r.rows.chunk_by(|a, b| a.scene == b.scene) {
         println!("{} ({} triangles)", rows[0].scene, rows[0].triangles);

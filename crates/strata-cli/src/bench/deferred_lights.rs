@@ -61,8 +61,6 @@ struct Report {
     header: crate::bench::Header,
     scene: &'static str,
     triangles: usize,
-    width: u32,
-    height: u32,
     frames: u32,
     rows: Vec<Row>,
     /// The smallest light count at which deferred is faster than forward, if any measured.
@@ -152,11 +150,9 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
     .into_iter()
     .collect();
     let report = Report {
-        header: crate::bench::Header::new("deferred-lights", gpu, cpu_figures),
+        header: crate::bench::Header::new("deferred-lights", gpu, cpu_figures, (width, height)),
         scene: SCENE,
         triangles,
-        width,
-        height,
         frames,
         rows,
         crossing_lights,
@@ -186,7 +182,7 @@ fn print(r: &Report) {
     let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
         "deferred-lights on {}{label}: {} triangles at {}x{}, median of {} frames",
-        r.header.adapter, r.triangles, r.width, r.height, r.frames
+        r.header.adapter, r.triangles, r.header.width, r.header.height, r.frames
     );
     println!(
         "{:>7} {:>12} {:>12} {:>8}",

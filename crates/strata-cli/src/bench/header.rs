@@ -43,10 +43,18 @@ pub(crate) struct Header {
     pub(crate) cpu_figures: bool,
     pub(crate) commit: Option<String>,
     pub(crate) unix_time: u64,
+    /// The size of the pictures the experiment renders (convex: its models' pictures).
+    pub(crate) width: u32,
+    pub(crate) height: u32,
 }
 
 impl Header {
-    pub(crate) fn new(experiment: &'static str, gpu: &Gpu, cpu_figures: bool) -> Header {
+    pub(crate) fn new(
+        experiment: &'static str,
+        gpu: &Gpu,
+        cpu_figures: bool,
+        (width, height): (u32, u32),
+    ) -> Header {
         Header {
             experiment,
             adapter: gpu.info.name.clone(),
@@ -56,6 +64,8 @@ impl Header {
             cpu_figures,
             commit: commit(),
             unix_time: unix_time(),
+            width,
+            height,
         }
     }
 }

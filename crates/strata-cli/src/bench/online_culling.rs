@@ -106,8 +106,6 @@ struct Row {
 struct Report {
     #[serde(flatten)]
     header: crate::bench::Header,
-    width: u32,
-    height: u32,
     k: u32,
     /// False while the run is under way: the results are written after every run of a
     /// configuration, so a run stopped early (a time limit) leaves what it measured.
@@ -328,11 +326,9 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
     let bar = crate::bench::frames_bar(
         (sequences.len() * orders.len() * CONFIGS.len() + sweep.len()) as u64,
     );
-    let header = crate::bench::Header::new("online-culling", gpu, cpu_figures);
+    let header = crate::bench::Header::new("online-culling", gpu, cpu_figures, size);
     let report = |rows: Vec<Row>, complete: bool| Report {
         header: header.clone(),
-        width: size.0,
-        height: size.1,
         k: K,
         complete,
         rows,
@@ -409,8 +405,8 @@ fn csv(r: &Report) -> String {
 fn print(r: &Report) {
     println!(
         "online-culling — {}x{} k = {} on {} ({}){}",
-        r.width,
-        r.height,
+        r.header.width,
+        r.header.height,
         r.k,
         r.header.adapter,
         r.header.backend,

@@ -190,8 +190,6 @@ impl Row {
 struct Report {
     #[serde(flatten)]
     header: crate::bench::Header,
-    width: u32,
-    height: u32,
     frames: u32,
     background: &'static str,
     /// Each peer's version and adapter, as its harness reported them.
@@ -386,9 +384,7 @@ fn run_scenes(
     bar.finish_and_clear();
     result?;
     let report = Report {
-        header: crate::bench::Header::new("peers", gpu, cpu_figures),
-        width,
-        height,
+        header: crate::bench::Header::new("peers", gpu, cpu_figures, (width, height)),
         frames,
         background: BACKGROUND,
         peers: peer_info,
@@ -472,8 +468,8 @@ fn print(r: &Report) {
         "peers on {}{}: {}x{}, background {}, median of {} frames",
         r.header.adapter,
         crate::bench::cpu_label(r.header.cpu_figures),
-        r.width,
-        r.height,
+        r.header.width,
+        r.header.height,
         r.background,
         r.frames
     );

@@ -61,8 +61,6 @@ struct Report {
     #[serde(flatten)]
     header: crate::bench::Header,
     method: &'static str,
-    width: u32,
-    height: u32,
     frames: u32,
     rows: Vec<Row>,
 }
@@ -147,10 +145,8 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
     }
     bar.finish_and_clear();
     let report = Report {
-        header: crate::bench::Header::new("scale", gpu, cpu_figures),
+        header: crate::bench::Header::new("scale", gpu, cpu_figures, (width, height)),
         method: METHOD,
-        width,
-        height,
         frames,
         rows,
     };
@@ -196,7 +192,7 @@ fn print(r: &Report) {
     let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
         "scale on {}{label}: {} at {}x{}, median of {} frames",
-        r.header.adapter, r.method, r.width, r.height, r.frames
+        r.header.adapter, r.method, r.header.width, r.header.height, r.frames
     );
     print_rows(&columns(), &r.rows, |_| None);
 }

@@ -3,8 +3,10 @@
 //! [`crate::frame::passes`] (re-exported here, so a method imports its passes from one place).
 
 use crate::frame::FrameContext;
-pub use crate::gpu::passes::{attachment, compute_pipeline, screen_pipeline, NullTarget};
-use crate::gpu::{binding, Gpu};
+pub use crate::gpu::passes::{
+    attachment, compute_pipeline, render_pipeline, screen_pipeline, NullTarget, Rasterization,
+};
+use crate::gpu::Gpu;
 
 /// A render pipeline drawing the scene with `vs_scene` and the stage's fragment entry point,
 /// with no culling (every surface layer counts).
@@ -43,35 +45,26 @@ pub fn capture_pipeline_with(
     depth: Option<wgpu::DepthStencilState>,
     samples: u32,
 ) -> wgpu::RenderPipeline {
-    let layout = binding::pipeline_layout(&gpu.device, label, layouts);
-    gpu.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some(label),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: gpu.scene_vertex_module(),
-                entry_point: Some("vs_scene"),
-                compilation_options: Default::default(),
-                buffers: &[Some(crate::scene::GpuVertex::layout())],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: depth,
-            multisample: wgpu::MultisampleState {
-                count: samples,
-                ..Default::default()
-            },
-            fragment: Some(wgpu::FragmentState {
-                module: fragment_module,
-                entry_point: Some(fragment_entry),
-                compilation_options: Default::default(),
-                targets,
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+    let vertex = wgpu::VertexState {
+        module: gpu.scene_vertex_module(),
+        entry_point: Some("vs_scene"),
+        compilation_options: Default::default(),
+        buffers: &[Some(crate::scene::GpuVertex::layout())],
+    };
+    let raster = Rasterization {
+        cull_mode: None,
+        depth,
+        samples,
+    };
+    render_pipeline(
+        gpu,
+        label,
+        vertex,
+        (fragment_module, fragment_entry),
+        layouts,
+        targets,
+        raster,
+    )
 }
 
 /// Records a geometry pass of `pipeline` with `groups` bound from index 0 into color `targets`,

@@ -75,34 +75,21 @@ impl Present {
     fn pipeline(&mut self, gpu: &Gpu, format: wgpu::TextureFormat) -> &wgpu::RenderPipeline {
         let (layout, module) = (&self.layout, &self.module);
         self.pipelines.entry(format).or_insert_with(|| {
-            let pipeline_layout =
-                binding::pipeline_layout(&gpu.device, "strata.present", &[layout]);
-            gpu.device
-                .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some("strata.present"),
-                    layout: Some(&pipeline_layout),
-                    vertex: wgpu::VertexState {
-                        module,
-                        entry_point: Some("vs_present"),
-                        compilation_options: Default::default(),
-                        buffers: &[],
-                    },
-                    primitive: Default::default(),
-                    depth_stencil: None,
-                    multisample: Default::default(),
-                    fragment: Some(wgpu::FragmentState {
-                        module,
-                        entry_point: Some("fs_present"),
-                        compilation_options: Default::default(),
-                        targets: &[Some(wgpu::ColorTargetState {
-                            format,
-                            blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
-                            write_mask: wgpu::ColorWrites::ALL,
-                        })],
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                })
+            let target = wgpu::ColorTargetState {
+                format,
+                blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+                write_mask: wgpu::ColorWrites::ALL,
+            };
+            crate::gpu::passes::screen_pipeline(
+                gpu,
+                "strata.present",
+                (module, "vs_present"),
+                (module, "fs_present"),
+                &[layout],
+                &[Some(target)],
+                None,
+                None,
+            )
         })
     }
 
@@ -176,31 +163,10 @@ mod format_tests {
 
     /// Reads a 4-channel texture back as 8-bit sRGB.
     fn read_target(texture: &wgpu::Texture) -> image::RgbaImage {
-        let g = gpu();
         let (w, h) = (texture.width(), texture.height());
         let texel = texture.format().block_copy_size(None).unwrap();
-        let row = (w * texel).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let staging = g.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("strata.test.target"),
-            size: (row * h) as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        let mut enc = g.device.create_command_encoder(&Default::default());
-        enc.copy_texture_to_buffer(
-            texture.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &staging,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(row),
-                    rows_per_image: Some(h),
-                },
-            },
-            texture.size(),
-        );
-        g.queue.submit([enc.finish()]);
-        let data = crate::gpu::readback::map_and_read(g, &staging).unwrap();
+        let row = w * texel;
+        let data = crate::gpu::readback::read_texture(gpu(), texture).unwrap();
         let mut img = image::RgbaImage::new(w, h);
         for y in 0..h {
             for x in 0..w {

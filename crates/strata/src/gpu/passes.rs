@@ -11,29 +11,63 @@ pub fn screen_pipeline(
     gpu: &Gpu,
     label: &str,
     (vertex_module, vertex_entry): (&wgpu::ShaderModule, &str),
-    (fragment_module, fragment_entry): (&wgpu::ShaderModule, &str),
+    fragment: (&wgpu::ShaderModule, &str),
     layouts: &[&wgpu::BindGroupLayout],
     targets: &[Option<wgpu::ColorTargetState>],
     cull_mode: Option<wgpu::Face>,
     depth: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
+    let vertex = wgpu::VertexState {
+        module: vertex_module,
+        entry_point: Some(vertex_entry),
+        compilation_options: Default::default(),
+        buffers: &[],
+    };
+    let raster = Rasterization {
+        cull_mode,
+        depth,
+        samples: 1,
+    };
+    render_pipeline(gpu, label, vertex, fragment, layouts, targets, raster)
+}
+
+/// How a render pipeline rasterizes: which faces it culls, its depth test and its samples per
+/// pixel.
+pub struct Rasterization {
+    /// The faces culled (`None`: every surface layer counts).
+    pub cull_mode: Option<wgpu::Face>,
+    /// The depth test and write, if any.
+    pub depth: Option<wgpu::DepthStencilState>,
+    /// Samples per pixel (the targets must have as many).
+    pub samples: u32,
+}
+
+/// A triangle-list pipeline of `vertex` and the fragment stage `(module, entry)` into `targets`:
+/// what every render pipeline of strata has in common.
+pub fn render_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    vertex: wgpu::VertexState<'_>,
+    (fragment_module, fragment_entry): (&wgpu::ShaderModule, &str),
+    layouts: &[&wgpu::BindGroupLayout],
+    targets: &[Option<wgpu::ColorTargetState>],
+    raster: Rasterization,
 ) -> wgpu::RenderPipeline {
     let layout = binding::pipeline_layout(&gpu.device, label, layouts);
     gpu.device
         .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
             layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: vertex_module,
-                entry_point: Some(vertex_entry),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
+            vertex,
             primitive: wgpu::PrimitiveState {
-                cull_mode,
+                cull_mode: raster.cull_mode,
                 ..Default::default()
             },
-            depth_stencil: depth,
-            multisample: Default::default(),
+            depth_stencil: raster.depth,
+            multisample: wgpu::MultisampleState {
+                count: raster.samples,
+                ..Default::default()
+            },
             fragment: Some(wgpu::FragmentState {
                 module: fragment_module,
                 entry_point: Some(fragment_entry),

@@ -1,15 +1,8 @@
 #define_import_path strata::raster::args
+#import strata::raster::params::{RasterParams}
 
 // Turns the bin stage's item count into the raster stage's indirect dispatch: 64 items per
 // workgroup, at most 65535 workgroups per dimension.
-
-// Keep in sync with `RasterParams` in crates/strata/src/raster/mod.rs.
-struct RasterParams {
-    triangles: u32,
-    capacity: u32,
-    guard: f32,
-    _pad: u32,
-}
 
 @group(0) @binding(0) var<uniform> rp: RasterParams;
 @group(0) @binding(1) var<storage, read> raster_counters: array<u32>;

@@ -1,18 +1,10 @@
 #define_import_path strata::raster::bin
 #import strata::raster::setup::{MAX_CORNERS, TILE, clipped_triangle, fan_triangle}
+#import strata::raster::params::{RasterParams}
 
 // Bin stage of the compute rasterizer: one thread per triangle sets it up and appends one work
 // item per 8×8-pixel tile its clipped triangles' bounding boxes touch, so that no thread of the
 // raster stage walks more than 64 pixels, however large the triangle.
-
-// Keep in sync with `RasterParams` in crates/strata/src/raster/mod.rs.
-struct RasterParams {
-    triangles: u32,
-    // Work items the item buffer holds.
-    capacity: u32,
-    guard: f32,
-    _pad: u32,
-}
 
 @group(1) @binding(0) var<uniform> rp: RasterParams;
 // Two words per item: the primitive, then fan triangle | tile x << 3 | tile y << 17.

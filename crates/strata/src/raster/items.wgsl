@@ -1,17 +1,9 @@
 #define_import_path strata::raster::items
+#import strata::raster::params::{RasterParams}
 
 // The work items the bin stage wrote, as every stage after it reads them: the rasterizer's
 // bindings at group RASTER_GROUP (the scene's vertices, binding 3, are setup.wgsl's) and an
 // item's decoding.
-
-// Keep in sync with `RasterParams` in crates/strata/src/raster/mod.rs.
-struct RasterParams {
-    triangles: u32,
-    // Work items the item buffer holds.
-    capacity: u32,
-    guard: f32,
-    _pad: u32,
-}
 
 @group(#{RASTER_GROUP}) @binding(0) var<uniform> rp: RasterParams;
 @group(#{RASTER_GROUP}) @binding(1) var<storage, read> items: array<u32>;

@@ -72,7 +72,15 @@ use crate::gpu::{Gpu, ResourceCache};
 
 /// The rasterizer's WGSL modules (`strata::raster::…`): setup, the work items, bin, args and the
 /// raster stage.
-pub const LIBRARY: Library = &[SETUP_WGSL, ITEMS_WGSL, BIN_WGSL, ARGS_WGSL, RASTER_WGSL];
+pub const LIBRARY: Library = &[
+    PARAMS_WGSL,
+    SETUP_WGSL,
+    ITEMS_WGSL,
+    BIN_WGSL,
+    ARGS_WGSL,
+    RASTER_WGSL,
+];
+const PARAMS_WGSL: &str = include_str!("params.wgsl");
 const SETUP_WGSL: &str = include_str!("setup.wgsl");
 const ITEMS_WGSL: &str = include_str!("items.wgsl");
 const BIN_WGSL: &str = include_str!("bin.wgsl");
@@ -90,7 +98,7 @@ const COUNTER_TRIANGLES: usize = 2;
 /// Bytes of counters, dispatch arguments and parameters.
 pub const CONSTANT_BYTES: u64 = 16 + 16 + 16;
 
-/// Keep in sync with `RasterParams` in bin.wgsl, args.wgsl and raster.wgsl.
+/// Keep in sync with `RasterParams` in params.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct RasterParams {
