@@ -201,6 +201,11 @@ pub fn parse_vec3(s: &str) -> std::result::Result<[f32; 3], String> {
     }
 }
 
+/// Parses `--moments`.
+pub fn parse_moments(s: &str) -> std::result::Result<strata::Moments, String> {
+    s.parse().map_err(|e: Error| e.to_string())
+}
+
 /// `--method`: a method id, or `auto` with an optional goal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MethodArg {
@@ -282,9 +287,14 @@ pub struct MethodArgs {
     /// distances of 0.1 to 500 units).
     #[arg(long, default_value_t = 1.0)]
     pub depth_scale: f64,
-    /// mboit: power moments, 4, 6 or 8 (more follow more layers, at more memory and work).
-    #[arg(long, default_value_t = 4)]
-    pub moments: u32,
+    /// mboit: power moments, 4, 6 or 8 (more follow more layers, at more memory and work), or
+    /// trigonometric moments, trig2, trig3 or trig4 (as many real values as 4, 6, 8).
+    #[arg(long, value_parser = parse_moments, default_value = "4")]
+    pub moments: strata::Moments,
+    /// stochastic: passes of S samples each (more passes, less noise; 2·passes + 1 geometry
+    /// passes).
+    #[arg(long, default_value_t = 1)]
+    pub passes: u32,
     /// Fragments beyond k (k-buffer methods).
     #[arg(long, value_enum, default_value = "drop")]
     pub tail: Tail,
@@ -619,10 +629,14 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
         layers: a.layers,
         buckets: a.buckets,
     };
+    // A method that needs samples (stochastic's stipples) takes its fewest unless --msaa says
+    // more.
+    options.build.msaa = options.build.msaa.max(a.id().descriptor().min_samples);
     options.frame.weighted = WeightedOptions {
         weight: a.weight,
         depth_scale: a.depth_scale,
         moments: a.moments,
+        passes: a.passes,
     };
     let lighting = &mut options.build.lighting;
     lighting.ssao = a.ssao;

@@ -41,6 +41,7 @@ impl Opt {
     pub const BUCKETS: Opt = Opt::Method(MethodOption::Buckets);
     pub const WEIGHT: Opt = Opt::Method(MethodOption::Weight);
     pub const MOMENTS: Opt = Opt::Method(MethodOption::Moments);
+    pub const PASSES: Opt = Opt::Method(MethodOption::Passes);
     pub const CACHE_DIR: Opt = Opt::Method(MethodOption::CacheDir);
 }
 
@@ -61,7 +62,7 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
 
 /// The options of `render` that only some methods read, with the option each belongs to:
 /// (clap id, flag, option).
-const METHOD_FLAGS: [(&str, &str, Opt); 12] = [
+const METHOD_FLAGS: [(&str, &str, Opt); 13] = [
     ("k", "--k", Opt::K),
     ("tail", "--tail", Opt::TAIL),
     ("culling", "--culling", Opt::CULLING),
@@ -72,6 +73,7 @@ const METHOD_FLAGS: [(&str, &str, Opt); 12] = [
     ("weight", "--weight", Opt::WEIGHT),
     ("depth_scale", "--depth-scale", Opt::WEIGHT),
     ("moments", "--moments", Opt::MOMENTS),
+    ("passes", "--passes", Opt::PASSES),
     ("budget_mb", "--budget-mb", Opt::Budget),
     ("cache_dir", "--cache-dir", Opt::CACHE_DIR),
 ];

@@ -325,7 +325,15 @@ fn bad_input_is_one_line_and_exit_2() {
     assert_bad_input(&["render", "builtin:nope"], "unknown builtin");
     assert_bad_input(
         &["render", "--method", "mboit", "--moments", "5"],
-        "--moments 5 is not 4, 6 or 8",
+        "--moments '5' is not 4, 6, 8 (power moments) or trig2, trig3, trig4",
+    );
+    assert_bad_input(
+        &["render", "--method", "mboit", "--moments", "trig9"],
+        "--moments 'trig9' is not 4, 6, 8",
+    );
+    assert_bad_input(
+        &["render", "--method", "stochastic", "--passes", "0"],
+        "--passes 0 is outside 1..64",
     );
     assert_bad_input(&["render", "builtin:layers?n=abc"], "n");
     assert_bad_input(
@@ -351,6 +359,35 @@ fn bad_size_is_rejected() {
     let o = strata(&["render", "--size", "0x10", "-o", "/nonexistent/never.png"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("--size"));
+}
+
+/// mlab says its fragments past k were merged, not dropped, and refuses --tail (it has none).
+#[test]
+fn mlab_notes_its_merges_and_refuses_a_tail() {
+    let dir = workdir("mlab");
+    let out = dir.join("mlab.png");
+    let scene = "builtin:layers?n=8&coverage=0.75&order=random&seed=3";
+    let o = strata(&[
+        "render",
+        scene,
+        "--method",
+        "mlab",
+        "--size",
+        "32x32",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("beyond k were merged into the farthest layers")
+            && stderr(&o).contains("(k=4)"),
+        "{}",
+        stderr(&o)
+    );
+    assert_bad_input(
+        &["render", scene, "--method", "mlab", "--tail", "blend"],
+        "--tail does not apply to mlab",
+    );
 }
 
 #[test]

@@ -83,8 +83,8 @@ pub(crate) mod testing;
 
 pub use error::{Error, Result};
 pub use frame::{
-    BucketSplit, BuildOptions, Effect, FrameOptions, FrameStats, FrameTargets, RenderOptions, Tail,
-    Weight,
+    BucketSplit, BuildOptions, Effect, FrameOptions, FrameStats, FrameTargets, Moments,
+    RenderOptions, Tail, Weight,
 };
 pub use methods::kbuffer::DEFAULT_MAX_TRIES;
 pub use methods::MethodId;

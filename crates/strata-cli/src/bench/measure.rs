@@ -11,13 +11,17 @@ pub struct Run {
     pub(crate) method: String,
     pub(crate) k: Option<u32>,
     pub(crate) culling: bool,
+    /// What a k-buffer does with the fragments past k.
+    pub(crate) tail: strata::Tail,
     /// wboit's weight function and depth scale.
     pub(crate) weight: strata::Weight,
     pub(crate) depth_scale: f64,
     /// Samples per pixel (`--msaa`).
     pub(crate) msaa: u32,
-    /// mboit's power moments.
-    pub(crate) moments: u32,
+    /// mboit's moments.
+    pub(crate) moments: strata::Moments,
+    /// stochastic's passes.
+    pub(crate) passes: u32,
     /// bucket's split of the depth range.
     pub(crate) buckets: strata::BucketSplit,
     /// The rasterizer of the storage geometry passes (`--raster`).
@@ -31,12 +35,34 @@ impl Run {
             method: method.into(),
             k: None,
             culling: true,
+            tail: strata::Tail::Drop,
             weight: strata::Weight::default(),
             depth_scale: 1.0,
             msaa: 1,
-            moments: 4,
+            moments: strata::Moments::Power(4),
+            passes: 1,
             buckets: strata::BucketSplit::Uniform,
             raster: strata::frame::Raster::Hw,
+        }
+    }
+
+    /// `method` at `k` with the fragments past k blended into a tail (`--tail blend|weighted`:
+    /// hybrid transparency when weighted).
+    pub(crate) fn with_tail(method: &str, k: u32, tail: strata::Tail) -> Run {
+        Run {
+            label: format!("{method} k={k} tail={}", tail.name()),
+            tail,
+            ..Run::with_k(method, k, true)
+        }
+    }
+
+    /// stochastic with `msaa` samples per pixel and `passes` passes.
+    pub(crate) fn stochastic(msaa: u32, passes: u32) -> Run {
+        Run {
+            label: format!("stochastic msaa={msaa} passes={passes}"),
+            msaa,
+            passes,
+            ..Run::plain("stochastic")
         }
     }
 
@@ -59,7 +85,7 @@ impl Run {
         }
     }
 
-    pub(crate) fn mboit(moments: u32) -> Run {
+    pub(crate) fn mboit(moments: strata::Moments) -> Run {
         Run {
             label: format!("mboit moments={moments}"),
             moments,

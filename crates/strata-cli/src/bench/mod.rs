@@ -147,7 +147,7 @@ const K_METHODS: &[&str] = &[
 const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "approx-quality",
-        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit (4, 6, 8 moments), unsorted, sorted, kplus-heap k=8, bucket k=16 (uniform, adaptive) and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
+        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit (4, 6, 8 power and 2, 3, 4 trigonometric moments), mlab (k = 2, 4, 8), stochastic (4 samples, 1, 4 and 16 passes; against the reference at 4 samples), unsorted, sorted, kplus-heap k=8 and k=4 with its tail dropped, blended or weighted (hybrid transparency), bucket k=16 (uniform, adaptive) and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
         scenes: &[
             "builtin:nvpro?objects=1024&subdiv=16&seed=0",
             "builtin:dragon",
@@ -166,11 +166,23 @@ const EXPERIMENTS: &[Experiment] = &[
                 .collect();
             runs.extend([
                 Run::plain("mboit"),
-                Run::mboit(6),
-                Run::mboit(8),
+                Run::mboit(strata::Moments::Power(6)),
+                Run::mboit(strata::Moments::Power(8)),
+                Run::mboit(strata::Moments::Trigonometric(2)),
+                Run::mboit(strata::Moments::Trigonometric(3)),
+                Run::mboit(strata::Moments::Trigonometric(4)),
+                Run::with_k("mlab", 2, true),
+                Run::with_k("mlab", 4, true),
+                Run::with_k("mlab", 8, true),
+                Run::stochastic(4, 1),
+                Run::stochastic(4, 4),
+                Run::stochastic(4, 16),
                 Run::plain("unsorted"),
                 Run::plain("sorted"),
                 Run::with_k("kplus-heap", 8, true),
+                Run::with_k("kplus-heap", 4, true),
+                Run::with_tail("kplus-heap", 4, strata::Tail::Blend),
+                Run::with_tail("kplus-heap", 4, strata::Tail::Weighted),
                 Run::bucket(16, strata::BucketSplit::Uniform),
                 Run::bucket(16, strata::BucketSplit::Adaptive),
                 Run::plain("abuffer-ll"),
@@ -626,11 +638,13 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
             let mut options = options.clone();
             options.frame.k = run.k;
             options.frame.kbuffer.culling = run.culling;
+            options.frame.kbuffer.tail = run.tail;
             options.frame.weighted.weight = run.weight;
             options.frame.weighted.depth_scale = run.depth_scale;
             options.build.msaa = run.msaa;
             options.build.raster = run.raster;
             options.frame.weighted.moments = run.moments;
+            options.frame.weighted.passes = run.passes;
             options.frame.peeling.buckets = run.buckets;
             match measure(gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r) {
                 Ok(mut result) => {

@@ -87,14 +87,27 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     }
     let dropped = stats.fragments_dropped.unwrap_or(0);
     if dropped > 0 {
+        let past_k = stats
+            .method
+            .parse::<MethodId>()
+            .ok()
+            .and_then(|m| m.descriptor().past_k);
         match (stats.k, tail) {
-            (Some(k), _) if stats.method == "bucket" => eprintln!("note: {dropped} fragments collided in buckets that already held two and were dropped (k={k}; a larger even --k splits each pixel's depth range finer)"),
-            (Some(k), Tail::Blend | Tail::Weighted) => eprintln!("note: {dropped} fragments beyond k={k} were blended into the tail"),
+            (Some(k), _) if let Some(what) = past_k => {
+                eprintln!("note: {dropped} fragments {what} (k={k})")
+            }
+            (Some(k), Tail::Blend | Tail::Weighted) => {
+                eprintln!("note: {dropped} fragments beyond k={k} were blended into the tail")
+            }
             (Some(k), Tail::Drop) => {
                 let blends = stats.method.parse::<MethodId>().is_ok_and(|m| {
                     crate::method_options::applies(crate::method_options::Opt::TAIL, m, None)
                 });
-                let hint = if blends { " (--tail blend keeps them as one term)" } else { "" };
+                let hint = if blends {
+                    " (--tail blend keeps them as one term)"
+                } else {
+                    ""
+                };
                 eprintln!("note: {dropped} fragments beyond k={k} were dropped{hint}")
             }
             (None, _) => eprintln!("warning: {dropped} fragments dropped"),

@@ -6,7 +6,6 @@ use std::collections::BTreeMap;
 
 use egui::{Color32, Key, PointerButton, Sense, Stroke};
 use strata::frame::{FrameStats, Raster};
-use strata::methods::kbuffer::DEFAULT_K;
 use strata::methods::MethodId;
 use strata::scene::Shading;
 
@@ -295,7 +294,7 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             let mut auto = *k == Some(KArg::Auto);
             let mut n: u32 = match *k {
                 Some(KArg::Count(n)) => n,
-                _ => DEFAULT_K,
+                _ => id.descriptor().default_k,
             };
             let bucket = id == MethodId::Bucket;
             let label = if id == MethodId::Kpeel {
@@ -312,11 +311,12 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
                 ui.add(egui::DragValue::new(&mut n).range(2..=32));
                 n = n / 2 * 2;
             } else {
-                ui.add_enabled(!auto, egui::DragValue::new(&mut n).range(1..=256));
+                let max = id.descriptor().max_k.min(256);
+                ui.add_enabled(!auto, egui::DragValue::new(&mut n).range(1..=max));
                 ui.checkbox(&mut auto, "auto");
             }
             let new = Some(if auto { KArg::Auto } else { KArg::Count(n) });
-            if new != *k && (k.is_some() || n != DEFAULT_K || auto) {
+            if new != *k && (k.is_some() || n != id.descriptor().default_k || auto) {
                 *k = new;
             }
         });
@@ -360,6 +360,13 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
         ui.horizontal(|ui| {
             ui.label("depth scale");
             ui.add(egui::DragValue::new(&mut m.depth_scale).range(1e-4..=1e4));
+        });
+    });
+    ui.add_enabled_ui(applies(Opt::PASSES, id, pipeline), |ui| {
+        ui.horizontal(|ui| {
+            ui.label("passes");
+            let max = strata::frame::options::MAX_STOCHASTIC_PASSES;
+            ui.add(egui::DragValue::new(&mut m.passes).range(1..=max));
         });
     });
     ui.add_enabled_ui(applies(Opt::Temporal, id, pipeline), |ui| {

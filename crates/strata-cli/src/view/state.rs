@@ -290,8 +290,11 @@ impl ViewState {
             push("weight", value_name(&m.weight));
             push("depth-scale", m.depth_scale.to_string());
         }
-        if applies(Opt::MOMENTS, id, p.pipeline) && m.moments != 4 {
+        if applies(Opt::MOMENTS, id, p.pipeline) && m.moments != strata::Moments::Power(4) {
             push("moments", m.moments.to_string());
+        }
+        if applies(Opt::PASSES, id, p.pipeline) && m.passes != 1 {
+            push("passes", m.passes.to_string());
         }
         if applies(Opt::TAIL, id, p.pipeline) {
             push("tail", value_name(&m.tail));
@@ -377,7 +380,7 @@ fn options_key(s: &ViewState) -> impl PartialEq {
         (p.size, p.effect, p.background, p.k),
         (m.tail, m.culling, m.max_tries, m.heap_size),
         (m.layers, m.layers_per_pass, m.buckets),
-        (m.weight, m.depth_scale, m.moments),
+        (m.weight, m.depth_scale, m.moments, m.passes),
         (m.budget_mb, m.robustness, m.order, m.seed),
         (m.temporal, m.temporal_refresh, m.temporal_epsilon),
     )

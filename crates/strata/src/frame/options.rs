@@ -80,6 +80,15 @@ pub enum Tail {
 }
 
 impl Tail {
+    /// The mode's name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tail::Drop => "drop",
+            Tail::Blend => "blend",
+            Tail::Weighted => "weighted",
+        }
+    }
+
     /// Whether fragments beyond k are kept as a tail term (blended or weighted).
     pub fn kept(self) -> bool {
         self != Tail::Drop
@@ -329,6 +338,69 @@ pub struct PeelingOptions {
     pub buckets: BucketSplit,
 }
 
+/// mboit's moments: power moments of the warped depth (4, 6 or 8), or trigonometric moments of
+/// its angle on the unit circle (2, 3 or 4 complex moments: 4, 6 or 8 real values).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Moments {
+    /// E\[zᵏ\] for k = 1..n.
+    Power(u32),
+    /// E\[e^{ikφ}\] for k = 1..n.
+    Trigonometric(u32),
+}
+
+impl Moments {
+    /// The real values it stores per sample besides b0.
+    pub fn reals(self) -> u32 {
+        match self {
+            Moments::Power(n) => n,
+            Moments::Trigonometric(n) => 2 * n,
+        }
+    }
+
+    /// Whether it is one of the counts mboit builds.
+    pub fn supported(self) -> bool {
+        match self {
+            Moments::Power(n) => [4, 6, 8].contains(&n),
+            Moments::Trigonometric(n) => (2..=4).contains(&n),
+        }
+    }
+}
+
+impl Default for Moments {
+    fn default() -> Self {
+        Moments::Power(4)
+    }
+}
+
+impl std::fmt::Display for Moments {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Moments::Power(n) => write!(f, "{n}"),
+            Moments::Trigonometric(n) => write!(f, "trig{n}"),
+        }
+    }
+}
+
+impl FromStr for Moments {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Moments> {
+        let parsed = match s.strip_prefix("trig") {
+            Some(n) => n.parse().ok().map(Moments::Trigonometric),
+            None => s.parse().ok().map(Moments::Power),
+        };
+        parsed.filter(|m| m.supported()).ok_or_else(|| {
+            let shown: String = s.chars().take(16).collect();
+            Error::input(format!(
+                "--moments '{shown}' is not 4, 6, 8 (power moments) or trig2, trig3, trig4 (trigonometric)"
+            ))
+        })
+    }
+}
+
+/// The most passes `stochastic` takes (`--passes`).
+pub const MAX_STOCHASTIC_PASSES: u32 = 64;
+
 /// The weighted family's parameters (wboit, mboit).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WeightedOptions {
@@ -337,8 +409,10 @@ pub struct WeightedOptions {
     /// wboit: view-space distances are multiplied by this before the weight function, whose
     /// constants assume distances of 0.1 to 500 units.
     pub depth_scale: f64,
-    /// mboit: power moments, 4 (default), 6 or 8.
-    pub moments: u32,
+    /// mboit: power moments 4 (default), 6 or 8, or trigonometric moments 2, 3 or 4.
+    pub moments: Moments,
+    /// stochastic: passes of S samples each (1 by default).
+    pub passes: u32,
 }
 
 impl Default for WeightedOptions {
@@ -346,7 +420,8 @@ impl Default for WeightedOptions {
         WeightedOptions {
             weight: Weight::Eq7,
             depth_scale: 1.0,
-            moments: 4,
+            moments: Moments::Power(4),
+            passes: 1,
         }
     }
 }
@@ -454,10 +529,16 @@ impl FrameOptions {
                 weighted.depth_scale
             )));
         }
-        if ![4, 6, 8].contains(&weighted.moments) {
+        if !weighted.moments.supported() {
             return Err(Error::input(format!(
-                "--moments {} is not 4, 6 or 8 (mboit's power moments)",
+                "--moments {} is not 4, 6, 8, trig2, trig3 or trig4 (mboit's moments)",
                 weighted.moments
+            )));
+        }
+        if !(1..=MAX_STOCHASTIC_PASSES).contains(&weighted.passes) {
+            return Err(Error::input(format!(
+                "--passes {} is outside 1..{MAX_STOCHASTIC_PASSES} (stochastic's passes)",
+                weighted.passes
             )));
         }
         if let Some(r) = self.k_auto {

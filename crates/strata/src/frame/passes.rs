@@ -91,15 +91,69 @@ pub fn color_pass_drawing(
     targets: &[(&wgpu::TextureView, wgpu::Color)],
     draw: &dyn Fn(&mut wgpu::RenderPass<'_>),
 ) {
-    let label = ctx.label(name);
     let attachments: Vec<_> = targets
         .iter()
         .map(|(view, clear)| attachment(view, *clear))
         .collect();
+    render_pass(ctx, name, (pipeline, groups), &attachments, None, draw);
+}
+
+/// Records a timed geometry pass of `pipeline` with `groups` bound from index 0, drawing the
+/// frame's geometry into `colors` (each loaded or cleared as its operations say) and `depth`,
+/// a depth target loaded or cleared by its `LoadOp` and kept.
+pub fn depth_geometry_pass(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    (pipeline, groups): (&wgpu::RenderPipeline, &[&wgpu::BindGroup]),
+    colors: &[(&wgpu::TextureView, wgpu::LoadOp<wgpu::Color>)],
+    (depth, depth_load): (&wgpu::TextureView, wgpu::LoadOp<f32>),
+) {
+    let attachments: Vec<_> = colors
+        .iter()
+        .map(|&(view, load)| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        })
+        .collect();
+    let depth = wgpu::RenderPassDepthStencilAttachment {
+        view: depth,
+        depth_ops: Some(wgpu::Operations {
+            load: depth_load,
+            store: wgpu::StoreOp::Store,
+        }),
+        stencil_ops: None,
+    };
+    let (scene, draw) = (ctx.scene, ctx.draw);
+    render_pass(
+        ctx,
+        name,
+        (pipeline, groups),
+        &attachments,
+        Some(depth),
+        &|pass| scene.draw(pass, draw),
+    );
+}
+
+fn render_pass(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    (pipeline, groups): (&wgpu::RenderPipeline, &[&wgpu::BindGroup]),
+    attachments: &[Option<wgpu::RenderPassColorAttachment<'_>>],
+    depth: Option<wgpu::RenderPassDepthStencilAttachment<'_>>,
+    draw: &dyn Fn(&mut wgpu::RenderPass<'_>),
+) {
+    let label = ctx.label(name);
     let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(&label),
-        color_attachments: &attachments,
-        depth_stencil_attachment: None,
+        color_attachments: attachments,
+        depth_stencil_attachment: depth,
         timestamp_writes: ctx.timer.render_pass(name),
         occlusion_query_set: None,
         multiview_mask: None,

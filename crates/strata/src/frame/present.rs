@@ -175,10 +175,8 @@ mod format_tests {
                     wgpu::TextureFormat::Rgba16Float => {
                         let c: Vec<f32> = (0..4)
                             .map(|i| {
-                                half_to_f32(u16::from_le_bytes([
-                                    data[at + 2 * i],
-                                    data[at + 2 * i + 1],
-                                ]))
+                                half::f16::from_le_bytes([data[at + 2 * i], data[at + 2 * i + 1]])
+                                    .to_f32()
                             })
                             .collect();
                         let e = |v: f32| (crate::scene::linear_to_srgb(v) * 255.0).round() as u8;
@@ -193,17 +191,6 @@ mod format_tests {
             }
         }
         img
-    }
-
-    fn half_to_f32(h: u16) -> f32 {
-        let sign = if h >> 15 == 1 { -1.0 } else { 1.0 };
-        let exp = ((h >> 10) & 0x1f) as i32;
-        let mant = (h & 0x3ff) as f32;
-        sign * match exp {
-            0 => mant * 2f32.powi(-24),
-            31 => f32::INFINITY,
-            _ => (1.0 + mant / 1024.0) * 2f32.powi(exp - 15),
-        }
     }
 
     #[test]

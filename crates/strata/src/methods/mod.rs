@@ -93,6 +93,10 @@ pub enum MethodId {
     Bucket,
     /// Exact OIT in compute: each 8×8 tile's fragments sorted inside one workgroup.
     Tiled,
+    /// Multi-layer alpha blending: k layers under a spin lock, the two farthest merged.
+    Mlab,
+    /// Stochastic transparency: stratified sample stipples, the alpha-corrected average.
+    Stochastic,
 }
 
 /// The method table in catalogue order (the order of `strata methods`): each family's folder
@@ -103,6 +107,7 @@ pub static TABLE: &[&Descriptor] = &[
     &baseline::descriptor::SORTED,
     &weighted::descriptor::WBOIT,
     &weighted::descriptor::MBOIT,
+    &weighted::descriptor::STOCHASTIC,
     &peeling::descriptor::F2B,
     &peeling::descriptor::DUAL,
     &peeling::descriptor::BUCKET,
@@ -115,6 +120,7 @@ pub static TABLE: &[&Descriptor] = &[
     &kbuffer::descriptor::KB_KEYS,
     &kbuffer::descriptor::KB,
     &kbuffer::descriptor::KB_PS,
+    &kbuffer::descriptor::MLAB,
     &kbuffer::descriptor::KB_AB_FIXED,
     &kbuffer::descriptor::KPLUS_ARRAY,
     &kbuffer::descriptor::KPLUS_ARRAY_R,

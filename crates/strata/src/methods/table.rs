@@ -123,6 +123,8 @@ pub enum MethodOption {
     Weight,
     /// `--moments`.
     Moments,
+    /// `--passes`: stochastic's passes.
+    Passes,
     /// `--cache-dir`: the preprocesses kept between runs.
     CacheDir,
 }
@@ -166,6 +168,10 @@ pub struct Descriptor {
     /// Whether it takes `--msaa 4|8`.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub msaa: Support,
+    /// The fewest samples per pixel it runs with (stochastic's stipples are samples: 4); the
+    /// CLI raises `--msaa 1` to it.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub min_samples: u32,
     /// With `--msaa`, each sample keeps its own storage (capture-time k-buffers choose what to
     /// keep per sample); else fragments are stored per pixel with their coverage masks.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -200,6 +206,12 @@ pub struct Descriptor {
     /// Its memory-traffic model ([`super::traffic`]).
     #[cfg_attr(feature = "serde", serde(skip))]
     pub traffic: TrafficModel,
+    /// What becomes of the fragments a frame's k leaves out where it is not dropping them or
+    /// blending them into the tail: the render note's "N fragments …" (`None`: one of those).
+    pub past_k: Option<&'static str>,
+    /// The `--k` it uses when none is given.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub default_k: u32,
     /// The largest `--k` it accepts (a pixel's fragments serialize on its lock or cascade).
     #[cfg_attr(feature = "serde", serde(skip))]
     pub max_k: u32,
@@ -230,6 +242,7 @@ impl Descriptor {
                 "it draws into color targets through the GPU's blending or depth test, which the compute rasterizer has no equivalent of",
             ),
             msaa: Support::Yes,
+            min_samples: 1,
             per_sample_storage: false,
             temporal: false,
             ordering: Ordering::Relaxed,
@@ -238,6 +251,8 @@ impl Descriptor {
             sorts_centroids: false,
             takes_order: true,
             reads: &[],
+            past_k: None,
+            default_k: crate::methods::kbuffer::DEFAULT_K,
             max_k: 4096,
             traffic: TrafficModel::PerPixelState {
                 atomic_per_fragment: false,

@@ -70,7 +70,11 @@ fn every_stage_validates() {
         stages.push(baseline::finish_stage(samples));
         stages.push(weighted::composite_stage(samples));
         stages.push(weighted::mboit::composite_stage(samples));
-        for moments in [4, 6, 8] {
+        use crate::frame::Moments;
+        for moments in [4, 6, 8].map(Moments::Power) {
+            stages.push(weighted::mboit::shade_stage(samples, moments));
+        }
+        for moments in [2, 3, 4].map(Moments::Trigonometric) {
             stages.push(weighted::mboit::shade_stage(samples, moments));
         }
     }
@@ -649,7 +653,7 @@ fn second_frame_equals_the_first_for_every_method() {
     for m in super::MethodId::gpu_methods().filter(|&m| m != super::MethodId::Kb) {
         let roomy = room_for_every_fragment(m, &opts);
         let mut own;
-        let r = if roomy.frame.k == opts.frame.k {
+        let r = if (roomy.frame.k, roomy.build.msaa) == (opts.frame.k, opts.build.msaa) {
             &mut shared
         } else {
             own = crate::Renderer::new(crate::testing::gpu(), &s, &roomy).unwrap();
@@ -662,14 +666,22 @@ fn second_frame_equals_the_first_for_every_method() {
     }
 }
 
-/// `abuffer-fixed` keeps the first k fragments to arrive, and on a GPU the order of arrival
-/// changes from frame to frame (the H100 showed it): the frame tests give it room for every
-/// fragment, so that a difference can only come from stale or poisoned memory.
+/// `abuffer-fixed` keeps the first k fragments to arrive, and `mlab` merges in arrival order, and
+/// on a GPU the order of arrival changes from frame to frame (the H100 showed it): the frame
+/// tests give them room for every fragment, so that a difference can only come from stale or
+/// poisoned memory.
 fn room_for_every_fragment(m: super::MethodId, opts: &RenderOptions) -> RenderOptions {
-    let mut opts = opts.clone();
-    if m == super::MethodId::AbufferFixed {
+    let mut opts = runnable(m, opts);
+    if matches!(m, super::MethodId::AbufferFixed | super::MethodId::Mlab) {
         opts.frame.k = Some(64);
     }
+    opts
+}
+
+/// `opts` with the samples `m` needs at least (stochastic's stipples).
+fn runnable(m: super::MethodId, opts: &RenderOptions) -> RenderOptions {
+    let mut opts = opts.clone();
+    opts.build.msaa = opts.build.msaa.max(m.descriptor().min_samples);
     opts
 }
 
@@ -987,10 +999,11 @@ fn sbuffer_is_exact_with_a_three_level_prefix_sum() {
 #[test]
 fn every_method_keeps_within_the_budget() {
     let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
-    let mut opts = options(32, Effect::Transparency);
-    opts.frame.k = Some(4);
+    let mut base = options(32, Effect::Transparency);
+    base.frame.k = Some(4);
     let mib = |bytes: u64| bytes as f64 / 1048576.0;
     for m in super::MethodId::gpu_methods() {
+        let mut opts = runnable(m, &base);
         let (_, stats) = render_gpu(&s, &opts, m.as_str());
         let bytes = stats.bytes_allocated.unwrap();
         assert!(bytes > 0, "{m}: reports no allocation");
@@ -1019,7 +1032,6 @@ fn every_method_keeps_within_the_budget() {
             matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
             "{m}: {e}"
         );
-        opts.frame.budget_mb = None;
     }
 }
 

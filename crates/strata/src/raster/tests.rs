@@ -65,6 +65,7 @@ fn every_compute_capture_validates() {
                 "fs_kb_ps",
                 "fs_fixed",
                 "fs_kplus_semiheap",
+                "fs_mlab",
             ],
         ),
         (

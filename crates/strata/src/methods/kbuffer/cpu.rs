@@ -5,6 +5,8 @@
 //!   fragment in slot 0, the others unordered; [`MaxArray::culled`]: `culled`.
 //! - [`MaxHeap`]: `heap_insert` (`kplus_capture.wgsl`), a binary max-heap in slot order.
 //! - [`SortedArray`]: `sorted_insert` + `culled_sorted` (`kb_capture.wgsl`, `kb` / `kb-ps`).
+//! - [`mlab`]: `mlab_insert` + `merge_layers` (`kb_capture.wgsl`), in f64: the closed form of
+//!   `mlab` for fragments arriving in a given order.
 //! - [`SemiHeap`]: `capture_semiheap` + `semiheap_insert` (`semiheap_capture.wgsl`), run one
 //!   fragment at a time: H a max-heap of h slots, S the rest, unordered.
 //! - [`sort_local`], [`k_depth_sort`]: the functions of the same names in `resolve.wgsl`.
@@ -14,7 +16,7 @@
 //! Each insert returns the fragment that fell out of the structure (the one the GPU adds to the
 //! tail), so that kept + fallen = inserted can be checked.
 
-use crate::resolve::Fragment;
+use crate::resolve::{Fragment, RefFragment};
 use crate::scene::{linear_to_srgb, srgb_to_linear};
 
 /// `fragment_before`: `a` is composited before `b` — nearer, or as near with a smaller tag.
@@ -313,6 +315,41 @@ impl SortedArray {
         }
         self.slots[i] = f;
         fallen
+    }
+}
+
+/// `mlab_insert` over fragments arriving in `arrivals`' order: the pixel's layers, nearest first
+/// — at most `k`, the two farthest merged by [`merge_layers`] whenever a fragment makes k + 1.
+pub fn mlab(arrivals: &[RefFragment], k: usize) -> Vec<RefFragment> {
+    let mut layers: Vec<RefFragment> = Vec::with_capacity(k + 1);
+    for f in arrivals {
+        let at = layers.partition_point(|l| RefFragment::order(l, f).is_lt());
+        layers.insert(at, *f);
+        if layers.len() > k {
+            let back = layers.pop().expect("k + 1 layers");
+            let front = layers.pop().expect("k ≥ 1 layers");
+            layers.push(merge_layers(&front, &back));
+        }
+    }
+    layers
+}
+
+/// `merge_layers`: `front` then `back` as one layer with `front`'s key, their joint opacity and
+/// the straight color whose premultiplied value is theirs together.
+pub fn merge_layers(front: &RefFragment, back: &RefFragment) -> RefFragment {
+    let alpha = front.alpha + (1.0 - front.alpha) * back.alpha;
+    let color = if alpha > 0.0 {
+        [0, 1, 2].map(|c| {
+            (front.alpha * front.color[c] + (1.0 - front.alpha) * back.alpha * back.color[c])
+                / alpha
+        })
+    } else {
+        [0.0; 3]
+    };
+    RefFragment {
+        color,
+        alpha,
+        ..*front
     }
 }
 

@@ -141,6 +141,23 @@ pub const KB_PS: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::KbPs, "kb-ps", Family::Kbuffer, create)
 };
 
+/// The method table's entry for `mlab`.
+pub const MLAB: Descriptor = Descriptor {
+    memory: "16·(k+1)·W·H + 152",
+    summary: "multi-layer alpha blending: k layers in depth order under a per-pixel spin lock, the two farthest merged when a fragment makes k + 1 (exact up to k fragments; merges vary with arrival order)",
+    compute_raster: LOCKS_NEED_ORDER,
+    per_sample_storage: true,
+    ordering: Ordering::Locks,
+    app_capture: Some("strata::kbuffer::kb_capture::capture_mlab(p, f)"),
+    reads: &[MethodOption::K, MethodOption::MaxTries],
+    past_k: Some("beyond k were merged into the farthest layers (approximate where a pixel has more than k + 1)"),
+    // MLAB-4, the published comparison's; the critical section is kb-ps's, so is the limit.
+    default_k: 4,
+    max_k: 256,
+    traffic: TrafficModel::Slots { atomics: true },
+    ..Descriptor::new(MethodId::Mlab, "mlab", Family::Kbuffer, create)
+};
+
 /// The method table's entry for `kb-ab-fixed`.
 pub const KB_AB_FIXED: Descriptor = Descriptor {
     exact: true,

@@ -14,6 +14,16 @@
 //! - `kb-ps`: sorted insertion inside the lock (pixel synchronisation emulated as the paper did);
 //!   `kb`: the original k-buffer, sorted insertion with no lock — its read-modify-write hazards
 //!   between concurrent fragments of a pixel are its known flaw and are left as they are.
+//! - `mlab`: multi-layer alpha blending (Salvi & Vaidyanathan 2014) — k layers kept in order
+//!   under the lock; a fragment takes its place and when that makes k + 1 layers the two
+//!   farthest merge into one (OVER, the nearer one's key; no culling, no tail). Exact while a
+//!   pixel has at most k fragments; beyond, the merges put the error at the back, and because a
+//!   lock (unlike pixel synchronisation) takes fragments in whatever order they arrive, which
+//!   layers merge varies from run to run on a GPU. The total opacity is exact whatever the
+//!   order (each merge keeps the product of transmittances). The resolve is the slot
+//!   k-buffers': a merged layer is a fragment record whose color and opacity are the pair's.
+//!   Fragments past k count as dropped from the exact set: they are in the picture only through
+//!   the merges.
 //! - `abuffer-fixed`: the FABS A-buffer, a counter into a fixed array of k slots per pixel;
 //!   fragments past it are counted as dropped (and blended into the tail with `--tail blend`).
 //! - `kb-ab-fixed`: the same with the array sized from measured need (an overflowing frame is
@@ -226,6 +236,8 @@ pub enum Variant {
     KbAbFixed,
     /// `kplus-semiheap`.
     KplusSemiheap,
+    /// `mlab`.
+    Mlab,
 }
 
 impl Variant {
@@ -239,6 +251,7 @@ impl Variant {
             Variant::KbPs => "fs_kb_ps",
             Variant::AbufferFixed | Variant::KbAbFixed => "fs_fixed",
             Variant::KplusSemiheap => "fs_kplus_semiheap",
+            Variant::Mlab => "fs_mlab",
         }
     }
 
@@ -257,6 +270,7 @@ impl Variant {
             MethodId::AbufferFixed => Variant::AbufferFixed,
             MethodId::KbAbFixed => Variant::KbAbFixed,
             MethodId::KplusSemiheap => Variant::KplusSemiheap,
+            MethodId::Mlab => Variant::Mlab,
             _ => return None,
         })
     }
@@ -269,7 +283,7 @@ pub fn max_k(id: MethodId) -> u32 {
 
 /// The frame's k ([`FrameContext::k`]; `None`: the default), checked against the method's limit.
 pub fn k_of(k: Option<u32>, id: MethodId) -> Result<u32> {
-    let k = k.unwrap_or(DEFAULT_K);
+    let k = k.unwrap_or(id.descriptor().default_k);
     let max = max_k(id);
     if k == 0 || k > max {
         return Err(Error::input(format!(
@@ -958,5 +972,7 @@ impl Method for SlotKBuffer {
     }
 }
 
+#[cfg(test)]
+mod mlab_tests;
 #[cfg(test)]
 pub(crate) mod tests;

@@ -4,7 +4,7 @@
 #import strata::kbuffer::storage::{count_pixel_fragment, count_temporal_cull, kp, kpixel, sample_pixel, storage_samples, tail_add}
 #import strata::kbuffer::temporal::{note_outside, temporally_culled}
 #import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, capture_array_r, capture_locked}
-#import strata::kbuffer::kb_capture::{LOCKED, UNLOCKED, capture_sorted}
+#import strata::kbuffer::kb_capture::{LOCKED, UNLOCKED, capture_mlab, capture_sorted}
 #import strata::kbuffer::fixed_capture::{capture_fixed}
 #import strata::kbuffer::semiheap_capture::{capture_semiheap}
 
@@ -34,6 +34,7 @@ const CAPTURE_KPLUS_ARRAY_R: u32 = 2u;
 const CAPTURE_KB: u32 = 3u;
 const CAPTURE_KB_PS: u32 = 4u;
 const CAPTURE_KPLUS_SEMIHEAP: u32 = 5u;
+const CAPTURE_MLAB: u32 = 6u;
 
 // The capture step of a capture-time k-buffer (the argument is a constant at every call site).
 fn capture_step(p: u32, f: Fragment, method: u32) {
@@ -52,6 +53,9 @@ fn capture_step(p: u32, f: Fragment, method: u32) {
         }
         case CAPTURE_KB_PS: {
             capture_sorted(p, f, LOCKED);
+        }
+        case CAPTURE_MLAB: {
+            capture_mlab(p, f);
         }
         default: {
             capture_semiheap(p, f);
@@ -128,6 +132,16 @@ fn fs_kb_ps_capture(v: SceneVarying, front_facing: bool, mask: u32) {
 @fragment
 fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
     fs_kb_ps_capture(v, front_facing, mask);
+}
+
+// fs_mlab's capture step: its fragment stage below and the compute rasterizer call it.
+fn fs_mlab_capture(v: SceneVarying, front_facing: bool, mask: u32) {
+    capture_covering(v, front_facing, mask, CAPTURE_MLAB);
+}
+
+@fragment
+fn fs_mlab(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    fs_mlab_capture(v, front_facing, mask);
 }
 
 // fs_fixed's capture step: its fragment stage below and the compute rasterizer call it.

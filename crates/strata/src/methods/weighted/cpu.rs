@@ -1,9 +1,10 @@
 //! The CPU closed forms of the approximate methods, in f64: weighted blended OIT (McGuire & Bavoil
 //! 2013, eq. 6 with the weights of eqs. 7–10), what `wboit` computes up to its f16 targets, and
 //! moment-based OIT with four power moments (Münstermann et al. 2018), what `mboit` computes up to
-//! its f32 moments and f16 accumulation.
+//! its f32 moments and f16 accumulation, and stochastic transparency (Enderton et al. 2011) with
+//! the same stipples as `stochastic`, up to its f16 accumulation.
 
-use crate::frame::{RenderOptions, Weight};
+use crate::frame::{Moments, RenderOptions, Weight};
 use crate::resolve::RefFragment;
 use crate::scene::{Camera, Projection};
 
@@ -238,30 +239,60 @@ pub fn absorbance_fraction_n(moments: &[f64], z: f64, bias: f64, overestimation:
     (0..size).map(|k| p[k] * m(k)).sum()
 }
 
-/// b0 and the absorbance-weighted power moments Σ a·zᵏ (k = 1..count) of `fragments`.
-fn mboit_moments(fragments: &[&RefFragment], camera: &Camera, count: usize) -> (f64, Vec<f64>) {
+/// b0 and the absorbance-weighted moments of `fragments`: power moments Σ a·zᵏ (k = 1..n), or
+/// trigonometric ones Σ a·e^{ikφ(z)} as (re, im) pairs.
+fn mboit_moments(fragments: &[&RefFragment], camera: &Camera, kind: Moments) -> (f64, Vec<f64>) {
     let mut b0 = 0.0;
-    let mut b = vec![0.0f64; count];
+    let mut b = vec![0.0f64; kind.reals() as usize];
     for f in fragments {
         let a = -(1.0 - f.alpha.min(MAX_ALPHA)).ln();
         let z = mboit_depth(camera, f.distance);
         b0 += a;
-        for (k, bk) in b.iter_mut().enumerate() {
-            *bk += a * z.powi(k as i32 + 1);
+        match kind {
+            Moments::Power(_) => {
+                for (k, bk) in b.iter_mut().enumerate() {
+                    *bk += a * z.powi(k as i32 + 1);
+                }
+            }
+            Moments::Trigonometric(_) => {
+                let phi = trig_angle(z);
+                for (k, pair) in b.chunks_exact_mut(2).enumerate() {
+                    let angle = (k + 1) as f64 * phi;
+                    pair[0] += a * angle.cos();
+                    pair[1] += a * angle.sin();
+                }
+            }
         }
     }
     (b0, b)
 }
 
-/// The transmittance the moments `(b0, b)` give in front of warped depth `z`.
-/// Four moments by the closed form, six and eight by [`absorbance_fraction_n`].
-fn mboit_transmittance((b0, b): &(f64, Vec<f64>), z: f64, bias: f64, overestimation: f64) -> f64 {
+/// The transmittance the moments `(b0, b)` of `kind` give in front of warped depth `z`.
+/// Four power moments by the closed form, six and eight by [`absorbance_fraction_n`],
+/// trigonometric ones by [`trig_absorbance_fraction`] (biased toward the uniform distribution
+/// on the circle).
+fn mboit_transmittance(
+    (b0, b): &(f64, Vec<f64>),
+    kind: Moments,
+    z: f64,
+    (bias, overestimation): (f64, f64),
+) -> f64 {
     if *b0 <= 0.0 {
         return 1.0;
     }
     let moments: Vec<f64> = b.iter().map(|x| x / b0).collect();
-    let fraction = match moments[..] {
-        [m1, m2, m3, m4] => absorbance_fraction([m1, m2, m3, m4], z, bias, overestimation),
+    let fraction = match (kind, &moments[..]) {
+        (Moments::Trigonometric(_), _) => {
+            let biased: Vec<[f64; 2]> = std::iter::once([1.0, 0.0])
+                .chain(
+                    moments
+                        .chunks_exact(2)
+                        .map(|m| [(1.0 - bias) * m[0], (1.0 - bias) * m[1]]),
+                )
+                .collect();
+            trig_absorbance_fraction(&biased, trig_angle(z), overestimation)
+        }
+        (_, &[m1, m2, m3, m4]) => absorbance_fraction([m1, m2, m3, m4], z, bias, overestimation),
         _ => absorbance_fraction_n(&moments, z, bias, overestimation),
     };
     (-b0 * fraction).exp().clamp(0.0, 1.0)
@@ -293,15 +324,15 @@ fn mboit_resolve(
     })
 }
 
-/// `mboit`'s settings: the moment bias β, the overestimation η, and the power moments (4, 6, 8).
+/// `mboit`'s settings: the moment bias β, the overestimation η, and the moments.
 #[derive(Clone, Copy, Debug)]
 pub struct MboitSettings {
     /// The moment bias β.
     pub bias: f64,
     /// The overestimation η.
     pub overestimation: f64,
-    /// Power moments: 4, 6 or 8.
-    pub moments: usize,
+    /// Power moments 4, 6 or 8, or trigonometric moments 2, 3 or 4.
+    pub moments: Moments,
 }
 
 /// One pixel of `mboit` over `background`, from its fragments in any order.
@@ -319,9 +350,9 @@ pub fn mboit(
         |f| {
             mboit_transmittance(
                 &moments,
+                settings.moments,
                 mboit_depth(camera, f.distance),
-                settings.bias,
-                settings.overestimation,
+                (settings.bias, settings.overestimation),
             )
         },
         background,
@@ -354,9 +385,9 @@ pub fn mboit_multisampled(
             .map(|s| {
                 mboit_transmittance(
                     &moments[s as usize],
+                    settings.moments,
                     z,
-                    settings.bias,
-                    settings.overestimation,
+                    (settings.bias, settings.overestimation),
                 )
             })
             .collect();
@@ -368,4 +399,243 @@ pub fn mboit_multisampled(
         sum = std::array::from_fn(|i| sum[i] + c[i] / samples as f64);
     }
     sum
+}
+
+/// `hash_u32` of stochastic.wgsl: one PCG step and its output permutation.
+pub fn hash_u32(x: u32) -> u32 {
+    let state = x.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
+}
+
+/// `stipple` of stochastic.wgsl: the samples (of `samples`) a fragment of opacity `alpha` of
+/// primitive `prim` at pixel `pixel` stipples in pass `seed`, in the shader's f32 arithmetic.
+pub fn stipple(pixel: u32, prim: u32, alpha: f32, seed: u32, samples: u32) -> u32 {
+    let mut h = hash_u32(pixel ^ hash_u32(prim ^ hash_u32(seed)));
+    let scaled = alpha.clamp(0.0, 1.0) * samples as f32;
+    let mut n = scaled as u32;
+    if (h >> 8) as f32 * (1.0 / 16_777_216.0) < scaled - n as f32 {
+        n += 1;
+    }
+    let n = n.min(samples);
+    let mut free = (1u32 << samples) - 1;
+    let mut mask = 0;
+    for i in 0..n {
+        h = hash_u32(h);
+        let skip = (h % (samples - i)) as usize;
+        let bit = (0..samples)
+            .map(|b| 1u32 << b)
+            .filter(|bit| free & bit != 0)
+            .nth(skip)
+            .expect("n ≤ samples leaves a free sample");
+        mask |= bit;
+        free &= !bit;
+    }
+    mask
+}
+
+/// One pixel (row-major index `pixel`) of `stochastic` with `samples` per pixel and `passes`
+/// passes, over `background`: per pass each sample's nearest stippling depth, the sums of α·c
+/// and α over the samples where each fragment is not behind it, then that average times the
+/// coverage 1 − Π(1 − α) averaged over the samples. The fragments carry their sample coverage.
+pub fn stochastic(
+    fragments: &[RefFragment],
+    pixel: u32,
+    (samples, passes): (u32, u32),
+    background: [f64; 3],
+) -> [f64; 3] {
+    let covers = |f: &RefFragment, s: u32| f.coverage as u32 & (1 << s) != 0;
+    let mut sum = [0.0f64; 4];
+    for pass in 0..passes {
+        let mut nearest = vec![1.0f64; samples as usize];
+        for f in fragments {
+            let mask = stipple(pixel, f.prim, f.alpha as f32, pass, samples);
+            for s in (0..samples).filter(|&s| mask & (1 << s) != 0 && covers(f, s)) {
+                nearest[s as usize] = nearest[s as usize].min(f.depth);
+            }
+        }
+        for f in fragments {
+            for s in 0..samples {
+                if covers(f, s) && f.depth <= nearest[s as usize] {
+                    for (total, c) in sum.iter_mut().zip(f.color) {
+                        *total += f.alpha * c;
+                    }
+                    sum[3] += f.alpha;
+                }
+            }
+        }
+    }
+    let transmittance: f64 = (0..samples)
+        .map(|s| {
+            fragments
+                .iter()
+                .filter(|f| covers(f, s))
+                .map(|f| 1.0 - f.alpha)
+                .product::<f64>()
+        })
+        .sum::<f64>()
+        / samples as f64;
+    let coverage = 1.0 - transmittance;
+    [0, 1, 2].map(|c| {
+        let color = if sum[3] > 0.0 {
+            sum[c] / sum[3] * coverage
+        } else {
+            0.0
+        };
+        color + transmittance * background[c]
+    })
+}
+
+/// The wrapping zone of trigonometric moments: the arc of the unit circle, θ = π/10, left
+/// between the farthest warped depth and the nearest (`TRIG_WRAPPING_ZONE` in mboit_math.wgsl).
+pub const TRIG_WRAPPING_ZONE: f64 = std::f64::consts::PI / 10.0;
+
+/// `trig_angle`: a warped depth's angle on the unit circle, in [0, 2π − θ].
+pub fn trig_angle(z: f64) -> f64 {
+    (z + 1.0) * (std::f64::consts::PI - 0.5 * TRIG_WRAPPING_ZONE)
+}
+
+type Complex = [f64; 2];
+
+fn c_mul(a: Complex, b: Complex) -> Complex {
+    [a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]]
+}
+
+fn c_conj(a: Complex) -> Complex {
+    [a[0], -a[1]]
+}
+
+fn c_sub(a: Complex, b: Complex) -> Complex {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+fn c_scale(a: Complex, s: f64) -> Complex {
+    [a[0] * s, a[1] * s]
+}
+
+fn c_div(a: Complex, b: Complex) -> Complex {
+    c_scale(c_mul(a, c_conj(b)), 1.0 / (b[0] * b[0] + b[1] * b[1]))
+}
+
+/// A point's angle in [0, 2π).
+fn c_angle(a: Complex) -> f64 {
+    let t = a[1].atan2(a[0]);
+    if t < 0.0 {
+        t + std::f64::consts::TAU
+    } else {
+        t
+    }
+}
+
+/// Rounds of Aberth's iteration (`TRIG_ROOT_ROUNDS`).
+const TRIG_ROOT_ROUNDS: usize = 24;
+
+/// `trig_kernel_roots`: the roots of the monic polynomial Σ a_k·x^k (a\[n\] = 1) by Aberth's
+/// iteration from points spread over the unit circle.
+fn trig_kernel_roots(a: &[Complex]) -> Vec<Complex> {
+    let n = a.len() - 1;
+    let mut r: Vec<Complex> = (0..n)
+        .map(|i| {
+            let t = std::f64::consts::TAU * (i as f64 + 0.25) / n as f64;
+            [t.cos(), t.sin()]
+        })
+        .collect();
+    for _ in 0..TRIG_ROOT_ROUNDS {
+        for i in 0..n {
+            let (mut value, mut slope) = (a[n], [0.0, 0.0]);
+            for k in (0..n).rev() {
+                let s = c_mul(slope, r[i]);
+                slope = [s[0] + value[0], s[1] + value[1]];
+                let v = c_mul(value, r[i]);
+                value = [v[0] + a[k][0], v[1] + a[k][1]];
+            }
+            let ratio = c_div(value, slope);
+            let mut repulsion = [0.0, 0.0];
+            for j in (0..n).filter(|&j| j != i) {
+                let q = c_div([1.0, 0.0], c_sub(r[i], r[j]));
+                repulsion = [repulsion[0] + q[0], repulsion[1] + q[1]];
+            }
+            let step = c_div(ratio, c_sub([1.0, 0.0], c_mul(ratio, repulsion)));
+            if step[0].is_finite() && step[1].is_finite() {
+                r[i] = c_sub(r[i], step);
+            }
+        }
+    }
+    r
+}
+
+/// `trig_absorbance_fraction`: the fraction of the absorbance in front of the circle point at
+/// angle `phi`, from biased normalized trigonometric moments `b` (b\[0\] = 1, n = b.len() − 1
+/// complex moments), with weight `overestimation` at the point itself.
+pub fn trig_absorbance_fraction(b: &[Complex], phi: f64, overestimation: f64) -> f64 {
+    let n = b.len() - 1;
+    let toeplitz = |j: usize, k: usize| if j >= k { b[j - k] } else { c_conj(b[k - j]) };
+    let mut l = [[[0.0f64; 2]; 5]; 5];
+    let mut d = [0.0f64; 5];
+    for k in 0..=n {
+        for j in 0..k {
+            let mut s = toeplitz(k, j);
+            for m in 0..j {
+                s = c_sub(s, c_scale(c_mul(l[k][m], c_conj(l[j][m])), d[m]));
+            }
+            l[k][j] = c_scale(s, 1.0 / d[j]);
+        }
+        d[k] = 1.0
+            - (0..k)
+                .map(|m| d[m] * (l[k][m][0].powi(2) + l[k][m][1].powi(2)))
+                .sum::<f64>();
+    }
+    let u = [phi.cos(), phi.sin()];
+    let mut c = [[0.0f64; 2]; 5];
+    let mut power = [1.0, 0.0];
+    for k in 0..=n {
+        let mut y = power;
+        for m in 0..k {
+            y = c_sub(y, c_mul(l[k][m], c[m]));
+        }
+        c[k] = y;
+        power = c_mul(power, u);
+    }
+    for k in 0..=n {
+        c[k] = c_scale(c[k], 1.0 / d[k]);
+    }
+    for k in (0..=n).rev() {
+        for m in k + 1..=n {
+            c[k] = c_sub(c[k], c_mul(c_conj(l[m][k]), c[m]));
+        }
+    }
+    let kernel: Vec<Complex> = (0..=n).map(|k| c_div(c_conj(c[k]), c_conj(c[n]))).collect();
+    let roots = trig_kernel_roots(&kernel);
+    let mut x = [[0.0f64; 2]; 5];
+    let mut dd = [[0.0f64; 2]; 5];
+    x[0] = u;
+    dd[0] = [overestimation, 0.0];
+    let zone = std::f64::consts::TAU - TRIG_WRAPPING_ZONE;
+    for i in 1..=n {
+        x[i] = roots[i - 1];
+        let a = c_angle(x[i]);
+        let front = if a < phi { 1.0 } else { 0.0 };
+        let ramp = ((a - zone) / TRIG_WRAPPING_ZONE).clamp(0.0, 1.0);
+        dd[i] = [front + ramp, 0.0];
+    }
+    for level in 1..=n {
+        for i in (level..=n).rev() {
+            dd[i] = c_div(c_sub(dd[i], dd[i - 1]), c_sub(x[i], x[i - level]));
+        }
+    }
+    let mut p = [[0.0f64; 2]; 5];
+    p[0] = dd[n];
+    for i in 1..=n {
+        let at = n - i;
+        for k in (1..=i).rev() {
+            p[k] = c_sub(p[k - 1], c_mul(p[k], x[at]));
+        }
+        p[0] = c_sub(dd[at], c_mul(p[0], x[at]));
+    }
+    let s: f64 = (0..=n).map(|k| c_mul(p[k], b[k])[0]).sum();
+    if s.is_nan() {
+        0.0
+    } else {
+        s.clamp(0.0, 1.0)
+    }
 }

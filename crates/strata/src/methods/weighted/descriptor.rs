@@ -5,10 +5,10 @@ use crate::methods::{Method, MethodId};
 
 fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
     let Setup { gpu, scene, .. } = *made;
-    Ok(if id == MethodId::Mboit {
-        Box::new(super::mboit::Mboit::new(gpu, scene)?)
-    } else {
-        Box::new(super::Wboit::new(gpu, scene))
+    Ok(match id {
+        MethodId::Mboit => Box::new(super::mboit::Mboit::new(gpu, scene)?),
+        MethodId::Stochastic => Box::new(super::stochastic::Stochastic::new(gpu, scene)?),
+        _ => Box::new(super::Wboit::new(gpu, scene)),
     })
 }
 
@@ -23,8 +23,18 @@ pub const WBOIT: Descriptor = Descriptor {
 /// `mboit`.
 pub const MBOIT: Descriptor = Descriptor {
     geometry_passes: "2",
-    memory: "(28·S + 4)·W·H, +8·S with --moments 6, +16·S with 8; S samples per pixel (--msaa, else 1)",
-    summary: "moment-based OIT (Münstermann et al. 2018): 4, 6 or 8 power moments of absorbance over log depth (--moments; 32-bit, bias 5e-7, 5e-7, 2e-6, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
+    memory: "(28·S + 4)·W·H, +8·S with --moments 6 or trig3, +16·S with 8 or trig4; S samples per pixel (--msaa, else 1)",
+    summary: "moment-based OIT (Münstermann et al. 2018): 4, 6 or 8 power moments of absorbance over log depth, or 2, 3 or 4 trigonometric moments of its angle on a circle with a wrapping zone of π/10 (--moments 4|6|8|trig2|trig3|trig4; 32-bit, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
     reads: &[MethodOption::Moments],
     ..Descriptor::new(MethodId::Mboit, "mboit", Family::Weighted, create)
+};
+
+/// `stochastic`.
+pub const STOCHASTIC: Descriptor = Descriptor {
+    geometry_passes: "2·P + 1 (P: --passes)",
+    memory: "(14·S + 4)·W·H + 256·P; S samples per pixel (--msaa 4|8, required)",
+    summary: "stochastic transparency (Enderton et al. 2011) with stratified masks: each fragment stipples about α·S of a pixel's samples with its depth, is accumulated where no stipple lies in front, and the alpha-corrected average is composited; noisy, unbiased, reproducible (--passes for more samples)",
+    reads: &[MethodOption::Passes],
+    min_samples: 4,
+    ..Descriptor::new(MethodId::Stochastic, "stochastic", Family::Weighted, create)
 };

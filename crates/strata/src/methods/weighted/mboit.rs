@@ -32,8 +32,24 @@
 //! ([`MOMENT_BIAS_6`], [`MOMENT_BIAS_8`]) were measured here, as the smallest that keeps the f32
 //! result within 2/255 of the f64 closed form on the tests' scenes.
 //!
-//! Not exact, by design: the coverage is exact, the order is estimated. Trigonometric moments and
-//! the 16-bit quantized variants are not built. Translucency gets Fresnel opacity but no
+//! `--moments trig2|trig3|trig4`: n = 2, 3 or 4 trigonometric moments (the paper's section on
+//! them, after Peters et al.'s trigonometric moment shadow maps): the warped depth z becomes the
+//! angle φ = (z + 1)·(π − θ/2) on the unit circle, leaving a wrapping zone of θ = π/10 between the
+//! farthest depth and the nearest; a fragment adds a·e^{ikφ} (k = 1..n) as (re, im) pairs, in the
+//! targets 4, 6 or 8 power moments use. The reconstruction at a fragment's angle: the moments
+//! biased by β toward the uniform distribution (0 past the zeroth), the Hermitian Toeplitz system
+//! B·c = (1, u, …, uⁿ), u = e^{iφ}, solved through L·D·Lᴴ; the other points of support are the
+//! roots of Σ conj(c_k)·x^k, which lie on the circle (Aberth's iteration, 24 rounds from points
+//! spread over it: bounded); each point gets 1 if its angle is before φ, 0 after, plus a ramp
+//! across the wrapping zone (linear in the angle — the published code ramps a pseudo-angle, which
+//! is not derived here), the fragment's own point η; their weights come out of the moments
+//! through the polynomial that interpolates those values (Newton's divided differences), as for
+//! six and eight power moments. The bias values (4·10⁻⁷, 8·10⁻⁷, 1.5·10⁻⁶ for 2, 3, 4) are those
+//! a public port of the paper's code lists for 32-bit moments, not checked against the paper,
+//! whose tables were not at hand; θ = π/10 and η = 0.25 are the published code's defaults.
+//!
+//! Not exact, by design: the coverage is exact, the order is estimated. The 16-bit quantized
+//! variants are not built. Translucency gets Fresnel opacity but no
 //! absorption between surfaces.
 
 use bytemuck::{Pod, Zeroable};
@@ -42,7 +58,7 @@ use crate::error::{Error, Result};
 use crate::frame::passes::{
     capture_pipeline_with, color_geometry_pass, compute_pipeline, dispatch_pixels,
 };
-use crate::frame::{FrameContext, Recorded, SceneGpu};
+use crate::frame::{FrameContext, Moments, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
 use crate::gpu::{Gpu, ResourceCache};
@@ -77,31 +93,37 @@ pub struct MboitParams {
 /// keeps the f32 reconstruction within 2/255 of the f64 one on the tests' scenes — less bias
 /// follows the exact picture more closely (in f64 on nvpro at 40², RMSE 0.0160 at 5·10⁻⁷ against
 /// 0.0168 at 5·10⁻⁶ for six), and at 5·10⁻⁷ eight moments lost 12 of 1600 pixels to f32 rounding.
-pub fn moment_bias(moments: u32) -> f32 {
+pub fn moment_bias(moments: Moments) -> f32 {
     match moments {
-        4 => MOMENT_BIAS,
-        6 => MOMENT_BIAS_6,
-        _ => MOMENT_BIAS_8,
+        Moments::Power(4) => MOMENT_BIAS,
+        Moments::Power(6) => MOMENT_BIAS_6,
+        Moments::Power(_) => MOMENT_BIAS_8,
+        Moments::Trigonometric(n) => TRIG_MOMENT_BIAS[n as usize - 2],
     }
 }
+
+/// The bias toward the uniform distribution on the circle for 2, 3 and 4 trigonometric moments
+/// in 32-bit floats (see the module docs for where they come from).
+pub const TRIG_MOMENT_BIAS: [f32; 3] = [4e-7, 8e-7, 1.5e-6];
 
 /// The bias with 6 moments.
 pub const MOMENT_BIAS_6: f32 = 5e-7;
 /// The bias with 8 moments.
 pub const MOMENT_BIAS_8: f32 = 2e-6;
 
-/// The third target's format and bytes per sample for 6 and 8 moments.
-fn high_format(moments: u32) -> (wgpu::TextureFormat, u64) {
-    if moments == 6 {
+/// The third target's format and bytes per sample for 6 and 8 real moments.
+fn high_format(reals: u32) -> (wgpu::TextureFormat, u64) {
+    if reals == 6 {
         (wgpu::TextureFormat::Rg32Float, 8)
     } else {
         (wgpu::TextureFormat::Rgba32Float, 16)
     }
 }
 
-/// The moments stage of 6 or 8 moments (a third target) and their shade stage, made on first use.
+/// The moments stage of any moments but four power moments (a third target past 4 real values)
+/// and their shade stage, made on first use.
 struct HighStage {
-    moments: u32,
+    moments: Moments,
     pipeline: wgpu::RenderPipeline,
     shade: wgpu::RenderPipeline,
 }
@@ -144,11 +166,19 @@ pub fn moments_stage() -> Stage {
     Stage::new("strata.mboit.moments", include_str!("mboit_moments.wgsl")).with(super::LIBRARY)
 }
 
-/// The shade stage for `moments` power moments, reading multisampled moments with `--msaa`.
-pub fn shade_stage(samples: u32, moments: u32) -> Stage {
+/// The shade stage for `moments`, reading multisampled moments with `--msaa`.
+pub fn shade_stage(samples: u32, moments: Moments) -> Stage {
+    let trig = match moments {
+        Moments::Trigonometric(n) => n,
+        Moments::Power(_) => 0,
+    };
     Stage::new("strata.mboit.shade", include_str!("mboit_shade.wgsl"))
         .with(super::LIBRARY)
-        .defs(&shader::target_samples(samples).value("MBOIT_MOMENTS", moments))
+        .defs(
+            &shader::target_samples(samples)
+                .value("MBOIT_MOMENTS", moments.reals())
+                .value("MBOIT_TRIG", trig),
+        )
 }
 
 /// The composite stage, reading multisampled targets with `--msaa`.
@@ -199,7 +229,7 @@ impl Mboit {
             None,
             samples,
         );
-        let module = shade_stage(samples, 4).module(device);
+        let module = shade_stage(samples, Moments::Power(4)).module(device);
         let shade = capture_pipeline_with(
             gpu,
             "strata.mboit.shade",
@@ -231,40 +261,43 @@ impl Mboit {
         })
     }
 
-    /// The moments stage of `moments` (6 or 8) power moments, made when first asked for.
+    /// The stages of `moments` (any but four power moments), made when first asked for.
     fn high_stage(
         &mut self,
         gpu: &Gpu,
         scene_layout: &wgpu::BindGroupLayout,
-        moments: u32,
+        moments: Moments,
     ) -> Result<()> {
         if self.high.as_ref().is_some_and(|h| h.moments == moments) {
             return Ok(());
         }
-        let bytes = 4 + 16 + high_format(moments).1;
+        let reals = moments.reals();
+        let bytes = 4 + 16 + if reals > 4 { high_format(reals).1 } else { 0 };
         let allowed = gpu.limits.max_color_attachment_bytes_per_sample;
         if bytes > allowed as u64 {
             return Err(Error::unsupported(format!(
-                "mboit --moments {moments} blends {bytes} bytes of moments per sample, and this device's render targets take {allowed} (max_color_attachment_bytes_per_sample); use --moments 6 or 4"
+                "mboit --moments {moments} blends {bytes} bytes of moments per sample, and this device's render targets take {allowed} (max_color_attachment_bytes_per_sample); use --moments 6, trig3 or 4"
             )));
         }
         let module = moments_stage().module(&gpu.device);
-        let entry = if moments == 6 {
-            "fs_moments6"
-        } else {
-            "fs_moments8"
+        let entry = match moments {
+            Moments::Power(6) => "fs_moments6",
+            Moments::Power(_) => "fs_moments8",
+            Moments::Trigonometric(2) => "fs_trig2",
+            Moments::Trigonometric(3) => "fs_trig3",
+            Moments::Trigonometric(_) => "fs_trig4",
         };
+        let mut targets = vec![target(B0_FORMAT), target(MOMENTS_FORMAT)];
+        if reals > 4 {
+            targets.push(target(high_format(reals).0));
+        }
         let pipeline = capture_pipeline_with(
             gpu,
             "strata.mboit.moments",
             &module,
             entry,
             &[scene_layout, &self.moments_layout],
-            &[
-                target(B0_FORMAT),
-                target(MOMENTS_FORMAT),
-                target(high_format(moments).0),
-            ],
+            &targets,
             None,
             self.samples,
         );
@@ -292,15 +325,13 @@ impl Method for Mboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let moments = ctx.options.frame.weighted.moments;
-        let high_bytes = if moments > 4 {
-            high_format(moments).1
-        } else {
-            0
-        };
+        let reals = moments.reals();
+        let high_bytes = if reals > 4 { high_format(reals).1 } else { 0 };
         let sample_bytes = MBOIT_SAMPLE_BYTES + high_bytes;
         let bytes = ctx.pixels() * (sample_bytes * self.samples as u64 + MBOIT_COUNT_BYTES);
         ctx.check_budget(bytes)?;
-        if moments > 4 {
+        let high = moments != Moments::Power(4);
+        if high {
             self.high_stage(gpu, &ctx.scene.frame_layout, moments)?;
         }
         let (w, h) = ctx.size();
@@ -314,7 +345,7 @@ impl Method for Mboit {
         let b0 = view("strata.mboit.b0", B0_FORMAT);
         let moments_view = view("strata.mboit.moments", MOMENTS_FORMAT);
         let high_view =
-            (moments > 4).then(|| view("strata.mboit.moments_high", high_format(moments).0));
+            (reals > 4).then(|| view("strata.mboit.moments_high", high_format(reals).0));
         let accumulation = view("strata.mboit.accumulation", ACCUMULATION_FORMAT);
         let counts = self.cache.storage(
             gpu,
@@ -337,7 +368,7 @@ impl Method for Mboit {
             &self.moments_layout,
             &[params.as_entire_binding(), counts.as_entire_binding()],
         );
-        let (moments_pipeline, shade_pipeline) = match (&self.high, moments > 4) {
+        let (moments_pipeline, shade_pipeline) = match (&self.high, high) {
             (Some(high), true) => (&high.pipeline, &high.shade),
             _ => (&self.moments, &self.shade),
         };

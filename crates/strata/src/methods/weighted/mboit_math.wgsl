@@ -285,3 +285,174 @@ fn mboit_transmittance_n(b0: f32, b: array<f32, 8>, count: u32, z: f32) -> f32 {
     }
     return clamp(exp(-b0 * mboit_absorbance_fraction_n(normalized, count, z)), 0.0, 1.0);
 }
+
+// Trigonometric moments (`--moments trig2|trig3|trig4`, n = 2, 3, 4 complex moments): a warped
+// depth z becomes the point u = e^{iφ} of the unit circle, φ = (z + 1)·(π − θ/2), so depths fill
+// the circle but for the wrapping zone, an arc of θ = π/10 between the farthest depth and the
+// nearest. A fragment adds a·u^j (j = 1..n, as (re, im) pairs) to the moments. Keep these with
+// `cpu::trig_absorbance_fraction`.
+const TRIG_WRAPPING_ZONE: f32 = 0.31415927;
+const TRIG_PI: f32 = 3.14159265;
+
+fn trig_angle(z: f32) -> f32 {
+    return (z + 1.0) * (TRIG_PI - 0.5 * TRIG_WRAPPING_ZONE);
+}
+
+fn c_mul(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x);
+}
+
+fn c_conj(a: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(a.x, -a.y);
+}
+
+fn c_div(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    return c_mul(a, c_conj(b)) / dot(b, b);
+}
+
+// A point's angle on the circle in [0, 2π).
+fn c_angle(a: vec2<f32>) -> f32 {
+    let t = atan2(a.y, a.x);
+    return select(t, t + 2.0 * TRIG_PI, t < 0.0);
+}
+
+// Entry (j, k) of the Hermitian Toeplitz matrix of the moments `b` (b[0] = 1).
+fn toeplitz(b: array<vec2<f32>, 5>, j: u32, k: u32) -> vec2<f32> {
+    if j >= k {
+        return b[j - k];
+    }
+    return c_conj(b[k - j]);
+}
+
+// The fraction of the absorbance in front of the circle point at angle `phi`, from the biased
+// normalized moments `b` (b[0] = 1) of `n` ≤ 4: the canonical representation of the moments
+// through u = e^{iφ} — the kernel vector c = B⁻¹·(1, u, …, uⁿ) by L·D·Lᴴ, the other points of
+// support as the roots of Σ conj(c_k)·x^k (on the circle; Aberth's iteration, bounded), their
+// weights summed through the polynomial that interpolates the value of each point (η at u; 1 for
+// a root before u, 0 after, ramped across the wrapping zone) and the moments.
+fn trig_absorbance_fraction(b: array<vec2<f32>, 5>, n: u32, phi: f32) -> f32 {
+    var l: array<array<vec2<f32>, 5>, 5>;
+    var d: array<f32, 5>;
+    for (var k = 0u; k <= n; k++) {
+        for (var j = 0u; j < k; j++) {
+            var s = toeplitz(b, k, j);
+            for (var m = 0u; m < j; m++) {
+                s -= d[m] * c_mul(l[k][m], c_conj(l[j][m]));
+            }
+            l[k][j] = s / d[j];
+        }
+        var dk = 1.0;
+        for (var m = 0u; m < k; m++) {
+            dk -= d[m] * dot(l[k][m], l[k][m]);
+        }
+        d[k] = dk;
+    }
+    let u = vec2<f32>(cos(phi), sin(phi));
+    var c: array<vec2<f32>, 5>;
+    var power = vec2<f32>(1.0, 0.0);
+    for (var k = 0u; k <= n; k++) {
+        var y = power;
+        for (var m = 0u; m < k; m++) {
+            y -= c_mul(l[k][m], c[m]);
+        }
+        c[k] = y;
+        power = c_mul(power, u);
+    }
+    for (var k = 0u; k <= n; k++) {
+        c[k] /= d[k];
+    }
+    for (var i = 0u; i <= n; i++) {
+        let k = n - i;
+        for (var m = k + 1u; m <= n; m++) {
+            c[k] -= c_mul(c_conj(l[m][k]), c[m]);
+        }
+    }
+    // The monic kernel polynomial: coefficients conj(c_k) / conj(c_n).
+    var kernel: array<vec2<f32>, 5>;
+    for (var k = 0u; k <= n; k++) {
+        kernel[k] = c_div(c_conj(c[k]), c_conj(c[n]));
+    }
+    let roots = trig_kernel_roots(kernel, n);
+    // Newton's divided differences through (u, η) and (r_i, f_i), then the monomial form.
+    var x: array<vec2<f32>, 5>;
+    var dd: array<vec2<f32>, 5>;
+    x[0] = u;
+    dd[0] = vec2<f32>(mp.overestimation, 0.0);
+    for (var i = 1u; i <= n; i++) {
+        x[i] = roots[i - 1u];
+        let a = c_angle(x[i]);
+        let front = select(0.0, 1.0, a < phi);
+        let ramp = clamp((a - (2.0 * TRIG_PI - TRIG_WRAPPING_ZONE)) / TRIG_WRAPPING_ZONE, 0.0, 1.0);
+        dd[i] = vec2<f32>(front + ramp, 0.0);
+    }
+    for (var level = 1u; level <= n; level++) {
+        for (var i = n; i >= level; i--) {
+            dd[i] = c_div(dd[i] - dd[i - 1u], x[i] - x[i - level]);
+        }
+    }
+    var p: array<vec2<f32>, 5>;
+    p[0] = dd[n];
+    for (var i = 1u; i <= n; i++) {
+        // p ← p·(x − x_{n−i}) + dd_{n−i}, degree i.
+        let at = n - i;
+        for (var k = i; k >= 1u; k--) {
+            p[k] = p[k - 1u] - c_mul(p[k], x[at]);
+        }
+        p[0] = dd[at] - c_mul(p[0], x[at]);
+    }
+    var s = 0.0;
+    for (var k = 0u; k <= n; k++) {
+        s += c_mul(p[k], b[k]).x;
+    }
+    return select(clamp(s, 0.0, 1.0), 0.0, s != s);
+}
+
+// The roots of the monic polynomial Σ a_k·x^k of degree n (a[n] = 1) by Aberth's iteration from
+// points spread over the unit circle, where these roots lie: a fixed number of rounds.
+fn trig_kernel_roots(a: array<vec2<f32>, 5>, n: u32) -> array<vec2<f32>, 4> {
+    var r: array<vec2<f32>, 4>;
+    for (var i = 0u; i < n; i++) {
+        let t = 2.0 * TRIG_PI * (f32(i) + 0.25) / f32(n);
+        r[i] = vec2<f32>(cos(t), sin(t));
+    }
+    for (var round = 0u; round < TRIG_ROOT_ROUNDS; round++) {
+        for (var i = 0u; i < n; i++) {
+            var value = a[n];
+            var slope = vec2<f32>(0.0);
+            for (var j = 0u; j < n; j++) {
+                let k = n - 1u - j;
+                slope = c_mul(slope, r[i]) + value;
+                value = c_mul(value, r[i]) + a[k];
+            }
+            let ratio = c_div(value, slope);
+            var repulsion = vec2<f32>(0.0);
+            for (var j = 0u; j < n; j++) {
+                if j != i {
+                    repulsion += c_div(vec2<f32>(1.0, 0.0), r[i] - r[j]);
+                }
+            }
+            let step = c_div(ratio, vec2<f32>(1.0, 0.0) - c_mul(ratio, repulsion));
+            if all(step == step) {
+                r[i] -= step;
+            }
+        }
+    }
+    return r;
+}
+
+const TRIG_ROOT_ROUNDS: u32 = 24u;
+
+// The transmittance in front of warped depth z from b0 and n trigonometric moments (the sums
+// a·e^{ikφ} as (re, im) pairs), biased by β toward the uniform distribution on the circle
+// (whose moments past the zeroth are 0).
+fn mboit_transmittance_trig(b0: f32, b: array<f32, 8>, n: u32, z: f32) -> f32 {
+    if b0 <= 0.0 {
+        return 1.0;
+    }
+    var m: array<vec2<f32>, 5>;
+    m[0] = vec2<f32>(1.0, 0.0);
+    for (var k = 1u; k <= n; k++) {
+        m[k] = (1.0 - mp.bias) * vec2<f32>(b[2u * k - 2u], b[2u * k - 1u]) / b0;
+    }
+    return clamp(exp(-b0 * trig_absorbance_fraction(m, n, trig_angle(z))), 0.0, 1.0);
+}

@@ -1,10 +1,11 @@
 #define_import_path strata::weighted::mboit_moments
 #import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
-#import strata::weighted::mboit_math::{mboit_absorbance, mboit_depth}
+#import strata::weighted::mboit_math::{c_mul, mboit_absorbance, mboit_depth, trig_angle}
 
 // mboit pass 1: every fragment adds its absorbance a = −ln(1 − α) to b0 and a·(z, z², z³, z⁴) to
 // the moments (additive blending into 32-bit float targets), and counts itself; with 6 or 8
-// moments a·(z⁵, z⁶[, z⁷, z⁸]) go to a third target.
+// moments a·(z⁵, z⁶[, z⁷, z⁸]) go to a third target. Trigonometric moments (fs_trig*) store
+// a·u^k, u = e^{iφ(z)}, as (re, im) pairs: u and u² in the second target, u³[, u⁴] in the third.
 
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
 
@@ -66,5 +67,42 @@ fn fs_moments8(v: SceneVarying) -> Moments8Out {
         discard;
     }
     let m = fragment_moments(v);
+    return Moments8Out(vec4<f32>(m.a), m.low, m.high);
+}
+
+// A fragment's absorbance and a·u^k (k = 1..4) as (re, im) pairs, counting it at its pixel.
+fn fragment_trig_moments(v: SceneVarying) -> FragmentMoments {
+    atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
+    let a = mboit_absorbance(shade(v.world, v.normal, v.material).a);
+    let phi = trig_angle(mboit_depth(v.position.z));
+    let u = vec2<f32>(cos(phi), sin(phi));
+    let u2 = c_mul(u, u);
+    return FragmentMoments(a, a * vec4<f32>(u, u2), a * vec4<f32>(c_mul(u2, u), c_mul(u2, u2)));
+}
+
+@fragment
+fn fs_trig2(v: SceneVarying) -> MomentsOut {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let m = fragment_trig_moments(v);
+    return MomentsOut(vec4<f32>(m.a), m.low);
+}
+
+@fragment
+fn fs_trig3(v: SceneVarying) -> Moments6Out {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let m = fragment_trig_moments(v);
+    return Moments6Out(vec4<f32>(m.a), m.low, m.high.xy);
+}
+
+@fragment
+fn fs_trig4(v: SceneVarying) -> Moments8Out {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let m = fragment_trig_moments(v);
     return Moments8Out(vec4<f32>(m.a), m.low, m.high);
 }

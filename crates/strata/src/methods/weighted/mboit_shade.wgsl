@@ -1,7 +1,10 @@
 #define_import_path strata::weighted::mboit_shade
 #import strata::scene::{SceneVarying, behind_opaque, frame, pixel_of, shade}
-#import strata::weighted::mboit_math::{MBOIT_MAX_ALPHA, mboit_depth, mboit_transmittance, mboit_transmittance_n}
+#import strata::weighted::mboit_math::{MBOIT_MAX_ALPHA, mboit_depth, mboit_transmittance, mboit_transmittance_n, mboit_transmittance_trig}
 const MBOIT_MOMENTS: u32 = #{MBOIT_MOMENTS}u;
+// Trigonometric moments: their count n (MBOIT_MOMENTS is then 2n, the real values); 0 for power
+// moments.
+const MBOIT_TRIG: u32 = #{MBOIT_TRIG}u;
 #ifdef MULTISAMPLED
 alias TargetTexture = texture_multisampled_2d<f32>;
 #else
@@ -24,11 +27,17 @@ alias TargetTexture = texture_2d<f32>;
 fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool) -> f32 {
     let b0 = textureLoad(b0_target, pixel, si).r;
     let low = textureLoad(moments_target, pixel, si);
-    if !high {
+    if !high && MBOIT_TRIG == 0u {
         return mboit_transmittance(b0, low, z);
     }
-    let up = textureLoad(moments_high, pixel, si);
+    var up = vec4<f32>(0.0);
+    if high {
+        up = textureLoad(moments_high, pixel, si);
+    }
     let b = array<f32, 8>(low.x, low.y, low.z, low.w, up.x, up.y, up.z, up.w);
+    if MBOIT_TRIG > 0u {
+        return mboit_transmittance_trig(b0, b, MBOIT_TRIG, z);
+    }
     return mboit_transmittance_n(b0, b, MBOIT_MOMENTS, z);
 }
 

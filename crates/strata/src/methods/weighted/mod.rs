@@ -1,5 +1,6 @@
 //! Approximate OIT as engines ship it: `wboit`, weighted blended order-independent transparency
-//! (McGuire & Bavoil 2013, JCGT 2(2)), here, and `mboit`, moment-based OIT ([`mboit`]).
+//! (McGuire & Bavoil 2013, JCGT 2(2)), here, `mboit`, moment-based OIT ([`mboit`]), and
+//! `stochastic`, stochastic transparency ([`stochastic`]).
 //!
 //! Passes: accumulate (1 geometry pass into two targets: Rgba16Float Σ w·α·c and Σ w·α with
 //! additive blending, R16Float revealage Π(1 − α) by multiplicative blending, and an atomic
@@ -22,6 +23,7 @@
 pub mod cpu;
 pub mod descriptor;
 pub mod mboit;
+pub mod stochastic;
 
 use bytemuck::{Pod, Zeroable};
 
@@ -44,6 +46,8 @@ pub const LIBRARY: Library = &[
     include_str!("mboit_math.wgsl"),
     include_str!("mboit_moments.wgsl"),
     include_str!("mboit_shade.wgsl"),
+    include_str!("stochastic.wgsl"),
+    include_str!("stochastic_composite.wgsl"),
 ];
 use crate::methods::Method;
 

@@ -5,7 +5,7 @@
 
 use super::cpu;
 use crate::frame::{BuildOptions, FrameOptions, WeightedOptions};
-use crate::frame::{Effect, RenderOptions, Weight};
+use crate::frame::{Effect, Moments, RenderOptions, Weight};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, render_gpu};
@@ -168,12 +168,12 @@ fn wboit_params_layout_matches_wgsl() {
     assert_eq!(std::mem::offset_of!(super::WboitParams, depth_scale), 4);
 }
 
-/// The settings `mboit` runs with at `moments` power moments.
-fn settings(moments: u32) -> cpu::MboitSettings {
+/// The settings `mboit` runs with at `moments`.
+fn settings(moments: Moments) -> cpu::MboitSettings {
     cpu::MboitSettings {
         bias: super::mboit::moment_bias(moments) as f64,
         overestimation: super::mboit::OVERESTIMATION as f64,
-        moments: moments as usize,
+        moments,
     }
 }
 
@@ -205,7 +205,7 @@ fn multisampled_mboit_equals_its_closed_form() {
     };
     let camera = scene.camera_or_framing();
     let expected = per_pixel(&scene, &opts, |l, bg| {
-        cpu::mboit_multisampled(l, bg, &camera, settings(4), 4)
+        cpu::mboit_multisampled(l, bg, &camera, settings(Moments::Power(4)), 4)
     });
     let (actual, stats) = render_gpu(&scene, &opts, "mboit");
     assert_close(
@@ -319,7 +319,7 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
     for (moments, high_bytes) in [(4, 0), (6, 8), (8, 16)] {
         let opts = {
             let mut options = base.clone();
-            options.frame.weighted.moments = moments;
+            options.frame.weighted.moments = Moments::Power(moments);
             options
         };
         let expected = mboit_closed_form(&scene, &opts);
@@ -358,7 +358,7 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
         for moments in [6, 8] {
             let opts = {
                 let mut options = base.clone();
-                options.frame.weighted.moments = moments;
+                options.frame.weighted.moments = Moments::Power(moments);
                 options
             };
             let expected = mboit_closed_form(&scene, &opts);
@@ -455,7 +455,12 @@ fn fraction_of_n(support: &[(f64, f64)], z: f64, overestimation: f64, count: usi
                 / total
         })
         .collect();
-    cpu::absorbance_fraction_n(&m, z, settings(count as u32).bias, overestimation)
+    cpu::absorbance_fraction_n(
+        &m,
+        z,
+        settings(Moments::Power(count as u32)).bias,
+        overestimation,
+    )
 }
 
 proptest::proptest! {
@@ -491,4 +496,253 @@ fn mboit_params_layout_matches_wgsl() {
         std::mem::offset_of!(super::mboit::MboitParams, overestimation),
         4
     );
+}
+
+/// stochastic's closed form: each pixel's reference fragments (with their sample coverage)
+/// through `cpu::stochastic`, the same stipples in f64.
+fn stochastic_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
+    let lists = crate::reference::fragments(scene, options).unwrap();
+    let w = options.frame.width;
+    let pixels = lists
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let bg = options.frame.background.at(i as u32 % w, i as u32 / w);
+            let bg = [bg[0] as f64, bg[1] as f64, bg[2] as f64];
+            let samples = (options.build.msaa, options.frame.weighted.passes);
+            let c = cpu::stochastic(l, i as u32, samples, bg);
+            [c[0] as f32, c[1] as f32, c[2] as f32, l.len() as f32]
+        })
+        .collect();
+    LinearImage {
+        width: w,
+        height: options.frame.height,
+        pixels,
+    }
+}
+
+fn stochastic_options(size: u32, passes: u32) -> RenderOptions {
+    RenderOptions {
+        frame: FrameOptions {
+            width: size,
+            height: size,
+            weighted: WeightedOptions {
+                passes,
+                ..Default::default()
+            },
+            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+            ..Default::default()
+        },
+        build: BuildOptions {
+            msaa: 4,
+            ..Default::default()
+        },
+    }
+}
+
+/// The GPU's stipples, depths and sums against the closed form: opacities whose α·S is whole
+/// (every stipple has ⌊α·S⌋ samples) and fractional (the hash decides), one pass and three.
+#[test]
+fn stochastic_equals_its_closed_form() {
+    for alpha in [0.25, 0.4] {
+        let mut scene =
+            loaders::load_scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3").unwrap();
+        scene.override_alpha(alpha);
+        for passes in [1, 3] {
+            let opts = stochastic_options(40, passes);
+            let expected = stochastic_closed_form(&scene, &opts);
+            let (actual, stats) = render_gpu(&scene, &opts, "stochastic");
+            assert_close(
+                &format!("stochastic-alpha{alpha}-passes{passes}"),
+                &actual,
+                &expected,
+                Effect::Transparency,
+                2,
+                0.001,
+            );
+            assert_eq!(stats.fragments_dropped, Some(0));
+            assert_eq!(stats.geometry_passes, Some(2 * passes + 1));
+        }
+    }
+}
+
+/// Curved, deep scenes with many sub-pixel triangles (nvpro, the dragon), whose surfaces lie
+/// close in window depth: equal because both order each sample's fragments by the depth at the
+/// pixel center.
+#[test]
+fn stochastic_equals_its_closed_form_on_nvpro_and_the_dragon() {
+    let mut dragon = loaders::load_scene("builtin:dragon").unwrap();
+    dragon.override_alpha(0.4);
+    for (name, scene, size) in [
+        (
+            "nvpro",
+            loaders::load_scene("builtin:nvpro?objects=160&subdiv=10&seed=3").unwrap(),
+            48,
+        ),
+        ("dragon", dragon, 64),
+    ] {
+        let opts = stochastic_options(size, 2);
+        let (actual, _) = render_gpu(&scene, &opts, "stochastic");
+        assert_close(
+            &format!("stochastic-{name}"),
+            &actual,
+            &stochastic_closed_form(&scene, &opts),
+            Effect::Transparency,
+            2,
+            0.001,
+        );
+    }
+}
+
+/// More passes, more samples: the noise against the reference falls (the stipples are fixed,
+/// so this is the same comparison on every run).
+#[test]
+fn stochastic_noise_falls_with_passes() {
+    let mut scene =
+        loaders::load_scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3").unwrap();
+    scene.override_alpha(0.4);
+    let truth = crate::testing::render_reference(&scene, &stochastic_options(48, 1))
+        .to_rgba8(Effect::Transparency);
+    let rmse = |passes| {
+        let (image, _) = render_gpu(&scene, &stochastic_options(48, passes), "stochastic");
+        crate::metrics::compare(&truth, &image.to_rgba8(Effect::Transparency))
+            .unwrap()
+            .rmse
+    };
+    let (one, four, sixteen) = (rmse(1), rmse(4), rmse(16));
+    assert!(sixteen < four && four < one, "RMSE {one} {four} {sixteen}");
+}
+
+/// A single-sampled frame has no samples to stipple: one clear error, no panic.
+#[test]
+fn stochastic_refuses_a_single_sampled_frame() {
+    let scene = loaders::load_scene("builtin:layers?n=2").unwrap();
+    let mut opts = stochastic_options(16, 1);
+    opts.build.msaa = 1;
+    let mut r = crate::Renderer::new(crate::testing::gpu(), &scene, &opts).unwrap();
+    let e = r.render("stochastic").expect_err("single-sampled");
+    assert!(e.to_string().contains("--msaa 4 or 8"), "{e}");
+}
+
+#[test]
+fn stochastic_params_layout_matches_wgsl() {
+    assert_eq!(
+        std::mem::size_of::<super::stochastic::StochasticParams>(),
+        16
+    );
+}
+
+/// The stipples' counts average α·S and their samples are distinct.
+#[test]
+fn stipples_have_the_expected_sample_count() {
+    for alpha in [0.1f32, 0.25, 0.4, 0.9] {
+        for samples in [4, 8] {
+            let masks: Vec<u32> = (0..4000)
+                .map(|prim| cpu::stipple(17, prim, alpha, 0, samples))
+                .collect();
+            let mean = masks.iter().map(|m| m.count_ones() as f64).sum::<f64>() / 4000.0;
+            let expected = alpha as f64 * samples as f64;
+            assert!(
+                (mean - expected).abs() < 0.05,
+                "α {alpha} S {samples}: {mean}"
+            );
+            assert!(masks.iter().all(|m| m >> samples == 0));
+            let whole = expected.floor() as u32;
+            assert!(masks
+                .iter()
+                .all(|m| m.count_ones() == whole || m.count_ones() == whole + 1));
+        }
+    }
+}
+
+/// Two, three and four trigonometric moments against their f64 closed forms (the same moments,
+/// the same canonical representation on the circle), with their memory; and their error
+/// against the reference on nvpro, printed for the record.
+#[test]
+fn mboit_with_trigonometric_moments_equals_its_closed_form() {
+    let base = RenderOptions {
+        frame: FrameOptions {
+            width: 40,
+            height: 40,
+            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let mut errors = Vec::new();
+    for spec in [
+        "builtin:nvpro?objects=400&subdiv=10&seed=3",
+        "builtin:layers?n=6&coverage=0.75&order=random&seed=3",
+        "builtin:dragon",
+        "builtin:spheres?layers=8",
+    ] {
+        let mut scene = loaders::load_scene(spec).unwrap();
+        scene.override_alpha(0.4);
+        let exact = crate::testing::render_reference(&scene, &base);
+        for (n, high_bytes) in [(2, 0), (3, 8), (4, 16)] {
+            let mut opts = base.clone();
+            opts.frame.weighted.moments = Moments::Trigonometric(n);
+            let expected = mboit_closed_form(&scene, &opts);
+            let (actual, stats) = render_gpu(&scene, &opts, "mboit");
+            let name = format!("mboit-trig{n}-{}", spec.trim_start_matches("builtin:"));
+            assert_close(&name, &actual, &expected, Effect::Transparency, 2, 0.001);
+            assert_eq!(
+                stats.bytes_allocated,
+                Some(40 * 40 * (28 + high_bytes + 4)),
+                "{name}"
+            );
+            let c = crate::metrics::compare(
+                &exact.to_rgba8(Effect::Transparency),
+                &actual.to_rgba8(Effect::Transparency),
+            )
+            .unwrap();
+            errors.push((name, c.rmse));
+        }
+    }
+    eprintln!("mboit trigonometric RMSE against the reference: {errors:?}");
+}
+
+/// Two fragments far apart on the circle: in front of both nothing absorbs, between them about
+/// the first one's share, behind both all of it.
+#[test]
+fn trigonometric_reconstruction_orders_two_fragments() {
+    let a = -(0.5f64).ln();
+    let (z_near, z_far) = (-0.5, 0.5);
+    for n in 2..=4usize {
+        let mut b = vec![[1.0, 0.0]; n + 1];
+        for (k, m) in b.iter_mut().enumerate().skip(1) {
+            let at = |z: f64| {
+                let phi = k as f64 * cpu::trig_angle(z);
+                [a * phi.cos(), a * phi.sin()]
+            };
+            let (p, q) = (at(z_near), at(z_far));
+            let bias = 1.0 - super::mboit::TRIG_MOMENT_BIAS[n - 2] as f64;
+            *m = [
+                bias * (p[0] + q[0]) / (2.0 * a),
+                bias * (p[1] + q[1]) / (2.0 * a),
+            ];
+        }
+        let fraction = |z: f64| cpu::trig_absorbance_fraction(&b, cpu::trig_angle(z), 0.25);
+        assert!(fraction(-0.9) < 0.05, "n {n}: {}", fraction(-0.9));
+        assert!(
+            (fraction(0.0) - 0.5).abs() < 0.05,
+            "n {n}: {}",
+            fraction(0.0)
+        );
+        assert!(fraction(0.9) > 0.95, "n {n}: {}", fraction(0.9));
+    }
+}
+
+#[test]
+fn moments_parse_as_the_command_line_writes_them() {
+    assert_eq!("6".parse::<Moments>().unwrap(), Moments::Power(6));
+    assert_eq!(
+        "trig3".parse::<Moments>().unwrap(),
+        Moments::Trigonometric(3)
+    );
+    assert_eq!(Moments::Trigonometric(4).to_string(), "trig4");
+    for bad in ["5", "trig1", "trig5", "trig", "four", ""] {
+        let e = bad.parse::<Moments>().unwrap_err().to_string();
+        assert!(e.contains("--moments") && e.contains("trig2"), "{bad}: {e}");
+    }
 }

@@ -431,3 +431,118 @@ fn zero_k_drops_everything() {
     assert_eq!(SortedArray::new(0).insert(f), Some(f));
     assert!(MaxArray::new(0).culled(&f));
 }
+
+/// Layers with distinct primitives in a random arrival order: depths from a few values (ties
+/// broken by primitive), opacities in (0, 1), colors in [0, 1].
+fn layers(
+    count: impl Into<prop::collection::SizeRange>,
+) -> impl Strategy<Value = Vec<RefFragment>> {
+    let layer = (
+        prop::sample::select(vec![0.1f64, 0.2, 0.3, 0.4]),
+        0.01f64..0.99,
+        [0.0f64..=1.0, 0.0f64..=1.0, 0.0f64..=1.0],
+    );
+    prop::collection::vec(layer, count)
+        .prop_map(|v| {
+            v.into_iter()
+                .enumerate()
+                .map(|(i, (depth, alpha, color))| RefFragment {
+                    depth,
+                    prim: i as u32,
+                    front_facing: true,
+                    color,
+                    alpha,
+                    absorption: 0.0,
+                    distance: depth,
+                    coverage: 1,
+                })
+                .collect::<Vec<_>>()
+        })
+        .prop_shuffle()
+}
+
+fn by_order(v: &[RefFragment]) -> Vec<RefFragment> {
+    let mut v = v.to_vec();
+    v.sort_by(RefFragment::order);
+    v
+}
+
+fn composited(layers: &[RefFragment]) -> [f64; 3] {
+    crate::resolve::composite(layers, [0.0; 3], false)
+}
+
+fn transmittance(layers: &[RefFragment]) -> f64 {
+    layers.iter().map(|l| 1.0 - l.alpha).product()
+}
+
+fn close(a: [f64; 3], b: [f64; 3]) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12)
+}
+
+proptest! {
+    /// Up to k fragments mlab keeps them all, in order: the A-buffer's picture.
+    #[test]
+    fn mlab_is_exact_up_to_k_fragments(arrivals in layers(1..9), k in 8usize..12) {
+        prop_assert_eq!(mlab(&arrivals, k), by_order(&arrivals));
+    }
+
+    /// Whatever the arrival order: at most k layers in order, the nearest fragment alone in
+    /// front (k ≥ 2), and the pixel's total opacity exact (merges keep the product of
+    /// transmittances).
+    #[test]
+    fn mlab_keeps_order_front_and_opacity(arrivals in layers(1..24), k in 1usize..9) {
+        let kept = mlab(&arrivals, k);
+        prop_assert_eq!(kept.len(), arrivals.len().min(k));
+        prop_assert!(kept.windows(2).all(|w| RefFragment::order(&w[0], &w[1]).is_lt()));
+        if k >= 2 {
+            prop_assert_eq!(kept[0], by_order(&arrivals)[0]);
+        }
+        prop_assert!((transmittance(&kept) - transmittance(&arrivals)).abs() < 1e-12);
+    }
+
+    /// One fragment past k: a single merge, of the two farthest, whatever the order — the k − 1
+    /// nearest exact and the picture the reference's (compositing the merged pair equals
+    /// compositing both).
+    #[test]
+    fn mlab_one_past_k_merges_the_two_farthest(
+        (k, arrivals) in (1usize..9).prop_flat_map(|k| (Just(k), layers(k + 1)))
+    ) {
+        let all = by_order(&arrivals);
+        let kept = mlab(&arrivals, k);
+        prop_assert_eq!(&kept[..k - 1], &all[..k - 1]);
+        prop_assert!(close(composited(&kept), composited(&all)));
+    }
+}
+
+/// Past k + 1 the merges depend on the arrival order. k = 1, three fragments a, b, c front to
+/// back: arriving in depth order every merge puts the newcomer behind all before it (exact);
+/// arriving a, c, b, b lands behind the merged a-c layer although it lies between them.
+#[test]
+fn mlab_merges_depend_on_arrival_order() {
+    let f = |prim: u32, depth: f64, color: [f64; 3]| RefFragment {
+        depth,
+        prim,
+        front_facing: true,
+        color,
+        alpha: 0.5,
+        absorption: 0.0,
+        distance: depth,
+        coverage: 1,
+    };
+    let (a, b, c) = (
+        f(0, 0.1, [1.0, 0.0, 0.0]),
+        f(1, 0.2, [0.0, 1.0, 0.0]),
+        f(2, 0.3, [0.0, 0.0, 1.0]),
+    );
+    let exact = composited(&[a, b, c]);
+    assert!(close(composited(&mlab(&[a, b, c], 1)), exact));
+    let out_of_order = mlab(&[a, c, b], 1);
+    // a over c over b: green behind blue.
+    let expected = [0.5, 0.125, 0.25];
+    assert!(
+        close(composited(&out_of_order), expected),
+        "{:?}",
+        composited(&out_of_order)
+    );
+    assert!((transmittance(&out_of_order) - 0.125).abs() < 1e-12);
+}

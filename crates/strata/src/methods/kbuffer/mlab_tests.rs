@@ -1,0 +1,189 @@
+//! `mlab` on lavapipe: exact up to k fragments, its closed form one fragment past k (a single
+//! merge, whatever the arrival order), and on deep scenes the total opacity of every pixel
+//! exact. Which layers merge past k + 1 depends on the order fragments take the lock, which a
+//! GPU does not fix: those pictures are measured against the reference (`bench approx-quality`),
+//! not asserted. Tolerance as for the exact methods: max |Δ| ≤ 2/255 on ≥ 99.9% of pixels.
+
+use super::cpu;
+use super::tests::options;
+use crate::frame::Effect;
+use crate::render::LinearImage;
+use crate::resolve::RefFragment;
+use crate::scene::{loaders, Background, Scene};
+use crate::testing::{assert_close, render_gpu, render_reference};
+use crate::{MethodId, RenderOptions};
+
+const MAX_DIFF: u8 = 2;
+const MAX_FRACTION: f64 = 0.001;
+
+fn scene(spec: &str) -> Scene {
+    loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
+}
+
+/// The closed form: each pixel's fragments arriving in draw (primitive) order through
+/// `cpu::mlab`, the layers composited over the background.
+fn closed_form(scene: &Scene, options: &RenderOptions, k: usize) -> LinearImage {
+    let lists = crate::reference::fragments(scene, options).unwrap();
+    let w = options.frame.width;
+    let pixels = lists
+        .iter()
+        .enumerate()
+        .map(|(i, list)| {
+            let mut arrivals = list.clone();
+            arrivals.sort_by_key(|f| f.prim);
+            let bg = options.frame.background.at(i as u32 % w, i as u32 / w);
+            let bg = bg.map(|c| c as f64);
+            let c =
+                crate::resolve::composite(&cpu::mlab(&arrivals, k), [bg[0], bg[1], bg[2]], false);
+            [c[0] as f32, c[1] as f32, c[2] as f32, list.len() as f32]
+        })
+        .collect();
+    LinearImage {
+        width: w,
+        height: options.frame.height,
+        pixels,
+    }
+}
+
+#[test]
+fn mlab_up_to_k_fragments_equals_the_reference() {
+    let s = scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3");
+    for msaa in [1, 4] {
+        for k in [6, 8] {
+            let mut opts = options(48, k);
+            opts.build.msaa = msaa;
+            let expected = render_reference(
+                &s,
+                &RenderOptions {
+                    frame: crate::frame::FrameOptions {
+                        k: None,
+                        ..opts.frame.clone()
+                    },
+                    ..opts.clone()
+                },
+            );
+            let (actual, stats) = render_gpu(&s, &opts, "mlab");
+            assert_eq!(stats.lock_failures, Some(0));
+            assert_close(
+                &format!("mlab-layers-k{k}-msaa{msaa}"),
+                &actual,
+                &expected,
+                Effect::Transparency,
+                MAX_DIFF,
+                MAX_FRACTION,
+            );
+            assert_eq!(stats.fragments_dropped, Some(0), "k {k} msaa {msaa}");
+            assert_eq!(stats.k, Some(k));
+        }
+    }
+}
+
+/// Five layers at k = 4: pixels with all five merge once, the two farthest, whatever the
+/// arrival order — the closed form, and (compositing a merged pair equals compositing both) the
+/// reference's picture; the fifth fragment counts as past k.
+#[test]
+fn mlab_one_past_k_merges_the_two_farthest() {
+    let s = scene("builtin:layers?n=5&coverage=0.75&order=random&seed=8");
+    let opts = options(48, 4);
+    let (actual, stats) = render_gpu(&s, &opts, "mlab");
+    assert_eq!(stats.lock_failures, Some(0));
+    assert_close(
+        "mlab-layers5-k4-closed-form",
+        &actual,
+        &closed_form(&s, &opts, 4),
+        Effect::Transparency,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    let full = RenderOptions {
+        frame: crate::frame::FrameOptions {
+            k: None,
+            ..opts.frame.clone()
+        },
+        ..opts.clone()
+    };
+    assert_close(
+        "mlab-layers5-k4-reference",
+        &actual,
+        &render_reference(&s, &full),
+        Effect::Transparency,
+        MAX_DIFF,
+        MAX_FRACTION,
+    );
+    let lists = crate::reference::fragments(&s, &opts).unwrap();
+    let past_k: u64 = lists.iter().map(|l| l.len().saturating_sub(4) as u64).sum();
+    assert!(past_k > 0, "the scene has pixels of five fragments");
+    let dropped = stats.fragments_dropped.unwrap() as f64;
+    assert!(
+        (dropped - past_k as f64).abs() <= past_k as f64 * MAX_FRACTION,
+        "{dropped} fragments past k, reference {past_k}"
+    );
+}
+
+/// Each pixel's transmittance, from the picture over black and over white.
+fn transmittance(over_black: &LinearImage, over_white: &LinearImage) -> Vec<f64> {
+    over_black
+        .pixels
+        .iter()
+        .zip(&over_white.pixels)
+        .map(|(b, w)| (w[1] - b[1]) as f64)
+        .collect()
+}
+
+/// Deep pixels (nvpro, the dragon) merge many times, in an order the GPU chooses: every
+/// pixel's total opacity must still be the reference's.
+#[test]
+fn mlab_keeps_every_pixels_opacity_on_deep_scenes() {
+    let mut dragon = scene("builtin:dragon");
+    dragon.override_alpha(0.4);
+    for (name, s, size, k) in [
+        (
+            "nvpro",
+            scene("builtin:nvpro?objects=160&subdiv=10&seed=3"),
+            64,
+            4,
+        ),
+        ("dragon", dragon, 96, 2),
+    ] {
+        let mut opts = options(size, k);
+        let render_over = |opts: &mut RenderOptions, bg: [f32; 3]| {
+            opts.frame.background = Background::Color(bg);
+            let (image, stats) = render_gpu(&s, opts, "mlab");
+            assert_eq!(stats.lock_failures, Some(0), "{name}");
+            image
+        };
+        let black = render_over(&mut opts, [0.0; 3]);
+        let white = render_over(&mut opts, [1.0; 3]);
+        let actual = transmittance(&black, &white);
+        let lists = crate::reference::fragments(&s, &opts).unwrap();
+        assert!(
+            lists.iter().any(|l| l.len() > k as usize + 1),
+            "{name} is deep"
+        );
+        let expected = lists.iter().map(|l| {
+            l.iter()
+                .map(|f: &RefFragment| 1.0 - f.alpha)
+                .product::<f64>()
+        });
+        let off = actual
+            .iter()
+            .zip(expected)
+            .filter(|(a, e)| (*a - e).abs() > MAX_DIFF as f64 / 255.0)
+            .count();
+        assert!(
+            off as f64 <= actual.len() as f64 * MAX_FRACTION,
+            "{name}: {off} of {} pixels' transmittance off by more than {MAX_DIFF}/255",
+            actual.len()
+        );
+    }
+}
+
+#[test]
+fn mlab_takes_k_from_1_to_256_and_4_by_default() {
+    use super::k_of;
+    assert_eq!(k_of(None, MethodId::Mlab).unwrap(), 4);
+    assert_eq!(k_of(Some(1), MethodId::Mlab).unwrap(), 1);
+    assert_eq!(k_of(Some(256), MethodId::Mlab).unwrap(), 256);
+    assert!(k_of(Some(0), MethodId::Mlab).is_err());
+    assert!(k_of(Some(257), MethodId::Mlab).is_err());
+}
