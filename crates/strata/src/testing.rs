@@ -38,6 +38,32 @@ pub fn render_gpu(
     r.render(method).unwrap_or_else(|e| panic!("{method}: {e}"))
 }
 
+/// A picture made pixel by pixel from the reference's fragments: `pixel(index, fragments,
+/// background)` is the pixel's linear color (the approximate methods' closed forms); the
+/// fragment counts are the reference's.
+pub fn per_pixel(
+    scene: &Scene,
+    options: &RenderOptions,
+    pixel: impl Fn(u32, &[crate::resolve::RefFragment], [f64; 3]) -> [f64; 3],
+) -> LinearImage {
+    let lists = crate::reference::fragments(scene, options).unwrap();
+    let w = options.frame.width;
+    let pixels = lists
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let bg = options.frame.background.at(i as u32 % w, i as u32 / w);
+            let c = pixel(i as u32, l, bg.map(|c| c as f64));
+            [c[0] as f32, c[1] as f32, c[2] as f32, l.len() as f32]
+        })
+        .collect();
+    LinearImage {
+        width: w,
+        height: options.frame.height,
+        pixels,
+    }
+}
+
 pub fn render_reference(scene: &Scene, options: &RenderOptions) -> LinearImage {
     crate::reference::render(scene, options)
         .expect("reference")

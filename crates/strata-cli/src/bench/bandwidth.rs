@@ -101,7 +101,15 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
                 measured_over_floor: None,
                 skipped: None,
             };
-            match measure(gpu, &scene, &options, &run, warmup, frames, &bar) {
+            match measure(
+                gpu,
+                &scene,
+                &run.options(&options),
+                &run,
+                warmup,
+                frames,
+                &bar,
+            ) {
                 Ok((result, last)) => {
                     row.median_gpu_ms = result.median_gpu_ms;
                     if let Some(s) = last {

@@ -29,7 +29,11 @@ pub struct Run {
 }
 
 impl Run {
+    /// `method` as it comes, at the fewest samples it runs with (stochastic's stipples need 4).
     pub(crate) fn plain(method: &str) -> Run {
+        let msaa = method
+            .parse::<MethodId>()
+            .map_or(1, |m| m.descriptor().min_samples);
         Run {
             label: method.into(),
             method: method.into(),
@@ -38,7 +42,7 @@ impl Run {
             tail: strata::Tail::Drop,
             weight: strata::Weight::default(),
             depth_scale: 1.0,
-            msaa: 1,
+            msaa,
             moments: strata::Moments::Power(4),
             passes: 1,
             buckets: strata::BucketSplit::Uniform,
@@ -64,6 +68,22 @@ impl Run {
             passes,
             ..Run::plain("stochastic")
         }
+    }
+
+    /// `base` with this run's method options.
+    pub(crate) fn options(&self, base: &strata::RenderOptions) -> strata::RenderOptions {
+        let mut options = base.clone();
+        options.frame.k = self.k;
+        options.frame.kbuffer.culling = self.culling;
+        options.frame.kbuffer.tail = self.tail;
+        options.frame.weighted.weight = self.weight;
+        options.frame.weighted.depth_scale = self.depth_scale;
+        options.build.msaa = self.msaa;
+        options.build.raster = self.raster;
+        options.frame.weighted.moments = self.moments;
+        options.frame.weighted.passes = self.passes;
+        options.frame.peeling.buckets = self.buckets;
+        options
     }
 
     /// `self` on the compute rasterizer (`--raster compute`).

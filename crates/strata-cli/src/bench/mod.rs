@@ -635,17 +635,7 @@ pub(crate) fn run_experiment(gpu: &Gpu, a: &BenchArgs, experiment: Option<&str>)
                 continue;
             }
             bar.set_message(format!("{} {}", short_scene(scene), run.label));
-            let mut options = options.clone();
-            options.frame.k = run.k;
-            options.frame.kbuffer.culling = run.culling;
-            options.frame.kbuffer.tail = run.tail;
-            options.frame.weighted.weight = run.weight;
-            options.frame.weighted.depth_scale = run.depth_scale;
-            options.build.msaa = run.msaa;
-            options.build.raster = run.raster;
-            options.frame.weighted.moments = run.moments;
-            options.frame.weighted.passes = run.passes;
-            options.frame.peeling.buckets = run.buckets;
+            let options = run.options(&options);
             match measure(gpu, &scene_data, &options, run, a.warmup, frames, &bar).map(|(r, _)| r) {
                 Ok(mut result) => {
                     result.scene = scene.clone();

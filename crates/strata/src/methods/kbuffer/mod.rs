@@ -973,6 +973,4 @@ impl Method for SlotKBuffer {
 }
 
 #[cfg(test)]
-mod mlab_tests;
-#[cfg(test)]
 pub(crate) mod tests;

@@ -7,6 +7,8 @@
 //! there every pixel must match, since which k are nearest no longer depends on rounding, so
 //! on any GPU a failure of that comparison is the method's, not the rasterizer's.
 
+mod mlab;
+
 use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};

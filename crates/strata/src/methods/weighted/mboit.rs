@@ -55,9 +55,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
-use crate::frame::passes::{
-    capture_pipeline_with, color_geometry_pass, compute_pipeline, dispatch_pixels,
-};
+use crate::frame::passes::{capture_pipeline_with, color_geometry_pass, compute_pipeline};
 use crate::frame::{FrameContext, Moments, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
@@ -213,11 +211,8 @@ impl Mboit {
             "strata.mboit.shade.layout",
             &[Slot::Uniform, texture, texture, texture],
         );
-        let composite_layout = binding::layout(
-            device,
-            "strata.mboit.composite.layout",
-            &[Slot::StorageRw, texture, texture, Slot::StorageRw],
-        );
+        let composite_layout =
+            super::composite_layout(device, "strata.mboit.composite.layout", texture);
         let module = moments_stage().module(device);
         let moments = capture_pipeline_with(
             gpu,
@@ -383,17 +378,6 @@ impl Method for Mboit {
                 texture(high_view.as_ref().unwrap_or(&moments_view)),
             ],
         );
-        let composite_group = binding::group(
-            &gpu.device,
-            "strata.mboit.composite.group",
-            &self.composite_layout,
-            &[
-                counts.as_entire_binding(),
-                texture(&b0),
-                texture(&accumulation),
-                ctx.output.as_entire_binding(),
-            ],
-        );
         ctx.encoder.clear_buffer(&counts, 0, None);
         let zero = wgpu::Color::TRANSPARENT;
         let frame_group = ctx.frame_group;
@@ -415,11 +399,11 @@ impl Method for Mboit {
             &[frame_group, &shade_group],
             &[(&accumulation, zero)],
         );
-        dispatch_pixels(
+        super::record_composite(
             ctx,
-            "composite",
-            &self.composite,
-            &[frame_group, &composite_group],
+            (&self.composite, &self.composite_layout),
+            &counts,
+            [&b0, &accumulation],
         );
         Ok(Recorded::passes(2, bytes))
     }

@@ -95,11 +95,7 @@ impl Wboit {
         } else {
             Slot::TextureFloat
         };
-        let composite_layout = binding::layout(
-            device,
-            "strata.wboit.composite.layout",
-            &[Slot::StorageRw, target, target, Slot::StorageRw],
-        );
+        let composite_layout = composite_layout(device, "strata.wboit.composite.layout", target);
         let module = Stage::new(
             "strata.wboit.accumulate",
             include_str!("wboit_accumulate.wgsl"),
@@ -169,6 +165,39 @@ pub fn composite_stage(samples: u32) -> Stage {
         .defs(&shader::target_samples(samples))
 }
 
+/// The bind group layout of a weighted composite: the fragment counts, two targets of kind
+/// `target`, the output.
+fn composite_layout(device: &wgpu::Device, label: &str, target: Slot) -> wgpu::BindGroupLayout {
+    binding::layout(
+        device,
+        label,
+        &[Slot::StorageRw, target, target, Slot::StorageRw],
+    )
+}
+
+/// Records a weighted composite over every pixel: `pipeline` reading `counts` and the two
+/// `targets` into the frame's output.
+fn record_composite(
+    ctx: &mut FrameContext<'_>,
+    (pipeline, layout): (&wgpu::ComputePipeline, &wgpu::BindGroupLayout),
+    counts: &wgpu::Buffer,
+    targets: [&wgpu::TextureView; 2],
+) {
+    let group = binding::group(
+        &ctx.gpu.device,
+        "strata.weighted.composite.group",
+        layout,
+        &[
+            counts.as_entire_binding(),
+            wgpu::BindingResource::TextureView(targets[0]),
+            wgpu::BindingResource::TextureView(targets[1]),
+            ctx.output.as_entire_binding(),
+        ],
+    );
+    let frame_group = ctx.frame_group;
+    dispatch_pixels(ctx, "composite", pipeline, &[frame_group, &group]);
+}
+
 impl Method for Wboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
@@ -218,17 +247,6 @@ impl Method for Wboit {
             &self.accumulate_layout,
             &[params.as_entire_binding(), counts.as_entire_binding()],
         );
-        let composite_group = binding::group(
-            &gpu.device,
-            "strata.wboit.composite.group",
-            &self.composite_layout,
-            &[
-                counts.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&accumulation),
-                wgpu::BindingResource::TextureView(&revealage),
-                ctx.output.as_entire_binding(),
-            ],
-        );
         ctx.encoder.clear_buffer(&counts, 0, None);
         let frame_group = ctx.frame_group;
         color_geometry_pass(
@@ -241,12 +259,11 @@ impl Method for Wboit {
                 (&revealage, wgpu::Color::WHITE),
             ],
         );
-        let frame_group = ctx.frame_group;
-        dispatch_pixels(
+        record_composite(
             ctx,
-            "composite",
-            &self.composite,
-            &[frame_group, &composite_group],
+            (&self.composite, &self.composite_layout),
+            &counts,
+            [&accumulation, &revealage],
         );
         Ok(Recorded::passes(1, bytes))
     }

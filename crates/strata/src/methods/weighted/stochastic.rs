@@ -27,7 +27,6 @@ use bytemuck::{Pod, Zeroable};
 use crate::error::{Error, Result};
 use crate::frame::passes::{
     capture_pipeline_with, color_geometry_pass, compute_pipeline, depth_geometry_pass,
-    dispatch_pixels,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -92,15 +91,10 @@ impl Stochastic {
             "strata.stochastic.pass.layout",
             &[Slot::Uniform, Slot::StorageRw],
         );
-        let composite_layout = binding::layout(
+        let composite_layout = super::composite_layout(
             device,
             "strata.stochastic.composite.layout",
-            &[
-                Slot::StorageRw,
-                Slot::TextureFloatMultisampled,
-                Slot::TextureFloatMultisampled,
-                Slot::StorageRw,
-            ],
+            Slot::TextureFloatMultisampled,
         );
         let module = Stage::new("strata.stochastic", include_str!("stochastic.wgsl"))
             .with(LIBRARY)
@@ -245,17 +239,6 @@ impl Method for Stochastic {
                 )
             })
             .collect();
-        let composite_group = binding::group(
-            &gpu.device,
-            "strata.stochastic.composite.group",
-            &self.composite_layout,
-            &[
-                counts.as_entire_binding(),
-                wgpu::BindingResource::TextureView(&accumulation),
-                wgpu::BindingResource::TextureView(&total),
-                ctx.output.as_entire_binding(),
-            ],
-        );
         ctx.encoder.clear_buffer(&counts, 0, None);
         let frame_group = ctx.frame_group;
         for (pass, group) in pass_groups.iter().enumerate() {
@@ -288,12 +271,11 @@ impl Method for Stochastic {
             &[frame_group, &pass_groups[0]],
             &[(&total, wgpu::Color::WHITE)],
         );
-        let frame_group = ctx.frame_group;
-        dispatch_pixels(
+        super::record_composite(
             ctx,
-            "composite",
-            &self.composite,
-            &[frame_group, &composite_group],
+            (&self.composite, &self.composite_layout),
+            &counts,
+            [&accumulation, &total],
         );
         Ok(Recorded::passes(2 * passes + 1, bytes))
     }

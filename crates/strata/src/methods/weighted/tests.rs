@@ -8,35 +8,10 @@ use crate::frame::{BuildOptions, FrameOptions, WeightedOptions};
 use crate::frame::{Effect, Moments, RenderOptions, Weight};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, render_gpu};
+use crate::testing::{assert_close, per_pixel, render_gpu};
 
 fn closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
-    per_pixel(scene, options, |l, bg| cpu::wboit(l, bg, options))
-}
-
-/// A picture of `pixel(fragments, background)` over the reference's fragments.
-fn per_pixel(
-    scene: &Scene,
-    options: &RenderOptions,
-    pixel: impl Fn(&[crate::resolve::RefFragment], [f64; 3]) -> [f64; 3],
-) -> LinearImage {
-    let lists = crate::reference::fragments(scene, options).unwrap();
-    let w = options.frame.width;
-    let pixels = lists
-        .iter()
-        .enumerate()
-        .map(|(i, l)| {
-            let bg = options.frame.background.at(i as u32 % w, i as u32 / w);
-            let bg = [bg[0] as f64, bg[1] as f64, bg[2] as f64];
-            let c = pixel(l, bg);
-            [c[0] as f32, c[1] as f32, c[2] as f32, l.len() as f32]
-        })
-        .collect();
-    LinearImage {
-        width: w,
-        height: options.frame.height,
-        pixels,
-    }
+    per_pixel(scene, options, |_, l, bg| cpu::wboit(l, bg, options))
 }
 
 #[test]
@@ -94,7 +69,7 @@ fn multisampled_wboit_averages_the_samples_closed_forms() {
             ..Default::default()
         },
     };
-    let expected = per_pixel(&scene, &opts, |l, bg| {
+    let expected = per_pixel(&scene, &opts, |_, l, bg| {
         let mut sum = [0.0; 3];
         for sample in 0..4 {
             let own: Vec<_> = l
@@ -179,7 +154,7 @@ fn settings(moments: Moments) -> cpu::MboitSettings {
 
 fn mboit_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
     let camera = scene.camera_or_framing();
-    per_pixel(scene, options, |l, bg| {
+    per_pixel(scene, options, |_, l, bg| {
         cpu::mboit(l, bg, &camera, settings(options.frame.weighted.moments))
     })
 }
@@ -204,7 +179,7 @@ fn multisampled_mboit_equals_its_closed_form() {
         },
     };
     let camera = scene.camera_or_framing();
-    let expected = per_pixel(&scene, &opts, |l, bg| {
+    let expected = per_pixel(&scene, &opts, |_, l, bg| {
         cpu::mboit_multisampled(l, bg, &camera, settings(Moments::Power(4)), 4)
     });
     let (actual, stats) = render_gpu(&scene, &opts, "mboit");
@@ -298,6 +273,31 @@ fn mboit_equals_its_closed_form() {
     }
 }
 
+/// mboit at 40² against its closed form, with its memory (`high_bytes` per pixel in the third
+/// target); returns its RMSE against `exact`.
+fn mboit_against_closed_form(
+    scene: &Scene,
+    opts: &RenderOptions,
+    name: &str,
+    high_bytes: u64,
+    exact: &LinearImage,
+) -> f64 {
+    let expected = mboit_closed_form(scene, opts);
+    let (actual, stats) = render_gpu(scene, opts, "mboit");
+    assert_close(name, &actual, &expected, Effect::Transparency, 2, 0.001);
+    assert_eq!(
+        stats.bytes_allocated,
+        Some(40 * 40 * (28 + high_bytes + 4)),
+        "{name}"
+    );
+    crate::metrics::compare(
+        &exact.to_rgba8(Effect::Transparency),
+        &actual.to_rgba8(Effect::Transparency),
+    )
+    .unwrap()
+    .rmse
+}
+
 /// Six and eight power moments against their f64 closed forms (the same moments, the
 /// reconstruction through the roots of the Hankel system's solution), with their memory; and
 /// more moments follow the exact picture more closely on the deep nvpro scene.
@@ -322,27 +322,10 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
             options.frame.weighted.moments = Moments::Power(moments);
             options
         };
-        let expected = mboit_closed_form(&scene, &opts);
-        let (actual, stats) = render_gpu(&scene, &opts, "mboit");
-        assert_close(
-            &format!("mboit{moments}-nvpro"),
-            &actual,
-            &expected,
-            Effect::Transparency,
-            2,
-            0.001,
-        );
-        assert_eq!(
-            stats.bytes_allocated,
-            Some(40 * 40 * (28 + high_bytes + 4)),
-            "{moments}"
-        );
-        let c = crate::metrics::compare(
-            &exact.to_rgba8(Effect::Transparency),
-            &actual.to_rgba8(Effect::Transparency),
-        )
-        .unwrap();
-        errors.push(c.rmse);
+        let name = format!("mboit{moments}-nvpro");
+        errors.push(mboit_against_closed_form(
+            &scene, &opts, &name, high_bytes, &exact,
+        ));
     }
     // Measured: 0.0168, 0.0160, 0.0156.
     eprintln!("mboit RMSE against the reference at 4, 6, 8 moments: {errors:?}");
@@ -501,24 +484,10 @@ fn mboit_params_layout_matches_wgsl() {
 /// stochastic's closed form: each pixel's reference fragments (with their sample coverage)
 /// through `cpu::stochastic`, the same stipples in f64.
 fn stochastic_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
-    let lists = crate::reference::fragments(scene, options).unwrap();
-    let w = options.frame.width;
-    let pixels = lists
-        .iter()
-        .enumerate()
-        .map(|(i, l)| {
-            let bg = options.frame.background.at(i as u32 % w, i as u32 / w);
-            let bg = [bg[0] as f64, bg[1] as f64, bg[2] as f64];
-            let samples = (options.build.msaa, options.frame.weighted.passes);
-            let c = cpu::stochastic(l, i as u32, samples, bg);
-            [c[0] as f32, c[1] as f32, c[2] as f32, l.len() as f32]
-        })
-        .collect();
-    LinearImage {
-        width: w,
-        height: options.frame.height,
-        pixels,
-    }
+    let samples = (options.build.msaa, options.frame.weighted.passes);
+    per_pixel(scene, options, |i, l, bg| {
+        cpu::stochastic(l, i, samples, bg)
+    })
 }
 
 fn stochastic_options(size: u32, passes: u32) -> RenderOptions {
@@ -682,21 +651,9 @@ fn mboit_with_trigonometric_moments_equals_its_closed_form() {
         for (n, high_bytes) in [(2, 0), (3, 8), (4, 16)] {
             let mut opts = base.clone();
             opts.frame.weighted.moments = Moments::Trigonometric(n);
-            let expected = mboit_closed_form(&scene, &opts);
-            let (actual, stats) = render_gpu(&scene, &opts, "mboit");
             let name = format!("mboit-trig{n}-{}", spec.trim_start_matches("builtin:"));
-            assert_close(&name, &actual, &expected, Effect::Transparency, 2, 0.001);
-            assert_eq!(
-                stats.bytes_allocated,
-                Some(40 * 40 * (28 + high_bytes + 4)),
-                "{name}"
-            );
-            let c = crate::metrics::compare(
-                &exact.to_rgba8(Effect::Transparency),
-                &actual.to_rgba8(Effect::Transparency),
-            )
-            .unwrap();
-            errors.push((name, c.rmse));
+            let rmse = mboit_against_closed_form(&scene, &opts, &name, high_bytes, &exact);
+            errors.push((name, rmse));
         }
     }
     eprintln!("mboit trigonometric RMSE against the reference: {errors:?}");

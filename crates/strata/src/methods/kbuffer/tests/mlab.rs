@@ -4,13 +4,13 @@
 //! GPU does not fix: those pictures are measured against the reference (`bench approx-quality`),
 //! not asserted. Tolerance as for the exact methods: max |Δ| ≤ 2/255 on ≥ 99.9% of pixels.
 
-use super::cpu;
-use super::tests::options;
+use super::options;
 use crate::frame::Effect;
+use crate::methods::kbuffer::cpu;
 use crate::render::LinearImage;
 use crate::resolve::RefFragment;
 use crate::scene::{loaders, Background, Scene};
-use crate::testing::{assert_close, render_gpu, render_reference};
+use crate::testing::{assert_close, per_pixel, render_gpu, render_reference};
 use crate::{MethodId, RenderOptions};
 
 const MAX_DIFF: u8 = 2;
@@ -23,26 +23,11 @@ fn scene(spec: &str) -> Scene {
 /// The closed form: each pixel's fragments arriving in draw (primitive) order through
 /// `cpu::mlab`, the layers composited over the background.
 fn closed_form(scene: &Scene, options: &RenderOptions, k: usize) -> LinearImage {
-    let lists = crate::reference::fragments(scene, options).unwrap();
-    let w = options.frame.width;
-    let pixels = lists
-        .iter()
-        .enumerate()
-        .map(|(i, list)| {
-            let mut arrivals = list.clone();
-            arrivals.sort_by_key(|f| f.prim);
-            let bg = options.frame.background.at(i as u32 % w, i as u32 / w);
-            let bg = bg.map(|c| c as f64);
-            let c =
-                crate::resolve::composite(&cpu::mlab(&arrivals, k), [bg[0], bg[1], bg[2]], false);
-            [c[0] as f32, c[1] as f32, c[2] as f32, list.len() as f32]
-        })
-        .collect();
-    LinearImage {
-        width: w,
-        height: options.frame.height,
-        pixels,
-    }
+    per_pixel(scene, options, |_, list, bg| {
+        let mut arrivals = list.to_vec();
+        arrivals.sort_by_key(|f| f.prim);
+        crate::resolve::composite(&cpu::mlab(&arrivals, k), bg, false)
+    })
 }
 
 #[test]
@@ -180,7 +165,7 @@ fn mlab_keeps_every_pixels_opacity_on_deep_scenes() {
 
 #[test]
 fn mlab_takes_k_from_1_to_256_and_4_by_default() {
-    use super::k_of;
+    use crate::methods::kbuffer::k_of;
     assert_eq!(k_of(None, MethodId::Mlab).unwrap(), 4);
     assert_eq!(k_of(Some(1), MethodId::Mlab).unwrap(), 1);
     assert_eq!(k_of(Some(256), MethodId::Mlab).unwrap(), 256);
