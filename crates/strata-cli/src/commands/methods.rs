@@ -12,10 +12,14 @@ pub fn rasters(m: &methods::Descriptor) -> &'static str {
     }
 }
 
-/// The `--msaa` sample counts a method takes (8 only where the device rasterizes it).
+/// The `--msaa` sample counts a method takes (8 only where the device rasterizes it; none
+/// below the method's fewest, which `--msaa 1` is raised to).
 pub fn msaa_counts(m: &methods::Descriptor) -> Vec<u32> {
     if m.msaa.yes() {
-        strata::frame::msaa::SAMPLE_COUNTS.to_vec()
+        strata::frame::msaa::SAMPLE_COUNTS
+            .into_iter()
+            .filter(|&n| n >= m.min_samples)
+            .collect()
     } else {
         vec![1]
     }
