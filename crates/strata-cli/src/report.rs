@@ -605,7 +605,9 @@ fn error_chart_on<DB: DrawingBackend>(
             .y_label_area_size(56)
             .build_cartesian_2d(
                 ((x_lo * 0.8)..(x_hi * 1.6)).log_scale(),
-                ((y_lo * 0.7)..(y_hi * 1.4)).log_scale(),
+                // Whole decades, so that a narrow range still gets labels.
+                (10f64.powf((y_lo * 0.9).log10().floor())..10f64.powf((y_hi * 1.1).log10().ceil()))
+                    .log_scale(),
             )
             .map_err(|e| draw(&e))?;
         chart
