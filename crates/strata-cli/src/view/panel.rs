@@ -362,6 +362,15 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             ui.add(egui::DragValue::new(&mut m.depth_scale).range(1e-4..=1e4));
         });
     });
+    ui.add_enabled_ui(applies(Opt::MOMENTS, id, pipeline), |ui| {
+        egui::ComboBox::from_label("moments")
+            .selected_text(m.moments.to_string())
+            .show_ui(ui, |ui| {
+                for v in strata::Moments::ALL {
+                    ui.selectable_value(&mut m.moments, v, v.to_string());
+                }
+            });
+    });
     ui.add_enabled_ui(applies(Opt::PASSES, id, pipeline), |ui| {
         ui.horizontal(|ui| {
             ui.label("passes");

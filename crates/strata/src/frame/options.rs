@@ -349,6 +349,16 @@ pub enum Moments {
 }
 
 impl Moments {
+    /// Every count mboit builds, in the order a menu lists them.
+    pub const ALL: [Moments; 6] = [
+        Moments::Power(4),
+        Moments::Power(6),
+        Moments::Power(8),
+        Moments::Trigonometric(2),
+        Moments::Trigonometric(3),
+        Moments::Trigonometric(4),
+    ];
+
     /// The real values it stores per sample besides b0.
     pub fn reals(self) -> u32 {
         match self {
@@ -359,10 +369,7 @@ impl Moments {
 
     /// Whether it is one of the counts mboit builds.
     pub fn supported(self) -> bool {
-        match self {
-            Moments::Power(n) => [4, 6, 8].contains(&n),
-            Moments::Trigonometric(n) => (2..=4).contains(&n),
-        }
+        Moments::ALL.contains(&self)
     }
 }
 
