@@ -10,6 +10,19 @@ use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, per_pixel, render_gpu};
 
+/// Default options at `size`² over a black background (low opacities show in every channel).
+fn over_black(size: u32) -> RenderOptions {
+    RenderOptions {
+        frame: FrameOptions {
+            width: size,
+            height: size,
+            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
 fn closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
     per_pixel(scene, options, |_, l, bg| cpu::wboit(l, bg, options))
 }
@@ -242,15 +255,7 @@ fn mboit_equals_its_closed_form() {
     ] {
         let mut scene = loaders::load_scene(spec).unwrap();
         scene.override_alpha(0.4);
-        let opts = RenderOptions {
-            frame: FrameOptions {
-                width: 40,
-                height: 40,
-                background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
-                ..Default::default()
-            },
-            ..Default::default()
-        };
+        let opts = over_black(40);
         let expected = mboit_closed_form(&scene, &opts);
         let (actual, stats) = render_gpu(&scene, &opts, "mboit");
         assert_close(
@@ -305,15 +310,7 @@ fn mboit_against_closed_form(
 fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
     let mut scene = loaders::load_scene("builtin:nvpro?objects=400&subdiv=10&seed=3").unwrap();
     scene.override_alpha(0.4);
-    let base = RenderOptions {
-        frame: FrameOptions {
-            width: 40,
-            height: 40,
-            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let base = over_black(40);
     let exact = crate::testing::render_reference(&scene, &base);
     let mut errors = Vec::new();
     for (moments, high_bytes) in [(4, 0), (6, 8), (8, 16)] {
@@ -491,22 +488,10 @@ fn stochastic_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage
 }
 
 fn stochastic_options(size: u32, passes: u32) -> RenderOptions {
-    RenderOptions {
-        frame: FrameOptions {
-            width: size,
-            height: size,
-            weighted: WeightedOptions {
-                passes,
-                ..Default::default()
-            },
-            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
-            ..Default::default()
-        },
-        build: BuildOptions {
-            msaa: 4,
-            ..Default::default()
-        },
-    }
+    let mut options = over_black(size);
+    options.frame.weighted.passes = passes;
+    options.build.msaa = 4;
+    options
 }
 
 /// The GPU's stipples, depths and sums against the closed form: opacities whose α·S is whole
@@ -629,15 +614,7 @@ fn stipples_have_the_expected_sample_count() {
 /// against the reference on nvpro, printed for the record.
 #[test]
 fn mboit_with_trigonometric_moments_equals_its_closed_form() {
-    let base = RenderOptions {
-        frame: FrameOptions {
-            width: 40,
-            height: 40,
-            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let base = over_black(40);
     let mut errors = Vec::new();
     for spec in [
         "builtin:nvpro?objects=400&subdiv=10&seed=3",
