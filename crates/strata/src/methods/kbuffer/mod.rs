@@ -756,7 +756,6 @@ impl KFrame {
             + sample_frame_bytes_besides_storage(px, samples, params.tail_blend != 0)
             + temporal::TemporalState::bytes(ctx);
         check_memory(ctx, self.id.as_str(), storage.bytes, total)?;
-        let none = wgpu::BufferUsages::empty();
         // Tests read the per-pixel words and the storage back (the lists against the reference).
         let readable = wgpu::BufferUsages::COPY_SRC;
         let cache = &mut self.cache;
@@ -783,7 +782,7 @@ impl KFrame {
                 .write_buffer(counters_init, 0, bytemuck::cast_slice(&init));
             self.counter_start = Some(start);
         }
-        let tail = cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, none)?;
+        let tail = cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, readable)?;
         let buffer = cache.storage(gpu, storage.label, storage.bytes, readable)?;
         let temporal = self.temporal.frame(ctx)?;
         let group = binding::group(

@@ -999,6 +999,13 @@ struct RasterAgreement {
     /// The largest |device − reference| of a shaded color channel or opacity (linear), and where.
     max_color_error: f64,
     worst_color: Option<(u32, u32, u32)>,
+    /// The device's and the reference's shading there (RGB and opacity), and how many fragments
+    /// differ by more than [`COLOR_AGREEMENT`]: one ill-conditioned fragment (two-sided lighting
+    /// flips the normal where it turns from the viewer) or many.
+    worst_colors: Option<([f32; 4], [f64; 4])>,
+    colors_over: usize,
+    /// The device's and the reference's depth at `worst[0]`.
+    worst_depths: Option<(f32, f64)>,
 }
 
 /// A fragment as the device made it: window depth, covered samples (bit i: sample i; 0
@@ -1168,9 +1175,13 @@ fn raster_agreement(
                         .zip(expected)
                         .map(|(&c, e)| (f64::from(c) - e).abs())
                         .fold(0.0, f64::max);
+                    if color_error > COLOR_AGREEMENT {
+                        agreement.colors_over += 1;
+                    }
                     if color_error > agreement.max_color_error {
                         agreement.max_color_error = color_error;
                         agreement.worst_color = Some((x, y, f.prim));
+                        agreement.worst_colors = Some((d.color, expected));
                     }
                     let (depth, mask) = (d.depth, d.mask);
                     let error = (depth as f64 - f.depth).abs();
@@ -1178,6 +1189,9 @@ fn raster_agreement(
                     if error > agreement.max_depth_error[partial] {
                         agreement.max_depth_error[partial] = error;
                         agreement.worst[partial] = Some((x, y, f.prim));
+                        if partial == 0 {
+                            agreement.worst_depths = Some((depth, f.depth));
+                        }
                     }
                 }
                 None => agreement.missing.push((x, y, f.prim)),
@@ -1225,8 +1239,9 @@ fn the_devices_fragments_are_the_references() {
         let summary = format!(
             "{spec} at {size}², --msaa {msaa}, {raster:?} rasterizer: {} fragments; only the reference's (x, y, \
              primitive): {} {:?}; only the device's: {} {:?}; other samples covered: {} {:?}; \
-             depth error up to {:.3e} at {:?}, partly covering fragments {:.3e} at {:?}; \
-             facing differs: {} {:?}; shaded color or opacity differs by up to {:.4} at {:?}",
+             depth error up to {:.3e} at {:?} (device and reference depths {:?}), partly covering \
+             fragments {:.3e} at {:?}; facing differs: {} {:?}; shaded color or opacity \
+             differs by up to {:.4} at {:?} (device {:?}, reference {:?}; {} fragments over {COLOR_AGREEMENT})",
             a.reference,
             a.missing.len(),
             first(&a.missing),
@@ -1236,12 +1251,16 @@ fn the_devices_fragments_are_the_references() {
             first(&a.masks_differ),
             a.max_depth_error[0],
             a.worst[0],
+            a.worst_depths,
             a.max_depth_error[1],
             a.worst[1],
             a.facing_differs.len(),
             first(&a.facing_differs),
             a.max_color_error,
             a.worst_color,
+            a.worst_colors.map(|c| c.0),
+            a.worst_colors.map(|c| c.1),
+            a.colors_over,
         );
         eprintln!("{summary}");
         let differing = (a.missing.len() + a.extra.len() + a.masks_differ.len()) as f64;
@@ -1256,4 +1275,100 @@ fn the_devices_fragments_are_the_references() {
     }
     // Every case is measured before the test fails: a GPU run reports them all.
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The per-pixel words and the tail sums a frame of `renderer` left: (pixels, tail).
+fn frame_words(renderer: &crate::Renderer) -> (Vec<u32>, Vec<u32>) {
+    let recorder = renderer.recorder().unwrap();
+    let read = |label: &str| {
+        let buffer = recorder
+            .method_resources()
+            .into_iter()
+            .find_map(|cache| cache.get(label))
+            .unwrap_or_else(|| panic!("no buffer {label}"));
+        crate::gpu::readback::read_u32s(crate::testing::gpu(), buffer, buffer.size() / 4).unwrap()
+    };
+    (read("strata.kbuffer.pixels"), read("strata.kbuffer.tail"))
+}
+
+/// A blended tail's sums are fixed point, so the order fragments reach it in cannot change
+/// them: two frames of one renderer, and a third over poisoned storage, leave the same
+/// per-pixel words (seen, filled, bound; the lock free) and the same tail sums, and the same
+/// picture. The H100 changed the ordered captures' pictures over poisoned storage with a
+/// blended tail only (2026-11-27); this says which words differ, and whether poison is needed.
+#[test]
+fn a_blended_tail_is_the_same_every_frame() {
+    const PIXEL_WORDS: usize = super::PIXEL_BYTES as usize / 4;
+    const TAIL_WORDS: usize = super::TAIL_BYTES as usize / 4;
+    let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
+    let mut opts = options(40, 6);
+    opts.frame.effect = Effect::Translucency;
+    opts.frame.kbuffer.tail = Tail::Blend;
+    let mut failures = Failures::default();
+    let methods =
+        super::ordered_methods().chain([super::MethodId::KbKeys, super::MethodId::KbAbFixed]);
+    for m in methods {
+        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut frames = Vec::new();
+        for poison in [false, false, true] {
+            if poison {
+                r.recorder().unwrap().poison();
+            }
+            let (image, stats) = r.render_method(m, None).unwrap();
+            frames.push((image, stats, frame_words(&r)));
+        }
+        let (first_image, first_stats, (first_pixels, first_tail)) = &frames[0];
+        let mut report = Vec::new();
+        for (i, (image, stats, (pixels, tail))) in frames.iter().enumerate().skip(1) {
+            let what = if i == 1 {
+                "second frame"
+            } else {
+                "poisoned frame"
+            };
+            let differs = |a: &[u32], b: &[u32], words: usize| {
+                (0..a.len() / words)
+                    .filter(|&p| a[p * words..(p + 1) * words] != b[p * words..(p + 1) * words])
+                    .collect::<Vec<_>>()
+            };
+            let pixel_words = differs(first_pixels, pixels, PIXEL_WORDS);
+            let tail_pixels = differs(first_tail, tail, TAIL_WORDS);
+            let picture = first_image
+                .pixels
+                .iter()
+                .zip(&image.pixels)
+                .filter(|(a, b)| a != b)
+                .count();
+            if pixel_words.is_empty() && tail_pixels.is_empty() && picture == 0 {
+                continue;
+            }
+            let words = |v: &[u32], p: usize, n: usize| format!("{:08x?}", &v[p * n..(p + 1) * n]);
+            let example = tail_pixels.first().map(|&p| {
+                format!(
+                    "; pixel {p}: words {} then {}, tail {} then {}",
+                    words(first_pixels, p, PIXEL_WORDS),
+                    words(pixels, p, PIXEL_WORDS),
+                    words(first_tail, p, TAIL_WORDS),
+                    words(tail, p, TAIL_WORDS)
+                )
+            });
+            report.push(format!(
+                "{what}: {picture} pixels of the picture, {} pixels' words {:?}, {} pixels' tail sums differ; stored {:?} then {:?}{}",
+                pixel_words.len(),
+                &pixel_words[..pixel_words.len().min(4)],
+                tail_pixels.len(),
+                first_stats.fragments_stored,
+                stats.fragments_stored,
+                example.unwrap_or_default()
+            ));
+        }
+        failures.check(
+            m.as_str(),
+            if report.is_empty() {
+                Ok(())
+            } else {
+                Err(report.join("; "))
+            },
+        );
+    }
+    failures.finish("blended tail");
 }
