@@ -20,6 +20,31 @@ fn fragment_color(f: Fragment) -> vec4<f32> {
     return vec4<f32>(unpack2x16float(f.rg), unpack2x16float(f.ba));
 }
 
+// The color exactly as storage holds it, its f16 bits decoded by hand. A compiler may fold
+// unpack2x16float(pack2x16float(c)) back into c for a fragment its own invocation made, so
+// `fragment_color` of a fresh fragment can be finer than of the same fragment read from memory.
+// Where a sum must not depend on which fragments went through memory (a k-buffer's tail, which
+// fragments reach directly or evicted from a slot, in an order the GPU picks), use this.
+fn stored_color(f: Fragment) -> vec4<f32> {
+    return vec4<f32>(half_bits(f.rg), half_bits(f.rg >> 16u), half_bits(f.ba), half_bits(f.ba >> 16u));
+}
+
+// The f16 in the low 16 bits of `h`, as an f32 (exact: every f16 is an f32).
+fn half_bits(h: u32) -> f32 {
+    let sign = (h & 0x8000u) << 16u;
+    let exponent = (h >> 10u) & 0x1fu;
+    let mantissa = h & 0x3ffu;
+    if exponent == 0u {
+        // Zero and subnormals: mantissa · 2⁻²⁴.
+        let magnitude = f32(mantissa) * 5.9604645e-8;
+        return select(magnitude, -magnitude, sign != 0u);
+    }
+    if exponent == 31u {
+        return bitcast<f32>(sign | 0x7f800000u | (mantissa << 13u));
+    }
+    return bitcast<f32>(sign | ((exponent + 112u) << 23u) | (mantissa << 13u));
+}
+
 fn fragment_prim(f: Fragment) -> u32 {
     return f.tag >> 1u;
 }

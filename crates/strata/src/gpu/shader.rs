@@ -366,6 +366,73 @@ mod tests {
         }
     }
 
+    /// `stored_color`'s hand decoding of f16 bits gives every one of the 65536 halves exactly
+    /// (NaNs as NaNs), subnormals included: the k-buffer tail sums rely on it.
+    #[test]
+    fn stored_color_decodes_every_half_exactly() {
+        use crate::gpu::binding::{self, Slot};
+        let gpu = crate::testing::gpu();
+        let source = "#import strata::fragment::{Fragment, stored_color}
+@group(0) @binding(0) var<storage, read_write> out: array<vec2<f32>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let h = id.x;
+    if h < 65536u {
+        let f = Fragment(0.0, 0u, h, 0u);
+        out[h] = vec2<f32>(stored_color(f).r, stored_color(Fragment(0.0, 0u, h << 16u, 0u)).g);
+    }
+}
+";
+        let module = Stage::new("stored-color-test", source).module(&gpu.device);
+        let layout = binding::layout(&gpu.device, "stored-color-test", &[Slot::StorageRw]);
+        let pipeline = crate::gpu::passes::compute_pipeline(
+            gpu,
+            "stored-color-test",
+            &module,
+            "main",
+            &[&layout],
+        );
+        let out = gpu
+            .storage_buffer(
+                "strata.test.halves",
+                65536 * 8,
+                wgpu::BufferUsages::COPY_SRC,
+            )
+            .unwrap();
+        let group = binding::group(
+            &gpu.device,
+            "stored-color-test",
+            &layout,
+            &[out.as_entire_binding()],
+        );
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups(65536 / 64, 1, 1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let words = crate::gpu::readback::read_u32s(gpu, &out, 65536 * 2).unwrap();
+        // Each half decoded twice, as the low and as the high half of a word, against the
+        // exact value.
+        let differing: Vec<_> = (0..65536usize)
+            .filter_map(|h| {
+                let exact = half::f16::from_bits(h as u16).to_f32();
+                let decoded = [words[2 * h], words[2 * h + 1]].map(f32::from_bits);
+                let same =
+                    |d: f32| d.to_bits() == exact.to_bits() || (d.is_nan() && exact.is_nan());
+                (!decoded.into_iter().all(same)).then_some((h, decoded, exact))
+            })
+            .collect();
+        assert!(
+            differing.is_empty(),
+            "{} halves differ, first {:?}",
+            differing.len(),
+            &differing[..differing.len().min(8)]
+        );
+    }
+
     /// A made module replaces the earlier one of its name, and a missing module is named.
     #[test]
     fn made_modules_replace_and_missing_ones_are_named() {

@@ -1,6 +1,6 @@
 #define_import_path strata::kbuffer::storage
 #import strata::color::{Resolved}
-#import strata::fragment::{Fragment, fragment_color}
+#import strata::fragment::{Fragment, stored_color}
 #import strata::kbuffer::temporal::{culling_interface, note_outside}
 #import strata::weight::{oit_weight}
 
@@ -168,7 +168,8 @@ fn tail_add(p: u32, f: Fragment) {
     if kp.tail_blend == 0u {
         return;
     }
-    let c = fragment_color(f);
+    // As stored: the same sum whether a fragment came here fresh or evicted from a slot.
+    let c = stored_color(f);
     let a = clamp(c.a, 0.0, 0.999);
     let w = p * TAIL_WORDS;
     if kp.tail_blend == TAIL_WEIGHTED {

@@ -1294,8 +1294,10 @@ fn frame_words(renderer: &crate::Renderer) -> (Vec<u32>, Vec<u32>) {
 /// A blended tail's sums are fixed point, so the order fragments reach it in cannot change
 /// them: two frames of one renderer, and a third over poisoned storage, leave the same
 /// per-pixel words (seen, filled, bound; the lock free) and the same tail sums, and the same
-/// picture. The H100 changed the ordered captures' pictures over poisoned storage with a
-/// blended tail only (2026-11-27); this says which words differ, and whether poison is needed.
+/// picture. On the H100 (2026-11-27) the ordered captures' tails differed from frame to frame
+/// by a few units of 2⁻¹⁶, poison or not, which changed about 100 of 1600 pixels: a fragment
+/// reaching the tail fresh counted its color finer than one evicted from a slot (f16), so the
+/// sum depended on arrival order; the tail now adds the stored color (`stored_color`).
 #[test]
 fn a_blended_tail_is_the_same_every_frame() {
     const PIXEL_WORDS: usize = super::PIXEL_BYTES as usize / 4;
@@ -1305,8 +1307,10 @@ fn a_blended_tail_is_the_same_every_frame() {
     opts.frame.effect = Effect::Translucency;
     opts.frame.kbuffer.tail = Tail::Blend;
     let mut failures = Failures::default();
-    let methods =
-        super::ordered_methods().chain([super::MethodId::KbKeys, super::MethodId::KbAbFixed]);
+    // mlab merges past k in arrival order by design (and keeps no tail).
+    let methods = super::ordered_methods()
+        .filter(|&m| m != super::MethodId::Mlab)
+        .chain([super::MethodId::KbKeys, super::MethodId::KbAbFixed]);
     for m in methods {
         let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
         let mut frames = Vec::new();
