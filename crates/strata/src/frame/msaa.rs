@@ -266,20 +266,24 @@ mod gpu_tests {
                     continue;
                 }
                 let all = multisampled(size, effect, msaa, None);
-                let expected = render_reference(&scene, &all);
                 // At the device's own depths and samples every pixel matches (kbuffer/tests.rs).
-                let (lists, unmatched) =
-                    crate::methods::kbuffer::tests::reference_fragments_at_device_depths(
-                        &scene, &all,
-                    );
-                let (at_device, _) = crate::reference::render_lists(&lists, None, &all);
-                let exactly = if unmatched == 0 { 0.0 } else { MAX_FRACTION };
+                let truth = crate::methods::kbuffer::tests::exact_truth(
+                    &scene,
+                    &all,
+                    render_reference(&scene, &all),
+                );
+                let (expected, at_device) = (&truth.expected, &truth.at_device);
+                let exactly = if truth.unmatched == 0 {
+                    0.0
+                } else {
+                    MAX_FRACTION
+                };
                 for method in ["abuffer-ll", "sbuffer", "kb-ab-ll", "kb-sbuffer"] {
                     let (actual, stats) = render_gpu(&scene, &all, method);
                     let name = format!("msaa{msaa}-{method}-{spec}");
-                    assert_close(&name, &actual, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_close(&name, &actual, expected, effect, MAX_DIFF, MAX_FRACTION);
                     let at = format!("{name}-device-depths");
-                    assert_close(&at, &actual, &at_device, effect, MAX_DIFF, exactly);
+                    assert_close(&at, &actual, at_device, effect, MAX_DIFF, exactly);
                     if !method.starts_with("kb-") {
                         assert_eq!(stats.fragments_dropped, Some(0), "{name}");
                     }
@@ -289,7 +293,7 @@ mod gpu_tests {
                 let three = multisampled(size, effect, msaa, Some(3));
                 let (peeled, stats) = render_gpu(&scene, &three, "kpeel");
                 let name = format!("msaa{msaa}-kpeel-{spec}");
-                assert_close(&name, &peeled, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                assert_close(&name, &peeled, expected, effect, MAX_DIFF, MAX_FRACTION);
                 assert_close(&name, &peeled, &abuffer, effect, MAX_DIFF, MAX_FRACTION);
                 let counts = |s: &crate::FrameStats| {
                     (

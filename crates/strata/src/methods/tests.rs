@@ -34,17 +34,12 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
     // rasterizes in compute (tiled) is held to the compute rasterizer's fragments: on the H100
     // the hardware's depths and shading differ from the reference's where the compute
     // rasterizer's agree with it.
-    let at_device = |raster: crate::raster::Raster| {
+    let truth_for = |raster: crate::raster::Raster| {
         let mut opts = opts.clone();
         opts.build.raster = raster;
-        let (lists, unmatched) =
-            super::kbuffer::tests::reference_fragments_at_device_depths(scene, &opts);
-        (
-            crate::reference::render_lists(&lists, None, &opts).0,
-            unmatched,
-        )
+        super::kbuffer::tests::exact_truth(scene, &opts, expected.clone())
     };
-    let hardware = at_device(opts.build.raster);
+    let hardware = truth_for(opts.build.raster);
     let mut compute = None;
     let mut failures = Failures::default();
     for method in EXACT_METHODS {
@@ -53,8 +48,8 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
             continue;
         }
         failures.frame_says_exact(method, &stats);
-        let (at_device, unmatched) = if stats.compute_raster.is_some() {
-            compute.get_or_insert_with(|| at_device(crate::raster::Raster::Compute))
+        let truth = if stats.compute_raster.is_some() {
+            compute.get_or_insert_with(|| truth_for(crate::raster::Raster::Compute))
         } else {
             &hardware
         };
@@ -62,7 +57,7 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
             method,
             &format!("{name}-{method}-{}", opts.frame.effect.name()),
             &actual,
-            (&expected, at_device, *unmatched),
+            truth,
             opts.frame.effect,
         );
         assert!(stats.geometry_passes.unwrap() >= 1);
@@ -216,7 +211,7 @@ fn a_scene_beyond_one_storage_binding_matches_the_reference() {
         s.triangle_count() as u64 * 3 * std::mem::size_of::<crate::scene::GpuVertex>() as u64;
     assert!(vertex_bytes > ONE_STORAGE_BINDING, "{vertex_bytes} bytes");
     let opts = options(32, Effect::Transparency);
-    let expected = render_reference(&s, &opts);
+    let expected = super::kbuffer::tests::reference_where_rasterizers_agree(&s, &opts);
     for method in ["abuffer-ll", "sbuffer"] {
         let (actual, stats) = render_gpu(&s, &opts, method);
         assert_close(

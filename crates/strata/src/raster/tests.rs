@@ -160,11 +160,24 @@ fn assert_same_counts(name: &str, actual: &LinearImage, expected: &LinearImage, 
 
 /// The compute path covers exactly the pixels the GPU's rasterizer covers, and its colors are
 /// within 1/255 of the GPU path's (both shade in f32 from the same inputs; depth and
-/// attributes agree to rounding).
+/// attributes agree to rounding) — but at the pixels where the hardware made some fragment
+/// otherwise than the reference, whose rasterization the compute path follows
+/// (`the_devices_fragments_are_the_references` reports those: the H100 shades a few fragments
+/// whose normal is nearly perpendicular to the view on its other side). There the compute
+/// path's pixel stands in; on lavapipe there are none.
 fn assert_matches_hw(name: &str, scene: &Scene, size: u32, method: MethodId) -> FrameStats {
-    let (hw, hw_stats) = render(scene, &options(size, Raster::Hw), method);
+    let (mut hw, hw_stats) = render(scene, &options(size, Raster::Hw), method);
     let (compute, stats) = render(scene, &options(size, Raster::Compute), method);
     assert_same_counts(&format!("{name}-{method}"), &compute, &hw, size);
+    let hardware = crate::methods::kbuffer::tests::reference_fragments_at_device_depths(
+        scene,
+        &options(size, Raster::Hw),
+    );
+    for (p, &differs) in hardware.disagreeing.iter().enumerate() {
+        if differs {
+            hw.pixels[p] = compute.pixels[p];
+        }
+    }
     assert_close(
         &format!("raster-{name}-{method}"),
         &compute,

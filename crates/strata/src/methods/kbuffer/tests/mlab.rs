@@ -105,18 +105,20 @@ fn mlab_one_past_k_merges_the_two_farthest() {
     );
 }
 
-/// Each pixel's transmittance, from the picture over black and over white.
-fn transmittance(over_black: &LinearImage, over_white: &LinearImage) -> Vec<f64> {
-    over_black
-        .pixels
-        .iter()
-        .zip(&over_white.pixels)
-        .map(|(b, w)| (w[1] - b[1]) as f64)
-        .collect()
+/// `s` with every material black and unlit: its picture over white is each pixel's
+/// transmittance alone, whatever colors the merges made.
+fn black_and_unlit(mut s: Scene) -> Scene {
+    for m in &mut s.materials {
+        m.color = [0.0; 3];
+        m.shading = crate::scene::Shading::Unlit;
+    }
+    s
 }
 
 /// Deep pixels (nvpro, the dragon) merge many times, in an order the GPU chooses: every
-/// pixel's total opacity must still be the reference's.
+/// pixel's total opacity must still be the reference's. It is read from one picture of the
+/// scene in black over white (two pictures over black and white would merge in two orders:
+/// on the H100 their colors differed at 14–21 of 4096 pixels, 2026-11-27).
 #[test]
 fn mlab_keeps_every_pixels_opacity_on_deep_scenes() {
     let mut dragon = scene("builtin:dragon");
@@ -130,16 +132,16 @@ fn mlab_keeps_every_pixels_opacity_on_deep_scenes() {
         ),
         ("dragon", dragon, 96, 2),
     ] {
+        let s = black_and_unlit(s);
         let mut opts = options(size, k);
-        let render_over = |opts: &mut RenderOptions, bg: [f32; 3]| {
-            opts.frame.background = Background::Color(bg);
-            let (image, stats) = render_gpu(&s, opts, "mlab");
-            assert_eq!(stats.lock_failures, Some(0), "{name}");
-            image
-        };
-        let black = render_over(&mut opts, [0.0; 3]);
-        let white = render_over(&mut opts, [1.0; 3]);
-        let actual = transmittance(&black, &white);
+        opts.frame.background = Background::Color([1.0; 3]);
+        let (white, stats) = render_gpu(&s, &opts, "mlab");
+        assert_eq!(stats.lock_failures, Some(0), "{name}");
+        assert!(
+            white.pixels.iter().all(|p| p[0] == p[1] && p[1] == p[2]),
+            "{name}: a black scene over white is grey"
+        );
+        let actual: Vec<f64> = white.pixels.iter().map(|p| f64::from(p[1])).collect();
         let lists = crate::reference::fragments(&s, &opts).unwrap();
         assert!(
             lists.iter().any(|l| l.len() > k as usize + 1),

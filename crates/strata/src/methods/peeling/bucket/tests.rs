@@ -23,7 +23,8 @@ use crate::methods::kbuffer::tests::{options, reference_fragments_at_device_dept
 /// fragments some sample kept, and the fragments only one of the reference and the device has
 /// (coverage at pixel centres on an edge).
 fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage, u64, u64) {
-    let (lists, unmatched) = reference_fragments_at_device_depths(scene, opts);
+    let at = reference_fragments_at_device_depths(scene, opts);
+    let (lists, unmatched) = (at.lists, at.unmatched);
     let translucency = opts.frame.effect == Effect::Translucency;
     let samples = opts.build.msaa.max(1);
     let mut kept_total = 0;
