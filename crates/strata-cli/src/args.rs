@@ -295,6 +295,10 @@ pub struct MethodArgs {
     /// passes).
     #[arg(long, default_value_t = 1)]
     pub passes: u32,
+    /// wavelet: Haar coefficients of each pixel's absorbance over depth, 4 or 8 (its depth range
+    /// in 4 or 8 bins).
+    #[arg(long, default_value_t = 8)]
+    pub coefficients: u32,
     /// Fragments beyond k (k-buffer methods).
     #[arg(long, value_enum, default_value = "drop")]
     pub tail: Tail,
@@ -637,6 +641,7 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
         depth_scale: a.depth_scale,
         moments: a.moments,
         passes: a.passes,
+        coefficients: a.coefficients,
     };
     let lighting = &mut options.build.lighting;
     lighting.ssao = a.ssao;

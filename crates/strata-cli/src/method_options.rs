@@ -42,6 +42,7 @@ impl Opt {
     pub const WEIGHT: Opt = Opt::Method(MethodOption::Weight);
     pub const MOMENTS: Opt = Opt::Method(MethodOption::Moments);
     pub const PASSES: Opt = Opt::Method(MethodOption::Passes);
+    pub const COEFFICIENTS: Opt = Opt::Method(MethodOption::Coefficients);
     pub const CACHE_DIR: Opt = Opt::Method(MethodOption::CacheDir);
 }
 
@@ -62,7 +63,7 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
 
 /// The options of `render` that only some methods read, with the option each belongs to:
 /// (clap id, flag, option).
-const METHOD_FLAGS: [(&str, &str, Opt); 13] = [
+const METHOD_FLAGS: [(&str, &str, Opt); 14] = [
     ("k", "--k", Opt::K),
     ("tail", "--tail", Opt::TAIL),
     ("culling", "--culling", Opt::CULLING),
@@ -74,6 +75,7 @@ const METHOD_FLAGS: [(&str, &str, Opt); 13] = [
     ("depth_scale", "--depth-scale", Opt::WEIGHT),
     ("moments", "--moments", Opt::MOMENTS),
     ("passes", "--passes", Opt::PASSES),
+    ("coefficients", "--coefficients", Opt::COEFFICIENTS),
     ("budget_mb", "--budget-mb", Opt::Budget),
     ("cache_dir", "--cache-dir", Opt::CACHE_DIR),
 ];

@@ -22,6 +22,8 @@ pub struct Run {
     pub(crate) moments: strata::Moments,
     /// stochastic's passes.
     pub(crate) passes: u32,
+    /// wavelet's Haar coefficients.
+    pub(crate) coefficients: u32,
     /// bucket's split of the depth range.
     pub(crate) buckets: strata::BucketSplit,
     /// The rasterizer of the storage geometry passes (`--raster`).
@@ -45,6 +47,7 @@ impl Run {
             msaa,
             moments: strata::Moments::Power(4),
             passes: 1,
+            coefficients: 8,
             buckets: strata::BucketSplit::Uniform,
             raster: strata::frame::Raster::Hw,
         }
@@ -70,6 +73,15 @@ impl Run {
         }
     }
 
+    /// wavelet with `coefficients` Haar coefficients.
+    pub(crate) fn wavelet(coefficients: u32) -> Run {
+        Run {
+            label: format!("wavelet coefficients={coefficients}"),
+            coefficients,
+            ..Run::plain("wavelet")
+        }
+    }
+
     /// `base` with this run's method options.
     pub(crate) fn options(&self, base: &strata::RenderOptions) -> strata::RenderOptions {
         let mut options = base.clone();
@@ -82,6 +94,7 @@ impl Run {
         options.build.raster = self.raster;
         options.frame.weighted.moments = self.moments;
         options.frame.weighted.passes = self.passes;
+        options.frame.weighted.coefficients = self.coefficients;
         options.frame.peeling.buckets = self.buckets;
         options
     }

@@ -371,6 +371,15 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
                 }
             });
     });
+    ui.add_enabled_ui(applies(Opt::COEFFICIENTS, id, pipeline), |ui| {
+        egui::ComboBox::from_label("coefficients")
+            .selected_text(m.coefficients.to_string())
+            .show_ui(ui, |ui| {
+                for v in strata::frame::options::WAVELET_COEFFICIENTS {
+                    ui.selectable_value(&mut m.coefficients, v, v.to_string());
+                }
+            });
+    });
     ui.add_enabled_ui(applies(Opt::PASSES, id, pipeline), |ui| {
         ui.horizontal(|ui| {
             ui.label("passes");

@@ -296,6 +296,9 @@ impl ViewState {
         if applies(Opt::PASSES, id, p.pipeline) && m.passes != 1 {
             push("passes", m.passes.to_string());
         }
+        if applies(Opt::COEFFICIENTS, id, p.pipeline) && m.coefficients != 8 {
+            push("coefficients", m.coefficients.to_string());
+        }
         if applies(Opt::TAIL, id, p.pipeline) {
             push("tail", value_name(&m.tail));
         }
@@ -380,7 +383,7 @@ fn options_key(s: &ViewState) -> impl PartialEq {
         (p.size, p.effect, p.background, p.k),
         (m.tail, m.culling, m.max_tries, m.heap_size),
         (m.layers, m.layers_per_pass, m.buckets),
-        (m.weight, m.depth_scale, m.moments, m.passes),
+        (m.weight, m.depth_scale, m.moments, m.passes, m.coefficients),
         (m.budget_mb, m.robustness, m.order, m.seed),
         (m.temporal, m.temporal_refresh, m.temporal_epsilon),
     )

@@ -346,6 +346,9 @@ pub enum Moments {
     Power(u32),
     /// E\[e^{ikφ}\] for k = 1..n.
     Trigonometric(u32),
+    /// n Haar coefficients of the absorbance step over the warped depth (`wavelet`'s
+    /// `--coefficients`, not an mboit `--moments`).
+    Haar(u32),
 }
 
 impl Moments {
@@ -362,7 +365,7 @@ impl Moments {
     /// The real values it stores per sample besides b0.
     pub fn reals(self) -> u32 {
         match self {
-            Moments::Power(n) => n,
+            Moments::Power(n) | Moments::Haar(n) => n,
             Moments::Trigonometric(n) => 2 * n,
         }
     }
@@ -384,6 +387,7 @@ impl std::fmt::Display for Moments {
         match self {
             Moments::Power(n) => write!(f, "{n}"),
             Moments::Trigonometric(n) => write!(f, "trig{n}"),
+            Moments::Haar(n) => write!(f, "haar{n}"),
         }
     }
 }
@@ -408,6 +412,10 @@ impl FromStr for Moments {
 /// The most passes `stochastic` takes (`--passes`).
 pub const MAX_STOCHASTIC_PASSES: u32 = 64;
 
+/// The coefficient counts `wavelet` builds: the scaling coefficient and the Haar wavelets of 2
+/// or 3 levels.
+pub const WAVELET_COEFFICIENTS: [u32; 2] = [4, 8];
+
 /// The weighted family's parameters (wboit, mboit).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WeightedOptions {
@@ -420,6 +428,8 @@ pub struct WeightedOptions {
     pub moments: Moments,
     /// stochastic: passes of S samples each (1 by default).
     pub passes: u32,
+    /// wavelet: Haar coefficients per sample, 4 or 8 (8 by default).
+    pub coefficients: u32,
 }
 
 impl Default for WeightedOptions {
@@ -429,6 +439,7 @@ impl Default for WeightedOptions {
             depth_scale: 1.0,
             moments: Moments::Power(4),
             passes: 1,
+            coefficients: 8,
         }
     }
 }
@@ -540,6 +551,12 @@ impl FrameOptions {
             return Err(Error::input(format!(
                 "--moments {} is not 4, 6, 8, trig2, trig3 or trig4 (mboit's moments)",
                 weighted.moments
+            )));
+        }
+        if !WAVELET_COEFFICIENTS.contains(&weighted.coefficients) {
+            return Err(Error::input(format!(
+                "--coefficients {} is not 4 or 8 (wavelet's Haar coefficients)",
+                weighted.coefficients
             )));
         }
         if !(1..=MAX_STOCHASTIC_PASSES).contains(&weighted.passes) {

@@ -97,6 +97,8 @@ pub enum MethodId {
     Mlab,
     /// Stochastic transparency: stratified sample stipples, the alpha-corrected average.
     Stochastic,
+    /// Wavelet OIT: Haar coefficients of each pixel's absorbance over depth.
+    Wavelet,
 }
 
 /// The method table in catalogue order (the order of `strata methods`): each family's folder
@@ -107,6 +109,7 @@ pub static TABLE: &[&Descriptor] = &[
     &baseline::descriptor::SORTED,
     &weighted::descriptor::WBOIT,
     &weighted::descriptor::MBOIT,
+    &weighted::descriptor::WAVELET,
     &weighted::descriptor::STOCHASTIC,
     &peeling::descriptor::F2B,
     &peeling::descriptor::DUAL,

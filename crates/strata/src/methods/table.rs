@@ -125,6 +125,8 @@ pub enum MethodOption {
     Moments,
     /// `--passes`: stochastic's passes.
     Passes,
+    /// `--coefficients`: wavelet's Haar coefficients.
+    Coefficients,
     /// `--cache-dir`: the preprocesses kept between runs.
     CacheDir,
 }

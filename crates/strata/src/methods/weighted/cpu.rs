@@ -239,13 +239,55 @@ pub fn absorbance_fraction_n(moments: &[f64], z: f64, bias: f64, overestimation:
     (0..size).map(|k| p[k] * m(k)).sum()
 }
 
+/// A fragment's absorbance −ln(1 − α), α capped as the GPU caps it.
+fn absorbance(f: &RefFragment) -> f64 {
+    -(1.0 - f.alpha.min(MAX_ALPHA)).ln()
+}
+
+/// A warped depth z ∈ [−1, 1] on the Haar basis's [0, 1) (1 itself into the last bin); the
+/// twin of `haar_position` in mboit_math.wgsl.
+pub fn haar_position(z: f64) -> f64 {
+    (0.5 * (z + 1.0)).clamp(0.0, 1.0 - f64::EPSILON)
+}
+
+/// Haar coefficient `i` of the unit step [x > s] on [0, 1): i = 0 the scaling function's, 1 − s;
+/// i = 2^j + k the wavelet ψ_jk's, 2^{−j/2}·(−t or t − 1) for t = 2^j·s − k in [0, ½) or [½, 1),
+/// 0 outside.
+pub fn haar_step_coefficient(s: f64, i: u32) -> f64 {
+    if i == 0 {
+        return 1.0 - s;
+    }
+    let level = i.ilog2();
+    let scale = f64::from(1u32 << level);
+    let t = scale * s - f64::from(i - (1 << level));
+    if t <= 0.0 || t >= 1.0 {
+        return 0.0;
+    }
+    (if t < 0.5 { -t } else { t - 1.0 }) / scale.sqrt()
+}
+
+/// Haar basis function `i` at x: 1 for the scaling function, ±2^{j/2} on the halves of ψ_jk's
+/// bin.
+pub fn haar_basis(x: f64, i: u32) -> f64 {
+    if i == 0 {
+        return 1.0;
+    }
+    let level = i.ilog2();
+    let scale = f64::from(1u32 << level);
+    let t = scale * x - f64::from(i - (1 << level));
+    if !(0.0..1.0).contains(&t) {
+        return 0.0;
+    }
+    (if t < 0.5 { 1.0 } else { -1.0 }) * scale.sqrt()
+}
+
 /// b0 and the absorbance-weighted moments of `fragments`: power moments Σ a·zᵏ (k = 1..n), or
 /// trigonometric ones Σ a·e^{ikφ(z)} as (re, im) pairs.
 fn mboit_moments(fragments: &[&RefFragment], camera: &Camera, kind: Moments) -> (f64, Vec<f64>) {
     let mut b0 = 0.0;
     let mut b = vec![0.0f64; kind.reals() as usize];
     for f in fragments {
-        let a = -(1.0 - f.alpha.min(MAX_ALPHA)).ln();
+        let a = absorbance(f);
         let z = mboit_depth(camera, f.distance);
         b0 += a;
         match kind {
@@ -262,23 +304,37 @@ fn mboit_moments(fragments: &[&RefFragment], camera: &Camera, kind: Moments) -> 
                     pair[1] += a * angle.sin();
                 }
             }
+            Moments::Haar(_) => {
+                let s = haar_position(z);
+                for (i, c) in b.iter_mut().enumerate() {
+                    *c += a * haar_step_coefficient(s, i as u32);
+                }
+            }
         }
     }
     (b0, b)
 }
 
-/// The transmittance the moments `(b0, b)` of `kind` give in front of warped depth `z`.
-/// Four power moments by the closed form, six and eight by [`absorbance_fraction_n`],
-/// trigonometric ones by [`trig_absorbance_fraction`] (biased toward the uniform distribution
-/// on the circle).
+/// The transmittance the moments `(b0, b)` of `kind` give in front of warped depth `z` for a
+/// fragment of absorbance `own`. Four power moments by the closed form, six and eight by
+/// [`absorbance_fraction_n`], trigonometric ones by [`trig_absorbance_fraction`] (biased toward
+/// the uniform distribution on the circle), Haar coefficients by evaluating the projection less
+/// the fragment's own step.
 fn mboit_transmittance(
     (b0, b): &(f64, Vec<f64>),
     kind: Moments,
-    z: f64,
+    (z, own): (f64, f64),
     (bias, overestimation): (f64, f64),
 ) -> f64 {
     if *b0 <= 0.0 {
         return 1.0;
+    }
+    if let Moments::Haar(_) = kind {
+        let x = haar_position(z);
+        let absorbance: f64 = (0..b.len() as u32)
+            .map(|i| (b[i as usize] - own * haar_step_coefficient(x, i)) * haar_basis(x, i))
+            .sum();
+        return (-absorbance.clamp(0.0, *b0)).exp();
     }
     let moments: Vec<f64> = b.iter().map(|x| x / b0).collect();
     let fraction = match (kind, &moments[..]) {
@@ -351,7 +407,7 @@ pub fn mboit(
             mboit_transmittance(
                 &moments,
                 settings.moments,
-                mboit_depth(camera, f.distance),
+                (mboit_depth(camera, f.distance), absorbance(f)),
                 (settings.bias, settings.overestimation),
             )
         },
@@ -386,7 +442,7 @@ pub fn mboit_multisampled(
                 mboit_transmittance(
                     &moments[s as usize],
                     settings.moments,
-                    z,
+                    (z, absorbance(f)),
                     (settings.bias, settings.overestimation),
                 )
             })

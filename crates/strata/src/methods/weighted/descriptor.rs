@@ -7,6 +7,7 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
     let Setup { gpu, scene, .. } = *made;
     Ok(match id {
         MethodId::Mboit => Box::new(super::mboit::Mboit::new(gpu, scene)?),
+        MethodId::Wavelet => Box::new(super::mboit::Mboit::wavelet(gpu, scene)?),
         MethodId::Stochastic => Box::new(super::stochastic::Stochastic::new(gpu, scene)?),
         _ => Box::new(super::Wboit::new(gpu, scene)),
     })
@@ -27,6 +28,15 @@ pub const MBOIT: Descriptor = Descriptor {
     summary: "moment-based OIT (Münstermann et al. 2018): 4, 6 or 8 power moments of absorbance over log depth, or 2, 3 or 4 trigonometric moments of its angle on a circle with a wrapping zone of π/10 (--moments 4|6|8|trig2|trig3|trig4; 32-bit, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
     reads: &[MethodOption::Moments],
     ..Descriptor::new(MethodId::Mboit, "mboit", Family::Weighted, create)
+};
+
+/// `wavelet`.
+pub const WAVELET: Descriptor = Descriptor {
+    geometry_passes: "2",
+    memory: "(28·S + 4)·W·H with --coefficients 4, +16·S with 8 (the default); S samples per pixel (--msaa, else 1)",
+    summary: "wavelet OIT (after Aizenshtein, Smal & McGuire 2022): each pixel's absorbance over log depth as 4 or 8 Haar coefficients (--coefficients; closed form per fragment, additive 32-bit targets), transmittance reconstructed per fragment as its depth bin's average; exact coverage",
+    reads: &[MethodOption::Coefficients],
+    ..Descriptor::new(MethodId::Wavelet, "wavelet", Family::Weighted, create)
 };
 
 /// `stochastic`.

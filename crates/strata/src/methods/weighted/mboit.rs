@@ -48,6 +48,12 @@
 //! a public port of the paper's code lists for 32-bit moments, not checked against the paper,
 //! whose tables were not at hand; θ = π/10 and η = 0.25 are the published code's defaults.
 //!
+//! `wavelet` (its own method, `--coefficients 4|8`) runs these passes over another basis: b0 and
+//! 4 or 8 Haar coefficients of the absorbance step a·[x > s] over the warped depth on [0, 1)
+//! (`haar_*` in mboit_math.wgsl, twin `cpu::haar_*`), in the targets 4 or 8 power moments use;
+//! a fragment's transmittance is exp(−A) for the projection A evaluated at its depth — the average
+//! of the absorbance over its bin — less its own step. No bias: nothing is solved for.
+//!
 //! Not exact, by design: the coverage is exact, the order is estimated. The 16-bit quantized
 //! variants are not built. Translucency gets Fresnel opacity but no
 //! absorption between surfaces.
@@ -97,6 +103,8 @@ pub fn moment_bias(moments: Moments) -> f32 {
         Moments::Power(6) => MOMENT_BIAS_6,
         Moments::Power(_) => MOMENT_BIAS_8,
         Moments::Trigonometric(n) => TRIG_MOMENT_BIAS[n as usize - 2],
+        // Haar coefficients are evaluated, not solved for: nothing to keep well-conditioned.
+        Moments::Haar(_) => 0.0,
     }
 }
 
@@ -137,6 +145,8 @@ pub struct Mboit {
     high: Option<HighStage>,
     cache: ResourceCache,
     samples: u32,
+    /// `wavelet`: the moments are `--coefficients` Haar coefficients, not `--moments`.
+    wavelet: bool,
 }
 
 fn additive() -> Option<wgpu::BlendState> {
@@ -166,16 +176,18 @@ pub fn moments_stage() -> Stage {
 
 /// The shade stage for `moments`, reading multisampled moments with `--msaa`.
 pub fn shade_stage(samples: u32, moments: Moments) -> Stage {
-    let trig = match moments {
-        Moments::Trigonometric(n) => n,
-        Moments::Power(_) => 0,
+    let (trig, haar) = match moments {
+        Moments::Trigonometric(n) => (n, 0),
+        Moments::Haar(n) => (0, n),
+        Moments::Power(_) => (0, 0),
     };
     Stage::new("strata.mboit.shade", include_str!("mboit_shade.wgsl"))
         .with(super::LIBRARY)
         .defs(
             &shader::target_samples(samples)
                 .value("MBOIT_MOMENTS", moments.reals())
-                .value("MBOIT_TRIG", trig),
+                .value("MBOIT_TRIG", trig)
+                .value("MBOIT_HAAR", haar),
         )
 }
 
@@ -253,6 +265,20 @@ impl Mboit {
             high: None,
             cache: ResourceCache::default(),
             samples,
+            wavelet: false,
+        })
+    }
+
+    /// `wavelet`'s pipelines: mboit's passes over Haar coefficients.
+    pub fn wavelet(gpu: &Gpu, scene: &SceneGpu) -> Result<Mboit> {
+        if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
+            return Err(Error::unsupported(
+                "wavelet blends 32-bit float coefficients, and this adapter lacks FLOAT32_BLENDABLE",
+            ));
+        }
+        Ok(Mboit {
+            wavelet: true,
+            ..Mboit::new(gpu, scene)?
         })
     }
 
@@ -270,8 +296,15 @@ impl Mboit {
         let bytes = 4 + 16 + if reals > 4 { high_format(reals).1 } else { 0 };
         let allowed = gpu.limits.max_color_attachment_bytes_per_sample;
         if bytes > allowed as u64 {
+            let (option, instead) = match moments {
+                Moments::Haar(n) => (format!("wavelet --coefficients {n}"), "--coefficients 4"),
+                _ => (
+                    format!("mboit --moments {moments}"),
+                    "--moments 6, trig3 or 4",
+                ),
+            };
             return Err(Error::unsupported(format!(
-                "mboit --moments {moments} blends {bytes} bytes of moments per sample, and this device's render targets take {allowed} (max_color_attachment_bytes_per_sample); use --moments 6, trig3 or 4"
+                "{option} blends {bytes} bytes per sample, and this device's render targets take {allowed} (max_color_attachment_bytes_per_sample); use {instead}"
             )));
         }
         let module = moments_stage().module(&gpu.device);
@@ -281,6 +314,8 @@ impl Mboit {
             Moments::Trigonometric(2) => "fs_trig2",
             Moments::Trigonometric(3) => "fs_trig3",
             Moments::Trigonometric(_) => "fs_trig4",
+            Moments::Haar(4) => "fs_haar4",
+            Moments::Haar(_) => "fs_haar8",
         };
         let mut targets = vec![target(B0_FORMAT), target(MOMENTS_FORMAT)];
         if reals > 4 {
@@ -319,7 +354,12 @@ impl Mboit {
 impl Method for Mboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let moments = ctx.options.frame.weighted.moments;
+        let weighted = &ctx.options.frame.weighted;
+        let moments = if self.wavelet {
+            Moments::Haar(weighted.coefficients)
+        } else {
+            weighted.moments
+        };
         let reals = moments.reals();
         let high_bytes = if reals > 4 { high_format(reals).1 } else { 0 };
         let sample_bytes = MBOIT_SAMPLE_BYTES + high_bytes;

@@ -456,3 +456,59 @@ fn mboit_transmittance_trig(b0: f32, b: array<f32, 8>, n: u32, z: f32) -> f32 {
     }
     return clamp(exp(-b0 * trig_absorbance_fraction(m, n, trig_angle(z))), 0.0, 1.0);
 }
+
+// Wavelet OIT (`wavelet`, after Aizenshtein, Smal & McGuire 2022): each pixel's absorbance as a
+// function of depth, A(x) = Σ aᵢ·[x > xᵢ] over its fragments, projected on the Haar basis of
+// [0, 1): coefficient 0 the scaling function, coefficient 2^j + k the wavelet ψ_jk(x) =
+// 2^{j/2}·ψ(2^j·x − k) (ψ = 1 on [0, ½), −1 on [½, 1)). A step's coefficients have a closed form,
+// so a fragment adds them by additive blending, and the projection evaluated at a depth is the
+// average of A over that depth's bin of width 2^{−levels}. Keep in step with `cpu::haar_*`.
+
+// A warped depth z ∈ [−1, 1] on [0, 1) (1 itself into the last bin).
+fn haar_position(z: f32) -> f32 {
+    return clamp(0.5 * (z + 1.0), 0.0, 0.99999994);
+}
+
+// Coefficient i of the unit step at s, [x > s].
+fn haar_step_coefficient(s: f32, i: u32) -> f32 {
+    if i == 0u {
+        return 1.0 - s;
+    }
+    let level = firstLeadingBit(i);
+    let scale = f32(1u << level);
+    let t = scale * s - f32(i - (1u << level));
+    if t <= 0.0 || t >= 1.0 {
+        return 0.0;
+    }
+    return select(t - 1.0, -t, t < 0.5) * inverseSqrt(scale);
+}
+
+// Basis function i at x.
+fn haar_basis(x: f32, i: u32) -> f32 {
+    if i == 0u {
+        return 1.0;
+    }
+    let level = firstLeadingBit(i);
+    let scale = f32(1u << level);
+    let t = scale * x - f32(i - (1u << level));
+    if t < 0.0 || t >= 1.0 {
+        return 0.0;
+    }
+    return select(-1.0, 1.0, t < 0.5) * sqrt(scale);
+}
+
+// The transmittance in front of a fragment of absorbance `own` at warped depth z, from b0 and n
+// Haar coefficients: exp(−A(z)) less the fragment's own step (whose projection at its own depth
+// is not 0, as the step itself is there, but the part of its bin behind it), A clamped to [0, b0]
+// (a projection may overshoot where steps crowd a bin's edge).
+fn haar_transmittance(b0: f32, c: array<f32, 8>, n: u32, z: f32, own: f32) -> f32 {
+    if b0 <= 0.0 {
+        return 1.0;
+    }
+    let x = haar_position(z);
+    var absorbance = 0.0;
+    for (var i = 0u; i < n; i++) {
+        absorbance += (c[i] - own * haar_step_coefficient(x, i)) * haar_basis(x, i);
+    }
+    return exp(-clamp(absorbance, 0.0, b0));
+}

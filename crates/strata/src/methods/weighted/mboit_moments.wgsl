@@ -1,6 +1,6 @@
 #define_import_path strata::weighted::mboit_moments
 #import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
-#import strata::weighted::mboit_math::{c_mul, mboit_absorbance, mboit_depth, trig_angle}
+#import strata::weighted::mboit_math::{c_mul, haar_position, haar_step_coefficient, mboit_absorbance, mboit_depth, trig_angle}
 
 // mboit pass 1: every fragment adds its absorbance a = −ln(1 − α) to b0 and a·(z, z², z³, z⁴) to
 // the moments (additive blending into 32-bit float targets), and counts itself; with 6 or 8
@@ -104,5 +104,36 @@ fn fs_trig4(v: SceneVarying) -> Moments8Out {
         discard;
     }
     let m = fragment_trig_moments(v);
+    return Moments8Out(vec4<f32>(m.a), m.low, m.high);
+}
+
+// A fragment's absorbance and a times the Haar coefficients of the step at its depth (wavelet:
+// fs_haar4 writes the first four, fs_haar8 eight), counting it at its pixel.
+fn fragment_haar_coefficients(v: SceneVarying) -> FragmentMoments {
+    atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
+    let a = mboit_absorbance(shade(v.world, v.normal, v.material).a);
+    let s = haar_position(mboit_depth(v.position.z));
+    var c: array<f32, 8>;
+    for (var i = 0u; i < 8u; i++) {
+        c[i] = a * haar_step_coefficient(s, i);
+    }
+    return FragmentMoments(a, vec4<f32>(c[0], c[1], c[2], c[3]), vec4<f32>(c[4], c[5], c[6], c[7]));
+}
+
+@fragment
+fn fs_haar4(v: SceneVarying) -> MomentsOut {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let m = fragment_haar_coefficients(v);
+    return MomentsOut(vec4<f32>(m.a), m.low);
+}
+
+@fragment
+fn fs_haar8(v: SceneVarying) -> Moments8Out {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let m = fragment_haar_coefficients(v);
     return Moments8Out(vec4<f32>(m.a), m.low, m.high);
 }

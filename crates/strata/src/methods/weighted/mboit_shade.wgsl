@@ -1,10 +1,12 @@
 #define_import_path strata::weighted::mboit_shade
 #import strata::scene::{SceneVarying, behind_opaque, frame, pixel_of, shade}
-#import strata::weighted::mboit_math::{MBOIT_MAX_ALPHA, mboit_depth, mboit_transmittance, mboit_transmittance_n, mboit_transmittance_trig}
+#import strata::weighted::mboit_math::{MBOIT_MAX_ALPHA, haar_transmittance, mboit_absorbance, mboit_depth, mboit_transmittance, mboit_transmittance_n, mboit_transmittance_trig}
 const MBOIT_MOMENTS: u32 = #{MBOIT_MOMENTS}u;
 // Trigonometric moments: their count n (MBOIT_MOMENTS is then 2n, the real values); 0 for power
 // moments.
 const MBOIT_TRIG: u32 = #{MBOIT_TRIG}u;
+// wavelet: its Haar coefficients (MBOIT_MOMENTS too); 0 for moments.
+const MBOIT_HAAR: u32 = #{MBOIT_HAAR}u;
 #ifdef MULTISAMPLED
 alias TargetTexture = texture_multisampled_2d<f32>;
 #else
@@ -24,10 +26,11 @@ alias TargetTexture = texture_2d<f32>;
 @group(1) @binding(3) var moments_high: TargetTexture;
 
 // The transmittance at warped depth z of sample si (the mip level, 0, single-sampled).
-fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool) -> f32 {
+// `own` is the fragment's own absorbance, which wavelet takes out of its bin's average.
+fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool, own: f32) -> f32 {
     let b0 = textureLoad(b0_target, pixel, si).r;
     let low = textureLoad(moments_target, pixel, si);
-    if !high && MBOIT_TRIG == 0u {
+    if !high && MBOIT_TRIG == 0u && MBOIT_HAAR == 0u {
         return mboit_transmittance(b0, low, z);
     }
     var up = vec4<f32>(0.0);
@@ -37,6 +40,9 @@ fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool) -> f32 {
     let b = array<f32, 8>(low.x, low.y, low.z, low.w, up.x, up.y, up.z, up.w);
     if MBOIT_TRIG > 0u {
         return mboit_transmittance_trig(b0, b, MBOIT_TRIG, z);
+    }
+    if MBOIT_HAAR > 0u {
+        return haar_transmittance(b0, b, MBOIT_HAAR, z, own);
     }
     return mboit_transmittance_n(b0, b, MBOIT_MOMENTS, z);
 }
@@ -48,17 +54,18 @@ fn shade_fragment(v: SceneVarying, mask: u32, high: bool) -> vec4<f32> {
     let z = mboit_depth(v.position.z);
     let samples = max(frame.coverage_bits, 1u);
     let covered = select(mask, 1u, samples == 1u);
+    let c = shade(v.world, v.normal, v.material);
+    let alpha = min(c.a, MBOIT_MAX_ALPHA);
+    let own = mboit_absorbance(alpha);
     var t = 0.0;
     var n = 0u;
     for (var si = 0u; si < samples; si++) {
         if (covered & (1u << si)) != 0u {
-            t += sample_transmittance(pixel, si, z, high);
+            t += sample_transmittance(pixel, si, z, high, own);
             n += 1u;
         }
     }
     t /= f32(max(n, 1u));
-    let c = shade(v.world, v.normal, v.material);
-    let alpha = min(c.a, MBOIT_MAX_ALPHA);
     return vec4<f32>(c.rgb * alpha * t, alpha * t);
 }
 

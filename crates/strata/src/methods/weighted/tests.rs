@@ -680,3 +680,93 @@ fn moments_parse_as_the_command_line_writes_them() {
         assert!(e.contains("--moments") && e.contains("trig2"), "{bad}: {e}");
     }
 }
+
+/// The Haar projection of a step, evaluated anywhere, is the step's average over that point's
+/// bin (width 2^−levels): what `wavelet` reconstructs.
+#[test]
+fn haar_coefficients_of_a_step_give_its_bin_average() {
+    for n in crate::frame::options::WAVELET_COEFFICIENTS {
+        let bins = f64::from(n);
+        for s in [0.0, 0.03, 0.125, 0.3, 0.5, 0.61, 0.874, 0.99] {
+            for x in [0.0, 0.05, 0.124, 0.2, 0.45, 0.5, 0.7, 0.9, 0.999] {
+                let projected: f64 = (0..n)
+                    .map(|i| cpu::haar_step_coefficient(s, i) * cpu::haar_basis(x, i))
+                    .sum();
+                let bin = (x * bins).floor();
+                let (start, end) = (bin / bins, (bin + 1.0) / bins);
+                let average = ((end - s.max(start)) / (end - start)).clamp(0.0, 1.0);
+                assert!(
+                    (projected - average).abs() < 1e-12,
+                    "n {n}, step at {s}, at {x}: {projected} against {average}"
+                );
+            }
+        }
+    }
+}
+
+fn wavelet_options(coefficients: u32) -> RenderOptions {
+    let mut options = over_black(40);
+    options.frame.weighted.coefficients = coefficients;
+    options
+}
+
+/// wavelet against its f64 closed form (the same coefficients, the same reconstruction per
+/// fragment) on layers, nvpro and the dragon, at 4 and 8 coefficients, with its memory; and 8
+/// coefficients follow the exact picture at least as closely as 4 on nvpro.
+#[test]
+fn wavelet_equals_its_closed_form() {
+    for spec in [
+        "builtin:layers?n=6&coverage=0.75&order=random&seed=3",
+        "builtin:nvpro?objects=400&subdiv=10&seed=3",
+        "builtin:dragon",
+    ] {
+        let mut scene = loaders::load_scene(spec).unwrap();
+        scene.override_alpha(0.4);
+        let camera = scene.camera_or_framing();
+        let exact = crate::testing::render_reference(&scene, &over_black(40));
+        let mut errors = Vec::new();
+        for (coefficients, high_bytes) in [(4, 0), (8, 16)] {
+            let opts = wavelet_options(coefficients);
+            let expected = per_pixel(&scene, &opts, |_, l, bg| {
+                cpu::mboit(l, bg, &camera, settings(Moments::Haar(coefficients)))
+            });
+            let (actual, stats) = render_gpu(&scene, &opts, "wavelet");
+            let name = format!(
+                "wavelet{coefficients}-{}",
+                spec.split('?')
+                    .next()
+                    .unwrap()
+                    .trim_start_matches("builtin:")
+            );
+            assert_close(&name, &actual, &expected, Effect::Transparency, 2, 0.001);
+            assert_eq!(
+                stats.bytes_allocated,
+                Some(40 * 40 * (28 + high_bytes + 4)),
+                "{name}"
+            );
+            assert_eq!(stats.geometry_passes, Some(2));
+            assert_eq!(stats.exact, Some(false));
+            errors.push(
+                crate::metrics::compare(
+                    &exact.to_rgba8(Effect::Transparency),
+                    &actual.to_rgba8(Effect::Transparency),
+                )
+                .unwrap()
+                .rmse,
+            );
+        }
+        eprintln!("{spec}: wavelet RMSE against the reference at 4, 8 coefficients: {errors:?}");
+        if spec.contains("nvpro") {
+            assert!(errors[1] <= errors[0], "{errors:?}");
+        }
+    }
+}
+
+/// `--coefficients` other than 4 or 8 is refused in one line.
+#[test]
+fn wavelet_takes_4_or_8_coefficients() {
+    for bad in [0, 2, 6, 16] {
+        let e = wavelet_options(bad).validate().unwrap_err().to_string();
+        assert!(e.contains("--coefficients") && !e.contains('\n'), "{e}");
+    }
+}
