@@ -32,6 +32,8 @@ struct Shader<'a> {
     to_camera: DVec3,
     orthographic: bool,
     translucency: bool,
+    /// Shade with the normal turned away from the viewer (see [`fragments_shaded_away`]).
+    away: bool,
 }
 
 fn v3(a: [f32; 3]) -> DVec3 {
@@ -81,7 +83,7 @@ impl Shader<'_> {
             (self.eye - world).normalize()
         };
         let mut n = normal / normal.length().max(1e-12);
-        if n.dot(v) < 0.0 {
+        if (n.dot(v) < 0.0) != self.away {
             n = -n;
         }
         let albedo = v3(m.color);
@@ -126,6 +128,25 @@ pub fn view_distance(camera: &Camera, depth: f64) -> f64 {
 
 /// Every pixel's fragments in depth order (depth, then primitive index), row-major.
 pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFragment>>> {
+    shaded_fragments(scene, options, false)
+}
+
+/// [`fragments`] shaded with each normal turned away from the viewer: what two-sided lighting
+/// gives a fragment whose interpolated normal a rasterizer put on the other side of the plane
+/// perpendicular to the view (n·v near 0), as the H100's did for a few fragments. Tests use it
+/// to tell that difference from others.
+pub fn fragments_shaded_away(
+    scene: &Scene,
+    options: &RenderOptions,
+) -> Result<Vec<Vec<RefFragment>>> {
+    shaded_fragments(scene, options, true)
+}
+
+fn shaded_fragments(
+    scene: &Scene,
+    options: &RenderOptions,
+    away: bool,
+) -> Result<Vec<Vec<RefFragment>>> {
     scene.validate()?;
     options.validate()?;
     let (w, h) = (options.frame.width, options.frame.height);
@@ -141,6 +162,7 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
             .as_dvec3(),
         orthographic: matches!(camera.projection, Projection::Orthographic { .. }),
         translucency: options.frame.effect == Effect::Translucency,
+        away,
     };
 
     let setups: Vec<raster::SetupTriangle> = tris

@@ -1008,6 +1008,10 @@ struct RasterAgreement {
     /// flips the normal where it turns from the viewer) or many.
     worst_colors: Option<([f32; 4], [f64; 4])>,
     colors_over: usize,
+    /// Fragments shaded as the reference shades them with the normal turned the other way
+    /// (two-sided lighting where the interpolated normal is nearly perpendicular to the view:
+    /// a discontinuity any rounding difference may cross); not counted in the color error.
+    turned: Vec<(u32, u32, u32)>,
     /// The device's and the reference's depth at `worst[0]`.
     worst_depths: Option<(f32, f64)>,
 }
@@ -1260,6 +1264,7 @@ fn raster_agreement(
     };
     let devices = device_fragments(s, &opts);
     let reference = crate::reference::fragments(s, &opts).unwrap();
+    let away = crate::reference::fragments_shaded_away(s, &opts).unwrap();
     let mut agreement = RasterAgreement::default();
     for (p, (expected, mut device)) in reference.iter().zip(devices).enumerate() {
         let (x, y) = (p as u32 % size, p as u32 / size);
@@ -1276,10 +1281,19 @@ fn raster_agreement(
                     let expected = [f.color[0], f.color[1], f.color[2], f.alpha];
                     let (error, partial, color_error) = fragment_errors(f, &d, msaa);
                     let partial = usize::from(partial);
-                    if color_error > COLOR_AGREEMENT {
+                    // Shaded as the reference shades it with the normal turned the other way:
+                    // the interpolated normal fell on the other side of the view (n·v ≈ 0).
+                    let turned = color_error > COLOR_AGREEMENT
+                        && away[p]
+                            .iter()
+                            .find(|g| g.prim == f.prim)
+                            .is_some_and(|g| fragment_errors(g, &d, msaa).2 <= COLOR_AGREEMENT);
+                    if turned {
+                        agreement.turned.push((x, y, f.prim));
+                    } else if color_error > COLOR_AGREEMENT {
                         agreement.colors_over += 1;
                     }
-                    if color_error > agreement.max_color_error {
+                    if !turned && color_error > agreement.max_color_error {
                         agreement.max_color_error = color_error;
                         agreement.worst_color = Some((x, y, f.prim));
                         agreement.worst_colors = Some((d.color, expected));
@@ -1318,10 +1332,12 @@ const COLOR_AGREEMENT: f64 = 2e-3;
 /// the reference's: the same fragments (pixel and primitive) but for pixel centres on an edge
 /// (at most the 0.1% the image tests allow; lavapipe: none here), with --msaa the same samples,
 /// and window depths within [`DEPTH_AGREEMENT`] ([`EXTRAPOLATED_DEPTH_AGREEMENT`] where a
-/// fragment covers only some samples); and strata's compute rasterizer the same. Every exact
-/// test leans on this; on another GPU, a failure here says whether coverage or depth makes its
-/// pictures differ, where, and whether the compute rasterizer (the same WGSL everywhere) still
-/// agrees with the reference there.
+/// fragment covers only some samples), and shading within [`COLOR_AGREEMENT`] — or, where the
+/// interpolated normal is nearly perpendicular to the view, the shading of the normal turned the
+/// other way (counted and listed: the H100 does this at a few fragments); and strata's compute
+/// rasterizer the same. Every exact test leans on this; on another GPU, a failure here says
+/// whether coverage, depth or shading makes its pictures differ, where, and whether the compute
+/// rasterizer (the same WGSL everywhere) still agrees with the reference there.
 #[test]
 fn the_devices_fragments_are_the_references() {
     use crate::raster::Raster::{Compute, Hw};
@@ -1340,7 +1356,8 @@ fn the_devices_fragments_are_the_references() {
              primitive): {} {:?}; only the device's: {} {:?}; other samples covered: {} {:?}; \
              depth error up to {:.3e} at {:?} (device and reference depths {:?}), partly covering \
              fragments {:.3e} at {:?}; facing differs: {} {:?}; shaded color or opacity \
-             differs by up to {:.4} at {:?} (device {:?}, reference {:?}; {} fragments over {COLOR_AGREEMENT})",
+             differs by up to {:.4} at {:?} (device {:?}, reference {:?}; {} fragments over {COLOR_AGREEMENT}); \
+             shaded with the normal turned the other way (n·v ≈ 0): {} {:?}",
             a.reference,
             a.missing.len(),
             first(&a.missing),
@@ -1360,6 +1377,8 @@ fn the_devices_fragments_are_the_references() {
             a.worst_colors.map(|c| c.0),
             a.worst_colors.map(|c| c.1),
             a.colors_over,
+            a.turned.len(),
+            first(&a.turned),
         );
         eprintln!("{summary}");
         let differing = (a.missing.len() + a.extra.len() + a.masks_differ.len()) as f64;
@@ -1513,4 +1532,52 @@ fn fragments_agree_within_the_rasterizer_bounds_only() {
         ..device
     };
     assert!(!fragment_agrees(&reference, &facing, 1));
+}
+
+/// The H100's two worst-shaded fragments (2026-11-27, `the_devices_fragments_are_the_references`
+/// at 48² and 64²) are the reference's fragments shaded with the normal turned the other way:
+/// there n·v is 0.0024 and −0.0002, and two-sided lighting turns the interpolated normal toward
+/// the viewer, so a rasterizer that rounds it across the plane gets the other side's light.
+#[test]
+fn the_h100s_odd_shading_is_the_normal_turned_the_other_way() {
+    for (spec, size, (x, y, prim), h100) in [
+        (
+            "builtin:nvpro?objects=48&subdiv=10&seed=4",
+            48,
+            (20, 9, 7),
+            [0.10583496, 0.15698242, 0.26489258, 0.52441406],
+        ),
+        (
+            "builtin:nvpro?objects=160&subdiv=10&seed=3",
+            64,
+            (41, 15, 8095),
+            [0.5151367, 0.18786621, 0.15002441, 0.77685547],
+        ),
+    ] {
+        let s = scene(spec);
+        let opts = all_fragments(size);
+        let at = |lists: Vec<Vec<crate::resolve::RefFragment>>| {
+            let f = lists[(y * size + x) as usize]
+                .iter()
+                .find(|f| f.prim == prim)
+                .copied()
+                .unwrap();
+            [f.color[0], f.color[1], f.color[2], f.alpha]
+        };
+        let (facing, away) = (
+            at(crate::reference::fragments(&s, &opts).unwrap()),
+            at(crate::reference::fragments_shaded_away(&s, &opts).unwrap()),
+        );
+        let off = |c: [f64; 4]| {
+            c.iter()
+                .zip(h100)
+                .map(|(a, b)| (a - f64::from(b)).abs())
+                .fold(0.0, f64::max)
+        };
+        assert!(
+            off(away) <= COLOR_AGREEMENT,
+            "{spec}: {away:?} against the H100's {h100:?}"
+        );
+        assert!(off(facing) > 0.05, "{spec}: {facing:?}");
+    }
 }
