@@ -2,6 +2,14 @@
 //!
 //! Each pass asks for a begin/end pair under a name; passes with the same name (f2b's peel
 //! passes, say) add up. Without TIMESTAMP_QUERY every time is `None`, reported as `null`.
+//!
+//! Why not wgpu-profiler (0.28 supports wgpu 30; looked at on 2026-11-27): its queries are read
+//! back through buffers it maps itself, a second readback every frame beside the statistics',
+//! while these timestamps are resolved into a range that the frame's one statistics readback
+//! carries (a frame late, never stalling); and a span over many passes (convex's, past the
+//! query set) would be an encoder scope there, which needs TIMESTAMP_QUERY_INSIDE_ENCODERS, where
+//! this needs only pass timestamp writes. What it would add — trace export to Chrome, puffin or
+//! Tracy — strata does not have.
 
 use std::collections::BTreeMap;
 
