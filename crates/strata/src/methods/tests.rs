@@ -89,8 +89,12 @@ fn every_stage_validates() {
         for moments in [2, 3, 4].map(Moments::Trigonometric) {
             stages.push(weighted::mboit::shade_stage(samples, moments));
         }
+        for moments in [4, 8].map(Moments::Haar) {
+            stages.push(weighted::mboit::shade_stage(samples, moments));
+        }
     }
-    stages.push(weighted::mboit::moments_stage());
+    stages.push(weighted::mboit::moments_stage(1));
+    stages.push(weighted::mboit::moments_stage(4));
     stages.push(
         Stage::new(
             "wboit.accumulate",

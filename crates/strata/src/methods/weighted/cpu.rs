@@ -244,10 +244,23 @@ fn absorbance(f: &RefFragment) -> f64 {
     -(1.0 - f.alpha.min(MAX_ALPHA)).ln()
 }
 
-/// A warped depth z ∈ [−1, 1] on the Haar basis's [0, 1) (1 itself into the last bin); the
-/// twin of `haar_position` in mboit_math.wgsl.
-pub fn haar_position(z: f64) -> f64 {
-    (0.5 * (z + 1.0)).clamp(0.0, 1.0 - f64::EPSILON)
+/// A warped depth z on the Haar basis's [0, 1) within a pixel's range `(nearest, farthest)` (the
+/// farthest into the last bin, a pixel of one depth at 0); the twin of `haar_position` in
+/// mboit_math.wgsl.
+pub fn haar_position(z: f64, (nearest, farthest): (f64, f64)) -> f64 {
+    let span = farthest - nearest;
+    if span <= 0.0 {
+        return 0.0;
+    }
+    ((z - nearest) / span).clamp(0.0, 1.0 - f64::EPSILON)
+}
+
+/// The nearest and farthest warped depth of a pixel's fragments (wavelet's first pass).
+fn depth_bounds(fragments: &[RefFragment], camera: &Camera) -> (f64, f64) {
+    fragments.iter().fold((2.0, -2.0), |(lo, hi), f| {
+        let z = mboit_depth(camera, f.distance);
+        (lo.min(z), hi.max(z))
+    })
 }
 
 /// Haar coefficient `i` of the unit step [x > s] on [0, 1): i = 0 the scaling function's, 1 − s;
@@ -283,7 +296,12 @@ pub fn haar_basis(x: f64, i: u32) -> f64 {
 
 /// b0 and the absorbance-weighted moments of `fragments`: power moments Σ a·zᵏ (k = 1..n), or
 /// trigonometric ones Σ a·e^{ikφ(z)} as (re, im) pairs.
-fn mboit_moments(fragments: &[&RefFragment], camera: &Camera, kind: Moments) -> (f64, Vec<f64>) {
+fn mboit_moments(
+    fragments: &[&RefFragment],
+    camera: &Camera,
+    kind: Moments,
+    bounds: (f64, f64),
+) -> (f64, Vec<f64>) {
     let mut b0 = 0.0;
     let mut b = vec![0.0f64; kind.reals() as usize];
     for f in fragments {
@@ -305,7 +323,7 @@ fn mboit_moments(fragments: &[&RefFragment], camera: &Camera, kind: Moments) -> 
                 }
             }
             Moments::Haar(_) => {
-                let s = haar_position(z);
+                let s = haar_position(z, bounds);
                 for (i, c) in b.iter_mut().enumerate() {
                     *c += a * haar_step_coefficient(s, i as u32);
                 }
@@ -323,14 +341,14 @@ fn mboit_moments(fragments: &[&RefFragment], camera: &Camera, kind: Moments) -> 
 fn mboit_transmittance(
     (b0, b): &(f64, Vec<f64>),
     kind: Moments,
-    (z, own): (f64, f64),
+    (z, own, bounds): (f64, f64, (f64, f64)),
     (bias, overestimation): (f64, f64),
 ) -> f64 {
     if *b0 <= 0.0 {
         return 1.0;
     }
     if let Moments::Haar(_) = kind {
-        let x = haar_position(z);
+        let x = haar_position(z, bounds);
         let absorbance: f64 = (0..b.len() as u32)
             .map(|i| (b[i as usize] - own * haar_step_coefficient(x, i)) * haar_basis(x, i))
             .sum();
@@ -399,7 +417,8 @@ pub fn mboit(
     settings: MboitSettings,
 ) -> [f64; 3] {
     let all: Vec<&RefFragment> = fragments.iter().collect();
-    let moments = mboit_moments(&all, camera, settings.moments);
+    let bounds = depth_bounds(fragments, camera);
+    let moments = mboit_moments(&all, camera, settings.moments, bounds);
     mboit_resolve(
         &all,
         moments.0,
@@ -407,7 +426,7 @@ pub fn mboit(
             mboit_transmittance(
                 &moments,
                 settings.moments,
-                (mboit_depth(camera, f.distance), absorbance(f)),
+                (mboit_depth(camera, f.distance), absorbance(f), bounds),
                 (settings.bias, settings.overestimation),
             )
         },
@@ -431,8 +450,10 @@ pub fn mboit_multisampled(
             .filter(|f| f.coverage & (1 << s) != 0)
             .collect()
     };
+    // wavelet's depth range is the pixel's, over all its samples.
+    let bounds = depth_bounds(fragments, camera);
     let moments: Vec<(f64, Vec<f64>)> = (0..samples)
-        .map(|s| mboit_moments(&covering(s), camera, settings.moments))
+        .map(|s| mboit_moments(&covering(s), camera, settings.moments, bounds))
         .collect();
     let t = |f: &RefFragment| {
         let z = mboit_depth(camera, f.distance);
@@ -442,7 +463,7 @@ pub fn mboit_multisampled(
                 mboit_transmittance(
                     &moments[s as usize],
                     settings.moments,
-                    (z, absorbance(f)),
+                    (z, absorbance(f), bounds),
                     (settings.bias, settings.overestimation),
                 )
             })

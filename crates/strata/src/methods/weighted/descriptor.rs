@@ -32,9 +32,9 @@ pub const MBOIT: Descriptor = Descriptor {
 
 /// `wavelet`.
 pub const WAVELET: Descriptor = Descriptor {
-    geometry_passes: "2",
-    memory: "(28·S + 4)·W·H with --coefficients 4, +16·S with 8 (the default); S samples per pixel (--msaa, else 1)",
-    summary: "wavelet OIT (after Aizenshtein, Smal & McGuire 2022): each pixel's absorbance over log depth as 4 or 8 Haar coefficients (--coefficients; closed form per fragment, additive 32-bit targets), transmittance reconstructed per fragment as its depth bin's average; exact coverage",
+    geometry_passes: "3",
+    memory: "(44·S + 4)·W·H with --coefficients 4, +16·S with 8 (the default); S samples per pixel (--msaa, else 1)",
+    summary: "wavelet OIT (after Aizenshtein, Smal & McGuire 2022): each pixel's absorbance over its own depth range (a min/max pass first) as 4 or 8 Haar coefficients (--coefficients; closed form per fragment, additive 32-bit targets), transmittance reconstructed per fragment as its depth bin's average less its own step; exact coverage",
     reads: &[MethodOption::Coefficients],
     ..Descriptor::new(MethodId::Wavelet, "wavelet", Family::Weighted, create)
 };

@@ -48,11 +48,14 @@
 //! a public port of the paper's code lists for 32-bit moments, not checked against the paper,
 //! whose tables were not at hand; θ = π/10 and η = 0.25 are the published code's defaults.
 //!
-//! `wavelet` (its own method, `--coefficients 4|8`) runs these passes over another basis: b0 and
-//! 4 or 8 Haar coefficients of the absorbance step a·[x > s] over the warped depth on [0, 1)
-//! (`haar_*` in mboit_math.wgsl, twin `cpu::haar_*`), in the targets 4 or 8 power moments use;
-//! a fragment's transmittance is exp(−A) for the projection A evaluated at its depth — the average
-//! of the absorbance over its bin — less its own step. No bias: nothing is solved for.
+//! `wavelet` (its own method, `--coefficients 4|8`) runs these passes over another basis, after a
+//! first geometry pass that blends each sample's nearest and farthest warped depth into an
+//! Rgba32Float target (MIN into r, MAX into a; 16 bytes per sample): b0 and 4 or 8 Haar
+//! coefficients of the absorbance step a·[x > s], x the warped depth on the pixel's own range
+//! (the union of its samples') mapped to [0, 1) (`haar_*` in mboit_math.wgsl, twin `cpu::haar_*`),
+//! in the targets 4 or 8 power moments use; a fragment's transmittance is exp(−A) for the
+//! projection A evaluated at its depth — the average of the absorbance over its bin — less its own
+//! step. No bias: nothing is solved for. Three geometry passes.
 //!
 //! Not exact, by design: the coverage is exact, the order is estimated. The 16-bit quantized
 //! variants are not built. Translucency gets Fresnel opacity but no
@@ -71,6 +74,10 @@ use crate::methods::Method;
 const B0_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const MOMENTS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// wavelet's depth range per sample: the nearest in r (MIN blending), the farthest in a (MAX).
+const BOUNDS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Bytes per sample of wavelet's depth range.
+pub const WAVELET_BOUNDS_BYTES: u64 = 16;
 /// Bytes per sample: b0, the four moments and the accumulation.
 pub const MBOIT_SAMPLE_BYTES: u64 = 4 + 16 + 8;
 /// Bytes per pixel of the fragment count.
@@ -145,8 +152,15 @@ pub struct Mboit {
     high: Option<HighStage>,
     cache: ResourceCache,
     samples: u32,
-    /// `wavelet`: the moments are `--coefficients` Haar coefficients, not `--moments`.
-    wavelet: bool,
+    /// `wavelet`: the moments are `--coefficients` Haar coefficients, not `--moments`, over each
+    /// pixel's depth range from a first pass.
+    wavelet: Option<WaveletStage>,
+}
+
+/// wavelet's depth-range pass and the coefficients pass's layout that reads its target.
+struct WaveletStage {
+    bounds: wgpu::RenderPipeline,
+    coefficients_layout: wgpu::BindGroupLayout,
 }
 
 fn additive() -> Option<wgpu::BlendState> {
@@ -169,9 +183,12 @@ fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     })
 }
 
-/// The moment accumulation stage.
-pub fn moments_stage() -> Stage {
-    Stage::new("strata.mboit.moments", include_str!("mboit_moments.wgsl")).with(super::LIBRARY)
+/// The moment accumulation stage (and wavelet's depth-range pass), reading multisampled depth
+/// ranges with `--msaa`.
+pub fn moments_stage(samples: u32) -> Stage {
+    Stage::new("strata.mboit.moments", include_str!("mboit_moments.wgsl"))
+        .with(super::LIBRARY)
+        .defs(&shader::target_samples(samples))
 }
 
 /// The shade stage for `moments`, reading multisampled moments with `--msaa`.
@@ -221,11 +238,11 @@ impl Mboit {
         let shade_layout = binding::layout(
             device,
             "strata.mboit.shade.layout",
-            &[Slot::Uniform, texture, texture, texture],
+            &[Slot::Uniform, texture, texture, texture, texture],
         );
         let composite_layout =
             super::composite_layout(device, "strata.mboit.composite.layout", texture);
-        let module = moments_stage().module(device);
+        let module = moments_stage(samples).module(device);
         let moments = capture_pipeline_with(
             gpu,
             "strata.mboit.moments",
@@ -265,7 +282,7 @@ impl Mboit {
             high: None,
             cache: ResourceCache::default(),
             samples,
-            wavelet: false,
+            wavelet: None,
         })
     }
 
@@ -276,8 +293,45 @@ impl Mboit {
                 "wavelet blends 32-bit float coefficients, and this adapter lacks FLOAT32_BLENDABLE",
             ));
         }
+        let samples = scene.samples;
+        let texture = if samples > 1 {
+            Slot::TextureFloatMultisampled
+        } else {
+            Slot::TextureFloat
+        };
+        let coefficients_layout = binding::layout(
+            &gpu.device,
+            "strata.wavelet.coefficients.layout",
+            &[Slot::Uniform, Slot::StorageRw, texture],
+        );
+        let module = moments_stage(samples).module(&gpu.device);
+        let range = |operation| wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation,
+        };
+        let bounds = capture_pipeline_with(
+            gpu,
+            "strata.wavelet.bounds",
+            &module,
+            "fs_bounds",
+            &[&scene.frame_layout],
+            &[Some(wgpu::ColorTargetState {
+                format: BOUNDS_FORMAT,
+                blend: Some(wgpu::BlendState {
+                    color: range(wgpu::BlendOperation::Min),
+                    alpha: range(wgpu::BlendOperation::Max),
+                }),
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+            None,
+            samples,
+        );
         Ok(Mboit {
-            wavelet: true,
+            wavelet: Some(WaveletStage {
+                bounds,
+                coefficients_layout,
+            }),
             ..Mboit::new(gpu, scene)?
         })
     }
@@ -307,7 +361,7 @@ impl Mboit {
                 "{option} blends {bytes} bytes per sample, and this device's render targets take {allowed} (max_color_attachment_bytes_per_sample); use {instead}"
             )));
         }
-        let module = moments_stage().module(&gpu.device);
+        let module = moments_stage(self.samples).module(&gpu.device);
         let entry = match moments {
             Moments::Power(6) => "fs_moments6",
             Moments::Power(_) => "fs_moments8",
@@ -321,12 +375,16 @@ impl Mboit {
         if reals > 4 {
             targets.push(target(high_format(reals).0));
         }
+        let moments_layout = match (&self.wavelet, moments) {
+            (Some(w), Moments::Haar(_)) => &w.coefficients_layout,
+            _ => &self.moments_layout,
+        };
         let pipeline = capture_pipeline_with(
             gpu,
             "strata.mboit.moments",
             &module,
             entry,
-            &[scene_layout, &self.moments_layout],
+            &[scene_layout, moments_layout],
             &targets,
             None,
             self.samples,
@@ -355,14 +413,19 @@ impl Method for Mboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let weighted = &ctx.options.frame.weighted;
-        let moments = if self.wavelet {
+        let moments = if self.wavelet.is_some() {
             Moments::Haar(weighted.coefficients)
         } else {
             weighted.moments
         };
         let reals = moments.reals();
         let high_bytes = if reals > 4 { high_format(reals).1 } else { 0 };
-        let sample_bytes = MBOIT_SAMPLE_BYTES + high_bytes;
+        let bounds_bytes = if self.wavelet.is_some() {
+            WAVELET_BOUNDS_BYTES
+        } else {
+            0
+        };
+        let sample_bytes = MBOIT_SAMPLE_BYTES + high_bytes + bounds_bytes;
         let bytes = ctx.pixels() * (sample_bytes * self.samples as u64 + MBOIT_COUNT_BYTES);
         ctx.check_budget(bytes)?;
         let high = moments != Moments::Power(4);
@@ -382,6 +445,10 @@ impl Method for Mboit {
         let high_view =
             (reals > 4).then(|| view("strata.mboit.moments_high", high_format(reals).0));
         let accumulation = view("strata.mboit.accumulation", ACCUMULATION_FORMAT);
+        let bounds_view = self
+            .wavelet
+            .is_some()
+            .then(|| view("strata.wavelet.bounds", BOUNDS_FORMAT));
         let counts = self.cache.storage(
             gpu,
             "strata.mboit.counts",
@@ -397,12 +464,24 @@ impl Method for Mboit {
             .cache
             .uniform(gpu, "strata.mboit.params", bytemuck::bytes_of(&params));
         let texture = wgpu::BindingResource::TextureView;
-        let moments_group = binding::group(
-            &gpu.device,
-            "strata.mboit.moments.group",
-            &self.moments_layout,
-            &[params.as_entire_binding(), counts.as_entire_binding()],
-        );
+        let moments_group = match (&self.wavelet, &bounds_view) {
+            (Some(w), Some(bounds)) => binding::group(
+                &gpu.device,
+                "strata.wavelet.coefficients.group",
+                &w.coefficients_layout,
+                &[
+                    params.as_entire_binding(),
+                    counts.as_entire_binding(),
+                    texture(bounds),
+                ],
+            ),
+            _ => binding::group(
+                &gpu.device,
+                "strata.mboit.moments.group",
+                &self.moments_layout,
+                &[params.as_entire_binding(), counts.as_entire_binding()],
+            ),
+        };
         let (moments_pipeline, shade_pipeline) = match (&self.high, high) {
             (Some(high), true) => (&high.pipeline, &high.shade),
             _ => (&self.moments, &self.shade),
@@ -416,11 +495,24 @@ impl Method for Mboit {
                 texture(&b0),
                 texture(&moments_view),
                 texture(high_view.as_ref().unwrap_or(&moments_view)),
+                texture(bounds_view.as_ref().unwrap_or(&b0)),
             ],
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
         let zero = wgpu::Color::TRANSPARENT;
         let frame_group = ctx.frame_group;
+        let mut passes = 2;
+        if let (Some(w), Some(bounds)) = (&self.wavelet, &bounds_view) {
+            // Warped depths lie in [−1, 1]: 2 and −2 are past every fragment's.
+            let empty = wgpu::Color {
+                r: 2.0,
+                g: 0.0,
+                b: 0.0,
+                a: -2.0,
+            };
+            color_geometry_pass(ctx, "bounds", &w.bounds, &[frame_group], &[(bounds, empty)]);
+            passes = 3;
+        }
         let mut targets = vec![(&b0, zero), (&moments_view, zero)];
         if let Some(high_view) = &high_view {
             targets.push((high_view, zero));
@@ -445,7 +537,7 @@ impl Method for Mboit {
             &counts,
             [&b0, &accumulation],
         );
-        Ok(Recorded::passes(2, bytes))
+        Ok(Recorded::passes(passes, bytes))
     }
 
     fn resources(&self) -> Vec<&ResourceCache> {

@@ -462,11 +462,18 @@ fn mboit_transmittance_trig(b0: f32, b: array<f32, 8>, n: u32, z: f32) -> f32 {
 // [0, 1): coefficient 0 the scaling function, coefficient 2^j + k the wavelet ψ_jk(x) =
 // 2^{j/2}·ψ(2^j·x − k) (ψ = 1 on [0, ½), −1 on [½, 1)). A step's coefficients have a closed form,
 // so a fragment adds them by additive blending, and the projection evaluated at a depth is the
-// average of A over that depth's bin of width 2^{−levels}. Keep in step with `cpu::haar_*`.
+// average of A over that depth's bin of width 2^{−levels}. The basis spans each pixel's own
+// depth range, (nearest, farthest) warped depth of its fragments from a first pass, so the bins
+// divide where its fragments are. Keep in step with `cpu::haar_*`.
 
-// A warped depth z ∈ [−1, 1] on [0, 1) (1 itself into the last bin).
-fn haar_position(z: f32) -> f32 {
-    return clamp(0.5 * (z + 1.0), 0.0, 0.99999994);
+// A warped depth z on [0, 1) within the pixel's range `bounds` (the farthest into the last bin;
+// a pixel of one depth at 0).
+fn haar_position(z: f32, bounds: vec2<f32>) -> f32 {
+    let span = bounds.y - bounds.x;
+    if span <= 0.0 {
+        return 0.0;
+    }
+    return clamp((z - bounds.x) / span, 0.0, 0.99999994);
 }
 
 // Coefficient i of the unit step at s, [x > s].
@@ -501,11 +508,11 @@ fn haar_basis(x: f32, i: u32) -> f32 {
 // Haar coefficients: exp(−A(z)) less the fragment's own step (whose projection at its own depth
 // is not 0, as the step itself is there, but the part of its bin behind it), A clamped to [0, b0]
 // (a projection may overshoot where steps crowd a bin's edge).
-fn haar_transmittance(b0: f32, c: array<f32, 8>, n: u32, z: f32, own: f32) -> f32 {
+fn haar_transmittance(b0: f32, c: array<f32, 8>, n: u32, z: f32, own: f32, bounds: vec2<f32>) -> f32 {
     if b0 <= 0.0 {
         return 1.0;
     }
-    let x = haar_position(z);
+    let x = haar_position(z, bounds);
     var absorbance = 0.0;
     for (var i = 0u; i < n; i++) {
         absorbance += (c[i] - own * haar_step_coefficient(x, i)) * haar_basis(x, i);

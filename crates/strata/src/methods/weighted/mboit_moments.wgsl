@@ -1,5 +1,5 @@
 #define_import_path strata::weighted::mboit_moments
-#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, shade}
 #import strata::weighted::mboit_math::{c_mul, haar_position, haar_step_coefficient, mboit_absorbance, mboit_depth, trig_angle}
 
 // mboit pass 1: every fragment adds its absorbance a = −ln(1 − α) to b0 and a·(z, z², z³, z⁴) to
@@ -8,6 +8,35 @@
 // a·u^k, u = e^{iφ(z)}, as (re, im) pairs: u and u² in the second target, u³[, u⁴] in the third.
 
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
+#ifdef MULTISAMPLED
+alias BoundsTexture = texture_multisampled_2d<f32>;
+#else
+alias BoundsTexture = texture_2d<f32>;
+#endif
+// wavelet: each sample's nearest (r) and farthest (a) warped depth, from fs_bounds.
+@group(1) @binding(2) var bounds_target: BoundsTexture;
+
+// wavelet's first pass: the warped depth as the least (r, blended with MIN) and the greatest
+// (a, blended with MAX) of the samples the fragment covers.
+@fragment
+fn fs_bounds(v: SceneVarying) -> @location(0) vec4<f32> {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let z = mboit_depth(v.position.z);
+    return vec4<f32>(z, 0.0, 0.0, z);
+}
+
+// The pixel's depth range: the union of its samples' (a fragment's coefficients are the same in
+// every sample it covers, so every sample maps depth alike).
+fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
+    var bounds = vec2<f32>(2.0, -2.0);
+    for (var si = 0; si < i32(max(frame.coverage_bits, 1u)); si++) {
+        let b = textureLoad(bounds_target, pixel, si);
+        bounds = vec2<f32>(min(bounds.x, b.r), max(bounds.y, b.a));
+    }
+    return bounds;
+}
 
 // A fragment's absorbance (x) and a·zᵏ for k = 1..8 (the rest), counting it at its pixel.
 struct FragmentMoments {
@@ -112,7 +141,7 @@ fn fs_trig4(v: SceneVarying) -> Moments8Out {
 fn fragment_haar_coefficients(v: SceneVarying) -> FragmentMoments {
     atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
     let a = mboit_absorbance(shade(v.world, v.normal, v.material).a);
-    let s = haar_position(mboit_depth(v.position.z));
+    let s = haar_position(mboit_depth(v.position.z), pixel_bounds(vec2<i32>(pixel_of(v.position))));
     var c: array<f32, 8>;
     for (var i = 0u; i < 8u; i++) {
         c[i] = a * haar_step_coefficient(s, i);

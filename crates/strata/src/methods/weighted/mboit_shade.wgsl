@@ -24,6 +24,18 @@ alias TargetTexture = texture_2d<f32>;
 @group(1) @binding(2) var moments_target: TargetTexture;
 // With four moments the moments target again (not read).
 @group(1) @binding(3) var moments_high: TargetTexture;
+// wavelet: the depth range of each sample (fs_bounds); mboit: b0 again (not read).
+@group(1) @binding(4) var bounds_target: TargetTexture;
+
+// The pixel's depth range, the union of its samples' (as the coefficients pass took it).
+fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
+    var bounds = vec2<f32>(2.0, -2.0);
+    for (var si = 0u; si < max(frame.coverage_bits, 1u); si++) {
+        let b = textureLoad(bounds_target, pixel, si);
+        bounds = vec2<f32>(min(bounds.x, b.r), max(bounds.y, b.a));
+    }
+    return bounds;
+}
 
 // The transmittance at warped depth z of sample si (the mip level, 0, single-sampled).
 // `own` is the fragment's own absorbance, which wavelet takes out of its bin's average.
@@ -42,7 +54,7 @@ fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool, own: f32)
         return mboit_transmittance_trig(b0, b, MBOIT_TRIG, z);
     }
     if MBOIT_HAAR > 0u {
-        return haar_transmittance(b0, b, MBOIT_HAAR, z, own);
+        return haar_transmittance(b0, b, MBOIT_HAAR, z, own, pixel_bounds(pixel));
     }
     return mboit_transmittance_n(b0, b, MBOIT_MOMENTS, z);
 }

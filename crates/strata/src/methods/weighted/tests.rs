@@ -710,8 +710,8 @@ fn wavelet_options(coefficients: u32) -> RenderOptions {
     options
 }
 
-/// wavelet against its f64 closed form (the same coefficients, the same reconstruction per
-/// fragment) on layers, nvpro and the dragon, at 4 and 8 coefficients, with its memory; and 8
+/// wavelet against its f64 closed form (the same depth ranges, coefficients and reconstruction
+/// per fragment) on layers, nvpro and the dragon, at 4 and 8 coefficients, with its memory; and 8
 /// coefficients follow the exact picture at least as closely as 4 on nvpro.
 #[test]
 fn wavelet_equals_its_closed_form() {
@@ -741,10 +741,10 @@ fn wavelet_equals_its_closed_form() {
             assert_close(&name, &actual, &expected, Effect::Transparency, 2, 0.001);
             assert_eq!(
                 stats.bytes_allocated,
-                Some(40 * 40 * (28 + high_bytes + 4)),
+                Some(40 * 40 * (28 + high_bytes + super::mboit::WAVELET_BOUNDS_BYTES + 4)),
                 "{name}"
             );
-            assert_eq!(stats.geometry_passes, Some(2));
+            assert_eq!(stats.geometry_passes, Some(3));
             assert_eq!(stats.exact, Some(false));
             errors.push(
                 crate::metrics::compare(
@@ -769,4 +769,32 @@ fn wavelet_takes_4_or_8_coefficients() {
         let e = wavelet_options(bad).validate().unwrap_err().to_string();
         assert!(e.contains("--coefficients") && !e.contains('\n'), "{e}");
     }
+}
+
+/// With --msaa 4 each sample has its own coefficients over the pixel's depth range (the union of
+/// its samples'), each fragment is weighted by the mean of its covered samples' transmittances:
+/// `cpu::mboit_multisampled` with Haar coefficients.
+#[test]
+fn multisampled_wavelet_equals_its_closed_form() {
+    let mut scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
+    scene.override_alpha(0.4);
+    let mut opts = wavelet_options(8);
+    opts.build.msaa = 4;
+    let camera = scene.camera_or_framing();
+    let expected = per_pixel(&scene, &opts, |_, l, bg| {
+        cpu::mboit_multisampled(l, bg, &camera, settings(Moments::Haar(8)), 4)
+    });
+    let (actual, stats) = render_gpu(&scene, &opts, "wavelet");
+    assert_close(
+        "wavelet-msaa4",
+        &actual,
+        &expected,
+        Effect::Transparency,
+        2,
+        0.001,
+    );
+    assert_eq!(
+        stats.bytes_allocated,
+        Some(40 * 40 * ((28 + 16 + super::mboit::WAVELET_BOUNDS_BYTES) * 4 + 4))
+    );
 }
