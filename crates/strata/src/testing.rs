@@ -184,6 +184,7 @@ impl Failures {
         } else {
             MAX_FRACTION
         };
+        let taken = truth.disagreeing;
         for (suffix, truth, fraction) in [
             ("", &truth.expected, MAX_FRACTION),
             ("-device-depths", &truth.at_device, at_device_fraction),
@@ -195,7 +196,13 @@ impl Failures {
                 effect,
                 MAX_DIFF,
                 fraction,
-            );
+            )
+            .map_err(|e| match (suffix, taken) {
+                ("", 1..) => format!(
+                    "{e} ({taken} pixels' truth from the device's fragments, where its rasterizer made some otherwise)"
+                ),
+                _ => e,
+            });
             self.check(method, result);
         }
     }

@@ -308,14 +308,14 @@ mod gpu_tests {
                 for method in ["f2b", "dual"] {
                     let (peeled, stats) = render_gpu(&scene, &all, method);
                     let name = format!("msaa{msaa}-{method}-{spec}");
-                    assert_close(&name, &peeled, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_close(&name, &peeled, expected, effect, MAX_DIFF, MAX_FRACTION);
                     assert_eq!(counts(&stats), counts(&abuffer_stats), "{name}");
                 }
                 let wide = multisampled(size, effect, msaa, Some(256));
                 for method in ["abuffer-fixed", "kplus-heap", "kplus-array"] {
                     let (actual, stats) = render_gpu(&scene, &wide, method);
                     let name = format!("msaa{msaa}-k256-{method}-{spec}");
-                    assert_close(&name, &actual, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_close(&name, &actual, expected, effect, MAX_DIFF, MAX_FRACTION);
                     assert_eq!(stats.fragments_dropped, Some(0), "{name}");
                 }
                 // Each sample's 3 nearest: the capture-time k-buffers keep them in each

@@ -1511,7 +1511,7 @@ fn fragments_agree_within_the_rasterizer_bounds_only() {
         coverage: 1,
     };
     let device = DeviceFragment {
-        depth: 0.98059087,
+        depth: 0.980_590_9,
         mask: 0,
         front_facing: true,
         color: [0.16625, 0.23768, 0.36183, 0.5243696],
@@ -1545,7 +1545,7 @@ fn the_h100s_odd_shading_is_the_normal_turned_the_other_way() {
             "builtin:nvpro?objects=48&subdiv=10&seed=4",
             48,
             (20, 9, 7),
-            [0.10583496, 0.15698242, 0.26489258, 0.52441406],
+            [0.10583496f32, 0.15698242, 0.26489258, 0.52441406],
         ),
         (
             "builtin:nvpro?objects=160&subdiv=10&seed=3",

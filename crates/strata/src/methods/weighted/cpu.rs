@@ -263,7 +263,7 @@ fn depth_bounds(fragments: &[RefFragment], camera: &Camera) -> (f64, f64) {
     })
 }
 
-/// Haar coefficient `i` of the unit step [x > s] on [0, 1): i = 0 the scaling function's, 1 − s;
+/// Haar coefficient `i` of the unit step \[x > s\] on [0, 1): i = 0 the scaling function's, 1 − s;
 /// i = 2^j + k the wavelet ψ_jk's, 2^{−j/2}·(−t or t − 1) for t = 2^j·s − k in [0, ½) or [½, 1),
 /// 0 outside.
 pub fn haar_step_coefficient(s: f64, i: u32) -> f64 {

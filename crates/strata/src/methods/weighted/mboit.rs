@@ -51,7 +51,7 @@
 //! `wavelet` (its own method, `--coefficients 4|8`) runs these passes over another basis, after a
 //! first geometry pass that blends each sample's nearest and farthest warped depth into an
 //! Rgba32Float target (MIN into r, MAX into a; 16 bytes per sample): b0 and 4 or 8 Haar
-//! coefficients of the absorbance step a·[x > s], x the warped depth on the pixel's own range
+//! coefficients of the absorbance step a·\[x > s\], x the warped depth on the pixel's own range
 //! (the union of its samples') mapped to [0, 1) (`haar_*` in mboit_math.wgsl, twin `cpu::haar_*`),
 //! in the targets 4 or 8 power moments use; a fragment's transmittance is exp(−A) for the
 //! projection A evaluated at its depth — the average of the absorbance over its bin — less its own
