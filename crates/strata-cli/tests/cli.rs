@@ -163,6 +163,19 @@ fn methods_and_info_report_json() {
     assert_eq!(msaa("sbuffer"), serde_json::json!([1, 4, 8]));
     assert_eq!(msaa("kplus-heap"), serde_json::json!([1, 4, 8]));
     assert_eq!(msaa("kb-mdt64"), serde_json::json!([1]));
+    let blend = |id: &str| {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["id"] == id)
+            .unwrap()["blend"]
+            .clone()
+    };
+    assert_eq!(
+        blend("tiled"),
+        serde_json::json!(["over", "add", "multiply"])
+    );
+    assert_eq!(blend("wboit"), serde_json::json!(["over"]));
     for id in [
         "reference",
         "unsorted",
@@ -1379,6 +1392,83 @@ fn loader_messages_name_the_file_the_element_and_what_was_expected() {
         stderr(&o).contains("'/dev/zero' is not a regular file"),
         "{}",
         stderr(&o)
+    );
+}
+
+#[test]
+fn blend_modes_render_with_exact_methods_and_are_refused_by_the_others() {
+    let dir = workdir("blend");
+    let scene = dir.join("blend.toml");
+    std::fs::write(
+        &scene,
+        r#"[[material]]
+name = "glow"
+color = [1.0, 0.5, 0.1]
+opacity = 0.6
+shading = "unlit"
+blend = "add"
+
+[[object]]
+mesh = "builtin:quad"
+material = "glow"
+
+[[object]]
+mesh = "builtin:quad"
+translate = [0.2, 0.2, -0.5]
+color = [0.2, 0.4, 1.0]
+opacity = 0.5
+blend = "multiply"
+"#,
+    )
+    .unwrap();
+    let png = dir.join("blend.png");
+    let o = strata(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--method",
+        "tiled",
+        "--size",
+        "32x32",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(png.exists());
+    assert_bad_input(
+        &["render", scene.to_str().unwrap(), "--method", "wboit"],
+        "wboit cannot blend 'add' materials",
+    );
+    assert_bad_input(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--method",
+            "kplus-heap",
+            "--tail",
+            "blend",
+        ],
+        "--tail blend",
+    );
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        "[[object]]\nmesh = \"builtin:quad\"\nblend = \"screen\"\n",
+    )
+    .unwrap();
+    assert_bad_input(&["render", bad.to_str().unwrap()], "screen");
+    // glTF cannot say add or multiply: export says so, and the file reads back the same.
+    let glb = dir.join("blend.glb");
+    let o = strata(&[
+        "export",
+        scene.to_str().unwrap(),
+        "-o",
+        glb.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let notes = stderr(&o);
+    assert!(
+        notes.contains("note: material 'glow' blends 'add', which glTF cannot express"),
+        "{notes}"
     );
 }
 

@@ -54,6 +54,9 @@ pub fn export(a: ExportArgs) -> Result<()> {
         background: a.background.map(|_| options.frame.background),
     };
     let bytes = strata::scene::export::to_gltf(&scene, &defaults, container)?;
+    for loss in strata::scene::export::unexported(&scene) {
+        eprintln!("note: {loss}");
+    }
     let mut outputs = strata::output::Outputs::new();
     outputs.add(&a.output, bytes)?;
     outputs.commit()?;

@@ -25,6 +25,15 @@ pub fn msaa_counts(m: &methods::Descriptor) -> Vec<u32> {
     }
 }
 
+/// The blend modes a method composites (`blend` in scene files).
+pub fn blend_modes(m: &methods::Descriptor) -> &'static str {
+    if m.blend_modes.yes() {
+        "all"
+    } else {
+        "over"
+    }
+}
+
 pub fn list_methods(json: bool) -> Result<()> {
     let all: Vec<&methods::Descriptor> = methods::catalogue().collect();
     if json {
@@ -34,6 +43,10 @@ pub fn list_methods(json: bool) -> Result<()> {
                 let mut v = serde_json::to_value(m).unwrap_or_default();
                 v["raster"] = rasters(m).split(',').collect::<Vec<_>>().into();
                 v["msaa"] = msaa_counts(m).into();
+                v["blend"] = match m.blend_modes {
+                    methods::Support::Yes => vec!["over", "add", "multiply"].into(),
+                    methods::Support::No(_) => vec!["over"].into(),
+                };
                 v
             })
             .collect();
@@ -52,18 +65,19 @@ pub fn list_methods(json: bool) -> Result<()> {
         width(&|m| m.memory.chars().count()),
     );
     println!(
-        "{:<wi$}  {:<wf$}  exact  {:<10}  {:<5}  {:<wp$}  {:<wm$}  summary",
+        "{:<wi$}  {:<wf$}  exact  {:<10}  {:<5}  blend  {:<wp$}  {:<wm$}  summary",
         "id", "family", "raster", "msaa", "geometry passes", "memory (bytes)"
     );
     for m in &all {
         let msaa: Vec<String> = msaa_counts(m).iter().map(u32::to_string).collect();
         println!(
-            "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<5}  {:<wp$}  {:<wm$}  {}",
+            "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<5}  {:<5}  {:<wp$}  {:<wm$}  {}",
             m.name,
             m.family.name(),
             if m.exact { "yes" } else { "no" },
             rasters(m),
             msaa.join(","),
+            blend_modes(m),
             m.geometry_passes,
             m.memory,
             m.summary

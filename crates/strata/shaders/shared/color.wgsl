@@ -5,12 +5,39 @@
 // Keep `Resolved` in sync with `Resolved` in crates/strata/src/frame/mod.rs.
 
 struct Resolved {
-    // Premultiplied linear color, alpha = 1 − transmittance.
-    color: vec4<f32>,
+    // Premultiplied linear color: the light the fragments put in front of the background.
+    color: vec3<f32>,
     count: u32,
-    pad_a: u32,
-    pad_b: u32,
-    pad_c: u32,
+    // What shows of the background, per channel (1 − alpha where every fragment blends over;
+    // multiply materials tint it).
+    transmittance: vec3<f32>,
+    spare: u32,
+}
+
+// The result of a hardware-blended method: premultiplied color and alpha = 1 − transmittance.
+fn resolved_over(premultiplied: vec4<f32>, count: u32) -> Resolved {
+    return Resolved(premultiplied.rgb, count, vec3<f32>(1.0 - premultiplied.a), 0u);
+}
+
+// A multisampled pixel's per-sample results, summed for their mean.
+struct ResolvedSum {
+    color: vec3<f32>,
+    transmittance: vec3<f32>,
+}
+
+fn resolved_sum_new() -> ResolvedSum {
+    return ResolvedSum(vec3<f32>(0.0), vec3<f32>(0.0));
+}
+
+fn resolved_sum_add(sum: ptr<function, ResolvedSum>, r: Resolved) {
+    (*sum).color += r.color;
+    (*sum).transmittance += r.transmittance;
+}
+
+// The pixel's result: the mean of `samples` sample results, with its fragment count.
+fn resolved_mean(sum: ResolvedSum, samples: u32, count: u32) -> Resolved {
+    let n = f32(samples);
+    return Resolved(sum.color / n, count, sum.transmittance / n, 0u);
 }
 
 fn linear_to_srgb(c: f32) -> f32 {

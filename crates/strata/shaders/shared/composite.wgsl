@@ -1,29 +1,51 @@
 #define_import_path strata::composite
-#import strata::scene::{EFFECT_TRANSLUCENCY, frame, materials, tag_prim, triangle_materials}
+#import strata::scene::{BLEND_ADD, BLEND_MULTIPLY, EFFECT_TRANSLUCENCY, frame, materials, tag_blend, tag_prim, triangle_materials}
 #import strata::fragment::{Fragment, fragment_color}
 #import strata::color::{Resolved}
 
 // The shared resolve: turns a pixel's fragments, visited in depth order, into a color.
-// Front-to-back:  C += T·α·c; T *= (1 − α), with Beer–Lambert attenuation exp(−σ·d) over each
-// gap between consecutive fragments for the translucency effect. Back-to-front (dual peeling's
-// back layers) computes the same sum with the over operator. The output is `Resolved`:
-// premultiplied color and alpha = 1 − transmittance, to be blended OVER whatever is behind (the
-// application's target, or the CLI's background), and the fragment count.
+// Each fragment, by its material's blend mode, adds an emission e (times the transmittance in
+// front of it) and multiplies the RGB transmittance by m, what it lets pass: over e = α·c, m = 1 − α; add
+// e = α·c, m = 1; multiply e = 0, m = (1 − α) + α·c. Front to back: C += T·e; T *= m, with
+// Beer–Lambert attenuation exp(−σ·d) over each gap between consecutive fragments for the
+// translucency effect. Back to front (dual peeling's back layers) computes the same sum as
+// C = e + m·C. The output is `Resolved`: premultiplied color and RGB transmittance, the picture
+// being color + transmittance·(what lies behind), and the fragment count.
 // Keep `Composite` in sync with `CompositeState` in crates/strata/src/resolve/mod.rs. `Resolved`
 // is in color.wgsl.
 
 struct Composite {
     color: vec3<f32>,
-    transmittance: f32,
     count: u32,
-    // The last fragment visited: window depth, tag, and view-space distance.
-    last_depth: f32,
+    transmittance: vec3<f32>,
+    // The last fragment visited: tag, window depth and view-space distance.
     last_tag: u32,
+    last_depth: f32,
     last_distance: f32,
 }
 
 fn composite_new() -> Composite {
-    return Composite(vec3<f32>(0.0), 1.0, 0u, 0.0, 0u, 0.0);
+    return Composite(vec3<f32>(0.0), 0u, vec3<f32>(1.0), 0u, 0.0, 0.0);
+}
+
+// A fragment's part in the composite: the light it adds and the filter it puts on what lies
+// behind it.
+struct BlendTerms {
+    emission: vec3<f32>,
+    passed: vec3<f32>,
+}
+
+fn blend_terms(f: Fragment) -> BlendTerms {
+    let c = fragment_color(f);
+    let mode = tag_blend(f.tag);
+    if mode == BLEND_MULTIPLY {
+        return BlendTerms(vec3<f32>(0.0), vec3<f32>(1.0 - c.a) + c.a * c.rgb);
+    }
+    let emission = c.a * c.rgb;
+    if mode == BLEND_ADD {
+        return BlendTerms(emission, vec3<f32>(1.0));
+    }
+    return BlendTerms(emission, vec3<f32>(1.0 - c.a));
 }
 
 // View-space distance along the view axis of a window-space depth.
@@ -67,9 +89,9 @@ fn composite_front(s: ptr<function, Composite>, f: Fragment) {
     if (*s).count > 0u {
         (*s).transmittance *= gap_transmittance((*s).last_tag, (*s).last_distance, f.tag, distance);
     }
-    let c = fragment_color(f);
-    (*s).color += (*s).transmittance * c.a * c.rgb;
-    (*s).transmittance *= 1.0 - c.a;
+    let b = blend_terms(f);
+    (*s).color += (*s).transmittance * b.emission;
+    (*s).transmittance *= b.passed;
     (*s).count += 1u;
     (*s).last_depth = f.depth;
     (*s).last_tag = f.tag;
@@ -78,10 +100,10 @@ fn composite_front(s: ptr<function, Composite>, f: Fragment) {
 
 // Back-to-front state: `color` and `transmittance` are those of everything visited so far.
 fn composite_back_new() -> Composite {
-    return Composite(vec3<f32>(0.0), 1.0, 0u, 0.0, 0u, 0.0);
+    return composite_new();
 }
 
-// Adds the next fragment in front of everything visited so far (over operator).
+// Adds the next fragment in front of everything visited so far.
 fn composite_back(s: ptr<function, Composite>, f: Fragment) {
     let distance = view_distance(f.depth);
     var behind = (*s).color;
@@ -91,9 +113,9 @@ fn composite_back(s: ptr<function, Composite>, f: Fragment) {
         behind *= g;
         behind_t *= g;
     }
-    let c = fragment_color(f);
-    (*s).color = c.a * c.rgb + (1.0 - c.a) * behind;
-    (*s).transmittance = (1.0 - c.a) * behind_t;
+    let b = blend_terms(f);
+    (*s).color = b.emission + b.passed * behind;
+    (*s).transmittance = b.passed * behind_t;
     (*s).count += 1u;
     (*s).last_depth = f.depth;
     (*s).last_tag = f.tag;
@@ -102,7 +124,7 @@ fn composite_back(s: ptr<function, Composite>, f: Fragment) {
 
 // The pixel's result from a front-to-back state.
 fn composite_finish(s: Composite) -> Resolved {
-    return Resolved(vec4<f32>(s.color, 1.0 - s.transmittance), s.count, 0u, 0u, 0u);
+    return Resolved(s.color, s.count, s.transmittance, 0u);
 }
 
 // Joins a front-to-back state with a back-to-front state behind it.
@@ -114,6 +136,5 @@ fn composite_join(front: Composite, back: Composite) -> Resolved {
         behind *= g;
         behind_t *= g;
     }
-    let t = front.transmittance * behind_t;
-    return Resolved(vec4<f32>(front.color + front.transmittance * behind, 1.0 - t), front.count + back.count, 0u, 0u, 0u);
+    return Resolved(front.color + front.transmittance * behind, front.count + back.count, front.transmittance * behind_t, 0u);
 }

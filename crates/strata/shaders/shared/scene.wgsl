@@ -26,7 +26,8 @@ struct Frame {
     // With --msaa: samples per pixel, each fragment's tag then carries their coverage mask
     // (see `fragment_covering`); 0 single-sampled.
     coverage_bits: u32,
-    pad_b: u32,
+    // 1 when some material blends other than over (`material_blend` then looks it up).
+    blend_modes: u32,
     pad_c: u32,
 }
 
@@ -37,6 +38,11 @@ struct Material {
     ior: f32,
     shading: u32,
     shininess: f32,
+    // BLEND_*.
+    blend: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 struct Light {
@@ -61,6 +67,10 @@ const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPOT: u32 = 1u;
 const LIGHT_DIRECTIONAL: u32 = 2u;
 const SPECULAR: f32 = 0.3;
+// Material::blend (crate::scene::Blend::index).
+const BLEND_OVER: u32 = 0u;
+const BLEND_ADD: u32 = 1u;
+const BLEND_MULTIPLY: u32 = 2u;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 // Each triangle's index into `materials` (the vertices are a vertex buffer: see `vs_scene`).
@@ -157,6 +167,15 @@ fn scene_fragment_covering(v: SceneVarying, front_facing: bool, mask: u32) -> Fr
 // The primitive a tag names.
 fn tag_prim(tag: u32) -> u32 {
     return tag >> (1u + frame.coverage_bits);
+}
+
+// The blend mode (BLEND_*) of the fragment tagged `tag`: its material's, looked up only when
+// some material blends other than over.
+fn tag_blend(tag: u32) -> u32 {
+    if frame.blend_modes == 0u {
+        return BLEND_OVER;
+    }
+    return materials[triangle_materials[tag_prim(tag)]].blend;
 }
 
 // The samples a fragment covers, bit i for sample i (every bit single-sampled).

@@ -285,6 +285,8 @@ struct Passes {
     tonemap_module: wgpu::ShaderModule,
     fullscreen_module: wgpu::ShaderModule,
     tonemap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    /// The background drawn under the HDR image (made on first use).
+    background_under: Option<wgpu::RenderPipeline>,
     layouts: Layouts,
 }
 
@@ -449,6 +451,7 @@ impl Passes {
             tonemap_module: tonemap_m,
             fullscreen_module: fullscreen_m,
             tonemap: HashMap::new(),
+            background_under: None,
             layouts,
         }
     }
@@ -908,6 +911,53 @@ impl LitFrame {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, Some(frame), &[]);
         pass.set_bind_group(1, Some(group), &[]);
+        pass.draw(0..3, 0..1);
+    }
+
+    /// Records the picture's background under the HDR image where nothing opaque covers it
+    /// (the target becomes image + (1 − coverage)·background, coverage 1), before the
+    /// transparent method presents over it: a multiply material's RGB transmittance must
+    /// filter the background itself, which the tone map's "over the background" (one alpha)
+    /// cannot do.
+    pub fn background_under(&mut self, encoder: &mut wgpu::CommandEncoder, timer: &mut Timer) {
+        let gpu = &self.gpu;
+        let module = &self.passes.tonemap_module;
+        let fullscreen = &self.passes.fullscreen_module;
+        let frame_layout = &self.scene.frame_layout;
+        let pipeline = self.passes.background_under.get_or_insert_with(|| {
+            let under = wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::OneMinusDstAlpha,
+                dst_factor: wgpu::BlendFactor::One,
+                operation: wgpu::BlendOperation::Add,
+            };
+            let blend = wgpu::BlendState {
+                color: under,
+                alpha: under,
+            };
+            screen_pipeline(
+                gpu,
+                "strata.background_under",
+                (fullscreen, "vs_fullscreen"),
+                (module, "fs_background"),
+                &[frame_layout],
+                &[target(HDR_FORMAT, Some(blend))],
+                None,
+                None,
+            )
+        });
+        let unused = view(&self.unused_depth);
+        let frame = self.scene.frame_group(gpu, &unused);
+        let hdr = view(&self.targets.hdr);
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("strata.background_under"),
+            color_attachments: &[crate::gpu::passes::kept_attachment(&hdr)],
+            depth_stencil_attachment: None,
+            timestamp_writes: timer.render_pass("background"),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, Some(&frame), &[]);
         pass.draw(0..3, 0..1);
     }
 

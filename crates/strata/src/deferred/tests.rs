@@ -491,24 +491,60 @@ fn a_scene_without_opaque_or_without_transparent_objects_renders_with_a_pipeline
         s
     };
     for (name, scene) in [("transparent", all_transparent), ("opaque", all_opaque)] {
-        for pipeline in [Pipeline::Forward, Pipeline::Deferred] {
-            let opts = options(Some(pipeline), 48);
-            let (image, _) = render(&scene, &opts, "abuffer-ll");
-            let expected = render_reference(&scene, &opts);
-            let (max_diff, fraction) = match pipeline {
-                Pipeline::Forward => (EXACT_MAX_DIFF, EXACT_MAX_FRACTION),
-                Pipeline::Deferred => (DEFERRED_MAX_DIFF, DEFERRED_NEAR_FRACTION),
-            };
-            assert_close(
-                &format!("only-{name}-{pipeline:?}"),
-                &image,
-                &expected,
-                Effect::Transparency,
-                max_diff,
-                fraction,
-            );
-        }
+        check_both_pipelines(&format!("only-{name}"), &scene, |_| {});
     }
+}
+
+/// `scene` through abuffer-ll with each pipeline (48², `adjust` applied to the options) equals
+/// the reference: forward within the exact methods' bound, deferred within the G-buffer's.
+fn check_both_pipelines(name: &str, scene: &Scene, adjust: impl Fn(&mut RenderOptions)) {
+    for pipeline in [Pipeline::Forward, Pipeline::Deferred] {
+        let mut opts = options(Some(pipeline), 48);
+        adjust(&mut opts);
+        let (image, _) = render(scene, &opts, "abuffer-ll");
+        let expected = render_reference(scene, &opts);
+        let (max_diff, fraction) = match pipeline {
+            Pipeline::Forward => (EXACT_MAX_DIFF, EXACT_MAX_FRACTION),
+            Pipeline::Deferred => (DEFERRED_MAX_DIFF, DEFERRED_NEAR_FRACTION),
+        };
+        assert_close(
+            &format!("{name}-{pipeline:?}"),
+            &image,
+            &expected,
+            Effect::Transparency,
+            max_diff,
+            fraction,
+        );
+    }
+}
+
+/// Multiply and add materials over the lit image and over the background: a multiply pane in
+/// front of the whole view tints the room and the background by channel (the background is
+/// drawn under the lit image first), the room's glass adds its light.
+#[test]
+fn blend_modes_over_the_lit_image_and_the_background_equal_the_reference() {
+    let mut scene = room(mixed_lights());
+    let glass = scene
+        .materials
+        .iter()
+        .position(|m| m.name == "glass")
+        .unwrap();
+    scene.materials[glass].blend = crate::scene::Blend::Add;
+    let mut tint = material("tint", [0.9, 0.35, 0.2], 0.6, 16.0);
+    tint.shading = Shading::Unlit;
+    tint.blend = crate::scene::Blend::Multiply;
+    let tint = scene.add_material(tint);
+    object(
+        &mut scene,
+        "pane",
+        quad(),
+        Mat4::from_translation(Vec3::new(0.5, 2.0, 3.0)) * Mat4::from_scale(Vec3::splat(6.0)),
+        tint,
+    );
+    check_both_pipelines("blend-modes", &scene, |opts| {
+        opts.build.lighting.tonemap = Tonemap::None;
+        opts.frame.background = crate::scene::Background::Color([0.1, 0.6, 0.9]);
+    });
 }
 
 #[test]

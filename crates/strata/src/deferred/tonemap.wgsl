@@ -28,6 +28,12 @@ fn tone_map(c: vec3<f32>) -> vec3<f32> {
     return mix(scaled, vec3<f32>(new_peak), g);
 }
 
+// The background alone, blended under the HDR image when a multiply material must filter it.
+@fragment
+fn fs_background(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    return vec4<f32>(background_at(vec2<u32>(position.xy)), 1.0);
+}
+
 @fragment
 fn fs_tonemap(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<u32>(position.xy);

@@ -5,9 +5,10 @@
 //! A frame is a recording into a [`wgpu::CommandEncoder`] the caller owns:
 //! 1. the frame uniforms (camera, effect) are written with `queue.write_buffer`;
 //! 2. the method records its passes — capture (one or more geometry passes) and resolve — and
-//!    writes each pixel's [`Resolved`] value (premultiplied color, alpha = 1 − transmittance,
-//!    fragment count) and the frame totals;
-//! 3. the present pass blends the resolved colors OVER the caller's color target;
+//!    writes each pixel's [`Resolved`] value (premultiplied color, RGB transmittance, fragment
+//!    count) and the frame totals;
+//! 3. the present pass puts the resolved colors over the caller's color target
+//!    (color + transmittance·target);
 //! 4. the totals, the method's counters and the pass timestamps are copied to a staging slot
 //!    that is mapped when the GPU has finished the submission: [`FrameStats`] arrive a frame or
 //!    more later, tagged with their frame number. Nothing in steady state waits on the GPU.
@@ -266,16 +267,19 @@ pub fn wide(words: &[u32], at: usize) -> u64 {
     words[at] as u64 | (words[at + 1] as u64) << 32
 }
 
-/// The per-pixel result of every resolve. Keep in sync with `Resolved` in composite.wgsl.
+/// The per-pixel result of every resolve. Keep in sync with `Resolved` in color.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct Resolved {
-    /// Premultiplied linear RGB and alpha = 1 − transmittance.
-    pub color: [f32; 4],
+    /// Premultiplied linear RGB: the light the fragments put in front of what lies behind.
+    pub color: [f32; 3],
     /// Fragments composited into this pixel.
     pub count: u32,
-    /// Padding to WGSL's 16-byte alignment.
-    pub _pad: [u32; 3],
+    /// What shows of what lies behind, per channel: the picture is
+    /// `color + transmittance · background` (1 − alpha where everything blends over).
+    pub transmittance: [f32; 3],
+    /// Unused (WGSL's 16-byte alignment).
+    pub _spare: u32,
 }
 
 /// Bytes of one [`Resolved`].
@@ -402,7 +406,8 @@ mod tests {
     #[test]
     fn resolved_layout_matches_wgsl() {
         assert_eq!(size_of::<Resolved>(), 32);
-        assert_eq!(offset_of!(Resolved, count), 16);
+        assert_eq!(offset_of!(Resolved, count), 12);
+        assert_eq!(offset_of!(Resolved, transmittance), 16);
         assert_eq!(RESOLVED_BYTES, 32);
     }
 

@@ -1,5 +1,7 @@
-//! The present pass: blends the resolved frame OVER the application's color target with
-//! premultiplied alpha, one pipeline per target format (built on first use).
+//! The present pass: puts the resolved frame over the application's color target — the target
+//! becomes color + transmittance·target — with premultiplied alpha in one draw, or, when some
+//! material multiplies (an RGB transmittance), a draw that multiplies the target and one that
+//! adds the color; pipelines per target format and draw, built on first use.
 
 use std::collections::HashMap;
 
@@ -29,11 +31,52 @@ pub const TESTED_FORMATS: [wgpu::TextureFormat; 3] = [
     wgpu::TextureFormat::Rgba16Float,
 ];
 
-/// The present pass's layout, shader and one pipeline per target format it has met.
+/// The present pass's draws: its fragment entry point and blend.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Draw {
+    /// Premultiplied over (grey transmittance) or the heatmap.
+    Over,
+    /// target ·= transmittance.
+    Filter,
+    /// target += color.
+    Add,
+}
+
+impl Draw {
+    fn entry(self) -> &'static str {
+        match self {
+            Draw::Over => "fs_present",
+            Draw::Filter => "fs_present_filter",
+            Draw::Add => "fs_present_add",
+        }
+    }
+
+    fn blend(self) -> wgpu::BlendState {
+        let component = |src_factor, dst_factor| wgpu::BlendComponent {
+            src_factor,
+            dst_factor,
+            operation: wgpu::BlendOperation::Add,
+        };
+        use wgpu::BlendFactor::{One, Src, SrcAlpha, Zero};
+        match self {
+            Draw::Over => wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING,
+            Draw::Filter => wgpu::BlendState {
+                color: component(Zero, Src),
+                alpha: component(Zero, SrcAlpha),
+            },
+            Draw::Add => wgpu::BlendState {
+                color: component(One, One),
+                alpha: component(One, One),
+            },
+        }
+    }
+}
+
+/// The present pass's layout, shader and one pipeline per target format and draw it has met.
 pub struct Present {
     layout: wgpu::BindGroupLayout,
     module: wgpu::ShaderModule,
-    pipelines: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    pipelines: HashMap<(wgpu::TextureFormat, Draw), wgpu::RenderPipeline>,
     params: wgpu::Buffer,
     colormap: wgpu::Buffer,
 }
@@ -72,19 +115,24 @@ impl Present {
         }
     }
 
-    fn pipeline(&mut self, gpu: &Gpu, format: wgpu::TextureFormat) -> &wgpu::RenderPipeline {
+    fn pipeline(
+        &mut self,
+        gpu: &Gpu,
+        format: wgpu::TextureFormat,
+        draw: Draw,
+    ) -> &wgpu::RenderPipeline {
         let (layout, module) = (&self.layout, &self.module);
-        self.pipelines.entry(format).or_insert_with(|| {
+        self.pipelines.entry((format, draw)).or_insert_with(|| {
             let target = wgpu::ColorTargetState {
                 format,
-                blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+                blend: Some(draw.blend()),
                 write_mask: wgpu::ColorWrites::ALL,
             };
             crate::gpu::passes::screen_pipeline(
                 gpu,
                 "strata.present",
                 (module, "vs_present"),
-                (module, "fs_present"),
+                (module, draw.entry()),
                 &[layout],
                 &[Some(target)],
                 None,
@@ -94,7 +142,8 @@ impl Present {
     }
 
     /// Records the present pass: `resolved` (one [`crate::frame::Resolved`] per pixel of a
-    /// `size` frame) OVER `target`, whose contents are kept.
+    /// `size` frame) over `target`, whose contents are kept; `tinted`: some transmittance may
+    /// differ between channels (a multiply material), which takes two draws.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &mut self,
@@ -104,6 +153,7 @@ impl Present {
         format: wgpu::TextureFormat,
         resolved: &wgpu::Buffer,
         params: PresentParams,
+        tinted: bool,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         gpu.queue
@@ -118,26 +168,27 @@ impl Present {
                 self.colormap.as_entire_binding(),
             ],
         );
-        let pipeline = self.pipeline(gpu, format);
+        let draws: &[Draw] = if tinted && params.complexity == 0 {
+            &[Draw::Filter, Draw::Add]
+        } else {
+            &[Draw::Over]
+        };
+        for &draw in draws {
+            self.pipeline(gpu, format, draw);
+        }
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("strata.present"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: target,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
+            color_attachments: &[crate::gpu::passes::kept_attachment(target)],
             depth_stencil_attachment: None,
             timestamp_writes: timestamps,
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, Some(&group), &[]);
-        pass.draw(0..3, 0..1);
+        for draw in draws {
+            pass.set_pipeline(&self.pipelines[&(format, *draw)]);
+            pass.draw(0..3, 0..1);
+        }
     }
 }
 

@@ -1,9 +1,12 @@
 #define_import_path strata::frame::present
 #import strata::color::{Resolved, srgb_to_linear}
 
-// The present pass: one full-screen triangle that blends each pixel's resolved color OVER the
-// application's color target (premultiplied "over": src + (1 − src.a)·dst, in linear space; an
-// sRGB target encodes after blending). The complexity effect draws an opaque heatmap instead.
+// The present pass: one full-screen triangle that puts each pixel's resolved color over the
+// application's color target, in linear space (an sRGB target encodes after blending): the
+// target becomes color + transmittance·target. Where every transmittance is grey (no multiply
+// material) one draw does it with premultiplied "over" (alpha = 1 − transmittance); else a
+// first draw multiplies the target by the RGB transmittance and a second adds the color. The
+// complexity effect draws an opaque heatmap instead.
 // Keep `PresentParams` in sync with `PresentParams` in present.rs.
 
 struct PresentParams {
@@ -24,6 +27,33 @@ fn vs_present(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
 }
 
+fn mean_transmittance(r: Resolved) -> f32 {
+    return (r.transmittance.r + r.transmittance.g + r.transmittance.b) / 3.0;
+}
+
+fn present_pixel(position: vec4<f32>) -> Resolved {
+    let pixel = vec2<u32>(position.xy);
+    if pixel.x >= params.size.x || pixel.y >= params.size.y {
+        // Nothing in front: the target as it is.
+        return Resolved(vec3<f32>(0.0), 0u, vec3<f32>(1.0), 0u);
+    }
+    return resolved[pixel.y * params.size.x + pixel.x];
+}
+
+// The first of two draws: the target times the transmittance (blend: zero, source).
+@fragment
+fn fs_present_filter(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let r = present_pixel(position);
+    return vec4<f32>(r.transmittance, mean_transmittance(r));
+}
+
+// The second: plus the color (blend: one, one).
+@fragment
+fn fs_present_add(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    let r = present_pixel(position);
+    return vec4<f32>(r.color, 1.0 - mean_transmittance(r));
+}
+
 @fragment
 fn fs_present(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<u32>(position.xy);
@@ -32,7 +62,7 @@ fn fs_present(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> 
     }
     let r = resolved[pixel.y * params.size.x + pixel.x];
     if params.complexity == 0u {
-        return r.color;
+        return vec4<f32>(r.color, 1.0 - mean_transmittance(r));
     }
     if r.count == 0u {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);

@@ -52,6 +52,10 @@ pub struct SceneGpu {
     /// The camera the uniforms were last written for.
     pub camera: Camera,
     lighting: LightingSetup,
+    /// The blend modes other than over that the scene uses ([`Scene::blend_modes`]): methods
+    /// that honour only over refuse the scene, and the present multiplies by an RGB
+    /// transmittance when multiply is among them.
+    pub blend_modes: Vec<crate::scene::Blend>,
     /// Every triangle's centroid, for methods that order triangles on the CPU.
     pub centroids: Vec<glam::Vec3>,
     /// With `--order` (other than `scene`): the index buffer of the frame's submission order,
@@ -123,7 +127,8 @@ impl SceneGpu {
             lights.push(bytemuck::Zeroable::zeroed()); // bindings cannot be empty
         }
         let camera = scene.camera_or_framing();
-        let u = uniforms::frame_uniforms(&camera, options, &lighting);
+        let blend_modes = scene.blend_modes();
+        let u = uniforms::frame_uniforms(&camera, options, &lighting, !blend_modes.is_empty());
         let mut scene_gpu = SceneGpu {
             triangle_count,
             // STORAGE for the compute rasterizer, which reads it as floats, and the animation,
@@ -161,6 +166,7 @@ impl SceneGpu {
             frame_layout: binding::layout(&gpu.device, "strata.frame.layout", &FRAME_SLOTS),
             camera,
             lighting,
+            blend_modes,
             centroids: centroids(&vertices[..triangle_count as usize * 3]),
             draw_indices: None,
             raster_layout: None,
@@ -236,7 +242,12 @@ impl SceneGpu {
     /// effect with the next submission.
     pub fn update(&mut self, gpu: &Gpu, camera: &Camera, options: &RenderOptions) {
         self.camera = *camera;
-        let u = uniforms::frame_uniforms(camera, options, &self.lighting);
+        let u = uniforms::frame_uniforms(
+            camera,
+            options,
+            &self.lighting,
+            !self.blend_modes.is_empty(),
+        );
         gpu.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
     }

@@ -48,8 +48,11 @@ pub struct FrameUniforms {
     /// Samples per pixel with `--msaa` (4 or 8), whose coverage mask each fragment's tag carries
     /// ([`crate::frame::msaa`]); 0 single-sampled.
     pub coverage_bits: u32,
+    /// 1 when some material blends other than over: resolves then look up each fragment's
+    /// blend mode ([`crate::scene::Blend`]); 0 spares them the lookup.
+    pub blend_modes: u32,
     /// Padding to WGSL's 16-byte alignment.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 /// Keep in sync with `Material` in scene.wgsl.
@@ -68,6 +71,10 @@ pub struct GpuMaterial {
     pub shading: u32,
     /// The specular exponent ([`Material::exponent`]).
     pub shininess: f32,
+    /// [`crate::scene::Blend::index`].
+    pub blend: u32,
+    /// Padding to WGSL's 16-byte alignment.
+    pub _pad: [u32; 3],
 }
 
 /// Keep in sync with `Light` in scene.wgsl.
@@ -159,6 +166,8 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             Shading::Lit => 1,
         },
         shininess: m.exponent(),
+        blend: m.blend.index(),
+        _pad: [0; 3],
     }
 }
 
@@ -194,6 +203,7 @@ pub fn frame_uniforms(
     camera: &Camera,
     options: &RenderOptions,
     setup: &LightingSetup,
+    blending: bool,
 ) -> FrameUniforms {
     let view = camera.view();
     let view_proj: Mat4 = band_projection(camera, options);
@@ -225,7 +235,8 @@ pub fn frame_uniforms(
         headlight: setup.headlight as u32,
         checker,
         coverage_bits: crate::frame::msaa::coverage_bits(options.build.msaa),
-        _pad: [0; 2],
+        blend_modes: blending as u32,
+        _pad: 0,
     }
 }
 
@@ -244,11 +255,13 @@ mod tests {
         assert_eq!(offset_of!(FrameUniforms, near), 240);
         assert_eq!(offset_of!(FrameUniforms, checker), 256);
         assert_eq!(offset_of!(FrameUniforms, coverage_bits), 260);
+        assert_eq!(offset_of!(FrameUniforms, blend_modes), 264);
     }
 
     #[test]
     fn material_and_light_layout_match_wgsl() {
-        assert_eq!(size_of::<GpuMaterial>(), 32);
+        assert_eq!(size_of::<GpuMaterial>(), 48);
+        assert_eq!(offset_of!(GpuMaterial, blend), 32);
         assert_eq!(offset_of!(GpuMaterial, absorption), 16);
         assert_eq!(offset_of!(GpuMaterial, shading), 24);
         assert_eq!(offset_of!(GpuMaterial, shininess), 28);

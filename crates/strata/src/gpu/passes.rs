@@ -115,6 +115,19 @@ pub fn attachment(
     })
 }
 
+/// A color attachment the pass draws over, keeping what it holds.
+pub fn kept_attachment(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Store,
+        },
+    })
+}
+
 /// A render pass over a throwaway color target, for capture passes whose output goes to
 /// storage buffers (WebGPU needs at least one attachment). Multisampled with `--msaa`: its sample
 /// count is the rasterizer's.

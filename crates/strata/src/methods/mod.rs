@@ -250,6 +250,7 @@ pub fn create(
     let descriptor = id.descriptor();
     descriptor.check_raster(options.build.raster)?;
     descriptor.check_msaa(options.build.msaa, scene.triangle_count as u64)?;
+    descriptor.check_blend(&scene.blend_modes, options.frame.kbuffer.tail)?;
     crate::frame::msaa::check_device(gpu, options.build.msaa)?;
     crate::gpu::validated(gpu, id.as_str(), || {
         (descriptor.create)(

@@ -12,8 +12,9 @@
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::frame::{Raster, RenderOptions, SceneGpu};
+use crate::frame::{Raster, RenderOptions, SceneGpu, Tail};
 use crate::gpu::Gpu;
+use crate::scene::Blend;
 
 use super::traffic::TrafficModel;
 use super::{Method, MethodId};
@@ -202,6 +203,10 @@ pub struct Descriptor {
     /// Whether `--order` applies (every method but those with an order of their own).
     #[cfg_attr(feature = "serde", serde(skip))]
     pub takes_order: bool,
+    /// Whether it composites add and multiply materials as they are defined
+    /// ([`crate::scene::Blend`]), and if not, why; it then refuses scenes that have them.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub blend_modes: Support,
     /// The method parameters it reads.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub reads: &'static [MethodOption],
@@ -252,6 +257,7 @@ impl Descriptor {
             draw_callback: Support::Yes,
             sorts_centroids: false,
             takes_order: true,
+            blend_modes: Support::Yes,
             reads: &[],
             past_k: None,
             default_k: crate::methods::kbuffer::DEFAULT_K,
@@ -308,6 +314,36 @@ impl Descriptor {
             ))),
             Support::Yes => Ok(()),
         }
+    }
+
+    /// Refuses a scene with add or multiply materials where the method composites only over,
+    /// and a k-buffer tail that would blend them over.
+    pub fn check_blend(&self, modes: &[Blend], tail: Tail) -> Result<()> {
+        let Some(mode) = modes.first() else {
+            return Ok(());
+        };
+        if let Support::No(why) = self.blend_modes {
+            let honouring: Vec<&str> = super::TABLE
+                .iter()
+                .filter(|d| d.blend_modes.yes() && d.id != MethodId::Reference)
+                .map(|d| d.name)
+                .collect();
+            return Err(Error::unsupported(format!(
+                "{} cannot blend '{}' materials: {why}; the methods that can are {}",
+                self.name,
+                mode.name(),
+                honouring.join(", ")
+            )));
+        }
+        if tail != Tail::Drop && self.reads(MethodOption::Tail) {
+            return Err(Error::unsupported(format!(
+                "{} --tail {}: the tail blends the fragments past k over one another, which '{}' materials do not; use --tail drop or a larger --k",
+                self.name,
+                tail.name(),
+                mode.name()
+            )));
+        }
+        Ok(())
     }
 
     /// Refuses `--msaa 4|8` where it cannot take it, and scenes too large for the samples' tags.

@@ -8,7 +8,7 @@
 
 use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions};
-use crate::scene::{loaders, Scene};
+use crate::scene::{loaders, Blend, Scene};
 use crate::testing::{assert_close, render_gpu, render_reference, Failures};
 
 const EXACT_METHODS: [&str; 6] = ["f2b", "dual", "abuffer-ll", "sbuffer", "kpeel", "tiled"];
@@ -28,6 +28,11 @@ pub(crate) fn options(size: u32, effect: Effect) -> RenderOptions {
 }
 
 fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
+    check_methods_exact(name, scene, opts, &EXACT_METHODS);
+}
+
+/// `methods` against the reference (see [`check_exact`]).
+fn check_methods_exact(name: &str, scene: &Scene, opts: &RenderOptions, methods: &[&str]) {
     let expected = render_reference(scene, opts);
     // The reference's fragments at the device's own depths and coverage: every pixel matches
     // there (see kbuffer/tests.rs), so on any GPU a difference is the method's. A method that
@@ -42,7 +47,7 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
     let hardware = truth_for(opts.build.raster);
     let mut compute = None;
     let mut failures = Failures::default();
-    for method in EXACT_METHODS {
+    for &method in methods {
         let (actual, stats) = render_gpu(scene, opts, method);
         if !failures.locks_held(method, &stats) {
             continue;
@@ -367,6 +372,92 @@ fn exact_methods_match_reference_on_gltf_alpha_blend() {
 
 /// Unlit screen-covering layers in shuffled order under an orthographic camera have a closed
 /// form. Tolerance 1/255: the only error left is f16 fragment storage and 8-bit rounding.
+/// Layered quads whose materials blend over, add and multiply in turn (a multiply layer's
+/// color filters what lies behind it).
+fn blended_layers() -> Scene {
+    let mut s = scene("builtin:layers?n=9&coverage=0.75&order=random&seed=5");
+    let modes = [Blend::Over, Blend::Add, Blend::Multiply];
+    for (i, m) in s.materials.iter_mut().enumerate() {
+        m.blend = modes[i % 3];
+    }
+    s
+}
+
+/// The methods that composite add and multiply, with room for every fragment of `scene`:
+/// every exact method, and abuffer-fixed as the approximate one (it drops what it cannot
+/// store, never blending it wrongly).
+fn blending_methods() -> Vec<&'static str> {
+    super::catalogue()
+        .filter(|d| d.id != super::MethodId::Reference && d.blend_modes.yes())
+        .filter(|d| d.exact || d.id == super::MethodId::AbufferFixed)
+        .map(|d| d.name)
+        .collect()
+}
+
+#[test]
+fn every_exact_method_blends_add_and_multiply_as_the_reference() {
+    let s = blended_layers();
+    assert_eq!(s.blend_modes(), [Blend::Add, Blend::Multiply]);
+    let mut opts = options(40, Effect::Transparency);
+    opts.frame.background = crate::scene::Background::Color([0.3, 0.5, 0.7]);
+    opts.frame.k = Some(16);
+    let methods = blending_methods();
+    assert!(methods.len() >= 18, "{methods:?}");
+    check_methods_exact("blend", &s, &opts, &methods);
+}
+
+#[test]
+fn every_exact_method_blends_add_and_multiply_as_the_reference_multisampled() {
+    let s = blended_layers();
+    let mut opts = options(40, Effect::Transparency);
+    opts.build.msaa = 4;
+    // Pixels on a quad's diagonal get a fragment of each of its triangles.
+    opts.frame.k = Some(32);
+    let methods: Vec<&str> = blending_methods()
+        .into_iter()
+        .filter(|m| {
+            m.parse::<super::MethodId>()
+                .unwrap()
+                .descriptor()
+                .msaa
+                .yes()
+        })
+        .collect();
+    check_methods_exact("blend-msaa4", &s, &opts, &methods);
+}
+
+#[test]
+fn methods_that_only_blend_over_refuse_add_and_multiply_in_one_line() {
+    let s = blended_layers();
+    let mut opts = options(16, Effect::Transparency);
+    let refusing: Vec<_> = super::MethodId::gpu_methods()
+        .filter(|m| !m.descriptor().blend_modes.yes())
+        .collect();
+    assert!(refusing.contains(&super::MethodId::Wboit));
+    assert!(refusing.contains(&super::MethodId::Mlab));
+    for m in refusing {
+        let opts = runnable(m, &opts);
+        let e = match crate::Renderer::new(crate::testing::gpu(), &s, &opts)
+            .and_then(|mut r| r.render(m.as_str()))
+        {
+            Ok(_) => panic!("{m} rendered a scene with add and multiply materials"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.contains(&format!("{m} cannot blend 'add' materials")) && !e.contains('\n'),
+            "{m}: {e}"
+        );
+    }
+    // A k-buffer's tail blends over: refused with such materials.
+    opts.frame.kbuffer.tail = crate::frame::Tail::Blend;
+    let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
+        .and_then(|mut r| r.render("kplus-heap"))
+        .err()
+        .expect("a blended tail refused")
+        .to_string();
+    assert!(e.contains("--tail blend"), "{e}");
+}
+
 #[test]
 fn layers_composite_to_the_closed_form() {
     let n = 12;
@@ -566,13 +657,13 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
     for (method, expected) in [
         ("unsorted", 12 * px),
         ("sorted", 12 * px + 12 * tris),
-        ("f2b", 56 * px),
+        ("f2b", 72 * px),
         (
             "dual",
             if crate::methods::peeling::has_wide_keys(crate::testing::gpu()) {
-                140 * px
+                172 * px
             } else {
-                124 * px
+                156 * px
             },
         ),
     ] {
@@ -898,7 +989,9 @@ fn allocation_counters_saturate_instead_of_wrapping() {
         .unwrap();
         let resolved: Vec<crate::frame::Resolved> = bytemuck::pod_collect_to_vec(&bytes);
         assert!(
-            resolved.iter().all(|r| r.count == 0 && r.color[3] == 0.0),
+            resolved
+                .iter()
+                .all(|r| r.count == 0 && r.color == [0.0; 3] && r.transmittance == [1.0; 3]),
             "{m}: a fragment was stored from a saturated pool"
         );
     }

@@ -170,8 +170,9 @@ pub fn traffic(id: MethodId, c: &FrameCounts) -> Option<Traffic> {
     })
 }
 
-/// Per-pixel merge state `convex` reads and writes (its accumulated color and last depth).
-const CONVEX_MERGE_BYTES: u64 = 16 + 4;
+/// Per-pixel merge state `convex` reads and writes (its accumulated color, RGB transmittance
+/// and last depth).
+const CONVEX_MERGE_BYTES: u64 = 24 + 4;
 
 /// A frame's floor on a device: the time its traffic takes at the measured rates.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -248,8 +249,8 @@ mod tests {
     #[test]
     fn tiled_moves_its_state_twice_and_an_entry_per_64_fragments() {
         let t = traffic(MethodId::Tiled, &COUNTS).unwrap();
-        // 8000 fragments: at least 125 entries of 8 + 12 bytes, written and read; 36-byte state.
-        assert_eq!(t.bytes, 2 * 36 * 1000 + 2 * 20 * 125 + 40 * 1000);
+        // 8000 fragments: at least 125 entries of 8 + 12 bytes, written and read; 40-byte state.
+        assert_eq!(t.bytes, 2 * 40 * 1000 + 2 * 20 * 125 + 40 * 1000);
         assert_eq!((t.pixel_atomics, t.global_atomics), (250, 0));
     }
 

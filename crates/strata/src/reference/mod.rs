@@ -200,6 +200,7 @@ fn shaded_fragments(
         .iter()
         .map(|m| m.absorption as f64)
         .collect();
+    let blends: Vec<crate::scene::Blend> = scene.materials.iter().map(|m| m.blend).collect();
     let rows: Vec<Vec<Vec<RefFragment>>> = bands
         .par_iter()
         .enumerate()
@@ -240,6 +241,7 @@ fn shaded_fragments(
                         absorption: absorption[material],
                         distance: view_distance(&camera, s.depth),
                         coverage: s.coverage as u8,
+                        blend: blends[material],
                     });
                 });
             }

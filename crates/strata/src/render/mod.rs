@@ -402,11 +402,11 @@ impl<'g> Renderer<'g> {
             .enumerate()
             .map(|(i, r)| {
                 let bg = background.at(i as u32 % w, top + i as u32 / w);
-                let t = 1.0 - r.color[3];
+                let [c, t] = [r.color, r.transmittance];
                 [
-                    r.color[0] + t * bg[0],
-                    r.color[1] + t * bg[1],
-                    r.color[2] + t * bg[2],
+                    c[0] + t[0] * bg[0],
+                    c[1] + t[1] * bg[1],
+                    c[2] + t[2] * bg[2],
                     r.count as f32,
                 ]
             })

@@ -318,6 +318,9 @@ impl FrameRecorder {
             frame: frame.clone(),
         };
         options.validate()?;
+        self.method
+            .descriptor()
+            .check_blend(&self.scene.blend_modes, frame.kbuffer.tail)?;
         let old = &self.options.frame;
         if (frame.width, frame.height) != (old.width, old.height) {
             self.resize(frame.width, frame.height)?;
@@ -652,9 +655,26 @@ impl FrameRecorder {
                 complexity: (self.options.frame.effect == Effect::Complexity) as u32,
                 complexity_full: recorded.k.unwrap_or(64).max(1),
             };
+            let tinted = self
+                .scene
+                .blend_modes
+                .contains(&crate::scene::Blend::Multiply);
+            if tinted && hdr.is_some() {
+                if let Some(lit) = &mut self.lit {
+                    lit.background_under(encoder, &mut self.timer);
+                }
+            }
             let stamps = self.timer.render_pass("present");
-            self.present
-                .record(gpu, encoder, view, format, &self.output, params, stamps);
+            self.present.record(
+                gpu,
+                encoder,
+                view,
+                format,
+                &self.output,
+                params,
+                tinted,
+                stamps,
+            );
         }
         if let (Some(lit), Some((view, format))) = (&mut self.lit, color) {
             lit.tonemap(encoder, &mut self.timer, view, format);

@@ -7,9 +7,81 @@
 //!   consecutive fragments (d: view-space distance difference; σ of the object entered at the
 //!   nearer fragment, else of the object left at the farther one) — Fresnel is already folded
 //!   into each fragment's opacity by the shading;
-//! - complexity: the fragment count (the heatmap is drawn from it).
+//! - complexity: the fragment count (the heatmap is drawn from it);
+//! - blend modes ([`Blend`], a material's `blend`): each fragment adds an emission and filters
+//!   the RGB transmittance, over, add or multiply.
 
 use bytemuck::{Pod, Zeroable};
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// How a fragment combines with what lies behind it, front to back, for linear color c and
+/// opacity α, with C the color so far and T an RGB transmittance starting at 1 (the picture is
+/// C + T·background):
+/// - over: C += T·α·c, then T ·= 1 − α;
+/// - add: C += T·α·c, T unchanged (glows, fire);
+/// - multiply: C unchanged, T ·= (1 − α) + α·c per channel (tinted glass, shadows).
+///
+/// Every exact method honours all three (its resolve visits fragments in order); methods that
+/// cannot refuse a scene with add or multiply materials (see the method table).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Hash)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
+pub enum Blend {
+    /// The over operator.
+    #[default]
+    Over,
+    /// Additive: adds its light, hides nothing.
+    Add,
+    /// Multiplicative: filters what lies behind by its color, adds no light.
+    Multiply,
+}
+
+impl Blend {
+    /// The name in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Blend::Over => "over",
+            Blend::Add => "add",
+            Blend::Multiply => "multiply",
+        }
+    }
+
+    /// The mode as the shaders read it (`BLEND_` in scene.wgsl).
+    pub fn index(self) -> u32 {
+        match self {
+            Blend::Over => 0,
+            Blend::Add => 1,
+            Blend::Multiply => 2,
+        }
+    }
+
+    /// What a fragment of linear color `c` and opacity `a` in this mode adds (times the
+    /// transmittance in front of it) and the factor its transmittance is multiplied by.
+    pub fn emission_and_filter(self, c: [f64; 3], a: f64) -> ([f64; 3], [f64; 3]) {
+        match self {
+            Blend::Over => (c.map(|x| a * x), [1.0 - a; 3]),
+            Blend::Add => (c.map(|x| a * x), [1.0; 3]),
+            Blend::Multiply => ([0.0; 3], c.map(|x| 1.0 - a + a * x)),
+        }
+    }
+}
+
+impl std::str::FromStr for Blend {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "over" => Ok(Blend::Over),
+            "add" => Ok(Blend::Add),
+            "multiply" => Ok(Blend::Multiply),
+            _ => Err(Error::input(format!(
+                "unknown blend '{s}' (expected over, add or multiply)"
+            ))),
+        }
+    }
+}
 
 /// The 16-byte fragment record. Keep in sync with `Fragment` in `shaders/shared/fragment.wgsl`.
 #[repr(C)]
@@ -31,17 +103,23 @@ pub struct Fragment {
 pub struct CompositeState {
     /// Premultiplied color composited so far.
     pub color: [f32; 3],
-    /// What the fragments so far let through.
-    pub transmittance: f32,
     /// Fragments composited so far.
     pub count: u32,
-    /// Depth of the last fragment composited.
-    pub last_depth: f32,
+    /// What the fragments so far let through, per channel.
+    pub transmittance: [f32; 3],
     /// Tag of the last fragment composited (translucency's entering and leaving surfaces).
     pub last_tag: u32,
+    /// Depth of the last fragment composited.
+    pub last_depth: f32,
     /// View distance of the last fragment composited (translucency's thickness).
     pub last_distance: f32,
+    /// Padding to WGSL's 16-byte alignment.
+    pub _pad: [u32; 2],
 }
+
+/// Bytes of one running composite in GPU storage (the peeling, convex and tiled methods keep
+/// one or two per pixel).
+pub const COMPOSITE_BYTES: u64 = std::mem::size_of::<CompositeState>() as u64;
 
 /// One fragment as the CPU reference sees it, at full precision.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,6 +141,8 @@ pub struct RefFragment {
     /// The samples of its pixel it covers, bit i for sample i (`--msaa`; 1 single-sampled).
     /// One byte: 8 samples at most, and the record stays 64 bytes.
     pub coverage: u8,
+    /// Its material's blend mode.
+    pub blend: Blend,
 }
 
 impl RefFragment {
@@ -83,24 +163,35 @@ pub fn gap_absorption(nearer: &RefFragment, farther: &RefFragment) -> f64 {
     }
 }
 
-/// Composites depth-sorted fragments over a background: returns linear RGB.
+/// Composites depth-sorted fragments over a background, each by its blend mode: returns
+/// linear RGB.
 pub fn composite(sorted: &[RefFragment], background: [f64; 3], translucency: bool) -> [f64; 3] {
+    let (color, t) = composite_parts(sorted, translucency);
+    [0, 1, 2].map(|i| color[i] + t[i] * background[i])
+}
+
+/// The premultiplied color and RGB transmittance of depth-sorted fragments (front to back:
+/// C += T·e, T ·= m, with each fragment's emission e and filter m of
+/// [`Blend::emission_and_filter`]).
+pub fn composite_parts(sorted: &[RefFragment], translucency: bool) -> ([f64; 3], [f64; 3]) {
     let mut color = [0.0f64; 3];
-    let mut t = 1.0f64;
+    let mut t = [1.0f64; 3];
     for (i, f) in sorted.iter().enumerate() {
         if translucency && i > 0 {
             let prev = &sorted[i - 1];
             let sigma = gap_absorption(prev, f);
             if sigma != 0.0 {
-                t *= (-sigma * (f.distance - prev.distance).max(0.0)).exp();
+                let g = (-sigma * (f.distance - prev.distance).max(0.0)).exp();
+                t = t.map(|x| x * g);
             }
         }
-        for (c, fc) in color.iter_mut().zip(f.color) {
-            *c += t * f.alpha * fc;
+        let (emission, filter) = f.blend.emission_and_filter(f.color, f.alpha);
+        for i in 0..3 {
+            color[i] += t[i] * emission[i];
+            t[i] *= filter[i];
         }
-        t *= 1.0 - f.alpha;
     }
-    [0, 1, 2].map(|i| color[i] + t * background[i])
+    (color, t)
 }
 
 #[cfg(test)]
@@ -112,9 +203,11 @@ mod tests {
     fn fragment_and_composite_layout_match_wgsl() {
         assert_eq!(size_of::<Fragment>(), 16);
         assert_eq!(offset_of!(Fragment, rg), 8);
-        assert_eq!(size_of::<CompositeState>(), 32);
-        assert_eq!(offset_of!(CompositeState, count), 16);
-        assert_eq!(offset_of!(CompositeState, last_distance), 28);
+        assert_eq!(size_of::<CompositeState>(), 48);
+        assert_eq!(offset_of!(CompositeState, count), 12);
+        assert_eq!(offset_of!(CompositeState, transmittance), 16);
+        assert_eq!(offset_of!(CompositeState, last_tag), 28);
+        assert_eq!(offset_of!(CompositeState, last_distance), 36);
     }
 
     fn frag(depth: f64, alpha: f64, color: [f64; 3]) -> RefFragment {
@@ -127,6 +220,7 @@ mod tests {
             absorption: 0.0,
             distance: depth,
             coverage: 1,
+            blend: Blend::Over,
         }
     }
 
@@ -138,6 +232,34 @@ mod tests {
         assert!((c[0] - 0.5).abs() < 1e-12);
         assert!((c[1] - 0.5 * 0.25).abs() < 1e-12);
         assert!((c[2] - 0.5 * 0.75).abs() < 1e-12);
+    }
+
+    #[test]
+    fn blend_modes_composite_as_defined() {
+        let red = frag(0.1, 0.5, [1.0, 0.0, 0.0]);
+        let green = frag(0.2, 0.25, [0.0, 1.0, 0.0]);
+        let bg = [0.0, 0.0, 1.0];
+        let with = |mut f: RefFragment, blend| {
+            f.blend = blend;
+            f
+        };
+        // add over nothing: the light adds and hides nothing.
+        let c = composite(&[with(red, Blend::Add)], bg, false);
+        assert_eq!(c, [0.5, 0.0, 1.0]);
+        // multiply filters per channel by (1 − α) + α·c and adds no light.
+        let c = composite(&[with(red, Blend::Multiply)], [1.0; 3], false);
+        assert_eq!(c, [1.0, 0.5, 0.5]);
+        // a multiply in front tints the over layer behind it; add behind it is seen through it.
+        let c = composite(
+            &[with(red, Blend::Multiply), green, with(red, Blend::Add)],
+            bg,
+            false,
+        );
+        let t = [1.0, 0.5, 0.5];
+        let expect = [t[0] * 0.75 * 0.5, t[1] * 0.25, t[2] * 0.75 * 1.0];
+        for i in 0..3 {
+            assert!((c[i] - expect[i]).abs() < 1e-12, "{c:?} {expect:?}");
+        }
     }
 
     #[test]

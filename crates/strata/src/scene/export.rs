@@ -10,9 +10,11 @@
 //!
 //! What only strata reads back: the `extras.strata` of the scene (`camera`, `light`, `render`,
 //! with the fields and meaning of the TOML scene file's `[camera]`, `[[light]]` and `[render]`)
-//! and of each material (`absorption`, `ior`, `shading`, `shininess`). They carry what glTF has
-//! no field for (ambient lights, attenuation, the translucency effect's absorption, the picture
-//! defaults) and the exact camera, so the file reloads to the same picture.
+//! and of each material (`absorption`, `ior`, `shading`, `shininess`, `blend`). They carry what
+//! glTF has no field for (ambient lights, attenuation, the translucency effect's absorption, the
+//! picture defaults, blend modes other than over) and the exact camera, so the file reloads to
+//! the same picture. glTF blends every transparent material over (`alphaMode` BLEND): another
+//! reader draws add and multiply materials over, and [`unexported`] says so.
 //!
 //! Animation is not exported: moving objects are written where they are at the scene's time.
 
@@ -20,7 +22,24 @@ use glam::{Quat, Vec3};
 use serde_json::{json, Value};
 
 use crate::error::{Error, Result};
-use crate::scene::{Background, Camera, LightKind, Mesh, Projection, Scene, Shading};
+use crate::scene::{Background, Blend, Camera, LightKind, Mesh, Projection, Scene, Shading};
+
+/// What of `scene` a glTF reader other than strata cannot see, one line each: the materials
+/// that blend other than over, which glTF has no mode for (they travel in strata's extras).
+pub fn unexported(scene: &Scene) -> Vec<String> {
+    scene
+        .materials
+        .iter()
+        .filter(|m| m.blend != Blend::Over)
+        .map(|m| {
+            format!(
+                "material '{}' blends '{}', which glTF cannot express: other readers draw it over (alphaMode BLEND); strata reads it back from extras.strata",
+                m.name,
+                m.blend.name()
+            )
+        })
+        .collect()
+}
 
 /// The container: binary `.glb`, or `.gltf` JSON with the buffer as a base64 `data:` URI.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -146,7 +165,8 @@ pub fn to_gltf(
                     "absorption": m.absorption,
                     "ior": m.ior,
                     "shading": m.shading,
-                    "shininess": m.shininess
+                    "shininess": m.shininess,
+                    "blend": m.blend.name()
                 }}
             })
         })
@@ -440,6 +460,7 @@ mod tests {
             ior: 1.33,
             shading: Shading::Unlit,
             shininess: 12.0,
+            blend: Blend::Multiply,
         });
         scene.objects.push(Object {
             name: "sheet".into(),
@@ -484,6 +505,16 @@ mod tests {
         expected.defaults.size = defaults.size;
         expected.defaults.background = defaults.background;
         assert_same_picture(&expected, &back);
+        assert_eq!(
+            back.materials[back.objects[0].material].blend,
+            Blend::Multiply
+        );
+        let lost = unexported(&scene);
+        assert_eq!(lost.len(), 1);
+        assert!(
+            lost[0].contains("material 'flat' blends 'multiply'"),
+            "{lost:?}"
+        );
     }
 
     #[test]
@@ -524,6 +555,8 @@ mod tests {
         assert_eq!(m.ior, 1.33);
         assert_eq!((m.color, m.opacity), ([0.3, 0.6, 0.9], 0.35));
         assert_eq!(m.absorption, Material::default().absorption);
+        // glTF has no multiply: without the extras it is over.
+        assert_eq!(m.blend, Blend::Over);
     }
 
     #[test]

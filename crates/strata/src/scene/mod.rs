@@ -75,6 +75,8 @@ impl std::str::FromStr for Shading {
     }
 }
 
+pub use crate::resolve::Blend;
+
 /// Surface appearance of one object.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -93,6 +95,8 @@ pub struct Material {
     /// Blinn–Phong specular exponent, an integer in 1..=1023 (the deferred G-buffer stores it in
     /// 10 bits, so every pipeline uses the rounded value; see [`Material::exponent`]).
     pub shininess: f32,
+    /// How its fragments combine with what lies behind them.
+    pub blend: Blend,
 }
 
 /// Specular exponent of materials that do not set one.
@@ -101,6 +105,12 @@ pub const DEFAULT_SHININESS: f32 = 48.0;
 pub const MAX_SHININESS: f32 = 1023.0;
 
 impl Material {
+    /// Whether it hides what lies behind it: opacity 1 blending over (an add or multiply
+    /// material at opacity 1 still shows what is behind it).
+    pub fn is_opaque(&self) -> bool {
+        self.opacity >= 1.0 && self.blend == Blend::Over
+    }
+
     /// The specular exponent every pipeline shades with: `shininess` rounded into 1..=1023.
     pub fn exponent(&self) -> f32 {
         self.shininess.round().clamp(1.0, MAX_SHININESS)
@@ -117,6 +127,7 @@ impl Default for Material {
             ior: 1.5,
             shading: Shading::Lit,
             shininess: DEFAULT_SHININESS,
+            blend: Blend::Over,
         }
     }
 }
@@ -539,6 +550,20 @@ impl Scene {
         self.materials.len() - 1
     }
 
+    /// The blend modes other than over that the scene's objects use, each once, in the order
+    /// of [`Blend`] (empty: everything blends over).
+    pub fn blend_modes(&self) -> Vec<Blend> {
+        let used = |b: Blend| {
+            self.objects
+                .iter()
+                .any(|o| self.materials.get(o.material).is_some_and(|m| m.blend == b))
+        };
+        [Blend::Add, Blend::Multiply]
+            .into_iter()
+            .filter(|&b| used(b))
+            .collect()
+    }
+
     /// Triangles over every object.
     pub fn triangle_count(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.triangle_count()).sum()
@@ -563,7 +588,7 @@ impl Scene {
         })
     }
 
-    /// The opaque objects (material opacity 1) and the rest, as two scenes with the full scene's
+    /// The opaque objects ([`Material::is_opaque`]) and the rest, as two scenes with the full scene's
     /// camera and lights, each with only the materials it uses. Objects keep their order, so
     /// depth ties among the transparent ones break as in the full scene.
     pub fn split_by_opacity(&self) -> (Scene, Scene) {
@@ -581,7 +606,7 @@ impl Scene {
             };
             let mut remap: Vec<Option<usize>> = vec![None; self.materials.len()];
             for (i, o) in self.objects.iter().enumerate() {
-                if (self.materials[o.material].opacity >= 1.0) != opaque {
+                if self.materials[o.material].is_opaque() != opaque {
                     continue;
                 }
                 if self.animated() {

@@ -12,10 +12,15 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
     )))
 }
 
+/// The baselines' blend modes.
+const HARDWARE_OVER: Support =
+    Support::No("it blends every triangle with one fixed-function over blend state");
+
 /// `unsorted`.
 pub const UNSORTED: Descriptor = Descriptor {
     memory: "(8·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
     summary: "alpha blending in submission order (no OIT)",
+    blend_modes: HARDWARE_OVER,
     ..Descriptor::new(MethodId::Unsorted, "unsorted", Family::Baseline, create)
 };
 
@@ -27,5 +32,6 @@ pub const SORTED: Descriptor = Descriptor {
     takes_order: false,
     sorts_centroids: true,
     draw_callback: Support::No("it orders every triangle of the scene itself"),
+    blend_modes: HARDWARE_OVER,
     ..Descriptor::new(MethodId::Sorted, "sorted", Family::Baseline, create)
 };

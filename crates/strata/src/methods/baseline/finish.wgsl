@@ -1,6 +1,6 @@
 #define_import_path strata::baseline::finish
 #import strata::scene::{frame, pixel_index, report_pixel}
-#import strata::color::{Resolved}
+#import strata::color::{Resolved, resolved_over}
 #ifdef MULTISAMPLED
 alias TargetTexture = texture_multisampled_2d<f32>;
 #else
@@ -29,6 +29,6 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var si = 0u; si < samples; si++) {
         color += textureLoad(blended, vec2<i32>(pixel), si);
     }
-    output[i] = Resolved(color / f32(samples), count, 0u, 0u, 0u);
+    output[i] = resolved_over(color / f32(samples), count);
     report_pixel(count, count);
 }

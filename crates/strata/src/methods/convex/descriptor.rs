@@ -17,7 +17,7 @@ fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>
 pub const CONVEX: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 read of the geometry, split over P passes (P: groups in the deepest chain of groups whose screen footprints meet)",
-    memory: "(16·L + 44)·W·H + 12·triangles + 64; L = 2, or 4 with paired groups",
+    memory: "(16·L + 60)·W·H + 12·triangles + 64; L = 2, or 4 with paired groups",
     summary: "convex polyhedra (seed 001): convex parts by region growing, ordered per frame by separating planes and nesting; each pass captures groups that cannot share a pixel (2 layers per part) and merges them front to back; exact when the order holds, order_violations counted",
     reads: &[MethodOption::CacheDir],
     draw_callback: Support::No(

@@ -1,6 +1,6 @@
 #define_import_path strata::convex::merge
 #import strata::scene::{frame, pixel_index, report_pixel, report_samples}
-#import strata::color::{Resolved}
+#import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 const LAYERS: u32 = #{CONVEX_LAYERS}u;
@@ -117,15 +117,15 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     // --msaa: the samples' average; the pixel's fragments and drops the capture counted.
     let samples = samples_per_pixel();
     let pixels = frame.size.x * frame.size.y;
-    var sum = vec4<f32>(0.0);
+    var sum = resolved_sum_new();
     var deepest = 0u;
     for (var s = 0u; s < samples; s++) {
         let i = p * samples + s;
-        sum += composite_finish(state[i]).color;
+        resolved_sum_add(&sum, composite_finish(state[i]));
         deepest = max(deepest, generated[i]);
     }
     let fragments = claims[pixels * samples + p];
     let kept = fragments - min(claims[pixels * samples + pixels + p], fragments);
-    output[p] = Resolved(sum / f32(samples), kept, 0u, 0u, 0u);
+    output[p] = resolved_mean(sum, samples, kept);
     report_samples(fragments, kept, deepest);
 }

@@ -24,7 +24,7 @@
 //! - finish (compute): the pixel's [`crate::frame::Resolved`] and its account.
 //!
 //! Every triangle is drawn once per frame (containers' twice, each fragment kept once).
-//! Memory: (16·layers + 44)·W·H + 12 bytes per triangle (the index buffer; a container's
+//! Memory: (16·layers + 60)·W·H + 12 bytes per triangle (the index buffer; a container's
 //! twice) + 64 — two layers' worth when no group is paired, whatever the depth complexity.
 //!
 //! With `--msaa S` a pixel has S sample entries with their own claims, slots and state: a
@@ -39,7 +39,7 @@
 //! violation (nested spheres at 48², 4×: 25 per thousand pixels; 0.04% of pixels over 2/255
 //! with transparency, 1.1% with translucency's absorption).
 //! On planar layers it equals the reference.
-//! Memory: ((16·layers + 44)·S + 8)·W·H + the rest as above.
+//! Memory: ((16·layers + 60)·S + 8)·W·H + the rest as above.
 //!
 //! The paper captures a piece's two layers with 32-bit MAX blending into two zero-cleared
 //! targets; WebGPU has no MAX blending on 32-bit float targets everywhere, so the capture writes
@@ -94,9 +94,9 @@ struct CurrentPlan {
     draws: PassDraws,
 }
 
-/// Per-pixel bytes besides the slots: compositing state (32), claim counter, generated count,
-/// the pass's list of touched pixels.
-const PIXEL_BYTES: u64 = 44;
+/// Per-pixel bytes besides the slots: compositing state, claim counter, generated count, the
+/// pass's list of touched pixels.
+const PIXEL_BYTES: u64 = crate::resolve::COMPOSITE_BYTES + 12;
 /// Bytes besides the per-pixel ones and the index buffer: counters, the touched count, the
 /// merge's indirect arguments and their reset value.
 const FIXED_BYTES: u64 = 16 + 16 + 16 + 16;
@@ -420,9 +420,12 @@ impl Method for Convex {
         // per-pixel counts of fragments and drops.
         let entries = px * samples as u64;
         let pixel_counts = if samples > 1 { px * 8 } else { 0 };
-        let state = self
-            .cache
-            .storage(gpu, "strata.convex.state", entries * 32, none)?;
+        let state = self.cache.storage(
+            gpu,
+            "strata.convex.state",
+            entries * crate::resolve::COMPOSITE_BYTES,
+            none,
+        )?;
         let claims = self.cache.storage(
             gpu,
             "strata.convex.claims",

@@ -74,7 +74,7 @@ pub const SBUFFER: Descriptor = Descriptor {
 pub const KPEEL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "ceil(N/k), twice that with the lock-free capture (N: the last frame's depth complexity, or --layers)",
-    memory: "16·(k+1)·W·H + 152, +8·k·W·H with the lock-free capture",
+    memory: "(16·(k+1) + 4)·W·H + 152, +8·k·W·H with the lock-free capture",
     summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per pass, by a lock-free cascade of 64-bit keys (a keys and a colors geometry pass; single-sampled, SHADER_INT64_ATOMIC_ALL_OPS) or else a k+-buffer capture under a lock; A-buffer results in bounded memory, equal-depth fragments included",
     compute_raster: COMPUTE,
     per_sample_storage: true,
@@ -155,6 +155,7 @@ pub const MLAB: Descriptor = Descriptor {
     default_k: 4,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: true },
+    blend_modes: Support::No("its merge of the two farthest layers is the over operator's"),
     ..Descriptor::new(MethodId::Mlab, "mlab", Family::Kbuffer, create)
 };
 
@@ -265,6 +266,11 @@ const EIGHT_BYTE_KEYS: Support = Support::No(
     "its 8-byte keys hold depth and color but no primitive or coverage mask, so per-sample storage could not count a fragment once over the samples it covers; use kb-mdt32",
 );
 
+/// kb-mdt64's and kb-mdt-pack's blend modes.
+const KEYS_WITHOUT_PRIMITIVE: Support = Support::No(
+    "its keys hold depth and color but no primitive, so the resolve cannot find a fragment's material",
+);
+
 /// The method table's entry for `kb-mdt64`.
 pub const KB_MDT64: Descriptor = Descriptor {
     memory: "8·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
@@ -274,6 +280,7 @@ pub const KB_MDT64: Descriptor = Descriptor {
     reads: K,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 8 },
+    blend_modes: KEYS_WITHOUT_PRIMITIVE,
     ..Descriptor::new(MethodId::KbMdt64, "kb-mdt64", Family::Kbuffer, create)
 };
 
@@ -287,6 +294,7 @@ pub const KB_MDT_PACK: Descriptor = Descriptor {
     reads: K,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 8 },
+    blend_modes: KEYS_WITHOUT_PRIMITIVE,
     ..Descriptor::new(MethodId::KbMdtPack, "kb-mdt-pack", Family::Kbuffer, create)
 };
 

@@ -33,9 +33,10 @@
 //! and finish averages the samples. P + 1 geometry passes.
 //!
 //! Memory: 16 bytes per slot (k per pixel), 16 per pixel of counters, lock and culling bound,
-//! 152 of parameters and counters; the running composite lives in the frame's own output, so
-//! memory does not grow with the depth complexity. With `--msaa S`: S× the slots and words,
-//! 32·S per pixel of running composites, 4 per pixel. Limits: k ≤ 1024 (the max-heap's lock).
+//! 152 of parameters and counters; the running composite lives in the frame's own output, with
+//! 4 bytes per pixel for its last fragment's depth, so memory does not grow with the depth
+//! complexity. With `--msaa S`: S× the slots and words, 36·S per pixel of running composites
+//! (color, count, RGB transmittance, the last fragment's tag and depth), 4 per pixel. Limits: k ≤ 1024 (the max-heap's lock).
 
 use super::{k_of, params_for, KFrame, Layout, Storage, SLOT_BYTES};
 use crate::error::{Error, Result};
@@ -63,6 +64,13 @@ struct Cascade {
     colors: GeometryStage,
     cache: ResourceCache,
 }
+
+/// Bytes per pixel of the running composite's state beside the frame's output (the last
+/// composited fragment's depth), single-sampled (kpeel_state.wgsl).
+pub const PIXEL_STATE_BYTES: u64 = 4;
+/// Bytes per sample of the running composites with `--msaa` (kpeel_state.wgsl's
+/// KPEEL_STATE_WORDS: color, count, transmittance, the last fragment's tag and depth).
+pub const SAMPLE_STATE_BYTES: u64 = 36;
 
 /// Bytes per key of the compute capture's cascade.
 pub const KEY_BYTES: u64 = 8;
@@ -173,16 +181,16 @@ impl Method for KPeel {
         let layers = layers_for(ctx, self.measured);
         self.layers_fixed = ctx.options.frame.peeling.layers.is_some();
         let passes = layers.div_ceil(k);
-        // --msaa: each sample's slots, and its running composite after them.
+        // The slots, then the running composites' state (kpeel_state.wgsl).
         let samples = super::sample_storage(MethodId::Kpeel, ctx.options.build.msaa) as u64;
-        let sample_states = if samples > 1 {
-            samples * crate::frame::RESOLVED_BYTES
+        let states = if samples > 1 {
+            samples * SAMPLE_STATE_BYTES
         } else {
-            0
+            PIXEL_STATE_BYTES
         };
         let storage = Storage {
             label: "strata.kbuffer.slots",
-            bytes: ctx.pixels() * (samples * k as u64 * SLOT_BYTES + sample_states),
+            bytes: ctx.pixels() * (samples * k as u64 * SLOT_BYTES + states),
             clear: false,
         };
         // Every fragment is composited in order: no tail.

@@ -1,6 +1,6 @@
 #define_import_path strata::kbuffer::kpeel_resolve
 #import strata::scene::{frame, report_pixel, report_samples}
-#import strata::color::{Resolved}
+#import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::composite::{composite_finish, composite_new}
 #import strata::kbuffer::storage::{FILLED, SEEN, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel}
 #import strata::kbuffer::resolve::{Tail, composite_stored}
@@ -70,16 +70,16 @@ fn cs_kpeel_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let p = id.y * kp.width + id.x;
     if kp.sample_slots > 1u {
-        var sum = vec4<f32>(0.0);
+        var sum = resolved_sum_new();
         var deepest = 0u;
         for (var s = 0u; s < kp.sample_slots; s++) {
             let q = sample_pixel(p, s);
-            sum += composite_finish(kpeel_state(q)).color;
+            resolved_sum_add(&sum, composite_finish(kpeel_state(q)));
             deepest = max(deepest, atomicLoad(&pixels[pixel_word(q, SEEN)]));
         }
         let generated = atomicLoad(&pixels[pixel_fragments_word(p)]);
         let stored = atomicLoad(&pixels[pixel_word(sample_pixel(p, 0u), FILLED)]);
-        output[p] = Resolved(sum / f32(kp.sample_slots), stored, 0u, 0u, 0u);
+        output[p] = resolved_mean(sum, kp.sample_slots, stored);
         report_samples(generated, stored, deepest);
         return;
     }

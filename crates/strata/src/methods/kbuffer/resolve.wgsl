@@ -1,6 +1,6 @@
 #define_import_path strata::kbuffer::resolve
 #import strata::scene::{fragment_coverage, frame, report_pixel}
-#import strata::color::{Resolved}
+#import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before, fragment_color}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 #import strata::kbuffer::access::{stored_count, stored_fragment}
@@ -209,7 +209,7 @@ fn composite_stored(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: 
 // composited.
 fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
     let samples = frame.coverage_bits;
-    var sum = vec4<f32>(0.0);
+    var sum = resolved_sum_new();
     var kept = 0u;
     if n <= LOCAL_CAPACITY {
         var local: array<Fragment, LOCAL_CAPACITY>;
@@ -240,7 +240,7 @@ fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
                 }
             }
             composite_tail(&s, t);
-            sum += composite_finish(s).color;
+            resolved_sum_add(&sum, composite_finish(s));
         }
         kept = countOneBits(used.x) + countOneBits(used.y);
     } else {
@@ -252,7 +252,7 @@ fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
             var t = captured;
             last[si] = k_depth_sort(p, n, limit, 1u << si, &s, &t);
             composite_tail(&s, t);
-            sum += composite_finish(s).color;
+            resolved_sum_add(&sum, composite_finish(s));
         }
         for (var i = 0u; i < n; i++) {
             let f = stored_fragment(p, i);
@@ -266,7 +266,7 @@ fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
             }
         }
     }
-    output[p] = Resolved(sum / f32(samples), kept, 0u, 0u, 0u);
+    output[p] = resolved_mean(sum, samples, kept);
     return kept;
 }
 
@@ -280,7 +280,7 @@ fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
 // (frames already flagged by `lock_failures`, or by kb's design).
 fn resolve_sample_storage(p: u32) {
     let samples = kp.sample_slots;
-    var sum = vec4<f32>(0.0);
+    var sum = resolved_sum_new();
     var farthest: array<Fragment, 8>;
     var stored_all: array<bool, 8>;
     for (var si = 0u; si < samples; si++) {
@@ -294,7 +294,7 @@ fn resolve_sample_storage(p: u32) {
         }
         composite_stored(q, n, limit, &s, &t);
         composite_tail(&s, t);
-        sum += composite_finish(s).color;
+        resolved_sum_add(&sum, composite_finish(s));
         stored_all[si] = atomicLoad(&pixels[pixel_word(q, SEEN)]) <= limit;
         var far = Fragment(0.0, 0u, 0u, 0u);
         for (var i = 0u; i < limit; i++) {
@@ -327,7 +327,7 @@ fn resolve_sample_storage(p: u32) {
     // kb's unlocked insertions can leave one fragment in two slots: never more than arrived.
     let generated = atomicLoad(&pixels[pixel_fragments_word(p)]);
     kept = min(kept, generated);
-    output[p] = Resolved(sum / f32(samples), kept, 0u, 0u, 0u);
+    output[p] = resolved_mean(sum, samples, kept);
     report_pixel(generated, kept);
 }
 

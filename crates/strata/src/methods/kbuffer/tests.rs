@@ -824,7 +824,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         let keys = if cascade { 8 * k as u64 * 48 * 48 } else { 0 };
         assert_eq!(
             stats.bytes_allocated,
-            Some(16 * (k as u64 + 1) * 48 * 48 + 152 + keys)
+            Some((16 * (k as u64 + 1) + super::kpeel::PIXEL_STATE_BYTES) * 48 * 48 + 152 + keys)
         );
         // Too few layers: what was not reached is reported as dropped.
         opts.frame.peeling.layers = Some(k);
@@ -1509,6 +1509,7 @@ fn fragments_agree_within_the_rasterizer_bounds_only() {
         absorption: 0.0,
         distance: 1.0,
         coverage: 1,
+        blend: crate::scene::Blend::Over,
     };
     let device = DeviceFragment {
         depth: 0.980_590_9,

@@ -1,6 +1,6 @@
 #define_import_path strata::peeling::bucket_resolve
 #import strata::scene::{frame, pixel_index, report_pixel}
-#import strata::color::{Resolved}
+#import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 #import strata::peeling::bucket_common::{MAX_BUCKETS, kept_word, params, sample_entry, samples_per_pixel}
@@ -55,11 +55,11 @@ fn cs_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let samples = samples_per_pixel();
-    var sum = vec4<f32>(0.0);
+    var sum = resolved_sum_new();
     for (var s = 0u; s < samples; s++) {
-        sum += composite_finish(composite_entry(sample_entry(p, s))).color;
+        resolved_sum_add(&sum, composite_finish(composite_entry(sample_entry(p, s))));
     }
     let kept = claims[kept_word(p)];
-    output[p] = Resolved(sum / f32(samples), kept, 0u, 0u, 0u);
+    output[p] = resolved_mean(sum, samples, kept);
     report_pixel(counts[p], kept);
 }

@@ -29,7 +29,7 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
 pub const F2B: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "N (the last frame's depth complexity, or --layers)",
-    memory: "56·W·H",
+    memory: "72·W·H",
     summary: "front-to-back depth peeling, one layer per geometry pass",
     reads: &[MethodOption::Layers],
     // Ties peel in draw order.
@@ -41,7 +41,7 @@ pub const F2B: Descriptor = Descriptor {
 pub const DUAL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "ceil(N/2)+1 (N: the last frame's depth complexity, or --layers)",
-    memory: "140·W·H with 64-bit atomics, else 124·W·H",
+    memory: "172·W·H with 64-bit atomics, else 156·W·H",
     summary: "dual depth peeling: nearest and farthest layer per pass; exact with ties given 64-bit atomic min/max (else fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
     reads: &[MethodOption::Layers],
     compute_raster: Support::Yes,

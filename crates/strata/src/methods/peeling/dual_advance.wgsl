@@ -1,6 +1,6 @@
 #define_import_path strata::peeling::dual_advance
 #import strata::scene::{frame, pixel_index, report_pixel, report_samples}
-#import strata::color::{Resolved}
+#import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment}
 #import strata::composite::{Composite, composite_back, composite_back_new, composite_front, composite_join, composite_new}
 #ifdef WIDE_KEYS
@@ -115,16 +115,16 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let samples = samples_per_pixel();
-    var sum = vec4<f32>(0.0);
+    var sum = resolved_sum_new();
     var deepest = 0u;
     for (var s = 0u; s < samples; s++) {
         let i = p * samples + s;
-        sum += composite_join(front[i], back[i]).color;
+        resolved_sum_add(&sum, composite_join(front[i], back[i]));
         deepest = max(deepest, hits[3u * i + 2u]);
     }
     let pixels = frame.size.x * frame.size.y;
     let after = 3u * pixels * samples;
     let composited = hits[after + pixels + p];
-    output[p] = Resolved(sum / f32(samples), composited, 0u, 0u, 0u);
+    output[p] = resolved_mean(sum, samples, composited);
     report_samples(hits[after + p], composited, deepest);
 }

@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::dual_peel
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment_covering}
 #import strata::fragment::{Fragment}
 #ifdef WIDE_KEYS
 #import strata::peeling::dual_key64::{fragment_key}
@@ -128,7 +128,8 @@ fn fs_peel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     }
     let p = pixel_index(pixel_of(v.position));
     let key = key_of(v, front_facing);
-    let f = scene_fragment(v, front_facing);
+    // The tag in the multisampled form, which the resolve reads the primitive of.
+    let f = scene_fragment_covering(v, front_facing, mask);
     let samples = dual_samples(mask);
     for (var s = 0u; s < dual_samples_per_pixel(); s++) {
         if ((samples >> s) & 1u) != 0u {

@@ -1,6 +1,6 @@
 #define_import_path strata::peeling::f2b_accumulate_samples
 #import strata::scene::{frame, pixel_index, report_samples}
-#import strata::color::{Resolved}
+#import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{fragment_new}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 
@@ -41,7 +41,10 @@ fn cs_accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let tag = u32(t);
         let c = textureLoad(layer_color, xy, i32(s));
-        let f = fragment_new(textureLoad(layer_depth, xy, i32(s)).r, tag >> 1u, (tag & 1u) == 1u, c);
+        var f = fragment_new(textureLoad(layer_depth, xy, i32(s)).r, tag >> 1u, (tag & 1u) == 1u, c);
+        // The multisampled tag form (primitive above the sample mask), which the resolve reads
+        // the primitive of.
+        f.tag = ((tag >> 1u) << (1u + frame.coverage_bits)) | (1u << (s + 1u)) | (tag & 1u);
         let i = p * frame.coverage_bits + s;
         var st = state[i];
         composite_front(&st, f);
@@ -57,13 +60,13 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     let samples = frame.coverage_bits;
     let pixels = frame.size.x * frame.size.y;
     let p = pixel_index(id.xy);
-    var sum = vec4<f32>(0.0);
+    var sum = resolved_sum_new();
     var deepest = 0u;
     for (var s = 0u; s < samples; s++) {
-        sum += composite_finish(state[p * samples + s]).color;
+        resolved_sum_add(&sum, composite_finish(state[p * samples + s]));
         deepest = max(deepest, counts[2u * pixels + p * samples + s]);
     }
     let composited = counts[pixels + p];
-    output[p] = Resolved(sum / f32(samples), composited, 0u, 0u, 0u);
+    output[p] = resolved_mean(sum, samples, composited);
     report_samples(counts[p], composited, deepest);
 }

@@ -13,8 +13,9 @@
 //! depths, so ties follow primitive order exactly); the first one also counts every fragment of
 //! the pixel — and an *accumulate* compute pass that composites the layer; finish (compute).
 //! Because ties follow the draw order, f2b refuses `--order front|back|random`.
-//! N layers → N geometry passes. Memory per pixel: 32 B running composite, 8 B color, 4 B tag,
-//! 4 B depth copy, 4 B depth buffer, 4 B count = 56·W·H. Exact, including ties.
+//! N layers → N geometry passes. Memory per pixel: 48 B running composite (RGB transmittance),
+//! 8 B color, 4 B tag, 4 B depth copy, 4 B depth buffer, 4 B count = 72·W·H. Exact, including
+//! ties.
 //!
 //! **dual** passes: init; *bounds* (one geometry pass: nearest and farthest depth per pixel with
 //! atomicMin/atomicMax on the depth bits); then per pair of layers a *peel* geometry pass that
@@ -28,8 +29,8 @@
 //! order and dual is exact with ties; without it the key is the depth alone, and fragments at
 //! exactly the same depth in one pixel share a slot — one is kept, the others are counted in
 //! `fragments_dropped` (never silently lost). Memory per pixel: bounds 16 B (32 B with 64-bit
-//! keys), 64 B two composites, 32 B two slots, 12 B hit counters and count = 124·W·H
-//! (140·W·H). Classic dual peeling's min/max blending needs RG32F blending, which core
+//! keys), 96 B two composites, 32 B two slots, 12 B hit counters and count = 156·W·H
+//! (172·W·H). Classic dual peeling's min/max blending needs RG32F blending, which core
 //! WebGPU lacks, hence the storage atomics.
 
 pub mod bucket;
@@ -44,6 +45,7 @@ use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LA
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Library, Stage};
 use crate::gpu::{Gpu, ResourceCache};
+use crate::resolve::COMPOSITE_BYTES;
 
 /// The peeling family's WGSL modules (`strata::peeling::…`).
 pub const LIBRARY: Library = &[
@@ -95,12 +97,13 @@ pub(crate) fn peel_feedback(
     }
 }
 
-/// f2b's bytes per pixel (see the module docs); with `--msaa S`, 56·S + 8.
+/// f2b's bytes per pixel (see the module docs); with `--msaa S`, 72·S + 8.
 fn f2b_pixel_bytes(samples: u32) -> u64 {
+    let per_sample = COMPOSITE_BYTES + 24;
     if samples > 1 {
-        56 * samples as u64 + 8
+        per_sample * samples as u64 + 8
     } else {
-        56
+        per_sample
     }
 }
 
@@ -332,7 +335,7 @@ impl Method for FrontToBack {
         let state = self.cache.storage(
             gpu,
             "strata.f2b.state",
-            ctx.pixels() * 32 * samples as u64,
+            ctx.pixels() * COMPOSITE_BYTES * samples as u64,
             none,
         )?;
         // Multisampled: per pixel fragments and composited ones, per sample fragments.
@@ -464,7 +467,8 @@ pub struct Dual {
 
 /// dual's bytes for `px` pixels at `samples` per pixel and `key_bytes` per key (module docs).
 fn dual_bytes(px: u64, samples: u32, key_bytes: u64) -> u64 {
-    let per_entry = 108 + 4 * key_bytes;
+    // Two composites, two 16-byte layer slots, 12 bytes of hits, four keys of bounds.
+    let per_entry = 2 * COMPOSITE_BYTES + 32 + 12 + 4 * key_bytes;
     if samples > 1 {
         px * (per_entry * samples as u64 + 8)
     } else {
@@ -591,12 +595,12 @@ impl Method for Dual {
         let hits =
             self.cache
                 .storage(gpu, "strata.dual.hits", entries * 12 + pixel_counts, none)?;
-        let front = self
-            .cache
-            .storage(gpu, "strata.dual.front", entries * 32, none)?;
+        let front =
+            self.cache
+                .storage(gpu, "strata.dual.front", entries * COMPOSITE_BYTES, none)?;
         let back = self
             .cache
-            .storage(gpu, "strata.dual.back", entries * 32, none)?;
+            .storage(gpu, "strata.dual.back", entries * COMPOSITE_BYTES, none)?;
         let counters =
             self.cache
                 .storage(gpu, "strata.dual.counters", 8, wgpu::BufferUsages::COPY_SRC)?;

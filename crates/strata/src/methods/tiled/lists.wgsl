@@ -1,6 +1,6 @@
 #define_import_path strata::tiled::lists
 #import strata::color::{Resolved}
-#import strata::composite::{Composite, composite_new}
+#import strata::composite::{Composite, composite_new, view_distance}
 
 // tiled's bindings (group 1): each 8×8-pixel tile's list of (primitive, fan triangle) codes,
 // each pixel's compositing state between rounds, the counters the frame reads back, and the
@@ -55,9 +55,10 @@ const COUNTER_CUT_SHORT: u32 = 19u;
 const COUNTER_ROUNDS_RECORDED: u32 = 20u;
 const COUNTER_WORDS: u32 = 21u;
 
-// A pixel's state: the front-to-back composite so far (color, transmittance, count, the
-// last fragment's depth, tag and view distance: the bound of the next round) and its progress.
-const STATE_WORDS: u32 = 9u;
+// A pixel's state: the front-to-back composite so far (color, RGB transmittance, count, the
+// last fragment's depth and tag: the bound of the next round; its view distance is recomputed
+// from the depth) and its progress. Keep STATE_WORDS in sync with STATE_BYTES in mod.rs.
+const STATE_WORDS: u32 = 10u;
 // Progress: no round yet, done, or 2 + the fragments left behind the last one composited.
 const PROGRESS_FRESH: u32 = 0u;
 const PROGRESS_DONE: u32 = 1u;
@@ -68,19 +69,24 @@ struct PixelState {
     progress: u32,
 }
 
+fn state_float(w: u32) -> f32 {
+    return bitcast<f32>(pixel_state[w]);
+}
+
 fn load_state(p: u32) -> PixelState {
     let w = p * STATE_WORDS;
-    let progress = pixel_state[w + 8u];
+    let progress = pixel_state[w + 9u];
     if progress == PROGRESS_FRESH {
         return PixelState(composite_new(), progress);
     }
+    let depth = state_float(w + 7u);
     let s = Composite(
-        vec3<f32>(bitcast<f32>(pixel_state[w]), bitcast<f32>(pixel_state[w + 1u]), bitcast<f32>(pixel_state[w + 2u])),
-        bitcast<f32>(pixel_state[w + 3u]),
-        pixel_state[w + 4u],
-        bitcast<f32>(pixel_state[w + 5u]),
+        vec3<f32>(state_float(w), state_float(w + 1u), state_float(w + 2u)),
         pixel_state[w + 6u],
-        bitcast<f32>(pixel_state[w + 7u]),
+        vec3<f32>(state_float(w + 3u), state_float(w + 4u), state_float(w + 5u)),
+        pixel_state[w + 8u],
+        depth,
+        view_distance(depth),
     );
     return PixelState(s, progress);
 }
@@ -91,12 +97,13 @@ fn store_state(p: u32, state: PixelState) {
     pixel_state[w] = bitcast<u32>(s.color.r);
     pixel_state[w + 1u] = bitcast<u32>(s.color.g);
     pixel_state[w + 2u] = bitcast<u32>(s.color.b);
-    pixel_state[w + 3u] = bitcast<u32>(s.transmittance);
-    pixel_state[w + 4u] = s.count;
-    pixel_state[w + 5u] = bitcast<u32>(s.last_depth);
-    pixel_state[w + 6u] = s.last_tag;
-    pixel_state[w + 7u] = bitcast<u32>(s.last_distance);
-    pixel_state[w + 8u] = state.progress;
+    pixel_state[w + 3u] = bitcast<u32>(s.transmittance.r);
+    pixel_state[w + 4u] = bitcast<u32>(s.transmittance.g);
+    pixel_state[w + 5u] = bitcast<u32>(s.transmittance.b);
+    pixel_state[w + 6u] = s.count;
+    pixel_state[w + 7u] = bitcast<u32>(s.last_depth);
+    pixel_state[w + 8u] = s.last_tag;
+    pixel_state[w + 9u] = state.progress;
 }
 
 // Fragments left behind the last one composited.

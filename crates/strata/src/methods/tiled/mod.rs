@@ -25,7 +25,7 @@
 //! nearest and counts the rest as dropped.
 //!
 //! Memory: the rasterizer's 8 bytes per item and 48 of constants, 12 bytes per item for the tile
-//! lists (code and mask), 12 per tile (count, start, rounds), 36 per pixel (state), 84 of counters and 32 of
+//! lists (code and mask), 12 per tile (count, start, rounds), 40 per pixel (state), 84 of counters and 32 of
 //! parameters. Limits: triangles < 2²⁹ (a list code holds the primitive and 3 bits of fan
 //! triangle); `--msaa`, temporal culling, `--order` and an application's draw callback are not
 //! supported (it reads the scene's triangles itself). On lavapipe, whose invocations stop
@@ -58,7 +58,7 @@ pub const CODE_BYTES: u64 = 12;
 /// Bytes per tile: its item count, its list's start and its rounds.
 pub const TILE_BYTES: u64 = 12;
 /// Bytes per pixel of compositing state between rounds (STATE_WORDS in lists.wgsl).
-pub const STATE_BYTES: u64 = 36;
+pub const STATE_BYTES: u64 = 40;
 /// Counter words (COUNTER_ in lists.wgsl).
 pub const COUNTER_WORDS: u64 = 21;
 const ROUND_BINS: usize = 16;

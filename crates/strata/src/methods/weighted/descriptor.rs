@@ -1,6 +1,11 @@
 //! The weighted methods' entries in the method table.
 
-use crate::methods::table::{Descriptor, Family, MethodOption, Setup};
+use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
+
+/// The weighted methods' blend modes.
+const SUMS_OF_OVER: Support = Support::No(
+    "its order-independent sums model transmittance as a product of (1 - opacity), which only the over operator has",
+);
 use crate::methods::{Method, MethodId};
 
 fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
@@ -18,6 +23,7 @@ pub const WBOIT: Descriptor = Descriptor {
     memory: "(10·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
     summary: "weighted blended OIT (McGuire & Bavoil 2013): weighted average color over exact coverage, weights of eqs. 7-10 (--weight, --depth-scale); what engines ship",
     reads: &[MethodOption::Weight],
+    blend_modes: SUMS_OF_OVER,
     ..Descriptor::new(MethodId::Wboit, "wboit", Family::Weighted, create)
 };
 
@@ -27,6 +33,7 @@ pub const MBOIT: Descriptor = Descriptor {
     memory: "(28·S + 4)·W·H, +8·S with --moments 6 or trig3, +16·S with 8 or trig4; S samples per pixel (--msaa, else 1)",
     summary: "moment-based OIT (Münstermann et al. 2018): 4, 6 or 8 power moments of absorbance over log depth, or 2, 3 or 4 trigonometric moments of its angle on a circle with a wrapping zone of π/10 (--moments 4|6|8|trig2|trig3|trig4; 32-bit, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
     reads: &[MethodOption::Moments],
+    blend_modes: SUMS_OF_OVER,
     ..Descriptor::new(MethodId::Mboit, "mboit", Family::Weighted, create)
 };
 
@@ -36,6 +43,7 @@ pub const WAVELET: Descriptor = Descriptor {
     memory: "(44·S + 4)·W·H with --coefficients 4, +16·S with 8 (the default); S samples per pixel (--msaa, else 1)",
     summary: "wavelet OIT (after Aizenshtein, Smal & McGuire 2022): each pixel's absorbance over its own depth range (a min/max pass first) as 4 or 8 Haar coefficients (--coefficients; closed form per fragment, additive 32-bit targets), transmittance reconstructed per fragment as its depth bin's average less its own step; exact coverage",
     reads: &[MethodOption::Coefficients],
+    blend_modes: SUMS_OF_OVER,
     ..Descriptor::new(MethodId::Wavelet, "wavelet", Family::Weighted, create)
 };
 
@@ -46,5 +54,6 @@ pub const STOCHASTIC: Descriptor = Descriptor {
     summary: "stochastic transparency (Enderton et al. 2011) with stratified masks: each fragment stipples about α·S of a pixel's samples with its depth, is accumulated where no stipple lies in front, and the alpha-corrected average is composited; noisy, unbiased, reproducible (--passes for more samples)",
     reads: &[MethodOption::Passes],
     min_samples: 4,
+    blend_modes: SUMS_OF_OVER,
     ..Descriptor::new(MethodId::Stochastic, "stochastic", Family::Weighted, create)
 };

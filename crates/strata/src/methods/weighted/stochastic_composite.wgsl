@@ -1,6 +1,6 @@
 #define_import_path strata::weighted::stochastic_composite
 #import strata::scene::{frame, pixel_index, report_pixel}
-#import strata::color::{Resolved}
+#import strata::color::{Resolved, resolved_over}
 
 // stochastic's composite: per pixel, the color Σ α·c·v / Σ α·v summed over its samples and
 // passes, times the coverage 1 − Π(1 − α) averaged over its samples (Enderton et al.'s alpha
@@ -31,6 +31,6 @@ fn cs_composite(@builtin(global_invocation_id) id: vec3<u32>) {
     if sum.a > 0.0 && count > 0u {
         color = sum.rgb / sum.a * coverage;
     }
-    output[i] = Resolved(vec4<f32>(color, coverage), count, 0u, 0u, 0u);
+    output[i] = resolved_over(vec4<f32>(color, coverage), count);
     report_pixel(count, count);
 }

@@ -21,8 +21,8 @@
 //!
 //! strata's own extras (written by `strata export`, see [`crate::scene::export`]) override the
 //! above: a scene's `extras.strata` holds `camera`, `light` and `render` tables with the fields of
-//! the TOML scene file, a material's `extras.strata` its `absorption`, `ior`, `shading` and
-//! `shininess`.
+//! the TOML scene file, a material's `extras.strata` its `absorption`, `ior`, `shading`,
+//! `shininess` and `blend`.
 //!
 //! Buffers: the GLB binary chunk, `data:` URIs in base64, or files relative to the glTF file
 //! (regular files of at most [`MAX_BUFFER_BYTES`]); every failure names the buffer and, for a
@@ -739,6 +739,7 @@ struct MaterialExtras {
     ior: Option<f32>,
     shading: Option<Shading>,
     shininess: Option<f32>,
+    blend: Option<crate::scene::Blend>,
 }
 
 /// `None`: the material cuts everything out (MASK with factor alpha below the cutoff).
@@ -787,6 +788,7 @@ fn convert_material(m: &::gltf::Material, what: &str) -> Result<Option<Material>
         material.ior = e.ior.unwrap_or(material.ior);
         material.shading = e.shading.unwrap_or(material.shading);
         material.shininess = e.shininess.unwrap_or(material.shininess);
+        material.blend = e.blend.unwrap_or(material.blend);
     }
     super::toml::check_material(&material)
         .map_err(|msg| Error::input(format!("{what}: {element}: {msg}")))?;

@@ -9,7 +9,7 @@
 //! (`scale` first, then rotations about X, Y, Z in degrees, then `translate`); meshes are stored
 //! in world space. Materials: `material = "name"` picks a `[[material]]`, replacing any
 //! materials of the model file; the inline fields (`color`, `opacity`, `absorption`, `ior`,
-//! `shading`, `shininess`) override single fields of the base material — the named one if given, else each
+//! `shading`, `shininess`, `blend`) override single fields of the base material — the named one if given, else each
 //! of the model's own materials, else the default material.
 //!
 //! Defaults: camera `target` [0,0,0], `up` [0,1,0], perspective, `fov_y_deg` 45, `height` 2,
@@ -32,7 +32,7 @@ use super::{intern_material, Part};
 use crate::error::{Error, Result};
 use crate::scene::animation::check_key;
 use crate::scene::{
-    builtin, Background, Camera, CameraKey, CameraPath, Light, LightKind, Material, Object,
+    builtin, Background, Blend, Camera, CameraKey, CameraPath, Light, LightKind, Material, Object,
     Projection, RenderDefaults, Scene, Shading,
 };
 
@@ -139,6 +139,7 @@ struct MaterialFields {
     ior: Option<f32>,
     shading: Option<Shading>,
     shininess: Option<f32>,
+    blend: Option<Blend>,
 }
 
 impl MaterialFields {
@@ -149,6 +150,7 @@ impl MaterialFields {
             && self.ior.is_none()
             && self.shading.is_none()
             && self.shininess.is_none()
+            && self.blend.is_none()
     }
 
     fn apply(&self, base: &Material) -> Material {
@@ -160,6 +162,7 @@ impl MaterialFields {
             ior: self.ior.unwrap_or(base.ior),
             shading: self.shading.unwrap_or(base.shading),
             shininess: self.shininess.unwrap_or(base.shininess),
+            blend: self.blend.unwrap_or(base.blend),
         }
     }
 }
@@ -174,6 +177,7 @@ struct MaterialDef {
     ior: Option<f32>,
     shading: Option<Shading>,
     shininess: Option<f32>,
+    blend: Option<Blend>,
 }
 
 #[derive(Deserialize)]
@@ -187,6 +191,7 @@ struct ObjectDef {
     ior: Option<f32>,
     shading: Option<Shading>,
     shininess: Option<f32>,
+    blend: Option<Blend>,
     translate: Option<[f32; 3]>,
     rotate_deg: Option<[f32; 3]>,
     scale: Option<Value>,
@@ -398,6 +403,7 @@ pub(crate) fn parse(
             ior: m.ior,
             shading: m.shading,
             shininess: m.shininess,
+            blend: m.blend,
         };
         let material = fields.apply(&base);
         check_material(&material).map_err(|msg| ctx.err(&label, msg))?;
@@ -430,6 +436,7 @@ pub(crate) fn parse(
             ior: o.ior,
             shading: o.shading,
             shininess: o.shininess,
+            blend: o.blend,
         };
         let base_named = match &o.material {
             None => None,

@@ -455,6 +455,7 @@ fn layers(
                     absorption: 0.0,
                     distance: depth,
                     coverage: 1,
+                    blend: crate::scene::Blend::Over,
                 })
                 .collect::<Vec<_>>()
         })
@@ -528,6 +529,7 @@ fn mlab_merges_depend_on_arrival_order() {
         absorption: 0.0,
         distance: depth,
         coverage: 1,
+        blend: crate::scene::Blend::Over,
     };
     let (a, b, c) = (
         f(0, 0.1, [1.0, 0.0, 0.0]),
