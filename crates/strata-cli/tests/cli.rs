@@ -1434,6 +1434,18 @@ blend = "multiply"
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(png.exists());
+    let example = format!("{}/../../examples/blend.toml", env!("CARGO_MANIFEST_DIR"));
+    let o = strata(&[
+        "render",
+        &example,
+        "--method",
+        "kb-keys",
+        "--size",
+        "64x40",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
     assert_bad_input(
         &["render", scene.to_str().unwrap(), "--method", "wboit"],
         "wboit cannot blend 'add' materials",
