@@ -207,7 +207,7 @@ mod format_tests {
     use super::TESTED_FORMATS;
     use crate::frame::FrameOptions;
     use crate::frame::FrameTargets;
-    use crate::scene::{loaders, Background};
+    use crate::scene::{loaders, Background, Blend};
     use crate::testing::gpu;
     use crate::FrameRecorder;
     use crate::{Effect, MethodId, RenderOptions, Renderer};
@@ -246,9 +246,28 @@ mod format_tests {
 
     #[test]
     fn present_blends_over_every_tested_format() {
+        present_equals_the_renderer_on_every_tested_format(
+            "present",
+            loaders::load_scene("builtin:spheres?layers=6").unwrap(),
+        );
+    }
+
+    /// Multiply materials tint the target per channel: the two-draw present.
+    #[test]
+    fn present_tints_every_tested_format() {
+        let mut scene = loaders::load_scene("builtin:spheres?layers=6").unwrap();
+        let modes = [Blend::Multiply, Blend::Over, Blend::Add];
+        for (i, m) in scene.materials.iter_mut().enumerate() {
+            m.blend = modes[i % 3];
+        }
+        assert!(scene.blend_modes().contains(&Blend::Multiply));
+        present_equals_the_renderer_on_every_tested_format("present-tinted", scene);
+    }
+
+    fn present_equals_the_renderer_on_every_tested_format(name: &str, scene: crate::scene::Scene) {
         let g = gpu();
-        let scene = loaders::load_scene("builtin:spheres?layers=6").unwrap();
-        let bg = [0.05f32, 0.2, 0.4];
+        // Bright enough that a multiply material's tint of it shows.
+        let bg = [0.7f32, 0.75, 0.8];
         let options = RenderOptions {
             frame: FrameOptions {
                 width: 48,
@@ -303,7 +322,7 @@ mod format_tests {
             // The exact-method bar (see methods/tests.rs): both pictures come from the same GPU
             // resolve, so only the target's storage precision separates them.
             if let Err(m) = crate::metrics::testing::check_image(
-                &format!("present-{format:?}"),
+                &format!("{name}-{format:?}"),
                 &actual,
                 &expected,
                 2,
