@@ -589,7 +589,8 @@ pub struct KFrame {
 impl KFrame {
     /// A frame with the family's resolve (resolve.wgsl) over the method's storage `layout`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, layout: Layout) -> KFrame {
-        let stage = stage(gpu, format!("strata.{id}.resolve"), RESOLVE_WGSL, layout);
+        let stage = stage(gpu, format!("strata.{id}.resolve"), RESOLVE_WGSL, layout)
+            .defs(&crate::gpu::shader::target_samples(scene.samples));
         Self::with_resolve(gpu, scene, id, &stage, "cs_resolve")
     }
 

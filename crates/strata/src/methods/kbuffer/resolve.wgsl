@@ -7,6 +7,8 @@
 #import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, TAIL_WORDS, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail_weight_of, tail_word}
 
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
+// The multisampled paths are compiled only with MULTISAMPLED (--msaa): they double the shader,
+// and a software rasterizer's compile time with it.
 // Up to LOCAL_CAPACITY stored fragments are copied to a local array and sorted — insertion sort
 // up to 16, bitonic sort above; longer lists use the k-depth sort (seed 003, Algorithm 4): chunks
 // of CHUNK nearest fragments selected with a max-array, sorted and composited, the last one
@@ -202,6 +204,7 @@ fn composite_stored(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: 
     }
 }
 
+#ifdef MULTISAMPLED
 // --msaa: each sample composites its own fragments in depth order — its `limit` nearest, the
 // rest joining its tail — and the pixel is the samples' average (premultiplied, so blending it
 // over a background equals averaging the samples blended over it). A tail captured per pixel
@@ -331,12 +334,16 @@ fn resolve_sample_storage(p: u32) {
     report_pixel(generated, kept);
 }
 
+#endif
+
 fn resolve_pixel(pixel: vec2<u32>) {
     let p = pixel.y * kp.width + pixel.x;
+#ifdef MULTISAMPLED
     if kp.sample_slots > 1u {
         resolve_sample_storage(p);
         return;
     }
+#endif
     let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
     let n = stored_count(p);
     let limit = min(n, kp.k);
@@ -345,10 +352,12 @@ fn resolve_pixel(pixel: vec2<u32>) {
     if kp.tail_blend != 0u {
         t = tail_sums(p);
     }
+#ifdef MULTISAMPLED
     if frame.coverage_bits != 0u {
         report_pixel(seen, resolve_samples(p, n, limit, t));
         return;
     }
+#endif
     composite_stored(p, n, limit, &s, &t);
     composite_tail(&s, t);
     output[p] = composite_finish(s);

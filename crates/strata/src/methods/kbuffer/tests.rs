@@ -504,12 +504,13 @@ fn kbuffer_stages_validate() {
         stages.push(("resolve", RESOLVE_WGSL, layout));
     }
     for (label, source, layout) in stages {
-        for coherent in [false, true] {
-            let label = format!("{label} {layout:?} coherent={coherent}");
+        for (coherent, samples) in [(false, 1), (true, 1), (false, 4)] {
+            let label = format!("{label} {layout:?} coherent={coherent} samples={samples}");
             validate(
                 &Stage::new(label, source)
                     .with(LIBRARY)
-                    .defs(&definitions(layout, 1, coherent)),
+                    .defs(&definitions(layout, 1, coherent))
+                    .defs(&crate::gpu::shader::target_samples(samples)),
             );
         }
     }
