@@ -4,7 +4,7 @@
 //! | goal | candidates, best first |
 //! |---|---|
 //! | [`Goal::Exact`] | abuffer-ll (every fragment, sorted per pixel at resolve, in one geometry pass; its relaxed, lock-free capture needs no ordered atomics, and its pool follows the last frame's count); f2b |
-//! | [`Goal::Bounded`] (exact for each pixel's k nearest, memory fixed per pixel) | kb-keys where there are 64-bit atomics (lock-free); kplus-heap where captures get acquire/release atomics; f2b depth peeling (exact at any depth, 56 bytes per pixel, one geometry pass per layer) |
+//! | [`Goal::Bounded`] (exact for each pixel's k nearest, memory fixed per pixel) | kb-keys where there are 64-bit atomics (lock-free); kplus-heap where captures get acquire/release atomics; f2b depth peeling (exact at any depth, 72 bytes per pixel, one geometry pass per layer) |
 //! | [`Goal::Approximate`] (fastest) | wboit (one geometry pass into two targets, no per-pixel storage); mboit |
 //!
 //! [`candidates`] filters by the adapter's features; a device that still refuses one for a
@@ -62,7 +62,7 @@ pub fn candidates(gpu: &Gpu, goal: Goal) -> Vec<Choice> {
     let peeling = || {
         choice(
             MethodId::F2b,
-            "depth peeling: exact in fixed memory (56 bytes per pixel), one geometry pass per layer"
+            "depth peeling: exact in fixed memory (72 bytes per pixel), one geometry pass per layer"
                 .into(),
         )
     };
