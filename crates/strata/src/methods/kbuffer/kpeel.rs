@@ -97,7 +97,8 @@ impl KPeel {
     /// The pipelines for `scene`: the key cascade where there are 64-bit atomics and one sample per pixel, else the locked capture.
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<KPeel> {
         let id = MethodId::Kpeel;
-        let resolve = super::stage(gpu, "strata.kpeel.resolve", RESOLVE_WGSL, Layout::Slots);
+        let resolve = super::stage(gpu, "strata.kpeel.resolve", RESOLVE_WGSL, Layout::Slots)
+            .defs(&crate::gpu::shader::target_samples(scene.samples));
         let mut frame = KFrame::with_resolve(gpu, scene, id, &resolve, "cs_kpeel_resolve");
         let lock_free = gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS) && scene.samples == 1;
         let cascade = if scene.raster_layout.is_some() || lock_free {

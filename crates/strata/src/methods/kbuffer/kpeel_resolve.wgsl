@@ -11,6 +11,7 @@
 // --msaa), resolve after each geometry pass (the captured layers composited behind the running
 // result), finish (the accounting; with --msaa the samples' average).
 //
+// The multisampled paths compile only with MULTISAMPLED (they would double the resolve).
 // Accounting: a pixel is reported once, in the pass that finishes it (it saw at most k
 // fragments behind its bound); one still unfinished after the last pass is reported by finish,
 // the fragments behind its last bound counted as dropped. Either way generated = composited
@@ -50,12 +51,14 @@ fn cs_kpeel_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = id.y * kp.width + id.x;
+#ifdef MULTISAMPLED
     if kp.sample_slots > 1u {
         for (var s = 0u; s < kp.sample_slots; s++) {
             kpeel_resolve_one(sample_pixel(p, s));
         }
         return;
     }
+#endif
     let limit = kpeel_resolve_one(p);
     let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
     if seen > 0u && seen <= kp.k {
@@ -69,6 +72,7 @@ fn cs_kpeel_finish(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = id.y * kp.width + id.x;
+#ifdef MULTISAMPLED
     if kp.sample_slots > 1u {
         var sum = resolved_sum_new();
         var deepest = 0u;
@@ -83,6 +87,7 @@ fn cs_kpeel_finish(@builtin(global_invocation_id) id: vec3<u32>) {
         report_samples(generated, stored, deepest);
         return;
     }
+#endif
     let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
     if seen > kp.k {
         let count = output[p].count;
