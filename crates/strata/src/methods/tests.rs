@@ -452,8 +452,7 @@ fn methods_that_only_blend_over_refuse_add_and_multiply_in_one_line() {
     opts.frame.kbuffer.tail = crate::frame::Tail::Blend;
     let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
         .and_then(|mut r| r.render("kplus-heap"))
-        .err()
-        .expect("a blended tail refused")
+        .expect_err("a blended tail refused")
         .to_string();
     assert!(e.contains("--tail blend"), "{e}");
 }
