@@ -124,14 +124,19 @@ fn clipped_triangle(prim: u32, guard: f32) -> Polygon {
         in_front = in_front && clip.z >= 0.0;
         in_guard = in_guard && abs(clip.x) <= guard * clip.w && abs(clip.y) <= guard * clip.w;
     }
-    if !in_front {
-        polygon = clip_polygon(polygon, vec4<f32>(0.0, 0.0, 1.0, 0.0));
-    }
-    if !in_guard {
-        polygon = clip_polygon(polygon, vec4<f32>(-1.0, 0.0, 0.0, guard));
-        polygon = clip_polygon(polygon, vec4<f32>(1.0, 0.0, 0.0, guard));
-        polygon = clip_polygon(polygon, vec4<f32>(0.0, -1.0, 0.0, guard));
-        polygon = clip_polygon(polygon, vec4<f32>(0.0, 1.0, 0.0, guard));
+    // The near plane, then the four guard planes, in one loop: one copy of the clip in the
+    // compiled shader rather than five (a software rasterizer's compile time).
+    let planes = array<vec4<f32>, 5>(
+        vec4<f32>(0.0, 0.0, 1.0, 0.0),
+        vec4<f32>(-1.0, 0.0, 0.0, guard),
+        vec4<f32>(1.0, 0.0, 0.0, guard),
+        vec4<f32>(0.0, -1.0, 0.0, guard),
+        vec4<f32>(0.0, 1.0, 0.0, guard),
+    );
+    for (var k = 0u; k < 5u; k++) {
+        if select(!in_guard, !in_front, k == 0u) {
+            polygon = clip_polygon(polygon, planes[k]);
+        }
     }
     return polygon;
 }
