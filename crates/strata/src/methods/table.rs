@@ -1,6 +1,6 @@
 //! The method table: one [`Descriptor`] per method, holding everything the rest of strata
 //! decides per method — its name, family, exactness, what it can run with (rasterizers,
-//! `--msaa`, temporal culling, an application's capture, `--order`), the memory ordering its
+//! `--msaa`, temporal culling, an application's capture, `--order`, blend modes), the memory ordering its
 //! capture needs, the options it reads, its k range, its catalogue text and its constructor.
 //!
 //! Each family's folder defines its descriptors next to the code they describe; `methods/mod.rs`
