@@ -27,6 +27,38 @@ pub const FRAME_SLOTS: [Slot; 6] = [
     Slot::StorageRw,
 ];
 
+/// Refuses a device strata's frames cannot run on at all, in one line naming what it lacks:
+/// every frame keeps its scene's materials, lights and totals and its resolved pixels in storage
+/// buffers and resolves in compute, which downlevel (WebGL2-class) devices do not have.
+pub fn check_device(gpu: &Gpu) -> Result<()> {
+    let needed = FRAME_SLOTS
+        .iter()
+        .filter(|s| matches!(s, Slot::Storage | Slot::StorageRw))
+        .count() as u32;
+    let limits = &gpu.limits;
+    let mut missing = Vec::new();
+    if limits.max_storage_buffers_per_shader_stage < needed {
+        missing.push(format!(
+            "{needed} storage buffers per shader stage (it has {})",
+            limits.max_storage_buffers_per_shader_stage
+        ));
+    }
+    if limits.max_compute_invocations_per_workgroup < 64 {
+        missing.push(format!(
+            "compute workgroups of 64 invocations (it has {})",
+            limits.max_compute_invocations_per_workgroup
+        ));
+    }
+    if missing.is_empty() {
+        return Ok(());
+    }
+    Err(Error::unsupported(format!(
+        "'{}' is a downlevel device: strata's frames need {}, for the scene's materials, lights and totals, the resolved pixels and the compute resolves; no method runs on it yet",
+        gpu.info.name,
+        missing.join(" and ")
+    )))
+}
+
 /// Scenes with more triangles are refused: vertex indices (3 per triangle) fit in u32, and a
 /// pixel never sees 2³² fragments in one geometry pass, so per-pixel u32 counters cannot wrap.
 pub const MAX_TRIANGLES: u64 = (u32::MAX / 3) as u64;
@@ -93,6 +125,7 @@ impl SceneGpu {
     /// Like [`SceneGpu::new`], for a scene that may have no objects (one side of a scene split
     /// by opacity): it then draws nothing.
     pub fn new_allow_empty(gpu: &Gpu, scene: &Scene, options: &RenderOptions) -> Result<SceneGpu> {
+        check_device(gpu)?;
         if !scene.objects.is_empty() {
             scene.validate()?;
         }

@@ -179,8 +179,13 @@ mod restricted {
             crate::scene::loaders::load_scene("builtin:spheres?layers=2&segments=8").unwrap();
         let options = RenderOptions::sized(16, 16);
         let mut outcomes = Vec::new();
-        for storage in [4, 2] {
-            let mut limits = gpu().limits.clone();
+        for storage in [4, 2, 0] {
+            // 0: WebGL2-class limits (no storage buffers, no compute), at the adapter's sizes.
+            let mut limits = if storage == 0 {
+                wgpu::Limits::downlevel_webgl2_defaults().using_resolution(gpu().limits.clone())
+            } else {
+                gpu().limits.clone()
+            };
             limits.max_storage_buffers_per_shader_stage = storage;
             let small = Gpu::new_restricted(wgpu::Features::empty(), limits).expect("opens");
             for method in MethodId::gpu_methods() {
@@ -201,6 +206,14 @@ mod restricted {
             "{outcomes:#?}"
         );
         assert!(outcomes.iter().all(|o| !o.contains('\n')), "{outcomes:#?}");
+        // A WebGL2-class device: every method refused up front, naming what it lacks.
+        assert!(
+            outcomes
+                .iter()
+                .filter(|o| o.starts_with("0 storage buffers"))
+                .all(|o| o.contains("is a downlevel device: strata's frames need 4 storage buffers per shader stage (it has 0) and compute workgroups of 64 invocations (it has 0)")),
+            "{outcomes:#?}"
+        );
     }
 
     /// Where the device refuses the first candidates for a limit (8 storage buffers per stage:

@@ -150,6 +150,7 @@ impl FrameRecorder {
         options: &RenderOptions,
     ) -> Result<FrameRecorder> {
         options.validate()?;
+        crate::frame::scene_gpu::check_device(gpu)?;
         check_size(gpu, options)?;
         let (mut scene_gpu, lit) = match options.build.lighting.pipeline {
             None => (SceneGpu::new(gpu, scene, options)?, None),
