@@ -110,42 +110,54 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
     var has_bound = false;
     // Each round composites at least one fragment: n / CHUNK + 1 rounds visit them all.
     for (var round = 0u; round <= n / CHUNK; round++) {
-        // Select the CHUNK nearest fragments after the bound with a max-array (max in slot 0).
         var m = 0u;
-        for (var i = 0u; i < n; i++) {
-            let f = stored_fragment(p, i);
-            if (fragment_coverage(f) & coverage) == 0u {
-                continue;
+        if n <= LOCAL_CAPACITY {
+            // Few enough to hold them all: one round, every covered fragment sorted.
+            for (var i = 0u; i < n; i++) {
+                let f = stored_fragment(p, i);
+                if (fragment_coverage(f) & coverage) != 0u {
+                    chunk[m] = f;
+                    m += 1u;
+                }
             }
-            if has_bound && !ordered_before(bound, bound_at, f, i) {
-                continue;
-            }
-            if m < CHUNK {
-                if m > 0u && ordered_before(chunk[0], chunk_at[0], f, i) {
-                    chunk[m] = chunk[0];
-                    chunk_at[m] = chunk_at[0];
+        } else {
+            // Select the CHUNK nearest fragments after the bound with a max-array (max in
+            // slot 0).
+            for (var i = 0u; i < n; i++) {
+                let f = stored_fragment(p, i);
+                if (fragment_coverage(f) & coverage) == 0u {
+                    continue;
+                }
+                if has_bound && !ordered_before(bound, bound_at, f, i) {
+                    continue;
+                }
+                if m < CHUNK {
+                    if m > 0u && ordered_before(chunk[0], chunk_at[0], f, i) {
+                        chunk[m] = chunk[0];
+                        chunk_at[m] = chunk_at[0];
+                        chunk[0] = f;
+                        chunk_at[0] = i;
+                    } else {
+                        chunk[m] = f;
+                        chunk_at[m] = i;
+                    }
+                    m += 1u;
+                } else if ordered_before(f, i, chunk[0], chunk_at[0]) {
                     chunk[0] = f;
                     chunk_at[0] = i;
-                } else {
-                    chunk[m] = f;
-                    chunk_at[m] = i;
-                }
-                m += 1u;
-            } else if ordered_before(f, i, chunk[0], chunk_at[0]) {
-                chunk[0] = f;
-                chunk_at[0] = i;
-                var max_i = 0u;
-                for (var j = 1u; j < CHUNK; j++) {
-                    if ordered_before(chunk[max_i], chunk_at[max_i], chunk[j], chunk_at[j]) {
-                        max_i = j;
+                    var max_i = 0u;
+                    for (var j = 1u; j < CHUNK; j++) {
+                        if ordered_before(chunk[max_i], chunk_at[max_i], chunk[j], chunk_at[j]) {
+                            max_i = j;
+                        }
                     }
+                    let mx = chunk[max_i];
+                    let mx_at = chunk_at[max_i];
+                    chunk[max_i] = chunk[0];
+                    chunk_at[max_i] = chunk_at[0];
+                    chunk[0] = mx;
+                    chunk_at[0] = mx_at;
                 }
-                let mx = chunk[max_i];
-                let mx_at = chunk_at[max_i];
-                chunk[max_i] = chunk[0];
-                chunk_at[max_i] = chunk_at[0];
-                chunk[0] = mx;
-                chunk_at[0] = mx_at;
             }
         }
         if m == 0u {
@@ -164,7 +176,7 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
                 tail_add_local(t, chunk[j]);
             }
         }
-        if m < CHUNK || (done >= limit && kp.tail_blend == 0u) {
+        if n <= LOCAL_CAPACITY || m < CHUNK || (done >= limit && kp.tail_blend == 0u) {
             break;
         }
     }
@@ -185,23 +197,9 @@ fn composite_tail(s: ptr<function, Composite>, t: Tail) {
 // Composites the `limit` nearest of the pixel's `n` stored fragments onto `s`, in order; with
 // --tail blend the rest join `t`.
 fn composite_stored(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) {
-    if n <= LOCAL_CAPACITY {
-        var local: array<Fragment, LOCAL_CAPACITY>;
-        for (var i = 0u; i < n; i++) {
-            local[i] = stored_fragment(p, i);
-        }
-        sort_local(&local, n);
-        for (var i = 0u; i < limit; i++) {
-            composite_front(s, local[i]);
-        }
-        if kp.tail_blend != 0u {
-            for (var i = limit; i < n; i++) {
-                tail_add_local(t, local[i]);
-            }
-        }
-    } else {
-        k_depth_sort(p, n, limit, 0xffffffffu, s, t);
-    }
+    // One sort and one composite loop in the compiled shader, whatever n (a software
+    // rasterizer's compile time grows with every copy).
+    k_depth_sort(p, n, limit, 0xffffffffu, s, t);
 }
 
 #ifdef MULTISAMPLED
