@@ -157,11 +157,19 @@ fn scene_fragment(v: SceneVarying, front_facing: bool) -> Fragment {
 // samples, which still orders equal depths by primitive. Single-sampled: `scene_fragment`.
 fn scene_fragment_covering(v: SceneVarying, front_facing: bool, mask: u32) -> Fragment {
     var f = scene_fragment(v, front_facing);
-    let bits = frame.coverage_bits;
-    if bits != 0u {
-        f.tag = (v.prim << (1u + bits)) | ((mask & ((1u << bits) - 1u)) << 1u) | select(0u, 1u, front_facing);
-    }
+    f.tag = covering_tag(v.prim, front_facing, mask);
     return f;
+}
+
+// The tag of a fragment of `prim` covering the samples `mask`: the multisampled layout above
+// with --msaa, primitive << 1 | front-facing single-sampled.
+fn covering_tag(prim: u32, front_facing: bool, mask: u32) -> u32 {
+    let bits = frame.coverage_bits;
+    let facing = select(0u, 1u, front_facing);
+    if bits == 0u {
+        return (prim << 1u) | facing;
+    }
+    return (prim << (1u + bits)) | ((mask & ((1u << bits) - 1u)) << 1u) | facing;
 }
 
 // The primitive a tag names.

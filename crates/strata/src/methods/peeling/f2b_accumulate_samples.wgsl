@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::f2b_accumulate_samples
-#import strata::scene::{frame, pixel_index, report_samples}
+#import strata::scene::{covering_tag, frame, pixel_index, report_samples}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{fragment_new}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
@@ -41,10 +41,10 @@ fn cs_accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let tag = u32(t);
         let c = textureLoad(layer_color, xy, i32(s));
-        var f = fragment_new(textureLoad(layer_depth, xy, i32(s)).r, tag >> 1u, (tag & 1u) == 1u, c);
-        // The multisampled tag form (primitive above the sample mask), which the resolve reads
-        // the primitive of.
-        f.tag = ((tag >> 1u) << (1u + frame.coverage_bits)) | (1u << (s + 1u)) | (tag & 1u);
+        let front_facing = (tag & 1u) == 1u;
+        var f = fragment_new(textureLoad(layer_depth, xy, i32(s)).r, tag >> 1u, front_facing, c);
+        // The multisampled tag (sample s's bit), which the resolve reads the primitive of.
+        f.tag = covering_tag(tag >> 1u, front_facing, 1u << s);
         let i = p * frame.coverage_bits + s;
         var st = state[i];
         composite_front(&st, f);
