@@ -87,5 +87,6 @@ pub use frame::{
     RenderOptions, Tail, Weight,
 };
 pub use methods::kbuffer::DEFAULT_MAX_TRIES;
+pub use methods::peeling::downlevel::DownlevelPeeling;
 pub use methods::MethodId;
 pub use render::{FrameRecorder, LinearImage, Renderer};

@@ -1,5 +1,5 @@
 #define_import_path strata::composite
-#import strata::scene::{BLEND_ADD, BLEND_MULTIPLY, EFFECT_TRANSLUCENCY, frame, materials, tag_blend, tag_prim, triangle_materials}
+#import strata::scene::{BLEND_ADD, BLEND_MULTIPLY, EFFECT_TRANSLUCENCY, frame, materials, tag_blend, tag_material}
 #import strata::fragment::{Fragment, fragment_color}
 #import strata::color::{Resolved}
 
@@ -57,7 +57,7 @@ fn view_distance(depth: f32) -> f32 {
 }
 
 fn absorption_of(tag: u32) -> f32 {
-    return materials[triangle_materials[tag_prim(tag)]].absorption;
+    return materials[tag_material(tag)].absorption;
 }
 
 // σ of the medium between a nearer and a farther fragment: inside the nearer one's object if it

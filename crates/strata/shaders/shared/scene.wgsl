@@ -73,6 +73,16 @@ const BLEND_ADD: u32 = 1u;
 const BLEND_MULTIPLY: u32 = 2u;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
+#ifdef UNIFORM_SCENE
+// A downlevel device's scene (no storage buffers): materials and lights in uniform arrays of
+// fixed length, each vertex carrying its triangle's material (see `vs_scene`), no frame totals.
+// Keep the lengths in sync with crates/strata/src/methods/peeling/downlevel.rs.
+const UNIFORM_MATERIALS: u32 = 256u;
+const UNIFORM_LIGHTS: u32 = 64u;
+@group(0) @binding(1) var<uniform> materials: array<Material, 256>;
+@group(0) @binding(2) var<uniform> lights: array<Light, 64>;
+@group(0) @binding(3) var opaque_depth: texture_depth_2d;
+#else
 // Each triangle's index into `materials` (the vertices are a vertex buffer: see `vs_scene`).
 @group(0) @binding(1) var<storage, read> triangle_materials: array<u32>;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
@@ -81,7 +91,9 @@ const BLEND_MULTIPLY: u32 = 2u;
 // Frame totals every resolve adds its pixels to; cleared before each frame. Keep the TOTAL_
 // indices in sync with `Totals` in crates/strata/src/frame/mod.rs.
 @group(0) @binding(5) var<storage, read_write> totals: array<atomic<u32>>;
+#endif
 
+#ifndef UNIFORM_SCENE
 const TOTAL_GENERATED: u32 = 0u;
 const TOTAL_STORED: u32 = 2u;
 const TOTAL_DROPPED: u32 = 4u;
@@ -117,6 +129,7 @@ fn report_samples(generated: u32, stored: u32, deepest: u32) {
     total_add(TOTAL_DROPPED, generated - min(stored, generated));
     atomicMax(&totals[TOTAL_MAX_DEPTH], deepest);
 }
+#endif
 
 // `position` is invariant: passes of different pipelines compare its depth for equality
 // (kb-mdt32's color pass, dual peeling's bounds and peel passes).
@@ -136,6 +149,9 @@ fn vs_scene(
     @builtin(vertex_index) vertex_index: u32,
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
+#ifdef UNIFORM_SCENE
+    @location(2) material: u32,
+#endif
 ) -> SceneVarying {
     let prim = vertex_index / 3u;
     var out: SceneVarying;
@@ -143,7 +159,11 @@ fn vs_scene(
     out.world = position;
     out.normal = normal;
     out.prim = prim;
+#ifdef UNIFORM_SCENE
+    out.material = material;
+#else
     out.material = triangle_materials[prim];
+#endif
     return out;
 }
 
@@ -172,10 +192,35 @@ fn covering_tag(prim: u32, front_facing: bool, mask: u32) -> u32 {
     return (prim << (1u + bits)) | ((mask & ((1u << bits) - 1u)) << 1u) | facing;
 }
 
+#ifdef UNIFORM_SCENE
+// A downlevel tag, primitive << 9 | material << 1 | front-facing: with no storage to look a
+// primitive's material up in, the tag carries it. Tags of one primitive differ only in facing,
+// so they order equal depths by primitive as the other layout does.
+const UNIFORM_TAG_MATERIAL_SHIFT: u32 = 1u;
+const UNIFORM_TAG_PRIM_SHIFT: u32 = 9u;
+
+fn uniform_scene_tag(prim: u32, material: u32, front_facing: bool) -> u32 {
+    return (prim << UNIFORM_TAG_PRIM_SHIFT) | (material << UNIFORM_TAG_MATERIAL_SHIFT) | select(0u, 1u, front_facing);
+}
+
+fn tag_prim(tag: u32) -> u32 {
+    return tag >> UNIFORM_TAG_PRIM_SHIFT;
+}
+
+fn tag_material(tag: u32) -> u32 {
+    return (tag >> UNIFORM_TAG_MATERIAL_SHIFT) & (UNIFORM_MATERIALS - 1u);
+}
+#else
 // The primitive a tag names.
 fn tag_prim(tag: u32) -> u32 {
     return tag >> (1u + frame.coverage_bits);
 }
+
+// The material of the fragment tagged `tag`.
+fn tag_material(tag: u32) -> u32 {
+    return triangle_materials[tag_prim(tag)];
+}
+#endif
 
 // The blend mode (BLEND_*) of the fragment tagged `tag`: its material's, looked up only when
 // some material blends other than over.
@@ -183,7 +228,7 @@ fn tag_blend(tag: u32) -> u32 {
     if frame.blend_modes == 0u {
         return BLEND_OVER;
     }
-    return materials[triangle_materials[tag_prim(tag)]].blend;
+    return materials[tag_material(tag)].blend;
 }
 
 // The samples a fragment covers, bit i for sample i (every bit single-sampled).

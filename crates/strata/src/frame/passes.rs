@@ -4,7 +4,8 @@
 
 use crate::frame::FrameContext;
 pub use crate::gpu::passes::{
-    attachment, compute_pipeline, render_pipeline, screen_pipeline, NullTarget, Rasterization,
+    attachment, clear_depth_pass, compute_pipeline, kept_attachment, render_pipeline,
+    screen_pipeline, NullTarget, Rasterization,
 };
 use crate::gpu::Gpu;
 

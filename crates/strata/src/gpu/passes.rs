@@ -197,3 +197,22 @@ impl NullTarget {
         })
     }
 }
+
+/// Records a pass that clears a depth view to `value`.
+pub fn clear_depth_pass(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, value: f32) {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("strata.clear_depth"),
+        color_attachments: &[],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(value),
+                store: wgpu::StoreOp::Store,
+            }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+}

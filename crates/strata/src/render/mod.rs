@@ -14,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::frame::GbufferView;
 use crate::frame::{Band, DrawCallback, FrameStats, FrameTargets, Resolved, BAND_ALIGN};
 use crate::gpu::{readback, Gpu};
+use crate::methods::peeling::downlevel::{is_downlevel, DownlevelPeeling};
 use crate::methods::MethodId;
 use crate::scene::{srgb_to_linear, Scene};
 
@@ -47,6 +48,8 @@ pub struct Renderer<'g> {
     /// What the last picture that outgrew a binding needed and what a binding holds.
     shortfall: Option<(u64, u64)>,
     recorder: Option<FrameRecorder>,
+    /// On a downlevel device: f2b through render targets, in place of the recorder.
+    downlevel: Option<DownlevelPeeling>,
     /// The time set by [`Renderer::set_time`]: the GPU moves the scene there (the CPU scene
     /// stays at its own time).
     time: Option<f32>,
@@ -89,6 +92,7 @@ impl<'g> Renderer<'g> {
             max_band_rows: None,
             shortfall: None,
             recorder: None,
+            downlevel: None,
             time: None,
         })
     }
@@ -131,6 +135,7 @@ impl<'g> Renderer<'g> {
         if let Some(recorder) = &mut self.recorder {
             recorder.set_geometry(scene)?;
         }
+        self.downlevel = None;
         self.scene = scene.clone();
         self.time = None;
         Ok(())
@@ -142,6 +147,8 @@ impl<'g> Renderer<'g> {
         if let Some(recorder) = &mut self.recorder {
             recorder.set_time(t);
         }
+        // The downlevel frame uploads the scene as the CPU moved it.
+        self.downlevel = None;
         if let Some(path) = &self.scene.camera_path {
             self.scene.camera = Some(path.camera_at(t));
         }
@@ -152,6 +159,9 @@ impl<'g> Renderer<'g> {
     pub fn set_camera(&mut self, camera: &crate::scene::Camera) {
         if let Some(recorder) = &mut self.recorder {
             recorder.set_camera(camera);
+        }
+        if let Some(downlevel) = &mut self.downlevel {
+            downlevel.set_camera(self.gpu, camera);
         }
         self.scene.camera = Some(*camera);
     }
@@ -177,6 +187,9 @@ impl<'g> Renderer<'g> {
         method: MethodId,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<(LinearImage, FrameStats)> {
+        if is_downlevel(self.gpu) {
+            return self.render_downlevel(method, draw);
+        }
         // A shortfall describes the picture that measured it, never a later one.
         self.shortfall = None;
         let (w, h) = (self.options.frame.width, self.options.frame.height);
@@ -381,7 +394,6 @@ impl<'g> Renderer<'g> {
         stats.blocking_readbacks = blocking;
         let resolved: Vec<Resolved> = bytemuck::pod_collect_to_vec(&bytes);
         let (w, h) = (options.frame.width, options.frame.height);
-        let background = options.frame.background;
         if let Some(lit) = recorder.lit() {
             let hdr = readback::read_rgba16f(self.gpu, lit.hdr())?;
             stats.blocking_readbacks += 1;
@@ -396,29 +408,106 @@ impl<'g> Renderer<'g> {
                 stats,
             ));
         }
-        let top = options.frame.band.map_or(0, |b| b.top);
-        let pixels = resolved
-            .iter()
-            .enumerate()
-            .map(|(i, r)| {
-                let bg = background.at(i as u32 % w, top + i as u32 / w);
-                let [c, t] = [r.color, r.transmittance];
-                [
-                    c[0] + t[0] * bg[0],
-                    c[1] + t[1] * bg[1],
-                    c[2] + t[2] * bg[2],
-                    r.count as f32,
-                ]
-            })
-            .collect();
-        Ok((
-            LinearImage {
-                width: w,
-                height: h,
-                pixels,
-            },
-            stats,
-        ))
+        Ok((over_background(options, &resolved), stats))
+    }
+
+    /// A picture on a downlevel device: f2b through render targets ([`DownlevelPeeling`]),
+    /// peeling more layers while a frame finds fragments behind its last; the statistics count
+    /// the fragments from the pixels' layer counts once a frame is complete.
+    fn render_downlevel(
+        &mut self,
+        method: MethodId,
+        draw: Option<&DrawCallback<'_>>,
+    ) -> Result<(LinearImage, FrameStats)> {
+        let gpu = self.gpu;
+        if method != MethodId::F2b {
+            let why = crate::frame::scene_gpu::check_device(gpu)
+                .err()
+                .map(|e| e.to_string());
+            return Err(Error::unsupported(format!(
+                "{method} does not run here: {}",
+                why.unwrap_or_default()
+            )));
+        }
+        if draw.is_some() {
+            return Err(Error::unsupported(
+                "f2b on a downlevel device draws the scene itself: it takes no draw callback",
+            ));
+        }
+        let peeling = match &mut self.downlevel {
+            Some(p) => p,
+            None => {
+                let scene = match self.time {
+                    Some(t) => self.scene.at_time(t),
+                    None => self.scene.clone(),
+                };
+                self.downlevel
+                    .insert(DownlevelPeeling::new(gpu, &scene, &self.options)?)
+            }
+        };
+        let opaque = self.opaque.create_view(&Default::default());
+        let targets = FrameTargets {
+            color: None,
+            opaque_depth: Some(&opaque),
+        };
+        let (mut submits, mut passes) = (0, 0);
+        let mut stats = loop {
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("strata.exact_frame"),
+                });
+            peeling.record(gpu, &mut encoder, &targets)?;
+            gpu.queue.submit([encoder.finish()]);
+            submits += 1;
+            let stats = peeling.wait_stats(gpu)?;
+            passes += stats.geometry_passes.unwrap_or(0);
+            let grows = peeling.layers() > peeling.last_layers();
+            if stats.exact != Some(false) || !grows {
+                break stats;
+            }
+        };
+        let resolved = peeling.read_resolved(gpu)?;
+        let stored: u64 = resolved.iter().map(|r| r.count as u64).sum();
+        let deepest = resolved.iter().map(|r| r.count).max().unwrap_or(0);
+        stats.fragments_stored = Some(stored);
+        if stats.exact == Some(true) {
+            stats.fragments_generated = Some(stored);
+            stats.fragments_dropped = Some(0);
+            stats.max_depth_complexity = Some(deepest);
+            // The next picture peels what this one needed (and one probe layer).
+            peeling.set_layers(deepest.max(1));
+        }
+        stats.geometry_passes = Some(passes);
+        stats.submits = submits + 1;
+        stats.blocking_readbacks = submits + 1;
+        Ok((over_background(&self.options, &resolved), stats))
+    }
+}
+
+/// The picture `resolved` (a frame of `options`) makes over the options' background.
+fn over_background(options: &RenderOptions, resolved: &[Resolved]) -> LinearImage {
+    let (w, h) = (options.frame.width, options.frame.height);
+    let background = options.frame.background;
+    let top = options.frame.band.map_or(0, |b| b.top);
+    let pixels = resolved
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let bg = background.at(i as u32 % w, top + i as u32 / w);
+            let [c, t] = [r.color, r.transmittance];
+            [
+                c[0] + t[0] * bg[0],
+                c[1] + t[1] * bg[1],
+                c[2] + t[2] * bg[2],
+                r.count as f32,
+            ]
+        })
+        .collect();
+    LinearImage {
+        width: w,
+        height: h,
+        pixels,
     }
 }
 

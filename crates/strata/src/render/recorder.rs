@@ -57,7 +57,7 @@ use crate::raster::{ComputeRaster, Raster};
 use crate::scene::{Camera, CameraPath, Scene};
 
 mod targets;
-pub use targets::clear_depth_pass;
+pub use crate::gpu::passes::clear_depth_pass;
 pub(crate) use targets::max_resolved_pixels;
 use targets::{check_size, no_opaque_depth, output_buffer, per_pixel_context};
 

@@ -35,6 +35,7 @@
 
 pub mod bucket;
 pub mod descriptor;
+pub mod downlevel;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{

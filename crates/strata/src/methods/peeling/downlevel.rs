@@ -1,0 +1,818 @@
+//! f2b on a downlevel (WebGL2-class) device: [`DownlevelPeeling`].
+//!
+//! Such a device has no storage buffers and no compute shaders, which every other frame of
+//! strata keeps its scene, its per-pixel state and its totals in. Front-to-back depth peeling
+//! needs neither: here each step is a render pass over textures (the passes are described in
+//! `f2b_downlevel.wgsl`). The scene is composed with `UNIFORM_SCENE`: materials and lights in
+//! uniform arrays ([`UNIFORM_MATERIALS`], [`UNIFORM_LIGHTS`]), each vertex carrying its
+//! triangle's material, and the material inside each fragment's tag. The composite is the one
+//! every exact method uses (`strata::composite`), so the picture is f2b's: exact, with ties in
+//! primitive order, every blend mode and the translucency effect.
+//!
+//! Passes for L layers: L + 1 geometry passes (the last only asks an occlusion query whether
+//! anything lies behind layer L) and L full-screen accumulate passes. Memory per pixel: two
+//! layers of color, tag and depth (2 × 16 B), two pairs of state targets (2 × 32 B) and the
+//! depth buffer (4 B) = 100·W·H.
+//!
+//! What it cannot report: without storage there are no frame totals, so a real-time frame's
+//! statistics say whether it was complete (the occlusion query) but not how many fragments it
+//! saw; [`DownlevelPeeling::read_resolved`] (the batch renderer) counts them on the CPU from the
+//! pixels' layer counts. A frame that was incomplete peels twice the layers next time (up to
+//! [`MAX_LAYERS`]) unless `--layers` fixed them. No `--msaa`, `--raster compute`, `--order`,
+//! `--pipeline` or `--temporal` here; the complexity effect is read back but not presented.
+
+use bytemuck::Zeroable;
+
+use crate::error::{Error, Result};
+use crate::frame::passes::{
+    attachment, clear_depth_pass, kept_attachment, render_pipeline, screen_pipeline, Rasterization,
+};
+use crate::frame::stats::StatsRing;
+use crate::frame::uniforms::{self, GpuLight, GpuMaterial, LightingSetup};
+use crate::frame::{Effect, FrameStats, FrameTargets, Raster, RenderOptions, Resolved, MAX_LAYERS};
+use crate::gpu::binding::{self, Slot};
+use crate::gpu::shader::{Defs, Stage};
+use crate::gpu::{Gpu, ResourceCache};
+use crate::scene::{Camera, GpuVertex, Scene};
+
+use super::{FIRST_GUESS_LAYERS, LIBRARY};
+
+/// Materials a downlevel scene may have (a uniform array; `UNIFORM_MATERIALS` in scene.wgsl,
+/// whose tags give the material 8 bits).
+pub const UNIFORM_MATERIALS: usize = 256;
+/// Lights other than ambient a downlevel scene may have (`UNIFORM_LIGHTS` in scene.wgsl).
+pub const UNIFORM_LIGHTS: usize = 64;
+/// Triangles a downlevel tag holds: primitive << 9 | material << 1 | facing.
+pub const DOWNLEVEL_MAX_TRIANGLES: u64 = 1 << 23;
+/// Bytes per pixel (module docs).
+pub const DOWNLEVEL_PIXEL_BYTES: u64 = 100;
+
+const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const TAG_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+const STATE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+
+/// Whether `gpu` is a downlevel device that strata's other frames refuse: no storage buffers or
+/// no compute (see [`crate::frame::scene_gpu::check_device`]).
+pub fn is_downlevel(gpu: &Gpu) -> bool {
+    crate::frame::scene_gpu::check_device(gpu).is_err()
+}
+
+/// One layer's targets.
+struct Layer {
+    color: wgpu::TextureView,
+    tag: wgpu::TextureView,
+    depth: wgpu::TextureView,
+}
+
+/// One pair of state targets: (color, count) and (transmittance, unused).
+struct State {
+    color: wgpu::Texture,
+    transmittance: wgpu::Texture,
+}
+
+/// What a frame recorded, kept with its statistics slot.
+#[derive(Clone, Copy)]
+struct FrameTag {
+    frame: u64,
+    layers: u32,
+}
+
+/// f2b depth peeling on a device without storage buffers or compute: the scene, its
+/// pipelines and targets. Records into the caller's encoder like [`crate::FrameRecorder`] and
+/// presents over the caller's color target; statistics come back a frame or more later.
+pub struct DownlevelPeeling {
+    options: RenderOptions,
+    triangle_count: u32,
+    vertices: wgpu::Buffer,
+    vertex_materials: wgpu::Buffer,
+    uniforms: wgpu::Buffer,
+    lighting: LightingSetup,
+    blend_modes: bool,
+    camera: Camera,
+    frame_layout: wgpu::BindGroupLayout,
+    materials: wgpu::Buffer,
+    lights: wgpu::Buffer,
+    layer_layout: wgpu::BindGroupLayout,
+    accumulate_layout: wgpu::BindGroupLayout,
+    present_layout: wgpu::BindGroupLayout,
+    peel_first: wgpu::RenderPipeline,
+    peel: wgpu::RenderPipeline,
+    accumulate: wgpu::RenderPipeline,
+    present_module: wgpu::ShaderModule,
+    /// Present pipelines (filter, add) per target format.
+    presents: Vec<(
+        wgpu::TextureFormat,
+        wgpu::RenderPipeline,
+        wgpu::RenderPipeline,
+    )>,
+    probe: wgpu::QuerySet,
+    probe_results: wgpu::Buffer,
+    ring: StatsRing<FrameTag>,
+    cache: ResourceCache,
+    /// Layers the next frame peels when `--layers` does not fix them.
+    next_layers: u32,
+    frame: u64,
+    /// The last recorded frame's layers.
+    last_layers: u32,
+    /// The last recorded frame's state targets.
+    states: Option<[State; 2]>,
+}
+
+impl DownlevelPeeling {
+    /// Uploads `scene` and makes the pipelines, refusing in one line what a downlevel frame
+    /// cannot hold (options, more than [`UNIFORM_MATERIALS`] materials or [`UNIFORM_LIGHTS`]
+    /// lights, more than [`DOWNLEVEL_MAX_TRIANGLES`] triangles).
+    pub fn new(gpu: &Gpu, scene: &Scene, options: &RenderOptions) -> Result<DownlevelPeeling> {
+        options.validate()?;
+        scene.validate()?;
+        check_options(options)?;
+        let device = &gpu.device;
+        if scene.materials.len() > UNIFORM_MATERIALS {
+            return Err(Error::unsupported(format!(
+                "the scene has {} materials; on a downlevel device f2b holds at most {UNIFORM_MATERIALS} (a uniform array)",
+                scene.materials.len()
+            )));
+        }
+        let lighting = uniforms::lighting(scene);
+        if lighting.lights.len() > UNIFORM_LIGHTS {
+            return Err(Error::unsupported(format!(
+                "the scene has {} lights; on a downlevel device f2b holds at most {UNIFORM_LIGHTS} (a uniform array)",
+                lighting.lights.len()
+            )));
+        }
+        let triangles = scene.triangle_count() as u64;
+        if triangles > DOWNLEVEL_MAX_TRIANGLES {
+            return Err(Error::unsupported(format!(
+                "the scene has {triangles} triangles; on a downlevel device f2b's tags hold at most {DOWNLEVEL_MAX_TRIANGLES}"
+            )));
+        }
+        let list = scene.triangles();
+        let vertex_bytes = list.vertices.len() as u64 * std::mem::size_of::<GpuVertex>() as u64;
+        if vertex_bytes > gpu.limits.max_buffer_size {
+            return Err(Error::unsupported(format!(
+                "the scene's {triangles} triangles take {:.1} MiB of vertices, more than the device's largest buffer ({:.1} MiB)",
+                vertex_bytes as f64 / 1048576.0,
+                gpu.limits.max_buffer_size as f64 / 1048576.0
+            )));
+        }
+        crate::gpu::validated(gpu, "f2b (downlevel)", || {
+            let init = |label: &str, contents: &[u8], usage| {
+                wgpu::util::DeviceExt::create_buffer_init(
+                    device,
+                    &wgpu::util::BufferInitDescriptor {
+                        label: Some(label),
+                        contents,
+                        usage,
+                    },
+                )
+            };
+            let mut vertices = list.vertices.clone();
+            let mut vertex_materials: Vec<u32> =
+                list.materials.iter().flat_map(|&m| [m; 3]).collect();
+            if vertices.is_empty() {
+                // Buffers cannot be empty.
+                vertices.push(GpuVertex::default());
+                vertex_materials.push(0);
+            }
+            let mut materials = vec![GpuMaterial::zeroed(); UNIFORM_MATERIALS];
+            for (slot, m) in materials.iter_mut().zip(&scene.materials) {
+                *slot = uniforms::gpu_material(m);
+            }
+            let mut lights = vec![GpuLight::zeroed(); UNIFORM_LIGHTS];
+            lights[..lighting.lights.len()].copy_from_slice(&lighting.lights);
+            let camera = scene.camera_or_framing();
+            let blend_modes = !scene.blend_modes().is_empty();
+            let u = uniforms::frame_uniforms(&camera, options, &lighting, blend_modes);
+            let vertex_usage = wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST;
+            let uniform_usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+            let frame_layout = binding::layout(
+                device,
+                "strata.f2b_downlevel.frame.layout",
+                &[
+                    Slot::Uniform,
+                    Slot::Uniform,
+                    Slot::Uniform,
+                    Slot::TextureDepth,
+                ],
+            );
+            let layer_slots = [Slot::TextureUint, Slot::TextureFloat];
+            let layer_layout =
+                binding::layout(device, "strata.f2b_downlevel.peel.layout", &layer_slots);
+            let accumulate_layout = binding::layout(
+                device,
+                "strata.f2b_downlevel.accumulate.layout",
+                &[
+                    Slot::TextureUint,
+                    Slot::TextureFloat,
+                    Slot::TextureFloat,
+                    Slot::TextureFloat,
+                    Slot::TextureFloat,
+                    Slot::TextureUint,
+                    Slot::TextureFloat,
+                ],
+            );
+            let present_layout = binding::layout(
+                device,
+                "strata.f2b_downlevel.present.layout",
+                &[Slot::TextureFloat; 4],
+            );
+            let [vertex_stage, stage, present_stage] = stages();
+            let vertex_module = vertex_stage.module(device);
+            let module = stage.module(device);
+            let target = |format| {
+                Some(wgpu::ColorTargetState {
+                    format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })
+            };
+            let vertex_buffers = [
+                Some(GpuVertex::layout()),
+                Some(wgpu::VertexBufferLayout {
+                    array_stride: 4,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &MATERIAL_ATTRIBUTE,
+                }),
+            ];
+            let peel_pipeline = |entry: &str| {
+                render_pipeline(
+                    gpu,
+                    &format!("strata.f2b_downlevel.{entry}"),
+                    wgpu::VertexState {
+                        module: &vertex_module,
+                        entry_point: Some("vs_scene"),
+                        compilation_options: Default::default(),
+                        buffers: &vertex_buffers,
+                    },
+                    (&module, entry),
+                    &[&frame_layout, &layer_layout],
+                    &[
+                        target(COLOR_FORMAT),
+                        target(TAG_FORMAT),
+                        target(DEPTH_COPY_FORMAT),
+                    ],
+                    Rasterization {
+                        cull_mode: None,
+                        depth: Some(wgpu::DepthStencilState {
+                            format: wgpu::TextureFormat::Depth32Float,
+                            depth_write_enabled: Some(true),
+                            depth_compare: Some(wgpu::CompareFunction::Less),
+                            stencil: Default::default(),
+                            bias: Default::default(),
+                        }),
+                        samples: 1,
+                    },
+                )
+            };
+            let present_module = present_stage.module(device);
+            let accumulate = screen_pipeline(
+                gpu,
+                "strata.f2b_downlevel.accumulate",
+                (&present_module, "vs_screen"),
+                (&module, "fs_accumulate"),
+                &[&frame_layout, &accumulate_layout],
+                &[target(STATE_FORMAT), target(STATE_FORMAT)],
+                None,
+                None,
+            );
+            Ok(DownlevelPeeling {
+                triangle_count: list.materials.len() as u32,
+                vertices: init(
+                    "strata.f2b_downlevel.vertices",
+                    bytemuck::cast_slice(&vertices),
+                    vertex_usage,
+                ),
+                vertex_materials: init(
+                    "strata.f2b_downlevel.vertex_materials",
+                    bytemuck::cast_slice(&vertex_materials),
+                    vertex_usage,
+                ),
+                uniforms: init(
+                    "strata.f2b_downlevel.uniforms",
+                    bytemuck::bytes_of(&u),
+                    uniform_usage,
+                ),
+                materials: init(
+                    "strata.f2b_downlevel.materials",
+                    bytemuck::cast_slice(&materials),
+                    uniform_usage,
+                ),
+                lights: init(
+                    "strata.f2b_downlevel.lights",
+                    bytemuck::cast_slice(&lights),
+                    uniform_usage,
+                ),
+                options: options.clone(),
+                lighting,
+                blend_modes,
+                camera,
+                peel_first: peel_pipeline("fs_peel_first"),
+                peel: peel_pipeline("fs_peel"),
+                accumulate,
+                present_module,
+                presents: Vec::new(),
+                frame_layout,
+                layer_layout,
+                accumulate_layout,
+                present_layout,
+                probe: device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("strata.f2b_downlevel.probe"),
+                    ty: wgpu::QueryType::Occlusion,
+                    count: 1,
+                }),
+                probe_results: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("strata.f2b_downlevel.probe_results"),
+                    size: 8,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                ring: StatsRing::default(),
+                cache: ResourceCache::default(),
+                next_layers: FIRST_GUESS_LAYERS,
+                frame: 0,
+                last_layers: 0,
+                states: None,
+            })
+        })
+    }
+
+    /// The options frames are recorded with.
+    pub fn options(&self) -> &RenderOptions {
+        &self.options
+    }
+
+    /// Moves the camera for the next frame.
+    pub fn set_camera(&mut self, gpu: &Gpu, camera: &Camera) {
+        self.camera = *camera;
+        self.write_uniforms(gpu);
+    }
+
+    fn write_uniforms(&self, gpu: &Gpu) {
+        let u = uniforms::frame_uniforms(
+            &self.camera,
+            &self.options,
+            &self.lighting,
+            self.blend_modes,
+        );
+        gpu.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
+    }
+
+    /// Layers the next frame peels: `--layers`, else the first guess grown by every frame
+    /// found incomplete.
+    pub fn layers(&self) -> u32 {
+        self.options
+            .frame
+            .peeling
+            .layers
+            .unwrap_or(self.next_layers)
+            .clamp(1, MAX_LAYERS)
+    }
+
+    /// Peels at least `layers` from the next frame on (the batch renderer, which counted a
+    /// picture's depth complexity, sets it).
+    pub fn set_layers(&mut self, layers: u32) {
+        self.next_layers = layers.clamp(1, MAX_LAYERS);
+    }
+
+    /// Records one frame into `encoder`: the peels and accumulates, the probe, and with a
+    /// color target the present over it (`targets.opaque_depth`: fragments at or behind it are
+    /// rejected). Submits nothing and waits for nothing; the statistics come back through
+    /// [`DownlevelPeeling::poll_stats`].
+    pub fn record(
+        &mut self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        targets: &FrameTargets<'_>,
+    ) -> Result<()> {
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
+        if let Some(budget) = self.options.budget_bytes() {
+            let need = w as u64 * h as u64 * DOWNLEVEL_PIXEL_BYTES;
+            if need > budget {
+                return Err(Error::input(format!(
+                    "f2b (downlevel): needs {:.2} MiB at {w}x{h}, more than --budget-mb {}",
+                    need as f64 / 1048576.0,
+                    self.options.frame.budget_mb.unwrap_or(0.0)
+                )));
+            }
+        }
+        if targets.color.is_some() && self.options.frame.effect == Effect::Complexity {
+            return Err(Error::unsupported(
+                "f2b on a downlevel device presents transparency and translucency; the complexity effect is read back only (Renderer)",
+            ));
+        }
+        let layers = self.layers();
+        let device = &gpu.device;
+        let attachment_usage =
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let mut view = |label: &'static str, format| {
+            self.cache
+                .texture(gpu, label, (w, h), format, attachment_usage)
+                .create_view(&Default::default())
+        };
+        let layer_views = [
+            Layer {
+                color: view("strata.f2b_downlevel.layer0.color", COLOR_FORMAT),
+                tag: view("strata.f2b_downlevel.layer0.tag", TAG_FORMAT),
+                depth: view("strata.f2b_downlevel.layer0.depth", DEPTH_COPY_FORMAT),
+            },
+            Layer {
+                color: view("strata.f2b_downlevel.layer1.color", COLOR_FORMAT),
+                tag: view("strata.f2b_downlevel.layer1.tag", TAG_FORMAT),
+                depth: view("strata.f2b_downlevel.layer1.depth", DEPTH_COPY_FORMAT),
+            },
+        ];
+        let depth = view(
+            "strata.f2b_downlevel.depth",
+            wgpu::TextureFormat::Depth32Float,
+        );
+        let own_opaque = targets.opaque_depth.is_none().then(|| {
+            view(
+                "strata.f2b_downlevel.no_opaque",
+                wgpu::TextureFormat::Depth32Float,
+            )
+        });
+        let copy_usage = attachment_usage | wgpu::TextureUsages::COPY_SRC;
+        let states = [0, 1].map(|i| State {
+            color: self
+                .cache
+                .texture(gpu, STATE_LABELS[i][0], (w, h), STATE_FORMAT, copy_usage)
+                .clone(),
+            transmittance: self
+                .cache
+                .texture(gpu, STATE_LABELS[i][1], (w, h), STATE_FORMAT, copy_usage)
+                .clone(),
+        });
+        let state_views = states.each_ref().map(|s| {
+            [
+                s.color.create_view(&Default::default()),
+                s.transmittance.create_view(&Default::default()),
+            ]
+        });
+        if let Some(own) = &own_opaque {
+            clear_depth_pass(encoder, own, 1.0);
+        }
+        let opaque = targets
+            .opaque_depth
+            .or(own_opaque.as_ref())
+            .expect("one of them");
+        let frame_group = binding::group(
+            device,
+            "strata.f2b_downlevel.frame.group",
+            &self.frame_layout,
+            &[
+                self.uniforms.as_entire_binding(),
+                self.materials.as_entire_binding(),
+                self.lights.as_entire_binding(),
+                wgpu::BindingResource::TextureView(opaque),
+            ],
+        );
+        let texture = wgpu::BindingResource::TextureView;
+        // Peel i reads layer (i + 1) % 2 (the previous one) and writes layer i % 2.
+        let peel_groups = [0, 1].map(|i| {
+            let previous = &layer_views[(i + 1) % 2];
+            binding::group(
+                device,
+                "strata.f2b_downlevel.peel.group",
+                &self.layer_layout,
+                &[texture(&previous.tag), texture(&previous.depth)],
+            )
+        });
+        // Accumulate i reads state i % 2, layer i % 2 and the previous layer; writes state
+        // (i + 1) % 2.
+        let accumulate_groups = [0, 1].map(|i| {
+            let (layer, previous) = (&layer_views[i], &layer_views[(i + 1) % 2]);
+            binding::group(
+                device,
+                "strata.f2b_downlevel.accumulate.group",
+                &self.accumulate_layout,
+                &[
+                    texture(&previous.tag),
+                    texture(&previous.depth),
+                    texture(&state_views[i][0]),
+                    texture(&state_views[i][1]),
+                    texture(&layer.color),
+                    texture(&layer.tag),
+                    texture(&layer.depth),
+                ],
+            )
+        });
+        // Both pairs start as an empty composite: no color, count 0, transmittance 1.
+        for pair in &state_views {
+            encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("strata.f2b_downlevel.init"),
+                color_attachments: &[
+                    attachment(&pair[0], wgpu::Color::TRANSPARENT),
+                    attachment(&pair[1], wgpu::Color::WHITE),
+                ],
+                ..Default::default()
+            });
+        }
+        for layer in 0..=layers {
+            let probe = layer == layers;
+            let target = &layer_views[layer as usize % 2];
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(if probe {
+                    "strata.f2b_downlevel.probe"
+                } else {
+                    "strata.f2b_downlevel.peel"
+                }),
+                color_attachments: &[
+                    attachment(&target.color, wgpu::Color::TRANSPARENT),
+                    attachment(
+                        &target.tag,
+                        wgpu::Color {
+                            r: u32::MAX as f64,
+                            g: 0.0,
+                            b: 0.0,
+                            a: 0.0,
+                        },
+                    ),
+                    attachment(&target.depth, wgpu::Color::TRANSPARENT),
+                ],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                occlusion_query_set: probe.then_some(&self.probe),
+                ..Default::default()
+            });
+            pass.set_pipeline(if layer == 0 {
+                &self.peel_first
+            } else {
+                &self.peel
+            });
+            pass.set_bind_group(0, Some(&frame_group), &[]);
+            pass.set_bind_group(1, Some(&peel_groups[layer as usize % 2]), &[]);
+            pass.set_vertex_buffer(0, self.vertices.slice(..));
+            pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
+            if probe {
+                pass.begin_occlusion_query(0);
+            }
+            pass.draw(0..self.triangle_count * 3, 0..1);
+            if probe {
+                pass.end_occlusion_query();
+            }
+            drop(pass);
+            if probe {
+                break;
+            }
+            let i = layer as usize % 2;
+            let out = &state_views[(i + 1) % 2];
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("strata.f2b_downlevel.accumulate"),
+                color_attachments: &[kept_attachment(&out[0]), kept_attachment(&out[1])],
+                ..Default::default()
+            });
+            pass.set_pipeline(&self.accumulate);
+            pass.set_bind_group(0, Some(&frame_group), &[]);
+            pass.set_bind_group(1, Some(&accumulate_groups[i]), &[]);
+            pass.draw(0..3, 0..1);
+        }
+        encoder.resolve_query_set(&self.probe, 0..1, &self.probe_results, 0);
+        let tag = FrameTag {
+            frame: self.frame,
+            layers,
+        };
+        self.ring
+            .record(gpu, encoder, &[(self.probe_results.clone(), 0, 2)], tag);
+        if let Some((view, format)) = targets.color {
+            self.present(gpu, encoder, &state_views, view, format);
+        }
+        self.frame += 1;
+        self.last_layers = layers;
+        self.states = Some(states);
+        Ok(())
+    }
+
+    /// The present's two draws over `view`: times the transmittance, then plus the color.
+    fn present(
+        &mut self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        states: &[[wgpu::TextureView; 2]; 2],
+        view: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+    ) {
+        if !self.presents.iter().any(|p| p.0 == format) {
+            let pipeline = |entry: &str, src, dst| {
+                screen_pipeline(
+                    gpu,
+                    &format!("strata.f2b_downlevel.{entry}"),
+                    (&self.present_module, "vs_screen"),
+                    (&self.present_module, entry),
+                    &[&self.present_layout],
+                    &[Some(wgpu::ColorTargetState {
+                        format,
+                        blend: Some(wgpu::BlendState {
+                            color: wgpu::BlendComponent {
+                                src_factor: src,
+                                dst_factor: dst,
+                                operation: wgpu::BlendOperation::Add,
+                            },
+                            alpha: wgpu::BlendComponent {
+                                src_factor: wgpu::BlendFactor::One,
+                                dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+                                operation: wgpu::BlendOperation::Add,
+                            },
+                        }),
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                    None,
+                    None,
+                )
+            };
+            let filter = pipeline(
+                "fs_present_filter",
+                wgpu::BlendFactor::Zero,
+                wgpu::BlendFactor::Src,
+            );
+            let add = pipeline(
+                "fs_present_add",
+                wgpu::BlendFactor::One,
+                wgpu::BlendFactor::One,
+            );
+            self.presents.push((format, filter, add));
+        }
+        let (_, filter, add) = self
+            .presents
+            .iter()
+            .find(|p| p.0 == format)
+            .expect("made above");
+        let group = binding::group(
+            &gpu.device,
+            "strata.f2b_downlevel.present.group",
+            &self.present_layout,
+            &[
+                wgpu::BindingResource::TextureView(&states[0][0]),
+                wgpu::BindingResource::TextureView(&states[0][1]),
+                wgpu::BindingResource::TextureView(&states[1][0]),
+                wgpu::BindingResource::TextureView(&states[1][1]),
+            ],
+        );
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("strata.f2b_downlevel.present"),
+            color_attachments: &[kept_attachment(view)],
+            ..Default::default()
+        });
+        pass.set_bind_group(0, Some(&group), &[]);
+        for pipeline in [filter, add] {
+            pass.set_pipeline(pipeline);
+            pass.draw(0..3, 0..1);
+        }
+    }
+
+    /// The statistics of every frame whose results have come back, oldest first, without
+    /// waiting. A frame found incomplete (something lay behind its last layer) makes the next
+    /// frame peel twice the layers, unless `--layers` fixed them.
+    pub fn poll_stats(&mut self, gpu: &Gpu) -> Vec<FrameStats> {
+        let done = self.ring.poll(gpu);
+        done.into_iter()
+            .map(|(tag, words)| self.frame_stats(gpu, tag, words))
+            .collect()
+    }
+
+    /// Waits for the oldest recorded frame's statistics (exact mode and tests: the CPU blocks).
+    pub fn wait_stats(&mut self, gpu: &Gpu) -> Result<FrameStats> {
+        loop {
+            if let Some(stats) = self.poll_stats(gpu).pop() {
+                return Ok(stats);
+            }
+            if !self.ring.pending() {
+                return Err(Error::runtime(
+                    "f2b (downlevel): no frame is waiting for its statistics",
+                ));
+            }
+            gpu.wait()?;
+        }
+    }
+
+    fn frame_stats(&mut self, gpu: &Gpu, tag: FrameTag, words: Option<Vec<u32>>) -> FrameStats {
+        let deeper = words.map(|w| w[0] != 0 || w[1] != 0);
+        let fixed = self.options.frame.peeling.layers.is_some();
+        if deeper == Some(true) && !fixed {
+            self.next_layers = self
+                .next_layers
+                .max(tag.layers.saturating_mul(2))
+                .min(MAX_LAYERS);
+        }
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
+        FrameStats {
+            frame: tag.frame,
+            method: "f2b".into(),
+            width: w,
+            height: h,
+            effect: self.options.frame.effect.name().into(),
+            geometry_passes: Some(tag.layers + 1),
+            exact: deeper.map(|d| !d),
+            bytes_allocated: Some(w as u64 * h as u64 * DOWNLEVEL_PIXEL_BYTES),
+            raster: Raster::Hw.name().into(),
+            adapter: Some(gpu.info.name.clone()),
+            backend: Some(gpu.backend_name()),
+            ..Default::default()
+        }
+    }
+
+    /// Layers the last recorded frame peeled.
+    pub fn last_layers(&self) -> u32 {
+        self.last_layers
+    }
+
+    /// Reads the last recorded frame's pixels back after it was submitted (blocking): each
+    /// pixel's [`Resolved`] value, its count the layers composited there.
+    pub fn read_resolved(&self, gpu: &Gpu) -> Result<Vec<Resolved>> {
+        let states = self
+            .states
+            .as_ref()
+            .ok_or_else(|| Error::runtime("f2b (downlevel): no frame was recorded"))?;
+        let texels = |texture: &wgpu::Texture| -> Result<Vec<[f32; 4]>> {
+            let bytes = crate::gpu::readback::read_texture(gpu, texture)?;
+            Ok(bytemuck::pod_collect_to_vec(&bytes))
+        };
+        let [a_color, a_trans, b_color, b_trans] = [
+            texels(&states[0].color)?,
+            texels(&states[0].transmittance)?,
+            texels(&states[1].color)?,
+            texels(&states[1].transmittance)?,
+        ];
+        Ok((0..a_color.len())
+            .map(|i| {
+                let (c, t) = if b_color[i][3] > a_color[i][3] {
+                    (b_color[i], b_trans[i])
+                } else {
+                    (a_color[i], a_trans[i])
+                };
+                Resolved {
+                    color: [c[0], c[1], c[2]],
+                    count: c[3] as u32,
+                    transmittance: [t[0], t[1], t[2]],
+                    _spare: 0,
+                }
+            })
+            .collect())
+    }
+}
+
+const STATE_LABELS: [[&str; 2]; 2] = [
+    [
+        "strata.f2b_downlevel.state0.color",
+        "strata.f2b_downlevel.state0.transmittance",
+    ],
+    [
+        "strata.f2b_downlevel.state1.color",
+        "strata.f2b_downlevel.state1.transmittance",
+    ],
+];
+
+/// The material index at vertex-buffer slot 1, `@location(2)` of `vs_scene` with UNIFORM_SCENE.
+const MATERIAL_ATTRIBUTE: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![2 => Uint32];
+
+/// The stages of a downlevel frame: the scene's vertex stage, the peels and accumulate, the
+/// present (all composed with UNIFORM_SCENE).
+pub(crate) fn stages() -> [Stage; 3] {
+    let defs = Defs::default().flag("UNIFORM_SCENE");
+    [
+        Stage::new("strata.f2b_downlevel.vertex", crate::gpu::shader::SCENE).defs(&defs),
+        Stage::new("strata.f2b_downlevel", include_str!("f2b_downlevel.wgsl"))
+            .with(LIBRARY)
+            .defs(&defs),
+        Stage::new(
+            "strata.f2b_downlevel.present",
+            include_str!("f2b_downlevel_present.wgsl"),
+        ),
+    ]
+}
+
+/// Refuses, in one line, the options a downlevel frame has no way to honour.
+fn check_options(options: &RenderOptions) -> Result<()> {
+    let (build, frame) = (&options.build, &options.frame);
+    let refused = if build.msaa > 1 {
+        Some("--msaa")
+    } else if build.raster != Raster::Hw {
+        Some("--raster compute")
+    } else if build.lighting.pipeline.is_some() {
+        Some("--pipeline")
+    } else if frame.order.is_some_and(|o| o != crate::order::Order::Scene) {
+        Some("--order")
+    } else if frame.temporal.is_some() {
+        Some("--temporal")
+    } else if frame.band.is_some() {
+        Some("pictures in bands")
+    } else {
+        None
+    };
+    match refused {
+        Some(what) => Err(Error::unsupported(format!(
+            "{what}: not available on a downlevel device, where f2b peels through render targets (no storage buffers, no compute)"
+        ))),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,96 @@
+#import strata::scene::{SceneVarying, behind_opaque, shade, uniform_scene_tag}
+#import strata::fragment::{Fragment}
+#import strata::composite::{Composite, composite_front, composite_new, view_distance}
+
+// f2b on a downlevel device (composed with UNIFORM_SCENE): no storage buffers and no compute,
+// so every step is a render pass over textures.
+// - peel i: the scene, LESS depth test; a fragment survives only strictly after the previous
+//   layer's (depth, tag) at its pixel, read from that layer's targets (the first peel keeps
+//   everything in front of the opaque depth). Writes layer i's color, tag and depth. A pixel
+//   whose previous layer was empty is finished: everything there is discarded.
+// - accumulate i: a full-screen triangle composites layer i behind the pixel's running state,
+//   read from one pair of state targets and written to the other. Pixels without a fragment in
+//   layer i are discarded, so each pair holds every other layer's state; the count in `.a`
+//   tells which pair is the later (`resolved_state`).
+// - after the last layer, one more peel counts in an occlusion query whether anything lies
+//   deeper: if so the frame is incomplete.
+// State targets: (color.rgb, count) and (transmittance.rgb, unused), Rgba32Float: 32 bytes per
+// pixel, a downlevel device's most per sample.
+
+const EMPTY: u32 = 0xffffffffu;
+
+struct PeelOut {
+    @location(0) color: vec4<f32>,
+    @location(1) tag: u32,
+    @location(2) depth: f32,
+}
+
+// The previous layer (peels after the first).
+@group(1) @binding(0) var last_tag: texture_2d<u32>;
+@group(1) @binding(1) var last_depth: texture_2d<f32>;
+
+fn peel(v: SceneVarying, front_facing: bool) -> PeelOut {
+    var out: PeelOut;
+    out.color = shade(v.world, v.normal, v.material);
+    out.tag = uniform_scene_tag(v.prim, v.material, front_facing);
+    out.depth = v.position.z;
+    return out;
+}
+
+@fragment
+fn fs_peel_first(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOut {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    return peel(v, front_facing);
+}
+
+@fragment
+fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOut {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = vec2<i32>(v.position.xy);
+    let t = textureLoad(last_tag, p, 0).r;
+    let d = textureLoad(last_depth, p, 0).r;
+    let out = peel(v, front_facing);
+    if t == EMPTY || !(out.depth > d || (out.depth == d && out.tag > t)) {
+        discard;
+    }
+    return out;
+}
+
+// Group 1 of the accumulate pass (its vertex stage: f2b_downlevel_present.wgsl's vs_screen).
+@group(1) @binding(2) var state_color: texture_2d<f32>;
+@group(1) @binding(3) var state_transmittance: texture_2d<f32>;
+@group(1) @binding(4) var layer_color: texture_2d<f32>;
+@group(1) @binding(5) var layer_tag: texture_2d<u32>;
+@group(1) @binding(6) var layer_depth: texture_2d<f32>;
+
+struct StateOut {
+    @location(0) color: vec4<f32>,
+    @location(1) transmittance: vec4<f32>,
+}
+
+@fragment
+fn fs_accumulate(@builtin(position) position: vec4<f32>) -> StateOut {
+    let p = vec2<i32>(position.xy);
+    let tag = textureLoad(layer_tag, p, 0).r;
+    if tag == EMPTY {
+        discard;
+    }
+    let held = textureLoad(state_color, p, 0);
+    var s = composite_new();
+    s.color = held.rgb;
+    s.count = u32(held.a);
+    s.transmittance = textureLoad(state_transmittance, p, 0).rgb;
+    if s.count > 0u {
+        s.last_tag = textureLoad(last_tag, p, 0).r;
+        s.last_depth = textureLoad(last_depth, p, 0).r;
+        s.last_distance = view_distance(s.last_depth);
+    }
+    let c = textureLoad(layer_color, p, 0);
+    let f = Fragment(textureLoad(layer_depth, p, 0).r, tag, pack2x16float(c.rg), pack2x16float(c.ba));
+    composite_front(&s, f);
+    return StateOut(vec4<f32>(s.color, f32(s.count)), vec4<f32>(s.transmittance, 0.0));
+}
