@@ -147,6 +147,7 @@ impl DownlevelPeeling {
                 "the scene has {triangles} triangles; on a downlevel device f2b's tags hold at most {DOWNLEVEL_MAX_TRIANGLES}"
             )));
         }
+        check_formats(gpu)?;
         let list = scene.triangles();
         let vertex_bytes = list.vertices.len() as u64 * std::mem::size_of::<GpuVertex>() as u64;
         if vertex_bytes > gpu.limits.max_buffer_size {
@@ -786,6 +787,34 @@ pub(crate) fn stages() -> [Stage; 3] {
             include_str!("f2b_downlevel_present.wgsl"),
         ),
     ]
+}
+
+/// Refuses, in one line, a device that cannot draw into the frame's targets: a WebGL2 context
+/// without EXT_color_buffer_float renders to none of the float formats.
+fn check_formats(gpu: &Gpu) -> Result<()> {
+    let Some(adapter) = &gpu.adapter else {
+        // The application's device: its adapter is not known here, and wgpu refuses a target
+        // it cannot render to when the frame makes it.
+        return Ok(());
+    };
+    let missing: Vec<String> = [COLOR_FORMAT, TAG_FORMAT, DEPTH_COPY_FORMAT, STATE_FORMAT]
+        .into_iter()
+        .filter(|&f| {
+            !adapter
+                .get_texture_format_features(f)
+                .allowed_usages
+                .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+        })
+        .map(|f| format!("{f:?}"))
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    Err(Error::unsupported(format!(
+        "'{}' cannot render to {}, which f2b's layers and state on a downlevel device are (on WebGL2: EXT_color_buffer_float)",
+        gpu.info.name,
+        missing.join(", ")
+    )))
 }
 
 /// Refuses, in one line, the options a downlevel frame has no way to honour.
