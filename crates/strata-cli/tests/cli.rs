@@ -2048,3 +2048,93 @@ fn fixed_layers_peel_once() {
         assert_eq!(dropped > 0, method != "kpeel", "{method}: {v}");
     }
 }
+
+/// With WebGL2's limits (no storage buffers, no compute) `--method auto` renders with f2b
+/// through render targets: the demo's picture, its deferred pipeline set aside with a note, equal
+/// to the full device's picture without the pipeline, with the same fragment count; other
+/// methods and a bad `STRATA_LIMITS` are refused in one line.
+#[test]
+fn a_webgl2_device_renders_with_depth_peeling() {
+    let dir = workdir("webgl2");
+    let run = |args: &[&str], limits: &str| {
+        Command::new(env!("CARGO_BIN_EXE_strata"))
+            .args(args)
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .env("STRATA_LIMITS", limits)
+            .output()
+            .expect("run strata")
+    };
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    let o = run(
+        &[
+            "render",
+            "--method",
+            "auto",
+            "--size",
+            "96x72",
+            "-o",
+            &path("webgl2.png"),
+            "--stats",
+            &path("webgl2.json"),
+        ],
+        "webgl2",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("is a downlevel device"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(
+        stderr(&o)
+            .contains("note: the scene's pipeline (deferred) does not run on a downlevel device"),
+        "{}",
+        stderr(&o)
+    );
+    let o = strata(&[
+        "render",
+        "--pipeline",
+        "none",
+        "--size",
+        "96x72",
+        "-o",
+        &path("full.png"),
+        "--stats",
+        &path("full.json"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let read = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join(name)).unwrap()).unwrap()
+    };
+    let (webgl2, full) = (read("webgl2.json"), read("full.json"));
+    assert_eq!(webgl2["method"], "f2b");
+    assert_eq!(webgl2["exact"], true);
+    assert_eq!(webgl2["fragments_generated"], full["fragments_generated"]);
+    assert_eq!(webgl2["max_depth_complexity"], full["max_depth_complexity"]);
+    let o = strata(&["compare", &path("webgl2.png"), &path("full.png")]);
+    let out = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
+    assert!(out.contains("pixels > 2/255  0.0000%"), "{out}");
+    let o = run(
+        &["render", "--method", "kb-keys", "-o", &path("no.png")],
+        "webgl2",
+    );
+    assert_eq!(o.status.code(), Some(2));
+    let errors: Vec<_> = stderr(&o)
+        .lines()
+        .filter(|l| l.starts_with("error:"))
+        .map(str::to_owned)
+        .collect();
+    assert!(
+        errors.len() == 1 && errors[0].starts_with("error: kb-keys does not run here:"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.join("no.png").exists());
+    let o = run(&["render", "-o", &path("no.png")], "webgl3");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("STRATA_LIMITS='webgl3' is not one of: adapter, webgl2"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -130,6 +130,22 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     }
 }
 
+/// On a downlevel device the lit pipeline a scene file asks for cannot run (it needs storage
+/// buffers and compute): the scene's opaque objects are then peeled with the rest, and a note
+/// says so. A `--pipeline` given on the command line stays, and is refused in one line.
+fn fit_to_device(gpu: &Gpu, options: &mut strata::RenderOptions, picture: &PictureArgs) {
+    let scene_pipeline = options.build.lighting.pipeline;
+    if let (None, Some(pipeline)) = (picture.pipeline, scene_pipeline) {
+        if strata::methods::peeling::downlevel::is_downlevel(gpu) {
+            eprintln!(
+                "note: the scene's pipeline ({}) does not run on a downlevel device; its opaque objects are peeled with the transparent ones",
+                format!("{pipeline:?}").to_lowercase()
+            );
+            options.build.lighting.pipeline = None;
+        }
+    }
+}
+
 /// A spinner on stderr while long work runs (hidden when stderr is not a terminal).
 pub fn spinner(message: String) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new_spinner();
@@ -142,7 +158,7 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
     if let Some(range) = a.frames.clone() {
         return render_sequence(a, &range);
     }
-    let (scene, options) = prepare_render(&a.method, &a.picture)?;
+    let (scene, mut options) = prepare_render(&a.method, &a.picture)?;
     check_outputs(std::iter::once(a.output.as_path()).chain(a.stats.as_deref()))?;
     strata::output::check_png_name(&a.output)?;
     let busy = spinner(format!(
@@ -154,10 +170,13 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
     let rendered = if a.method.id() == MethodId::Reference {
         strata::reference::render(&scene, &options)
     } else {
-        Gpu::new().and_then(|gpu| loop {
-            match Renderer::new(&gpu, &scene, &options)?.render_method(a.method.id(), None) {
-                Err(Error::Unsupported(why)) if a.method.fall_back(&why) => continue,
-                done => break done,
+        Gpu::new().and_then(|gpu| {
+            fit_to_device(&gpu, &mut options, &a.picture);
+            loop {
+                match Renderer::new(&gpu, &scene, &options)?.render_method(a.method.id(), None) {
+                    Err(Error::Unsupported(why)) if a.method.fall_back(&why) => continue,
+                    done => break done,
+                }
             }
         })
     };
@@ -281,11 +300,13 @@ pub fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
         frame: Some(frames.start as f32),
         ..a.picture.clone()
     };
-    let (scene, options) = prepare_render(&a.method, &picture)?;
+    let (scene, mut options) = prepare_render(&a.method, &picture)?;
     let gpu = if a.method.id() == MethodId::Reference {
         None
     } else {
-        Some(Gpu::new()?)
+        let gpu = Gpu::new()?;
+        fit_to_device(&gpu, &mut options, &picture);
+        Some(gpu)
     };
     let bar = indicatif::ProgressBar::new(frames.len() as u64);
     let mut renderer = match &gpu {

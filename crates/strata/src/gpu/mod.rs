@@ -54,6 +54,20 @@ pub struct Gpu {
     scene_vertex: std::sync::OnceLock<wgpu::ShaderModule>,
 }
 
+/// The limits a device of `adapter` opens with: the adapter's, or those `STRATA_LIMITS` names.
+fn limits_from_env(adapter: &wgpu::Adapter) -> Result<wgpu::Limits> {
+    match std::env::var("STRATA_LIMITS").ok().as_deref() {
+        None | Some("") | Some("adapter") => Ok(adapter.limits()),
+        Some("webgl2") => {
+            Ok(wgpu::Limits::downlevel_webgl2_defaults().using_resolution(adapter.limits()))
+        }
+        Some(other) => Err(Error::input(format!(
+            "STRATA_LIMITS='{}' is not one of: adapter, webgl2",
+            other.chars().take(40).collect::<String>()
+        ))),
+    }
+}
+
 /// Runs `make` (pipelines, layouts, buffers: setup) under a validation error scope, so that what
 /// this device cannot make — a limit or a format it lacks — comes back as one line naming `what`
 /// and the device's reason instead of wgpu's uncaptured-error panic.
@@ -107,7 +121,9 @@ pub struct GpuReport {
 
 impl Gpu {
     /// Opens the adapter chosen by `WGPU_BACKEND` / `WGPU_ADAPTER_NAME` (default: Vulkan, the
-    /// first adapter, preferring hardware).
+    /// first adapter, preferring hardware), with its own limits, or with `STRATA_LIMITS=webgl2`
+    /// WebGL2's (`wgpu::Limits::downlevel_webgl2_defaults`, at the adapter's texture sizes):
+    /// what strata does on such a device, on any machine.
     pub fn new() -> Result<Gpu> {
         pollster::block_on(Self::new_async())
     }
@@ -197,7 +213,10 @@ impl Gpu {
         };
         let info = adapter.get_info();
         let features = adapter.features() & (wanted_features() - missing);
-        let limits = limits.unwrap_or_else(|| adapter.limits());
+        let limits = match limits {
+            Some(limits) => limits,
+            None => limits_from_env(&adapter)?,
+        };
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("strata.device"),
