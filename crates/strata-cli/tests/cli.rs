@@ -2130,6 +2130,20 @@ fn a_webgl2_device_renders_with_depth_peeling() {
         stderr(&o)
     );
     assert!(!dir.join("no.png").exists());
+    let o = run(
+        &[
+            "render",
+            "--method",
+            "auto:approximate",
+            "--size",
+            "32x32",
+            "-o",
+            &path("wboit.png"),
+        ],
+        "webgl2",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("wboit: 32x32"), "{}", stderr(&o));
     let o = run(&["render", "-o", &path("no.png")], "webgl3");
     assert_eq!(o.status.code(), Some(2));
     assert!(

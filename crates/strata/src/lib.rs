@@ -86,7 +86,7 @@ pub use frame::{
     BucketSplit, BuildOptions, Effect, FrameOptions, FrameStats, FrameTargets, Moments,
     RenderOptions, Tail, Weight,
 };
+pub use methods::downlevel::DownlevelFrame;
 pub use methods::kbuffer::DEFAULT_MAX_TRIES;
-pub use methods::peeling::downlevel::DownlevelPeeling;
 pub use methods::MethodId;
 pub use render::{FrameRecorder, LinearImage, Renderer};

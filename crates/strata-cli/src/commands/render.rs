@@ -136,7 +136,7 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
 fn fit_to_device(gpu: &Gpu, options: &mut strata::RenderOptions, picture: &PictureArgs) {
     let scene_pipeline = options.build.lighting.pipeline;
     if let (None, Some(pipeline)) = (picture.pipeline, scene_pipeline) {
-        if strata::methods::peeling::downlevel::is_downlevel(gpu) {
+        if strata::methods::downlevel::is_downlevel(gpu) {
             eprintln!(
                 "note: the scene's pipeline ({}) does not run on a downlevel device; its opaque objects are peeled with the transparent ones",
                 format!("{pipeline:?}").to_lowercase()

@@ -6,7 +6,7 @@
 //! | [`Goal::Exact`] | abuffer-ll (every fragment, sorted per pixel at resolve, in one geometry pass; its relaxed, lock-free capture needs no ordered atomics, and its pool follows the last frame's count); f2b |
 //! | [`Goal::Bounded`] (exact for each pixel's k nearest, memory fixed per pixel) | kb-keys where there are 64-bit atomics (lock-free); kplus-heap where captures get acquire/release atomics; f2b depth peeling (exact at any depth, 72 bytes per pixel, one geometry pass per layer) |
 //! | [`Goal::Approximate`] (fastest) | wboit (one geometry pass into two targets, no per-pixel storage); mboit |
-//! | any goal on a downlevel device (no storage buffers or compute: WebGL2-class) | f2b, peeling through render targets ([`crate::methods::peeling::downlevel`]) |
+//! | on a downlevel device (no storage buffers or compute: WebGL2-class; [`crate::methods::downlevel`]) | exact and bounded: f2b, peeling through render targets; approximate: wboit in blended targets |
 //!
 //! [`candidates`] filters by the adapter's features; a device that still refuses one for a
 //! limit (a method's setup runs under `crate::gpu::validated`) moves to the next: `strata
@@ -14,7 +14,7 @@
 //! which the CLI prints and writes into the statistics (`FrameStats::method_choice`).
 
 use crate::gpu::{ordered, Gpu};
-use crate::methods::peeling::downlevel::{is_downlevel, DOWNLEVEL_PIXEL_BYTES};
+use crate::methods::downlevel::{is_downlevel, F2B_PIXEL_BYTES};
 
 use super::MethodId;
 
@@ -62,14 +62,17 @@ pub fn candidates(gpu: &Gpu, goal: Goal) -> Vec<Choice> {
     let adapter = &gpu.info.name;
     let choice = |method, why: String| Choice { method, why };
     if is_downlevel(gpu) {
-        let kind = match goal {
-            Goal::Approximate => "no approximate method runs without them yet; ",
-            _ => "",
-        };
-        return vec![choice(
-            MethodId::F2b,
-            format!("'{adapter}' is a downlevel device (no storage buffers or compute): {kind}depth peeling through render targets, exact, {DOWNLEVEL_PIXEL_BYTES} bytes per pixel, one geometry pass per layer"),
-        )];
+        let device = format!("'{adapter}' is a downlevel device (no storage buffers or compute)");
+        return vec![match goal {
+            Goal::Approximate => choice(
+                MethodId::Wboit,
+                format!("{device}: weighted blended OIT in blended render targets, one geometry pass"),
+            ),
+            _ => choice(
+                MethodId::F2b,
+                format!("{device}: depth peeling through render targets, exact, {F2B_PIXEL_BYTES} bytes per pixel, one geometry pass per layer"),
+            ),
+        }];
     }
     let peeling = || {
         choice(
@@ -218,13 +221,15 @@ mod restricted {
             "{outcomes:#?}"
         );
         assert!(outcomes.iter().all(|o| !o.contains('\n')), "{outcomes:#?}");
-        // A WebGL2-class device: f2b renders (through render targets), every other method is
-        // refused up front, naming what the device lacks.
+        // A WebGL2-class device: f2b and wboit render (through render targets), every other
+        // method is refused up front, naming what the device lacks.
         for o in outcomes
             .iter()
             .filter(|o| o.starts_with("0 storage buffers"))
         {
-            if o.starts_with("0 storage buffers, f2b:") {
+            if o.starts_with("0 storage buffers, f2b:")
+                || o.starts_with("0 storage buffers, wboit:")
+            {
                 assert!(o.ends_with("rendered"), "{o}");
             } else {
                 assert!(o.contains("is a downlevel device: strata's frames need 4 storage buffers per shader stage (it has 0) and compute workgroups of 64 invocations (it has 0)"), "{o}");
@@ -232,10 +237,11 @@ mod restricted {
         }
     }
 
-    /// A WebGL2-class device gets depth peeling through render targets whatever it asks for,
-    /// and the reason names the device's kind (the picture: `peeling::downlevel`'s tests).
+    /// A WebGL2-class device gets depth peeling through render targets, or for the fastest
+    /// approximation wboit, and the reason names the device's kind (the pictures:
+    /// `methods::downlevel`'s tests).
     #[test]
-    fn a_downlevel_device_gets_depth_peeling_for_every_goal() {
+    fn a_downlevel_device_gets_depth_peeling_or_wboit() {
         let limits =
             wgpu::Limits::downlevel_webgl2_defaults().using_resolution(gpu().limits.clone());
         let webgl2 = Gpu::new_restricted(wgpu::Features::empty(), limits).expect("opens");
@@ -243,7 +249,11 @@ mod restricted {
         for goal in [Goal::Exact, Goal::Bounded, Goal::Approximate] {
             let list = candidates(&webgl2, goal);
             assert_eq!(list.len(), 1, "{goal:?}");
-            assert_eq!(list[0].method, MethodId::F2b, "{goal:?}");
+            let expected = match goal {
+                Goal::Approximate => MethodId::Wboit,
+                _ => MethodId::F2b,
+            };
+            assert_eq!(list[0].method, expected, "{goal:?}");
             assert!(
                 list[0].why.contains("is a downlevel device"),
                 "{}",

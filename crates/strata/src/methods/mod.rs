@@ -12,6 +12,7 @@ pub mod baseline;
 pub mod capture;
 pub mod choice;
 pub mod convex;
+pub mod downlevel;
 pub mod kbuffer;
 pub mod peeling;
 pub mod table;

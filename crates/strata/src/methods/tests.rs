@@ -98,7 +98,7 @@ fn every_stage_validates() {
             stages.push(weighted::mboit::shade_stage(samples, moments));
         }
     }
-    stages.extend(peeling::downlevel::stages());
+    stages.extend(super::downlevel::stages());
     stages.push(weighted::mboit::moments_stage(1));
     stages.push(weighted::mboit::moments_stage(4));
     stages.push(

@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 use crate::frame::GbufferView;
 use crate::frame::{Band, DrawCallback, FrameStats, FrameTargets, Resolved, BAND_ALIGN};
 use crate::gpu::{readback, Gpu};
-use crate::methods::peeling::downlevel::{is_downlevel, DownlevelPeeling};
+use crate::methods::downlevel::{is_downlevel, DownlevelFrame};
 use crate::methods::MethodId;
 use crate::scene::{srgb_to_linear, Scene};
 
@@ -49,7 +49,7 @@ pub struct Renderer<'g> {
     shortfall: Option<(u64, u64)>,
     recorder: Option<FrameRecorder>,
     /// On a downlevel device: f2b through render targets, in place of the recorder.
-    downlevel: Option<DownlevelPeeling>,
+    downlevel: Option<DownlevelFrame>,
     /// The time set by [`Renderer::set_time`]: the GPU moves the scene there (the CPU scene
     /// stays at its own time).
     time: Option<f32>,
@@ -411,38 +411,30 @@ impl<'g> Renderer<'g> {
         Ok((over_background(options, &resolved), stats))
     }
 
-    /// A picture on a downlevel device: f2b through render targets ([`DownlevelPeeling`]),
-    /// peeling more layers while a frame finds fragments behind its last; the statistics count
-    /// the fragments from the pixels' layer counts once a frame is complete.
+    /// A picture on a downlevel device ([`DownlevelFrame`]: f2b or wboit through render
+    /// targets), f2b peeling more layers while a frame finds fragments behind its last; the
+    /// statistics count the fragments from the pixels' counts once a frame is complete.
     fn render_downlevel(
         &mut self,
         method: MethodId,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<(LinearImage, FrameStats)> {
         let gpu = self.gpu;
-        if method != MethodId::F2b {
-            let why = crate::frame::scene_gpu::check_device(gpu)
-                .err()
-                .map(|e| e.to_string());
+        if draw.is_some() {
             return Err(Error::unsupported(format!(
-                "{method} does not run here: {}",
-                why.unwrap_or_default()
+                "{method} on a downlevel device draws the scene itself: it takes no draw callback"
             )));
         }
-        if draw.is_some() {
-            return Err(Error::unsupported(
-                "f2b on a downlevel device draws the scene itself: it takes no draw callback",
-            ));
-        }
         let peeling = match &mut self.downlevel {
-            Some(p) => p,
-            None => {
+            Some(p) if p.method() == method => p,
+            _ => {
                 let scene = match self.time {
                     Some(t) => self.scene.at_time(t),
                     None => self.scene.clone(),
                 };
+                self.downlevel = None;
                 self.downlevel
-                    .insert(DownlevelPeeling::new(gpu, &scene, &self.options)?)
+                    .insert(DownlevelFrame::new(gpu, &scene, method, &self.options)?)
             }
         };
         let opaque = self.opaque.create_view(&Default::default());
@@ -462,7 +454,8 @@ impl<'g> Renderer<'g> {
             submits += 1;
             let stats = peeling.wait_stats(gpu)?;
             passes += stats.geometry_passes.unwrap_or(0);
-            let grows = peeling.layers() > peeling.last_layers();
+            // Only an incomplete f2b frame that will peel more layers renders again.
+            let grows = method == MethodId::F2b && peeling.layers() > peeling.last_layers();
             if stats.exact != Some(false) || !grows {
                 break stats;
             }
@@ -471,7 +464,9 @@ impl<'g> Renderer<'g> {
         let stored: u64 = resolved.iter().map(|r| r.count as u64).sum();
         let deepest = resolved.iter().map(|r| r.count).max().unwrap_or(0);
         stats.fragments_stored = Some(stored);
-        if stats.exact == Some(true) {
+        // f2b's complete frame and wboit's every frame composited every fragment.
+        let complete = stats.exact == Some(true) || method == MethodId::Wboit;
+        if complete {
             stats.fragments_generated = Some(stored);
             stats.fragments_dropped = Some(0);
             stats.max_depth_complexity = Some(deepest);

@@ -35,7 +35,6 @@
 
 pub mod bucket;
 pub mod descriptor;
-pub mod downlevel;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{

@@ -1,5 +1,9 @@
 #define_import_path strata::weighted::composite
+#ifdef UNIFORM_SCENE
+#import strata::scene::{frame}
+#else
 #import strata::scene::{frame, pixel_index, report_pixel}
+#endif
 #import strata::color::{Resolved, resolved_over}
 #ifdef MULTISAMPLED
 alias TargetTexture = texture_multisampled_2d<f32>;
@@ -14,7 +18,12 @@ alias TargetTexture = texture_2d<f32>;
 // - mboit (MOMENTS): transmittance-weighted colors over the exact coverage 1 − exp(−b0) =
 //   1 − Π(1 − α).
 
+#ifdef UNIFORM_SCENE
+// A downlevel frame's fragment counts: a target the accumulate pass added 1.0 to per fragment.
+@group(1) @binding(0) var count_target: texture_2d<f32>;
+#else
 @group(1) @binding(0) var<storage, read_write> counts: array<u32>;
+#endif
 #ifdef MOMENTS
 @group(1) @binding(1) var b0_target: TargetTexture;
 @group(1) @binding(2) var accumulation: TargetTexture;
@@ -22,7 +31,9 @@ alias TargetTexture = texture_2d<f32>;
 @group(1) @binding(1) var accumulation: TargetTexture;
 @group(1) @binding(2) var revealage: TargetTexture;
 #endif
+#ifndef UNIFORM_SCENE
 @group(1) @binding(3) var<storage, read_write> output: array<Resolved>;
+#endif
 
 // Sample `si`'s premultiplied color and coverage (single-sampled `si` is the mip level, 0).
 fn sample_color(pixel: vec2<i32>, si: u32) -> vec4<f32> {
@@ -42,19 +53,39 @@ fn sample_color(pixel: vec2<i32>, si: u32) -> vec4<f32> {
 #endif
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_composite(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let pixel = vec2<i32>(id.xy);
-    let i = pixel_index(id.xy);
-    let count = counts[i];
+// The pixel's result from its `count` fragments.
+fn pixel_resolved(pixel: vec2<i32>, count: u32) -> Resolved {
     let samples = max(frame.coverage_bits, 1u);
     var color = vec4<f32>(0.0);
     for (var si = 0u; si < samples && count > 0u; si++) {
         color += sample_color(pixel, si);
     }
-    output[i] = resolved_over(color / f32(samples), count);
+    return resolved_over(color / f32(samples), count);
+}
+
+#ifdef UNIFORM_SCENE
+// A downlevel frame's composite: a full-screen pass writing the pixel's result as the state
+// targets of crates/strata/src/methods/downlevel hold it, (color, count) and (transmittance, 0).
+struct DownlevelState {
+    @location(0) color: vec4<f32>,
+    @location(1) transmittance: vec4<f32>,
+}
+
+@fragment
+fn fs_composite(@builtin(position) position: vec4<f32>) -> DownlevelState {
+    let pixel = vec2<i32>(position.xy);
+    let r = pixel_resolved(pixel, u32(round(textureLoad(count_target, pixel, 0).r)));
+    return DownlevelState(vec4<f32>(r.color, f32(r.count)), vec4<f32>(r.transmittance, 0.0));
+}
+#else
+@compute @workgroup_size(8, 8)
+fn cs_composite(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= frame.size.x || id.y >= frame.size.y {
+        return;
+    }
+    let i = pixel_index(id.xy);
+    let count = counts[i];
+    output[i] = pixel_resolved(vec2<i32>(id.xy), count);
     report_pixel(count, count);
 }
+#endif

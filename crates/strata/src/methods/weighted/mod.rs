@@ -37,7 +37,7 @@ use crate::gpu::shader::{self, Library, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 
 /// The composite of wboit and (with `MOMENTS`) mboit.
-const COMPOSITE_WGSL: &str = include_str!("composite.wgsl");
+pub(crate) const COMPOSITE_WGSL: &str = include_str!("composite.wgsl");
 
 /// The weighted family's WGSL modules (`strata::weighted::…`).
 pub const LIBRARY: Library = &[
@@ -51,8 +51,8 @@ pub const LIBRARY: Library = &[
 ];
 use crate::methods::Method;
 
-const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-const REVEALAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
+pub(crate) const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub(crate) const REVEALAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 /// Bytes per pixel and sample of the two targets.
 pub const WBOIT_SAMPLE_BYTES: u64 = 8 + 2;
 /// Bytes per pixel of the fragment count.

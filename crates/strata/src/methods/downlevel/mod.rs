@@ -1,25 +1,34 @@
-//! f2b on a downlevel (WebGL2-class) device: [`DownlevelPeeling`].
+//! The methods a downlevel (WebGL2-class) device runs: [`DownlevelFrame`], for `f2b` (exact) and
+//! `wboit` (approximate).
 //!
 //! Such a device has no storage buffers and no compute shaders, which every other frame of
-//! strata keeps its scene, its per-pixel state and its totals in. Front-to-back depth peeling
-//! needs neither: here each step is a render pass over textures (the passes are described in
-//! `f2b_downlevel.wgsl`). The scene is composed with `UNIFORM_SCENE`: materials and lights in
-//! uniform arrays ([`UNIFORM_MATERIALS`], [`UNIFORM_LIGHTS`]), each vertex carrying its
-//! triangle's material, and the material inside each fragment's tag. The composite is the one
-//! every exact method uses (`strata::composite`), so the picture is f2b's: exact, with ties in
-//! primitive order, every blend mode and the translucency effect.
+//! strata keeps its scene, its per-pixel state and its totals in. Depth peeling and weighted
+//! blended OIT need neither: here every step is a render pass over textures. The scene is
+//! composed with `UNIFORM_SCENE`: materials and lights in uniform arrays ([`UNIFORM_MATERIALS`],
+//! [`UNIFORM_LIGHTS`]), each vertex carrying its triangle's material, and the material inside
+//! each fragment's tag. Both end in the same pair of state targets per pixel — (color, count)
+//! and (transmittance, unused), Rgba32Float: 32 bytes, a downlevel device's most per sample —
+//! which the present and [`DownlevelFrame::read_resolved`] read.
 //!
-//! Passes for L layers: L + 1 geometry passes (the last only asks an occlusion query whether
-//! anything lies behind layer L) and L full-screen accumulate passes. Memory per pixel: two
-//! layers of color, tag and depth (2 × 16 B), two pairs of state targets (2 × 32 B) and the
-//! depth buffer (4 B) = 100·W·H.
+//! **f2b** (passes in `f2b.wgsl`): for L layers, L + 1 geometry passes (the last only asks an
+//! occlusion query whether anything lies behind layer L) and L full-screen accumulate passes,
+//! which composite with `strata::composite`, the resolve every exact method shares: the picture
+//! is f2b's, exact, with ties in primitive order, every blend mode and translucency. Memory per
+//! pixel: two layers of color, tag and depth (2 × 16 B), two pairs of state targets (2 × 32 B)
+//! and the depth buffer (4 B) = 100·W·H. A frame found incomplete makes the next one peel twice
+//! the layers (up to [`MAX_LAYERS`]) unless `--layers` fixed them.
 //!
-//! What it cannot report: without storage there are no frame totals, so a real-time frame's
-//! statistics say whether it was complete (the occlusion query) but not how many fragments it
-//! saw; [`DownlevelPeeling::read_resolved`] (the batch renderer) counts them on the CPU from the
-//! pixels' layer counts. A frame that was incomplete peels twice the layers next time (up to
-//! [`MAX_LAYERS`]) unless `--layers` fixed them. No `--msaa`, `--raster compute`, `--order`,
-//! `--pipeline` or `--temporal` here; the complexity effect is read back but not presented.
+//! **wboit** (`weighted/wboit_accumulate.wgsl` and `weighted/composite.wgsl`, composed with
+//! `UNIFORM_SCENE`): one geometry pass into the accumulation and revealage targets and a third,
+//! R16Float, that counts fragments by additive blending (exact up to 2048 per pixel), then a
+//! full-screen composite into the state targets: the full device's wboit picture. Memory per
+//! pixel: 8 + 2 + 2 + 64 = 76·W·H.
+//!
+//! What a downlevel frame cannot report: without storage there are no frame totals, so a
+//! real-time frame's statistics say whether it was complete (f2b's occlusion query) but not how
+//! many fragments it saw; [`DownlevelFrame::read_resolved`] (the batch renderer) counts them on
+//! the CPU from the pixels' counts. No `--msaa`, `--raster compute`, `--order`, `--pipeline` or
+//! `--temporal` here; the complexity effect is read back but not presented.
 
 use bytemuck::Zeroable;
 
@@ -35,7 +44,9 @@ use crate::gpu::shader::{Defs, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::scene::{Camera, GpuVertex, Scene};
 
-use super::{FIRST_GUESS_LAYERS, LIBRARY};
+use super::peeling::FIRST_GUESS_LAYERS;
+use super::weighted::{self, WboitParams, ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
+use super::MethodId;
 
 /// Materials a downlevel scene may have (a uniform array; `UNIFORM_MATERIALS` in scene.wgsl,
 /// whose tags give the material 8 bits).
@@ -44,13 +55,19 @@ pub const UNIFORM_MATERIALS: usize = 256;
 pub const UNIFORM_LIGHTS: usize = 64;
 /// Triangles a downlevel tag holds: primitive << 9 | material << 1 | facing.
 pub const DOWNLEVEL_MAX_TRIANGLES: u64 = 1 << 23;
-/// Bytes per pixel (module docs).
-pub const DOWNLEVEL_PIXEL_BYTES: u64 = 100;
+/// f2b's bytes per pixel (module docs).
+pub const F2B_PIXEL_BYTES: u64 = 100;
+/// wboit's bytes per pixel (module docs).
+pub const WBOIT_PIXEL_BYTES: u64 = 76;
+/// The methods a downlevel device runs.
+pub const DOWNLEVEL_METHODS: [MethodId; 2] = [MethodId::F2b, MethodId::Wboit];
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const TAG_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const STATE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// wboit's fragment count: f16 counts exactly up to 2048.
+const COUNT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
 /// Whether `gpu` is a downlevel device that strata's other frames refuse: no storage buffers or
 /// no compute (see [`crate::frame::scene_gpu::check_device`]).
@@ -78,10 +95,21 @@ struct FrameTag {
     layers: u32,
 }
 
-/// f2b depth peeling on a device without storage buffers or compute: the scene, its
-/// pipelines and targets. Records into the caller's encoder like [`crate::FrameRecorder`] and
-/// presents over the caller's color target; statistics come back a frame or more later.
-pub struct DownlevelPeeling {
+/// wboit's pipelines on a downlevel device.
+struct Wboit {
+    params_layout: wgpu::BindGroupLayout,
+    composite_layout: wgpu::BindGroupLayout,
+    accumulate: wgpu::RenderPipeline,
+    composite: wgpu::RenderPipeline,
+}
+
+/// A frame of f2b or wboit on a device without storage buffers or compute: the scene, the
+/// method's pipelines and targets. Records into the caller's encoder like
+/// [`crate::FrameRecorder`] and presents over the caller's color target; statistics come back a
+/// frame or more later.
+pub struct DownlevelFrame {
+    method: MethodId,
+    wboit: Option<Wboit>,
     options: RenderOptions,
     triangle_count: u32,
     vertices: wgpu::Buffer,
@@ -119,32 +147,50 @@ pub struct DownlevelPeeling {
     states: Option<[State; 2]>,
 }
 
-impl DownlevelPeeling {
-    /// Uploads `scene` and makes the pipelines, refusing in one line what a downlevel frame
-    /// cannot hold (options, more than [`UNIFORM_MATERIALS`] materials or [`UNIFORM_LIGHTS`]
-    /// lights, more than [`DOWNLEVEL_MAX_TRIANGLES`] triangles).
-    pub fn new(gpu: &Gpu, scene: &Scene, options: &RenderOptions) -> Result<DownlevelPeeling> {
+impl DownlevelFrame {
+    /// Uploads `scene` and makes `method`'s pipelines (one of [`DOWNLEVEL_METHODS`]), refusing
+    /// in one line what a downlevel frame cannot hold (options, more than
+    /// [`UNIFORM_MATERIALS`] materials or [`UNIFORM_LIGHTS`] lights, more than
+    /// [`DOWNLEVEL_MAX_TRIANGLES`] triangles, blend modes wboit cannot blend).
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        method: MethodId,
+        options: &RenderOptions,
+    ) -> Result<DownlevelFrame> {
         options.validate()?;
         scene.validate()?;
+        if !DOWNLEVEL_METHODS.contains(&method) {
+            let why = crate::frame::scene_gpu::check_device(gpu)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_else(|| "it is not a downlevel device".into());
+            return Err(Error::unsupported(format!(
+                "{method} does not run here: {why}"
+            )));
+        }
         check_options(options)?;
+        method
+            .descriptor()
+            .check_blend(&scene.blend_modes(), options.frame.kbuffer.tail)?;
         let device = &gpu.device;
         if scene.materials.len() > UNIFORM_MATERIALS {
             return Err(Error::unsupported(format!(
-                "the scene has {} materials; on a downlevel device f2b holds at most {UNIFORM_MATERIALS} (a uniform array)",
+                "the scene has {} materials; on a downlevel device {method} holds at most {UNIFORM_MATERIALS} (a uniform array)",
                 scene.materials.len()
             )));
         }
         let lighting = uniforms::lighting(scene);
         if lighting.lights.len() > UNIFORM_LIGHTS {
             return Err(Error::unsupported(format!(
-                "the scene has {} lights; on a downlevel device f2b holds at most {UNIFORM_LIGHTS} (a uniform array)",
+                "the scene has {} lights; on a downlevel device {method} holds at most {UNIFORM_LIGHTS} (a uniform array)",
                 lighting.lights.len()
             )));
         }
         let triangles = scene.triangle_count() as u64;
         if triangles > DOWNLEVEL_MAX_TRIANGLES {
             return Err(Error::unsupported(format!(
-                "the scene has {triangles} triangles; on a downlevel device f2b's tags hold at most {DOWNLEVEL_MAX_TRIANGLES}"
+                "the scene has {triangles} triangles; on a downlevel device {method}'s tags hold at most {DOWNLEVEL_MAX_TRIANGLES}"
             )));
         }
         check_formats(gpu)?;
@@ -157,7 +203,7 @@ impl DownlevelPeeling {
                 gpu.limits.max_buffer_size as f64 / 1048576.0
             )));
         }
-        crate::gpu::validated(gpu, "f2b (downlevel)", || {
+        crate::gpu::validated(gpu, &format!("{method} (downlevel)"), || {
             let init = |label: &str, contents: &[u8], usage| {
                 wgpu::util::DeviceExt::create_buffer_init(
                     device,
@@ -218,7 +264,7 @@ impl DownlevelPeeling {
                 "strata.f2b_downlevel.present.layout",
                 &[Slot::TextureFloat; 4],
             );
-            let [vertex_stage, stage, present_stage] = stages();
+            let [vertex_stage, stage, present_stage, wboit_accumulate, wboit_composite] = stages();
             let vertex_module = vertex_stage.module(device);
             let module = stage.module(device);
             let target = |format| {
@@ -277,7 +323,75 @@ impl DownlevelPeeling {
                 None,
                 None,
             );
-            Ok(DownlevelPeeling {
+            let wboit = (method == MethodId::Wboit).then(|| {
+                let params_layout = binding::layout(
+                    device,
+                    "strata.wboit_downlevel.params.layout",
+                    &[Slot::Uniform],
+                );
+                let composite_layout = binding::layout(
+                    device,
+                    "strata.wboit_downlevel.composite.layout",
+                    &[Slot::TextureFloat; 3],
+                );
+                let blended = |format, src_factor, dst_factor| {
+                    let component = wgpu::BlendComponent {
+                        src_factor,
+                        dst_factor,
+                        operation: wgpu::BlendOperation::Add,
+                    };
+                    Some(wgpu::ColorTargetState {
+                        format,
+                        blend: Some(wgpu::BlendState {
+                            color: component,
+                            alpha: component,
+                        }),
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })
+                };
+                use wgpu::BlendFactor::{One, OneMinusSrc, Zero};
+                let accumulate = render_pipeline(
+                    gpu,
+                    "strata.wboit_downlevel.accumulate",
+                    wgpu::VertexState {
+                        module: &vertex_module,
+                        entry_point: Some("vs_scene"),
+                        compilation_options: Default::default(),
+                        buffers: &vertex_buffers,
+                    },
+                    (&wboit_accumulate.module(device), "fs_wboit"),
+                    &[&frame_layout, &params_layout],
+                    &[
+                        blended(ACCUMULATION_FORMAT, One, One),
+                        blended(REVEALAGE_FORMAT, Zero, OneMinusSrc),
+                        blended(COUNT_FORMAT, One, One),
+                    ],
+                    Rasterization {
+                        cull_mode: None,
+                        depth: None,
+                        samples: 1,
+                    },
+                );
+                let composite = screen_pipeline(
+                    gpu,
+                    "strata.wboit_downlevel.composite",
+                    (&present_module, "vs_screen"),
+                    (&wboit_composite.module(device), "fs_composite"),
+                    &[&frame_layout, &composite_layout],
+                    &[target(STATE_FORMAT), target(STATE_FORMAT)],
+                    None,
+                    None,
+                );
+                Wboit {
+                    params_layout,
+                    composite_layout,
+                    accumulate,
+                    composite,
+                }
+            });
+            Ok(DownlevelFrame {
+                method,
+                wboit,
                 triangle_count: list.materials.len() as u32,
                 vertices: init(
                     "strata.f2b_downlevel.vertices",
@@ -338,6 +452,11 @@ impl DownlevelPeeling {
         })
     }
 
+    /// The method the frames are recorded with.
+    pub fn method(&self) -> MethodId {
+        self.method
+    }
+
     /// The options frames are recorded with.
     pub fn options(&self) -> &RenderOptions {
         &self.options
@@ -380,7 +499,7 @@ impl DownlevelPeeling {
     /// Records one frame into `encoder`: the peels and accumulates, the probe, and with a
     /// color target the present over it (`targets.opaque_depth`: fragments at or behind it are
     /// rejected). Submits nothing and waits for nothing; the statistics come back through
-    /// [`DownlevelPeeling::poll_stats`].
+    /// [`DownlevelFrame::poll_stats`].
     pub fn record(
         &mut self,
         gpu: &Gpu,
@@ -389,10 +508,11 @@ impl DownlevelPeeling {
     ) -> Result<()> {
         let (w, h) = (self.options.frame.width, self.options.frame.height);
         if let Some(budget) = self.options.budget_bytes() {
-            let need = w as u64 * h as u64 * DOWNLEVEL_PIXEL_BYTES;
+            let need = w as u64 * h as u64 * self.pixel_bytes();
             if need > budget {
                 return Err(Error::input(format!(
-                    "f2b (downlevel): needs {:.2} MiB at {w}x{h}, more than --budget-mb {}",
+                    "{} (downlevel): needs {:.2} MiB at {w}x{h}, more than --budget-mb {}",
+                    self.method,
                     need as f64 / 1048576.0,
                     self.options.frame.budget_mb.unwrap_or(0.0)
                 )));
@@ -400,39 +520,22 @@ impl DownlevelPeeling {
         }
         if targets.color.is_some() && self.options.frame.effect == Effect::Complexity {
             return Err(Error::unsupported(
-                "f2b on a downlevel device presents transparency and translucency; the complexity effect is read back only (Renderer)",
+                "a downlevel frame presents transparency and translucency; the complexity effect is read back only (Renderer)",
             ));
         }
-        let layers = self.layers();
         let device = &gpu.device;
         let attachment_usage =
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let mut view = |label: &'static str, format| {
-            self.cache
-                .texture(gpu, label, (w, h), format, attachment_usage)
-                .create_view(&Default::default())
-        };
-        let layer_views = [
-            Layer {
-                color: view("strata.f2b_downlevel.layer0.color", COLOR_FORMAT),
-                tag: view("strata.f2b_downlevel.layer0.tag", TAG_FORMAT),
-                depth: view("strata.f2b_downlevel.layer0.depth", DEPTH_COPY_FORMAT),
-            },
-            Layer {
-                color: view("strata.f2b_downlevel.layer1.color", COLOR_FORMAT),
-                tag: view("strata.f2b_downlevel.layer1.tag", TAG_FORMAT),
-                depth: view("strata.f2b_downlevel.layer1.depth", DEPTH_COPY_FORMAT),
-            },
-        ];
-        let depth = view(
-            "strata.f2b_downlevel.depth",
-            wgpu::TextureFormat::Depth32Float,
-        );
         let own_opaque = targets.opaque_depth.is_none().then(|| {
-            view(
-                "strata.f2b_downlevel.no_opaque",
-                wgpu::TextureFormat::Depth32Float,
-            )
+            self.cache
+                .texture(
+                    gpu,
+                    "strata.downlevel.no_opaque",
+                    (w, h),
+                    wgpu::TextureFormat::Depth32Float,
+                    attachment_usage,
+                )
+                .create_view(&Default::default())
         });
         let copy_usage = attachment_usage | wgpu::TextureUsages::COPY_SRC;
         let states = [0, 1].map(|i| State {
@@ -469,6 +572,81 @@ impl DownlevelPeeling {
                 wgpu::BindingResource::TextureView(opaque),
             ],
         );
+        // Both pairs start as an empty composite: no color, count 0, transmittance 1.
+        for pair in &state_views {
+            encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("strata.f2b_downlevel.init"),
+                color_attachments: &[
+                    attachment(&pair[0], wgpu::Color::TRANSPARENT),
+                    attachment(&pair[1], wgpu::Color::WHITE),
+                ],
+                ..Default::default()
+            });
+        }
+        let layers = match self.method {
+            MethodId::Wboit => {
+                self.record_wboit(gpu, encoder, &frame_group, &state_views[0]);
+                0
+            }
+            _ => self.record_peels(gpu, encoder, &frame_group, &state_views),
+        };
+        let tag = FrameTag {
+            frame: self.frame,
+            layers,
+        };
+        self.ring
+            .record(gpu, encoder, &[(self.probe_results.clone(), 0, 2)], tag);
+        if let Some((view, format)) = targets.color {
+            self.present(gpu, encoder, &state_views, view, format);
+        }
+        self.frame += 1;
+        self.last_layers = layers;
+        self.states = Some(states);
+        Ok(())
+    }
+
+    /// Bytes per pixel of the frame's targets.
+    fn pixel_bytes(&self) -> u64 {
+        match self.method {
+            MethodId::Wboit => WBOIT_PIXEL_BYTES,
+            _ => F2B_PIXEL_BYTES,
+        }
+    }
+
+    /// f2b's peels and accumulates into `states`, and the probe; returns the layers peeled.
+    fn record_peels(
+        &mut self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        frame_group: &wgpu::BindGroup,
+        state_views: &[[wgpu::TextureView; 2]; 2],
+    ) -> u32 {
+        let layers = self.layers();
+        let device = &gpu.device;
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
+        let attachment_usage =
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let mut view = |label: &'static str, format| {
+            self.cache
+                .texture(gpu, label, (w, h), format, attachment_usage)
+                .create_view(&Default::default())
+        };
+        let layer_views = [
+            Layer {
+                color: view("strata.f2b_downlevel.layer0.color", COLOR_FORMAT),
+                tag: view("strata.f2b_downlevel.layer0.tag", TAG_FORMAT),
+                depth: view("strata.f2b_downlevel.layer0.depth", DEPTH_COPY_FORMAT),
+            },
+            Layer {
+                color: view("strata.f2b_downlevel.layer1.color", COLOR_FORMAT),
+                tag: view("strata.f2b_downlevel.layer1.tag", TAG_FORMAT),
+                depth: view("strata.f2b_downlevel.layer1.depth", DEPTH_COPY_FORMAT),
+            },
+        ];
+        let depth = view(
+            "strata.f2b_downlevel.depth",
+            wgpu::TextureFormat::Depth32Float,
+        );
         let texture = wgpu::BindingResource::TextureView;
         // Peel i reads layer (i + 1) % 2 (the previous one) and writes layer i % 2.
         let peel_groups = [0, 1].map(|i| {
@@ -499,17 +677,6 @@ impl DownlevelPeeling {
                 ],
             )
         });
-        // Both pairs start as an empty composite: no color, count 0, transmittance 1.
-        for pair in &state_views {
-            encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("strata.f2b_downlevel.init"),
-                color_attachments: &[
-                    attachment(&pair[0], wgpu::Color::TRANSPARENT),
-                    attachment(&pair[1], wgpu::Color::WHITE),
-                ],
-                ..Default::default()
-            });
-        }
         for layer in 0..=layers {
             let probe = layer == layers;
             let target = &layer_views[layer as usize % 2];
@@ -548,7 +715,7 @@ impl DownlevelPeeling {
             } else {
                 &self.peel
             });
-            pass.set_bind_group(0, Some(&frame_group), &[]);
+            pass.set_bind_group(0, Some(frame_group), &[]);
             pass.set_bind_group(1, Some(&peel_groups[layer as usize % 2]), &[]);
             pass.set_vertex_buffer(0, self.vertices.slice(..));
             pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
@@ -571,24 +738,83 @@ impl DownlevelPeeling {
                 ..Default::default()
             });
             pass.set_pipeline(&self.accumulate);
-            pass.set_bind_group(0, Some(&frame_group), &[]);
+            pass.set_bind_group(0, Some(frame_group), &[]);
             pass.set_bind_group(1, Some(&accumulate_groups[i]), &[]);
             pass.draw(0..3, 0..1);
         }
         encoder.resolve_query_set(&self.probe, 0..1, &self.probe_results, 0);
-        let tag = FrameTag {
-            frame: self.frame,
-            layers,
+        layers
+    }
+
+    /// wboit's accumulate pass and its composite into the state pair `state`.
+    fn record_wboit(
+        &mut self,
+        gpu: &Gpu,
+        encoder: &mut wgpu::CommandEncoder,
+        frame_group: &wgpu::BindGroup,
+        state: &[wgpu::TextureView; 2],
+    ) {
+        let wboit = self.wboit.as_ref().expect("made for wboit");
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let mut view = |label: &'static str, format| {
+            self.cache
+                .texture(gpu, label, (w, h), format, usage)
+                .create_view(&Default::default())
         };
-        self.ring
-            .record(gpu, encoder, &[(self.probe_results.clone(), 0, 2)], tag);
-        if let Some((view, format)) = targets.color {
-            self.present(gpu, encoder, &state_views, view, format);
-        }
-        self.frame += 1;
-        self.last_layers = layers;
-        self.states = Some(states);
-        Ok(())
+        let accumulation = view("strata.wboit_downlevel.accumulation", ACCUMULATION_FORMAT);
+        let revealage = view("strata.wboit_downlevel.revealage", REVEALAGE_FORMAT);
+        let count = view("strata.wboit_downlevel.count", COUNT_FORMAT);
+        let weighted = &self.options.frame.weighted;
+        let params = WboitParams {
+            weight: weighted.weight.index(),
+            depth_scale: weighted.depth_scale as f32,
+            _pad: [0; 2],
+        };
+        let params = self.cache.uniform(
+            gpu,
+            "strata.wboit_downlevel.params",
+            bytemuck::bytes_of(&params),
+        );
+        let device = &gpu.device;
+        let params_group = binding::group(
+            device,
+            "strata.wboit_downlevel.params.group",
+            &wboit.params_layout,
+            &[params.as_entire_binding()],
+        );
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("strata.wboit_downlevel.accumulate"),
+            color_attachments: &[
+                attachment(&accumulation, wgpu::Color::TRANSPARENT),
+                attachment(&revealage, wgpu::Color::WHITE),
+                attachment(&count, wgpu::Color::TRANSPARENT),
+            ],
+            ..Default::default()
+        });
+        pass.set_pipeline(&wboit.accumulate);
+        pass.set_bind_group(0, Some(frame_group), &[]);
+        pass.set_bind_group(1, Some(&params_group), &[]);
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
+        pass.draw(0..self.triangle_count * 3, 0..1);
+        drop(pass);
+        let texture = wgpu::BindingResource::TextureView;
+        let composite_group = binding::group(
+            device,
+            "strata.wboit_downlevel.composite.group",
+            &wboit.composite_layout,
+            &[texture(&count), texture(&accumulation), texture(&revealage)],
+        );
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("strata.wboit_downlevel.composite"),
+            color_attachments: &[kept_attachment(&state[0]), kept_attachment(&state[1])],
+            ..Default::default()
+        });
+        pass.set_pipeline(&wboit.composite);
+        pass.set_bind_group(0, Some(frame_group), &[]);
+        pass.set_bind_group(1, Some(&composite_group), &[]);
+        pass.draw(0..3, 0..1);
     }
 
     /// The present's two draws over `view`: times the transmittance, then plus the color.
@@ -686,7 +912,7 @@ impl DownlevelPeeling {
             }
             if !self.ring.pending() {
                 return Err(Error::runtime(
-                    "f2b (downlevel): no frame is waiting for its statistics",
+                    "downlevel frame: no frame is waiting for its statistics",
                 ));
             }
             gpu.wait()?;
@@ -694,7 +920,28 @@ impl DownlevelPeeling {
     }
 
     fn frame_stats(&mut self, gpu: &Gpu, tag: FrameTag, words: Option<Vec<u32>>) -> FrameStats {
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
+        let mut stats = FrameStats {
+            frame: tag.frame,
+            method: self.method.as_str().into(),
+            width: w,
+            height: h,
+            effect: self.options.frame.effect.name().into(),
+            geometry_passes: Some(1),
+            // wboit approximates, by design.
+            exact: Some(false),
+            bytes_allocated: Some(w as u64 * h as u64 * self.pixel_bytes()),
+            raster: Raster::Hw.name().into(),
+            adapter: Some(gpu.info.name.clone()),
+            backend: Some(gpu.backend_name()),
+            ..Default::default()
+        };
+        if self.method == MethodId::Wboit {
+            return stats;
+        }
         let deeper = words.map(|w| w[0] != 0 || w[1] != 0);
+        stats.geometry_passes = Some(tag.layers + 1);
+        stats.exact = deeper.map(|d| !d);
         let fixed = self.options.frame.peeling.layers.is_some();
         if deeper == Some(true) && !fixed {
             self.next_layers = self
@@ -702,21 +949,7 @@ impl DownlevelPeeling {
                 .max(tag.layers.saturating_mul(2))
                 .min(MAX_LAYERS);
         }
-        let (w, h) = (self.options.frame.width, self.options.frame.height);
-        FrameStats {
-            frame: tag.frame,
-            method: "f2b".into(),
-            width: w,
-            height: h,
-            effect: self.options.frame.effect.name().into(),
-            geometry_passes: Some(tag.layers + 1),
-            exact: deeper.map(|d| !d),
-            bytes_allocated: Some(w as u64 * h as u64 * DOWNLEVEL_PIXEL_BYTES),
-            raster: Raster::Hw.name().into(),
-            adapter: Some(gpu.info.name.clone()),
-            backend: Some(gpu.backend_name()),
-            ..Default::default()
-        }
+        stats
     }
 
     /// Layers the last recorded frame peeled.
@@ -730,7 +963,7 @@ impl DownlevelPeeling {
         let states = self
             .states
             .as_ref()
-            .ok_or_else(|| Error::runtime("f2b (downlevel): no frame was recorded"))?;
+            .ok_or_else(|| Error::runtime("downlevel frame: no frame was recorded"))?;
         let texels = |texture: &wgpu::Texture| -> Result<Vec<[f32; 4]>> {
             let bytes = crate::gpu::readback::read_texture(gpu, texture)?;
             Ok(bytemuck::pod_collect_to_vec(&bytes))
@@ -773,19 +1006,25 @@ const STATE_LABELS: [[&str; 2]; 2] = [
 /// The material index at vertex-buffer slot 1, `@location(2)` of `vs_scene` with UNIFORM_SCENE.
 const MATERIAL_ATTRIBUTE: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![2 => Uint32];
 
-/// The stages of a downlevel frame: the scene's vertex stage, the peels and accumulate, the
-/// present (all composed with UNIFORM_SCENE).
-pub(crate) fn stages() -> [Stage; 3] {
+/// The stages of a downlevel frame, all composed with UNIFORM_SCENE: the scene's vertex stage,
+/// f2b's peels and accumulate, the present (with the full-screen vertex stage), wboit's
+/// accumulate and composite.
+pub(crate) fn stages() -> [Stage; 5] {
     let defs = Defs::default().flag("UNIFORM_SCENE");
+    let weighted = |label: &str, source: &'static str| {
+        Stage::new(label, source)
+            .with(weighted::LIBRARY)
+            .defs(&defs)
+    };
     [
-        Stage::new("strata.f2b_downlevel.vertex", crate::gpu::shader::SCENE).defs(&defs),
-        Stage::new("strata.f2b_downlevel", include_str!("f2b_downlevel.wgsl"))
-            .with(LIBRARY)
-            .defs(&defs),
-        Stage::new(
-            "strata.f2b_downlevel.present",
-            include_str!("f2b_downlevel_present.wgsl"),
+        Stage::new("strata.downlevel.vertex", crate::gpu::shader::SCENE).defs(&defs),
+        Stage::new("strata.f2b_downlevel", include_str!("f2b.wgsl")).defs(&defs),
+        Stage::new("strata.downlevel.present", include_str!("present.wgsl")),
+        weighted(
+            "strata.wboit_downlevel.accumulate",
+            include_str!("../weighted/wboit_accumulate.wgsl"),
         ),
+        weighted("strata.wboit_downlevel.composite", weighted::COMPOSITE_WGSL),
     ]
 }
 

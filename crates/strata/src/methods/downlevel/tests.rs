@@ -21,9 +21,27 @@ fn scene(spec: &str) -> Scene {
 }
 
 fn render(on: &Gpu, scene: &Scene, options: &RenderOptions) -> (LinearImage, FrameStats) {
+    render_with(on, MethodId::F2b, scene, options)
+}
+
+fn render_with(
+    on: &Gpu,
+    method: MethodId,
+    scene: &Scene,
+    options: &RenderOptions,
+) -> (LinearImage, FrameStats) {
     Renderer::new(on, scene, options)
-        .and_then(|mut r| r.render_method(MethodId::F2b, None))
-        .unwrap_or_else(|e| panic!("f2b on {}: {e}", on.info.name))
+        .and_then(|mut r| r.render_method(method, None))
+        .unwrap_or_else(|e| panic!("{method} on {}: {e}", on.info.name))
+}
+
+/// The largest difference of two pictures' color channels.
+fn worst_difference(a: &LinearImage, b: &LinearImage) -> f32 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs()))
+        .fold(0.0f32, f32::max)
 }
 
 /// Layered quads blending over, add and multiply in turn.
@@ -76,12 +94,7 @@ fn downlevel_f2b_equals_the_reference_and_the_full_devices_f2b() {
             2,
             0.001,
         );
-        let worst = image
-            .pixels
-            .iter()
-            .zip(&full.pixels)
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
-            .fold(0.0f32, f32::max);
+        let worst = worst_difference(&image, &full);
         assert!(
             worst < 1e-5,
             "{name}: differs from the full device's f2b by {worst}"
@@ -140,7 +153,7 @@ fn downlevel_present_puts_the_frame_over_the_applications_target() {
     let background = [0.3f32, 0.5, 0.7];
     options.frame.background = Background::Color(background);
     let (expected, _) = render(g, &s, &options);
-    let mut peeling = DownlevelPeeling::new(g, &s, &options).unwrap();
+    let mut peeling = DownlevelFrame::new(g, &s, MethodId::F2b, &options).unwrap();
     let format = wgpu::TextureFormat::Rgba16Float;
     let target = g.texture_2d(
         "test.target",
@@ -231,7 +244,49 @@ fn downlevel_refusals_are_one_line() {
         .expect("refused")
         .to_string();
     assert!(
-        e.starts_with("kb-keys does not run here:") && e.contains("only f2b runs on it"),
+        e.starts_with("kb-keys does not run here:") && e.contains("only f2b and wboit run on it"),
         "{e}"
     );
+}
+
+/// wboit on the WebGL2-class device is the full device's wboit: the same closed form from the
+/// same blended targets (its count from a blended target instead of atomics), and the same
+/// fragment count; refused for blend modes, as on the full device.
+#[test]
+fn downlevel_wboit_equals_the_full_devices_wboit() {
+    for (name, s, effect) in [
+        (
+            "spheres",
+            scene("builtin:spheres?layers=4&segments=12"),
+            Effect::Translucency,
+        ),
+        ("demo", scene("builtin:demo"), Effect::Transparency),
+    ] {
+        let mut options = RenderOptions::sized(48, 40);
+        options.frame.effect = effect;
+        let (image, stats) = render_with(webgl2(), MethodId::Wboit, &s, &options);
+        let (full, full_stats) = render_with(gpu(), MethodId::Wboit, &s, &options);
+        let worst = worst_difference(&image, &full);
+        assert!(
+            worst < 1e-5,
+            "{name}: differs from the full device's wboit by {worst}"
+        );
+        assert_eq!(stats.method, "wboit");
+        assert_eq!(stats.exact, Some(false), "{name}");
+        assert_eq!(stats.geometry_passes, Some(1), "{name}");
+        assert_eq!(
+            stats.fragments_generated, full_stats.fragments_generated,
+            "{name}"
+        );
+        assert_eq!(
+            stats.max_depth_complexity, full_stats.max_depth_complexity,
+            "{name}"
+        );
+    }
+    let e = Renderer::new(webgl2(), &blended_layers(), &RenderOptions::sized(16, 16))
+        .and_then(|mut r| r.render_method(MethodId::Wboit, None))
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(e.starts_with("wboit cannot blend 'add' materials"), "{e}");
 }
