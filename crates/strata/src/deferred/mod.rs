@@ -52,7 +52,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
 
 use crate::error::{Error, Result};
-use crate::frame::passes::{self, screen_pipeline};
+use crate::frame::passes::{self, color_target, screen_pipeline};
 use crate::frame::scene_gpu::SceneGpu;
 use crate::frame::uniforms::{self, GpuLight};
 use crate::frame::RenderOptions;
@@ -119,6 +119,7 @@ const SSAO_STRENGTH: f32 = 1.5;
 
 /// The G-buffer bindings each pass reads (indices in deferred_common.wgsl).
 const GBUFFER_SLOTS: [(u32, Slot); 1] = [(0, Slot::Uniform)];
+/// The G-buffer's reads: uniforms, albedo, normals, depth; SSAO binds exactly these.
 const SSAO_SLOTS: [(u32, Slot); 4] = [
     (0, Slot::Uniform),
     (1, Slot::TextureFloat),
@@ -126,33 +127,26 @@ const SSAO_SLOTS: [(u32, Slot); 4] = [
     (3, Slot::TextureDepth),
 ];
 const SSAO_BLUR_SLOTS: [(u32, Slot); 2] = [(0, Slot::Uniform), (7, Slot::TextureFloat)];
-const LIGHTING_SLOTS: [(u32, Slot); 6] = [
-    (0, Slot::Uniform),
-    (1, Slot::TextureFloat),
-    (2, Slot::TextureFloat),
-    (3, Slot::TextureDepth),
-    (8, Slot::Storage),
-    (9, Slot::Storage),
-];
-const COMPOSITE_SLOTS: [(u32, Slot); 7] = [
-    (0, Slot::Uniform),
-    (1, Slot::TextureFloat),
-    (2, Slot::TextureFloat),
-    (3, Slot::TextureDepth),
+/// Lighting: the G-buffer and the lights and their volumes.
+const LIGHTING_EXTRA: [(u32, Slot); 2] = [(8, Slot::Storage), (9, Slot::Storage)];
+/// Composite: the G-buffer, the two light sums and the occlusion.
+const COMPOSITE_EXTRA: [(u32, Slot); 3] = [
     (4, Slot::TextureFloat),
     (5, Slot::TextureFloat),
     (6, Slot::TextureFloat),
 ];
-const DEBUG_SLOTS: [(u32, Slot); 8] = [
-    (0, Slot::Uniform),
-    (1, Slot::TextureFloat),
-    (2, Slot::TextureFloat),
-    (3, Slot::TextureDepth),
+/// Debug views: the composite's bindings and the exact normals.
+const DEBUG_EXTRA: [(u32, Slot); 4] = [
     (4, Slot::TextureFloat),
     (5, Slot::TextureFloat),
     (6, Slot::TextureFloat),
     (10, Slot::TextureFloat),
 ];
+
+/// The G-buffer's reads followed by a pass's own bindings.
+fn reading_gbuffer(extra: &[(u32, Slot)]) -> Vec<(u32, Slot)> {
+    SSAO_SLOTS.iter().chain(extra).copied().collect()
+}
 const TONEMAP_SLOTS: [(u32, Slot); 2] = [(0, Slot::Uniform), (11, Slot::TextureFloat)];
 
 /// The deferred bindings and helpers, and the full-screen triangle's vertex stage.
@@ -310,17 +304,6 @@ fn depth_state(write: bool, compare: wgpu::CompareFunction) -> Option<wgpu::Dept
     })
 }
 
-fn target(
-    format: wgpu::TextureFormat,
-    blend: Option<wgpu::BlendState>,
-) -> Option<wgpu::ColorTargetState> {
-    Some(wgpu::ColorTargetState {
-        format,
-        blend,
-        write_mask: wgpu::ColorWrites::ALL,
-    })
-}
-
 impl Passes {
     fn new(gpu: &Gpu, frame_layout: &wgpu::BindGroupLayout) -> Passes {
         let device = &gpu.device;
@@ -328,9 +311,21 @@ impl Passes {
             gbuffer: binding::layout_at(device, "strata.deferred.gbuffer", &GBUFFER_SLOTS),
             ssao: binding::layout_at(device, "strata.deferred.ssao", &SSAO_SLOTS),
             ssao_blur: binding::layout_at(device, "strata.deferred.ssao_blur", &SSAO_BLUR_SLOTS),
-            lighting: binding::layout_at(device, "strata.deferred.lighting", &LIGHTING_SLOTS),
-            composite: binding::layout_at(device, "strata.deferred.composite", &COMPOSITE_SLOTS),
-            debug: binding::layout_at(device, "strata.deferred.debug", &DEBUG_SLOTS),
+            lighting: binding::layout_at(
+                device,
+                "strata.deferred.lighting",
+                &reading_gbuffer(&LIGHTING_EXTRA),
+            ),
+            composite: binding::layout_at(
+                device,
+                "strata.deferred.composite",
+                &reading_gbuffer(&COMPOSITE_EXTRA),
+            ),
+            debug: binding::layout_at(
+                device,
+                "strata.deferred.debug",
+                &reading_gbuffer(&DEBUG_EXTRA),
+            ),
             tonemap: binding::layout_at(device, "strata.tonemap", &TONEMAP_SLOTS),
         };
         let modules: Vec<wgpu::ShaderModule> = (0..STAGES.len()).map(|i| module(gpu, i)).collect();
@@ -348,10 +343,13 @@ impl Passes {
             alpha: wgpu::BlendComponent::REPLACE,
         };
         let light_targets = [
-            target(LIGHT_FORMAT, Some(additive)),
-            target(LIGHT_FORMAT, Some(additive)),
+            color_target(LIGHT_FORMAT, Some(additive)),
+            color_target(LIGHT_FORMAT, Some(additive)),
         ];
-        let gbuffer_targets = [target(ALBEDO_FORMAT, None), target(NORMAL_FORMAT, None)];
+        let gbuffer_targets = [
+            color_target(ALBEDO_FORMAT, None),
+            color_target(NORMAL_FORMAT, None),
+        ];
         let volume = |label, entry| {
             screen_pipeline(
                 gpu,
@@ -371,7 +369,7 @@ impl Passes {
                 (&fullscreen_m, "vs_fullscreen"),
                 (module, entry),
                 &[frame_layout, layout],
-                &[target(format, None)],
+                &[color_target(format, None)],
                 None,
                 None,
             )
@@ -383,7 +381,7 @@ impl Passes {
                 &forward_m,
                 "fs_forward",
                 &[frame_layout],
-                &[target(HDR_FORMAT, None)],
+                &[color_target(HDR_FORMAT, None)],
                 write_less.clone(),
             ),
             gbuffer: passes::capture_pipeline(
@@ -404,7 +402,7 @@ impl Passes {
                 &[
                     gbuffer_targets[0].clone(),
                     gbuffer_targets[1].clone(),
-                    target(EXACT_NORMAL_FORMAT, None),
+                    color_target(EXACT_NORMAL_FORMAT, None),
                 ],
                 write_less,
             ),
@@ -622,14 +620,18 @@ impl LitFrame {
             lighting: group(
                 "strata.deferred.lighting",
                 &layouts.lighting,
-                &LIGHTING_SLOTS,
+                &reading_gbuffer(&LIGHTING_EXTRA),
             ),
             composite: group(
                 "strata.deferred.composite",
                 &layouts.composite,
-                &COMPOSITE_SLOTS,
+                &reading_gbuffer(&COMPOSITE_EXTRA),
             ),
-            debug: group("strata.deferred.debug", &layouts.debug, &DEBUG_SLOTS),
+            debug: group(
+                "strata.deferred.debug",
+                &layouts.debug,
+                &reading_gbuffer(&DEBUG_EXTRA),
+            ),
             tonemap: group("strata.tonemap", &layouts.tonemap, &TONEMAP_SLOTS),
         }
     }
@@ -940,7 +942,7 @@ impl LitFrame {
                 (fullscreen, "vs_fullscreen"),
                 (module, "fs_background"),
                 &[frame_layout],
-                &[target(HDR_FORMAT, Some(blend))],
+                &[color_target(HDR_FORMAT, Some(blend))],
                 None,
                 None,
             )
@@ -1004,7 +1006,7 @@ impl LitFrame {
 }
 
 fn target_state(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
-    target(format, None)
+    color_target(format, None)
 }
 
 #[derive(Clone, Copy)]

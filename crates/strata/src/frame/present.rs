@@ -296,20 +296,15 @@ mod format_tests {
             // The application's background: its own clear of its own target.
             enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("strata.test.clear"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: bg[0] as f64,
-                            g: bg[1] as f64,
-                            b: bg[2] as f64,
-                            a: 1.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
+                color_attachments: &[crate::gpu::passes::attachment(
+                    &view,
+                    wgpu::Color {
+                        r: bg[0] as f64,
+                        g: bg[1] as f64,
+                        b: bg[2] as f64,
+                        a: 1.0,
                     },
-                })],
+                )],
                 ..Default::default()
             });
             let targets = FrameTargets {

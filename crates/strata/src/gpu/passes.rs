@@ -216,3 +216,42 @@ pub fn clear_depth_pass(encoder: &mut wgpu::CommandEncoder, view: &wgpu::Texture
         multiview_mask: None,
     });
 }
+
+/// A color target of `format`, written through `blend` (`None`: replaced).
+pub fn color_target(
+    format: wgpu::TextureFormat,
+    blend: Option<wgpu::BlendState>,
+) -> Option<wgpu::ColorTargetState> {
+    Some(wgpu::ColorTargetState {
+        format,
+        blend,
+        write_mask: wgpu::ColorWrites::ALL,
+    })
+}
+
+/// The blend `src_factor`·source + `dst_factor`·destination, for color and alpha alike.
+pub fn blend_add(src_factor: wgpu::BlendFactor, dst_factor: wgpu::BlendFactor) -> wgpu::BlendState {
+    let component = wgpu::BlendComponent {
+        src_factor,
+        dst_factor,
+        operation: wgpu::BlendOperation::Add,
+    };
+    wgpu::BlendState {
+        color: component,
+        alpha: component,
+    }
+}
+
+/// A depth attachment cleared to the far plane and discarded after the pass (a peel's).
+pub fn scratch_depth(
+    view: &wgpu::TextureView,
+) -> Option<wgpu::RenderPassDepthStencilAttachment<'_>> {
+    Some(wgpu::RenderPassDepthStencilAttachment {
+        view,
+        depth_ops: Some(wgpu::Operations {
+            load: wgpu::LoadOp::Clear(1.0),
+            store: wgpu::StoreOp::Discard,
+        }),
+        stencil_ops: None,
+    })
+}

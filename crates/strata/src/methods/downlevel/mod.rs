@@ -34,7 +34,8 @@ use bytemuck::Zeroable;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    attachment, clear_depth_pass, kept_attachment, render_pipeline, screen_pipeline, Rasterization,
+    attachment, blend_add, clear_depth_pass, color_target, kept_attachment, render_pipeline,
+    scratch_depth, screen_pipeline, Rasterization,
 };
 use crate::frame::stats::StatsRing;
 use crate::frame::uniforms::{self, GpuLight, GpuMaterial, LightingSetup};
@@ -193,7 +194,7 @@ impl DownlevelFrame {
                 "the scene has {triangles} triangles; on a downlevel device {method}'s tags hold at most {DOWNLEVEL_MAX_TRIANGLES}"
             )));
         }
-        check_formats(gpu)?;
+        check_formats(gpu, method)?;
         let list = scene.triangles();
         let vertex_bytes = list.vertices.len() as u64 * std::mem::size_of::<GpuVertex>() as u64;
         if vertex_bytes > gpu.limits.max_buffer_size {
@@ -267,13 +268,7 @@ impl DownlevelFrame {
             let [vertex_stage, stage, present_stage, wboit_accumulate, wboit_composite] = stages();
             let vertex_module = vertex_stage.module(device);
             let module = stage.module(device);
-            let target = |format| {
-                Some(wgpu::ColorTargetState {
-                    format,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })
-            };
+            let target = |format| color_target(format, None);
             let vertex_buffers = [
                 Some(GpuVertex::layout()),
                 Some(wgpu::VertexBufferLayout {
@@ -334,21 +329,7 @@ impl DownlevelFrame {
                     "strata.wboit_downlevel.composite.layout",
                     &[Slot::TextureFloat; 3],
                 );
-                let blended = |format, src_factor, dst_factor| {
-                    let component = wgpu::BlendComponent {
-                        src_factor,
-                        dst_factor,
-                        operation: wgpu::BlendOperation::Add,
-                    };
-                    Some(wgpu::ColorTargetState {
-                        format,
-                        blend: Some(wgpu::BlendState {
-                            color: component,
-                            alpha: component,
-                        }),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })
-                };
+                let blended = |format, src, dst| color_target(format, Some(blend_add(src, dst)));
                 use wgpu::BlendFactor::{One, OneMinusSrc, Zero};
                 let accumulate = render_pipeline(
                     gpu,
@@ -699,14 +680,7 @@ impl DownlevelFrame {
                     ),
                     attachment(&target.depth, wgpu::Color::TRANSPARENT),
                 ],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
+                depth_stencil_attachment: scratch_depth(&depth),
                 occlusion_query_set: probe.then_some(&self.probe),
                 ..Default::default()
             });
@@ -834,22 +808,13 @@ impl DownlevelFrame {
                     (&self.present_module, "vs_screen"),
                     (&self.present_module, entry),
                     &[&self.present_layout],
-                    &[Some(wgpu::ColorTargetState {
+                    &[color_target(
                         format,
-                        blend: Some(wgpu::BlendState {
-                            color: wgpu::BlendComponent {
-                                src_factor: src,
-                                dst_factor: dst,
-                                operation: wgpu::BlendOperation::Add,
-                            },
-                            alpha: wgpu::BlendComponent {
-                                src_factor: wgpu::BlendFactor::One,
-                                dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
-                                operation: wgpu::BlendOperation::Add,
-                            },
+                        Some(wgpu::BlendState {
+                            alpha: wgpu::BlendComponent::OVER,
+                            ..blend_add(src, dst)
                         }),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
+                    )],
                     None,
                     None,
                 )
@@ -1028,21 +993,30 @@ pub(crate) fn stages() -> [Stage; 5] {
     ]
 }
 
-/// Refuses, in one line, a device that cannot draw into the frame's targets: a WebGL2 context
-/// without EXT_color_buffer_float renders to none of the float formats.
-fn check_formats(gpu: &Gpu) -> Result<()> {
+/// Refuses, in one line, a device that cannot draw into `method`'s targets (a WebGL2 context
+/// without EXT_color_buffer_float renders to none of the float formats) or blend into wboit's.
+fn check_formats(gpu: &Gpu, method: MethodId) -> Result<()> {
     let Some(adapter) = &gpu.adapter else {
         // The application's device: its adapter is not known here, and wgpu refuses a target
         // it cannot render to when the frame makes it.
         return Ok(());
     };
-    let missing: Vec<String> = [COLOR_FORMAT, TAG_FORMAT, DEPTH_COPY_FORMAT, STATE_FORMAT]
-        .into_iter()
-        .filter(|&f| {
-            !adapter
-                .get_texture_format_features(f)
+    let (formats, blended): (&[wgpu::TextureFormat], bool) = match method {
+        MethodId::Wboit => (&[ACCUMULATION_FORMAT, REVEALAGE_FORMAT, COUNT_FORMAT], true),
+        _ => (&[COLOR_FORMAT, TAG_FORMAT, DEPTH_COPY_FORMAT], false),
+    };
+    let missing: Vec<String> = formats
+        .iter()
+        .chain(&[STATE_FORMAT])
+        .filter(|&&f| {
+            let features = adapter.get_texture_format_features(f);
+            let blends = features
+                .flags
+                .contains(wgpu::TextureFormatFeatureFlags::BLENDABLE);
+            !features
                 .allowed_usages
                 .contains(wgpu::TextureUsages::RENDER_ATTACHMENT)
+                || (blended && f != STATE_FORMAT && !blends)
         })
         .map(|f| format!("{f:?}"))
         .collect();
@@ -1050,8 +1024,9 @@ fn check_formats(gpu: &Gpu) -> Result<()> {
         return Ok(());
     }
     Err(Error::unsupported(format!(
-        "'{}' cannot render to {}, which f2b's layers and state on a downlevel device are (on WebGL2: EXT_color_buffer_float)",
+        "'{}' cannot {} {}, which {method}'s targets on a downlevel device need (on WebGL2: EXT_color_buffer_float)",
         gpu.info.name,
+        if blended { "render and blend to" } else { "render to" },
         missing.join(", ")
     )))
 }

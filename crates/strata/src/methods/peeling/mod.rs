@@ -38,8 +38,8 @@ pub mod descriptor;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    attachment, capture_pipeline_with, compute_pipeline, dispatch_pixels, storage_geometry_pass,
-    GeometryStage, NullTarget,
+    attachment, capture_pipeline_with, color_target, compute_pipeline, dispatch_pixels,
+    scratch_depth, storage_geometry_pass, GeometryStage, NullTarget,
 };
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
 use crate::gpu::binding::{self, Slot};
@@ -170,13 +170,7 @@ impl FrontToBack {
         };
         let peel_stage = Stage::new("strata.f2b.peel", peel_source).with(LIBRARY);
         let module = peel_stage.module(device);
-        let target = |format| {
-            Some(wgpu::ColorTargetState {
-                format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })
-        };
+        let target = |format| color_target(format, None);
         let peel_pipeline = |entry: &str| {
             capture_pipeline_with(
                 gpu,
@@ -387,14 +381,7 @@ impl Method for FrontToBack {
                     ),
                     attachment(&depth_copy, wgpu::Color::TRANSPARENT),
                 ],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
+                depth_stencil_attachment: scratch_depth(&depth),
                 timestamp_writes: ctx.timer.render_pass("peel"),
                 occlusion_query_set: None,
                 multiview_mask: None,

@@ -64,7 +64,9 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
-use crate::frame::passes::{capture_pipeline_with, color_geometry_pass, compute_pipeline};
+use crate::frame::passes::{
+    blend_add, capture_pipeline_with, color_geometry_pass, color_target, compute_pipeline,
+};
 use crate::frame::{FrameContext, Moments, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
@@ -163,24 +165,10 @@ struct WaveletStage {
     coefficients_layout: wgpu::BindGroupLayout,
 }
 
-fn additive() -> Option<wgpu::BlendState> {
-    let add = wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    };
-    Some(wgpu::BlendState {
-        color: add,
-        alpha: add,
-    })
-}
-
+/// An additively blended target.
 fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
-    Some(wgpu::ColorTargetState {
-        format,
-        blend: additive(),
-        write_mask: wgpu::ColorWrites::ALL,
-    })
+    use wgpu::BlendFactor::One;
+    color_target(format, Some(blend_add(One, One)))
 }
 
 /// The moment accumulation stage (and wavelet's depth-range pass), reading multisampled depth

@@ -26,7 +26,8 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    capture_pipeline_with, color_geometry_pass, compute_pipeline, depth_geometry_pass,
+    blend_add, capture_pipeline_with, color_geometry_pass, color_target, compute_pipeline,
+    depth_geometry_pass,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -119,21 +120,7 @@ impl Stochastic {
             stencil: Default::default(),
             bias: Default::default(),
         };
-        let blended = |format, src_factor, dst_factor| {
-            let component = wgpu::BlendComponent {
-                src_factor,
-                dst_factor,
-                operation: wgpu::BlendOperation::Add,
-            };
-            Some(wgpu::ColorTargetState {
-                format,
-                blend: Some(wgpu::BlendState {
-                    color: component,
-                    alpha: component,
-                }),
-                write_mask: wgpu::ColorWrites::ALL,
-            })
-        };
+        let blended = |format, src, dst| color_target(format, Some(blend_add(src, dst)));
         use wgpu::BlendFactor::{One, OneMinusSrc, Zero};
         let depth = pipeline(
             "fs_stochastic_depth",
