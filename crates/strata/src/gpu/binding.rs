@@ -129,19 +129,12 @@ pub fn group(
     layout: &wgpu::BindGroupLayout,
     resources: &[wgpu::BindingResource<'_>],
 ) -> wgpu::BindGroup {
-    let entries: Vec<_> = resources
+    let numbered: Vec<_> = resources
         .iter()
         .enumerate()
-        .map(|(i, r)| wgpu::BindGroupEntry {
-            binding: i as u32,
-            resource: r.clone(),
-        })
+        .map(|(i, r)| (i as u32, r.clone()))
         .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout,
-        entries: &entries,
-    })
+    group_at(device, label, layout, &numbered)
 }
 
 /// A pipeline layout of `groups`, in group order.
