@@ -443,6 +443,14 @@ impl<'g> Renderer<'g> {
             opaque_depth: Some(&opaque),
         };
         let (mut submits, mut passes) = (0, 0);
+        if method == MethodId::F2b && self.options.frame.peeling.layers.is_none() {
+            // One counting pass tells the layers, where growing from the probe would take
+            // several frames.
+            let deepest = peeling.count_layers(gpu, &opaque)?;
+            peeling.set_layers(deepest.max(1));
+            submits += 1;
+            passes += 1;
+        }
         let mut stats = loop {
             let mut encoder = gpu
                 .device
@@ -470,8 +478,6 @@ impl<'g> Renderer<'g> {
             stats.fragments_generated = Some(stored);
             stats.fragments_dropped = Some(0);
             stats.max_depth_complexity = Some(deepest);
-            // The next picture peels what this one needed (and one probe layer).
-            peeling.set_layers(deepest.max(1));
         }
         stats.geometry_passes = Some(passes);
         stats.submits = submits + 1;

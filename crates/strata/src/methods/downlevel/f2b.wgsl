@@ -60,6 +60,17 @@ fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOu
     return out;
 }
 
+// Exact mode's count pass: every fragment in front of the opaque depth adds 1 to its pixel
+// (an R16Float target blended ONE, ONE: exact up to 2048), which the batch renderer reads back
+// to peel as many layers as the deepest pixel has.
+@fragment
+fn fs_count(v: SceneVarying) -> @location(0) vec4<f32> {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    return vec4<f32>(1.0);
+}
+
 // Group 1 of the accumulate pass (its vertex stage: f2b_downlevel_present.wgsl's vs_screen).
 @group(1) @binding(2) var state_color: texture_2d<f32>;
 @group(1) @binding(3) var state_transmittance: texture_2d<f32>;

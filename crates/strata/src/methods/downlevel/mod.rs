@@ -16,7 +16,9 @@
 //! is f2b's, exact, with ties in primitive order, every blend mode and translucency. Memory per
 //! pixel: two layers of color, tag and depth (2 × 16 B), two pairs of state targets (2 × 32 B)
 //! and the depth buffer (4 B) = 100·W·H. A frame found incomplete makes the next one peel twice
-//! the layers (up to [`MAX_LAYERS`]) unless `--layers` fixed them.
+//! the layers (up to [`MAX_LAYERS`]) unless `--layers` fixed them; exact mode instead counts
+//! every pixel's fragments first ([`DownlevelFrame::count_layers`], one blended pass into an
+//! R16Float target, read back) and peels as many layers as the deepest pixel has.
 //!
 //! **wboit** (`weighted/wboit_accumulate.wgsl` and `weighted/composite.wgsl`, composed with
 //! `UNIFORM_SCENE`): one geometry pass into the accumulation and revealage targets and a third,
@@ -126,6 +128,11 @@ pub struct DownlevelFrame {
     accumulate_layout: wgpu::BindGroupLayout,
     present_layout: wgpu::BindGroupLayout,
     peel_first: wgpu::RenderPipeline,
+    /// Exact mode's fragment count per pixel ([`DownlevelFrame::count_layers`]), made when
+    /// first asked for.
+    count: Option<wgpu::RenderPipeline>,
+    vertex_module: wgpu::ShaderModule,
+    module: wgpu::ShaderModule,
     peel: wgpu::RenderPipeline,
     accumulate: wgpu::RenderPipeline,
     present_module: wgpu::ShaderModule,
@@ -269,14 +276,7 @@ impl DownlevelFrame {
             let vertex_module = vertex_stage.module(device);
             let module = stage.module(device);
             let target = |format| color_target(format, None);
-            let vertex_buffers = [
-                Some(GpuVertex::layout()),
-                Some(wgpu::VertexBufferLayout {
-                    array_stride: 4,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &MATERIAL_ATTRIBUTE,
-                }),
-            ];
+            let vertex_buffers = [Some(GpuVertex::layout()), Some(material_buffer_layout())];
             let peel_pipeline = |entry: &str| {
                 render_pipeline(
                     gpu,
@@ -404,6 +404,7 @@ impl DownlevelFrame {
                 blend_modes,
                 camera,
                 peel_first: peel_pipeline("fs_peel_first"),
+                count: None,
                 peel: peel_pipeline("fs_peel"),
                 accumulate,
                 present_module,
@@ -424,6 +425,8 @@ impl DownlevelFrame {
                     mapped_at_creation: false,
                 }),
                 ring: StatsRing::default(),
+                vertex_module,
+                module,
                 cache: ResourceCache::default(),
                 next_layers: FIRST_GUESS_LAYERS,
                 frame: 0,
@@ -477,6 +480,80 @@ impl DownlevelFrame {
         self.next_layers = layers.clamp(1, MAX_LAYERS);
     }
 
+    /// Group 0 of every pass: the uniforms, materials, lights and `opaque`, the opaque depth.
+    fn frame_group(&self, gpu: &Gpu, opaque: &wgpu::TextureView) -> wgpu::BindGroup {
+        binding::group(
+            &gpu.device,
+            "strata.downlevel.frame.group",
+            &self.frame_layout,
+            &[
+                self.uniforms.as_entire_binding(),
+                self.materials.as_entire_binding(),
+                self.lights.as_entire_binding(),
+                wgpu::BindingResource::TextureView(opaque),
+            ],
+        )
+    }
+
+    /// Exact mode (the CPU waits): counts every pixel's fragments in front of `opaque` in one
+    /// geometry pass and reads the largest count back, the layers a complete f2b frame needs.
+    /// Real-time frames never call it: they grow from the probe instead.
+    pub fn count_layers(&mut self, gpu: &Gpu, opaque: &wgpu::TextureView) -> Result<u32> {
+        use wgpu::BlendFactor::One;
+        let group = self.frame_group(gpu, opaque);
+        let pipeline = self.count.get_or_insert_with(|| {
+            render_pipeline(
+                gpu,
+                "strata.f2b_downlevel.count",
+                wgpu::VertexState {
+                    module: &self.vertex_module,
+                    entry_point: Some("vs_scene"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(GpuVertex::layout()), Some(material_buffer_layout())],
+                },
+                (&self.module, "fs_count"),
+                &[&self.frame_layout],
+                &[color_target(COUNT_FORMAT, Some(blend_add(One, One)))],
+                Rasterization {
+                    cull_mode: None,
+                    depth: None,
+                    samples: 1,
+                },
+            )
+        });
+        let (w, h) = (self.options.frame.width, self.options.frame.height);
+        let counts = gpu.texture_2d(
+            "strata.f2b_downlevel.counts",
+            (w, h),
+            COUNT_FORMAT,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        );
+        let view = counts.create_view(&Default::default());
+        let mut encoder = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("strata.f2b_downlevel.count"),
+            });
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("strata.f2b_downlevel.count"),
+            color_attachments: &[attachment(&view, wgpu::Color::TRANSPARENT)],
+            ..Default::default()
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, Some(&group), &[]);
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
+        pass.draw(0..self.triangle_count * 3, 0..1);
+        drop(pass);
+        gpu.queue.submit([encoder.finish()]);
+        let bytes = crate::gpu::readback::read_texture(gpu, &counts)?;
+        Ok(bytes
+            .chunks_exact(2)
+            .map(|b| half::f16::from_le_bytes([b[0], b[1]]).to_f32() as u32)
+            .max()
+            .unwrap_or(0))
+    }
+
     /// Records one frame into `encoder`: the peels and accumulates, the probe, and with a
     /// color target the present over it (`targets.opaque_depth`: fragments at or behind it are
     /// rejected). Submits nothing and waits for nothing; the statistics come back through
@@ -504,7 +581,6 @@ impl DownlevelFrame {
                 "a downlevel frame presents transparency and translucency; the complexity effect is read back only (Renderer)",
             ));
         }
-        let device = &gpu.device;
         let attachment_usage =
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let own_opaque = targets.opaque_depth.is_none().then(|| {
@@ -542,17 +618,7 @@ impl DownlevelFrame {
             .opaque_depth
             .or(own_opaque.as_ref())
             .expect("one of them");
-        let frame_group = binding::group(
-            device,
-            "strata.f2b_downlevel.frame.group",
-            &self.frame_layout,
-            &[
-                self.uniforms.as_entire_binding(),
-                self.materials.as_entire_binding(),
-                self.lights.as_entire_binding(),
-                wgpu::BindingResource::TextureView(opaque),
-            ],
-        );
+        let frame_group = self.frame_group(gpu, opaque);
         // Both pairs start as an empty composite: no color, count 0, transmittance 1.
         for pair in &state_views {
             encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -970,6 +1036,15 @@ const STATE_LABELS: [[&str; 2]; 2] = [
 
 /// The material index at vertex-buffer slot 1, `@location(2)` of `vs_scene` with UNIFORM_SCENE.
 const MATERIAL_ATTRIBUTE: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![2 => Uint32];
+
+/// Vertex-buffer slot 1: each vertex's material.
+fn material_buffer_layout() -> wgpu::VertexBufferLayout<'static> {
+    wgpu::VertexBufferLayout {
+        array_stride: 4,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &MATERIAL_ATTRIBUTE,
+    }
+}
 
 /// The stages of a downlevel frame, all composed with UNIFORM_SCENE: the scene's vertex stage,
 /// f2b's peels and accumulate, the present (with the full-screen vertex stage), wboit's
