@@ -369,17 +369,16 @@ impl Blit {
             None,
             None,
         );
-        let params = gpu
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("strata.view.blit"),
-                contents: bytemuck::bytes_of(&BlitParams {
-                    origin: [0; 2],
-                    encode_srgb: 0,
-                    _pad: 0,
-                }),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            });
+        let blit = BlitParams {
+            origin: [0; 2],
+            encode_srgb: 0,
+            _pad: 0,
+        };
+        let params = gpu.buffer_with(
+            "strata.view.blit",
+            bytemuck::bytes_of(&blit),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
         Blit {
             pipeline,
             layout,

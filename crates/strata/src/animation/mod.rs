@@ -163,14 +163,7 @@ impl SceneAnimation {
             .map(|i| GpuMotion::new(scene.motions.get(i).and_then(Option::as_ref)))
             .collect();
         let init = |name: &str, contents: &[u8], usage| {
-            wgpu::util::DeviceExt::create_buffer_init(
-                &gpu.device,
-                &wgpu::util::BufferInitDescriptor {
-                    label: Some(&format!("strata.animation.{name}")),
-                    contents,
-                    usage,
-                },
-            )
+            gpu.buffer_with(&format!("strata.animation.{name}"), contents, usage)
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let per_object = object_count as u64 * 64;

@@ -6,7 +6,6 @@
 use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
-use wgpu::util::DeviceExt;
 
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::Stage;
@@ -107,11 +106,11 @@ impl Present {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
-            colormap: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("strata.present.colormap"),
-                contents: bytemuck::cast_slice(&lut),
-                usage: wgpu::BufferUsages::STORAGE,
-            }),
+            colormap: gpu.buffer_with(
+                "strata.present.colormap",
+                bytemuck::cast_slice(&lut),
+                wgpu::BufferUsages::STORAGE,
+            ),
         }
     }
 

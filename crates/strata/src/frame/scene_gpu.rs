@@ -7,8 +7,6 @@
 //! (4 bytes), which resolves look up by the fragment's primitive. The compute rasterizer reads
 //! the vertex buffer as storage, and so refuses a scene beyond one storage binding.
 
-use wgpu::util::DeviceExt;
-
 use super::uniforms::{self, LightingSetup};
 use super::{DrawCallback, RenderOptions, TOTAL_WORDS};
 use crate::animation::SceneAnimation;
@@ -141,14 +139,7 @@ impl SceneGpu {
             vertices.push(GpuVertex::default());
             triangle_materials.push(0);
         }
-        let init = |label: &str, contents: &[u8], usage| {
-            gpu.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage,
-                })
-        };
+        let init = |label: &str, contents: &[u8], usage| gpu.buffer_with(label, contents, usage);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let mut materials: Vec<_> = scene.materials.iter().map(uniforms::gpu_material).collect();
         if materials.is_empty() {

@@ -20,7 +20,6 @@
 
 #[cfg(feature = "serde")]
 use serde::Serialize;
-use wgpu::util::DeviceExt;
 
 use crate::error::{Error, Result};
 use crate::gpu::shader::Stage;
@@ -172,13 +171,11 @@ impl<'g> Probes<'g> {
             ));
         }
         let words: Vec<u32> = (0..(sizes.copy_bytes / 4) as u32).map(pattern).collect();
-        let source = gpu
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("strata.bandwidth.source"),
-                contents: bytemuck::cast_slice(&words),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            });
+        let source = gpu.buffer_with(
+            "strata.bandwidth.source",
+            bytemuck::cast_slice(&words),
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
         let destination = gpu.storage_buffer(
             "strata.bandwidth.destination",
             sizes.copy_bytes,
@@ -271,14 +268,11 @@ impl<'g> Probes<'g> {
     }
 
     fn bind(&self, params: ProbeParams) -> wgpu::BindGroup {
-        let uniform = self
-            .gpu
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("strata.bandwidth.params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
+        let uniform = self.gpu.buffer_with(
+            "strata.bandwidth.params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM,
+        );
         crate::gpu::binding::group(
             &self.gpu.device,
             "strata.bandwidth",

@@ -262,6 +262,23 @@ impl Gpu {
         })
     }
 
+    /// A buffer holding `contents` (`usage` as given: add COPY_DST to write it again).
+    pub fn buffer_with(
+        &self,
+        label: &str,
+        contents: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
+        wgpu::util::DeviceExt::create_buffer_init(
+            &self.device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            },
+        )
+    }
+
     /// A 2D texture of one mip level and sample.
     pub fn texture_2d(
         &self,

@@ -9,7 +9,6 @@
 //! buffer is fixed for a count, so a frame's sort allocates and writes nothing on the CPU.
 
 use bytemuck::{Pod, Zeroable};
-use wgpu::util::DeviceExt;
 
 use crate::error::Result;
 use crate::gpu::binding::{self, Slot};
@@ -121,18 +120,17 @@ impl RadixSort {
         let (grid_x, _) = grid(blocks);
         let groups = (0..PASSES as usize)
             .map(|p| {
-                let uniform = gpu
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some(&format!("strata.{label}.pass{p}")),
-                        contents: bytemuck::bytes_of(&RadixPass {
-                            shift: p as u32 * DIGIT_BITS,
-                            count,
-                            blocks,
-                            grid_x,
-                        }),
-                        usage: wgpu::BufferUsages::UNIFORM,
-                    });
+                let pass = RadixPass {
+                    shift: p as u32 * DIGIT_BITS,
+                    count,
+                    blocks,
+                    grid_x,
+                };
+                let uniform = gpu.buffer_with(
+                    &format!("strata.{label}.pass{p}"),
+                    bytemuck::bytes_of(&pass),
+                    wgpu::BufferUsages::UNIFORM,
+                );
                 let (from, to) = (p % 2, 1 - p % 2);
                 let group = |name: &str, layout, resources: &[wgpu::BindingResource<'_>]| {
                     binding::group(

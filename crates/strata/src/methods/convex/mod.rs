@@ -280,13 +280,10 @@ impl Convex {
                 Slot::Storage,
             ],
         );
-        let merge_args_reset = wgpu::util::DeviceExt::create_buffer_init(
-            device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("strata.convex.merge_args_reset"),
-                contents: bytemuck::cast_slice(&[0u32, 1, 1, 0]),
-                usage: wgpu::BufferUsages::COPY_SRC,
-            },
+        let merge_args_reset = gpu.buffer_with(
+            "strata.convex.merge_args_reset",
+            bytemuck::cast_slice(&[0u32, 1, 1, 0]),
+            wgpu::BufferUsages::COPY_SRC,
         );
         let [capture_stage, merge_stage] = stages(layers);
         let module = capture_stage.module(device);

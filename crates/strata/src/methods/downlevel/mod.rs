@@ -212,16 +212,8 @@ impl DownlevelFrame {
             )));
         }
         crate::gpu::validated(gpu, &format!("{method} (downlevel)"), || {
-            let init = |label: &str, contents: &[u8], usage| {
-                wgpu::util::DeviceExt::create_buffer_init(
-                    device,
-                    &wgpu::util::BufferInitDescriptor {
-                        label: Some(label),
-                        contents,
-                        usage,
-                    },
-                )
-            };
+            let init =
+                |label: &str, contents: &[u8], usage| gpu.buffer_with(label, contents, usage);
             let mut vertices = list.vertices.clone();
             let mut vertex_materials: Vec<u32> =
                 list.materials.iter().flat_map(|&m| [m; 3]).collect();
