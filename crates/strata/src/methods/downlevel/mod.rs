@@ -37,7 +37,7 @@ use bytemuck::Zeroable;
 use crate::error::{Error, Result};
 use crate::frame::passes::{
     attachment, blend_add, clear_depth_pass, color_target, kept_attachment, render_pipeline,
-    scratch_depth, screen_pipeline, Rasterization,
+    screen_pipeline, Rasterization,
 };
 use crate::frame::stats::StatsRing;
 use crate::frame::uniforms::{self, GpuLight, GpuMaterial, LightingSetup};
@@ -48,7 +48,7 @@ use crate::gpu::{Gpu, ResourceCache};
 use crate::scene::{Camera, GpuVertex, Scene};
 
 use super::peeling::FIRST_GUESS_LAYERS;
-use super::weighted::{self, WboitParams, ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
+use super::weighted::{self, ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
 use super::MethodId;
 
 /// Materials a downlevel scene may have (a uniform array; `UNIFORM_MATERIALS` in scene.wgsl,
@@ -78,13 +78,6 @@ pub fn is_downlevel(gpu: &Gpu) -> bool {
     crate::frame::scene_gpu::check_device(gpu).is_err()
 }
 
-/// One layer's targets.
-struct Layer {
-    color: wgpu::TextureView,
-    tag: wgpu::TextureView,
-    depth: wgpu::TextureView,
-}
-
 /// One pair of state targets: (color, count) and (transmittance, unused).
 struct State {
     color: wgpu::Texture,
@@ -98,21 +91,13 @@ struct FrameTag {
     layers: u32,
 }
 
-/// wboit's pipelines on a downlevel device.
-struct Wboit {
-    params_layout: wgpu::BindGroupLayout,
-    composite_layout: wgpu::BindGroupLayout,
-    accumulate: wgpu::RenderPipeline,
-    composite: wgpu::RenderPipeline,
-}
-
 /// A frame of f2b or wboit on a device without storage buffers or compute: the scene, the
 /// method's pipelines and targets. Records into the caller's encoder like
 /// [`crate::FrameRecorder`] and presents over the caller's color target; statistics come back a
 /// frame or more later.
 pub struct DownlevelFrame {
     method: MethodId,
-    wboit: Option<Wboit>,
+    wboit: Option<wboit::Wboit>,
     options: RenderOptions,
     triangle_count: u32,
     vertices: wgpu::Buffer,
@@ -311,56 +296,13 @@ impl DownlevelFrame {
                 None,
             );
             let wboit = (method == MethodId::Wboit).then(|| {
-                let params_layout = binding::layout(
-                    device,
-                    "strata.wboit_downlevel.params.layout",
-                    &[Slot::Uniform],
-                );
-                let composite_layout = binding::layout(
-                    device,
-                    "strata.wboit_downlevel.composite.layout",
-                    &[Slot::TextureFloat; 3],
-                );
-                let blended = |format, src, dst| color_target(format, Some(blend_add(src, dst)));
-                use wgpu::BlendFactor::{One, OneMinusSrc, Zero};
-                let accumulate = render_pipeline(
+                wboit::pipelines(
                     gpu,
-                    "strata.wboit_downlevel.accumulate",
-                    wgpu::VertexState {
-                        module: &vertex_module,
-                        entry_point: Some("vs_scene"),
-                        compilation_options: Default::default(),
-                        buffers: &vertex_buffers,
-                    },
-                    (&wboit_accumulate.module(device), "fs_wboit"),
-                    &[&frame_layout, &params_layout],
-                    &[
-                        blended(ACCUMULATION_FORMAT, One, One),
-                        blended(REVEALAGE_FORMAT, Zero, OneMinusSrc),
-                        blended(COUNT_FORMAT, One, One),
-                    ],
-                    Rasterization {
-                        cull_mode: None,
-                        depth: None,
-                        samples: 1,
-                    },
-                );
-                let composite = screen_pipeline(
-                    gpu,
-                    "strata.wboit_downlevel.composite",
-                    (&present_module, "vs_screen"),
-                    (&wboit_composite.module(device), "fs_composite"),
-                    &[&frame_layout, &composite_layout],
-                    &[target(STATE_FORMAT), target(STATE_FORMAT)],
-                    None,
-                    None,
-                );
-                Wboit {
-                    params_layout,
-                    composite_layout,
-                    accumulate,
-                    composite,
-                }
+                    &frame_layout,
+                    (&vertex_module, &vertex_buffers),
+                    &present_module,
+                    [&wboit_accumulate, &wboit_composite],
+                )
             });
             Ok(DownlevelFrame {
                 method,
@@ -487,65 +429,6 @@ impl DownlevelFrame {
         )
     }
 
-    /// Exact mode (the CPU waits): counts every pixel's fragments in front of `opaque` in one
-    /// geometry pass and reads the largest count back, the layers a complete f2b frame needs.
-    /// Real-time frames never call it: they grow from the probe instead.
-    pub fn count_layers(&mut self, gpu: &Gpu, opaque: &wgpu::TextureView) -> Result<u32> {
-        use wgpu::BlendFactor::One;
-        let group = self.frame_group(gpu, opaque);
-        let pipeline = self.count.get_or_insert_with(|| {
-            render_pipeline(
-                gpu,
-                "strata.f2b_downlevel.count",
-                wgpu::VertexState {
-                    module: &self.vertex_module,
-                    entry_point: Some("vs_scene"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(GpuVertex::layout()), Some(material_buffer_layout())],
-                },
-                (&self.module, "fs_count"),
-                &[&self.frame_layout],
-                &[color_target(COUNT_FORMAT, Some(blend_add(One, One)))],
-                Rasterization {
-                    cull_mode: None,
-                    depth: None,
-                    samples: 1,
-                },
-            )
-        });
-        let (w, h) = (self.options.frame.width, self.options.frame.height);
-        let counts = gpu.texture_2d(
-            "strata.f2b_downlevel.counts",
-            (w, h),
-            COUNT_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        );
-        let view = counts.create_view(&Default::default());
-        let mut encoder = gpu
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("strata.f2b_downlevel.count"),
-            });
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("strata.f2b_downlevel.count"),
-            color_attachments: &[attachment(&view, wgpu::Color::TRANSPARENT)],
-            ..Default::default()
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, Some(&group), &[]);
-        pass.set_vertex_buffer(0, self.vertices.slice(..));
-        pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
-        pass.draw(0..self.triangle_count * 3, 0..1);
-        drop(pass);
-        gpu.queue.submit([encoder.finish()]);
-        let bytes = crate::gpu::readback::read_texture(gpu, &counts)?;
-        Ok(bytes
-            .chunks_exact(2)
-            .map(|b| half::f16::from_le_bytes([b[0], b[1]]).to_f32() as u32)
-            .max()
-            .unwrap_or(0))
-    }
-
     /// Records one frame into `encoder`: the peels and accumulates, the probe, and with a
     /// color target the present over it (`targets.opaque_depth`: fragments at or behind it are
     /// rejected). Submits nothing and waits for nothing; the statistics come back through
@@ -650,203 +533,6 @@ impl DownlevelFrame {
             MethodId::Wboit => WBOIT_PIXEL_BYTES,
             _ => F2B_PIXEL_BYTES,
         }
-    }
-
-    /// f2b's peels and accumulates into `states`, and the probe; returns the layers peeled.
-    fn record_peels(
-        &mut self,
-        gpu: &Gpu,
-        encoder: &mut wgpu::CommandEncoder,
-        frame_group: &wgpu::BindGroup,
-        state_views: &[[wgpu::TextureView; 2]; 2],
-    ) -> u32 {
-        let layers = self.layers();
-        let device = &gpu.device;
-        let (w, h) = (self.options.frame.width, self.options.frame.height);
-        let attachment_usage =
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let mut view = |label: &'static str, format| {
-            self.cache
-                .texture(gpu, label, (w, h), format, attachment_usage)
-                .create_view(&Default::default())
-        };
-        let layer_views = [
-            Layer {
-                color: view("strata.f2b_downlevel.layer0.color", COLOR_FORMAT),
-                tag: view("strata.f2b_downlevel.layer0.tag", TAG_FORMAT),
-                depth: view("strata.f2b_downlevel.layer0.depth", DEPTH_COPY_FORMAT),
-            },
-            Layer {
-                color: view("strata.f2b_downlevel.layer1.color", COLOR_FORMAT),
-                tag: view("strata.f2b_downlevel.layer1.tag", TAG_FORMAT),
-                depth: view("strata.f2b_downlevel.layer1.depth", DEPTH_COPY_FORMAT),
-            },
-        ];
-        let depth = view(
-            "strata.f2b_downlevel.depth",
-            wgpu::TextureFormat::Depth32Float,
-        );
-        let texture = wgpu::BindingResource::TextureView;
-        // Peel i reads layer (i + 1) % 2 (the previous one) and writes layer i % 2.
-        let peel_groups = [0, 1].map(|i| {
-            let previous = &layer_views[(i + 1) % 2];
-            binding::group(
-                device,
-                "strata.f2b_downlevel.peel.group",
-                &self.layer_layout,
-                &[texture(&previous.tag), texture(&previous.depth)],
-            )
-        });
-        // Accumulate i reads state i % 2, layer i % 2 and the previous layer; writes state
-        // (i + 1) % 2.
-        let accumulate_groups = [0, 1].map(|i| {
-            let (layer, previous) = (&layer_views[i], &layer_views[(i + 1) % 2]);
-            binding::group(
-                device,
-                "strata.f2b_downlevel.accumulate.group",
-                &self.accumulate_layout,
-                &[
-                    texture(&previous.tag),
-                    texture(&previous.depth),
-                    texture(&state_views[i][0]),
-                    texture(&state_views[i][1]),
-                    texture(&layer.color),
-                    texture(&layer.tag),
-                    texture(&layer.depth),
-                ],
-            )
-        });
-        for layer in 0..=layers {
-            let probe = layer == layers;
-            let target = &layer_views[layer as usize % 2];
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(if probe {
-                    "strata.f2b_downlevel.probe"
-                } else {
-                    "strata.f2b_downlevel.peel"
-                }),
-                color_attachments: &[
-                    attachment(&target.color, wgpu::Color::TRANSPARENT),
-                    attachment(
-                        &target.tag,
-                        wgpu::Color {
-                            r: u32::MAX as f64,
-                            g: 0.0,
-                            b: 0.0,
-                            a: 0.0,
-                        },
-                    ),
-                    attachment(&target.depth, wgpu::Color::TRANSPARENT),
-                ],
-                depth_stencil_attachment: scratch_depth(&depth),
-                occlusion_query_set: probe.then_some(&self.probe),
-                ..Default::default()
-            });
-            pass.set_pipeline(if layer == 0 {
-                &self.peel_first
-            } else {
-                &self.peel
-            });
-            pass.set_bind_group(0, Some(frame_group), &[]);
-            pass.set_bind_group(1, Some(&peel_groups[layer as usize % 2]), &[]);
-            pass.set_vertex_buffer(0, self.vertices.slice(..));
-            pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
-            if probe {
-                pass.begin_occlusion_query(0);
-            }
-            pass.draw(0..self.triangle_count * 3, 0..1);
-            if probe {
-                pass.end_occlusion_query();
-            }
-            drop(pass);
-            if probe {
-                break;
-            }
-            let i = layer as usize % 2;
-            let out = &state_views[(i + 1) % 2];
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("strata.f2b_downlevel.accumulate"),
-                color_attachments: &[kept_attachment(&out[0]), kept_attachment(&out[1])],
-                ..Default::default()
-            });
-            pass.set_pipeline(&self.accumulate);
-            pass.set_bind_group(0, Some(frame_group), &[]);
-            pass.set_bind_group(1, Some(&accumulate_groups[i]), &[]);
-            pass.draw(0..3, 0..1);
-        }
-        encoder.resolve_query_set(&self.probe, 0..1, &self.probe_results, 0);
-        layers
-    }
-
-    /// wboit's accumulate pass and its composite into the state pair `state`.
-    fn record_wboit(
-        &mut self,
-        gpu: &Gpu,
-        encoder: &mut wgpu::CommandEncoder,
-        frame_group: &wgpu::BindGroup,
-        state: &[wgpu::TextureView; 2],
-    ) {
-        let wboit = self.wboit.as_ref().expect("made for wboit");
-        let (w, h) = (self.options.frame.width, self.options.frame.height);
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let mut view = |label: &'static str, format| {
-            self.cache
-                .texture(gpu, label, (w, h), format, usage)
-                .create_view(&Default::default())
-        };
-        let accumulation = view("strata.wboit_downlevel.accumulation", ACCUMULATION_FORMAT);
-        let revealage = view("strata.wboit_downlevel.revealage", REVEALAGE_FORMAT);
-        let count = view("strata.wboit_downlevel.count", COUNT_FORMAT);
-        let weighted = &self.options.frame.weighted;
-        let params = WboitParams {
-            weight: weighted.weight.index(),
-            depth_scale: weighted.depth_scale as f32,
-            _pad: [0; 2],
-        };
-        let params = self.cache.uniform(
-            gpu,
-            "strata.wboit_downlevel.params",
-            bytemuck::bytes_of(&params),
-        );
-        let device = &gpu.device;
-        let params_group = binding::group(
-            device,
-            "strata.wboit_downlevel.params.group",
-            &wboit.params_layout,
-            &[params.as_entire_binding()],
-        );
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("strata.wboit_downlevel.accumulate"),
-            color_attachments: &[
-                attachment(&accumulation, wgpu::Color::TRANSPARENT),
-                attachment(&revealage, wgpu::Color::WHITE),
-                attachment(&count, wgpu::Color::TRANSPARENT),
-            ],
-            ..Default::default()
-        });
-        pass.set_pipeline(&wboit.accumulate);
-        pass.set_bind_group(0, Some(frame_group), &[]);
-        pass.set_bind_group(1, Some(&params_group), &[]);
-        pass.set_vertex_buffer(0, self.vertices.slice(..));
-        pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
-        pass.draw(0..self.triangle_count * 3, 0..1);
-        drop(pass);
-        let texture = wgpu::BindingResource::TextureView;
-        let composite_group = binding::group(
-            device,
-            "strata.wboit_downlevel.composite.group",
-            &wboit.composite_layout,
-            &[texture(&count), texture(&accumulation), texture(&revealage)],
-        );
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("strata.wboit_downlevel.composite"),
-            color_attachments: &[kept_attachment(&state[0]), kept_attachment(&state[1])],
-            ..Default::default()
-        });
-        pass.set_pipeline(&wboit.composite);
-        pass.set_bind_group(0, Some(frame_group), &[]);
-        pass.set_bind_group(1, Some(&composite_group), &[]);
-        pass.draw(0..3, 0..1);
     }
 
     /// The present's two draws over `view`: times the transmittance, then plus the color.
@@ -1124,5 +810,7 @@ fn check_options(options: &RenderOptions) -> Result<()> {
     }
 }
 
+mod peel;
 #[cfg(test)]
 mod tests;
+mod wboit;
