@@ -95,6 +95,32 @@ struct FrameTag {
 /// method's pipelines and targets. Records into the caller's encoder like
 /// [`crate::FrameRecorder`] and presents over the caller's color target; statistics come back a
 /// frame or more later.
+///
+/// ```no_run
+/// use strata::methods::downlevel::{is_downlevel, DownlevelFrame};
+/// use strata::{frame::FrameTargets, gpu::Gpu, scene::Scene, MethodId};
+///
+/// fn transparent_pass(
+///     gpu: &Gpu, // Gpu::from_device(device, queue) on a WebGL2 adapter
+///     scene: &Scene,
+///     color: &wgpu::TextureView,
+///     depth: &wgpu::TextureView, // the opaque scene's Depth32Float depth, bindable
+/// ) -> strata::Result<()> {
+///     assert!(is_downlevel(gpu)); // else use FrameRecorder
+///     let options = strata::RenderOptions::sized(1280, 720);
+///     let mut oit = DownlevelFrame::new(gpu, scene, MethodId::F2b, &options)?;
+///     // Every frame (and `oit.set_camera(gpu, &camera)` when the camera moves):
+///     let mut encoder = gpu.device.create_command_encoder(&Default::default());
+///     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+///     let targets = FrameTargets { color: Some((color, format)), opaque_depth: Some(depth) };
+///     oit.record(gpu, &mut encoder, &targets)?;
+///     gpu.queue.submit([encoder.finish()]);
+///     for stats in oit.poll_stats(gpu) {
+///         println!("frame {}: complete {:?}, {} layers", stats.frame, stats.exact, oit.layers());
+///     }
+///     Ok(())
+/// }
+/// ```
 pub struct DownlevelFrame {
     method: MethodId,
     wboit: Option<wboit::Wboit>,
