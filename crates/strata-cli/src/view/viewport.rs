@@ -66,14 +66,7 @@ impl Viewport {
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("strata.view.background"),
-                source: wgpu::ShaderSource::Wgsl(
-                    [
-                        include_str!("fullscreen.wgsl"),
-                        include_str!("background.wgsl"),
-                    ]
-                    .join("\n")
-                    .into(),
-                ),
+                source: wgpu::ShaderSource::Wgsl(include_str!("background.wgsl").into()),
             });
         let layout = binding::layout(&gpu.device, "strata.view.background", &[Slot::Uniform]);
         let background_params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -91,7 +84,7 @@ impl Viewport {
         let background = screen_pipeline(
             gpu,
             "strata.view.background",
-            (&module, "vs_fullscreen"),
+            (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
             (&module, "fs_background"),
             &[&layout],
             &[Some(TARGET_FORMAT.into())],
@@ -348,11 +341,7 @@ impl Blit {
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("strata.view.blit"),
-                source: wgpu::ShaderSource::Wgsl(
-                    [include_str!("fullscreen.wgsl"), include_str!("blit.wgsl")]
-                        .join("\n")
-                        .into(),
-                ),
+                source: wgpu::ShaderSource::Wgsl(include_str!("blit.wgsl").into()),
             });
         let layout = binding::layout(
             &gpu.device,
@@ -362,7 +351,7 @@ impl Blit {
         let pipeline = screen_pipeline(
             gpu,
             "strata.view.blit",
-            (&module, "vs_fullscreen"),
+            (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
             (&module, "fs_blit"),
             &[&layout],
             &[Some(format.into())],

@@ -108,9 +108,3 @@ fn read_surface(pixel: vec2<i32>, depth: f32) -> Surface {
     s.shininess = max(round(n.z * MAX_EXPONENT), 1.0);
     return s;
 }
-
-@vertex
-fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}

@@ -152,7 +152,7 @@ fn reading_gbuffer(extra: &[(u32, Slot)]) -> Vec<(u32, Slot)> {
 }
 const TONEMAP_SLOTS: [(u32, Slot); 2] = [(0, Slot::Uniform), (11, Slot::TextureFloat)];
 
-/// The deferred bindings and helpers, and the full-screen triangle's vertex stage.
+/// The deferred bindings and helpers.
 const COMMON_WGSL: &str = include_str!("deferred_common.wgsl");
 
 /// The pipeline's WGSL modules (`strata::deferred::…`): the deferred bindings and helpers, and
@@ -202,7 +202,6 @@ struct Passes {
     composite: wgpu::RenderPipeline,
     debug: wgpu::RenderPipeline,
     tonemap_module: wgpu::ShaderModule,
-    fullscreen_module: wgpu::ShaderModule,
     tonemap: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
     /// The background drawn under the HDR image (made on first use).
     background_under: Option<wgpu::RenderPipeline>,
@@ -256,8 +255,6 @@ impl Passes {
         let modules: Vec<wgpu::ShaderModule> = (0..STAGES.len()).map(|i| module(gpu, i)).collect();
         let [gbuffer_m, forward_m, lighting_m, composite_m, ssao_m, debug_m, tonemap_m] =
             <[wgpu::ShaderModule; 7]>::try_from(modules).expect("seven stages");
-        // The full-screen triangle's vertex stage (deferred_common.wgsl as the top level).
-        let fullscreen_m = Stage::new("strata.deferred.fullscreen", COMMON_WGSL).module(device);
         let write_less = depth_state(true, wgpu::CompareFunction::Less);
         let additive = wgpu::BlendState {
             color: wgpu::BlendComponent {
@@ -291,7 +288,7 @@ impl Passes {
             screen_pipeline(
                 gpu,
                 label,
-                (&fullscreen_m, "vs_fullscreen"),
+                (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
                 (module, entry),
                 &[frame_layout, layout],
                 &[color_target(format, None)],
@@ -372,7 +369,6 @@ impl Passes {
                 HDR_FORMAT,
             ),
             tonemap_module: tonemap_m,
-            fullscreen_module: fullscreen_m,
             tonemap: HashMap::new(),
             background_under: None,
             layouts,
@@ -849,7 +845,6 @@ impl LitFrame {
     pub fn background_under(&mut self, encoder: &mut wgpu::CommandEncoder, timer: &mut Timer) {
         let gpu = &self.gpu;
         let module = &self.passes.tonemap_module;
-        let fullscreen = &self.passes.fullscreen_module;
         let frame_layout = &self.scene.frame_layout;
         let pipeline = self.passes.background_under.get_or_insert_with(|| {
             let under = wgpu::BlendComponent {
@@ -864,7 +859,7 @@ impl LitFrame {
             screen_pipeline(
                 gpu,
                 "strata.background_under",
-                (fullscreen, "vs_fullscreen"),
+                (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
                 (module, "fs_background"),
                 &[frame_layout],
                 &[color_target(HDR_FORMAT, Some(blend))],
@@ -899,13 +894,12 @@ impl LitFrame {
     ) {
         let gpu = &self.gpu;
         let (module, layouts) = (&self.passes.tonemap_module, &self.passes.layouts);
-        let fullscreen = &self.passes.fullscreen_module;
         let frame_layout = &self.scene.frame_layout;
         let pipeline = self.passes.tonemap.entry(format).or_insert_with(|| {
             screen_pipeline(
                 gpu,
                 "strata.tonemap",
-                (fullscreen, "vs_fullscreen"),
+                (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
                 (module, "fs_tonemap"),
                 &[frame_layout, &layouts.tonemap],
                 &[target_state(format)],

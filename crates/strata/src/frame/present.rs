@@ -130,7 +130,7 @@ impl Present {
             crate::gpu::passes::screen_pipeline(
                 gpu,
                 "strata.present",
-                (module, "vs_present"),
+                (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
                 (module, draw.entry()),
                 &[layout],
                 &[Some(target)],

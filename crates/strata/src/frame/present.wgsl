@@ -21,12 +21,6 @@ struct PresentParams {
 // The crate's heatmap colormap, 256 entries of packed sRGB8 (r | g << 8 | b << 16).
 @group(0) @binding(2) var<storage, read> colormap: array<u32>;
 
-@vertex
-fn vs_present(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}
-
 fn mean_transmittance(r: Resolved) -> f32 {
     return (r.transmittance.r + r.transmittance.g + r.transmittance.b) / 3.0;
 }

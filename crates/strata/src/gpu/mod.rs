@@ -52,6 +52,8 @@ pub struct Gpu {
     /// The scene's vertex stage (`vs_scene`), composed once per device: every geometry pass
     /// draws with it, whatever module its fragment stage comes from.
     scene_vertex: std::sync::OnceLock<wgpu::ShaderModule>,
+    /// `vs_fullscreen`, composed once per device.
+    fullscreen_vertex: std::sync::OnceLock<wgpu::ShaderModule>,
 }
 
 /// The limits a device of `adapter` opens with: the adapter's, or those `STRATA_LIMITS` names.
@@ -236,6 +238,7 @@ impl Gpu {
             features,
             limits,
             scene_vertex: Default::default(),
+            fullscreen_vertex: Default::default(),
         })
     }
 
@@ -252,7 +255,16 @@ impl Gpu {
             device,
             queue,
             scene_vertex: Default::default(),
+            fullscreen_vertex: Default::default(),
         }
+    }
+
+    /// `vs_fullscreen`, one triangle covering the target, for full-screen passes that need
+    /// nothing from the scene; composed once per device.
+    pub fn fullscreen_vertex_module(&self) -> &wgpu::ShaderModule {
+        self.fullscreen_vertex.get_or_init(|| {
+            shader::Stage::new("strata.fullscreen", shader::FULLSCREEN).module(&self.device)
+        })
     }
 
     /// The module of the scene's vertex stage `vs_scene` (shaders/shared/scene.wgsl).

@@ -29,6 +29,9 @@ pub const COLOR: &str = include_str!("../../shaders/shared/color.wgsl");
 pub const FRAGMENT: &str = include_str!("../../shaders/shared/fragment.wgsl");
 /// `strata::composite`: compositing and `Resolved`.
 pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
+/// `vs_fullscreen`, one triangle over the target (a stage of its own, see
+/// [`crate::gpu::Gpu::fullscreen_vertex_module`]).
+pub const FULLSCREEN: &str = include_str!("../../shaders/shared/fullscreen.wgsl");
 /// `strata::weight`: weighted blended OIT's weight functions.
 pub const WEIGHT: &str = include_str!("../../shaders/shared/weight.wgsl");
 
@@ -361,6 +364,7 @@ mod tests {
             ("color", COLOR),
             ("fragment", FRAGMENT),
             ("composite", COMPOSITE),
+            ("fullscreen", FULLSCREEN),
         ] {
             validate(&Stage::new(label, source));
         }

@@ -71,7 +71,7 @@ fn fs_count(v: SceneVarying) -> @location(0) vec4<f32> {
     return vec4<f32>(1.0);
 }
 
-// Group 1 of the accumulate pass (its vertex stage: f2b_downlevel_present.wgsl's vs_screen).
+// Group 1 of the accumulate pass (its vertex stage: `vs_fullscreen`).
 @group(1) @binding(2) var state_color: texture_2d<f32>;
 @group(1) @binding(3) var state_transmittance: texture_2d<f32>;
 @group(1) @binding(4) var layer_color: texture_2d<f32>;

@@ -314,7 +314,7 @@ impl DownlevelFrame {
             let accumulate = screen_pipeline(
                 gpu,
                 "strata.f2b_downlevel.accumulate",
-                (&present_module, "vs_screen"),
+                (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
                 (&module, "fs_accumulate"),
                 &[&frame_layout, &accumulate_layout],
                 &[target(STATE_FORMAT), target(STATE_FORMAT)],
@@ -326,7 +326,6 @@ impl DownlevelFrame {
                     gpu,
                     &frame_layout,
                     (&vertex_module, &vertex_buffers),
-                    &present_module,
                     [&wboit_accumulate, &wboit_composite],
                 )
             });
@@ -575,7 +574,7 @@ impl DownlevelFrame {
                 screen_pipeline(
                     gpu,
                     &format!("strata.f2b_downlevel.{entry}"),
-                    (&self.present_module, "vs_screen"),
+                    (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
                     (&self.present_module, entry),
                     &[&self.present_layout],
                     &[color_target(

@@ -7,12 +7,6 @@ struct StateOut {
     @location(1) transmittance: vec4<f32>,
 }
 
-@vertex
-fn vs_screen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}
-
 @group(0) @binding(0) var color_a: texture_2d<f32>;
 @group(0) @binding(1) var transmittance_a: texture_2d<f32>;
 @group(0) @binding(2) var color_b: texture_2d<f32>;

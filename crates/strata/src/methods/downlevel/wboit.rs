@@ -20,13 +20,12 @@ pub(super) struct Wboit {
     composite: wgpu::RenderPipeline,
 }
 
-/// wboit's pipelines: `vertex` the scene's vertex stage and its buffers, `present_module` the
-/// full-screen vertex stage's, `stages` the accumulate and composite stages.
+/// wboit's pipelines: `vertex` the scene's vertex stage and its buffers, `stages` the accumulate
+/// and composite stages.
 pub(super) fn pipelines(
     gpu: &Gpu,
     frame_layout: &wgpu::BindGroupLayout,
     (vertex_module, vertex_buffers): (&wgpu::ShaderModule, &[Option<wgpu::VertexBufferLayout<'_>>]),
-    present_module: &wgpu::ShaderModule,
     [wboit_accumulate, wboit_composite]: [&Stage; 2],
 ) -> Wboit {
     let device = &gpu.device;
@@ -67,7 +66,7 @@ pub(super) fn pipelines(
     let composite = screen_pipeline(
         gpu,
         "strata.wboit_downlevel.composite",
-        (present_module, "vs_screen"),
+        (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
         (&wboit_composite.module(device), "fs_composite"),
         &[frame_layout, &composite_layout],
         &[

@@ -1,4 +1,5 @@
-// One triangle covering the target: the vertex stage of the viewer's screen passes.
+// One triangle covering the target: the vertex stage of every full-screen pass that needs
+// nothing from the scene (`Gpu::fullscreen_vertex_module`).
 
 @vertex
 fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
