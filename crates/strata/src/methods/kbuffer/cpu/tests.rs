@@ -48,82 +48,51 @@ trait Store: Clone + PartialEq + std::fmt::Debug {
     fn invariant(&self) -> bool;
 }
 
-impl Store for MaxArray {
-    fn make(k: usize) -> Self {
-        Self::new(k)
-    }
-    fn put(&mut self, f: Fragment) -> Option<Fragment> {
-        self.insert(f)
-    }
-    fn cull(&self, f: &Fragment) -> bool {
-        self.culled(f)
-    }
-    fn kept(&self) -> Vec<Fragment> {
-        self.slots.clone()
-    }
-    fn invariant(&self) -> bool {
-        self.slots.iter().all(|c| !before(&self.slots[0], c))
-    }
+/// `Store` for a structure of the CPU twins: `make` builds one for k, `kept` lists its
+/// fragments, `invariant` checks its shape; insertion and culling are its own.
+macro_rules! store {
+    ($t:ty, |$k:ident| $make:expr, |$s:ident| $kept:expr, |$i:ident| $invariant:expr) => {
+        impl Store for $t {
+            fn make($k: usize) -> Self {
+                $make
+            }
+            fn put(&mut self, f: Fragment) -> Option<Fragment> {
+                self.insert(f)
+            }
+            fn cull(&self, f: &Fragment) -> bool {
+                self.culled(f)
+            }
+            fn kept(&self) -> Vec<Fragment> {
+                let $s = self;
+                $kept
+            }
+            fn invariant(&self) -> bool {
+                let $i = self;
+                $invariant
+            }
+        }
+    };
 }
 
-impl Store for MaxHeap {
-    fn make(k: usize) -> Self {
-        Self::new(k)
-    }
-    fn put(&mut self, f: Fragment) -> Option<Fragment> {
-        self.insert(f)
-    }
-    fn cull(&self, f: &Fragment) -> bool {
-        self.culled(f)
-    }
-    fn kept(&self) -> Vec<Fragment> {
-        self.slots.clone()
-    }
-    fn invariant(&self) -> bool {
-        (1..self.slots.len()).all(|i| !before(&self.slots[(i - 1) / 2], &self.slots[i]))
-    }
-}
+store!(MaxArray, |k| Self::new(k), |s| s.slots.clone(), |s| {
+    s.slots.iter().all(|c| !before(&s.slots[0], c))
+});
 
-impl Store for SemiHeap {
-    fn make(k: usize) -> Self {
-        Self::new(k, 1)
-    }
-    fn put(&mut self, f: Fragment) -> Option<Fragment> {
-        self.insert(f)
-    }
-    fn cull(&self, f: &Fragment) -> bool {
-        self.culled(f)
-    }
-    fn kept(&self) -> Vec<Fragment> {
-        SemiHeap::kept(self)
-    }
-    fn invariant(&self) -> bool {
-        let heap = &self.heap.slots;
-        let heap_ok = (1..heap.len()).all(|i| !before(&heap[(i - 1) / 2], &heap[i]));
-        // A full H holds the h farthest: nothing in S is after H's least.
-        let top_ok =
-            !self.heap.is_full() || self.rest.iter().all(|r| heap.iter().all(|x| !before(x, r)));
-        heap_ok && top_ok
-    }
-}
+store!(MaxHeap, |k| Self::new(k), |s| s.slots.clone(), |s| {
+    (1..s.slots.len()).all(|i| !before(&s.slots[(i - 1) / 2], &s.slots[i]))
+});
 
-impl Store for SortedArray {
-    fn make(k: usize) -> Self {
-        Self::new(k)
-    }
-    fn put(&mut self, f: Fragment) -> Option<Fragment> {
-        self.insert(f)
-    }
-    fn cull(&self, f: &Fragment) -> bool {
-        self.culled(f)
-    }
-    fn kept(&self) -> Vec<Fragment> {
-        self.slots.clone()
-    }
-    fn invariant(&self) -> bool {
-        self.slots.windows(2).all(|w| before(&w[0], &w[1]))
-    }
-}
+store!(SemiHeap, |k| Self::new(k, 1), |s| SemiHeap::kept(s), |s| {
+    let heap = &s.heap.slots;
+    let heap_ok = (1..heap.len()).all(|i| !before(&heap[(i - 1) / 2], &heap[i]));
+    // A full H holds the h farthest: nothing in S is after H's least.
+    let top_ok = !s.heap.is_full() || s.rest.iter().all(|r| heap.iter().all(|x| !before(x, r)));
+    heap_ok && top_ok
+});
+
+store!(SortedArray, |k| Self::new(k), |s| s.slots.clone(), |s| {
+    s.slots.windows(2).all(|w| before(&w[0], &w[1]))
+});
 
 /// Inserts `frags` the way the capture shaders do (cull first when `culling`), checking the
 /// structure's invariant and the culling test at every step, then that it holds exactly the
