@@ -51,7 +51,7 @@ pub fn check_device(gpu: &Gpu) -> Result<()> {
         return Ok(());
     }
     Err(Error::unsupported(format!(
-        "'{}' is a downlevel device: strata's frames need {}, for the scene's materials, lights and totals, the resolved pixels and the compute resolves; only f2b and wboit run on it, through render targets (`DownlevelFrame`, which `Renderer` and `strata render` use)",
+        "'{}' is a downlevel device: strata's frames need {}, for the scene's materials, lights and totals, the resolved pixels and the compute resolves",
         gpu.info.name,
         missing.join(" and ")
     )))

@@ -207,6 +207,9 @@ pub struct Descriptor {
     /// ([`crate::scene::Blend`]), and if not, why; it then refuses scenes that have them.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub blend_modes: Support,
+    /// Whether it runs on a downlevel device (no storage buffers, no compute) through render
+    /// targets alone ([`crate::methods::downlevel::DownlevelFrame`]).
+    pub downlevel: bool,
     /// The method parameters it reads.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub reads: &'static [MethodOption],
@@ -258,6 +261,7 @@ impl Descriptor {
             sorts_centroids: false,
             takes_order: true,
             blend_modes: Support::Yes,
+            downlevel: false,
             reads: &[],
             past_k: None,
             default_k: crate::methods::kbuffer::DEFAULT_K,

@@ -150,7 +150,9 @@ impl FrameRecorder {
         options: &RenderOptions,
     ) -> Result<FrameRecorder> {
         options.validate()?;
-        crate::frame::scene_gpu::check_device(gpu)?;
+        if crate::methods::downlevel::is_downlevel(gpu) {
+            return Err(crate::methods::downlevel::refusal(gpu, method));
+        }
         check_size(gpu, options)?;
         let (mut scene_gpu, lit) = match options.build.lighting.pipeline {
             None => (SceneGpu::new(gpu, scene, options)?, None),

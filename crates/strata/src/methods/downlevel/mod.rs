@@ -62,8 +62,6 @@ pub const DOWNLEVEL_MAX_TRIANGLES: u64 = 1 << 23;
 pub const F2B_PIXEL_BYTES: u64 = 100;
 /// wboit's bytes per pixel (module docs).
 pub const WBOIT_PIXEL_BYTES: u64 = 76;
-/// The methods a downlevel device runs.
-pub const DOWNLEVEL_METHODS: [MethodId; 2] = [MethodId::F2b, MethodId::Wboit];
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const TAG_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
@@ -71,6 +69,23 @@ const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 const STATE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// wboit's fragment count: f16 counts exactly up to 2048.
 const COUNT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
+
+/// Why `method` cannot run on `gpu`, a downlevel device, in one line naming what the device
+/// lacks and the methods that do run there (the table's `downlevel` ones).
+pub fn refusal(gpu: &Gpu, method: MethodId) -> Error {
+    let why = crate::frame::scene_gpu::check_device(gpu)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_else(|| format!("'{}' is not a downlevel device", gpu.info.name));
+    let running: Vec<&str> = super::catalogue()
+        .filter(|d| d.downlevel)
+        .map(|d| d.name)
+        .collect();
+    Error::unsupported(format!(
+        "{method} does not run here: {why}; of strata's methods only {} run on it, through render targets (`DownlevelFrame`, which `Renderer` and `strata render` use)",
+        running.join(" and ")
+    ))
+}
 
 /// Whether `gpu` is a downlevel device that strata's other frames refuse: no storage buffers or
 /// no compute (see [`crate::frame::scene_gpu::check_device`]).
@@ -167,7 +182,7 @@ pub struct DownlevelFrame {
 }
 
 impl DownlevelFrame {
-    /// Uploads `scene` and makes `method`'s pipelines (one of [`DOWNLEVEL_METHODS`]), refusing
+    /// Uploads `scene` and makes `method`'s pipelines (one whose descriptor says `downlevel`), refusing
     /// in one line what a downlevel frame cannot hold (options, more than
     /// [`UNIFORM_MATERIALS`] materials or [`UNIFORM_LIGHTS`] lights, more than
     /// [`DOWNLEVEL_MAX_TRIANGLES`] triangles, blend modes wboit cannot blend).
@@ -179,14 +194,8 @@ impl DownlevelFrame {
     ) -> Result<DownlevelFrame> {
         options.validate()?;
         scene.validate()?;
-        if !DOWNLEVEL_METHODS.contains(&method) {
-            let why = crate::frame::scene_gpu::check_device(gpu)
-                .err()
-                .map(|e| e.to_string())
-                .unwrap_or_else(|| "it is not a downlevel device".into());
-            return Err(Error::unsupported(format!(
-                "{method} does not run here: {why}"
-            )));
+        if !method.descriptor().downlevel {
+            return Err(refusal(gpu, method));
         }
         check_options(options)?;
         method

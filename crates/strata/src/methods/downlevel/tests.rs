@@ -247,7 +247,8 @@ fn downlevel_refusals_are_one_line() {
         .expect("refused")
         .to_string();
     assert!(
-        e.starts_with("kb-keys does not run here:") && e.contains("only f2b and wboit run on it"),
+        e.starts_with("kb-keys does not run here:")
+            && e.contains("of strata's methods only wboit and f2b run on it"),
         "{e}"
     );
 }

@@ -34,6 +34,7 @@ pub const F2B: Descriptor = Descriptor {
     reads: &[MethodOption::Layers],
     // Ties peel in draw order.
     takes_order: false,
+    downlevel: true,
     ..Descriptor::new(MethodId::F2b, "f2b", Family::Peeling, create)
 };
 

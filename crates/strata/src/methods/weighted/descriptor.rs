@@ -24,6 +24,7 @@ pub const WBOIT: Descriptor = Descriptor {
     summary: "weighted blended OIT (McGuire & Bavoil 2013): weighted average color over exact coverage, weights of eqs. 7-10 (--weight, --depth-scale); what engines ship",
     reads: &[MethodOption::Weight],
     blend_modes: SUMS_OF_OVER,
+    downlevel: true,
     ..Descriptor::new(MethodId::Wboit, "wboit", Family::Weighted, create)
 };
 
