@@ -448,6 +448,13 @@ impl DownlevelFrame {
         self.next_layers = layers.clamp(1, MAX_LAYERS);
     }
 
+    /// Binds the scene's vertices and their materials and draws every triangle.
+    fn draw_scene(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
+        pass.draw(0..self.triangle_count * 3, 0..1);
+    }
+
     /// Group 0 of every pass: the uniforms, materials, lights and `opaque`, the opaque depth.
     fn frame_group(&self, gpu: &Gpu, opaque: &wgpu::TextureView) -> wgpu::BindGroup {
         binding::group(

@@ -68,9 +68,7 @@ impl DownlevelFrame {
         });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, Some(&group), &[]);
-        pass.set_vertex_buffer(0, self.vertices.slice(..));
-        pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
-        pass.draw(0..self.triangle_count * 3, 0..1);
+        self.draw_scene(&mut pass);
         drop(pass);
         gpu.queue.submit([encoder.finish()]);
         let bytes = crate::gpu::readback::read_texture(gpu, &counts)?;
@@ -178,12 +176,10 @@ impl DownlevelFrame {
             });
             pass.set_bind_group(0, Some(frame_group), &[]);
             pass.set_bind_group(1, Some(&peel_groups[layer as usize % 2]), &[]);
-            pass.set_vertex_buffer(0, self.vertices.slice(..));
-            pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
             if probe {
                 pass.begin_occlusion_query(0);
             }
-            pass.draw(0..self.triangle_count * 3, 0..1);
+            self.draw_scene(&mut pass);
             if probe {
                 pass.end_occlusion_query();
             }

@@ -134,9 +134,7 @@ impl DownlevelFrame {
         pass.set_pipeline(&wboit.accumulate);
         pass.set_bind_group(0, Some(frame_group), &[]);
         pass.set_bind_group(1, Some(&params_group), &[]);
-        pass.set_vertex_buffer(0, self.vertices.slice(..));
-        pass.set_vertex_buffer(1, self.vertex_materials.slice(..));
-        pass.draw(0..self.triangle_count * 3, 0..1);
+        self.draw_scene(&mut pass);
         drop(pass);
         let texture = wgpu::BindingResource::TextureView;
         let composite_group = binding::group(
