@@ -243,8 +243,7 @@ fn downlevel_refusals_are_one_line() {
     }
     let e = Renderer::new(webgl2(), &s, &RenderOptions::sized(16, 16))
         .and_then(|mut r| r.render_method(MethodId::KbKeys, None))
-        .err()
-        .expect("refused")
+        .expect_err("refused")
         .to_string();
     assert!(
         e.starts_with("kb-keys does not run here:")
@@ -282,8 +281,7 @@ fn downlevel_wboit_equals_the_full_devices_wboit() {
     }
     let e = Renderer::new(webgl2(), &blended_layers(), &RenderOptions::sized(16, 16))
         .and_then(|mut r| r.render_method(MethodId::Wboit, None))
-        .err()
-        .expect("refused")
+        .expect_err("refused")
         .to_string();
     assert!(e.starts_with("wboit cannot blend 'add' materials"), "{e}");
 }
