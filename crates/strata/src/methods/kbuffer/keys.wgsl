@@ -1,7 +1,7 @@
 #define_import_path strata::kbuffer::keys
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, kp, kpixel, sample_pixel, storage_samples, tail_add}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_keys, kp, kpixel, sample_pixel, storage_samples, tail_add}
 
 // kb-keys: the lock-free exact k-buffer. Each slot is two 64-bit words: a key — the depth's bits
 // above the fragment's tag, inverted so that 0 marks an empty slot and a larger key is a nearer
@@ -13,12 +13,6 @@
 // finds each fragment's slot by its tag and stores its payload there; a fragment whose key was
 // not kept goes to the tail. Nothing spins and nothing can fail: relaxed atomics suffice, since
 // the passes are separated by the render pass boundary. Needs SHADER_INT64_ATOMIC_ALL_OPS.
-
-#ifdef COHERENT
-@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> key_slots: array<atomic<u64>>;
-#else
-@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> key_slots: array<atomic<u64>>;
-#endif
 
 fn fragment_key(f: Fragment) -> u64 {
     return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));
@@ -34,13 +28,13 @@ fn cascade_key(p: u32, f: Fragment) {
     count_seen(p);
     var key = fragment_key(f);
     if kp.culling != 0u {
-        let farthest = atomicLoad(&key_slots[key_word(p, kp.k - 1u)]);
+        let farthest = atomicLoad(&fragment_keys[key_word(p, kp.k - 1u)]);
         if farthest != u64(0u) && key <= farthest {
             return;
         }
     }
     for (var i = 0u; i < kp.k; i++) {
-        let old = atomicMax(&key_slots[key_word(p, i)], key);
+        let old = atomicMax(&fragment_keys[key_word(p, i)], key);
         if old == u64(0u) {
             break;
         }
@@ -55,13 +49,13 @@ fn store_payload(p: u32, f: Fragment) -> bool {
     let tag_word = ~f.tag;
     for (var i = 0u; i < kp.k; i++) {
         let w = key_word(p, i);
-        let stored = atomicLoad(&key_slots[w]);
+        let stored = atomicLoad(&fragment_keys[w]);
         // Kept keys fill the slots from the first: an empty one ends them.
         if stored == u64(0u) {
             break;
         }
         if u32(stored & u64(0xffffffffu)) == tag_word {
-            atomicStore(&key_slots[w + 1u], (u64(f.ba) << 32u) | u64(f.rg));
+            atomicStore(&fragment_keys[w + 1u], (u64(f.ba) << 32u) | u64(f.rg));
             return true;
         }
     }

@@ -1,14 +1,14 @@
 #define_import_path strata::kbuffer::keys_resolve
-#import strata::kbuffer::storage::{kp}
+#import strata::kbuffer::storage::{fragment_keys, kp}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::keys::{key_slots, key_word}
+#import strata::kbuffer::keys::{key_word}
 
 // Resolve access to kb-keys' slots: the kept keys form a prefix of each pixel's slots, already
 // in (depth, primitive) order.
 
 fn stored_count(p: u32) -> u32 {
     var n = 0u;
-    while n < kp.k && atomicLoad(&key_slots[key_word(p, n)]) != u64(0u) {
+    while n < kp.k && atomicLoad(&fragment_keys[key_word(p, n)]) != u64(0u) {
         n += 1u;
     }
     return n;
@@ -16,8 +16,8 @@ fn stored_count(p: u32) -> u32 {
 
 fn stored_fragment(p: u32, i: u32) -> Fragment {
     let w = key_word(p, i);
-    let key = ~atomicLoad(&key_slots[w]);
-    let payload = atomicLoad(&key_slots[w + 1u]);
+    let key = ~atomicLoad(&fragment_keys[w]);
+    let payload = atomicLoad(&fragment_keys[w + 1u]);
     return Fragment(
         bitcast<f32>(u32(key >> 32u)),
         u32(key & u64(0xffffffffu)),

@@ -2,8 +2,7 @@
 #import strata::color::{Resolved}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, view_distance}
-#import strata::kbuffer::storage::{kp, output}
-#import strata::kbuffer::slots::{slots}
+#import strata::kbuffer::storage::{fragment_words, kp, output}
 
 // k-depth peeling's running composite between passes, a valid Resolved at every step
 // (premultiplied color, count, RGB transmittance) whose spare word holds the last composited
@@ -21,7 +20,7 @@ fn kpeel_state_base() -> u32 {
 }
 
 fn state_float(w: u32) -> f32 {
-    return bitcast<f32>(atomicLoad(&slots[w]));
+    return bitcast<f32>(atomicLoad(&fragment_words[w]));
 }
 
 fn kpeel_state(q: u32) -> Composite {
@@ -34,9 +33,9 @@ fn kpeel_state(q: u32) -> Composite {
     let depth = state_float(w + 8u);
     return Composite(
         vec3<f32>(state_float(w), state_float(w + 1u), state_float(w + 2u)),
-        atomicLoad(&slots[w + 3u]),
+        atomicLoad(&fragment_words[w + 3u]),
         vec3<f32>(state_float(w + 4u), state_float(w + 5u), state_float(w + 6u)),
-        atomicLoad(&slots[w + 7u]),
+        atomicLoad(&fragment_words[w + 7u]),
         depth,
         view_distance(depth),
     );
@@ -45,19 +44,19 @@ fn kpeel_state(q: u32) -> Composite {
 fn kpeel_store(q: u32, s: Composite) {
     if kp.sample_slots <= 1u {
         output[q] = Resolved(s.color, s.count, s.transmittance, s.last_tag);
-        atomicStore(&slots[kpeel_state_base() + q], bitcast<u32>(s.last_depth));
+        atomicStore(&fragment_words[kpeel_state_base() + q], bitcast<u32>(s.last_depth));
         return;
     }
     let w = kpeel_state_base() + KPEEL_STATE_WORDS * q;
-    atomicStore(&slots[w], bitcast<u32>(s.color.r));
-    atomicStore(&slots[w + 1u], bitcast<u32>(s.color.g));
-    atomicStore(&slots[w + 2u], bitcast<u32>(s.color.b));
-    atomicStore(&slots[w + 3u], s.count);
-    atomicStore(&slots[w + 4u], bitcast<u32>(s.transmittance.r));
-    atomicStore(&slots[w + 5u], bitcast<u32>(s.transmittance.g));
-    atomicStore(&slots[w + 6u], bitcast<u32>(s.transmittance.b));
-    atomicStore(&slots[w + 7u], s.last_tag);
-    atomicStore(&slots[w + 8u], bitcast<u32>(s.last_depth));
+    atomicStore(&fragment_words[w], bitcast<u32>(s.color.r));
+    atomicStore(&fragment_words[w + 1u], bitcast<u32>(s.color.g));
+    atomicStore(&fragment_words[w + 2u], bitcast<u32>(s.color.b));
+    atomicStore(&fragment_words[w + 3u], s.count);
+    atomicStore(&fragment_words[w + 4u], bitcast<u32>(s.transmittance.r));
+    atomicStore(&fragment_words[w + 5u], bitcast<u32>(s.transmittance.g));
+    atomicStore(&fragment_words[w + 6u], bitcast<u32>(s.transmittance.b));
+    atomicStore(&fragment_words[w + 7u], s.last_tag);
+    atomicStore(&fragment_words[w + 8u], bitcast<u32>(s.last_depth));
 }
 
 // The last composited fragment of a (sample) pixel (ordering fields only; meaningless while

@@ -1,5 +1,5 @@
 #define_import_path strata::kbuffer::kplus_sbuffer
-#import strata::kbuffer::storage::{SEEN, kp, pixel_word, pixels}
+#import strata::kbuffer::storage::{SEEN, fragment_words, kp, pixel_word, pixels}
 
 // The memory-aware k+-buffer (seed 003 §4.1): k+-buffer slots in S-buffer regions. The count
 // pass counts each pixel's fragments (SEEN); the prefix sum (sbuffer_scan.wgsl) over
@@ -9,14 +9,8 @@
 // does not fit in the pool (a pool sized from an earlier frame's need) stores nothing and counts
 // its fragments as overflowed; its resolve sees no fragments.
 
-#ifdef COHERENT
-@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> slots: array<atomic<u32>>;
-#else
-@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> slots: array<atomic<u32>>;
-#endif
-
 fn region_start(p: u32) -> u32 {
-    return atomicLoad(&slots[p]);
+    return atomicLoad(&fragment_words[p]);
 }
 
 // The prefix sum's hooks: min(f(p), k) slots per pixel, starts in the header.
@@ -25,7 +19,7 @@ fn region_size(p: u32) -> u32 {
 }
 
 fn set_region_start(p: u32, start: u32) {
-    atomicStore(&slots[p], start);
+    atomicStore(&fragment_words[p], start);
 }
 
 fn header_words() -> u32 {
@@ -38,7 +32,7 @@ fn slot_word(p: u32, i: u32) -> u32 {
 
 // Whether the pixel's whole region lies inside the pool (no overflowing arithmetic).
 fn region_fits(p: u32) -> bool {
-    let pool_slots = (arrayLength(&slots) - header_words()) / 4u;
+    let pool_slots = (arrayLength(&fragment_words) - header_words()) / 4u;
     let start = region_start(p);
     return start <= pool_slots && region_size(p) <= pool_slots - start;
 }

@@ -1,5 +1,5 @@
 #define_import_path strata::kbuffer::list
-#import strata::kbuffer::storage::{COUNTER_ALLOCATED, COUNTER_LOST, COUNTER_OVERFLOWED, count_seen, counter_add, counters, kp, pixel_word, pixels, tail_add}
+#import strata::kbuffer::storage::{COUNTER_ALLOCATED, COUNTER_LOST, COUNTER_OVERFLOWED, count_seen, counter_add, counters, fragment_words, kp, pixel_word, pixels, tail_add}
 #import strata::fragment::{Fragment, fragment_before}
 
 // Per-pixel linked lists for the k-buffer family: nodes of 5 atomic words (depth bits, tag, rg,
@@ -16,12 +16,6 @@
 //   `max_tries` failed exchanges the fragment is lost and counted. A place beyond the k-th node
 //   means the fragment is not among the k nearest: it is culled without taking a node.
 
-#ifdef COHERENT
-@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> nodes: array<atomic<u32>>;
-#else
-@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> nodes: array<atomic<u32>>;
-#endif
-
 const HEAD: u32 = 1u;
 
 fn node_word(link: u32) -> u32 {
@@ -30,11 +24,11 @@ fn node_word(link: u32) -> u32 {
 
 fn node_fragment(link: u32) -> Fragment {
     let w = node_word(link);
-    return Fragment(bitcast<f32>(atomicLoad(&nodes[w])), atomicLoad(&nodes[w + 1u]), atomicLoad(&nodes[w + 2u]), atomicLoad(&nodes[w + 3u]));
+    return Fragment(bitcast<f32>(atomicLoad(&fragment_words[w])), atomicLoad(&fragment_words[w + 1u]), atomicLoad(&fragment_words[w + 2u]), atomicLoad(&fragment_words[w + 3u]));
 }
 
 fn node_next(link: u32) -> u32 {
-    return atomicLoad(&nodes[node_word(link) + 4u]);
+    return atomicLoad(&fragment_words[node_word(link) + 4u]);
 }
 
 // kb-ll's ordered link words (gpu::ordered): a walk acquires each link it follows, so the node
@@ -45,7 +39,7 @@ fn acquire_head(p: u32) -> u32 {
 }
 
 fn acquire_next(link: u32) -> u32 {
-    return atomicLoad(&nodes[node_word(link) + 4u]);
+    return atomicLoad(&fragment_words[node_word(link) + 4u]);
 }
 
 fn release_link_head(p: u32, expected: u32, link: u32) -> bool {
@@ -53,11 +47,11 @@ fn release_link_head(p: u32, expected: u32, link: u32) -> bool {
 }
 
 fn release_link_after(prev: u32, expected: u32, link: u32) -> bool {
-    return atomicCompareExchangeWeak(&nodes[node_word(prev) + 4u], expected, link).exchanged;
+    return atomicCompareExchangeWeak(&fragment_words[node_word(prev) + 4u], expected, link).exchanged;
 }
 
 fn pool_nodes() -> u32 {
-    return arrayLength(&nodes) / 5u;
+    return arrayLength(&fragment_words) / 5u;
 }
 
 // Takes a node and writes the fragment into it; 0 when the pool is full (counted).
@@ -72,10 +66,10 @@ fn new_node(f: Fragment) -> u32 {
         return 0u;
     }
     let w = node * 5u;
-    atomicStore(&nodes[w], bitcast<u32>(f.depth));
-    atomicStore(&nodes[w + 1u], f.tag);
-    atomicStore(&nodes[w + 2u], f.rg);
-    atomicStore(&nodes[w + 3u], f.ba);
+    atomicStore(&fragment_words[w], bitcast<u32>(f.depth));
+    atomicStore(&fragment_words[w + 1u], f.tag);
+    atomicStore(&fragment_words[w + 2u], f.rg);
+    atomicStore(&fragment_words[w + 3u], f.ba);
     return node + 1u;
 }
 
@@ -86,7 +80,7 @@ fn capture_list(p: u32, f: Fragment) {
     if link == 0u {
         return;
     }
-    atomicStore(&nodes[node_word(link) + 4u], atomicExchange(&pixels[pixel_word(p, HEAD)], link));
+    atomicStore(&fragment_words[node_word(link) + 4u], atomicExchange(&pixels[pixel_word(p, HEAD)], link));
 }
 
 // kb-ll's capture step.
@@ -115,7 +109,7 @@ fn capture_sorted_list(p: u32, f: Fragment) {
                 return;
             }
         }
-        atomicStore(&nodes[node_word(link) + 4u], cur);
+        atomicStore(&fragment_words[node_word(link) + 4u], cur);
         var swapped = false;
         if prev == 0u {
             swapped = release_link_head(p, cur, link);

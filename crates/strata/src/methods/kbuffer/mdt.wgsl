@@ -2,7 +2,7 @@
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment, scene_fragment_covering}
 #import strata::color::{linear_to_srgb, srgb_to_linear}
 #import strata::fragment::{Fragment, fragment_color, fragment_new}
-#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, kp, kpixel, sample_pixel, storage_samples, tail_add}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_words, kp, kpixel, sample_pixel, storage_samples, tail_add}
 
 // Multi-depth-test k-buffers (seed 002's MDTS) with 32-bit keys: each fragment runs an atomicMax
 // cascade over its pixel's k keys — the key displaced from a slot carries on to the next — so
@@ -13,12 +13,6 @@
 // kb-mdt-pack: depth mapped to [0.5, 1) so sign and exponent are constant, its top 20 mantissa
 //   bits above 12 bits of color in two keys (R6 G6 | B6 A6, sRGB-encoded): two cascades whose
 //   slot i belong to the same fragment unless two keys tie in the top 20 bits.
-
-#ifdef COHERENT
-@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> keys: array<atomic<u32>>;
-#else
-@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> keys: array<atomic<u32>>;
-#endif
 
 fn slots_in_frame() -> u32 {
     return kp.pixels * kp.sample_slots * kp.k;
@@ -36,7 +30,7 @@ fn key_depth(key: u32) -> f32 {
 fn cascade(base: u32, key_in: u32) -> u32 {
     var key = key_in;
     for (var i = 0u; i < kp.k; i++) {
-        let old = atomicMax(&keys[base + i], key);
+        let old = atomicMax(&fragment_words[base + i], key);
         if old == 0u {
             return 0u;
         }
@@ -48,7 +42,7 @@ fn cascade(base: u32, key_in: u32) -> u32 {
 // Filled slots form a prefix: count up to the first empty one.
 fn key_count(p: u32) -> u32 {
     var n = 0u;
-    while n < kp.k && atomicLoad(&keys[p * kp.k + n]) != 0u {
+    while n < kp.k && atomicLoad(&fragment_words[p * kp.k + n]) != 0u {
         n += 1u;
     }
     return n;
@@ -59,7 +53,7 @@ fn cascade_culled(base: u32, key: u32) -> bool {
     if kp.culling == 0u {
         return false;
     }
-    let last = atomicLoad(&keys[base + kp.k - 1u]);
+    let last = atomicLoad(&fragment_words[base + kp.k - 1u]);
     return last != 0u && key <= last;
 }
 
@@ -121,15 +115,15 @@ fn store_color(p: u32, f: Fragment) {
     let base = p * kp.k;
     let n = slots_in_frame();
     for (var i = 0u; i < kp.k; i++) {
-        let stored = atomicLoad(&keys[base + i]);
+        let stored = atomicLoad(&fragment_words[base + i]);
         if stored < key {
             break;
         }
-        if stored == key && atomicExchange(&keys[n + base + i], 1u) == 0u {
+        if stored == key && atomicExchange(&fragment_words[n + base + i], 1u) == 0u {
             let c = 2u * n + 3u * (base + i);
-            atomicStore(&keys[c], f.tag);
-            atomicStore(&keys[c + 1u], f.rg);
-            atomicStore(&keys[c + 2u], f.ba);
+            atomicStore(&fragment_words[c], f.tag);
+            atomicStore(&fragment_words[c + 1u], f.rg);
+            atomicStore(&fragment_words[c + 2u], f.ba);
             return;
         }
     }

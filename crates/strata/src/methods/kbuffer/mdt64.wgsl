@@ -2,17 +2,11 @@
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment}
 #import strata::color::{linear_to_srgb, srgb_to_linear}
 #import strata::fragment::{Fragment, fragment_color, fragment_new}
-#import strata::kbuffer::storage::{count_seen, kp, kpixel, tail_add}
+#import strata::kbuffer::storage::{count_seen, fragment_keys, kp, kpixel, tail_add}
 
 // kb-mdt64: one atomicMax cascade on 64-bit keys — inverted depth bits above 32 bits of color
 // (sRGB-encoded RGB and alpha, 8 bits each) — so one geometry pass keeps the k nearest with their
 // colors (needs SHADER_INT64_ATOMIC_ALL_OPS). 0 marks an empty slot.
-
-#ifdef COHERENT
-@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> keys64: array<atomic<u64>>;
-#else
-@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> keys64: array<atomic<u64>>;
-#endif
 
 fn srgb8(c: f32) -> u32 {
     return u32(round(linear_to_srgb(c) * 255.0));
@@ -44,14 +38,14 @@ fn fs_mdt64_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     var key = key64(scene_fragment(v, front_facing));
     let base = p * kp.k;
     if kp.culling != 0u {
-        let last = atomicLoad(&keys64[base + kp.k - 1u]);
+        let last = atomicLoad(&fragment_keys[base + kp.k - 1u]);
         if last != u64(0u) && key <= last {
             tail_add(p, fragment_of64(key));
             return;
         }
     }
     for (var i = 0u; i < kp.k; i++) {
-        let old = atomicMax(&keys64[base + i], key);
+        let old = atomicMax(&fragment_keys[base + i], key);
         if old == u64(0u) {
             return;
         }
@@ -67,12 +61,12 @@ fn fs_mdt64(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
 
 fn stored_count(p: u32) -> u32 {
     var n = 0u;
-    while n < kp.k && atomicLoad(&keys64[p * kp.k + n]) != u64(0u) {
+    while n < kp.k && atomicLoad(&fragment_keys[p * kp.k + n]) != u64(0u) {
         n += 1u;
     }
     return n;
 }
 
 fn stored_fragment(p: u32, i: u32) -> Fragment {
-    return fragment_of64(atomicLoad(&keys64[p * kp.k + i]));
+    return fragment_of64(atomicLoad(&fragment_keys[p * kp.k + i]));
 }

@@ -1,15 +1,9 @@
 #define_import_path strata::kbuffer::slots
-#import strata::kbuffer::storage::{kp}
+#import strata::kbuffer::storage::{fragment_words, kp}
 
 // Fixed per-pixel slot arrays: `stride` fragment records of 4 words (depth bits, tag, rg, ba) per
 // pixel, every word an atomic so that reads inside a spin lock see the last holder's writes
 // (WGSL has no @coherent).
-
-#ifdef COHERENT
-@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> slots: array<atomic<u32>>;
-#else
-@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> slots: array<atomic<u32>>;
-#endif
 
 fn slot_word(p: u32, i: u32) -> u32 {
     return (p * kp.stride + i) * 4u;

@@ -99,12 +99,14 @@ impl Layout {
     }
 }
 
-/// The family's definitions: the storage layout, the method's bind group (`KBUFFER_GROUP`: 1 in
-/// strata's own passes, the application's choice for its capture), and `COHERENT` where the
-/// adapter takes `@coherent` on the fragment storage and the per-pixel words (see module docs).
+/// The family's definitions: the storage layout (and `KEYS64` where it holds 64-bit keys), the
+/// method's bind group (`KBUFFER_GROUP`: 1 in strata's own passes, the application's choice for
+/// its capture), and `COHERENT` where the adapter takes `@coherent` on the fragment storage and
+/// the per-pixel words (see module docs).
 pub fn definitions(layout: Layout, group: u32, coherent: bool) -> Defs {
     Defs::default()
         .flag(layout.definition())
+        .flag_if("KEYS64", matches!(layout, Layout::Mdt64 | Layout::Keys))
         .value("KBUFFER_GROUP", group)
         .flag_if("COHERENT", coherent)
 }

@@ -8,11 +8,11 @@
 // Keep `KParams` in sync with `KParams` in kbuffer/mod.rs and the COUNTER_ indices with
 // `Counters` there.
 //
-// Binding 1 is the method's fragment storage (slots.wgsl for slot arrays, mdt.wgsl for keys,
-// list.wgsl for node pools). pixels: 4 words per pixel — seen (every fragment that reached the
-// pixel), filled (slots in use; a list's head), lock, and bound (the culling bound: the farthest
-// kept depth of a full pixel, as depth bits + 1; 0 while the pixel is not full). tail: 5 sums of
-// 2 words (64-bit fixed point) per pixel for --tail blend. Every per-pixel word is cleared before
+// Binding 1 is the method's fragment storage (`fragment_words` or `fragment_keys`, below).
+// pixels: 4 words per pixel — seen (every fragment that reached the pixel), filled (slots in
+// use; a list's head), lock, and bound (the culling bound: the farthest kept depth of a full
+// pixel, as depth bits + 1; 0 while the pixel is not full). tail: 5 sums of 2 words (64-bit
+// fixed point) per pixel for --tail blend. Every per-pixel word is cleared before
 // each frame; slots and nodes are read only where this frame's writers published them.
 
 struct KParams {
@@ -39,10 +39,23 @@ struct KParams {
 }
 
 @group(#{KBUFFER_GROUP}) @binding(0) var<uniform> kp: KParams;
+// The fragment storage: 64-bit keys where the layout cascades them (KEYS64: keys.wgsl,
+// mdt64.wgsl), else 32-bit words — slot records (slots.wgsl, kplus_sbuffer.wgsl), list nodes
+// (list.wgsl) or 32-bit keys (mdt.wgsl); each layout's module says what its words hold.
 #ifdef COHERENT
 @group(#{KBUFFER_GROUP}) @binding(2) @coherent var<storage, read_write> pixels: array<atomic<u32>>;
+#ifdef KEYS64
+@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> fragment_keys: array<atomic<u64>>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(1) @coherent var<storage, read_write> fragment_words: array<atomic<u32>>;
+#endif
 #else
 @group(#{KBUFFER_GROUP}) @binding(2) var<storage, read_write> pixels: array<atomic<u32>>;
+#ifdef KEYS64
+@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> fragment_keys: array<atomic<u64>>;
+#else
+@group(#{KBUFFER_GROUP}) @binding(1) var<storage, read_write> fragment_words: array<atomic<u32>>;
+#endif
 #endif
 @group(#{KBUFFER_GROUP}) @binding(3) var<storage, read_write> counters: array<atomic<u32>>;
 @group(#{KBUFFER_GROUP}) @binding(4) var<storage, read_write> tail: array<atomic<u32>>;

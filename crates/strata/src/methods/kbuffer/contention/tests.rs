@@ -122,8 +122,8 @@ fn seeded_protocol_defects_fail() {
         (
             MethodId::KbKeys,
             "non-atomic read-modify-write of a key slot",
-            "let old = atomicMax(&key_slots[key_word(p, i)], key);",
-            "let old = atomicLoad(&key_slots[key_word(p, i)]); atomicStore(&key_slots[key_word(p, i)], max(old, key));",
+            "let old = atomicMax(&fragment_keys[key_word(p, i)], key);",
+            "let old = atomicLoad(&fragment_keys[key_word(p, i)]); atomicStore(&fragment_keys[key_word(p, i)], max(old, key));",
         ),
     ];
     let mut missed = Vec::new();
