@@ -67,6 +67,7 @@ pub mod deferred;
 pub mod error;
 pub mod frame;
 pub mod gpu;
+mod keyword;
 pub mod methods;
 pub mod metrics;
 pub mod order;

@@ -9,6 +9,7 @@ use std::path::Path;
 /// Lowest first; modules of one layer may not import each other.
 const LAYERS: &[&[&str]] = &[
     &["error"],
+    &["keyword"],
     &["output"],
     &["gpu"],
     &["resolve"],

@@ -203,17 +203,11 @@ fn csv(r: &Report) -> String {
 
 fn print(r: &Report) {
     println!(
-        "auto-k — {}x{} R = {} on {} ({}){}",
+        "auto-k — {}x{} R = {} on {}",
         r.header.width,
         r.header.height,
         r.robustness,
-        r.header.adapter,
-        r.header.backend,
-        if r.header.cpu_figures {
-            " — CPU FIGURES"
-        } else {
-            ""
-        }
+        r.header.device()
     );
     print_rows(&columns(), &r.rows, |_| None);
 }

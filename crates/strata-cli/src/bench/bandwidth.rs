@@ -182,9 +182,8 @@ fn csv(r: &Report) -> String {
 fn print(r: &Report) {
     let d = &r.device;
     println!(
-        "bandwidth on {}{}: copy {:.1} GB/s, stream {:.1} GB/s; atomics (G/s) distinct {:.3}, {} per word {:.3}, one word {:.4}",
-        r.header.adapter,
-        crate::bench::cpu_label(r.header.cpu_figures),
+        "bandwidth on {}: copy {:.1} GB/s, stream {:.1} GB/s; atomics (G/s) distinct {:.3}, {} per word {:.3}, one word {:.4}",
+        r.header.device(),
         d.copy_gb_per_s,
         d.stream_gb_per_s,
         d.atomics_distinct_g_per_s,

@@ -410,10 +410,13 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
-        "convex on {}{label}: models at {}x{} (median over views), layered spheres at {}x{}",
-        r.header.adapter, r.header.width, r.header.height, r.stack_size.0, r.stack_size.1
+        "convex on {}: models at {}x{} (median over views), layered spheres at {}x{}",
+        r.header.device(),
+        r.header.width,
+        r.header.height,
+        r.stack_size.0,
+        r.stack_size.1
     );
     print_rows(&columns(), &r.rows, |_| None);
     println!(

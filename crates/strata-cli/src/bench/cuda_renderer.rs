@@ -276,10 +276,12 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
-        "cuda-renderer on {}{label}: {}x{}, median of {} frames",
-        r.header.adapter, r.header.width, r.header.height, r.frames
+        "cuda-renderer on {}: {}x{}, median of {} frames",
+        r.header.device(),
+        r.header.width,
+        r.header.height,
+        r.frames
     );
     for rows in r.rows.chunk_by(|a, b| a.scene == b.scene) {
         println!("{} ({} triangles)", rows[0].scene, rows[0].triangles);

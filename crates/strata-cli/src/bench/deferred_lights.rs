@@ -179,10 +179,13 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
-        "deferred-lights on {}{label}: {} triangles at {}x{}, median of {} frames",
-        r.header.adapter, r.triangles, r.header.width, r.header.height, r.frames
+        "deferred-lights on {}: {} triangles at {}x{}, median of {} frames",
+        r.header.device(),
+        r.triangles,
+        r.header.width,
+        r.header.height,
+        r.frames
     );
     println!(
         "{:>7} {:>12} {:>12} {:>8}",

@@ -30,11 +30,9 @@ pub fn device_slug(gpu: &Gpu) -> String {
         .join("-")
 }
 
-/// What every standalone experiment's results file starts with (flattened into it): the same
-/// provenance as a frame-loop experiment's.
+/// Where and when figures were measured: every results file carries it (flattened into it).
 #[derive(Clone, Serialize)]
-pub(crate) struct Header {
-    pub(crate) experiment: &'static str,
+pub(crate) struct Provenance {
     pub(crate) adapter: String,
     pub(crate) backend: String,
     pub(crate) device_type: String,
@@ -43,6 +41,41 @@ pub(crate) struct Header {
     pub(crate) cpu_figures: bool,
     pub(crate) commit: Option<String>,
     pub(crate) unix_time: u64,
+}
+
+impl Provenance {
+    pub(crate) fn new(gpu: &Gpu, cpu_figures: bool) -> Provenance {
+        Provenance {
+            adapter: gpu.info.name.clone(),
+            backend: gpu.backend_name(),
+            device_type: format!("{:?}", gpu.info.device_type),
+            driver: format!("{} {}", gpu.info.driver, gpu.info.driver_info)
+                .trim()
+                .to_string(),
+            cpu_figures,
+            commit: commit(),
+            unix_time: unix_time(),
+        }
+    }
+
+    /// The adapter as a report's heading names it, marked when its figures are a CPU's.
+    pub(crate) fn device(&self) -> String {
+        format!(
+            "{} ({}){}",
+            self.adapter,
+            self.backend,
+            cpu_label(self.cpu_figures)
+        )
+    }
+}
+
+/// What every standalone experiment's results file starts with (flattened into it): the same
+/// provenance as a frame-loop experiment's.
+#[derive(Clone, Serialize)]
+pub(crate) struct Header {
+    pub(crate) experiment: &'static str,
+    #[serde(flatten)]
+    pub(crate) provenance: Provenance,
     /// The size of the pictures the experiment renders (convex: its models' pictures).
     pub(crate) width: u32,
     pub(crate) height: u32,
@@ -57,27 +90,16 @@ impl Header {
     ) -> Header {
         Header {
             experiment,
-            adapter: gpu.info.name.clone(),
-            backend: gpu.backend_name(),
-            device_type: device_type(gpu),
-            driver: driver(gpu),
-            cpu_figures,
-            commit: commit(),
-            unix_time: unix_time(),
+            provenance: Provenance::new(gpu, cpu_figures),
             width,
             height,
         }
     }
-}
 
-pub(crate) fn device_type(gpu: &Gpu) -> String {
-    format!("{:?}", gpu.info.device_type)
-}
-
-pub(crate) fn driver(gpu: &Gpu) -> String {
-    format!("{} {}", gpu.info.driver, gpu.info.driver_info)
-        .trim()
-        .to_string()
+    /// The adapter as a report's heading names it (see [`Provenance::device`]).
+    pub(crate) fn device(&self) -> String {
+        self.provenance.device()
+    }
 }
 
 pub(crate) fn unix_time() -> u64 {

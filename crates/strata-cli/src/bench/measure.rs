@@ -200,14 +200,8 @@ pub(crate) struct BenchReport {
     pub(crate) height: u32,
     pub(crate) effect: String,
     pub(crate) alpha: Option<f32>,
-    pub(crate) adapter: String,
-    pub(crate) backend: String,
-    pub(crate) device_type: String,
-    pub(crate) driver: String,
-    /// True when the adapter is a CPU (lavapipe): the figures measure a CPU, not a GPU.
-    pub(crate) cpu_figures: bool,
-    pub(crate) commit: Option<String>,
-    pub(crate) unix_time: u64,
+    #[serde(flatten)]
+    pub(crate) provenance: Provenance,
     pub(crate) warmup: u32,
     pub(crate) results: Vec<MethodResult>,
 }

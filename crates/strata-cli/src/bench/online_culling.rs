@@ -404,17 +404,11 @@ fn csv(r: &Report) -> String {
 /// random orders and the worst (back), with random against both.
 fn print(r: &Report) {
     println!(
-        "online-culling — {}x{} k = {} on {} ({}){}",
+        "online-culling — {}x{} k = {} on {}",
         r.header.width,
         r.header.height,
         r.k,
-        r.header.adapter,
-        r.header.backend,
-        if r.header.cpu_figures {
-            " — CPU FIGURES"
-        } else {
-            ""
-        }
+        r.header.device()
     );
     println!(
         "{:<34} {:<30} {:>9} {:>9} {:>9} {:>11} {:>11} {:>8} {:>9}",

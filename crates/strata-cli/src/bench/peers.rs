@@ -465,9 +465,8 @@ fn csv(r: &Report) -> String {
 
 fn print(r: &Report) {
     println!(
-        "peers on {}{}: {}x{}, background {}, median of {} frames",
-        r.header.adapter,
-        crate::bench::cpu_label(r.header.cpu_figures),
+        "peers on {}: {}x{}, background {}, median of {} frames",
+        r.header.device(),
         r.header.width,
         r.header.height,
         r.background,

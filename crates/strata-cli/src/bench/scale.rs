@@ -189,10 +189,13 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    let label = crate::bench::cpu_label(r.header.cpu_figures);
     println!(
-        "scale on {}{label}: {} at {}x{}, median of {} frames",
-        r.header.adapter, r.method, r.header.width, r.header.height, r.frames
+        "scale on {}: {} at {}x{}, median of {} frames",
+        r.header.device(),
+        r.method,
+        r.header.width,
+        r.header.height,
+        r.frames
     );
     print_rows(&columns(), &r.rows, |_| None);
 }

@@ -146,19 +146,13 @@ pub(crate) fn print_rows<R>(
 
 pub(crate) fn print_table(r: &BenchReport) {
     println!(
-        "{} — {} {}x{} {} on {} ({}){}",
+        "{} — {} {}x{} {} on {}",
         r.experiment,
         r.scene,
         r.width,
         r.height,
         r.effect,
-        r.adapter,
-        r.backend,
-        if r.cpu_figures {
-            " — CPU FIGURES (software rasterizer), not GPU performance"
-        } else {
-            ""
-        }
+        r.provenance.device()
     );
     print_rows(&columns(r), &r.results, |m| m.skipped.clone());
 }
@@ -182,9 +176,9 @@ fn columns(r: &BenchReport) -> Vec<Column<'_, MethodResult>> {
         C::csv("scene", |m| m.scene.clone()),
         C::csv("width", |_| r.width.to_string()),
         C::csv("height", |_| r.height.to_string()),
-        C::csv("adapter", |_| r.adapter.replace(',', " ")),
-        C::csv("cpu_figures", |_| r.cpu_figures.to_string()),
-        C::csv("commit", |_| opt(r.commit.clone())),
+        C::csv("adapter", |_| r.provenance.adapter.replace(',', " ")),
+        C::csv("cpu_figures", |_| r.provenance.cpu_figures.to_string()),
+        C::csv("commit", |_| opt(r.provenance.commit.clone())),
         C::csv("label", |m| m.label.clone()).printed_left("run", 28, move |m| {
             if multi_scene {
                 format!(

@@ -643,10 +643,7 @@ impl LitFrame {
         let deferred = self.pipeline == Pipeline::Deferred;
         let v = &self.visible;
         LightingStats {
-            pipeline: match self.pipeline {
-                Pipeline::Forward => "forward".into(),
-                Pipeline::Deferred => "deferred".into(),
-            },
+            pipeline: self.pipeline.name().into(),
             lights: self.lights.len() as u32,
             sphere_volumes: deferred.then_some(v.spheres),
             cone_volumes: deferred.then_some(v.cones),

@@ -12,163 +12,77 @@
 use std::path::PathBuf;
 use std::str::FromStr;
 
-#[cfg(feature = "serde")]
-use serde::Serialize;
-
 use crate::error::{Error, Result};
 use crate::frame::msaa;
 use crate::frame::values::{GbufferView, NormalEncoding, Raster, TemporalCulling, Tonemap};
 use crate::frame::MAX_TRIES_LIMIT;
+use crate::keyword::keyword_enum;
 use crate::scene::{Background, Pipeline, MAX_SIDE};
 
-/// What a frame shows (`--effect`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum Effect {
-    /// Fragments composited front to back (C += T·α·c).
-    #[default]
-    Transparency,
-    /// Transparency plus a Schlick Fresnel term and Beer–Lambert absorption over the thickness between entering and leaving surfaces.
-    Translucency,
-    /// Fragments per pixel, as a heatmap (depth complexity).
-    Complexity,
-}
-
-impl FromStr for Effect {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "transparency" => Ok(Effect::Transparency),
-            "translucency" => Ok(Effect::Translucency),
-            "complexity" => Ok(Effect::Complexity),
-            _ => Err(Error::input(format!(
-                "unknown effect '{s}' (expected transparency, translucency or complexity)"
-            ))),
-        }
+keyword_enum! {
+    /// What a frame shows (`--effect`).
+    #[derive(Default)]
+    pub enum Effect ("effect") {
+        /// Fragments composited front to back (C += T·α·c).
+        #[default]
+        Transparency = "transparency",
+        /// Transparency plus a Schlick Fresnel term and Beer–Lambert absorption over the thickness between entering and leaving surfaces.
+        Translucency = "translucency",
+        /// Fragments per pixel, as a heatmap (depth complexity).
+        Complexity = "complexity",
     }
 }
 
-impl Effect {
-    /// The effect's name on the command line and in statistics.
-    pub fn name(self) -> &'static str {
-        match self {
-            Effect::Transparency => "transparency",
-            Effect::Translucency => "translucency",
-            Effect::Complexity => "complexity",
-        }
+keyword_enum! {
+    /// What k-buffer methods do with fragments beyond the k nearest.
+    #[derive(Default)]
+    pub enum Tail ("--tail") {
+        /// Discard them (counted in `fragments_dropped`).
+        #[default]
+        Drop = "drop",
+        /// Blend them, unsorted, into one tail term behind the k nearest (weighted average color,
+        /// opacity from the sum of their optical depths), as engines do.
+        Blend = "blend",
+        /// Hybrid transparency (Maule et al. 2013): the tail as weighted blended OIT — its color the
+        /// average weighted by α·w(z) of McGuire & Bavoil's equations (`--weight`, `--depth-scale`),
+        /// its opacity as `blend`'s — behind the k nearest, so nearer tail fragments count more.
+        Weighted = "weighted",
     }
-}
-
-/// What k-buffer methods do with fragments beyond the k nearest.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum Tail {
-    /// Discard them (counted in `fragments_dropped`).
-    #[default]
-    Drop,
-    /// Blend them, unsorted, into one tail term behind the k nearest (weighted average color,
-    /// opacity from the sum of their optical depths), as engines do.
-    Blend,
-    /// Hybrid transparency (Maule et al. 2013): the tail as weighted blended OIT — its color the
-    /// average weighted by α·w(z) of McGuire & Bavoil's equations (`--weight`, `--depth-scale`),
-    /// its opacity as `blend`'s — behind the k nearest, so nearer tail fragments count more.
-    Weighted,
 }
 
 impl Tail {
-    /// The mode's name on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Tail::Drop => "drop",
-            Tail::Blend => "blend",
-            Tail::Weighted => "weighted",
-        }
-    }
-
     /// Whether fragments beyond k are kept as a tail term (blended or weighted).
     pub fn kept(self) -> bool {
         self != Tail::Drop
     }
+}
 
-    /// The mode as the shaders number it (`KParams::tail_blend`): 0 drop, 1 blend, 2 weighted.
-    pub fn index(self) -> u32 {
-        self as u32
+keyword_enum! {
+    /// The weight function of weighted blended OIT: McGuire & Bavoil 2013, equations 7–10.
+    #[derive(Default)]
+    pub enum Weight ("--weight") {
+        /// α·clamp(10 / (10⁻⁵ + (|z|/5)² + (|z|/200)⁶), 10⁻², 3·10³).
+        #[default]
+        Eq7 = "eq7",
+        /// α·clamp(10 / (10⁻⁵ + (|z|/10)³ + (|z|/200)⁶), 10⁻², 3·10³).
+        Eq8 = "eq8",
+        /// α·clamp(0.03 / (10⁻⁵ + (|z|/200)⁴), 10⁻², 3·10³).
+        Eq9 = "eq9",
+        /// α·max(10⁻², 3·10³·(1 − d)³), d the window depth.
+        Eq10 = "eq10",
     }
 }
 
-/// The weight function of weighted blended OIT: McGuire & Bavoil 2013, equations 7–10.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum Weight {
-    /// α·clamp(10 / (10⁻⁵ + (|z|/5)² + (|z|/200)⁶), 10⁻², 3·10³).
-    #[default]
-    Eq7,
-    /// α·clamp(10 / (10⁻⁵ + (|z|/10)³ + (|z|/200)⁶), 10⁻², 3·10³).
-    Eq8,
-    /// α·clamp(0.03 / (10⁻⁵ + (|z|/200)⁴), 10⁻², 3·10³).
-    Eq9,
-    /// α·max(10⁻², 3·10³·(1 − d)³), d the window depth.
-    Eq10,
-}
-
-impl Weight {
-    /// The weight's number as the shaders read it (0 = eq7).
-    pub fn index(self) -> u32 {
-        self as u32
-    }
-
-    /// The weight's name on the command line and in statistics.
-    pub fn name(self) -> &'static str {
-        match self {
-            Weight::Eq7 => "eq7",
-            Weight::Eq8 => "eq8",
-            Weight::Eq9 => "eq9",
-            Weight::Eq10 => "eq10",
-        }
-    }
-}
-
-/// How `bucket` splits each pixel's depth range into buckets (`--buckets`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum BucketSplit {
-    /// k/2 equal parts of the depth range (Liu et al. 2009's bucket depth peeling).
-    #[default]
-    Uniform,
-    /// The paper's adaptive variant: a histogram pass marks which of 1024 equal parts hold
-    /// fragments, and the buckets are shared among the occupied parts only.
-    Adaptive,
-}
-
-impl BucketSplit {
-    /// The split's name on the command line and in statistics.
-    pub fn name(self) -> &'static str {
-        match self {
-            BucketSplit::Uniform => "uniform",
-            BucketSplit::Adaptive => "adaptive",
-        }
-    }
-}
-
-impl FromStr for Tail {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "drop" => Ok(Tail::Drop),
-            "blend" => Ok(Tail::Blend),
-            "weighted" => Ok(Tail::Weighted),
-            _ => Err(Error::input(format!(
-                "--tail '{s}' is not drop, blend or weighted"
-            ))),
-        }
+keyword_enum! {
+    /// How `bucket` splits each pixel's depth range into buckets (`--buckets`).
+    #[derive(Default)]
+    pub enum BucketSplit ("--buckets") {
+        /// k/2 equal parts of the depth range (Liu et al. 2009's bucket depth peeling).
+        #[default]
+        Uniform = "uniform",
+        /// The paper's adaptive variant: a histogram pass marks which of 1024 equal parts hold
+        /// fragments, and the buckets are shared among the occupied parts only.
+        Adaptive = "adaptive",
     }
 }
 

@@ -5,26 +5,17 @@
 #[cfg(feature = "serde")]
 use serde::Serialize;
 
-/// Which rasterizer turns triangles into fragments.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum Raster {
-    /// The GPU's fixed-function rasterizer.
-    #[default]
-    Hw,
-    /// strata's compute-shader rasterizer (`crate::raster`).
-    Compute,
-}
+use crate::keyword::keyword_enum;
 
-impl Raster {
-    /// The rasterizer's name on the command line and in statistics.
-    pub fn name(self) -> &'static str {
-        match self {
-            Raster::Hw => "hw",
-            Raster::Compute => "compute",
-        }
+keyword_enum! {
+    /// Which rasterizer turns triangles into fragments.
+    #[derive(Default)]
+    pub enum Raster ("--raster") {
+        /// The GPU's fixed-function rasterizer.
+        #[default]
+        Hw = "hw",
+        /// strata's compute-shader rasterizer (`crate::raster`).
+        Compute = "compute",
     }
 }
 
@@ -125,33 +116,31 @@ pub struct ConvexStats {
 /// that keeps a starving pixel within a frame's time instead of the driver's reset.
 pub const MAX_TRIES_LIMIT: u32 = 1 << 20;
 
-/// The display transform of the lit pipelines (`--tonemap`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum Tonemap {
-    /// Clamp only.
-    None,
-    /// Khronos PBR Neutral's highlight compression without its toe: channels below 0.8 pass
-    /// unchanged, brighter colors roll off towards 1 and desaturate (see `encoding::tone_map`).
-    #[default]
-    Neutral,
-    /// c / (1 + c) per channel.
-    Reinhard,
+keyword_enum! {
+    /// The display transform of the lit pipelines (`--tonemap`).
+    #[derive(Default)]
+    pub enum Tonemap ("--tonemap") {
+        /// Clamp only.
+        None = "none",
+        /// Khronos PBR Neutral's highlight compression without its toe: channels below 0.8 pass
+        /// unchanged, brighter colors roll off towards 1 and desaturate (see `encoding::tone_map`).
+        #[default]
+        Neutral = "neutral",
+        /// c / (1 + c) per channel.
+        Reinhard = "reinhard",
+    }
 }
 
-/// How the G-buffer stores normals (`--normal-encoding`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum NormalEncoding {
-    /// Seed 004's spheremap transform of the view-space normal.
-    #[default]
-    Spheremap,
-    /// Octahedral mapping (bounded error over every direction).
-    Octahedral,
+keyword_enum! {
+    /// How the G-buffer stores normals (`--normal-encoding`).
+    #[derive(Default)]
+    pub enum NormalEncoding ("--normal-encoding") {
+        /// Seed 004's spheremap transform of the view-space normal.
+        #[default]
+        Spheremap = "spheremap",
+        /// Octahedral mapping (bounded error over every direction).
+        Octahedral = "octahedral",
+    }
 }
 
 /// A G-buffer view (`--gbuffer-debug`), written instead of the picture.

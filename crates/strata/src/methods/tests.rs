@@ -108,22 +108,20 @@ fn every_stage_validates() {
         )
         .with(weighted::LIBRARY),
     );
-    for (label, source) in [
-        ("f2b.peel", include_str!("peeling/f2b_peel.wgsl")),
-        (
-            "f2b.accumulate",
-            include_str!("peeling/f2b_accumulate.wgsl"),
-        ),
-        (
-            "f2b.peel.msaa",
-            include_str!("peeling/f2b_peel_samples.wgsl"),
-        ),
-        (
-            "f2b.accumulate.msaa",
-            include_str!("peeling/f2b_accumulate_samples.wgsl"),
-        ),
-    ] {
-        stages.push(Stage::new(label, source).with(peeling::LIBRARY));
+    for samples in [1, 4] {
+        for (label, source) in [
+            ("f2b.peel", include_str!("peeling/f2b_peel.wgsl")),
+            (
+                "f2b.accumulate",
+                include_str!("peeling/f2b_accumulate.wgsl"),
+            ),
+        ] {
+            stages.push(
+                Stage::new(label, source)
+                    .with(peeling::LIBRARY)
+                    .defs(&crate::gpu::shader::target_samples(samples)),
+            );
+        }
     }
     for wide in [false, true] {
         stages.push(peeling::dual_stage(

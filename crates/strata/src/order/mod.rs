@@ -31,11 +31,7 @@
 
 pub mod radix;
 
-use std::str::FromStr;
-
 use bytemuck::{Pod, Zeroable};
-#[cfg(feature = "serde")]
-use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
@@ -43,6 +39,7 @@ use crate::gpu::readback::ReadbackList;
 use crate::gpu::shader::{Library, Stage};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
+use crate::keyword::keyword_enum;
 use crate::scene::Camera;
 use radix::RadixSort;
 
@@ -54,56 +51,17 @@ const KENDALL: &str = include_str!("order_kendall.wgsl");
 /// Pairs the Kendall pass samples per frame.
 pub const KENDALL_SAMPLES: u32 = 65536;
 
-/// The order triangles are submitted in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum Order {
-    /// The scene's own order (measured, not changed).
-    Scene,
-    /// Sorted by centroid view depth, nearest first.
-    Front,
-    /// Sorted by centroid view depth, farthest first.
-    Back,
-    /// A random permutation, a new one every frame (from `--seed` and the frame number).
-    Random,
-}
-
-impl Order {
-    /// The order's name on the command line and in statistics.
-    pub fn name(self) -> &'static str {
-        match self {
-            Order::Scene => "scene",
-            Order::Front => "front",
-            Order::Back => "back",
-            Order::Random => "random",
-        }
-    }
-
-    /// The mode constant of order_common.wgsl.
-    fn mode(self) -> u32 {
-        match self {
-            Order::Scene => 0,
-            Order::Front => 1,
-            Order::Back => 2,
-            Order::Random => 3,
-        }
-    }
-}
-
-impl FromStr for Order {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "scene" => Ok(Order::Scene),
-            "front" => Ok(Order::Front),
-            "back" => Ok(Order::Back),
-            "random" => Ok(Order::Random),
-            _ => Err(Error::input(format!(
-                "--order '{s}' is not scene, front, back or random"
-            ))),
-        }
+keyword_enum! {
+    /// The order triangles are submitted in.
+    pub enum Order ("--order") {
+        /// The scene's own order (measured, not changed).
+        Scene = "scene",
+        /// Sorted by centroid view depth, nearest first.
+        Front = "front",
+        /// Sorted by centroid view depth, farthest first.
+        Back = "back",
+        /// A random permutation, a new one every frame (from `--seed` and the frame number).
+        Random = "random",
     }
 }
 
@@ -362,7 +320,7 @@ impl TriangleOrder {
         let params = OrderParams {
             depth_row: depth_row(camera),
             count: self.count,
-            mode: self.order.mode(),
+            mode: self.order.index(),
             seed: frame_seed(self.seed, frame),
             grid_x: threads.0,
             samples: KENDALL_SAMPLES,

@@ -12,52 +12,33 @@
 //!   the RGB transmittance, over, add or multiply.
 
 use bytemuck::{Pod, Zeroable};
-#[cfg(feature = "serde")]
-use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::keyword::keyword_enum;
 
-/// How a fragment combines with what lies behind it, front to back, for linear color c and
-/// opacity α, with C the color so far and T an RGB transmittance starting at 1 (the picture is
-/// C + T·background):
-/// - over: C += T·α·c, then T ·= 1 − α;
-/// - add: C += T·α·c, T unchanged (glows, fire);
-/// - multiply: C unchanged, T ·= (1 − α) + α·c per channel (tinted glass, shadows).
-///
-/// Every exact method honours all three (its resolve visits fragments in order); methods that
-/// cannot refuse a scene with add or multiply materials (see the method table).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Hash)]
-#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum Blend {
-    /// The over operator.
-    #[default]
-    Over,
-    /// Additive: adds its light, hides nothing.
-    Add,
-    /// Multiplicative: filters what lies behind by its color, adds no light.
-    Multiply,
+keyword_enum! {
+    /// How a fragment combines with what lies behind it, front to back, for linear color c and
+    /// opacity α, with C the color so far and T an RGB transmittance starting at 1 (the picture is
+    /// C + T·background):
+    /// - over: C += T·α·c, then T ·= 1 − α;
+    /// - add: C += T·α·c, T unchanged (glows, fire);
+    /// - multiply: C unchanged, T ·= (1 − α) + α·c per channel (tinted glass, shadows).
+    ///
+    /// Every exact method honours all three (its resolve visits fragments in order); methods that
+    /// cannot refuse a scene with add or multiply materials (see the method table).
+    #[derive(Default, Hash)]
+    #[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+    pub enum Blend ("blend") {
+        /// The over operator.
+        #[default]
+        Over = "over",
+        /// Additive: adds its light, hides nothing.
+        Add = "add",
+        /// Multiplicative: filters what lies behind by its color, adds no light.
+        Multiply = "multiply",
+    }
 }
 
 impl Blend {
-    /// The name in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Blend::Over => "over",
-            Blend::Add => "add",
-            Blend::Multiply => "multiply",
-        }
-    }
-
-    /// The mode as the shaders read it (`BLEND_` in scene.wgsl).
-    pub fn index(self) -> u32 {
-        match self {
-            Blend::Over => 0,
-            Blend::Add => 1,
-            Blend::Multiply => 2,
-        }
-    }
-
     /// What a fragment of linear color `c` and opacity `a` in this mode adds (times the
     /// transmittance in front of it) and the factor its transmittance is multiplied by.
     pub fn emission_and_filter(self, c: [f64; 3], a: f64) -> ([f64; 3], [f64; 3]) {
@@ -68,21 +49,6 @@ impl Blend {
         }
     }
 }
-
-impl std::str::FromStr for Blend {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "over" => Ok(Blend::Over),
-            "add" => Ok(Blend::Add),
-            "multiply" => Ok(Blend::Multiply),
-            _ => Err(Error::input(format!(
-                "unknown blend '{s}' (expected over, add or multiply)"
-            ))),
-        }
-    }
-}
-
 /// The 16-byte fragment record. Keep in sync with `Fragment` in `shaders/shared/fragment.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]

@@ -20,10 +20,9 @@ pub use animation::{CameraKey, CameraPath, ObjectMotion, Orbit};
 pub use pipeline::Pipeline;
 
 use glam::{Mat4, Vec3};
-#[cfg(feature = "serde")]
-use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::keyword::keyword_enum;
 
 /// The longest side of a picture, in pixels.
 pub const MAX_SIDE: u32 = 16384;
@@ -49,32 +48,18 @@ pub(crate) fn check_triangle_estimate(what: &str, triangles: u64) -> Result<()> 
     )))
 }
 
-/// How a fragment's color is computed from its material.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum Shading {
-    /// Fragment color = material color.
-    Unlit,
-    /// Two-sided Blinn–Phong with the scene's lights (a headlight when there are none).
-    #[default]
-    Lit,
-}
-
-impl std::str::FromStr for Shading {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "unlit" => Ok(Shading::Unlit),
-            "lit" => Ok(Shading::Lit),
-            _ => Err(Error::input(format!(
-                "unknown shading '{s}' (expected unlit or lit)"
-            ))),
-        }
+keyword_enum! {
+    /// How a fragment's color is computed from its material.
+    #[derive(Default)]
+    #[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+    pub enum Shading ("shading") {
+        /// Fragment color = material color.
+        Unlit = "unlit",
+        /// Two-sided Blinn–Phong with the scene's lights (a headlight when there are none).
+        #[default]
+        Lit = "lit",
     }
 }
-
 pub use crate::resolve::Blend;
 
 /// Surface appearance of one object.
@@ -326,19 +311,19 @@ impl Camera {
     }
 }
 
-/// What kind of light a [`Light`] is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
-pub enum LightKind {
-    /// Light from a point, in every direction.
-    Point,
-    /// Light from a point, inside a cone along `direction`.
-    Spot,
-    /// Parallel light along `direction` from infinitely far away.
-    Directional,
-    /// Light from everywhere: a constant term added to every lit surface.
-    Ambient,
+keyword_enum! {
+    /// What kind of light a [`Light`] is.
+    #[cfg_attr(feature = "serde", derive(serde::Deserialize))]
+    pub enum LightKind ("light kind") {
+        /// Light from a point, in every direction.
+        Point = "point",
+        /// Light from a point, inside a cone along `direction`.
+        Spot = "spot",
+        /// Parallel light along `direction` from infinitely far away.
+        Directional = "directional",
+        /// Light from everywhere: a constant term added to every lit surface.
+        Ambient = "ambient",
+    }
 }
 
 /// A light of the scene; the fields a kind does not use are ignored.

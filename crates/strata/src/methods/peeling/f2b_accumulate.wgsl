@@ -1,27 +1,67 @@
 #define_import_path strata::peeling::f2b_accumulate
-#import strata::scene::{frame, pixel_index, report_pixel}
-#import strata::color::{Resolved}
-#import strata::fragment::{fragment_new}
+#import strata::scene::{covering_tag, frame, pixel_index, report_pixel, report_samples}
+#import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
+#import strata::fragment::{Fragment, fragment_new}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 
-// f2b accumulate pass: composites the layer just peeled behind the pixel's running result.
-// finish: the result, and the pixel's account (its fragment count from the first peel pass).
+// f2b's compute passes: a running composite per pixel (with MULTISAMPLED, per sample);
+// accumulate composites the layer just peeled behind it; finish writes the result and the
+// pixel's account (single-sampled, the first peel pass counted the fragments; multisampled, the
+// account pass did, and finish averages the samples).
 
-const EMPTY: u32 = 0xffffffffu;
+#ifdef MULTISAMPLED
+alias LayerTexture = texture_multisampled_2d<f32>;
+// The tag travels as an exact float (32-bit integer targets cannot be multisampled).
+alias TagTexture = texture_multisampled_2d<f32>;
+const NO_TAG: f32 = -1.0;
+#else
+alias LayerTexture = texture_2d<f32>;
+alias TagTexture = texture_2d<u32>;
+const NO_TAG: u32 = 0xffffffffu;
+#endif
 
 @group(1) @binding(0) var<storage, read_write> state: array<Composite>;
-@group(1) @binding(1) var layer_color: texture_2d<f32>;
-@group(1) @binding(2) var layer_tag: texture_2d<u32>;
-@group(1) @binding(3) var layer_depth: texture_2d<f32>;
+@group(1) @binding(1) var layer_color: LayerTexture;
+@group(1) @binding(2) var layer_tag: TagTexture;
+@group(1) @binding(3) var layer_depth: LayerTexture;
 @group(1) @binding(4) var<storage, read_write> counts: array<u32>;
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
+
+// Running composites per pixel.
+fn samples() -> u32 {
+#ifdef MULTISAMPLED
+    return frame.coverage_bits;
+#else
+    return 1u;
+#endif
+}
+
+// Sample s of the layer at xy as a fragment, if the layer holds one there.
+fn layer_fragment(xy: vec2<i32>, s: u32, f: ptr<function, Fragment>) -> bool {
+    let t = textureLoad(layer_tag, xy, i32(s)).r;
+    if t == NO_TAG {
+        return false;
+    }
+    let tag = u32(t);
+    let front_facing = (tag & 1u) == 1u;
+    let c = textureLoad(layer_color, xy, i32(s));
+    *f = fragment_new(textureLoad(layer_depth, xy, i32(s)).r, tag >> 1u, front_facing, c);
+#ifdef MULTISAMPLED
+    // The multisampled tag (sample s's bit), which the resolve reads the primitive of.
+    (*f).tag = covering_tag(tag >> 1u, front_facing, 1u << s);
+#endif
+    return true;
+}
 
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    state[pixel_index(id.xy)] = composite_new();
+    let p = pixel_index(id.xy);
+    for (var s = 0u; s < samples(); s++) {
+        state[p * samples() + s] = composite_new();
+    }
 }
 
 @compute @workgroup_size(8, 8)
@@ -29,17 +69,18 @@ fn cs_accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    let p = vec2<i32>(id.xy);
-    let tag = textureLoad(layer_tag, p, 0).r;
-    if tag == EMPTY {
-        return;
+    let xy = vec2<i32>(id.xy);
+    let p = pixel_index(id.xy);
+    for (var s = 0u; s < samples(); s++) {
+        var f: Fragment;
+        if !layer_fragment(xy, s, &f) {
+            continue;
+        }
+        let i = p * samples() + s;
+        var composite = state[i];
+        composite_front(&composite, f);
+        state[i] = composite;
     }
-    let c = textureLoad(layer_color, p, 0);
-    let f = fragment_new(textureLoad(layer_depth, p, 0).r, tag >> 1u, (tag & 1u) == 1u, c);
-    let i = pixel_index(id.xy);
-    var s = state[i];
-    composite_front(&s, f);
-    state[i] = s;
 }
 
 @compute @workgroup_size(8, 8)
@@ -47,8 +88,21 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
         return;
     }
-    let i = pixel_index(id.xy);
-    let s = state[i];
-    output[i] = composite_finish(s);
-    report_pixel(counts[i], s.count);
+    let p = pixel_index(id.xy);
+#ifdef MULTISAMPLED
+    let pixels = frame.size.x * frame.size.y;
+    var sum = resolved_sum_new();
+    var deepest = 0u;
+    for (var s = 0u; s < samples(); s++) {
+        resolved_sum_add(&sum, composite_finish(state[p * samples() + s]));
+        deepest = max(deepest, counts[2u * pixels + p * samples() + s]);
+    }
+    let composited = counts[pixels + p];
+    output[p] = resolved_mean(sum, samples(), composited);
+    report_samples(counts[p], composited, deepest);
+#else
+    let composite = state[p];
+    output[p] = composite_finish(composite);
+    report_pixel(counts[p], composite.count);
+#endif
 }

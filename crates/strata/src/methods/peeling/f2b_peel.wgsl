@@ -1,14 +1,101 @@
 #define_import_path strata::peeling::f2b_peel
-#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, shade}
 #import strata::composite::{Composite}
 
 // f2b peel pass: keeps fragments strictly after the last captured one in (depth, primitive)
 // order; the depth test (LESS, primitive order among equals) picks the nearest of them.
+// With MULTISAMPLED every sample peels on its own, shading stays once per fragment: a fragment
+// covers the samples still waiting for it through its output sample mask, and writes its center
+// depth to all of them, so each sample's LESS depth test keeps that sample's nearest in the same
+// order the single-sampled peel and the reference use. The tag goes out as an exact float (the
+// primitive is below 2^23), since 32-bit integer targets cannot be multisampled. Then an account
+// pass counts what the frame peeled (see fs_account).
 
 @group(1) @binding(0) var<storage, read> state: array<Composite>;
-// Every fragment of the pixel, counted by the first peel pass.
+// Single-sampled: per pixel the fragments that reached it, counted by the first peel pass.
+// Multisampled: per pixel the fragments that reached it, then per pixel those some sample
+// composited, then per sample the fragments that cover it (the account pass's).
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
 
+fn fragment_tag(v: SceneVarying, front_facing: bool) -> u32 {
+    return (v.prim << 1u) | select(0u, 1u, front_facing);
+}
+
+// Running composites per pixel.
+fn samples() -> u32 {
+#ifdef MULTISAMPLED
+    return frame.coverage_bits;
+#else
+    return 1u;
+#endif
+}
+
+// True when sample `s` of pixel `p` has not yet captured the fragment (depth z, tag).
+fn waiting(p: u32, s: u32, z: f32, tag: u32) -> bool {
+    let st = state[p * samples() + s];
+    return st.count == 0u || z > st.last_depth || (z == st.last_depth && tag > st.last_tag);
+}
+
+#ifdef MULTISAMPLED
+struct PeelOut {
+    @location(0) color: vec4<f32>,
+    @location(1) tag: f32,
+    @location(2) depth: f32,
+    @builtin(frag_depth) frag_depth: f32,
+    @builtin(sample_mask) mask: u32,
+}
+
+@fragment
+fn fs_peel_samples(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) -> PeelOut {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let p = pixel_index(pixel_of(v.position));
+    let tag = fragment_tag(v, front_facing);
+    let z = v.position.z;
+    var pending = 0u;
+    for (var s = 0u; s < samples(); s++) {
+        if ((mask >> s) & 1u) != 0u && waiting(p, s, z, tag) {
+            pending |= 1u << s;
+        }
+    }
+    if pending == 0u {
+        discard;
+    }
+    var out: PeelOut;
+    out.color = shade(v.world, v.normal, v.material);
+    out.tag = f32(tag);
+    out.depth = z;
+    out.frag_depth = z;
+    out.mask = pending;
+    return out;
+}
+
+// The account, a geometry pass after the last layer: each fragment once at its pixel, once at
+// each sample it covers (a sample's depth complexity, which sets the next frame's layers), and
+// as composited when some covered sample captured it.
+@fragment
+fn fs_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    let pixels = frame.size.x * frame.size.y;
+    let p = pixel_index(pixel_of(v.position));
+    let tag = fragment_tag(v, front_facing);
+    atomicAdd(&counts[p], 1u);
+    var composited = false;
+    for (var s = 0u; s < samples(); s++) {
+        if ((mask >> s) & 1u) == 0u {
+            continue;
+        }
+        atomicAdd(&counts[2u * pixels + p * samples() + s], 1u);
+        composited = composited || !waiting(p, s, v.position.z, tag);
+    }
+    if composited {
+        atomicAdd(&counts[pixels + p], 1u);
+    }
+}
+#else
 struct PeelOut {
     @location(0) color: vec4<f32>,
     @location(1) tag: u32,
@@ -33,10 +120,9 @@ fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOu
 }
 
 fn peel(v: SceneVarying, front_facing: bool) -> PeelOut {
-    let s = state[pixel_index(pixel_of(v.position))];
-    let tag = (v.prim << 1u) | select(0u, 1u, front_facing);
+    let tag = fragment_tag(v, front_facing);
     let z = v.position.z;
-    if s.count > 0u && !(z > s.last_depth || (z == s.last_depth && tag > s.last_tag)) {
+    if !waiting(pixel_index(pixel_of(v.position)), 0u, z, tag) {
         discard;
     }
     var out: PeelOut;
@@ -45,3 +131,4 @@ fn peel(v: SceneVarying, front_facing: bool) -> PeelOut {
     out.depth = z;
     return out;
 }
+#endif

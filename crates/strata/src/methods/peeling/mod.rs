@@ -43,16 +43,14 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::shader::{Defs, Library, Stage};
+use crate::gpu::shader::{self, Defs, Library, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::resolve::COMPOSITE_BYTES;
 
 /// The peeling family's WGSL modules (`strata::peeling::…`).
 pub const LIBRARY: Library = &[
     include_str!("f2b_peel.wgsl"),
-    include_str!("f2b_peel_samples.wgsl"),
     include_str!("f2b_accumulate.wgsl"),
-    include_str!("f2b_accumulate_samples.wgsl"),
     include_str!("dual_key32.wgsl"),
     include_str!("dual_key64.wgsl"),
     DUAL_PEEL_WGSL,
@@ -163,12 +161,9 @@ impl FrontToBack {
                 Slot::StorageRw,
             ],
         );
-        let peel_source = if multisampled {
-            include_str!("f2b_peel_samples.wgsl")
-        } else {
-            include_str!("f2b_peel.wgsl")
-        };
-        let peel_stage = Stage::new("strata.f2b.peel", peel_source).with(LIBRARY);
+        let peel_stage = Stage::new("strata.f2b.peel", include_str!("f2b_peel.wgsl"))
+            .with(LIBRARY)
+            .defs(&shader::target_samples(samples));
         let module = peel_stage.module(device);
         let target = |format| color_target(format, None);
         let peel_pipeline = |entry: &str| {
@@ -215,13 +210,9 @@ impl FrontToBack {
                 &[&scene.frame_layout, &peel_layout],
             )
         });
-        let accumulate_source = if multisampled {
-            include_str!("f2b_accumulate_samples.wgsl")
-        } else {
-            include_str!("f2b_accumulate.wgsl")
-        };
-        let module = Stage::new("strata.f2b.accumulate", accumulate_source)
+        let module = Stage::new("strata.f2b.accumulate", include_str!("f2b_accumulate.wgsl"))
             .with(LIBRARY)
+            .defs(&shader::target_samples(samples))
             .module(device);
         let layouts = [&scene.frame_layout, &accumulate_layout];
         FrontToBack {
