@@ -20,6 +20,18 @@ pub enum Slot {
     TextureDepth,
 }
 
+impl Slot {
+    /// A float render target of `samples` samples per pixel as a later pass reads it (the
+    /// `TargetTexture` of a stage composed with `shader::target_samples`).
+    pub fn target(samples: u32) -> Slot {
+        if samples > 1 {
+            Slot::TextureFloatMultisampled
+        } else {
+            Slot::TextureFloat
+        }
+    }
+}
+
 fn entry(binding: u32, slot: Slot) -> wgpu::BindGroupLayoutEntry {
     let all =
         wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE;

@@ -90,6 +90,28 @@ pub struct FrameReport {
     pub cannot_complete: Option<crate::frame::Shortfall>,
 }
 
+/// A frame context lent from the recorder's fields (a macro rather than a method, so that the
+/// method or histogram it is handed to can be borrowed from another field at the same time).
+macro_rules! frame_context {
+    ($recorder:ident, $name:expr, $encoder:expr, $frame:expr, $draw:expr, $readback:expr, $raster:expr) => {
+        FrameContext {
+            method: $name,
+            gpu: &$recorder.gpu,
+            scene: &$recorder.scene,
+            options: &$recorder.options,
+            k: $recorder.frame_k,
+            encoder: $encoder,
+            timer: &mut $recorder.timer,
+            frame_group: &$frame.group,
+            opaque_depth: &$frame.opaque,
+            output: &$recorder.output,
+            draw: $draw,
+            readback: $readback,
+            raster: $raster,
+        }
+    };
+}
+
 /// Records frames of one scene with one method (switchable) into the application's encoders.
 pub struct FrameRecorder {
     gpu: Gpu,
@@ -482,21 +504,7 @@ impl FrameRecorder {
         let Some(histogram) = self.histogram.as_mut() else {
             return Ok(false);
         };
-        let mut ctx = FrameContext {
-            method: "histogram",
-            gpu: &self.gpu,
-            scene: &self.scene,
-            options: &self.options,
-            k: self.frame_k,
-            encoder,
-            timer: &mut self.timer,
-            frame_group: &frame.group,
-            opaque_depth: &frame.opaque,
-            output: &self.output,
-            draw,
-            readback,
-            raster: None,
-        };
+        let mut ctx = frame_context!(self, "histogram", encoder, frame, draw, readback, None);
         histogram.record(&mut ctx)?;
         Ok(true)
     }
@@ -608,24 +616,12 @@ impl FrameRecorder {
             .methods
             .get_mut(&self.method)
             .expect("set_method created it");
-        let mut ctx = FrameContext {
-            method: self.method.as_str(),
-            gpu: &self.gpu,
-            scene: &self.scene,
-            options: &self.options,
-            k: self.frame_k,
-            encoder,
-            timer: &mut self.timer,
-            frame_group: &frame.group,
-            opaque_depth: &frame.opaque,
-            output: &self.output,
-            draw,
-            readback,
-            raster: self
-                .raster
-                .as_mut()
-                .map(|r| r as &mut dyn crate::frame::ComputeCapture),
-        };
+        let raster = self
+            .raster
+            .as_mut()
+            .map(|r| r as &mut dyn crate::frame::ComputeCapture);
+        let name = self.method.as_str();
+        let mut ctx = frame_context!(self, name, encoder, frame, draw, readback, raster);
         f(method.as_mut(), &mut ctx)
     }
 

@@ -45,11 +45,7 @@ impl Blend {
     /// The blend pipelines; `sort` orders the triangles back to front by centroid every frame.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, sort: bool) -> Blend {
         let samples = scene.samples;
-        let target = if samples > 1 {
-            Slot::TextureFloatMultisampled
-        } else {
-            Slot::TextureFloat
-        };
+        let target = Slot::target(samples);
         let blend_layout = binding::layout(&gpu.device, "strata.blend.layout", &[Slot::StorageRw]);
         let finish_layout = binding::layout(
             &gpu.device,

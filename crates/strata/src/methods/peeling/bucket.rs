@@ -326,11 +326,7 @@ impl Bucket {
         }
         let device = &gpu.device;
         let samples = scene.samples;
-        let layer_slot = if samples > 1 {
-            Slot::TextureFloatMultisampled
-        } else {
-            Slot::TextureFloat
-        };
+        let layer_slot = Slot::target(samples);
         let bounds_layout = binding::layout(
             device,
             "strata.bucket.bounds.layout",

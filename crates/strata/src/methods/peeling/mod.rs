@@ -139,11 +139,7 @@ impl FrontToBack {
             "strata.f2b.peel.layout",
             &[Slot::Storage, Slot::StorageRw],
         );
-        let layer_texture = if multisampled {
-            Slot::TextureFloatMultisampled
-        } else {
-            Slot::TextureFloat
-        };
+        let layer_texture = Slot::target(samples);
         let tag_texture = if multisampled {
             Slot::TextureFloatMultisampled
         } else {

@@ -213,11 +213,7 @@ impl Mboit {
         }
         let device = &gpu.device;
         let samples = scene.samples;
-        let texture = if samples > 1 {
-            Slot::TextureFloatMultisampled
-        } else {
-            Slot::TextureFloat
-        };
+        let texture = Slot::target(samples);
         let moments_layout = binding::layout(
             device,
             "strata.mboit.moments.layout",
@@ -282,11 +278,7 @@ impl Mboit {
             ));
         }
         let samples = scene.samples;
-        let texture = if samples > 1 {
-            Slot::TextureFloatMultisampled
-        } else {
-            Slot::TextureFloat
-        };
+        let texture = Slot::target(samples);
         let coefficients_layout = binding::layout(
             &gpu.device,
             "strata.wavelet.coefficients.layout",

@@ -90,11 +90,7 @@ impl Wboit {
             &[Slot::Uniform, Slot::StorageRw],
         );
         let samples = scene.samples;
-        let target = if samples > 1 {
-            Slot::TextureFloatMultisampled
-        } else {
-            Slot::TextureFloat
-        };
+        let target = Slot::target(samples);
         let composite_layout = composite_layout(device, "strata.wboit.composite.layout", target);
         let module = Stage::new(
             "strata.wboit.accumulate",
