@@ -469,13 +469,15 @@ mod tests {
         let partial = Partial {
             header: crate::bench::Header {
                 experiment: "convex",
-                adapter: "test".into(),
-                backend: "none".into(),
-                device_type: "Cpu".into(),
-                driver: "test".into(),
-                cpu_figures: true,
-                commit: None,
-                unix_time: 0,
+                provenance: crate::bench::Provenance {
+                    adapter: "test".into(),
+                    backend: "none".into(),
+                    device_type: "Cpu".into(),
+                    driver: "test".into(),
+                    cpu_figures: true,
+                    commit: None,
+                    unix_time: 0,
+                },
                 width: 8,
                 height: 8,
             },
