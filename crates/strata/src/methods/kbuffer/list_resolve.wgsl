@@ -8,6 +8,8 @@
 // one node of the pool: walks stop after min(seen, pool) nodes, so no list a racing writer left
 // malformed (a cycle through a stale link) can run on.
 
+// The cursor belongs to one pixel: a read of another pixel starts from that pixel's head.
+var<private> cursor_pixel: u32 = 0xffffffffu;
 var<private> cursor_index: u32 = 0xffffffffu;
 var<private> cursor_link: u32 = 0u;
 
@@ -23,7 +25,7 @@ fn stored_count(p: u32) -> u32 {
 }
 
 fn stored_fragment(p: u32, i: u32) -> Fragment {
-    if i == cursor_index + 1u && cursor_index != 0xffffffffu {
+    if p == cursor_pixel && i == cursor_index + 1u && cursor_index != 0xffffffffu {
         cursor_link = node_next(cursor_link);
     } else {
         cursor_link = atomicLoad(&pixels[pixel_word(p, HEAD)]);
@@ -31,6 +33,7 @@ fn stored_fragment(p: u32, i: u32) -> Fragment {
             cursor_link = node_next(cursor_link);
         }
     }
+    cursor_pixel = p;
     cursor_index = i;
     return node_fragment(cursor_link);
 }

@@ -404,7 +404,7 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
             .kbuffer
             .max_tries
             .unwrap_or(DEFAULT_MAX_TRIES)
-            .max(1),
+            .clamp(1, crate::frame::MAX_TRIES_LIMIT),
         culling: options.frame.kbuffer.culling as u32,
         tail_blend: options.frame.kbuffer.tail.index(),
         aux: count_by_seen as u32,
