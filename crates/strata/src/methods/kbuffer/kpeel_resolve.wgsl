@@ -3,7 +3,7 @@
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::composite::{composite_finish, composite_new}
 #import strata::kbuffer::storage::{FILLED, SEEN, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel}
-#import strata::kbuffer::resolve::{Tail, composite_stored}
+#import strata::kbuffer::resolve::{composite_stored, tail_empty}
 #import strata::kbuffer::access::{stored_count}
 #import strata::kbuffer::kpeel_state::{kpeel_state, kpeel_store}
 
@@ -39,7 +39,7 @@ fn kpeel_resolve_one(q: u32) -> u32 {
     let n = stored_count(q);
     let limit = min(n, kp.k);
     var s = kpeel_state(q);
-    var t = Tail(vec4<f32>(0.0), 0.0);
+    var t = tail_empty();
     composite_stored(q, n, limit, &s, &t);
     kpeel_store(q, s);
     return limit;

@@ -1,10 +1,10 @@
 #define_import_path strata::kbuffer::resolve
 #import strata::scene::{fragment_coverage, frame, report_pixel}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
-#import strata::fragment::{Fragment, fragment_before, fragment_color}
+#import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 #import strata::kbuffer::access::{stored_count, stored_fragment}
-#import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, TAIL_WORDS, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail_weight_of, tail_word}
+#import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, TAIL_WORDS, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, wide_add}
 
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
 // The multisampled paths are compiled only with MULTISAMPLED (--msaa): they double the shader,
@@ -19,26 +19,30 @@
 const LOCAL_CAPACITY: u32 = 64u;
 const CHUNK: u32 = 32u;
 
+// A pixel's (or sample's) tail: the five 64-bit fixed-point sums of `tail_share`, the captured
+// ones plus those of the stored fragments the resolve leaves past k, added as integers.
 struct Tail {
-    sum: vec4<f32>,
-    optical_depth: f32,
+    sums: array<vec2<u32>, 5>,
+}
+
+fn tail_empty() -> Tail {
+    return Tail(array<vec2<u32>, 5>());
 }
 
 fn tail_sums(p: u32) -> Tail {
     let w = p * TAIL_WORDS;
-    var s = vec4<f32>(tail_word(w), tail_word(w + 2u), tail_word(w + 4u), tail_word(w + 6u));
-    if kp.tail_blend == TAIL_WEIGHTED {
-        s /= TAIL_WEIGHTED_SCALE;
+    var t = tail_empty();
+    for (var i = 0u; i < 5u; i++) {
+        t.sums[i] = vec2<u32>(atomicLoad(&tail[w + 2u * i]), atomicLoad(&tail[w + 2u * i + 1u]));
     }
-    return Tail(s, tail_word(w + 8u));
+    return t;
 }
 
 fn tail_add_local(t: ptr<function, Tail>, f: Fragment) {
-    let c = fragment_color(f);
-    let a = clamp(c.a, 0.0, 0.999);
-    let weight = tail_weight_of(f, a);
-    (*t).sum += vec4<f32>(weight * c.rgb, weight);
-    (*t).optical_depth += -log(1.0 - a);
+    let share = tail_share(f);
+    for (var i = 0u; i < 5u; i++) {
+        (*t).sums[i] = wide_add((*t).sums[i], share[i]);
+    }
 }
 
 fn sort_local(a: ptr<function, array<Fragment, LOCAL_CAPACITY>>, n: u32) {
@@ -186,11 +190,15 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
 // Composites the tail behind the sorted fragments: the weighted average color of the tail
 // fragments over the opacity 1 − exp(−Σ −ln(1 − α)) they have together.
 fn composite_tail(s: ptr<function, Composite>, t: Tail) {
-    if t.sum.w <= 0.0 {
+    var sum = vec4<f32>(tail_value(t.sums[0]), tail_value(t.sums[1]), tail_value(t.sums[2]), tail_value(t.sums[3]));
+    if kp.tail_blend == TAIL_WEIGHTED {
+        sum /= TAIL_WEIGHTED_SCALE;
+    }
+    if sum.w <= 0.0 {
         return;
     }
-    let opacity = 1.0 - exp(-t.optical_depth);
-    (*s).color += (*s).transmittance * opacity * t.sum.rgb / t.sum.w;
+    let opacity = 1.0 - exp(-tail_value(t.sums[4]));
+    (*s).color += (*s).transmittance * opacity * sum.rgb / sum.w;
     (*s).transmittance *= 1.0 - opacity;
 }
 
@@ -289,7 +297,7 @@ fn resolve_sample_storage(p: u32) {
         let n = stored_count(q);
         let limit = min(n, kp.k);
         var s = composite_new();
-        var t = Tail(vec4<f32>(0.0), 0.0);
+        var t = tail_empty();
         if kp.tail_blend != 0u {
             t = tail_sums(q);
         }
@@ -346,7 +354,7 @@ fn resolve_pixel(pixel: vec2<u32>) {
     let n = stored_count(p);
     let limit = min(n, kp.k);
     var s = composite_new();
-    var t = Tail(vec4<f32>(0.0), 0.0);
+    var t = tail_empty();
     if kp.tail_blend != 0u {
         t = tail_sums(p);
     }

@@ -135,22 +135,6 @@ fn counter_add(at: u32, n: u32) {
     }
 }
 
-fn tail_add_wide(at: u32, n: u32) {
-    let old = atomicAdd(&tail[at], n);
-    if old > 0xffffffffu - n {
-        atomicAdd(&tail[at + 1u], 1u);
-    }
-}
-
-// Adds v ≥ 0 (under 2^56) to the 64-bit sum at words (at, at + 1).
-fn tail_add_value(at: u32, v: f32) {
-    let high = u32(v / 4294967296.0);
-    tail_add_wide(at, u32(v - f32(high) * 4294967296.0));
-    if high > 0u {
-        atomicAdd(&tail[at + 1u], high);
-    }
-}
-
 // How much a tail fragment of opacity `a` counts in the tail's color: α, or with --tail weighted
 // α·w(z) of weighted blended OIT, nearer fragments counting more.
 fn tail_weight_of(f: Fragment, a: f32) -> f32 {
@@ -169,8 +153,46 @@ fn tail_distance(depth: f32) -> f32 {
     return kp.tail_depth_p / (kp.tail_depth_q - depth);
 }
 
-fn tail_word(at: u32) -> f32 {
-    return (f32(atomicLoad(&tail[at])) + f32(atomicLoad(&tail[at + 1u])) * 4294967296.0) / TAIL_SCALE;
+// A 64-bit fixed-point tail sum (low word, high word) as a number.
+fn tail_value(sum: vec2<u32>) -> f32 {
+    return (f32(sum.x) + f32(sum.y) * 4294967296.0) / TAIL_SCALE;
+}
+
+// v ≥ 0 (under 2^56) as a 64-bit value (low word, high word).
+fn wide_of(v: f32) -> vec2<u32> {
+    let high = u32(v / 4294967296.0);
+    return vec2<u32>(u32(v - f32(high) * 4294967296.0), high);
+}
+
+// One fragment's share of its pixel's tail sums: (α or the weight)·r, ·g, ·b, the α or weight,
+// and −ln(1 − α), each a 64-bit fixed-point value of the stored color. It is the same share
+// whichever way the fragment reaches the tail — evicted from a slot or culled at capture
+// (`tail_add`), or left past k in the resolve (resolve.wgsl's local tail) — and the sums are
+// integers, so a pixel's tail cannot depend on the order its fragments arrived in.
+fn tail_share(f: Fragment) -> array<vec2<u32>, 5> {
+    let c = stored_color(f);
+    let a = clamp(c.a, 0.0, 0.999);
+    var share: array<vec2<u32>, 5>;
+    if kp.tail_blend == TAIL_WEIGHTED {
+        let weight = tail_weight_of(f, a) * (TAIL_SCALE * TAIL_WEIGHTED_SCALE);
+        share[0] = wide_of(weight * clamp(c.r, 0.0, 64.0));
+        share[1] = wide_of(weight * clamp(c.g, 0.0, 64.0));
+        share[2] = wide_of(weight * clamp(c.b, 0.0, 64.0));
+        share[3] = wide_of(weight);
+    } else {
+        share[0] = vec2<u32>(u32(a * clamp(c.r, 0.0, 64.0) * TAIL_SCALE), 0u);
+        share[1] = vec2<u32>(u32(a * clamp(c.g, 0.0, 64.0) * TAIL_SCALE), 0u);
+        share[2] = vec2<u32>(u32(a * clamp(c.b, 0.0, 64.0) * TAIL_SCALE), 0u);
+        share[3] = vec2<u32>(u32(a * TAIL_SCALE), 0u);
+    }
+    share[4] = vec2<u32>(u32(-log(1.0 - a) * TAIL_SCALE), 0u);
+    return share;
+}
+
+// The sum (low, high) plus `add`, carrying out of the low word.
+fn wide_add(sum: vec2<u32>, add: vec2<u32>) -> vec2<u32> {
+    let low = sum.x + add.x;
+    return vec2<u32>(low, sum.y + add.y + select(0u, 1u, low < add.x));
 }
 
 // Blends a fragment beyond the k nearest into the pixel's unsorted tail (--tail blend|weighted), and
@@ -181,23 +203,16 @@ fn tail_add(p: u32, f: Fragment) {
     if kp.tail_blend == 0u {
         return;
     }
-    // As stored: the same sum whether a fragment came here fresh or evicted from a slot.
-    let c = stored_color(f);
-    let a = clamp(c.a, 0.0, 0.999);
+    let share = tail_share(f);
     let w = p * TAIL_WORDS;
-    if kp.tail_blend == TAIL_WEIGHTED {
-        let weight = tail_weight_of(f, a) * (TAIL_SCALE * TAIL_WEIGHTED_SCALE);
-        tail_add_value(w, weight * clamp(c.r, 0.0, 64.0));
-        tail_add_value(w + 2u, weight * clamp(c.g, 0.0, 64.0));
-        tail_add_value(w + 4u, weight * clamp(c.b, 0.0, 64.0));
-        tail_add_value(w + 6u, weight);
-    } else {
-        tail_add_wide(w, u32(a * clamp(c.r, 0.0, 64.0) * TAIL_SCALE));
-        tail_add_wide(w + 2u, u32(a * clamp(c.g, 0.0, 64.0) * TAIL_SCALE));
-        tail_add_wide(w + 4u, u32(a * clamp(c.b, 0.0, 64.0) * TAIL_SCALE));
-        tail_add_wide(w + 6u, u32(a * TAIL_SCALE));
+    for (var i = 0u; i < 5u; i++) {
+        let at = w + 2u * i;
+        let old = atomicAdd(&tail[at], share[i].x);
+        let carry = select(0u, 1u, old > 0xffffffffu - share[i].x);
+        if share[i].y + carry != 0u {
+            atomicAdd(&tail[at + 1u], share[i].y + carry);
+        }
     }
-    tail_add_wide(w + 8u, u32(-log(1.0 - a) * TAIL_SCALE));
 }
 
 // Ordered accesses. Where the adapter takes SPIR-V passthrough (gpu::ordered), the atomics of
