@@ -181,6 +181,16 @@ fn scene_fragment_covering(v: SceneVarying, front_facing: bool, mask: u32) -> Fr
     return f;
 }
 
+// Samples per pixel of a stage's targets: the frame's in a stage composed with MULTISAMPLED
+// (`shader::target_samples`), else 1, a constant the compiler folds.
+fn target_samples() -> u32 {
+#ifdef MULTISAMPLED
+    return frame.coverage_bits;
+#else
+    return 1u;
+#endif
+}
+
 // The tag of a fragment of `prim` covering the samples `mask`: the multisampled layout above
 // with --msaa, primitive << 1 | front-facing single-sampled.
 fn covering_tag(prim: u32, front_facing: bool, mask: u32) -> u32 {

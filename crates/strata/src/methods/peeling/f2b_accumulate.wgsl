@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::f2b_accumulate
-#import strata::scene::{covering_tag, frame, pixel_index, report_pixel, report_samples}
+#import strata::scene::{covering_tag, frame, pixel_index, report_pixel, report_samples, target_samples}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_new}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
@@ -27,15 +27,6 @@ const NO_TAG: u32 = 0xffffffffu;
 @group(1) @binding(4) var<storage, read_write> counts: array<u32>;
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 
-// Running composites per pixel.
-fn samples() -> u32 {
-#ifdef MULTISAMPLED
-    return frame.coverage_bits;
-#else
-    return 1u;
-#endif
-}
-
 // Sample s of the layer at xy as a fragment, if the layer holds one there.
 fn layer_fragment(xy: vec2<i32>, s: u32, f: ptr<function, Fragment>) -> bool {
     let t = textureLoad(layer_tag, xy, i32(s)).r;
@@ -59,8 +50,8 @@ fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = pixel_index(id.xy);
-    for (var s = 0u; s < samples(); s++) {
-        state[p * samples() + s] = composite_new();
+    for (var s = 0u; s < target_samples(); s++) {
+        state[p * target_samples() + s] = composite_new();
     }
 }
 
@@ -71,12 +62,12 @@ fn cs_accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let xy = vec2<i32>(id.xy);
     let p = pixel_index(id.xy);
-    for (var s = 0u; s < samples(); s++) {
+    for (var s = 0u; s < target_samples(); s++) {
         var f: Fragment;
         if !layer_fragment(xy, s, &f) {
             continue;
         }
-        let i = p * samples() + s;
+        let i = p * target_samples() + s;
         var composite = state[i];
         composite_front(&composite, f);
         state[i] = composite;
@@ -93,12 +84,12 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixels = frame.size.x * frame.size.y;
     var sum = resolved_sum_new();
     var deepest = 0u;
-    for (var s = 0u; s < samples(); s++) {
-        resolved_sum_add(&sum, composite_finish(state[p * samples() + s]));
-        deepest = max(deepest, counts[2u * pixels + p * samples() + s]);
+    for (var s = 0u; s < target_samples(); s++) {
+        resolved_sum_add(&sum, composite_finish(state[p * target_samples() + s]));
+        deepest = max(deepest, counts[2u * pixels + p * target_samples() + s]);
     }
     let composited = counts[pixels + p];
-    output[p] = resolved_mean(sum, samples(), composited);
+    output[p] = resolved_mean(sum, target_samples(), composited);
     report_samples(counts[p], composited, deepest);
 #else
     let composite = state[p];

@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::f2b_peel
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, shade}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, shade, target_samples}
 #import strata::composite::{Composite}
 
 // f2b peel pass: keeps fragments strictly after the last captured one in (depth, primitive)
@@ -21,18 +21,9 @@ fn fragment_tag(v: SceneVarying, front_facing: bool) -> u32 {
     return (v.prim << 1u) | select(0u, 1u, front_facing);
 }
 
-// Running composites per pixel.
-fn samples() -> u32 {
-#ifdef MULTISAMPLED
-    return frame.coverage_bits;
-#else
-    return 1u;
-#endif
-}
-
 // True when sample `s` of pixel `p` has not yet captured the fragment (depth z, tag).
 fn waiting(p: u32, s: u32, z: f32, tag: u32) -> bool {
-    let st = state[p * samples() + s];
+    let st = state[p * target_samples() + s];
     return st.count == 0u || z > st.last_depth || (z == st.last_depth && tag > st.last_tag);
 }
 
@@ -54,7 +45,7 @@ fn fs_peel_samples(v: SceneVarying, @builtin(front_facing) front_facing: bool, @
     let tag = fragment_tag(v, front_facing);
     let z = v.position.z;
     var pending = 0u;
-    for (var s = 0u; s < samples(); s++) {
+    for (var s = 0u; s < target_samples(); s++) {
         if ((mask >> s) & 1u) != 0u && waiting(p, s, z, tag) {
             pending |= 1u << s;
         }
@@ -84,11 +75,11 @@ fn fs_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @built
     let tag = fragment_tag(v, front_facing);
     atomicAdd(&counts[p], 1u);
     var composited = false;
-    for (var s = 0u; s < samples(); s++) {
+    for (var s = 0u; s < target_samples(); s++) {
         if ((mask >> s) & 1u) == 0u {
             continue;
         }
-        atomicAdd(&counts[2u * pixels + p * samples() + s], 1u);
+        atomicAdd(&counts[2u * pixels + p * target_samples() + s], 1u);
         composited = composited || !waiting(p, s, v.position.z, tag);
     }
     if composited {
