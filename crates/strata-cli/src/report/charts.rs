@@ -21,18 +21,59 @@ pub(super) fn sweep_chart(
     (axis, unit): (&str, &str),
     data: &[(&DeviceResults, Vec<Point>)],
 ) -> Result<()> {
-    let svg = SVGBackend::new(path, SWEEP_SIZE).into_drawing_area();
-    sweep_chart_on(svg, path, title, (axis, unit), data)?;
-    let png = path.with_extension("png");
-    let mut pixels = vec![0u8; (SWEEP_SIZE.0 * SWEEP_SIZE.1 * 3) as usize];
-    sweep_chart_on(
-        BitMapBackend::with_buffer(&mut pixels, SWEEP_SIZE).into_drawing_area(),
-        &png,
-        title,
-        (axis, unit),
+    svg_and_png(Kind::Sweep { axis }, path, SWEEP_SIZE, (title, unit), data)
+}
+
+/// The kinds of chart, each drawn on any plotters backend.
+#[derive(Clone, Copy)]
+enum Kind<'a> {
+    /// Lines over a sweep whose x axis is `axis`.
+    Sweep {
+        axis: &'a str,
+    },
+    Bars,
+    Errors,
+}
+
+fn draw_on<DB: DrawingBackend>(
+    kind: Kind<'_>,
+    root: DrawingArea<DB, Shift>,
+    path: &Path,
+    (title, unit): (&str, &str),
+    data: &[(&DeviceResults, Vec<Point>)],
+) -> Result<()> {
+    match kind {
+        Kind::Sweep { axis } => sweep_chart_on(root, path, title, (axis, unit), data),
+        Kind::Bars => bar_chart_on(root, path, title, unit, data),
+        Kind::Errors => error_chart_on(root, path, (title, unit), data),
+    }
+}
+
+/// Draws a chart of `kind` as an SVG at `path` and a PNG of the same size beside it.
+fn svg_and_png(
+    kind: Kind<'_>,
+    path: &Path,
+    size: (u32, u32),
+    labels: (&str, &str),
+    data: &[(&DeviceResults, Vec<Point>)],
+) -> Result<()> {
+    draw_on(
+        kind,
+        SVGBackend::new(path, size).into_drawing_area(),
+        path,
+        labels,
         data,
     )?;
-    save_png(&png, SWEEP_SIZE, pixels)
+    let png = path.with_extension("png");
+    let mut pixels = vec![0u8; (size.0 * size.1 * 3) as usize];
+    draw_on(
+        kind,
+        BitMapBackend::with_buffer(&mut pixels, size).into_drawing_area(),
+        &png,
+        labels,
+        data,
+    )?;
+    save_png(&png, size, pixels)
 }
 
 pub(super) fn sweep_chart_on<DB: DrawingBackend>(
@@ -149,23 +190,7 @@ pub(super) fn bar_chart(
         1000,
         100 + names.len() as u32 * (8 + BAR_PX * data.len() as u32),
     );
-    bar_chart_on(
-        SVGBackend::new(path, size).into_drawing_area(),
-        path,
-        title,
-        unit,
-        data,
-    )?;
-    let png = path.with_extension("png");
-    let mut pixels = vec![0u8; (size.0 * size.1 * 3) as usize];
-    bar_chart_on(
-        BitMapBackend::with_buffer(&mut pixels, size).into_drawing_area(),
-        &png,
-        title,
-        unit,
-        data,
-    )?;
-    save_png(&png, size, pixels)
+    svg_and_png(Kind::Bars, path, size, (title, unit), data)
 }
 
 /// Every row's name over the devices, in the results' order.
@@ -263,22 +288,7 @@ pub(super) fn error_chart(
     unit: &str,
     data: &[(&DeviceResults, Vec<Point>)],
 ) -> Result<()> {
-    error_chart_on(
-        SVGBackend::new(path, ERROR_CHART_SIZE).into_drawing_area(),
-        path,
-        (title, unit),
-        data,
-    )?;
-    let png = path.with_extension("png");
-    let (w, h) = ERROR_CHART_SIZE;
-    let mut pixels = vec![0u8; (w * h * 3) as usize];
-    error_chart_on(
-        BitMapBackend::with_buffer(&mut pixels, ERROR_CHART_SIZE).into_drawing_area(),
-        &png,
-        (title, unit),
-        data,
-    )?;
-    save_png(&png, ERROR_CHART_SIZE, pixels)
+    svg_and_png(Kind::Errors, path, ERROR_CHART_SIZE, (title, unit), data)
 }
 
 /// A point's scene and run: its name split at the first " · " (no scene: "").
