@@ -237,7 +237,6 @@ pub fn classify(lights: &[GpuLight], camera: &Camera, aspect: f32) -> VisibleLig
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Projection;
 
     fn inside_all_faces(tris: &[[Vec3; 3]], p: Vec3) -> bool {
         tris.iter().all(|t| {
@@ -298,14 +297,7 @@ mod tests {
 
     #[test]
     fn lights_outside_the_frustum_are_culled_and_those_past_the_far_plane_draw_full_screen() {
-        let camera = Camera {
-            eye: Vec3::new(0.0, 0.0, 5.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            projection: Projection::Perspective { fov_y_deg: 45.0 },
-            near: 0.1,
-            far: 20.0,
-        };
+        let camera = Camera::toward_origin(Vec3::new(0.0, 0.0, 5.0), 20.0);
         let lights = [
             point([0.0, 0.0, 0.0], 1.0),   // in view
             point([50.0, 0.0, 0.0], 1.0),  // far to the side

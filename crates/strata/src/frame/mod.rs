@@ -401,13 +401,11 @@ impl FrameContext<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::mem::{offset_of, size_of};
+    use crate::gpu::assert_layout;
 
     #[test]
     fn resolved_layout_matches_wgsl() {
-        assert_eq!(size_of::<Resolved>(), 32);
-        assert_eq!(offset_of!(Resolved, count), 12);
-        assert_eq!(offset_of!(Resolved, transmittance), 16);
+        assert_layout!(Resolved, 32, count: 12, transmittance: 16);
         assert_eq!(RESOLVED_BYTES, 32);
     }
 

@@ -243,32 +243,17 @@ pub fn frame_uniforms(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::mem::{offset_of, size_of};
+    use crate::gpu::assert_layout;
 
     #[test]
     fn frame_uniforms_layout_matches_wgsl() {
-        assert_eq!(size_of::<FrameUniforms>(), 272);
-        assert_eq!(offset_of!(FrameUniforms, eye), 128);
-        assert_eq!(offset_of!(FrameUniforms, ambient), 208);
-        assert_eq!(offset_of!(FrameUniforms, size), 224);
-        assert_eq!(offset_of!(FrameUniforms, effect), 232);
-        assert_eq!(offset_of!(FrameUniforms, near), 240);
-        assert_eq!(offset_of!(FrameUniforms, checker), 256);
-        assert_eq!(offset_of!(FrameUniforms, coverage_bits), 260);
-        assert_eq!(offset_of!(FrameUniforms, blend_modes), 264);
+        assert_layout!(FrameUniforms, 272, eye: 128, ambient: 208, size: 224, effect: 232,
+            near: 240, checker: 256, coverage_bits: 260, blend_modes: 264);
     }
 
     #[test]
     fn material_and_light_layout_match_wgsl() {
-        assert_eq!(size_of::<GpuMaterial>(), 48);
-        assert_eq!(offset_of!(GpuMaterial, blend), 32);
-        assert_eq!(offset_of!(GpuMaterial, absorption), 16);
-        assert_eq!(offset_of!(GpuMaterial, shading), 24);
-        assert_eq!(offset_of!(GpuMaterial, shininess), 28);
-        assert_eq!(size_of::<GpuLight>(), 64);
-        assert_eq!(offset_of!(GpuLight, direction), 16);
-        assert_eq!(offset_of!(GpuLight, radiance), 32);
-        assert_eq!(offset_of!(GpuLight, cos_inner), 48);
-        assert_eq!(offset_of!(GpuLight, attenuation), 52);
+        assert_layout!(GpuMaterial, 48, blend: 32, absorption: 16, shading: 24, shininess: 28);
+        assert_layout!(GpuLight, 64, direction: 16, radiance: 32, cos_inner: 48, attenuation: 52);
     }
 }

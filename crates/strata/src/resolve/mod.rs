@@ -163,17 +163,13 @@ pub fn composite_parts(sorted: &[RefFragment], translucency: bool) -> ([f64; 3],
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::mem::{offset_of, size_of};
+    use crate::gpu::assert_layout;
 
     #[test]
     fn fragment_and_composite_layout_match_wgsl() {
-        assert_eq!(size_of::<Fragment>(), 16);
-        assert_eq!(offset_of!(Fragment, rg), 8);
-        assert_eq!(size_of::<CompositeState>(), 48);
-        assert_eq!(offset_of!(CompositeState, count), 12);
-        assert_eq!(offset_of!(CompositeState, transmittance), 16);
-        assert_eq!(offset_of!(CompositeState, last_tag), 28);
-        assert_eq!(offset_of!(CompositeState, last_distance), 36);
+        assert_layout!(Fragment, 16, rg: 8);
+        assert_layout!(CompositeState, 48, count: 12, transmittance: 16, last_tag: 28,
+            last_distance: 36);
     }
 
     fn frag(depth: f64, alpha: f64, color: [f64; 3]) -> RefFragment {

@@ -244,7 +244,6 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Projection;
 
     #[test]
     fn a_fast_orbit_late_in_time_stays_on_its_circle() {
@@ -258,14 +257,7 @@ mod tests {
     }
 
     fn base() -> Camera {
-        Camera {
-            eye: Vec3::new(0.0, 0.0, 5.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            projection: Projection::Perspective { fov_y_deg: 45.0 },
-            near: 0.1,
-            far: 20.0,
-        }
+        Camera::toward_origin(Vec3::new(0.0, 0.0, 5.0), 20.0)
     }
 
     #[test]

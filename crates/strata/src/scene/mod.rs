@@ -292,6 +292,19 @@ impl Camera {
         self.projection(aspect) * self.view()
     }
 
+    /// A 45° perspective camera at `eye` looking at the origin, +Y up, seeing from 0.1 to `far`:
+    /// the built-in scenes' camera.
+    pub fn toward_origin(eye: Vec3, far: f32) -> Camera {
+        Camera {
+            eye,
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            projection: Projection::Perspective { fov_y_deg: 45.0 },
+            near: 0.1,
+            far,
+        }
+    }
+
     /// A perspective camera looking at the bounding box from the front (+Z), slightly above,
     /// so that the whole box is in view.
     pub fn framing(lo: Vec3, hi: Vec3) -> Camera {
@@ -787,8 +800,7 @@ mod tests {
 
     #[test]
     fn gpu_vertex_layout() {
-        assert_eq!(std::mem::size_of::<GpuVertex>(), 24);
-        assert_eq!(std::mem::offset_of!(GpuVertex, normal), 12);
+        crate::gpu::assert_layout!(GpuVertex, 24, normal: 12);
         let layout = GpuVertex::layout();
         assert_eq!(layout.array_stride, 24);
         assert_eq!(layout.attributes[1].offset, 12);

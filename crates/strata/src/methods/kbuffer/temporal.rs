@@ -424,9 +424,7 @@ mod tests {
 
     #[test]
     fn temporal_params_layout_matches_wgsl() {
-        assert_eq!(std::mem::size_of::<TemporalParams>(), 96);
-        assert_eq!(std::mem::offset_of!(TemporalParams, epsilon), 64);
-        assert_eq!(std::mem::offset_of!(TemporalParams, width), 84);
+        crate::gpu::assert_layout!(TemporalParams, 96, epsilon: 64, width: 84);
     }
 
     #[test]

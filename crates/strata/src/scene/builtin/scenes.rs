@@ -169,14 +169,7 @@ pub(super) fn spheres(p: &Params) -> Result<Scene> {
             material: m,
         });
     }
-    scene.camera = Some(Camera {
-        eye: Vec3::new(0.0, 0.0, 3.5),
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        projection: Projection::Perspective { fov_y_deg: 45.0 },
-        near: 0.1,
-        far: 10.0,
-    });
+    scene.camera = Some(Camera::toward_origin(Vec3::new(0.0, 0.0, 3.5), 10.0));
     scene.lights = vec![
         point_light(Vec3::new(2.0, 3.0, 4.0), [1.0, 1.0, 1.0], 1.0, 15.0),
         point_light(Vec3::new(-3.0, -1.0, 2.0), [0.7, 0.8, 1.0], 0.5, 15.0),
@@ -295,14 +288,7 @@ pub(super) fn nvpro(p: &Params) -> Result<Scene> {
             material: m,
         });
     }
-    scene.camera = Some(Camera {
-        eye: Vec3::new(0.0, 1.0, 4.8),
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        projection: Projection::Perspective { fov_y_deg: 45.0 },
-        near: 0.1,
-        far: 20.0,
-    });
+    scene.camera = Some(Camera::toward_origin(Vec3::new(0.0, 1.0, 4.8), 20.0));
     scene.lights = vec![
         point_light(Vec3::new(3.0, 4.0, 5.0), [1.0, 1.0, 1.0], 1.0, 20.0),
         point_light(Vec3::new(-4.0, -2.0, 3.0), [0.8, 0.85, 1.0], 0.6, 20.0),
@@ -369,14 +355,7 @@ pub(super) fn balls(p: &Params) -> Result<Scene> {
         });
         scene.motions.push(Some(motion));
     }
-    scene.camera = Some(Camera {
-        eye: Vec3::new(0.0, 0.7, 3.8),
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        projection: Projection::Perspective { fov_y_deg: 45.0 },
-        near: 0.1,
-        far: 20.0,
-    });
+    scene.camera = Some(Camera::toward_origin(Vec3::new(0.0, 0.7, 3.8), 20.0));
     scene.lights = vec![
         point_light(Vec3::new(3.0, 4.0, 5.0), [1.0, 0.95, 0.9], 1.0, 20.0),
         point_light(Vec3::new(-4.0, 1.0, -3.0), [0.7, 0.8, 1.0], 0.6, 20.0),
