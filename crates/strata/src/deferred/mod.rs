@@ -296,37 +296,44 @@ impl Passes {
                 None,
             )
         };
-        Passes {
-            forward: passes::capture_pipeline(
+        let capture = |label, module, entry, layouts: &[&wgpu::BindGroupLayout], targets: &[_]| {
+            passes::capture_pipeline(
                 gpu,
+                label,
+                module,
+                entry,
+                layouts,
+                targets,
+                write_less.clone(),
+                1,
+            )
+        };
+        let gbuffer_layouts = [frame_layout, &layouts.gbuffer];
+        Passes {
+            forward: capture(
                 "strata.forward.opaque",
                 &forward_m,
                 "fs_forward",
                 &[frame_layout],
                 &[color_target(HDR_FORMAT, None)],
-                write_less.clone(),
             ),
-            gbuffer: passes::capture_pipeline(
-                gpu,
+            gbuffer: capture(
                 "strata.deferred.gbuffer",
                 &gbuffer_m,
                 "fs_gbuffer",
-                &[frame_layout, &layouts.gbuffer],
+                &gbuffer_layouts,
                 &gbuffer_targets,
-                write_less.clone(),
             ),
-            gbuffer_exact: passes::capture_pipeline(
-                gpu,
+            gbuffer_exact: capture(
                 "strata.deferred.gbuffer_exact",
                 &gbuffer_m,
                 "fs_gbuffer_exact",
-                &[frame_layout, &layouts.gbuffer],
+                &gbuffer_layouts,
                 &[
                     gbuffer_targets[0].clone(),
                     gbuffer_targets[1].clone(),
                     color_target(EXACT_NORMAL_FORMAT, None),
                 ],
-                write_less,
             ),
             ssao: fullscreen(
                 "strata.deferred.ssao",

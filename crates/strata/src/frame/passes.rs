@@ -9,34 +9,12 @@ pub use crate::gpu::passes::{
 };
 use crate::gpu::Gpu;
 
-/// A render pipeline drawing the scene with `vs_scene` and the stage's fragment entry point,
-/// with no culling (every surface layer counts).
-pub fn capture_pipeline(
-    gpu: &Gpu,
-    label: &str,
-    module: &wgpu::ShaderModule,
-    fragment_entry: &str,
-    layouts: &[&wgpu::BindGroupLayout],
-    targets: &[Option<wgpu::ColorTargetState>],
-    depth: Option<wgpu::DepthStencilState>,
-) -> wgpu::RenderPipeline {
-    capture_pipeline_with(
-        gpu,
-        label,
-        module,
-        fragment_entry,
-        layouts,
-        targets,
-        depth,
-        1,
-    )
-}
-
-/// [`capture_pipeline`] rasterizing `samples` samples per pixel (`--msaa`; the targets must have
-/// as many). The vertex stage is the scene's ([`Gpu::scene_vertex_module`]); the fragment stage
-/// comes from `fragment_module` (a stage's module, or its passthrough twin).
+/// A render pipeline drawing the scene with `vs_scene` ([`Gpu::scene_vertex_module`]) and
+/// `fragment_module`'s entry point (a stage's module, or its passthrough twin), with no culling
+/// (every surface layer counts), rasterizing `samples` samples per pixel (`--msaa`; the targets
+/// must have as many).
 #[allow(clippy::too_many_arguments)]
-pub fn capture_pipeline_with(
+pub fn capture_pipeline(
     gpu: &Gpu,
     label: &str,
     fragment_module: &wgpu::ShaderModule,

@@ -81,11 +81,7 @@ impl Timer {
         name: &'static str,
     ) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
         self.next_pair(name)
-            .map(|(query_set, i)| wgpu::RenderPassTimestampWrites {
-                query_set,
-                beginning_of_pass_write_index: Some(i),
-                end_of_pass_write_index: Some(i + 1),
-            })
+            .map(|(set, i)| PassWrites::whole(set, i).render())
     }
 
     /// As [`Timer::render_pass`], for a compute pass.
@@ -94,11 +90,7 @@ impl Timer {
         name: &'static str,
     ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
         self.next_pair(name)
-            .map(|(query_set, i)| wgpu::ComputePassTimestampWrites {
-                query_set,
-                beginning_of_pass_write_index: Some(i),
-                end_of_pass_write_index: Some(i + 1),
-            })
+            .map(|(set, i)| PassWrites::whole(set, i).compute())
     }
 
     /// A pair for a span of passes (see [`Timer::render_pass_in_span`]): its begin is written
@@ -116,12 +108,7 @@ impl Timer {
         first: bool,
         last: bool,
     ) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
-        let (query_set, i) = (self.set.as_ref()?, span?);
-        (first || last).then(|| wgpu::RenderPassTimestampWrites {
-            query_set,
-            beginning_of_pass_write_index: first.then_some(i),
-            end_of_pass_write_index: last.then_some(i + 1),
-        })
+        self.in_span(span, first, last).map(PassWrites::render)
     }
 
     /// As [`Timer::render_pass_in_span`], for a compute pass.
@@ -131,11 +118,15 @@ impl Timer {
         first: bool,
         last: bool,
     ) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        self.in_span(span, first, last).map(PassWrites::compute)
+    }
+
+    fn in_span(&self, span: Option<u32>, first: bool, last: bool) -> Option<PassWrites<'_>> {
         let (query_set, i) = (self.set.as_ref()?, span?);
-        (first || last).then(|| wgpu::ComputePassTimestampWrites {
+        (first || last).then_some(PassWrites {
             query_set,
-            beginning_of_pass_write_index: first.then_some(i),
-            end_of_pass_write_index: last.then_some(i + 1),
+            begin: first.then_some(i),
+            end: last.then_some(i + 1),
         })
     }
 
@@ -183,5 +174,39 @@ pub fn median(mut values: Vec<f64>) -> f64 {
         0 => f64::NAN,
         _ if n % 2 == 1 => values[n / 2],
         _ => (values[n / 2 - 1] + values[n / 2]) * 0.5,
+    }
+}
+
+/// Where one pass writes its timestamps, for a render or a compute pass alike.
+struct PassWrites<'a> {
+    query_set: &'a wgpu::QuerySet,
+    begin: Option<u32>,
+    end: Option<u32>,
+}
+
+impl<'a> PassWrites<'a> {
+    /// Both timestamps of pair `i`: a pass timed on its own.
+    fn whole(query_set: &'a wgpu::QuerySet, i: u32) -> Self {
+        PassWrites {
+            query_set,
+            begin: Some(i),
+            end: Some(i + 1),
+        }
+    }
+
+    fn render(self) -> wgpu::RenderPassTimestampWrites<'a> {
+        wgpu::RenderPassTimestampWrites {
+            query_set: self.query_set,
+            beginning_of_pass_write_index: self.begin,
+            end_of_pass_write_index: self.end,
+        }
+    }
+
+    fn compute(self) -> wgpu::ComputePassTimestampWrites<'a> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: self.query_set,
+            beginning_of_pass_write_index: self.begin,
+            end_of_pass_write_index: self.end,
+        }
     }
 }

@@ -7,7 +7,7 @@
 
 use crate::error::Result;
 use crate::frame::passes::{
-    capture_pipeline_with, compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage,
+    capture_pipeline, compute_pipeline, dispatch_pixels, storage_geometry_pass, GeometryStage,
     NullTarget,
 };
 use crate::frame::{FrameContext, SceneGpu};
@@ -41,7 +41,7 @@ impl GpuHistogram {
         GpuHistogram {
             // Always the GPU's rasterizer: coverage is the same on both paths (tested), and
             // the histogram only counts.
-            count: GeometryStage::Hw(capture_pipeline_with(
+            count: GeometryStage::Hw(capture_pipeline(
                 gpu,
                 "strata.histogram.count",
                 &module,

@@ -62,7 +62,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    capture_pipeline_with, dispatch_with, GeometryStage, NullTarget, Workgroups,
+    capture_pipeline, dispatch_with, GeometryStage, NullTarget, Workgroups,
 };
 pub use crate::frame::{ComputeRasterStats, Raster};
 use crate::frame::{FrameContext, ReadbackList, RenderOptions, SceneGpu};
@@ -208,7 +208,7 @@ pub fn storage_stage(
     layouts: &[&wgpu::BindGroupLayout],
 ) -> GeometryStage {
     if scene.raster_layout.is_none() {
-        return GeometryStage::Hw(capture_pipeline_with(
+        return GeometryStage::Hw(capture_pipeline(
             gpu,
             spec.label,
             spec.module,

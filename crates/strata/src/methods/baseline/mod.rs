@@ -14,8 +14,7 @@ pub mod descriptor;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    capture_pipeline_with, color_geometry_pass, color_pass_drawing, compute_pipeline,
-    dispatch_pixels,
+    capture_pipeline, color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -53,7 +52,7 @@ impl Blend {
             &[Slot::StorageRw, target, Slot::StorageRw],
         );
         let module = blend_stage().module(&gpu.device);
-        let blend = capture_pipeline_with(
+        let blend = capture_pipeline(
             gpu,
             "strata.blend",
             &module,

@@ -71,7 +71,7 @@ use std::sync::{Arc, Mutex};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
-use crate::frame::passes::{capture_pipeline_with, compute_pipeline, dispatch_pixels, NullTarget};
+use crate::frame::passes::{capture_pipeline, compute_pipeline, dispatch_pixels, NullTarget};
 pub use crate::frame::ConvexStats;
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
@@ -288,7 +288,7 @@ impl Convex {
         let [capture_stage, merge_stage] = stages(layers);
         let module = capture_stage.module(device);
         let capture = |entry: &str| {
-            capture_pipeline_with(
+            capture_pipeline(
                 gpu,
                 &format!("strata.convex.{entry}"),
                 &module,

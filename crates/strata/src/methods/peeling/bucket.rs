@@ -55,8 +55,8 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    capture_pipeline_with, color_geometry_pass, color_pass_drawing, compute_pipeline,
-    dispatch_pixels, screen_pipeline, storage_geometry_pass, GeometryStage, NullTarget,
+    capture_pipeline, color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels,
+    screen_pipeline, storage_geometry_pass, GeometryStage, NullTarget,
 };
 use crate::frame::{BucketSplit, FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -376,7 +376,7 @@ impl Bucket {
         let [bounds_stage, reduce_stage, histogram_stage, color_stage, resolve_stage] =
             stages(samples);
         let module = bounds_stage.module(device);
-        let bounds = capture_pipeline_with(
+        let bounds = capture_pipeline(
             gpu,
             "strata.bucket.bounds",
             &module,
@@ -456,7 +456,7 @@ impl Bucket {
         if self.sort.as_ref().is_none_or(|(l, _)| *l != layers) {
             let module = sort_stage(layers).module(&gpu.device);
             let targets: Vec<_> = (0..layers).map(|_| max_target(BUCKET_FORMAT)).collect();
-            let pipeline = capture_pipeline_with(
+            let pipeline = capture_pipeline(
                 gpu,
                 "strata.bucket.sort",
                 &module,

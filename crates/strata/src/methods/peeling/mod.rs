@@ -38,8 +38,8 @@ pub mod descriptor;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    attachment, capture_pipeline_with, color_target, compute_pipeline, dispatch_pixels,
-    scratch_depth, storage_geometry_pass, GeometryStage, NullTarget,
+    attachment, capture_pipeline, color_target, compute_pipeline, dispatch_pixels, scratch_depth,
+    storage_geometry_pass, GeometryStage, NullTarget,
 };
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
 use crate::gpu::binding::{self, Slot};
@@ -163,7 +163,7 @@ impl FrontToBack {
         let module = peel_stage.module(device);
         let target = |format| color_target(format, None);
         let peel_pipeline = |entry: &str| {
-            capture_pipeline_with(
+            capture_pipeline(
                 gpu,
                 &format!("strata.f2b.{entry}"),
                 &module,

@@ -65,7 +65,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    blend_add, capture_pipeline_with, color_geometry_pass, color_target, compute_pipeline,
+    blend_add, capture_pipeline, color_geometry_pass, color_target, compute_pipeline,
 };
 use crate::frame::{FrameContext, Moments, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -227,7 +227,7 @@ impl Mboit {
         let composite_layout =
             super::composite_layout(device, "strata.mboit.composite.layout", texture);
         let module = moments_stage(samples).module(device);
-        let moments = capture_pipeline_with(
+        let moments = capture_pipeline(
             gpu,
             "strata.mboit.moments",
             &module,
@@ -238,7 +238,7 @@ impl Mboit {
             samples,
         );
         let module = shade_stage(samples, Moments::Power(4)).module(device);
-        let shade = capture_pipeline_with(
+        let shade = capture_pipeline(
             gpu,
             "strata.mboit.shade",
             &module,
@@ -290,7 +290,7 @@ impl Mboit {
             dst_factor: wgpu::BlendFactor::One,
             operation,
         };
-        let bounds = capture_pipeline_with(
+        let bounds = capture_pipeline(
             gpu,
             "strata.wavelet.bounds",
             &module,
@@ -359,7 +359,7 @@ impl Mboit {
             (Some(w), Moments::Haar(_)) => &w.coefficients_layout,
             _ => &self.moments_layout,
         };
-        let pipeline = capture_pipeline_with(
+        let pipeline = capture_pipeline(
             gpu,
             "strata.mboit.moments",
             &module,
@@ -370,7 +370,7 @@ impl Mboit {
             self.samples,
         );
         let module = shade_stage(self.samples, moments).module(&gpu.device);
-        let shade = capture_pipeline_with(
+        let shade = capture_pipeline(
             gpu,
             "strata.mboit.shade",
             &module,

@@ -29,7 +29,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::Result;
 use crate::frame::passes::{
-    capture_pipeline_with, color_geometry_pass, compute_pipeline, dispatch_pixels,
+    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -108,7 +108,7 @@ impl Wboit {
             dst_factor: wgpu::BlendFactor::OneMinusSrc,
             operation: wgpu::BlendOperation::Add,
         };
-        let accumulate = capture_pipeline_with(
+        let accumulate = capture_pipeline(
             gpu,
             "strata.wboit.accumulate",
             &module,

@@ -26,7 +26,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    blend_add, capture_pipeline_with, color_geometry_pass, color_target, compute_pipeline,
+    blend_add, capture_pipeline, color_geometry_pass, color_target, compute_pipeline,
     depth_geometry_pass,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
@@ -102,7 +102,7 @@ impl Stochastic {
             .module(device);
         let layouts = [&scene.frame_layout, &pass_layout];
         let pipeline = |entry: &str, targets: &[Option<wgpu::ColorTargetState>], depth| {
-            capture_pipeline_with(
+            capture_pipeline(
                 gpu,
                 &format!("strata.stochastic.{entry}"),
                 &module,
