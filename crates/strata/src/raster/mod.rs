@@ -183,36 +183,27 @@ fn raster_capture(v: SceneVarying, front_facing: bool) {{
         .fold(raster, |raster, library| raster.with(library)))
 }
 
-/// A storage-only geometry stage of a method: `modules` (the WGSL module and, where made, its
-/// acquire/release twin) for the GPU's rasterizer, `stage` (the WGSL the modules were made of)
-/// for the compute rasterizer, and the fragment entry point.
-pub struct StageSpec<'a> {
-    /// Names the pipelines.
-    pub label: &'a str,
-    /// The WGSL the modules were made of (the compute rasterizer composes its capture from it).
-    pub stage: &'a Stage,
-    /// The fragment stage's module (or its passthrough twin with ordered atomics).
-    pub module: &'a wgpu::ShaderModule,
-    /// The fragment entry point.
-    pub entry: &'a str,
-}
-
-/// The stage on the scene's rasterizer: a render pipeline, or the compute rasterizer's capture.
+/// A storage-only geometry stage of a method on the scene's rasterizer: a render pipeline of
+/// `module`'s fragment `entry` (the module of `stage`, or its passthrough twin with ordered
+/// atomics), or the compute rasterizer's capture composed from `stage`.
 /// Compute captures run with WGSL's relaxed atomics: given acquire/release atomics through a
 /// SPIR-V passthrough module (as fragment captures are), lavapipe lost fragments of the
 /// linked-list and fixed-array captures, so that path is not taken.
 pub fn storage_stage(
     gpu: &Gpu,
     scene: &SceneGpu,
-    spec: StageSpec<'_>,
+    label: &str,
+    stage: &Stage,
+    module: &wgpu::ShaderModule,
+    entry: &str,
     layouts: &[&wgpu::BindGroupLayout],
 ) -> GeometryStage {
     if scene.raster_layout.is_none() {
         return GeometryStage::Hw(capture_pipeline(
             gpu,
-            spec.label,
-            spec.module,
-            spec.entry,
+            label,
+            module,
+            entry,
             layouts,
             &[NullTarget::target_state()],
             None,
@@ -222,9 +213,9 @@ pub fn storage_stage(
     compute_stage(
         gpu,
         scene,
-        &format!("{}.compute", spec.label),
-        spec.stage,
-        spec.entry,
+        &format!("{label}.compute"),
+        stage,
+        entry,
         layouts,
     )
 }

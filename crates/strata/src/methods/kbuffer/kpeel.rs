@@ -155,17 +155,8 @@ impl Cascade {
         let layouts = [&scene.frame_layout, &frame.layout, &layout];
         let module = stage.module(&gpu.device);
         let storage_stage = |entry: &str| {
-            crate::raster::storage_stage(
-                gpu,
-                scene,
-                crate::raster::StageSpec {
-                    label: &format!("strata.kpeel.{entry}"),
-                    stage: &stage,
-                    module: &module,
-                    entry,
-                },
-                &layouts,
-            )
+            let label = format!("strata.kpeel.{entry}");
+            crate::raster::storage_stage(gpu, scene, &label, &stage, &module, entry, &layouts)
         };
         Ok(Cascade {
             keys: storage_stage("fs_kpeel_keys"),

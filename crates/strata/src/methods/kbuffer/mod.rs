@@ -641,12 +641,10 @@ impl KFrame {
         crate::raster::storage_stage(
             gpu,
             scene,
-            crate::raster::StageSpec {
-                label: &format!("strata.{}.{entry}", self.id),
-                stage: &module.stage,
-                module: module.ordered.as_ref().unwrap_or(&module.wgsl),
-                entry,
-            },
+            &format!("strata.{}.{entry}", self.id),
+            &module.stage,
+            module.ordered.as_ref().unwrap_or(&module.wgsl),
+            entry,
             &[&scene.frame_layout, &self.layout],
         )
     }

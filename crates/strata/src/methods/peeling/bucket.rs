@@ -399,29 +399,22 @@ impl Bucket {
                 None,
             )
         });
-        let module = histogram_stage.module(device);
-        let histogram = crate::raster::storage_stage(
-            gpu,
-            scene,
-            crate::raster::StageSpec {
-                label: "strata.bucket.histogram",
-                stage: &histogram_stage,
-                module: &module,
-                entry: "fs_histogram",
-            },
-            &[&scene.frame_layout, &histogram_layout],
+        let storage_stage = |label, stage: &Stage, entry, layout| {
+            let module = stage.module(device);
+            let layouts = [&scene.frame_layout, layout];
+            crate::raster::storage_stage(gpu, scene, label, stage, &module, entry, &layouts)
+        };
+        let histogram = storage_stage(
+            "strata.bucket.histogram",
+            &histogram_stage,
+            "fs_histogram",
+            &histogram_layout,
         );
-        let module = color_stage.module(device);
-        let color = crate::raster::storage_stage(
-            gpu,
-            scene,
-            crate::raster::StageSpec {
-                label: "strata.bucket.color",
-                stage: &color_stage,
-                module: &module,
-                entry: "fs_color",
-            },
-            &[&scene.frame_layout, &color_layout],
+        let color = storage_stage(
+            "strata.bucket.color",
+            &color_stage,
+            "fs_color",
+            &color_layout,
         );
         let module = resolve_stage.module(device);
         let resolve = compute_pipeline(

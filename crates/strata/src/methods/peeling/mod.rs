@@ -197,12 +197,10 @@ impl FrontToBack {
             crate::raster::storage_stage(
                 gpu,
                 scene,
-                crate::raster::StageSpec {
-                    label: "strata.f2b.account",
-                    stage: &peel_stage,
-                    module: &module,
-                    entry: "fs_account",
-                },
+                "strata.f2b.account",
+                &peel_stage,
+                &module,
+                "fs_account",
                 &[&scene.frame_layout, &peel_layout],
             )
         });
@@ -489,17 +487,7 @@ impl Dual {
         let module = stage.module(device);
         let layouts = [&scene.frame_layout, &peel_layout];
         let geometry_stage = |label, entry| {
-            crate::raster::storage_stage(
-                gpu,
-                scene,
-                crate::raster::StageSpec {
-                    label,
-                    stage: &stage,
-                    module: &module,
-                    entry,
-                },
-                &layouts,
-            )
+            crate::raster::storage_stage(gpu, scene, label, &stage, &module, entry, &layouts)
         };
         let bounds = geometry_stage("strata.dual.bounds", "fs_bounds");
         let peel = geometry_stage("strata.dual.peel", "fs_peel");

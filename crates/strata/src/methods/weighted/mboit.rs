@@ -64,9 +64,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
-use crate::frame::passes::{
-    blend_add, capture_pipeline, color_geometry_pass, color_target, compute_pipeline,
-};
+use crate::frame::passes::{blend_add, capture_pipeline, color_geometry_pass, color_target};
 use crate::frame::{FrameContext, Moments, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
@@ -147,10 +145,9 @@ struct HighStage {
 pub struct Mboit {
     moments_layout: wgpu::BindGroupLayout,
     shade_layout: wgpu::BindGroupLayout,
-    composite_layout: wgpu::BindGroupLayout,
     moments: wgpu::RenderPipeline,
     shade: wgpu::RenderPipeline,
-    composite: wgpu::ComputePipeline,
+    composite: super::Composite,
     high: Option<HighStage>,
     cache: ResourceCache,
     samples: u32,
@@ -224,8 +221,6 @@ impl Mboit {
             "strata.mboit.shade.layout",
             &[Slot::Uniform, texture, texture, texture, texture],
         );
-        let composite_layout =
-            super::composite_layout(device, "strata.mboit.composite.layout", texture);
         let module = moments_stage(samples).module(device);
         let moments = capture_pipeline(
             gpu,
@@ -248,18 +243,10 @@ impl Mboit {
             None,
             samples,
         );
-        let module = composite_stage(samples).module(device);
-        let composite = compute_pipeline(
-            gpu,
-            "strata.mboit.composite",
-            &module,
-            "cs_composite",
-            &[&scene.frame_layout, &composite_layout],
-        );
+        let composite = super::Composite::new(gpu, scene, composite_stage(samples));
         Ok(Mboit {
             moments_layout,
             shade_layout,
-            composite_layout,
             moments,
             shade,
             composite,
@@ -511,12 +498,7 @@ impl Method for Mboit {
             &[frame_group, &shade_group],
             &[(&accumulation, zero)],
         );
-        super::record_composite(
-            ctx,
-            (&self.composite, &self.composite_layout),
-            &counts,
-            [&b0, &accumulation],
-        );
+        self.composite.record(ctx, &counts, [&b0, &accumulation]);
         Ok(Recorded::passes(passes, bytes))
     }
 

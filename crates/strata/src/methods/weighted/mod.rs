@@ -73,9 +73,8 @@ pub struct WboitParams {
 /// `wboit`: one geometry pass accumulating weighted colors and revealage, then a composite.
 pub struct Wboit {
     accumulate_layout: wgpu::BindGroupLayout,
-    composite_layout: wgpu::BindGroupLayout,
     accumulate: wgpu::RenderPipeline,
-    composite: wgpu::ComputePipeline,
+    composite: Composite,
     cache: ResourceCache,
     samples: u32,
 }
@@ -90,8 +89,6 @@ impl Wboit {
             &[Slot::Uniform, Slot::StorageRw],
         );
         let samples = scene.samples;
-        let target = Slot::target(samples);
-        let composite_layout = composite_layout(device, "strata.wboit.composite.layout", target);
         let module = Stage::new(
             "strata.wboit.accumulate",
             include_str!("wboit_accumulate.wgsl"),
@@ -135,19 +132,10 @@ impl Wboit {
             None,
             samples,
         );
-        let module = composite_stage(samples).module(device);
-        let composite = compute_pipeline(
-            gpu,
-            "strata.wboit.composite",
-            &module,
-            "cs_composite",
-            &[&scene.frame_layout, &composite_layout],
-        );
         Wboit {
             accumulate_layout,
-            composite_layout,
             accumulate,
-            composite,
+            composite: Composite::new(gpu, scene, composite_stage(samples)),
             cache: ResourceCache::default(),
             samples,
         }
@@ -161,37 +149,54 @@ pub fn composite_stage(samples: u32) -> Stage {
         .defs(&shader::target_samples(samples))
 }
 
-/// The bind group layout of a weighted composite: the fragment counts, two targets of kind
-/// `target`, the output.
-fn composite_layout(device: &wgpu::Device, label: &str, target: Slot) -> wgpu::BindGroupLayout {
-    binding::layout(
-        device,
-        label,
-        &[Slot::StorageRw, target, target, Slot::StorageRw],
-    )
+/// A weighted composite over every pixel (compute): the fragment counts and two accumulation
+/// targets (multisampled with `--msaa`) into the frame's output.
+struct Composite {
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
 }
 
-/// Records a weighted composite over every pixel: `pipeline` reading `counts` and the two
-/// `targets` into the frame's output.
-fn record_composite(
-    ctx: &mut FrameContext<'_>,
-    (pipeline, layout): (&wgpu::ComputePipeline, &wgpu::BindGroupLayout),
-    counts: &wgpu::Buffer,
-    targets: [&wgpu::TextureView; 2],
-) {
-    let group = binding::group(
-        &ctx.gpu.device,
-        "strata.weighted.composite.group",
-        layout,
-        &[
-            counts.as_entire_binding(),
-            wgpu::BindingResource::TextureView(targets[0]),
-            wgpu::BindingResource::TextureView(targets[1]),
-            ctx.output.as_entire_binding(),
-        ],
-    );
-    let frame_group = ctx.frame_group;
-    dispatch_pixels(ctx, "composite", pipeline, &[frame_group, &group]);
+impl Composite {
+    /// The composite of `stage`'s `cs_composite` for `scene`'s samples, named after the stage.
+    fn new(gpu: &Gpu, scene: &SceneGpu, stage: Stage) -> Composite {
+        let target = Slot::target(scene.samples);
+        let layout = binding::layout(
+            &gpu.device,
+            &format!("{}.layout", stage.label),
+            &[Slot::StorageRw, target, target, Slot::StorageRw],
+        );
+        let module = stage.module(&gpu.device);
+        let pipeline = compute_pipeline(
+            gpu,
+            &stage.label,
+            &module,
+            "cs_composite",
+            &[&scene.frame_layout, &layout],
+        );
+        Composite { layout, pipeline }
+    }
+
+    /// Records the composite of `counts` and `targets`.
+    fn record(
+        &self,
+        ctx: &mut FrameContext<'_>,
+        counts: &wgpu::Buffer,
+        targets: [&wgpu::TextureView; 2],
+    ) {
+        let group = binding::group(
+            &ctx.gpu.device,
+            "strata.weighted.composite.group",
+            &self.layout,
+            &[
+                counts.as_entire_binding(),
+                wgpu::BindingResource::TextureView(targets[0]),
+                wgpu::BindingResource::TextureView(targets[1]),
+                ctx.output.as_entire_binding(),
+            ],
+        );
+        let frame_group = ctx.frame_group;
+        dispatch_pixels(ctx, "composite", &self.pipeline, &[frame_group, &group]);
+    }
 }
 
 impl Method for Wboit {
@@ -255,12 +260,8 @@ impl Method for Wboit {
                 (&revealage, wgpu::Color::WHITE),
             ],
         );
-        record_composite(
-            ctx,
-            (&self.composite, &self.composite_layout),
-            &counts,
-            [&accumulation, &revealage],
-        );
+        self.composite
+            .record(ctx, &counts, [&accumulation, &revealage]);
         Ok(Recorded::passes(1, bytes))
     }
 

@@ -26,8 +26,7 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    blend_add, capture_pipeline, color_geometry_pass, color_target, compute_pipeline,
-    depth_geometry_pass,
+    blend_add, capture_pipeline, color_geometry_pass, color_target, depth_geometry_pass,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -62,11 +61,10 @@ pub struct StochasticParams {
 /// composite.
 pub struct Stochastic {
     pass_layout: wgpu::BindGroupLayout,
-    composite_layout: wgpu::BindGroupLayout,
     depth: wgpu::RenderPipeline,
     accumulate: wgpu::RenderPipeline,
     total: wgpu::RenderPipeline,
-    composite: wgpu::ComputePipeline,
+    composite: super::Composite,
     cache: ResourceCache,
     samples: u32,
 }
@@ -91,11 +89,6 @@ impl Stochastic {
             device,
             "strata.stochastic.pass.layout",
             &[Slot::Uniform, Slot::StorageRw],
-        );
-        let composite_layout = super::composite_layout(
-            device,
-            "strata.stochastic.composite.layout",
-            Slot::TextureFloatMultisampled,
         );
         let module = Stage::new("strata.stochastic", include_str!("stochastic.wgsl"))
             .with(LIBRARY)
@@ -137,22 +130,14 @@ impl Stochastic {
             &[blended(TOTAL_FORMAT, Zero, OneMinusSrc)],
             None,
         );
-        let module = Stage::new(
+        let composite_stage = Stage::new(
             "strata.stochastic.composite",
             include_str!("stochastic_composite.wgsl"),
         )
-        .with(LIBRARY)
-        .module(device);
-        let composite = compute_pipeline(
-            gpu,
-            "strata.stochastic.composite",
-            &module,
-            "cs_composite",
-            &[&scene.frame_layout, &composite_layout],
-        );
+        .with(LIBRARY);
+        let composite = super::Composite::new(gpu, scene, composite_stage);
         Ok(Stochastic {
             pass_layout,
-            composite_layout,
             depth,
             accumulate,
             total,
@@ -258,12 +243,7 @@ impl Method for Stochastic {
             &[frame_group, &pass_groups[0]],
             &[(&total, wgpu::Color::WHITE)],
         );
-        super::record_composite(
-            ctx,
-            (&self.composite, &self.composite_layout),
-            &counts,
-            [&accumulation, &total],
-        );
+        self.composite.record(ctx, &counts, [&accumulation, &total]);
         Ok(Recorded::passes(2 * passes + 1, bytes))
     }
 
