@@ -38,6 +38,27 @@ const LOCKS_NEED_ORDER: Support = Support::No(
     "its capture's locks need acquire/release atomics, which compute captures lack (WGSL atomics are relaxed)",
 );
 
+/// An entry of this family: made by `create`, on either rasterizer.
+const fn entry(id: MethodId, name: &'static str, family: Family) -> Descriptor {
+    Descriptor {
+        compute_raster: COMPUTE,
+        ..Descriptor::new(id, name, family, create)
+    }
+}
+
+/// An entry whose capture takes a per-pixel spin lock: acquire/release atomics needed (so not on
+/// the compute rasterizer), per-sample storage, `--max-tries` read, k up to 256.
+const fn locked(id: MethodId, name: &'static str, family: Family) -> Descriptor {
+    Descriptor {
+        compute_raster: LOCKS_NEED_ORDER,
+        per_sample_storage: true,
+        ordering: Ordering::Locks,
+        reads: K_LOCKED,
+        max_k: 256,
+        ..Descriptor::new(id, name, family, create)
+    }
+}
+
 /// A k-buffer proper: reads `--k`, `--tail` and `--culling`; a locking one `--max-tries` too.
 const K: &[MethodOption] = &[MethodOption::K, MethodOption::Tail, MethodOption::Culling];
 const K_LOCKED: &[MethodOption] = &[
@@ -53,10 +74,9 @@ pub const ABUFFER_LL: Descriptor = Descriptor {
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 152 (nodes ≥ F)",
     summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
-    compute_raster: COMPUTE,
     app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
     traffic: TrafficModel::Lists,
-    ..Descriptor::new(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer, create)
+    ..entry(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer)
 };
 
 /// The method table's entry for `sbuffer`.
@@ -65,9 +85,8 @@ pub const SBUFFER: Descriptor = Descriptor {
     geometry_passes: "2 (+2 when the pool overflows)",
     memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 152",
     summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
-    compute_raster: COMPUTE,
     traffic: TrafficModel::Sbuffers,
-    ..Descriptor::new(MethodId::Sbuffer, "sbuffer", Family::Abuffer, create)
+    ..entry(MethodId::Sbuffer, "sbuffer", Family::Abuffer)
 };
 
 /// The method table's entry for `kpeel`.
@@ -76,24 +95,22 @@ pub const KPEEL: Descriptor = Descriptor {
     geometry_passes: "ceil(N/k), twice that with the lock-free capture (N: the last frame's depth complexity, or --layers)",
     memory: "(16·(k+1) + 4)·W·H + 152, +8·k·W·H with the lock-free capture",
     summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per pass, by a lock-free cascade of 64-bit keys (a keys and a colors geometry pass; single-sampled, SHADER_INT64_ATOMIC_ALL_OPS) or else a k+-buffer capture under a lock; A-buffer results in bounded memory, equal-depth fragments included",
-    compute_raster: COMPUTE,
     per_sample_storage: true,
     ordering: Ordering::LockedFallback,
     reads: &[MethodOption::K, MethodOption::Layers, MethodOption::LayersPerPass],
     max_k: 1024,
     traffic: TrafficModel::Kpeel,
-    ..Descriptor::new(MethodId::Kpeel, "kpeel", Family::Peeling, create)
+    ..entry(MethodId::Kpeel, "kpeel", Family::Peeling)
 };
 
 /// The method table's entry for `abuffer-fixed`.
 pub const ABUFFER_FIXED: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
-    compute_raster: COMPUTE,
     app_capture: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
     reads: &[MethodOption::K, MethodOption::Tail],
     traffic: TrafficModel::Slots { atomics: true },
-    ..Descriptor::new(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer, create)
+    ..entry(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer)
 };
 
 /// The method table's entry for `kb-keys`.
@@ -102,27 +119,25 @@ pub const KB_KEYS: Descriptor = Descriptor {
     geometry_passes: "2",
     memory: KB_MEMORY,
     summary: "lock-free exact k-buffer: an atomicMax cascade of 64-bit (depth, primitive) keys keeps the k nearest sorted, payloads stored by tag in a second geometry pass; nothing spins or fails (SHADER_INT64_ATOMIC_ALL_OPS)",
-    compute_raster: COMPUTE,
     per_sample_storage: true,
     reads: K,
     max_k: 512,
     // Keys cleared and cascaded, payloads written once and read by the resolve.
     traffic: TrafficModel::Keys { bytes: 16 },
-    ..Descriptor::new(MethodId::KbKeys, "kb-keys", Family::Kbuffer, create)
+    ..entry(MethodId::KbKeys, "kb-keys", Family::Kbuffer)
 };
 
 /// The method table's entry for `kb`.
 pub const KB: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "original k-buffer: sorted insertion with no lock (read-modify-write hazards between fragments of a pixel)",
-    compute_raster: COMPUTE,
     per_sample_storage: true,
     temporal: true,
     app_capture: Some("strata::kbuffer::kb_capture::capture_sorted(p, f, strata::kbuffer::kb_capture::UNLOCKED)"),
     reads: K,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: false },
-    ..Descriptor::new(MethodId::Kb, "kb", Family::Kbuffer, create)
+    ..entry(MethodId::Kb, "kb", Family::Kbuffer)
 };
 
 /// The method table's entry for `kb-ps`.
@@ -130,33 +145,24 @@ pub const KB_PS: Descriptor = Descriptor {
     exact: true,
     memory: KB_MEMORY,
     summary: "k-buffer with sorted insertion inside a per-pixel spin lock (pixel synchronisation emulated)",
-    compute_raster: LOCKS_NEED_ORDER,
-    per_sample_storage: true,
     temporal: true,
-    ordering: Ordering::Locks,
     app_capture: Some("strata::kbuffer::kb_capture::capture_sorted(p, f, strata::kbuffer::kb_capture::LOCKED)"),
-    reads: K_LOCKED,
-    max_k: 256,
     traffic: TrafficModel::Slots { atomics: true },
-    ..Descriptor::new(MethodId::KbPs, "kb-ps", Family::Kbuffer, create)
+    ..locked(MethodId::KbPs, "kb-ps", Family::Kbuffer)
 };
 
 /// The method table's entry for `mlab`.
 pub const MLAB: Descriptor = Descriptor {
     memory: "16·(k+1)·W·H + 152",
     summary: "multi-layer alpha blending: k layers in depth order under a per-pixel spin lock, the two farthest merged when a fragment makes k + 1 (exact up to k fragments; merges vary with arrival order)",
-    compute_raster: LOCKS_NEED_ORDER,
-    per_sample_storage: true,
-    ordering: Ordering::Locks,
     app_capture: Some("strata::kbuffer::kb_capture::capture_mlab(p, f)"),
     reads: &[MethodOption::K, MethodOption::MaxTries],
     past_k: Some("beyond k were merged into the farthest layers (approximate where a pixel has more than k + 1)"),
     // MLAB-4, the published comparison's; the critical section is kb-ps's, so is the limit.
     default_k: 4,
-    max_k: 256,
     traffic: TrafficModel::Slots { atomics: true },
     blend_modes: Support::No("its merge of the two farthest layers is the over operator's"),
-    ..Descriptor::new(MethodId::Mlab, "mlab", Family::Kbuffer, create)
+    ..locked(MethodId::Mlab, "mlab", Family::Kbuffer)
 };
 
 /// The method table's entry for `kb-ab-fixed`.
@@ -166,11 +172,10 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
     memory: "16·(n+1)·W·H + 112 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
     summary:
         "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
-    compute_raster: COMPUTE,
     app_capture: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
     reads: K,
     traffic: TrafficModel::Slots { atomics: true },
-    ..Descriptor::new(MethodId::KbAbFixed, "kb-ab-fixed", Family::Kbuffer, create)
+    ..entry(MethodId::KbAbFixed, "kb-ab-fixed", Family::Kbuffer)
 };
 
 /// The method table's entry for `kplus-array`.
@@ -179,15 +184,10 @@ pub const KPLUS_ARRAY: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary:
         "k+-buffer max-array: k nearest captured unsorted under a spin lock, max in slot 0, culling",
-    compute_raster: LOCKS_NEED_ORDER,
-    per_sample_storage: true,
     temporal: true,
-    ordering: Ordering::Locks,
     app_capture: Some("strata::kbuffer::kplus_capture::capture_locked(p, f, strata::kbuffer::kplus_capture::VARIANT_ARRAY)"),
-    reads: K_LOCKED,
-    max_k: 256,
     traffic: TrafficModel::Slots { atomics: true },
-    ..Descriptor::new(MethodId::KplusArray, "kplus-array", Family::Kplus, create)
+    ..locked(MethodId::KplusArray, "kplus-array", Family::Kplus)
 };
 
 /// The method table's entry for `kplus-array-r`.
@@ -220,13 +220,9 @@ pub const KPLUS_SBUFFER: Descriptor = Descriptor {
     geometry_passes: "2 (+2 when the pool overflows)",
     memory: "16·Σmin(f,k) + 20·W·H + 4·(W·H + W·H/256 + …) + 112 + 40·(W·H with --tail blend, else 1); f: a pixel's fragments",
     summary: "memory-aware k+-buffer: a count pass, a GPU prefix sum giving each pixel exactly min(f, k) slots, then lock-free appends (f ≤ k) or a max-array (k ≤ 16) / max-heap under a spin lock",
-    compute_raster: LOCKS_NEED_ORDER,
-    per_sample_storage: true,
-    ordering: Ordering::Locks,
-    reads: K_LOCKED,
     max_k: 1024,
     traffic: TrafficModel::Sbuffers,
-    ..Descriptor::new(MethodId::KplusSbuffer, "kplus-sbuffer", Family::Kplus, create)
+    ..locked(MethodId::KplusSbuffer, "kplus-sbuffer", Family::Kplus)
 };
 
 /// The method table's entry for `kplus-semiheap`.
@@ -253,12 +249,11 @@ pub const KB_MDT32: Descriptor = Descriptor {
     geometry_passes: "2",
     memory: "20·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test: atomicMax cascade of depth keys, colors fetched in a second geometry pass (ties beyond k share keys)",
-    compute_raster: COMPUTE,
     per_sample_storage: true,
     reads: K,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 4 + 16 },
-    ..Descriptor::new(MethodId::KbMdt32, "kb-mdt32", Family::Kbuffer, create)
+    ..entry(MethodId::KbMdt32, "kb-mdt32", Family::Kbuffer)
 };
 
 /// Why the multi-depth tests with 8-byte keys refuse `--msaa`.
@@ -275,13 +270,12 @@ const KEYS_WITHOUT_PRIMITIVE: Support = Support::No(
 pub const KB_MDT64: Descriptor = Descriptor {
     memory: "8·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
-    compute_raster: COMPUTE,
     msaa: EIGHT_BYTE_KEYS,
     reads: K,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 8 },
     blend_modes: KEYS_WITHOUT_PRIMITIVE,
-    ..Descriptor::new(MethodId::KbMdt64, "kb-mdt64", Family::Kbuffer, create)
+    ..entry(MethodId::KbMdt64, "kb-mdt64", Family::Kbuffer)
 };
 
 /// The method table's entry for `kb-mdt-pack`.
@@ -289,13 +283,12 @@ pub const KB_MDT_PACK: Descriptor = Descriptor {
     memory: "8·k·W·H + 16·W·H + 152",
     summary:
         "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
-    compute_raster: COMPUTE,
     msaa: EIGHT_BYTE_KEYS,
     reads: K,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 8 },
     blend_modes: KEYS_WITHOUT_PRIMITIVE,
-    ..Descriptor::new(MethodId::KbMdtPack, "kb-mdt-pack", Family::Kbuffer, create)
+    ..entry(MethodId::KbMdtPack, "kb-mdt-pack", Family::Kbuffer)
 };
 
 /// The method table's entry for `kb-ab-ll`.
@@ -304,11 +297,10 @@ pub const KB_AB_LL: Descriptor = Descriptor {
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
     summary: "A-buffer linked lists, the k nearest selected in resolve",
-    compute_raster: COMPUTE,
     app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
     reads: K,
     traffic: TrafficModel::Lists,
-    ..Descriptor::new(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer, create)
+    ..entry(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer)
 };
 
 /// The method table's entry for `kb-sbuffer`.
@@ -317,10 +309,9 @@ pub const KB_SBUFFER: Descriptor = Descriptor {
     geometry_passes: "2 (+2 when the pool overflows)",
     memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 112 + 40·(W·H with --tail blend, else 1)",
     summary: "every fragment in S-buffer regions, the k nearest selected in resolve",
-    compute_raster: COMPUTE,
     reads: K,
     traffic: TrafficModel::Sbuffers,
-    ..Descriptor::new(MethodId::KbSbuffer, "kb-sbuffer", Family::Kbuffer, create)
+    ..entry(MethodId::KbSbuffer, "kb-sbuffer", Family::Kbuffer)
 };
 
 /// The method table's entry for `kb-ll`.
@@ -328,12 +319,7 @@ pub const KB_LL: Descriptor = Descriptor {
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
     summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",
-    compute_raster: LOCKS_NEED_ORDER,
-    per_sample_storage: true,
-    ordering: Ordering::Locks,
     app_capture: Some("strata::kbuffer::list::capture_sorted_list(p, f)"),
-    reads: K_LOCKED,
-    max_k: 256,
     traffic: TrafficModel::Lists,
-    ..Descriptor::new(MethodId::KbLl, "kb-ll", Family::Kbuffer, create)
+    ..locked(MethodId::KbLl, "kb-ll", Family::Kbuffer)
 };
