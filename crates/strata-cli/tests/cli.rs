@@ -4,6 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
 fn strata(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_strata"))
         .args(args)
@@ -13,12 +15,7 @@ fn strata(args: &[&str]) -> Output {
 }
 
 fn workdir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("cli")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::workdir("cli", name)
 }
 
 fn fixture(name: &str) -> String {
@@ -32,25 +29,86 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// Asserts that `text` contains `part` (the whole text the failure's message).
+#[track_caller]
+fn assert_contains(text: &str, part: &str) {
+    assert!(text.contains(part), "{text}");
+}
+
+/// Runs `strata`, which must succeed (its error output the failure's message).
+#[track_caller]
+fn strata_ok(args: &[&str]) -> Output {
+    let o = strata(args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    o
+}
+
+/// Runs `strata ARGS -o OUT`, which must succeed.
+#[track_caller]
+fn strata_to(args: &[&str], out: &Path) -> Output {
+    let mut all = args.to_vec();
+    all.extend(["-o", out.to_str().unwrap()]);
+    strata_ok(&all)
+}
+
+/// Runs `strata ARGS -o OUT --stats STATS`, which must succeed; returns its output and the
+/// statistics it wrote.
+#[track_caller]
+fn strata_to_with_stats(args: &[&str], out: &Path, stats: &Path) -> (Output, serde_json::Value) {
+    let mut all = args.to_vec();
+    all.extend([
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    (strata_ok(&all), read_json(stats))
+}
+
+/// Runs `strata`, which must refuse: exit status 2 and one line of error output.
+#[track_caller]
+fn strata_refused(args: &[&str]) -> Output {
+    let o = strata(args);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    assert_eq!(
+        stderr(&o).trim().lines().count(),
+        1,
+        "{args:?}: {}",
+        stderr(&o)
+    );
+    o
+}
+
+fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// `strata compare A B --json`'s figures.
+#[track_caller]
+fn compare_json(a: &Path, b: &Path) -> serde_json::Value {
+    let o = strata_ok(&[
+        "compare",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--json",
+    ]);
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+/// The largest difference of a channel between two pictures (of 255), as `strata compare` finds.
+#[track_caller]
+fn max_abs_diff(a: &Path, b: &Path) -> u64 {
+    compare_json(a, b)["max_abs_diff"].as_u64().unwrap()
+}
+
 #[test]
 fn render_writes_png_and_stats() {
     let dir = workdir("render");
     let png = dir.join("demo.png");
     let stats = dir.join("stats.json");
-    let o = strata(&[
-        "render",
-        "--size",
-        "96x64",
-        "-o",
-        png.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let (_, v) = strata_to_with_stats(&["render", "--size", "96x64"], &png, &stats);
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (96, 64));
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     for key in [
         "method",
         "width",
@@ -90,29 +148,9 @@ fn reference_and_gpu_render_compare_close() {
     let b = dir.join("ref.png");
     let diff = dir.join("diff.png");
     let scene = "builtin:spheres?layers=6";
-    assert!(strata(&[
-        "render",
-        scene,
-        "--method",
-        "f2b",
-        "--size",
-        "64x64",
-        "-o",
-        a.to_str().unwrap()
-    ])
-    .status
-    .success());
-    assert!(strata(&[
-        "reference",
-        scene,
-        "--size",
-        "64x64",
-        "-o",
-        b.to_str().unwrap()
-    ])
-    .status
-    .success());
-    let o = strata(&[
+    strata_to(&["render", scene, "--method", "f2b", "--size", "64x64"], &a);
+    strata_to(&["reference", scene, "--size", "64x64"], &b);
+    let o = strata_ok(&[
         "compare",
         a.to_str().unwrap(),
         b.to_str().unwrap(),
@@ -120,7 +158,6 @@ fn reference_and_gpu_render_compare_close() {
         diff.to_str().unwrap(),
         "--json",
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["max_abs_diff"].as_u64().unwrap() <= 2, "{v}");
     assert!(diff.exists());
@@ -139,43 +176,28 @@ fn methods_and_info_report_json() {
         .iter()
         .map(|m| m["id"].as_str().unwrap().to_string())
         .collect();
-    let raster = |id: &str| {
+    // A method's entry's field.
+    let field = |id: &str, key: &str| {
         v.as_array()
             .unwrap()
             .iter()
             .find(|m| m["id"] == id)
-            .unwrap()["raster"]
+            .unwrap()[key]
             .clone()
     };
     assert_eq!(
-        raster("abuffer-fixed"),
+        field("abuffer-fixed", "raster"),
         serde_json::json!(["hw", "compute"])
     );
-    assert_eq!(raster("wboit"), serde_json::json!(["hw"]));
-    let msaa = |id: &str| {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["id"] == id)
-            .unwrap()["msaa"]
-            .clone()
-    };
-    assert_eq!(msaa("sbuffer"), serde_json::json!([1, 4, 8]));
-    assert_eq!(msaa("kplus-heap"), serde_json::json!([1, 4, 8]));
-    assert_eq!(msaa("kb-mdt64"), serde_json::json!([1]));
-    let blend = |id: &str| {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["id"] == id)
-            .unwrap()["blend"]
-            .clone()
-    };
+    assert_eq!(field("wboit", "raster"), serde_json::json!(["hw"]));
+    assert_eq!(field("sbuffer", "msaa"), serde_json::json!([1, 4, 8]));
+    assert_eq!(field("kplus-heap", "msaa"), serde_json::json!([1, 4, 8]));
+    assert_eq!(field("kb-mdt64", "msaa"), serde_json::json!([1]));
     assert_eq!(
-        blend("tiled"),
+        field("tiled", "blend"),
         serde_json::json!(["over", "add", "multiply"])
     );
-    assert_eq!(blend("wboit"), serde_json::json!(["over"]));
+    assert_eq!(field("wboit", "blend"), serde_json::json!(["over"]));
     for id in [
         "reference",
         "unsorted",
@@ -186,8 +208,7 @@ fn methods_and_info_report_json() {
     ] {
         assert!(ids.contains(&id.to_string()), "{ids:?}");
     }
-    let o = strata(&["info", "--json"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = strata_ok(&["info", "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["adapter"].is_string() && v["limits"].is_object(), "{v}");
 }
@@ -195,7 +216,7 @@ fn methods_and_info_report_json() {
 #[test]
 fn bench_writes_json_and_csv() {
     let dir = workdir("bench");
-    let o = strata(&[
+    strata_ok(&[
         "bench",
         "--scene",
         "builtin:layers?n=4",
@@ -210,9 +231,7 @@ fn bench_writes_json_and_csv() {
         "--out",
         dir.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("adhoc.json")).unwrap()).unwrap();
+    let v = read_json(&dir.join("adhoc.json"));
     assert_eq!(v["results"].as_array().unwrap().len(), 3);
     // f2b peels exactly the depth complexity the previous frame measured.
     assert_eq!(v["results"][0]["geometry_passes"], 4);
@@ -265,39 +284,19 @@ fn msaa_renders_match_the_multisampled_reference() {
     let scene = "builtin:spheres?layers=4";
     let run = |args: &[&str], out: &std::path::Path| {
         let mut all = args.to_vec();
-        all.extend([scene, "--size", "48x48", "-o", out.to_str().unwrap()]);
-        let o = strata(&all);
-        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        all.extend([scene, "--size", "48x48"]);
+        strata_to(&all, out);
     };
     run(&["render", "--method", "sbuffer", "--msaa", "4"], &a);
     run(&["reference", "--msaa", "4"], &b);
     run(&["reference"], &single);
-    let diff = |x: &std::path::Path, y: &std::path::Path| {
-        let o = strata(&[
-            "compare",
-            x.to_str().unwrap(),
-            y.to_str().unwrap(),
-            "--json",
-        ]);
-        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        v["max_abs_diff"].as_u64().unwrap()
-    };
-    assert!(diff(&a, &b) <= 2);
+    assert!(max_abs_diff(&a, &b) <= 2);
     // Anti-aliased edges differ from the single-sampled picture.
-    assert!(diff(&b, &single) > 16);
+    assert!(max_abs_diff(&b, &single) > 16);
     // The default scene (its deferred pipeline) takes it: transparency anti-aliased over the
     // lit frame.
     let demo = dir.join("demo.png");
-    let o = strata(&[
-        "render",
-        "--msaa",
-        "4",
-        "--size",
-        "64x64",
-        "-o",
-        demo.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    strata_to(&["render", "--msaa", "4", "--size", "64x64"], &demo);
     assert!(demo.exists());
     for (args, message) in [
         (
@@ -380,17 +379,10 @@ fn mlab_notes_its_merges_and_refuses_a_tail() {
     let dir = workdir("mlab");
     let out = dir.join("mlab.png");
     let scene = "builtin:layers?n=8&coverage=0.75&order=random&seed=3";
-    let o = strata(&[
-        "render",
-        scene,
-        "--method",
-        "mlab",
-        "--size",
-        "32x32",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = strata_to(
+        &["render", scene, "--method", "mlab", "--size", "32x32"],
+        &out,
+    );
     assert!(
         stderr(&o).contains("beyond k were merged into the farthest layers")
             && stderr(&o).contains("(k=4)"),
@@ -410,153 +402,84 @@ fn k_buffer_render_matches_reference_k_and_reports_k() {
     let gpu = dir.join("kplus.png");
     let reference = dir.join("ref.png");
     let stats = dir.join("stats.json");
-    let o = strata(&[
-        "render",
-        scene,
-        "--method",
-        "kplus-heap",
-        "--k",
-        "5",
-        "--size",
-        "48x48",
-        "-o",
-        gpu.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("beyond k=5 were dropped"),
-        "{}",
-        stderr(&o)
+    let (o, s) = strata_to_with_stats(
+        &[
+            "render",
+            scene,
+            "--method",
+            "kplus-heap",
+            "--k",
+            "5",
+            "--size",
+            "48x48",
+        ],
+        &gpu,
+        &stats,
     );
-    let o = strata(&[
-        "reference",
-        scene,
-        "--k",
-        "5",
-        "--size",
-        "48x48",
-        "-o",
-        reference.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = strata(&[
-        "compare",
-        gpu.to_str().unwrap(),
-        reference.to_str().unwrap(),
-        "--json",
-    ]);
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_contains(&stderr(&o), "beyond k=5 were dropped");
+    strata_to(
+        &["reference", scene, "--k", "5", "--size", "48x48"],
+        &reference,
+    );
+    let v = compare_json(&gpu, &reference);
     assert!(v["max_abs_diff"].as_u64().unwrap() <= 2, "{v}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     assert_eq!(s["k"], 5);
     assert_eq!(s["lock_failures"], 0);
     assert_eq!(s["max_depth_complexity"], 12);
     let blend = dir.join("blend.png");
-    let o = strata(&[
-        "render",
-        scene,
-        "--method",
-        "kb-ps",
-        "--k",
-        "5",
-        "--tail",
-        "blend",
-        "--size",
-        "48x48",
-        "-o",
-        blend.to_str().unwrap(),
-    ]);
-    assert!(
-        o.status.success() && stderr(&o).contains("blended into the tail"),
-        "{}",
-        stderr(&o)
+    let o = strata_to(
+        &[
+            "render", scene, "--method", "kb-ps", "--k", "5", "--tail", "blend", "--size", "48x48",
+        ],
+        &blend,
     );
+    assert_contains(&stderr(&o), "blended into the tail");
 }
 
 #[test]
 fn k_buffer_bad_options_are_one_line_and_exit_2() {
-    assert_bad_input(&["render", "--method", "kplus-array", "--k", "0"], "--k");
-    // Beyond the locking methods' cap (a pixel's fragments serialize on its lock).
-    assert_bad_input(
-        &["render", "--method", "kplus-array", "--k", "300"],
-        "--k 300",
-    );
-    assert_bad_input(&["render", "--method", "f2b", "--layers", "0"], "--layers");
-    // bucket keeps two fragments per bucket: k is even.
-    assert_bad_input(&["render", "--method", "bucket", "--k", "7"], "--k 7");
-    assert_bad_input(
-        &["render", "--method", "bucket", "--buckets", "sideways"],
-        "--buckets",
-    );
-    assert_bad_input(
-        &["render", "--method", "kplus-array", "--tail", "keep"],
-        "--tail",
-    );
-    assert_bad_input(
-        &["render", "--method", "kplus-array", "--culling", "maybe"],
-        "--culling",
-    );
-    assert_bad_input(
-        &[
-            "render",
-            "--method",
-            "kb-mdt-pack",
-            "--effect",
-            "translucency",
-        ],
-        "translucency",
-    );
-    assert_bad_input(
-        &[
-            "render",
-            "--method",
+    for (method, options, message) in [
+        ("kplus-array", &["--k", "0"][..], "--k"),
+        // Beyond the locking methods' cap (a pixel's fragments serialize on its lock).
+        ("kplus-array", &["--k", "300"], "--k 300"),
+        ("f2b", &["--layers", "0"], "--layers"),
+        // bucket keeps two fragments per bucket: k is even.
+        ("bucket", &["--k", "7"], "--k 7"),
+        ("bucket", &["--buckets", "sideways"], "--buckets"),
+        ("kplus-array", &["--tail", "keep"], "--tail"),
+        ("kplus-array", &["--culling", "maybe"], "--culling"),
+        ("kb-mdt-pack", &["--effect", "translucency"], "translucency"),
+        (
             "kplus-heap",
-            "--k",
-            "64",
+            &["--k", "64", "--budget-mb", "0.05"],
             "--budget-mb",
-            "0.05",
-        ],
-        "--budget-mb",
-    );
-    assert_bad_input(
-        &[
-            "render",
-            "--method",
+        ),
+        (
             "kplus-heap",
-            "--k",
-            "auto",
-            "--budget-mb",
-            "0.01",
-        ],
-        "cannot hold even k = 1",
-    );
-    assert_bad_input(
-        &["render", "--method", "kplus-heap", "--robustness", "0.9"],
-        "--robustness applies to --k auto",
-    );
-    assert_bad_input(
-        &[
-            "render",
-            "--method",
+            &["--k", "auto", "--budget-mb", "0.01"],
+            "cannot hold even k = 1",
+        ),
+        (
             "kplus-heap",
-            "--k",
-            "auto",
-            "--robustness",
-            "1.5",
-        ],
-        "--robustness 1.5",
-    );
-    assert_bad_input(
-        &["render", "--method", "dual", "--k", "auto"],
-        "--k does not apply to dual",
-    );
-    assert_bad_input(
-        &["render", "--method", "kpeel", "--layers-per-pass", "0"],
-        "--layers-per-pass 0 is outside 1..",
-    );
+            &["--robustness", "0.9"],
+            "--robustness applies to --k auto",
+        ),
+        (
+            "kplus-heap",
+            &["--k", "auto", "--robustness", "1.5"],
+            "--robustness 1.5",
+        ),
+        ("dual", &["--k", "auto"], "--k does not apply to dual"),
+        (
+            "kpeel",
+            &["--layers-per-pass", "0"],
+            "--layers-per-pass 0 is outside 1..",
+        ),
+    ] {
+        let mut args = vec!["render", "--method", method];
+        args.extend(options);
+        assert_bad_input(&args, message);
+    }
 }
 
 /// An option the method does not read is refused, naming the methods that read it; options
@@ -612,7 +535,7 @@ fn options_the_method_does_not_read_are_refused() {
     }
     let dir = workdir("options-read");
     let out = dir.join("out.png");
-    for args in [
+    for options in [
         &["--method", "abuffer-fixed", "--k", "2", "--tail", "blend"][..],
         &["--method", "kpeel", "--layers", "2", "--k", "1"],
         &["--method", "wboit", "--weight", "eq8", "--depth-scale", "2"],
@@ -639,17 +562,9 @@ fn options_the_method_does_not_read_are_refused() {
         &["--method", "kb", "--order", "random", "--seed", "3"],
         &["--method", "f2b", "--budget-mb", "64"],
     ] {
-        let mut all = vec![
-            "render",
-            layers,
-            "--size",
-            "16x16",
-            "-o",
-            out.to_str().unwrap(),
-        ];
-        all.extend(args);
-        let o = strata(&all);
-        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let mut args = vec!["render", layers, "--size", "16x16"];
+        args.extend(options);
+        strata_to(&args, &out);
     }
 }
 
@@ -674,7 +589,7 @@ fn frame_sequences_are_written_whole_or_not_at_all() {
     };
     let o = render_frames("0..3", "seq_%d.png");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("seq_1.png"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "seq_1.png");
     assert!(!dir.join("seq_0.png").exists(), "frame 0 was left behind");
     for (pattern, message) in [
         ("two_%d_%d.png", "more than one %d"),
@@ -690,7 +605,7 @@ fn frame_sequences_are_written_whole_or_not_at_all() {
     assert!(dir.join("100%_01.png").exists());
     let o = render_frames("0..200000", "many_%d.png");
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("at most 100000"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "at most 100000");
 }
 
 /// Clap's errors keep to one line that still names the problem.
@@ -713,7 +628,7 @@ fn command_line_errors_name_what_is_missing() {
     let jpg = dir.join("picture.jpg");
     let o = strata(&["render", "--size", "16x16", "-o", jpg.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("must end in .png"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "must end in .png");
     assert!(!jpg.exists());
 }
 
@@ -724,28 +639,25 @@ fn auto_k_reports_the_chosen_k() {
     let dir = workdir("auto-k");
     let stats = dir.join("stats.json");
     let out = dir.join("auto.png");
-    let o = strata(&[
-        "render",
-        "builtin:nvpro?objects=160&subdiv=10&seed=3",
-        "--method",
-        "kplus-sbuffer",
-        "--k",
-        "auto",
-        "--robustness",
-        "0.9",
-        "--budget-mb",
-        "1",
-        "--size",
-        "64x64",
-        "-o",
-        out.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("k auto: k="), "{}", stderr(&o));
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let (o, s) = strata_to_with_stats(
+        &[
+            "render",
+            "builtin:nvpro?objects=160&subdiv=10&seed=3",
+            "--method",
+            "kplus-sbuffer",
+            "--k",
+            "auto",
+            "--robustness",
+            "0.9",
+            "--budget-mb",
+            "1",
+            "--size",
+            "64x64",
+        ],
+        &out,
+        &stats,
+    );
+    assert_contains(&stderr(&o), "k auto: k=");
     let auto = &s["k_auto"];
     assert_eq!(auto["robustness_target"], 0.9);
     assert!(auto["achieved_robustness"].as_f64().unwrap() >= 0.9, "{s}");
@@ -766,8 +678,7 @@ fn histogram_on_the_gpu_agrees_with_the_cpu() {
             "--json",
         ];
         args.extend(extra);
-        let o = strata(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
+        let o = strata_ok(&args);
         serde_json::from_slice(&o.stdout).unwrap()
     };
     let (gpu, cpu) = (run(&[]), run(&["--cpu"]));
@@ -790,23 +701,11 @@ fn frame_sequences_match_single_frames() {
     let pattern = dir.join("frame_%03d.png");
     let stats = dir.join("frames.jsonl");
     let scene = "builtin:balls?count=60";
-    let o = strata(&[
-        "render",
-        scene,
-        "--method",
-        "kplus-heap",
-        "--size",
-        "48x48",
-        "--frames",
-        "1..=3",
-        "--orbit",
-        "4",
-        "-o",
-        pattern.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // The sequence's and the single frame's picture.
+    let picture = ["render", scene, "--method", "kplus-heap", "--size", "48x48"];
+    let orbit = ["--orbit", "4"];
+    let sequence = ["--frames", "1..=3", "--stats", stats.to_str().unwrap()];
+    strata_to(&[&picture[..], &orbit, &sequence].concat(), &pattern);
     let lines: Vec<serde_json::Value> = std::fs::read_to_string(&stats)
         .unwrap()
         .lines()
@@ -815,21 +714,7 @@ fn frame_sequences_match_single_frames() {
     assert_eq!(lines.len(), 3);
     assert_eq!(lines[2]["frame"], 3);
     let single = dir.join("single.png");
-    let o = strata(&[
-        "render",
-        scene,
-        "--method",
-        "kplus-heap",
-        "--size",
-        "48x48",
-        "--frame",
-        "3",
-        "--orbit",
-        "4",
-        "-o",
-        single.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    strata_to(&[&picture[..], &["--frame", "3"], &orbit].concat(), &single);
     let a = image::open(dir.join("frame_003.png")).unwrap().to_rgba8();
     let b = image::open(&single).unwrap().to_rgba8();
     assert!(
@@ -854,17 +739,11 @@ fn camera_keys_move_the_camera() {
     .unwrap();
     let render = |frame: &str, out: &str| {
         let path = dir.join(out);
-        let o = strata(&[
-            "render",
-            scene.to_str().unwrap(),
-            "--size",
-            "32x32",
-            "--frame",
-            frame,
-            "-o",
-            path.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
+        let scene = scene.to_str().unwrap();
+        strata_to(
+            &["render", scene, "--size", "32x32", "--frame", frame],
+            &path,
+        );
         image::open(path).unwrap().to_rgba8()
     };
     let at_start = render("0", "k0.png");
@@ -896,61 +775,33 @@ fn camera_keys_move_the_camera() {
 fn lit_pipelines_render_and_match_the_reference() {
     let dir = workdir("pipelines");
     let reference = dir.join("reference.png");
-    let o = strata(&[
-        "reference",
-        "--pipeline",
-        "forward",
-        "--lights",
-        "8",
-        "--size",
-        "64x48",
-        "-o",
-        reference.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // The demo with a field of 8 lights.
+    let lights = ["--lights", "8", "--size", "64x48"];
+    let forward = ["reference", "--pipeline", "forward"];
+    strata_to(&[&forward[..], &lights].concat(), &reference);
     for pipeline in ["forward", "deferred"] {
         let png = dir.join(format!("{pipeline}.png"));
         let stats = dir.join(format!("{pipeline}.json"));
-        let o = strata(&[
-            "render",
-            "--pipeline",
-            pipeline,
-            "--lights",
-            "8",
-            "--size",
-            "64x48",
-            "-o",
-            png.to_str().unwrap(),
-            "--stats",
-            stats.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        let render = ["render", "--pipeline", pipeline];
+        let (_, v) = strata_to_with_stats(&[&render[..], &lights].concat(), &png, &stats);
         assert_eq!(v["lighting"]["pipeline"], pipeline);
         // The demo's 15 lights and the field's 8.
         assert_eq!(v["lighting"]["lights"], 23);
-        let o = strata(&[
-            "compare",
-            png.to_str().unwrap(),
-            reference.to_str().unwrap(),
-            "--json",
-        ]);
-        let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let c = compare_json(&png, &reference);
         // Forward is exact; deferred carries the G-buffer's quantization (≤ 3/255).
         assert!(c["max_abs_diff"].as_u64().unwrap() <= 3, "{pipeline}: {c}");
     }
     let debug = dir.join("normals.png");
-    let o = strata(&[
-        "render",
-        "--gbuffer-debug",
-        "normal-error",
-        "--size",
-        "64x48",
-        "-o",
-        debug.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    strata_to(
+        &[
+            "render",
+            "--gbuffer-debug",
+            "normal-error",
+            "--size",
+            "64x48",
+        ],
+        &debug,
+    );
     assert!(debug.exists());
 }
 
@@ -979,7 +830,7 @@ fn compute_raster_renders_the_gpu_paths_picture() {
     for raster in ["hw", "compute"] {
         let png = dir.join(format!("{raster}.png"));
         let stats = dir.join(format!("{raster}.json"));
-        let o = strata(&[
+        let args = [
             "render",
             "--raster",
             raster,
@@ -991,31 +842,19 @@ fn compute_raster_renders_the_gpu_paths_picture() {
             "4",
             "--size",
             "64x48",
-            "-o",
-            png.to_str().unwrap(),
-            "--stats",
-            stats.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        ];
+        let (_, v) = strata_to_with_stats(&args, &png, &stats);
         assert_eq!(v["raster"], raster);
         assert_eq!(v["k"], 4);
         assert_eq!(v["compute_raster"].is_object(), raster == "compute");
         pictures.push(png);
     }
-    let o = strata(&[
-        "compare",
-        pictures[0].to_str().unwrap(),
-        pictures[1].to_str().unwrap(),
-        "--json",
-    ]);
-    let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let c = compare_json(&pictures[0], &pictures[1]);
     // The same coverage and f32 shading from the same inputs: within 1/255.
     assert!(c["max_abs_diff"].as_u64().unwrap() <= 1, "{c}");
     let png = dir.join("kpeel.png");
     let stats = dir.join("kpeel.json");
-    let o = strata(&[
+    let args = [
         "render",
         "--raster",
         "compute",
@@ -1025,14 +864,8 @@ fn compute_raster_renders_the_gpu_paths_picture() {
         "4",
         "--size",
         "64x48",
-        "-o",
-        png.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    ];
+    let (_, v) = strata_to_with_stats(&args, &png, &stats);
     assert_eq!(v["k"], 4);
     assert_eq!(v["raster"], "compute");
     assert_bad_input(
@@ -1166,18 +999,6 @@ mod view {
             .unwrap();
     }
 
-    fn max_abs_diff(a: &Path, b: &Path) -> u64 {
-        let o = strata(&[
-            "compare",
-            a.to_str().unwrap(),
-            b.to_str().unwrap(),
-            "--json",
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        c["max_abs_diff"].as_u64().unwrap()
-    }
-
     #[test]
     fn view_screenshot_shows_the_render_of_the_same_view() {
         let dir = workdir("view");
@@ -1202,9 +1023,7 @@ mod view {
         let rendered = dir.join("render.png");
         let mut args = vec!["render"];
         args.extend(picture);
-        args.extend(["-o", rendered.to_str().unwrap()]);
-        let o = strata(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
+        strata_to(&args, &rendered);
         let d = max_abs_diff(&shown, &rendered);
         assert!(
             d <= 2,
@@ -1272,7 +1091,7 @@ mod view {
         let missing = dir.join("no/such/dir/w.png");
         let o = strata(&["view", "--screenshot", missing.to_str().unwrap()]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-        assert!(stderr(&o).contains("does not exist"), "{}", stderr(&o));
+        assert_contains(&stderr(&o), "does not exist");
         let o = strata(&["view", "--method", "reference"]);
         assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     }
@@ -1286,22 +1105,16 @@ fn regression(name: &str) -> String {
 fn method_auto_chooses_says_why_and_refuses_an_unknown_goal() {
     let dir = workdir("method-auto");
     let (out, stats) = (dir.join("auto.png"), dir.join("auto.json"));
-    let o = strata(&[
+    let args = [
         "render",
         "builtin:spheres?layers=2&segments=8",
         "--method",
         "auto:bounded",
         "--size",
         "32x32",
-        "-o",
-        out.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    ];
+    let (o, json) = strata_to_with_stats(&args, &out, &stats);
     assert!(stderr(&o).starts_with("method auto: "), "{}", stderr(&o));
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     let method = json["method"].as_str().unwrap();
     assert!(["kb-keys", "kplus-heap", "f2b"].contains(&method), "{json}");
     assert!(
@@ -1379,20 +1192,9 @@ fn loader_messages_name_the_file_the_element_and_what_was_expected() {
     // An mtllib naming a device is a warning and is never read.
     let dir = workdir("mtllib-device");
     let out = dir.join("out.png");
-    let o = strata(&[
-        "render",
-        &regression("obj_mtllib_device.obj"),
-        "--size",
-        "16x16",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("'/dev/zero' is not a regular file"),
-        "{}",
-        stderr(&o)
-    );
+    let scene = regression("obj_mtllib_device.obj");
+    let o = strata_to(&["render", &scene, "--size", "16x16"], &out);
+    assert_contains(&stderr(&o), "'/dev/zero' is not a regular file");
 }
 
 #[test]
@@ -1422,30 +1224,17 @@ blend = "multiply"
     )
     .unwrap();
     let png = dir.join("blend.png");
-    let o = strata(&[
-        "render",
-        scene.to_str().unwrap(),
-        "--method",
-        "tiled",
-        "--size",
-        "32x32",
-        "-o",
-        png.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let scene_arg = scene.to_str().unwrap();
+    strata_to(
+        &["render", scene_arg, "--method", "tiled", "--size", "32x32"],
+        &png,
+    );
     assert!(png.exists());
     let example = format!("{}/../../examples/blend.toml", env!("CARGO_MANIFEST_DIR"));
-    let o = strata(&[
-        "render",
-        &example,
-        "--method",
-        "kb-keys",
-        "--size",
-        "64x40",
-        "-o",
-        png.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    strata_to(
+        &["render", &example, "--method", "kb-keys", "--size", "64x40"],
+        &png,
+    );
     assert_bad_input(
         &["render", scene.to_str().unwrap(), "--method", "wboit"],
         "wboit cannot blend 'add' materials",
@@ -1470,17 +1259,11 @@ blend = "multiply"
     assert_bad_input(&["render", bad.to_str().unwrap()], "screen");
     // glTF cannot say add or multiply: export says so, and the file reads back the same.
     let glb = dir.join("blend.glb");
-    let o = strata(&[
-        "export",
-        scene.to_str().unwrap(),
-        "-o",
-        glb.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = strata_to(&["export", scene.to_str().unwrap()], &glb);
     let notes = stderr(&o);
-    assert!(
-        notes.contains("note: material 'glow' blends 'add', which glTF cannot express"),
-        "{notes}"
+    assert_contains(
+        &notes,
+        "note: material 'glow' blends 'add', which glTF cannot express",
     );
 }
 
@@ -1520,7 +1303,7 @@ fn outputs_never_replace_devices_or_directories_nor_appear_in_part() {
     // A directory is refused and left as it was.
     let o = run(&["-o", dir.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("it is a directory"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "it is a directory");
     assert_eq!(
         std::fs::read_dir(&dir).unwrap().count(),
         0,
@@ -1529,7 +1312,7 @@ fn outputs_never_replace_devices_or_directories_nor_appear_in_part() {
     // A device is refused and stays a device.
     let o = run(&["-o", "/dev/null"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("it is a device"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "it is a device");
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;
@@ -1539,24 +1322,15 @@ fn outputs_never_replace_devices_or_directories_nor_appear_in_part() {
     // A statistics file that cannot be written: no PNG either.
     let png = dir.join("a.png");
     let stats = dir.join("no-such-dir").join("s.json");
-    let o = run(&[
-        "-o",
-        png.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
+    let (png_arg, stats_arg) = (png.to_str().unwrap(), stats.to_str().unwrap());
+    let o = run(&["-o", png_arg, "--stats", stats_arg]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("does not exist"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "does not exist");
     assert!(!png.exists(), "the PNG appeared without its statistics");
     // Two outputs on one file.
-    let o = run(&[
-        "-o",
-        png.to_str().unwrap(),
-        "--stats",
-        png.to_str().unwrap(),
-    ]);
+    let o = run(&["-o", png_arg, "--stats", png_arg]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("same output file"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "same output file");
     // A symbolic link is written through: the link stays, its target gets the picture.
     #[cfg(unix)]
     {
@@ -1588,22 +1362,14 @@ fn outputs_never_replace_devices_or_directories_nor_appear_in_part() {
 fn a_4096_square_frame_renders() {
     let dir = workdir("4k");
     let out = dir.join("4k.png");
-    let stats = dir.join("4k.json");
-    let o = strata(&[
-        "render",
-        "builtin:spheres?layers=2&segments=8",
-        "--size",
-        "4096x4096",
-        "-o",
-        out.to_str().unwrap(),
-        "--stats",
-        stats.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let spheres = "builtin:spheres?layers=2&segments=8";
+    let (o, stats) = strata_to_with_stats(
+        &["render", spheres, "--size", "4096x4096"],
+        &out,
+        &dir.join("4k.json"),
+    );
     let img = image::open(&out).unwrap();
     assert_eq!((img.width(), img.height()), (4096, 4096));
-    let stats: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     assert_eq!(stats["width"], 4096);
     assert_eq!(stats["height"], 4096);
     assert_eq!(stats["fragments_dropped"], 0);
@@ -1619,7 +1385,7 @@ fn a_4096_square_frame_renders() {
 fn convex_reports_the_decomposition_and_renders_its_pieces() {
     let dir = workdir("convex");
     let out = dir.join("pieces.png");
-    let o = strata(&[
+    let o = strata_ok(&[
         "convex",
         "builtin:spheres?layers=8&segments=16",
         "--size",
@@ -1628,7 +1394,6 @@ fn convex_reports_the_decomposition_and_renders_its_pieces() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(report["decomposition"]["parts"], 4);
     assert_eq!(report["decomposition"]["nested"], 6);
@@ -1638,14 +1403,12 @@ fn convex_reports_the_decomposition_and_renders_its_pieces() {
     let img = image::open(&out).unwrap().to_rgba8();
     assert_eq!(img.dimensions(), (48, 48));
     let missing = dir.join("missing.png");
-    let o = strata(&[
+    strata_refused(&[
         "convex",
         "no-such-model.obj",
         "--out",
         missing.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
     assert!(!missing.exists());
 }
 
@@ -1657,7 +1420,7 @@ fn convex_decompositions_persist_in_the_cache_dir() {
     let cache = dir.join("cache");
     let _ = std::fs::remove_dir_all(&cache);
     let decompose = || {
-        let o = strata(&[
+        let o = strata_ok(&[
             "convex",
             "builtin:teapot",
             "--size",
@@ -1666,7 +1429,6 @@ fn convex_decompositions_persist_in_the_cache_dir() {
             "--cache-dir",
             cache.to_str().unwrap(),
         ]);
-        assert!(o.status.success(), "{}", stderr(&o));
         serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
     };
     let made = decompose();
@@ -1682,26 +1444,26 @@ fn convex_decompositions_persist_in_the_cache_dir() {
 
     let render = |name: &str| {
         let out = dir.join(name);
-        let o = strata(&[
-            "render",
-            "builtin:teapot",
-            "--method",
-            "convex",
-            "--size",
-            "32x32",
-            "--cache-dir",
-            cache.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
+        strata_to(
+            &[
+                "render",
+                "builtin:teapot",
+                "--method",
+                "convex",
+                "--size",
+                "32x32",
+                "--cache-dir",
+                cache.to_str().unwrap(),
+            ],
+            &out,
+        );
         image::open(&out).unwrap().to_rgba8()
     };
     assert_eq!(render("a.png"), render("b.png"));
 
     let not_a_dir = dir.join("a.png");
     let out = dir.join("never.png");
-    let o = strata(&[
+    let o = strata_refused(&[
         "render",
         "builtin:teapot",
         "--method",
@@ -1711,9 +1473,7 @@ fn convex_decompositions_persist_in_the_cache_dir() {
         "-o",
         out.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
-    assert!(stderr(&o).contains("--cache-dir"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "--cache-dir");
     assert!(!out.exists());
 }
 
@@ -1725,19 +1485,7 @@ fn bench_all_runs_the_suite_and_bench_compare_finds_nothing_moved_in_a_rerun_of_
     let dir = workdir("bench-all");
     let out = dir.join("results");
     let _ = std::fs::remove_dir_all(&out);
-    let o = strata(&[
-        "bench",
-        "all",
-        "--only",
-        "foundation,deferred-lights",
-        "--frames",
-        "1",
-        "--size",
-        "24x24",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    bench_smallest(&["all", "--only", "foundation,deferred-lights"], &out);
     for name in ["foundation", "deferred-lights"] {
         assert!(out.join(format!("{name}.json")).exists(), "{name}");
     }
@@ -1759,8 +1507,7 @@ fn bench_all_runs_the_suite_and_bench_compare_finds_nothing_moved_in_a_rerun_of_
     // A run compared with itself: every figure compared, none moved.
     let foundation = out.join("foundation.json");
     let f = foundation.to_str().unwrap();
-    let o = strata(&["bench", "compare", f, f, "--repeat", f, "--json"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let o = strata_ok(&["bench", "compare", f, f, "--repeat", f, "--json"]);
     let c: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(c["experiment"], "foundation");
     assert!(c["figures_compared"].as_u64().unwrap() > 20);
@@ -1774,9 +1521,7 @@ fn bench_all_runs_the_suite_and_bench_compare_finds_nothing_moved_in_a_rerun_of_
         vec!["bench", "compare", f, deferred.to_str().unwrap()],
         vec!["bench", "foundation", f],
     ] {
-        let o = strata(&args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
-        assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+        strata_refused(&args);
     }
 
     for args in [
@@ -1791,10 +1536,31 @@ fn bench_all_runs_the_suite_and_bench_compare_finds_nothing_moved_in_a_rerun_of_
         ][..],
         &["bench", "foundation", "--only", "foundation"][..],
     ] {
-        let o = strata(args);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
-        assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+        strata_refused(args);
     }
+}
+
+/// Runs `strata bench ARGS` at its smallest (one frame of 24x24) with results in `out`, which
+/// must succeed.
+#[track_caller]
+fn bench_smallest(args: &[&str], out: &Path) {
+    let mut all = vec!["bench"];
+    all.extend(args);
+    all.extend([
+        "--frames",
+        "1",
+        "--size",
+        "24x24",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    strata_ok(&all);
+}
+
+/// `strata report`'s arguments: the results in folder `results`, the report written to `out`.
+fn report_args<'a>(results: &'a Path, out: &'a Path) -> [&'a str; 5] {
+    let (results, out) = (results.to_str().unwrap(), out.to_str().unwrap());
+    ["report", "--results", results, "--out", out]
 }
 
 /// `bench bandwidth` probes the device and puts every GPU method against its memory-traffic
@@ -1804,19 +1570,8 @@ fn bench_bandwidth_measures_rates_and_floors_and_the_report_shows_them() {
     let dir = workdir("bandwidth");
     let _ = std::fs::remove_dir_all(&dir);
     let out = dir.join("results/lavapipe");
-    let o = strata(&[
-        "bench",
-        "bandwidth",
-        "--frames",
-        "1",
-        "--size",
-        "24x24",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("bandwidth.json")).unwrap()).unwrap();
+    bench_smallest(&["bandwidth"], &out);
+    let v = read_json(&out.join("bandwidth.json"));
     for rate in [
         "copy_gb_per_s",
         "stream_gb_per_s",
@@ -1855,25 +1610,12 @@ fn bench_bandwidth_measures_rates_and_floors_and_the_report_shows_them() {
         assert!((ratio - ms / floor).abs() <= 1e-9 * ratio, "{row}");
     }
     let report = dir.join("REPORT.md");
-    let o = strata(&[
-        "report",
-        "--results",
-        dir.join("results").to_str().unwrap(),
-        "--out",
-        report.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    strata_ok(&report_args(&dir.join("results"), &report));
     let text = std::fs::read_to_string(&report).unwrap();
-    assert!(
-        text.contains("| device | copy GB/s | stream GB/s |"),
-        "{text}"
-    );
-    assert!(
-        text.contains("measured GPU time / memory-traffic floor"),
-        "{text}"
-    );
+    assert_contains(&text, "| device | copy GB/s | stream GB/s |");
+    assert_contains(&text, "measured GPU time / memory-traffic floor");
     // One scene on a CPU adapter ("| abuffer-ll |"), two on a GPU ("| dragon · abuffer-ll |").
-    assert!(text.contains(" abuffer-ll |"), "{text}");
+    assert_contains(&text, " abuffer-ll |");
     assert!(dir.join("charts/bandwidth.png").exists());
 }
 
@@ -1904,15 +1646,8 @@ fn report_refreshes_generated_blocks_and_keeps_the_prose() {
     let report = dir.join("REPORT.md");
     let prose = "# Benchmark report\n\nhand-written intro\n\n## kbuffer-k — seed 003 Fig. 6\nwhat the figure shows\n\n## scale\nmore prose\n";
     std::fs::write(&report, prose).unwrap();
-    let args = [
-        "report",
-        "--results",
-        results.to_str().unwrap(),
-        "--out",
-        report.to_str().unwrap(),
-    ];
-    let o = strata(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
+    let args = report_args(&results, &report);
+    strata_ok(&args);
     let first = std::fs::read_to_string(&report).unwrap();
     for line in prose.lines() {
         assert!(first.lines().any(|l| l == line), "lost: {line}");
@@ -1934,19 +1669,10 @@ fn report_refreshes_generated_blocks_and_keeps_the_prose() {
     assert!(png.pixels().any(|p| p.0 != [255, 255, 255]));
     assert!(first.contains("<!-- strata report: claims -->"));
     assert!(first.contains("| 003 Fig. 6 | k = 64, 128 layers: K+B-Heap 3.5×"));
-    let o = strata(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
+    strata_ok(&args);
     assert_eq!(std::fs::read_to_string(&report).unwrap(), first);
 
-    let o = strata(&[
-        "report",
-        "--results",
-        dir.join("none").to_str().unwrap(),
-        "--out",
-        report.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert_eq!(stderr(&o).trim().lines().count(), 1, "{}", stderr(&o));
+    strata_refused(&report_args(&dir.join("none"), &report));
     assert_eq!(std::fs::read_to_string(&report).unwrap(), first);
 }
 
@@ -1984,8 +1710,7 @@ fn exported_gltf_renders_the_same_picture() {
         let exported = dir.join(name);
         let mut args = vec!["export", scene, "-o", exported.to_str().unwrap()];
         args.extend(export_args);
-        let o = strata(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
+        strata_ok(&args);
         let (direct, reloaded) = (
             dir.join(format!("{name}.direct.png")),
             dir.join(format!("{name}.png")),
@@ -2022,7 +1747,7 @@ fn fixed_layers_peel_once() {
     let cascade = String::from_utf8_lossy(&info.stdout).contains("SHADER_INT64_ATOMIC_ALL_OPS");
     let kpeel_passes = if cascade { 2 } else { 1 };
     for (method, passes) in [("f2b", 2), ("dual", 2), ("kpeel", kpeel_passes)] {
-        let o = strata(&[
+        let args = [
             "render",
             "builtin:layers?n=8",
             "--size",
@@ -2031,14 +1756,8 @@ fn fixed_layers_peel_once() {
             method,
             "--layers",
             "2",
-            "-o",
-            out.to_str().unwrap(),
-            "--stats",
-            stats.to_str().unwrap(),
-        ]);
-        assert!(o.status.success(), "{method}: {}", stderr(&o));
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        ];
+        let (_, v) = strata_to_with_stats(&args, &out, &stats);
         assert_eq!(v["geometry_passes"], passes, "{method}: {v}");
         // Two layers kept, the rest dropped (kpeel's k of 8 keeps all 8).
         let count = |key: &str| v[key].as_u64().unwrap();
@@ -2080,11 +1799,7 @@ fn a_webgl2_device_renders_with_depth_peeling() {
         "webgl2",
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("is a downlevel device"),
-        "{}",
-        stderr(&o)
-    );
+    assert_contains(&stderr(&o), "is a downlevel device");
     assert!(
         stderr(&o)
             .contains("note: the scene's pipeline (deferred) does not run on a downlevel device"),
@@ -2143,12 +1858,11 @@ fn a_webgl2_device_renders_with_depth_peeling() {
         "webgl2",
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("wboit: 32x32"), "{}", stderr(&o));
+    assert_contains(&stderr(&o), "wboit: 32x32");
     let o = run(&["render", "-o", &path("no.png")], "webgl3");
     assert_eq!(o.status.code(), Some(2));
-    assert!(
-        stderr(&o).contains("STRATA_LIMITS='webgl3' is not one of: adapter, webgl2"),
-        "{}",
-        stderr(&o)
+    assert_contains(
+        &stderr(&o),
+        "STRATA_LIMITS='webgl3' is not one of: adapter, webgl2",
     );
 }

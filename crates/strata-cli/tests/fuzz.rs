@@ -17,6 +17,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
 /// Address space a `strata` process may use (`prlimit --as`): inputs are small, so anything
 /// near this is a blow-up.
 const MEMORY_BOUND: u64 = 4 << 30;
@@ -297,11 +299,7 @@ fn run(case: &Case, out: &Path) -> Result<(), String> {
 }
 
 fn workdir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("fuzz")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::workdir("fuzz", name);
     // Mutated files sit beside copies of what the fixtures refer to (.mtl, .bin).
     for entry in std::fs::read_dir(fixtures_dir()).unwrap() {
         let path = entry.unwrap().path();

@@ -181,15 +181,14 @@ fn csv(r: &Report) -> String {
 
 fn print(r: &Report) {
     let d = &r.device;
-    println!(
-        "bandwidth on {}: copy {:.1} GB/s, stream {:.1} GB/s; atomics (G/s) distinct {:.3}, {} per word {:.3}, one word {:.4}",
-        r.header.device(),
+    r.header.print_heading(format_args!(
+        "copy {:.1} GB/s, stream {:.1} GB/s; atomics (G/s) distinct {:.3}, {} per word {:.3}, one word {:.4}",
         d.copy_gb_per_s,
         d.stream_gb_per_s,
         d.atomics_distinct_g_per_s,
         bandwidth::FRAGMENTS_PER_PIXEL,
         d.atomics_per_pixel_g_per_s,
         d.atomics_one_word_g_per_s
-    );
+    ));
     print_rows(&columns(), &r.rows, |row| row.skipped.clone());
 }

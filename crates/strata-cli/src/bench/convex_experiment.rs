@@ -410,14 +410,12 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    println!(
-        "convex on {}: models at {}x{} (median over views), layered spheres at {}x{}",
-        r.header.device(),
-        r.header.width,
-        r.header.height,
+    r.header.print_heading(format_args!(
+        "models at {} (median over views), layered spheres at {}x{}",
+        r.header.size(),
         r.stack_size.0,
         r.stack_size.1
-    );
+    ));
     print_rows(&columns(), &r.rows, |_| None);
     println!(
         "{:<44} {:>8} {:>8} {:>8} {:>8}",

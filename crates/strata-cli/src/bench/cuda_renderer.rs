@@ -276,13 +276,11 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    println!(
-        "cuda-renderer on {}: {}x{}, median of {} frames",
-        r.header.device(),
-        r.header.width,
-        r.header.height,
+    r.header.print_heading(format_args!(
+        "{}, median of {} frames",
+        r.header.size(),
         r.frames
-    );
+    ));
     for rows in r.rows.chunk_by(|a, b| a.scene == b.scene) {
         println!("{} ({} triangles)", rows[0].scene, rows[0].triangles);
         print_rows(&columns(), rows, |row| row.error.clone());

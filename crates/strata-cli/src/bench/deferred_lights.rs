@@ -179,14 +179,12 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    println!(
-        "deferred-lights on {}: {} triangles at {}x{}, median of {} frames",
-        r.header.device(),
+    r.header.print_heading(format_args!(
+        "{} triangles at {}, median of {} frames",
         r.triangles,
-        r.header.width,
-        r.header.height,
+        r.header.size(),
         r.frames
-    );
+    ));
     println!(
         "{:>7} {:>12} {:>12} {:>8}",
         "lights", "forward ms", "deferred ms", "drawn"

@@ -100,6 +100,16 @@ impl Header {
     pub(crate) fn device(&self) -> String {
         self.provenance.device()
     }
+
+    /// The pictures' size as a heading writes it: WxH.
+    pub(crate) fn size(&self) -> String {
+        format!("{}x{}", self.width, self.height)
+    }
+
+    /// Prints the experiment's heading: "NAME on DEVICE: " and `details`.
+    pub(crate) fn print_heading(&self, details: std::fmt::Arguments) {
+        println!("{} on {}: {details}", self.experiment, self.device());
+    }
 }
 
 pub(crate) fn unix_time() -> u64 {

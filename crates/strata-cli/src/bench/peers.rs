@@ -75,7 +75,7 @@ struct PeerRun {
 
 /// Every peer configuration of the comparison, each with its harness found (or not).
 fn peer_runs(peers: &Path) -> Vec<PeerRun> {
-    let python = pygfx_python(peers).map(|python| {
+    let python = PYGFX_PYTHON.find(peers).map(|python| {
         (
             python,
             vec![peers.join("pygfx_oit.py").to_string_lossy().into_owned()],
@@ -91,7 +91,9 @@ fn peer_runs(peers: &Path) -> Vec<PeerRun> {
             label: format!("pygfx {mode}"),
         })
         .collect();
-    let bevy = bevy_harness(peers).map(|program| (program, Vec::new()));
+    let bevy = BEVY_HARNESS
+        .find(peers)
+        .map(|program| (program, Vec::new()));
     // Bevy's defaults (its fragment pool holds 4 fragments per pixel on average: deeper scenes
     // lose fragments), and a pool deep enough for the scenes here.
     for fragments_per_pixel in [None, Some(BEVY_DEEP_POOL)] {
@@ -112,19 +114,49 @@ fn peer_runs(peers: &Path) -> Vec<PeerRun> {
     runs
 }
 
+/// Where a peer's program is found: the path in environment variable `var`, else `built` under
+/// the peers' folder when that is a file.
+struct PeerProgram {
+    var: &'static str,
+    built: &'static str,
+    /// What the error says is missing, and the arguments of the `setup` that makes it.
+    missing: &'static str,
+    setup_args: &'static str,
+}
+
+/// The Python that has pygfx: `STRATA_PEERS_PYTHON`, else `peers/.venv/bin/python`.
+const PYGFX_PYTHON: PeerProgram = PeerProgram {
+    var: "STRATA_PEERS_PYTHON",
+    built: ".venv/bin/python",
+    missing: "pygfx is not installed",
+    setup_args: "",
+};
+
 /// Bevy's harness: `STRATA_BEVY_OIT`, else `peers/bevy-oit/target/release/bevy-oit`.
-fn bevy_harness(peers: &Path) -> std::result::Result<PathBuf, String> {
-    if let Some(p) = std::env::var_os("STRATA_BEVY_OIT") {
-        return Ok(PathBuf::from(p));
-    }
-    let built = peers.join("bevy-oit/target/release/bevy-oit");
-    if built.is_file() {
-        Ok(built)
-    } else {
-        Err(format!(
-            "Bevy's harness is not built: run {}/setup --bevy (or set STRATA_BEVY_OIT)",
-            peers.display()
-        ))
+const BEVY_HARNESS: PeerProgram = PeerProgram {
+    var: "STRATA_BEVY_OIT",
+    built: "bevy-oit/target/release/bevy-oit",
+    missing: "Bevy's harness is not built",
+    setup_args: " --bevy",
+};
+
+impl PeerProgram {
+    fn find(&self, peers: &Path) -> std::result::Result<PathBuf, String> {
+        if let Some(p) = std::env::var_os(self.var) {
+            return Ok(PathBuf::from(p));
+        }
+        let built = peers.join(self.built);
+        if built.is_file() {
+            Ok(built)
+        } else {
+            Err(format!(
+                "{}: run {}/setup{} (or set {})",
+                self.missing,
+                peers.display(),
+                self.setup_args,
+                self.var
+            ))
+        }
     }
 }
 
@@ -208,22 +240,6 @@ fn peers_dir() -> PathBuf {
         return here;
     }
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../peers")
-}
-
-/// The Python that has pygfx: `STRATA_PEERS_PYTHON`, else `peers/.venv/bin/python`.
-fn pygfx_python(peers: &Path) -> std::result::Result<PathBuf, String> {
-    if let Some(p) = std::env::var_os("STRATA_PEERS_PYTHON") {
-        return Ok(PathBuf::from(p));
-    }
-    let venv = peers.join(".venv/bin/python");
-    if venv.is_file() {
-        Ok(venv)
-    } else {
-        Err(format!(
-            "pygfx is not installed: run {}/setup (or set STRATA_PEERS_PYTHON)",
-            peers.display()
-        ))
-    }
 }
 
 pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path) -> Result<()> {
@@ -464,13 +480,11 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    println!(
-        "peers on {}: {}x{}, background {}, median of {} frames",
-        r.header.device(),
-        r.header.width,
-        r.header.height,
+    r.header.print_heading(format_args!(
+        "{}, background {}, median of {} frames",
+        r.header.size(),
         r.background,
         r.frames
-    );
+    ));
     print_rows(&columns(), &r.rows, |row| row.skipped.clone());
 }

@@ -189,14 +189,12 @@ fn csv(r: &Report) -> String {
 }
 
 fn print(r: &Report) {
-    println!(
-        "scale on {}: {} at {}x{}, median of {} frames",
-        r.header.device(),
+    r.header.print_heading(format_args!(
+        "{} at {}, median of {} frames",
         r.method,
-        r.header.width,
-        r.header.height,
+        r.header.size(),
         r.frames
-    );
+    ));
     print_rows(&columns(), &r.rows, |_| None);
 }
 

@@ -13,26 +13,34 @@ use super::{DeviceResults, Point};
 /// Size of a sweep chart in pixels.
 const SWEEP_SIZE: (u32, u32) = (900, 520);
 
-/// A line chart of time over the sweep (one line per series and device) as an SVG at `path`
-/// and a PNG beside it.
-pub(super) fn sweep_chart(
-    path: &Path,
-    title: &str,
-    (axis, unit): (&str, &str),
-    data: &[(&DeviceResults, Vec<Point>)],
-) -> Result<()> {
-    svg_and_png(Kind::Sweep { axis }, path, SWEEP_SIZE, (title, unit), data)
-}
-
 /// The kinds of chart, each drawn on any plotters backend.
 #[derive(Clone, Copy)]
-enum Kind<'a> {
-    /// Lines over a sweep whose x axis is `axis`.
-    Sweep {
-        axis: &'a str,
-    },
+pub(super) enum Kind<'a> {
+    /// A line chart of time over the sweep whose x axis is `axis` (one line per series and
+    /// device).
+    Sweep { axis: &'a str },
+    /// A bar per row (devices side by side), the figure on a log axis titled by the unit.
     Bars,
+    /// Error against time: one panel per scene (a row's name before " · "), each run a labelled
+    /// point at its figure (x, log) and its RMSE against the reference (y, log), a color per
+    /// device. Runs without an error or a positive RMSE are left out.
     Errors,
+}
+
+/// Draws a chart of `kind` titled `title`, its figure's axis `unit`, as an SVG at `path` and a
+/// PNG beside it.
+pub(super) fn chart(
+    kind: Kind<'_>,
+    path: &Path,
+    (title, unit): (&str, &str),
+    data: &[(&DeviceResults, Vec<Point>)],
+) -> Result<()> {
+    let size = match kind {
+        Kind::Sweep { .. } => SWEEP_SIZE,
+        Kind::Bars => bar_chart_size(title, data)?,
+        Kind::Errors => ERROR_CHART_SIZE,
+    };
+    svg_and_png(kind, path, size, (title, unit), data)
 }
 
 fn draw_on<DB: DrawingBackend>(
@@ -174,23 +182,16 @@ pub(super) fn sweep_chart_on<DB: DrawingBackend>(
 /// Pixels of one device's bar.
 const BAR_PX: u32 = 12;
 
-/// A bar per row (devices side by side), the figure on a log axis titled `unit`, as an SVG at
-/// `path` and a PNG beside it.
-pub(super) fn bar_chart(
-    path: &Path,
-    title: &str,
-    unit: &str,
-    data: &[(&DeviceResults, Vec<Point>)],
-) -> Result<()> {
+/// Size of a bar chart in pixels: a bar per row and device (no rows: an error).
+fn bar_chart_size(title: &str, data: &[(&DeviceResults, Vec<Point>)]) -> Result<(u32, u32)> {
     let names = row_names(data);
     if names.is_empty() {
         return Err(Error::input(format!("{title}: nothing to chart")));
     }
-    let size = (
+    Ok((
         1000,
         100 + names.len() as u32 * (8 + BAR_PX * data.len() as u32),
-    );
-    svg_and_png(Kind::Bars, path, size, (title, unit), data)
+    ))
 }
 
 /// Every row's name over the devices, in the results' order.
@@ -278,18 +279,6 @@ pub(super) fn bar_chart_on<DB: DrawingBackend>(
 
 /// Size of an error chart in pixels.
 const ERROR_CHART_SIZE: (u32, u32) = (1400, 1100);
-
-/// Error against time: one panel per scene (a row's name before " · "), each run a labelled
-/// point at its figure (x, log) and its RMSE against the reference (y, log), a color per device;
-/// as an SVG at `path` and a PNG beside it. Runs without an error or a positive RMSE are left out.
-pub(super) fn error_chart(
-    path: &Path,
-    title: &str,
-    unit: &str,
-    data: &[(&DeviceResults, Vec<Point>)],
-) -> Result<()> {
-    svg_and_png(Kind::Errors, path, ERROR_CHART_SIZE, (title, unit), data)
-}
 
 /// A point's scene and run: its name split at the first " · " (no scene: "").
 pub(super) fn scene_and_run(name: &str) -> (&str, &str) {

@@ -18,7 +18,7 @@ mod charts;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use charts::{bar_chart, error_chart, register_chart_font, sweep_chart};
+use charts::{chart, register_chart_font, Kind};
 use clap::Args;
 use serde_json::Value;
 use strata::error::{Error, Result};
@@ -565,15 +565,12 @@ pub fn run(a: ReportArgs) -> Result<()> {
             continue;
         }
         let svg = charts.join(format!("{name}.svg"));
-        match sweep {
-            Some((_, axis)) => sweep_chart(
-                &svg,
-                name,
-                (axis, &format!("{} (log)", figure(name).1)),
-                &data,
-            )?,
-            None => bar_chart(&svg, name, &format!("{} (log)", figure(name).1), &data)?,
-        }
+        let unit = format!("{} (log)", figure(name).1);
+        let kind = match sweep {
+            Some((_, axis)) => Kind::Sweep { axis },
+            None => Kind::Bars,
+        };
+        chart(kind, &svg, (name, &unit), &data)?;
         let base = a.out.parent().unwrap_or(Path::new("."));
         let relative = pathdiff(&svg, base);
         let errors = if data
@@ -581,7 +578,7 @@ pub fn run(a: ReportArgs) -> Result<()> {
             .any(|(_, points)| points.iter().any(|p| p.error.is_some_and(|e| e[0] > 0.0)))
         {
             let path = charts.join(format!("{name}-error.svg"));
-            error_chart(&path, name, &format!("{} (log)", figure(name).1), &data)?;
+            chart(Kind::Errors, &path, (name, &unit), &data)?;
             Some(pathdiff(&path, base))
         } else {
             None
@@ -753,7 +750,7 @@ mod tests {
         )];
         let svg = dir.join("e.svg");
         register_chart_font().unwrap();
-        error_chart(&svg, "test", "ms (log)", &data).unwrap();
+        chart(Kind::Errors, &svg, ("test", "ms (log)"), &data).unwrap();
         assert!(std::fs::read_to_string(&svg).unwrap().contains("two"));
         assert!(svg.with_extension("png").exists());
         let _ = std::fs::remove_dir_all(&dir);
