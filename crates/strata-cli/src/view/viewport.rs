@@ -365,7 +365,7 @@ impl Blit {
         };
         let params = gpu.buffer_with(
             "strata.view.blit",
-            bytemuck::bytes_of(&blit),
+            std::slice::from_ref(&blit),
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         Blit {

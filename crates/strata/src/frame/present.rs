@@ -106,11 +106,7 @@ impl Present {
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
-            colormap: gpu.buffer_with(
-                "strata.present.colormap",
-                bytemuck::cast_slice(&lut),
-                wgpu::BufferUsages::STORAGE,
-            ),
+            colormap: gpu.buffer_with("strata.present.colormap", &lut, wgpu::BufferUsages::STORAGE),
         }
     }
 

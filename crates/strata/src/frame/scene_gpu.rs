@@ -139,7 +139,6 @@ impl SceneGpu {
             vertices.push(GpuVertex::default());
             triangle_materials.push(0);
         }
-        let init = |label: &str, contents: &[u8], usage| gpu.buffer_with(label, contents, usage);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let mut materials: Vec<_> = scene.materials.iter().map(uniforms::gpu_material).collect();
         if materials.is_empty() {
@@ -157,29 +156,21 @@ impl SceneGpu {
             triangle_count,
             // STORAGE for the compute rasterizer, which reads it as floats, and the animation,
             // which writes it.
-            vertices: init(
+            vertices: gpu.buffer_with(
                 "strata.scene.vertices",
-                bytemuck::cast_slice(&vertices),
+                &vertices,
                 wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC | storage,
             ),
-            triangle_materials: init(
+            triangle_materials: gpu.buffer_with(
                 "strata.scene.triangle_materials",
-                bytemuck::cast_slice(&triangle_materials),
+                &triangle_materials,
                 storage,
             ),
-            materials: init(
-                "strata.scene.materials",
-                bytemuck::cast_slice(&materials),
-                storage,
-            ),
-            lights: init(
-                "strata.scene.lights",
-                bytemuck::cast_slice(&lights),
-                storage,
-            ),
-            uniforms: init(
+            materials: gpu.buffer_with("strata.scene.materials", &materials, storage),
+            lights: gpu.buffer_with("strata.scene.lights", &lights, storage),
+            uniforms: gpu.buffer_with(
                 "strata.frame.uniforms",
-                bytemuck::bytes_of(&u),
+                std::slice::from_ref(&u),
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
             totals: gpu.storage_buffer(

@@ -173,7 +173,7 @@ impl<'g> Probes<'g> {
         let words: Vec<u32> = (0..(sizes.copy_bytes / 4) as u32).map(pattern).collect();
         let source = gpu.buffer_with(
             "strata.bandwidth.source",
-            bytemuck::cast_slice(&words),
+            &words,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         );
         let destination = gpu.storage_buffer(
@@ -270,7 +270,7 @@ impl<'g> Probes<'g> {
     fn bind(&self, params: ProbeParams) -> wgpu::BindGroup {
         let uniform = self.gpu.buffer_with(
             "strata.bandwidth.params",
-            bytemuck::bytes_of(&params),
+            std::slice::from_ref(&params),
             wgpu::BufferUsages::UNIFORM,
         );
         crate::gpu::binding::group(

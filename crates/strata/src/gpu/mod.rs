@@ -293,17 +293,17 @@ impl Gpu {
     }
 
     /// A buffer holding `contents` (`usage` as given: add COPY_DST to write it again).
-    pub fn buffer_with(
+    pub fn buffer_with<T: bytemuck::NoUninit>(
         &self,
         label: &str,
-        contents: &[u8],
+        contents: &[T],
         usage: wgpu::BufferUsages,
     ) -> wgpu::Buffer {
         wgpu::util::DeviceExt::create_buffer_init(
             &self.device,
             &wgpu::util::BufferInitDescriptor {
                 label: Some(label),
-                contents,
+                contents: bytemuck::cast_slice(contents),
                 usage,
             },
         )

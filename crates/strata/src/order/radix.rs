@@ -128,7 +128,7 @@ impl RadixSort {
                 };
                 let uniform = gpu.buffer_with(
                     &format!("strata.{label}.pass{p}"),
-                    bytemuck::bytes_of(&pass),
+                    std::slice::from_ref(&pass),
                     wgpu::BufferUsages::UNIFORM,
                 );
                 let (from, to) = (p % 2, 1 - p % 2);

@@ -282,7 +282,7 @@ impl Convex {
         );
         let merge_args_reset = gpu.buffer_with(
             "strata.convex.merge_args_reset",
-            bytemuck::cast_slice(&[0u32, 1, 1, 0]),
+            &[0u32, 1, 1, 0],
             wgpu::BufferUsages::COPY_SRC,
         );
         let [capture_stage, merge_stage] = stages(layers);

@@ -232,8 +232,6 @@ impl DownlevelFrame {
             )));
         }
         crate::gpu::validated(gpu, &format!("{method} (downlevel)"), || {
-            let init =
-                |label: &str, contents: &[u8], usage| gpu.buffer_with(label, contents, usage);
             let mut vertices = list.vertices.clone();
             let mut vertex_materials: Vec<u32> =
                 list.materials.iter().flat_map(|&m| [m; 3]).collect();
@@ -342,31 +340,23 @@ impl DownlevelFrame {
                 method,
                 wboit,
                 triangle_count: list.materials.len() as u32,
-                vertices: init(
-                    "strata.f2b_downlevel.vertices",
-                    bytemuck::cast_slice(&vertices),
-                    vertex_usage,
-                ),
-                vertex_materials: init(
+                vertices: gpu.buffer_with("strata.f2b_downlevel.vertices", &vertices, vertex_usage),
+                vertex_materials: gpu.buffer_with(
                     "strata.f2b_downlevel.vertex_materials",
-                    bytemuck::cast_slice(&vertex_materials),
+                    &vertex_materials,
                     vertex_usage,
                 ),
-                uniforms: init(
+                uniforms: gpu.buffer_with(
                     "strata.f2b_downlevel.uniforms",
-                    bytemuck::bytes_of(&u),
+                    std::slice::from_ref(&u),
                     uniform_usage,
                 ),
-                materials: init(
+                materials: gpu.buffer_with(
                     "strata.f2b_downlevel.materials",
-                    bytemuck::cast_slice(&materials),
+                    &materials,
                     uniform_usage,
                 ),
-                lights: init(
-                    "strata.f2b_downlevel.lights",
-                    bytemuck::cast_slice(&lights),
-                    uniform_usage,
-                ),
+                lights: gpu.buffer_with("strata.f2b_downlevel.lights", &lights, uniform_usage),
                 options: options.clone(),
                 lighting,
                 blend_modes,
