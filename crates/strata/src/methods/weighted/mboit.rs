@@ -416,12 +416,7 @@ impl Method for Mboit {
             .wavelet
             .is_some()
             .then(|| view("strata.wavelet.bounds", BOUNDS_FORMAT));
-        let counts = self.cache.storage(
-            gpu,
-            "strata.mboit.counts",
-            ctx.pixels() * 4,
-            wgpu::BufferUsages::empty(),
-        )?;
+        let counts = super::pixel_counts(ctx, &mut self.cache, "strata.mboit.counts")?;
         let params = MboitParams {
             bias: moment_bias(moments),
             overestimation: OVERESTIMATION,
@@ -465,7 +460,6 @@ impl Method for Mboit {
                 texture(bounds_view.as_ref().unwrap_or(&b0)),
             ],
         );
-        ctx.encoder.clear_buffer(&counts, 0, None);
         let zero = wgpu::Color::TRANSPARENT;
         let frame_group = ctx.frame_group;
         let mut passes = 2;

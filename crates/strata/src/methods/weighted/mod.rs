@@ -149,6 +149,23 @@ pub fn composite_stage(samples: u32) -> Stage {
         .defs(&shader::target_samples(samples))
 }
 
+/// The per-pixel fragment counts of this frame, zeroed: the geometry pass adds to them, the
+/// composite reads them.
+fn pixel_counts(
+    ctx: &mut FrameContext<'_>,
+    cache: &mut ResourceCache,
+    label: &'static str,
+) -> Result<wgpu::Buffer> {
+    let counts = cache.storage(
+        ctx.gpu,
+        label,
+        ctx.pixels() * 4,
+        wgpu::BufferUsages::empty(),
+    )?;
+    ctx.encoder.clear_buffer(&counts, 0, None);
+    Ok(counts)
+}
+
 /// A weighted composite over every pixel (compute): the fragment counts and two accumulation
 /// targets (multisampled with `--msaa`) into the frame's output.
 struct Composite {
@@ -228,12 +245,7 @@ impl Method for Wboit {
                 self.samples,
             )
             .create_view(&Default::default());
-        let counts = self.cache.storage(
-            gpu,
-            "strata.wboit.counts",
-            ctx.pixels() * 4,
-            wgpu::BufferUsages::empty(),
-        )?;
+        let counts = pixel_counts(ctx, &mut self.cache, "strata.wboit.counts")?;
         let params = WboitParams {
             weight: ctx.options.frame.weighted.weight.index(),
             depth_scale: ctx.options.frame.weighted.depth_scale as f32,
@@ -248,7 +260,6 @@ impl Method for Wboit {
             &self.accumulate_layout,
             &[params.as_entire_binding(), counts.as_entire_binding()],
         );
-        ctx.encoder.clear_buffer(&counts, 0, None);
         let frame_group = ctx.frame_group;
         color_geometry_pass(
             ctx,

@@ -176,12 +176,7 @@ impl Method for Stochastic {
             target,
         );
         let total = view("strata.stochastic.total", TOTAL_FORMAT, target);
-        let counts = self.cache.storage(
-            gpu,
-            "strata.stochastic.counts",
-            ctx.pixels() * 4,
-            wgpu::BufferUsages::empty(),
-        )?;
+        let counts = super::pixel_counts(ctx, &mut self.cache, "strata.stochastic.counts")?;
         // One parameter block per pass, each at an offset uniform bindings may start at.
         let mut blocks = vec![0u8; (stride * passes as u64) as usize];
         for pass in 0..passes {
@@ -211,7 +206,6 @@ impl Method for Stochastic {
                 )
             })
             .collect();
-        ctx.encoder.clear_buffer(&counts, 0, None);
         let frame_group = ctx.frame_group;
         for (pass, group) in pass_groups.iter().enumerate() {
             let groups = [frame_group, group];
