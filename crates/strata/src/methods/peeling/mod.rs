@@ -266,50 +266,19 @@ impl Method for FrontToBack {
         let samples = self.samples;
         ctx.check_budget(ctx.pixels() * f2b_pixel_bytes(samples))?;
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let color = self
-            .cache
-            .texture_samples(
-                gpu,
-                "strata.f2b.layer.color",
-                (w, h),
-                COLOR_FORMAT,
-                usage,
-                samples,
-            )
-            .create_view(&Default::default());
-        let tag = self
-            .cache
-            .texture_samples(
-                gpu,
-                "strata.f2b.layer.tag",
-                (w, h),
-                tag_format(samples),
-                usage,
-                samples,
-            )
-            .create_view(&Default::default());
-        let depth_copy = self
-            .cache
-            .texture_samples(
-                gpu,
-                "strata.f2b.layer.depth",
-                (w, h),
-                DEPTH_COPY_FORMAT,
-                usage,
-                samples,
-            )
-            .create_view(&Default::default());
-        let depth = self
-            .cache
-            .texture_samples(
-                gpu,
-                "strata.f2b.depth",
-                (w, h),
-                wgpu::TextureFormat::Depth32Float,
-                wgpu::TextureUsages::RENDER_ATTACHMENT,
-                samples,
-            )
-            .create_view(&Default::default());
+        let mut view = |label, format, usage| {
+            self.cache
+                .texture_samples(gpu, label, (w, h), format, usage, samples)
+                .create_view(&Default::default())
+        };
+        let color = view("strata.f2b.layer.color", COLOR_FORMAT, usage);
+        let tag = view("strata.f2b.layer.tag", tag_format(samples), usage);
+        let depth_copy = view("strata.f2b.layer.depth", DEPTH_COPY_FORMAT, usage);
+        let depth = view(
+            "strata.f2b.depth",
+            wgpu::TextureFormat::Depth32Float,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
         let none = wgpu::BufferUsages::empty();
         let state = self.cache.storage(
             gpu,

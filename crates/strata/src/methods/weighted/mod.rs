@@ -223,28 +223,13 @@ impl Method for Wboit {
         ctx.check_budget(bytes)?;
         let (w, h) = ctx.size();
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let accumulation = self
-            .cache
-            .texture_samples(
-                gpu,
-                "strata.wboit.accumulation",
-                (w, h),
-                ACCUMULATION_FORMAT,
-                usage,
-                self.samples,
-            )
-            .create_view(&Default::default());
-        let revealage = self
-            .cache
-            .texture_samples(
-                gpu,
-                "strata.wboit.revealage",
-                (w, h),
-                REVEALAGE_FORMAT,
-                usage,
-                self.samples,
-            )
-            .create_view(&Default::default());
+        let mut view = |label, format| {
+            self.cache
+                .texture_samples(gpu, label, (w, h), format, usage, self.samples)
+                .create_view(&Default::default())
+        };
+        let accumulation = view("strata.wboit.accumulation", ACCUMULATION_FORMAT);
+        let revealage = view("strata.wboit.revealage", REVEALAGE_FORMAT);
         let counts = pixel_counts(ctx, &mut self.cache, "strata.wboit.counts")?;
         let params = WboitParams {
             weight: ctx.options.frame.weighted.weight.index(),
