@@ -85,9 +85,36 @@ pub fn target_samples(samples: u32) -> Defs {
     Defs::default().flag_if("MULTISAMPLED", samples > 1)
 }
 
+/// A capture step's signature after its name: `fn fs_x_capture(…) {` in a storage-only stage.
+const CAPTURE_STEP: &str = "_capture(v: SceneVarying, front_facing: bool, mask: u32) {";
+
+/// The fragment entry points whose capture steps `source` declares: `fs_x` for each
+/// `fn fs_x_capture(v: SceneVarying, front_facing: bool, mask: u32)` at the start of a line.
+pub fn capture_entries(source: &str) -> impl Iterator<Item = &str> {
+    source.lines().filter_map(|line| {
+        line.strip_prefix("fn ")?
+            .strip_suffix(CAPTURE_STEP)
+            .filter(|name| name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
+    })
+}
+
+/// The fragment stages of `source`'s capture steps, made so that each step is written once:
+/// `@fragment fn fs_x` passes the rasterized fragment, its facing and its sample mask to
+/// `fs_x_capture` (which the compute rasterizer's bridge calls too, `raster::capture_stage`).
+fn capture_fragment_stages(source: &str) -> String {
+    capture_entries(source)
+        .map(|entry| {
+            format!(
+                "\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {{\n    {entry}_capture(v, front_facing, mask);\n}}\n"
+            )
+        })
+        .collect()
+}
+
 /// A shader stage to compose: a top-level source, the libraries its imports come from (the
 /// shared one always), its definitions, and modules made for it alone (registered under their
-/// own names, replacing an earlier module of that name).
+/// own names, replacing an earlier module of that name). A top-level source that declares
+/// capture steps gets their fragment stages after its own text ([`capture_entries`]).
 #[derive(Clone, Debug)]
 pub struct Stage {
     /// Names the module in wgpu's messages and composition errors.
@@ -233,9 +260,10 @@ impl ModuleLibrary {
         for import in imports {
             self.add(&import.import, &known, &stage.label, &mut Vec::new())?;
         }
+        let source = format!("{}{}", stage.source, capture_fragment_stages(&stage.source));
         self.composer
             .make_naga_module(NagaModuleDescriptor {
-                source: &stage.source,
+                source: &source,
                 file_path: &stage.label,
                 shader_type: ShaderType::Wgsl,
                 shader_defs: stage.defs.map(),

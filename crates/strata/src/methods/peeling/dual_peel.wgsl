@@ -69,7 +69,7 @@ fn pixel_count_word(p: u32, which: u32) -> u32 {
     return 3u * pixels * dual_samples_per_pixel() + which * pixels + p;
 }
 
-// fs_bounds's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_bounds's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_bounds_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -87,11 +87,6 @@ fn fs_bounds_capture(v: SceneVarying, front_facing: bool, mask: u32) {
             widen_next(i, key);
         }
     }
-}
-
-@fragment
-fn fs_bounds(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_bounds_capture(v, front_facing, mask);
 }
 
 // One fragment at sample entry i: into a slot at its bounds, or widening the next bounds.
@@ -121,7 +116,7 @@ fn peel_at(i: u32, key: u32, f: Fragment) {
     }
 }
 
-// fs_peel's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_peel's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_peel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -138,14 +133,9 @@ fn fs_peel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     }
 }
 
-@fragment
-fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_peel_capture(v, front_facing, mask);
-}
-
 // --msaa's account after the last pass: a fragment was composited at a sample unless its key
 // lies within the sample's remaining bounds (what the last pass left between its slots).
-// fs_account's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_account's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -163,9 +153,4 @@ fn fs_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if composited {
         atomicAdd(&hits[pixel_count_word(p, 1u)], 1u);
     }
-}
-
-@fragment
-fn fs_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_account_capture(v, front_facing, mask);
 }
