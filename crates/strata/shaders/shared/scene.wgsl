@@ -191,6 +191,12 @@ fn target_samples() -> u32 {
 #endif
 }
 
+// Samples per pixel of the frame: with --msaa the S sample entries `p * S + s` a storage
+// method keeps per pixel (each with its own claims, slots and state), single-sampled 1.
+fn samples_per_pixel() -> u32 {
+    return max(frame.coverage_bits, 1u);
+}
+
 // The tag of a fragment of `prim` covering the samples `mask`: the multisampled layout above
 // with --msaa, primitive << 1 | front-facing single-sampled.
 fn covering_tag(prim: u32, front_facing: bool, mask: u32) -> u32 {

@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::dual_advance
-#import strata::scene::{frame, pixel_index, report_pixel, report_samples}
+#import strata::scene::{frame, pixel_index, report_pixel, report_samples, samples_per_pixel}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment}
 #import strata::composite::{Composite, composite_back, composite_back_new, composite_front, composite_join, composite_new}
@@ -32,10 +32,6 @@ struct Counters {
 @group(1) @binding(5) var<storage, read_write> back: array<Composite>;
 @group(1) @binding(6) var<storage, read_write> counters: Counters;
 @group(1) @binding(7) var<storage, read_write> output: array<Resolved>;
-
-fn samples_per_pixel() -> u32 {
-    return max(frame.coverage_bits, 1u);
-}
 
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {

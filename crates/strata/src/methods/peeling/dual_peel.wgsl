@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::dual_peel
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment_covering}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, samples_per_pixel, scene_fragment_covering}
 #import strata::fragment::{Fragment}
 #ifdef WIDE_KEYS
 #import strata::peeling::dual_key64::{fragment_key}
@@ -54,19 +54,15 @@ fn dual_samples(mask: u32) -> u32 {
     return mask & ((1u << frame.coverage_bits) - 1u);
 }
 
-fn dual_samples_per_pixel() -> u32 {
-    return max(frame.coverage_bits, 1u);
-}
-
 fn sample_entry(p: u32, s: u32) -> u32 {
-    return p * dual_samples_per_pixel() + s;
+    return p * samples_per_pixel() + s;
 }
 
 // --msaa: the word of hits after the sample entries holding pixel p's `which`-th count (0: its
 // fragments, 1: those some sample composited).
 fn pixel_count_word(p: u32, which: u32) -> u32 {
     let pixels = frame.size.x * frame.size.y;
-    return 3u * pixels * dual_samples_per_pixel() + which * pixels + p;
+    return 3u * pixels * samples_per_pixel() + which * pixels + p;
 }
 
 // fs_bounds's capture step: its made fragment stage and the compute rasterizer call it.
@@ -80,7 +76,7 @@ fn fs_bounds_capture(v: SceneVarying, front_facing: bool, mask: u32) {
         atomicAdd(&hits[pixel_count_word(p, 0u)], 1u);
     }
     let samples = dual_samples(mask);
-    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+    for (var s = 0u; s < samples_per_pixel(); s++) {
         if ((samples >> s) & 1u) != 0u {
             let i = sample_entry(p, s);
             atomicAdd(&hits[3u * i + 2u], 1u);
@@ -126,7 +122,7 @@ fn fs_peel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     // The tag in the multisampled form, which the resolve reads the primitive of.
     let f = scene_fragment_covering(v, front_facing, mask);
     let samples = dual_samples(mask);
-    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+    for (var s = 0u; s < samples_per_pixel(); s++) {
         if ((samples >> s) & 1u) != 0u {
             peel_at(sample_entry(p, s), key, f);
         }
@@ -144,7 +140,7 @@ fn fs_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let key = key_of(v, front_facing);
     let samples = dual_samples(mask);
     var composited = false;
-    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+    for (var s = 0u; s < samples_per_pixel(); s++) {
         if ((samples >> s) & 1u) != 0u {
             let i = sample_entry(p, s);
             composited = composited || key < bounds[2u * i] || key > bounds[2u * i + 1u];

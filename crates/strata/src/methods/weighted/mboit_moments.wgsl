@@ -1,5 +1,5 @@
 #define_import_path strata::weighted::mboit_moments
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, shade}
+#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, samples_per_pixel, shade}
 #import strata::weighted::mboit_math::{c_mul, haar_position, haar_step_coefficient, mboit_absorbance, mboit_depth, trig_angle}
 
 // mboit pass 1: every fragment adds its absorbance a = −ln(1 − α) to b0 and a·(z, z², z³, z⁴) to
@@ -31,7 +31,7 @@ fn fs_bounds(v: SceneVarying) -> @location(0) vec4<f32> {
 // every sample it covers, so every sample maps depth alike).
 fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
     var bounds = vec2<f32>(2.0, -2.0);
-    for (var si = 0; si < i32(max(frame.coverage_bits, 1u)); si++) {
+    for (var si = 0; si < i32(samples_per_pixel()); si++) {
         let b = textureLoad(bounds_target, pixel, si);
         bounds = vec2<f32>(min(bounds.x, b.r), max(bounds.y, b.a));
     }
