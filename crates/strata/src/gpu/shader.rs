@@ -34,12 +34,14 @@ pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
 pub const FULLSCREEN: &str = include_str!("../../shaders/shared/fullscreen.wgsl");
 /// `strata::weight`: weighted blended OIT's weight functions.
 pub const WEIGHT: &str = include_str!("../../shaders/shared/weight.wgsl");
+/// `strata::dispatch`: a compute thread's number in a grid laid out in rows of workgroups.
+pub const DISPATCH: &str = include_str!("../../shaders/shared/dispatch.wgsl");
 
 /// What every stage may import: scene bindings (group 0), the vertex stage and shading
 /// (`strata::scene`), colors (`strata::color`), the fragment record (`strata::fragment`) and the
-/// compositing state machine (`strata::composite`), and the weights of weighted blended OIT
-/// (`strata::weight`).
-pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT];
+/// compositing state machine (`strata::composite`), the weights of weighted blended OIT
+/// (`strata::weight`), and compute threads' numbers (`strata::dispatch`).
+pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT, DISPATCH];
 
 /// The shader definitions a stage is composed with.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -392,6 +394,7 @@ mod tests {
             ("color", COLOR),
             ("fragment", FRAGMENT),
             ("composite", COMPOSITE),
+            ("dispatch", DISPATCH),
             ("fullscreen", FULLSCREEN),
         ] {
             validate(&Stage::new(label, source));
