@@ -197,6 +197,11 @@ fn samples_per_pixel() -> u32 {
     return max(frame.coverage_bits, 1u);
 }
 
+// The entry of sample s of pixel p in a storage method's per-sample arrays, p · S + s.
+fn sample_entry(p: u32, s: u32) -> u32 {
+    return p * samples_per_pixel() + s;
+}
+
 // The tag of a fragment of `prim` covering the samples `mask`: the multisampled layout above
 // with --msaa, primitive << 1 | front-facing single-sampled.
 fn covering_tag(prim: u32, front_facing: bool, mask: u32) -> u32 {

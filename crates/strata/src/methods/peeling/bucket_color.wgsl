@@ -1,7 +1,7 @@
 #define_import_path strata::peeling::bucket_color
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, samples_per_pixel, scene_fragment_covering}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, sample_entry, samples_per_pixel, scene_fragment_covering}
 #import strata::fragment::{Fragment}
-#import strata::peeling::bucket_common::{covered_samples, kept_word, params, route, sample_entry}
+#import strata::peeling::bucket_common::{covered_samples, kept_word, params, route}
 
 // Bucket depth peeling, the color pass: at each sample it covers, a fragment whose depth is its
 // bucket's nearest claims slot 2b, one at its farthest slot 2b + 1 (one atomicOr on the sample

@@ -33,10 +33,7 @@ const HISTOGRAM_WORDS: u32 = 32u;
 // With --msaa, S sample entries per pixel, entry p·S + s, each with its own bucket targets'
 // samples, claims and records; the routing (bounds, histogram) is the pixel's, over all its
 // fragments, so a fragment has one bucket at every sample it covers. Single-sampled S = 1
-// (`samples_per_pixel`).
-fn sample_entry(p: u32, s: u32) -> u32 {
-    return p * samples_per_pixel() + s;
-}
+// (scene's `samples_per_pixel` and `sample_entry`).
 
 // --msaa: the word after the sample entries' claim words counting pixel p's kept fragments.
 fn kept_word(p: u32) -> u32 {

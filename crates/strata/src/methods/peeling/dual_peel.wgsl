@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::dual_peel
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, samples_per_pixel, scene_fragment_covering}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, sample_entry, samples_per_pixel, scene_fragment_covering}
 #import strata::fragment::{Fragment}
 #ifdef WIDE_KEYS
 #import strata::peeling::dual_key64::{fragment_key}
@@ -52,10 +52,6 @@ fn dual_samples(mask: u32) -> u32 {
         return 1u;
     }
     return mask & ((1u << frame.coverage_bits) - 1u);
-}
-
-fn sample_entry(p: u32, s: u32) -> u32 {
-    return p * samples_per_pixel() + s;
 }
 
 // --msaa: the word of hits after the sample entries holding pixel p's `which`-th count (0: its
