@@ -191,6 +191,17 @@ fn target_samples() -> u32 {
 #endif
 }
 
+// Samples per pixel of the frame: with --msaa the S sample entries `p * S + s` a storage
+// method keeps per pixel (each with its own claims, slots and state), single-sampled 1.
+fn samples_per_pixel() -> u32 {
+    return max(frame.coverage_bits, 1u);
+}
+
+// The entry of sample s of pixel p in a storage method's per-sample arrays, p · S + s.
+fn sample_entry(p: u32, s: u32) -> u32 {
+    return p * samples_per_pixel() + s;
+}
+
 // The tag of a fragment of `prim` covering the samples `mask`: the multisampled layout above
 // with --msaa, primitive << 1 | front-facing single-sampled.
 fn covering_tag(prim: u32, front_facing: bool, mask: u32) -> u32 {

@@ -1,4 +1,5 @@
 #define_import_path strata::animation::animate_common
+#import strata::dispatch::{GridThread, grid_thread}
 
 // Shared by the animation stages (object transforms, moved vertices).
 // Keep in sync with `AnimationParams` and `GpuMotion` in crates/strata/src/animation/mod.rs.
@@ -35,6 +36,7 @@ struct Motion {
 
 @group(0) @binding(0) var<uniform> params: AnimationParams;
 
-fn thread_index(workgroup: vec3<u32>, local: u32) -> u32 {
-    return (workgroup.x + workgroup.y * params.grid_x) * 64u + local;
+// The thread's number in this family's dispatches (64-thread workgroups).
+fn thread_index(at: GridThread) -> u32 {
+    return grid_thread(at, params.grid_x, 64u);
 }

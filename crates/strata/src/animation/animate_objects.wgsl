@@ -1,4 +1,5 @@
 #define_import_path strata::animation::animate_objects
+#import strata::dispatch::{GridThread}
 #import strata::animation::animate_common::{Motion, params, thread_index}
 
 // One thread per object: its transform at this frame's time, and the transform that carries a
@@ -33,11 +34,8 @@ fn translation(offset: vec3<f32>, scale: f32) -> mat4x4<f32> {
 }
 
 @compute @workgroup_size(64)
-fn object_transforms(
-    @builtin(workgroup_id) workgroup: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
-    let o = thread_index(workgroup, local);
+fn object_transforms(at: GridThread) {
+    let o = thread_index(at);
     if o >= params.objects {
         return;
     }

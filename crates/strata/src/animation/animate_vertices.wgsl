@@ -1,4 +1,5 @@
 #define_import_path strata::animation::animate_vertices
+#import strata::dispatch::{GridThread}
 #import strata::animation::animate_common::{params, thread_index}
 
 // One thread per triangle of one chunk (the bindings below start at the chunk's first
@@ -12,11 +13,8 @@
 @group(0) @binding(5) var<storage, read_write> centroids: array<f32>;
 
 @compute @workgroup_size(64)
-fn move_vertices(
-    @builtin(workgroup_id) workgroup: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
-    let t = thread_index(workgroup, local);
+fn move_vertices(at: GridThread) {
+    let t = thread_index(at);
     if t >= arrayLength(&triangle_objects) {
         return;
     }

@@ -34,12 +34,14 @@ pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
 pub const FULLSCREEN: &str = include_str!("../../shaders/shared/fullscreen.wgsl");
 /// `strata::weight`: weighted blended OIT's weight functions.
 pub const WEIGHT: &str = include_str!("../../shaders/shared/weight.wgsl");
+/// `strata::dispatch`: a compute thread's number in a grid laid out in rows of workgroups.
+pub const DISPATCH: &str = include_str!("../../shaders/shared/dispatch.wgsl");
 
 /// What every stage may import: scene bindings (group 0), the vertex stage and shading
 /// (`strata::scene`), colors (`strata::color`), the fragment record (`strata::fragment`) and the
-/// compositing state machine (`strata::composite`), and the weights of weighted blended OIT
-/// (`strata::weight`).
-pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT];
+/// compositing state machine (`strata::composite`), the weights of weighted blended OIT
+/// (`strata::weight`), and compute threads' numbers (`strata::dispatch`).
+pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT, DISPATCH];
 
 /// The shader definitions a stage is composed with.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -85,9 +87,36 @@ pub fn target_samples(samples: u32) -> Defs {
     Defs::default().flag_if("MULTISAMPLED", samples > 1)
 }
 
+/// A capture step's signature after its name: `fn fs_x_capture(…) {` in a storage-only stage.
+const CAPTURE_STEP: &str = "_capture(v: SceneVarying, front_facing: bool, mask: u32) {";
+
+/// The fragment entry points whose capture steps `source` declares: `fs_x` for each
+/// `fn fs_x_capture(v: SceneVarying, front_facing: bool, mask: u32)` at the start of a line.
+pub fn capture_entries(source: &str) -> impl Iterator<Item = &str> {
+    source.lines().filter_map(|line| {
+        line.strip_prefix("fn ")?
+            .strip_suffix(CAPTURE_STEP)
+            .filter(|name| name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
+    })
+}
+
+/// The fragment stages of `source`'s capture steps, made so that each step is written once:
+/// `@fragment fn fs_x` passes the rasterized fragment, its facing and its sample mask to
+/// `fs_x_capture` (which the compute rasterizer's bridge calls too, `raster::capture_stage`).
+fn capture_fragment_stages(source: &str) -> String {
+    capture_entries(source)
+        .map(|entry| {
+            format!(
+                "\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {{\n    {entry}_capture(v, front_facing, mask);\n}}\n"
+            )
+        })
+        .collect()
+}
+
 /// A shader stage to compose: a top-level source, the libraries its imports come from (the
 /// shared one always), its definitions, and modules made for it alone (registered under their
-/// own names, replacing an earlier module of that name).
+/// own names, replacing an earlier module of that name). A top-level source that declares
+/// capture steps gets their fragment stages after its own text ([`capture_entries`]).
 #[derive(Clone, Debug)]
 pub struct Stage {
     /// Names the module in wgpu's messages and composition errors.
@@ -233,9 +262,10 @@ impl ModuleLibrary {
         for import in imports {
             self.add(&import.import, &known, &stage.label, &mut Vec::new())?;
         }
+        let source = format!("{}{}", stage.source, capture_fragment_stages(&stage.source));
         self.composer
             .make_naga_module(NagaModuleDescriptor {
-                source: &stage.source,
+                source: &source,
                 file_path: &stage.label,
                 shader_type: ShaderType::Wgsl,
                 shader_defs: stage.defs.map(),
@@ -364,6 +394,7 @@ mod tests {
             ("color", COLOR),
             ("fragment", FRAGMENT),
             ("composite", COMPOSITE),
+            ("dispatch", DISPATCH),
             ("fullscreen", FULLSCREEN),
         ] {
             validate(&Stage::new(label, source));

@@ -89,18 +89,19 @@ fn every_stage_validates() {
         stages.push(weighted::mboit::composite_stage(samples));
         use crate::frame::Moments;
         for moments in [4, 6, 8].map(Moments::Power) {
+            stages.push(weighted::mboit::moments_stage(samples, moments));
             stages.push(weighted::mboit::shade_stage(samples, moments));
         }
         for moments in [2, 3, 4].map(Moments::Trigonometric) {
+            stages.push(weighted::mboit::moments_stage(samples, moments));
             stages.push(weighted::mboit::shade_stage(samples, moments));
         }
         for moments in [4, 8].map(Moments::Haar) {
+            stages.push(weighted::mboit::moments_stage(samples, moments));
             stages.push(weighted::mboit::shade_stage(samples, moments));
         }
     }
     stages.extend(super::downlevel::stages());
-    stages.push(weighted::mboit::moments_stage(1));
-    stages.push(weighted::mboit::moments_stage(4));
     stages.push(
         Stage::new(
             "wboit.accumulate",

@@ -1,4 +1,5 @@
 #define_import_path strata::order::order_common
+#import strata::dispatch::{GridThread, grid_thread}
 
 // Shared by the triangle-order stages (keys, draw indices, Kendall sampling).
 // Keep in sync with `OrderParams` in crates/strata/src/order/mod.rs.
@@ -25,8 +26,9 @@ const MODE_RANDOM: u32 = 3u;
 
 @group(0) @binding(0) var<uniform> params: OrderParams;
 
-fn thread_index(workgroup: vec3<u32>, local: u32) -> u32 {
-    return (workgroup.x + workgroup.y * params.grid_x) * 256u + local;
+// The thread's number in this family's dispatches (256-thread workgroups).
+fn thread_index(at: GridThread) -> u32 {
+    return grid_thread(at, params.grid_x, 256u);
 }
 
 // A 32-bit permutation with good avalanche (an LCG step, then a PCG output permutation): keys

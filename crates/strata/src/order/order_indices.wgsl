@@ -1,4 +1,5 @@
 #define_import_path strata::order::order_indices
+#import strata::dispatch::{GridThread}
 #import strata::order::order_common::{params, thread_index}
 
 // One thread per sorted position: the triangle there becomes three vertex numbers of the index
@@ -8,11 +9,8 @@
 @group(0) @binding(2) var<storage, read_write> indices: array<u32>;
 
 @compute @workgroup_size(256)
-fn draw_indices(
-    @builtin(workgroup_id) workgroup: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
-    let i = thread_index(workgroup, local);
+fn draw_indices(at: GridThread) {
+    let i = thread_index(at);
     if i >= params.count {
         return;
     }

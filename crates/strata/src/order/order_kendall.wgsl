@@ -1,4 +1,5 @@
 #define_import_path strata::order::order_kendall
+#import strata::dispatch::{GridThread}
 #import strata::order::order_common::{MODE_SCENE, params, scramble, thread_index}
 
 // One thread per sampled pair of submission positions i < j: the pair is discordant when the
@@ -18,11 +19,8 @@ fn submitted(position: u32) -> u32 {
 }
 
 @compute @workgroup_size(256)
-fn sample_pairs(
-    @builtin(workgroup_id) workgroup: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
-    let s = thread_index(workgroup, local);
+fn sample_pairs(at: GridThread) {
+    let s = thread_index(at);
     if s >= params.samples || params.count < 2u {
         return;
     }

@@ -1,4 +1,5 @@
 #define_import_path strata::order::order_keys
+#import strata::dispatch::{GridThread}
 #import strata::order::order_common::{MODE_BACK, MODE_RANDOM, MODE_SCENE, params, scramble, thread_index}
 
 // One thread per triangle: its centroid's view depth as an orderable integer, and the key the
@@ -17,11 +18,8 @@ fn orderable(x: f32) -> u32 {
 }
 
 @compute @workgroup_size(256)
-fn triangle_keys(
-    @builtin(workgroup_id) workgroup: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
-    let t = thread_index(workgroup, local);
+fn triangle_keys(at: GridThread) {
+    let t = thread_index(at);
     if t >= params.count {
         return;
     }

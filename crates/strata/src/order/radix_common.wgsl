@@ -1,4 +1,5 @@
 #define_import_path strata::order::radix_common
+#import strata::dispatch::{GridThread, grid_workgroup}
 
 // Shared by the radix sort's stages: 4-bit digits, blocks of 1024 keys per workgroup of 256.
 // Keep in sync with `RadixPass` in crates/strata/src/order/radix.rs.
@@ -17,8 +18,8 @@ const BLOCK: u32 = 1024u;
 
 @group(0) @binding(0) var<uniform> radix: RadixPass;
 
-fn block_index(workgroup: vec3<u32>) -> u32 {
-    return workgroup.x + workgroup.y * radix.grid_x;
+fn block_index(at: GridThread) -> u32 {
+    return grid_workgroup(at, radix.grid_x);
 }
 
 fn digit_of(key: u32) -> u32 {

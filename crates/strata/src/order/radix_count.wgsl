@@ -1,4 +1,5 @@
 #define_import_path strata::order::radix_count
+#import strata::dispatch::{GridThread}
 #import strata::order::radix_common::{BLOCK, DIGITS, ITEMS, block_index, digit_of, radix}
 
 // One workgroup per block: how many of its keys have each digit, stored digit-major
@@ -10,15 +11,13 @@
 var<workgroup> tally: array<atomic<u32>, 16>;
 
 @compute @workgroup_size(256)
-fn count_digits(
-    @builtin(workgroup_id) workgroup: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
+fn count_digits(at: GridThread) {
+    let local = at.local;
     if local < DIGITS {
         atomicStore(&tally[local], 0u);
     }
     workgroupBarrier();
-    let block = block_index(workgroup);
+    let block = block_index(at);
     if block < radix.blocks {
         for (var item = 0u; item < ITEMS; item++) {
             let i = block * BLOCK + item * 256u + local;

@@ -1,4 +1,5 @@
 #define_import_path strata::order::radix_scatter
+#import strata::dispatch::{GridThread}
 #import strata::order::radix_common::{BLOCK, DIGITS, ITEMS, block_index, digit_of, radix}
 
 // One workgroup per block, in four rounds of 256 keys: each key moves to its digit's next
@@ -20,11 +21,9 @@ fn packed(words: ptr<function, array<u32, 8>>, digit: u32) -> u32 {
 }
 
 @compute @workgroup_size(256)
-fn scatter_keys(
-    @builtin(workgroup_id) workgroup: vec3<u32>,
-    @builtin(local_invocation_index) local: u32,
-) {
-    let block = block_index(workgroup);
+fn scatter_keys(at: GridThread) {
+    let local = at.local;
+    let block = block_index(at);
     let live = block < radix.blocks;
     if local < DIGITS && live {
         next_place[local] = block_offsets[local * radix.blocks + block];

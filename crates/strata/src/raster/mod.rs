@@ -67,7 +67,7 @@ use crate::frame::passes::{
 pub use crate::frame::{ComputeRasterStats, Raster};
 use crate::frame::{FrameContext, ReadbackList, RenderOptions, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::shader::{Defs, Library, Stage};
+use crate::gpu::shader::{capture_entries, Defs, Library, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 
 /// The rasterizer's WGSL modules (`strata::raster::…`): setup, the work items, bin, args and the
@@ -142,16 +142,14 @@ pub fn raster_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
 
 /// The compute capture of a method's storage-only fragment stage `entry`: its `stage` (a
 /// library module, named by its `#define_import_path`) declares the entry's capture step
-/// `{entry}_capture(v: SceneVarying, front_facing: bool, mask: u32)`, which its `@fragment`
-/// wrapper calls. The raster stage calls it through a module made here
+/// `{entry}_capture(v: SceneVarying, front_facing: bool, mask: u32)`, which its made `@fragment`
+/// stage calls (`shader::capture_entries`). The raster stage calls it through a module made here
 /// (`strata::raster::capture`) with full coverage (the compute rasterizer samples pixel
 /// centers; `--msaa` refuses it). The raster bindings are at group `raster_group`. An error when
 /// the stage declares no such step.
 pub fn capture_stage(stage: &Stage, entry: &str, raster_group: usize) -> Result<Stage> {
     let step = format!("{entry}_capture");
-    if !stage.source().contains(&format!(
-        "fn {step}(v: SceneVarying, front_facing: bool, mask: u32) {{"
-    )) {
+    if !capture_entries(stage.source()).any(|e| e == entry) {
         return Err(Error::unsupported(format!(
             "{entry} declares no capture step ({step}) the compute rasterizer can call"
         )));

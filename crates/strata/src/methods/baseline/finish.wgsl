@@ -1,5 +1,5 @@
 #define_import_path strata::baseline::finish
-#import strata::scene::{frame, pixel_index, report_pixel}
+#import strata::scene::{frame, pixel_index, report_pixel, samples_per_pixel}
 #import strata::color::{Resolved, resolved_over}
 #ifdef MULTISAMPLED
 alias TargetTexture = texture_multisampled_2d<f32>;
@@ -23,7 +23,7 @@ fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = id.xy;
     let i = pixel_index(pixel);
     let count = counts[i];
-    let samples = max(frame.coverage_bits, 1u);
+    let samples = samples_per_pixel();
     var color = vec4<f32>(0.0);
     // Single-sampled the index is the mip level, 0; multisampled it is the sample.
     for (var si = 0u; si < samples; si++) {

@@ -1,5 +1,5 @@
 #define_import_path strata::convex::capture
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment, scene_fragment_covering}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, samples_per_pixel, scene_fragment, scene_fragment_covering}
 #import strata::fragment::{Fragment}
 const LAYERS: u32 = #{CONVEX_LAYERS}u;
 const MERGE_WORKGROUP: u32 = #{MERGE_WORKGROUP}u;
@@ -20,11 +20,8 @@ const MERGE_WORKGROUP: u32 = #{MERGE_WORKGROUP}u;
 @group(1) @binding(3) var<storage, read_write> touched_count: atomic<u32>;
 @group(1) @binding(4) var<storage, read_write> merge_args: array<atomic<u32>, 3>;
 
-// Samples per pixel: with --msaa each pixel has S sample entries `p * S + s` with their own
-// claims, slots and state, and a fragment (shaded once) is captured at each it covers.
-fn samples_per_pixel() -> u32 {
-    return max(frame.coverage_bits, 1u);
-}
+// With --msaa each pixel has S sample entries `p * S + s` (S = `samples_per_pixel`) with their
+// own claims, slots and state, and a fragment (shaded once) is captured at each it covers.
 
 // Captures `f` at sample entry i; false when the entry's LAYERS were full.
 fn capture_at(i: u32, f: Fragment) -> bool {

@@ -1,5 +1,5 @@
 #define_import_path strata::convex::merge
-#import strata::scene::{frame, pixel_index, report_pixel, report_samples}
+#import strata::scene::{frame, pixel_index, report_pixel, report_samples, samples_per_pixel}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
@@ -26,10 +26,6 @@ const OVERFLOWS: u32 = 2u;
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 @group(1) @binding(6) var<storage, read> touched: array<u32>;
 @group(1) @binding(7) var<storage, read> touched_count: u32;
-
-fn samples_per_pixel() -> u32 {
-    return max(frame.coverage_bits, 1u);
-}
 
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {

@@ -62,7 +62,7 @@ fn store_payload(p: u32, f: Fragment) -> bool {
     return false;
 }
 
-// fs_keys's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_keys's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -78,12 +78,7 @@ fn fs_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     }
 }
 
-@fragment
-fn fs_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_keys_capture(v, front_facing, mask);
-}
-
-// fs_keys_colors's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_keys_colors's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_keys_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let pixel = kpixel(v.position);
     let f = scene_fragment_covering(v, front_facing, mask);
@@ -98,9 +93,4 @@ fn fs_keys_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
             }
         }
     }
-}
-
-@fragment
-fn fs_keys_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_keys_colors_capture(v, front_facing, mask);
 }

@@ -11,7 +11,7 @@
 // own: a fragment enters the capture of each covered sample it is still pending at.
 
 
-// fs_kpeel's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kpeel's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kpeel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -29,17 +29,12 @@ fn fs_kpeel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     }
 }
 
-@fragment
-fn fs_kpeel(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kpeel_capture(v, front_facing, mask);
-}
-
 // --msaa's account, a geometry pass after the last resolve (the per-pixel words cleared): each
 // fragment once at its pixel, once at each sample it covers (a sample's depth complexity), and
 // as stored when some covered sample composited it (not pending there: per sample, peeling
 // composites in order). The counts go to sample pixel 0's FILLED word and to each sample's
 // SEEN word.
-// fs_kpeel_account's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kpeel_account's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kpeel_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -60,9 +55,4 @@ fn fs_kpeel_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if stored {
         atomicAdd(&pixels[pixel_word(sample_pixel(p, 0u), FILLED)], 1u);
     }
-}
-
-@fragment
-fn fs_kpeel_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kpeel_account_capture(v, front_facing, mask);
 }

@@ -23,7 +23,7 @@ fn peel_key(f: Fragment) -> u64 {
     return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));
 }
 
-// fs_kpeel_keys's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kpeel_keys's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kpeel_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -45,14 +45,9 @@ fn fs_kpeel_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     }
 }
 
-@fragment
-fn fs_kpeel_keys(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    fs_kpeel_keys_capture(v, front_facing, 0xffffffffu);
-}
-
 // Decided by the kept key alone: no opaque test here (another pipeline may round it otherwise,
 // and a kept key whose fragment this pass discarded would leave its slot unwritten under FILLED).
-// fs_kpeel_colors's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kpeel_colors's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kpeel_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let p = kpixel(v.position);
     var f = scene_fragment(v, front_facing);
@@ -72,9 +67,4 @@ fn fs_kpeel_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
             break;
         }
     }
-}
-
-@fragment
-fn fs_kpeel_colors(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    fs_kpeel_colors_capture(v, front_facing, 0xffffffffu);
 }

@@ -9,6 +9,28 @@
 // taking the lock, and the full test is repeated inside it. Order is (depth, primitive): exact
 // with ties.
 
+// Counts the fragment just stored in slot `n` of a filling pixel (lock held), and publishes the
+// bound (slot 0, the farthest) once that fills the pixel.
+fn count_filled(p: u32, n: u32) {
+    atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
+    if n + 1u == kp.k {
+        publish_bound(p, load_slot(p, 0u).depth);
+    }
+}
+
+// `f` against the farthest fragment (slot 0) of a pixel whose kept fragments are full (lock
+// held): the farther of the two joins the tail. True when that is the stored one, whose place
+// `f` then takes.
+fn evict_farthest(p: u32, f: Fragment) -> bool {
+    let m = load_slot(p, 0u);
+    if !fragment_before(f, m) {
+        tail_add(p, f);
+        return false;
+    }
+    tail_add(p, m);
+    return true;
+}
+
 // Inserts into a max-array holding `n` fragments (lock held).
 fn array_insert(p: u32, n: u32, f: Fragment) {
     if n < kp.k {
@@ -23,20 +45,13 @@ fn array_insert(p: u32, n: u32, f: Fragment) {
         } else {
             store_slot(p, 0u, f);
         }
-        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
-        if n + 1u == kp.k {
-            publish_bound(p, load_slot(p, 0u).depth);
-        }
+        count_filled(p, n);
         return;
     }
-    let m = load_slot(p, 0u);
-    if !fragment_before(f, m) {
-        tail_add(p, f);
-        return;
+    if evict_farthest(p, f) {
+        array_replace_max(p, f);
+        publish_bound(p, load_slot(p, 0u).depth);
     }
-    tail_add(p, m);
-    array_replace_max(p, f);
-    publish_bound(p, load_slot(p, 0u).depth);
 }
 
 // Puts `f` in place of the maximum of a full max-array and moves the new maximum to slot 0.
@@ -102,20 +117,13 @@ fn heap_sift_down(p: u32, size: u32, f: Fragment) {
 fn heap_insert(p: u32, n: u32, f: Fragment) {
     if n < kp.k {
         heap_sift_up(p, n, f);
-        atomicStore(&pixels[pixel_word(p, FILLED)], n + 1u);
-        if n + 1u == kp.k {
-            publish_bound(p, load_slot(p, 0u).depth);
-        }
+        count_filled(p, n);
         return;
     }
-    let root = load_slot(p, 0u);
-    if !fragment_before(f, root) {
-        tail_add(p, f);
-        return;
+    if evict_farthest(p, f) {
+        heap_sift_down(p, kp.k, f);
+        publish_bound(p, load_slot(p, 0u).depth);
     }
-    tail_add(p, root);
-    heap_sift_down(p, kp.k, f);
-    publish_bound(p, load_slot(p, 0u).depth);
 }
 
 const VARIANT_ARRAY: u32 = 0u;
@@ -176,13 +184,9 @@ fn capture_array_r(p: u32, f: Fragment) {
                 array_replace_max(p, load_slot(p, 0u));
                 publish_bound(p, load_slot(p, 0u).depth);
             }
-            let m = load_slot(p, 0u);
-            if fragment_before(f, m) {
-                tail_add(p, m);
+            if evict_farthest(p, f) {
                 array_replace_max(p, f);
                 publish_bound(p, load_slot(p, 0u).depth);
-            } else {
-                tail_add(p, f);
             }
             unlock(p);
             waiting = false;

@@ -12,7 +12,7 @@
 // Above this k a full pixel keeps a max-heap (O(log k) per replacement), else a max-array.
 const ARRAY_MAX_K: u32 = 16u;
 
-// fs_kplus_sbuffer_count's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kplus_sbuffer_count's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kplus_sbuffer_count_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -25,11 +25,6 @@ fn fs_kplus_sbuffer_count_capture(v: SceneVarying, front_facing: bool, mask: u32
             count_seen(sample_pixel(p, s));
         }
     }
-}
-
-@fragment
-fn fs_kplus_sbuffer_count(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kplus_sbuffer_count_capture(v, front_facing, mask);
 }
 
 // A pixel with at most k fragments appends them without the lock (its region holds them all);
@@ -52,7 +47,7 @@ fn store_in_region(p: u32, f: Fragment) {
     insert_locked(p, f, select(VARIANT_HEAP, VARIANT_ARRAY, kp.k <= ARRAY_MAX_K));
 }
 
-// fs_kplus_sbuffer_store's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kplus_sbuffer_store's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kplus_sbuffer_store_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -65,9 +60,4 @@ fn fs_kplus_sbuffer_store_capture(v: SceneVarying, front_facing: bool, mask: u32
             store_in_region(sample_pixel(p, s), f);
         }
     }
-}
-
-@fragment
-fn fs_kplus_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kplus_sbuffer_store_capture(v, front_facing, mask);
 }

@@ -5,7 +5,7 @@
 
 // The built-in capture entry points of the linked-list methods.
 
-// fs_ab_ll's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_ab_ll's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_ab_ll_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -13,13 +13,8 @@ fn fs_ab_ll_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_list(kpixel(v.position), scene_fragment_covering(v, front_facing, mask));
 }
 
-@fragment
-fn fs_ab_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_ab_ll_capture(v, front_facing, mask);
-}
-
 // kb-ll: sorted insertion into the pixel's list, or with --msaa into each covered sample's.
-// fs_sorted_ll's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_sorted_ll's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_sorted_ll_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -33,9 +28,4 @@ fn fs_sorted_ll_capture(v: SceneVarying, front_facing: bool, mask: u32) {
             capture_sorted_list(sample_pixel(p, s), f);
         }
     }
-}
-
-@fragment
-fn fs_sorted_ll(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_sorted_ll_capture(v, front_facing, mask);
 }

@@ -59,7 +59,7 @@ fn cascade_culled(base: u32, key: u32) -> bool {
 
 // The depth pass: the fragment's key into its pixel's cascade, or with --msaa into each covered
 // sample's.
-// fs_mdt32_depth's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_mdt32_depth's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_mdt32_depth_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -81,14 +81,9 @@ fn fs_mdt32_depth_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     }
 }
 
-@fragment
-fn fs_mdt32_depth(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_mdt32_depth_capture(v, front_facing, mask);
-}
-
 // The color pass: the fragment claims a slot holding its key in its pixel, or with --msaa in
 // each covered sample.
-// fs_mdt32_color's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_mdt32_color's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_mdt32_color_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -101,11 +96,6 @@ fn fs_mdt32_color_capture(v: SceneVarying, front_facing: bool, mask: u32) {
             store_color(sample_pixel(pixel, s), f);
         }
     }
-}
-
-@fragment
-fn fs_mdt32_color(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_mdt32_color_capture(v, front_facing, mask);
 }
 
 // Stores `f`'s color and tag in a slot of `p` holding its key that no other fragment claimed;
@@ -163,7 +153,7 @@ fn unpack_keys(inv_a: u32, inv_b: u32) -> Fragment {
     return fragment_new(depth_of20(a >> 12u), 0u, false, c);
 }
 
-// fs_mdt_pack's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_mdt_pack's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_mdt_pack_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -178,9 +168,4 @@ fn fs_mdt_pack_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     }
     cascade(base, k2.x);
     cascade(slots_in_frame() + base, k2.y);
-}
-
-@fragment
-fn fs_mdt_pack(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    fs_mdt_pack_capture(v, front_facing, 0xffffffffu);
 }

@@ -28,7 +28,7 @@ fn fragment_of64(key: u64) -> Fragment {
     return fragment_new(bitcast<f32>(0xffffffffu - u32(key >> 32u)), 0u, false, c);
 }
 
-// fs_mdt64's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_mdt64's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_mdt64_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -52,11 +52,6 @@ fn fs_mdt64_capture(v: SceneVarying, front_facing: bool, mask: u32) {
         key = min(old, key);
     }
     tail_add(p, fragment_of64(key));
-}
-
-@fragment
-fn fs_mdt64(v: SceneVarying, @builtin(front_facing) front_facing: bool) {
-    fs_mdt64_capture(v, front_facing, 0xffffffffu);
 }
 
 fn stored_count(p: u32) -> u32 {

@@ -210,6 +210,25 @@ fn composite_stored(p: u32, n: u32, limit: u32, s: ptr<function, Composite>, t: 
     k_depth_sort(p, n, limit, 0xffffffffu, s, t);
 }
 
+// The tail a (sample) pixel's resolve starts from: the one it captured with --tail blend, else
+// none.
+fn captured_tail(p: u32) -> Tail {
+    if kp.tail_blend != 0u {
+        return tail_sums(p);
+    }
+    return tail_empty();
+}
+
+// A (sample) pixel's result: the `limit` nearest of its `n` stored fragments composited in
+// order, then the tail `captured` with the rest joined to it.
+fn composite_pixel(p: u32, n: u32, limit: u32, captured: Tail) -> Resolved {
+    var s = composite_new();
+    var t = captured;
+    composite_stored(p, n, limit, &s, &t);
+    composite_tail(&s, t);
+    return composite_finish(s);
+}
+
 #ifdef MULTISAMPLED
 // --msaa: each sample composites its own fragments in depth order — its `limit` nearest, the
 // rest joining its tail — and the pixel is the samples' average (premultiplied, so blending it
@@ -296,14 +315,7 @@ fn resolve_sample_storage(p: u32) {
         let q = sample_pixel(p, si);
         let n = stored_count(q);
         let limit = min(n, kp.k);
-        var s = composite_new();
-        var t = tail_empty();
-        if kp.tail_blend != 0u {
-            t = tail_sums(q);
-        }
-        composite_stored(q, n, limit, &s, &t);
-        composite_tail(&s, t);
-        resolved_sum_add(&sum, composite_finish(s));
+        resolved_sum_add(&sum, composite_pixel(q, n, limit, captured_tail(q)));
         stored_all[si] = atomicLoad(&pixels[pixel_word(q, SEEN)]) <= limit;
         var far = Fragment(0.0, 0u, 0u, 0u);
         for (var i = 0u; i < limit; i++) {
@@ -353,20 +365,14 @@ fn resolve_pixel(pixel: vec2<u32>) {
     let seen = atomicLoad(&pixels[pixel_word(p, SEEN)]);
     let n = stored_count(p);
     let limit = min(n, kp.k);
-    var s = composite_new();
-    var t = tail_empty();
-    if kp.tail_blend != 0u {
-        t = tail_sums(p);
-    }
+    let t = captured_tail(p);
 #ifdef MULTISAMPLED
     if frame.coverage_bits != 0u {
         report_pixel(seen, resolve_samples(p, n, limit, t));
         return;
     }
 #endif
-    composite_stored(p, n, limit, &s, &t);
-    composite_tail(&s, t);
-    output[p] = composite_finish(s);
+    output[p] = composite_pixel(p, n, limit, t);
     report_pixel(seen, limit);
 }
 

@@ -31,7 +31,7 @@ fn set_region_start(p: u32, start: u32) {
     atomicStore(&pixels[pixel_word(p, OFFSET)], start);
 }
 
-// fs_sbuffer_count's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_sbuffer_count's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_sbuffer_count_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -39,12 +39,7 @@ fn fs_sbuffer_count_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     count_seen(kpixel(v.position));
 }
 
-@fragment
-fn fs_sbuffer_count(v: SceneVarying) {
-    fs_sbuffer_count_capture(v, true, 0xffffffffu);
-}
-
-// fs_sbuffer_store's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_sbuffer_store's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_sbuffer_store_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -60,9 +55,4 @@ fn fs_sbuffer_store_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     } else {
         counter_add(COUNTER_OVERFLOWED, 1u);
     }
-}
-
-@fragment
-fn fs_sbuffer_store(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_sbuffer_store_capture(v, front_facing, mask);
 }

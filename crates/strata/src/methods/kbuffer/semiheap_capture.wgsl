@@ -2,7 +2,7 @@
 #import strata::kbuffer::storage::{FILLED, acquire_published, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, release_published, tail_add, try_lock, unlock}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::kbuffer::slot_access::{load_key, load_slot, store_slot}
-#import strata::kbuffer::kplus_capture::{heap_sift_down, heap_sift_up}
+#import strata::kbuffer::kplus_capture::{evict_farthest, heap_sift_down, heap_sift_up}
 
 // The semi-heap k-buffer (seed 000, `kplus-semiheap`): each pixel's k slots are a max-heap H of
 // |H| = h slots (0..h), holding the h farthest of the cached fragments, and an unordered
@@ -18,13 +18,8 @@ const SEMIHEAP_H_ONE: u32 = 0x10000u;
 
 fn semiheap_insert(p: u32, heap_size: u32, f: Fragment) {
     let h = kp.aux;
-    if heap_size == h {
-        let root = load_slot(p, 0u);
-        if !fragment_before(f, root) {
-            tail_add(p, f);
-            return;
-        }
-        tail_add(p, root);
+    if heap_size == h && !evict_farthest(p, f) {
+        return;
     }
     // b: the farthest of S and f.
     var b = f;

@@ -84,67 +84,37 @@ fn capture_covering(v: SceneVarying, front_facing: bool, mask: u32, method: u32)
     }
 }
 
-// fs_kplus_array's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kplus_array's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kplus_array_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_covering(v, front_facing, mask, CAPTURE_KPLUS_ARRAY);
 }
 
-@fragment
-fn fs_kplus_array(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kplus_array_capture(v, front_facing, mask);
-}
-
-// fs_kplus_heap's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kplus_heap's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kplus_heap_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_covering(v, front_facing, mask, CAPTURE_KPLUS_HEAP);
 }
 
-@fragment
-fn fs_kplus_heap(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kplus_heap_capture(v, front_facing, mask);
-}
-
-// fs_kplus_array_r's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kplus_array_r's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kplus_array_r_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_covering(v, front_facing, mask, CAPTURE_KPLUS_ARRAY_R);
 }
 
-@fragment
-fn fs_kplus_array_r(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kplus_array_r_capture(v, front_facing, mask);
-}
-
-// fs_kb's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kb's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kb_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_covering(v, front_facing, mask, CAPTURE_KB);
 }
 
-@fragment
-fn fs_kb(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kb_capture(v, front_facing, mask);
-}
-
-// fs_kb_ps's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kb_ps's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kb_ps_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_covering(v, front_facing, mask, CAPTURE_KB_PS);
 }
 
-@fragment
-fn fs_kb_ps(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kb_ps_capture(v, front_facing, mask);
-}
-
-// fs_mlab's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_mlab's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_mlab_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_covering(v, front_facing, mask, CAPTURE_MLAB);
 }
 
-@fragment
-fn fs_mlab(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_mlab_capture(v, front_facing, mask);
-}
-
-// fs_fixed's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_fixed's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_fixed_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -152,17 +122,7 @@ fn fs_fixed_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_fixed(kpixel(v.position), scene_fragment_covering(v, front_facing, mask));
 }
 
-@fragment
-fn fs_fixed(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_fixed_capture(v, front_facing, mask);
-}
-
-// fs_kplus_semiheap's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_kplus_semiheap's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_kplus_semiheap_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     capture_covering(v, front_facing, mask, CAPTURE_KPLUS_SEMIHEAP);
-}
-
-@fragment
-fn fs_kplus_semiheap(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_kplus_semiheap_capture(v, front_facing, mask);
 }

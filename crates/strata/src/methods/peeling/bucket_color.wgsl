@@ -1,7 +1,7 @@
 #define_import_path strata::peeling::bucket_color
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment_covering}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, sample_entry, samples_per_pixel, scene_fragment_covering}
 #import strata::fragment::{Fragment}
-#import strata::peeling::bucket_common::{covered_samples, kept_word, params, route, sample_entry, samples_per_pixel}
+#import strata::peeling::bucket_common::{covered_samples, kept_word, params, route}
 
 // Bucket depth peeling, the color pass: at each sample it covers, a fragment whose depth is its
 // bucket's nearest claims slot 2b, one at its farthest slot 2b + 1 (one atomicOr on the sample
@@ -73,7 +73,7 @@ fn claim(e: u32, slot: u32) -> bool {
     return (atomicOr(&claims[e], bit) & bit) == 0u;
 }
 
-// fs_color's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_color's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_color_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -112,9 +112,4 @@ fn fs_color_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if shaded && frame.coverage_bits != 0u {
         atomicAdd(&claims[kept_word(p)], 1u);
     }
-}
-
-@fragment
-fn fs_color(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_color_capture(v, front_facing, mask);
 }

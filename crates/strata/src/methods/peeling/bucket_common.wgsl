@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::bucket_common
-#import strata::scene::{frame}
+#import strata::scene::{frame, samples_per_pixel}
 
 // Bucket depth peeling's routing and parameters, shared by its passes.
 // A pixel's depth range [nearest, farthest] (the bounds pass) is split into equal parts over
@@ -32,14 +32,8 @@ const HISTOGRAM_WORDS: u32 = 32u;
 
 // With --msaa, S sample entries per pixel, entry p·S + s, each with its own bucket targets'
 // samples, claims and records; the routing (bounds, histogram) is the pixel's, over all its
-// fragments, so a fragment has one bucket at every sample it covers. Single-sampled S = 1.
-fn samples_per_pixel() -> u32 {
-    return max(frame.coverage_bits, 1u);
-}
-
-fn sample_entry(p: u32, s: u32) -> u32 {
-    return p * samples_per_pixel() + s;
-}
+// fragments, so a fragment has one bucket at every sample it covers. Single-sampled S = 1
+// (scene's `samples_per_pixel` and `sample_entry`).
 
 // --msaa: the word after the sample entries' claim words counting pixel p's kept fragments.
 fn kept_word(p: u32) -> u32 {

@@ -10,7 +10,7 @@
 @group(1) @binding(1) var bounds: texture_2d<f32>;
 @group(1) @binding(2) var<storage, read_write> histogram_bits: array<atomic<u32>>;
 
-// fs_histogram's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_histogram's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_histogram_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -20,9 +20,4 @@ fn fs_histogram_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let part = bucket_of(v.position.z, -range.x, range.y, SUBINTERVALS);
     let word = pixel_index(pixel) * HISTOGRAM_WORDS + part / 32u;
     atomicOr(&histogram_bits[word], 1u << (part % 32u));
-}
-
-@fragment
-fn fs_histogram(v: SceneVarying) {
-    fs_histogram_capture(v, true, 0xffffffffu);
 }

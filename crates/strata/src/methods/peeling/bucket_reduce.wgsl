@@ -1,5 +1,6 @@
 #define_import_path strata::peeling::bucket_reduce
-#import strata::peeling::bucket_common::{NO_DEPTH, samples_per_pixel}
+#import strata::scene::{samples_per_pixel}
+#import strata::peeling::bucket_common::{NO_DEPTH}
 
 // Bucket depth peeling with --msaa, between the bounds and the routing passes: each pixel's
 // bounds over all its samples (the MAX of the samples' (−nearest, farthest)), so a fragment is

@@ -1,9 +1,9 @@
 #define_import_path strata::peeling::bucket_resolve
-#import strata::scene::{frame, pixel_index, report_pixel}
+#import strata::scene::{frame, pixel_index, report_pixel, sample_entry, samples_per_pixel}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
-#import strata::peeling::bucket_common::{MAX_BUCKETS, kept_word, params, sample_entry, samples_per_pixel}
+#import strata::peeling::bucket_common::{MAX_BUCKETS, kept_word, params}
 
 // Bucket depth peeling, the resolve: each sample entry's claimed slots in bucket order, nearest
 // then farthest within a bucket (by depth and primitive, for two fragments at one depth), are

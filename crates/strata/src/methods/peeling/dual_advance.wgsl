@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::dual_advance
-#import strata::scene::{frame, pixel_index, report_pixel, report_samples}
+#import strata::scene::{frame, pixel_index, report_pixel, report_samples, sample_entry, samples_per_pixel}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment}
 #import strata::composite::{Composite, composite_back, composite_back_new, composite_front, composite_join, composite_new}
@@ -33,10 +33,6 @@ struct Counters {
 @group(1) @binding(6) var<storage, read_write> counters: Counters;
 @group(1) @binding(7) var<storage, read_write> output: array<Resolved>;
 
-fn samples_per_pixel() -> u32 {
-    return max(frame.coverage_bits, 1u);
-}
-
 @compute @workgroup_size(8, 8)
 fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= frame.size.x || id.y >= frame.size.y {
@@ -44,7 +40,7 @@ fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let p = pixel_index(id.xy);
     for (var s = 0u; s < samples_per_pixel(); s++) {
-        let i = p * samples_per_pixel() + s;
+        let i = sample_entry(p, s);
         front[i] = composite_new();
         back[i] = composite_back_new();
         next_bounds[2u * i] = no_min();
@@ -98,7 +94,7 @@ fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let p = pixel_index(id.xy);
     for (var s = 0u; s < samples_per_pixel(); s++) {
-        advance_entry(p * samples_per_pixel() + s);
+        advance_entry(sample_entry(p, s));
     }
 }
 

@@ -1,5 +1,5 @@
 #define_import_path strata::peeling::dual_peel
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, scene_fragment_covering}
+#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, sample_entry, samples_per_pixel, scene_fragment_covering}
 #import strata::fragment::{Fragment}
 #ifdef WIDE_KEYS
 #import strata::peeling::dual_key64::{fragment_key}
@@ -54,22 +54,14 @@ fn dual_samples(mask: u32) -> u32 {
     return mask & ((1u << frame.coverage_bits) - 1u);
 }
 
-fn dual_samples_per_pixel() -> u32 {
-    return max(frame.coverage_bits, 1u);
-}
-
-fn sample_entry(p: u32, s: u32) -> u32 {
-    return p * dual_samples_per_pixel() + s;
-}
-
 // --msaa: the word of hits after the sample entries holding pixel p's `which`-th count (0: its
 // fragments, 1: those some sample composited).
 fn pixel_count_word(p: u32, which: u32) -> u32 {
     let pixels = frame.size.x * frame.size.y;
-    return 3u * pixels * dual_samples_per_pixel() + which * pixels + p;
+    return 3u * pixels * samples_per_pixel() + which * pixels + p;
 }
 
-// fs_bounds's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_bounds's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_bounds_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -80,18 +72,13 @@ fn fs_bounds_capture(v: SceneVarying, front_facing: bool, mask: u32) {
         atomicAdd(&hits[pixel_count_word(p, 0u)], 1u);
     }
     let samples = dual_samples(mask);
-    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+    for (var s = 0u; s < samples_per_pixel(); s++) {
         if ((samples >> s) & 1u) != 0u {
             let i = sample_entry(p, s);
             atomicAdd(&hits[3u * i + 2u], 1u);
             widen_next(i, key);
         }
     }
-}
-
-@fragment
-fn fs_bounds(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_bounds_capture(v, front_facing, mask);
 }
 
 // One fragment at sample entry i: into a slot at its bounds, or widening the next bounds.
@@ -121,7 +108,7 @@ fn peel_at(i: u32, key: u32, f: Fragment) {
     }
 }
 
-// fs_peel's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_peel's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_peel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -131,21 +118,16 @@ fn fs_peel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     // The tag in the multisampled form, which the resolve reads the primitive of.
     let f = scene_fragment_covering(v, front_facing, mask);
     let samples = dual_samples(mask);
-    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+    for (var s = 0u; s < samples_per_pixel(); s++) {
         if ((samples >> s) & 1u) != 0u {
             peel_at(sample_entry(p, s), key, f);
         }
     }
 }
 
-@fragment
-fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_peel_capture(v, front_facing, mask);
-}
-
 // --msaa's account after the last pass: a fragment was composited at a sample unless its key
 // lies within the sample's remaining bounds (what the last pass left between its slots).
-// fs_account's capture step: its fragment stage below and the compute rasterizer call it.
+// fs_account's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         return;
@@ -154,7 +136,7 @@ fn fs_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let key = key_of(v, front_facing);
     let samples = dual_samples(mask);
     var composited = false;
-    for (var s = 0u; s < dual_samples_per_pixel(); s++) {
+    for (var s = 0u; s < samples_per_pixel(); s++) {
         if ((samples >> s) & 1u) != 0u {
             let i = sample_entry(p, s);
             composited = composited || key < bounds[2u * i] || key > bounds[2u * i + 1u];
@@ -163,9 +145,4 @@ fn fs_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if composited {
         atomicAdd(&hits[pixel_count_word(p, 1u)], 1u);
     }
-}
-
-@fragment
-fn fs_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
-    fs_account_capture(v, front_facing, mask);
 }

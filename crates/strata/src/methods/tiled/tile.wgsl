@@ -53,14 +53,29 @@ fn round_limit(count: u32) -> u32 {
     return min(KEEP, tp.k - min(count, tp.k));
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_round(
+// A thread of a tile's workgroup: the workgroup is one 8×8 tile, the thread one of its pixels
+// (and bit `lid` of the tile's coverage masks).
+struct TileThread {
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(local_invocation_id) local: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
-) {
-    let tile = group.y * tp.tiles_x + group.x;
-    let pixel = vec2<i32>(group.xy * 8u + local.xy);
+}
+
+// The thread's tile, numbered row by row.
+fn thread_tile(t: TileThread) -> u32 {
+    return t.group.y * tp.tiles_x + t.group.x;
+}
+
+// The thread's pixel (past the frame's edge in the last row and column of tiles).
+fn thread_pixel(t: TileThread) -> vec2<u32> {
+    return t.group.xy * 8u + t.local.xy;
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_round(invocation: TileThread) {
+    let lid = invocation.lid;
+    let tile = thread_tile(invocation);
+    let pixel = vec2<i32>(thread_pixel(invocation));
     let on_screen = all(vec2<u32>(pixel) < frame.size);
     let p = pixel_index(vec2<u32>(min(vec2<i32>(frame.size) - 1, pixel)));
     var composite = composite_new();
@@ -167,19 +182,15 @@ fn cs_round(
 // After the last round: each pixel's result, its fragments (those left behind the last round
 // are counted as generated and dropped), and the tile's rounds.
 @compute @workgroup_size(8, 8)
-fn cs_finish(
-    @builtin(workgroup_id) group: vec3<u32>,
-    @builtin(local_invocation_id) local: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let tile = group.y * tp.tiles_x + group.x;
-    if lid == 0u {
+fn cs_finish(invocation: TileThread) {
+    let tile = thread_tile(invocation);
+    if invocation.lid == 0u {
         atomicAdd(&tiled_counters[COUNTER_ROUNDS + min(tile_rounds[tile], ROUND_BINS - 1u)], 1u);
         if tile == 0u {
             atomicStore(&tiled_counters[COUNTER_ROUNDS_RECORDED], tp.rounds);
         }
     }
-    let pixel = group.xy * 8u + local.xy;
+    let pixel = thread_pixel(invocation);
     if any(pixel >= frame.size) {
         return;
     }

@@ -1,8 +1,8 @@
 #define_import_path strata::weighted::composite
 #ifdef UNIFORM_SCENE
-#import strata::scene::{frame}
+#import strata::scene::{samples_per_pixel}
 #else
-#import strata::scene::{frame, pixel_index, report_pixel}
+#import strata::scene::{frame, pixel_index, report_pixel, samples_per_pixel}
 #endif
 #import strata::color::{Resolved, resolved_over}
 #ifdef MULTISAMPLED
@@ -55,7 +55,7 @@ fn sample_color(pixel: vec2<i32>, si: u32) -> vec4<f32> {
 
 // The pixel's result from its `count` fragments.
 fn pixel_resolved(pixel: vec2<i32>, count: u32) -> Resolved {
-    let samples = max(frame.coverage_bits, 1u);
+    let samples = samples_per_pixel();
     var color = vec4<f32>(0.0);
     for (var si = 0u; si < samples && count > 0u; si++) {
         color += sample_color(pixel, si);

@@ -168,29 +168,34 @@ fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     color_target(format, Some(blend_add(One, One)))
 }
 
-/// The moment accumulation stage (and wavelet's depth-range pass), reading multisampled depth
-/// ranges with `--msaa`.
-pub fn moments_stage(samples: u32) -> Stage {
-    Stage::new("strata.mboit.moments", include_str!("mboit_moments.wgsl"))
-        .with(super::LIBRARY)
-        .defs(&shader::target_samples(samples))
-}
-
-/// The shade stage for `moments`, reading multisampled moments with `--msaa`.
-pub fn shade_stage(samples: u32, moments: Moments) -> Stage {
+/// The definitions of `moments`' stages, reading multisampled targets with `--msaa`:
+/// MBOIT_MOMENTS (the real values), MBOIT_TRIG and MBOIT_HAAR (the count of trigonometric
+/// moments and of Haar coefficients, 0 for the other kinds).
+fn moment_defs(samples: u32, moments: Moments) -> shader::Defs {
     let (trig, haar) = match moments {
         Moments::Trigonometric(n) => (n, 0),
         Moments::Haar(n) => (0, n),
         Moments::Power(_) => (0, 0),
     };
+    shader::target_samples(samples)
+        .value("MBOIT_MOMENTS", moments.reals())
+        .value("MBOIT_TRIG", trig)
+        .value("MBOIT_HAAR", haar)
+}
+
+/// The accumulation stage of `moments` (`fs_moments`; and wavelet's depth-range pass
+/// `fs_bounds`, which any `moments` has), reading multisampled depth ranges with `--msaa`.
+pub fn moments_stage(samples: u32, moments: Moments) -> Stage {
+    Stage::new("strata.mboit.moments", include_str!("mboit_moments.wgsl"))
+        .with(super::LIBRARY)
+        .defs(&moment_defs(samples, moments))
+}
+
+/// The shade stage for `moments`, reading multisampled moments with `--msaa`.
+pub fn shade_stage(samples: u32, moments: Moments) -> Stage {
     Stage::new("strata.mboit.shade", include_str!("mboit_shade.wgsl"))
         .with(super::LIBRARY)
-        .defs(
-            &shader::target_samples(samples)
-                .value("MBOIT_MOMENTS", moments.reals())
-                .value("MBOIT_TRIG", trig)
-                .value("MBOIT_HAAR", haar),
-        )
+        .defs(&moment_defs(samples, moments))
 }
 
 /// The composite stage, reading multisampled targets with `--msaa`.
@@ -221,7 +226,7 @@ impl Mboit {
             "strata.mboit.shade.layout",
             &[Slot::Uniform, texture, texture, texture, texture],
         );
-        let module = moments_stage(samples).module(device);
+        let module = moments_stage(samples, Moments::Power(4)).module(device);
         let moments = capture_pipeline(
             gpu,
             "strata.mboit.moments",
@@ -271,7 +276,7 @@ impl Mboit {
             "strata.wavelet.coefficients.layout",
             &[Slot::Uniform, Slot::StorageRw, texture],
         );
-        let module = moments_stage(samples).module(&gpu.device);
+        let module = moments_stage(samples, Moments::Power(4)).module(&gpu.device);
         let range = |operation| wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
@@ -328,16 +333,7 @@ impl Mboit {
                 "{option} blends {bytes} bytes per sample, and this device's render targets take {allowed} (max_color_attachment_bytes_per_sample); use {instead}"
             )));
         }
-        let module = moments_stage(self.samples).module(&gpu.device);
-        let entry = match moments {
-            Moments::Power(6) => "fs_moments6",
-            Moments::Power(_) => "fs_moments8",
-            Moments::Trigonometric(2) => "fs_trig2",
-            Moments::Trigonometric(3) => "fs_trig3",
-            Moments::Trigonometric(_) => "fs_trig4",
-            Moments::Haar(4) => "fs_haar4",
-            Moments::Haar(_) => "fs_haar8",
-        };
+        let module = moments_stage(self.samples, moments).module(&gpu.device);
         let mut targets = vec![target(B0_FORMAT), target(MOMENTS_FORMAT)];
         if reals > 4 {
             targets.push(target(high_format(reals).0));
@@ -350,7 +346,7 @@ impl Mboit {
             gpu,
             "strata.mboit.moments",
             &module,
-            entry,
+            "fs_moments",
             &[scene_layout, moments_layout],
             &targets,
             None,

@@ -1,11 +1,14 @@
 #define_import_path strata::weighted::mboit_moments
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of, shade}
+#import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, samples_per_pixel, shade}
 #import strata::weighted::mboit_math::{c_mul, haar_position, haar_step_coefficient, mboit_absorbance, mboit_depth, trig_angle}
 
 // mboit pass 1: every fragment adds its absorbance a = −ln(1 − α) to b0 and a·(z, z², z³, z⁴) to
 // the moments (additive blending into 32-bit float targets), and counts itself; with 6 or 8
-// moments a·(z⁵, z⁶[, z⁷, z⁸]) go to a third target. Trigonometric moments (fs_trig*) store
+// moments a·(z⁵, z⁶[, z⁷, z⁸]) go to a third target. Trigonometric moments store
 // a·u^k, u = e^{iφ(z)}, as (re, im) pairs: u and u² in the second target, u³[, u⁴] in the third.
+// The definitions pick the stage's moments as in mboit_shade.wgsl: MBOIT_MOMENTS real values
+// (4, 6 or 8), trigonometric ones where MBOIT_TRIG > 0, wavelet's Haar coefficients where
+// MBOIT_HAAR > 0, power moments else; fs_bounds reads none of them.
 
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
 #ifdef MULTISAMPLED
@@ -31,7 +34,7 @@ fn fs_bounds(v: SceneVarying) -> @location(0) vec4<f32> {
 // every sample it covers, so every sample maps depth alike).
 fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
     var bounds = vec2<f32>(2.0, -2.0);
-    for (var si = 0; si < i32(max(frame.coverage_bits, 1u)); si++) {
+    for (var si = 0; si < i32(samples_per_pixel()); si++) {
         let b = textureLoad(bounds_target, pixel, si);
         bounds = vec2<f32>(min(bounds.x, b.r), max(bounds.y, b.a));
     }
@@ -55,50 +58,6 @@ fn fragment_moments(v: SceneVarying) -> FragmentMoments {
     return FragmentMoments(a, a * low, a * z4 * low);
 }
 
-struct MomentsOut {
-    @location(0) b0: vec4<f32>,
-    @location(1) moments: vec4<f32>,
-}
-
-@fragment
-fn fs_moments(v: SceneVarying) -> MomentsOut {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let m = fragment_moments(v);
-    return MomentsOut(vec4<f32>(m.a), m.low);
-}
-
-struct Moments6Out {
-    @location(0) b0: vec4<f32>,
-    @location(1) moments: vec4<f32>,
-    @location(2) high: vec2<f32>,
-}
-
-@fragment
-fn fs_moments6(v: SceneVarying) -> Moments6Out {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let m = fragment_moments(v);
-    return Moments6Out(vec4<f32>(m.a), m.low, m.high.xy);
-}
-
-struct Moments8Out {
-    @location(0) b0: vec4<f32>,
-    @location(1) moments: vec4<f32>,
-    @location(2) high: vec4<f32>,
-}
-
-@fragment
-fn fs_moments8(v: SceneVarying) -> Moments8Out {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let m = fragment_moments(v);
-    return Moments8Out(vec4<f32>(m.a), m.low, m.high);
-}
-
 // A fragment's absorbance and a·u^k (k = 1..4) as (re, im) pairs, counting it at its pixel.
 fn fragment_trig_moments(v: SceneVarying) -> FragmentMoments {
     atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
@@ -109,35 +68,8 @@ fn fragment_trig_moments(v: SceneVarying) -> FragmentMoments {
     return FragmentMoments(a, a * vec4<f32>(u, u2), a * vec4<f32>(c_mul(u2, u), c_mul(u2, u2)));
 }
 
-@fragment
-fn fs_trig2(v: SceneVarying) -> MomentsOut {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let m = fragment_trig_moments(v);
-    return MomentsOut(vec4<f32>(m.a), m.low);
-}
-
-@fragment
-fn fs_trig3(v: SceneVarying) -> Moments6Out {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let m = fragment_trig_moments(v);
-    return Moments6Out(vec4<f32>(m.a), m.low, m.high.xy);
-}
-
-@fragment
-fn fs_trig4(v: SceneVarying) -> Moments8Out {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let m = fragment_trig_moments(v);
-    return Moments8Out(vec4<f32>(m.a), m.low, m.high);
-}
-
 // A fragment's absorbance and a times the Haar coefficients of the step at its depth (wavelet:
-// fs_haar4 writes the first four, fs_haar8 eight), counting it at its pixel.
+// the first four written with 4 coefficients, all eight with 8), counting it at its pixel.
 fn fragment_haar_coefficients(v: SceneVarying) -> FragmentMoments {
     atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
     let a = mboit_absorbance(shade(v.world, v.normal, v.material).a);
@@ -149,20 +81,34 @@ fn fragment_haar_coefficients(v: SceneVarying) -> FragmentMoments {
     return FragmentMoments(a, vec4<f32>(c[0], c[1], c[2], c[3]), vec4<f32>(c[4], c[5], c[6], c[7]));
 }
 
-@fragment
-fn fs_haar4(v: SceneVarying) -> MomentsOut {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    let m = fragment_haar_coefficients(v);
-    return MomentsOut(vec4<f32>(m.a), m.low);
+// The stage's targets: b0, the first four moments, and with 6 or 8 real values a third.
+struct MomentsOut {
+    @location(0) b0: vec4<f32>,
+    @location(1) moments: vec4<f32>,
+#if MBOIT_MOMENTS == 6
+    @location(2) high: vec2<f32>,
+#else if MBOIT_MOMENTS == 8
+    @location(2) high: vec4<f32>,
+#endif
 }
 
 @fragment
-fn fs_haar8(v: SceneVarying) -> Moments8Out {
+fn fs_moments(v: SceneVarying) -> MomentsOut {
     if behind_opaque(v.position) {
         discard;
     }
+#if MBOIT_TRIG > 0
+    let m = fragment_trig_moments(v);
+#else if MBOIT_HAAR > 0
     let m = fragment_haar_coefficients(v);
-    return Moments8Out(vec4<f32>(m.a), m.low, m.high);
+#else
+    let m = fragment_moments(v);
+#endif
+#if MBOIT_MOMENTS == 6
+    return MomentsOut(vec4<f32>(m.a), m.low, m.high.xy);
+#else if MBOIT_MOMENTS == 8
+    return MomentsOut(vec4<f32>(m.a), m.low, m.high);
+#else
+    return MomentsOut(vec4<f32>(m.a), m.low);
+#endif
 }

@@ -1,5 +1,5 @@
 #define_import_path strata::weighted::mboit_shade
-#import strata::scene::{SceneVarying, behind_opaque, frame, pixel_of, shade}
+#import strata::scene::{SceneVarying, behind_opaque, pixel_of, samples_per_pixel, shade}
 #import strata::weighted::mboit_math::{MBOIT_MAX_ALPHA, haar_transmittance, mboit_absorbance, mboit_depth, mboit_transmittance, mboit_transmittance_n, mboit_transmittance_trig}
 const MBOIT_MOMENTS: u32 = #{MBOIT_MOMENTS}u;
 // Trigonometric moments: their count n (MBOIT_MOMENTS is then 2n, the real values); 0 for power
@@ -30,7 +30,7 @@ alias TargetTexture = texture_2d<f32>;
 // The pixel's depth range, the union of its samples' (as the coefficients pass took it).
 fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
     var bounds = vec2<f32>(2.0, -2.0);
-    for (var si = 0u; si < max(frame.coverage_bits, 1u); si++) {
+    for (var si = 0u; si < samples_per_pixel(); si++) {
         let b = textureLoad(bounds_target, pixel, si);
         bounds = vec2<f32>(min(bounds.x, b.r), max(bounds.y, b.a));
     }
@@ -64,7 +64,7 @@ fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool, own: f32)
 fn shade_fragment(v: SceneVarying, mask: u32, high: bool) -> vec4<f32> {
     let pixel = vec2<i32>(pixel_of(v.position));
     let z = mboit_depth(v.position.z);
-    let samples = max(frame.coverage_bits, 1u);
+    let samples = samples_per_pixel();
     let covered = select(mask, 1u, samples == 1u);
     let c = shade(v.world, v.normal, v.material);
     let alpha = min(c.a, MBOIT_MAX_ALPHA);
