@@ -99,23 +99,33 @@ pub fn assert_close(
     max_diff: u8,
     max_fraction: f64,
 ) {
-    if let Err(msg) = check_close(name, actual, expected, effect, max_diff, max_fraction) {
+    let (a, e) = (actual.to_rgba8(effect), expected.to_rgba8(effect));
+    if let Err(msg) = crate::metrics::testing::check_image(name, &a, &e, max_diff, max_fraction) {
         panic!("{msg}");
     }
 }
 
-/// [`assert_close`]'s check, returning the failure instead of panicking.
-pub fn check_close(
+/// The bar of an exact method's picture: max |Δ| ≤ 2/255 per sRGB channel on ≥ 99.9% of pixels
+/// (why not 100%: see methods/tests.rs).
+pub const EXACT_MAX_DIFF: u8 = 2;
+/// See [`EXACT_MAX_DIFF`].
+pub const EXACT_MAX_FRACTION: f64 = 0.001;
+
+/// [`assert_close`] at the exact methods' bar ([`EXACT_MAX_DIFF`], [`EXACT_MAX_FRACTION`]).
+pub fn assert_exact(
     name: &str,
     actual: &LinearImage,
     expected: &LinearImage,
     effect: crate::Effect,
-    max_diff: u8,
-    max_fraction: f64,
-) -> Result<(), String> {
-    let a = actual.to_rgba8(effect);
-    let e = expected.to_rgba8(effect);
-    crate::metrics::testing::check_image(name, &a, &e, max_diff, max_fraction).map(|_| ())
+) {
+    assert_close(
+        name,
+        actual,
+        expected,
+        effect,
+        EXACT_MAX_DIFF,
+        EXACT_MAX_FRACTION,
+    );
 }
 
 /// The failures of a test that checks several methods: every method runs, and the test fails
@@ -177,26 +187,25 @@ impl Failures {
         truth: &ExactTruth,
         effect: crate::Effect,
     ) {
-        const MAX_DIFF: u8 = 2;
-        const MAX_FRACTION: f64 = 0.001;
         let at_device_fraction = if truth.unmatched == 0 {
             0.0
         } else {
-            MAX_FRACTION
+            EXACT_MAX_FRACTION
         };
         let taken = truth.disagreeing;
+        let actual = actual.to_rgba8(effect);
         for (suffix, truth, fraction) in [
-            ("", &truth.expected, MAX_FRACTION),
+            ("", &truth.expected, EXACT_MAX_FRACTION),
             ("-device-depths", &truth.at_device, at_device_fraction),
         ] {
-            let result = check_close(
+            let result = crate::metrics::testing::check_image(
                 &format!("{name}{suffix}"),
-                actual,
-                truth,
-                effect,
-                MAX_DIFF,
+                &actual,
+                &truth.to_rgba8(effect),
+                EXACT_MAX_DIFF,
                 fraction,
             )
+            .map(|_| ())
             .map_err(|e| match (suffix, taken) {
                 ("", 1..) => format!(
                     "{e} ({taken} pixels' truth from the device's fragments, where its rasterizer made some otherwise)"

@@ -11,7 +11,10 @@ use crate::gpu::readback;
 use crate::render::LinearImage;
 use crate::scene::builtin::{cube, quad, uv_sphere};
 use crate::scene::{Light, LightKind, Material, Object, Projection, Shading};
-use crate::testing::{assert_close, gpu, render_gpu, render_reference};
+use crate::testing::{
+    assert_close, assert_exact, gpu, render_gpu, render_reference, EXACT_MAX_DIFF,
+    EXACT_MAX_FRACTION,
+};
 
 /// Deferred against forward: at most 3/255 per sRGB channel on every pixel, and 2/255 on all but
 /// 0.5% of them. What differs is the G-buffer: albedo in 8-bit sRGB (≤ 0.5/255 after encoding),
@@ -21,10 +24,9 @@ use crate::testing::{assert_close, gpu, render_gpu, render_reference};
 const DEFERRED_MAX_DIFF: u8 = 3;
 const DEFERRED_NEAR_DIFF: u8 = 2;
 const DEFERRED_NEAR_FRACTION: f64 = 0.005;
-/// Forward and the full frame against the reference: the exact methods' tolerance (see
-/// methods/tests.rs), the HDR image's f16 adding ≤ 0.3/255.
-const EXACT_MAX_DIFF: u8 = 2;
-const EXACT_MAX_FRACTION: f64 = 0.001;
+// Forward and the full frame against the reference: the exact methods' tolerance
+// (`EXACT_MAX_DIFF`, `EXACT_MAX_FRACTION`: see methods/tests.rs), the HDR image's f16 adding
+// ≤ 0.3/255.
 
 fn material(name: &str, color: [f32; 3], opacity: f32, shininess: f32) -> Material {
     Material {
@@ -318,14 +320,7 @@ fn forward_pipeline_with_exact_methods_equals_the_reference() {
         assert!(stats.max_depth_complexity.unwrap() <= 2, "{stats:?}");
         if pipeline == Pipeline::Forward {
             let expected = render_reference(&scene, &opts);
-            assert_close(
-                "room-forward",
-                &image,
-                &expected,
-                Effect::Transparency,
-                EXACT_MAX_DIFF,
-                EXACT_MAX_FRACTION,
-            );
+            assert_exact("room-forward", &image, &expected, Effect::Transparency);
         }
     }
     for (method, k) in [("f2b", None), ("kplus-heap", Some(1))] {
@@ -336,13 +331,11 @@ fn forward_pipeline_with_exact_methods_equals_the_reference() {
         };
         let (image, _) = render(&scene, &opts, method);
         let expected = render_reference(&scene, &opts);
-        assert_close(
+        assert_exact(
             &format!("room-forward-{method}"),
             &image,
             &expected,
             Effect::Transparency,
-            EXACT_MAX_DIFF,
-            EXACT_MAX_FRACTION,
         );
     }
 }
@@ -427,13 +420,11 @@ fn the_transparent_method_over_the_deferred_image_equals_the_reference_composite
             options
         };
         let (actual, _) = render(&scene, &opts, method);
-        assert_close(
+        assert_exact(
             &format!("full-frame-{method}"),
             &actual,
             &expected,
             Effect::Transparency,
-            EXACT_MAX_DIFF,
-            EXACT_MAX_FRACTION,
         );
     }
 }
@@ -457,23 +448,19 @@ fn multisampled_transparency_over_the_single_sampled_deferred_image() {
     let (expected, partly_covered) = composite_over_deferred(&scene, &opts);
     assert!(partly_covered > 20, "{partly_covered} edge pixels");
     let reference = crate::reference::render(&scene, &opts).unwrap().0;
-    assert_close(
+    assert_exact(
         "msaa-deferred-reference",
         &reference,
         &expected,
         Effect::Transparency,
-        EXACT_MAX_DIFF,
-        EXACT_MAX_FRACTION,
     );
     for method in ["abuffer-ll", "kplus-heap", "f2b"] {
         let (actual, _) = render(&scene, &opts, method);
-        assert_close(
+        assert_exact(
             &format!("msaa-deferred-{method}"),
             &actual,
             &expected,
             Effect::Transparency,
-            EXACT_MAX_DIFF,
-            EXACT_MAX_FRACTION,
         );
     }
 }

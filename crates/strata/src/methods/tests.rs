@@ -9,11 +9,11 @@
 use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions};
 use crate::scene::{loaders, Blend, Scene};
-use crate::testing::{assert_close, render_gpu, render_reference, Failures};
+use crate::testing::{
+    assert_exact, render_gpu, render_reference, Failures, EXACT_MAX_DIFF, EXACT_MAX_FRACTION,
+};
 
 const EXACT_METHODS: [&str; 6] = ["f2b", "dual", "abuffer-ll", "sbuffer", "kpeel", "tiled"];
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
 
 pub(crate) fn options(size: u32, effect: Effect) -> RenderOptions {
     RenderOptions {
@@ -222,13 +222,11 @@ fn a_scene_beyond_one_storage_binding_matches_the_reference() {
     let expected = super::kbuffer::tests::reference_where_rasterizers_agree(&s, &opts);
     for method in ["abuffer-ll", "sbuffer"] {
         let (actual, stats) = render_gpu(&s, &opts, method);
-        assert_close(
+        assert_exact(
             &format!("beyond-binding-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
         assert_eq!(stats.fragments_dropped, Some(0), "{method}");
     }
@@ -246,13 +244,11 @@ fn pictures_in_bands_match_the_reference() {
         let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
         r.set_max_band_rows(Some(40)); // rounded down to 32
         let (actual, stats) = r.render(method).unwrap();
-        assert_close(
+        assert_exact(
             &format!("bands-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
         assert_eq!(stats.bands, Some(3), "{method}");
         assert_eq!((stats.width, stats.height), (96, 96), "{method}");
@@ -285,13 +281,11 @@ fn pictures_beyond_the_bindings_render_in_bands_that_halve_as_needed() {
     for method in ["abuffer-ll", "kplus-array"] {
         let mut r = crate::Renderer::new(&gpu, &s, &opts).unwrap();
         let (actual, stats) = r.render(method).unwrap();
-        assert_close(
+        assert_exact(
             &format!("halving-bands-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
         assert!(stats.bands.unwrap_or(1) >= 2, "{method}: {:?}", stats.bands);
         assert_eq!(stats.fragments_generated, Some(4 * 128 * 128), "{method}");
@@ -518,14 +512,7 @@ fn abuffer_pool_overflow_is_detected_and_the_image_stays_exact() {
     assert_eq!(stats.geometry_passes, Some(2));
     assert_eq!(stats.fragments_dropped, Some(0));
     let expected = render_reference(&s, &opts);
-    assert_close(
-        "overflow-abuffer-ll",
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("overflow-abuffer-ll", &actual, &expected, opts.frame.effect);
     // A pool that fits reports no overflow.
     opts.frame.kbuffer.initial_nodes = None;
     assert_eq!(render_gpu(&s, &opts, "abuffer-ll").1.overflow, Some(false));
@@ -551,24 +538,10 @@ fn baselines_are_exact_where_order_is_trivial() {
     let shuffled = scene("builtin:layers?n=10&coverage=0.5&order=random&seed=4");
     let expected = render_reference(&shuffled, &opts);
     let (sorted, _) = render_gpu(&shuffled, &opts, "sorted");
-    assert_close(
-        "layers-sorted",
-        &sorted,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("layers-sorted", &sorted, &expected, opts.frame.effect);
     let back = scene("builtin:layers?n=10&coverage=0.5&order=back&seed=4");
     let (unsorted, _) = render_gpu(&back, &opts, "unsorted");
-    assert_close(
-        "layers-unsorted",
-        &unsorted,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("layers-unsorted", &unsorted, &expected, opts.frame.effect);
     // And out of order, unsorted blending is visibly wrong: the reason OIT exists.
     let (wrong, _) = render_gpu(&shuffled, &opts, "unsorted");
     let c = crate::metrics::compare(
@@ -618,13 +591,11 @@ fn opaque_depth_rejects_fragments_behind_it() {
             assert_eq!(actual.max_count(), keep as u32);
             continue;
         }
-        assert_close(
+        assert_exact(
             &format!("opaque-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
 }
@@ -708,8 +679,8 @@ fn golden_demo_translucency() {
         "golden-abuffer-ll",
         &gpu.to_rgba8(opts.frame.effect),
         &golden,
-        MAX_DIFF,
-        MAX_FRACTION,
+        EXACT_MAX_DIFF,
+        EXACT_MAX_FRACTION,
     ) {
         panic!("{m}");
     }
@@ -734,13 +705,11 @@ fn draw_callback_issues_the_geometry() {
         let (actual, _) = r
             .render_with(method, &|pass| pass.draw(0..vertices, 0..1))
             .unwrap();
-        assert_close(
+        assert_exact(
             &format!("callback-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
 }
@@ -1006,25 +975,11 @@ fn dual_peels_coincident_faces_in_primitive_order() {
     let opts = options(24, Effect::Transparency);
     let expected = render_reference(&s, &opts);
     let (f2b, _) = render_gpu(&s, &opts, "f2b");
-    assert_close(
-        "coincident-f2b",
-        &f2b,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("coincident-f2b", &f2b, &expected, opts.frame.effect);
     let (dual, stats) = render_gpu(&s, &opts, "dual");
     if crate::methods::peeling::has_wide_keys(crate::testing::gpu()) {
         assert_eq!(stats.fragments_dropped, Some(0));
-        assert_close(
-            "coincident-dual",
-            &dual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        assert_exact("coincident-dual", &dual, &expected, opts.frame.effect);
     } else {
         assert_eq!(stats.fragments_dropped, Some(24 * 24));
     }
@@ -1057,14 +1012,7 @@ fn sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
     assert_eq!(stats.geometry_passes, Some(4));
     assert_eq!(stats.fragments_dropped, Some(0));
     let expected = render_reference(&s, &opts);
-    assert_close(
-        "overflow-sbuffer",
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("overflow-sbuffer", &actual, &expected, opts.frame.effect);
     opts.frame.budget_mb = Some(0.2);
     let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
     let e = r.render("sbuffer").unwrap_err();
@@ -1089,14 +1037,7 @@ fn sbuffer_is_exact_with_a_three_level_prefix_sum() {
     );
     let expected = render_reference(&s, &opts);
     let (actual, stats) = render_gpu(&s, &opts, "sbuffer");
-    assert_close(
-        "sbuffer-3-levels",
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("sbuffer-3-levels", &actual, &expected, opts.frame.effect);
     assert_eq!(stats.fragments_dropped, Some(0));
 }
 

@@ -17,7 +17,7 @@ mod mlab;
 use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions, Tail};
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, render_gpu, render_reference, Failures};
+use crate::testing::{assert_exact, render_gpu, render_reference, Failures, EXACT_MAX_FRACTION};
 
 const EXACT_K_METHODS: [&str; 9] = [
     "kb-keys",
@@ -30,8 +30,6 @@ const EXACT_K_METHODS: [&str; 9] = [
     "kplus-sbuffer",
     "kplus-semiheap",
 ];
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
 
 fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
@@ -85,7 +83,7 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
         let stored = stats.fragments_stored.unwrap() + stats.fragments_dropped.unwrap();
         failures.check(
             method,
-            if (generated - truth).abs() > truth * MAX_FRACTION {
+            if (generated - truth).abs() > truth * EXACT_MAX_FRACTION {
                 Err(format!("{generated} fragments, reference {truth}"))
             } else if stored != stats.fragments_generated.unwrap() {
                 Err(format!(
@@ -118,13 +116,11 @@ fn k_methods_with_k_at_depth_complexity_equal_the_full_reference() {
     };
     for method in EXACT_K_METHODS.iter().chain(unlocked.iter()) {
         let (actual, stats) = render_gpu(&s, &opts, method);
-        assert_close(
+        assert_exact(
             &format!("layers-full-{method}"),
             &actual,
             &full,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
         assert_eq!(stats.fragments_dropped, Some(0), "{method}");
         assert_eq!(stats.max_depth_complexity, Some(12), "{method}");
@@ -186,13 +182,11 @@ fn culling_off_gives_the_same_picture() {
         "kplus-sbuffer",
     ] {
         let (actual, _) = render_gpu(&s, &opts, method);
-        assert_close(
+        assert_exact(
             &format!("noculling-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
 }
@@ -754,13 +748,11 @@ fn auto_k_reaches_the_robustness_the_budget_allows() {
         }
         fewer.frame.k = Some(k);
         let expected = reference_where_rasterizers_agree(&s, &fewer);
-        assert_close(
+        assert_exact(
             &format!("auto-k-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
     // One budget cuts k below what R asks for: reported, not hidden.
@@ -799,14 +791,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         let mut opts = options(48, k);
         // Exact mode's first frame peels 8 layers, learns N = 24, and renders again.
         let (actual, stats) = render_gpu(&s, &opts, "kpeel");
-        assert_close(
-            &format!("kpeel-k{k}"),
-            &actual,
-            &full,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        assert_exact(&format!("kpeel-k{k}"), &actual, &full, opts.frame.effect);
         assert_eq!(stats.fragments_dropped, Some(0), "k={k}");
         assert_eq!(stats.max_depth_complexity, Some(24));
         assert_eq!(stats.lock_failures, Some(0));
@@ -853,14 +838,7 @@ fn kpeel_loses_nothing_at_equal_depths() {
     let opts = options(24, 2);
     let expected = render_reference(&s, &all_fragments(24));
     let (actual, stats) = render_gpu(&s, &opts, "kpeel");
-    assert_close(
-        "kpeel-coincident",
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("kpeel-coincident", &actual, &expected, opts.frame.effect);
     assert_eq!(stats.fragments_dropped, Some(0));
     assert_eq!(stats.fragments_generated, Some(6 * 24 * 24));
 }
@@ -881,13 +859,11 @@ fn unified_buffer_spans_z_buffer_to_a_buffer() {
         check_k("unified-k1", &s, &nearest, &[method]);
         let (actual, stats) = render_gpu(&s, &options(48, depth), method);
         assert_eq!(stats.fragments_dropped, Some(0), "{method}");
-        assert_close(
+        assert_exact(
             &format!("unified-a-buffer-{method}"),
             &actual,
             &render_reference(&s, &full),
             full.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
 }
@@ -1383,7 +1359,7 @@ fn the_devices_fragments_are_the_references() {
         );
         eprintln!("{summary}");
         let differing = (a.missing.len() + a.extra.len() + a.masks_differ.len()) as f64;
-        let agrees = differing <= a.reference as f64 * MAX_FRACTION
+        let agrees = differing <= a.reference as f64 * EXACT_MAX_FRACTION
             && a.max_depth_error[0] <= DEPTH_AGREEMENT
             && a.max_depth_error[1] <= EXTRAPOLATED_DEPTH_AGREEMENT
             && a.facing_differs.is_empty()

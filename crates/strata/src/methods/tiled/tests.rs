@@ -3,10 +3,10 @@ use crate::frame::{Effect, Raster};
 use crate::methods::tests::options;
 use crate::methods::MethodId;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, gpu, render_gpu, render_reference};
-
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
+use crate::testing::{
+    assert_close, assert_exact, gpu, render_gpu, render_reference, EXACT_MAX_DIFF,
+    EXACT_MAX_FRACTION,
+};
 
 fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap()
@@ -107,8 +107,8 @@ fn deep_pixels_take_more_rounds_and_stay_exact() {
             &actual,
             &expected,
             effect,
-            MAX_DIFF,
-            MAX_FRACTION,
+            EXACT_MAX_DIFF,
+            EXACT_MAX_FRACTION,
         );
         assert_eq!(stats.fragments_dropped, Some(0));
         assert_eq!(stats.max_depth_complexity, Some(40));
@@ -183,13 +183,11 @@ fn partial_tiles_and_near_clipping_match_the_reference() {
         opts.frame.height = h;
         let (actual, _) = render_gpu(&s, &opts, "tiled");
         let expected = render_reference(&s, &opts);
-        assert_close(
+        assert_exact(
             &format!("tiled-{w}x{h}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
 }
@@ -236,13 +234,11 @@ fn k_composites_the_k_nearest() {
         opts.frame.k = Some(k);
         let (actual, stats) = render_gpu(&s, &opts, "tiled");
         let expected = render_reference(&s, &opts);
-        assert_close(
+        assert_exact(
             &format!("tiled-k{k}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
         assert_eq!(
             stats.fragments_stored.unwrap(),
@@ -300,14 +296,7 @@ fn the_deferred_pipelines_transparent_part_is_abuffer_lls() {
     opts.build.lighting.pipeline = Some(crate::scene::Pipeline::Deferred);
     let (tiled, stats) = render_gpu(&s, &opts, "tiled");
     let (lists, reference) = render_gpu(&s, &opts, "abuffer-ll");
-    assert_close(
-        "tiled-deferred",
-        &tiled,
-        &lists,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("tiled-deferred", &tiled, &lists, opts.frame.effect);
     assert!(stats.lighting.is_some());
     assert_eq!(stats.fragments_generated, reference.fragments_generated);
 }

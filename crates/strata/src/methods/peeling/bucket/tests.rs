@@ -6,13 +6,12 @@ use super::*;
 use crate::frame::{BucketSplit, Effect, RenderOptions};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, render_gpu, render_reference};
+use crate::testing::{
+    assert_close, assert_exact, render_gpu, render_reference, EXACT_MAX_DIFF, EXACT_MAX_FRACTION,
+};
 
 /// The tolerance of the exact methods' tests (methods/tests.rs): lavapipe's f32 edge and depth
 /// equations against the reference's exact ones.
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
-
 use crate::methods::kbuffer::tests::{options, reference_fragments_at_device_depths};
 
 /// The reference's fragments at the depths and samples the device's rasterizer gave them (read
@@ -78,7 +77,7 @@ fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate
     // Coverage at pixel centres on an edge may differ between a rasterizer and the reference's
     // exact rules (module docs of methods/tests.rs): within the exact tests' 0.1%.
     assert!(
-        unmatched as f64 <= generated as f64 * MAX_FRACTION,
+        unmatched as f64 <= generated as f64 * EXACT_MAX_FRACTION,
         "{name}: {unmatched} fragments only the reference or only the device has"
     );
     assert_close(
@@ -86,13 +85,21 @@ fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate
         &actual,
         &expected,
         opts.frame.effect,
-        MAX_DIFF,
-        if unmatched == 0 { 0.0 } else { MAX_FRACTION },
+        EXACT_MAX_DIFF,
+        if unmatched == 0 {
+            0.0
+        } else {
+            EXACT_MAX_FRACTION
+        },
     );
     let stored = stats.fragments_stored.unwrap();
     let off = stored.abs_diff(kept) as f64 / generated as f64;
     assert!(
-        off <= if unmatched == 0 { 0.0 } else { MAX_FRACTION },
+        off <= if unmatched == 0 {
+            0.0
+        } else {
+            EXACT_MAX_FRACTION
+        },
         "{name}: kept {stored}, twin {kept}"
     );
     stats
@@ -102,14 +109,7 @@ fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate
 fn bucket_against_the_reference(name: &str, s: &Scene, opts: &RenderOptions) -> crate::FrameStats {
     let (actual, stats) = render_gpu(s, opts, "bucket");
     let expected = render_reference(s, opts);
-    assert_close(
-        name,
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact(name, &actual, &expected, opts.frame.effect);
     stats
 }
 
