@@ -128,6 +128,73 @@ pub fn assert_exact(
     );
 }
 
+/// The picture a method must give, with the effect pictures are compared in: a test's truth for
+/// several pictures at the exact methods' bar.
+pub struct Expected {
+    pub image: LinearImage,
+    pub effect: crate::Effect,
+}
+
+impl Expected {
+    /// The reference's picture of `scene` under `options`.
+    pub fn reference(scene: &Scene, options: &RenderOptions) -> Self {
+        Expected {
+            image: render_reference(scene, options),
+            effect: options.frame.effect,
+        }
+    }
+
+    /// [`assert_exact`]: `actual` against this picture (images named `name`).
+    pub fn assert_exact(&self, name: &str, actual: &LinearImage) {
+        assert_exact(name, actual, &self.image, self.effect);
+    }
+}
+
+/// How many pixels of two pictures of one size differ.
+pub fn differing_pixels(a: &LinearImage, b: &LinearImage) -> usize {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(x, y)| x != y)
+        .count()
+}
+
+/// A renderer of `scene` on the shared GPU.
+pub fn renderer(scene: &Scene, options: &RenderOptions) -> Renderer<'static> {
+    Renderer::new(gpu(), scene, options).unwrap_or_else(|e| panic!("renderer: {e}"))
+}
+
+/// Two frames of `method`, the second after its storage was filled with garbage: the same
+/// picture and the same number of fragments.
+pub fn assert_poison_changes_nothing(
+    scene: &Scene,
+    options: &RenderOptions,
+    method: crate::MethodId,
+) {
+    let mut r = renderer(scene, options);
+    let (clean, a) = r.render_method(method, None).unwrap();
+    r.recorder().unwrap().poison();
+    let (poisoned, b) = r.render_method(method, None).unwrap();
+    assert!(
+        clean == poisoned,
+        "{method}: poisoned memory changed the picture"
+    );
+    assert_eq!(a.fragments_generated, b.fragments_generated, "{method}");
+}
+
+/// Asserts that `e` is an input error (a wrong option or value) that says `says`; `what` names
+/// the case.
+pub fn assert_input_error(what: &str, e: &crate::Error, says: &str) {
+    let input = matches!(e, crate::Error::Input(_));
+    assert!(input && e.to_string().contains(says), "{what}: {e}");
+}
+
+/// Asserts that `e` says what is unsupported, `says`; `what` names the case.
+pub fn assert_unsupported(what: &str, e: &crate::Error, says: &str) {
+    let unsupported = matches!(e, crate::Error::Unsupported(_));
+    assert!(unsupported && e.to_string().contains(says), "{what}: {e}");
+}
+
 /// The failures of a test that checks several methods: every method runs, and the test fails
 /// at the end naming each failing method and why, so one run on a scarce GPU says everything.
 #[derive(Default)]
@@ -214,6 +281,12 @@ impl Failures {
             });
             self.check(method, result);
         }
+    }
+
+    /// Records every failure of `case`'s own [`Failures`], each under the case's name.
+    pub fn absorb(&mut self, case: &str, failures: Failures) {
+        self.0
+            .extend(failures.0.into_iter().map(|f| format!("{case}: {f}")));
     }
 
     /// Panics with every failure recorded.

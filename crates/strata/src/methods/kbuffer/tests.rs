@@ -16,8 +16,12 @@ mod mlab;
 
 use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions, Tail};
+use crate::methods::tests::covering_layers;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_exact, render_gpu, render_reference, Failures, EXACT_MAX_FRACTION};
+use crate::testing::{
+    assert_exact, differing_pixels, render_gpu, render_reference, renderer, Failures,
+    EXACT_MAX_FRACTION,
+};
 
 const EXACT_K_METHODS: [&str; 9] = [
     "kb-keys",
@@ -197,9 +201,7 @@ fn culling_off_gives_the_same_picture() {
 fn tail_blend_composites_the_rest_as_one_term() {
     let n = 10;
     let k = 4;
-    let s = scene(&format!(
-        "builtin:layers?n={n}&coverage=1&order=random&seed=4"
-    ));
+    let s = covering_layers(n, 4);
     let mut opts = options(16, k as u32);
     opts.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
     opts.frame.kbuffer.tail = Tail::Blend;
@@ -457,7 +459,7 @@ fn impossible_budget_is_a_clear_error() {
     let s = scene("builtin:layers?n=6");
     let mut opts = options(64, 64);
     opts.frame.budget_mb = Some(1.0);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let mut r = renderer(&s, &opts);
     let e = r.render("kplus-heap").expect_err("budget too small");
     assert!(
         matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
@@ -560,7 +562,7 @@ fn packed_mdt_reject_translucency_with_a_clear_error() {
     let mut opts = options(16, 4);
     opts.frame.effect = Effect::Translucency;
     for method in ["kb-mdt64", "kb-mdt-pack"] {
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut r = renderer(&s, &opts);
         let e = r.render(method).expect_err("unsupported");
         assert!(
             matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("translucency"),
@@ -604,7 +606,7 @@ fn kparams_layout_matches_wgsl() {
 fn k_beyond_a_methods_cap_is_a_clear_error() {
     let s = scene("builtin:layers?n=2");
     let opts = options(8, 257);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let mut r = renderer(&s, &opts);
     let e = r.render("kplus-array").expect_err("k above the cap");
     assert!(
         matches!(e, crate::Error::Input(_)) && e.to_string().contains("1..256"),
@@ -771,7 +773,7 @@ fn auto_k_errors_are_clear() {
     let mut opts = options(64, 1);
     opts.frame.k_auto = Some(0.9);
     opts.frame.budget_mb = Some(0.05);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let mut r = renderer(&s, &opts);
     let e = r.render("kplus-heap").unwrap_err();
     assert!(e.to_string().contains("cannot hold even k = 1"), "{e}");
     opts.frame.budget_mb = None;
@@ -814,7 +816,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         );
         // Too few layers: what was not reached is reported as dropped.
         opts.frame.peeling.layers = Some(k);
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut r = renderer(&s, &opts);
         let (_, stats) = r.render("kpeel").unwrap();
         if k < 24 {
             let covered = (48 * 48 / 2) as u64;
@@ -896,7 +898,7 @@ fn semiheap_keeps_the_k_nearest_for_every_heap_size() {
     }
     let mut opts = options(16, 4);
     opts.frame.kbuffer.heap_size = Some(5);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &layers, &opts).unwrap();
+    let mut r = renderer(&layers, &opts);
     let e = r.render("kplus-semiheap").unwrap_err();
     assert!(e.to_string().contains("--heap-size 5"), "{e}");
 }
@@ -1407,7 +1409,7 @@ fn a_blended_tail_is_the_same_every_frame() {
         .filter(|&m| m != super::MethodId::Mlab)
         .chain([super::MethodId::KbKeys, super::MethodId::KbAbFixed]);
     for m in methods {
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut r = renderer(&s, &opts);
         let mut frames = Vec::new();
         for poison in [false, false, true] {
             if poison {
@@ -1431,12 +1433,7 @@ fn a_blended_tail_is_the_same_every_frame() {
             };
             let pixel_words = differs(first_pixels, pixels, PIXEL_WORDS);
             let tail_pixels = differs(first_tail, tail, TAIL_WORDS);
-            let picture = first_image
-                .pixels
-                .iter()
-                .zip(&image.pixels)
-                .filter(|(a, b)| a != b)
-                .count();
+            let picture = differing_pixels(first_image, image);
             if pixel_words.is_empty() && tail_pixels.is_empty() && picture == 0 {
                 continue;
             }
@@ -1579,12 +1576,7 @@ fn a_blended_tail_does_not_depend_on_arrival_order() {
                 opts.frame.order = Some(order);
                 pictures.push(render_gpu(&s, &opts, method).0);
             }
-            let differing = pictures[0]
-                .pixels
-                .iter()
-                .zip(&pictures[1].pixels)
-                .filter(|(a, b)| a != b)
-                .count();
+            let differing = differing_pixels(&pictures[0], &pictures[1]);
             failures.check(
                 &format!("{method} --tail {}", tail.name()),
                 match differing {

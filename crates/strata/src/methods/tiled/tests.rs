@@ -4,8 +4,8 @@ use crate::methods::tests::options;
 use crate::methods::MethodId;
 use crate::scene::{loaders, Scene};
 use crate::testing::{
-    assert_close, assert_exact, gpu, render_gpu, render_reference, EXACT_MAX_DIFF,
-    EXACT_MAX_FRACTION,
+    assert_close, assert_exact, assert_poison_changes_nothing, gpu, render_gpu, render_reference,
+    Expected, EXACT_MAX_DIFF, EXACT_MAX_FRACTION,
 };
 
 fn scene(spec: &str) -> Scene {
@@ -166,12 +166,7 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
 fn poisoned_buffers_change_nothing() {
     let s = scene("builtin:nvpro?objects=32&subdiv=10&seed=2");
     let opts = options(40, Effect::Transparency);
-    let mut r = crate::Renderer::new(gpu(), &s, &opts).unwrap();
-    let (clean, a) = r.render_method(MethodId::Tiled, None).unwrap();
-    r.recorder().unwrap().poison();
-    let (poisoned, b) = r.render_method(MethodId::Tiled, None).unwrap();
-    assert!(clean == poisoned, "poisoned memory changed the picture");
-    assert_eq!(a.fragments_generated, b.fragments_generated);
+    assert_poison_changes_nothing(&s, &opts, MethodId::Tiled);
 }
 
 /// Sizes that are not multiples of a tile, and a camera inside the scene (near clipping).
@@ -182,13 +177,7 @@ fn partial_tiles_and_near_clipping_match_the_reference() {
         let mut opts = options(w, Effect::Transparency);
         opts.frame.height = h;
         let (actual, _) = render_gpu(&s, &opts, "tiled");
-        let expected = render_reference(&s, &opts);
-        assert_exact(
-            &format!("tiled-{w}x{h}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-        );
+        Expected::reference(&s, &opts).assert_exact(&format!("tiled-{w}x{h}"), &actual);
     }
 }
 
@@ -233,13 +222,7 @@ fn k_composites_the_k_nearest() {
         let mut opts = options(32, Effect::Transparency);
         opts.frame.k = Some(k);
         let (actual, stats) = render_gpu(&s, &opts, "tiled");
-        let expected = render_reference(&s, &opts);
-        assert_exact(
-            &format!("tiled-k{k}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-        );
+        Expected::reference(&s, &opts).assert_exact(&format!("tiled-k{k}"), &actual);
         assert_eq!(
             stats.fragments_stored.unwrap(),
             stats.fragments_generated.unwrap() - stats.fragments_dropped.unwrap()

@@ -364,18 +364,31 @@ fn pixel_depths(raw: &[u32]) -> (Vec<f32>, f32, f32) {
     (depths, nearest, farthest)
 }
 
+/// `select` of `depths` with k = 2 × `half`, which keeps at most k.
+fn select_at_most_k(
+    depths: &[f32],
+    half: u32,
+    split: BucketSplit,
+) -> std::result::Result<Vec<bool>, TestCaseError> {
+    let kept = select(depths, 2 * half, split);
+    prop_assert!(kept.iter().filter(|k| **k).count() <= 2 * half as usize);
+    Ok(kept)
+}
+
+/// A pixel's 1 to 39 random 24-bit depth fractions (see [`pixel_depths`]), and half a k of 2
+/// to 32.
+fn raw_depths_and_half_k() -> impl Strategy<Value = (Vec<u32>, u32)> {
+    (prop::collection::vec(0u32..1 << 24, 1..40), 1u32..=16)
+}
+
 proptest! {
     /// Each bucket keeps at most two; the pixel's nearest and farthest always survive; a pixel
     /// whose buckets hold at most two each keeps everything; what survives of a bucket is its
     /// nearest and its farthest.
     #[test]
-    fn select_keeps_each_buckets_ends(
-        raw in prop::collection::vec(0u32..1 << 24, 1..40),
-        half in 1u32..=16,
-    ) {
+    fn select_keeps_each_buckets_ends((raw, half) in raw_depths_and_half_k()) {
         let (depths, nearest, farthest) = pixel_depths(&raw);
-        let kept = select(&depths, 2 * half, U);
-        prop_assert!(kept.iter().filter(|k| **k).count() <= 2 * half as usize);
+        let kept = select_at_most_k(&depths, half, U)?;
         prop_assert!(depths.iter().zip(&kept).any(|(&z, &k)| k && z == nearest));
         prop_assert!(depths.iter().zip(&kept).any(|(&z, &k)| k && z == farthest));
         // Group by bucket with an independent float computation of the same fixed point.
@@ -406,13 +419,9 @@ proptest! {
     /// most `buckets` occupied parts, a fragment is lost only to others in its own part (each
     /// part keeps min(2, its fragments)).
     #[test]
-    fn adaptive_split_loses_only_within_a_part(
-        raw in prop::collection::vec(0u32..1 << 24, 1..40),
-        half in 1u32..=16,
-    ) {
+    fn adaptive_split_loses_only_within_a_part((raw, half) in raw_depths_and_half_k()) {
         let (depths, nearest, farthest) = pixel_depths(&raw);
-        let kept = select(&depths, 2 * half, A);
-        prop_assert!(kept.iter().filter(|k| **k).count() <= 2 * half as usize);
+        let kept = select_at_most_k(&depths, half, A)?;
         let (lo, hi) = (depth_fixed(nearest), depth_fixed(farthest));
         let part = |z: f32| part_of(depth_fixed(z), lo, hi, SUBINTERVALS as u64);
         let mut parts: Vec<u64> = depths.iter().map(|&z| part(z)).collect();
