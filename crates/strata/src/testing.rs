@@ -159,6 +159,14 @@ pub fn differing_pixels(a: &LinearImage, b: &LinearImage) -> usize {
         .count()
 }
 
+/// The name of a builtin scene's spec: `builtin:NAME?…` → `NAME`.
+pub fn scene_name(spec: &str) -> &str {
+    spec.split('?')
+        .next()
+        .unwrap()
+        .trim_start_matches("builtin:")
+}
+
 /// A renderer of `scene` on the shared GPU.
 pub fn renderer(scene: &Scene, options: &RenderOptions) -> Renderer<'static> {
     Renderer::new(gpu(), scene, options).unwrap_or_else(|e| panic!("renderer: {e}"))

@@ -102,7 +102,7 @@ fn exact_methods_match_reference_on_scenes() {
             Effect::Complexity,
         ),
     ] {
-        let name = spec["builtin:".len()..].split('?').next().unwrap();
+        let name = crate::testing::scene_name(spec);
         let opts = options(size, effect);
         let scene_failures = exact_failures(name, &scene(spec), &opts, &EXACT_METHODS);
         failures.absorb(&format!("{name} ({})", effect.name()), scene_failures);
