@@ -167,6 +167,24 @@ pub fn scene_name(spec: &str) -> &str {
         .trim_start_matches("builtin:")
 }
 
+/// Asserts a `#[repr(C)]` struct's size and its fields' offsets in bytes, as its WGSL twin lays
+/// them out: `assert_layout!(Params, 48, count: 16, samples: 32)`.
+macro_rules! assert_layout {
+    ($t:ty, $size:expr $(, $field:ident: $offset:expr)* $(,)?) => {{
+        assert_eq!(std::mem::size_of::<$t>(), $size, "size of {}", stringify!($t));
+        $(
+            assert_eq!(
+                std::mem::offset_of!($t, $field),
+                $offset,
+                "offset of {}.{}",
+                stringify!($t),
+                stringify!($field)
+            );
+        )*
+    }};
+}
+pub(crate) use assert_layout;
+
 /// A renderer of `scene` on the shared GPU.
 pub fn renderer(scene: &Scene, options: &RenderOptions) -> Renderer<'static> {
     Renderer::new(gpu(), scene, options).unwrap_or_else(|e| panic!("renderer: {e}"))

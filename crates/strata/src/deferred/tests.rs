@@ -11,6 +11,7 @@ use crate::gpu::readback;
 use crate::render::LinearImage;
 use crate::scene::builtin::{cube, quad, uv_sphere};
 use crate::scene::{Light, LightKind, Material, Object, Projection, Shading};
+use crate::testing::assert_layout;
 use crate::testing::{
     assert_close, assert_exact, gpu, render_gpu, render_reference, Expected, EXACT_MAX_DIFF,
     EXACT_MAX_FRACTION,
@@ -220,11 +221,7 @@ fn every_stage_validates() {
 
 #[test]
 fn deferred_params_layout_matches_wgsl() {
-    use std::mem::{offset_of, size_of};
-    assert_eq!(size_of::<DeferredParams>(), 96);
-    assert_eq!(offset_of!(DeferredParams, normal_encoding), 64);
-    assert_eq!(offset_of!(DeferredParams, tonemap), 76);
-    assert_eq!(offset_of!(DeferredParams, cone_first), 88);
+    assert_layout!(DeferredParams, 96, normal_encoding: 64, tonemap: 76, cone_first: 88);
 }
 
 #[test]

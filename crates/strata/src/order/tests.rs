@@ -8,13 +8,12 @@ use crate::gpu::readback;
 use crate::methods::MethodId;
 use crate::render::FrameRecorder;
 use crate::scene::{loaders, Scene};
+use crate::testing::assert_layout;
 use crate::testing::{assert_close, gpu, render_reference, renderer};
 
 #[test]
 fn order_params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<OrderParams>(), 48);
-    assert_eq!(std::mem::offset_of!(OrderParams, count), 16);
-    assert_eq!(std::mem::offset_of!(OrderParams, samples), 32);
+    assert_layout!(OrderParams, 48, count: 16, samples: 32);
 }
 
 #[test]

@@ -18,6 +18,7 @@ use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions, Tail};
 use crate::methods::tests::covering_layers;
 use crate::scene::{loaders, Scene};
+use crate::testing::assert_layout;
 use crate::testing::{
     assert_exact, differing_pixels, render_gpu, render_reference, renderer, Failures,
     EXACT_MAX_FRACTION,
@@ -593,12 +594,7 @@ fn long_lists_with_the_tail_dropped_composite_only_k() {
 
 #[test]
 fn kparams_layout_matches_wgsl() {
-    use std::mem::{offset_of, size_of};
-    assert_eq!(size_of::<super::KParams>(), 48);
-    assert_eq!(offset_of!(super::KParams, aux), 20);
-    assert_eq!(offset_of!(super::KParams, width), 24);
-    assert_eq!(offset_of!(super::KParams, pixels), 28);
-    assert_eq!(offset_of!(super::KParams, sample_slots), 32);
+    assert_layout!(super::KParams, 48, aux: 20, width: 24, pixels: 28, sample_slots: 32);
 }
 
 /// Locking methods refuse a k whose critical section could run past a GPU timeout.

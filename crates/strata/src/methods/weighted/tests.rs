@@ -8,6 +8,7 @@ use crate::frame::{Effect, Moments, RenderOptions, Weight};
 use crate::frame::{FrameOptions, WeightedOptions};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
+use crate::testing::assert_layout;
 use crate::testing::{assert_close, assert_exact, per_pixel, render_gpu, scene_name};
 
 // The scenes the closed forms are checked on (translucent, with `at_alpha`).
@@ -138,8 +139,7 @@ fn wboit_weights_differ_and_the_depth_scale_matters() {
 
 #[test]
 fn wboit_params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<super::WboitParams>(), 16);
-    assert_eq!(std::mem::offset_of!(super::WboitParams, depth_scale), 4);
+    assert_layout!(super::WboitParams, 16, depth_scale: 4);
 }
 
 /// The settings `mboit` runs with at `moments`.
@@ -416,11 +416,7 @@ proptest::proptest! {
 
 #[test]
 fn mboit_params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<super::mboit::MboitParams>(), 16);
-    assert_eq!(
-        std::mem::offset_of!(super::mboit::MboitParams, overestimation),
-        4
-    );
+    assert_layout!(super::mboit::MboitParams, 16, overestimation: 4);
 }
 
 /// stochastic's closed form: each pixel's reference fragments (with their sample coverage)
@@ -516,10 +512,7 @@ fn stochastic_refuses_a_single_sampled_frame() {
 
 #[test]
 fn stochastic_params_layout_matches_wgsl() {
-    assert_eq!(
-        std::mem::size_of::<super::stochastic::StochasticParams>(),
-        16
-    );
+    assert_layout!(super::stochastic::StochasticParams, 16);
 }
 
 /// The stipples' counts average α·S and their samples are distinct.

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use super::*;
+use crate::scene::builtin::primitives::tests::signed_volume;
 use crate::scene::{Background, LightKind, Projection, Shading};
 
 fn fixture(name: &str) -> PathBuf {
@@ -31,16 +32,6 @@ fn scene_error(name: &str) -> String {
     assert!(e.contains(name), "error does not name the file: {e}");
     assert!(!e.contains('\n'), "error is not one line: {e:?}");
     e
-}
-
-fn signed_volume(m: &Mesh) -> f32 {
-    m.indices
-        .chunks_exact(3)
-        .map(|t| {
-            let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from(m.positions[i as usize]));
-            a.dot(b.cross(c)) / 6.0
-        })
-        .sum()
 }
 
 fn approx3(a: [f32; 3], b: [f32; 3]) -> bool {
