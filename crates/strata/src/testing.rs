@@ -185,6 +185,22 @@ macro_rules! assert_layout {
 }
 pub(crate) use assert_layout;
 
+/// A front-facing fragment blended over, covering its one sample, without absorption: primitive
+/// `prim` at `depth` (its distance too).
+pub fn fragment(prim: u32, depth: f64, alpha: f64, color: [f64; 3]) -> crate::resolve::RefFragment {
+    crate::resolve::RefFragment {
+        depth,
+        prim,
+        front_facing: true,
+        color,
+        alpha,
+        absorption: 0.0,
+        distance: depth,
+        coverage: 1,
+        blend: crate::scene::Blend::Over,
+    }
+}
+
 /// A renderer of `scene` on the shared GPU.
 pub fn renderer(scene: &Scene, options: &RenderOptions) -> Renderer<'static> {
     Renderer::new(gpu(), scene, options).unwrap_or_else(|e| panic!("renderer: {e}"))

@@ -6,7 +6,6 @@
 //! center within rounding distance of an edge can be covered by one and not the other; colors
 //! also differ by f32 shading and f16 fragment storage, which stays far below 2/255.
 
-use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions};
 use crate::scene::{loaders, Blend, Scene};
 use crate::testing::{
@@ -17,15 +16,9 @@ use crate::testing::{
 const EXACT_METHODS: [&str; 6] = ["f2b", "dual", "abuffer-ll", "sbuffer", "kpeel", "tiled"];
 
 pub(crate) fn options(size: u32, effect: Effect) -> RenderOptions {
-    RenderOptions {
-        frame: FrameOptions {
-            width: size,
-            height: size,
-            effect,
-            ..Default::default()
-        },
-        ..Default::default()
-    }
+    let mut options = RenderOptions::sized(size, size);
+    options.frame.effect = effect;
+    options
 }
 
 fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {

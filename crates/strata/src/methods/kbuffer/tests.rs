@@ -14,7 +14,6 @@
 
 mod mlab;
 
-use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions, Tail};
 use crate::methods::tests::covering_layers;
 use crate::scene::{loaders, Scene};
@@ -41,15 +40,9 @@ fn scene(spec: &str) -> Scene {
 }
 
 pub(crate) fn options(size: u32, k: u32) -> RenderOptions {
-    RenderOptions {
-        frame: FrameOptions {
-            width: size,
-            height: size,
-            k: Some(k),
-            ..Default::default()
-        },
-        ..Default::default()
-    }
+    let mut options = RenderOptions::sized(size, size);
+    options.frame.k = Some(k);
+    options
 }
 
 /// Options for the whole A-buffer picture (no k).

@@ -4,8 +4,8 @@
 //! so on the ≤ 6 layers used here the weighted average moves by under 6·2⁻¹¹ ≈ 0.3%, below 1/255.
 
 use super::cpu;
+use crate::frame::WeightedOptions;
 use crate::frame::{Effect, Moments, RenderOptions, Weight};
-use crate::frame::{FrameOptions, WeightedOptions};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
 use crate::testing::assert_layout;
@@ -18,21 +18,9 @@ const NVPRO_400: &str = "builtin:nvpro?objects=400&subdiv=10&seed=3";
 const DRAGON: &str = "builtin:dragon";
 const SPHERES_8: &str = "builtin:spheres?layers=8";
 
-/// Default options at `size`².
-fn sized(size: u32) -> RenderOptions {
-    RenderOptions {
-        frame: FrameOptions {
-            width: size,
-            height: size,
-            ..Default::default()
-        },
-        ..Default::default()
-    }
-}
-
 /// Default options at `size`² over a black background (low opacities show in every channel).
 fn over_black(size: u32) -> RenderOptions {
-    let mut options = sized(size);
+    let mut options = RenderOptions::sized(size, size);
     options.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
     options
 }
@@ -87,7 +75,7 @@ fn wboit_equals_its_closed_form_for_every_weight() {
 #[test]
 fn multisampled_wboit_averages_the_samples_closed_forms() {
     let scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
-    let opts = multisampled(sized(40));
+    let opts = multisampled(RenderOptions::sized(40, 40));
     let expected = per_pixel(&scene, &opts, |_, l, bg| {
         let mut sum = [0.0; 3];
         for sample in 0..4 {
@@ -121,7 +109,7 @@ fn multisampled_wboit_averages_the_samples_closed_forms() {
 #[test]
 fn wboit_weights_differ_and_the_depth_scale_matters() {
     let scene = loaders::load_scene(NVPRO_96).unwrap();
-    let opts = |weight, depth_scale| weighted(sized(32), weight, depth_scale);
+    let opts = |weight, depth_scale| weighted(RenderOptions::sized(32, 32), weight, depth_scale);
     let (a, _) = render_gpu(&scene, &opts(Weight::Eq7, 1.0), "wboit");
     let (b, _) = render_gpu(&scene, &opts(Weight::Eq9, 1.0), "wboit");
     let (c, _) = render_gpu(&scene, &opts(Weight::Eq7, 100.0), "wboit");
