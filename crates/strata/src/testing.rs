@@ -99,23 +99,142 @@ pub fn assert_close(
     max_diff: u8,
     max_fraction: f64,
 ) {
-    if let Err(msg) = check_close(name, actual, expected, effect, max_diff, max_fraction) {
+    let (a, e) = (actual.to_rgba8(effect), expected.to_rgba8(effect));
+    if let Err(msg) = crate::metrics::testing::check_image(name, &a, &e, max_diff, max_fraction) {
         panic!("{msg}");
     }
 }
 
-/// [`assert_close`]'s check, returning the failure instead of panicking.
-pub fn check_close(
+/// The bar of an exact method's picture: max |Δ| ≤ 2/255 per sRGB channel on ≥ 99.9% of pixels
+/// (why not 100%: see methods/tests.rs).
+pub const EXACT_MAX_DIFF: u8 = 2;
+/// See [`EXACT_MAX_DIFF`].
+pub const EXACT_MAX_FRACTION: f64 = 0.001;
+
+/// [`assert_close`] at the exact methods' bar ([`EXACT_MAX_DIFF`], [`EXACT_MAX_FRACTION`]).
+pub fn assert_exact(
     name: &str,
     actual: &LinearImage,
     expected: &LinearImage,
     effect: crate::Effect,
-    max_diff: u8,
-    max_fraction: f64,
-) -> Result<(), String> {
-    let a = actual.to_rgba8(effect);
-    let e = expected.to_rgba8(effect);
-    crate::metrics::testing::check_image(name, &a, &e, max_diff, max_fraction).map(|_| ())
+) {
+    assert_close(
+        name,
+        actual,
+        expected,
+        effect,
+        EXACT_MAX_DIFF,
+        EXACT_MAX_FRACTION,
+    );
+}
+
+/// The picture a method must give, with the effect pictures are compared in: a test's truth for
+/// several pictures at the exact methods' bar.
+pub struct Expected {
+    pub image: LinearImage,
+    pub effect: crate::Effect,
+}
+
+impl Expected {
+    /// The reference's picture of `scene` under `options`.
+    pub fn reference(scene: &Scene, options: &RenderOptions) -> Self {
+        Expected {
+            image: render_reference(scene, options),
+            effect: options.frame.effect,
+        }
+    }
+
+    /// [`assert_exact`]: `actual` against this picture (images named `name`).
+    pub fn assert_exact(&self, name: &str, actual: &LinearImage) {
+        assert_exact(name, actual, &self.image, self.effect);
+    }
+}
+
+/// How many pixels of two pictures of one size differ.
+pub fn differing_pixels(a: &LinearImage, b: &LinearImage) -> usize {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(x, y)| x != y)
+        .count()
+}
+
+/// The name of a builtin scene's spec: `builtin:NAME?…` → `NAME`.
+pub fn scene_name(spec: &str) -> &str {
+    spec.split('?')
+        .next()
+        .unwrap()
+        .trim_start_matches("builtin:")
+}
+
+/// Asserts a `#[repr(C)]` struct's size and its fields' offsets in bytes, as its WGSL twin lays
+/// them out: `assert_layout!(Params, 48, count: 16, samples: 32)`.
+macro_rules! assert_layout {
+    ($t:ty, $size:expr $(, $field:ident: $offset:expr)* $(,)?) => {{
+        assert_eq!(std::mem::size_of::<$t>(), $size, "size of {}", stringify!($t));
+        $(
+            assert_eq!(
+                std::mem::offset_of!($t, $field),
+                $offset,
+                "offset of {}.{}",
+                stringify!($t),
+                stringify!($field)
+            );
+        )*
+    }};
+}
+pub(crate) use assert_layout;
+
+/// A front-facing fragment blended over, covering its one sample, without absorption: primitive
+/// `prim` at `depth` (its distance too).
+pub fn fragment(prim: u32, depth: f64, alpha: f64, color: [f64; 3]) -> crate::resolve::RefFragment {
+    crate::resolve::RefFragment {
+        depth,
+        prim,
+        front_facing: true,
+        color,
+        alpha,
+        absorption: 0.0,
+        distance: depth,
+        coverage: 1,
+        blend: crate::scene::Blend::Over,
+    }
+}
+
+/// A renderer of `scene` on the shared GPU.
+pub fn renderer(scene: &Scene, options: &RenderOptions) -> Renderer<'static> {
+    Renderer::new(gpu(), scene, options).unwrap_or_else(|e| panic!("renderer: {e}"))
+}
+
+/// Two frames of `method`, the second after its storage was filled with garbage: the same
+/// picture and the same number of fragments.
+pub fn assert_poison_changes_nothing(
+    scene: &Scene,
+    options: &RenderOptions,
+    method: crate::MethodId,
+) {
+    let mut r = renderer(scene, options);
+    let (clean, a) = r.render_method(method, None).unwrap();
+    r.recorder().unwrap().poison();
+    let (poisoned, b) = r.render_method(method, None).unwrap();
+    assert!(
+        clean == poisoned,
+        "{method}: poisoned memory changed the picture"
+    );
+    assert_eq!(a.fragments_generated, b.fragments_generated, "{method}");
+}
+
+/// Asserts that `e` is an input error (a wrong option or value) that says `says`; `what` names
+/// the case.
+pub fn assert_input_error(what: &str, e: &crate::Error, says: &str) {
+    let input = matches!(e, crate::Error::Input(_));
+    assert!(input && e.to_string().contains(says), "{what}: {e}");
+}
+
+/// Asserts that `e` says what is unsupported, `says`; `what` names the case.
+pub fn assert_unsupported(what: &str, e: &crate::Error, says: &str) {
+    let unsupported = matches!(e, crate::Error::Unsupported(_));
+    assert!(unsupported && e.to_string().contains(says), "{what}: {e}");
 }
 
 /// The failures of a test that checks several methods: every method runs, and the test fails
@@ -177,26 +296,25 @@ impl Failures {
         truth: &ExactTruth,
         effect: crate::Effect,
     ) {
-        const MAX_DIFF: u8 = 2;
-        const MAX_FRACTION: f64 = 0.001;
         let at_device_fraction = if truth.unmatched == 0 {
             0.0
         } else {
-            MAX_FRACTION
+            EXACT_MAX_FRACTION
         };
         let taken = truth.disagreeing;
+        let actual = actual.to_rgba8(effect);
         for (suffix, truth, fraction) in [
-            ("", &truth.expected, MAX_FRACTION),
+            ("", &truth.expected, EXACT_MAX_FRACTION),
             ("-device-depths", &truth.at_device, at_device_fraction),
         ] {
-            let result = check_close(
+            let result = crate::metrics::testing::check_image(
                 &format!("{name}{suffix}"),
-                actual,
-                truth,
-                effect,
-                MAX_DIFF,
+                &actual,
+                &truth.to_rgba8(effect),
+                EXACT_MAX_DIFF,
                 fraction,
             )
+            .map(|_| ())
             .map_err(|e| match (suffix, taken) {
                 ("", 1..) => format!(
                     "{e} ({taken} pixels' truth from the device's fragments, where its rasterizer made some otherwise)"
@@ -205,6 +323,12 @@ impl Failures {
             });
             self.check(method, result);
         }
+    }
+
+    /// Records every failure of `case`'s own [`Failures`], each under the case's name.
+    pub fn absorb(&mut self, case: &str, failures: Failures) {
+        self.0
+            .extend(failures.0.into_iter().map(|f| format!("{case}: {f}")));
     }
 
     /// Panics with every failure recorded.

@@ -6,16 +6,13 @@ use crate::frame::{RenderOptions, SceneGpu};
 use crate::gpu::readback;
 use crate::render::Renderer;
 use crate::scene::{loaders, GpuVertex};
+use crate::testing::assert_layout;
 use crate::testing::{assert_close, gpu, render_reference};
 
 #[test]
 fn animation_structs_match_wgsl() {
-    assert_eq!(std::mem::size_of::<AnimationParams>(), 32);
-    assert_eq!(std::mem::offset_of!(AnimationParams, write_centroids), 16);
-    assert_eq!(std::mem::size_of::<GpuMotion>(), 64);
-    assert_eq!(std::mem::offset_of!(GpuMotion, u), 16);
-    assert_eq!(std::mem::offset_of!(GpuMotion, v), 32);
-    assert_eq!(std::mem::offset_of!(GpuMotion, scale), 48);
+    assert_layout!(AnimationParams, 32, write_centroids: 16);
+    assert_layout!(GpuMotion, 64, u: 16, v: 32, scale: 48);
 }
 
 #[test]

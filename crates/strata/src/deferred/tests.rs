@@ -11,7 +11,11 @@ use crate::gpu::readback;
 use crate::render::LinearImage;
 use crate::scene::builtin::{cube, quad, uv_sphere};
 use crate::scene::{Light, LightKind, Material, Object, Projection, Shading};
-use crate::testing::{assert_close, gpu, render_gpu, render_reference};
+use crate::testing::assert_layout;
+use crate::testing::{
+    assert_close, assert_exact, gpu, render_gpu, render_reference, Expected, EXACT_MAX_DIFF,
+    EXACT_MAX_FRACTION,
+};
 
 /// Deferred against forward: at most 3/255 per sRGB channel on every pixel, and 2/255 on all but
 /// 0.5% of them. What differs is the G-buffer: albedo in 8-bit sRGB (≤ 0.5/255 after encoding),
@@ -21,10 +25,9 @@ use crate::testing::{assert_close, gpu, render_gpu, render_reference};
 const DEFERRED_MAX_DIFF: u8 = 3;
 const DEFERRED_NEAR_DIFF: u8 = 2;
 const DEFERRED_NEAR_FRACTION: f64 = 0.005;
-/// Forward and the full frame against the reference: the exact methods' tolerance (see
-/// methods/tests.rs), the HDR image's f16 adding ≤ 0.3/255.
-const EXACT_MAX_DIFF: u8 = 2;
-const EXACT_MAX_FRACTION: f64 = 0.001;
+// Forward and the full frame against the reference: the exact methods' tolerance
+// (`EXACT_MAX_DIFF`, `EXACT_MAX_FRACTION`: see methods/tests.rs), the HDR image's f16 adding
+// ≤ 0.3/255.
 
 fn material(name: &str, color: [f32; 3], opacity: f32, shininess: f32) -> Material {
     Material {
@@ -169,15 +172,27 @@ fn render(scene: &Scene, options: &RenderOptions, method: &str) -> (LinearImage,
     render_gpu(scene, options, method)
 }
 
+/// abuffer-ll's frame: the pipeline's pictures are compared on it.
+fn abuffer_ll(scene: &Scene, options: &RenderOptions) -> (LinearImage, FrameStats) {
+    render(scene, options, "abuffer-ll")
+}
+
+/// [`options`] changed by `change`.
+fn options_with(
+    pipeline: Option<Pipeline>,
+    size: u32,
+    change: impl FnOnce(&mut RenderOptions),
+) -> RenderOptions {
+    let mut options = options(pipeline, size);
+    change(&mut options);
+    options
+}
+
 use crate::frame::FrameStats;
 
 fn assert_deferred_matches_forward(name: &str, scene: &Scene, size: u32) -> FrameStats {
-    let (forward, _) = render(scene, &options(Some(Pipeline::Forward), size), "abuffer-ll");
-    let (deferred, stats) = render(
-        scene,
-        &options(Some(Pipeline::Deferred), size),
-        "abuffer-ll",
-    );
+    let (forward, _) = abuffer_ll(scene, &options(Some(Pipeline::Forward), size));
+    let (deferred, stats) = abuffer_ll(scene, &options(Some(Pipeline::Deferred), size));
     assert_close(
         &format!("{name}-deferred-vs-forward"),
         &deferred,
@@ -206,11 +221,7 @@ fn every_stage_validates() {
 
 #[test]
 fn deferred_params_layout_matches_wgsl() {
-    use std::mem::{offset_of, size_of};
-    assert_eq!(size_of::<DeferredParams>(), 96);
-    assert_eq!(offset_of!(DeferredParams, normal_encoding), 64);
-    assert_eq!(offset_of!(DeferredParams, tonemap), 76);
-    assert_eq!(offset_of!(DeferredParams, cone_first), 88);
+    assert_layout!(DeferredParams, 96, normal_encoding: 64, tonemap: 76, cone_first: 88);
 }
 
 #[test]
@@ -229,18 +240,11 @@ fn deferred_equals_forward_with_the_octahedral_encoding_and_many_lights() {
     let mut scene = room(Vec::new());
     scene.add_light_field(200, 7);
     let size = 80;
-    let forward = render(
-        &scene,
-        &options(Some(Pipeline::Forward), size),
-        "abuffer-ll",
-    )
-    .0;
-    let opts = {
-        let mut options = options(Some(Pipeline::Deferred), size);
-        options.build.lighting.normal_encoding = NormalEncoding::Octahedral;
-        options
-    };
-    let (deferred, stats) = render(&scene, &opts, "abuffer-ll");
+    let forward = abuffer_ll(&scene, &options(Some(Pipeline::Forward), size)).0;
+    let opts = options_with(Some(Pipeline::Deferred), size, |o| {
+        o.build.lighting.normal_encoding = NormalEncoding::Octahedral
+    });
+    let (deferred, stats) = abuffer_ll(&scene, &opts);
     assert_close(
         "field-octahedral",
         &deferred,
@@ -271,13 +275,13 @@ fn spot_cones_match_forward_narrow_and_wide() {
 fn a_light_whose_volume_is_off_screen_changes_nothing() {
     let base = room(mixed_lights());
     let opts = options(Some(Pipeline::Deferred), 64);
-    let (before, _) = render(&base, &opts, "abuffer-ll");
+    let (before, _) = abuffer_ll(&base, &opts);
     let mut with = base.clone();
     // Behind the camera (culled), and in view but out of reach of every surface (drawn, its
     // window zero on every pixel it covers).
     with.lights.push(point([0.5, 4.0, 9.0], [1.0; 3], 2.0));
     with.lights.push(point([0.0, 2.6, 1.0], [1.0; 3], 0.4));
-    let (after, stats) = render(&with, &opts, "abuffer-ll");
+    let (after, stats) = abuffer_ll(&with, &opts);
     let l = stats.lighting.unwrap();
     assert_eq!(l.culled_lights, Some(1));
     assert_eq!(before.pixels, after.pixels);
@@ -302,8 +306,8 @@ fn the_camera_inside_a_point_lights_volume_is_lit_correctly() {
         ..Light::default()
     });
     let opts = options(Some(Pipeline::Deferred), 80);
-    let lit = render(&scene, &opts, "abuffer-ll").0;
-    let unlit = render(&dark, &opts, "abuffer-ll").0;
+    let lit = abuffer_ll(&scene, &opts).0;
+    let unlit = abuffer_ll(&dark, &opts).0;
     let sum = |img: &LinearImage| img.pixels.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>();
     assert!(sum(&lit) > 1.5 * sum(&unlit));
 }
@@ -313,36 +317,23 @@ fn forward_pipeline_with_exact_methods_equals_the_reference() {
     let scene = room(mixed_lights());
     for pipeline in [Pipeline::Forward, Pipeline::Deferred] {
         let opts = options(Some(pipeline), 80);
-        let (image, stats) = render(&scene, &opts, "abuffer-ll");
+        let (image, stats) = abuffer_ll(&scene, &opts);
         // Only the transparent sphere goes through the method.
         assert!(stats.max_depth_complexity.unwrap() <= 2, "{stats:?}");
         if pipeline == Pipeline::Forward {
             let expected = render_reference(&scene, &opts);
-            assert_close(
-                "room-forward",
-                &image,
-                &expected,
-                Effect::Transparency,
-                EXACT_MAX_DIFF,
-                EXACT_MAX_FRACTION,
-            );
+            assert_exact("room-forward", &image, &expected, Effect::Transparency);
         }
     }
     for (method, k) in [("f2b", None), ("kplus-heap", Some(1))] {
-        let opts = {
-            let mut options = options(Some(Pipeline::Forward), 64);
-            options.frame.k = k;
-            options
-        };
+        let opts = options_with(Some(Pipeline::Forward), 64, |o| o.frame.k = k);
         let (image, _) = render(&scene, &opts, method);
         let expected = render_reference(&scene, &opts);
-        assert_close(
+        assert_exact(
             &format!("room-forward-{method}"),
             &image,
             &expected,
             Effect::Transparency,
-            EXACT_MAX_DIFF,
-            EXACT_MAX_FRACTION,
         );
     }
 }
@@ -353,7 +344,7 @@ fn forward_pipeline_with_exact_methods_equals_the_reference() {
 /// averaged; and how many pixels hold a fragment covering only some samples.
 fn composite_over_deferred(scene: &Scene, opts: &RenderOptions) -> (LinearImage, u32) {
     let (opaque, transparent) = scene.split_by_opacity();
-    let (lit_opaque, _) = render(&opaque, opts, "abuffer-ll");
+    let (lit_opaque, _) = abuffer_ll(&opaque, opts);
     let single = {
         let mut options = opts.clone();
         options.build.msaa = 1;
@@ -406,20 +397,27 @@ fn composite_over_deferred(scene: &Scene, opts: &RenderOptions) -> (LinearImage,
     )
 }
 
+/// The full frame's options: deferred at 80×80, no tone mapping, a dark background; changed by
+/// `change`.
+fn full_frame_options(change: impl FnOnce(&mut RenderOptions)) -> RenderOptions {
+    options_with(Some(Pipeline::Deferred), 80, |o| {
+        o.build.lighting.tonemap = Tonemap::None;
+        o.frame.background = crate::scene::Background::Color([0.02, 0.03, 0.05]);
+        change(o);
+    })
+}
+
 /// The full frame: the transparent method over the deferred image equals the reference's
 /// transparent fragments (those in front of the opaque depth) composited over that same
 /// deferred image.
 #[test]
 fn the_transparent_method_over_the_deferred_image_equals_the_reference_composite() {
     let scene = room(mixed_lights());
-    let size = 80;
-    let opts = {
-        let mut options = options(Some(Pipeline::Deferred), size);
-        options.build.lighting.tonemap = Tonemap::None;
-        options.frame.background = crate::scene::Background::Color([0.02, 0.03, 0.05]);
-        options
+    let opts = full_frame_options(|_| {});
+    let expected = Expected {
+        image: composite_over_deferred(&scene, &opts).0,
+        effect: Effect::Transparency,
     };
-    let (expected, _) = composite_over_deferred(&scene, &opts);
     for method in ["abuffer-ll", "dual", "kplus-array"] {
         let opts = {
             let mut options = opts.clone();
@@ -427,14 +425,7 @@ fn the_transparent_method_over_the_deferred_image_equals_the_reference_composite
             options
         };
         let (actual, _) = render(&scene, &opts, method);
-        assert_close(
-            &format!("full-frame-{method}"),
-            &actual,
-            &expected,
-            Effect::Transparency,
-            EXACT_MAX_DIFF,
-            EXACT_MAX_FRACTION,
-        );
+        expected.assert_exact(&format!("full-frame-{method}"), &actual);
     }
 }
 
@@ -445,36 +436,21 @@ fn the_transparent_method_over_the_deferred_image_equals_the_reference_composite
 #[test]
 fn multisampled_transparency_over_the_single_sampled_deferred_image() {
     let scene = room(mixed_lights());
-    let size = 80;
-    let opts = {
-        let mut options = options(Some(Pipeline::Deferred), size);
-        options.build.lighting.tonemap = Tonemap::None;
-        options.frame.background = crate::scene::Background::Color([0.02, 0.03, 0.05]);
-        options.build.msaa = 4;
-        options.frame.k = Some(4);
-        options
-    };
+    let opts = full_frame_options(|o| {
+        o.build.msaa = 4;
+        o.frame.k = Some(4);
+    });
     let (expected, partly_covered) = composite_over_deferred(&scene, &opts);
     assert!(partly_covered > 20, "{partly_covered} edge pixels");
+    let expected = Expected {
+        image: expected,
+        effect: Effect::Transparency,
+    };
     let reference = crate::reference::render(&scene, &opts).unwrap().0;
-    assert_close(
-        "msaa-deferred-reference",
-        &reference,
-        &expected,
-        Effect::Transparency,
-        EXACT_MAX_DIFF,
-        EXACT_MAX_FRACTION,
-    );
+    expected.assert_exact("msaa-deferred-reference", &reference);
     for method in ["abuffer-ll", "kplus-heap", "f2b"] {
         let (actual, _) = render(&scene, &opts, method);
-        assert_close(
-            &format!("msaa-deferred-{method}"),
-            &actual,
-            &expected,
-            Effect::Transparency,
-            EXACT_MAX_DIFF,
-            EXACT_MAX_FRACTION,
-        );
+        expected.assert_exact(&format!("msaa-deferred-{method}"), &actual);
     }
 }
 
@@ -501,7 +477,7 @@ fn check_both_pipelines(name: &str, scene: &Scene, adjust: impl Fn(&mut RenderOp
     for pipeline in [Pipeline::Forward, Pipeline::Deferred] {
         let mut opts = options(Some(pipeline), 48);
         adjust(&mut opts);
-        let (image, _) = render(scene, &opts, "abuffer-ll");
+        let (image, _) = abuffer_ll(scene, &opts);
         let expected = render_reference(scene, &opts);
         let (max_diff, fraction) = match pipeline {
             Pipeline::Forward => (EXACT_MAX_DIFF, EXACT_MAX_FRACTION),
@@ -566,12 +542,10 @@ fn the_normal_error_view_measures_the_encoding_within_its_bound() {
         (NormalEncoding::Spheremap, 0.48),
         (NormalEncoding::Octahedral, 0.36),
     ] {
-        let opts = {
-            let mut options = options(Some(Pipeline::Deferred), 64);
-            options.build.lighting.normal_encoding = encoding;
-            options.build.lighting.gbuffer_debug = Some(GbufferView::NormalError);
-            options
-        };
+        let opts = options_with(Some(Pipeline::Deferred), 64, |o| {
+            o.build.lighting.normal_encoding = encoding;
+            o.build.lighting.gbuffer_debug = Some(GbufferView::NormalError);
+        });
         let mut renderer = crate::Renderer::new(gpu(), &scene, &opts).unwrap();
         renderer.render("abuffer-ll").unwrap();
         let lit = renderer.recorder().unwrap().lit().unwrap();
@@ -590,7 +564,7 @@ fn the_normal_error_view_measures_the_encoding_within_its_bound() {
 #[test]
 fn every_gbuffer_view_renders_and_differs_from_the_picture() {
     let scene = room(mixed_lights());
-    let picture = render(&scene, &options(Some(Pipeline::Deferred), 48), "abuffer-ll").0;
+    let picture = abuffer_ll(&scene, &options(Some(Pipeline::Deferred), 48)).0;
     let mut views = Vec::new();
     for view in [
         GbufferView::Albedo,
@@ -602,12 +576,10 @@ fn every_gbuffer_view_renders_and_differs_from_the_picture() {
         GbufferView::NormalError,
         GbufferView::Occlusion,
     ] {
-        let opts = {
-            let mut options = options(Some(Pipeline::Deferred), 48);
-            options.build.lighting.gbuffer_debug = Some(view);
-            options
-        };
-        let image = render(&scene, &opts, "abuffer-ll").0;
+        let opts = options_with(Some(Pipeline::Deferred), 48, |o| {
+            o.build.lighting.gbuffer_debug = Some(view)
+        });
+        let image = abuffer_ll(&scene, &opts).0;
         assert_ne!(image.pixels, picture.pixels, "{view:?}");
         views.push(image.pixels);
     }
@@ -626,18 +598,11 @@ fn ssao_darkens_the_floor_by_the_cube_and_not_the_open_floor() {
         ..Light::default()
     }]);
     let size = 96;
-    let plain = render(
-        &scene,
-        &options(Some(Pipeline::Deferred), size),
-        "abuffer-ll",
-    )
-    .0;
-    let opts = {
-        let mut options = options(Some(Pipeline::Deferred), size);
-        options.build.lighting.ssao = true;
-        options
-    };
-    let (occluded, stats) = render(&scene, &opts, "abuffer-ll");
+    let plain = abuffer_ll(&scene, &options(Some(Pipeline::Deferred), size)).0;
+    let opts = options_with(Some(Pipeline::Deferred), size, |o| {
+        o.build.lighting.ssao = true
+    });
+    let (occluded, stats) = abuffer_ll(&scene, &opts);
     assert!(stats.gpu_ms.unwrap().contains_key("deferred.ssao"));
     let camera = scene.camera.unwrap();
     let view_proj = camera.view_projection(1.0);
@@ -705,16 +670,12 @@ fn splitting_by_opacity_keeps_order_materials_and_camera() {
 #[test]
 fn options_that_need_the_deferred_pipeline_say_so() {
     for opts in [
-        {
-            let mut options = options(Some(Pipeline::Forward), 16);
-            options.build.lighting.ssao = true;
-            options
-        },
-        {
-            let mut options = options(None, 16);
-            options.build.lighting.gbuffer_debug = Some(GbufferView::Normal);
-            options
-        },
+        options_with(Some(Pipeline::Forward), 16, |o| {
+            o.build.lighting.ssao = true
+        }),
+        options_with(None, 16, |o| {
+            o.build.lighting.gbuffer_debug = Some(GbufferView::Normal)
+        }),
     ] {
         let e = opts.validate().unwrap_err().to_string();
         assert!(e.contains("--pipeline deferred"), "{e}");

@@ -6,25 +6,19 @@
 //! center within rounding distance of an edge can be covered by one and not the other; colors
 //! also differ by f32 shading and f16 fragment storage, which stays far below 2/255.
 
-use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions};
 use crate::scene::{loaders, Blend, Scene};
-use crate::testing::{assert_close, render_gpu, render_reference, Failures};
+use crate::testing::{
+    assert_exact, assert_input_error, assert_unsupported, differing_pixels, render_gpu,
+    render_reference, renderer, Expected, Failures, EXACT_MAX_DIFF, EXACT_MAX_FRACTION,
+};
 
 const EXACT_METHODS: [&str; 6] = ["f2b", "dual", "abuffer-ll", "sbuffer", "kpeel", "tiled"];
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
 
 pub(crate) fn options(size: u32, effect: Effect) -> RenderOptions {
-    RenderOptions {
-        frame: FrameOptions {
-            width: size,
-            height: size,
-            effect,
-            ..Default::default()
-        },
-        ..Default::default()
-    }
+    let mut options = RenderOptions::sized(size, size);
+    options.frame.effect = effect;
+    options
 }
 
 fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
@@ -33,6 +27,12 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
 
 /// `methods` against the reference (see [`check_exact`]).
 fn check_methods_exact(name: &str, scene: &Scene, opts: &RenderOptions, methods: &[&str]) {
+    exact_failures(name, scene, opts, methods).finish(name);
+}
+
+/// The failures of `methods` against the reference (see [`check_exact`]); `name` begins their
+/// images' names.
+fn exact_failures(name: &str, scene: &Scene, opts: &RenderOptions, methods: &[&str]) -> Failures {
     let expected = render_reference(scene, opts);
     // The reference's fragments at the device's own depths and coverage: every pixel matches
     // there (see kbuffer/tests.rs), so on any GPU a difference is the method's. A method that
@@ -67,14 +67,40 @@ fn check_methods_exact(name: &str, scene: &Scene, opts: &RenderOptions, methods:
         );
         assert!(stats.geometry_passes.unwrap() >= 1);
     }
-    failures.finish(name);
+    failures
 }
 
+/// The exact methods against the reference on random layers, nested spheres, the demo with
+/// translucency, and nvpro (also in complexity): every scene runs, and the test fails at the end
+/// naming each failing scene and method. A scene's images are named after it (`builtin:NAME?…`).
 #[test]
-fn exact_methods_match_reference_on_random_layers() {
-    let scene =
-        loaders::load_scene("builtin:layers?n=16&coverage=0.75&order=random&seed=3").unwrap();
-    check_exact("layers", &scene, &options(64, Effect::Transparency));
+fn exact_methods_match_reference_on_scenes() {
+    let mut failures = Failures::default();
+    for (spec, size, effect) in [
+        (
+            "builtin:layers?n=16&coverage=0.75&order=random&seed=3",
+            64,
+            Effect::Transparency,
+        ),
+        ("builtin:spheres?layers=16", 96, Effect::Transparency),
+        ("builtin:demo", 96, Effect::Translucency),
+        (
+            "builtin:nvpro?objects=96&subdiv=12&seed=2",
+            96,
+            Effect::Transparency,
+        ),
+        (
+            "builtin:nvpro?objects=96&subdiv=12&seed=5",
+            80,
+            Effect::Complexity,
+        ),
+    ] {
+        let name = crate::testing::scene_name(spec);
+        let opts = options(size, effect);
+        let scene_failures = exact_failures(name, &scene(spec), &opts, &EXACT_METHODS);
+        failures.absorb(&format!("{name} ({})", effect.name()), scene_failures);
+    }
+    failures.finish("exact methods on scenes");
 }
 
 /// Every stage's composed WGSL validates with naga, so a shader error fails without a GPU.
@@ -145,17 +171,15 @@ fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
 }
 
-fn fixture(name: &str) -> String {
-    format!("{}/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+/// `n` screen-covering layers in random order (`seed`): every pixel has `n` fragments.
+pub(crate) fn covering_layers(n: usize, seed: u64) -> Scene {
+    scene(&format!(
+        "builtin:layers?n={n}&coverage=1&order=random&seed={seed}"
+    ))
 }
 
-#[test]
-fn exact_methods_match_reference_on_nested_spheres() {
-    check_exact(
-        "spheres",
-        &scene("builtin:spheres?layers=16"),
-        &options(96, Effect::Transparency),
-    );
+fn fixture(name: &str) -> String {
+    format!("{}/tests/fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
 #[test]
@@ -181,33 +205,6 @@ fn exact_methods_match_reference_on_spheres_with_translucency() {
     assert!(c.pct_over_2 > 20.0, "{c:?}");
 }
 
-#[test]
-fn exact_methods_match_reference_on_the_demo_with_translucency() {
-    check_exact(
-        "demo",
-        &scene("builtin:demo"),
-        &options(96, Effect::Translucency),
-    );
-}
-
-#[test]
-fn exact_methods_match_reference_on_nvpro() {
-    check_exact(
-        "nvpro",
-        &scene("builtin:nvpro?objects=96&subdiv=12&seed=2"),
-        &options(96, Effect::Transparency),
-    );
-}
-
-#[test]
-fn exact_methods_match_reference_on_nvpro_complexity() {
-    check_exact(
-        "nvpro",
-        &scene("builtin:nvpro?objects=96&subdiv=12&seed=5"),
-        &options(80, Effect::Complexity),
-    );
-}
-
 /// WebGPU's default largest storage binding, and lavapipe's.
 const ONE_STORAGE_BINDING: u64 = 128 << 20;
 
@@ -220,17 +217,13 @@ fn a_scene_beyond_one_storage_binding_matches_the_reference() {
         s.triangle_count() as u64 * 3 * std::mem::size_of::<crate::scene::GpuVertex>() as u64;
     assert!(vertex_bytes > ONE_STORAGE_BINDING, "{vertex_bytes} bytes");
     let opts = options(32, Effect::Transparency);
-    let expected = super::kbuffer::tests::reference_where_rasterizers_agree(&s, &opts);
+    let expected = Expected {
+        image: super::kbuffer::tests::reference_where_rasterizers_agree(&s, &opts),
+        effect: opts.frame.effect,
+    };
     for method in ["abuffer-ll", "sbuffer"] {
         let (actual, stats) = render_gpu(&s, &opts, method);
-        assert_close(
-            &format!("beyond-binding-{method}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        expected.assert_exact(&format!("beyond-binding-{method}"), &actual);
         assert_eq!(stats.fragments_dropped, Some(0), "{method}");
     }
 }
@@ -241,20 +234,13 @@ fn a_scene_beyond_one_storage_binding_matches_the_reference() {
 fn pictures_in_bands_match_the_reference() {
     let s = scene("builtin:nvpro?objects=96&subdiv=12&seed=2");
     let opts = options(96, Effect::Transparency);
-    let expected = render_reference(&s, &opts);
+    let expected = Expected::reference(&s, &opts);
     for method in EXACT_METHODS {
         let (_, whole) = render_gpu(&s, &opts, method);
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut r = renderer(&s, &opts);
         r.set_max_band_rows(Some(40)); // rounded down to 32
         let (actual, stats) = r.render(method).unwrap();
-        assert_close(
-            &format!("bands-{method}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        expected.assert_exact(&format!("bands-{method}"), &actual);
         assert_eq!(stats.bands, Some(3), "{method}");
         assert_eq!((stats.width, stats.height), (96, 96), "{method}");
         let (a, b) = (
@@ -275,25 +261,17 @@ fn pictures_in_bands_match_the_reference() {
 /// until they fit, and equals the reference.
 #[test]
 fn pictures_beyond_the_bindings_render_in_bands_that_halve_as_needed() {
-    let mut gpu = crate::testing::gpu().clone();
-    gpu.limits.max_storage_buffer_binding_size = 512 << 10;
+    let gpu = gpu_with_storage_bindings_of(512 << 10);
     let s = scene("builtin:layers?n=4&coverage=1&order=random&seed=2");
     let mut opts = options(128, Effect::Transparency);
     opts.frame.k = Some(8);
-    let expected = render_reference(&s, &opts);
+    let expected = Expected::reference(&s, &opts);
     // abuffer-ll's pool outgrows the binding after its first frame; kplus-array's arrays when
     // they are allocated.
     for method in ["abuffer-ll", "kplus-array"] {
         let mut r = crate::Renderer::new(&gpu, &s, &opts).unwrap();
         let (actual, stats) = r.render(method).unwrap();
-        assert_close(
-            &format!("halving-bands-{method}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        expected.assert_exact(&format!("halving-bands-{method}"), &actual);
         assert!(stats.bands.unwrap_or(1) >= 2, "{method}: {:?}", stats.bands);
         assert_eq!(stats.fragments_generated, Some(4 * 128 * 128), "{method}");
         assert_eq!(stats.fragments_dropped, Some(0), "{method}");
@@ -305,18 +283,20 @@ fn pictures_beyond_the_bindings_render_in_bands_that_halve_as_needed() {
 /// 300K-face model once took 37 s to say so on lavapipe).
 #[test]
 fn pictures_that_no_band_can_hold_are_refused_from_what_the_first_frame_measured() {
-    let mut gpu = crate::testing::gpu().clone();
-    gpu.limits.max_storage_buffer_binding_size = 256 << 10;
+    let gpu = gpu_with_storage_bindings_of(256 << 10);
     let s = scene("builtin:layers?n=32&coverage=1&order=random&seed=2");
     let opts = options(128, Effect::Transparency);
     let mut r = crate::Renderer::new(&gpu, &s, &opts).unwrap();
     let e = r.render("abuffer-ll").unwrap_err();
-    assert!(matches!(e, crate::Error::Unsupported(_)), "{e}");
-    let e = e.to_string();
-    assert!(
-        e.contains("does not fit even in bands of 32 rows") && e.contains("on average"),
-        "{e}"
-    );
+    assert_unsupported("abuffer-ll", &e, "does not fit even in bands of 32 rows");
+    assert!(e.to_string().contains("on average"), "{e}");
+}
+
+/// The shared GPU with storage bindings of at most `bytes`.
+fn gpu_with_storage_bindings_of(bytes: u64) -> crate::gpu::Gpu {
+    let mut gpu = crate::testing::gpu().clone();
+    gpu.limits.max_storage_buffer_binding_size = bytes;
+    gpu
 }
 
 /// Pictures are refused, before anything is allocated, beyond 8192×8192 pixels (a 1 GiB
@@ -329,22 +309,16 @@ fn pictures_beyond_the_host_image_limit_are_refused_up_front() {
     let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
         .err()
         .expect("refused");
-    assert!(
-        matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("8192x8192"),
-        "{e}"
-    );
+    assert_unsupported("8193 pixels wide", &e, "8192x8192");
 }
 
 /// Bands cannot use a depth texture the application drew into at the whole picture's size.
 #[test]
 fn bands_refuse_an_application_opaque_depth() {
-    let s = scene("builtin:layers?n=2");
-    let mut r = crate::Renderer::new(
-        crate::testing::gpu(),
-        &s,
+    let mut r = renderer(
+        &scene("builtin:layers?n=2"),
         &options(64, Effect::Transparency),
-    )
-    .unwrap();
+    );
     let _ = r.opaque_depth();
     r.set_max_band_rows(Some(32));
     let e = r
@@ -460,9 +434,7 @@ fn methods_that_only_blend_over_refuse_add_and_multiply_in_one_line() {
 #[test]
 fn layers_composite_to_the_closed_form() {
     let n = 12;
-    let s = scene(&format!(
-        "builtin:layers?n={n}&coverage=1&order=random&seed=7"
-    ));
+    let s = covering_layers(n, 7);
     let background = [0.2f64, 0.3, 0.4];
     let mut opts = options(32, Effect::Transparency);
     opts.frame.background = crate::scene::Background::Color(background.map(|c| c as f32));
@@ -509,24 +481,24 @@ fn exact_methods_are_deterministic() {
     }
 }
 
-#[test]
-fn abuffer_pool_overflow_is_detected_and_the_image_stays_exact() {
+/// Nested spheres whose fragments overflow a pool of 16 nodes: `method`'s frame reports the
+/// overflow, takes `passes` geometry passes in all, drops nothing, and its picture is exact.
+/// Returns the scene and the options.
+fn pool_overflows_and_stays_exact(method: &str, passes: u32) -> (Scene, RenderOptions) {
     let s = scene("builtin:spheres?layers=12");
     let mut opts = options(64, Effect::Transparency);
     opts.frame.kbuffer.initial_nodes = Some(16);
-    let (actual, stats) = render_gpu(&s, &opts, "abuffer-ll");
-    assert_eq!(stats.overflow, Some(true));
-    assert_eq!(stats.geometry_passes, Some(2));
-    assert_eq!(stats.fragments_dropped, Some(0));
-    let expected = render_reference(&s, &opts);
-    assert_close(
-        "overflow-abuffer-ll",
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    let (actual, stats) = render_gpu(&s, &opts, method);
+    assert_eq!(stats.overflow, Some(true), "{method}");
+    assert_eq!(stats.geometry_passes, Some(passes), "{method}");
+    assert_eq!(stats.fragments_dropped, Some(0), "{method}");
+    Expected::reference(&s, &opts).assert_exact(&format!("overflow-{method}"), &actual);
+    (s, opts)
+}
+
+#[test]
+fn abuffer_pool_overflow_is_detected_and_the_image_stays_exact() {
+    let (s, mut opts) = pool_overflows_and_stays_exact("abuffer-ll", 2);
     // A pool that fits reports no overflow.
     opts.frame.kbuffer.initial_nodes = None;
     assert_eq!(render_gpu(&s, &opts, "abuffer-ll").1.overflow, Some(false));
@@ -538,10 +510,8 @@ fn abuffer_budget_too_small_is_a_clear_error() {
     let mut opts = options(64, Effect::Transparency);
     opts.frame.budget_mb = Some(0.02);
     opts.frame.kbuffer.initial_nodes = Some(16);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
-    let e = r.render("abuffer-ll").unwrap_err();
-    assert!(matches!(e, crate::Error::Input(_)), "{e}");
-    assert!(e.to_string().contains("--budget-mb"), "{e}");
+    let e = renderer(&s, &opts).render("abuffer-ll").unwrap_err();
+    assert_input_error("abuffer-ll", &e, "--budget-mb");
 }
 
 /// Where no triangles overlap out of order the baselines are exact: screen-aligned layers sort
@@ -552,24 +522,10 @@ fn baselines_are_exact_where_order_is_trivial() {
     let shuffled = scene("builtin:layers?n=10&coverage=0.5&order=random&seed=4");
     let expected = render_reference(&shuffled, &opts);
     let (sorted, _) = render_gpu(&shuffled, &opts, "sorted");
-    assert_close(
-        "layers-sorted",
-        &sorted,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("layers-sorted", &sorted, &expected, opts.frame.effect);
     let back = scene("builtin:layers?n=10&coverage=0.5&order=back&seed=4");
     let (unsorted, _) = render_gpu(&back, &opts, "unsorted");
-    assert_close(
-        "layers-unsorted",
-        &unsorted,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("layers-unsorted", &unsorted, &expected, opts.frame.effect);
     // And out of order, unsorted blending is visibly wrong: the reason OIT exists.
     let (wrong, _) = render_gpu(&shuffled, &opts, "unsorted");
     let c = crate::metrics::compare(
@@ -589,16 +545,14 @@ fn baselines_are_exact_where_order_is_trivial() {
 fn opaque_depth_rejects_fragments_behind_it() {
     let n = 10;
     let keep = 6;
-    let full = scene(&format!(
-        "builtin:layers?n={n}&coverage=1&order=random&seed=2"
-    ));
+    let full = covering_layers(n, 2);
     let mut front_only = full.clone();
     front_only.objects.retain(|o| {
         let i: usize = o.name.trim_start_matches("layer ").parse().unwrap();
         i < keep
     });
     let opts = options(32, Effect::Transparency);
-    let expected = render_reference(&front_only, &opts);
+    let expected = Expected::reference(&front_only, &opts);
     // Window depth halfway between layer keep−1 and layer keep (orthographic: linear in distance).
     let cam = full.camera.unwrap();
     let z = |i: usize| {
@@ -607,7 +561,7 @@ fn opaque_depth_rejects_fragments_behind_it() {
     };
     let between = 0.5 * (z(keep - 1) + z(keep));
     for method in ["f2b", "dual", "abuffer-ll", "unsorted"] {
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
+        let mut r = renderer(&full, &opts);
         crate::render::clear_depth(
             crate::testing::gpu(),
             &r.opaque_depth().create_view(&Default::default()),
@@ -619,31 +573,18 @@ fn opaque_depth_rejects_fragments_behind_it() {
             assert_eq!(actual.max_count(), keep as u32);
             continue;
         }
-        assert_close(
-            &format!("opaque-{method}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        expected.assert_exact(&format!("opaque-{method}"), &actual);
     }
 }
 
 #[test]
 fn unknown_method_is_an_input_error() {
-    let s = scene("builtin:layers?n=2");
-    let mut r = crate::Renderer::new(
-        crate::testing::gpu(),
-        &s,
+    let mut r = renderer(
+        &scene("builtin:layers?n=2"),
         &options(16, Effect::Transparency),
-    )
-    .unwrap();
-    let e = r.render("nope").expect_err("unknown method fails");
-    assert!(
-        matches!(e, crate::Error::Input(_)) && e.to_string().contains("unknown method 'nope'"),
-        "{e}"
     );
+    let e = r.render("nope").expect_err("unknown method fails");
+    assert_input_error("nope", &e, "unknown method 'nope'");
 }
 
 /// `bytes_allocated` follows the formula `strata methods` prints.
@@ -709,8 +650,8 @@ fn golden_demo_translucency() {
         "golden-abuffer-ll",
         &gpu.to_rgba8(opts.frame.effect),
         &golden,
-        MAX_DIFF,
-        MAX_FRACTION,
+        EXACT_MAX_DIFF,
+        EXACT_MAX_FRACTION,
     ) {
         panic!("{m}");
     }
@@ -724,25 +665,17 @@ fn draw_callback_issues_the_geometry() {
     let mut half = full.clone();
     half.objects.truncate(4);
     let opts = options(24, Effect::Transparency);
-    let expected = render_reference(&half, &opts);
+    let expected = Expected::reference(&half, &opts);
     let vertices = half.triangle_count() as u32 * 3;
     let drawing = EXACT_METHODS.iter().filter(|m| {
         let id: super::MethodId = m.parse().unwrap();
         id.descriptor().draw_callback.yes()
     });
     for method in drawing {
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
-        let (actual, _) = r
+        let (actual, _) = renderer(&full, &opts)
             .render_with(method, &|pass| pass.draw(0..vertices, 0..1))
             .unwrap();
-        assert_close(
-            &format!("callback-{method}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        expected.assert_exact(&format!("callback-{method}"), &actual);
     }
 }
 
@@ -753,7 +686,7 @@ fn second_frame_equals_the_first_for_every_method() {
     let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
     let mut opts = options(40, Effect::Transparency);
     opts.frame.k = Some(6);
-    let mut shared = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let mut shared = renderer(&s, &opts);
     // `kb` races by design: on a GPU that shades a pixel's fragments concurrently its frames may
     // differ, so it is left out.
     for m in super::MethodId::gpu_methods().filter(|&m| m != super::MethodId::Kb) {
@@ -762,7 +695,7 @@ fn second_frame_equals_the_first_for_every_method() {
         let r = if (roomy.frame.k, roomy.build.msaa) == (opts.frame.k, opts.build.msaa) {
             &mut shared
         } else {
-            own = crate::Renderer::new(crate::testing::gpu(), &s, &roomy).unwrap();
+            own = renderer(&s, &roomy);
             &mut own
         };
         let (first, a) = r.render(m.as_str()).unwrap();
@@ -803,7 +736,7 @@ pub(crate) fn check_poisoned(opts: &RenderOptions, methods: impl Iterator<Item =
     let mut failures = Failures::default();
     for m in methods {
         let opts = &room_for_every_fragment(m, opts);
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, opts).unwrap();
+        let mut r = renderer(&s, opts);
         let (clean, a) = r.render_method(m, None).unwrap();
         r.recorder().unwrap().poison();
         let (poisoned, b) = r.render_method(m, None).unwrap();
@@ -811,12 +744,7 @@ pub(crate) fn check_poisoned(opts: &RenderOptions, methods: impl Iterator<Item =
         if !(failures.locks_held(name, &a) && failures.locks_held(name, &b)) {
             continue;
         }
-        let differing = clean
-            .pixels
-            .iter()
-            .zip(&poisoned.pixels)
-            .filter(|(x, y)| x != y)
-            .count();
+        let differing = differing_pixels(&clean, &poisoned);
         failures.check(
             name,
             if differing > 0 {
@@ -903,10 +831,10 @@ fn a_second_frame_keeps_nothing_of_the_first() {
         // bucket's k is even (two per bucket).
         opts.frame.k = Some(if m == super::MethodId::Bucket { 4 } else { 3 });
         let opts = room_for_every_fragment(m, &opts);
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
+        let mut r = renderer(&full, &opts);
         r.render_method(m, Some(&draw_near)).unwrap();
         let (second, a) = r.render_method(m, Some(&draw_far)).unwrap();
-        let mut fresh = crate::Renderer::new(crate::testing::gpu(), &full, &opts).unwrap();
+        let mut fresh = renderer(&full, &opts);
         let (expected, b) = fresh.render_method(m, Some(&draw_far)).unwrap();
         assert!(
             second == expected,
@@ -935,19 +863,11 @@ fn methods_drawing_the_scene_themselves_refuse_a_draw_callback() {
         ]
     );
     for method in refusing.iter().map(|m| m.as_str()) {
-        let mut r = crate::Renderer::new(
-            crate::testing::gpu(),
-            &s,
-            &options(16, Effect::Transparency),
-        )
-        .unwrap();
+        let mut r = renderer(&s, &options(16, Effect::Transparency));
         let e = r
             .render_with(method, &|pass| pass.draw(0..6, 0..1))
             .expect_err("refuses a callback");
-        assert!(
-            matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("draw callback"),
-            "{method}: {e}"
-        );
+        assert_unsupported(method, &e, "draw callback");
         // Without one it draws.
         r.render(method).unwrap();
     }
@@ -1007,25 +927,11 @@ fn dual_peels_coincident_faces_in_primitive_order() {
     let opts = options(24, Effect::Transparency);
     let expected = render_reference(&s, &opts);
     let (f2b, _) = render_gpu(&s, &opts, "f2b");
-    assert_close(
-        "coincident-f2b",
-        &f2b,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("coincident-f2b", &f2b, &expected, opts.frame.effect);
     let (dual, stats) = render_gpu(&s, &opts, "dual");
     if crate::methods::peeling::has_wide_keys(crate::testing::gpu()) {
         assert_eq!(stats.fragments_dropped, Some(0));
-        assert_close(
-            "coincident-dual",
-            &dual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        assert_exact("coincident-dual", &dual, &expected, opts.frame.effect);
     } else {
         assert_eq!(stats.fragments_dropped, Some(24 * 24));
     }
@@ -1050,29 +956,10 @@ fn value_enum_names_are_the_ids() {
 /// picture is exact.
 #[test]
 fn sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
-    let s = scene("builtin:spheres?layers=12");
-    let mut opts = options(64, Effect::Transparency);
-    opts.frame.kbuffer.initial_nodes = Some(16);
-    let (actual, stats) = render_gpu(&s, &opts, "sbuffer");
-    assert_eq!(stats.overflow, Some(true));
-    assert_eq!(stats.geometry_passes, Some(4));
-    assert_eq!(stats.fragments_dropped, Some(0));
-    let expected = render_reference(&s, &opts);
-    assert_close(
-        "overflow-sbuffer",
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    let (s, mut opts) = pool_overflows_and_stays_exact("sbuffer", 4);
     opts.frame.budget_mb = Some(0.2);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
-    let e = r.render("sbuffer").unwrap_err();
-    assert!(
-        matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
-        "{e}"
-    );
+    let e = renderer(&s, &opts).render("sbuffer").unwrap_err();
+    assert_input_error("sbuffer", &e, "--budget-mb");
 }
 
 /// Over 65,536 pixels the prefix sum takes three levels (96,000 → 375 → 2): the S-buffer is
@@ -1090,14 +977,7 @@ fn sbuffer_is_exact_with_a_three_level_prefix_sum() {
     );
     let expected = render_reference(&s, &opts);
     let (actual, stats) = render_gpu(&s, &opts, "sbuffer");
-    assert_close(
-        "sbuffer-3-levels",
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("sbuffer-3-levels", &actual, &expected, opts.frame.effect);
     assert_eq!(stats.fragments_dropped, Some(0));
 }
 
@@ -1118,7 +998,7 @@ fn every_method_keeps_within_the_budget() {
         for budget in [bytes, bytes - 1] {
             let mut tight = opts.clone();
             tight.frame.budget_mb = Some(mib(budget));
-            let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &tight).unwrap();
+            let mut r = renderer(&s, &tight);
             match r.render(m.as_str()) {
                 Ok((_, st)) => {
                     assert!(st.bytes_allocated.unwrap() <= budget, "{m}: over budget");
@@ -1134,12 +1014,9 @@ fn every_method_keeps_within_the_budget() {
             }
         }
         opts.frame.budget_mb = Some(0.001);
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut r = renderer(&s, &opts);
         let e = r.render(m.as_str()).expect_err("1 KiB holds no method");
-        assert!(
-            matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
-            "{m}: {e}"
-        );
+        assert_input_error(m.as_str(), &e, "--budget-mb");
     }
 }
 

@@ -8,13 +8,12 @@ use crate::gpu::readback;
 use crate::methods::MethodId;
 use crate::render::FrameRecorder;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, gpu, render_reference};
+use crate::testing::assert_layout;
+use crate::testing::{assert_close, gpu, render_reference, renderer};
 
 #[test]
 fn order_params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<OrderParams>(), 48);
-    assert_eq!(std::mem::offset_of!(OrderParams, count), 16);
-    assert_eq!(std::mem::offset_of!(OrderParams, samples), 32);
+    assert_layout!(OrderParams, 48, count: 16, samples: 32);
 }
 
 #[test]
@@ -251,18 +250,16 @@ fn orders_refuse_what_has_no_submission_order() {
         },
         ..Default::default()
     };
-    let sorted = crate::Renderer::new(gpu(), &s, &options)
-        .unwrap()
-        .render("sorted")
-        .unwrap_err()
-        .to_string();
+    let refusal = |method| {
+        renderer(&s, &options)
+            .render(method)
+            .unwrap_err()
+            .to_string()
+    };
+    let sorted = refusal("sorted");
     assert!(sorted.contains("--order back"), "{sorted}");
     // f2b settles equal depths by draw order, so it peels in primitive order only.
-    let f2b = crate::Renderer::new(gpu(), &s, &options)
-        .unwrap()
-        .render("f2b")
-        .unwrap_err()
-        .to_string();
+    let f2b = refusal("f2b");
     assert!(f2b.contains("--order back"), "{f2b}");
     let scene_order = {
         let mut options = options.clone();

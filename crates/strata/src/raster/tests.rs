@@ -119,7 +119,7 @@ fn every_compute_capture_validates() {
 use crate::frame::{Effect, RenderOptions};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Camera, Material, Mesh, Object, Projection, Scene, Shading};
-use crate::testing::{assert_close, gpu};
+use crate::testing::{assert_close, assert_poison_changes_nothing, gpu};
 use crate::FrameStats;
 
 fn options(size: u32, raster: Raster) -> RenderOptions {
@@ -544,12 +544,7 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
 fn poisoned_raster_buffers_change_nothing() {
     let scene = loaders::load_scene("builtin:nvpro?objects=32&subdiv=10&seed=2").unwrap();
     let opts = options(40, Raster::Compute);
-    let mut r = crate::Renderer::new(gpu(), &scene, &opts).unwrap();
-    let (clean, a) = r.render_method(MethodId::AbufferLl, None).unwrap();
-    r.recorder().unwrap().poison();
-    let (poisoned, b) = r.render_method(MethodId::AbufferLl, None).unwrap();
-    assert!(clean == poisoned, "poisoned memory changed the picture");
-    assert_eq!(a.fragments_generated, b.fragments_generated);
+    assert_poison_changes_nothing(&scene, &opts, MethodId::AbufferLl);
 }
 
 /// An application's draw callback or capture pass needs the GPU's rasterizer: one clear error.

@@ -14,10 +14,14 @@
 
 mod mlab;
 
-use crate::frame::FrameOptions;
 use crate::frame::{Effect, RenderOptions, Tail};
+use crate::methods::tests::covering_layers;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, render_gpu, render_reference, Failures};
+use crate::testing::assert_layout;
+use crate::testing::{
+    assert_exact, differing_pixels, render_gpu, render_reference, renderer, Failures,
+    EXACT_MAX_FRACTION,
+};
 
 const EXACT_K_METHODS: [&str; 9] = [
     "kb-keys",
@@ -30,23 +34,15 @@ const EXACT_K_METHODS: [&str; 9] = [
     "kplus-sbuffer",
     "kplus-semiheap",
 ];
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
 
 fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
 }
 
 pub(crate) fn options(size: u32, k: u32) -> RenderOptions {
-    RenderOptions {
-        frame: FrameOptions {
-            width: size,
-            height: size,
-            k: Some(k),
-            ..Default::default()
-        },
-        ..Default::default()
-    }
+    let mut options = RenderOptions::sized(size, size);
+    options.frame.k = Some(k);
+    options
 }
 
 /// Options for the whole A-buffer picture (no k).
@@ -85,7 +81,7 @@ fn check_k(name: &str, s: &Scene, opts: &RenderOptions, methods: &[&str]) {
         let stored = stats.fragments_stored.unwrap() + stats.fragments_dropped.unwrap();
         failures.check(
             method,
-            if (generated - truth).abs() > truth * MAX_FRACTION {
+            if (generated - truth).abs() > truth * EXACT_MAX_FRACTION {
                 Err(format!("{generated} fragments, reference {truth}"))
             } else if stored != stats.fragments_generated.unwrap() {
                 Err(format!(
@@ -118,13 +114,11 @@ fn k_methods_with_k_at_depth_complexity_equal_the_full_reference() {
     };
     for method in EXACT_K_METHODS.iter().chain(unlocked.iter()) {
         let (actual, stats) = render_gpu(&s, &opts, method);
-        assert_close(
+        assert_exact(
             &format!("layers-full-{method}"),
             &actual,
             &full,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
         assert_eq!(stats.fragments_dropped, Some(0), "{method}");
         assert_eq!(stats.max_depth_complexity, Some(12), "{method}");
@@ -186,13 +180,11 @@ fn culling_off_gives_the_same_picture() {
         "kplus-sbuffer",
     ] {
         let (actual, _) = render_gpu(&s, &opts, method);
-        assert_close(
+        assert_exact(
             &format!("noculling-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
 }
@@ -203,9 +195,7 @@ fn culling_off_gives_the_same_picture() {
 fn tail_blend_composites_the_rest_as_one_term() {
     let n = 10;
     let k = 4;
-    let s = scene(&format!(
-        "builtin:layers?n={n}&coverage=1&order=random&seed=4"
-    ));
+    let s = covering_layers(n, 4);
     let mut opts = options(16, k as u32);
     opts.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
     opts.frame.kbuffer.tail = Tail::Blend;
@@ -463,7 +453,7 @@ fn impossible_budget_is_a_clear_error() {
     let s = scene("builtin:layers?n=6");
     let mut opts = options(64, 64);
     opts.frame.budget_mb = Some(1.0);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let mut r = renderer(&s, &opts);
     let e = r.render("kplus-heap").expect_err("budget too small");
     assert!(
         matches!(e, crate::Error::Input(_)) && e.to_string().contains("--budget-mb"),
@@ -566,7 +556,7 @@ fn packed_mdt_reject_translucency_with_a_clear_error() {
     let mut opts = options(16, 4);
     opts.frame.effect = Effect::Translucency;
     for method in ["kb-mdt64", "kb-mdt-pack"] {
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut r = renderer(&s, &opts);
         let e = r.render(method).expect_err("unsupported");
         assert!(
             matches!(e, crate::Error::Unsupported(_)) && e.to_string().contains("translucency"),
@@ -597,12 +587,7 @@ fn long_lists_with_the_tail_dropped_composite_only_k() {
 
 #[test]
 fn kparams_layout_matches_wgsl() {
-    use std::mem::{offset_of, size_of};
-    assert_eq!(size_of::<super::KParams>(), 48);
-    assert_eq!(offset_of!(super::KParams, aux), 20);
-    assert_eq!(offset_of!(super::KParams, width), 24);
-    assert_eq!(offset_of!(super::KParams, pixels), 28);
-    assert_eq!(offset_of!(super::KParams, sample_slots), 32);
+    assert_layout!(super::KParams, 48, aux: 20, width: 24, pixels: 28, sample_slots: 32);
 }
 
 /// Locking methods refuse a k whose critical section could run past a GPU timeout.
@@ -610,7 +595,7 @@ fn kparams_layout_matches_wgsl() {
 fn k_beyond_a_methods_cap_is_a_clear_error() {
     let s = scene("builtin:layers?n=2");
     let opts = options(8, 257);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let mut r = renderer(&s, &opts);
     let e = r.render("kplus-array").expect_err("k above the cap");
     assert!(
         matches!(e, crate::Error::Input(_)) && e.to_string().contains("1..256"),
@@ -754,13 +739,11 @@ fn auto_k_reaches_the_robustness_the_budget_allows() {
         }
         fewer.frame.k = Some(k);
         let expected = reference_where_rasterizers_agree(&s, &fewer);
-        assert_close(
+        assert_exact(
             &format!("auto-k-{method}"),
             &actual,
             &expected,
             opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
     // One budget cuts k below what R asks for: reported, not hidden.
@@ -779,7 +762,7 @@ fn auto_k_errors_are_clear() {
     let mut opts = options(64, 1);
     opts.frame.k_auto = Some(0.9);
     opts.frame.budget_mb = Some(0.05);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+    let mut r = renderer(&s, &opts);
     let e = r.render("kplus-heap").unwrap_err();
     assert!(e.to_string().contains("cannot hold even k = 1"), "{e}");
     opts.frame.budget_mb = None;
@@ -799,14 +782,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         let mut opts = options(48, k);
         // Exact mode's first frame peels 8 layers, learns N = 24, and renders again.
         let (actual, stats) = render_gpu(&s, &opts, "kpeel");
-        assert_close(
-            &format!("kpeel-k{k}"),
-            &actual,
-            &full,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        assert_exact(&format!("kpeel-k{k}"), &actual, &full, opts.frame.effect);
         assert_eq!(stats.fragments_dropped, Some(0), "k={k}");
         assert_eq!(stats.max_depth_complexity, Some(24));
         assert_eq!(stats.lock_failures, Some(0));
@@ -829,7 +805,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         );
         // Too few layers: what was not reached is reported as dropped.
         opts.frame.peeling.layers = Some(k);
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut r = renderer(&s, &opts);
         let (_, stats) = r.render("kpeel").unwrap();
         if k < 24 {
             let covered = (48 * 48 / 2) as u64;
@@ -853,14 +829,7 @@ fn kpeel_loses_nothing_at_equal_depths() {
     let opts = options(24, 2);
     let expected = render_reference(&s, &all_fragments(24));
     let (actual, stats) = render_gpu(&s, &opts, "kpeel");
-    assert_close(
-        "kpeel-coincident",
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("kpeel-coincident", &actual, &expected, opts.frame.effect);
     assert_eq!(stats.fragments_dropped, Some(0));
     assert_eq!(stats.fragments_generated, Some(6 * 24 * 24));
 }
@@ -881,13 +850,11 @@ fn unified_buffer_spans_z_buffer_to_a_buffer() {
         check_k("unified-k1", &s, &nearest, &[method]);
         let (actual, stats) = render_gpu(&s, &options(48, depth), method);
         assert_eq!(stats.fragments_dropped, Some(0), "{method}");
-        assert_close(
+        assert_exact(
             &format!("unified-a-buffer-{method}"),
             &actual,
             &render_reference(&s, &full),
             full.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
         );
     }
 }
@@ -920,7 +887,7 @@ fn semiheap_keeps_the_k_nearest_for_every_heap_size() {
     }
     let mut opts = options(16, 4);
     opts.frame.kbuffer.heap_size = Some(5);
-    let mut r = crate::Renderer::new(crate::testing::gpu(), &layers, &opts).unwrap();
+    let mut r = renderer(&layers, &opts);
     let e = r.render("kplus-semiheap").unwrap_err();
     assert!(e.to_string().contains("--heap-size 5"), "{e}");
 }
@@ -1383,7 +1350,7 @@ fn the_devices_fragments_are_the_references() {
         );
         eprintln!("{summary}");
         let differing = (a.missing.len() + a.extra.len() + a.masks_differ.len()) as f64;
-        let agrees = differing <= a.reference as f64 * MAX_FRACTION
+        let agrees = differing <= a.reference as f64 * EXACT_MAX_FRACTION
             && a.max_depth_error[0] <= DEPTH_AGREEMENT
             && a.max_depth_error[1] <= EXTRAPOLATED_DEPTH_AGREEMENT
             && a.facing_differs.is_empty()
@@ -1431,7 +1398,7 @@ fn a_blended_tail_is_the_same_every_frame() {
         .filter(|&m| m != super::MethodId::Mlab)
         .chain([super::MethodId::KbKeys, super::MethodId::KbAbFixed]);
     for m in methods {
-        let mut r = crate::Renderer::new(crate::testing::gpu(), &s, &opts).unwrap();
+        let mut r = renderer(&s, &opts);
         let mut frames = Vec::new();
         for poison in [false, false, true] {
             if poison {
@@ -1455,12 +1422,7 @@ fn a_blended_tail_is_the_same_every_frame() {
             };
             let pixel_words = differs(first_pixels, pixels, PIXEL_WORDS);
             let tail_pixels = differs(first_tail, tail, TAIL_WORDS);
-            let picture = first_image
-                .pixels
-                .iter()
-                .zip(&image.pixels)
-                .filter(|(a, b)| a != b)
-                .count();
+            let picture = differing_pixels(first_image, image);
             if pixel_words.is_empty() && tail_pixels.is_empty() && picture == 0 {
                 continue;
             }
@@ -1603,12 +1565,7 @@ fn a_blended_tail_does_not_depend_on_arrival_order() {
                 opts.frame.order = Some(order);
                 pictures.push(render_gpu(&s, &opts, method).0);
             }
-            let differing = pictures[0]
-                .pixels
-                .iter()
-                .zip(&pictures[1].pixels)
-                .filter(|(a, b)| a != b)
-                .count();
+            let differing = differing_pixels(&pictures[0], &pictures[1]);
             failures.check(
                 &format!("{method} --tail {}", tail.name()),
                 match differing {

@@ -3,10 +3,10 @@ use crate::frame::{Effect, Raster};
 use crate::methods::tests::options;
 use crate::methods::MethodId;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, gpu, render_gpu, render_reference};
-
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
+use crate::testing::{
+    assert_close, assert_exact, assert_poison_changes_nothing, gpu, render_gpu, render_reference,
+    Expected, EXACT_MAX_DIFF, EXACT_MAX_FRACTION,
+};
 
 fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap()
@@ -107,8 +107,8 @@ fn deep_pixels_take_more_rounds_and_stay_exact() {
             &actual,
             &expected,
             effect,
-            MAX_DIFF,
-            MAX_FRACTION,
+            EXACT_MAX_DIFF,
+            EXACT_MAX_FRACTION,
         );
         assert_eq!(stats.fragments_dropped, Some(0));
         assert_eq!(stats.max_depth_complexity, Some(40));
@@ -166,12 +166,7 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
 fn poisoned_buffers_change_nothing() {
     let s = scene("builtin:nvpro?objects=32&subdiv=10&seed=2");
     let opts = options(40, Effect::Transparency);
-    let mut r = crate::Renderer::new(gpu(), &s, &opts).unwrap();
-    let (clean, a) = r.render_method(MethodId::Tiled, None).unwrap();
-    r.recorder().unwrap().poison();
-    let (poisoned, b) = r.render_method(MethodId::Tiled, None).unwrap();
-    assert!(clean == poisoned, "poisoned memory changed the picture");
-    assert_eq!(a.fragments_generated, b.fragments_generated);
+    assert_poison_changes_nothing(&s, &opts, MethodId::Tiled);
 }
 
 /// Sizes that are not multiples of a tile, and a camera inside the scene (near clipping).
@@ -182,15 +177,7 @@ fn partial_tiles_and_near_clipping_match_the_reference() {
         let mut opts = options(w, Effect::Transparency);
         opts.frame.height = h;
         let (actual, _) = render_gpu(&s, &opts, "tiled");
-        let expected = render_reference(&s, &opts);
-        assert_close(
-            &format!("tiled-{w}x{h}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        Expected::reference(&s, &opts).assert_exact(&format!("tiled-{w}x{h}"), &actual);
     }
 }
 
@@ -235,15 +222,7 @@ fn k_composites_the_k_nearest() {
         let mut opts = options(32, Effect::Transparency);
         opts.frame.k = Some(k);
         let (actual, stats) = render_gpu(&s, &opts, "tiled");
-        let expected = render_reference(&s, &opts);
-        assert_close(
-            &format!("tiled-k{k}"),
-            &actual,
-            &expected,
-            opts.frame.effect,
-            MAX_DIFF,
-            MAX_FRACTION,
-        );
+        Expected::reference(&s, &opts).assert_exact(&format!("tiled-k{k}"), &actual);
         assert_eq!(
             stats.fragments_stored.unwrap(),
             stats.fragments_generated.unwrap() - stats.fragments_dropped.unwrap()
@@ -300,14 +279,7 @@ fn the_deferred_pipelines_transparent_part_is_abuffer_lls() {
     opts.build.lighting.pipeline = Some(crate::scene::Pipeline::Deferred);
     let (tiled, stats) = render_gpu(&s, &opts, "tiled");
     let (lists, reference) = render_gpu(&s, &opts, "abuffer-ll");
-    assert_close(
-        "tiled-deferred",
-        &tiled,
-        &lists,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact("tiled-deferred", &tiled, &lists, opts.frame.effect);
     assert!(stats.lighting.is_some());
     assert_eq!(stats.fragments_generated, reference.fragments_generated);
 }

@@ -4,23 +4,48 @@
 //! so on the ≤ 6 layers used here the weighted average moves by under 6·2⁻¹¹ ≈ 0.3%, below 1/255.
 
 use super::cpu;
-use crate::frame::{BuildOptions, FrameOptions, WeightedOptions};
+use crate::frame::WeightedOptions;
 use crate::frame::{Effect, Moments, RenderOptions, Weight};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, per_pixel, render_gpu};
+use crate::testing::assert_layout;
+use crate::testing::{assert_close, assert_exact, per_pixel, render_gpu, scene_name};
+
+// The scenes the closed forms are checked on (translucent, with `at_alpha`).
+const LAYERS: &str = "builtin:layers?n=6&coverage=0.75&order=random&seed=3";
+const NVPRO_96: &str = "builtin:nvpro?objects=96&subdiv=10&seed=8";
+const NVPRO_400: &str = "builtin:nvpro?objects=400&subdiv=10&seed=3";
+const DRAGON: &str = "builtin:dragon";
+const SPHERES_8: &str = "builtin:spheres?layers=8";
 
 /// Default options at `size`² over a black background (low opacities show in every channel).
 fn over_black(size: u32) -> RenderOptions {
-    RenderOptions {
-        frame: FrameOptions {
-            width: size,
-            height: size,
-            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
-            ..Default::default()
-        },
+    let mut options = RenderOptions::sized(size, size);
+    options.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
+    options
+}
+
+/// `options` with wboit's `weight` and `depth_scale`.
+fn weighted(mut options: RenderOptions, weight: Weight, depth_scale: f64) -> RenderOptions {
+    options.frame.weighted = WeightedOptions {
+        weight,
+        depth_scale,
         ..Default::default()
-    }
+    };
+    options
+}
+
+/// `options` with --msaa 4.
+fn multisampled(mut options: RenderOptions) -> RenderOptions {
+    options.build.msaa = 4;
+    options
+}
+
+/// The scene of `spec` with every material's opacity `alpha`.
+fn at_alpha(spec: &str, alpha: f32) -> Scene {
+    let mut scene = loaders::load_scene(spec).unwrap();
+    scene.override_alpha(alpha);
+    scene
 }
 
 fn closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
@@ -29,37 +54,16 @@ fn closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
 
 #[test]
 fn wboit_equals_its_closed_form_for_every_weight() {
-    let mut scene =
-        loaders::load_scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3").unwrap();
     // Low opacity over black: the coverage 1 − Π(1 − α) shows in every channel.
-    scene.override_alpha(0.25);
+    let scene = at_alpha(LAYERS, 0.25);
     for weight in [Weight::Eq7, Weight::Eq8, Weight::Eq9, Weight::Eq10] {
         // Scales that put the layers' distances in each weight's steep part.
         for depth_scale in [1.0, 10.0, 60.0] {
-            let opts = RenderOptions {
-                frame: FrameOptions {
-                    width: 40,
-                    height: 40,
-                    weighted: WeightedOptions {
-                        weight,
-                        depth_scale,
-                        ..Default::default()
-                    },
-                    background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
-                    ..Default::default()
-                },
-                ..Default::default()
-            };
+            let opts = weighted(over_black(40), weight, depth_scale);
             let expected = closed_form(&scene, &opts);
             let (actual, stats) = render_gpu(&scene, &opts, "wboit");
-            assert_close(
-                &format!("wboit-{}-scale{depth_scale}", weight.name()),
-                &actual,
-                &expected,
-                Effect::Transparency,
-                2,
-                0.001,
-            );
+            let name = format!("wboit-{}-scale{depth_scale}", weight.name());
+            assert_exact(&name, &actual, &expected, Effect::Transparency);
             assert_eq!(stats.fragments_dropped, Some(0));
             assert_eq!(stats.max_depth_complexity, Some(6));
         }
@@ -71,17 +75,7 @@ fn wboit_equals_its_closed_form_for_every_weight() {
 #[test]
 fn multisampled_wboit_averages_the_samples_closed_forms() {
     let scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
-    let opts = RenderOptions {
-        build: BuildOptions {
-            msaa: 4,
-            ..Default::default()
-        },
-        frame: FrameOptions {
-            width: 40,
-            height: 40,
-            ..Default::default()
-        },
-    };
+    let opts = multisampled(RenderOptions::sized(40, 40));
     let expected = per_pixel(&scene, &opts, |_, l, bg| {
         let mut sum = [0.0; 3];
         for sample in 0..4 {
@@ -96,14 +90,7 @@ fn multisampled_wboit_averages_the_samples_closed_forms() {
         sum
     });
     let (actual, _) = render_gpu(&scene, &opts, "wboit");
-    assert_close(
-        "wboit-msaa4",
-        &actual,
-        &expected,
-        Effect::Transparency,
-        2,
-        0.001,
-    );
+    assert_exact("wboit-msaa4", &actual, &expected, Effect::Transparency);
     // Anti-aliased: the edges differ from the single-sampled picture.
     let single = {
         let mut options = opts;
@@ -121,20 +108,8 @@ fn multisampled_wboit_averages_the_samples_closed_forms() {
 /// only if the closed form ignored it too): eq. 7 and eq. 9 differ on overlapping layers.
 #[test]
 fn wboit_weights_differ_and_the_depth_scale_matters() {
-    let scene = loaders::load_scene("builtin:nvpro?objects=96&subdiv=10&seed=8").unwrap();
-    let opts = |weight, depth_scale| RenderOptions {
-        frame: FrameOptions {
-            width: 32,
-            height: 32,
-            weighted: WeightedOptions {
-                weight,
-                depth_scale,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let scene = loaders::load_scene(NVPRO_96).unwrap();
+    let opts = |weight, depth_scale| weighted(RenderOptions::sized(32, 32), weight, depth_scale);
     let (a, _) = render_gpu(&scene, &opts(Weight::Eq7, 1.0), "wboit");
     let (b, _) = render_gpu(&scene, &opts(Weight::Eq9, 1.0), "wboit");
     let (c, _) = render_gpu(&scene, &opts(Weight::Eq7, 100.0), "wboit");
@@ -152,8 +127,7 @@ fn wboit_weights_differ_and_the_depth_scale_matters() {
 
 #[test]
 fn wboit_params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<super::WboitParams>(), 16);
-    assert_eq!(std::mem::offset_of!(super::WboitParams, depth_scale), 4);
+    assert_layout!(super::WboitParams, 16, depth_scale: 4);
 }
 
 /// The settings `mboit` runs with at `moments`.
@@ -177,39 +151,18 @@ fn mboit_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
 /// `cpu::mboit_multisampled`. Fully covered pixels stay the single-sampled result.
 #[test]
 fn multisampled_mboit_equals_its_closed_form() {
-    let mut scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
-    scene.override_alpha(0.4);
-    let opts = RenderOptions {
-        build: BuildOptions {
-            msaa: 4,
-            ..Default::default()
-        },
-        frame: FrameOptions {
-            width: 40,
-            height: 40,
-            background: crate::scene::Background::Color([0.0, 0.0, 0.0]),
-            ..Default::default()
-        },
-    };
+    let scene = at_alpha("builtin:spheres?layers=4", 0.4);
+    let opts = multisampled(over_black(40));
     let camera = scene.camera_or_framing();
     let expected = per_pixel(&scene, &opts, |_, l, bg| {
         cpu::mboit_multisampled(l, bg, &camera, settings(Moments::Power(4)), 4)
     });
     let (actual, stats) = render_gpu(&scene, &opts, "mboit");
-    assert_close(
-        "mboit-msaa4",
-        &actual,
-        &expected,
-        Effect::Transparency,
-        2,
-        0.001,
-    );
+    assert_exact("mboit-msaa4", &actual, &expected, Effect::Transparency);
     assert_eq!(stats.bytes_allocated, Some(40 * 40 * (28 * 4 + 4)));
     // On flat layers (37 pixels: edges between sample positions) the same as single-sampled
     // where every fragment covers every sample, and anti-aliased at the edges.
-    let mut layers =
-        loaders::load_scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3").unwrap();
-    layers.override_alpha(0.4);
+    let layers = at_alpha(LAYERS, 0.4);
     let four = {
         let mut options = opts;
         options.frame.width = 37;
@@ -247,25 +200,13 @@ fn multisampled_mboit_equals_its_closed_form() {
 /// mboit against its f64 closed form: the same moments, the same reconstruction per fragment.
 #[test]
 fn mboit_equals_its_closed_form() {
-    for spec in [
-        "builtin:layers?n=6&coverage=0.75&order=random&seed=3",
-        "builtin:nvpro?objects=96&subdiv=10&seed=8",
-        "builtin:nvpro?objects=400&subdiv=10&seed=3",
-        "builtin:dragon",
-    ] {
-        let mut scene = loaders::load_scene(spec).unwrap();
-        scene.override_alpha(0.4);
+    for spec in [LAYERS, NVPRO_96, NVPRO_400, DRAGON] {
+        let scene = at_alpha(spec, 0.4);
         let opts = over_black(40);
         let expected = mboit_closed_form(&scene, &opts);
         let (actual, stats) = render_gpu(&scene, &opts, "mboit");
         assert_close(
-            &format!(
-                "mboit-{}",
-                spec.split('?')
-                    .next()
-                    .unwrap()
-                    .trim_start_matches("builtin:")
-            ),
+            &format!("mboit-{}", scene_name(spec)),
             &actual,
             &expected,
             Effect::Transparency,
@@ -289,7 +230,7 @@ fn mboit_against_closed_form(
 ) -> f64 {
     let expected = mboit_closed_form(scene, opts);
     let (actual, stats) = render_gpu(scene, opts, "mboit");
-    assert_close(name, &actual, &expected, Effect::Transparency, 2, 0.001);
+    assert_exact(name, &actual, &expected, Effect::Transparency);
     assert_eq!(
         stats.bytes_allocated,
         Some(40 * 40 * (28 + high_bytes + 4)),
@@ -308,8 +249,7 @@ fn mboit_against_closed_form(
 /// more moments follow the exact picture more closely on the deep nvpro scene.
 #[test]
 fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
-    let mut scene = loaders::load_scene("builtin:nvpro?objects=400&subdiv=10&seed=3").unwrap();
-    scene.override_alpha(0.4);
+    let scene = at_alpha(NVPRO_400, 0.4);
     let base = over_black(40);
     let exact = crate::testing::render_reference(&scene, &base);
     let mut errors = Vec::new();
@@ -328,13 +268,8 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
     eprintln!("mboit RMSE against the reference at 4, 6, 8 moments: {errors:?}");
     assert!(errors[1] < errors[0] && errors[2] < errors[1], "{errors:?}");
     // The f32 reconstruction stays the f64 one on the other scenes too.
-    for spec in [
-        "builtin:layers?n=6&coverage=0.75&order=random&seed=3",
-        "builtin:dragon",
-        "builtin:spheres?layers=8",
-    ] {
-        let mut scene = loaders::load_scene(spec).unwrap();
-        scene.override_alpha(0.4);
+    for spec in [LAYERS, DRAGON, SPHERES_8] {
+        let scene = at_alpha(spec, 0.4);
         for moments in [6, 8] {
             let opts = {
                 let mut options = base.clone();
@@ -344,7 +279,7 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
             let expected = mboit_closed_form(&scene, &opts);
             let (actual, _) = render_gpu(&scene, &opts, "mboit");
             let name = format!("mboit{moments}-{}", spec.trim_start_matches("builtin:"));
-            assert_close(&name, &actual, &expected, Effect::Transparency, 2, 0.001);
+            assert_exact(&name, &actual, &expected, Effect::Transparency);
         }
     }
 }
@@ -353,14 +288,7 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
 #[test]
 fn the_generic_reconstruction_of_four_moments_is_the_closed_form() {
     let support: [(f64, f64); 5] = [(-0.6, 0.5), (-0.2, 1.0), (0.1, 0.3), (0.5, 2.0), (0.8, 0.7)];
-    let total: f64 = support.iter().map(|s| s.1).sum();
-    let m: [f64; 4] = std::array::from_fn(|k| {
-        support
-            .iter()
-            .map(|(x, a)| a * x.powi(k as i32 + 1))
-            .sum::<f64>()
-            / total
-    });
+    let m = four_moments(&support);
     for i in 0..=20 {
         let z = -1.0 + 0.1 * i as f64;
         let closed = cpu::absorbance_fraction(m, z, 5e-7, 0.25);
@@ -410,16 +338,21 @@ fn mboit_reconstruction_limits() {
     }
 }
 
-/// The fraction of `support` (depth, absorbance) in front of `z` that the four moments give.
-fn fraction_of(support: &[(f64, f64)], z: f64, overestimation: f64) -> f64 {
+/// The first four power moments of `support` (depth, absorbance), normalized by its total.
+fn four_moments(support: &[(f64, f64)]) -> [f64; 4] {
     let total: f64 = support.iter().map(|s| s.1).sum();
-    let m: [f64; 4] = std::array::from_fn(|k| {
+    std::array::from_fn(|k| {
         support
             .iter()
             .map(|(x, a)| a * x.powi(k as i32 + 1))
             .sum::<f64>()
             / total
-    });
+    })
+}
+
+/// The fraction of `support` (depth, absorbance) in front of `z` that the four moments give.
+fn fraction_of(support: &[(f64, f64)], z: f64, overestimation: f64) -> f64 {
+    let m = four_moments(support);
     cpu::absorbance_fraction(m, z, 5e-7, overestimation)
 }
 
@@ -471,11 +404,7 @@ proptest::proptest! {
 
 #[test]
 fn mboit_params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<super::mboit::MboitParams>(), 16);
-    assert_eq!(
-        std::mem::offset_of!(super::mboit::MboitParams, overestimation),
-        4
-    );
+    assert_layout!(super::mboit::MboitParams, 16, overestimation: 4);
 }
 
 /// stochastic's closed form: each pixel's reference fragments (with their sample coverage)
@@ -499,20 +428,16 @@ fn stochastic_options(size: u32, passes: u32) -> RenderOptions {
 #[test]
 fn stochastic_equals_its_closed_form() {
     for alpha in [0.25, 0.4] {
-        let mut scene =
-            loaders::load_scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3").unwrap();
-        scene.override_alpha(alpha);
+        let scene = at_alpha(LAYERS, alpha);
         for passes in [1, 3] {
             let opts = stochastic_options(40, passes);
             let expected = stochastic_closed_form(&scene, &opts);
             let (actual, stats) = render_gpu(&scene, &opts, "stochastic");
-            assert_close(
+            assert_exact(
                 &format!("stochastic-alpha{alpha}-passes{passes}"),
                 &actual,
                 &expected,
                 Effect::Transparency,
-                2,
-                0.001,
             );
             assert_eq!(stats.fragments_dropped, Some(0));
             assert_eq!(stats.geometry_passes, Some(2 * passes + 1));
@@ -525,8 +450,7 @@ fn stochastic_equals_its_closed_form() {
 /// pixel center.
 #[test]
 fn stochastic_equals_its_closed_form_on_nvpro_and_the_dragon() {
-    let mut dragon = loaders::load_scene("builtin:dragon").unwrap();
-    dragon.override_alpha(0.4);
+    let dragon = at_alpha(DRAGON, 0.4);
     for (name, scene, size) in [
         (
             "nvpro",
@@ -537,13 +461,11 @@ fn stochastic_equals_its_closed_form_on_nvpro_and_the_dragon() {
     ] {
         let opts = stochastic_options(size, 2);
         let (actual, _) = render_gpu(&scene, &opts, "stochastic");
-        assert_close(
+        assert_exact(
             &format!("stochastic-{name}"),
             &actual,
             &stochastic_closed_form(&scene, &opts),
             Effect::Transparency,
-            2,
-            0.001,
         );
     }
 }
@@ -552,9 +474,7 @@ fn stochastic_equals_its_closed_form_on_nvpro_and_the_dragon() {
 /// so this is the same comparison on every run).
 #[test]
 fn stochastic_noise_falls_with_passes() {
-    let mut scene =
-        loaders::load_scene("builtin:layers?n=6&coverage=0.75&order=random&seed=3").unwrap();
-    scene.override_alpha(0.4);
+    let scene = at_alpha(LAYERS, 0.4);
     let truth = crate::testing::render_reference(&scene, &stochastic_options(48, 1))
         .to_rgba8(Effect::Transparency);
     let rmse = |passes| {
@@ -580,10 +500,7 @@ fn stochastic_refuses_a_single_sampled_frame() {
 
 #[test]
 fn stochastic_params_layout_matches_wgsl() {
-    assert_eq!(
-        std::mem::size_of::<super::stochastic::StochasticParams>(),
-        16
-    );
+    assert_layout!(super::stochastic::StochasticParams, 16);
 }
 
 /// The stipples' counts average α·S and their samples are distinct.
@@ -616,14 +533,8 @@ fn stipples_have_the_expected_sample_count() {
 fn mboit_with_trigonometric_moments_equals_its_closed_form() {
     let base = over_black(40);
     let mut errors = Vec::new();
-    for spec in [
-        "builtin:nvpro?objects=400&subdiv=10&seed=3",
-        "builtin:layers?n=6&coverage=0.75&order=random&seed=3",
-        "builtin:dragon",
-        "builtin:spheres?layers=8",
-    ] {
-        let mut scene = loaders::load_scene(spec).unwrap();
-        scene.override_alpha(0.4);
+    for spec in [NVPRO_400, LAYERS, DRAGON, SPHERES_8] {
+        let scene = at_alpha(spec, 0.4);
         let exact = crate::testing::render_reference(&scene, &base);
         for (n, high_bytes) in [(2, 0), (3, 8), (4, 16)] {
             let mut opts = base.clone();
@@ -715,13 +626,8 @@ fn wavelet_options(coefficients: u32) -> RenderOptions {
 /// coefficients follow the exact picture at least as closely as 4 on nvpro.
 #[test]
 fn wavelet_equals_its_closed_form() {
-    for spec in [
-        "builtin:layers?n=6&coverage=0.75&order=random&seed=3",
-        "builtin:nvpro?objects=400&subdiv=10&seed=3",
-        "builtin:dragon",
-    ] {
-        let mut scene = loaders::load_scene(spec).unwrap();
-        scene.override_alpha(0.4);
+    for spec in [LAYERS, NVPRO_400, DRAGON] {
+        let scene = at_alpha(spec, 0.4);
         let camera = scene.camera_or_framing();
         let exact = crate::testing::render_reference(&scene, &over_black(40));
         let mut errors = Vec::new();
@@ -731,14 +637,8 @@ fn wavelet_equals_its_closed_form() {
                 cpu::mboit(l, bg, &camera, settings(Moments::Haar(coefficients)))
             });
             let (actual, stats) = render_gpu(&scene, &opts, "wavelet");
-            let name = format!(
-                "wavelet{coefficients}-{}",
-                spec.split('?')
-                    .next()
-                    .unwrap()
-                    .trim_start_matches("builtin:")
-            );
-            assert_close(&name, &actual, &expected, Effect::Transparency, 2, 0.001);
+            let name = format!("wavelet{coefficients}-{}", scene_name(spec));
+            assert_exact(&name, &actual, &expected, Effect::Transparency);
             assert_eq!(
                 stats.bytes_allocated,
                 Some(40 * 40 * (28 + high_bytes + super::mboit::WAVELET_BOUNDS_BYTES + 4)),
@@ -776,8 +676,7 @@ fn wavelet_takes_4_or_8_coefficients() {
 /// `cpu::mboit_multisampled` with Haar coefficients.
 #[test]
 fn multisampled_wavelet_equals_its_closed_form() {
-    let mut scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
-    scene.override_alpha(0.4);
+    let scene = at_alpha("builtin:spheres?layers=4", 0.4);
     let mut opts = wavelet_options(8);
     opts.build.msaa = 4;
     let camera = scene.camera_or_framing();
@@ -785,14 +684,7 @@ fn multisampled_wavelet_equals_its_closed_form() {
         cpu::mboit_multisampled(l, bg, &camera, settings(Moments::Haar(8)), 4)
     });
     let (actual, stats) = render_gpu(&scene, &opts, "wavelet");
-    assert_close(
-        "wavelet-msaa4",
-        &actual,
-        &expected,
-        Effect::Transparency,
-        2,
-        0.001,
-    );
+    assert_exact("wavelet-msaa4", &actual, &expected, Effect::Transparency);
     assert_eq!(
         stats.bytes_allocated,
         Some(40 * 40 * ((28 + 16 + super::mboit::WAVELET_BOUNDS_BYTES) * 4 + 4))

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use super::*;
+use crate::scene::builtin::primitives::tests::signed_volume;
 use crate::scene::{Background, LightKind, Projection, Shading};
 
 fn fixture(name: &str) -> PathBuf {
@@ -33,14 +34,12 @@ fn scene_error(name: &str) -> String {
     e
 }
 
-fn signed_volume(m: &Mesh) -> f32 {
-    m.indices
-        .chunks_exact(3)
-        .map(|t| {
-            let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from(m.positions[i as usize]));
-            a.dot(b.cross(c)) / 6.0
-        })
-        .sum()
+/// [`scene_error`], which says each of `says`.
+fn assert_scene_error(name: &str, says: &[&str]) {
+    let e = scene_error(name);
+    for said in says {
+        assert!(e.contains(said), "{e}");
+    }
 }
 
 fn approx3(a: [f32; 3], b: [f32; 3]) -> bool {
@@ -98,26 +97,17 @@ fn obj_with_mtl_uses_kd_and_d_or_tr() {
 
 #[test]
 fn malformed_obj_is_a_one_line_error() {
-    let e = scene_error("malformed.obj");
-    assert!(
-        e.contains("line 3") && e.contains("position parse error"),
-        "{e}"
-    );
+    assert_scene_error("malformed.obj", &["line 3", "position parse error"]);
 }
 
 #[test]
 fn obj_with_nan_is_rejected() {
-    let e = scene_error("nan.obj");
-    assert!(e.contains("non-finite"), "{e}");
+    assert_scene_error("nan.obj", &["non-finite"]);
 }
 
 #[test]
 fn obj_with_out_of_range_index_is_rejected() {
-    let e = scene_error("out_of_range.obj");
-    assert!(
-        e.contains("line 5") && e.contains("index 9 is out of range"),
-        "{e}"
-    );
+    assert_scene_error("out_of_range.obj", &["line 5", "index 9 is out of range"]);
 }
 
 #[test]
@@ -134,8 +124,7 @@ fn obj_face_with_two_vertices_is_skipped_with_a_warning() {
 
 #[test]
 fn obj_without_faces_is_rejected() {
-    let e = scene_error("empty.obj");
-    assert!(e.contains("no triangles"), "{e}");
+    assert_scene_error("empty.obj", &["no triangles"]);
 }
 
 // --- PLY ---------------------------------------------------------------------------------------
@@ -165,10 +154,9 @@ fn ply_ascii_and_binary_agree() {
 
 #[test]
 fn malformed_ply_is_a_one_line_error() {
-    let e = scene_error("malformed.ply");
-    assert!(
-        e.contains("line 11: vertex 1: cannot read '1 0 zero' as x y z"),
-        "{e}"
+    assert_scene_error(
+        "malformed.ply",
+        &["line 11: vertex 1: cannot read '1 0 zero' as x y z"],
     );
 }
 
@@ -270,15 +258,12 @@ fn gltf_node_with_a_zero_scale_draws_nothing_and_the_rest_draws() {
 #[test]
 fn gltf_that_would_draw_nothing_or_misread_is_rejected() {
     // A zero scale hides its node (valid glTF); a file of hidden nodes only draws nothing.
-    let e = scene_error("zero_scale.gltf");
-    assert!(e.contains("no triangles"), "{e}");
-    let e = scene_error("alpha_over_one.gltf");
-    assert!(
-        e.contains("baseColorFactor") && e.contains("outside [0, 1]"),
-        "{e}"
+    assert_scene_error("zero_scale.gltf", &["no triangles"]);
+    assert_scene_error(
+        "alpha_over_one.gltf",
+        &["baseColorFactor", "outside [0, 1]"],
     );
-    let e = scene_error("lines_only.gltf");
-    assert!(e.contains("no TRIANGLES primitive"), "{e}");
+    assert_scene_error("lines_only.gltf", &["no TRIANGLES primitive"]);
 }
 
 // --- TOML --------------------------------------------------------------------------------------
@@ -402,19 +387,17 @@ fn malformed_toml_is_a_one_line_error_with_its_line() {
 
 #[test]
 fn toml_unknown_material_names_the_object() {
-    let e = scene_error("unknown_material.toml");
-    assert!(
-        e.contains("object 2 (line 9): unknown material 'glas'"),
-        "{e}"
+    assert_scene_error(
+        "unknown_material.toml",
+        &["object 2 (line 9): unknown material 'glas'"],
     );
 }
 
 #[test]
 fn toml_unknown_field_is_an_error() {
-    let e = scene_error("unknown_field.toml");
-    assert!(
-        e.contains("object 1") && e.contains("unknown field `colour`"),
-        "{e}"
+    assert_scene_error(
+        "unknown_field.toml",
+        &["object 1", "unknown field `colour`"],
     );
 }
 

@@ -2,6 +2,8 @@ use super::*;
 use proptest::prelude::*;
 use std::cmp::Ordering;
 
+use crate::testing::fragment;
+
 fn order(a: &Fragment, b: &Fragment) -> Ordering {
     if before(a, b) {
         Ordering::Less
@@ -415,17 +417,7 @@ fn layers(
         .prop_map(|v| {
             v.into_iter()
                 .enumerate()
-                .map(|(i, (depth, alpha, color))| RefFragment {
-                    depth,
-                    prim: i as u32,
-                    front_facing: true,
-                    color,
-                    alpha,
-                    absorption: 0.0,
-                    distance: depth,
-                    coverage: 1,
-                    blend: crate::scene::Blend::Over,
-                })
+                .map(|(i, (depth, alpha, color))| fragment(i as u32, depth, alpha, color))
                 .collect::<Vec<_>>()
         })
         .prop_shuffle()
@@ -489,17 +481,7 @@ proptest! {
 /// arriving a, c, b, b lands behind the merged a-c layer although it lies between them.
 #[test]
 fn mlab_merges_depend_on_arrival_order() {
-    let f = |prim: u32, depth: f64, color: [f64; 3]| RefFragment {
-        depth,
-        prim,
-        front_facing: true,
-        color,
-        alpha: 0.5,
-        absorption: 0.0,
-        distance: depth,
-        coverage: 1,
-        blend: crate::scene::Blend::Over,
-    };
+    let f = |prim: u32, depth: f64, color: [f64; 3]| fragment(prim, depth, 0.5, color);
     let (a, b, c) = (
         f(0, 0.1, [1.0, 0.0, 0.0]),
         f(1, 0.2, [0.0, 1.0, 0.0]),

@@ -10,11 +10,10 @@ use crate::methods::kbuffer::cpu;
 use crate::render::LinearImage;
 use crate::resolve::RefFragment;
 use crate::scene::{loaders, Background, Scene};
-use crate::testing::{assert_close, per_pixel, render_gpu, render_reference};
+use crate::testing::{
+    assert_exact, per_pixel, render_gpu, render_reference, EXACT_MAX_DIFF, EXACT_MAX_FRACTION,
+};
 use crate::{MethodId, RenderOptions};
-
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
 
 fn scene(spec: &str) -> Scene {
     loaders::load_scene(spec).unwrap_or_else(|e| panic!("{spec}: {e}"))
@@ -49,13 +48,11 @@ fn mlab_up_to_k_fragments_equals_the_reference() {
             );
             let (actual, stats) = render_gpu(&s, &opts, "mlab");
             assert_eq!(stats.lock_failures, Some(0));
-            assert_close(
+            assert_exact(
                 &format!("mlab-layers-k{k}-msaa{msaa}"),
                 &actual,
                 &expected,
                 Effect::Transparency,
-                MAX_DIFF,
-                MAX_FRACTION,
             );
             assert_eq!(stats.fragments_dropped, Some(0), "k {k} msaa {msaa}");
             assert_eq!(stats.k, Some(k));
@@ -72,13 +69,11 @@ fn mlab_one_past_k_merges_the_two_farthest() {
     let opts = options(48, 4);
     let (actual, stats) = render_gpu(&s, &opts, "mlab");
     assert_eq!(stats.lock_failures, Some(0));
-    assert_close(
+    assert_exact(
         "mlab-layers5-k4-closed-form",
         &actual,
         &closed_form(&s, &opts, 4),
         Effect::Transparency,
-        MAX_DIFF,
-        MAX_FRACTION,
     );
     let full = RenderOptions {
         frame: crate::frame::FrameOptions {
@@ -87,20 +82,18 @@ fn mlab_one_past_k_merges_the_two_farthest() {
         },
         ..opts.clone()
     };
-    assert_close(
+    assert_exact(
         "mlab-layers5-k4-reference",
         &actual,
         &render_reference(&s, &full),
         Effect::Transparency,
-        MAX_DIFF,
-        MAX_FRACTION,
     );
     let lists = crate::reference::fragments(&s, &opts).unwrap();
     let past_k: u64 = lists.iter().map(|l| l.len().saturating_sub(4) as u64).sum();
     assert!(past_k > 0, "the scene has pixels of five fragments");
     let dropped = stats.fragments_dropped.unwrap() as f64;
     assert!(
-        (dropped - past_k as f64).abs() <= past_k as f64 * MAX_FRACTION,
+        (dropped - past_k as f64).abs() <= past_k as f64 * EXACT_MAX_FRACTION,
         "{dropped} fragments past k, reference {past_k}"
     );
 }
@@ -155,11 +148,11 @@ fn mlab_keeps_every_pixels_opacity_on_deep_scenes() {
         let off = actual
             .iter()
             .zip(expected)
-            .filter(|(a, e)| (*a - e).abs() > MAX_DIFF as f64 / 255.0)
+            .filter(|(a, e)| (*a - e).abs() > EXACT_MAX_DIFF as f64 / 255.0)
             .count();
         assert!(
-            off as f64 <= actual.len() as f64 * MAX_FRACTION,
-            "{name}: {off} of {} pixels' transmittance off by more than {MAX_DIFF}/255",
+            off as f64 <= actual.len() as f64 * EXACT_MAX_FRACTION,
+            "{name}: {off} of {} pixels' transmittance off by more than {EXACT_MAX_DIFF}/255",
             actual.len()
         );
     }

@@ -6,13 +6,12 @@ use super::*;
 use crate::frame::{BucketSplit, Effect, RenderOptions};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
-use crate::testing::{assert_close, render_gpu, render_reference};
+use crate::testing::{
+    assert_close, assert_exact, render_gpu, render_reference, EXACT_MAX_DIFF, EXACT_MAX_FRACTION,
+};
 
 /// The tolerance of the exact methods' tests (methods/tests.rs): lavapipe's f32 edge and depth
 /// equations against the reference's exact ones.
-const MAX_DIFF: u8 = 2;
-const MAX_FRACTION: f64 = 0.001;
-
 use crate::methods::kbuffer::tests::{options, reference_fragments_at_device_depths};
 
 /// The reference's fragments at the depths and samples the device's rasterizer gave them (read
@@ -78,7 +77,7 @@ fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate
     // Coverage at pixel centres on an edge may differ between a rasterizer and the reference's
     // exact rules (module docs of methods/tests.rs): within the exact tests' 0.1%.
     assert!(
-        unmatched as f64 <= generated as f64 * MAX_FRACTION,
+        unmatched as f64 <= generated as f64 * EXACT_MAX_FRACTION,
         "{name}: {unmatched} fragments only the reference or only the device has"
     );
     assert_close(
@@ -86,13 +85,21 @@ fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate
         &actual,
         &expected,
         opts.frame.effect,
-        MAX_DIFF,
-        if unmatched == 0 { 0.0 } else { MAX_FRACTION },
+        EXACT_MAX_DIFF,
+        if unmatched == 0 {
+            0.0
+        } else {
+            EXACT_MAX_FRACTION
+        },
     );
     let stored = stats.fragments_stored.unwrap();
     let off = stored.abs_diff(kept) as f64 / generated as f64;
     assert!(
-        off <= if unmatched == 0 { 0.0 } else { MAX_FRACTION },
+        off <= if unmatched == 0 {
+            0.0
+        } else {
+            EXACT_MAX_FRACTION
+        },
         "{name}: kept {stored}, twin {kept}"
     );
     stats
@@ -102,14 +109,7 @@ fn bucket_against_its_twin(name: &str, s: &Scene, opts: &RenderOptions) -> crate
 fn bucket_against_the_reference(name: &str, s: &Scene, opts: &RenderOptions) -> crate::FrameStats {
     let (actual, stats) = render_gpu(s, opts, "bucket");
     let expected = render_reference(s, opts);
-    assert_close(
-        name,
-        &actual,
-        &expected,
-        opts.frame.effect,
-        MAX_DIFF,
-        MAX_FRACTION,
-    );
+    assert_exact(name, &actual, &expected, opts.frame.effect);
     stats
 }
 
@@ -364,18 +364,31 @@ fn pixel_depths(raw: &[u32]) -> (Vec<f32>, f32, f32) {
     (depths, nearest, farthest)
 }
 
+/// `select` of `depths` with k = 2 × `half`, which keeps at most k.
+fn select_at_most_k(
+    depths: &[f32],
+    half: u32,
+    split: BucketSplit,
+) -> std::result::Result<Vec<bool>, TestCaseError> {
+    let kept = select(depths, 2 * half, split);
+    prop_assert!(kept.iter().filter(|k| **k).count() <= 2 * half as usize);
+    Ok(kept)
+}
+
+/// A pixel's 1 to 39 random 24-bit depth fractions (see [`pixel_depths`]), and half a k of 2
+/// to 32.
+fn raw_depths_and_half_k() -> impl Strategy<Value = (Vec<u32>, u32)> {
+    (prop::collection::vec(0u32..1 << 24, 1..40), 1u32..=16)
+}
+
 proptest! {
     /// Each bucket keeps at most two; the pixel's nearest and farthest always survive; a pixel
     /// whose buckets hold at most two each keeps everything; what survives of a bucket is its
     /// nearest and its farthest.
     #[test]
-    fn select_keeps_each_buckets_ends(
-        raw in prop::collection::vec(0u32..1 << 24, 1..40),
-        half in 1u32..=16,
-    ) {
+    fn select_keeps_each_buckets_ends((raw, half) in raw_depths_and_half_k()) {
         let (depths, nearest, farthest) = pixel_depths(&raw);
-        let kept = select(&depths, 2 * half, U);
-        prop_assert!(kept.iter().filter(|k| **k).count() <= 2 * half as usize);
+        let kept = select_at_most_k(&depths, half, U)?;
         prop_assert!(depths.iter().zip(&kept).any(|(&z, &k)| k && z == nearest));
         prop_assert!(depths.iter().zip(&kept).any(|(&z, &k)| k && z == farthest));
         // Group by bucket with an independent float computation of the same fixed point.
@@ -406,13 +419,9 @@ proptest! {
     /// most `buckets` occupied parts, a fragment is lost only to others in its own part (each
     /// part keeps min(2, its fragments)).
     #[test]
-    fn adaptive_split_loses_only_within_a_part(
-        raw in prop::collection::vec(0u32..1 << 24, 1..40),
-        half in 1u32..=16,
-    ) {
+    fn adaptive_split_loses_only_within_a_part((raw, half) in raw_depths_and_half_k()) {
         let (depths, nearest, farthest) = pixel_depths(&raw);
-        let kept = select(&depths, 2 * half, A);
-        prop_assert!(kept.iter().filter(|k| **k).count() <= 2 * half as usize);
+        let kept = select_at_most_k(&depths, half, A)?;
         let (lo, hi) = (depth_fixed(nearest), depth_fixed(farthest));
         let part = |z: f32| part_of(depth_fixed(z), lo, hi, SUBINTERVALS as u64);
         let mut parts: Vec<u64> = depths.iter().map(|&z| part(z)).collect();
