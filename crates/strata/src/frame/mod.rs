@@ -401,7 +401,7 @@ impl FrameContext<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::assert_layout;
+    use crate::testing::assert_layout;
 
     #[test]
     fn resolved_layout_matches_wgsl() {

@@ -225,8 +225,7 @@ mod gpu_tests {
     use crate::testing::{assert_close, render_gpu, render_reference};
 
     /// As the exact methods' tolerance (methods/tests.rs): ≤ 2/255 on ≥ 99.9% of pixels.
-    const MAX_DIFF: u8 = 2;
-    const MAX_FRACTION: f64 = 0.001;
+    use crate::testing::{EXACT_MAX_DIFF as MAX_DIFF, EXACT_MAX_FRACTION as MAX_FRACTION};
 
     fn multisampled(size: u32, effect: Effect, msaa: u32, k: Option<u32>) -> RenderOptions {
         {

@@ -243,7 +243,7 @@ pub fn frame_uniforms(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::assert_layout;
+    use crate::testing::assert_layout;
 
     #[test]
     fn frame_uniforms_layout_matches_wgsl() {

@@ -4,24 +4,6 @@
 //! The device is headless. Vulkan is the default backend; `WGPU_BACKEND` picks another and
 //! `WGPU_ADAPTER_NAME` picks an adapter by a case-insensitive substring of its name.
 
-/// Asserts a `#[repr(C)]` twin's size and field offsets: the layout its WGSL struct has.
-/// `assert_layout!(Fragment, 16, rg: 8)`; a failure names the type and field.
-#[cfg(test)]
-macro_rules! assert_layout {
-    ($ty:ty, $size:expr $(, $field:ident: $offset:expr)* $(,)?) => {{
-        assert_eq!(std::mem::size_of::<$ty>(), $size, "size of {}", stringify!($ty));
-        $(assert_eq!(
-            std::mem::offset_of!($ty, $field),
-            $offset,
-            "offset of {}.{}",
-            stringify!($ty),
-            stringify!($field)
-        );)*
-    }};
-}
-#[cfg(test)]
-pub(crate) use assert_layout;
-
 pub mod bandwidth;
 pub mod binding;
 pub mod ordered;

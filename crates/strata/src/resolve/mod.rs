@@ -163,7 +163,7 @@ pub fn composite_parts(sorted: &[RefFragment], translucency: bool) -> ([f64; 3],
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::assert_layout;
+    use crate::testing::assert_layout;
 
     #[test]
     fn fragment_and_composite_layout_match_wgsl() {
@@ -173,17 +173,7 @@ mod tests {
     }
 
     fn frag(depth: f64, alpha: f64, color: [f64; 3]) -> RefFragment {
-        RefFragment {
-            depth,
-            prim: 0,
-            front_facing: true,
-            color,
-            alpha,
-            absorption: 0.0,
-            distance: depth,
-            coverage: 1,
-            blend: Blend::Over,
-        }
+        crate::testing::fragment(0, depth, alpha, color)
     }
 
     #[test]

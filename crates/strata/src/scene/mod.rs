@@ -800,7 +800,7 @@ mod tests {
 
     #[test]
     fn gpu_vertex_layout() {
-        crate::gpu::assert_layout!(GpuVertex, 24, normal: 12);
+        crate::testing::assert_layout!(GpuVertex, 24, normal: 12);
         let layout = GpuVertex::layout();
         assert_eq!(layout.array_stride, 24);
         assert_eq!(layout.attributes[1].offset, 12);

@@ -424,7 +424,7 @@ mod tests {
 
     #[test]
     fn temporal_params_layout_matches_wgsl() {
-        crate::gpu::assert_layout!(TemporalParams, 96, epsilon: 64, width: 84);
+        crate::testing::assert_layout!(TemporalParams, 96, epsilon: 64, width: 84);
     }
 
     #[test]
