@@ -92,6 +92,8 @@ const CAPTURE_STEP: &str = "_capture(v: SceneVarying, front_facing: bool, mask: 
 
 /// The fragment entry points whose capture steps `source` declares: `fs_x` for each
 /// `fn fs_x_capture(v: SceneVarying, front_facing: bool, mask: u32)` at the start of a line.
+/// The text is read before the preprocessor runs, so a capture step must not sit inside an
+/// `#ifdef` (its made entry would call a function the stage lacks).
 pub fn capture_entries(source: &str) -> impl Iterator<Item = &str> {
     source.lines().filter_map(|line| {
         line.strip_prefix("fn ")?
