@@ -411,8 +411,18 @@ pub struct ResourceCache {
 }
 
 impl ResourceCache {
-    /// A storage buffer (see [`Gpu::storage_buffer`]).
-    pub fn storage(
+    /// A storage buffer (see [`Gpu::storage_buffer`]) that only shaders read and write.
+    pub fn storage(&mut self, gpu: &Gpu, label: &'static str, size: u64) -> Result<wgpu::Buffer> {
+        self.storage_with(gpu, label, size, wgpu::BufferUsages::empty())
+    }
+
+    /// A storage buffer the CPU reads back (counters, statistics): `COPY_SRC` as well.
+    pub fn readable(&mut self, gpu: &Gpu, label: &'static str, size: u64) -> Result<wgpu::Buffer> {
+        self.storage_with(gpu, label, size, wgpu::BufferUsages::COPY_SRC)
+    }
+
+    /// A storage buffer with `extra` usages (see [`Gpu::storage_buffer`]).
+    pub fn storage_with(
         &mut self,
         gpu: &Gpu,
         label: &'static str,

@@ -67,16 +67,12 @@ impl GpuHistogram {
     /// Records the count and binning passes and asks for the bins (HISTOGRAM_BINS words).
     pub fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<()> {
         let gpu = ctx.gpu;
-        let none = wgpu::BufferUsages::empty();
         let counts = self
             .cache
-            .storage(gpu, "strata.histogram.counts", ctx.pixels() * 4, none)?;
-        let bins = self.cache.storage(
-            gpu,
-            "strata.histogram.bins",
-            HISTOGRAM_BINS * 4,
-            wgpu::BufferUsages::COPY_SRC,
-        )?;
+            .storage(gpu, "strata.histogram.counts", ctx.pixels() * 4)?;
+        let bins = self
+            .cache
+            .readable(gpu, "strata.histogram.bins", HISTOGRAM_BINS * 4)?;
         let group = binding::group(
             &gpu.device,
             "strata.histogram.group",

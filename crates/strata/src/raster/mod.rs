@@ -360,19 +360,10 @@ impl ComputeRaster {
         };
         let cache = &mut self.cache;
         let params_buffer = cache.uniform(gpu, "strata.raster.params", bytemuck::bytes_of(&params));
-        let items = cache.storage(
-            gpu,
-            "strata.raster.items",
-            capacity * ITEM_BYTES,
-            wgpu::BufferUsages::empty(),
-        )?;
-        let counters = cache.storage(
-            gpu,
-            "strata.raster.counters",
-            COUNTER_WORDS * 4,
-            wgpu::BufferUsages::COPY_SRC,
-        )?;
-        let args = cache.storage(gpu, "strata.raster.args", 16, wgpu::BufferUsages::INDIRECT)?;
+        let items = cache.storage(gpu, "strata.raster.items", capacity * ITEM_BYTES)?;
+        let counters = cache.readable(gpu, "strata.raster.counters", COUNTER_WORDS * 4)?;
+        let args =
+            cache.storage_with(gpu, "strata.raster.args", 16, wgpu::BufferUsages::INDIRECT)?;
         let group = |label, layout, buffers: &[&wgpu::Buffer]| {
             let resources: Vec<_> = buffers.iter().map(|b| b.as_entire_binding()).collect();
             binding::group(&gpu.device, label, layout, &resources)

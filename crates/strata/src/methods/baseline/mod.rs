@@ -142,12 +142,9 @@ impl Method for Blend {
             self.samples,
         );
         let target_view = target.create_view(&Default::default());
-        let counts = self.cache.storage(
-            gpu,
-            "strata.blend.counts",
-            ctx.pixels() * 4,
-            wgpu::BufferUsages::empty(),
-        )?;
+        let counts = self
+            .cache
+            .storage(gpu, "strata.blend.counts", ctx.pixels() * 4)?;
         let mut bytes = ctx.pixels() * pixel_bytes;
         let order = if self.sort {
             let order = Self::back_to_front(ctx.scene);

@@ -411,7 +411,6 @@ impl Method for Convex {
         let bytes = px * self.pixel_bytes(samples) + self.indices.size() + FIXED_BYTES;
         ctx.check_budget(bytes)?;
         let order_ms = self.update_plan(ctx);
-        let none = wgpu::BufferUsages::empty();
         let layers = self.layers as u64;
         // Sample entries (one per pixel single-sampled); with --msaa the claims are followed by
         // per-pixel counts of fragments and drops.
@@ -421,33 +420,22 @@ impl Method for Convex {
             gpu,
             "strata.convex.state",
             entries * crate::resolve::COMPOSITE_BYTES,
-            none,
         )?;
-        let claims = self.cache.storage(
-            gpu,
-            "strata.convex.claims",
-            entries * 4 + pixel_counts,
-            none,
-        )?;
+        let claims = self
+            .cache
+            .storage(gpu, "strata.convex.claims", entries * 4 + pixel_counts)?;
         let slots = self
             .cache
-            .storage(gpu, "strata.convex.slots", entries * 16 * layers, none)?;
+            .storage(gpu, "strata.convex.slots", entries * 16 * layers)?;
         let generated = self
             .cache
-            .storage(gpu, "strata.convex.generated", entries * 4, none)?;
-        let counters = self.cache.storage(
-            gpu,
-            "strata.convex.counters",
-            16,
-            wgpu::BufferUsages::COPY_SRC,
-        )?;
+            .storage(gpu, "strata.convex.generated", entries * 4)?;
+        let counters = self.cache.readable(gpu, "strata.convex.counters", 16)?;
         let touched = self
             .cache
-            .storage(gpu, "strata.convex.touched", entries * 4, none)?;
-        let touched_count = self
-            .cache
-            .storage(gpu, "strata.convex.touched_count", 4, none)?;
-        let merge_args = self.cache.storage(
+            .storage(gpu, "strata.convex.touched", entries * 4)?;
+        let touched_count = self.cache.storage(gpu, "strata.convex.touched_count", 4)?;
+        let merge_args = self.cache.storage_with(
             gpu,
             "strata.convex.merge_args",
             16,

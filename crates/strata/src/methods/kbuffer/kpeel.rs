@@ -205,12 +205,7 @@ impl Method for KPeel {
         };
         let keys = match &mut self.cascade {
             Some(c) => {
-                let buffer = c.cache.storage(
-                    ctx.gpu,
-                    "strata.kpeel.keys",
-                    keys_bytes,
-                    wgpu::BufferUsages::empty(),
-                )?;
+                let buffer = c.cache.storage(ctx.gpu, "strata.kpeel.keys", keys_bytes)?;
                 let keys_group = binding::group(
                     &ctx.gpu.device,
                     "strata.kpeel.keys.group",

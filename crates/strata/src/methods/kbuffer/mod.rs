@@ -760,18 +760,13 @@ impl KFrame {
         let cache = &mut self.cache;
         let params_buffer =
             cache.uniform(gpu, "strata.kbuffer.params", bytemuck::bytes_of(&params));
-        let pixels = cache.storage(
+        let pixels = cache.storage_with(
             gpu,
             "strata.kbuffer.pixels",
             pixel_words_bytes(px, samples),
             readable,
         )?;
-        let counters = cache.storage(
-            gpu,
-            "strata.kbuffer.counters",
-            COUNTERS * 4,
-            wgpu::BufferUsages::COPY_SRC,
-        )?;
+        let counters = cache.readable(gpu, "strata.kbuffer.counters", COUNTERS * 4)?;
         let counters_init = &self.counters_init;
         let start = ctx.options.frame.kbuffer.allocation_counter_start;
         if self.counter_start != Some(start) {
@@ -781,8 +776,8 @@ impl KFrame {
                 .write_buffer(counters_init, 0, bytemuck::cast_slice(&init));
             self.counter_start = Some(start);
         }
-        let tail = cache.storage(gpu, "strata.kbuffer.tail", tail_bytes, readable)?;
-        let buffer = cache.storage(gpu, storage.label, storage.bytes, readable)?;
+        let tail = cache.storage_with(gpu, "strata.kbuffer.tail", tail_bytes, readable)?;
+        let buffer = cache.storage_with(gpu, storage.label, storage.bytes, readable)?;
         let temporal = self.temporal.frame(ctx)?;
         let group = binding::group(
             &gpu.device,

@@ -180,12 +180,7 @@ impl SBuffer {
     fn scan_levels(&mut self, gpu: &Gpu, pixels: u64) -> Result<(Vec<ScanLevel>, u64)> {
         if self.scan.as_ref().is_none_or(|s| s.pixels != pixels) {
             let (levels, words) = scan_levels(pixels);
-            let buffer = self.cache.storage(
-                gpu,
-                "strata.sbuffer.scan",
-                words * 4,
-                wgpu::BufferUsages::COPY_SRC,
-            )?;
+            let buffer = self.cache.readable(gpu, "strata.sbuffer.scan", words * 4)?;
             let groups = levels
                 .iter()
                 .map(|level| {

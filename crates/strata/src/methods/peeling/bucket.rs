@@ -516,30 +516,21 @@ impl Method for Bucket {
                     .create_view(&Default::default())
             })
             .collect();
-        let none = wgpu::BufferUsages::empty();
         let entries = px * samples as u64;
-        let counts = self
-            .cache
-            .storage(gpu, "strata.bucket.counts", px * 4, none)?;
+        let counts = self.cache.storage(gpu, "strata.bucket.counts", px * 4)?;
         // --msaa: each pixel's kept count after the entries' claim words.
         let kept_words = if samples > 1 { px } else { 0 };
-        let claims = self.cache.storage(
-            gpu,
-            "strata.bucket.claims",
-            (entries + kept_words) * 4,
-            none,
-        )?;
-        let records = self.cache.storage(
-            gpu,
-            "strata.bucket.records",
-            entries * 16 * slots as u64,
-            none,
-        )?;
+        let claims = self
+            .cache
+            .storage(gpu, "strata.bucket.claims", (entries + kept_words) * 4)?;
+        let records =
+            self.cache
+                .storage(gpu, "strata.bucket.records", entries * 16 * slots as u64)?;
         // Uniform: the counts stand in at the histogram's bindings, never read there (and never
         // bound beside them).
         let histogram = if adaptive {
             self.cache
-                .storage(gpu, "strata.bucket.histogram", px * HISTOGRAM_BYTES, none)?
+                .storage(gpu, "strata.bucket.histogram", px * HISTOGRAM_BYTES)?
         } else {
             self.cache.forget("strata.bucket.histogram");
             counts.clone()

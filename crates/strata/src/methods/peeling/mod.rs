@@ -279,21 +279,16 @@ impl Method for FrontToBack {
             wgpu::TextureFormat::Depth32Float,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
         );
-        let none = wgpu::BufferUsages::empty();
         let state = self.cache.storage(
             gpu,
             "strata.f2b.state",
             ctx.pixels() * COMPOSITE_BYTES * samples as u64,
-            none,
         )?;
         // Multisampled: per pixel fragments and composited ones, per sample fragments.
         let count_words = if samples > 1 { 2 + samples as u64 } else { 1 };
-        let counts = self.cache.storage(
-            gpu,
-            "strata.f2b.counts",
-            ctx.pixels() * 4 * count_words,
-            none,
-        )?;
+        let counts =
+            self.cache
+                .storage(gpu, "strata.f2b.counts", ctx.pixels() * 4 * count_words)?;
         let peel_group = binding::group(
             &gpu.device,
             "strata.f2b.peel.group",
@@ -505,36 +500,30 @@ impl Method for Dual {
         let px = ctx.pixels();
         let bytes = dual_bytes(px, samples, self.key_bytes);
         ctx.check_budget(bytes)?;
-        let none = wgpu::BufferUsages::empty();
         let key_bytes = self.key_bytes;
         // Per sample entry (one per pixel single-sampled).
         let entries = px * samples as u64;
-        let bounds =
+        let bounds = self
+            .cache
+            .storage(gpu, "strata.dual.bounds", entries * 2 * key_bytes)?;
+        let next_bounds =
             self.cache
-                .storage(gpu, "strata.dual.bounds", entries * 2 * key_bytes, none)?;
-        let next_bounds = self.cache.storage(
-            gpu,
-            "strata.dual.next_bounds",
-            entries * 2 * key_bytes,
-            none,
-        )?;
+                .storage(gpu, "strata.dual.next_bounds", entries * 2 * key_bytes)?;
         let layers_buffer = self
             .cache
-            .storage(gpu, "strata.dual.layers", entries * 32, none)?;
+            .storage(gpu, "strata.dual.layers", entries * 32)?;
         // --msaa: per pixel its fragments and those composited, after the entries' words.
         let pixel_counts = if samples > 1 { px * 8 } else { 0 };
-        let hits =
-            self.cache
-                .storage(gpu, "strata.dual.hits", entries * 12 + pixel_counts, none)?;
-        let front =
-            self.cache
-                .storage(gpu, "strata.dual.front", entries * COMPOSITE_BYTES, none)?;
+        let hits = self
+            .cache
+            .storage(gpu, "strata.dual.hits", entries * 12 + pixel_counts)?;
+        let front = self
+            .cache
+            .storage(gpu, "strata.dual.front", entries * COMPOSITE_BYTES)?;
         let back = self
             .cache
-            .storage(gpu, "strata.dual.back", entries * COMPOSITE_BYTES, none)?;
-        let counters =
-            self.cache
-                .storage(gpu, "strata.dual.counters", 8, wgpu::BufferUsages::COPY_SRC)?;
+            .storage(gpu, "strata.dual.back", entries * COMPOSITE_BYTES)?;
+        let counters = self.cache.readable(gpu, "strata.dual.counters", 8)?;
         let peel_group = binding::group(
             &gpu.device,
             "strata.dual.peel.group",

@@ -221,18 +221,12 @@ impl Method for Tiled {
         };
         let cache = &mut self.cache;
         let params = cache.uniform(gpu, "strata.tiled.params", bytemuck::bytes_of(&params));
-        let none = wgpu::BufferUsages::empty();
-        let counts = cache.storage(gpu, "strata.tiled.counts", tiles * 4, none)?;
-        let starts = cache.storage(gpu, "strata.tiled.starts", tiles * 4, none)?;
-        let codes = cache.storage(gpu, "strata.tiled.codes", capacity * CODE_BYTES, none)?;
-        let state = cache.storage(gpu, "strata.tiled.state", pixels * STATE_BYTES, none)?;
-        let tile_rounds = cache.storage(gpu, "strata.tiled.rounds", tiles * 4, none)?;
-        let counters = cache.storage(
-            gpu,
-            "strata.tiled.counters",
-            COUNTER_WORDS * 4,
-            wgpu::BufferUsages::COPY_SRC,
-        )?;
+        let counts = cache.storage(gpu, "strata.tiled.counts", tiles * 4)?;
+        let starts = cache.storage(gpu, "strata.tiled.starts", tiles * 4)?;
+        let codes = cache.storage(gpu, "strata.tiled.codes", capacity * CODE_BYTES)?;
+        let state = cache.storage(gpu, "strata.tiled.state", pixels * STATE_BYTES)?;
+        let tile_rounds = cache.storage(gpu, "strata.tiled.rounds", tiles * 4)?;
+        let counters = cache.readable(gpu, "strata.tiled.counters", COUNTER_WORDS * 4)?;
         let group = binding::group(
             &gpu.device,
             "strata.tiled.group",

@@ -156,12 +156,7 @@ fn pixel_counts(
     cache: &mut ResourceCache,
     label: &'static str,
 ) -> Result<wgpu::Buffer> {
-    let counts = cache.storage(
-        ctx.gpu,
-        label,
-        ctx.pixels() * 4,
-        wgpu::BufferUsages::empty(),
-    )?;
+    let counts = cache.storage(ctx.gpu, label, ctx.pixels() * 4)?;
     ctx.encoder.clear_buffer(&counts, 0, None);
     Ok(counts)
 }
