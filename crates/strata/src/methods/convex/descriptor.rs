@@ -5,12 +5,8 @@ use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
 fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
-    let Setup {
-        gpu,
-        scene,
-        options,
-    } = *made;
-    Ok(Box::new(super::Convex::new(gpu, scene, options)?))
+    let convex = super::Convex::new(made.gpu, made.scene, made.options)?;
+    Ok(Box::new(convex))
 }
 
 /// `convex`.

@@ -10,11 +10,7 @@ use super::mdt::{Mdt, MdtKBuffer};
 use super::{SlotKBuffer, Variant};
 
 fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
-    let Setup {
-        gpu,
-        scene,
-        options,
-    } = *made;
+    let (gpu, scene, options) = (made.gpu, made.scene, made.options);
     if let Some(variant) = Variant::of(id) {
         return Ok(Box::new(SlotKBuffer::new(gpu, scene, id, variant)));
     }

@@ -5,11 +5,7 @@ use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
 fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
-    let Setup {
-        gpu,
-        scene,
-        options,
-    } = *made;
+    let (gpu, scene, options) = (made.gpu, made.scene, made.options);
     let triangles = scene.triangle_count as u64;
     if id == MethodId::F2b && options.build.msaa > 1 && triangles > super::F2B_MSAA_MAX_TRIANGLES {
         return Err(crate::error::Error::unsupported(format!(
