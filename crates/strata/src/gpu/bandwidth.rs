@@ -22,7 +22,8 @@
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::gpu::shader::Stage;
+use crate::gpu::shader::{Library, Stage};
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 use crate::gpu::Gpu;
 
 const SHADER: &str = include_str!("bandwidth.wgsl");
@@ -39,18 +40,26 @@ const MAX_REPEATS: u32 = 4096;
 const GRID_WORKGROUPS: u32 = 4096;
 const WORKGROUP: u32 = 256;
 
-/// The uniform block of `bandwidth.wgsl`. Keep in sync with `ProbeParams` there.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ProbeParams {
-    /// Elements the probe moves: 16-byte vectors to stream, or increments.
-    pub count: u32,
-    /// Words the increments are spread over: increment i goes to word i % words.
-    pub words: u32,
-    /// Invocations of the grid (each loops over its share of `count`).
-    pub invocations: u32,
-    /// Padding to 16 bytes.
-    pub _pad: u32,
+gpu_struct! {
+    /// The probes' uniforms (`strata::gpu::probe_params`).
+    #[derive(Default, PartialEq)]
+    pub struct ProbeParams {
+        /// Elements the probe moves: 16-byte vectors to stream, or increments.
+        pub count: u32,
+        /// Words the increments are spread over: increment i goes to word i % words.
+        pub words: u32,
+        /// Invocations in the whole grid (the stride of the grid-stride loops).
+        pub invocations: u32,
+        pad_a: u32,
+    }
+}
+
+/// The WGSL declaration of [`ProbeParams`].
+const PROBE_PARAMS: Library = &[wgsl_module!("strata::gpu::probe_params", ProbeParams)];
+
+/// The probes' stage.
+fn stage(label: &str) -> Stage {
+    Stage::new(label, SHADER).with(PROBE_PARAMS)
 }
 
 /// How much each probe moves.
@@ -196,7 +205,7 @@ impl<'g> Probes<'g> {
                 Slot::StorageRw,
             ],
         );
-        let module = Stage::new("strata.bandwidth", SHADER).module(&gpu.device);
+        let module = stage("strata.bandwidth").module(&gpu.device);
         let pipeline = |entry: &str| {
             let layout = binding::pipeline_layout(&gpu.device, "strata.bandwidth", &[&layout]);
             gpu.device
@@ -312,7 +321,7 @@ impl<'g> Probes<'g> {
             count: (self.sizes.copy_bytes / 16) as u32,
             words: 1,
             invocations: GRID_WORKGROUPS * WORKGROUP,
-            _pad: 0,
+            ..Default::default()
         })
     }
 
@@ -322,7 +331,7 @@ impl<'g> Probes<'g> {
             count: self.sizes.increments,
             words,
             invocations: GRID_WORKGROUPS * WORKGROUP,
-            _pad: 0,
+            ..Default::default()
         })
     }
 
@@ -369,25 +378,8 @@ mod tests {
 
     #[test]
     fn probe_params_layout_matches_wgsl() {
-        assert_eq!(std::mem::size_of::<ProbeParams>(), 16);
-        let module = Stage::new("bandwidth", SHADER)
-            .compose()
-            .expect("bandwidth.wgsl composes");
-        let ty = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some("ProbeParams"))
-            .map(|(_, t)| &t.inner)
-            .expect("ProbeParams in WGSL");
-        match ty {
-            naga::TypeInner::Struct { members, span } => {
-                assert_eq!(*span, 16);
-                let offsets: Vec<u32> = members.iter().map(|m| m.offset).collect();
-                assert_eq!(offsets, [0, 4, 8, 12]);
-            }
-            other => panic!("ProbeParams is {other:?}"),
-        }
-        crate::gpu::shader::validate(&Stage::new("bandwidth", SHADER));
+        crate::gpu::twin::assert_twin::<ProbeParams>();
+        crate::gpu::shader::validate(&stage("bandwidth"));
     }
 
     /// Small probes on the test adapter: each checks its own result, so a copy that moved the

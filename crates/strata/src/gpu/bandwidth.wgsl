@@ -1,18 +1,8 @@
 #define_import_path strata::gpu::bandwidth
+#import strata::gpu::probe_params::{ProbeParams}
 
 // The device probes of `bench bandwidth`: a streaming copy through the shader cores and atomic
 // increments at three contention levels. Every loop is bounded by the probe's own count.
-
-// Keep in sync with `ProbeParams` in bandwidth.rs.
-struct ProbeParams {
-    // Elements to copy (vec4<u32>) or increments to make.
-    count: u32,
-    // Words the increments are spread over: increment i goes to word i % words.
-    words: u32,
-    // Invocations in the whole grid (the stride of the grid-stride loops).
-    invocations: u32,
-    _pad: u32,
-}
 
 @group(0) @binding(0) var<uniform> params: ProbeParams;
 @group(0) @binding(1) var<storage, read> source: array<vec4<u32>>;

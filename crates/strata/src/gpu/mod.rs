@@ -11,6 +11,7 @@ pub mod passes;
 pub mod readback;
 pub mod shader;
 pub mod timing;
+pub mod twin;
 
 #[cfg(feature = "serde")]
 use serde::Serialize;

@@ -31,7 +31,7 @@
 
 pub mod radix;
 
-use bytemuck::{Pod, Zeroable};
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
@@ -65,25 +65,29 @@ keyword_enum! {
     }
 }
 
-/// The order passes' uniforms. Keep in sync with `OrderParams` in order_common.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct OrderParams {
-    /// A point p lies at view depth dot(depth_row.xyz, p) + depth_row.w (larger is farther).
-    pub depth_row: [f32; 4],
-    /// Triangles to order.
-    pub count: u32,
-    /// Which key the keys pass writes (the [`Order`]).
-    pub mode: u32,
-    /// Random permutations and the Kendall samples draw from it; it changes every frame.
-    pub seed: u32,
-    /// Workgroups per row of the two-dimensional dispatch.
-    pub grid_x: u32,
-    /// Pairs sampled for the Kendall distance.
-    pub samples: u32,
-    /// Padding to 16-byte alignment.
-    pub _pad: [u32; 3],
+gpu_struct! {
+    /// The order passes' uniforms (`strata::order::params`).
+    pub struct OrderParams {
+        /// A point p lies at view depth dot(depth_row.xyz, p) + depth_row.w (larger is farther).
+        pub depth_row: [f32; 4],
+        /// Triangles to order.
+        pub count: u32,
+        /// Which key the keys pass writes (the [`Order`]'s index, MODE_ in order_common.wgsl).
+        pub mode: u32,
+        /// Random permutations and the Kendall samples draw from it; it changes every frame.
+        pub seed: u32,
+        /// Workgroups per row of a two-dimensional dispatch (one dimension holds 65535).
+        pub grid_x: u32,
+        /// Pairs sampled for the Kendall distance.
+        pub samples: u32,
+        pad_a: u32,
+        pad_b: u32,
+        pad_c: u32,
+    }
 }
+
+/// `strata::order::params`: [`OrderParams`] for the order stages.
+const PARAMS: &str = wgsl_module!("strata::order::params", OrderParams);
 
 /// Bytes the order keeps on the GPU for `triangles`.
 pub fn bytes(order: Order, triangles: u32) -> u64 {
@@ -145,7 +149,7 @@ pub struct TriangleOrder {
 }
 
 /// The stages' WGSL modules.
-pub const LIBRARY: Library = &[COMMON, KEYS, INDICES, KENDALL];
+pub const LIBRARY: Library = &[PARAMS, COMMON, KEYS, INDICES, KENDALL];
 
 fn module(gpu: &Gpu, label: &str, stage: &'static str) -> wgpu::ShaderModule {
     Stage::new(label, stage).with(LIBRARY).module(&gpu.device)
@@ -324,7 +328,9 @@ impl TriangleOrder {
             seed: frame_seed(self.seed, frame),
             grid_x: threads.0,
             samples: KENDALL_SAMPLES,
-            _pad: [0; 3],
+            pad_a: 0,
+            pad_b: 0,
+            pad_c: 0,
         };
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));

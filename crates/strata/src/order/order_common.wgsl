@@ -1,23 +1,8 @@
 #define_import_path strata::order::order_common
 #import strata::dispatch::{GridThread, grid_thread}
+#import strata::order::params::{OrderParams}
 
 // Shared by the triangle-order stages (keys, draw indices, Kendall sampling).
-// Keep in sync with `OrderParams` in crates/strata/src/order/mod.rs.
-
-struct OrderParams {
-    // A point p lies at view depth dot(depth_row.xyz, p) + depth_row.w (larger is farther).
-    depth_row: vec4<f32>,
-    count: u32,
-    mode: u32,
-    // Random permutations and the Kendall samples draw from it; it changes every frame.
-    seed: u32,
-    // Workgroups per row of a two-dimensional dispatch (one dimension holds 65535).
-    grid_x: u32,
-    samples: u32,
-    pad_a: u32,
-    pad_b: u32,
-    pad_c: u32,
-}
 
 const MODE_SCENE: u32 = 0u;
 const MODE_FRONT: u32 = 1u;

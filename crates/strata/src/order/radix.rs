@@ -8,7 +8,7 @@
 //! the first pair), 64 bytes of digit counts per block of 1024, eight 16-byte uniforms. Every
 //! buffer is fixed for a count, so a frame's sort allocates and writes nothing on the CPU.
 
-use bytemuck::{Pod, Zeroable};
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::Result;
 use crate::gpu::binding::{self, Slot};
@@ -29,19 +29,22 @@ const PASSES: u32 = 32 / DIGIT_BITS;
 /// Workgroups in one dimension of a dispatch (WebGPU's default limit).
 pub const MAX_GRID: u32 = 65535;
 
-/// One pass's uniforms. Keep in sync with `RadixPass` in radix_common.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct RadixPass {
-    /// The digit this pass sorts by is (key >> shift) & 15.
-    pub shift: u32,
-    /// Pairs to sort.
-    pub count: u32,
-    /// Blocks of 1024 keys.
-    pub blocks: u32,
-    /// Workgroups per row of the two-dimensional dispatch.
-    pub grid_x: u32,
+gpu_struct! {
+    /// One pass's uniforms (`strata::order::radix_pass`).
+    pub struct RadixPass {
+        /// The digit this pass sorts by is (key >> shift) & 15.
+        pub shift: u32,
+        /// Pairs to sort.
+        pub count: u32,
+        /// Blocks of 1024 keys.
+        pub blocks: u32,
+        /// Workgroups per row of the two-dimensional dispatch.
+        pub grid_x: u32,
+    }
 }
+
+/// `strata::order::radix_pass`: [`RadixPass`] for the sort's stages.
+const PASS: &str = wgsl_module!("strata::order::radix_pass", RadixPass);
 
 /// `workgroups` laid out in two dimensions: (x, y) with x ≤ [`MAX_GRID`].
 pub fn grid(workgroups: u32) -> (u32, u32) {
@@ -71,7 +74,7 @@ pub struct RadixSort {
 }
 
 /// The stages' WGSL modules.
-pub const LIBRARY: Library = &[COMMON, COUNT, SCAN, SCATTER];
+pub const LIBRARY: Library = &[PASS, COMMON, COUNT, SCAN, SCATTER];
 
 fn module(gpu: &Gpu, label: &str, stage: &'static str) -> wgpu::ShaderModule {
     Stage::new(label, stage).with(LIBRARY).module(&gpu.device)
@@ -236,7 +239,7 @@ mod tests {
 
     #[test]
     fn radix_pass_layout_matches_wgsl() {
-        assert_eq!(std::mem::size_of::<RadixPass>(), 16);
+        crate::gpu::twin::assert_twin::<RadixPass>();
     }
 
     #[test]

@@ -1,16 +1,8 @@
 #define_import_path strata::order::radix_common
 #import strata::dispatch::{GridThread, grid_workgroup}
+#import strata::order::radix_pass::{RadixPass}
 
 // Shared by the radix sort's stages: 4-bit digits, blocks of 1024 keys per workgroup of 256.
-// Keep in sync with `RadixPass` in crates/strata/src/order/radix.rs.
-
-struct RadixPass {
-    // The digit this pass sorts by is (key >> shift) & 15.
-    shift: u32,
-    count: u32,
-    blocks: u32,
-    grid_x: u32,
-}
 
 const DIGITS: u32 = 16u;
 const ITEMS: u32 = 4u;

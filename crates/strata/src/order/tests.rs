@@ -8,12 +8,11 @@ use crate::gpu::readback;
 use crate::methods::MethodId;
 use crate::render::FrameRecorder;
 use crate::scene::{loaders, Scene};
-use crate::testing::assert_layout;
 use crate::testing::{assert_close, gpu, render_reference, renderer};
 
 #[test]
 fn order_params_layout_matches_wgsl() {
-    assert_layout!(OrderParams, 48, count: 16, samples: 32);
+    crate::gpu::twin::assert_twin::<OrderParams>();
 }
 
 #[test]

@@ -21,7 +21,7 @@
 //! and fragments through the method's own resolve accessors). Memory: the method's storage for
 //! the handful of pixels.
 
-use bytemuck::{Pod, Zeroable};
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use super::{
     definitions, group_layout, KParams, Layout, COUNTERS, COUNTER_LOCK_FAILURES, COUNTER_LOST,
@@ -30,22 +30,32 @@ use super::{
 use crate::error::{Error, Result};
 use crate::frame::passes::compute_pipeline;
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::shader::Stage;
+use crate::gpu::shader::{Library, Stage};
 use crate::gpu::Gpu;
 use crate::methods::MethodId;
 
 const HARNESS_WGSL: &str = include_str!("contention.wgsl");
 const WORKGROUP: u32 = 64;
 
-/// Keep in sync with `HarnessParams` in contention.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct HarnessParams {
-    fragments: u32,
-    pixels: u32,
-    capacity: u32,
-    pass: u32,
+gpu_struct! {
+    /// The harness's uniforms (`strata::kbuffer::harness_params`).
+    struct HarnessParams {
+        /// Fragments in the input.
+        fragments: u32,
+        /// Pixels they are spread over.
+        pixels: u32,
+        /// Fragments gathered per pixel (at most).
+        capacity: u32,
+        /// Which capture pass runs (methods of two passes).
+        capture_pass: u32,
+    }
 }
+
+/// The WGSL declaration of [`HarnessParams`].
+const HARNESS_PARAMS: Library = &[wgsl_module!(
+    "strata::kbuffer::harness_params",
+    HarnessParams
+)];
 
 /// One run of the harness.
 #[derive(Clone, Debug)]
@@ -137,6 +147,7 @@ pub fn stage(method: MethodId, coherent: bool) -> Result<(Stage, u32)> {
     );
     let stage = Stage::new(format!("strata.contention.{method}"), HARNESS_WGSL)
         .with(LIBRARY)
+        .with(HARNESS_PARAMS)
         .with_module(step_module)
         .defs(&definitions(layout, 1, coherent));
     Ok((stage, passes))
@@ -463,7 +474,7 @@ impl<'g> Harness<'g> {
                     fragments: fragments as u32,
                     pixels: case.pixels,
                     capacity,
-                    pass,
+                    capture_pass: pass,
                 };
                 let b = uniform("strata.contention.harness", bytemuck::bytes_of(&p));
                 binding::group(

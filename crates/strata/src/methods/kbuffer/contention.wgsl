@@ -2,6 +2,7 @@
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::access::{stored_count, stored_fragment}
 #import strata::kbuffer::harness_step::harness_capture
+#import strata::kbuffer::harness_params::{HarnessParams}
 
 // The contention harness (contention.rs): a method's capture step driven from compute
 // dispatches, so that many invocations — across workgroups, which lavapipe runs on parallel CPU
@@ -9,14 +10,6 @@
 // `strata::kbuffer::harness_step`, made for the method, defines `harness_capture(capture_pass,
 // p, f)` (its capture step; `capture_pass` for methods of two passes); the storage layout's
 // accessors read back what it stored.
-
-struct HarnessParams {
-    fragments: u32,
-    pixels: u32,
-    // Fragments gathered per pixel (at most).
-    capacity: u32,
-    capture_pass: u32,
-}
 
 @group(2) @binding(0) var<uniform> harness: HarnessParams;
 // Per fragment: pixel, depth bits, tag, color word (both halves of the payload).

@@ -23,7 +23,7 @@
 //! runs over S·W·H entries): each sample's min(f, k) slots hold its own k nearest; `sbuffer` and
 //! `kb-sbuffer` keep one region per pixel whose fragments carry their coverage masks.
 
-use bytemuck::{Pod, Zeroable};
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use super::{k_of, params_for, KFrame, Layout, Pool, Storage, COUNTERS, COUNTER_OVERFLOWED};
 use crate::error::Result;
@@ -44,19 +44,23 @@ const SBUFFER_WGSL: &str = include_str!("sbuffer.wgsl");
 /// The prefix sum's stages.
 pub const SCAN_WGSL: &str = include_str!("sbuffer_scan.wgsl");
 
-/// Keep in sync with `ScanLevel` in sbuffer_scan.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq, Eq)]
-pub struct ScanLevel {
-    /// Where this level's values start in the scan buffer.
-    pub offset: u32,
-    /// How many values the level has.
-    pub len: u32,
-    /// Where its block totals (the next level) start.
-    pub sums: u32,
-    /// Workgroups along x of a dispatch (wider dispatches wrap into y).
-    pub groups_x: u32,
+gpu_struct! {
+    /// One level of the prefix sum (`strata::kbuffer::scan_level`).
+    #[derive(PartialEq, Eq)]
+    pub struct ScanLevel {
+        /// Where this level's values start in the scan buffer.
+        pub offset: u32,
+        /// How many values the level has.
+        pub len: u32,
+        /// Where its block totals (the next level) start.
+        pub sums: u32,
+        /// Workgroups along x of a dispatch (dispatches wider than 65535 groups wrap into y).
+        pub groups_x: u32,
+    }
 }
+
+/// The WGSL declaration of [`ScanLevel`].
+pub(crate) const SCAN_LEVEL_WGSL: &str = wgsl_module!("strata::kbuffer::scan_level", ScanLevel);
 
 impl ScanLevel {
     fn groups(&self) -> (u32, u32) {
@@ -330,7 +334,7 @@ mod tests {
 
     #[test]
     fn scan_level_layout_matches_wgsl() {
-        assert_eq!(std::mem::size_of::<ScanLevel>(), 16);
+        crate::gpu::twin::assert_twin::<ScanLevel>();
     }
 
     /// Levels shrink by 256 to one block; the buffer holds every level and the top's total.

@@ -1,4 +1,5 @@
 #define_import_path strata::kbuffer::sbuffer_scan
+#import strata::kbuffer::scan_level::{ScanLevel}
 #ifdef STORAGE_KPLUS_SBUFFER
 #import strata::kbuffer::kplus_sbuffer::{region_size, set_region_start}
 #else
@@ -13,15 +14,6 @@
 // instead of wrapping, so a frame with more fragments than a u32 counts gets starts past any pool
 // (its regions then count as overflowed) rather than starts that overlap other regions. Keep `ScanLevel` in sync with `ScanLevel` in sbuffer.rs.
 
-struct ScanLevel {
-    // Where this level's values start in `scan`, how many there are, and where its block
-    // totals (the next level) start.
-    offset: u32,
-    len: u32,
-    sums: u32,
-    // Workgroups along x of a dispatch (dispatches wider than 65535 groups wrap into y).
-    groups_x: u32,
-}
 
 @group(2) @binding(0) var<uniform> level: ScanLevel;
 @group(2) @binding(1) var<storage, read_write> scan: array<u32>;

@@ -30,6 +30,7 @@ pub const LIBRARY: Library = &[
     include_str!("keys_resolve.wgsl"),
     include_str!("sbuffer.wgsl"),
     include_str!("sbuffer_resolve.wgsl"),
+    super::sbuffer::SCAN_LEVEL_WGSL,
     include_str!("sbuffer_scan.wgsl"),
     include_str!("kplus_sbuffer.wgsl"),
     include_str!("kplus_sbuffer_resolve.wgsl"),

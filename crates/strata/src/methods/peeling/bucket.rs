@@ -51,7 +51,7 @@
 //! layers with 8 targets, the paper's figure; WebGPU's defaults allow 8). Needs
 //! FLOAT32_BLENDABLE. `--raster compute` and `--temporal` are refused.
 
-use bytemuck::{Pod, Zeroable};
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
@@ -68,19 +68,23 @@ use crate::methods::Method;
 /// The most slots a pixel has: two per bucket, one claim bit each.
 pub const MAX_SLOTS: u32 = 32;
 
-/// Keep in sync with `BucketParams` in bucket_common.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct BucketParams {
-    /// Buckets per pixel (k/2).
-    pub buckets: u32,
-    /// Slots per pixel: two per bucket.
-    pub slots: u32,
-    /// Target layers the slots take (four channels each).
-    pub layers: u32,
-    /// 1 with `--buckets adaptive`.
-    pub adaptive: u32,
+gpu_struct! {
+    /// bucket's uniforms (`strata::peeling::bucket_params`).
+    #[derive(PartialEq)]
+    pub struct BucketParams {
+        /// Buckets per pixel (k/2).
+        pub buckets: u32,
+        /// Slots per pixel: two per bucket.
+        pub slots: u32,
+        /// Target layers the slots take (four channels each).
+        pub layers: u32,
+        /// 1 with --buckets adaptive.
+        pub adaptive: u32,
+    }
 }
+
+/// The WGSL declaration of [`BucketParams`].
+pub(crate) const PARAMS_WGSL: &str = wgsl_module!("strata::peeling::bucket_params", BucketParams);
 
 const BOUNDS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 const BUCKET_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;

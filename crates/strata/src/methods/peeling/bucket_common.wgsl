@@ -1,5 +1,6 @@
 #define_import_path strata::peeling::bucket_common
 #import strata::scene::{frame, samples_per_pixel}
+#import strata::peeling::bucket_params::{BucketParams}
 
 // Bucket depth peeling's routing and parameters, shared by its passes.
 // A pixel's depth range [nearest, farthest] (the bounds pass) is split into equal parts over
@@ -8,13 +9,6 @@
 // its nearest depth in slot 2b and its farthest in slot 2b + 1; slot s is channel s % 4 of
 // layer s / 4 of the bucket targets.
 
-struct BucketParams {
-    buckets: u32,
-    slots: u32,
-    layers: u32,
-    // 1 with --buckets adaptive.
-    adaptive: u32,
-}
 
 @group(1) @binding(0) var<uniform> params: BucketParams;
 // --buckets adaptive: per pixel HISTOGRAM_WORDS words, bit i set when part i of the range holds

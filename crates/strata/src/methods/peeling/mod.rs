@@ -55,6 +55,7 @@ pub const LIBRARY: Library = &[
     include_str!("dual_key64.wgsl"),
     DUAL_PEEL_WGSL,
     DUAL_ADVANCE_WGSL,
+    bucket::PARAMS_WGSL,
     include_str!("bucket_common.wgsl"),
     include_str!("bucket_bounds.wgsl"),
     include_str!("bucket_reduce.wgsl"),

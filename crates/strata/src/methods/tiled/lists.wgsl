@@ -1,4 +1,5 @@
 #define_import_path strata::tiled::lists
+#import strata::tiled::params::{TiledParams}
 #import strata::color::{Resolved}
 #import strata::composite::{Composite, composite_new, view_distance}
 
@@ -7,20 +8,6 @@
 // resolved output.
 
 // Keep in sync with `TiledParams` in crates/strata/src/methods/tiled/mod.rs.
-struct TiledParams {
-    tiles_x: u32,
-    tiles: u32,
-    // Codes the list buffer holds (the rasterizer's item capacity).
-    capacity: u32,
-    // Fragments a pixel composites at most (--k); 0: all of them.
-    k: u32,
-    // Rounds recorded this frame.
-    rounds: u32,
-    pad_a: u32,
-    pad_b: u32,
-    pad_c: u32,
-}
-
 @group(1) @binding(0) var<uniform> tp: TiledParams;
 // Items per tile: counted, then (after the scan set them to zero) counted again as the scatter
 // fills each list, ending equal to the count.

@@ -34,7 +34,9 @@
 
 pub mod descriptor;
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
+
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{compute_pipeline, dispatch};
@@ -46,7 +48,8 @@ use crate::methods::Method;
 use crate::raster::{ComputeRaster, TILE};
 
 /// tiled's WGSL modules (`strata::tiled::…`): its bindings, the list sort and the tile pass.
-pub const LIBRARY: Library = &[LISTS_WGSL, SORT_WGSL, TILE_WGSL];
+pub const LIBRARY: Library = &[PARAMS_WGSL, LISTS_WGSL, SORT_WGSL, TILE_WGSL];
+const PARAMS_WGSL: &str = wgsl_module!("strata::tiled::params", TiledParams);
 const LISTS_WGSL: &str = include_str!("lists.wgsl");
 const SORT_WGSL: &str = include_str!("sort.wgsl");
 const TILE_WGSL: &str = include_str!("tile.wgsl");
@@ -72,22 +75,24 @@ pub const FIRST_ROUNDS: u32 = 2;
 /// The most triangles a list code can name.
 pub const MAX_TRIANGLES: u32 = 1 << 29;
 
-/// Keep in sync with `TiledParams` in lists.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct TiledParams {
-    /// Tiles per row.
-    pub tiles_x: u32,
-    /// Tiles of the viewport.
-    pub tiles: u32,
-    /// Codes the list buffer holds.
-    pub capacity: u32,
-    /// Fragments a pixel composites at most (`--k`); 0: all.
-    pub k: u32,
-    /// Rounds recorded this frame.
-    pub rounds: u32,
-    /// Padding to 32 bytes.
-    pub _pad: [u32; 3],
+gpu_struct! {
+    /// tiled's uniforms (`strata::tiled::params`).
+    #[derive(PartialEq)]
+    pub struct TiledParams {
+        /// Tiles per row.
+        pub tiles_x: u32,
+        /// Tiles of the viewport.
+        pub tiles: u32,
+        /// Codes the list buffer holds (the rasterizer's item capacity).
+        pub capacity: u32,
+        /// Fragments a pixel composites at most (`--k`); 0: all of them.
+        pub k: u32,
+        /// Rounds recorded this frame.
+        pub rounds: u32,
+        pad_a: u32,
+        pad_b: u32,
+        pad_c: u32,
+    }
 }
 
 /// The stages, with the rasterizer's bindings in group 2 (after the frame's and tiled's).
@@ -217,7 +222,7 @@ impl Method for Tiled {
             capacity: capacity as u32,
             k,
             rounds,
-            _pad: [0; 3],
+            ..Zeroable::zeroed()
         };
         let cache = &mut self.cache;
         let params = cache.uniform(gpu, "strata.tiled.params", bytemuck::bytes_of(&params));

@@ -46,6 +46,7 @@ pub const LIBRARY: Library = &[
     include_str!("mboit_math.wgsl"),
     include_str!("mboit_moments.wgsl"),
     include_str!("mboit_shade.wgsl"),
+    stochastic::PARAMS_WGSL,
     include_str!("stochastic.wgsl"),
     include_str!("stochastic_composite.wgsl"),
 ];

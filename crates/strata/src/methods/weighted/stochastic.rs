@@ -22,7 +22,9 @@
 //! and stipples in f64) is tested; its error against the reference is measured (`strata bench
 //! approx-quality`). Translucency gets Fresnel opacity but no absorption between surfaces.
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
+
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
@@ -45,17 +47,21 @@ pub const STOCHASTIC_SAMPLE_BYTES: u64 = 4 + 8 + 2;
 pub const STOCHASTIC_COUNT_BYTES: u64 = 4;
 pub use crate::frame::options::MAX_STOCHASTIC_PASSES;
 
-/// Keep in sync with `StochasticParams` in stochastic.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct StochasticParams {
-    /// The pass's seed (its index).
-    pub seed: u32,
-    /// Samples per pixel.
-    pub samples: u32,
-    /// Padding to 16 bytes.
-    pub _pad: [u32; 2],
+gpu_struct! {
+    /// A pass's uniforms (`strata::weighted::stochastic_params`).
+    pub struct StochasticParams {
+        /// This pass's seed: the pass index.
+        pub seed: u32,
+        /// Samples per pixel.
+        pub samples: u32,
+        pad_a: u32,
+        pad_b: u32,
+    }
 }
+
+/// The WGSL declaration of [`StochasticParams`].
+pub(crate) const PARAMS_WGSL: &str =
+    wgsl_module!("strata::weighted::stochastic_params", StochasticParams);
 
 /// `stochastic`: per pass a stipple-depth pass and an accumulate pass, then a total pass and a
 /// composite.
@@ -183,7 +189,7 @@ impl Method for Stochastic {
             let params = StochasticParams {
                 seed: pass,
                 samples,
-                _pad: [0; 2],
+                ..Zeroable::zeroed()
             };
             let at = (stride * pass as u64) as usize;
             blocks[at..at + 16].copy_from_slice(bytemuck::bytes_of(&params));

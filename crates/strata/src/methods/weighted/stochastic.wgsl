@@ -1,5 +1,6 @@
 #define_import_path strata::weighted::stochastic
 #import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
+#import strata::weighted::stochastic_params::{StochasticParams}
 
 // Stochastic transparency (Enderton, Sintorn, Shirley & Luebke 2011) with stratified masks
 // (Laine & Karras 2011), over the S samples of a multisampled frame. Per --passes pass:
@@ -12,14 +13,6 @@
 // Then once: total (Π(1 − α) per sample by multiplicative blending, and the fragment count),
 // and the composite (stochastic_composite.wgsl). Keep `StochasticParams` in sync with
 // weighted/stochastic.rs, and `hash_u32` and `stipple` with their CPU twins in weighted/cpu.rs.
-
-struct StochasticParams {
-    // This pass's seed: the pass index.
-    seed: u32,
-    samples: u32,
-    pad_a: u32,
-    pad_b: u32,
-}
 
 @group(1) @binding(0) var<uniform> sp: StochasticParams;
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;

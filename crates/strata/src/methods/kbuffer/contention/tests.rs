@@ -179,7 +179,7 @@ fn inputs_are_shuffled_with_ties() {
 
 #[test]
 fn harness_params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<HarnessParams>(), 16);
+    crate::gpu::twin::assert_twin::<HarnessParams>();
     crate::gpu::shader::validate(&stage(MethodId::KbKeys, true).unwrap().0);
     for method in subjects() {
         crate::gpu::shader::validate(&stage(method, true).unwrap().0);

@@ -131,30 +131,7 @@ fn stages_validate() {
 
 #[test]
 fn params_layout_matches_wgsl() {
-    let module =
-        crate::gpu::shader::Stage::new("bucket_common", include_str!("../bucket_common.wgsl"))
-            .compose()
-            .unwrap();
-    let (_, ty) = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some("BucketParams"))
-        .unwrap();
-    let naga::TypeInner::Struct { members, span } = &ty.inner else {
-        panic!("BucketParams is not a struct");
-    };
-    assert_eq!(*span as usize, std::mem::size_of::<BucketParams>());
-    let offsets: Vec<u32> = members.iter().map(|m| m.offset).collect();
-    assert_eq!(
-        offsets,
-        [
-            std::mem::offset_of!(BucketParams, buckets),
-            std::mem::offset_of!(BucketParams, slots),
-            std::mem::offset_of!(BucketParams, layers),
-            std::mem::offset_of!(BucketParams, adaptive),
-        ]
-        .map(|o| o as u32)
-    );
+    crate::gpu::twin::assert_twin::<BucketParams>();
 }
 
 /// Fragments clustered in depth collide, fewer with the adaptive split: the GPU keeps what the
