@@ -13,7 +13,6 @@
 //! with strata's CPU reference of the same scene.
 
 use std::borrow::Cow;
-use strata::frame::FrameOptions;
 
 use strata::gpu::Gpu;
 use strata::scene::{loaders, Background, Scene, Shading};
@@ -129,15 +128,8 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
     let gpu = Gpu::from_device(device.clone(), queue.clone());
     let background =
         Background::Color(BACKGROUND_SRGB.map(|c| strata::scene::srgb_to_linear(c as f32 / 255.0)));
-    let options = RenderOptions {
-        frame: FrameOptions {
-            width: size,
-            height: size,
-            background,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let mut options = RenderOptions::sized(size, size);
+    options.frame.background = background;
     let mut oit = FrameRecorder::new(&gpu, &transparent, method, &options)?;
 
     // The application's resources: camera, vertex buffers, target and depth, two pipelines.
@@ -272,36 +264,18 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
     );
 
     let bg = background_linear(background);
+    let targets = (&color_view, &depth_view);
     let mut stats = Vec::new();
     for _ in 0..frames {
         let mut encoder = device.create_command_encoder(&Default::default());
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("host.opaque"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color {
-                            r: bg[0] as f64,
-                            g: bg[1] as f64,
-                            b: bg[2] as f64,
-                            a: 1.0,
-                        }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                ..Default::default()
-            });
+            let clear = wgpu::Color {
+                r: bg[0] as f64,
+                g: bg[1] as f64,
+                b: bg[2] as f64,
+                a: 1.0,
+            };
+            let mut pass = target_pass(&mut encoder, "host.opaque", targets, Some((clear, 1.0)));
             pass.set_pipeline(&opaque_pipeline);
             pass.set_bind_group(0, Some(&camera_group), &[]);
             pass.set_vertex_buffer(0, opaque_buffer.slice(..));
@@ -311,27 +285,7 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
         // strata's capture, then strata resolves OVER the target.
         let strata_group = oit.begin_capture(&mut encoder)?;
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("host.transparent"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                ..Default::default()
-            });
+            let mut pass = target_pass(&mut encoder, "host.transparent", targets, None);
             pass.set_pipeline(&transparent_pipeline);
             pass.set_bind_group(0, Some(&camera_group), &[]);
             pass.set_bind_group(1, Some(&strata_group), &[]);
@@ -393,6 +347,37 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
             .ok_or_else(|| runtime("no frame statistics arrived".into()))?,
         scene,
         background,
+    })
+}
+
+/// A pass drawing into the application's color and depth targets: both cleared first
+/// (`clear`: the color and the depth) or drawn over as they are.
+fn target_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    (color, depth): (&wgpu::TextureView, &wgpu::TextureView),
+    clear: Option<(wgpu::Color, f32)>,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: color,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: clear.map_or(wgpu::LoadOp::Load, |(c, _)| wgpu::LoadOp::Clear(c)),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations {
+                load: clear.map_or(wgpu::LoadOp::Load, |(_, d)| wgpu::LoadOp::Clear(d)),
+                store: wgpu::StoreOp::Store,
+            }),
+            stencil_ops: None,
+        }),
+        ..Default::default()
     })
 }
 

@@ -171,9 +171,13 @@ fn columns() -> Vec<Column<'static, Row>> {
             .unwrap_or("-".into())
     };
     vec![
-        C::csv("sequence", |r| r.sequence.to_string()).shown_left("sequence", 13),
+        C::csv("sequence", |r| r.sequence.to_string())
+            .shown("sequence", 13)
+            .left(),
         C::csv("step", |r| r.step.to_string()).shown("step", 4),
-        C::csv("method", |r| r.method.to_string()).shown_left("method", 14),
+        C::csv("method", |r| r.method.to_string())
+            .shown("method", 14)
+            .left(),
         C::csv("budget_mb", |r| format!("{:.3}", r.budget_mb))
             .shown_as("budget MiB", 9, |r| format!("{:.2}", r.budget_mb)),
         C::csv("k", |r| opt(r.k)).shown("k", 4),

@@ -159,7 +159,9 @@ fn columns() -> Vec<Column<'static, Row>> {
     let mib = |r: &Row, digits| fixed(r.traffic.map(|t| t.bytes as f64 / 1048576.0), digits);
     vec![
         scene_column(|r: &Row| &r.scene),
-        C::csv("method", |r| r.method.clone()).shown_left("method", 16),
+        C::csv("method", |r| r.method.clone())
+            .shown("method", 16)
+            .left(),
         C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3))
             .shown_as("GPU ms", 10, |r| fixed(r.median_gpu_ms, 2)),
         C::csv("traffic_mib", move |r| mib(r, 2)).shown_as("traffic MiB", 12, move |r| mib(r, 1)),

@@ -368,11 +368,15 @@ fn columns() -> Vec<Column<'static, Row>> {
     let mib = |r: &Row| fixed(r.bytes_allocated.map(|b| b as f64 / 1048576.0), 2);
     vec![
         C::csv("table", |r| r.table.to_string()),
-        C::csv("scene", |r| format!("\"{}\"", r.scene)).printed_left("scene", 44, |r| {
-            r.scene.trim_start_matches("builtin:").to_string()
-        }),
+        C::csv("scene", |r| format!("\"{}\"", r.scene))
+            .shown_as("scene", 44, |r| {
+                r.scene.trim_start_matches("builtin:").to_string()
+            })
+            .left(),
         C::csv("triangles", |r| r.triangles.to_string()).shown("triangles", 9),
-        C::csv("method", |r| r.method.to_string()).shown_left("method", 14),
+        C::csv("method", |r| r.method.to_string())
+            .shown("method", 14)
+            .left(),
         C::csv("k", |r| opt(r.k)),
         C::csv("views", |r| r.views.to_string()),
         C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3)).shown_as("GPU ms", 11, |r| match &r

@@ -257,7 +257,9 @@ fn columns() -> Vec<Column<'static, Row>> {
     vec![
         C::csv("scene", |r| r.scene.clone()),
         C::csv("triangles", |r| r.triangles.to_string()),
-        C::csv("run", |r| r.label.to_string()).shown_left("run", 36),
+        C::csv("run", |r| r.label.to_string())
+            .shown("run", 36)
+            .left(),
         C::csv("raster", |r| r.raster.to_string()),
         C::csv("geometry_passes", |r| opt(r.geometry_passes)).shown("passes", 6),
         C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3)).shown("gpu ms", 10),

@@ -144,6 +144,26 @@ const K_METHODS: &[&str] = &[
     "abuffer-fixed",
 ];
 
+/// Seed 003's Figs. 6 and 7 measure on one stack: 128 layers over 75% of the screen, in random
+/// order, at 1024x1024 (128x128 on a CPU adapter), five frames, timing only.
+const fn on_128_layers(
+    name: &'static str,
+    description: &'static str,
+    runs: fn() -> Vec<Run>,
+) -> Experiment {
+    Experiment {
+        name,
+        description,
+        scenes: &["builtin:layers?n=128&coverage=0.75&order=random&seed=1"],
+        size_gpu: Size::new(1024, 1024),
+        size_cpu: Size::new(128, 128),
+        alpha: None,
+        frames: 5,
+        runs,
+        quality: false,
+    }
+}
+
 const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "approx-quality",
@@ -305,31 +325,20 @@ const EXPERIMENTS: &[Experiment] = &[
         runs: || ["f2b", "dual", "abuffer-ll", "sorted", "reference"].iter().map(|m| Run::plain(m)).collect(),
         quality: false,
     },
-    Experiment {
-        name: "kbuffer-k",
-        description: "seed 003 Fig. 6: 128 layers over 75% of the screen, k = 4..64, every k-buffer method",
-        scenes: &["builtin:layers?n=128&coverage=0.75&order=random&seed=1"],
-        size_gpu: Size::new(1024, 1024),
-        size_cpu: Size::new(128, 128),
-        alpha: None,
-        frames: 5,
-        runs: || {
+    on_128_layers(
+        "kbuffer-k",
+        "seed 003 Fig. 6: 128 layers over 75% of the screen, k = 4..64, every k-buffer method",
+        || {
             [4, 8, 16, 32, 64]
                 .iter()
                 .flat_map(|&k| K_METHODS.iter().map(move |m| Run::with_k(m, k, true)))
                 .collect()
         },
-        quality: false,
-    },
-    Experiment {
-        name: "kbuffer-culling",
-        description: "seed 003 Fig. 7: culling on and off for kplus-array, kplus-heap, kb-ps, kb-mdt32 at k = 4, 16, 64",
-        scenes: &["builtin:layers?n=128&coverage=0.75&order=random&seed=1"],
-        size_gpu: Size::new(1024, 1024),
-        size_cpu: Size::new(128, 128),
-        alpha: None,
-        frames: 5,
-        runs: || {
+    ),
+    on_128_layers(
+        "kbuffer-culling",
+        "seed 003 Fig. 7: culling on and off for kplus-array, kplus-heap, kb-ps, kb-mdt32 at k = 4, 16, 64",
+        || {
             let mut runs = Vec::new();
             for k in [4, 16, 64] {
                 for m in ["kplus-array", "kplus-heap", "kb-ps", "kb-mdt32"] {
@@ -339,8 +348,7 @@ const EXPERIMENTS: &[Experiment] = &[
             }
             runs
         },
-        quality: false,
-    },
+    ),
     Experiment {
         name: "memory-density",
         description: "seed 003 Fig. 8: GPU ms per MiB of the bounded methods at k = 16 as coverage (25, 50, 100%) and fragments per pixel (16, 64) grow",

@@ -458,7 +458,9 @@ fn columns() -> Vec<Column<'static, Row>> {
     vec![
         scene_column(|r: &Row| &r.scene),
         C::csv("renderer", |r| r.renderer.clone()),
-        C::csv("label", |r| r.label.clone()).shown_left("configuration", 28),
+        C::csv("label", |r| r.label.clone())
+            .shown("configuration", 28)
+            .left(),
         C::csv("median_gpu_ms", |r| fixed(r.median_gpu_ms, 3))
             .shown_as("GPU ms", 9, |r| fixed(r.median_gpu_ms, 2)),
         C::csv("median_wall_ms", |r| fixed(r.median_wall_ms, 3))

@@ -40,12 +40,7 @@ impl<'a, R> Column<'a, R> {
 
     /// Printed too, right-aligned in `width` characters, with the CSV's cell.
     pub(crate) fn shown(self, heading: &'static str, width: usize) -> Self {
-        self.printed(heading, width, false, None)
-    }
-
-    /// Printed too, left-aligned in `width` characters, with the CSV's cell.
-    pub(crate) fn shown_left(self, heading: &'static str, width: usize) -> Self {
-        self.printed(heading, width, true, None)
+        self.printed(heading, width, None)
     }
 
     /// Printed too, right-aligned in `width` characters, as `cell` writes it.
@@ -55,30 +50,20 @@ impl<'a, R> Column<'a, R> {
         width: usize,
         cell: impl Fn(&R) -> String + 'a,
     ) -> Self {
-        self.printed(heading, width, false, Some(Box::new(cell)))
+        self.printed(heading, width, Some(Box::new(cell)))
     }
 
-    /// Printed too, left-aligned in `width` characters, as `cell` writes it.
-    pub(crate) fn printed_left(
-        self,
-        heading: &'static str,
-        width: usize,
-        cell: impl Fn(&R) -> String + 'a,
-    ) -> Self {
-        self.printed(heading, width, true, Some(Box::new(cell)))
+    /// Left-aligned where printed (after [`Column::shown`] or [`Column::shown_as`]).
+    pub(crate) fn left(mut self) -> Self {
+        self.printed.as_mut().expect("a printed column").left = true;
+        self
     }
 
-    fn printed(
-        mut self,
-        heading: &'static str,
-        width: usize,
-        left: bool,
-        cell: Option<Cell<'a, R>>,
-    ) -> Self {
+    fn printed(mut self, heading: &'static str, width: usize, cell: Option<Cell<'a, R>>) -> Self {
         self.printed = Some(Printed {
             heading,
             width,
-            left,
+            left: false,
             cell,
         });
         self
@@ -87,11 +72,13 @@ impl<'a, R> Column<'a, R> {
 
 /// The scene a row measured: its spec in the CSV (commas as semicolons), its short name printed.
 pub(crate) fn scene_column<'a, R: 'a>(scene: fn(&R) -> &String) -> Column<'a, R> {
-    Column::csv("scene", move |r| scene(r).replace(',', ";")).printed_left("scene", 10, move |r| {
-        short_scene(scene(r))
-            .trim_start_matches("builtin:")
-            .to_string()
-    })
+    Column::csv("scene", move |r| scene(r).replace(',', ";"))
+        .shown_as("scene", 10, move |r| {
+            short_scene(scene(r))
+                .trim_start_matches("builtin:")
+                .to_string()
+        })
+        .left()
 }
 
 /// The CSV of `rows`: a header line, then a line per row.
@@ -179,17 +166,19 @@ fn columns(r: &BenchReport) -> Vec<Column<'_, MethodResult>> {
         C::csv("adapter", |_| r.provenance.adapter.replace(',', " ")),
         C::csv("cpu_figures", |_| r.provenance.cpu_figures.to_string()),
         C::csv("commit", |_| opt(r.provenance.commit.clone())),
-        C::csv("label", |m| m.label.clone()).printed_left("run", 28, move |m| {
-            if multi_scene {
-                format!(
-                    "{} {}",
-                    short_scene(&m.scene).trim_start_matches("builtin:"),
-                    m.label
-                )
-            } else {
-                m.label.clone()
-            }
-        }),
+        C::csv("label", |m| m.label.clone())
+            .shown_as("run", 28, move |m| {
+                if multi_scene {
+                    format!(
+                        "{} {}",
+                        short_scene(&m.scene).trim_start_matches("builtin:"),
+                        m.label
+                    )
+                } else {
+                    m.label.clone()
+                }
+            })
+            .left(),
         C::csv("method", |m| m.method.clone()),
         C::csv("k", |m| opt(m.k)),
         C::csv("culling", |m| m.culling.to_string()),

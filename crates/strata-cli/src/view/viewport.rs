@@ -62,13 +62,13 @@ impl Viewport {
     pub fn new(gpu: &Gpu, state: &ViewState) -> Result<Viewport> {
         let (scene, options) = prepared(state)?;
         let recorder = FrameRecorder::new(gpu, &scene, state.method.id(), &options)?;
-        let module = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("strata.view.background"),
-                source: wgpu::ShaderSource::Wgsl(include_str!("background.wgsl").into()),
-            });
-        let layout = binding::layout(&gpu.device, "strata.view.background", &[Slot::Uniform]);
+        let (background, layout) = fullscreen_pipeline(
+            gpu,
+            "strata.view.background",
+            (include_str!("background.wgsl"), "fs_background"),
+            &[Slot::Uniform],
+            TARGET_FORMAT,
+        );
         let background_params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("strata.view.background"),
             size: std::mem::size_of::<BackgroundParams>() as u64,
@@ -80,16 +80,6 @@ impl Viewport {
             "strata.view.background",
             &layout,
             &[background_params.as_entire_binding()],
-        );
-        let background = screen_pipeline(
-            gpu,
-            "strata.view.background",
-            (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
-            (&module, "fs_background"),
-            &[&layout],
-            &[Some(TARGET_FORMAT.into())],
-            None,
-            None,
         );
         let mut viewport = Viewport {
             target: target(gpu, &options),
@@ -327,6 +317,36 @@ pub fn image_texture(gpu: &Gpu, label: &str, img: &image::RgbaImage) -> wgpu::Te
     )
 }
 
+/// One of the viewer's full-screen pipelines, all its parts named `label`: `vs_fullscreen`, then
+/// the fragment stage (the WGSL source and its entry point) reading bind group 0 of `slots`,
+/// into one `format` target, no culling, no depth. Returns the pipeline and the group's layout.
+fn fullscreen_pipeline(
+    gpu: &Gpu,
+    label: &str,
+    (source, entry): (&str, &str),
+    slots: &[Slot],
+    format: wgpu::TextureFormat,
+) -> (wgpu::RenderPipeline, wgpu::BindGroupLayout) {
+    let layout = binding::layout(&gpu.device, label, slots);
+    let module = gpu
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    let pipeline = screen_pipeline(
+        gpu,
+        label,
+        (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
+        (&module, entry),
+        &[&layout],
+        &[Some(format.into())],
+        None,
+        None,
+    );
+    (pipeline, layout)
+}
+
 /// Draws an image into the window at one texel per pixel.
 pub struct Blit {
     pipeline: wgpu::RenderPipeline,
@@ -337,26 +357,12 @@ pub struct Blit {
 
 impl Blit {
     pub fn new(gpu: &Gpu, format: wgpu::TextureFormat) -> Blit {
-        let module = gpu
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("strata.view.blit"),
-                source: wgpu::ShaderSource::Wgsl(include_str!("blit.wgsl").into()),
-            });
-        let layout = binding::layout(
-            &gpu.device,
-            "strata.view.blit",
-            &[Slot::Uniform, Slot::TextureFloat],
-        );
-        let pipeline = screen_pipeline(
+        let (pipeline, layout) = fullscreen_pipeline(
             gpu,
             "strata.view.blit",
-            (gpu.fullscreen_vertex_module(), "vs_fullscreen"),
-            (&module, "fs_blit"),
-            &[&layout],
-            &[Some(format.into())],
-            None,
-            None,
+            (include_str!("blit.wgsl"), "fs_blit"),
+            &[Slot::Uniform, Slot::TextureFloat],
+            format,
         );
         let blit = BlitParams {
             origin: [0; 2],
