@@ -19,6 +19,17 @@ fn resolved_over(premultiplied: vec4<f32>, count: u32) -> Resolved {
     return Resolved(premultiplied.rgb, count, vec3<f32>(1.0 - premultiplied.a), 0u);
 }
 
+// A result as a downlevel frame's state targets hold it (crates/strata/src/methods/downlevel):
+// (color, count) and (transmittance, unused).
+struct DownlevelState {
+    @location(0) color: vec4<f32>,
+    @location(1) transmittance: vec4<f32>,
+}
+
+fn downlevel_state(r: Resolved) -> DownlevelState {
+    return DownlevelState(vec4<f32>(r.color, f32(r.count)), vec4<f32>(r.transmittance, 0.0));
+}
+
 // A multisampled pixel's per-sample results, summed for their mean.
 struct ResolvedSum {
     color: vec3<f32>,

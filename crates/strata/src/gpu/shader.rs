@@ -90,16 +90,25 @@ pub fn target_samples(samples: u32) -> Defs {
 /// A capture step's signature after its name: `fn fs_x_capture(…) {` in a storage-only stage.
 const CAPTURE_STEP: &str = "_capture(v: SceneVarying, front_facing: bool, mask: u32) {";
 
-/// The fragment entry points whose capture steps `source` declares: `fs_x` for each
-/// `fn fs_x_capture(v: SceneVarying, front_facing: bool, mask: u32)` at the start of a line.
-/// The text is read before the preprocessor runs, so a capture step must not sit inside an
+/// A pixel step's signature after its name: `fn cs_x_pixel(…) {` in a per-pixel compute stage.
+const PIXEL_STEP: &str = "_pixel(pixel: vec2<u32>) {";
+
+/// The names before `signature` of the functions `source` declares with it at the start of a
+/// line. The text is read before the preprocessor runs, so a step must not sit inside an
 /// `#ifdef` (its made entry would call a function the stage lacks).
-pub fn capture_entries(source: &str) -> impl Iterator<Item = &str> {
-    source.lines().filter_map(|line| {
+fn declared_steps<'a>(source: &'a str, signature: &'static str) -> impl Iterator<Item = &'a str> {
+    source.lines().filter_map(move |line| {
         line.strip_prefix("fn ")?
-            .strip_suffix(CAPTURE_STEP)
+            .strip_suffix(signature)
             .filter(|name| name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
     })
+}
+
+/// The fragment entry points whose capture steps `source` declares: `fs_x` for each
+/// `fn fs_x_capture(v: SceneVarying, front_facing: bool, mask: u32)` at the start of a line
+/// (not inside an `#ifdef`).
+pub fn capture_entries(source: &str) -> impl Iterator<Item = &str> {
+    declared_steps(source, CAPTURE_STEP)
 }
 
 /// The fragment stages of `source`'s capture steps, made so that each step is written once:
@@ -115,10 +124,25 @@ fn capture_fragment_stages(source: &str) -> String {
         .collect()
 }
 
+/// The compute stages of `source`'s pixel steps (`fn cs_x_pixel(pixel: vec2<u32>)` at the start
+/// of a line, not inside an `#ifdef`), made so that the pixel grid is written once: `@compute fn
+/// cs_x` runs in the 8×8 workgroups of `frame::passes::dispatch_pixels` and calls `cs_x_pixel`
+/// with each thread's pixel inside the frame (the source imports `strata::scene::frame`).
+fn pixel_compute_stages(source: &str) -> String {
+    declared_steps(source, PIXEL_STEP)
+        .map(|entry| {
+            format!(
+                "\n@compute @workgroup_size(8, 8)\nfn {entry}(@builtin(global_invocation_id) id: vec3<u32>) {{\n    if id.x >= frame.size.x || id.y >= frame.size.y {{\n        return;\n    }}\n    {entry}_pixel(id.xy);\n}}\n"
+            )
+        })
+        .collect()
+}
+
 /// A shader stage to compose: a top-level source, the libraries its imports come from (the
 /// shared one always), its definitions, and modules made for it alone (registered under their
 /// own names, replacing an earlier module of that name). A top-level source that declares
-/// capture steps gets their fragment stages after its own text ([`capture_entries`]).
+/// capture steps gets their fragment stages after its own text ([`capture_entries`]), and one
+/// that declares pixel steps their compute stages (`pixel_compute_stages`).
 #[derive(Clone, Debug)]
 pub struct Stage {
     /// Names the module in wgpu's messages and composition errors.
@@ -264,7 +288,12 @@ impl ModuleLibrary {
         for import in imports {
             self.add(&import.import, &known, &stage.label, &mut Vec::new())?;
         }
-        let source = format!("{}{}", stage.source, capture_fragment_stages(&stage.source));
+        let source = format!(
+            "{}{}{}",
+            stage.source,
+            capture_fragment_stages(&stage.source),
+            pixel_compute_stages(&stage.source)
+        );
         self.composer
             .make_naga_module(NagaModuleDescriptor {
                 source: &source,
@@ -468,6 +497,17 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             differing.len(),
             &differing[..differing.len().min(8)]
         );
+    }
+
+    /// A pixel step gets its compute stage, over the 8×8 workgroups `dispatch_pixels` runs.
+    #[test]
+    fn pixel_steps_get_their_compute_stages() {
+        let source = "#import strata::scene::{frame, pixel_index}\n@group(1) @binding(0) var<storage, read_write> filled: array<u32>;\nfn cs_fill_pixel(pixel: vec2<u32>) {\n    filled[pixel_index(pixel)] = 1u;\n}\n";
+        let module = Stage::new("pixel step", source).compose().unwrap();
+        let entry = module.entry_points.iter().find(|e| e.name == "cs_fill");
+        let entry = entry.expect("the made entry point");
+        assert_eq!(entry.stage, naga::ShaderStage::Compute);
+        assert_eq!(entry.workgroup_size, [8, 8, 1]);
     }
 
     /// A made module replaces the earlier one of its name, and a missing module is named.

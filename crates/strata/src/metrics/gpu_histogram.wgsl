@@ -20,11 +20,8 @@ fn fs_histogram_count(v: SceneVarying) {
     atomicAdd(&pixel_counts[pixel_index(pixel_of(v.position))], 1u);
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_histogram_bins(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let count = atomicLoad(&pixel_counts[pixel_index(id.xy)]);
+// cs_histogram_bins's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_histogram_bins_pixel(pixel: vec2<u32>) {
+    let count = atomicLoad(&pixel_counts[pixel_index(pixel)]);
     atomicAdd(&bins[min(count, HISTOGRAM_BINS - 1u)], 1u);
 }

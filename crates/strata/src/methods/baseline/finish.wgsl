@@ -15,12 +15,8 @@ alias TargetTexture = texture_2d<f32>;
 @group(1) @binding(1) var blended: TargetTexture;
 @group(1) @binding(2) var<storage, read_write> output: array<Resolved>;
 
-@compute @workgroup_size(8, 8)
-fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let pixel = id.xy;
+// cs_finish's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_finish_pixel(pixel: vec2<u32>) {
     let i = pixel_index(pixel);
     let count = counts[i];
     let samples = samples_per_pixel();

@@ -27,12 +27,9 @@ const OVERFLOWS: u32 = 2u;
 @group(1) @binding(6) var<storage, read> touched: array<u32>;
 @group(1) @binding(7) var<storage, read> touched_count: u32;
 
-@compute @workgroup_size(8, 8)
-fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = pixel_index(id.xy);
+// cs_init's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_init_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
     let samples = samples_per_pixel();
     for (var s = 0u; s < samples; s++) {
         let i = p * samples + s;
@@ -98,12 +95,9 @@ fn merge_pixel(i: u32) {
     state[i] = s;
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = pixel_index(id.xy);
+// cs_finish's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_finish_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
     if frame.coverage_bits == 0u {
         let s = state[p];
         output[p] = composite_finish(s);

@@ -1,6 +1,7 @@
 #import strata::scene::{SceneVarying, behind_opaque, shade, uniform_scene_tag}
 #import strata::fragment::{Fragment}
-#import strata::composite::{Composite, composite_front, composite_new, view_distance}
+#import strata::color::{DownlevelState, downlevel_state}
+#import strata::composite::{Composite, composite_finish, composite_front, composite_new, view_distance}
 
 // f2b on a downlevel device (composed with UNIFORM_SCENE): no storage buffers and no compute,
 // so every step is a render pass over textures.
@@ -78,13 +79,8 @@ fn fs_count(v: SceneVarying) -> @location(0) vec4<f32> {
 @group(1) @binding(5) var layer_tag: texture_2d<u32>;
 @group(1) @binding(6) var layer_depth: texture_2d<f32>;
 
-struct StateOut {
-    @location(0) color: vec4<f32>,
-    @location(1) transmittance: vec4<f32>,
-}
-
 @fragment
-fn fs_accumulate(@builtin(position) position: vec4<f32>) -> StateOut {
+fn fs_accumulate(@builtin(position) position: vec4<f32>) -> DownlevelState {
     let p = vec2<i32>(position.xy);
     let tag = textureLoad(layer_tag, p, 0).r;
     if tag == EMPTY {
@@ -103,5 +99,5 @@ fn fs_accumulate(@builtin(position) position: vec4<f32>) -> StateOut {
     let c = textureLoad(layer_color, p, 0);
     let f = Fragment(textureLoad(layer_depth, p, 0).r, tag, pack2x16float(c.rg), pack2x16float(c.ba));
     composite_front(&s, f);
-    return StateOut(vec4<f32>(s.color, f32(s.count)), vec4<f32>(s.transmittance, 0.0));
+    return downlevel_state(composite_finish(s));
 }

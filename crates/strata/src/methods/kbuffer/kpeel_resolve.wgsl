@@ -2,7 +2,7 @@
 #import strata::scene::{frame, report_pixel, report_samples}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::composite::{composite_finish, composite_new}
-#import strata::kbuffer::storage::{FILLED, SEEN, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel}
+#import strata::kbuffer::storage::{FILLED, SEEN, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel}
 #import strata::kbuffer::resolve::{composite_stored, tail_empty}
 #import strata::kbuffer::access::{stored_count}
 #import strata::kbuffer::kpeel_state::{kpeel_state, kpeel_store}
@@ -18,12 +18,9 @@
 // before the pass + seen in it. With --msaa the account pass (kpeel_capture.wgsl) counts, and
 // finish reports.
 
-@compute @workgroup_size(8, 8)
-fn cs_kpeel_init(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = id.y * kp.width + id.x;
+// cs_kpeel_init's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_kpeel_init_pixel(pixel: vec2<u32>) {
+    let p = kpixel_index(pixel);
     for (var s = 0u; s < kp.sample_slots; s++) {
         kpeel_store(sample_pixel(p, s), composite_new());
     }
@@ -45,12 +42,9 @@ fn kpeel_resolve_one(q: u32) -> u32 {
     return limit;
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_kpeel_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = id.y * kp.width + id.x;
+// cs_kpeel_resolve's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_kpeel_resolve_pixel(pixel: vec2<u32>) {
+    let p = kpixel_index(pixel);
 #ifdef MULTISAMPLED
     if kp.sample_slots > 1u {
         for (var s = 0u; s < kp.sample_slots; s++) {
@@ -66,12 +60,9 @@ fn cs_kpeel_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_kpeel_finish(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = id.y * kp.width + id.x;
+// cs_kpeel_finish's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_kpeel_finish_pixel(pixel: vec2<u32>) {
+    let p = kpixel_index(pixel);
 #ifdef MULTISAMPLED
     if kp.sample_slots > 1u {
         var sum = resolved_sum_new();

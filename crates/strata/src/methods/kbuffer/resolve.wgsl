@@ -4,7 +4,7 @@
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 #import strata::kbuffer::access::{stored_count, stored_fragment}
-#import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, TAIL_WORDS, kp, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, wide_add}
+#import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, TAIL_WORDS, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, wide_add}
 
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
 // The multisampled paths are compiled only with MULTISAMPLED (--msaa): they double the shader,
@@ -354,8 +354,9 @@ fn resolve_sample_storage(p: u32) {
 
 #endif
 
-fn resolve_pixel(pixel: vec2<u32>) {
-    let p = pixel.y * kp.width + pixel.x;
+// cs_resolve's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_resolve_pixel(pixel: vec2<u32>) {
+    let p = kpixel_index(pixel);
 #ifdef MULTISAMPLED
     if kp.sample_slots > 1u {
         resolve_sample_storage(p);
@@ -374,12 +375,4 @@ fn resolve_pixel(pixel: vec2<u32>) {
 #endif
     output[p] = composite_pixel(p, n, limit, t);
     report_pixel(seen, limit);
-}
-
-@compute @workgroup_size(8, 8)
-fn cs_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    resolve_pixel(id.xy);
 }

@@ -94,6 +94,11 @@ fn kpixel(position: vec4<f32>) -> u32 {
     return u32(position.y) * kp.width + u32(position.x);
 }
 
+// The pixel index of `pixel`, from the k-buffer's own width.
+fn kpixel_index(pixel: vec2<u32>) -> u32 {
+    return pixel.y * kp.width + pixel.x;
+}
+
 // Sample `s`'s storage pixel of pixel `p` (per-sample storage).
 fn sample_pixel(p: u32, s: u32) -> u32 {
     return p * kp.sample_slots + s;

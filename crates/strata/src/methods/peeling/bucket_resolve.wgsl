@@ -42,12 +42,9 @@ fn composite_entry(e: u32) -> Composite {
     return s;
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = pixel_index(id.xy);
+// cs_resolve's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_resolve_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
     if frame.coverage_bits == 0u {
         let s = composite_entry(p);
         output[p] = composite_finish(s);

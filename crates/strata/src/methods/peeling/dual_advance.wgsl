@@ -33,12 +33,9 @@ struct Counters {
 @group(1) @binding(6) var<storage, read_write> counters: Counters;
 @group(1) @binding(7) var<storage, read_write> output: array<Resolved>;
 
-@compute @workgroup_size(8, 8)
-fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = pixel_index(id.xy);
+// cs_init's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_init_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
     for (var s = 0u; s < samples_per_pixel(); s++) {
         let i = sample_entry(p, s);
         front[i] = composite_new();
@@ -87,23 +84,17 @@ fn advance_entry(i: u32) {
     }
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_advance(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = pixel_index(id.xy);
+// cs_advance's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_advance_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
     for (var s = 0u; s < samples_per_pixel(); s++) {
         advance_entry(sample_entry(p, s));
     }
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = pixel_index(id.xy);
+// cs_finish's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_finish_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
     if frame.coverage_bits == 0u {
         let r = composite_join(front[p], back[p]);
         output[p] = r;

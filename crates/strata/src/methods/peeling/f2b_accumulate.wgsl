@@ -44,24 +44,18 @@ fn layer_fragment(xy: vec2<i32>, s: u32, f: ptr<function, Fragment>) -> bool {
     return true;
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_init(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = pixel_index(id.xy);
+// cs_init's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_init_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
     for (var s = 0u; s < target_samples(); s++) {
         state[p * target_samples() + s] = composite_new();
     }
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let xy = vec2<i32>(id.xy);
-    let p = pixel_index(id.xy);
+// cs_accumulate's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_accumulate_pixel(pixel: vec2<u32>) {
+    let xy = vec2<i32>(pixel);
+    let p = pixel_index(pixel);
     for (var s = 0u; s < target_samples(); s++) {
         var f: Fragment;
         if !layer_fragment(xy, s, &f) {
@@ -74,12 +68,9 @@ fn cs_accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-@compute @workgroup_size(8, 8)
-fn cs_finish(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let p = pixel_index(id.xy);
+// cs_finish's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_finish_pixel(pixel: vec2<u32>) {
+    let p = pixel_index(pixel);
 #ifdef MULTISAMPLED
     let pixels = frame.size.x * frame.size.y;
     var sum = resolved_sum_new();

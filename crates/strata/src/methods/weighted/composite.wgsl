@@ -4,7 +4,7 @@
 #else
 #import strata::scene::{frame, pixel_index, report_pixel, samples_per_pixel}
 #endif
-#import strata::color::{Resolved, resolved_over}
+#import strata::color::{DownlevelState, Resolved, downlevel_state, resolved_over}
 #ifdef MULTISAMPLED
 alias TargetTexture = texture_multisampled_2d<f32>;
 #else
@@ -64,18 +64,12 @@ fn pixel_resolved(pixel: vec2<i32>, count: u32) -> Resolved {
 }
 
 #ifdef UNIFORM_SCENE
-// A downlevel frame's composite: a full-screen pass writing the pixel's result as the state
-// targets of crates/strata/src/methods/downlevel hold it, (color, count) and (transmittance, 0).
-struct DownlevelState {
-    @location(0) color: vec4<f32>,
-    @location(1) transmittance: vec4<f32>,
-}
-
+// A downlevel frame's composite: a full-screen pass writing the pixel's result into the state
+// targets.
 @fragment
 fn fs_composite(@builtin(position) position: vec4<f32>) -> DownlevelState {
     let pixel = vec2<i32>(position.xy);
-    let r = pixel_resolved(pixel, u32(round(textureLoad(count_target, pixel, 0).r)));
-    return DownlevelState(vec4<f32>(r.color, f32(r.count)), vec4<f32>(r.transmittance, 0.0));
+    return downlevel_state(pixel_resolved(pixel, u32(round(textureLoad(count_target, pixel, 0).r))));
 }
 #else
 @compute @workgroup_size(8, 8)

@@ -11,20 +11,17 @@
 @group(1) @binding(2) var total: texture_multisampled_2d<f32>;
 @group(1) @binding(3) var<storage, read_write> output: array<Resolved>;
 
-@compute @workgroup_size(8, 8)
-fn cs_composite(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= frame.size.x || id.y >= frame.size.y {
-        return;
-    }
-    let pixel = vec2<i32>(id.xy);
-    let i = pixel_index(id.xy);
+// cs_composite's pixel step: its made compute stage calls it for each pixel of the frame.
+fn cs_composite_pixel(pixel: vec2<u32>) {
+    let texel = vec2<i32>(pixel);
+    let i = pixel_index(pixel);
     let count = counts[i];
     let samples = frame.coverage_bits;
     var sum = vec4<f32>(0.0);
     var transmittance = 0.0;
     for (var s = 0u; s < samples; s++) {
-        sum += textureLoad(accumulation, pixel, s);
-        transmittance += textureLoad(total, pixel, s).r;
+        sum += textureLoad(accumulation, texel, s);
+        transmittance += textureLoad(total, texel, s).r;
     }
     let coverage = 1.0 - transmittance / f32(samples);
     var color = vec3<f32>(0.0);
