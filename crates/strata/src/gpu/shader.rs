@@ -413,6 +413,18 @@ pub fn validate(stage: &Stage) {
         .unwrap_or_else(|e| panic!("{}: {e:?}", stage.label));
 }
 
+/// Parses plain WGSL `source` (no naga_oil directives) and validates it with naga; panics
+/// naming `label` with naga's message where either fails (tests).
+#[cfg(test)]
+pub fn validate_wgsl(label: &str, source: &str) -> naga::Module {
+    let module = naga::front::wgsl::parse_str(source)
+        .unwrap_or_else(|e| panic!("{label}: {}\n{source}", e.emit_to_string(source)));
+    validator()
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{label}: {}\n{source}", e.emit_to_string(source)));
+    module
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -112,14 +112,7 @@ pub fn assert_twin<T: GpuStruct>() {
         "{}\n@group(0) @binding(0) var<uniform> twin: {name};\n",
         T::WGSL
     );
-    let module = naga::front::wgsl::parse_str(&source)
-        .unwrap_or_else(|e| panic!("{name}: {}\n{source}", e.emit_to_string(&source)));
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{name}: {e:?}\n{source}"));
+    let module = crate::gpu::shader::validate_wgsl(name, &source);
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).unwrap();
     let (handle, ty) = module

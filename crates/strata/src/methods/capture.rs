@@ -125,14 +125,7 @@ fn fs_app(@builtin(position) p: vec4<f32>, @builtin(front_facing) ff: bool) {
     strata_capture(p, vec4<f32>(0.25, 0.5, 0.125, 0.5), 7u, ff);
 }
 ";
-            let module = naga::front::wgsl::parse_str(&src)
-                .unwrap_or_else(|e| panic!("{m}: {}", e.emit_to_string(&src)));
-            naga::valid::Validator::new(
-                naga::valid::ValidationFlags::all(),
-                naga::valid::Capabilities::all(),
-            )
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("{m}: {}", e.emit_to_string(&src)));
+            shader::validate_wgsl(&m.to_string(), &src);
             assert!(!src.contains("@group(1)"), "{m}: group not replaced");
         }
         assert!(wgsl(MethodId::KbMdt32, 1).is_err());

@@ -11,12 +11,8 @@ use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, gpu, render_reference, renderer};
 
 #[test]
-fn order_params_layout_matches_wgsl() {
+fn order_stages_and_their_uniforms_validate() {
     crate::gpu::twin::assert_twin::<OrderParams>();
-}
-
-#[test]
-fn order_stages_validate() {
     for (label, stage) in [("keys", KEYS), ("indices", INDICES), ("kendall", KENDALL)] {
         crate::gpu::shader::validate(&crate::gpu::shader::Stage::new(label, stage).with(LIBRARY));
     }
