@@ -230,18 +230,12 @@ pub fn storage_geometry_pass(
         }
     };
     let (scene, draw) = (ctx.scene, ctx.draw);
-    let label = ctx.label(name);
-    let mut pass = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(&label),
-        color_attachments: &[target.attachment()],
-        depth_stencil_attachment: None,
-        timestamp_writes: ctx.timer.render_pass(name),
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
-    pass.set_pipeline(pipeline);
-    for (i, g) in groups.iter().enumerate() {
-        pass.set_bind_group(i as u32, Some(*g), &[]);
-    }
-    scene.draw(&mut pass, draw);
+    render_pass(
+        ctx,
+        name,
+        (pipeline, groups),
+        &[target.attachment()],
+        None,
+        &|pass| scene.draw(pass, draw),
+    );
 }
