@@ -7,7 +7,7 @@
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;
 
-use crate::gpu::Gpu;
+use crate::gpu::{readback, Gpu};
 
 /// Slots in flight at once: three frames of latency before a frame goes without statistics.
 pub const SLOTS: usize = 4;
@@ -71,12 +71,9 @@ impl<T> StatsRing<T> {
         let words: u64 = sources.iter().map(|s| s.2).sum::<u64>().max(1);
         let slot = &mut self.slots[index];
         if slot.buffer.as_ref().is_none_or(|b| b.size() < words * 4) {
-            slot.buffer = Some(gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("strata.frame.stats_staging"),
-                size: (words * 4).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT * 64),
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }));
+            let size = (words * 4).next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT * 64);
+            let staging = readback::staging_buffer(gpu, "strata.frame.stats_staging", size);
+            slot.buffer = Some(staging);
         }
         let buffer = slot.buffer.as_ref().expect("created above");
         let mut at = 0;

@@ -5,18 +5,34 @@ use crate::gpu::Gpu;
 
 /// Reads `size` bytes of `src` (which needs COPY_SRC) after all submitted work.
 pub fn read_buffer(gpu: &Gpu, src: &wgpu::Buffer, size: u64) -> Result<Vec<u8>> {
-    let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("strata.readback"),
+    copy_and_read(gpu, "strata.readback", size, |enc, staging| {
+        enc.copy_buffer_to_buffer(src, 0, staging, 0, size)
+    })
+}
+
+/// A buffer of `size` bytes that copies write into and the CPU maps to read.
+pub fn staging_buffer(gpu: &Gpu, label: &str, size: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
         size,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
-    });
+    })
+}
+
+/// Submits `copy` into a new staging buffer of `size` bytes and reads the buffer back after all
+/// submitted work.
+fn copy_and_read(
+    gpu: &Gpu,
+    label: &str,
+    size: u64,
+    copy: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::Buffer),
+) -> Result<Vec<u8>> {
+    let staging = staging_buffer(gpu, label, size);
     let mut enc = gpu
         .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("strata.readback"),
-        });
-    enc.copy_buffer_to_buffer(src, 0, &staging, 0, size);
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    copy(&mut enc, &staging);
     gpu.queue.submit([enc.finish()]);
     map_and_read(gpu, &staging)
 }
@@ -57,31 +73,25 @@ pub fn read_texture(gpu: &Gpu, texture: &wgpu::Texture) -> Result<Vec<u8>> {
         .block_copy_size(Some(wgpu::TextureAspect::All))
         .ok_or_else(|| Error::runtime("texture format has no single copy size"))?;
     let row = (w * texel).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-    let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("strata.readback.texture"),
-        size: (row * h) as u64,
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut enc = gpu
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("strata.readback.texture"),
-        });
-    enc.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &staging,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(row),
-                rows_per_image: Some(h),
-            },
+    let data = copy_and_read(
+        gpu,
+        "strata.readback.texture",
+        (row * h) as u64,
+        |enc, staging| {
+            enc.copy_texture_to_buffer(
+                texture.as_image_copy(),
+                wgpu::TexelCopyBufferInfo {
+                    buffer: staging,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(row),
+                        rows_per_image: Some(h),
+                    },
+                },
+                texture.size(),
+            )
         },
-        texture.size(),
-    );
-    gpu.queue.submit([enc.finish()]);
-    let data = map_and_read(gpu, &staging)?;
+    )?;
     let tight = (w * texel) as usize;
     Ok(data
         .chunks(row as usize)
