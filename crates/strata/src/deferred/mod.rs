@@ -826,19 +826,13 @@ impl LitFrame {
             ),
             Pass::Debug => (&self.passes.debug, &self.groups.debug, wgpu::Color::BLACK),
         };
-        let label = format!("strata.{name}");
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some(&label),
-            color_attachments: &[passes::attachment(target, clear)],
-            depth_stencil_attachment: None,
-            timestamp_writes: timer.render_pass(name),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, Some(frame), &[]);
-        pass.set_bind_group(1, Some(group), &[]);
-        pass.draw(0..3, 0..1);
+        passes::fullscreen_pass(
+            encoder,
+            (&format!("strata.{name}"), timer.render_pass(name)),
+            &[passes::attachment(target, clear)],
+            pipeline,
+            &[frame, group],
+        );
     }
 
     /// Records the picture's background under the HDR image where nothing opaque covers it
@@ -874,17 +868,13 @@ impl LitFrame {
         let unused = view(&self.unused_depth);
         let frame = self.scene.frame_group(gpu, &unused);
         let hdr = view(&self.targets.hdr);
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("strata.background_under"),
-            color_attachments: &[crate::gpu::passes::kept_attachment(&hdr)],
-            depth_stencil_attachment: None,
-            timestamp_writes: timer.render_pass("background"),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, Some(&frame), &[]);
-        pass.draw(0..3, 0..1);
+        passes::fullscreen_pass(
+            encoder,
+            ("strata.background_under", timer.render_pass("background")),
+            &[passes::kept_attachment(&hdr)],
+            pipeline,
+            &[&frame],
+        );
     }
 
     /// Records the tone map: the HDR image (with the transparent method's result over it) OVER
@@ -913,18 +903,13 @@ impl LitFrame {
         });
         let unused = view(&self.unused_depth);
         let frame = self.scene.frame_group(gpu, &unused);
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("strata.tonemap"),
-            color_attachments: &[passes::attachment(target, wgpu::Color::BLACK)],
-            depth_stencil_attachment: None,
-            timestamp_writes: timer.render_pass("tonemap"),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, Some(&frame), &[]);
-        pass.set_bind_group(1, Some(&self.groups.tonemap), &[]);
-        pass.draw(0..3, 0..1);
+        passes::fullscreen_pass(
+            encoder,
+            ("strata.tonemap", timer.render_pass("tonemap")),
+            &[passes::attachment(target, wgpu::Color::BLACK)],
+            pipeline,
+            &[&frame, &self.groups.tonemap],
+        );
     }
 }
 

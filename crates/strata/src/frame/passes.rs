@@ -4,8 +4,8 @@
 
 use crate::frame::FrameContext;
 pub use crate::gpu::passes::{
-    attachment, blend_add, clear_depth_pass, color_target, compute_pipeline, kept_attachment,
-    render_pipeline, scratch_depth, screen_pipeline, NullTarget, Rasterization,
+    attachment, blend_add, clear_depth_pass, color_target, compute_pipeline, fullscreen_pass,
+    kept_attachment, render_pipeline, scratch_depth, screen_pipeline, NullTarget, Rasterization,
 };
 use crate::gpu::Gpu;
 

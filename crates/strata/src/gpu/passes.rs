@@ -115,6 +115,30 @@ pub fn attachment(
     })
 }
 
+/// Records one full-screen triangle (a pipeline whose vertex stage is `vs_fullscreen`) into
+/// `attachments`, with `groups` bound from index 0.
+pub fn fullscreen_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    (label, timestamp_writes): (&str, Option<wgpu::RenderPassTimestampWrites<'_>>),
+    attachments: &[Option<wgpu::RenderPassColorAttachment<'_>>],
+    pipeline: &wgpu::RenderPipeline,
+    groups: &[&wgpu::BindGroup],
+) {
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: attachments,
+        depth_stencil_attachment: None,
+        timestamp_writes,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    });
+    pass.set_pipeline(pipeline);
+    for (i, group) in groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, Some(*group), &[]);
+    }
+    pass.draw(0..3, 0..1);
+}
+
 /// A color attachment the pass draws over, keeping what it holds.
 pub fn kept_attachment(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
     Some(wgpu::RenderPassColorAttachment {

@@ -2,8 +2,8 @@
 
 use crate::error::Result;
 use crate::frame::passes::{
-    attachment, blend_add, color_target, kept_attachment, render_pipeline, scratch_depth,
-    Rasterization,
+    attachment, blend_add, color_target, fullscreen_pass, kept_attachment, render_pipeline,
+    scratch_depth, Rasterization,
 };
 use crate::gpu::binding;
 use crate::gpu::Gpu;
@@ -189,15 +189,13 @@ impl DownlevelFrame {
             }
             let i = layer as usize % 2;
             let out = &state_views[(i + 1) % 2];
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("strata.f2b_downlevel.accumulate"),
-                color_attachments: &[kept_attachment(&out[0]), kept_attachment(&out[1])],
-                ..Default::default()
-            });
-            pass.set_pipeline(&self.accumulate);
-            pass.set_bind_group(0, Some(frame_group), &[]);
-            pass.set_bind_group(1, Some(&accumulate_groups[i]), &[]);
-            pass.draw(0..3, 0..1);
+            fullscreen_pass(
+                encoder,
+                ("strata.f2b_downlevel.accumulate", None),
+                &[kept_attachment(&out[0]), kept_attachment(&out[1])],
+                &self.accumulate,
+                &[frame_group, &accumulate_groups[i]],
+            );
         }
         encoder.resolve_query_set(&self.probe, 0..1, &self.probe_results, 0);
         layers

@@ -2,8 +2,8 @@
 //! composed with UNIFORM_SCENE, their pipelines and passes.
 
 use crate::frame::passes::{
-    attachment, blend_add, color_target, kept_attachment, render_pipeline, screen_pipeline,
-    Rasterization,
+    attachment, blend_add, color_target, fullscreen_pass, kept_attachment, render_pipeline,
+    screen_pipeline, Rasterization,
 };
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::Stage;
@@ -143,14 +143,12 @@ impl DownlevelFrame {
             &wboit.composite_layout,
             &[texture(&count), texture(&accumulation), texture(&revealage)],
         );
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("strata.wboit_downlevel.composite"),
-            color_attachments: &[kept_attachment(&state[0]), kept_attachment(&state[1])],
-            ..Default::default()
-        });
-        pass.set_pipeline(&wboit.composite);
-        pass.set_bind_group(0, Some(frame_group), &[]);
-        pass.set_bind_group(1, Some(&composite_group), &[]);
-        pass.draw(0..3, 0..1);
+        fullscreen_pass(
+            encoder,
+            ("strata.wboit_downlevel.composite", None),
+            &[kept_attachment(&state[0]), kept_attachment(&state[1])],
+            &wboit.composite,
+            &[frame_group, &composite_group],
+        );
     }
 }
