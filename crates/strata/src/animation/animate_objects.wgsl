@@ -1,12 +1,13 @@
 #define_import_path strata::animation::animate_objects
 #import strata::dispatch::{GridThread}
-#import strata::animation::animate_common::{Motion, params, thread_index}
+#import strata::animation::animate_common::{params, thread_index}
+#import strata::animation::params::{GpuMotion}
 
 // One thread per object: its transform at this frame's time, and the transform that carries a
 // point of the object from where it is now to where it was in the previous frame (temporal
 // culling reprojects with it).
 
-@group(0) @binding(1) var<storage, read> motions: array<Motion>;
+@group(0) @binding(1) var<storage, read> motions: array<GpuMotion>;
 @group(0) @binding(2) var<storage, read_write> models: array<mat4x4<f32>>;
 @group(0) @binding(3) var<storage, read_write> to_previous: array<mat4x4<f32>>;
 
@@ -19,7 +20,7 @@ fn reduced_angle(a: f32) -> f32 {
 }
 
 // Same expression, in the same order, as `Orbit::position` on the CPU.
-fn orbit_position(m: Motion, t: f32) -> vec3<f32> {
+fn orbit_position(m: GpuMotion, t: f32) -> vec3<f32> {
     let a = reduced_angle(m.angular_speed * t + m.phase);
     return m.centre + m.radius * (cos(a) * m.u + sin(a) * m.v);
 }

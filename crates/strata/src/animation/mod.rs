@@ -17,7 +17,9 @@
 //! Memory: rest vertices 72 bytes and object index 4 bytes per triangle; 64 bytes of motion and
 //! 128 of transforms per object.
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
+
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::gpu::binding::{self, Slot};
@@ -29,54 +31,67 @@ use crate::scene::{ObjectMotion, Scene};
 const OBJECTS: &str = include_str!("animate_objects.wgsl");
 const VERTICES: &str = include_str!("animate_vertices.wgsl");
 /// The animation's WGSL modules (`strata::animation::…`).
-pub const LIBRARY: Library = &[include_str!("animate_common.wgsl"), OBJECTS, VERTICES];
+pub const LIBRARY: Library = &[
+    PARAMS,
+    include_str!("animate_common.wgsl"),
+    OBJECTS,
+    VERTICES,
+];
 
 /// Threads per workgroup of both passes.
 const WORKGROUP: u32 = 64;
 /// Bytes of one triangle's three vertices.
 const VERTEX_BYTES: u64 = 3 * std::mem::size_of::<crate::scene::GpuVertex>() as u64;
 
-/// Keep in sync with `AnimationParams` in animate_common.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct AnimationParams {
-    /// The time (frames) this frame shows.
-    pub time: f32,
-    /// The time the previous frame showed (for the motion since).
-    pub previous_time: f32,
-    /// Objects in the scene.
-    pub objects: u32,
-    /// Workgroups per row of the two-dimensional dispatch.
-    pub grid_x: u32,
-    /// 1 when the moved triangles' centroids are written too (for `--order`).
-    pub write_centroids: u32,
-    /// Padding to WGSL's 16-byte alignment.
-    pub _pad: [u32; 3],
+gpu_struct! {
+    /// The animation's uniforms (`strata::animation::params`), bound as `params` by
+    /// animate_common.wgsl.
+    pub struct AnimationParams {
+        /// The time (frames) this frame shows.
+        pub time: f32,
+        /// The time the previous frame showed (for the motion since).
+        pub previous_time: f32,
+        /// Objects in the scene.
+        pub objects: u32,
+        /// Workgroups per row of the two-dimensional dispatch (one dimension holds 65535).
+        pub grid_x: u32,
+        /// 1 when the moved triangles' centroids are written too (for `--order`).
+        pub write_centroids: u32,
+        pad_a: u32,
+        pad_b: u32,
+        pad_c: u32,
+    }
 }
 
-/// Keep in sync with `Motion` in animate_common.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct GpuMotion {
-    /// The orbit's centre.
-    pub centre: [f32; 3],
-    /// The orbit's radius.
-    pub radius: f32,
-    /// First unit vector of the orbit's plane.
-    pub u: [f32; 3],
-    /// Radians per frame.
-    pub angular_speed: f32,
-    /// Second unit vector of the orbit's plane.
-    pub v: [f32; 3],
-    /// Angle at time 0, in radians.
-    pub phase: f32,
-    /// Uniform scale of the object-space mesh.
-    pub scale: f32,
-    /// 0: the object stays where its rest vertices are (world space).
-    pub moving: u32,
-    /// Padding to WGSL's 16-byte alignment.
-    pub _pad: [u32; 2],
+gpu_struct! {
+    /// One object's motion (`strata::animation::params`, read by animate_objects.wgsl): its
+    /// object-space mesh scaled by `scale` and carried along the orbit
+    /// centre + radius·(cos a·u + sin a·v), a = angular_speed·t + phase.
+    pub struct GpuMotion {
+        /// The orbit's centre.
+        pub centre: [f32; 3],
+        /// The orbit's radius.
+        pub radius: f32,
+        /// First unit vector of the orbit's plane.
+        pub u: [f32; 3],
+        /// Radians per frame.
+        pub angular_speed: f32,
+        /// Second unit vector of the orbit's plane.
+        pub v: [f32; 3],
+        /// Angle at time 0, in radians.
+        pub phase: f32,
+        /// Uniform scale of the object-space mesh.
+        pub scale: f32,
+        /// 0: the object stays where its rest vertices are (world space).
+        pub moving: u32,
+        pad_a: u32,
+        pad_b: u32,
+    }
 }
+
+/// `strata::animation::params`: [`AnimationParams`] and [`GpuMotion`] for the animation's
+/// stages.
+const PARAMS: &str = wgsl_module!("strata::animation::params", AnimationParams, GpuMotion);
 
 impl GpuMotion {
     fn new(motion: Option<&ObjectMotion>) -> GpuMotion {
@@ -91,7 +106,7 @@ impl GpuMotion {
                 phase: m.orbit.phase,
                 scale: m.scale,
                 moving: 1,
-                _pad: [0; 2],
+                ..Zeroable::zeroed()
             },
         }
     }
@@ -352,7 +367,7 @@ impl SceneAnimation {
             objects: self.objects,
             grid_x,
             write_centroids: self.writes_centroids as u32,
-            _pad: [0; 3],
+            ..Zeroable::zeroed()
         };
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));

@@ -6,13 +6,12 @@ use crate::frame::{RenderOptions, SceneGpu};
 use crate::gpu::readback;
 use crate::render::Renderer;
 use crate::scene::{loaders, GpuVertex};
-use crate::testing::assert_layout;
 use crate::testing::{assert_close, gpu, render_reference};
 
 #[test]
 fn animation_structs_match_wgsl() {
-    assert_layout!(AnimationParams, 32, write_centroids: 16);
-    assert_layout!(GpuMotion, 64, u: 16, v: 32, scale: 48);
+    crate::gpu::twin::assert_twin::<AnimationParams>();
+    crate::gpu::twin::assert_twin::<GpuMotion>();
 }
 
 #[test]

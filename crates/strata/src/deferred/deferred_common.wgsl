@@ -1,26 +1,10 @@
 #define_import_path strata::deferred::deferred_common
+#import strata::deferred::params::{DeferredParams}
 #import strata::scene::{frame}
 
 // What every deferred stage shares: the group-1 bindings (each pass's layout names the subset it
 // reads, so no pass binds a target it renders to), the normal encodings, and reading a G-buffer
-// pixel back into a surface. Keep `DeferredParams` in sync with `DeferredParams` in
-// crates/strata/src/deferred/mod.rs; the encodings' CPU twins are in encoding.rs.
-
-struct DeferredParams {
-    inv_view_proj: mat4x4<f32>,
-    // 0: spheremap (seed 004), 1: octahedral.
-    normal_encoding: u32,
-    ssao: u32,
-    // GbufferView's index (debug pass only).
-    debug_view: u32,
-    // 0: none, 1: neutral, 2: reinhard.
-    tonemap: u32,
-    ssao_radius: f32,
-    ssao_strength: f32,
-    // First vertex of the cone in `volume_vertices` (the sphere starts at 0).
-    cone_first: u32,
-    _pad: u32,
-}
+// pixel back into a surface. The encodings' CPU twins are in encoding.rs.
 
 @group(1) @binding(0) var<uniform> params: DeferredParams;
 // RGBA8 sRGB: albedo RGB, material id in A (8 bits, so 256 materials).

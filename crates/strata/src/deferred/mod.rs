@@ -50,7 +50,9 @@ mod targets;
 
 use std::collections::HashMap;
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
+
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 use glam::Mat4;
 
 use crate::error::{Error, Result};
@@ -84,29 +86,34 @@ pub fn gbuffer_bytes_per_pixel(layout: GbufferLayout) -> u64 {
     }
 }
 
-/// Keep in sync with `DeferredParams` in deferred_common.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct DeferredParams {
-    /// Clip to world, to rebuild positions from depth.
-    pub inv_view_proj: [[f32; 4]; 4],
-    /// [`NormalEncoding`] as the shaders number it.
-    pub normal_encoding: u32,
-    /// 1 with screen-space ambient occlusion.
-    pub ssao: u32,
-    /// The debug view's [`GbufferView::index`] (read by the debug pass only).
-    pub debug_view: u32,
-    /// [`Tonemap`] as the shaders number it: 0 none, 1 neutral, 2 Reinhard.
-    pub tonemap: u32,
-    /// SSAO's sampling radius in world units (a fraction of the scene's bounding box diagonal).
-    pub ssao_radius: f32,
-    /// How strongly SSAO darkens (0: not at all).
-    pub ssao_strength: f32,
-    /// First vertex of the cone mesh in the volume vertex buffer.
-    pub cone_first: u32,
-    /// Padding to WGSL's 16-byte alignment.
-    pub _pad: u32,
+gpu_struct! {
+    /// The deferred stages' uniforms (`strata::deferred::params`), bound as `params` by
+    /// deferred_common.wgsl.
+    pub struct DeferredParams {
+        /// Clip to world, to rebuild positions from depth.
+        pub inv_view_proj: [[f32; 4]; 4],
+        /// [`NormalEncoding`] as the shaders number it: 0 spheremap (seed 004), 1 octahedral.
+        pub normal_encoding: u32,
+        /// 1 with screen-space ambient occlusion.
+        pub ssao: u32,
+        /// The debug view's [`GbufferView::index`] (read by the debug pass only).
+        pub debug_view: u32,
+        /// [`Tonemap`] as the shaders number it: 0 none, 1 neutral, 2 Reinhard.
+        pub tonemap: u32,
+        /// SSAO's sampling radius in world units (a fraction of the scene's bounding box
+        /// diagonal).
+        pub ssao_radius: f32,
+        /// How strongly SSAO darkens (0: not at all).
+        pub ssao_strength: f32,
+        /// First vertex of the cone mesh in the volume vertex buffer (`volume_vertices`; the
+        /// sphere starts at 0).
+        pub cone_first: u32,
+        pad_a: u32,
+    }
 }
+
+/// `strata::deferred::params`: [`DeferredParams`] for deferred_common.wgsl.
+const PARAMS_WGSL: &str = wgsl_module!("strata::deferred::params", DeferredParams);
 
 const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -158,6 +165,7 @@ const COMMON_WGSL: &str = include_str!("deferred_common.wgsl");
 /// The pipeline's WGSL modules (`strata::deferred::…`): the deferred bindings and helpers, and
 /// the stages.
 pub const LIBRARY: Library = &[
+    PARAMS_WGSL,
     COMMON_WGSL,
     include_str!("gbuffer.wgsl"),
     include_str!("forward.wgsl"),
@@ -623,7 +631,7 @@ impl LitFrame {
             ssao_radius: self.ssao_radius,
             ssao_strength: SSAO_STRENGTH,
             cone_first: self.cone_first,
-            _pad: 0,
+            ..Zeroable::zeroed()
         };
         self.gpu
             .queue

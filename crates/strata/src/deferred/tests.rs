@@ -11,7 +11,6 @@ use crate::gpu::readback;
 use crate::render::LinearImage;
 use crate::scene::builtin::{cube, quad, uv_sphere};
 use crate::scene::{Light, LightKind, Material, Object, Projection, Shading};
-use crate::testing::assert_layout;
 use crate::testing::{
     assert_close, assert_exact, gpu, render_gpu, render_reference, Expected, EXACT_MAX_DIFF,
     EXACT_MAX_FRACTION,
@@ -221,7 +220,7 @@ fn every_stage_validates() {
 
 #[test]
 fn deferred_params_layout_matches_wgsl() {
-    assert_layout!(DeferredParams, 96, normal_encoding: 64, tonemap: 76, cone_first: 88);
+    crate::gpu::twin::assert_twin::<DeferredParams>();
 }
 
 #[test]

@@ -5,22 +5,32 @@
 
 use std::collections::HashMap;
 
-use bytemuck::{Pod, Zeroable};
-
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::shader::Stage;
+use crate::gpu::shader::{Library, Stage};
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 use crate::gpu::Gpu;
 
-/// Keep in sync with `PresentParams` in present.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct PresentParams {
-    /// Frame size in pixels.
-    pub size: [u32; 2],
-    /// 1 to draw the fragment counts as an opaque heatmap (the complexity effect), 0 to blend the color OVER.
-    pub complexity: u32,
-    /// The count at which the heatmap saturates.
-    pub complexity_full: u32,
+gpu_struct! {
+    /// The present pass's uniforms (`strata::frame::present_params`), bound as `params` by
+    /// present.wgsl.
+    pub struct PresentParams {
+        /// Frame size in pixels.
+        pub size: [u32; 2],
+        /// 1 to draw the fragment counts as an opaque heatmap (the complexity effect), 0 to
+        /// blend the color OVER.
+        pub complexity: u32,
+        /// The count at which the heatmap saturates: the fragment count drawn at the top of its
+        /// scale.
+        pub complexity_full: u32,
+    }
+}
+
+/// `strata::frame::present_params`: [`PresentParams`] for present.wgsl.
+const PARAMS: Library = &[wgsl_module!("strata::frame::present_params", PresentParams)];
+
+/// The present pass's stage.
+fn stage() -> Stage {
+    Stage::new("strata.present", include_str!("present.wgsl")).with(PARAMS)
 }
 
 /// Formats the present pass is tested on; any blendable color format works.
@@ -89,7 +99,7 @@ impl Present {
             "strata.present.layout",
             &[Slot::Uniform, Slot::Storage, Slot::Storage],
         );
-        let module = Stage::new("strata.present", include_str!("present.wgsl")).module(device);
+        let module = stage().module(device);
         let lut: Vec<u32> = (0..256)
             .map(|i| {
                 let [r, g, b] = super::colormap::colormap(i as f32 / 255.0);
@@ -190,8 +200,9 @@ impl Present {
 #[cfg(test)]
 mod tests {
     #[test]
-    fn present_params_layout_matches_wgsl() {
-        assert_eq!(std::mem::size_of::<super::PresentParams>(), 16);
+    fn present_stage_and_its_uniforms_validate() {
+        crate::gpu::twin::assert_twin::<super::PresentParams>();
+        crate::gpu::shader::validate(&super::stage());
     }
 }
 

@@ -1,5 +1,6 @@
 #define_import_path strata::frame::present
 #import strata::color::{Resolved, srgb_to_linear}
+#import strata::frame::present_params::{PresentParams}
 
 // The present pass: one full-screen triangle that puts each pixel's resolved color over the
 // application's color target, in linear space (an sRGB target encodes after blending): the
@@ -7,14 +8,6 @@
 // material) one draw does it with premultiplied "over" (alpha = 1 − transmittance); else a
 // first draw multiplies the target by the RGB transmittance and a second adds the color. The
 // complexity effect draws an opaque heatmap instead.
-// Keep `PresentParams` in sync with `PresentParams` in present.rs.
-
-struct PresentParams {
-    size: vec2<u32>,
-    complexity: u32,
-    // Fragment count drawn at the top of the heatmap's scale.
-    complexity_full: u32,
-}
 
 @group(0) @binding(0) var<uniform> params: PresentParams;
 @group(0) @binding(1) var<storage, read> resolved: array<Resolved>;

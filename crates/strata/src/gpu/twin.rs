@@ -1,12 +1,12 @@
 //! GPU structs declared once. A struct that Rust writes into a buffer and WGSL reads is declared
-//! in Rust with [`gpu_struct!`], which also makes its WGSL declaration (at compile time, doc
+//! in Rust with `gpu_struct!`, which also makes its WGSL declaration (at compile time, doc
 //! comments included); the shaders import that declaration from a module made by
-//! [`wgsl_module!`] instead of repeating the fields, so the two sides cannot drift apart. Fields
+//! `wgsl_module!` instead of repeating the fields, so the two sides cannot drift apart. Fields
 //! are scalars, vectors (`[f32; N]` → `vecN<f32>`) and matrices, in WGSL's order with WGSL's
-//! alignment spelled out as explicit padding fields; [`assert_twin`] (run for every such struct)
+//! alignment spelled out as explicit padding fields; `assert_twin` (run for every such struct)
 //! checks that naga lays the WGSL out at Rust's offsets and size and accepts it as a uniform.
 
-/// A Rust field type of a [`gpu_struct!`] and the WGSL type it is declared as.
+/// A Rust field type of a `gpu_struct!` and the WGSL type it is declared as.
 pub trait WgslType: bytemuck::Pod {
     /// The WGSL type.
     const WGSL: &'static str;
@@ -33,7 +33,7 @@ wgsl_types! {
     [[f32; 4]; 4] => "mat4x4<f32>",
 }
 
-/// A struct declared by [`gpu_struct!`].
+/// A struct declared by `gpu_struct!`.
 pub trait GpuStruct: bytemuck::Pod {
     /// Its WGSL declaration.
     const WGSL: &'static str;

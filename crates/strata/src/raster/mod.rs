@@ -58,7 +58,9 @@
 
 pub mod wide;
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
+
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
@@ -80,7 +82,8 @@ pub const LIBRARY: Library = &[
     ARGS_WGSL,
     RASTER_WGSL,
 ];
-const PARAMS_WGSL: &str = include_str!("params.wgsl");
+/// `strata::raster::params`: [`RasterParams`] for the stages that bind them.
+const PARAMS_WGSL: &str = wgsl_module!("strata::raster::params", RasterParams);
 const SETUP_WGSL: &str = include_str!("setup.wgsl");
 const ITEMS_WGSL: &str = include_str!("items.wgsl");
 const BIN_WGSL: &str = include_str!("bin.wgsl");
@@ -98,18 +101,20 @@ const COUNTER_TRIANGLES: usize = 2;
 /// Bytes of counters, dispatch arguments and parameters.
 pub const CONSTANT_BYTES: u64 = 16 + 16 + 16;
 
-/// Keep in sync with `RasterParams` in params.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct RasterParams {
-    /// Triangles of the scene.
-    pub triangles: u32,
-    /// Work items the item buffer holds.
-    pub capacity: u32,
-    /// Clipping guard band: |x|, |y| ≤ guard·w keeps window coordinates inside the edge functions' range.
-    pub guard: f32,
-    /// Padding to 16 bytes.
-    pub _pad: u32,
+gpu_struct! {
+    /// The compute rasterizer's parameters (`strata::raster::params`), one struct for every
+    /// stage that binds them.
+    #[derive(PartialEq)]
+    pub struct RasterParams {
+        /// Triangles of the scene.
+        pub triangles: u32,
+        /// Work items the item buffer holds.
+        pub capacity: u32,
+        /// Clipping guard band: |x|, |y| ≤ guard·w keeps window coordinates inside the edge
+        /// functions' range.
+        pub guard: f32,
+        pad_a: u32,
+    }
 }
 
 /// The guard band in clip-space units of w: window coordinates stay within ±2²¹ pixels, so
@@ -356,7 +361,7 @@ impl ComputeRaster {
             triangles,
             capacity: capacity as u32,
             guard: guard_band(options.frame.width, options.frame.height),
-            _pad: 0,
+            ..Zeroable::zeroed()
         };
         let cache = &mut self.cache;
         let params_buffer = cache.uniform(gpu, "strata.raster.params", bytemuck::bytes_of(&params));

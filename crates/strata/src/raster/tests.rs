@@ -22,7 +22,7 @@ proptest! {
 
 #[test]
 fn params_layout() {
-    assert_eq!(std::mem::size_of::<RasterParams>(), 16);
+    crate::gpu::twin::assert_twin::<RasterParams>();
 }
 
 /// The guard band keeps window coordinates within ±2²¹ pixels at every size.

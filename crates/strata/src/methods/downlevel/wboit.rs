@@ -104,12 +104,7 @@ impl DownlevelFrame {
         let accumulation = view("strata.wboit_downlevel.accumulation", ACCUMULATION_FORMAT);
         let revealage = view("strata.wboit_downlevel.revealage", REVEALAGE_FORMAT);
         let count = view("strata.wboit_downlevel.count", COUNT_FORMAT);
-        let weighted = &self.options.frame.weighted;
-        let params = WboitParams {
-            weight: weighted.weight.index(),
-            depth_scale: weighted.depth_scale as f32,
-            _pad: [0; 2],
-        };
+        let params = WboitParams::new(&self.options.frame.weighted);
         let params = self.cache.uniform(
             gpu,
             "strata.wboit_downlevel.params",

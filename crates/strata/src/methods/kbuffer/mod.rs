@@ -124,7 +124,7 @@ pub mod temporal;
 
 pub mod cpu;
 
-use bytemuck::{Pod, Zeroable};
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
@@ -137,39 +137,47 @@ use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 pub use stages::{definitions, stage, Layout, LIBRARY, RESOLVE_WGSL, SLOTS_ENTRIES_WGSL};
 
-/// Keep in sync with `KParams` in storage.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct KParams {
-    /// Fragments a pixel keeps.
-    pub k: u32,
-    /// Slots per pixel in storage (k, or a fixed A-buffer's measured need).
-    pub stride: u32,
-    /// Lock or link tries before a fragment counts as a lock failure.
-    pub max_tries: u32,
-    /// 1 with `--culling on`: fragments behind a full pixel's farthest kept one are dropped before the lock.
-    pub culling: u32,
-    /// [`crate::Tail::index`]: fragments past k are dropped (0), blended (1) or weighted (2) into
-    /// the tail term.
-    pub tail_blend: u32,
-    /// A method's own parameter: fixed A-buffers 1 when their stored count is min(seen, stride);
-    /// kplus-semiheap its heap size h.
-    pub aux: u32,
-    /// Frame width in pixels.
-    pub width: u32,
-    /// Pixels of the frame.
-    pub pixels: u32,
-    /// `--msaa` with per-sample storage: S, each pixel's storage being S sample pixels with
-    /// their own words, slots and tail (see [`sample_storage`]); else 1.
-    pub sample_slots: u32,
-    /// `--tail weighted`: the weight function ([`crate::Weight::index`]) in the low byte, and
-    /// [`TAIL_ORTHOGRAPHIC`] for an orthographic view.
-    pub tail_weight: u32,
-    /// `--tail weighted`: p of [`tail_depth`].
-    pub tail_depth_p: f32,
-    /// `--tail weighted`: q of [`tail_depth`].
-    pub tail_depth_q: f32,
+gpu_struct! {
+    /// The k-buffer family's uniforms (`strata::kbuffer::params`), bound as `kp` by storage.wgsl.
+    pub struct KParams {
+        /// Fragments a pixel keeps.
+        pub k: u32,
+        /// Slots per pixel in storage (k, or a fixed A-buffer's measured need).
+        pub stride: u32,
+        /// Lock or link tries before a fragment counts as a lock failure.
+        pub max_tries: u32,
+        /// 1 with `--culling on`: fragments behind a full pixel's farthest kept one are dropped
+        /// before the lock.
+        pub culling: u32,
+        /// [`crate::Tail::index`]: fragments past k are dropped (0), blended (1) or weighted (2)
+        /// into the tail term.
+        pub tail_blend: u32,
+        /// A method's own parameter: fixed A-buffers 1 when their stored count is min(seen,
+        /// stride) (they keep no FILLED count); kplus-semiheap its heap size h.
+        pub aux: u32,
+        /// Frame width in pixels.
+        pub width: u32,
+        /// Pixels of the frame.
+        pub pixels: u32,
+        /// `--msaa` with per-sample storage (the capture-time k-buffers): S, each pixel's storage
+        /// being S sample pixels `p * S + s` with their own words, slots and tail (see
+        /// [`sample_storage`]); else 1.
+        pub sample_slots: u32,
+        /// `--tail weighted`: the weight function ([`crate::Weight::index`]) in the low byte, and
+        /// [`TAIL_ORTHOGRAPHIC`] for an orthographic view.
+        pub tail_weight: u32,
+        /// `--tail weighted`: p of [`tail_depth`]. p and q take a window depth to the scaled view
+        /// distance the weight reads (`tail_distance` in storage.wgsl), so a capture needs no
+        /// scene bindings (the contention harness and an application's capture have none).
+        pub tail_depth_p: f32,
+        /// `--tail weighted`: q of [`tail_depth`].
+        pub tail_depth_q: f32,
+    }
 }
+
+/// `strata::kbuffer::params`: [`KParams`] for storage.wgsl (every stage of the family and an
+/// application's capture).
+pub(crate) const PARAMS_WGSL: &str = wgsl_module!("strata::kbuffer::params", KParams);
 
 /// `KParams::tail_weight`'s flag for an orthographic view.
 pub const TAIL_ORTHOGRAPHIC: u32 = 0x100;

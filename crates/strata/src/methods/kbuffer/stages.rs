@@ -7,7 +7,9 @@ use crate::gpu::Gpu;
 /// The family's WGSL modules (`strata::kbuffer::…`): storage and its accessors, each method's
 /// capture steps and entry points, the shared resolve.
 pub const LIBRARY: Library = &[
+    super::PARAMS_WGSL,
     include_str!("storage.wgsl"),
+    super::temporal::PARAMS_WGSL,
     include_str!("temporal.wgsl"),
     include_str!("slots.wgsl"),
     include_str!("slot_access.wgsl"),

@@ -1,12 +1,12 @@
 #define_import_path strata::kbuffer::storage
 #import strata::color::{Resolved}
 #import strata::fragment::{Fragment, stored_color}
+#import strata::kbuffer::params::{KParams}
 #import strata::kbuffer::temporal::{culling_interface, note_outside}
 #import strata::weight::{oit_weight}
 
 // k-buffer family storage, shared by its capture and resolve stages.
-// Keep `KParams` in sync with `KParams` in kbuffer/mod.rs and the COUNTER_ indices with
-// `Counters` there.
+// Keep the COUNTER_ indices in sync with `Counters` in kbuffer/mod.rs.
 //
 // Binding 1 is the method's fragment storage (`fragment_words` or `fragment_keys`, below).
 // pixels: 4 words per pixel — seen (every fragment that reached the pixel), filled (slots in
@@ -14,29 +14,6 @@
 // pixel, as depth bits + 1; 0 while the pixel is not full). tail: 5 sums of 2 words (64-bit
 // fixed point) per pixel for --tail blend. Every per-pixel word is cleared before
 // each frame; slots and nodes are read only where this frame's writers published them.
-
-struct KParams {
-    k: u32,
-    stride: u32,
-    max_tries: u32,
-    culling: u32,
-    tail_blend: u32,
-    // A method's own parameter: fixed A-buffers 1 when their stored count is min(seen, stride)
-    // (they keep no FILLED count); kplus-semiheap its heap size h.
-    aux: u32,
-    width: u32,
-    pixels: u32,
-    // --msaa with per-sample storage (the capture-time k-buffers): S, each pixel's storage
-    // being S sample pixels `p * S + s` with their own words, slots and tail; else 1.
-    sample_slots: u32,
-    // --tail weighted: the weight function (Weight::index) in the low byte, TAIL_ORTHOGRAPHIC,
-    // and the two constants that take a window depth to the scaled view distance the weight
-    // reads (`tail_distance`), so a capture needs no scene bindings (the contention harness and
-    // an application's capture have none).
-    tail_weight: u32,
-    tail_depth_p: f32,
-    tail_depth_q: f32,
-}
 
 @group(#{KBUFFER_GROUP}) @binding(0) var<uniform> kp: KParams;
 // The fragment storage: 64-bit keys where the layout cascades them (KEYS64: keys.wgsl,

@@ -27,8 +27,10 @@
 //! `kplus-sbuffer`: chosen in the resolve or by a pool), the MDT cascades (two passes that
 //! would have to cull identically), `kpeel`, and an application's capture pass.
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
 use glam::Mat4;
+
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 pub use crate::frame::values::{TemporalCulling, DEFAULT_EPSILON, DEFAULT_REFRESH};
@@ -36,29 +38,35 @@ use crate::frame::FrameContext;
 use crate::gpu::Gpu;
 use crate::methods::MethodId;
 
-/// Keep in sync with `Temporal` in temporal.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct TemporalParams {
-    /// Last frame's view-projection, to reproject this frame's fragments.
-    pub previous_view_proj: [[f32; 4]; 4],
-    /// How far (window depth) behind the interface a fragment must lie to be culled.
-    pub epsilon: f32,
-    /// Frames between refreshes of one tile.
-    pub refresh_period: u32,
-    /// The frame's number, which picks the tiles that refresh.
-    pub frame: u32,
-    /// 1 when last frame's interface is valid for this frame.
-    pub cull: u32,
-    /// 1 when this frame records its interface.
-    pub record: u32,
-    /// Frame width in pixels.
-    pub width: u32,
-    /// Frame height in pixels.
-    pub height: u32,
-    /// 1 when the scene's objects move on the GPU.
-    pub moving: u32,
+gpu_struct! {
+    /// Temporal culling's parameters (`strata::kbuffer::temporal_params`), bound as `temporal`
+    /// by temporal.wgsl.
+    pub struct TemporalParams {
+        /// Last frame's view-projection, to reproject this frame's fragments.
+        pub previous_view_proj: [[f32; 4]; 4],
+        /// How far (window depth) behind the interface a fragment must lie to be culled.
+        pub epsilon: f32,
+        /// Frames between refreshes of one tile.
+        pub refresh_period: u32,
+        /// The frame's number, which picks the tiles that refresh.
+        pub frame: u32,
+        /// 1 when last frame's interface is valid for this frame.
+        pub cull: u32,
+        /// 1 when this frame records its interface.
+        pub record: u32,
+        /// Frame width in pixels.
+        pub width: u32,
+        /// Frame height in pixels.
+        pub height: u32,
+        /// 1 when the scene's objects move on the GPU ([`crate::animation`]): bindings 9 and 10
+        /// hold their motion.
+        pub moving: u32,
+    }
 }
+
+/// `strata::kbuffer::temporal_params`: [`TemporalParams`] for temporal.wgsl.
+pub(crate) const PARAMS_WGSL: &str =
+    wgsl_module!("strata::kbuffer::temporal_params", TemporalParams);
 
 /// Whether `method`'s capture takes temporal culling.
 pub fn takes(method: MethodId) -> bool {
@@ -424,7 +432,7 @@ mod tests {
 
     #[test]
     fn temporal_params_layout_matches_wgsl() {
-        crate::testing::assert_layout!(TemporalParams, 96, epsilon: 64, width: 84);
+        crate::gpu::twin::assert_twin::<TemporalParams>();
     }
 
     #[test]

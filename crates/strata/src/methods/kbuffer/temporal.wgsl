@@ -1,7 +1,7 @@
 #define_import_path strata::kbuffer::temporal
+#import strata::kbuffer::temporal_params::{TemporalParams}
 
 // Reverse-reprojection temporal culling (seed 000), shared by every k-buffer stage.
-// Keep `Temporal` in sync with `TemporalParams` in kbuffer/temporal.rs.
 //
 // Each frame records, per pixel, the depth of the nearest fragment its cache did not keep —
 // evicted, rejected, culled or blended into the tail: the (k+1)-th nearest — in `interface`
@@ -13,23 +13,7 @@
 // 16×16 pixels skip culling one frame in `refresh_period`, in a rotating pattern, so that
 // what was wrongly culled comes back.
 
-struct Temporal {
-    previous_view_proj: mat4x4<f32>,
-    epsilon: f32,
-    refresh_period: u32,
-    frame: u32,
-    // 1 when last frame's interface is valid for this frame.
-    cull: u32,
-    // 1 when this frame records its interface.
-    record: u32,
-    width: u32,
-    height: u32,
-    // 1 when the scene's objects move on the GPU (crate::animation): bindings 9 and 10 hold
-    // their motion.
-    moving: u32,
-}
-
-@group(#{KBUFFER_GROUP}) @binding(6) var<storage, read> temporal: Temporal;
+@group(#{KBUFFER_GROUP}) @binding(6) var<storage, read> temporal: TemporalParams;
 @group(#{KBUFFER_GROUP}) @binding(7) var<storage, read> previous_culling_interface: array<u32>;
 // One word per pixel, then the frame's count of culled fragments (64-bit, low word first).
 @group(#{KBUFFER_GROUP}) @binding(8) var<storage, read_write> culling_interface: array<atomic<u32>>;

@@ -17,7 +17,6 @@ mod mlab;
 use crate::frame::{Effect, RenderOptions, Tail};
 use crate::methods::tests::covering_layers;
 use crate::scene::{loaders, Scene};
-use crate::testing::assert_layout;
 use crate::testing::{
     assert_exact, differing_pixels, render_gpu, render_reference, renderer, Failures,
     EXACT_MAX_FRACTION,
@@ -587,7 +586,7 @@ fn long_lists_with_the_tail_dropped_composite_only_k() {
 
 #[test]
 fn kparams_layout_matches_wgsl() {
-    assert_layout!(super::KParams, 48, aux: 20, width: 24, pixels: 28, sample_slots: 32);
+    crate::gpu::twin::assert_twin::<super::KParams>();
 }
 
 /// Locking methods refuse a k whose critical section could run past a GPU timeout.

@@ -61,7 +61,9 @@
 //! variants are not built. Translucency gets Fresnel opacity but no
 //! absorption between surfaces.
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
+
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{blend_add, capture_pipeline, color_geometry_pass, color_target};
@@ -87,17 +89,22 @@ pub const MOMENT_BIAS: f32 = 5e-7;
 /// The paper's overestimation.
 pub const OVERESTIMATION: f32 = 0.25;
 
-/// Keep in sync with `MboitParams` in mboit_math.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct MboitParams {
-    /// The moment bias β.
-    pub bias: f32,
-    /// The overestimation η.
-    pub overestimation: f32,
-    /// Padding to 16 bytes.
-    pub _pad: [u32; 2],
+gpu_struct! {
+    /// mboit's uniforms (`strata::weighted::mboit_params`), bound as `mp` by mboit_math.wgsl.
+    /// The moment count is not among them: it is each stage's own constant (MBOIT_MOMENTS in
+    /// the shade stage).
+    pub struct MboitParams {
+        /// The moment bias β of the paper.
+        pub bias: f32,
+        /// The overestimation η of the paper.
+        pub overestimation: f32,
+        pad_a: u32,
+        pad_b: u32,
+    }
 }
+
+/// `strata::weighted::mboit_params`: [`MboitParams`] for mboit_math.wgsl.
+pub(crate) const PARAMS_WGSL: &str = wgsl_module!("strata::weighted::mboit_params", MboitParams);
 
 /// The moment bias for 4, 6 and 8 power moments in 32-bit floats: the paper's for four; for six
 /// and eight measured here (the paper's tables for them were not at hand) as the smallest that
@@ -416,7 +423,7 @@ impl Method for Mboit {
         let params = MboitParams {
             bias: moment_bias(moments),
             overestimation: OVERESTIMATION,
-            _pad: [0; 2],
+            ..Zeroable::zeroed()
         };
         let params = self
             .cache

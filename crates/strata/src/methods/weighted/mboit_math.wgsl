@@ -1,20 +1,12 @@
 #define_import_path strata::weighted::mboit_math
 #import strata::scene::{frame}
 #import strata::composite::{view_distance}
+#import strata::weighted::mboit_params::{MboitParams}
 
 // Moment-based OIT (Münstermann et al. 2018): the moments a fragment adds and the transmittance
-// reconstructed from four, six or eight power moments. Keep `MboitParams` in sync with
-// `MboitParams` in weighted/mboit.rs, and the reconstructions with `cpu::absorbance_fraction`
-// (four, closed form) and `cpu::absorbance_fraction_n` (six and eight).
-
-struct MboitParams {
-    // The moment bias β and the overestimation η of the paper (the moment count is each stage's
-    // own constant, MBOIT_MOMENTS in the shade stage).
-    bias: f32,
-    overestimation: f32,
-    pad_a: u32,
-    pad_b: u32,
-}
+// reconstructed from four, six or eight power moments. Keep the reconstructions in sync with
+// `cpu::absorbance_fraction` (four, closed form) and `cpu::absorbance_fraction_n` (six and
+// eight).
 
 @group(1) @binding(0) var<uniform> mp: MboitParams;
 

@@ -25,7 +25,9 @@ pub mod descriptor;
 pub mod mboit;
 pub mod stochastic;
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
+
+use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::Result;
 use crate::frame::passes::{
@@ -41,8 +43,10 @@ pub(crate) const COMPOSITE_WGSL: &str = include_str!("composite.wgsl");
 
 /// The weighted family's WGSL modules (`strata::weighted::…`).
 pub const LIBRARY: Library = &[
+    WBOIT_PARAMS_WGSL,
     include_str!("wboit_accumulate.wgsl"),
     COMPOSITE_WGSL,
+    mboit::PARAMS_WGSL,
     include_str!("mboit_math.wgsl"),
     include_str!("mboit_moments.wgsl"),
     include_str!("mboit_shade.wgsl"),
@@ -59,17 +63,33 @@ pub const WBOIT_SAMPLE_BYTES: u64 = 8 + 2;
 /// Bytes per pixel of the fragment count.
 pub const WBOIT_COUNT_BYTES: u64 = 4;
 
-/// Keep in sync with `WboitParams` in wboit_accumulate.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct WboitParams {
-    /// [`crate::Weight::index`]: which of the paper's weight functions.
-    pub weight: u32,
-    /// Scales view depth in the weight functions (`--depth-scale`).
-    pub depth_scale: f32,
-    /// Padding to 16 bytes.
-    pub _pad: [u32; 2],
+gpu_struct! {
+    /// wboit's accumulate uniforms (`strata::weighted::wboit_params`), bound as `wp` by
+    /// wboit_accumulate.wgsl.
+    pub struct WboitParams {
+        /// [`crate::Weight::index`]: which of the paper's weight functions.
+        pub weight: u32,
+        /// Scales view depth in the weight functions (`--depth-scale`).
+        pub depth_scale: f32,
+        pad_a: u32,
+        pad_b: u32,
+    }
 }
+
+impl WboitParams {
+    /// The accumulate pass's uniforms for `weighted`.
+    pub(crate) fn new(weighted: &crate::frame::WeightedOptions) -> WboitParams {
+        WboitParams {
+            weight: weighted.weight.index(),
+            depth_scale: weighted.depth_scale as f32,
+            ..Zeroable::zeroed()
+        }
+    }
+}
+
+/// `strata::weighted::wboit_params`: [`WboitParams`] for wboit_accumulate.wgsl.
+pub(crate) const WBOIT_PARAMS_WGSL: &str =
+    wgsl_module!("strata::weighted::wboit_params", WboitParams);
 
 /// `wboit`: one geometry pass accumulating weighted colors and revealage, then a composite.
 pub struct Wboit {
@@ -227,11 +247,7 @@ impl Method for Wboit {
         let accumulation = view("strata.wboit.accumulation", ACCUMULATION_FORMAT);
         let revealage = view("strata.wboit.revealage", REVEALAGE_FORMAT);
         let counts = pixel_counts(ctx, &mut self.cache, "strata.wboit.counts")?;
-        let params = WboitParams {
-            weight: ctx.options.frame.weighted.weight.index(),
-            depth_scale: ctx.options.frame.weighted.depth_scale as f32,
-            _pad: [0; 2],
-        };
+        let params = WboitParams::new(&ctx.options.frame.weighted);
         let params = self
             .cache
             .uniform(gpu, "strata.wboit.params", bytemuck::bytes_of(&params));

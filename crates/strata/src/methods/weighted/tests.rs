@@ -127,7 +127,7 @@ fn wboit_weights_differ_and_the_depth_scale_matters() {
 
 #[test]
 fn wboit_params_layout_matches_wgsl() {
-    assert_layout!(super::WboitParams, 16, depth_scale: 4);
+    crate::gpu::twin::assert_twin::<super::WboitParams>();
 }
 
 /// The settings `mboit` runs with at `moments`.
@@ -404,7 +404,7 @@ proptest::proptest! {
 
 #[test]
 fn mboit_params_layout_matches_wgsl() {
-    assert_layout!(super::mboit::MboitParams, 16, overestimation: 4);
+    crate::gpu::twin::assert_twin::<super::mboit::MboitParams>();
 }
 
 /// stochastic's closed form: each pixel's reference fragments (with their sample coverage)

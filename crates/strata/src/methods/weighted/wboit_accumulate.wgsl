@@ -2,18 +2,11 @@
 #import strata::scene::{SceneVarying, behind_opaque, pixel_index, pixel_of, shade}
 #import strata::composite::{view_distance}
 #import strata::weight::{oit_weight}
+#import strata::weighted::wboit_params::{WboitParams}
 
 // wboit accumulate pass (McGuire & Bavoil 2013): every fragment adds its weighted premultiplied
 // color and weighted alpha to the accumulation target (blend ONE, ONE) and multiplies the
-// revealage target by 1 − α (blend ZERO, ONE_MINUS_SRC). Keep `WboitParams` in sync with
-// `WboitParams` in weighted/mod.rs.
-
-struct WboitParams {
-    weight: u32,
-    depth_scale: f32,
-    pad_a: u32,
-    pad_b: u32,
-}
+// revealage target by 1 − α (blend ZERO, ONE_MINUS_SRC).
 
 @group(1) @binding(0) var<uniform> wp: WboitParams;
 #ifdef UNIFORM_SCENE
