@@ -54,7 +54,7 @@ fn stages_validate() {
 
 #[test]
 fn params_layout_matches_wgsl() {
-    assert_eq!(std::mem::size_of::<TiledParams>(), 32);
+    crate::gpu::twin::assert_twin::<TiledParams>();
     assert!(TILE_WGSL.contains(&format!("const KEEP: u32 = {KEEP}u;")));
     assert!(LISTS_WGSL.contains(&format!("const STATE_WORDS: u32 = {}u;", STATE_BYTES / 4)));
     assert!(LISTS_WGSL.contains(&format!("const CODE_WORDS: u32 = {}u;", CODE_BYTES / 4)));

@@ -8,7 +8,6 @@ use crate::frame::WeightedOptions;
 use crate::frame::{Effect, Moments, RenderOptions, Weight};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
-use crate::testing::assert_layout;
 use crate::testing::{assert_close, assert_exact, per_pixel, render_gpu, scene_name};
 
 // The scenes the closed forms are checked on (translucent, with `at_alpha`).
@@ -500,7 +499,7 @@ fn stochastic_refuses_a_single_sampled_frame() {
 
 #[test]
 fn stochastic_params_layout_matches_wgsl() {
-    assert_layout!(super::stochastic::StochasticParams, 16);
+    crate::gpu::twin::assert_twin::<super::stochastic::StochasticParams>();
 }
 
 /// The stipples' counts average α·S and their samples are distinct.
