@@ -212,15 +212,11 @@ fn assert_deferred_matches_forward(name: &str, scene: &Scene, size: u32) -> Fram
 }
 
 #[test]
-fn every_stage_validates() {
+fn every_stage_and_the_uniforms_validate() {
+    crate::gpu::twin::assert_twin::<DeferredParams>();
     for index in 0..STAGES.len() {
         crate::gpu::shader::validate(&stage(index));
     }
-}
-
-#[test]
-fn deferred_params_layout_matches_wgsl() {
-    crate::gpu::twin::assert_twin::<DeferredParams>();
 }
 
 #[test]

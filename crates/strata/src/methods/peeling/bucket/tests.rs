@@ -118,7 +118,8 @@ fn scene(spec: &str) -> Scene {
 }
 
 #[test]
-fn stages_validate() {
+fn stages_and_the_uniforms_validate() {
+    crate::gpu::twin::assert_twin::<BucketParams>();
     for samples in [1, 4] {
         for stage in stages(samples) {
             crate::gpu::shader::validate(&stage);
@@ -127,11 +128,6 @@ fn stages_validate() {
     for layers in 1..=8 {
         crate::gpu::shader::validate(&sort_stage(layers));
     }
-}
-
-#[test]
-fn params_layout_matches_wgsl() {
-    crate::gpu::twin::assert_twin::<BucketParams>();
 }
 
 /// Fragments clustered in depth collide, fewer with the adaptive split: the GPU keeps what the
