@@ -103,6 +103,21 @@ macro_rules! wgsl_module {
 }
 pub(crate) use wgsl_module;
 
+/// A WGSL module named `path` of `u32` constants made from Rust constant expressions
+/// (`NAME = expr`, each converted with `as u32`), so that a number both sides use is written
+/// once, in Rust.
+macro_rules! wgsl_constants {
+    ($path:literal, $($name:ident = $value:expr),+ $(,)?) => {
+        const_format::concatcp!(
+            "#define_import_path ",
+            $path,
+            "\n\n",
+            $("const ", stringify!($name), ": u32 = ", ($value) as u32, "u;\n",)+
+        )
+    };
+}
+pub(crate) use wgsl_constants;
+
 /// Checks `T`'s WGSL declaration: naga parses it, accepts it as a uniform, and lays it out at
 /// Rust's size and field offsets.
 #[cfg(test)]
@@ -163,6 +178,11 @@ mod tests {
         assert_twin::<Probe>();
         let module = wgsl_module!("strata::probe", Probe);
         assert!(module.starts_with("#define_import_path strata::probe\n\nstruct Probe {"));
+        const WORDS: u64 = 12;
+        assert_eq!(
+            wgsl_constants!("strata::probe_constants", WORDS = WORDS / 4, FLAG = 1usize << 3),
+            "#define_import_path strata::probe_constants\n\nconst WORDS: u32 = 3u;\nconst FLAG: u32 = 8u;\n"
+        );
     }
 
     gpu_struct! {

@@ -1,7 +1,8 @@
 #define_import_path strata::kbuffer::kplus_sbuffer_entries
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::storage::{COUNTER_OVERFLOWED, FILLED, SEEN, count_pixel_fragment, count_seen, counter_add, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples}
+#import strata::kbuffer::counters::{COUNTER_OVERFLOWED}
+#import strata::kbuffer::storage::{FILLED, SEEN, count_pixel_fragment, count_seen, counter_add, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples}
 #import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, insert_locked}
 #import strata::kbuffer::kplus_sbuffer::{region_fits, region_size}
 #import strata::kbuffer::slot_access::{store_slot}

@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::list
-#import strata::kbuffer::storage::{COUNTER_ALLOCATED, COUNTER_LOST, COUNTER_OVERFLOWED, count_seen, counter_add, counters, fragment_words, kp, pixel_word, pixels, tail_add}
+#import strata::kbuffer::counters::{COUNTER_ALLOCATED, COUNTER_LOST, COUNTER_OVERFLOWED}
+#import strata::kbuffer::storage::{count_seen, counter_add, counters, fragment_words, kp, pixel_word, pixels, tail_add}
 #import strata::fragment::{Fragment, fragment_before}
 
 // Per-pixel linked lists for the k-buffer family: nodes of 5 atomic words (depth bits, tag, rg,

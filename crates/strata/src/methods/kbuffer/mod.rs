@@ -124,7 +124,7 @@ pub mod temporal;
 
 pub mod cpu;
 
-use crate::gpu::twin::{gpu_struct, wgsl_module};
+use crate::gpu::twin::{gpu_struct, wgsl_constants, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
@@ -195,7 +195,7 @@ pub fn tail_depth(camera: &crate::scene::Camera, scale: f64) -> (f32, f32) {
     (p as f32, q as f32)
 }
 
-/// Counter words, as storage.wgsl's COUNTER_ constants (64-bit counters take two words).
+/// Counter words (64-bit counters take two words).
 pub const COUNTERS: u64 = 8;
 /// 64-bit count of fragments that gave up on a lock.
 pub const COUNTER_LOCK_FAILURES: usize = 0;
@@ -205,6 +205,15 @@ pub const COUNTER_ALLOCATED: usize = 2;
 pub const COUNTER_LOST: usize = 4;
 /// Nonzero when the pool overflowed.
 pub const COUNTER_OVERFLOWED: usize = 6;
+
+/// `strata::kbuffer::counters`: the counter words for the shaders.
+pub(crate) const COUNTERS_WGSL: &str = wgsl_constants!(
+    "strata::kbuffer::counters",
+    COUNTER_LOCK_FAILURES = COUNTER_LOCK_FAILURES,
+    COUNTER_ALLOCATED = COUNTER_ALLOCATED,
+    COUNTER_LOST = COUNTER_LOST,
+    COUNTER_OVERFLOWED = COUNTER_OVERFLOWED,
+);
 
 /// Bytes of per-frame constants: parameters (48), counters and their initial values (2 × 32),
 /// the tail stub (40) when the tail is dropped.

@@ -1,7 +1,8 @@
 #define_import_path strata::kbuffer::sbuffer
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::storage::{COUNTER_OVERFLOWED, FILLED, SEEN, count_seen, counter_add, kpixel, pixel_word, pixels}
+#import strata::kbuffer::counters::{COUNTER_OVERFLOWED}
+#import strata::kbuffer::storage::{FILLED, SEEN, count_seen, counter_add, kpixel, pixel_word, pixels}
 
 // The S-buffer (seed 003 §4): every pixel's fragments in one contiguous region of a shared pool.
 // A count pass counts each pixel's fragments (SEEN); an exclusive prefix sum over the pixels

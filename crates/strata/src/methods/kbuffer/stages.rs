@@ -8,6 +8,7 @@ use crate::gpu::Gpu;
 /// capture steps and entry points, the shared resolve.
 pub const LIBRARY: Library = &[
     super::PARAMS_WGSL,
+    super::COUNTERS_WGSL,
     include_str!("storage.wgsl"),
     super::temporal::PARAMS_WGSL,
     include_str!("temporal.wgsl"),

@@ -1,6 +1,7 @@
 #define_import_path strata::kbuffer::storage
 #import strata::color::{Resolved}
 #import strata::fragment::{Fragment, stored_color}
+#import strata::kbuffer::counters::{COUNTER_LOCK_FAILURES}
 #import strata::kbuffer::params::{KParams}
 #import strata::kbuffer::temporal::{culling_interface, note_outside}
 #import strata::weight::{oit_weight}
@@ -43,12 +44,6 @@ const SEEN: u32 = 0u;
 const FILLED: u32 = 1u;
 const LOCK: u32 = 2u;
 const BOUND: u32 = 3u;
-
-// 64-bit counters are two words, low first.
-const COUNTER_LOCK_FAILURES: u32 = 0u;
-const COUNTER_ALLOCATED: u32 = 2u;
-const COUNTER_LOST: u32 = 4u;
-const COUNTER_OVERFLOWED: u32 = 6u;
 
 // Fixed-point scale of the tail sums (64-bit: a pixel would need about 2^42 tail fragments to
 // wrap them).

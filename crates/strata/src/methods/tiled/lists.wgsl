@@ -1,4 +1,5 @@
 #define_import_path strata::tiled::lists
+#import strata::tiled::constants::{STATE_WORDS}
 #import strata::tiled::params::{TiledParams}
 #import strata::color::{Resolved}
 #import strata::composite::{Composite, composite_new, view_distance}
@@ -17,7 +18,7 @@
 // Per item, grouped by tile: primitive << 3 | fan triangle, then the 64-bit mask of the tile's
 // pixel centers it covers (bit y·8 + x, low word first).
 @group(1) @binding(3) var<storage, read_write> tile_codes: array<u32>;
-// Keep the COUNTER_ indices in sync with mod.rs.
+// Counter words at the COUNTER_ indices (strata::tiled::constants).
 @group(1) @binding(4) var<storage, read_write> tiled_counters: array<atomic<u32>>;
 // Each pixel's result.
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
@@ -27,25 +28,9 @@
 // Rounds each tile ran.
 @group(1) @binding(7) var<storage, read_write> tile_rounds: array<u32>;
 
-// Tiles by the rounds they ran: bin r for r rounds, the last bin for ROUND_BINS − 1 or more.
-const COUNTER_ROUNDS: u32 = 0u;
-const ROUND_BINS: u32 = 16u;
-// The most fragments one pixel had.
-const COUNTER_DEEPEST: u32 = 16u;
-// Pixels with fragments left behind their last round.
-const COUNTER_UNFINISHED: u32 = 17u;
-// The longest tile list.
-const COUNTER_LONGEST_LIST: u32 = 18u;
-// Pixel rounds whose walk of the list ended early (a loop cut short by the adapter).
-const COUNTER_CUT_SHORT: u32 = 19u;
-// The rounds the frame recorded.
-const COUNTER_ROUNDS_RECORDED: u32 = 20u;
-const COUNTER_WORDS: u32 = 21u;
-
-// A pixel's state: the front-to-back composite so far (color, RGB transmittance, count, the
-// last fragment's depth and tag: the bound of the next round; its view distance is recomputed
-// from the depth) and its progress. Keep STATE_WORDS in sync with STATE_BYTES in mod.rs.
-const STATE_WORDS: u32 = 10u;
+// A pixel's state, STATE_WORDS words: the front-to-back composite so far (color, RGB
+// transmittance, count, the last fragment's depth and tag: the bound of the next round; its
+// view distance is recomputed from the depth) and its progress.
 // Progress: no round yet, done, or 2 + the fragments left behind the last one composited.
 const PROGRESS_FRESH: u32 = 0u;
 const PROGRESS_DONE: u32 = 1u;
@@ -97,8 +82,6 @@ fn store_state(p: u32, state: PixelState) {
 fn fragments_left(progress: u32) -> u32 {
     return select(0u, progress - PROGRESS_LEFT, progress >= PROGRESS_LEFT);
 }
-
-const CODE_WORDS: u32 = 3u;
 
 fn tile_of(tile: vec2<i32>) -> u32 {
     return u32(tile.y) * tp.tiles_x + u32(tile.x);

@@ -36,7 +36,7 @@ pub mod descriptor;
 
 use bytemuck::Zeroable;
 
-use crate::gpu::twin::{gpu_struct, wgsl_module};
+use crate::gpu::twin::{gpu_struct, wgsl_constants, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{compute_pipeline, dispatch};
@@ -48,27 +48,55 @@ use crate::methods::Method;
 use crate::raster::{ComputeRaster, TILE};
 
 /// tiled's WGSL modules (`strata::tiled::…`): its bindings, the list sort and the tile pass.
-pub const LIBRARY: Library = &[PARAMS_WGSL, LISTS_WGSL, SORT_WGSL, TILE_WGSL];
+pub const LIBRARY: Library = &[
+    PARAMS_WGSL,
+    CONSTANTS_WGSL,
+    LISTS_WGSL,
+    SORT_WGSL,
+    TILE_WGSL,
+];
 const PARAMS_WGSL: &str = wgsl_module!("strata::tiled::params", TiledParams);
+/// `strata::tiled::constants`: the sizes and counter words below, for the shaders.
+const CONSTANTS_WGSL: &str = wgsl_constants!(
+    "strata::tiled::constants",
+    KEEP = KEEP,
+    CODE_WORDS = CODE_BYTES / 4,
+    STATE_WORDS = STATE_BYTES / 4,
+    COUNTER_WORDS = COUNTER_WORDS,
+    COUNTER_ROUNDS = COUNTER_ROUNDS,
+    ROUND_BINS = ROUND_BINS,
+    COUNTER_DEEPEST = COUNTER_DEEPEST,
+    COUNTER_UNFINISHED = COUNTER_UNFINISHED,
+    COUNTER_LONGEST_LIST = COUNTER_LONGEST_LIST,
+    COUNTER_CUT_SHORT = COUNTER_CUT_SHORT,
+    COUNTER_ROUNDS_RECORDED = COUNTER_ROUNDS_RECORDED,
+);
 const LISTS_WGSL: &str = include_str!("lists.wgsl");
 const SORT_WGSL: &str = include_str!("sort.wgsl");
 const TILE_WGSL: &str = include_str!("tile.wgsl");
 
-/// Fragments a pixel keeps per round (KEEP in tile.wgsl).
+/// Fragments a pixel keeps per round.
 pub const KEEP: u32 = 16;
-/// Bytes of one list entry: the code and the 64-bit coverage mask (CODE_WORDS in lists.wgsl).
+/// Bytes of one list entry: the code and the 64-bit coverage mask.
 pub const CODE_BYTES: u64 = 12;
 /// Bytes per tile: its item count, its list's start and its rounds.
 pub const TILE_BYTES: u64 = 12;
-/// Bytes per pixel of compositing state between rounds (STATE_WORDS in lists.wgsl).
+/// Bytes per pixel of compositing state between rounds.
 pub const STATE_BYTES: u64 = 40;
-/// Counter words (COUNTER_ in lists.wgsl).
+/// Counter words.
 pub const COUNTER_WORDS: u64 = 21;
+/// Tiles by the rounds they ran: bin r for r rounds, the last bin for ROUND_BINS − 1 or more.
+const COUNTER_ROUNDS: usize = 0;
 const ROUND_BINS: usize = 16;
+/// The most fragments one pixel had.
 const COUNTER_DEEPEST: usize = 16;
+/// Pixels with fragments left behind their last round.
 const COUNTER_UNFINISHED: usize = 17;
+/// The longest tile list.
 const COUNTER_LONGEST_LIST: usize = 18;
+/// Pixel rounds whose walk of the list ended early (a loop cut short by the adapter).
 const COUNTER_CUT_SHORT: usize = 19;
+/// The rounds the frame recorded.
 const COUNTER_ROUNDS_RECORDED: usize = 20;
 /// Rounds of a first frame, before any depth complexity was measured.
 pub const FIRST_ROUNDS: u32 = 2;
@@ -285,11 +313,17 @@ impl Method for Tiled {
             .raster
             .feedback(&self.gpu, &words[..raster_words], recorded.capacity);
         let counters = &words[raster_words..raster_words + COUNTER_WORDS as usize];
-        let mut tile_rounds: Vec<u64> = counters[..ROUND_BINS].iter().map(|&n| n as u64).collect();
+        let mut tile_rounds: Vec<u64> = counters[COUNTER_ROUNDS..ROUND_BINS]
+            .iter()
+            .map(|&n| n as u64)
+            .collect();
         while tile_rounds.len() > 1 && tile_rounds.last() == Some(&0) {
             tile_rounds.pop();
         }
-        let tiles: u64 = counters[..ROUND_BINS].iter().map(|&n| n as u64).sum();
+        let tiles: u64 = counters[COUNTER_ROUNDS..ROUND_BINS]
+            .iter()
+            .map(|&n| n as u64)
+            .sum();
         let deepest = counters[COUNTER_DEEPEST];
         let unfinished = counters[COUNTER_UNFINISHED] as u64;
         let longest_list = counters[COUNTER_LONGEST_LIST];

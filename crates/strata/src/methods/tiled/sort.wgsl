@@ -1,7 +1,8 @@
 #define_import_path strata::tiled::sort
 #import strata::raster::items::{Item, item_at, item_thread, items_written, rp}
 #import strata::raster::setup::{clipped_triangle, fan_triangle, tile_coverage}
-#import strata::tiled::lists::{CODE_WORDS, tile_codes, tile_counts, tile_of, tile_starts, tp}
+#import strata::tiled::constants::{CODE_WORDS}
+#import strata::tiled::lists::{tile_codes, tile_counts, tile_of, tile_starts, tp}
 
 // Sorts the rasterizer's work items into one list per tile: a count per tile, an exclusive
 // prefix sum over the tiles, a scatter that stores each item's code with the 64-bit mask of the

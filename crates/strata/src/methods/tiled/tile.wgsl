@@ -4,7 +4,8 @@
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::items::{rp}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
-#import strata::tiled::lists::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_UNFINISHED, CODE_WORDS, PROGRESS_DONE, PROGRESS_LEFT, PixelState, ROUND_BINS, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp}
+#import strata::tiled::constants::{CODE_WORDS, COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_UNFINISHED, KEEP, ROUND_BINS}
+#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp}
 
 // One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
 // thread per pixel (thread lid owns bit lid of the coverage masks), no atomics on pixel data.
@@ -22,8 +23,6 @@
 // deep tile exceeded (lanes count what they walked, and a walk cut short is reported).
 
 const CHUNK: u32 = 64u;
-// Keep in sync with `KEEP` in mod.rs.
-const KEEP: u32 = 16u;
 
 var<workgroup> chunk: array<SetupTriangle, CHUNK>;
 var<workgroup> chunk_prims: array<u32, CHUNK>;
