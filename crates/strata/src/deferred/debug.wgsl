@@ -2,6 +2,7 @@
 #import strata::scene::{frame}
 #import strata::color::{srgb_to_linear}
 #import strata::composite::{view_distance}
+#import strata::deferred::views::{VIEW_ALBEDO, VIEW_DEPTH, VIEW_LIGHTS, VIEW_MATERIAL, VIEW_NORMAL, VIEW_NORMAL_ERROR, VIEW_SPECULAR}
 #import strata::deferred::deferred_common::{MAX_EXPONENT, ambient_occlusion, decode_normal, exact_normal, gbuffer_albedo, gbuffer_depth, gbuffer_normal, light_diffuse, light_specular, params}
 
 // G-buffer debug views (seed 004's Figs. 4–6 and 9), written over the lit frame as display
@@ -9,14 +10,6 @@
 // n·0.5 + 0.5; the specular exponent / 128; the material id as a hashed color; the stored depth
 // (view distance / far); the light buffers' diffuse + specular; the normal's encoding error in
 // degrees in R (the renderer draws it as a heatmap); the ambient occlusion factor.
-
-const VIEW_ALBEDO: u32 = 0u;
-const VIEW_NORMAL: u32 = 1u;
-const VIEW_SPECULAR: u32 = 2u;
-const VIEW_MATERIAL: u32 = 3u;
-const VIEW_DEPTH: u32 = 4u;
-const VIEW_LIGHTS: u32 = 5u;
-const VIEW_NORMAL_ERROR: u32 = 6u;
 
 fn display(c: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b), 1.0);

@@ -52,7 +52,7 @@ use std::collections::HashMap;
 
 use bytemuck::Zeroable;
 
-use crate::gpu::twin::{gpu_struct, wgsl_module};
+use crate::gpu::twin::{gpu_struct, wgsl_constants, wgsl_module};
 use glam::Mat4;
 
 use crate::error::{Error, Result};
@@ -166,6 +166,7 @@ const COMMON_WGSL: &str = include_str!("deferred_common.wgsl");
 /// the stages.
 pub const LIBRARY: Library = &[
     PARAMS_WGSL,
+    VIEWS_WGSL,
     COMMON_WGSL,
     include_str!("gbuffer.wgsl"),
     include_str!("forward.wgsl"),
@@ -175,6 +176,18 @@ pub const LIBRARY: Library = &[
     include_str!("debug.wgsl"),
     include_str!("tonemap.wgsl"),
 ];
+
+/// `strata::deferred::views`: the debug views' numbers ([`GbufferView::index`]) for debug.wgsl.
+const VIEWS_WGSL: &str = wgsl_constants!(
+    "strata::deferred::views",
+    VIEW_ALBEDO = GbufferView::Albedo as u32,
+    VIEW_NORMAL = GbufferView::Normal as u32,
+    VIEW_SPECULAR = GbufferView::Specular as u32,
+    VIEW_MATERIAL = GbufferView::Material as u32,
+    VIEW_DEPTH = GbufferView::Depth as u32,
+    VIEW_LIGHTS = GbufferView::Lights as u32,
+    VIEW_NORMAL_ERROR = GbufferView::NormalError as u32,
+);
 
 /// The pipeline's stage `index` in [`STAGES`].
 pub fn stage(index: usize) -> Stage {
