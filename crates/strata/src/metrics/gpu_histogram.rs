@@ -12,11 +12,18 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, SceneGpu};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::shader::Stage;
+use crate::gpu::shader::{Library, Stage};
+use crate::gpu::twin::wgsl_constants;
 use crate::gpu::{Gpu, ResourceCache};
 
-/// Keep in sync with HISTOGRAM_BINS in gpu_histogram.wgsl.
+/// Bins of the histogram: the last one holds the pixels of HISTOGRAM_BINS − 1 fragments or more.
 pub const HISTOGRAM_BINS: u64 = 1024;
+
+/// `strata::metrics::histogram_bins`: [`HISTOGRAM_BINS`] for the shader.
+const BINS: Library = &[wgsl_constants!(
+    "strata::metrics::histogram_bins",
+    HISTOGRAM_BINS = HISTOGRAM_BINS
+)];
 
 /// The GPU depth-complexity histogram a frame can record: a counting pass over the scene, then a pass that bins each pixel's count.
 pub struct GpuHistogram {
@@ -35,8 +42,9 @@ impl GpuHistogram {
             "strata.histogram.layout",
             &[Slot::StorageRw, Slot::StorageRw],
         );
-        let module =
-            Stage::new("strata.histogram", include_str!("gpu_histogram.wgsl")).module(&gpu.device);
+        let module = Stage::new("strata.histogram", include_str!("gpu_histogram.wgsl"))
+            .with(BINS)
+            .module(&gpu.device);
         let layouts = [&scene.frame_layout, &layout];
         GpuHistogram {
             // Always the GPU's rasterizer: coverage is the same on both paths (tested), and

@@ -1,13 +1,11 @@
 #define_import_path strata::metrics::gpu_histogram
+#import strata::metrics::histogram_bins::{HISTOGRAM_BINS}
 #import strata::scene::{SceneVarying, behind_opaque, frame, pixel_index, pixel_of}
 
 // The GPU depth-complexity histogram: a count pass (every fragment of a pixel, as the frame's
 // methods see them: tested against the opaque depth, no culling) and a binning pass over the
 // pixels. Bin i counts the pixels with exactly i fragments; the last bin, the pixels with
-// HISTOGRAM_BINS − 1 or more (so they are reported, never lost). Keep HISTOGRAM_BINS in sync with
-// metrics/gpu_histogram.rs.
-
-const HISTOGRAM_BINS: u32 = 1024u;
+// HISTOGRAM_BINS − 1 or more (so they are reported, never lost).
 
 @group(1) @binding(0) var<storage, read_write> pixel_counts: array<atomic<u32>>;
 @group(1) @binding(1) var<storage, read_write> bins: array<atomic<u32>>;

@@ -8,7 +8,6 @@
 // each pixel's compositing state between rounds, the counters the frame reads back, and the
 // resolved output.
 
-// Keep in sync with `TiledParams` in crates/strata/src/methods/tiled/mod.rs.
 @group(1) @binding(0) var<uniform> tp: TiledParams;
 // Items per tile: counted, then (after the scan set them to zero) counted again as the scatter
 // fills each list, ending equal to the count.
