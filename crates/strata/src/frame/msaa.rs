@@ -222,7 +222,7 @@ mod gpu_tests {
     use crate::frame::{Effect, RenderOptions};
     use crate::methods::tests::options;
     use crate::scene::{loaders::load_scene, Background};
-    use crate::testing::{assert_close, render_gpu, render_reference};
+    use crate::testing::{assert_close, assert_exact, render_gpu, render_reference};
 
     /// As the exact methods' tolerance (methods/tests.rs): ≤ 2/255 on ≥ 99.9% of pixels.
     use crate::testing::{EXACT_MAX_DIFF as MAX_DIFF, EXACT_MAX_FRACTION as MAX_FRACTION};
@@ -280,7 +280,7 @@ mod gpu_tests {
                 for method in ["abuffer-ll", "sbuffer", "kb-ab-ll", "kb-sbuffer"] {
                     let (actual, stats) = render_gpu(&scene, &all, method);
                     let name = format!("msaa{msaa}-{method}-{spec}");
-                    assert_close(&name, &actual, expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_exact(&name, &actual, expected, effect);
                     let at = format!("{name}-device-depths");
                     assert_close(&at, &actual, at_device, effect, MAX_DIFF, exactly);
                     if !method.starts_with("kb-") {
@@ -292,8 +292,8 @@ mod gpu_tests {
                 let three = multisampled(size, effect, msaa, Some(3));
                 let (peeled, stats) = render_gpu(&scene, &three, "kpeel");
                 let name = format!("msaa{msaa}-kpeel-{spec}");
-                assert_close(&name, &peeled, expected, effect, MAX_DIFF, MAX_FRACTION);
-                assert_close(&name, &peeled, &abuffer, effect, MAX_DIFF, MAX_FRACTION);
+                assert_exact(&name, &peeled, expected, effect);
+                assert_exact(&name, &peeled, &abuffer, effect);
                 let counts = |s: &crate::FrameStats| {
                     (
                         s.fragments_generated,
@@ -307,14 +307,14 @@ mod gpu_tests {
                 for method in ["f2b", "dual"] {
                     let (peeled, stats) = render_gpu(&scene, &all, method);
                     let name = format!("msaa{msaa}-{method}-{spec}");
-                    assert_close(&name, &peeled, expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_exact(&name, &peeled, expected, effect);
                     assert_eq!(counts(&stats), counts(&abuffer_stats), "{name}");
                 }
                 let wide = multisampled(size, effect, msaa, Some(256));
                 for method in ["abuffer-fixed", "kplus-heap", "kplus-array"] {
                     let (actual, stats) = render_gpu(&scene, &wide, method);
                     let name = format!("msaa{msaa}-k256-{method}-{spec}");
-                    assert_close(&name, &actual, expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_exact(&name, &actual, expected, effect);
                     assert_eq!(stats.fragments_dropped, Some(0), "{name}");
                 }
                 // Each sample's 3 nearest: the capture-time k-buffers keep them in each
@@ -345,7 +345,7 @@ mod gpu_tests {
                 }) {
                     let (actual, stats) = render_gpu(&scene, &three, method);
                     let name = format!("msaa{msaa}-k3-{method}-{spec}");
-                    assert_close(&name, &actual, &expected, effect, MAX_DIFF, MAX_FRACTION);
+                    assert_exact(&name, &actual, &expected, effect);
                     let counts = (
                         stats.fragments_generated,
                         stats.fragments_stored,
@@ -382,14 +382,7 @@ mod gpu_tests {
         for method in ["f2b", "kpeel"] {
             let mut r = crate::Renderer::new(crate::testing::gpu(), &scene, &layers).unwrap();
             let (img, stats) = r.render(method).unwrap();
-            assert_close(
-                method,
-                &img,
-                &expected,
-                layers.frame.effect,
-                MAX_DIFF,
-                MAX_FRACTION,
-            );
+            assert_exact(method, &img, &expected, layers.frame.effect);
             assert_eq!(
                 stats.fragments_dropped, selected.fragments_dropped,
                 "{method}"
@@ -415,24 +408,10 @@ mod gpu_tests {
             let expected = render_reference(&back, &opts);
             let (unsorted, _) = render_gpu(&back, &opts, "unsorted");
             let name = format!("msaa{msaa}-unsorted-back");
-            assert_close(
-                &name,
-                &unsorted,
-                &expected,
-                opts.frame.effect,
-                MAX_DIFF,
-                MAX_FRACTION,
-            );
+            assert_exact(&name, &unsorted, &expected, opts.frame.effect);
             let (sorted, _) = render_gpu(&shuffled, &opts, "sorted");
             let name = format!("msaa{msaa}-sorted-random");
-            assert_close(
-                &name,
-                &sorted,
-                &expected,
-                opts.frame.effect,
-                MAX_DIFF,
-                MAX_FRACTION,
-            );
+            assert_exact(&name, &sorted, &expected, opts.frame.effect);
             // The layers' edges are where samples differ: some pixel is partly covered.
             let lists = crate::reference::fragments(&back, &opts).unwrap();
             let full = (1u32 << msaa) - 1;

@@ -381,13 +381,18 @@ mod tests {
     use super::*;
     use crate::frame::Raster;
 
-    /// Lavapipe's limits: 128 MiB storage bindings, 2 GiB buffers.
-    fn lavapipe() -> wgpu::Limits {
+    /// Default limits but for the largest storage binding and buffer.
+    fn limits(binding: u64, buffer: u64) -> wgpu::Limits {
         wgpu::Limits {
-            max_storage_buffer_binding_size: 128 << 20,
-            max_buffer_size: (2 << 30) - 1,
+            max_storage_buffer_binding_size: binding,
+            max_buffer_size: buffer,
             ..Default::default()
         }
+    }
+
+    /// Lavapipe's limits: 128 MiB storage bindings, 2 GiB buffers.
+    fn lavapipe() -> wgpu::Limits {
+        limits(128 << 20, (2 << 30) - 1)
     }
 
     #[test]
@@ -422,22 +427,14 @@ mod tests {
 
     #[test]
     fn materials_are_bounded_by_the_largest_binding() {
-        let limits = wgpu::Limits {
-            max_storage_buffer_binding_size: 1 << 20,
-            max_buffer_size: 1 << 40,
-            ..Default::default()
-        };
+        let limits = limits(1 << 20, 1 << 40);
         check_fits(&limits, 1 << 18, Raster::Hw).unwrap();
         assert!(check_fits(&limits, (1 << 18) + 1, Raster::Hw).is_err());
     }
 
     #[test]
     fn vertex_numbers_fit_in_u32() {
-        let unbounded = wgpu::Limits {
-            max_storage_buffer_binding_size: 1 << 40,
-            max_buffer_size: 1 << 40,
-            ..Default::default()
-        };
+        let unbounded = limits(1 << 40, 1 << 40);
         check_fits(&unbounded, MAX_TRIANGLES, Raster::Hw).unwrap();
         let message = check_fits(&unbounded, MAX_TRIANGLES + 1, Raster::Hw)
             .unwrap_err()

@@ -4,8 +4,7 @@ use crate::methods::tests::options;
 use crate::methods::MethodId;
 use crate::scene::{loaders, Scene};
 use crate::testing::{
-    assert_close, assert_exact, assert_poison_changes_nothing, gpu, render_gpu, render_reference,
-    Expected, EXACT_MAX_DIFF, EXACT_MAX_FRACTION,
+    assert_exact, assert_poison_changes_nothing, gpu, render_gpu, render_reference, Expected,
 };
 
 fn scene(spec: &str) -> Scene {
@@ -85,14 +84,8 @@ fn deep_pixels_take_more_rounds_and_stay_exact() {
         let opts = options(48, effect);
         let (actual, stats) = render_gpu(&s, &opts, "tiled");
         let expected = render_reference(&s, &opts);
-        assert_close(
-            &format!("tiled-deep-{}", effect.name()),
-            &actual,
-            &expected,
-            effect,
-            EXACT_MAX_DIFF,
-            EXACT_MAX_FRACTION,
-        );
+        let name = format!("tiled-deep-{}", effect.name());
+        assert_exact(&name, &actual, &expected, effect);
         assert_eq!(stats.fragments_dropped, Some(0));
         assert_eq!(stats.max_depth_complexity, Some(40));
         let tiled = stats.tiled.unwrap();
