@@ -382,18 +382,21 @@ mod tests {
         crate::gpu::shader::validate(&stage("bandwidth"));
     }
 
+    /// Probes of `copy_bytes` and `increments`, run once.
+    fn small(copy_bytes: u64, increments: u32) -> ProbeSizes {
+        ProbeSizes {
+            copy_bytes,
+            increments,
+            repeats: 1,
+        }
+    }
+
     /// Small probes on the test adapter: each checks its own result, so a copy that moved the
     /// wrong bytes or an increment that was lost fails here; rates are only required positive
     /// (speed is the benchmark's business).
     #[test]
     fn probes_move_the_right_bytes_and_count_every_increment() {
-        let gpu = crate::testing::gpu();
-        let sizes = ProbeSizes {
-            copy_bytes: 1 << 20,
-            increments: 1 << 16,
-            repeats: 1,
-        };
-        let rates = measure(gpu, sizes).expect("probes run");
+        let rates = measure(crate::testing::gpu(), small(1 << 20, 1 << 16)).expect("probes run");
         for r in [
             rates.copy_gb_per_s,
             rates.stream_gb_per_s,
@@ -408,12 +411,7 @@ mod tests {
     #[test]
     fn a_probe_that_lost_increments_is_an_error() {
         let gpu = crate::testing::gpu();
-        let sizes = ProbeSizes {
-            copy_bytes: 1 << 16,
-            increments: 1 << 12,
-            repeats: 1,
-        };
-        let probes = Probes::new(gpu, sizes).unwrap();
+        let probes = Probes::new(gpu, small(1 << 16, 1 << 12)).unwrap();
         let group = probes.increment_group(64);
         probes
             .time(|enc| probes.dispatch(enc, &probes.increment, &group))

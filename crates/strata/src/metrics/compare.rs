@@ -187,6 +187,13 @@ mod tests {
         RgbaImage::from_pixel(w, h, Rgba(c))
     }
 
+    /// `image` with pixel (x, y) set to `c`.
+    fn with_pixel(image: &RgbaImage, (x, y): (u32, u32), c: [u8; 4]) -> RgbaImage {
+        let mut changed = image.clone();
+        changed.put_pixel(x, y, Rgba(c));
+        changed
+    }
+
     /// A small image with some structure, so FLIP has edges to look at.
     fn pattern(w: u32, h: u32) -> RgbaImage {
         RgbaImage::from_fn(w, h, |x, y| {
@@ -213,9 +220,8 @@ mod tests {
     #[test]
     fn one_pixel_difference() {
         let a = solid(4, 4, [10, 20, 30, 255]);
-        let mut b = a.clone();
         // R +0, G +5, B -3; alpha differs too but is ignored.
-        b.put_pixel(1, 2, Rgba([10, 25, 27, 0]));
+        let b = with_pixel(&a, (1, 2), [10, 25, 27, 0]);
         let c = compare(&a, &b).unwrap();
         assert_eq!(c.max_abs_diff, 5);
         assert_eq!(c.pixels, 16);
@@ -239,8 +245,7 @@ mod tests {
     #[test]
     fn small_difference_not_over_2() {
         let a = solid(2, 2, [100, 100, 100, 255]);
-        let mut b = a.clone();
-        b.put_pixel(0, 0, Rgba([102, 98, 100, 255]));
+        let b = with_pixel(&a, (0, 0), [102, 98, 100, 255]);
         let c = compare(&a, &b).unwrap();
         assert_eq!(c.max_abs_diff, 2);
         assert_eq!(c.pct_over_2, 0.0);
