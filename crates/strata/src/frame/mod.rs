@@ -368,6 +368,17 @@ impl FrameContext<'_> {
         (self.options.frame.width, self.options.frame.height)
     }
 
+    /// The null target in `slot` for this frame's size and the scene's samples, (re)made when
+    /// they changed (see [`crate::gpu::passes::NullTarget::ensure`]).
+    pub fn null_target<'s>(
+        &self,
+        slot: &'s mut Option<crate::gpu::passes::NullTarget>,
+        label: &str,
+    ) -> &'s crate::gpu::passes::NullTarget {
+        let samples = self.scene.samples;
+        crate::gpu::passes::NullTarget::ensure(slot, self.gpu, label, self.size(), samples)
+    }
+
     /// The memory ledger's rule: a method allocating `bytes` for this frame stays within
     /// `--budget-mb`, checked before it allocates.
     pub fn check_budget(&self, bytes: u64) -> Result<()> {

@@ -87,14 +87,7 @@ impl GpuHistogram {
             &self.layout,
             &[counts.as_entire_binding(), bins.as_entire_binding()],
         );
-        let (w, h) = ctx.size();
-        let target = NullTarget::ensure(
-            &mut self.null_target,
-            gpu,
-            "strata.histogram.null_target",
-            (w, h),
-            ctx.scene.samples,
-        );
+        let target = ctx.null_target(&mut self.null_target, "strata.histogram.null_target");
         ctx.encoder.clear_buffer(&counts, 0, None);
         ctx.encoder.clear_buffer(&bins, 0, None);
         let frame_group = ctx.frame_group;

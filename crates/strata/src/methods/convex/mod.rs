@@ -405,7 +405,6 @@ impl Method for Convex {
             )));
         }
         let gpu = ctx.gpu;
-        let (w, h) = ctx.size();
         let px = ctx.pixels();
         let samples = ctx.scene.samples;
         let bytes = px * self.pixel_bytes(samples) + self.indices.size() + FIXED_BYTES;
@@ -468,13 +467,7 @@ impl Method for Convex {
                 touched_count.as_entire_binding(),
             ],
         );
-        let null_target = NullTarget::ensure(
-            &mut self.null_target,
-            gpu,
-            "strata.convex.null_target",
-            (w, h),
-            ctx.scene.samples,
-        );
+        let null_target = ctx.null_target(&mut self.null_target, "strata.convex.null_target");
         let frame_group = ctx.frame_group;
         ctx.encoder.clear_buffer(&counters, 0, None);
         dispatch_pixels(ctx, "init", &self.init, &[frame_group, &merge_group]);

@@ -216,14 +216,7 @@ impl Method for KPeel {
             }
             None => None,
         };
-        let (w, h) = ctx.size();
-        let target = NullTarget::ensure(
-            &mut self.null_target,
-            ctx.gpu,
-            "strata.kpeel.null_target",
-            (w, h),
-            ctx.scene.samples,
-        );
+        let target = ctx.null_target(&mut self.null_target, "strata.kpeel.null_target");
         let frame_group = ctx.frame_group;
         dispatch_pixels(ctx, "init", &self.init, &[frame_group, &group]);
         for pass in 0..passes {

@@ -739,13 +739,7 @@ impl KFrame {
     ) -> Result<u64> {
         let (group, total) = self.begin(ctx, params, storage)?;
         let frame_group = ctx.frame_group;
-        let target = NullTarget::ensure(
-            &mut self.null_target,
-            ctx.gpu,
-            "strata.kbuffer.null_target",
-            ctx.size(),
-            ctx.scene.samples,
-        );
+        let target = ctx.null_target(&mut self.null_target, "strata.kbuffer.null_target");
         for (name, pipeline) in passes {
             storage_geometry_pass(ctx, name, target, pipeline, &[frame_group, &group]);
         }

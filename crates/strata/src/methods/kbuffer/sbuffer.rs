@@ -261,14 +261,7 @@ impl Method for SBuffer {
             ..params_for(ctx, k, k, false)
         };
         let (group, bytes) = self.frame.begin(ctx, params, storage)?;
-        let (w, h) = ctx.size();
-        let target = NullTarget::ensure(
-            &mut self.null_target,
-            gpu,
-            "strata.sbuffer.null_target",
-            (w, h),
-            ctx.scene.samples,
-        );
+        let target = ctx.null_target(&mut self.null_target, "strata.sbuffer.null_target");
         let frame_group = ctx.frame_group;
         storage_geometry_pass(ctx, "count", target, &self.count, &[frame_group, &group]);
         let scan = &self.scan.as_ref().expect("made by scan_levels").levels;

@@ -636,14 +636,7 @@ impl Method for Bucket {
                 &|pass| pass.draw(0..3, 0..1),
             );
         }
-        NullTarget::ensure(
-            &mut self.null_target,
-            gpu,
-            "strata.bucket.null_target",
-            size,
-            samples,
-        );
-        let null_target = self.null_target.as_ref().expect("made above");
+        let null_target = ctx.null_target(&mut self.null_target, "strata.bucket.null_target");
         if adaptive {
             storage_geometry_pass(
                 ctx,

@@ -354,13 +354,7 @@ impl Method for FrontToBack {
         }
         let mut account_passes = 0;
         if let Some(account) = &self.account {
-            let target = NullTarget::ensure(
-                &mut self.null_target,
-                gpu,
-                "strata.f2b.null_target",
-                (w, h),
-                samples,
-            );
+            let target = ctx.null_target(&mut self.null_target, "strata.f2b.null_target");
             storage_geometry_pass(ctx, "account", target, account, &[frame_group, &peel_group]);
             account_passes = 1;
         }
@@ -481,7 +475,6 @@ impl Dual {
 impl Method for Dual {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
         self.layers_fixed = ctx.options.frame.peeling.layers.is_some();
         let samples = ctx.scene.samples;
@@ -491,13 +484,7 @@ impl Method for Dual {
                 gpu.info.name
             )));
         }
-        let null_target = NullTarget::ensure(
-            &mut self.null_target,
-            gpu,
-            "strata.dual.null_target",
-            (w, h),
-            samples,
-        );
+        let null_target = ctx.null_target(&mut self.null_target, "strata.dual.null_target");
         let px = ctx.pixels();
         let bytes = dual_bytes(px, samples, self.key_bytes);
         ctx.check_budget(bytes)?;
