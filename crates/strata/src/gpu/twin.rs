@@ -104,17 +104,18 @@ macro_rules! wgsl_module {
 pub(crate) use wgsl_module;
 
 /// A WGSL module named `path` of `u32` constants made from Rust constant expressions
-/// (`NAME = expr`, each converted with `as u32`), so that a number both sides use is written
-/// once, in Rust.
+/// (`NAME = expr`, each converted with `as u32`, which fails to compile where a value does not
+/// fit), so that a number both sides use is written once, in Rust.
 macro_rules! wgsl_constants {
-    ($path:literal, $($name:ident = $value:expr),+ $(,)?) => {
+    ($path:literal, $($name:ident = $value:expr),+ $(,)?) => {{
+        $(const _: () = assert!(($value) as u64 <= u32::MAX as u64, stringify!($name));)+
         const_format::concatcp!(
             "#define_import_path ",
             $path,
             "\n\n",
             $("const ", stringify!($name), ": u32 = ", ($value) as u32, "u;\n",)+
         )
-    };
+    }};
 }
 pub(crate) use wgsl_constants;
 
