@@ -226,8 +226,7 @@ impl SceneAnimation {
         let objects_pipeline = crate::gpu::passes::compute_pipeline(
             gpu,
             "strata.animation.objects",
-            &module("objects", OBJECTS),
-            "object_transforms",
+            (&module("objects", OBJECTS), "object_transforms"),
             &[&objects_layout],
         );
         let objects_group = binding::group(
@@ -256,8 +255,7 @@ impl SceneAnimation {
         let vertices_pipeline = crate::gpu::passes::compute_pipeline(
             gpu,
             "strata.animation.vertices",
-            &module("vertices", VERTICES),
-            "move_vertices",
+            (&module("vertices", VERTICES), "move_vertices"),
             &[&vertices_layout],
         );
         // The widest binding of a chunk is its vertices (72 bytes per triangle).

@@ -321,8 +321,7 @@ impl Passes {
             passes::capture_pipeline(
                 gpu,
                 label,
-                module,
-                entry,
+                (module, entry),
                 layouts,
                 targets,
                 write_less.clone(),

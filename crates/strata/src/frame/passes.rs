@@ -4,21 +4,20 @@
 
 use crate::frame::FrameContext;
 pub use crate::gpu::passes::{
-    attachment, blend_add, clear_depth_pass, color_target, compute_pipeline, fullscreen_pass,
-    kept_attachment, render_pipeline, scratch_depth, screen_pipeline, NullTarget, Rasterization,
+    attachment, blend_add, clear_depth_pass, color_target, compute_pipeline, compute_pipelines,
+    fullscreen_pass, kept_attachment, render_pipeline, scratch_depth, screen_pipeline, NullTarget,
+    Rasterization,
 };
 use crate::gpu::Gpu;
 
-/// A render pipeline drawing the scene with `vs_scene` ([`Gpu::scene_vertex_module`]) and
-/// `fragment_module`'s entry point (a stage's module, or its passthrough twin), with no culling
-/// (every surface layer counts), rasterizing `samples` samples per pixel (`--msaa`; the targets
-/// must have as many).
-#[allow(clippy::too_many_arguments)]
+/// A render pipeline drawing the scene with `vs_scene` ([`Gpu::scene_vertex_module`]) and the
+/// fragment entry point `(module, entry)` (a stage's module, or its passthrough twin), with no
+/// culling (every surface layer counts), rasterizing `samples` samples per pixel (`--msaa`; the
+/// targets must have as many).
 pub fn capture_pipeline(
     gpu: &Gpu,
     label: &str,
-    fragment_module: &wgpu::ShaderModule,
-    fragment_entry: &str,
+    fragment: (&wgpu::ShaderModule, &str),
     layouts: &[&wgpu::BindGroupLayout],
     targets: &[Option<wgpu::ColorTargetState>],
     depth: Option<wgpu::DepthStencilState>,
@@ -35,15 +34,7 @@ pub fn capture_pipeline(
         depth,
         samples,
     };
-    render_pipeline(
-        gpu,
-        label,
-        vertex,
-        (fragment_module, fragment_entry),
-        layouts,
-        targets,
-        raster,
-    )
+    render_pipeline(gpu, label, vertex, fragment, layouts, targets, raster)
 }
 
 /// Records a geometry pass of `pipeline` with `groups` bound from index 0 into color `targets`,

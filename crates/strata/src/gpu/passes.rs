@@ -79,12 +79,11 @@ pub fn render_pipeline(
         })
 }
 
-/// A compute pipeline of `module`'s `entry` over bind groups of `layouts`.
+/// A compute pipeline of the entry point `(module, entry)` over bind groups of `layouts`.
 pub fn compute_pipeline(
     gpu: &Gpu,
     label: &str,
-    module: &wgpu::ShaderModule,
-    entry: &str,
+    (module, entry): (&wgpu::ShaderModule, &str),
     layouts: &[&wgpu::BindGroupLayout],
 ) -> wgpu::ComputePipeline {
     let layout = binding::pipeline_layout(&gpu.device, label, layouts);
@@ -97,6 +96,22 @@ pub fn compute_pipeline(
             compilation_options: Default::default(),
             cache: None,
         })
+}
+
+/// The compute pipelines of `module`'s `entries` over bind groups of `layouts`, each labelled
+/// `family.name`, its entry point without the `cs_` (`strata.dual` and `cs_init`:
+/// `strata.dual.init`).
+pub fn compute_pipelines<const N: usize>(
+    gpu: &Gpu,
+    family: &str,
+    module: &wgpu::ShaderModule,
+    entries: [&str; N],
+    layouts: &[&wgpu::BindGroupLayout],
+) -> [wgpu::ComputePipeline; N] {
+    entries.map(|entry| {
+        let name = entry.strip_prefix("cs_").unwrap_or(entry);
+        compute_pipeline(gpu, &format!("{family}.{name}"), (module, entry), layouts)
+    })
 }
 
 /// A color attachment the pass clears to `clear` and keeps.

@@ -466,8 +466,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let pipeline = crate::gpu::passes::compute_pipeline(
             gpu,
             "stored-color-test",
-            &module,
-            "main",
+            (&module, "main"),
             &[&layout],
         );
         let out = gpu

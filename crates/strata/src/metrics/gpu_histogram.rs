@@ -52,8 +52,7 @@ impl GpuHistogram {
             count: GeometryStage::Hw(capture_pipeline(
                 gpu,
                 "strata.histogram.count",
-                &module,
-                "fs_histogram_count",
+                (&module, "fs_histogram_count"),
                 &layouts,
                 &[NullTarget::target_state()],
                 None,
@@ -62,8 +61,7 @@ impl GpuHistogram {
             bin: compute_pipeline(
                 gpu,
                 "strata.histogram.bins",
-                &module,
-                "cs_histogram_bins",
+                (&module, "cs_histogram_bins"),
                 &layouts,
             ),
             layout,

@@ -203,7 +203,7 @@ impl TriangleOrder {
             let layout = binding::layout(&gpu.device, &label, slots);
             let module = module(gpu, &label, stage);
             let pipeline =
-                crate::gpu::passes::compute_pipeline(gpu, &label, &module, entry, &[&layout]);
+                crate::gpu::passes::compute_pipeline(gpu, &label, (&module, entry), &[&layout]);
             let group = binding::group(&gpu.device, &label, &layout, resources);
             (pipeline, group)
         };

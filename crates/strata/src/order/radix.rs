@@ -115,7 +115,7 @@ impl RadixSort {
             |name: &str, stage: &'static str, entry: &str, layout: &wgpu::BindGroupLayout| {
                 let label = format!("strata.{label}.{name}");
                 let module = module(gpu, &label, stage);
-                crate::gpu::passes::compute_pipeline(gpu, &label, &module, entry, &[layout])
+                crate::gpu::passes::compute_pipeline(gpu, &label, (&module, entry), &[layout])
             };
         let count_pipeline = pipeline("count", COUNT, "count_digits", &count_layout);
         let scan_pipeline = pipeline("scan", SCAN, "scan_digits", &scan_layout);

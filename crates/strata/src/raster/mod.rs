@@ -205,8 +205,7 @@ pub fn storage_stage(
         return GeometryStage::Hw(capture_pipeline(
             gpu,
             label,
-            module,
-            entry,
+            (module, entry),
             layouts,
             &[NullTarget::target_state()],
             None,
@@ -247,8 +246,7 @@ pub fn compute_stage(
     GeometryStage::Compute(crate::frame::passes::compute_pipeline(
         gpu,
         label,
-        &module,
-        "cs_raster",
+        (&module, "cs_raster"),
         &all,
     ))
 }
@@ -317,23 +315,19 @@ impl ComputeRaster {
             "strata.raster.args.layout",
             &[Slot::Uniform, Slot::Storage, Slot::StorageRw],
         );
-        let bin_module = bin_stage().module(&gpu.device);
-        let args_module = args_stage().module(&gpu.device);
         let compute = crate::frame::passes::compute_pipeline;
         let tiles = screen_tiles(options.frame.width, options.frame.height);
         ComputeRaster {
             bin: compute(
                 gpu,
                 "strata.raster.bin",
-                &bin_module,
-                "cs_bin",
+                (&bin_stage().module(&gpu.device), "cs_bin"),
                 &[&scene.frame_layout, &bin_layout],
             ),
             args: compute(
                 gpu,
                 "strata.raster.args",
-                &args_module,
-                "cs_args",
+                (&args_stage().module(&gpu.device), "cs_args"),
                 &[&args_layout],
             ),
             bin_layout,

@@ -55,8 +55,7 @@ impl Blend {
         let blend = capture_pipeline(
             gpu,
             "strata.blend",
-            &module,
-            "fs_blend",
+            (&module, "fs_blend"),
             &[&scene.frame_layout, &blend_layout],
             &[Some(wgpu::ColorTargetState {
                 format: BLEND_FORMAT,
@@ -70,8 +69,7 @@ impl Blend {
         let finish = compute_pipeline(
             gpu,
             "strata.blend.finish",
-            &module,
-            "cs_finish",
+            (&module, "cs_finish"),
             &[&scene.frame_layout, &finish_layout],
         );
         Blend {

@@ -71,7 +71,7 @@ use std::sync::{Arc, Mutex};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
-use crate::frame::passes::{capture_pipeline, compute_pipeline, dispatch_pixels, NullTarget};
+use crate::frame::passes::{capture_pipeline, compute_pipelines, dispatch_pixels, NullTarget};
 pub use crate::frame::ConvexStats;
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
@@ -291,8 +291,7 @@ impl Convex {
             capture_pipeline(
                 gpu,
                 &format!("strata.convex.{entry}"),
-                &module,
-                entry,
+                (&module, entry),
                 &[&scene.frame_layout, &capture_layout],
                 &[NullTarget::target_state()],
                 None,
@@ -300,12 +299,17 @@ impl Convex {
             )
         };
         let (whole, front, back) = (capture("fs_whole"), capture("fs_front"), capture("fs_back"));
-        let module = merge_stage.module(device);
-        let layouts = [&scene.frame_layout, &merge_layout];
+        let [init, merge, finish] = compute_pipelines(
+            gpu,
+            "strata.convex",
+            &merge_stage.module(device),
+            ["cs_init", "cs_merge", "cs_finish"],
+            &[&scene.frame_layout, &merge_layout],
+        );
         Convex {
-            init: compute_pipeline(gpu, "strata.convex.init", &module, "cs_init", &layouts),
-            merge: compute_pipeline(gpu, "strata.convex.merge", &module, "cs_merge", &layouts),
-            finish: compute_pipeline(gpu, "strata.convex.finish", &module, "cs_finish", &layouts),
+            init,
+            merge,
+            finish,
             whole,
             front,
             back,

@@ -376,8 +376,8 @@ impl<'g> Harness<'g> {
             &[Slot::Uniform, Slot::Storage, Slot::StorageRw],
         );
         let layouts = [&empty, &kbuffer, &layout];
-        let capture = compute_pipeline(gpu, &label, &module, "cs_harness_capture", &layouts);
-        let gather = compute_pipeline(gpu, &label, &module, "cs_harness_gather", &layouts);
+        let capture = compute_pipeline(gpu, &label, (&module, "cs_harness_capture"), &layouts);
+        let gather = compute_pipeline(gpu, &label, (&module, "cs_harness_gather"), &layouts);
         Ok(Harness {
             gpu,
             method,

@@ -117,8 +117,7 @@ impl KPeel {
             compute_pipeline(
                 gpu,
                 &format!("strata.kpeel.{entry}"),
-                &compute,
-                entry,
+                (&compute, entry),
                 &layouts,
             )
         };

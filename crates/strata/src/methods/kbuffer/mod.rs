@@ -622,8 +622,12 @@ impl KFrame {
         let layout = group_layout(gpu);
         let label = format!("strata.{id}.resolve");
         let module = resolve.module(&gpu.device);
-        let resolve =
-            compute_pipeline(gpu, &label, &module, entry, &[&scene.frame_layout, &layout]);
+        let resolve = compute_pipeline(
+            gpu,
+            &label,
+            (&module, entry),
+            &[&scene.frame_layout, &layout],
+        );
         KFrame {
             id,
             layout,

@@ -160,7 +160,12 @@ impl SBuffer {
         );
         let layouts = [&scene.frame_layout, &frame.layout, &scan_layout];
         let compute = |entry: &str| {
-            compute_pipeline(gpu, &format!("strata.{id}.{entry}"), &scan, entry, &layouts)
+            compute_pipeline(
+                gpu,
+                &format!("strata.{id}.{entry}"),
+                (&scan, entry),
+                &layouts,
+            )
         };
         SBuffer {
             id,

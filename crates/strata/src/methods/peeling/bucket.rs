@@ -379,12 +379,10 @@ impl Bucket {
         );
         let [bounds_stage, reduce_stage, histogram_stage, color_stage, resolve_stage] =
             stages(samples);
-        let module = bounds_stage.module(device);
         let bounds = capture_pipeline(
             gpu,
             "strata.bucket.bounds",
-            &module,
-            "fs_bounds",
+            (&bounds_stage.module(device), "fs_bounds"),
             &[&scene.frame_layout, &bounds_layout],
             &[max_target(BOUNDS_FORMAT)],
             None,
@@ -420,12 +418,10 @@ impl Bucket {
             "fs_color",
             &color_layout,
         );
-        let module = resolve_stage.module(device);
         let resolve = compute_pipeline(
             gpu,
             "strata.bucket.resolve",
-            &module,
-            "cs_resolve",
+            (&resolve_stage.module(device), "cs_resolve"),
             &[&scene.frame_layout, &resolve_layout],
         );
         Ok(Bucket {
@@ -456,8 +452,7 @@ impl Bucket {
             let pipeline = capture_pipeline(
                 gpu,
                 "strata.bucket.sort",
-                &module,
-                "fs_sort",
+                (&module, "fs_sort"),
                 &[&self.frame_layout, &self.sort_layout],
                 &targets,
                 None,

@@ -38,7 +38,7 @@ pub mod descriptor;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    attachment, capture_pipeline, color_target, compute_pipeline, dispatch_pixels, scratch_depth,
+    attachment, capture_pipeline, color_target, compute_pipelines, dispatch_pixels, scratch_depth,
     storage_geometry_pass, GeometryStage, NullTarget,
 };
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
@@ -167,8 +167,7 @@ impl FrontToBack {
             capture_pipeline(
                 gpu,
                 &format!("strata.f2b.{entry}"),
-                &module,
-                entry,
+                (&module, entry),
                 &[&scene.frame_layout, &peel_layout],
                 &[
                     target(COLOR_FORMAT),
@@ -209,17 +208,17 @@ impl FrontToBack {
             .with(LIBRARY)
             .defs(&shader::target_samples(samples))
             .module(device);
-        let layouts = [&scene.frame_layout, &accumulate_layout];
+        let [init, accumulate, finish] = compute_pipelines(
+            gpu,
+            "strata.f2b",
+            &module,
+            ["cs_init", "cs_accumulate", "cs_finish"],
+            &[&scene.frame_layout, &accumulate_layout],
+        );
         FrontToBack {
-            init: compute_pipeline(gpu, "strata.f2b.init", &module, "cs_init", &layouts),
-            accumulate: compute_pipeline(
-                gpu,
-                "strata.f2b.accumulate",
-                &module,
-                "cs_accumulate",
-                &layouts,
-            ),
-            finish: compute_pipeline(gpu, "strata.f2b.finish", &module, "cs_finish", &layouts),
+            init,
+            accumulate,
+            finish,
             peel_first,
             peel,
             samples,
@@ -452,12 +451,17 @@ impl Dual {
         let peel = geometry_stage("strata.dual.peel", "fs_peel");
         let account =
             (scene.samples > 1).then(|| geometry_stage("strata.dual.account", "fs_account"));
-        let module = dual_stage("strata.dual.advance", DUAL_ADVANCE_WGSL, wide).module(device);
-        let layouts = [&scene.frame_layout, &advance_layout];
+        let [init, advance, finish] = compute_pipelines(
+            gpu,
+            "strata.dual",
+            &dual_stage("strata.dual.advance", DUAL_ADVANCE_WGSL, wide).module(device),
+            ["cs_init", "cs_advance", "cs_finish"],
+            &[&scene.frame_layout, &advance_layout],
+        );
         Dual {
-            init: compute_pipeline(gpu, "strata.dual.init", &module, "cs_init", &layouts),
-            advance: compute_pipeline(gpu, "strata.dual.advance", &module, "cs_advance", &layouts),
-            finish: compute_pipeline(gpu, "strata.dual.finish", &module, "cs_finish", &layouts),
+            init,
+            advance,
+            finish,
             bounds,
             peel,
             account,

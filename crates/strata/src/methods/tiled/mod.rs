@@ -193,7 +193,8 @@ impl Tiled {
         let layouts = [&scene.frame_layout, &layout, &raster_layout];
         let sort = sort_stage().module(&gpu.device);
         let tile = tile_stage().module(&gpu.device);
-        let pipeline = |label, module, entry| compute_pipeline(gpu, label, module, entry, &layouts);
+        let pipeline =
+            |label, module, entry| compute_pipeline(gpu, label, (module, entry), &layouts);
         Ok(Tiled {
             gpu: gpu.clone(),
             raster: ComputeRaster::new(gpu, scene, options),

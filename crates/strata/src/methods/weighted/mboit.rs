@@ -175,6 +175,48 @@ fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     color_target(format, Some(blend_add(One, One)))
 }
 
+/// The moments pass of `moments` (into b0, the first four reals and, past four, the rest) and
+/// its shade pass, over the frame's, the moments' and the shade's bind group `layouts`.
+fn passes(
+    gpu: &Gpu,
+    [frame_layout, moments_layout, shade_layout]: [&wgpu::BindGroupLayout; 3],
+    samples: u32,
+    moments: Moments,
+) -> [wgpu::RenderPipeline; 2] {
+    let reals = moments.reals();
+    let mut targets = vec![target(B0_FORMAT), target(MOMENTS_FORMAT)];
+    if reals > 4 {
+        targets.push(target(high_format(reals).0));
+    }
+    let pass = |stage: Stage, entry, layout, targets: &[_]| {
+        let module = stage.module(&gpu.device);
+        let layouts = [frame_layout, layout];
+        capture_pipeline(
+            gpu,
+            &stage.label,
+            (&module, entry),
+            &layouts,
+            targets,
+            None,
+            samples,
+        )
+    };
+    [
+        pass(
+            moments_stage(samples, moments),
+            "fs_moments",
+            moments_layout,
+            &targets,
+        ),
+        pass(
+            shade_stage(samples, moments),
+            "fs_shade",
+            shade_layout,
+            &[target(ACCUMULATION_FORMAT)],
+        ),
+    ]
+}
+
 /// The definitions of `moments`' stages, reading multisampled targets with `--msaa`:
 /// MBOIT_MOMENTS (the real values), MBOIT_TRIG and MBOIT_HAAR (the count of trigonometric
 /// moments and of Haar coefficients, 0 for the other kinds).
@@ -233,27 +275,11 @@ impl Mboit {
             "strata.mboit.shade.layout",
             &[Slot::Uniform, texture, texture, texture, texture],
         );
-        let module = moments_stage(samples, Moments::Power(4)).module(device);
-        let moments = capture_pipeline(
+        let [moments, shade] = passes(
             gpu,
-            "strata.mboit.moments",
-            &module,
-            "fs_moments",
-            &[&scene.frame_layout, &moments_layout],
-            &[target(B0_FORMAT), target(MOMENTS_FORMAT)],
-            None,
+            [&scene.frame_layout, &moments_layout, &shade_layout],
             samples,
-        );
-        let module = shade_stage(samples, Moments::Power(4)).module(device);
-        let shade = capture_pipeline(
-            gpu,
-            "strata.mboit.shade",
-            &module,
-            "fs_shade",
-            &[&scene.frame_layout, &shade_layout],
-            &[target(ACCUMULATION_FORMAT)],
-            None,
-            samples,
+            Moments::Power(4),
         );
         let composite = super::Composite::new(gpu, scene, composite_stage(samples));
         Ok(Mboit {
@@ -292,8 +318,7 @@ impl Mboit {
         let bounds = capture_pipeline(
             gpu,
             "strata.wavelet.bounds",
-            &module,
-            "fs_bounds",
+            (&module, "fs_bounds"),
             &[&scene.frame_layout],
             &[Some(wgpu::ColorTargetState {
                 format: BOUNDS_FORMAT,
@@ -340,36 +365,12 @@ impl Mboit {
                 "{option} blends {bytes} bytes per sample, and this device's render targets take {allowed} (max_color_attachment_bytes_per_sample); use {instead}"
             )));
         }
-        let module = moments_stage(self.samples, moments).module(&gpu.device);
-        let mut targets = vec![target(B0_FORMAT), target(MOMENTS_FORMAT)];
-        if reals > 4 {
-            targets.push(target(high_format(reals).0));
-        }
         let moments_layout = match (&self.wavelet, moments) {
             (Some(w), Moments::Haar(_)) => &w.coefficients_layout,
             _ => &self.moments_layout,
         };
-        let pipeline = capture_pipeline(
-            gpu,
-            "strata.mboit.moments",
-            &module,
-            "fs_moments",
-            &[scene_layout, moments_layout],
-            &targets,
-            None,
-            self.samples,
-        );
-        let module = shade_stage(self.samples, moments).module(&gpu.device);
-        let shade = capture_pipeline(
-            gpu,
-            "strata.mboit.shade",
-            &module,
-            "fs_shade",
-            &[scene_layout, &self.shade_layout],
-            &[target(ACCUMULATION_FORMAT)],
-            None,
-            self.samples,
-        );
+        let layouts = [scene_layout, moments_layout, &self.shade_layout];
+        let [pipeline, shade] = passes(gpu, layouts, self.samples, moments);
         self.high = Some(HighStage {
             moments,
             pipeline,

@@ -129,8 +129,7 @@ impl Wboit {
         let accumulate = capture_pipeline(
             gpu,
             "strata.wboit.accumulate",
-            &module,
-            "fs_wboit",
+            (&module, "fs_wboit"),
             &[&scene.frame_layout, &accumulate_layout],
             &[
                 Some(wgpu::ColorTargetState {
@@ -202,8 +201,7 @@ impl Composite {
         let pipeline = compute_pipeline(
             gpu,
             &stage.label,
-            &module,
-            "cs_composite",
+            (&module, "cs_composite"),
             &[&scene.frame_layout, &layout],
         );
         Composite { layout, pipeline }

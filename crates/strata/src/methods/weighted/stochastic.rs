@@ -104,8 +104,7 @@ impl Stochastic {
             capture_pipeline(
                 gpu,
                 &format!("strata.stochastic.{entry}"),
-                &module,
-                entry,
+                (&module, entry),
                 &layouts,
                 targets,
                 depth,
