@@ -165,24 +165,7 @@ fn shaded_fragments(
         away,
     };
 
-    let setups: Vec<raster::SetupTriangle> = tris
-        .vertices
-        .par_chunks_exact(3)
-        .enumerate()
-        .fold(Vec::new, |mut out, (prim, t)| {
-            raster::setup(
-                prim as u32,
-                [v3(t[0].position), v3(t[1].position), v3(t[2].position)],
-                &view_proj,
-                w,
-                h,
-                options.build.msaa,
-                &mut out,
-            );
-            out
-        })
-        .flatten()
-        .collect();
+    let setups = setup_triangles(&tris, &view_proj, options);
     let band_count = h.div_ceil(BAND_ROWS) as usize;
     let mut bands: Vec<Vec<u32>> = vec![Vec::new(); band_count];
     for (i, t) in setups.iter().enumerate() {
@@ -255,6 +238,57 @@ fn shaded_fragments(
 }
 
 use raster::cover_samples;
+
+/// Every triangle of `tris` projected by `view_proj`, clipped and set up for coverage at the
+/// options' size and samples, in primitive order.
+fn setup_triangles(
+    tris: &crate::scene::TriangleList,
+    view_proj: &glam::DMat4,
+    options: &RenderOptions,
+) -> Vec<raster::SetupTriangle> {
+    let (w, h) = (options.frame.width, options.frame.height);
+    tris.vertices
+        .par_chunks_exact(3)
+        .enumerate()
+        .fold(Vec::new, |mut out, (prim, t)| {
+            let corners = [v3(t[0].position), v3(t[1].position), v3(t[2].position)];
+            raster::setup(
+                prim as u32,
+                corners,
+                view_proj,
+                w,
+                h,
+                options.build.msaa,
+                &mut out,
+            );
+            out
+        })
+        .flatten()
+        .collect()
+}
+
+/// Each pixel's fragments (by primitive) at the window depth of the plane through their
+/// triangle's snapped corners ([`raster::SetupTriangle::snapped_depth_at`]), where [`fragments`]
+/// gives the exact corners' plane; tests accept a device whose depths lie on either.
+#[cfg(test)]
+pub(crate) fn snapped_depths(
+    scene: &Scene,
+    options: &RenderOptions,
+) -> Vec<std::collections::HashMap<u32, f64>> {
+    let (w, h) = (options.frame.width, options.frame.height);
+    let view_proj = scene
+        .camera_or_framing()
+        .view_projection(w as f32 / h as f32)
+        .as_dmat4();
+    let mut depths = vec![std::collections::HashMap::new(); (w * h) as usize];
+    for t in setup_triangles(&scene.triangles(), &view_proj, options) {
+        cover_samples(&t, 0..h, options.build.msaa, |s| {
+            let depth = t.snapped_depth_at(s.x as f64 + 0.5, s.y as f64 + 0.5);
+            depths[(s.y * w + s.x) as usize].insert(t.prim, depth);
+        });
+    }
+    depths
+}
 
 /// Renders the exact picture. `options.frame.k` keeps each pixel's k nearest fragments.
 ///
