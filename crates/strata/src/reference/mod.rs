@@ -32,8 +32,6 @@ struct Shader<'a> {
     to_camera: DVec3,
     orthographic: bool,
     translucency: bool,
-    /// Shade with the normal turned away from the viewer (see [`fragments_shaded_away`]).
-    away: bool,
 }
 
 fn v3(a: [f32; 3]) -> DVec3 {
@@ -83,7 +81,7 @@ impl Shader<'_> {
             (self.eye - world).normalize()
         };
         let mut n = normal / normal.length().max(1e-12);
-        if (n.dot(v) < 0.0) != self.away {
+        if n.dot(v) < 0.0 {
             n = -n;
         }
         let albedo = v3(m.color);
@@ -131,11 +129,11 @@ pub fn fragments(scene: &Scene, options: &RenderOptions) -> Result<Vec<Vec<RefFr
     shaded_fragments(scene, options, false)
 }
 
-/// [`fragments`] shaded with each normal turned away from the viewer: what two-sided lighting
-/// gives a fragment whose interpolated normal a rasterizer put on the other side of the plane
-/// perpendicular to the view (n·v near 0), as the H100's did for a few fragments. Tests use it
-/// to tell that difference from others.
-pub fn fragments_shaded_away(
+/// [`fragments`] with depth and attributes interpolated from the triangles' corners snapped to
+/// the subpixel grid ([`raster::SetupTriangle::snap_planes`]), as the H100's rasterizer makes
+/// them: the same fragments and coverage, depths and shading that differ on near edge-on
+/// triangles. Tests use it to tell that convention from a fault.
+pub fn fragments_on_snapped_planes(
     scene: &Scene,
     options: &RenderOptions,
 ) -> Result<Vec<Vec<RefFragment>>> {
@@ -145,7 +143,7 @@ pub fn fragments_shaded_away(
 fn shaded_fragments(
     scene: &Scene,
     options: &RenderOptions,
-    away: bool,
+    snapped_planes: bool,
 ) -> Result<Vec<Vec<RefFragment>>> {
     scene.validate()?;
     options.validate()?;
@@ -162,10 +160,14 @@ fn shaded_fragments(
             .as_dvec3(),
         orthographic: matches!(camera.projection, Projection::Orthographic { .. }),
         translucency: options.frame.effect == Effect::Translucency,
-        away,
     };
 
-    let setups = setup_triangles(&tris, &view_proj, options);
+    let mut setups = setup_triangles(&tris, &view_proj, options);
+    if snapped_planes {
+        setups
+            .iter_mut()
+            .for_each(raster::SetupTriangle::snap_planes);
+    }
     let band_count = h.div_ceil(BAND_ROWS) as usize;
     let mut bands: Vec<Vec<u32>> = vec![Vec::new(); band_count];
     for (i, t) in setups.iter().enumerate() {
@@ -265,29 +267,6 @@ fn setup_triangles(
         })
         .flatten()
         .collect()
-}
-
-/// Each pixel's fragments (by primitive) at the window depth of the plane through their
-/// triangle's snapped corners ([`raster::SetupTriangle::snapped_depth_at`]), where [`fragments`]
-/// gives the exact corners' plane; tests accept a device whose depths lie on either.
-#[cfg(test)]
-pub(crate) fn snapped_depths(
-    scene: &Scene,
-    options: &RenderOptions,
-) -> Vec<std::collections::HashMap<u32, f64>> {
-    let (w, h) = (options.frame.width, options.frame.height);
-    let view_proj = scene
-        .camera_or_framing()
-        .view_projection(w as f32 / h as f32)
-        .as_dmat4();
-    let mut depths = vec![std::collections::HashMap::new(); (w * h) as usize];
-    for t in setup_triangles(&scene.triangles(), &view_proj, options) {
-        cover_samples(&t, 0..h, options.build.msaa, |s| {
-            let depth = t.snapped_depth_at(s.x as f64 + 0.5, s.y as f64 + 0.5);
-            depths[(s.y * w + s.x) as usize].insert(t.prim, depth);
-        });
-    }
-    depths
 }
 
 /// Renders the exact picture. `options.frame.k` keeps each pixel's k nearest fragments.

@@ -4,8 +4,8 @@
 //! rule in exact integer arithmetic; depth (screen-linear) and attributes (perspective-correct)
 //! interpolated from the *unsnapped* window positions, as lavapipe's attribute planes are — at
 //! near edge-on triangles, where depth changes fast across a pixel, this decides the order of
-//! fragments that are almost at the same depth. (The H100 takes depth from the snapped positions,
-//! up to 2.3e-5 away on such triangles: `SetupTriangle::snapped_depth_at`.) With `--msaa` coverage is tested at the
+//! fragments that are almost at the same depth. (The H100 interpolates from the snapped positions
+//! instead: [`SetupTriangle::snap_planes`].) With `--msaa` coverage is tested at the
 //! standard sample positions ([`crate::frame::msaa::positions`]) and a pixel's fragment is
 //! shaded, and its depth taken, at the pixel center (extrapolated when the center lies outside),
 //! as the GPU shades multisampled fragments.
@@ -69,16 +69,13 @@ pub struct SetupTriangle {
 }
 
 impl SetupTriangle {
-    /// Window depth at (x, y) on the plane through the corners as snapped to the subpixel grid
-    /// (`xy`), where [`cover_samples`] takes the plane through the exact window corners: what a
-    /// rasterizer that interpolates depth from its fixed-point positions gives (the H100 does:
-    /// its depths differed from the reference's by up to 2.3e-5 single-sampled, 1.5e-3
-    /// extrapolated to the centre of a partly covered pixel, and lay on this plane).
-    #[cfg(test)]
-    pub fn snapped_depth_at(&self, x: f64, y: f64) -> f64 {
-        let snapped = self.xy.map(|c| c.map(|v| v as f64 / SUBPIXEL));
-        let l = barycentrics(&snapped, x, y);
-        l[0] * self.z[0] + l[1] * self.z[1] + l[2] * self.z[2]
+    /// Interpolates depth and attributes from the corners as snapped to the subpixel grid (`xy`)
+    /// rather than from the exact window corners: what a rasterizer that sets up its planes from
+    /// its fixed-point positions computes. The H100 does (2026-11-27): on near edge-on triangles
+    /// its depths were up to 2.3e-5 from the exact planes' (1.5e-3 extrapolated to the centre of
+    /// a partly covered pixel) and a few shaded colors 0.19 off, all on the snapped planes.
+    pub fn snap_planes(&mut self) {
+        self.window = self.xy.map(|c| c.map(|v| v as f64 / SUBPIXEL));
     }
 }
 

@@ -962,7 +962,8 @@ struct RasterAgreement {
     masks_differ: Vec<(u32, u32, u32)>,
     /// The largest |device depth − reference depth| over the fragments both have, and where:
     /// [0] of those covering every sample, [1] of those covering only some (--msaa), whose
-    /// depth is their plane's at the pixel centre, outside the triangle.
+    /// depth is their plane's at the pixel centre, outside the triangle. A fragment made on the
+    /// snapped planes (`snapped`) counts its distance from the reference's fragment there.
     max_depth_error: [f64; 2],
     worst: [Option<(u32, u32, u32)>; 2],
     /// Fragments both have whose facing differs.
@@ -971,19 +972,15 @@ struct RasterAgreement {
     max_color_error: f64,
     worst_color: Option<(u32, u32, u32)>,
     /// The device's and the reference's shading there (RGB and opacity), and how many fragments
-    /// differ by more than [`COLOR_AGREEMENT`]: one ill-conditioned fragment (two-sided lighting
-    /// flips the normal where it turns from the viewer) or many.
+    /// differ by more than [`COLOR_AGREEMENT`].
     worst_colors: Option<([f32; 4], [f64; 4])>,
     colors_over: usize,
-    /// Fragments shaded as the reference shades them with the normal turned the other way
-    /// (two-sided lighting where the interpolated normal is nearly perpendicular to the view:
-    /// a discontinuity any rounding difference may cross); not counted in the color error.
-    turned: Vec<(u32, u32, u32)>,
     /// The device's and the reference's depth at `worst[0]`.
     worst_depths: Option<(f32, f64)>,
-    /// Fragments whose depth lies on the plane through their triangle's corners snapped to the
-    /// subpixel grid rather than through the exact corners (within the same bound): the H100
-    /// interpolates depth so (2026-11-27); their error from that plane is the one measured.
+    /// Fragments the device made as the reference makes them with depth and attributes on the
+    /// planes through the triangle's snapped corners
+    /// ([`crate::reference::fragments_on_snapped_planes`]), not the exact corners' (beyond the
+    /// bounds there, within them here): the H100's convention (2026-11-27), lavapipe's never.
     snapped: Vec<(u32, u32, u32)>,
 }
 
@@ -1242,8 +1239,7 @@ fn raster_agreement(
     };
     let devices = device_fragments(s, &opts);
     let reference = crate::reference::fragments(s, &opts).unwrap();
-    let away = crate::reference::fragments_shaded_away(s, &opts).unwrap();
-    let snapped = crate::reference::snapped_depths(s, &opts);
+    let snapped = crate::reference::fragments_on_snapped_planes(s, &opts).unwrap();
     let mut agreement = RasterAgreement::default();
     for (p, (expected, mut device)) in reference.iter().zip(devices).enumerate() {
         let (x, y) = (p as u32 % size, p as u32 / size);
@@ -1257,32 +1253,23 @@ fn raster_agreement(
                     if d.front_facing != f.front_facing {
                         agreement.facing_differs.push((x, y, f.prim));
                     }
+                    // The fragment as the reference makes it on the snapped planes, where the
+                    // device made it so and not as on the exact ones.
+                    let on_snapped = snapped[p]
+                        .iter()
+                        .find(|g| g.prim == f.prim)
+                        .filter(|g| !fragment_agrees(f, &d, msaa) && fragment_agrees(g, &d, msaa));
+                    if on_snapped.is_some() {
+                        agreement.snapped.push((x, y, f.prim));
+                    }
+                    let f = on_snapped.unwrap_or(f);
                     let expected = [f.color[0], f.color[1], f.color[2], f.alpha];
                     let (error, partial, color_error) = fragment_errors(f, &d, msaa);
-                    let bound = depth_bound(partial);
-                    let snapped_error = snapped[p]
-                        .get(&f.prim)
-                        .map_or(f64::INFINITY, |&z| (f64::from(d.depth) - z).abs());
-                    let error = if error > bound && snapped_error <= bound {
-                        agreement.snapped.push((x, y, f.prim));
-                        snapped_error
-                    } else {
-                        error
-                    };
                     let partial = usize::from(partial);
-                    // Shaded as the reference shades it with the normal turned the other way:
-                    // the interpolated normal fell on the other side of the view (n·v ≈ 0).
-                    let turned = color_error > COLOR_AGREEMENT
-                        && away[p]
-                            .iter()
-                            .find(|g| g.prim == f.prim)
-                            .is_some_and(|g| fragment_errors(g, &d, msaa).2 <= COLOR_AGREEMENT);
-                    if turned {
-                        agreement.turned.push((x, y, f.prim));
-                    } else if color_error > COLOR_AGREEMENT {
+                    if color_error > COLOR_AGREEMENT {
                         agreement.colors_over += 1;
                     }
-                    if !turned && color_error > agreement.max_color_error {
+                    if color_error > agreement.max_color_error {
                         agreement.max_color_error = color_error;
                         agreement.worst_color = Some((x, y, f.prim));
                         agreement.worst_colors = Some((d.color, expected));
@@ -1321,12 +1308,10 @@ const COLOR_AGREEMENT: f64 = 2e-3;
 /// the reference's: the same fragments (pixel and primitive) but for pixel centres on an edge
 /// (at most the 0.1% the image tests allow; lavapipe: none here), with --msaa the same samples,
 /// and window depths within [`DEPTH_AGREEMENT`] ([`EXTRAPOLATED_DEPTH_AGREEMENT`] where a
-/// fragment covers only some samples) of the plane through the triangle's exact window corners,
-/// as lavapipe interpolates, or through its corners snapped to the subpixel grid, as the H100
-/// does (counted and listed), and shading within [`COLOR_AGREEMENT`] — or, where the
-/// interpolated normal is nearly perpendicular to the view, the shading of the normal turned the
-/// other way (counted and listed: the H100 does this at a few fragments); and strata's compute
-/// rasterizer the same. Every exact test leans on this; on another GPU, a failure here says
+/// fragment covers only some samples) and shading within [`COLOR_AGREEMENT`] of the fragment
+/// interpolated on the planes through the triangle's exact window corners, as lavapipe
+/// interpolates, or through its corners snapped to the subpixel grid, as the H100 does (counted
+/// and listed); and strata's compute rasterizer the same. Every exact test leans on this; on another GPU, a failure here says
 /// whether coverage, depth or shading makes its pictures differ, where, and whether the compute
 /// rasterizer (the same WGSL everywhere) still agrees with the reference there.
 #[test]
@@ -1348,8 +1333,7 @@ fn the_devices_fragments_are_the_references() {
              depth error up to {:.3e} at {:?} (device and reference depths {:?}), partly covering \
              fragments {:.3e} at {:?}; facing differs: {} {:?}; shaded color or opacity \
              differs by up to {:.4} at {:?} (device {:?}, reference {:?}; {} fragments over {COLOR_AGREEMENT}); \
-             shaded with the normal turned the other way (n·v ≈ 0): {} {:?}; depth on the plane \
-             through the snapped corners: {} {:?}",
+             made on the planes through the snapped corners: {} {:?}",
             a.reference,
             a.missing.len(),
             first(&a.missing),
@@ -1369,8 +1353,6 @@ fn the_devices_fragments_are_the_references() {
             a.worst_colors.map(|c| c.0),
             a.worst_colors.map(|c| c.1),
             a.colors_over,
-            a.turned.len(),
-            first(&a.turned),
             a.snapped.len(),
             first(&a.snapped),
         );
@@ -1524,89 +1506,88 @@ fn fragments_agree_within_the_rasterizer_bounds_only() {
     assert!(!fragment_agrees(&reference, &facing, 1));
 }
 
-/// The H100's two worst-shaded fragments (2026-11-27, `the_devices_fragments_are_the_references`
-/// at 48² and 64²) are the reference's fragments shaded with the normal turned the other way:
-/// there n·v is 0.0024 and −0.0002, and two-sided lighting turns the interpolated normal toward
-/// the viewer, so a rasterizer that rounds it across the plane gets the other side's light.
+/// The H100's odd fragments (2026-11-27, `the_devices_fragments_are_the_references`) are the
+/// reference's with depth and attributes interpolated on the planes through the triangle's
+/// snapped corners ([`crate::reference::fragments_on_snapped_planes`]): its worst depths (2.3e-5
+/// and 1.6e-5 from the exact planes' single-sampled, 1.8e-6 with --msaa 4) to 1e-7, and its worst
+/// shading (up to 0.19 off; the --msaa 4 one on a partly covered pixel) to f16 precision. A
+/// partly covered fragment whose depth was 1.466e-3 off (the device's value was not printed)
+/// lies where the two planes are that far apart. Two of the colors had first been read as
+/// two-sided lighting turning a normal that lay across the view (n·v near 0), which the
+/// snapped normal there does; the multisampled one that reading did not explain.
 #[test]
-fn the_h100s_odd_shading_is_the_normal_turned_the_other_way() {
-    for (spec, size, (x, y, prim), h100) in [
-        (
-            "builtin:nvpro?objects=48&subdiv=10&seed=4",
-            48,
-            (20, 9, 7),
-            [0.10583496f32, 0.15698242, 0.26489258, 0.52441406],
-        ),
-        (
-            "builtin:nvpro?objects=160&subdiv=10&seed=3",
-            64,
-            (41, 15, 8095),
-            [0.5151367, 0.18786621, 0.15002441, 0.77685547],
-        ),
-    ] {
-        let s = scene(spec);
-        let opts = all_fragments(size);
-        let at = |lists: Vec<Vec<crate::resolve::RefFragment>>| {
-            let f = lists[(y * size + x) as usize]
-                .iter()
-                .find(|f| f.prim == prim)
-                .copied()
-                .unwrap();
-            [f.color[0], f.color[1], f.color[2], f.alpha]
-        };
-        let (facing, away) = (
-            at(crate::reference::fragments(&s, &opts).unwrap()),
-            at(crate::reference::fragments_shaded_away(&s, &opts).unwrap()),
-        );
-        let off = |c: [f64; 4]| {
-            c.iter()
-                .zip(h100)
-                .map(|(a, b)| (a - f64::from(b)).abs())
-                .fold(0.0, f64::max)
-        };
-        assert!(
-            off(away) <= COLOR_AGREEMENT,
-            "{spec}: {away:?} against the H100's {h100:?}"
-        );
-        assert!(off(facing) > 0.05, "{spec}: {facing:?}");
-    }
-}
-
-/// The H100's worst depths (2026-11-27, `the_devices_fragments_are_the_references`: 2.3e-5 and
-/// 1.6e-5 from the reference single-sampled, 1.8e-6 with --msaa 4) lie on the plane through the
-/// triangle's corners snapped to the 1/256-pixel grid, not through the exact corners as lavapipe's
-/// and the reference's do; and the 1.466e-3 of a partly covered fragment with --msaa 4 (whose
-/// device depth was not printed) is the two planes' distance at that pixel's centre.
-#[test]
-fn the_h100s_depths_lie_on_the_plane_through_the_snapped_corners() {
+fn the_h100s_fragments_lie_on_the_planes_through_the_snapped_corners() {
     const NVPRO_48: &str = "builtin:nvpro?objects=48&subdiv=10&seed=4";
     const NVPRO_160: &str = "builtin:nvpro?objects=160&subdiv=10&seed=3";
-    let depths = |spec: &str, size: u32, msaa: u32, (x, y, prim): (u32, u32, u32)| {
+    let fragments = |spec: &str, size: u32, msaa: u32, (x, y, prim): (u32, u32, u32)| {
         let s = scene(spec);
         let mut opts = all_fragments(size);
         opts.build.msaa = msaa;
-        let p = (y * size + x) as usize;
-        let exact = crate::reference::fragments(&s, &opts).unwrap()[p]
-            .iter()
-            .find(|f| f.prim == prim)
-            .unwrap()
-            .depth;
-        (exact, crate::reference::snapped_depths(&s, &opts)[p][&prim])
+        let at = |lists: Vec<Vec<crate::resolve::RefFragment>>| {
+            *lists[(y * size + x) as usize]
+                .iter()
+                .find(|f| f.prim == prim)
+                .unwrap()
+        };
+        (
+            at(crate::reference::fragments(&s, &opts).unwrap()),
+            at(crate::reference::fragments_on_snapped_planes(&s, &opts).unwrap()),
+        )
     };
     for (spec, size, msaa, at, h100) in [
         (NVPRO_48, 48, 1, (13, 29, 345), 0.9806135f32),
         (NVPRO_160, 64, 1, (45, 43, 1039), 0.9811216),
         (NVPRO_48, 48, 4, (34, 9, 2568), 0.97718877),
     ] {
-        let (exact, snapped) = depths(spec, size, msaa, at);
+        let (exact, snapped) = fragments(spec, size, msaa, at);
         let h100 = f64::from(h100);
         assert!(
-            (h100 - snapped).abs() <= 1e-7 && (h100 - exact).abs() > DEPTH_AGREEMENT,
-            "{spec} at {at:?}: H100 {h100}, snapped corners {snapped}, exact corners {exact}"
+            (h100 - snapped.depth).abs() <= 1e-7 && (h100 - exact.depth).abs() > DEPTH_AGREEMENT,
+            "{spec} at {at:?}: H100 {h100}, snapped planes {}, exact {}",
+            snapped.depth,
+            exact.depth
         );
     }
-    let (exact, snapped) = depths(NVPRO_48, 48, 4, (22, 30, 3199));
-    let apart = (snapped - exact).abs();
+    for (spec, size, msaa, at, h100) in [
+        (
+            NVPRO_48,
+            48,
+            1,
+            (20, 9, 7),
+            [0.10583496f32, 0.15698242, 0.26489258, 0.52441406],
+        ),
+        (
+            NVPRO_160,
+            64,
+            1,
+            (41, 15, 8095),
+            [0.5151367, 0.18786621, 0.15002441, 0.77685547],
+        ),
+        (
+            NVPRO_48,
+            48,
+            4,
+            (20, 22, 1838),
+            [0.39111328, 0.39257813, 0.19873047, 0.32788086],
+        ),
+    ] {
+        let (exact, snapped) = fragments(spec, size, msaa, at);
+        let off = |f: crate::resolve::RefFragment| {
+            [f.color[0], f.color[1], f.color[2], f.alpha]
+                .iter()
+                .zip(h100)
+                .map(|(a, b)| (a - f64::from(b)).abs())
+                .fold(0.0, f64::max)
+        };
+        assert!(
+            off(snapped) <= COLOR_AGREEMENT && off(exact) > 0.05,
+            "{spec} at {at:?}: H100 {h100:?}, snapped planes {:?}, exact {:?}",
+            snapped.color,
+            exact.color
+        );
+    }
+    let (exact, snapped) = fragments(NVPRO_48, 48, 4, (22, 30, 3199));
+    let apart = (snapped.depth - exact.depth).abs();
     assert!(
         (apart - 1.466e-3).abs() <= EXTRAPOLATED_DEPTH_AGREEMENT,
         "the planes are {apart} apart"
