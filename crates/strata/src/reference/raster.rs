@@ -51,7 +51,8 @@ pub struct SetupTriangle {
     pub prim: u32,
     /// Snapped window x, y in subpixel units (y down): coverage.
     pub xy: [[i64; 2]; 3],
-    /// Unsnapped window x, y in pixels: interpolation (as lavapipe's attribute planes use them).
+    /// Window x, y in pixels that depth and attributes are interpolated from: unsnapped, as
+    /// lavapipe's attribute planes use them, or the snapped `xy` after [`Self::snap_planes`].
     pub window: [[f64; 2]; 3],
     /// Window depth per corner.
     pub z: [f64; 3],
