@@ -342,3 +342,49 @@ impl Failures {
         }
     }
 }
+
+mod tests {
+    use std::path::Path;
+
+    /// The files a test's module path may be written in: `a/b.rs` or `a/b/mod.rs` for
+    /// `a::b::name`, and its parent's for a module written inline (`mod tests { … }`).
+    fn module_files(src: &Path, modules: &[&str]) -> Vec<std::path::PathBuf> {
+        let mut files = Vec::new();
+        for end in (1..=modules.len()).rev().take(2) {
+            let dir = modules[..end]
+                .iter()
+                .fold(src.to_path_buf(), |p, m| p.join(m));
+            files.push(dir.with_extension("rs"));
+            files.push(dir.join("mod.rs"));
+        }
+        files
+    }
+
+    /// Every test that `scripts/gpu-check` runs first by name (`bench/gpu-runs/h100-failures.txt`
+    /// and `untested-on-gpu.txt`) is still written where its path says: under `--exact` a renamed
+    /// or merged test would run nothing in that step, and lose its place without a word.
+    #[test]
+    fn the_gpu_runs_lists_name_tests_that_exist() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let lists = root.join("../../bench/gpu-runs");
+        let mut stale = Vec::new();
+        for list in ["h100-failures.txt", "untested-on-gpu.txt"] {
+            let text = std::fs::read_to_string(lists.join(list)).unwrap();
+            for name in text
+                .lines()
+                .filter(|l| !l.is_empty() && !l.starts_with('#'))
+            {
+                let path: Vec<&str> = name.split("::").collect();
+                let (leaf, modules) = path.split_last().unwrap();
+                let written = module_files(&root.join("src"), modules)
+                    .iter()
+                    .filter_map(|file| std::fs::read_to_string(file).ok())
+                    .any(|source| source.contains(&format!("fn {leaf}(")));
+                if !written {
+                    stale.push(format!("{list}: {name}"));
+                }
+            }
+        }
+        assert!(stale.is_empty(), "not a test any more: {stale:#?}");
+    }
+}
