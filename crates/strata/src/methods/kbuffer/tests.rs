@@ -1305,13 +1305,13 @@ const EXTRAPOLATED_DEPTH_AGREEMENT: f64 = 1e-5;
 const COLOR_AGREEMENT: f64 = 2e-3;
 
 /// The device's rasterizer, read back fragment by fragment through `abuffer-ll`'s lists, against
-/// the reference's: the same fragments (pixel and primitive) but for pixel centres on an edge
-/// (at most the 0.1% the image tests allow; lavapipe: none here), with --msaa the same samples,
-/// and window depths within [`DEPTH_AGREEMENT`] ([`EXTRAPOLATED_DEPTH_AGREEMENT`] where a
-/// fragment covers only some samples) and shading within [`COLOR_AGREEMENT`] of the fragment
-/// interpolated on the planes through the triangle's exact window corners, as lavapipe
-/// interpolates, or through its corners snapped to the subpixel grid, as the H100 does (counted
-/// and listed); and strata's compute rasterizer the same. Every exact test leans on this; on another GPU, a failure here says
+/// the reference's: the same fragments (pixel and primitive) but for pixel centres on an edge (at
+/// most the 0.1% the image tests allow; lavapipe: none here), with --msaa the same samples, and
+/// window depths within [`DEPTH_AGREEMENT`] ([`EXTRAPOLATED_DEPTH_AGREEMENT`] where a fragment
+/// covers only some samples) and shading within [`COLOR_AGREEMENT`] of the fragment interpolated on
+/// the planes through the triangle's exact window corners, as lavapipe interpolates, or through its
+/// corners snapped to the subpixel grid, as the H100 does (counted and listed); and strata's
+/// compute rasterizer the same. Every exact test leans on this; on another GPU, a failure here says
 /// whether coverage, depth or shading makes its pictures differ, where, and whether the compute
 /// rasterizer (the same WGSL everywhere) still agrees with the reference there.
 #[test]
