@@ -821,8 +821,8 @@ fn pipeline_options_are_checked() {
 }
 
 /// `--raster compute` renders the GPU path's picture (the demo: deferred pipeline, transparent
-/// objects through the compute rasterizer) and says so in its statistics; `--layers-per-pass`
-/// is kpeel's (on the GPU's rasterizer).
+/// objects through the compute rasterizer) and says so in its statistics; a lock method runs
+/// on it with ordered atomics; `--layers-per-pass` is kpeel's.
 #[test]
 fn compute_raster_renders_the_gpu_paths_picture() {
     let dir = workdir("raster");
@@ -868,9 +868,26 @@ fn compute_raster_renders_the_gpu_paths_picture() {
     let (_, v) = strata_to_with_stats(&args, &png, &stats);
     assert_eq!(v["k"], 4);
     assert_eq!(v["raster"], "compute");
-    assert_bad_input(
-        &["render", "--method", "kplus-heap", "--raster", "compute"],
-        "acquire/release",
+    // A lock method captures on the compute rasterizer with acquire/release atomics.
+    let png = dir.join("kplus-heap.png");
+    let stats = dir.join("kplus-heap.json");
+    let args = [
+        "render",
+        "--raster",
+        "compute",
+        "--method",
+        "kplus-heap",
+        "--size",
+        "64x48",
+    ];
+    let (_, v) = strata_to_with_stats(&args, &png, &stats);
+    assert_eq!(v["raster"], "compute");
+    assert_eq!(v["lock_failures"], 0, "{v}");
+    assert!(
+        v["memory_ordering"]
+            .as_str()
+            .is_some_and(|o| o.starts_with("acquire-release")),
+        "{v}"
     );
     assert_bad_input(
         &["render", "--layers-per-pass", "2", "--method", "f2b"],

@@ -69,6 +69,56 @@ pub fn available(gpu: &Gpu) -> bool {
         && !relaxed_for_diagnosis()
 }
 
+/// The largest compute workgroup whose acquire/release atomics this adapter runs correctly, where
+/// that is less than any size: `Some(lanes of one SIMD vector)` on llvmpipe (lavapipe) from Mesa
+/// releases before 22.3.7 (and, to be safe, 23.0), else `None`.
+///
+/// Why: SPIR-V atomics with Acquire or Release semantics become NIR memory barriers before or
+/// after the atomic. Those llvmpipe releases compile every such barrier in a compute shader as a
+/// workgroup *control* barrier: a coroutine yield (Mesa fixed it in 2178a8da51fe, "gallivm: Fix
+/// handling of nir_intrinsic_scoped_barrier", released in 22.3.7). A workgroup runs as one
+/// coroutine per SIMD vector of invocations, resumed in turn, and the scheduler stops resuming
+/// the others once one has finished: the vectors that passed more ordered atomics (more lock
+/// tries, a longer list walk) never finish, and their fragments are lost. With one vector per
+/// workgroup every invocation finishes. Measured with the contention harness on Mesa 22.3.6
+/// (8 lanes): ordered kb-ll and kplus-array failed every run with workgroups of 64 and of 16
+/// invocations (kplus-array also starved: 147 s for 4 runs) and passed every run with 8 (0.7 s).
+/// The fragment stage is unaffected: lavapipe drops memory barriers there.
+pub fn workgroup_limit(gpu: &Gpu) -> Option<u32> {
+    barrier_yield_lanes(&gpu.info.driver, &gpu.info.driver_info, &gpu.info.name)
+}
+
+/// [`workgroup_limit`] from an adapter's driver name, driver version text ("Mesa 22.3.6 (LLVM
+/// 15.0.6)") and name ("llvmpipe (LLVM 15.0.6, 256 bits)", which gives the vector width; 128
+/// bits where it does not).
+pub fn barrier_yield_lanes(driver: &str, driver_info: &str, adapter: &str) -> Option<u32> {
+    if driver != "llvmpipe" && !adapter.starts_with("llvmpipe") {
+        return None;
+    }
+    let version: Vec<u32> = driver_info
+        .split_whitespace()
+        .skip_while(|w| *w != "Mesa")
+        .nth(1)
+        .map(|v| v.split(['.', '-']).map_while(|n| n.parse().ok()).collect())
+        .unwrap_or_default();
+    let fixed = match version.as_slice() {
+        [major, minor, patch, ..] => {
+            (*major, *minor, *patch) >= (22, 3, 7) && (*major, *minor) != (23, 0)
+        }
+        _ => false,
+    };
+    if fixed {
+        return None;
+    }
+    let bits = adapter
+        .split([',', '(', ')'])
+        .filter_map(|part| part.trim().strip_suffix(" bits"))
+        .find_map(|n| n.trim().parse::<u32>().ok())
+        .unwrap_or(128);
+    // A power of two (a divisor of the rasterizer's 64 items per workgroup) within one vector.
+    Some(1 << (bits / 32).clamp(1, 64).ilog2())
+}
+
 /// `STRATA_RELAXED_CAPTURES=1`, a diagnostic: every capture keeps WGSL's relaxed atomics even
 /// where the adapter has the ordered path, and the methods that need ordering run without it
 /// instead of being refused (their `memory_ordering` says so). Comparing a GPU run with and
@@ -358,6 +408,46 @@ mod tests {
         assert_eq!(
             atomics(&compiled).iter().filter(|a| ordered_ids(a)).count(),
             ordered.len()
+        );
+    }
+
+    /// Lavapipe before Mesa 22.3.7 gets workgroups of one SIMD vector for ordered atomics;
+    /// later lavapipe and other drivers get any size.
+    #[test]
+    fn old_lavapipe_gets_one_vector_workgroups() {
+        let name = "llvmpipe (LLVM 15.0.6, 256 bits)";
+        assert_eq!(
+            barrier_yield_lanes("llvmpipe", "Mesa 22.3.6 (LLVM 15.0.6)", name),
+            Some(8)
+        );
+        assert_eq!(
+            barrier_yield_lanes(
+                "llvmpipe",
+                "Mesa 21.2.6",
+                "llvmpipe (LLVM 12.0.0, 512 bits)"
+            ),
+            Some(16)
+        );
+        assert_eq!(
+            barrier_yield_lanes("llvmpipe", "Mesa 23.0.4", "llvmpipe (LLVM 15)"),
+            Some(4)
+        );
+        assert_eq!(barrier_yield_lanes("llvmpipe", "", name), Some(8));
+        assert_eq!(
+            barrier_yield_lanes("llvmpipe", "Mesa 22.3.7 (LLVM 15.0.6)", name),
+            None
+        );
+        assert_eq!(
+            barrier_yield_lanes(
+                "llvmpipe",
+                "Mesa 24.2.8-1ubuntu1~24.04.1 (LLVM 19.1.1)",
+                name
+            ),
+            None
+        );
+        assert_eq!(
+            barrier_yield_lanes("NVIDIA", "570.195.03", "NVIDIA H100 80GB HBM3"),
+            None
         );
     }
 

@@ -33,28 +33,28 @@
 //! frame reports itself incomplete, and exact mode renders it again), shrinks when more than
 //! twice too large, and is bounded by the device's largest storage binding.
 //!
-//! Methods: those whose geometry passes store only into storage buffers with lock-free atomics —
+//! Methods: those whose geometry passes store only into storage buffers —
 //! the MDT cascades (`kb-mdt32`, `kb-mdt64`, `kb-mdt-pack`: seed 002's MDTS; `kb-keys`' exact
 //! (depth, primitive) keys), the fixed arrays
 //! (`abuffer-fixed`, `kb-ab-fixed`: its FABS), the linked lists `abuffer-ll` and `kb-ab-ll`, the
 //! S-buffers `sbuffer` and `kb-sbuffer`, `dual`'s atomic min/max, `kb` (whose unlocked
-//! read-modify-writes race by design on either path), and `kpeel` — seed 002's multi-layer
+//! read-modify-writes race by design on either path), `kpeel` — seed 002's multi-layer
 //! peeling, `--layers-per-pass` — which on this path captures through its own lock-free
 //! cascade of 64-bit (depth, tag) keys and a colors pass (kpeel_cascade.wgsl; two geometry
-//! passes per layer group, SHADER_INT64_ATOMIC_ALL_OPS). Not supported:
-//! - the spin-lock captures (`kplus-array`, `kplus-heap`, `kplus-array-r`, `kplus-semiheap`,
-//!   `kb-ps`, `kplus-sbuffer`) and `kb-ll`'s compare-exchange insertion: their critical
-//!   sections read what other fragments wrote, which needs acquire/release ordering. WGSL's atomics
-//!   are relaxed; lavapipe runs compute workgroups truly in parallel on CPU threads (unlike a
-//!   pixel's fragments), and there the relaxed locks lost fragments (`kb-ps`: 7 of a pixel's 8
-//!   counted, in one run of a few under load). The SPIR-V passthrough that gives the fragment
-//!   captures acquire/release atomics lost whole triangles when used for compute captures on
-//!   lavapipe, so it is not used either.
-//! - the methods that write color targets through the GPU's blending or depth test (`unsorted`,
-//!   `sorted`, `f2b`, `bucket`, `wboit`, `mboit`), which a compute shader could only emulate with
-//!   per-pixel locks.
+//! passes per layer group, SHADER_INT64_ATOMIC_ALL_OPS), and the captures that order memory:
+//! the spin locks (`kplus-array`, `kplus-heap`, `kplus-array-r`, `kplus-semiheap`, `kb-ps`,
+//! `mlab`, `kplus-sbuffer`) and `kb-ll`'s compare-exchange links. Those get acquire/release
+//! atomics as their fragment stages do (`compute_stage`, `gpu::ordered`: SPIR-V passthrough on
+//! Vulkan; refused with one line where the adapter has none, as on the GPU's rasterizer). On
+//! lavapipe before Mesa 22.3.7 their workgroups hold one SIMD vector (8 invocations, each
+//! rasterizing 8 items): that Mesa compiles an ordered atomic's memory barrier in a compute
+//! shader as a workgroup barrier, and in larger workgroups stops running some invocations
+//! (`gpu::ordered::workgroup_limit`) — with 64, `kb-ps` lost fragments on 784 of 2304 pixels.
+//! Not supported: the methods that write color targets through the GPU's blending or depth test
+//! (`unsorted`, `sorted`, `f2b`, `bucket`, `wboit`, `mboit`), which a compute shader could only
+//! emulate with per-pixel locks.
 //!
-//! Both refuse `--raster compute` with one clear error.
+//! They refuse `--raster compute` with one clear error.
 
 pub mod wide;
 
@@ -150,9 +150,15 @@ pub fn raster_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
 /// `{entry}_capture(v: SceneVarying, front_facing: bool, mask: u32)`, which its made `@fragment`
 /// stage calls (`shader::capture_entries`). The raster stage calls it through a module made here
 /// (`strata::raster::capture`) with full coverage (the compute rasterizer samples pixel
-/// centers; `--msaa` refuses it). The raster bindings are at group `raster_group`. An error when
-/// the stage declares no such step.
-pub fn capture_stage(stage: &Stage, entry: &str, raster_group: usize) -> Result<Stage> {
+/// centers; `--msaa` refuses it). The raster bindings are at group `raster_group`; a workgroup
+/// of `workgroup` invocations (a divisor of 64) rasterizes 64 items. An error when the stage
+/// declares no such step.
+pub fn capture_stage(
+    stage: &Stage,
+    entry: &str,
+    raster_group: usize,
+    workgroup: u32,
+) -> Result<Stage> {
     let step = format!("{entry}_capture");
     if !capture_entries(stage.source()).any(|e| e == entry) {
         return Err(Error::unsupported(format!(
@@ -179,7 +185,11 @@ fn raster_capture(v: SceneVarying, front_facing: bool) {{
         .with(LIBRARY)
         .with_module(bridge)
         .defs(stage.definitions())
-        .defs(&Defs::default().value("RASTER_GROUP", raster_group as u32));
+        .defs(
+            &Defs::default()
+                .value("RASTER_GROUP", raster_group as u32)
+                .value("RASTER_WORKGROUP", workgroup),
+        );
     Ok(stage
         .libraries()
         .iter()
@@ -188,10 +198,8 @@ fn raster_capture(v: SceneVarying, front_facing: bool) {{
 
 /// A storage-only geometry stage of a method on the scene's rasterizer: a render pipeline of
 /// `module`'s fragment `entry` (the module of `stage`, or its passthrough twin with ordered
-/// atomics), or the compute rasterizer's capture composed from `stage`.
-/// Compute captures run with WGSL's relaxed atomics: given acquire/release atomics through a
-/// SPIR-V passthrough module (as fragment captures are), lavapipe lost fragments of the
-/// linked-list and fixed-array captures, so that path is not taken.
+/// atomics), or the compute rasterizer's capture composed from `stage` with relaxed atomics
+/// (a capture that needs ordering calls [`compute_stage`] itself).
 pub fn storage_stage(
     gpu: &Gpu,
     scene: &SceneGpu,
@@ -219,12 +227,16 @@ pub fn storage_stage(
         stage,
         entry,
         layouts,
+        false,
     )
 }
 
 /// The compute rasterizer's capture of `stage`'s fragment `entry` (see [`capture_stage`]) with
 /// the method's `layouts`, the rasterizer's group after them. Only for scenes on the compute
-/// rasterizer.
+/// rasterizer. With `ordered` its `acquire_*` and `release_*` atomics get that ordering where
+/// the adapter takes SPIR-V passthrough ([`crate::gpu::ordered`], as fragment captures do), in
+/// workgroups no larger than the adapter runs such atomics in correctly
+/// ([`crate::gpu::ordered::workgroup_limit`]: one SIMD vector on lavapipe before Mesa 22.3.7).
 pub fn compute_stage(
     gpu: &Gpu,
     scene: &SceneGpu,
@@ -232,15 +244,24 @@ pub fn compute_stage(
     stage: &Stage,
     entry: &str,
     layouts: &[&wgpu::BindGroupLayout],
+    ordered: bool,
 ) -> GeometryStage {
     let raster_layout = scene
         .raster_layout
         .as_ref()
         .expect("a compute stage is made for a scene on the compute rasterizer");
-    let mut raster = capture_stage(stage, entry, layouts.len())
+    let ordered = ordered && crate::gpu::ordered::available(gpu);
+    let workgroup = match ordered {
+        true => 64,
+        false => 64,
+    };
+    let mut raster = capture_stage(stage, entry, layouts.len(), workgroup)
         .expect("strata's storage stages have the capture signature (tested)");
     raster.label = label.to_owned();
-    let module = raster.module(&gpu.device);
+    let module = ordered
+        .then(|| crate::gpu::ordered::module(gpu, &raster))
+        .flatten()
+        .unwrap_or_else(|| raster.module(&gpu.device));
     let mut all = layouts.to_vec();
     all.push(raster_layout);
     GeometryStage::Compute(crate::frame::passes::compute_pipeline(

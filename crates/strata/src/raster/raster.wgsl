@@ -1,7 +1,7 @@
 #define_import_path strata::raster::raster
 #import strata::scene::{behind_opaque}
 #import strata::raster::capture::{raster_capture}
-#import strata::raster::items::{item_at, item_thread, items_written, rp}
+#import strata::raster::items::{item_at, items_written, rp}
 #import strata::raster::setup::{clipped_triangle, fan_triangle, tile_coverage, tile_pixel, varying_at, wide_negative}
 
 // Raster stage of the compute rasterizer: one thread per work item (a fan triangle and an
@@ -12,9 +12,24 @@
 // strata::raster::capture, made per method). The bindings' group is the one after the method's
 // groups (the definition RASTER_GROUP).
 
-@compute @workgroup_size(64)
-fn cs_raster(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let item = item_thread(id, groups);
+// A workgroup owns the 64 items args.wgsl counts it, however few invocations it has: RASTER_WORKGROUP
+// is 64 except for ordered captures on lavapipe before Mesa 22.3.7, which needs workgroups of one
+// SIMD vector (`gpu::ordered::workgroup_limit`); each invocation then rasterizes 64 /
+// RASTER_WORKGROUP items, strided so that a workgroup's items stay the same.
+@compute @workgroup_size(#{RASTER_WORKGROUP})
+fn cs_raster(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(local_invocation_index) lane: u32,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let first = (group.x + group.y * groups.x) * 64u + lane;
+    for (var i = 0u; i < 64u / #{RASTER_WORKGROUP}; i++) {
+        rasterize_item(first + i * #{RASTER_WORKGROUP});
+    }
+}
+
+// One work item: its fragments go to the method's capture.
+fn rasterize_item(item: u32) {
     if item >= items_written() {
         return;
     }

@@ -17,7 +17,8 @@
 //! the same harness runs as part of the tests.
 //!
 //! Passes: clear; poison (garbage in slots and nodes, as a frame may leave); capture (one
-//! dispatch per capture pass, 64 invocations a workgroup); gather (each pixel's stored count
+//! dispatch per capture pass, 64 invocations a workgroup, or one SIMD vector for ordered
+//! captures where `gpu::ordered::workgroup_limit` says the driver needs it); gather (each pixel's stored count
 //! and fragments through the method's own resolve accessors). Memory: the method's storage for
 //! the handful of pixels.
 
@@ -30,11 +31,12 @@ use super::{
 use crate::error::{Error, Result};
 use crate::frame::passes::compute_pipeline;
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::shader::{Library, Stage};
+use crate::gpu::shader::{Defs, Library, Stage};
 use crate::gpu::Gpu;
 use crate::methods::MethodId;
 
 const HARNESS_WGSL: &str = include_str!("contention.wgsl");
+/// Invocations of a capture workgroup, where the adapter runs ordered atomics in any.
 const WORKGROUP: u32 = 64;
 
 gpu_struct! {
@@ -149,7 +151,8 @@ pub fn stage(method: MethodId, coherent: bool) -> Result<(Stage, u32)> {
         .with(LIBRARY)
         .with(HARNESS_PARAMS)
         .with_module(step_module)
-        .defs(&definitions(layout, 1, coherent));
+        .defs(&definitions(layout, 1, coherent))
+        .defs(&Defs::default().value("HARNESS_WORKGROUP", WORKGROUP));
     Ok((stage, passes))
 }
 
@@ -333,6 +336,8 @@ pub struct Harness<'g> {
     passes: u32,
     /// Whether the capture runs with acquire/release atomics.
     pub ordered: bool,
+    /// Invocations of a capture workgroup.
+    pub workgroup: u32,
     empty: wgpu::BindGroupLayout,
     kbuffer: wgpu::BindGroupLayout,
     layout: wgpu::BindGroupLayout,
@@ -362,6 +367,14 @@ impl<'g> Harness<'g> {
         }
         let device = &gpu.device;
         let label = stage.label.clone();
+        let ordered = ordered && crate::gpu::ordered::available(gpu);
+        let workgroup = match ordered {
+            true => {
+                crate::gpu::ordered::workgroup_limit(gpu).map_or(WORKGROUP, |w| w.min(WORKGROUP))
+            }
+            false => WORKGROUP,
+        };
+        let stage = stage.defs(&Defs::default().value("HARNESS_WORKGROUP", workgroup));
         let ordered_module = match ordered {
             true => crate::gpu::ordered::module(gpu, &stage),
             false => None,
@@ -383,6 +396,7 @@ impl<'g> Harness<'g> {
             method,
             passes,
             ordered,
+            workgroup,
             empty,
             kbuffer,
             layout,
@@ -500,9 +514,9 @@ impl<'g> Harness<'g> {
         }
         for pass in 0..=self.passes {
             let (pipeline, workgroups) = if pass < self.passes {
-                (&self.capture, fragments.div_ceil(WORKGROUP as u64))
+                (&self.capture, fragments.div_ceil(self.workgroup as u64))
             } else {
-                (&self.gather, pixels.div_ceil(WORKGROUP as u64))
+                (&self.gather, pixels.div_ceil(64))
             };
             // Each pass in a compute pass of its own, as a method's geometry passes are.
             let mut cp = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

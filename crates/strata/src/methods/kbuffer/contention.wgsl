@@ -17,7 +17,9 @@
 // Per pixel: the stored count, then (depth bits, tag) of up to `capacity` stored fragments.
 @group(2) @binding(2) var<storage, read_write> harness_output: array<u32>;
 
-@compute @workgroup_size(64)
+// HARNESS_WORKGROUP is 64 except for ordered captures on lavapipe before Mesa 22.3.7, which
+// needs workgroups of one SIMD vector (`gpu::ordered::workgroup_limit`).
+@compute @workgroup_size(#{HARNESS_WORKGROUP})
 fn cs_harness_capture(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x < harness.fragments {
         let x = harness_input[id.x];

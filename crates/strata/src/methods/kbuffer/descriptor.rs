@@ -29,29 +29,24 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
 /// Memory of the k-slot methods; `SLOT_BYTES` etc. keep it true.
 const KB_MEMORY: &str = "16·(k+1)·W·H + 112 + 40·(W·H with --tail blend, else 1)";
 
-const COMPUTE: Support = Support::Yes;
-const LOCKS_NEED_ORDER: Support = Support::No(
-    "its capture's locks need acquire/release atomics, which compute captures lack (WGSL atomics are relaxed)",
-);
-
 /// An entry of this family: made by `create`, on either rasterizer.
 const fn entry(id: MethodId, name: &'static str, family: Family) -> Descriptor {
     Descriptor {
-        compute_raster: COMPUTE,
+        compute_raster: Support::Yes,
         ..Descriptor::new(id, name, family, create)
     }
 }
 
-/// An entry whose capture takes a per-pixel spin lock: acquire/release atomics needed (so not on
-/// the compute rasterizer), per-sample storage, `--max-tries` read, k up to 256.
+/// An entry whose capture takes a per-pixel spin lock: acquire/release atomics needed (on
+/// either rasterizer; refused where the adapter has none), per-sample storage, `--max-tries`
+/// read, k up to 256.
 const fn locked(id: MethodId, name: &'static str, family: Family) -> Descriptor {
     Descriptor {
-        compute_raster: LOCKS_NEED_ORDER,
         per_sample_storage: true,
         ordering: Ordering::Locks,
         reads: K_LOCKED,
         max_k: 256,
-        ..Descriptor::new(id, name, family, create)
+        ..entry(id, name, family)
     }
 }
 

@@ -563,6 +563,9 @@ pub struct CaptureModule {
     pub wgsl: wgpu::ShaderModule,
     /// The fragment stage with acquire/release atomics, where the adapter has them.
     pub ordered: Option<wgpu::ShaderModule>,
+    /// The compute rasterizer's captures get acquire/release atomics (the method orders, the
+    /// adapter has them).
+    pub ordered_compute: bool,
     /// The stage, which the compute rasterizer composes again with its own entry point.
     pub stage: Stage,
 }
@@ -659,10 +662,22 @@ impl KFrame {
         module: &CaptureModule,
         entry: &str,
     ) -> GeometryStage {
+        let label = format!("strata.{}.{entry}", self.id);
+        if module.ordered_compute {
+            return crate::raster::compute_stage(
+                gpu,
+                scene,
+                &format!("{label}.compute"),
+                &module.stage,
+                entry,
+                &[&scene.frame_layout, &self.layout],
+                true,
+            );
+        }
         crate::raster::storage_stage(
             gpu,
             scene,
-            &format!("strata.{}.{entry}", self.id),
+            &label,
             &module.stage,
             module.ordered.as_ref().unwrap_or(&module.wgsl),
             entry,
@@ -672,7 +687,7 @@ impl KFrame {
 
     /// The capture module of `source` over the method's storage `layout`; with `ordered`, its
     /// fragment stages also get acquire/release atomics where the adapter can
-    /// ([`crate::gpu::ordered`]) and the scene is drawn by the GPU's rasterizer.
+    /// ([`crate::gpu::ordered`]), and so do its compute captures where the method [`orders`].
     pub fn capture_module(
         &mut self,
         gpu: &Gpu,
@@ -682,15 +697,20 @@ impl KFrame {
         ordered: bool,
     ) -> CaptureModule {
         let stage = stage(gpu, format!("strata.{}.capture", self.id), source, layout);
-        // Compute captures keep WGSL's relaxed atomics (see `raster::storage_stage`).
-        let ordered = if ordered && scene.raster_layout.is_none() {
+        let compute = scene.raster_layout.is_some();
+        // The compute rasterizer composes the stage again with its own entry point, and orders
+        // that (`raster::compute_stage`) only for a method that needs it.
+        let ordered_compute =
+            ordered && compute && orders(self.id) && crate::gpu::ordered::available(gpu);
+        let ordered = if ordered && !compute {
             crate::gpu::ordered::module(gpu, &stage)
         } else {
             None
         };
+        let is_ordered = ordered.is_some() || ordered_compute;
         let coherent = gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT);
         let diagnosis = crate::gpu::ordered::relaxed_for_diagnosis();
-        self.memory_ordering = match (ordered.is_some() && orders(self.id), coherent) {
+        self.memory_ordering = match (is_ordered && orders(self.id), coherent) {
             _ if diagnosis && orders(self.id) => {
                 "relaxed (STRATA_RELAXED_CAPTURES diagnostic: unsound where fragments of a pixel run at once)"
             }
@@ -702,13 +722,8 @@ impl KFrame {
             (false, false) => "relaxed",
         };
         // A lock or a link chain without ordering can read stale slots or last frame's links:
-        // such a method is refused on this adapter (on the GPU's rasterizer; the compute
-        // rasterizer refuses it itself).
-        self.unordered = (orders(self.id)
-            && ordered.is_none()
-            && scene.raster_layout.is_none()
-            && !diagnosis)
-            .then(|| {
+        // such a method is refused on this adapter, on either rasterizer.
+        self.unordered = (orders(self.id) && !is_ordered && !diagnosis).then(|| {
                 format!(
                     "{} takes a per-pixel lock or links lists concurrently, which needs acquire/release atomics (SPIR-V passthrough on Vulkan); '{}' ({}) has none, so its captures could read stale slots; use kb-keys where the adapter has 64-bit atomics, else abuffer-ll, sbuffer or kpeel",
                     self.id,
@@ -719,6 +734,7 @@ impl KFrame {
         CaptureModule {
             wgsl: stage.module(&gpu.device),
             ordered,
+            ordered_compute,
             stage,
         }
     }
