@@ -1,7 +1,7 @@
 //! `strata bench cuda-renderer` (seed 002 Table 1): the compute rasterizer's single-pass
 //! captures — MDTS (`kb-mdt32`, `kb-mdt-pack`) and FABS (`abuffer-fixed`) — against the GPU
 //! rasterizer's `abuffer-fixed`, depth peeling (`f2b`, `dual`), the linked-list A-buffer and
-//! the k+-buffer, on models from small to large: frame time, geometry passes and the compute
+//! the k+-buffer (on both rasterizers), on models from small to large: frame time, geometry passes and the compute
 //! pipeline's time by stage (bin, capture, resolve).
 //!
 //! Each configuration runs as the other experiments do (`bench::measure`: a steady loop of
@@ -23,7 +23,7 @@ use crate::bench::{csv_of, fixed, measure, opt, print_rows, standalone_setup, Co
 /// The experiment `bench cuda-renderer` runs.
 pub const EXPERIMENT: super::Standalone = super::Standalone {
     name: "cuda-renderer",
-    description: "seed 002 Table 1: compute-rasterizer MDTS and FABS vs the hardware abuffer-fixed, f2b, dual, abuffer-ll and kplus-array on bunny, dragon and procedural scenes up to 10M triangles (lavapipe: up to ~1M): frame time, passes, compute time by stage",
+    description: "seed 002 Table 1: compute-rasterizer MDTS and FABS vs the hardware abuffer-fixed, f2b, dual, abuffer-ll and kplus-array (and kplus-array on the compute rasterizer) on bunny, dragon and procedural scenes up to 10M triangles (lavapipe: up to ~1M): frame time, passes, compute time by stage",
     run,
 };
 
@@ -46,7 +46,7 @@ const K_FIXED: u32 = 32;
 const K_PLUS: u32 = 16;
 
 /// (label, method, rasterizer, k).
-const RUNS: [(&str, &str, Raster, Option<u32>); 8] = [
+const RUNS: [(&str, &str, Raster, Option<u32>); 9] = [
     (
         "compute MDTS (kb-mdt32)",
         "kb-mdt32",
@@ -75,6 +75,13 @@ const RUNS: [(&str, &str, Raster, Option<u32>); 8] = [
     ("hw dual", "dual", Raster::Hw, None),
     ("hw abuffer-ll", "abuffer-ll", Raster::Hw, None),
     ("hw kplus-array", "kplus-array", Raster::Hw, Some(K_PLUS)),
+    // The spin lock on the compute rasterizer, with the same ordered atomics.
+    (
+        "compute kplus-array",
+        "kplus-array",
+        Raster::Compute,
+        Some(K_PLUS),
+    ),
 ];
 
 #[derive(Serialize)]

@@ -429,7 +429,8 @@ mod tests {
         assert!(!applies(Opt::Msaa, KbMdt64, None));
         assert!(applies(Opt::Msaa, Wboit, Some(PipelineArg::Deferred)));
         assert!(applies(Opt::RasterCompute, KbMdt64, None));
-        assert!(!applies(Opt::RasterCompute, KplusHeap, None));
+        assert!(applies(Opt::RasterCompute, KplusHeap, None));
+        assert!(!applies(Opt::RasterCompute, Wboit, None));
         assert!(!applies(Opt::Tonemap, Unsorted, None));
         assert!(applies(Opt::Tonemap, Unsorted, Some(PipelineArg::Forward)));
         assert!(!applies(
