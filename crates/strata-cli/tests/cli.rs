@@ -852,37 +852,21 @@ fn compute_raster_renders_the_gpu_paths_picture() {
     let c = compare_json(&pictures[0], &pictures[1]);
     // The same coverage and f32 shading from the same inputs: within 1/255.
     assert!(c["max_abs_diff"].as_u64().unwrap() <= 1, "{c}");
-    let png = dir.join("kpeel.png");
-    let stats = dir.join("kpeel.json");
-    let args = [
-        "render",
-        "--raster",
-        "compute",
-        "--method",
-        "kpeel",
-        "--layers-per-pass",
-        "4",
-        "--size",
-        "64x48",
-    ];
-    let (_, v) = strata_to_with_stats(&args, &png, &stats);
+    let on_compute = |method: &str, extra: &[&str]| {
+        let png = dir.join(format!("{method}.png"));
+        let stats = dir.join(format!("{method}.json"));
+        let mut args = vec!["render", "--raster", "compute", "--method", method];
+        args.extend_from_slice(extra);
+        args.extend(["--size", "64x48"]);
+        let (_, v) = strata_to_with_stats(&args, &png, &stats);
+        assert_eq!(v["raster"], "compute");
+        v
+    };
+    let v = on_compute("kpeel", &["--layers-per-pass", "4"]);
     assert_eq!(v["k"], 4);
-    assert_eq!(v["raster"], "compute");
-    // A lock method captures on the compute rasterizer with acquire/release atomics.
-    let png = dir.join("kplus-heap.png");
-    let stats = dir.join("kplus-heap.json");
-    let args = [
-        "render",
-        "--raster",
-        "compute",
-        "--method",
-        "kplus-heap",
-        "--size",
-        "64x48",
-    ];
-    let (_, v) = strata_to_with_stats(&args, &png, &stats);
-    assert_eq!(v["raster"], "compute");
-    // (Its lock failures, which lavapipe's preempted threads can cause, are the library tests'.)
+    // A lock method captures there with acquire/release atomics (its lock failures, which
+    // lavapipe's preempted threads can cause, are the library tests' to judge).
+    let v = on_compute("kplus-heap", &[]);
     assert!(
         v["memory_ordering"]
             .as_str()
