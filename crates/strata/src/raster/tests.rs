@@ -211,7 +211,12 @@ fn without_lock_failures(
 /// (`the_devices_fragments_are_the_references` reports those: the H100 interpolates on the
 /// planes through its snapped corners). There the compute path's pixel stands in; on lavapipe
 /// there are none.
-fn assert_matches_hw(
+fn assert_matches_hw(name: &str, scene: &Scene, size: u32, method: MethodId) -> FrameStats {
+    assert_matches_hw_with(name, scene, &options(size, Raster::Hw), method)
+}
+
+/// [`assert_matches_hw`] with the options `opts` (on either rasterizer).
+fn assert_matches_hw_with(
     name: &str,
     scene: &Scene,
     opts: &RenderOptions,
@@ -265,12 +270,7 @@ fn coverage_and_colors_match_the_gpu_path_on_the_test_scenes() {
         ("dragon", "builtin:dragon", 128),
     ] {
         let scene = loaders::load_scene(spec).unwrap();
-        assert_matches_hw(
-            name,
-            &scene,
-            &options(size, Raster::Hw),
-            MethodId::AbufferLl,
-        );
+        assert_matches_hw(name, &scene, size, MethodId::AbufferLl);
     }
 }
 
@@ -291,7 +291,7 @@ fn every_supported_method_matches_the_gpu_path_and_the_reference() {
         if method == MethodId::Mlab {
             opts.frame.k = Some(64);
         }
-        assert_matches_hw("nvpro-small", &scene, &opts, method);
+        assert_matches_hw_with("nvpro-small", &scene, &opts, method);
         if method.descriptor().exact {
             let opts = patient(method, &options(size, Raster::Compute));
             let (actual, _) = without_lock_failures(method, || render(&scene, &opts, method));
@@ -402,12 +402,7 @@ fn near_plane_crossings_and_huge_triangles_match() {
         vec![floor, wall, slanted],
         perspective([0.0, 0.0, 2.0], 0.5),
     );
-    let stats = assert_matches_hw(
-        "clipped",
-        &scene,
-        &options(64, Raster::Hw),
-        MethodId::AbufferLl,
-    );
+    let stats = assert_matches_hw("clipped", &scene, 64, MethodId::AbufferLl);
     assert_eq!(stats.fragments_dropped, Some(0));
     let (actual, _) = render(&scene, &options(64, Raster::Compute), MethodId::AbufferLl);
     let expected = crate::testing::render_reference(&scene, &options(64, Raster::Hw));
@@ -446,12 +441,7 @@ fn degenerate_and_sub_pixel_triangles_match() {
         indices.extend([base, base + 1, base + 2]);
     }
     let scene = scene_of(vec![mesh(positions, indices)], orthographic());
-    assert_matches_hw(
-        "tiny",
-        &scene,
-        &options(64, Raster::Hw),
-        MethodId::AbufferLl,
-    );
+    assert_matches_hw("tiny", &scene, 64, MethodId::AbufferLl);
 }
 
 /// A grid of triangles sharing every edge (jittered inside, so edges run at all angles) covers
@@ -507,12 +497,7 @@ fn shared_edges_cover_each_pixel_exactly_once() {
             }
         }
     }
-    assert_matches_hw(
-        "grid",
-        &scene,
-        &options(size, Raster::Hw),
-        MethodId::AbufferLl,
-    );
+    assert_matches_hw("grid", &scene, size, MethodId::AbufferLl);
 }
 
 /// A mesh of a million sub-pixel triangles: the same coverage as the GPU's rasterizer.
@@ -537,12 +522,7 @@ fn a_million_tiny_triangles_match() {
     }
     assert!(indices.len() / 3 >= 1_000_000);
     let scene = scene_of(vec![mesh(positions, indices)], orthographic());
-    assert_matches_hw(
-        "million",
-        &scene,
-        &options(128, Raster::Hw),
-        MethodId::AbufferFixed,
-    );
+    assert_matches_hw("million", &scene, 128, MethodId::AbufferFixed);
 }
 
 // ---- Multi-layer peeling, overflow, poison -----------------------------------------------------
