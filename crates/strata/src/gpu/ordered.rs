@@ -88,6 +88,12 @@ pub fn workgroup_limit(gpu: &Gpu) -> Option<u32> {
     barrier_yield_lanes(&gpu.info.driver, &gpu.info.driver_info, &gpu.info.name)
 }
 
+/// The workgroup size for a compute stage with ordered atomics that would have `preferred`
+/// invocations: at most [`workgroup_limit`].
+pub fn ordered_workgroup(gpu: &Gpu, preferred: u32) -> u32 {
+    workgroup_limit(gpu).map_or(preferred, |lanes| lanes.min(preferred))
+}
+
 /// [`workgroup_limit`] from an adapter's driver name, driver version text ("Mesa 22.3.6 (LLVM
 /// 15.0.6)") and name ("llvmpipe (LLVM 15.0.6, 256 bits)", which gives the vector width; 128
 /// bits where it does not).

@@ -252,7 +252,7 @@ pub fn compute_stage(
         .expect("a compute stage is made for a scene on the compute rasterizer");
     let ordered = ordered && crate::gpu::ordered::available(gpu);
     let workgroup = match ordered {
-        true => crate::gpu::ordered::workgroup_limit(gpu).map_or(64, |lanes| lanes.min(64)),
+        true => crate::gpu::ordered::ordered_workgroup(gpu, 64),
         false => 64,
     };
     let mut raster = capture_stage(stage, entry, layouts.len(), workgroup)

@@ -12,10 +12,10 @@
 // strata::raster::capture, made per method). The bindings' group is the one after the method's
 // groups (the definition RASTER_GROUP).
 
-// A workgroup owns the 64 items args.wgsl counts it, however few invocations it has: RASTER_WORKGROUP
-// is 64 except for ordered captures on lavapipe before Mesa 22.3.7, which needs workgroups of one
-// SIMD vector (`gpu::ordered::workgroup_limit`); each invocation then rasterizes 64 /
-// RASTER_WORKGROUP items, strided so that a workgroup's items stay the same.
+// A workgroup owns the 64 items args.wgsl counts it, however few invocations it has:
+// RASTER_WORKGROUP is 64 except for ordered captures on lavapipe before Mesa 22.3.7, which
+// needs workgroups of one SIMD vector (`gpu::ordered::workgroup_limit`); each invocation then
+// rasterizes 64 / RASTER_WORKGROUP items, strided so that a workgroup's items stay the same.
 @compute @workgroup_size(#{RASTER_WORKGROUP})
 fn cs_raster(
     @builtin(workgroup_id) group: vec3<u32>,

@@ -18,9 +18,9 @@
 //!
 //! Passes: clear; poison (garbage in slots and nodes, as a frame may leave); capture (one
 //! dispatch per capture pass, 64 invocations a workgroup, or one SIMD vector for ordered
-//! captures where `gpu::ordered::workgroup_limit` says the driver needs it); gather (each pixel's stored count
-//! and fragments through the method's own resolve accessors). Memory: the method's storage for
-//! the handful of pixels.
+//! captures where `gpu::ordered::workgroup_limit` says the driver needs it); gather (each
+//! pixel's stored count and fragments through the method's own resolve accessors). Memory: the
+//! method's storage for the handful of pixels.
 
 use crate::gpu::twin::{gpu_struct, wgsl_module};
 
@@ -369,9 +369,7 @@ impl<'g> Harness<'g> {
         let label = stage.label.clone();
         let ordered = ordered && crate::gpu::ordered::available(gpu);
         let workgroup = match ordered {
-            true => {
-                crate::gpu::ordered::workgroup_limit(gpu).map_or(WORKGROUP, |w| w.min(WORKGROUP))
-            }
+            true => crate::gpu::ordered::ordered_workgroup(gpu, WORKGROUP),
             false => WORKGROUP,
         };
         let stage = stage.defs(&Defs::default().value("HARNESS_WORKGROUP", workgroup));
