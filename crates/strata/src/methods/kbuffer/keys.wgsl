@@ -9,10 +9,11 @@
 // (depth, primitive) order is total and nothing is lost or swapped at equal depths.
 // A keys pass sends each fragment's key through an atomicMax cascade over its pixel's k slots
 // (the key displaced from a slot carries on to the next), which keeps the k nearest sorted with
-// no lock; a key not nearer than a full pixel's k-th is culled before the cascade. A colors pass
-// finds each fragment's slot by its tag and stores its payload there; a fragment whose key was
-// not kept goes to the tail. Nothing spins and nothing can fail: relaxed atomics suffice, since
-// the passes are separated by the render pass boundary. Needs SHADER_INT64_ATOMIC_ALL_OPS.
+// no lock; with culling on, a binary search of the slots finds where a key enters, so a key not
+// nearer than a full pixel's k-th never reaches an atomic. A colors pass finds each fragment's
+// slot by its tag and stores its payload there; a fragment whose key was not kept goes to the
+// tail. Nothing spins and nothing can fail: relaxed atomics suffice, since the passes are
+// separated by the render pass boundary. Needs SHADER_INT64_ATOMIC_ALL_OPS.
 
 fn fragment_key(f: Fragment) -> u64 {
     return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));
@@ -22,18 +23,35 @@ fn key_word(p: u32, i: u32) -> u32 {
     return (p * kp.k + i) * 2u;
 }
 
-// The keys pass for one storage pixel: counts the fragment and cascades its key unless the
-// pixel is full of nearer ones.
+// The first of pixel p's slots whose key is not nearer than `key` (k when all are: the key is
+// culled). A pixel's keys stay in descending order, and a slot's key only grows during the pass,
+// so a slot read as nearer stays nearer, and so do the slots before it: a binary search of loads
+// stands in for the atomicMax calls that would leave those slots as they are, which are the most
+// contended words of the pass (every fragment of the pixel passes its first slots).
+fn first_slot_not_nearer(p: u32, key: u64) -> u32 {
+    var low = 0u;
+    var high = kp.k;
+    while low < high {
+        let middle = (low + high) / 2u;
+        if atomicLoad(&fragment_keys[key_word(p, middle)]) > key {
+            low = middle + 1u;
+        } else {
+            high = middle;
+        }
+    }
+    return low;
+}
+
+// The keys pass for one storage pixel: counts the fragment and cascades its key from the first
+// slot it can enter. With --culling off the cascade starts at the first slot, as the papers'.
 fn cascade_key(p: u32, f: Fragment) {
     count_seen(p);
     var key = fragment_key(f);
+    var first = 0u;
     if kp.culling != 0u {
-        let farthest = atomicLoad(&fragment_keys[key_word(p, kp.k - 1u)]);
-        if farthest != u64(0u) && key <= farthest {
-            return;
-        }
+        first = first_slot_not_nearer(p, key);
     }
-    for (var i = 0u; i < kp.k; i++) {
+    for (var i = first; i < kp.k; i++) {
         let old = atomicMax(&fragment_keys[key_word(p, i)], key);
         if old == u64(0u) {
             break;

@@ -9,7 +9,8 @@
 // over MDTS cascades). A keys pass sends each fragment behind the pixel's bound through an
 // atomicMax cascade of 64-bit keys — depth bits above the tag, inverted so that 0 marks an empty
 // slot and a larger key is a nearer fragment — which keeps the pixel's k nearest sorted with no
-// lock; keys are unique per pixel, so nothing is lost or swapped at equal depths. A colors pass
+// lock; keys are unique per pixel, so nothing is lost or swapped at equal depths. With culling
+// on, a binary search of loads skips the slots already nearer than the key. A colors pass
 // writes each fragment whose key was kept into the slot holding it and raises FILLED past it; the
 // kpeel resolve then composites the slots as it does the locked capture's. The colors pass finds
 // a fragment's slot by its tag alone and takes the depth from the key: it is another pipeline,
@@ -21,6 +22,23 @@
 
 fn peel_key(f: Fragment) -> u64 {
     return ~((u64(bitcast<u32>(f.depth)) << 32u) | u64(f.tag));
+}
+
+// The first of the k slots from `base` whose key is not nearer than `key` (k when all are): as
+// kb-keys' search (keys.wgsl), loads in place of the atomics that would leave the nearer slots
+// as they are, the pixel's most contended words.
+fn first_slot_not_nearer(base: u32, key: u64) -> u32 {
+    var low = 0u;
+    var high = kp.k;
+    while low < high {
+        let middle = (low + high) / 2u;
+        if atomicLoad(&peel_keys[base + middle]) > key {
+            low = middle + 1u;
+        } else {
+            high = middle;
+        }
+    }
+    return low;
 }
 
 // fs_kpeel_keys's capture step: its made fragment stage and the compute rasterizer call it.
@@ -36,7 +54,11 @@ fn fs_kpeel_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     count_seen(p);
     var key = peel_key(f);
     let base = p * kp.k;
-    for (var i = 0u; i < kp.k; i++) {
+    var first = 0u;
+    if kp.culling != 0u {
+        first = first_slot_not_nearer(base, key);
+    }
+    for (var i = first; i < kp.k; i++) {
         let old = atomicMax(&peel_keys[base + i], key);
         if old == u64(0u) {
             break;
