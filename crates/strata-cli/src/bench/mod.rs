@@ -337,11 +337,11 @@ const EXPERIMENTS: &[Experiment] = &[
     ),
     on_128_layers(
         "kbuffer-culling",
-        "seed 003 Fig. 7: culling on and off for kplus-array, kplus-heap, kb-ps, kb-mdt32 at k = 4, 16, 64",
+        "seed 003 Fig. 7: culling on and off for kplus-array, kplus-heap, kb-ps, kb-mdt32 and kb-keys (its slot search) at k = 4, 16, 64",
         || {
             let mut runs = Vec::new();
             for k in [4, 16, 64] {
-                for m in ["kplus-array", "kplus-heap", "kb-ps", "kb-mdt32"] {
+                for m in ["kplus-array", "kplus-heap", "kb-ps", "kb-mdt32", "kb-keys"] {
                     runs.push(Run::with_k(m, k, true));
                     runs.push(Run::with_k(m, k, false));
                 }

@@ -124,7 +124,7 @@ pub const KB: Descriptor = Descriptor {
     summary: "original k-buffer: sorted insertion with no lock (read-modify-write hazards between fragments of a pixel)",
     per_sample_storage: true,
     temporal: true,
-    app_capture: Some("strata::kbuffer::kb_capture::capture_sorted(p, f, strata::kbuffer::kb_capture::UNLOCKED)"),
+    app_capture: Some("strata::kbuffer::kb_capture::capture_sorted_unlocked(p, f)"),
     reads: K,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: false },
@@ -137,7 +137,7 @@ pub const KB_PS: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "k-buffer with sorted insertion inside a per-pixel spin lock (pixel synchronisation emulated)",
     temporal: true,
-    app_capture: Some("strata::kbuffer::kb_capture::capture_sorted(p, f, strata::kbuffer::kb_capture::LOCKED)"),
+    app_capture: Some("strata::kbuffer::kb_capture::capture_sorted_locked(p, f)"),
     traffic: TrafficModel::Slots { atomics: true },
     ..locked(MethodId::KbPs, "kb-ps", Family::Kbuffer)
 };

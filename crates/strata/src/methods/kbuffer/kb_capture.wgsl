@@ -96,22 +96,23 @@ fn capture_mlab(p: u32, f: Fragment) {
     }
 }
 
-const UNLOCKED: u32 = 0u;
-const LOCKED: u32 = 1u;
+// The capture step of kb: the sorted insertion with no lock. A function apart from kb-ps's,
+// with no lock loop at all: a software rasterizer runs a loop's body at least once under its
+// lanes' masks, even one no lane enters.
+fn capture_sorted_unlocked(p: u32, f: Fragment) {
+    count_seen(p);
+    if culled(p, f) {
+        tail_add(p, f);
+    } else {
+        sorted_insert(p, f);
+    }
+}
 
-// The capture step of kb (UNLOCKED) and kb-ps (LOCKED); kb-ps tests the culling bound again
-// before each try (see insert_locked).
-fn capture_sorted(p: u32, f: Fragment, locking: u32) {
+// The capture step of kb-ps: the sorted insertion under the pixel's lock, testing the culling
+// bound again before each try (see insert_locked).
+fn capture_sorted_locked(p: u32, f: Fragment) {
     count_seen(p);
     var waiting = true;
-    if locking == UNLOCKED {
-        if culled(p, f) {
-            tail_add(p, f);
-        } else {
-            sorted_insert(p, f);
-        }
-        waiting = false;
-    }
     for (var t = 0u; t < kp.max_tries && waiting; t++) {
         if culled(p, f) {
             tail_add(p, f);

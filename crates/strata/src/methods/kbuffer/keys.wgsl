@@ -1,7 +1,7 @@
 #define_import_path strata::kbuffer::keys
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_keys, kp, kpixel, sample_pixel, storage_samples, tail_add}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_keys, kp, kpixel, sample_pixel, storage_samples, storage_slots, tail_add}
 
 // kb-keys: the lock-free exact k-buffer. Each slot is two 64-bit words: a key — the depth's bits
 // above the fragment's tag, inverted so that 0 marks an empty slot and a larger key is a nearer
@@ -80,6 +80,14 @@ fn store_payload(p: u32, f: Fragment) -> bool {
     return false;
 }
 
+// The colors pass for one storage pixel: the payload into its slot, or a fragment not kept
+// (beyond the k nearest; the keys pass hid nothing it kept) into the tail.
+fn store_or_tail(p: u32, f: Fragment, hidden: bool) {
+    if !store_payload(p, f) && !hidden {
+        tail_add(p, f);
+    }
+}
+
 // fs_keys's capture step: its made fragment stage and the compute rasterizer call it.
 fn fs_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
@@ -89,11 +97,17 @@ fn fs_keys_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let f = scene_fragment_covering(v, front_facing, mask);
     count_pixel_fragment(pixel);
     let samples = storage_samples(mask);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
         if ((samples >> s) & 1u) != 0u {
             cascade_key(sample_pixel(pixel, s), f);
         }
     }
+#else
+    if samples != 0u {
+        cascade_key(pixel, f);
+    }
+#endif
 }
 
 // fs_keys_colors's capture step: its made fragment stage and the compute rasterizer call it.
@@ -102,13 +116,15 @@ fn fs_keys_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let f = scene_fragment_covering(v, front_facing, mask);
     let samples = storage_samples(mask);
     let hidden = behind_opaque(v.position);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
         if ((samples >> s) & 1u) != 0u {
-            let p = sample_pixel(pixel, s);
-            // Not kept: beyond the k nearest (the keys pass hid nothing it kept).
-            if !store_payload(p, f) && !hidden {
-                tail_add(p, f);
-            }
+            store_or_tail(sample_pixel(pixel, s), f, hidden);
         }
     }
+#else
+    if samples != 0u {
+        store_or_tail(pixel, f, hidden);
+    }
+#endif
 }

@@ -1,6 +1,6 @@
 #define_import_path strata::kbuffer::kpeel_capture
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
-#import strata::kbuffer::storage::{FILLED, count_pixel_fragment, count_seen, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples}
+#import strata::kbuffer::storage::{FILLED, count_pixel_fragment, count_seen, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples, storage_slots}
 #import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, capture_locked}
 #import strata::kbuffer::kpeel_state::{peel_pending}
 
@@ -20,13 +20,19 @@ fn fs_kpeel_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let f = scene_fragment_covering(v, front_facing, mask);
     let variant = select(VARIANT_HEAP, VARIANT_ARRAY, kp.k <= 16u);
     let samples = storage_samples(mask);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
         let q = sample_pixel(p, s);
         // Composited by an earlier pass where not pending.
         if ((samples >> s) & 1u) != 0u && peel_pending(q, f) {
             capture_locked(q, f, variant);
         }
     }
+#else
+    if samples != 0u && peel_pending(p, f) {
+        capture_locked(p, f, variant);
+    }
+#endif
 }
 
 // --msaa's account, a geometry pass after the last resolve (the per-pixel words cleared): each
@@ -44,7 +50,7 @@ fn fs_kpeel_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     count_pixel_fragment(p);
     let samples = storage_samples(mask);
     var stored = false;
-    for (var s = 0u; s < kp.sample_slots; s++) {
+    for (var s = 0u; s < storage_slots(); s++) {
         if ((samples >> s) & 1u) == 0u {
             continue;
         }

@@ -2,7 +2,7 @@
 #import strata::scene::{frame, report_pixel, report_samples}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::composite::{composite_finish, composite_new}
-#import strata::kbuffer::storage::{FILLED, SEEN, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel}
+#import strata::kbuffer::storage::{FILLED, SEEN, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, storage_slots}
 #import strata::kbuffer::resolve::{composite_stored, tail_empty}
 #import strata::kbuffer::access::{stored_count}
 #import strata::kbuffer::kpeel_state::{kpeel_state, kpeel_store}
@@ -21,7 +21,7 @@
 // cs_kpeel_init's pixel step: its made compute stage calls it for each pixel of the frame.
 fn cs_kpeel_init_pixel(pixel: vec2<u32>) {
     let p = kpixel_index(pixel);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+    for (var s = 0u; s < storage_slots(); s++) {
         kpeel_store(sample_pixel(p, s), composite_new());
     }
 }
@@ -47,7 +47,7 @@ fn cs_kpeel_resolve_pixel(pixel: vec2<u32>) {
     let p = kpixel_index(pixel);
 #ifdef MULTISAMPLED
     if kp.sample_slots > 1u {
-        for (var s = 0u; s < kp.sample_slots; s++) {
+        for (var s = 0u; s < storage_slots(); s++) {
             kpeel_resolve_one(sample_pixel(p, s));
         }
         return;
@@ -67,7 +67,7 @@ fn cs_kpeel_finish_pixel(pixel: vec2<u32>) {
     if kp.sample_slots > 1u {
         var sum = resolved_sum_new();
         var deepest = 0u;
-        for (var s = 0u; s < kp.sample_slots; s++) {
+        for (var s = 0u; s < storage_slots(); s++) {
             let q = sample_pixel(p, s);
             resolved_sum_add(&sum, composite_finish(kpeel_state(q)));
             deepest = max(deepest, atomicLoad(&pixels[pixel_word(q, SEEN)]));

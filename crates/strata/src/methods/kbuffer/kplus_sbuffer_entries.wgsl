@@ -2,7 +2,7 @@
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::counters::{COUNTER_OVERFLOWED}
-#import strata::kbuffer::storage::{FILLED, SEEN, count_pixel_fragment, count_seen, counter_add, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples}
+#import strata::kbuffer::storage::{FILLED, SEEN, count_pixel_fragment, count_seen, counter_add, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples, storage_slots}
 #import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, insert_locked}
 #import strata::kbuffer::kplus_sbuffer::{region_fits, region_size}
 #import strata::kbuffer::slot_access::{store_slot}
@@ -21,11 +21,17 @@ fn fs_kplus_sbuffer_count_capture(v: SceneVarying, front_facing: bool, mask: u32
     let p = kpixel(v.position);
     count_pixel_fragment(p);
     let samples = storage_samples(mask);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
         if ((samples >> s) & 1u) != 0u {
             count_seen(sample_pixel(p, s));
         }
     }
+#else
+    if samples != 0u {
+        count_seen(p);
+    }
+#endif
 }
 
 // A pixel with at most k fragments appends them without the lock (its region holds them all);
@@ -56,9 +62,15 @@ fn fs_kplus_sbuffer_store_capture(v: SceneVarying, front_facing: bool, mask: u32
     let p = kpixel(v.position);
     let f = scene_fragment_covering(v, front_facing, mask);
     let samples = storage_samples(mask);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
         if ((samples >> s) & 1u) != 0u {
             store_in_region(sample_pixel(p, s), f);
         }
     }
+#else
+    if samples != 0u {
+        store_in_region(p, f);
+    }
+#endif
 }

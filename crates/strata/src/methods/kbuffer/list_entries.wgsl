@@ -1,6 +1,6 @@
 #define_import_path strata::kbuffer::list_entries
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
-#import strata::kbuffer::storage::{count_pixel_fragment, kp, kpixel, sample_pixel, storage_samples}
+#import strata::kbuffer::storage::{count_pixel_fragment, kp, kpixel, sample_pixel, storage_samples, storage_slots}
 #import strata::kbuffer::list::{capture_list, capture_sorted_list}
 
 // The built-in capture entry points of the linked-list methods.
@@ -23,9 +23,15 @@ fn fs_sorted_ll_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let f = scene_fragment_covering(v, front_facing, mask);
     count_pixel_fragment(p);
     let samples = storage_samples(mask);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
         if ((samples >> s) & 1u) != 0u {
             capture_sorted_list(sample_pixel(p, s), f);
         }
     }
+#else
+    if samples != 0u {
+        capture_sorted_list(p, f);
+    }
+#endif
 }

@@ -2,7 +2,7 @@
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment, scene_fragment_covering}
 #import strata::color::{linear_to_srgb, srgb_to_linear}
 #import strata::fragment::{Fragment, fragment_color, fragment_new}
-#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_words, kp, kpixel, sample_pixel, storage_samples, tail_add}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_words, kp, kpixel, sample_pixel, storage_samples, storage_slots, tail_add}
 
 // Multi-depth-test k-buffers (seed 002's MDTS) with 32-bit keys: each fragment runs an atomicMax
 // cascade over its pixel's k keys — the key displaced from a slot carries on to the next — so
@@ -68,16 +68,25 @@ fn fs_mdt32_depth_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     count_pixel_fragment(pixel);
     let key = depth_key(v.position.z);
     let samples = storage_samples(mask);
-    for (var s = 0u; s < kp.sample_slots; s++) {
-        if ((samples >> s) & 1u) == 0u {
-            continue;
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
+        if ((samples >> s) & 1u) != 0u {
+            cascade_at(sample_pixel(pixel, s), key);
         }
-        let p = sample_pixel(pixel, s);
-        count_seen(p);
-        let base = p * kp.k;
-        if !cascade_culled(base, key) {
-            cascade(base, key);
-        }
+    }
+#else
+    if samples != 0u {
+        cascade_at(pixel, key);
+    }
+#endif
+}
+
+// The depth pass for one storage pixel: counts the fragment and cascades its key unless culled.
+fn cascade_at(p: u32, key: u32) {
+    count_seen(p);
+    let base = p * kp.k;
+    if !cascade_culled(base, key) {
+        cascade(base, key);
     }
 }
 
@@ -91,11 +100,17 @@ fn fs_mdt32_color_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let pixel = kpixel(v.position);
     let f = scene_fragment_covering(v, front_facing, mask);
     let samples = storage_samples(mask);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
         if ((samples >> s) & 1u) != 0u {
             store_color(sample_pixel(pixel, s), f);
         }
     }
+#else
+    if samples != 0u {
+        store_color(pixel, f);
+    }
+#endif
 }
 
 // Stores `f`'s color and tag in a slot of `p` holding its key that no other fragment claimed;

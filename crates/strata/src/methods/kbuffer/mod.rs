@@ -696,7 +696,9 @@ impl KFrame {
         layout: Layout,
         ordered: bool,
     ) -> CaptureModule {
-        let stage = stage(gpu, format!("strata.{}.capture", self.id), source, layout);
+        // Single-sampled, the loops over a fragment's storage samples compile away.
+        let stage = stage(gpu, format!("strata.{}.capture", self.id), source, layout)
+            .defs(&crate::gpu::shader::target_samples(scene.samples));
         let compute = scene.raster_layout.is_some();
         // The compute rasterizer composes the stage again with its own entry point, and orders
         // that (`raster::compute_stage`) only for a method that needs it.

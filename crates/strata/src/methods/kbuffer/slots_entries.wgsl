@@ -1,10 +1,10 @@
 #define_import_path strata::kbuffer::slots_entries
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment, scene_fragment_covering}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::storage::{count_pixel_fragment, count_temporal_cull, kp, kpixel, sample_pixel, storage_samples, tail_add}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_temporal_cull, kp, kpixel, sample_pixel, storage_samples, storage_slots, tail_add}
 #import strata::kbuffer::temporal::{note_outside, temporally_culled}
 #import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, capture_array_r, capture_locked}
-#import strata::kbuffer::kb_capture::{LOCKED, UNLOCKED, capture_mlab, capture_sorted}
+#import strata::kbuffer::kb_capture::{capture_mlab, capture_sorted_locked, capture_sorted_unlocked}
 #import strata::kbuffer::fixed_capture::{capture_fixed}
 #import strata::kbuffer::semiheap_capture::{capture_semiheap}
 
@@ -49,10 +49,10 @@ fn capture_step(p: u32, f: Fragment, method: u32) {
             capture_array_r(p, f);
         }
         case CAPTURE_KB: {
-            capture_sorted(p, f, UNLOCKED);
+            capture_sorted_unlocked(p, f);
         }
         case CAPTURE_KB_PS: {
-            capture_sorted(p, f, LOCKED);
+            capture_sorted_locked(p, f);
         }
         case CAPTURE_MLAB: {
             capture_mlab(p, f);
@@ -77,11 +77,17 @@ fn capture_covering(v: SceneVarying, front_facing: bool, mask: u32, method: u32)
     let f = scene_fragment_covering(v, front_facing, mask);
     count_pixel_fragment(p);
     let samples = storage_samples(mask);
-    for (var s = 0u; s < kp.sample_slots; s++) {
+#ifdef MULTISAMPLED
+    for (var s = 0u; s < storage_slots(); s++) {
         if ((samples >> s) & 1u) != 0u {
             capture_step(sample_pixel(p, s), f, method);
         }
     }
+#else
+    if samples != 0u {
+        capture_step(p, f, method);
+    }
+#endif
 }
 
 // fs_kplus_array's capture step: its made fragment stage and the compute rasterizer call it.

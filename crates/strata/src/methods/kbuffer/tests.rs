@@ -945,7 +945,7 @@ fn lock_winners_leave_their_loop_only_through_its_condition() {
             loops += 1;
         }
     }
-    // insert_locked (kplus-array, kplus-heap), capture_array_r, capture_sorted (kb-ps),
+    // insert_locked (kplus-array, kplus-heap), capture_array_r, capture_sorted_locked (kb-ps),
     // capture_mlab and the semi-heap's.
     assert_eq!(loops, 5, "every lock loop checked");
 }
