@@ -27,10 +27,14 @@ fn key_word(p: u32, i: u32) -> u32 {
 // culled). A pixel's keys stay in descending order, and a slot's key only grows during the pass,
 // so a slot read as nearer stays nearer, and so do the slots before it: a binary search of loads
 // stands in for the atomicMax calls that would leave those slots as they are, which are the most
-// contended words of the pass (every fragment of the pixel passes its first slots).
+// contended words of the pass (every fragment of the pixel passes its first slots). The last
+// slot is read first: once a pixel is full it culls most keys with one load.
 fn first_slot_not_nearer(p: u32, key: u64) -> u32 {
+    if atomicLoad(&fragment_keys[key_word(p, kp.k - 1u)]) > key {
+        return kp.k;
+    }
     var low = 0u;
-    var high = kp.k;
+    var high = kp.k - 1u;
     while low < high {
         let middle = (low + high) / 2u;
         if atomicLoad(&fragment_keys[key_word(p, middle)]) > key {

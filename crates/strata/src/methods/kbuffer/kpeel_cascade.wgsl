@@ -26,10 +26,14 @@ fn peel_key(f: Fragment) -> u64 {
 
 // The first of the k slots from `base` whose key is not nearer than `key` (k when all are): as
 // kb-keys' search (keys.wgsl), loads in place of the atomics that would leave the nearer slots
-// as they are, the pixel's most contended words.
+// as they are, the pixel's most contended words; the last slot first, which culls most keys of a
+// full pixel with one load.
 fn first_slot_not_nearer(base: u32, key: u64) -> u32 {
+    if atomicLoad(&peel_keys[base + kp.k - 1u]) > key {
+        return kp.k;
+    }
     var low = 0u;
-    var high = kp.k;
+    var high = kp.k - 1u;
     while low < high {
         let middle = (low + high) / 2u;
         if atomicLoad(&peel_keys[base + middle]) > key {
