@@ -66,8 +66,16 @@ fn cascade_key(p: u32, f: Fragment) {
 
 // The colors pass for one storage pixel: the slot whose key carries the fragment's tag gets its
 // payload. Which slot is decided by the kept key alone — not by a depth or an opaque test this
-// pass would compute again — so a kept key always gets its payload.
+// pass would compute again — so a kept key always gets its payload. Where the rasterizer gives
+// the fragment its keys-pass depth again (INVARIANT_DEPTH), its key is the one the keys pass
+// cascaded, and one farther than a full pixel's k-th was not kept: one load instead of a walk
+// over k slots, for most fragments of a deep pixel.
 fn store_payload(p: u32, f: Fragment) -> bool {
+#ifdef INVARIANT_DEPTH
+    if fragment_key(f) < atomicLoad(&fragment_keys[key_word(p, kp.k - 1u)]) {
+        return false;
+    }
+#endif
     let tag_word = ~f.tag;
     for (var i = 0u; i < kp.k; i++) {
         let w = key_word(p, i);

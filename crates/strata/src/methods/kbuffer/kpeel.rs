@@ -22,6 +22,9 @@
 //! MDTS, the capture of `kb-keys`): per pass a *keys* pass cascades 64-bit (depth, tag) keys
 //! with atomicMax through the pixel's k slots and a *colors* pass writes the kept fragments into
 //! their slots, so 2·P geometry passes and 8 more bytes per slot for the keys; nothing spins.
+//! As kb-keys', the keys pass searches where a key enters after one load of the last slot, and
+//! on the hardware rasterizer the colors pass passes over a fragment farther than the k-th key
+//! after one load (ARCHITECTURE, "No lock where none is needed").
 //! Without those atomics (and with `--msaa`, whose samples peel on their own) the hardware
 //! rasterizer takes the locked k+-buffer capture; `--raster compute` needs the cascade.
 //!
@@ -150,7 +153,8 @@ impl Cascade {
         }
         let layout = binding::layout(&gpu.device, "strata.kpeel.keys.layout", &[Slot::StorageRw]);
         // Compiled only where the adapter has 64-bit atomics.
-        let stage = super::stage(gpu, "strata.kpeel.cascade", CASCADE_WGSL, Layout::Slots);
+        let stage = super::stage(gpu, "strata.kpeel.cascade", CASCADE_WGSL, Layout::Slots)
+            .defs(&super::stages::capture_definitions(scene));
         let layouts = [&scene.frame_layout, &frame.layout, &layout];
         let module = stage.module(&gpu.device);
         let storage_stage = |entry: &str| {

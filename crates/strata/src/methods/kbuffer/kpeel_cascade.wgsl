@@ -80,6 +80,13 @@ fn fs_kpeel_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     // The tag's word of a key, as peel_key writes it.
     let tag_word = ~f.tag;
     let base = p * kp.k;
+#ifdef INVARIANT_DEPTH
+    // The rasterizer gave the fragment its keys-pass depth again, so its key is the one the keys
+    // pass cascaded: one farther than a full pixel's k-th was not kept this pass.
+    if peel_key(f) < atomicLoad(&peel_keys[base + kp.k - 1u]) {
+        return;
+    }
+#endif
     for (var i = 0u; i < kp.k; i++) {
         let stored = atomicLoad(&peel_keys[base + i]);
         // Kept keys fill the slots from the first: an empty one ends them.

@@ -696,9 +696,8 @@ impl KFrame {
         layout: Layout,
         ordered: bool,
     ) -> CaptureModule {
-        // Single-sampled, the loops over a fragment's storage samples compile away.
         let stage = stage(gpu, format!("strata.{}.capture", self.id), source, layout)
-            .defs(&crate::gpu::shader::target_samples(scene.samples));
+            .defs(&stages::capture_definitions(scene));
         let compute = scene.raster_layout.is_some();
         // The compute rasterizer composes the stage again with its own entry point, and orders
         // that (`raster::compute_stage`) only for a method that needs it.

@@ -115,6 +115,16 @@ pub fn definitions(layout: Layout, group: u32, coherent: bool) -> Defs {
         .flag_if("COHERENT", coherent)
 }
 
+/// A capture stage's definitions from the scene it draws: `MULTISAMPLED` with `--msaa` (else
+/// the loops over a fragment's storage samples compile away), and `INVARIANT_DEPTH` on the
+/// hardware rasterizer, which gives a fragment the same depth in every pass (`position` is
+/// `@invariant`), so a second pass may find a fragment's key by its depth; the compute
+/// rasterizer's passes are separate pipelines that may round an interpolated depth differently.
+pub fn capture_definitions(scene: &crate::frame::SceneGpu) -> Defs {
+    crate::gpu::shader::target_samples(scene.samples)
+        .flag_if("INVARIANT_DEPTH", scene.raster_layout.is_none())
+}
+
 /// A stage of the family: `source` with the family's modules and definitions on `gpu`.
 pub fn stage(gpu: &Gpu, label: impl Into<String>, source: &'static str, layout: Layout) -> Stage {
     let coherent = gpu.has(wgpu::Features::MEMORY_DECORATION_COHERENT);
