@@ -1,7 +1,7 @@
 #define_import_path strata::kbuffer::keys
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_keys, kp, kpixel, sample_pixel, storage_samples, storage_slots, tail_add}
+#import strata::kbuffer::storage::{clearly_behind, count_pixel_fragment, count_seen, fragment_keys, kp, kpixel, sample_pixel, storage_samples, storage_slots, tail_add}
 
 // kb-keys: the lock-free exact k-buffer. Each slot is two 64-bit words: a key — the depth's bits
 // above the fragment's tag, inverted so that 0 marks an empty slot and a larger key is a nearer
@@ -67,12 +67,13 @@ fn cascade_key(p: u32, f: Fragment) {
 // The colors pass for one storage pixel: the slot whose key carries the fragment's tag gets its
 // payload. Which slot is decided by the kept key alone — not by a depth or an opaque test this
 // pass would compute again — so a kept key always gets its payload. Where the rasterizer gives
-// the fragment its keys-pass depth again (INVARIANT_DEPTH), its key is the one the keys pass
-// cascaded, and one farther than a full pixel's k-th was not kept: one load instead of a walk
-// over k slots, for most fragments of a deep pixel.
+// the fragment its keys-pass depth again (INVARIANT_DEPTH), one clearly behind a full pixel's
+// k-th key was not kept: one load instead of a walk over k slots, for most fragments of a deep
+// pixel (`clearly_behind`).
 fn store_payload(p: u32, f: Fragment) -> bool {
 #ifdef INVARIANT_DEPTH
-    if fragment_key(f) < atomicLoad(&fragment_keys[key_word(p, kp.k - 1u)]) {
+    let last = atomicLoad(&fragment_keys[key_word(p, kp.k - 1u)]);
+    if last != u64(0u) && clearly_behind(f.depth, ~u32(last >> 32u)) {
         return false;
     }
 #endif

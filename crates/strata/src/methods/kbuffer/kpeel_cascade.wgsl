@@ -1,7 +1,7 @@
 #define_import_path strata::kbuffer::kpeel_cascade
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::storage::{FILLED, count_seen, kp, kpixel, pixel_word, pixels}
+#import strata::kbuffer::storage::{FILLED, clearly_behind, count_seen, kp, kpixel, pixel_word, pixels}
 #import strata::kbuffer::kpeel_state::{peel_pending}
 #import strata::kbuffer::slot_access::{store_slot}
 
@@ -81,9 +81,10 @@ fn fs_kpeel_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let tag_word = ~f.tag;
     let base = p * kp.k;
 #ifdef INVARIANT_DEPTH
-    // The rasterizer gave the fragment its keys-pass depth again, so its key is the one the keys
-    // pass cascaded: one farther than a full pixel's k-th was not kept this pass.
-    if peel_key(f) < atomicLoad(&peel_keys[base + kp.k - 1u]) {
+    // The rasterizer gave the fragment its keys-pass depth again: one clearly behind a full
+    // pixel's k-th key was not kept this pass (`clearly_behind`).
+    let last = atomicLoad(&peel_keys[base + kp.k - 1u]);
+    if last != u64(0u) && clearly_behind(f.depth, ~u32(last >> 32u)) {
         return;
     }
 #endif

@@ -20,8 +20,8 @@
 //!   fails, relaxed atomics suffice: what the seeds' spin-lock k-buffers keep, on any GPU.
 //!   With culling on, a key reads the last slot (culled: one load), then a binary search finds
 //!   where its atomics start. On the hardware rasterizer, which gives a fragment the same depth
-//!   in both passes, the colors pass sends a fragment farther than a full pixel's k-th key to
-//!   the tail after one load, where the compute rasterizer's walks the slots for its tag.
+//!   in both passes, the colors pass sends a fragment more than 4 ulps farther than a full
+//!   pixel's k-th key to the tail after one load, where the compute rasterizer's walks the slots for its tag.
 //!
 //! Passes: clear; capture (1 or 2 geometry passes); the shared k resolve. Per pixel 16 bytes of
 //! counters and 20 of tail sums with `--tail blend`, as the other k-buffers.

@@ -83,6 +83,20 @@ fn storage_slots() -> u32 {
 #endif
 }
 
+// Depth bits a second pass's depth may differ by from the first's before it counts as farther.
+// The hardware rasterizer gives a fragment the same depth in every pass (`position` is
+// @invariant), which no specification quite promises: the margin keeps a kept fragment whose
+// depth came out an ulp or two farther from missing its slot (among coplanar layers the tag
+// decides, so a pixel's k-th kept key can lie at the fragment's own depth).
+const DEPTH_MARGIN_ULPS: u32 = 4u;
+
+// True when window depth `depth` lies more than DEPTH_MARGIN_ULPS behind the depth whose bits
+// are `kept` (a full pixel's farthest kept key's, in a second pass of the key cascades). Depths
+// are ≥ 0, whose bits order as the floats do, and at most 1 (no overflow).
+fn clearly_behind(depth: f32, kept: u32) -> bool {
+    return bitcast<u32>(depth) > kept + DEPTH_MARGIN_ULPS;
+}
+
 // Sample `s`'s storage pixel of pixel `p` (per-sample storage).
 fn sample_pixel(p: u32, s: u32) -> u32 {
     return p * storage_slots() + s;

@@ -460,7 +460,8 @@ fn impossible_budget_is_a_clear_error() {
     );
 }
 
-/// Every stage the family builds composes and validates, with and without coherent storage.
+/// Every stage the family builds composes and validates, with and without coherent storage,
+/// multisampled or not, for either rasterizer (`INVARIANT_DEPTH` on the hardware one).
 #[test]
 fn kbuffer_stages_validate() {
     use super::*;
@@ -493,13 +494,24 @@ fn kbuffer_stages_validate() {
         stages.push(("resolve", RESOLVE_WGSL, layout));
     }
     for (label, source, layout) in stages {
-        for (coherent, samples) in [(false, 1), (true, 1), (false, 4)] {
-            let label = format!("{label} {layout:?} coherent={coherent} samples={samples}");
+        for (coherent, samples, invariant) in [
+            (false, 1, false),
+            (true, 1, false),
+            (false, 4, false),
+            (false, 1, true),
+            (false, 4, true),
+        ] {
+            let label = format!(
+                "{label} {layout:?} coherent={coherent} samples={samples} invariant={invariant}"
+            );
             validate(
                 &Stage::new(label, source)
                     .with(LIBRARY)
                     .defs(&definitions(layout, 1, coherent))
-                    .defs(&crate::gpu::shader::target_samples(samples)),
+                    .defs(&crate::gpu::shader::target_samples(samples))
+                    .defs(
+                        &crate::gpu::shader::Defs::default().flag_if("INVARIANT_DEPTH", invariant),
+                    ),
             );
         }
     }
