@@ -23,8 +23,9 @@
 //! with atomicMax through the pixel's k slots and a *colors* pass writes the kept fragments into
 //! their slots, so 2·P geometry passes and 8 more bytes per slot for the keys; nothing spins.
 //! As kb-keys', the keys pass searches where a key enters after one load of the last slot, and
-//! on the hardware rasterizer the colors pass passes over a fragment farther than the k-th key
-//! after one load (ARCHITECTURE, "No lock where none is needed").
+//! on the hardware rasterizer the colors pass passes over a fragment clearly behind the k-th key,
+//! or clearly in front of the first (composited by an earlier pass), after a load or two
+//! (ARCHITECTURE, "No lock where none is needed").
 //! Without those atomics (and with `--msaa`, whose samples peel on their own) the hardware
 //! rasterizer takes the locked k+-buffer capture; `--raster compute` needs the cascade.
 //!

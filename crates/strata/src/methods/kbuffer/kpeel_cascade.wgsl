@@ -87,6 +87,12 @@ fn fs_kpeel_colors_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if last != u64(0u) && clearly_behind(f.depth, ~u32(last >> 32u)) {
         return;
     }
+    // And one clearly in front of the nearest kept key was composited by an earlier pass: a
+    // pending fragment that near would have taken the first slot.
+    let nearest = atomicLoad(&peel_keys[base]);
+    if nearest != u64(0u) && clearly_behind(bitcast<f32>(~u32(nearest >> 32u)), bitcast<u32>(f.depth)) {
+        return;
+    }
 #endif
     for (var i = 0u; i < kp.k; i++) {
         let stored = atomicLoad(&peel_keys[base + i]);

@@ -91,8 +91,9 @@ fn storage_slots() -> u32 {
 const DEPTH_MARGIN_ULPS: u32 = 4u;
 
 // True when window depth `depth` lies more than DEPTH_MARGIN_ULPS behind the depth whose bits
-// are `kept` (a full pixel's farthest kept key's, in a second pass of the key cascades). Depths
-// are ≥ 0, whose bits order as the floats do, and at most 1 (no overflow).
+// are `kept` (in a second pass of the key cascades: a fragment behind a full pixel's farthest
+// kept key, or kpeel's nearest kept key behind a fragment). Depths are ≥ 0, whose bits order as
+// the floats do, and at most 1 (no overflow).
 fn clearly_behind(depth: f32, kept: u32) -> bool {
     return bitcast<u32>(depth) > kept + DEPTH_MARGIN_ULPS;
 }
