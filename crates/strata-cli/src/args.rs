@@ -308,6 +308,11 @@ pub struct MethodArgs {
     /// Spin-lock tries per fragment for the locking k-buffers (default 65536, at most 1048576).
     #[arg(long)]
     pub max_tries: Option<u32>,
+    /// The k-buffers' and A-buffers' per-pixel arrays: pixel (each pixel's items together, as
+    /// the papers draw them) or slot (item i of every pixel together, so that the neighbouring
+    /// pixels of a GPU warp share memory transactions; see `strata bench kbuffer-layout`).
+    #[arg(long, value_enum, default_value = "pixel")]
+    pub storage_layout: strata::StorageLayout,
     /// Depth peeling (f2b, dual): peel this many layers (default: the scene's depth complexity,
     /// measured by the frame itself).
     #[arg(long)]
@@ -627,6 +632,7 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
         culling: a.culling == Toggle::On,
         max_tries: a.max_tries,
         heap_size: a.heap_size,
+        layout: a.storage_layout,
         ..Default::default()
     };
     options.frame.peeling = PeelingOptions {

@@ -35,6 +35,7 @@ impl Opt {
     pub const TAIL: Opt = Opt::Method(MethodOption::Tail);
     pub const CULLING: Opt = Opt::Method(MethodOption::Culling);
     pub const MAX_TRIES: Opt = Opt::Method(MethodOption::MaxTries);
+    pub const STORAGE_LAYOUT: Opt = Opt::Method(MethodOption::StorageLayout);
     pub const LAYERS: Opt = Opt::Method(MethodOption::Layers);
     pub const LAYERS_PER_PASS: Opt = Opt::Method(MethodOption::LayersPerPass);
     pub const HEAP_SIZE: Opt = Opt::Method(MethodOption::HeapSize);
@@ -63,11 +64,12 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
 
 /// The options of `render` that only some methods read, with the option each belongs to:
 /// (clap id, flag, option).
-const METHOD_FLAGS: [(&str, &str, Opt); 14] = [
+const METHOD_FLAGS: [(&str, &str, Opt); 15] = [
     ("k", "--k", Opt::K),
     ("tail", "--tail", Opt::TAIL),
     ("culling", "--culling", Opt::CULLING),
     ("max_tries", "--max-tries", Opt::MAX_TRIES),
+    ("storage_layout", "--storage-layout", Opt::STORAGE_LAYOUT),
     ("layers", "--layers", Opt::LAYERS),
     ("heap_size", "--heap-size", Opt::HEAP_SIZE),
     ("buckets", "--buckets", Opt::BUCKETS),

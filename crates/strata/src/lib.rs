@@ -85,7 +85,7 @@ pub(crate) mod testing;
 pub use error::{Error, Result};
 pub use frame::{
     BucketSplit, BuildOptions, Effect, FrameOptions, FrameStats, FrameTargets, Moments,
-    RenderOptions, Tail, Weight,
+    RenderOptions, StorageLayout, Tail, Weight,
 };
 pub use methods::downlevel::DownlevelFrame;
 pub use methods::kbuffer::DEFAULT_MAX_TRIES;

@@ -11,6 +11,8 @@ pub struct Run {
     pub(crate) method: String,
     pub(crate) k: Option<u32>,
     pub(crate) culling: bool,
+    /// How the k-buffer family lays out its per-pixel arrays.
+    pub(crate) layout: strata::StorageLayout,
     /// What a k-buffer does with the fragments past k.
     pub(crate) tail: strata::Tail,
     /// wboit's weight function and depth scale.
@@ -41,6 +43,7 @@ impl Run {
             method: method.into(),
             k: None,
             culling: true,
+            layout: strata::StorageLayout::default(),
             tail: strata::Tail::Drop,
             weight: strata::Weight::default(),
             depth_scale: 1.0,
@@ -87,6 +90,7 @@ impl Run {
         let mut options = base.clone();
         options.frame.k = self.k;
         options.frame.kbuffer.culling = self.culling;
+        options.frame.kbuffer.layout = self.layout;
         options.frame.kbuffer.tail = self.tail;
         options.frame.weighted.weight = self.weight;
         options.frame.weighted.depth_scale = self.depth_scale;
@@ -97,6 +101,15 @@ impl Run {
         options.frame.weighted.coefficients = self.coefficients;
         options.frame.peeling.buckets = self.buckets;
         options
+    }
+
+    /// `self` with its per-pixel arrays laid out by `layout` (`--storage-layout`).
+    pub(crate) fn laid_out(self, layout: strata::StorageLayout) -> Run {
+        Run {
+            label: format!("{} layout={}", self.label, layout.name()),
+            layout,
+            ..self
+        }
     }
 
     /// `self` on the compute rasterizer (`--raster compute`).
@@ -161,6 +174,8 @@ pub(crate) struct MethodResult {
     pub(crate) method: String,
     pub(crate) k: Option<u32>,
     pub(crate) culling: bool,
+    /// `--storage-layout` (the k-buffer family's per-pixel arrays).
+    pub(crate) storage_layout: &'static str,
     /// Samples per pixel.
     pub(crate) msaa: u32,
     pub(crate) frames: u32,
@@ -277,6 +292,7 @@ impl MethodResult {
             method: run.method.clone(),
             k: run.k,
             culling: run.culling,
+            storage_layout: run.layout.name(),
             msaa: run.msaa,
             frames,
             median_gpu_ms: None,

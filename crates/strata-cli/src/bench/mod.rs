@@ -359,6 +359,21 @@ const EXPERIMENTS: &[Experiment] = &[
             runs
         },
     ),
+    on_128_layers(
+        "kbuffer-layout",
+        "the k-buffer family's per-pixel arrays pixel-major (the default: each pixel's items together, as the papers draw them) against slot-major (item i of every pixel together, so that a warp's neighbouring pixels share memory transactions): kb-keys, kplus-array, kb-mdt64 and abuffer-fixed at k = 16, 4, 64",
+        || {
+            let mut runs = Vec::new();
+            for k in [16, 4, 64] {
+                for m in ["kb-keys", "kplus-array", "kb-mdt64", "abuffer-fixed"] {
+                    for layout in [strata::StorageLayout::Pixel, strata::StorageLayout::Slot] {
+                        runs.push(Run::with_k(m, k, true).laid_out(layout));
+                    }
+                }
+            }
+            runs
+        },
+    ),
     Experiment {
         name: "memory-density",
         description: "seed 003 Fig. 8: GPU ms per MiB of the bounded methods at k = 16 as coverage (25, 50, 100%) and fragments per pixel (16, 64) grow",

@@ -182,6 +182,7 @@ fn columns(r: &BenchReport) -> Vec<Column<'_, MethodResult>> {
         C::csv("method", |m| m.method.clone()),
         C::csv("k", |m| opt(m.k)),
         C::csv("culling", |m| m.culling.to_string()),
+        C::csv("storage_layout", |m| m.storage_layout.to_string()),
         C::csv("msaa", |m| m.msaa.to_string()),
         C::csv("median_gpu_ms", |m| fixed(m.median_gpu_ms, 3))
             .shown_as("gpu ms", 10, |m| fmt_ms(m.median_gpu_ms)),

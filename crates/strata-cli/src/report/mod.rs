@@ -67,6 +67,7 @@ fn time_fields(experiment: &str) -> &'static [&'static str] {
 const SWEEPS: &[(&str, &str, &str)] = &[
     ("kbuffer-k", "k", "k (seed 003 Fig. 6)"),
     ("kbuffer-culling", "k", "k (seed 003 Fig. 7)"),
+    ("kbuffer-layout", "k", "k"),
     ("deferred-lights", "lights", "lights (seed 004 Fig. 13)"),
     ("scale", "triangles", "triangles"),
     (
@@ -234,6 +235,9 @@ fn points(rows: &[Value], sweep: Option<&str>, fields: &[&str]) -> Vec<Point> {
             .unwrap_or_default();
         if row.get("culling") == Some(&Value::Bool(false)) {
             series += " no-culling";
+        }
+        if let Some(layout) = text(row, "storage_layout").filter(|l| l != "pixel") {
+            series += &format!(" {layout}-major");
         }
         series
     };

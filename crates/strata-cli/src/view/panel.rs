@@ -344,6 +344,9 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             1..=1 << 24,
         );
     });
+    ui.add_enabled_ui(applies(Opt::STORAGE_LAYOUT, id, pipeline), |ui| {
+        choice(ui, "storage layout", &mut m.storage_layout);
+    });
     ui.add_enabled_ui(applies(Opt::LAYERS, id, pipeline), |ui| {
         optional(ui, "layers", &mut m.layers, 8, 1..=1024);
     });

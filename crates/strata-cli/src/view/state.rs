@@ -311,6 +311,11 @@ impl ViewState {
         {
             push("max-tries", t.to_string());
         }
+        if applies(Opt::STORAGE_LAYOUT, id, p.pipeline)
+            && m.storage_layout != strata::StorageLayout::default()
+        {
+            push("storage-layout", value_name(&m.storage_layout));
+        }
         if let Some(l) = m.layers.filter(|_| applies(Opt::LAYERS, id, p.pipeline)) {
             push("layers", l.to_string());
         }
@@ -381,7 +386,13 @@ fn options_key(s: &ViewState) -> impl PartialEq {
     let (p, m) = (&s.picture, &s.method);
     (
         (p.size, p.effect, p.background, p.k),
-        (m.tail, m.culling, m.max_tries, m.heap_size),
+        (
+            m.tail,
+            m.culling,
+            m.max_tries,
+            m.heap_size,
+            m.storage_layout,
+        ),
         (m.layers, m.layers_per_pass, m.buckets),
         (m.weight, m.depth_scale, m.moments, m.passes, m.coefficients),
         (m.budget_mb, m.robustness, m.order, m.seed),

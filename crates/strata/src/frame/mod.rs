@@ -40,7 +40,8 @@ pub use crate::scene::{Pipeline, MAX_SIDE};
 pub use crate::gpu::readback::ReadbackList;
 pub use options::{
     Band, BucketSplit, BuildOptions, Effect, FrameOptions, KBufferOptions, Lighting, Moments,
-    PeelingOptions, RenderOptions, Tail, Weight, WeightedOptions, BAND_ALIGN, MAX_LAYERS,
+    PeelingOptions, RenderOptions, StorageLayout, Tail, Weight, WeightedOptions, BAND_ALIGN,
+    MAX_LAYERS,
 };
 pub use scene_gpu::SceneGpu;
 pub use values::{

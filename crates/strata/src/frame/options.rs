@@ -58,6 +58,33 @@ impl Tail {
 }
 
 keyword_enum! {
+    /// How the k-buffer family lays out its per-pixel arrays (`--storage-layout`): the words of
+    /// each pixel (seen, filled, lock, bound), its slots and its tail sums.
+    #[derive(Default)]
+    pub enum StorageLayout ("--storage-layout") {
+        /// Each pixel's items together (`p · items + i`), as the papers draw their per-pixel
+        /// arrays: one pixel's walk over its slots stays within a few cache lines.
+        #[default]
+        Pixel = "pixel",
+        /// Item i of every pixel together (`i · pixels + p`): the neighbouring pixels that a
+        /// GPU shades in one warp touch neighbouring words, so a warp's access is a few memory
+        /// transactions instead of one per pixel.
+        Slot = "slot",
+    }
+}
+
+impl StorageLayout {
+    /// Where item `i` of storage pixel `p`'s `per_pixel` items lies in an array of
+    /// `storage_pixels` pixels' items: the CPU twin of `pixel_item` in storage.wgsl.
+    pub fn item(self, p: u64, i: u64, per_pixel: u64, storage_pixels: u64) -> u64 {
+        match self {
+            StorageLayout::Slot => i * storage_pixels + p,
+            StorageLayout::Pixel => p * per_pixel + i,
+        }
+    }
+}
+
+keyword_enum! {
     /// The weight function of weighted blended OIT: McGuire & Bavoil 2013, equations 7–10.
     #[derive(Default)]
     pub enum Weight ("--weight") {
@@ -220,6 +247,8 @@ pub struct KBufferOptions {
     pub culling: bool,
     /// Spin-lock tries per fragment (default 65536, at most [`MAX_TRIES_LIMIT`]).
     pub max_tries: Option<u32>,
+    /// How the per-pixel arrays are laid out.
+    pub layout: StorageLayout,
     /// kplus-semiheap: slots of the max-heap H (default 1, the paper's), the rest unordered.
     pub heap_size: Option<u32>,
     /// Initial node pool of the linked-list methods (nodes); by default sized from the last
@@ -236,6 +265,7 @@ impl Default for KBufferOptions {
             tail: Tail::Drop,
             culling: true,
             max_tries: None,
+            layout: StorageLayout::Pixel,
             heap_size: None,
             initial_nodes: None,
             allocation_counter_start: 0,

@@ -112,6 +112,8 @@ pub enum MethodOption {
     Culling,
     /// `--max-tries`: the bound on a lock's or a link's retries.
     MaxTries,
+    /// `--storage-layout`: slot-major or pixel-major per-pixel arrays.
+    StorageLayout,
     /// `--layers`: the peeling passes.
     Layers,
     /// `--layers-per-pass`.

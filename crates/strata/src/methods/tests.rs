@@ -709,7 +709,7 @@ fn second_frame_equals_the_first_for_every_method() {
 /// on a GPU the order of arrival changes from frame to frame (the H100 showed it): the frame
 /// tests give them room for every fragment, so that a difference can only come from stale or
 /// poisoned memory.
-fn room_for_every_fragment(m: super::MethodId, opts: &RenderOptions) -> RenderOptions {
+pub(crate) fn room_for_every_fragment(m: super::MethodId, opts: &RenderOptions) -> RenderOptions {
     let mut opts = runnable(m, opts);
     if matches!(m, super::MethodId::AbufferFixed | super::MethodId::Mlab) {
         opts.frame.k = Some(64);

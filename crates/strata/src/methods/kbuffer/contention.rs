@@ -34,10 +34,17 @@ use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Library, Stage};
 use crate::gpu::Gpu;
 use crate::methods::MethodId;
+use crate::StorageLayout;
 
 const HARNESS_WGSL: &str = include_str!("contention.wgsl");
 /// Invocations of a capture workgroup, where the adapter runs ordered atomics in any.
 const WORKGROUP: u32 = 64;
+/// The per-pixel arrays' layout the harness runs. Slot-major, where the neighbouring pixels of
+/// its handful share words' cache lines: frames run pixel-major by default, and the
+/// protocol is the same in either.
+const LAYOUT: StorageLayout = StorageLayout::Slot;
+/// Words per pixel in the per-pixel array (storage.wgsl).
+const PIXEL_WORDS: u64 = super::PIXEL_BYTES / 4;
 
 gpu_struct! {
     /// The harness's uniforms (`strata::kbuffer::harness_params`).
@@ -429,6 +436,7 @@ impl<'g> Harness<'g> {
             tail_weight: 0,
             tail_depth_p: 0.0,
             tail_depth_q: 0.0,
+            storage_layout: LAYOUT.index(),
         };
         let (storage_bytes, poison) = match case.method {
             MethodId::AbufferLl | MethodId::KbLl => (20 * fragments, true),
@@ -544,7 +552,9 @@ impl<'g> Harness<'g> {
                         .collect()
                 })
                 .collect(),
-            seen: (0..pixels as usize).map(|p| words[p * 4]).collect(),
+            seen: (0..pixels)
+                .map(|p| words[LAYOUT.item(p, super::SEEN_WORD, PIXEL_WORDS, pixels) as usize])
+                .collect(),
             lock_failures: wide(COUNTER_LOCK_FAILURES),
             lost: wide(COUNTER_LOST),
         };

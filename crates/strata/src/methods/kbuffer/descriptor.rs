@@ -50,13 +50,21 @@ const fn locked(id: MethodId, name: &'static str, family: Family) -> Descriptor 
     }
 }
 
-/// A k-buffer proper: reads `--k`, `--tail` and `--culling`; a locking one `--max-tries` too.
-const K: &[MethodOption] = &[MethodOption::K, MethodOption::Tail, MethodOption::Culling];
+/// A k-buffer proper: reads `--k`, `--tail`, `--culling` and `--storage-layout`; a locking one
+/// `--max-tries` too. Every method of this family lays out its per-pixel arrays by
+/// `--storage-layout`.
+const K: &[MethodOption] = &[
+    MethodOption::K,
+    MethodOption::Tail,
+    MethodOption::Culling,
+    MethodOption::StorageLayout,
+];
 const K_LOCKED: &[MethodOption] = &[
     MethodOption::K,
     MethodOption::Tail,
     MethodOption::Culling,
     MethodOption::MaxTries,
+    MethodOption::StorageLayout,
 ];
 
 /// The method table's entry for `abuffer-ll`.
@@ -67,6 +75,7 @@ pub const ABUFFER_LL: Descriptor = Descriptor {
     summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
     app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
     traffic: TrafficModel::Lists,
+    reads: &[MethodOption::StorageLayout],
     ..entry(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer)
 };
 
@@ -77,6 +86,7 @@ pub const SBUFFER: Descriptor = Descriptor {
     memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 152",
     summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
     traffic: TrafficModel::Sbuffers,
+    reads: &[MethodOption::StorageLayout],
     ..entry(MethodId::Sbuffer, "sbuffer", Family::Abuffer)
 };
 
@@ -88,7 +98,12 @@ pub const KPEEL: Descriptor = Descriptor {
     summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per pass, by a lock-free cascade of 64-bit keys (a keys and a colors geometry pass; single-sampled, SHADER_INT64_ATOMIC_ALL_OPS) or else a k+-buffer capture under a lock; A-buffer results in bounded memory, equal-depth fragments included",
     per_sample_storage: true,
     ordering: Ordering::LockedFallback,
-    reads: &[MethodOption::K, MethodOption::Layers, MethodOption::LayersPerPass],
+    reads: &[
+        MethodOption::K,
+        MethodOption::Layers,
+        MethodOption::LayersPerPass,
+        MethodOption::StorageLayout,
+    ],
     max_k: 1024,
     traffic: TrafficModel::Kpeel,
     ..entry(MethodId::Kpeel, "kpeel", Family::Peeling)
@@ -99,7 +114,11 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
     app_capture: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
-    reads: &[MethodOption::K, MethodOption::Tail],
+    reads: &[
+        MethodOption::K,
+        MethodOption::Tail,
+        MethodOption::StorageLayout,
+    ],
     traffic: TrafficModel::Slots { atomics: true },
     ..entry(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer)
 };
@@ -147,7 +166,11 @@ pub const MLAB: Descriptor = Descriptor {
     memory: "16·(k+1)·W·H + 152",
     summary: "multi-layer alpha blending: k layers in depth order under a per-pixel spin lock, the two farthest merged when a fragment makes k + 1 (exact up to k fragments; merges vary with arrival order)",
     app_capture: Some("strata::kbuffer::kb_capture::capture_mlab(p, f)"),
-    reads: &[MethodOption::K, MethodOption::MaxTries],
+    reads: &[
+        MethodOption::K,
+        MethodOption::MaxTries,
+        MethodOption::StorageLayout,
+    ],
     past_k: Some("beyond k were merged into the farthest layers (approximate where a pixel has more than k + 1)"),
     // MLAB-4, the published comparison's; the critical section is kb-ps's, so is the limit.
     default_k: 4,
@@ -226,6 +249,7 @@ pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
         MethodOption::Culling,
         MethodOption::MaxTries,
         MethodOption::HeapSize,
+        MethodOption::StorageLayout,
     ],
     ..Descriptor {
         id: MethodId::KplusSemiheap,

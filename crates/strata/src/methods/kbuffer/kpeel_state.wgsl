@@ -2,7 +2,7 @@
 #import strata::color::{Resolved}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, view_distance}
-#import strata::kbuffer::storage::{fragment_words, kp, output}
+#import strata::kbuffer::storage::{fragment_words, kp, output, pixel_item}
 
 // k-depth peeling's running composite between passes, a valid Resolved at every step
 // (premultiplied color, count, RGB transmittance) whose spare word holds the last composited
@@ -19,8 +19,13 @@ fn kpeel_state_base() -> u32 {
     return kp.pixels * kp.sample_slots * kp.stride * 4u;
 }
 
-fn state_float(w: u32) -> f32 {
-    return bitcast<f32>(atomicLoad(&fragment_words[w]));
+// Word j of sample pixel q's state (--msaa), in the frame's layout.
+fn state_word(q: u32, j: u32) -> u32 {
+    return kpeel_state_base() + pixel_item(q, j, KPEEL_STATE_WORDS);
+}
+
+fn state_float(at: u32) -> f32 {
+    return bitcast<f32>(atomicLoad(&fragment_words[at]));
 }
 
 fn kpeel_state(q: u32) -> Composite {
@@ -29,13 +34,12 @@ fn kpeel_state(q: u32) -> Composite {
         let depth = state_float(kpeel_state_base() + q);
         return Composite(r.color, r.count, r.transmittance, r.spare, depth, view_distance(depth));
     }
-    let w = kpeel_state_base() + KPEEL_STATE_WORDS * q;
-    let depth = state_float(w + 8u);
+    let depth = state_float(state_word(q, 8u));
     return Composite(
-        vec3<f32>(state_float(w), state_float(w + 1u), state_float(w + 2u)),
-        atomicLoad(&fragment_words[w + 3u]),
-        vec3<f32>(state_float(w + 4u), state_float(w + 5u), state_float(w + 6u)),
-        atomicLoad(&fragment_words[w + 7u]),
+        vec3<f32>(state_float(state_word(q, 0u)), state_float(state_word(q, 1u)), state_float(state_word(q, 2u))),
+        atomicLoad(&fragment_words[state_word(q, 3u)]),
+        vec3<f32>(state_float(state_word(q, 4u)), state_float(state_word(q, 5u)), state_float(state_word(q, 6u))),
+        atomicLoad(&fragment_words[state_word(q, 7u)]),
         depth,
         view_distance(depth),
     );
@@ -47,16 +51,15 @@ fn kpeel_store(q: u32, s: Composite) {
         atomicStore(&fragment_words[kpeel_state_base() + q], bitcast<u32>(s.last_depth));
         return;
     }
-    let w = kpeel_state_base() + KPEEL_STATE_WORDS * q;
-    atomicStore(&fragment_words[w], bitcast<u32>(s.color.r));
-    atomicStore(&fragment_words[w + 1u], bitcast<u32>(s.color.g));
-    atomicStore(&fragment_words[w + 2u], bitcast<u32>(s.color.b));
-    atomicStore(&fragment_words[w + 3u], s.count);
-    atomicStore(&fragment_words[w + 4u], bitcast<u32>(s.transmittance.r));
-    atomicStore(&fragment_words[w + 5u], bitcast<u32>(s.transmittance.g));
-    atomicStore(&fragment_words[w + 6u], bitcast<u32>(s.transmittance.b));
-    atomicStore(&fragment_words[w + 7u], s.last_tag);
-    atomicStore(&fragment_words[w + 8u], bitcast<u32>(s.last_depth));
+    atomicStore(&fragment_words[state_word(q, 0u)], bitcast<u32>(s.color.r));
+    atomicStore(&fragment_words[state_word(q, 1u)], bitcast<u32>(s.color.g));
+    atomicStore(&fragment_words[state_word(q, 2u)], bitcast<u32>(s.color.b));
+    atomicStore(&fragment_words[state_word(q, 3u)], s.count);
+    atomicStore(&fragment_words[state_word(q, 4u)], bitcast<u32>(s.transmittance.r));
+    atomicStore(&fragment_words[state_word(q, 5u)], bitcast<u32>(s.transmittance.g));
+    atomicStore(&fragment_words[state_word(q, 6u)], bitcast<u32>(s.transmittance.b));
+    atomicStore(&fragment_words[state_word(q, 7u)], s.last_tag);
+    atomicStore(&fragment_words[state_word(q, 8u)], bitcast<u32>(s.last_depth));
 }
 
 // The last composited fragment of a (sample) pixel (ordering fields only; meaningless while

@@ -2,7 +2,7 @@
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment, scene_fragment_covering}
 #import strata::color::{linear_to_srgb, srgb_to_linear}
 #import strata::fragment::{Fragment, fragment_color, fragment_new}
-#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_words, kp, kpixel, sample_pixel, storage_samples, storage_slots, tail_add}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, fragment_words, kp, kpixel, pixel_item, sample_pixel, storage_pixels, storage_samples, storage_slots, tail_add}
 
 // Multi-depth-test k-buffers (seed 002's MDTS) with 32-bit keys: each fragment runs an atomicMax
 // cascade over its pixel's k keys — the key displaced from a slot carries on to the next — so
@@ -15,7 +15,12 @@
 //   slot i belong to the same fragment unless two keys tie in the top 20 bits.
 
 fn slots_in_frame() -> u32 {
-    return kp.pixels * kp.sample_slots * kp.k;
+    return storage_pixels() * kp.k;
+}
+
+// Pixel p's slot i in an array of one word per slot (keys, claims).
+fn key_slot(p: u32, i: u32) -> u32 {
+    return pixel_item(p, i, kp.k);
 }
 
 fn depth_key(depth: f32) -> u32 {
@@ -26,11 +31,12 @@ fn key_depth(key: u32) -> f32 {
     return bitcast<f32>(0xffffffffu - key);
 }
 
-// Returns the key displaced past the last slot, 0 when it found a place.
-fn cascade(base: u32, key_in: u32) -> u32 {
+// Cascades `key` through pixel p's keys in the key array that starts at word `array`; returns
+// the key displaced past the last slot, 0 when it found a place.
+fn cascade(array: u32, p: u32, key_in: u32) -> u32 {
     var key = key_in;
     for (var i = 0u; i < kp.k; i++) {
-        let old = atomicMax(&fragment_words[base + i], key);
+        let old = atomicMax(&fragment_words[array + key_slot(p, i)], key);
         if old == 0u {
             return 0u;
         }
@@ -42,18 +48,18 @@ fn cascade(base: u32, key_in: u32) -> u32 {
 // Filled slots form a prefix: count up to the first empty one.
 fn key_count(p: u32) -> u32 {
     var n = 0u;
-    while n < kp.k && atomicLoad(&fragment_words[p * kp.k + n]) != 0u {
+    while n < kp.k && atomicLoad(&fragment_words[key_slot(p, n)]) != 0u {
         n += 1u;
     }
     return n;
 }
 
 // Culling: the pixel is full and the key is not nearer than its farthest.
-fn cascade_culled(base: u32, key: u32) -> bool {
+fn cascade_culled(p: u32, key: u32) -> bool {
     if kp.culling == 0u {
         return false;
     }
-    let last = atomicLoad(&fragment_words[base + kp.k - 1u]);
+    let last = atomicLoad(&fragment_words[key_slot(p, kp.k - 1u)]);
     return last != 0u && key <= last;
 }
 
@@ -84,9 +90,8 @@ fn fs_mdt32_depth_capture(v: SceneVarying, front_facing: bool, mask: u32) {
 // The depth pass for one storage pixel: counts the fragment and cascades its key unless culled.
 fn cascade_at(p: u32, key: u32) {
     count_seen(p);
-    let base = p * kp.k;
-    if !cascade_culled(base, key) {
-        cascade(base, key);
+    if !cascade_culled(p, key) {
+        cascade(0u, p, key);
     }
 }
 
@@ -117,15 +122,15 @@ fn fs_mdt32_color_capture(v: SceneVarying, front_facing: bool, mask: u32) {
 // else it joins the tail.
 fn store_color(p: u32, f: Fragment) {
     let key = depth_key(f.depth);
-    let base = p * kp.k;
     let n = slots_in_frame();
     for (var i = 0u; i < kp.k; i++) {
-        let stored = atomicLoad(&fragment_words[base + i]);
+        let slot = key_slot(p, i);
+        let stored = atomicLoad(&fragment_words[slot]);
         if stored < key {
             break;
         }
-        if stored == key && atomicExchange(&fragment_words[n + base + i], 1u) == 0u {
-            let c = 2u * n + 3u * (base + i);
+        if stored == key && atomicExchange(&fragment_words[n + slot], 1u) == 0u {
+            let c = 2u * n + 3u * slot;
             atomicStore(&fragment_words[c], f.tag);
             atomicStore(&fragment_words[c + 1u], f.rg);
             atomicStore(&fragment_words[c + 2u], f.ba);
@@ -177,10 +182,9 @@ fn fs_mdt_pack_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     count_seen(p);
     let f = scene_fragment(v, front_facing);
     let k2 = pack_keys(f.depth, fragment_color(f));
-    let base = p * kp.k;
-    if cascade_culled(base, k2.x) {
+    if cascade_culled(p, k2.x) {
         return;
     }
-    cascade(base, k2.x);
-    cascade(slots_in_frame() + base, k2.y);
+    cascade(0u, p, k2.x);
+    cascade(slots_in_frame(), p, k2.y);
 }

@@ -2,7 +2,7 @@
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment}
 #import strata::color::{linear_to_srgb, srgb_to_linear}
 #import strata::fragment::{Fragment, fragment_color, fragment_new}
-#import strata::kbuffer::storage::{count_seen, fragment_keys, kp, kpixel, tail_add}
+#import strata::kbuffer::storage::{count_seen, fragment_keys, kp, kpixel, pixel_item, tail_add}
 
 // kb-mdt64: one atomicMax cascade on 64-bit keys — inverted depth bits above 32 bits of color
 // (sRGB-encoded RGB and alpha, 8 bits each) — so one geometry pass keeps the k nearest with their
@@ -36,16 +36,15 @@ fn fs_mdt64_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     let p = kpixel(v.position);
     count_seen(p);
     var key = key64(scene_fragment(v, front_facing));
-    let base = p * kp.k;
     if kp.culling != 0u {
-        let last = atomicLoad(&fragment_keys[base + kp.k - 1u]);
+        let last = atomicLoad(&fragment_keys[pixel_item(p, kp.k - 1u, kp.k)]);
         if last != u64(0u) && key <= last {
             tail_add(p, fragment_of64(key));
             return;
         }
     }
     for (var i = 0u; i < kp.k; i++) {
-        let old = atomicMax(&fragment_keys[base + i], key);
+        let old = atomicMax(&fragment_keys[pixel_item(p, i, kp.k)], key);
         if old == u64(0u) {
             return;
         }
@@ -56,12 +55,12 @@ fn fs_mdt64_capture(v: SceneVarying, front_facing: bool, mask: u32) {
 
 fn stored_count(p: u32) -> u32 {
     var n = 0u;
-    while n < kp.k && atomicLoad(&fragment_keys[p * kp.k + n]) != u64(0u) {
+    while n < kp.k && atomicLoad(&fragment_keys[pixel_item(p, n, kp.k)]) != u64(0u) {
         n += 1u;
     }
     return n;
 }
 
 fn stored_fragment(p: u32, i: u32) -> Fragment {
-    return fragment_of64(atomicLoad(&fragment_keys[p * kp.k + i]));
+    return fragment_of64(atomicLoad(&fragment_keys[pixel_item(p, i, kp.k)]));
 }

@@ -172,6 +172,9 @@ gpu_struct! {
         pub tail_depth_p: f32,
         /// `--tail weighted`: q of [`tail_depth`].
         pub tail_depth_q: f32,
+        /// [`crate::StorageLayout::index`]: where item i of storage pixel p lies in a per-pixel
+        /// array (`pixel_item` in storage.wgsl).
+        pub storage_layout: u32,
     }
 }
 
@@ -222,6 +225,10 @@ pub const CONSTANT_BYTES: u64 = 152;
 pub const SLOT_BYTES: u64 = 16;
 /// Bytes of one pixel's words (seen, filled, lock, bound).
 pub const PIXEL_BYTES: u64 = 16;
+/// The place of `seen` among a pixel's words (storage.wgsl's SEEN).
+pub const SEEN_WORD: u64 = 0;
+/// The place of `filled` (a list's head) among a pixel's words (storage.wgsl's FILLED).
+pub const FILLED_WORD: u64 = 1;
 /// Bytes of the tail term a pixel keeps with `--tail blend`.
 pub const TAIL_BYTES: u64 = 40;
 
@@ -435,6 +442,7 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
             },
         tail_depth_p,
         tail_depth_q,
+        storage_layout: options.frame.kbuffer.layout.index(),
     }
 }
 

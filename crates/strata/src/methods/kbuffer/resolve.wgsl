@@ -4,7 +4,7 @@
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 #import strata::kbuffer::access::{stored_count, stored_fragment}
-#import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, TAIL_WORDS, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, wide_add}
+#import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, tail_word, wide_add}
 
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
 // The multisampled paths are compiled only with MULTISAMPLED (--msaa): they double the shader,
@@ -30,10 +30,9 @@ fn tail_empty() -> Tail {
 }
 
 fn tail_sums(p: u32) -> Tail {
-    let w = p * TAIL_WORDS;
     var t = tail_empty();
     for (var i = 0u; i < 5u; i++) {
-        t.sums[i] = vec2<u32>(atomicLoad(&tail[w + 2u * i]), atomicLoad(&tail[w + 2u * i + 1u]));
+        t.sums[i] = vec2<u32>(atomicLoad(&tail[tail_word(p, 2u * i)]), atomicLoad(&tail[tail_word(p, 2u * i + 1u)]));
     }
     return t;
 }

@@ -40,6 +40,8 @@
 // The resolved pixels (the resolve's output; k-depth peeling's running composite).
 @group(#{KBUFFER_GROUP}) @binding(5) var<storage, read_write> output: array<Resolved>;
 
+// Words per pixel in `pixels`.
+const PIXEL_WORDS: u32 = 4u;
 const SEEN: u32 = 0u;
 const FILLED: u32 = 1u;
 const LOCK: u32 = 2u;
@@ -57,8 +59,30 @@ const TAIL_WEIGHTED: u32 = 2u;
 const TAIL_WEIGHTED_SCALE: f32 = 256.0;
 const TAIL_ORTHOGRAPHIC: u32 = 0x100u;
 
+// KParams::storage_layout (StorageLayout::index): each pixel's items together (0, pixel-major),
+// or item i of every storage pixel together (1, slot-major).
+const LAYOUT_SLOT_MAJOR: u32 = 1u;
+
+// Pixels with storage of their own: with per-sample storage each sample is one (`sample_pixel`).
+fn storage_pixels() -> u32 {
+    return kp.pixels * kp.sample_slots;
+}
+
+// Where item i of storage pixel p's `per_pixel` items lies in a per-pixel array (its words,
+// slots, keys or tail sums), in the frame's layout (--storage-layout). Pixel-major keeps a
+// pixel's walk over its slots in a few cache lines (a CPU adapter runs it faster); slot-major
+// puts item i of the neighbouring pixels that a GPU shades in one warp side by side, so the
+// warp's access is a few memory transactions where pixel-major takes one per pixel. The CPU
+// twin is `StorageLayout::item`.
+fn pixel_item(p: u32, i: u32, per_pixel: u32) -> u32 {
+    if kp.storage_layout == LAYOUT_SLOT_MAJOR {
+        return i * storage_pixels() + p;
+    }
+    return p * per_pixel + i;
+}
+
 fn pixel_word(p: u32, word: u32) -> u32 {
-    return p * 4u + word;
+    return pixel_item(p, word, PIXEL_WORDS);
 }
 
 // The pixel index of a fragment position, from the k-buffer's own width (no scene bindings).
@@ -106,7 +130,7 @@ fn sample_pixel(p: u32, s: u32) -> u32 {
 // Per-sample storage: the word after the sample pixels' words that counts pixel `p`'s
 // fragments (each once, whatever it covers), as the statistics count them.
 fn pixel_fragments_word(p: u32) -> u32 {
-    return kp.pixels * kp.sample_slots * 4u + p;
+    return storage_pixels() * PIXEL_WORDS + p;
 }
 
 // The samples whose storage a fragment covering `mask` enters: bit s for `sample_pixel(p, s)`;
@@ -199,6 +223,11 @@ fn wide_add(sum: vec2<u32>, add: vec2<u32>) -> vec2<u32> {
     return vec2<u32>(low, sum.y + add.y + select(0u, 1u, low < add.x));
 }
 
+// Word `word` of pixel p's tail sums (sum i: low word 2i, high word 2i + 1).
+fn tail_word(p: u32, word: u32) -> u32 {
+    return pixel_item(p, word, TAIL_WORDS);
+}
+
 // Blends a fragment beyond the k nearest into the pixel's unsorted tail (--tail blend|weighted), and
 // notes it for temporal culling's interface (temporal.wgsl): every fragment the cache does not
 // keep passes here.
@@ -208,13 +237,11 @@ fn tail_add(p: u32, f: Fragment) {
         return;
     }
     let share = tail_share(f);
-    let w = p * TAIL_WORDS;
     for (var i = 0u; i < 5u; i++) {
-        let at = w + 2u * i;
-        let old = atomicAdd(&tail[at], share[i].x);
+        let old = atomicAdd(&tail[tail_word(p, 2u * i)], share[i].x);
         let carry = select(0u, 1u, old > 0xffffffffu - share[i].x);
         if share[i].y + carry != 0u {
-            atomicAdd(&tail[at + 1u], share[i].y + carry);
+            atomicAdd(&tail[tail_word(p, 2u * i + 1u)], share[i].y + carry);
         }
     }
 }

@@ -1042,12 +1042,13 @@ pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFra
     );
     let count = (opts.frame.width * opts.frame.height) as usize;
     let pixel_words = read_u32s(gpu, pixels, 4 * count as u64).unwrap();
+    let heads = per_pixel(&pixel_words, 4, count, opts.frame.kbuffer.layout);
     let node_words = read_u32s(gpu, nodes, nodes.size() / 4).unwrap();
     (0..count)
         .map(|p| {
             // Node links are index + 1; a walk longer than the pool would mean a cycle.
             let mut device = DeviceFragments::new();
-            let mut link = pixel_words[4 * p + 1];
+            let mut link = heads[p][super::FILLED_WORD as usize];
             let mut steps = 0;
             while link != 0 {
                 let w = 5 * (link - 1) as usize;
@@ -1383,8 +1384,32 @@ fn the_devices_fragments_are_the_references() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-/// The per-pixel words and the tail sums a frame of `renderer` left: (pixels, tail).
-fn frame_words(renderer: &crate::Renderer) -> (Vec<u32>, Vec<u32>) {
+/// Each pixel's `per_pixel` items of a per-pixel array of `pixels` pixels read back, in the
+/// frame's `layout`; a stub smaller than that (the tail of a frame that keeps none) as one.
+fn per_pixel(
+    words: &[u32],
+    per_pixel: usize,
+    pixels: usize,
+    layout: crate::StorageLayout,
+) -> Vec<Vec<u32>> {
+    if words.len() < per_pixel * pixels {
+        return vec![words.to_vec()];
+    }
+    let (n, pixels_u64) = (per_pixel as u64, pixels as u64);
+    (0..pixels_u64)
+        .map(|p| {
+            (0..n)
+                .map(|i| words[layout.item(p, i, n, pixels_u64) as usize])
+                .collect()
+        })
+        .collect()
+}
+
+/// The per-pixel words and the tail sums a frame of `renderer` left, each pixel's by itself:
+/// (pixels, tail).
+fn frame_words(renderer: &crate::Renderer, opts: &RenderOptions) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
+    let pixels = (opts.frame.width * opts.frame.height) as usize;
+    let layout = opts.frame.kbuffer.layout;
     let recorder = renderer.recorder().unwrap();
     let read = |label: &str| {
         let buffer = recorder
@@ -1394,7 +1419,10 @@ fn frame_words(renderer: &crate::Renderer) -> (Vec<u32>, Vec<u32>) {
             .unwrap_or_else(|| panic!("no buffer {label}"));
         crate::gpu::readback::read_u32s(crate::testing::gpu(), buffer, buffer.size() / 4).unwrap()
     };
-    (read("strata.kbuffer.pixels"), read("strata.kbuffer.tail"))
+    (
+        per_pixel(&read("strata.kbuffer.pixels"), 4, pixels, layout),
+        per_pixel(&read("strata.kbuffer.tail"), 10, pixels, layout),
+    )
 }
 
 /// A blended tail's sums are fixed point, so the order fragments reach it in cannot change
@@ -1406,8 +1434,6 @@ fn frame_words(renderer: &crate::Renderer) -> (Vec<u32>, Vec<u32>) {
 /// sum depended on arrival order; the tail now adds the stored color (`stored_color`).
 #[test]
 fn a_blended_tail_is_the_same_every_frame() {
-    const PIXEL_WORDS: usize = super::PIXEL_BYTES as usize / 4;
-    const TAIL_WORDS: usize = super::TAIL_BYTES as usize / 4;
     let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
     let mut opts = options(40, 6);
     opts.frame.effect = Effect::Translucency;
@@ -1425,7 +1451,7 @@ fn a_blended_tail_is_the_same_every_frame() {
                 r.recorder().unwrap().poison();
             }
             let (image, stats) = r.render_method(m, None).unwrap();
-            frames.push((image, stats, frame_words(&r)));
+            frames.push((image, stats, frame_words(&r, &opts)));
         }
         let (first_image, first_stats, (first_pixels, first_tail)) = &frames[0];
         let mut report = Vec::new();
@@ -1435,25 +1461,19 @@ fn a_blended_tail_is_the_same_every_frame() {
             } else {
                 "poisoned frame"
             };
-            let differs = |a: &[u32], b: &[u32], words: usize| {
-                (0..a.len() / words)
-                    .filter(|&p| a[p * words..(p + 1) * words] != b[p * words..(p + 1) * words])
-                    .collect::<Vec<_>>()
+            let differs = |a: &[Vec<u32>], b: &[Vec<u32>]| {
+                (0..a.len()).filter(|&p| a[p] != b[p]).collect::<Vec<_>>()
             };
-            let pixel_words = differs(first_pixels, pixels, PIXEL_WORDS);
-            let tail_pixels = differs(first_tail, tail, TAIL_WORDS);
+            let pixel_words = differs(first_pixels, pixels);
+            let tail_pixels = differs(first_tail, tail);
             let picture = differing_pixels(first_image, image);
             if pixel_words.is_empty() && tail_pixels.is_empty() && picture == 0 {
                 continue;
             }
-            let words = |v: &[u32], p: usize, n: usize| format!("{:08x?}", &v[p * n..(p + 1) * n]);
             let example = tail_pixels.first().map(|&p| {
                 format!(
-                    "; pixel {p}: words {} then {}, tail {} then {}",
-                    words(first_pixels, p, PIXEL_WORDS),
-                    words(pixels, p, PIXEL_WORDS),
-                    words(first_tail, p, TAIL_WORDS),
-                    words(tail, p, TAIL_WORDS)
+                    "; pixel {p}: words {:08x?} then {:08x?}, tail {:08x?} then {:08x?}",
+                    first_pixels[p], pixels[p], first_tail[p], tail[p]
                 )
             });
             report.push(format!(
@@ -1638,4 +1658,111 @@ fn a_blended_tail_does_not_depend_on_arrival_order() {
         }
     }
     failures.finish("a_blended_tail_does_not_depend_on_arrival_order");
+}
+
+/// `--storage-layout slot` moves the family's per-pixel arrays (words, slots, keys, claims, tail
+/// sums, kpeel's states) and changes nothing else: every method that reads it gives the default
+/// pixel-major layout's picture and counts, single-sampled and, where storage is per sample,
+/// with --msaa 4 (sample pixels), with a blended tail, and again over poisoned storage. The words did move:
+/// read back in each layout's order, every pixel's seen count is the same, and the buffers are
+/// not.
+#[test]
+fn slot_major_storage_gives_the_pixel_major_frame() {
+    use crate::methods::tests::room_for_every_fragment;
+    use crate::methods::{MethodId, MethodOption};
+    use crate::StorageLayout;
+    let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
+    let mut failures = Failures::default();
+    for msaa in [1, 4] {
+        let mut opts = options(32, 6);
+        opts.frame.effect = Effect::Translucency;
+        opts.frame.kbuffer.tail = Tail::Blend;
+        opts.build.msaa = msaa;
+        // kb races by design and mlab merges in arrival order: on a GPU two frames of either
+        // may differ whatever the layout. kb-mdt64 and kb-mdt-pack refuse translucency.
+        let methods = MethodId::gpu_methods().filter(|m| {
+            let d = m.descriptor();
+            d.reads(MethodOption::StorageLayout)
+                && (msaa == 1 || (d.msaa.yes() && d.per_sample_storage))
+                && !matches!(
+                    m,
+                    MethodId::Kb | MethodId::Mlab | MethodId::KbMdt64 | MethodId::KbMdtPack
+                )
+        });
+        for m in methods {
+            let name = format!("{m} --msaa {msaa}");
+            let pixel_major = room_for_every_fragment(m, &opts);
+            let mut slot_major = pixel_major.clone();
+            slot_major.frame.kbuffer.layout = StorageLayout::Slot;
+            let mut by_pixel = renderer(&s, &pixel_major);
+            let (expected, a) = by_pixel.render_method(m, None).unwrap();
+            let mut by_slot = renderer(&s, &slot_major);
+            let (actual, b) = by_slot.render_method(m, None).unwrap();
+            // Each pixel's seen count (the word every method writes, whatever the arrival order).
+            let moved = (msaa == 1).then(|| {
+                let (by_pixel_words, by_slot_words) =
+                    (raw_pixel_words(&by_pixel), raw_pixel_words(&by_slot));
+                let seen = |words: &[u32], layout| -> Vec<u32> {
+                    per_pixel(words, 4, 32 * 32, layout)
+                        .iter()
+                        .map(|w| w[super::SEEN_WORD as usize])
+                        .collect()
+                };
+                (
+                    seen(&by_pixel_words, StorageLayout::Pixel)
+                        == seen(&by_slot_words, StorageLayout::Slot),
+                    by_pixel_words != by_slot_words,
+                )
+            });
+            by_slot.recorder().unwrap().poison();
+            let (poisoned, c) = by_slot.render_method(m, None).unwrap();
+            if !(failures.locks_held(&name, &a) && failures.locks_held(&name, &b)) {
+                continue;
+            }
+            let counts = |s: &crate::FrameStats| {
+                (
+                    s.fragments_generated,
+                    s.fragments_stored,
+                    s.fragments_dropped,
+                )
+            };
+            let differing = differing_pixels(&expected, &actual);
+            let differing_poisoned = differing_pixels(&expected, &poisoned);
+            failures.check(
+                &name,
+                if differing + differing_poisoned > 0 {
+                    Err(format!(
+                        "{differing} pixels differ from pixel-major, {differing_poisoned} over poisoned storage"
+                    ))
+                } else if counts(&a) != counts(&b) || counts(&a) != counts(&c) {
+                    Err(format!(
+                        "counts (generated, stored, dropped) {:?} pixel-major, {:?} slot-major, {:?} poisoned",
+                        counts(&a),
+                        counts(&b),
+                        counts(&c)
+                    ))
+                } else if moved.is_some_and(|m| m != (true, true)) {
+                    Err(format!(
+                        "each pixel's words read in its layout's order equal: {}; the buffers differ: {}",
+                        moved.unwrap().0,
+                        moved.unwrap().1
+                    ))
+                } else {
+                    Ok(())
+                },
+            );
+        }
+    }
+    failures.finish("slot-major storage");
+}
+
+/// The per-pixel words buffer a frame of `renderer` left, as it lies.
+fn raw_pixel_words(renderer: &crate::Renderer) -> Vec<u32> {
+    let recorder = renderer.recorder().unwrap();
+    let buffer = recorder
+        .method_resources()
+        .into_iter()
+        .find_map(|cache| cache.get("strata.kbuffer.pixels"))
+        .expect("a k-buffer frame's pixel words");
+    crate::gpu::readback::read_u32s(crate::testing::gpu(), buffer, buffer.size() / 4).unwrap()
 }
