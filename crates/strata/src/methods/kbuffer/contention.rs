@@ -43,8 +43,6 @@ const WORKGROUP: u32 = 64;
 /// its handful share words' cache lines: frames run pixel-major by default, and the
 /// protocol is the same in either.
 const LAYOUT: StorageLayout = StorageLayout::Slot;
-/// Words per pixel in the per-pixel array (storage.wgsl).
-const PIXEL_WORDS: u64 = super::PIXEL_BYTES / 4;
 
 gpu_struct! {
     /// The harness's uniforms (`strata::kbuffer::harness_params`).
@@ -553,7 +551,9 @@ impl<'g> Harness<'g> {
                 })
                 .collect(),
             seen: (0..pixels)
-                .map(|p| words[LAYOUT.item(p, super::SEEN_WORD, PIXEL_WORDS, pixels) as usize])
+                .map(|p| {
+                    words[LAYOUT.item(p, super::SEEN_WORD, super::PIXEL_WORDS, pixels) as usize]
+                })
                 .collect(),
             lock_failures: wide(COUNTER_LOCK_FAILURES),
             lost: wide(COUNTER_LOST),

@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::kb_capture
-#import strata::kbuffer::storage::{FILLED, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, tail_add, try_lock, unlock}
+#import strata::kbuffer::storage::{count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, tail_add, try_lock, unlock}
+#import strata::kbuffer::words::{FILLED}
 #import strata::fragment::{Fragment, fragment_before, fragment_color}
 #import strata::kbuffer::slot_access::{load_slot, store_slot}
 

@@ -1,6 +1,7 @@
 #define_import_path strata::kbuffer::kpeel_capture
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
-#import strata::kbuffer::storage::{FILLED, count_pixel_fragment, count_seen, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples, storage_slots}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples, storage_slots}
+#import strata::kbuffer::words::{FILLED}
 #import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, capture_locked}
 #import strata::kbuffer::kpeel_state::{peel_pending}
 

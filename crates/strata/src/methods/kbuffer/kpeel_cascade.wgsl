@@ -1,7 +1,8 @@
 #define_import_path strata::kbuffer::kpeel_cascade
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment}
 #import strata::fragment::{Fragment}
-#import strata::kbuffer::storage::{FILLED, clearly_behind, count_seen, kp, kpixel, pixel_item, pixel_word, pixels}
+#import strata::kbuffer::storage::{clearly_behind, count_seen, kp, kpixel, pixel_item, pixel_word, pixels}
+#import strata::kbuffer::words::{FILLED}
 #import strata::kbuffer::kpeel_state::{peel_pending}
 #import strata::kbuffer::slot_access::{store_slot}
 

@@ -2,7 +2,8 @@
 #import strata::scene::{frame, report_pixel, report_samples}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::composite::{composite_finish, composite_new}
-#import strata::kbuffer::storage::{FILLED, SEEN, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, storage_slots}
+#import strata::kbuffer::storage::{kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, storage_slots}
+#import strata::kbuffer::words::{FILLED, SEEN}
 #import strata::kbuffer::resolve::{composite_stored, tail_empty}
 #import strata::kbuffer::access::{stored_count}
 #import strata::kbuffer::kpeel_state::{kpeel_state, kpeel_store}

@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::kplus_capture
-#import strata::kbuffer::storage::{BOUND, FILLED, acquire_published, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, release_published, tail_add, try_lock, unlock}
+#import strata::kbuffer::storage::{acquire_published, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, release_published, tail_add, try_lock, unlock}
+#import strata::kbuffer::words::{BOUND, FILLED}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::kbuffer::slot_access::{load_key, load_slot, store_slot}
 

@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::kplus_sbuffer
-#import strata::kbuffer::storage::{SEEN, fragment_words, kp, pixel_word, pixels}
+#import strata::kbuffer::storage::{fragment_words, kp, pixel_word, pixels}
+#import strata::kbuffer::words::{SEEN}
 
 // The memory-aware k+-buffer (seed 003 §4.1): k+-buffer slots in S-buffer regions. The count
 // pass counts each pixel's fragments (SEEN); the prefix sum (sbuffer_scan.wgsl) over

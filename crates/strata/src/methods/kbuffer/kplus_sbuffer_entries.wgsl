@@ -2,7 +2,8 @@
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::counters::{COUNTER_OVERFLOWED}
-#import strata::kbuffer::storage::{FILLED, SEEN, count_pixel_fragment, count_seen, counter_add, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples, storage_slots}
+#import strata::kbuffer::storage::{count_pixel_fragment, count_seen, counter_add, kp, kpixel, pixel_word, pixels, sample_pixel, storage_samples, storage_slots}
+#import strata::kbuffer::words::{FILLED, SEEN}
 #import strata::kbuffer::kplus_capture::{VARIANT_ARRAY, VARIANT_HEAP, insert_locked}
 #import strata::kbuffer::kplus_sbuffer::{region_fits, region_size}
 #import strata::kbuffer::slot_access::{store_slot}

@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::kplus_sbuffer_resolve
-#import strata::kbuffer::storage::{FILLED, pixel_word, pixels}
+#import strata::kbuffer::storage::{pixel_word, pixels}
+#import strata::kbuffer::words::{FILLED}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::kplus_sbuffer::{region_fits, region_size}
 #import strata::kbuffer::slot_access::{load_slot}

@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::list_resolve
-#import strata::kbuffer::storage::{SEEN, pixel_word, pixels}
+#import strata::kbuffer::storage::{pixel_word, pixels}
+#import strata::kbuffer::words::{SEEN}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::list::{HEAD, node_fragment, node_next, pool_nodes}
 

@@ -223,14 +223,33 @@ pub(crate) const COUNTERS_WGSL: &str = wgsl_constants!(
 pub const CONSTANT_BYTES: u64 = 152;
 /// Bytes of one stored fragment slot.
 pub const SLOT_BYTES: u64 = 16;
-/// Bytes of one pixel's words (seen, filled, lock, bound).
-pub const PIXEL_BYTES: u64 = 16;
-/// The place of `seen` among a pixel's words (storage.wgsl's SEEN).
+/// A pixel's words in the per-pixel array (storage.wgsl's `pixels`): seen, filled, lock, bound.
+pub const PIXEL_WORDS: u64 = 4;
+/// Every fragment that reached the pixel.
 pub const SEEN_WORD: u64 = 0;
-/// The place of `filled` (a list's head) among a pixel's words (storage.wgsl's FILLED).
+/// Slots in use; a list's head.
 pub const FILLED_WORD: u64 = 1;
+/// The spin lock.
+pub const LOCK_WORD: u64 = 2;
+/// The culling bound: a full pixel's farthest kept depth's bits + 1, 0 while it is not full.
+pub const BOUND_WORD: u64 = 3;
+/// Bytes of one pixel's words.
+pub const PIXEL_BYTES: u64 = 4 * PIXEL_WORDS;
+/// Words of the tail sums a pixel keeps with `--tail blend|weighted`: five 64-bit sums.
+pub const TAIL_WORDS: u64 = 10;
 /// Bytes of the tail term a pixel keeps with `--tail blend`.
-pub const TAIL_BYTES: u64 = 40;
+pub const TAIL_BYTES: u64 = 4 * TAIL_WORDS;
+
+/// `strata::kbuffer::words`: the places of a pixel's words and the tail's size for the shaders.
+pub(crate) const WORDS_WGSL: &str = wgsl_constants!(
+    "strata::kbuffer::words",
+    PIXEL_WORDS = PIXEL_WORDS,
+    SEEN = SEEN_WORD,
+    FILLED = FILLED_WORD,
+    LOCK = LOCK_WORD,
+    BOUND = BOUND_WORD,
+    TAIL_WORDS = TAIL_WORDS,
+);
 
 /// `--k` when not given.
 pub const DEFAULT_K: u32 = 16;

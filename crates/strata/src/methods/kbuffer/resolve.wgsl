@@ -4,7 +4,8 @@
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 #import strata::kbuffer::access::{stored_count, stored_fragment}
-#import strata::kbuffer::storage::{SEEN, TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, tail_word, wide_add}
+#import strata::kbuffer::storage::{TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, tail_word, wide_add}
+#import strata::kbuffer::words::{SEEN}
 
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
 // The multisampled paths are compiled only with MULTISAMPLED (--msaa): they double the shader,

@@ -2,7 +2,8 @@
 #import strata::scene::{SceneVarying, behind_opaque, scene_fragment_covering}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::counters::{COUNTER_OVERFLOWED}
-#import strata::kbuffer::storage::{FILLED, SEEN, count_seen, counter_add, kpixel, pixel_word, pixels}
+#import strata::kbuffer::storage::{count_seen, counter_add, kpixel, pixel_word, pixels}
+#import strata::kbuffer::words::{FILLED, SEEN}
 
 // The S-buffer (seed 003 §4): every pixel's fragments in one contiguous region of a shared pool.
 // A count pass counts each pixel's fragments (SEEN); an exclusive prefix sum over the pixels

@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::sbuffer_resolve
-#import strata::kbuffer::storage::{FILLED, pixel_word, pixels}
+#import strata::kbuffer::storage::{pixel_word, pixels}
+#import strata::kbuffer::words::{FILLED}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::sbuffer::{pool, region_size, region_start}
 

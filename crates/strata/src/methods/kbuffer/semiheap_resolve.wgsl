@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::semiheap_resolve
-#import strata::kbuffer::storage::{FILLED, kp, pixel_word, pixels}
+#import strata::kbuffer::storage::{kp, pixel_word, pixels}
+#import strata::kbuffer::words::{FILLED}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::slot_access::{load_slot}
 

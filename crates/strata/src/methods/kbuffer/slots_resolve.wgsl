@@ -1,5 +1,6 @@
 #define_import_path strata::kbuffer::slots_resolve
-#import strata::kbuffer::storage::{FILLED, SEEN, kp, pixel_word, pixels}
+#import strata::kbuffer::storage::{kp, pixel_word, pixels}
+#import strata::kbuffer::words::{FILLED, SEEN}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::slot_access::{load_slot}
 

@@ -9,6 +9,7 @@ use crate::gpu::Gpu;
 pub const LIBRARY: Library = &[
     super::PARAMS_WGSL,
     super::COUNTERS_WGSL,
+    super::WORDS_WGSL,
     include_str!("storage.wgsl"),
     super::temporal::PARAMS_WGSL,
     include_str!("temporal.wgsl"),

@@ -2,6 +2,7 @@
 #import strata::color::{Resolved}
 #import strata::fragment::{Fragment, stored_color}
 #import strata::kbuffer::counters::{COUNTER_LOCK_FAILURES}
+#import strata::kbuffer::words::{BOUND, LOCK, PIXEL_WORDS, SEEN, TAIL_WORDS}
 #import strata::kbuffer::params::{KParams}
 #import strata::kbuffer::temporal::{culling_interface, note_outside}
 #import strata::weight::{oit_weight}
@@ -40,17 +41,10 @@
 // The resolved pixels (the resolve's output; k-depth peeling's running composite).
 @group(#{KBUFFER_GROUP}) @binding(5) var<storage, read_write> output: array<Resolved>;
 
-// Words per pixel in `pixels`.
-const PIXEL_WORDS: u32 = 4u;
-const SEEN: u32 = 0u;
-const FILLED: u32 = 1u;
-const LOCK: u32 = 2u;
-const BOUND: u32 = 3u;
 
 // Fixed-point scale of the tail sums (64-bit: a pixel would need about 2^42 tail fragments to
 // wrap them).
 const TAIL_SCALE: f32 = 65536.0;
-const TAIL_WORDS: u32 = 10u;
 // KParams::tail_blend: 1 blends the tail by α, 2 by α·w(z) (--tail weighted).
 const TAIL_WEIGHTED: u32 = 2u;
 // The weighted tail's color and weight sums carry this many times TAIL_SCALE: its weights span

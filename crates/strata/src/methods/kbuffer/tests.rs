@@ -1041,8 +1041,13 @@ pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFra
         buffer("strata.kbuffer.nodes"),
     );
     let count = (opts.frame.width * opts.frame.height) as usize;
-    let pixel_words = read_u32s(gpu, pixels, 4 * count as u64).unwrap();
-    let heads = per_pixel(&pixel_words, 4, count, opts.frame.kbuffer.layout);
+    let pixel_words = read_u32s(gpu, pixels, super::PIXEL_WORDS * count as u64).unwrap();
+    let heads = per_pixel(
+        &pixel_words,
+        super::PIXEL_WORDS as usize,
+        count,
+        opts.frame.kbuffer.layout,
+    );
     let node_words = read_u32s(gpu, nodes, nodes.size() / 4).unwrap();
     (0..count)
         .map(|p| {
@@ -1420,8 +1425,18 @@ fn frame_words(renderer: &crate::Renderer, opts: &RenderOptions) -> (Vec<Vec<u32
         crate::gpu::readback::read_u32s(crate::testing::gpu(), buffer, buffer.size() / 4).unwrap()
     };
     (
-        per_pixel(&read("strata.kbuffer.pixels"), 4, pixels, layout),
-        per_pixel(&read("strata.kbuffer.tail"), 10, pixels, layout),
+        per_pixel(
+            &read("strata.kbuffer.pixels"),
+            super::PIXEL_WORDS as usize,
+            pixels,
+            layout,
+        ),
+        per_pixel(
+            &read("strata.kbuffer.tail"),
+            super::TAIL_WORDS as usize,
+            pixels,
+            layout,
+        ),
     )
 }
 
@@ -1703,7 +1718,7 @@ fn slot_major_storage_gives_the_pixel_major_frame() {
                 let (by_pixel_words, by_slot_words) =
                     (raw_pixel_words(&by_pixel), raw_pixel_words(&by_slot));
                 let seen = |words: &[u32], layout| -> Vec<u32> {
-                    per_pixel(words, 4, 32 * 32, layout)
+                    per_pixel(words, super::PIXEL_WORDS as usize, 32 * 32, layout)
                         .iter()
                         .map(|w| w[super::SEEN_WORD as usize])
                         .collect()
