@@ -98,6 +98,7 @@ const TOTAL_GENERATED: u32 = 0u;
 const TOTAL_STORED: u32 = 2u;
 const TOTAL_DROPPED: u32 = 4u;
 const TOTAL_MAX_DEPTH: u32 = 6u;
+const TOTAL_CUT_SHORT: u32 = 7u;
 
 // Adds `n` to the 64-bit total at words (at, at + 1): the low word wraps into a carry, so frame
 // totals never wrap at 2^32.
@@ -118,6 +119,12 @@ fn report_pixel(generated: u32, stored: u32) {
     total_add(TOTAL_STORED, stored);
     total_add(TOTAL_DROPPED, generated - min(stored, generated));
     atomicMax(&totals[TOTAL_MAX_DEPTH], generated);
+}
+
+// A resolve whose loops the adapter ended early (lavapipe's loop limit; see the k-buffer resolve):
+// the frame is refused with the reason.
+fn report_cut_short() {
+    atomicAdd(&totals[TOTAL_CUT_SHORT], 1u);
 }
 
 // A multisampled pixel's account where a sample's own fragments set the depth complexity (the

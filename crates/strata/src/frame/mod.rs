@@ -245,6 +245,10 @@ pub struct Totals {
     pub dropped: u64,
     /// The largest per-pixel fragment count.
     pub max_depth: u32,
+    /// Resolves (of pixels or samples) whose loops the adapter ended early: lavapipe stops an
+    /// invocation's loops after 65535 iterations in all. Their pixels are wrong, so the frame is
+    /// refused.
+    pub cut_short: u32,
 }
 
 /// Words of the totals buffer.
@@ -259,6 +263,7 @@ impl Totals {
             stored: wide(2),
             dropped: wide(4),
             max_depth: w[6],
+            cut_short: w[7],
         }
     }
 }

@@ -617,7 +617,7 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
     opts.frame.kbuffer.initial_nodes = Some(5000);
     assert_eq!(
         render_gpu(&s, &opts, "abuffer-ll").1.bytes_allocated,
-        Some(20 * 5000 + 16 * px + 152)
+        Some(20 * 5000 + 16 * px + 156)
     );
     assert_eq!(std::mem::size_of::<crate::resolve::RefFragment>(), 64);
 }

@@ -803,6 +803,16 @@ impl FrameRecorder {
         };
         let mut incomplete = ms.incomplete;
         let mut cannot_complete = ms.cannot_complete.clone();
+        if let Some(t) = totals.filter(|t| t.cut_short > 0) {
+            incomplete = true;
+            cannot_complete = cannot_complete.or(Some(crate::frame::Shortfall {
+                why: format!(
+                    "{}: the adapter ended {} pixels' resolves early (the deepest pixel has {} fragments); lavapipe stops a shader invocation's loops after 65535 iterations in all, which a GPU does not: render fewer layers per pixel here, or on a GPU",
+                    p.method, t.cut_short, t.max_depth
+                ),
+                binding: None,
+            }));
+        }
         let compute_raster = match (&words, p.raster_words, &mut self.raster) {
             (Some(w), Some((start, capacity)), Some(raster)) => {
                 let start = start as usize;

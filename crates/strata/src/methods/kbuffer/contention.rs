@@ -39,10 +39,6 @@ use crate::StorageLayout;
 const HARNESS_WGSL: &str = include_str!("contention.wgsl");
 /// Invocations of a capture workgroup, where the adapter runs ordered atomics in any.
 const WORKGROUP: u32 = 64;
-/// The per-pixel arrays' layout the harness runs. Slot-major, where the neighbouring pixels of
-/// its handful share words' cache lines: frames run pixel-major by default, and the
-/// protocol is the same in either.
-const LAYOUT: StorageLayout = StorageLayout::Slot;
 
 gpu_struct! {
     /// The harness's uniforms (`strata::kbuffer::harness_params`).
@@ -87,6 +83,9 @@ pub struct Case {
     /// fragment went to the tail), and no more. On a CPU adapter with more threads than cores a
     /// lock holder can be descheduled for longer than any bounded spin; on a GPU none is allowed.
     pub allow_starvation: bool,
+    /// How the per-pixel arrays lie: slot-major puts the handful of pixels' words and slots
+    /// side by side in shared cache lines, pixel-major (the frames' default) apart.
+    pub layout: StorageLayout,
 }
 
 impl Case {
@@ -102,6 +101,12 @@ impl Case {
             depths: 48,
             seed,
             allow_starvation: false,
+            // Half the seeds in each layout.
+            layout: if seed % 2 == 0 {
+                StorageLayout::Pixel
+            } else {
+                StorageLayout::Slot
+            },
         }
     }
 }
@@ -157,7 +162,13 @@ pub fn stage(method: MethodId, coherent: bool) -> Result<(Stage, u32)> {
         .with(HARNESS_PARAMS)
         .with_module(step_module)
         .defs(&definitions(layout, 1, coherent))
-        .defs(&Defs::default().value("HARNESS_WORKGROUP", WORKGROUP));
+        // Each fragment has the same depth in both of kb-keys' passes, as on the hardware
+        // rasterizer: its colors pass looks its key up by binary search.
+        .defs(
+            &Defs::default()
+                .value("HARNESS_WORKGROUP", WORKGROUP)
+                .flag("INVARIANT_DEPTH"),
+        );
     Ok((stage, passes))
 }
 
@@ -434,7 +445,7 @@ impl<'g> Harness<'g> {
             tail_weight: 0,
             tail_depth_p: 0.0,
             tail_depth_q: 0.0,
-            storage_layout: LAYOUT.index(),
+            storage_layout: case.layout.index(),
         };
         let (storage_bytes, poison) = match case.method {
             MethodId::AbufferLl | MethodId::KbLl => (20 * fragments, true),
@@ -552,7 +563,10 @@ impl<'g> Harness<'g> {
                 .collect(),
             seen: (0..pixels)
                 .map(|p| {
-                    words[LAYOUT.item(p, super::SEEN_WORD, super::PIXEL_WORDS, pixels) as usize]
+                    words[case
+                        .layout
+                        .item(p, super::SEEN_WORD, super::PIXEL_WORDS, pixels)
+                        as usize]
                 })
                 .collect(),
             lock_failures: wide(COUNTER_LOCK_FAILURES),

@@ -27,7 +27,7 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
 }
 
 /// Memory of the k-slot methods; `SLOT_BYTES` etc. keep it true.
-const KB_MEMORY: &str = "16·(k+1)·W·H + 112 + 40·(W·H with --tail blend, else 1)";
+const KB_MEMORY: &str = "16·(k+1)·W·H + 116 + 40·(W·H with --tail blend, else 1)";
 
 /// An entry of this family: made by `create`, on either rasterizer.
 const fn entry(id: MethodId, name: &'static str, family: Family) -> Descriptor {
@@ -71,7 +71,7 @@ const K_LOCKED: &[MethodOption] = &[
 pub const ABUFFER_LL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 (+1 when the node pool overflows)",
-    memory: "20·nodes + 16·W·H + 152 (nodes ≥ F)",
+    memory: "20·nodes + 16·W·H + 156 (nodes ≥ F)",
     summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
     app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
     traffic: TrafficModel::Lists,
@@ -83,7 +83,7 @@ pub const ABUFFER_LL: Descriptor = Descriptor {
 pub const SBUFFER: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2 (+2 when the pool overflows)",
-    memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 152",
+    memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 156",
     summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
     traffic: TrafficModel::Sbuffers,
     reads: &[MethodOption::StorageLayout],
@@ -94,7 +94,7 @@ pub const SBUFFER: Descriptor = Descriptor {
 pub const KPEEL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "ceil(N/k), twice that with the lock-free capture (N: the last frame's depth complexity, or --layers)",
-    memory: "(16·(k+1) + 4)·W·H + 152, +8·k·W·H with the lock-free capture",
+    memory: "(16·(k+1) + 4)·W·H + 156, +8·k·W·H with the lock-free capture",
     summary: "k-depth peeling: the k nearest fragments behind the last composited (depth, primitive) per pass, by a lock-free cascade of 64-bit keys (a keys and a colors geometry pass; single-sampled, SHADER_INT64_ATOMIC_ALL_OPS) or else a k+-buffer capture under a lock; A-buffer results in bounded memory, equal-depth fragments included",
     per_sample_storage: true,
     ordering: Ordering::LockedFallback,
@@ -163,7 +163,7 @@ pub const KB_PS: Descriptor = Descriptor {
 
 /// The method table's entry for `mlab`.
 pub const MLAB: Descriptor = Descriptor {
-    memory: "16·(k+1)·W·H + 152",
+    memory: "16·(k+1)·W·H + 156",
     summary: "multi-layer alpha blending: k layers in depth order under a per-pixel spin lock, the two farthest merged when a fragment makes k + 1 (exact up to k fragments; merges vary with arrival order)",
     app_capture: Some("strata::kbuffer::kb_capture::capture_mlab(p, f)"),
     reads: &[
@@ -183,7 +183,7 @@ pub const MLAB: Descriptor = Descriptor {
 pub const KB_AB_FIXED: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 (+1 when the array overflows)",
-    memory: "16·(n+1)·W·H + 112 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
+    memory: "16·(n+1)·W·H + 116 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
     summary:
         "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
     app_capture: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
@@ -232,7 +232,7 @@ pub const KPLUS_HEAP: Descriptor = Descriptor {
 pub const KPLUS_SBUFFER: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2 (+2 when the pool overflows)",
-    memory: "16·Σmin(f,k) + 20·W·H + 4·(W·H + W·H/256 + …) + 112 + 40·(W·H with --tail blend, else 1); f: a pixel's fragments",
+    memory: "16·Σmin(f,k) + 20·W·H + 4·(W·H + W·H/256 + …) + 116 + 40·(W·H with --tail blend, else 1); f: a pixel's fragments",
     summary: "memory-aware k+-buffer: a count pass, a GPU prefix sum giving each pixel exactly min(f, k) slots, then lock-free appends (f ≤ k) or a max-array (k ≤ 16) / max-heap under a spin lock",
     max_k: 1024,
     traffic: TrafficModel::Sbuffers,
@@ -262,7 +262,7 @@ pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
 pub const KB_MDT32: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2",
-    memory: "20·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
+    memory: "20·k·W·H + 16·W·H + 116 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test: atomicMax cascade of depth keys, colors fetched in a second geometry pass (ties beyond k share keys)",
     per_sample_storage: true,
     reads: K,
@@ -283,7 +283,7 @@ const KEYS_WITHOUT_PRIMITIVE: Support = Support::No(
 
 /// The method table's entry for `kb-mdt64`.
 pub const KB_MDT64: Descriptor = Descriptor {
-    memory: "8·k·W·H + 16·W·H + 112 + 40·(W·H with --tail blend, else 1)",
+    memory: "8·k·W·H + 16·W·H + 116 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
     msaa: EIGHT_BYTE_KEYS,
     reads: K,
@@ -295,7 +295,7 @@ pub const KB_MDT64: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-mdt-pack`.
 pub const KB_MDT_PACK: Descriptor = Descriptor {
-    memory: "8·k·W·H + 16·W·H + 152",
+    memory: "8·k·W·H + 16·W·H + 156",
     summary:
         "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
     msaa: EIGHT_BYTE_KEYS,
@@ -310,7 +310,7 @@ pub const KB_MDT_PACK: Descriptor = Descriptor {
 pub const KB_AB_LL: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 (+1 when the node pool overflows)",
-    memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
+    memory: "20·nodes + 16·W·H + 116 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
     summary: "A-buffer linked lists, the k nearest selected in resolve",
     app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
     reads: K,
@@ -322,7 +322,7 @@ pub const KB_AB_LL: Descriptor = Descriptor {
 pub const KB_SBUFFER: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "2 (+2 when the pool overflows)",
-    memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 112 + 40·(W·H with --tail blend, else 1)",
+    memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 116 + 40·(W·H with --tail blend, else 1)",
     summary: "every fragment in S-buffer regions, the k nearest selected in resolve",
     reads: K,
     traffic: TrafficModel::Sbuffers,
@@ -332,7 +332,7 @@ pub const KB_SBUFFER: Descriptor = Descriptor {
 /// The method table's entry for `kb-ll`.
 pub const KB_LL: Descriptor = Descriptor {
     geometry_passes: "1 (+1 when the node pool overflows)",
-    memory: "20·nodes + 16·W·H + 112 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
+    memory: "20·nodes + 16·W·H + 116 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
     summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",
     app_capture: Some("strata::kbuffer::list::capture_sorted_list(p, f)"),
     traffic: TrafficModel::Lists,

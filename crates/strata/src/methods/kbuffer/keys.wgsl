@@ -77,9 +77,9 @@ fn cascade_key(p: u32, f: Fragment) {
 // pass would compute again — so a kept key always gets its payload. Where the rasterizer gives
 // the fragment its keys-pass depth again (INVARIANT_DEPTH), the fragment's own key finds its
 // slot by the same binary search the keys pass ran (the keys are final and sorted): log k loads
-// instead of a walk over the slots; and one clearly behind a full pixel's k-th key was not kept,
-// which the search's first load shows (`clearly_behind`). A kept fragment whose depth came out
-// otherwise in this pass falls through to the walk by tag.
+// instead of a walk over the slots; and one clearly behind a full pixel's k-th key was not kept
+// (`clearly_behind`: one more load of the slot the search read first). A kept fragment whose
+// depth came out otherwise in this pass falls through to the walk by tag.
 fn store_payload(p: u32, f: Fragment) -> bool {
 #ifdef INVARIANT_DEPTH
     let key = fragment_key(f);

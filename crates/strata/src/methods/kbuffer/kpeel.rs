@@ -37,7 +37,7 @@
 //! and finish averages the samples. P + 1 geometry passes.
 //!
 //! Memory: 16 bytes per slot (k per pixel), 16 per pixel of counters, lock and culling bound,
-//! 152 of parameters and counters; the running composite lives in the frame's own output, with
+//! 156 of parameters and counters; the running composite lives in the frame's own output, with
 //! 4 bytes per pixel for its last fragment's depth, so memory does not grow with the depth
 //! complexity. With `--msaa S`: S× the slots and words, 36·S per pixel of running composites
 //! (color, count, RGB transmittance, the last fragment's tag and depth), 4 per pixel. Limits: k ≤ 1024 (the max-heap's lock).

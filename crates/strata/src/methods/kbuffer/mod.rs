@@ -32,7 +32,7 @@
 //! Passes: clear (per-pixel words, counters, tail); capture (1 geometry pass); resolve (compute:
 //! insertion sort ≤ 16, bitonic sort ≤ 64, k-depth sort beyond, composite the k nearest, then the
 //! tail). Memory: 16 bytes per slot, 16 per pixel of counters, lock and culling bound, 40 per
-//! pixel of tail sums with `--tail blend`, 152 bytes of parameters and counters. With `--msaa S`
+//! pixel of tail sums with `--tail blend`, 156 bytes of parameters and counters. With `--msaa S`
 //! the capture-time k-buffers (all but the fixed A-buffers, here; `kb-ll` and `kb-mdt32` too)
 //! keep it all per sample — S× the slots, words and tail, + 4 bytes per pixel — and each
 //! sample keeps its own k nearest ([`crate::frame::msaa`], [`sample_storage`]).
@@ -218,9 +218,10 @@ pub(crate) const COUNTERS_WGSL: &str = wgsl_constants!(
     COUNTER_OVERFLOWED = COUNTER_OVERFLOWED,
 );
 
-/// Bytes of per-frame constants: parameters (48), counters and their initial values (2 × 32),
-/// the tail stub (40) when the tail is dropped.
-pub const CONSTANT_BYTES: u64 = 152;
+/// Bytes of per-frame constants: parameters ([`KParams`], 52), counters and their initial values
+/// (2 × 32), the tail stub (40) when the tail is dropped.
+pub const CONSTANT_BYTES: u64 =
+    std::mem::size_of::<KParams>() as u64 + 2 * COUNTERS * 4 + TAIL_BYTES;
 /// Bytes of one stored fragment slot.
 pub const SLOT_BYTES: u64 = 16;
 /// A pixel's words in the per-pixel array (storage.wgsl's `pixels`): seen, filled, lock, bound.

@@ -201,7 +201,7 @@ mod tests {
         let px = 65536u64;
         let h = [0, 0, 0, 0, 0, 0, 0, 0, px];
         let c = choose_k(MethodId::KplusHeap, Some(&h), 1.0, 16, &opts).unwrap();
-        let fixed = 16 * px + 112 + 40;
+        let fixed = 16 * px + 116 + 40;
         assert_eq!(c.k_budget as u64, (16 * 1048576 - fixed) / (16 * px));
         assert_eq!(c.k, 8);
         assert_eq!(c.predicted_robustness, 1.0);

@@ -1,5 +1,5 @@
 #define_import_path strata::kbuffer::resolve
-#import strata::scene::{fragment_coverage, frame, report_pixel}
+#import strata::scene::{fragment_coverage, frame, report_cut_short, report_pixel}
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
@@ -104,6 +104,11 @@ struct Composited {
 // k-depth sort: composites the `limit` nearest of the `n` stored fragments that cover a sample
 // of `coverage` (`fragment_coverage`), CHUNK at a time. With --tail blend the selection goes on
 // past `limit` and the rest joins the tail.
+// A deep pixel's sort runs O(n²/CHUNK) loop iterations, and lavapipe ends every loop of an
+// invocation silently once it has run 65535 iterations in all (ARCHITECTURE, "Lavapipe ends
+// loops"): from about 500 fragments a pixel there. So each loop's counter is checked once it
+// ends, and a sort cut short is reported (`report_cut_short`): the frame is refused with the
+// reason instead of composited from a partial selection. A GPU never ends a loop early.
 fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) -> Composited {
     var last = Composited(Fragment(0.0, 0u, 0u, 0u), 0u);
     var chunk: array<Fragment, LOCAL_CAPACITY>;
@@ -112,12 +117,16 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
     var bound = Fragment(0.0, 0u, 0u, 0u);
     var bound_at = 0u;
     var has_bound = false;
-    // Each round composites at least one fragment: n / CHUNK + 1 rounds visit them all.
+    var finished = false;
+    var cut_short = false;
+    // Each round composites at least one fragment: n / CHUNK + 1 rounds visit them all, and the
+    // last ends the loop at one of its breaks.
     for (var round = 0u; round <= n / CHUNK; round++) {
         var m = 0u;
+        var i = 0u;
         if n <= LOCAL_CAPACITY {
             // Few enough to hold them all: one round, every covered fragment sorted.
-            for (var i = 0u; i < n; i++) {
+            for (; i < n; i++) {
                 let f = stored_fragment(p, i);
                 if (fragment_coverage(f) & coverage) != 0u {
                     chunk[m] = f;
@@ -127,7 +136,7 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
         } else {
             // Select the CHUNK nearest fragments after the bound with a max-array (max in
             // slot 0).
-            for (var i = 0u; i < n; i++) {
+            for (; i < n; i++) {
                 let f = stored_fragment(p, i);
                 if (fragment_coverage(f) & coverage) == 0u {
                     continue;
@@ -150,11 +159,13 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
                     chunk[0] = f;
                     chunk_at[0] = i;
                     var max_i = 0u;
-                    for (var j = 1u; j < CHUNK; j++) {
+                    var j = 1u;
+                    for (; j < CHUNK; j++) {
                         if ordered_before(chunk[max_i], chunk_at[max_i], chunk[j], chunk_at[j]) {
                             max_i = j;
                         }
                     }
+                    cut_short = cut_short || j < CHUNK;
                     let mx = chunk[max_i];
                     let mx_at = chunk_at[max_i];
                     chunk[max_i] = chunk[0];
@@ -164,14 +175,17 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
                 }
             }
         }
+        cut_short = cut_short || i < n;
         if m == 0u {
+            finished = true;
             break;
         }
         bound = chunk[0];
         bound_at = chunk_at[0];
         has_bound = true;
         sort_local(&chunk, m);
-        for (var j = 0u; j < m; j++) {
+        var j = 0u;
+        for (; j < m; j++) {
             if done < limit {
                 composite_front(s, chunk[j]);
                 done += 1u;
@@ -180,9 +194,14 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
                 tail_add_local(t, chunk[j]);
             }
         }
+        cut_short = cut_short || j < m;
         if n <= LOCAL_CAPACITY || m < CHUNK || (done >= limit && kp.tail_blend == 0u) {
+            finished = true;
             break;
         }
+    }
+    if cut_short || !finished {
+        report_cut_short();
     }
     return last;
 }

@@ -13,7 +13,7 @@
 //! shared k resolve.
 //! Memory: 16 bytes per pooled fragment (no per-pixel slack: pixels without fragments take
 //! none), 16 per pixel of counters and region start (`kplus-sbuffer`: 20, its starts beside the
-//! lock), 4·(W·H + W·H/256 + …) of scan levels, 152 of parameters and counters. Real-time frames
+//! lock), 4·(W·H + W·H/256 + …) of scan levels, 156 of parameters and counters. Real-time frames
 //! size the pool from the previous frame's need plus a quarter (the need is Σ region sizes, read
 //! back with the counters); a frame whose regions do not fit keeps those that do, counts the rest
 //! as overflowed (dropped), reports `overflow` and grows the pool for the next frame; exact mode

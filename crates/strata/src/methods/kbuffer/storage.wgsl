@@ -269,7 +269,8 @@ fn acquire_published(word: u32) -> u32 {
 // of tries, do the critical section inside the `if` that took the lock, and leave the loop only
 // by its condition: lanes of a SIMD group that failed wait at the `if`'s merge while the winner
 // works. A try that sees the lock held fails on a relaxed load, without the exchange's write:
-// spinners leave the cache line (shared by a pixel's sample words with --msaa) to the holder.
+// spinners leave the cache line (shared by a pixel's sample words with --msaa, and slot-major
+// by the lock words of its neighbours) to the holder.
 fn try_lock(p: u32) -> bool {
     let word = pixel_word(p, LOCK);
     return atomicLoad(&pixels[word]) == 0u && acquire_lock(word);
