@@ -102,7 +102,7 @@ impl Case {
             seed,
             allow_starvation: false,
             // Half the seeds in each layout.
-            layout: if seed % 2 == 0 {
+            layout: if seed.is_multiple_of(2) {
                 StorageLayout::Pixel
             } else {
                 StorageLayout::Slot
