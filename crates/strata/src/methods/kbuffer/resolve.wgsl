@@ -3,7 +3,7 @@
 #import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
-#import strata::kbuffer::access::{stored_count, stored_fragment}
+#import strata::kbuffer::access::{sort_stored, stored_count, stored_fragment}
 #import strata::kbuffer::storage::{TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, tail_word, wide_add}
 #import strata::kbuffer::words::{SEEN}
 
@@ -110,6 +110,10 @@ struct Composited {
 // ends, and a sort cut short is reported (`report_cut_short`): the frame is refused with the
 // reason instead of composited from a partial selection. A GPU never ends a loop early.
 fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) -> Composited {
+    // A storage that can sort itself in place (the lists) is read in order instead.
+    if n > LOCAL_CAPACITY && sort_stored(p, n) {
+        return composite_in_order(p, n, limit, coverage, s, t);
+    }
     var last = Composited(Fragment(0.0, 0u, 0u, 0u), 0u);
     var chunk: array<Fragment, LOCAL_CAPACITY>;
     var chunk_at: array<u32, LOCAL_CAPACITY>;
@@ -201,6 +205,31 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
         }
     }
     if cut_short || !finished {
+        report_cut_short();
+    }
+    return last;
+}
+
+// Composites the `limit` nearest of the n stored fragments that cover `coverage` from a storage
+// already in (depth, primitive) order (`sort_stored`); with --tail blend the rest join the tail.
+// A loop the adapter ended early is reported, as in `k_depth_sort`.
+fn composite_in_order(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) -> Composited {
+    var last = Composited(Fragment(0.0, 0u, 0u, 0u), 0u);
+    var done = 0u;
+    var i = 0u;
+    for (; i < n && (done < limit || kp.tail_blend != 0u); i++) {
+        let f = stored_fragment(p, i);
+        if (fragment_coverage(f) & coverage) != 0u {
+            if done < limit {
+                composite_front(s, f);
+                done += 1u;
+                last = Composited(f, done);
+            } else {
+                tail_add_local(t, f);
+            }
+        }
+    }
+    if i < n && (done < limit || kp.tail_blend != 0u) {
         report_cut_short();
     }
     return last;

@@ -1784,15 +1784,16 @@ fn raw_pixel_words(renderer: &crate::Renderer) -> Vec<u32> {
 
 /// lavapipe ends every loop of an invocation once it has run 65535 iterations in all: the
 /// k-depth sort of 800 fragments a pixel runs past that there, which composited a partial
-/// selection before (9/255 off the reference at opacity 0.004, and "output exact"). The frame
-/// is now refused with the reason; on a GPU, which ends no loop early, it equals the reference.
+/// selection before (abuffer-ll, before its lists sorted themselves: 9/255 off the reference at
+/// opacity 0.004, and "output exact"). The frame is now refused with the reason; on a GPU,
+/// which ends no loop early, it equals the reference. abuffer-fixed sorts its slots that way.
 #[test]
 fn a_resolve_the_adapter_cuts_short_is_refused() {
     let mut s = scene("builtin:layers?n=800&coverage=1&order=random&seed=3");
     s.override_alpha(0.004);
-    let opts = all_fragments(8);
+    let opts = options(8, 1024);
     let cpu = crate::testing::gpu().info.device_type == wgpu::DeviceType::Cpu;
-    match renderer(&s, &opts).render("abuffer-ll") {
+    match renderer(&s, &opts).render("abuffer-fixed") {
         Err(e) => {
             let message = e.to_string();
             assert!(
@@ -1803,11 +1804,60 @@ fn a_resolve_the_adapter_cuts_short_is_refused() {
         Ok((actual, _)) => {
             assert!(!cpu, "lavapipe's cut-short sort was composited");
             assert_exact(
-                "cut-short-abuffer-ll",
+                "cut-short-abuffer-fixed",
                 &actual,
                 &render_reference(&s, &opts),
                 opts.frame.effect,
             );
         }
     }
+}
+
+/// A list longer than the resolve's local array is sorted in place (a merge sort of its links,
+/// O(n log n)) and read in order: 800 and 1024 fragments a pixel at opacity 0.004, where the
+/// k-depth sort took O(n²/32) steps and lavapipe cut it short, equal the reference — every
+/// fragment (abuffer-ll) and the 500 nearest (kb-ab-ll); and with --msaa 4.
+#[test]
+fn long_lists_are_sorted_in_place_and_exact() {
+    for n in [800, 1024] {
+        let mut s = scene(&format!(
+            "builtin:layers?n={n}&coverage=1&order=random&seed=3"
+        ));
+        s.override_alpha(0.004);
+        let all = all_fragments(8);
+        let (actual, stats) = render_gpu(&s, &all, "abuffer-ll");
+        assert_eq!(stats.max_depth_complexity, Some(n), "abuffer-ll");
+        assert_exact(
+            &format!("long-list-{n}-abuffer-ll"),
+            &actual,
+            &render_reference(&s, &all),
+            all.frame.effect,
+        );
+        let k500 = options(8, 500);
+        let (actual, _) = render_gpu(&s, &k500, "kb-ab-ll");
+        assert_exact(
+            &format!("long-list-{n}-kb-ab-ll"),
+            &actual,
+            &render_reference(&s, &k500),
+            k500.frame.effect,
+        );
+    }
+    // With --msaa 4 each sample's resolve reads the list its pixel's first sorted (one walk to
+    // see it is in order): 1800 fragments on the pixels the layers' diagonals cross.
+    let mut s = scene("builtin:layers?n=900&coverage=0.8&order=random&seed=5");
+    s.override_alpha(0.005);
+    let mut msaa = all_fragments(12);
+    msaa.build.msaa = 4;
+    let (actual, stats) = render_gpu(&s, &msaa, "abuffer-ll");
+    assert_eq!(
+        stats.max_depth_complexity,
+        Some(1800),
+        "abuffer-ll --msaa 4"
+    );
+    assert_exact(
+        "long-list-msaa-abuffer-ll",
+        &actual,
+        &render_reference(&s, &msaa),
+        msaa.frame.effect,
+    );
 }
