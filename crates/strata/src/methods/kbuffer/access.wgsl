@@ -29,7 +29,7 @@ fn stored_count(p: u32) -> u32 {
     return layout::stored_count(p);
 }
 
-// The i-th stored fragment of pixel `p`, in storage order (not sorted).
+// The i-th stored fragment of pixel `p`, in storage order (sorted only after `sort_stored`).
 fn stored_fragment(p: u32, i: u32) -> Fragment {
     return layout::stored_fragment(p, i);
 }

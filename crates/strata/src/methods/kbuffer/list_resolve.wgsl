@@ -61,7 +61,7 @@ fn list_in_order(p: u32, n: u32) -> bool {
     for (; i < n; i++) {
         at = node_next(at);
         if at == 0u {
-            return true;
+            return false;
         }
         let key = node_key(at);
         if fragment_before(key, previous) {
@@ -138,10 +138,12 @@ fn sort_in_place(p: u32, n: u32) -> bool {
             // `b` stopped on the node after the second run: the next round's first run.
             rest = b;
         }
-        complete = complete && (rest == 0u || visited >= n);
+        // Every pass takes all n nodes; one that took fewer was cut short.
+        complete = complete && visited == n;
         if tail != 0u {
-            // The sorted prefix ends here; what lay past n nodes (a malformed list) is dropped.
-            set_next(tail, 0u);
+            // What this pass did not reach (only where it was cut short, or past n nodes) stays
+            // linked behind it, so the list keeps every node.
+            set_next(tail, rest);
             atomicStore(&pixels[pixel_word(p, HEAD)], head);
         }
         width *= 2u;
