@@ -35,10 +35,15 @@ fn stored_fragment(p: u32, i: u32) -> Fragment {
 }
 
 // Puts pixel p's n stored fragments in (depth, primitive) order in place where the layout can
-// (a list relinks its nodes in O(n log n)); true when it did, so that storage order is then that
-// order. Only a resolve calls it, after every capture.
+// (a list relinks its nodes, slot arrays and the memory-aware k+-buffer's regions are heap
+// sorted: O(n log n)); true when it did, so that storage order is then that order. Only a
+// resolve calls it, after every capture.
 fn sort_stored(p: u32, n: u32) -> bool {
 #ifdef STORAGE_LIST
+    return layout::sort_in_place(p, n);
+#else ifdef STORAGE_SLOTS
+    return layout::sort_in_place(p, n);
+#else ifdef STORAGE_KPLUS_SBUFFER
     return layout::sort_in_place(p, n);
 #else
     return false;

@@ -3,7 +3,7 @@
 #import strata::kbuffer::words::{FILLED}
 #import strata::fragment::{Fragment}
 #import strata::kbuffer::kplus_sbuffer::{region_fits, region_size}
-#import strata::kbuffer::slot_access::{load_slot}
+#import strata::kbuffer::slot_access::{load_slot, sort_slots}
 
 // The memory-aware k+-buffer's resolve access (kplus_sbuffer.wgsl): the stored fragments of a
 // region that fits.
@@ -17,4 +17,9 @@ fn stored_count(p: u32) -> u32 {
 
 fn stored_fragment(p: u32, i: u32) -> Fragment {
     return load_slot(p, i);
+}
+
+// Puts pixel p's n slots of its region in (depth, tag) order in place (`sort_slots`).
+fn sort_in_place(p: u32, n: u32) -> bool {
+    return sort_slots(p, n);
 }

@@ -1786,14 +1786,15 @@ fn raw_pixel_words(renderer: &crate::Renderer) -> Vec<u32> {
 /// k-depth sort of 800 fragments a pixel runs past that there, which composited a partial
 /// selection before (abuffer-ll, before its lists sorted themselves: 9/255 off the reference at
 /// opacity 0.004, and "output exact"). The frame is now refused with the reason; on a GPU,
-/// which ends no loop early, it equals the reference. abuffer-fixed sorts its slots that way.
+/// which ends no loop early, it equals the reference. The S-buffer's regions are still read
+/// that way (lists and slot arrays sort themselves in place).
 #[test]
 fn a_resolve_the_adapter_cuts_short_is_refused() {
     let mut s = scene("builtin:layers?n=800&coverage=1&order=random&seed=3");
     s.override_alpha(0.004);
-    let opts = options(8, 1024);
+    let opts = all_fragments(8);
     let cpu = crate::testing::gpu().info.device_type == wgpu::DeviceType::Cpu;
-    match renderer(&s, &opts).render("abuffer-fixed") {
+    match renderer(&s, &opts).render("sbuffer") {
         Err(e) => {
             let message = e.to_string();
             assert!(
@@ -1804,7 +1805,7 @@ fn a_resolve_the_adapter_cuts_short_is_refused() {
         Ok((actual, _)) => {
             assert!(!cpu, "lavapipe's cut-short sort was composited");
             assert_exact(
-                "cut-short-abuffer-fixed",
+                "cut-short-sbuffer",
                 &actual,
                 &render_reference(&s, &opts),
                 opts.frame.effect,
@@ -1860,4 +1861,56 @@ fn long_lists_are_sorted_in_place_and_exact() {
         &render_reference(&s, &msaa),
         msaa.frame.effect,
     );
+}
+
+/// Slot arrays and the memory-aware k+-buffer's regions longer than the resolve's local array
+/// are heap sorted in place (O(n log n)) and read in order: 800 fragments a pixel at opacity
+/// 0.004 — where the k-depth sort took O(n²/32) steps and lavapipe cut it short — equal the
+/// reference in abuffer-fixed, kb-ab-fixed, kplus-heap (whose slots hold a heap) and
+/// kplus-sbuffer; and abuffer-fixed's 1800 fragments a pixel with --msaa 4, where each sample
+/// after the first finds its pixel's slots in order.
+#[test]
+fn long_slot_arrays_are_sorted_in_place_and_exact() {
+    let mut s = scene("builtin:layers?n=800&coverage=1&order=random&seed=3");
+    s.override_alpha(0.004);
+    // kb-ab-fixed stores every fragment and composites its k nearest: reference --k 16.
+    for (method, k) in [
+        ("abuffer-fixed", 1024),
+        ("kb-ab-fixed", 16),
+        ("kplus-heap", 1024),
+        ("kplus-sbuffer", 1024),
+    ] {
+        let opts = options(8, k);
+        let (actual, stats) = render_gpu(&s, &opts, method);
+        assert_eq!(stats.max_depth_complexity, Some(800), "{method}");
+        assert_exact(
+            &format!("long-slots-{method}"),
+            &actual,
+            &render_reference(&s, &opts),
+            Effect::Transparency,
+        );
+    }
+    let mut s = scene("builtin:layers?n=900&coverage=0.8&order=random&seed=5");
+    s.override_alpha(0.005);
+    let mut msaa = options(12, 2048);
+    msaa.build.msaa = 4;
+    let (actual, stats) = render_gpu(&s, &msaa, "abuffer-fixed");
+    assert_eq!(
+        stats.max_depth_complexity,
+        Some(1800),
+        "abuffer-fixed --msaa 4"
+    );
+    assert_exact(
+        "long-slots-msaa-abuffer-fixed",
+        &actual,
+        &render_reference(&s, &all_fragments_msaa(12)),
+        msaa.frame.effect,
+    );
+}
+
+/// [`all_fragments`] with --msaa 4.
+fn all_fragments_msaa(size: u32) -> RenderOptions {
+    let mut options = all_fragments(size);
+    options.build.msaa = 4;
+    options
 }
