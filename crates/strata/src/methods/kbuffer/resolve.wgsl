@@ -19,6 +19,8 @@
 
 const LOCAL_CAPACITY: u32 = 64u;
 const CHUNK: u32 = 32u;
+// Rounds of the k-depth sort beyond which a storage that can sort itself in place does so.
+const SORTED_ROUNDS: u32 = 4u;
 
 // A pixel's (or sample's) tail: the five 64-bit fixed-point sums of `tail_share`, the captured
 // ones plus those of the stored fragments the resolve leaves past k, added as integers.
@@ -110,8 +112,15 @@ struct Composited {
 // ends, and a sort cut short is reported (`report_cut_short`): the frame is refused with the
 // reason instead of composited from a partial selection. A GPU never ends a loop early.
 fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Composite>, t: ptr<function, Tail>) -> Composited {
-    // A storage that can sort itself in place (the lists) is read in order instead.
-    if n > LOCAL_CAPACITY && sort_stored(p, n) {
+    // A storage that can sort itself in place (lists, slot arrays) is read in order instead,
+    // where the k-depth sort would take more than SORTED_ROUNDS rounds over it: a k nearest
+    // few of many stored (kb-ab-fixed at k = 16 over 800) take one round, far less than a
+    // whole sort (review: about 50× the memory traffic there).
+    var selected = min(limit, n);
+    if kp.tail_blend != 0u {
+        selected = n;
+    }
+    if n > LOCAL_CAPACITY && selected > SORTED_ROUNDS * CHUNK && sort_stored(p, n) {
         return composite_in_order(p, n, limit, coverage, s, t);
     }
     var last = Composited(Fragment(0.0, 0u, 0u, 0u), 0u);
