@@ -13,7 +13,9 @@
 // Up to LOCAL_CAPACITY stored fragments are copied to a local array and sorted — insertion sort
 // up to 16, bitonic sort above; longer lists use the k-depth sort (seed 003, Algorithm 4): chunks
 // of CHUNK nearest fragments selected with a max-array, sorted and composited, the last one
-// composited bounding the next selection. Fragments beyond k join the tail (--tail blend).
+// composited bounding the next selection. Where that would take more than SORTED_ROUNDS rounds,
+// a storage that can sort itself in place (lists, slot arrays: `sort_stored`) does, and is read
+// in order instead. Fragments beyond k join the tail (--tail blend).
 // `stored_count(p)` and `stored_fragment(p, i)` are the storage layout's (access.wgsl).
 
 
