@@ -1,7 +1,8 @@
-//! A minimal application that uses strata inside its own renderer: its own device and queue,
-//! its own opaque pipeline and depth buffer, its own transparent meshes and vertex layout whose
-//! fragment shader calls strata's capture, and strata resolving OVER its color target. Headless:
-//! it renders a few frames into an offscreen texture and writes the last one as a PNG.
+//! An application that uses strata inside its own renderer: its own device and queue, its own
+//! opaque pipeline and depth buffer, its own transparent meshes, vertex layout and shader whose
+//! fragment stage calls strata's capture (strata builds each geometry pass's pipeline from it),
+//! and strata resolving OVER its color target. Headless: it renders a few frames into an
+//! offscreen texture and writes the last one as a PNG.
 //!
 //! ```sh
 //! cargo run --release -p strata --example host -- host.png kb-ab-ll
@@ -9,11 +10,13 @@
 //!
 //! The scene is `builtin:demo` with unlit materials (the application's shader does no
 //! lighting): its opaque floor goes through the application's opaque pipeline, its transparent
-//! models through the application's transparent pipeline. `tests/host.rs` compares the picture
+//! models through strata's passes, made from the application's shader. `tests/host.rs` compares the picture
 //! with strata's CPU reference of the same scene.
 
 use std::borrow::Cow;
 
+use strata::frame::application::{AppShader, VertexLayout};
+use strata::frame::FrameTargets;
 use strata::gpu::Gpu;
 use strata::scene::{loaders, Background, Scene, Shading};
 use strata::FrameRecorder;
@@ -44,12 +47,13 @@ struct AppVertex {
     triangle: u32,
 }
 
-const APP_SHADER: &str = "
+/// The application's shader: its camera, vertex stage and opaque fragment stage.
+const OPAQUE_SHADER: &str = "
 struct Camera { view_proj: mat4x4<f32> }
 @group(0) @binding(0) var<uniform> camera: Camera;
 
 struct Varying {
-    @builtin(position) position: vec4<f32>,
+    @builtin(position) @invariant position: vec4<f32>,
     @location(0) color: vec4<f32>,
     @location(1) @interpolate(flat) triangle: u32,
 }
@@ -67,28 +71,34 @@ fn vs_main(@location(0) position: vec3<f32>, @location(1) color: vec4<f32>, @loc
 fn fs_opaque(v: Varying) -> @location(0) vec4<f32> {
     return vec4<f32>(v.color.rgb, 1.0);
 }
+";
 
-// The transparent surfaces: strata's capture stores them; nothing is written to the target.
+/// Its transparent fragment stage, appended to the same source for strata's passes.
+const TRANSPARENT_FRAGMENT: &str = "
+// The transparent surfaces: strata's capture stores them; strata defines strata_capture and
+// StrataOut for each of its passes.
 @fragment
-fn fs_transparent(v: Varying, @builtin(front_facing) front_facing: bool) {
-    strata_capture(v.position, vec4<f32>(v.color.rgb * v.color.a, v.color.a), v.triangle, front_facing);
+fn fs_transparent(v: Varying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) -> StrataOut {
+    let premultiplied = vec4<f32>(v.color.rgb * v.color.a, v.color.a);
+    return strata_capture(v.position, premultiplied, v.triangle, front_facing, mask);
 }
 ";
 
 /// Renders `frames` frames of the demo at `size`² with `method`; returns the last picture.
 pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> {
     let runtime = |e: String| strata::Error::runtime(e);
-    // The application's own device: any adapter, the features it wants for timing.
+    // The application's own device: any adapter.
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
         backends: wgpu::Backends::from_env().unwrap_or(wgpu::Backends::VULKAN),
         ..wgpu::InstanceDescriptor::new_without_display_handle()
     });
     let adapter = pollster::block_on(instance.request_adapter(&Default::default()))
         .map_err(|e| strata::Error::unsupported(format!("no adapter: {e}")))?;
-    let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+    // The features strata can use, as far as the adapter has them: 64-bit atomics (kb-keys),
+    // SPIR-V passthrough (the ordered atomics of the locking k-buffers), timestamps.
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("host.device"),
-        required_features: adapter.features() & wanted,
+        required_features: adapter.features() & strata::gpu::wanted_features(),
         required_limits: adapter.limits(),
         ..Default::default()
     }))
@@ -101,8 +111,6 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
     scene.camera = Some(camera);
     let mut opaque_vertices = Vec::new();
     let mut transparent_vertices = Vec::new();
-    let mut transparent = scene.clone();
-    transparent.objects.clear();
     let mut triangle = 0u32;
     for object in &scene.objects {
         let m = &scene.materials[object.material];
@@ -110,7 +118,6 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
         let out = if m.opacity >= 1.0 {
             &mut opaque_vertices
         } else {
-            transparent.objects.push(object.clone());
             &mut transparent_vertices
         };
         for t in object.mesh.indices.chunks_exact(3) {
@@ -130,7 +137,9 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
         Background::Color(BACKGROUND_SRGB.map(|c| strata::scene::srgb_to_linear(c as f32 / 255.0)));
     let mut options = RenderOptions::sized(size, size);
     options.frame.background = background;
-    let mut oit = FrameRecorder::new(&gpu, &transparent, method, &options)?;
+    if method.descriptor().reads(strata::methods::MethodOption::K) {
+        options.frame.k = Some(16);
+    }
 
     // The application's resources: camera, vertex buffers, target and depth, two pipelines.
     let view_proj = camera.view_projection(1.0).to_cols_array();
@@ -173,7 +182,8 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
     let depth = texture(
         "host.depth",
         wgpu::TextureFormat::Depth32Float,
-        wgpu::TextureUsages::RENDER_ATTACHMENT,
+        // strata's passes read the opaque depth in their shaders.
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
     );
     let depth_view = depth.create_view(&Default::default());
 
@@ -198,73 +208,62 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
             resource: camera_buffer.as_entire_binding(),
         }],
     });
-    // Plain concatenation: the application's shader, then strata's capture at group 1.
-    let source = format!("{APP_SHADER}\n{}", oit.capture_wgsl(1)?);
+    // The opaque pipeline is the application's own; strata builds the transparent passes'
+    // pipelines from the same shader's vertex stage and `fs_transparent`, after the
+    // application's group 0.
+    let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4, 2 => Uint32];
+    let stride = std::mem::size_of::<AppVertex>() as u64;
+    let source = format!("{OPAQUE_SHADER}{TRANSPARENT_FRAGMENT}");
+    let shader = AppShader::new(source, "vs_main", "fs_transparent")
+        .vertex_buffer(VertexLayout::new(stride, &attributes))
+        .bind_group_layout(&camera_layout);
+    let mut oit = FrameRecorder::for_application(&gpu, method, &options, shader)?;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("host.shader"),
-        source: wgpu::ShaderSource::Wgsl(Cow::Owned(source)),
+        label: Some("host.opaque"),
+        source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(OPAQUE_SHADER)),
     });
-    let vertex_layout = wgpu::VertexBufferLayout {
-        array_stride: std::mem::size_of::<AppVertex>() as u64,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4, 2 => Uint32],
-    };
-    let pipeline =
-        |label: &str, layouts: &[Option<&wgpu::BindGroupLayout>], entry: &str, write: bool| {
-            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(label),
-                bind_group_layouts: layouts,
-                immediate_size: 0,
-            });
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(vertex_layout.clone())],
-                },
-                primitive: wgpu::PrimitiveState {
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: wgpu::TextureFormat::Depth32Float,
-                    depth_write_enabled: Some(write),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: COLOR_FORMAT,
-                        blend: None,
-                        write_mask: if write {
-                            wgpu::ColorWrites::ALL
-                        } else {
-                            wgpu::ColorWrites::empty()
-                        },
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-    let opaque_pipeline = pipeline("host.opaque", &[Some(&camera_layout)], "fs_opaque", true);
-    let transparent_pipeline = pipeline(
-        "host.transparent",
-        &[Some(&camera_layout), Some(oit.capture_layout()?)],
-        "fs_transparent",
-        false,
-    );
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("host.opaque"),
+        bind_group_layouts: &[Some(&camera_layout)],
+        immediate_size: 0,
+    });
+    let opaque_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("host.opaque"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: stride,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &attributes,
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: wgpu::TextureFormat::Depth32Float,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_opaque"),
+            compilation_options: Default::default(),
+            targets: &[Some(COLOR_FORMAT.into())],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
 
     let bg = background_linear(background);
-    let targets = (&color_view, &depth_view);
+    let views = (&color_view, &depth_view);
     let mut stats = Vec::new();
     for _ in 0..frames {
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -275,24 +274,24 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
                 b: bg[2] as f64,
                 a: 1.0,
             };
-            let mut pass = target_pass(&mut encoder, "host.opaque", targets, Some((clear, 1.0)));
+            let mut pass = target_pass(&mut encoder, "host.opaque", views, Some((clear, 1.0)));
             pass.set_pipeline(&opaque_pipeline);
             pass.set_bind_group(0, Some(&camera_group), &[]);
             pass.set_vertex_buffer(0, opaque_buffer.slice(..));
             pass.draw(0..opaque_vertices.len() as u32, 0..1);
         }
-        // strata clears its storage, the application draws its transparent meshes through
-        // strata's capture, then strata resolves OVER the target.
-        let strata_group = oit.begin_capture(&mut encoder)?;
-        {
-            let mut pass = target_pass(&mut encoder, "host.transparent", targets, None);
-            pass.set_pipeline(&transparent_pipeline);
+        // strata records its passes, calling the application back to draw its transparent
+        // meshes in each geometry pass, then resolves OVER the target.
+        let draw = |pass: &mut wgpu::RenderPass<'_>| {
             pass.set_bind_group(0, Some(&camera_group), &[]);
-            pass.set_bind_group(1, Some(&strata_group), &[]);
             pass.set_vertex_buffer(0, transparent_buffer.slice(..));
             pass.draw(0..transparent_vertices.len() as u32, 0..1);
-        }
-        oit.end_capture(&mut encoder, Some((&color_view, COLOR_FORMAT)))?;
+        };
+        let targets = FrameTargets {
+            color: Some((&color_view, COLOR_FORMAT)),
+            opaque_depth: Some(&depth_view),
+        };
+        oit.record(&mut encoder, &targets, Some(&draw))?;
         queue.submit([encoder.finish()]);
         stats.extend(oit.poll_stats());
     }

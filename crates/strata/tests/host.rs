@@ -16,15 +16,17 @@ const MAX_FRACTION: f64 = 0.001;
 
 #[test]
 fn host_example_matches_the_reference() {
-    // A locking capture compiled by the application runs relaxed atomics: refused.
-    let refused = host::run(MethodId::KplusHeap, 32, 1)
-        .err()
-        .expect("kplus-heap is refused");
-    assert!(
-        refused.to_string().contains("relaxed") && refused.to_string().contains("kb-ab-fixed"),
-        "{refused}"
-    );
-    for method in [MethodId::AbufferLl, MethodId::KbAbFixed, MethodId::KbAbLl] {
+    // A list, fixed arrays, a locking k+-buffer (ordered atomics in the application's shader),
+    // the lock-free two-pass kb-keys and dual peeling's passes, all through the application's
+    // shader.
+    for method in [
+        MethodId::AbufferLl,
+        MethodId::KbAbFixed,
+        MethodId::KbAbLl,
+        MethodId::KplusHeap,
+        MethodId::KbKeys,
+        MethodId::Dual,
+    ] {
         let run = host::run(method, 96, 3).unwrap_or_else(|e| panic!("{method}: {e}"));
         let options = RenderOptions {
             frame: FrameOptions {
@@ -32,7 +34,10 @@ fn host_example_matches_the_reference() {
                 height: 96,
                 effect: Effect::Transparency,
                 background: run.background,
-                k: (method == MethodId::KbAbLl).then_some(16),
+                k: method
+                    .descriptor()
+                    .reads(strata::methods::MethodOption::K)
+                    .then_some(16),
                 ..Default::default()
             },
             ..Default::default()
@@ -47,6 +52,12 @@ fn host_example_matches_the_reference() {
             MAX_FRACTION,
         ) {
             panic!("{m}");
+        }
+        assert_eq!(run.stats.lock_failures.unwrap_or(0), 0, "{method}");
+        if method == MethodId::KplusHeap {
+            // The application's shader got the lock's acquire/release atomics.
+            let ordering = run.stats.memory_ordering.clone().unwrap_or_default();
+            assert!(ordering.contains("acquire"), "{method}: {ordering}");
         }
         // Real-time frames: no blocking readback, no submit inside strata.
         assert_eq!(run.stats.blocking_readbacks, 0);

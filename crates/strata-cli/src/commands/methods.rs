@@ -43,6 +43,10 @@ pub fn list_methods(json: bool) -> Result<()> {
                 let mut v = serde_json::to_value(m).unwrap_or_default();
                 v["raster"] = rasters(m).split(',').collect::<Vec<_>>().into();
                 v["msaa"] = msaa_counts(m).into();
+                v["app_shaders"] = m.app_shaders.yes().into();
+                if let methods::Support::No(why) = m.app_shaders {
+                    v["app_shaders_why_not"] = why.into();
+                }
                 v["blend"] = match m.blend_modes {
                     methods::Support::Yes => vec!["over", "add", "multiply"].into(),
                     methods::Support::No(_) => vec!["over"].into(),
@@ -65,19 +69,20 @@ pub fn list_methods(json: bool) -> Result<()> {
         width(&|m| m.memory.chars().count()),
     );
     println!(
-        "{:<wi$}  {:<wf$}  exact  {:<10}  {:<5}  blend  {:<wp$}  {:<wm$}  summary",
+        "{:<wi$}  {:<wf$}  exact  {:<10}  {:<5}  blend  app shaders  {:<wp$}  {:<wm$}  summary",
         "id", "family", "raster", "msaa", "geometry passes", "memory (bytes)"
     );
     for m in &all {
         let msaa: Vec<String> = msaa_counts(m).iter().map(u32::to_string).collect();
         println!(
-            "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<5}  {:<5}  {:<wp$}  {:<wm$}  {}",
+            "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<5}  {:<5}  {:<11}  {:<wp$}  {:<wm$}  {}",
             m.name,
             m.family.name(),
             if m.exact { "yes" } else { "no" },
             rasters(m),
             msaa.join(","),
             blend_modes(m),
+            if m.app_shaders.yes() { "yes" } else { "no" },
             m.geometry_passes,
             m.memory,
             m.summary

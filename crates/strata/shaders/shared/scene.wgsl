@@ -345,6 +345,20 @@ fn facing_normal(normal: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
     return select(n, -n, dot(n, v) < 0.0);
 }
 
+#ifdef APP_SHADING
+// An application's geometry pass: its own fragment shader computed the colour (straight alpha,
+// linear) and handed it to `strata_capture`, which keeps it here for the method's step, whose
+// `shade` then returns it (strata's materials and lights take no part).
+var<private> app_surface: vec4<f32>;
+
+fn set_app_surface(color: vec4<f32>) {
+    app_surface = color;
+}
+
+fn shade(world: vec3<f32>, normal: vec3<f32>, material_index: u32) -> vec4<f32> {
+    return app_surface;
+}
+#else
 // Color and opacity of a surface point: unlit or two-sided Blinn–Phong, with Schlick Fresnel
 // folded into the opacity for the translucency effect.
 fn shade(world: vec3<f32>, normal: vec3<f32>, material_index: u32) -> vec4<f32> {
@@ -375,3 +389,4 @@ fn shade(world: vec3<f32>, normal: vec3<f32>, material_index: u32) -> vec4<f32> 
     }
     return vec4<f32>(color, alpha);
 }
+#endif

@@ -16,6 +16,7 @@
 //! [`crate::FrameRecorder`] (in `render`, above the methods) drives this for an application;
 //! [`crate::Renderer`] is the batch renderer on top of it that the CLI and the tests use.
 
+pub mod application;
 pub mod colormap;
 pub mod msaa;
 pub mod options;

@@ -129,8 +129,10 @@ fn render_pass(
         multiview_mask: None,
     });
     pass.set_pipeline(pipeline);
+    // An application's geometry passes bind its groups first (in its draw callback).
+    let first = ctx.scene.first_group();
     for (i, group) in groups.iter().enumerate() {
-        pass.set_bind_group(i as u32, Some(*group), &[]);
+        pass.set_bind_group(first + i as u32, Some(*group), &[]);
     }
     draw(&mut pass);
 }

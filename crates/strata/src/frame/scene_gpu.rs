@@ -97,6 +97,10 @@ pub struct SceneGpu {
     pub raster_layout: Option<wgpu::BindGroupLayout>,
     /// Samples per pixel of the storage geometry passes (`--msaa`).
     pub samples: u32,
+    /// An application's recorder ([`crate::FrameRecorder::for_application`]): the geometry
+    /// passes draw the application's geometry with pipelines made from its shader, and the
+    /// scene holds no triangles.
+    pub application: Option<std::sync::Arc<super::application::AppShader>>,
     /// A scene whose objects move: the passes that move them on the GPU.
     pub animation: Option<SceneAnimation>,
     /// What the CPU needs to follow the animation's centroids (for `sorted`), and whether
@@ -186,6 +190,7 @@ impl SceneGpu {
             draw_indices: None,
             raster_layout: None,
             samples: options.build.msaa,
+            application: None,
             animation: None,
             motion: None,
         };
@@ -298,6 +303,14 @@ impl SceneGpu {
     /// Binds the vertex buffer and draws the geometry: through `draw` (an application's
     /// callback), or every triangle — in the frame's `--order` when one is set.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, draw: Option<&DrawCallback<'_>>) {
+        if self.application.is_some() {
+            // The application binds its own vertex buffers; the recorder refuses a frame of
+            // an application's recorder without its draw callback.
+            if let Some(draw) = draw {
+                draw(pass);
+            }
+            return;
+        }
         self.bind(pass);
         match (draw, &self.draw_indices) {
             (Some(draw), _) => draw(pass),
@@ -307,6 +320,14 @@ impl SceneGpu {
             }
             (None, None) => pass.draw(0..self.triangle_count * 3, 0..1),
         }
+    }
+
+    /// The bind group index of strata's first group in a geometry pass: 0, or after an
+    /// application's own groups.
+    pub fn first_group(&self) -> u32 {
+        self.application
+            .as_ref()
+            .map_or(0, |app| app.first_strata_group())
     }
 
     /// Group 0 for a frame.

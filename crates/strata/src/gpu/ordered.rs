@@ -254,13 +254,17 @@ pub type EntryPoint = (String, [u32; 3]);
 /// `acquire_*` and `release_*` functions ask for (naga_oil keeps an imported function's name
 /// as the prefix of its decorated one).
 pub fn spirv(stage: &Stage) -> Result<(Vec<u32>, Vec<EntryPoint>), String> {
-    let label = &stage.label;
-    let module = stage.compose()?;
+    spirv_of(&stage.label, &stage.compose()?)
+}
+
+/// [`spirv`] of a module already composed (an application's shader with strata's capture,
+/// `frame::application`): its `acquire_*` and `release_*` functions order their atomics.
+pub fn spirv_of(label: &str, module: &naga::Module) -> Result<(Vec<u32>, Vec<EntryPoint>), String> {
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::all(),
     )
-    .validate(&module)
+    .validate(module)
     .map_err(|e| format!("{label}: {e}"))?;
     let restrict = naga::proc::BoundsCheckPolicy::Restrict;
     let options = naga::back::spv::Options {
@@ -278,7 +282,7 @@ pub fn spirv(stage: &Stage) -> Result<(Vec<u32>, Vec<EntryPoint>), String> {
         flags: options.flags | naga::back::spv::WriterFlags::DEBUG,
         ..options
     };
-    let words = naga::back::spv::write_vec(&module, &info, &options, None)
+    let words = naga::back::spv::write_vec(module, &info, &options, None)
         .map_err(|e| format!("{label}: {e}"))?;
     let entries = module
         .entry_points
@@ -296,14 +300,22 @@ pub fn module(gpu: &Gpu, stage: &Stage) -> Option<wgpu::ShaderModule> {
     if !available(gpu) {
         return None;
     }
-    let label = stage.label.as_str();
-    let (words, entries) = match spirv(stage) {
-        Ok(r) => r,
+    match spirv(stage) {
+        Ok(compiled) => Some(passthrough(gpu, &stage.label, compiled)),
         Err(e) => {
             log::warn!("{e}; using relaxed atomics");
-            return None;
+            None
         }
-    };
+    }
+}
+
+/// The passthrough shader module of SPIR-V that [`spirv`] or [`spirv_of`] made (only where
+/// [`available`]).
+pub fn passthrough(
+    gpu: &Gpu,
+    label: &str,
+    (words, entries): (Vec<u32>, Vec<EntryPoint>),
+) -> wgpu::ShaderModule {
     let entry_points: Vec<wgpu::PassthroughShaderEntryPoint<'_>> = entries
         .iter()
         .map(|(name, size)| wgpu::PassthroughShaderEntryPoint {
@@ -317,7 +329,7 @@ pub fn module(gpu: &Gpu, stage: &Stage) -> Option<wgpu::ShaderModule> {
     // semantics operands of its atomic instructions changed to valid values for their opcodes;
     // its bindings are the WGSL's group and binding numbers, which equal their positions in
     // strata's contiguous layouts.
-    Some(unsafe {
+    unsafe {
         gpu.device
             .create_shader_module_passthrough(wgpu::ShaderModuleDescriptorPassthrough {
                 label: Some(label),
@@ -325,7 +337,7 @@ pub fn module(gpu: &Gpu, stage: &Stage) -> Option<wgpu::ShaderModule> {
                 spirv: Some(Cow::Owned(words)),
                 ..Default::default()
             })
-    })
+    }
 }
 
 #[cfg(test)]

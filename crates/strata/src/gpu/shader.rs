@@ -375,32 +375,6 @@ impl ModuleLibrary {
     }
 }
 
-/// Registers `stage`'s top-level source (which must name itself with `#define_import_path`)
-/// and the modules it imports from the stage's libraries in an application's naga_oil
-/// `composer`, each with the stage's definitions, so that the application's shaders import it.
-/// Modules of the same names already there are replaced.
-pub fn add_to_composer(composer: &mut Composer, stage: &Stage) -> Result<(), String> {
-    let name = stage
-        .module_name()
-        .ok_or_else(|| format!("{}: the stage names no import path", stage.label))?;
-    let mut library = ModuleLibrary {
-        composer: std::mem::take(composer),
-        sources: HashMap::new(),
-        headers: HashMap::new(),
-        module_defs: stage.defs.clone(),
-    };
-    let mut known: HashMap<String, &str> = HashMap::new();
-    for source in stage.libraries.iter().flat_map(|l| l.iter().copied()) {
-        if let Some(module) = library.name_of(source) {
-            known.insert(module, source);
-        }
-    }
-    known.insert(name.clone(), &stage.source);
-    let added = library.add(&name, &known, &stage.label, &mut Vec::new());
-    *composer = library.composer;
-    added
-}
-
 /// Composes `stage` and validates the result with naga (tests: shader errors fail without a
 /// GPU).
 #[cfg(test)]

@@ -9,7 +9,6 @@
 //! buffers are (re)allocated when a frame needs more.
 
 pub mod baseline;
-pub mod capture;
 pub mod choice;
 pub mod convex;
 pub mod downlevel;
@@ -204,27 +203,6 @@ pub trait Method {
 
     /// The buffers kept between frames (tests poison them).
     fn resources(&self) -> Vec<&ResourceCache>;
-
-    /// Methods whose capture an application's shader calls (see [`capture`]): the group layout
-    /// the application's pipeline places.
-    fn capture_layout(&self) -> Option<&wgpu::BindGroupLayout> {
-        None
-    }
-
-    /// Records what precedes the application's capture pass (clears) and returns the bind
-    /// group it places; [`Method::end_capture`] follows the pass.
-    fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
-        let _ = ctx;
-        Err(Error::unsupported(
-            "this method has no capture an application's shader can call",
-        ))
-    }
-
-    /// Records the resolve after the application's capture pass.
-    fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        let _ = ctx;
-        Err(Error::runtime("end_capture without begin_capture"))
-    }
 }
 
 /// The method table in catalogue order.

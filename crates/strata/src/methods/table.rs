@@ -187,13 +187,16 @@ pub struct Descriptor {
     /// The memory ordering its capture needs.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub ordering: Ordering,
-    /// The capture step an application's fragment shader calls (`methods::capture`), on pixel
-    /// `p` and fragment `f`: a WGSL call whose names are module-qualified
-    /// (`strata::kbuffer::list::capture_list(p, f)`), so that the generated `strata::capture`
-    /// and the contention harness need no import list; `None` where there is no such
-    /// single-pass capture.
+    /// The single-pass capture step of a slot or list k-buffer on pixel `p` and fragment `f`,
+    /// which the contention harness drives from compute dispatches: a WGSL call whose names are
+    /// module-qualified (`strata::kbuffer::list::capture_list(p, f)`), so that the harness needs
+    /// no import list; `None` where there is no such step.
     #[cfg_attr(feature = "serde", serde(skip))]
-    pub app_capture: Option<&'static str>,
+    pub capture_step: Option<&'static str>,
+    /// Whether it takes the application's own geometry and shaders
+    /// ([`crate::FrameRecorder::for_application`]), and if not, why.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub app_shaders: Support,
     /// Whether it takes an application's draw callback (it draws what the application issues),
     /// and if not, why: it draws the scene's triangles itself.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -258,7 +261,10 @@ impl Descriptor {
             per_sample_storage: false,
             temporal: false,
             ordering: Ordering::Relaxed,
-            app_capture: None,
+            capture_step: None,
+            app_shaders: Support::No(
+                "its geometry passes write colour targets through blending or a depth test, which strata does not compose with an application's shader yet",
+            ),
             draw_callback: Support::Yes,
             sorts_centroids: false,
             takes_order: true,
@@ -308,6 +314,26 @@ impl Descriptor {
                 )))
             }
             _ => Ok(()),
+        }
+    }
+
+    /// Refuses the application's own shaders where the method cannot take them, naming the
+    /// methods that can.
+    pub fn check_app_shaders(&self) -> Result<()> {
+        match self.app_shaders {
+            Support::No(why) => {
+                let supported: Vec<&str> = super::TABLE
+                    .iter()
+                    .filter(|d| d.app_shaders.yes())
+                    .map(|d| d.name)
+                    .collect();
+                Err(Error::unsupported(format!(
+                    "{} cannot take the application's own shaders: {why}; these can: {}",
+                    self.name,
+                    supported.join(", ")
+                )))
+            }
+            Support::Yes => Ok(()),
         }
     }
 

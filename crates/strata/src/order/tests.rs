@@ -280,6 +280,10 @@ fn orders_refuse_what_has_no_submission_order() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("draw callback"), "{e}");
-    let e = rec.begin_capture(&mut encoder).unwrap_err().to_string();
-    assert!(e.contains("capture pass"), "{e}");
+    let shader = crate::frame::application::AppShader::new("", "vs", "fs");
+    let e = FrameRecorder::for_application(gpu(), MethodId::AbufferLl, &options, shader)
+        .err()
+        .expect("an application's recorder refuses --order")
+        .to_string();
+    assert!(e.contains("--order") && e.contains("own shaders"), "{e}");
 }

@@ -199,18 +199,32 @@ fn raster_capture(v: SceneVarying, front_facing: bool) {{
 /// A storage-only geometry stage of a method on the scene's rasterizer: a render pipeline of
 /// `module`'s fragment `entry` (the module of `stage`, or its passthrough twin with ordered
 /// atomics), or the compute rasterizer's capture composed from `stage` with relaxed atomics
-/// (a capture that needs ordering calls [`compute_stage`] itself).
+/// (a capture that needs ordering calls [`compute_stage`] itself). For an application's
+/// recorder it is the application's shader calling the step (`frame::application`), its
+/// atomics ordered where `ordered` (the fragment module is then `module`'s passthrough twin).
 pub fn storage_stage(
     gpu: &Gpu,
     scene: &SceneGpu,
     label: &str,
     stage: &Stage,
-    module: &wgpu::ShaderModule,
+    (module, ordered): (&wgpu::ShaderModule, bool),
     entry: &str,
     layouts: &[&wgpu::BindGroupLayout],
-) -> GeometryStage {
+) -> Result<GeometryStage> {
+    if let Some(app) = &scene.application {
+        let capture = crate::frame::application::capture_stage(stage, entry)?;
+        let pass = crate::frame::application::PassPipeline {
+            label,
+            layouts,
+            ordered,
+            targets: &[NullTarget::target_state()],
+            samples: scene.samples,
+        };
+        return crate::frame::application::pipeline(gpu, app, &capture, &pass)
+            .map(GeometryStage::Hw);
+    }
     if scene.raster_layout.is_none() {
-        return GeometryStage::Hw(capture_pipeline(
+        return Ok(GeometryStage::Hw(capture_pipeline(
             gpu,
             label,
             (module, entry),
@@ -218,9 +232,9 @@ pub fn storage_stage(
             &[NullTarget::target_state()],
             None,
             scene.samples,
-        ));
+        )));
     }
-    compute_stage(
+    Ok(compute_stage(
         gpu,
         scene,
         &format!("{label}.compute"),
@@ -228,7 +242,7 @@ pub fn storage_stage(
         entry,
         layouts,
         false,
-    )
+    ))
 }
 
 /// The compute rasterizer's capture of `stage`'s fragment `entry` (see [`capture_stage`]) with

@@ -643,7 +643,7 @@ fn ordered_captures_on_poisoned_storage_repeat_their_picture() {
     }
 }
 
-/// An application's draw callback or capture pass needs the GPU's rasterizer: one clear error.
+/// An application's draw callback or shaders need the GPU's rasterizer: one clear error.
 #[test]
 fn application_draws_need_the_gpu_rasterizer() {
     let scene = loaders::load_scene("builtin:layers?n=2").unwrap();
@@ -655,6 +655,9 @@ fn application_draws_need_the_gpu_rasterizer() {
         .record(&mut encoder, &Default::default(), Some(&draw))
         .unwrap_err();
     assert!(e.to_string().contains("--raster hw"), "{e}");
-    let e = rec.begin_capture(&mut encoder).unwrap_err();
-    assert!(e.to_string().contains("--raster hw"), "{e}");
+    let shader = crate::frame::application::AppShader::new("", "vs", "fs");
+    let e = crate::FrameRecorder::for_application(gpu(), MethodId::AbufferFixed, &opts, shader)
+        .err()
+        .expect("an application's recorder refuses the compute rasterizer");
+    assert!(e.to_string().contains("--raster compute"), "{e}");
 }

@@ -41,6 +41,7 @@ use std::collections::BTreeMap;
 
 use crate::deferred::LitFrame;
 use crate::error::{Error, Result};
+use crate::frame::application::AppShader;
 use crate::frame::present::{Present, PresentParams};
 use crate::frame::stats::StatsRing;
 use crate::frame::{
@@ -59,7 +60,10 @@ use crate::scene::{Camera, CameraPath, Scene};
 mod targets;
 pub use crate::gpu::passes::clear_depth_pass;
 pub(crate) use targets::max_resolved_pixels;
-use targets::{check_size, no_opaque_depth, output_buffer, per_pixel_context};
+use targets::{
+    check_application_options, check_size, check_targets, no_opaque_depth, output_buffer,
+    per_pixel_context,
+};
 
 /// How long `wait_stats` waits for mapping callbacks once the GPU is idle.
 const STATS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
@@ -129,8 +133,6 @@ pub struct FrameRecorder {
     frame: u64,
     /// Depth cleared to 1.0 (once, when made) for frames without an opaque depth.
     no_opaque: wgpu::Texture,
-    /// Between `begin_capture` and `end_capture`: group 0 and the readbacks asked for.
-    open_capture: Option<(OpenFrame, ReadbackList)>,
     /// The GPU depth-complexity histogram, when it is on.
     histogram: Option<GpuHistogram>,
     /// The latest histogram that came back (its frame and bins), which `--k auto` picks from.
@@ -161,7 +163,27 @@ impl FrameRecorder {
         options: &RenderOptions,
     ) -> Result<FrameRecorder> {
         crate::gpu::validated(gpu, "strata's frame", || {
-            Self::made(gpu, scene, method, options)
+            Self::made(gpu, scene, method, options, None)
+        })
+    }
+
+    /// A recorder for an application that draws its transparent geometry with its own shader
+    /// and buffers ([`AppShader`]; see [`crate::frame::application`]): no scene, only the
+    /// options (size, method, k, budget, …). strata builds each geometry pass's pipeline from
+    /// the shader, and every [`FrameRecorder::record`] calls the application's draw callback
+    /// once per geometry pass. Methods that cannot take an application's shader, and options
+    /// that need strata's own geometry (`--raster compute`, `--order`, `--temporal`,
+    /// `--k auto`, a lit pipeline, the translucency effect), are refused in one line.
+    pub fn for_application(
+        gpu: &Gpu,
+        method: MethodId,
+        options: &RenderOptions,
+        shader: AppShader,
+    ) -> Result<FrameRecorder> {
+        method.descriptor().check_app_shaders()?;
+        check_application_options(options)?;
+        crate::gpu::validated(gpu, "strata's frame", || {
+            Self::made(gpu, &Scene::default(), method, options, Some(shader))
         })
     }
 
@@ -170,6 +192,7 @@ impl FrameRecorder {
         scene: &Scene,
         method: MethodId,
         options: &RenderOptions,
+        application: Option<AppShader>,
     ) -> Result<FrameRecorder> {
         options.validate()?;
         if crate::methods::downlevel::is_downlevel(gpu) {
@@ -177,6 +200,9 @@ impl FrameRecorder {
         }
         check_size(gpu, options)?;
         let (mut scene_gpu, lit) = match options.build.lighting.pipeline {
+            None if application.is_some() => {
+                (SceneGpu::new_allow_empty(gpu, scene, options)?, None)
+            }
             None => (SceneGpu::new(gpu, scene, options)?, None),
             Some(pipeline) => {
                 scene.validate()?;
@@ -187,6 +213,7 @@ impl FrameRecorder {
                 )
             }
         };
+        scene_gpu.application = application.map(std::sync::Arc::new);
         scene_gpu.raster_layout =
             (options.build.raster == Raster::Compute).then(|| crate::raster::raster_layout(gpu));
         let raster = (options.build.raster == Raster::Compute)
@@ -205,7 +232,6 @@ impl FrameRecorder {
             present: Present::new(gpu),
             ring: StatsRing::default(),
             frame: 0,
-            open_capture: None,
             histogram: None,
             last_histogram: None,
             lit,
@@ -235,8 +261,13 @@ impl FrameRecorder {
     /// Switches method; its pipelines are built on first use and kept.
     pub fn set_method(&mut self, method: MethodId) -> Result<()> {
         crate::methods::kbuffer::temporal::check(method, self.options.frame.temporal)?;
+        if self.scene.application.is_some() {
+            method.descriptor().check_app_shaders()?;
+        }
         if !self.methods.contains_key(&method) {
-            let m = methods::create(method, &self.gpu, &self.scene, &self.options)?;
+            let m = crate::gpu::validated(&self.gpu, method.as_str(), || {
+                methods::create(method, &self.gpu, &self.scene, &self.options)
+            })?;
             self.methods.insert(method, m);
         }
         self.method = method;
@@ -394,6 +425,12 @@ impl FrameRecorder {
         targets: &FrameTargets<'_>,
         draw: Option<&DrawCallback<'_>>,
     ) -> Result<u64> {
+        self.check_targets(targets)?;
+        if self.scene.application.is_some() && draw.is_none() {
+            return Err(Error::input(
+                "an application's recorder draws the application's geometry: pass its draw callback to record",
+            ));
+        }
         if self.options.build.msaa > 1 && targets.opaque_depth.is_some() {
             return Err(Error::unsupported(
                 "an opaque depth with --msaa: strata tests fragments against a single-sampled opaque depth only, yet",
@@ -426,7 +463,7 @@ impl FrameRecorder {
                 order.order().name()
             )));
         }
-        let frame = self.start_frame(encoder, lit_depth.as_ref().or(targets.opaque_depth));
+        let frame = self.start_frame(encoder, lit_depth.as_ref().or(targets.opaque_depth))?;
         if let Some(animation) = &mut self.scene.animation {
             animation.record(&self.gpu, encoder, &mut self.timer);
         }
@@ -509,98 +546,29 @@ impl FrameRecorder {
         Ok(true)
     }
 
-    /// WGSL defining `strata_capture` for the current method, its bindings at `@group(group)`
-    /// (see [`crate::methods::capture`]).
-    pub fn capture_wgsl(&self, group: u32) -> Result<String> {
-        crate::methods::capture::wgsl(self.method, group)
-    }
-
-    /// The layout of the bind group an application's capture pipeline places.
-    pub fn capture_layout(&self) -> Result<&wgpu::BindGroupLayout> {
-        self.methods[&self.method].capture_layout().ok_or_else(|| {
-            Error::unsupported(format!(
-                "{} has no capture an application's shader can call",
-                self.method
-            ))
-        })
-    }
-
-    /// Starts a frame whose capture pass the application records itself: records the clears
-    /// and returns the bind group its capture pipeline places. The application's pass follows
-    /// in the same encoder, then [`FrameRecorder::end_capture`].
-    pub fn begin_capture(&mut self, encoder: &mut wgpu::CommandEncoder) -> Result<wgpu::BindGroup> {
-        if self.options.frame.k_auto.is_some() {
-            return Err(Error::unsupported(
-                "--k auto counts fragments with strata's own geometry pass, which an application's capture replaces: set k",
-            ));
-        }
-        if self.options.build.msaa > 1 {
-            return Err(Error::unsupported(
-                "an application's capture with --msaa: `strata_capture` takes no coverage mask yet; use record",
-            ));
-        }
-        if self.lit.is_some() {
-            return Err(Error::unsupported(
-                "an application's capture with a pipeline: the pipeline draws strata's own opaque pass; use record",
-            ));
-        }
-        if self.raster.is_some() {
-            return Err(Error::unsupported(
-                "an application's capture pass rasterizes with its own pipeline: it needs --raster hw",
-            ));
-        }
-        if self.options.frame.temporal.is_some() {
-            return Err(Error::unsupported(
-                "--temporal on reprojects strata's own fragments: an application's capture pass has no temporal test",
-            ));
-        }
-        if let Some(order) = &self.order {
-            return Err(Error::unsupported(format!(
-                "--order {} resubmits strata's own geometry passes: an application's capture pass draws its own triangles",
-                order.order().name()
-            )));
-        }
-        let frame = self.start_frame(encoder, None);
-        let mut readback = ReadbackList::default();
-        let group = self.with_method(encoder, &frame, &mut readback, None, |m, ctx| {
-            m.begin_capture(ctx)
-        })?;
-        self.open_capture = Some((frame, readback));
-        Ok(group)
-    }
-
-    /// Resolves the application's capture and blends it OVER `color`; returns the frame number.
-    pub fn end_capture(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        color: Option<(&wgpu::TextureView, wgpu::TextureFormat)>,
-    ) -> Result<u64> {
-        let (frame, mut readback) = self
-            .open_capture
-            .take()
-            .ok_or_else(|| Error::runtime("end_capture without begin_capture"))?;
-        let recorded = self.with_method(encoder, &frame, &mut readback, None, |m, ctx| {
-            m.end_capture(ctx)
-        })?;
-        Ok(self.finish_frame(encoder, color, (recorded, None), readback, false))
-    }
-
     /// Clears the totals, starts the timer and binds group 0 for a frame.
     fn start_frame(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         opaque_depth: Option<&wgpu::TextureView>,
-    ) -> OpenFrame {
+    ) -> Result<OpenFrame> {
         let opaque = match opaque_depth {
             Some(v) => v.clone(),
             None => self.no_opaque.create_view(&Default::default()),
         };
+        // What the checks before could not see of the application's depth view (an aspect, a
+        // format the binding refuses) is an error here, before anything is recorded.
+        let group = crate::gpu::validated(&self.gpu, "the opaque depth", || {
+            Ok(self.scene.frame_group(&self.gpu, &opaque))
+        })?;
         encoder.clear_buffer(&self.scene.totals, 0, None);
         self.timer.reset();
-        OpenFrame {
-            group: self.scene.frame_group(&self.gpu, &opaque),
-            opaque,
-        }
+        Ok(OpenFrame { group, opaque })
+    }
+
+    /// Refuses targets that do not fit the frame, before anything is recorded.
+    fn check_targets(&self, targets: &FrameTargets<'_>) -> Result<()> {
+        check_targets(&self.gpu, &self.options, targets)
     }
 
     /// Runs `f` on the current method with a frame context.
@@ -634,50 +602,7 @@ impl FrameRecorder {
         readback: ReadbackList,
         histogram_ran: bool,
     ) -> u64 {
-        let gpu = &self.gpu;
-        // With a pipeline the method presents over the lit image (not over a G-buffer view),
-        // and the tone map writes the application's target.
-        let hdr = self.lit.as_ref().map(|lit| {
-            (
-                lit.hdr().create_view(&Default::default()),
-                lit.hdr().format(),
-            )
-        });
-        let present_to = match &hdr {
-            Some(_) if self.options.build.lighting.gbuffer_debug.is_some() => None,
-            Some((view, format)) => Some((view, *format)),
-            None => color,
-        };
-        if let Some((view, format)) = present_to {
-            let params = PresentParams {
-                size: [self.options.frame.width, self.options.frame.height],
-                complexity: (self.options.frame.effect == Effect::Complexity) as u32,
-                complexity_full: recorded.k.unwrap_or(64).max(1),
-            };
-            let tinted = self
-                .scene
-                .blend_modes
-                .contains(&crate::scene::Blend::Multiply);
-            if tinted && hdr.is_some() {
-                if let Some(lit) = &mut self.lit {
-                    lit.background_under(encoder, &mut self.timer);
-                }
-            }
-            let stamps = self.timer.render_pass("present");
-            self.present.record(
-                gpu,
-                encoder,
-                view,
-                format,
-                &self.output,
-                params,
-                tinted,
-                stamps,
-            );
-        }
-        if let (Some(lit), Some((view, format))) = (&mut self.lit, color) {
-            lit.tonemap(encoder, &mut self.timer, view, format);
-        }
+        self.present_into(encoder, color, recorded.k, true);
         let mut sources = vec![(self.scene.totals.clone(), 0, TOTAL_WORDS)];
         let mut at = TOTAL_WORDS;
         let timestamps = self.timer.resolve(encoder).map(|(range, names)| {
@@ -711,7 +636,7 @@ impl FrameRecorder {
         let frame = self.frame;
         self.frame += 1;
         self.ring.record(
-            gpu,
+            &self.gpu,
             encoder,
             &sources,
             Pending {
@@ -729,6 +654,64 @@ impl FrameRecorder {
         frame
     }
 
+    /// Composites the last resolved frame OVER `color` (with a lit pipeline, over its image,
+    /// then tone-maps into `color`); `k` scales the complexity heatmap, `timed` times the pass.
+    fn present_into(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        color: Option<(&wgpu::TextureView, wgpu::TextureFormat)>,
+        k: Option<u32>,
+        timed: bool,
+    ) {
+        let gpu = &self.gpu;
+        // With a pipeline the method presents over the lit image (not over a G-buffer view),
+        // and the tone map writes the application's target.
+        let hdr = self.lit.as_ref().map(|lit| {
+            (
+                lit.hdr().create_view(&Default::default()),
+                lit.hdr().format(),
+            )
+        });
+        let present_to = match &hdr {
+            Some(_) if self.options.build.lighting.gbuffer_debug.is_some() => None,
+            Some((view, format)) => Some((view, *format)),
+            None => color,
+        };
+        if let Some((view, format)) = present_to {
+            let params = PresentParams {
+                size: [self.options.frame.width, self.options.frame.height],
+                complexity: (self.options.frame.effect == Effect::Complexity) as u32,
+                complexity_full: k.unwrap_or(64).max(1),
+            };
+            let tinted = self
+                .scene
+                .blend_modes
+                .contains(&crate::scene::Blend::Multiply);
+            if tinted && hdr.is_some() {
+                if let Some(lit) = &mut self.lit {
+                    lit.background_under(encoder, &mut self.timer);
+                }
+            }
+            let stamps = match timed {
+                true => self.timer.render_pass("present"),
+                false => None,
+            };
+            self.present.record(
+                gpu,
+                encoder,
+                view,
+                format,
+                &self.output,
+                params,
+                tinted,
+                stamps,
+            );
+        }
+        if let (Some(lit), Some((view, format))) = (&mut self.lit, color) {
+            lit.tonemap(encoder, &mut self.timer, view, format);
+        }
+    }
+
     /// Statistics of every frame whose readback has completed, oldest first. Never blocks.
     pub fn poll_stats(&mut self) -> Vec<FrameStats> {
         let done = self.ring.poll(&self.gpu);
@@ -738,6 +721,53 @@ impl FrameRecorder {
     /// Frames that recorded no statistics because every readback slot was still in flight.
     pub fn skipped_stats(&self) -> u64 {
         self.ring.skipped
+    }
+
+    /// A one-shot render (headless, a screenshot): records and submits frames, without
+    /// touching `targets.color`, until one is complete — a pool or the peeled layers grown from
+    /// what the previous frame measured, as exact mode does — then composites that frame OVER
+    /// `targets.color` in one more submission and returns its statistics (`submits` and
+    /// `blocking_readbacks` count what it took). Blocks; not for real time, where growth costs
+    /// at most one frame and that frame says `complete: false`.
+    pub fn render_once(
+        &mut self,
+        targets: &FrameTargets<'_>,
+        draw: Option<&DrawCallback<'_>>,
+    ) -> Result<FrameStats> {
+        let hidden = FrameTargets {
+            color: None,
+            opaque_depth: targets.opaque_depth,
+        };
+        self.check_targets(targets)?;
+        let mut submits = 0;
+        for _ in 0..super::MAX_EXACT_FRAMES {
+            let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+            self.record(&mut encoder, &hidden, draw)?;
+            self.gpu.queue.submit([encoder.finish()]);
+            submits += 1;
+            let report = self.wait_stats()?;
+            if let Some(shortfall) = report.cannot_complete {
+                return Err(Error::unsupported(shortfall.why));
+            }
+            if report.incomplete {
+                continue;
+            }
+            let mut stats = report.stats;
+            if targets.color.is_some() {
+                let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+                self.present_into(&mut encoder, targets.color, stats.k, false);
+                self.gpu.queue.submit([encoder.finish()]);
+                submits += 1;
+            }
+            stats.submits = submits;
+            stats.blocking_readbacks = submits;
+            return Ok(stats);
+        }
+        Err(Error::runtime(format!(
+            "{}: no complete frame in {} frames",
+            self.method,
+            super::MAX_EXACT_FRAMES
+        )))
     }
 
     /// Waits for every submitted frame's statistics and returns the last one (exact mode and

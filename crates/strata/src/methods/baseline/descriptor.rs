@@ -31,6 +31,9 @@ pub const SORTED: Descriptor = Descriptor {
     // Its own order: triangle centroids, sorted each frame.
     takes_order: false,
     sorts_centroids: true,
+    app_shaders: Support::No(
+        "it sorts the scene's own triangles by centroid every frame, and an application's buffers are opaque to it",
+    ),
     draw_callback: Support::No("it orders every triangle of the scene itself"),
     blend_modes: HARDWARE_OVER,
     ..Descriptor::new(MethodId::Sorted, "sorted", Family::Baseline, create)

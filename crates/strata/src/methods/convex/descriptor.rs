@@ -16,6 +16,9 @@ pub const CONVEX: Descriptor = Descriptor {
     memory: "(16·L + 60)·W·H + 12·triangles + 64; L = 2, or 4 with paired groups",
     summary: "convex polyhedra (seed 001): convex parts by region growing, ordered per frame by separating planes and nesting; each pass captures groups that cannot share a pixel (2 layers per part) and merges them front to back; exact when the order holds, order_violations counted",
     reads: &[MethodOption::CacheDir],
+    app_shaders: Support::No(
+        "it decomposes the scene's meshes into convex parts on the CPU and draws them in visibility order, and an application's buffers give it no meshes",
+    ),
     draw_callback: Support::No(
         "it draws its own groups pass by pass in visibility order",
     ),

@@ -145,7 +145,7 @@ pub fn stage(method: MethodId, coherent: bool) -> Result<(Stage, u32)> {
         }
     };
     // Two passes: the keys' cascade, then the payloads of the keys that stayed.
-    let step = match (method, method.descriptor().app_capture) {
+    let step = match (method, method.descriptor().capture_step) {
         (KbKeys, _) => "if capture_pass == 0u {\n        strata::kbuffer::keys::cascade_key(p, f);\n    } else if !strata::kbuffer::keys::store_payload(p, f) {\n        strata::kbuffer::storage::tail_add(p, f);\n    }".to_owned(),
         (_, Some(step)) => format!("{step};"),
         (_, None) => {

@@ -12,17 +12,17 @@ use super::{SlotKBuffer, Variant};
 fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
     let (gpu, scene, options) = (made.gpu, made.scene, made.options);
     if let Some(variant) = Variant::of(id) {
-        return Ok(Box::new(SlotKBuffer::new(gpu, scene, id, variant)));
+        return Ok(Box::new(SlotKBuffer::new(gpu, scene, id, variant)?));
     }
     if let Some(mdt) = Mdt::of(id) {
         return Ok(Box::new(MdtKBuffer::new(gpu, scene, id, mdt)?));
     }
     Ok(match id {
         MethodId::Sbuffer | MethodId::KbSbuffer | MethodId::KplusSbuffer => {
-            Box::new(super::sbuffer::SBuffer::new(gpu, scene, id, options))
+            Box::new(super::sbuffer::SBuffer::new(gpu, scene, id, options)?)
         }
         MethodId::Kpeel => Box::new(super::kpeel::KPeel::new(gpu, scene)?),
-        _ => Box::new(ListKBuffer::new(gpu, scene, id, options)),
+        _ => Box::new(ListKBuffer::new(gpu, scene, id, options)?),
     })
 }
 
@@ -33,6 +33,7 @@ const KB_MEMORY: &str = "16·(k+1)·W·H + 116 + 40·(W·H with --tail blend, el
 const fn entry(id: MethodId, name: &'static str, family: Family) -> Descriptor {
     Descriptor {
         compute_raster: Support::Yes,
+        app_shaders: Support::Yes,
         ..Descriptor::new(id, name, family, create)
     }
 }
@@ -73,7 +74,7 @@ pub const ABUFFER_LL: Descriptor = Descriptor {
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 156 (nodes ≥ F)",
     summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
-    app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
+    capture_step: Some("strata::kbuffer::list::capture_list(p, f)"),
     traffic: TrafficModel::Lists,
     reads: &[MethodOption::StorageLayout],
     ..entry(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer)
@@ -113,7 +114,7 @@ pub const KPEEL: Descriptor = Descriptor {
 pub const ABUFFER_FIXED: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
-    app_capture: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
+    capture_step: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
     reads: &[
         MethodOption::K,
         MethodOption::Tail,
@@ -143,7 +144,7 @@ pub const KB: Descriptor = Descriptor {
     summary: "original k-buffer: sorted insertion with no lock (read-modify-write hazards between fragments of a pixel)",
     per_sample_storage: true,
     temporal: true,
-    app_capture: Some("strata::kbuffer::kb_capture::capture_sorted_unlocked(p, f)"),
+    capture_step: Some("strata::kbuffer::kb_capture::capture_sorted_unlocked(p, f)"),
     reads: K,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: false },
@@ -156,7 +157,7 @@ pub const KB_PS: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "k-buffer with sorted insertion inside a per-pixel spin lock (pixel synchronisation emulated)",
     temporal: true,
-    app_capture: Some("strata::kbuffer::kb_capture::capture_sorted_locked(p, f)"),
+    capture_step: Some("strata::kbuffer::kb_capture::capture_sorted_locked(p, f)"),
     traffic: TrafficModel::Slots { atomics: true },
     ..locked(MethodId::KbPs, "kb-ps", Family::Kbuffer)
 };
@@ -165,7 +166,7 @@ pub const KB_PS: Descriptor = Descriptor {
 pub const MLAB: Descriptor = Descriptor {
     memory: "16·(k+1)·W·H + 156",
     summary: "multi-layer alpha blending: k layers in depth order under a per-pixel spin lock, the two farthest merged when a fragment makes k + 1 (exact up to k fragments; merges vary with arrival order)",
-    app_capture: Some("strata::kbuffer::kb_capture::capture_mlab(p, f)"),
+    capture_step: Some("strata::kbuffer::kb_capture::capture_mlab(p, f)"),
     reads: &[
         MethodOption::K,
         MethodOption::MaxTries,
@@ -186,7 +187,7 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
     memory: "16·(n+1)·W·H + 116 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
     summary:
         "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
-    app_capture: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
+    capture_step: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
     reads: K,
     traffic: TrafficModel::Slots { atomics: true },
     ..entry(MethodId::KbAbFixed, "kb-ab-fixed", Family::Kbuffer)
@@ -199,7 +200,7 @@ pub const KPLUS_ARRAY: Descriptor = Descriptor {
     summary:
         "k+-buffer max-array: k nearest captured unsorted under a spin lock, max in slot 0, culling",
     temporal: true,
-    app_capture: Some("strata::kbuffer::kplus_capture::capture_locked(p, f, strata::kbuffer::kplus_capture::VARIANT_ARRAY)"),
+    capture_step: Some("strata::kbuffer::kplus_capture::capture_locked(p, f, strata::kbuffer::kplus_capture::VARIANT_ARRAY)"),
     traffic: TrafficModel::Slots { atomics: true },
     ..locked(MethodId::KplusArray, "kplus-array", Family::Kplus)
 };
@@ -207,7 +208,7 @@ pub const KPLUS_ARRAY: Descriptor = Descriptor {
 /// The method table's entry for `kplus-array-r`.
 pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
     summary: "k+-buffer revised max-array: the first k fragments stored without the lock",
-    app_capture: Some("strata::kbuffer::kplus_capture::capture_array_r(p, f)"),
+    capture_step: Some("strata::kbuffer::kplus_capture::capture_array_r(p, f)"),
     ..Descriptor {
         id: MethodId::KplusArrayR,
         name: "kplus-array-r",
@@ -219,7 +220,7 @@ pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
 pub const KPLUS_HEAP: Descriptor = Descriptor {
     summary:
         "k+-buffer max-heap: sift-up while filling, replace-root and sift-down when full, culling",
-    app_capture: Some("strata::kbuffer::kplus_capture::capture_locked(p, f, strata::kbuffer::kplus_capture::VARIANT_HEAP)"),
+    capture_step: Some("strata::kbuffer::kplus_capture::capture_locked(p, f, strata::kbuffer::kplus_capture::VARIANT_HEAP)"),
     max_k: 1024,
     ..Descriptor {
         id: MethodId::KplusHeap,
@@ -242,7 +243,7 @@ pub const KPLUS_SBUFFER: Descriptor = Descriptor {
 /// The method table's entry for `kplus-semiheap`.
 pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
     summary: "semi-heap k-buffer (seed 000): a max-heap of the h farthest (--heap-size, default 1) and an unordered rest; the first k - h fragments stored without the lock, culling against the heap top",
-    app_capture: Some("strata::kbuffer::semiheap_capture::capture_semiheap(p, f)"),
+    capture_step: Some("strata::kbuffer::semiheap_capture::capture_semiheap(p, f)"),
     reads: &[
         MethodOption::K,
         MethodOption::Tail,
@@ -312,7 +313,7 @@ pub const KB_AB_LL: Descriptor = Descriptor {
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 116 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
     summary: "A-buffer linked lists, the k nearest selected in resolve",
-    app_capture: Some("strata::kbuffer::list::capture_list(p, f)"),
+    capture_step: Some("strata::kbuffer::list::capture_list(p, f)"),
     reads: K,
     traffic: TrafficModel::Lists,
     ..entry(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer)
@@ -334,7 +335,7 @@ pub const KB_LL: Descriptor = Descriptor {
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 116 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
     summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",
-    app_capture: Some("strata::kbuffer::list::capture_sorted_list(p, f)"),
+    capture_step: Some("strata::kbuffer::list::capture_sorted_list(p, f)"),
     traffic: TrafficModel::Lists,
     ..locked(MethodId::KbLl, "kb-ll", Family::Kbuffer)
 };

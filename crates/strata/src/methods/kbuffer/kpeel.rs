@@ -129,10 +129,11 @@ impl KPeel {
             module
                 .as_ref()
                 .map(|module| frame.capture_pipeline(gpu, scene, module, entry))
+                .transpose()
         };
         Ok(KPeel {
-            capture: stage("fs_kpeel"),
-            account: stage("fs_kpeel_account"),
+            capture: stage("fs_kpeel")?,
+            account: stage("fs_kpeel_account")?,
             cascade,
             init: pipeline("cs_kpeel_init"),
             finish: pipeline("cs_kpeel_finish"),
@@ -160,11 +161,19 @@ impl Cascade {
         let module = stage.module(&gpu.device);
         let storage_stage = |entry: &str| {
             let label = format!("strata.kpeel.{entry}");
-            crate::raster::storage_stage(gpu, scene, &label, &stage, &module, entry, &layouts)
+            crate::raster::storage_stage(
+                gpu,
+                scene,
+                &label,
+                &stage,
+                (&module, false),
+                entry,
+                &layouts,
+            )
         };
         Ok(Cascade {
-            keys: storage_stage("fs_kpeel_keys"),
-            colors: storage_stage("fs_kpeel_colors"),
+            keys: storage_stage("fs_kpeel_keys")?,
+            colors: storage_stage("fs_kpeel_colors")?,
             layout,
             cache: ResourceCache::default(),
         })

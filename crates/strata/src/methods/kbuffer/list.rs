@@ -37,7 +37,12 @@ pub struct ListKBuffer {
 
 impl ListKBuffer {
     /// The method `id` for `scene`.
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> ListKBuffer {
+    pub fn new(
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        id: MethodId,
+        options: &RenderOptions,
+    ) -> crate::error::Result<ListKBuffer> {
         let mut frame = KFrame::new(gpu, scene, id, Layout::List);
         let module = frame.capture_module(gpu, scene, ENTRIES_WGSL, Layout::List, true);
         let entry = if id == MethodId::KbLl {
@@ -45,12 +50,12 @@ impl ListKBuffer {
         } else {
             "fs_ab_ll"
         };
-        ListKBuffer {
+        Ok(ListKBuffer {
             id,
-            capture: frame.capture_pipeline(gpu, scene, &module, entry),
+            capture: frame.capture_pipeline(gpu, scene, &module, entry)?,
             frame,
             pool: Pool::new(options, NODE_BYTES),
-        }
+        })
     }
 }
 

@@ -118,15 +118,15 @@ impl MdtKBuffer {
         let pipeline = |entry: &str| frame.capture_pipeline(gpu, scene, &module, entry);
         let passes = match mdt {
             Mdt::Mdt32 => vec![
-                ("capture_depth", pipeline("fs_mdt32_depth")),
-                ("capture_color", pipeline("fs_mdt32_color")),
+                ("capture_depth", pipeline("fs_mdt32_depth")?),
+                ("capture_color", pipeline("fs_mdt32_color")?),
             ],
-            Mdt::Mdt64 => vec![("capture", pipeline("fs_mdt64"))],
+            Mdt::Mdt64 => vec![("capture", pipeline("fs_mdt64")?)],
             Mdt::Keys => vec![
-                ("capture_keys", pipeline("fs_keys")),
-                ("capture_colors", pipeline("fs_keys_colors")),
+                ("capture_keys", pipeline("fs_keys")?),
+                ("capture_colors", pipeline("fs_keys_colors")?),
             ],
-            Mdt::Pack => vec![("capture", pipeline("fs_mdt_pack"))],
+            Mdt::Pack => vec![("capture", pipeline("fs_mdt_pack")?)],
         };
         Ok(MdtKBuffer { mdt, frame, passes })
     }

@@ -96,19 +96,6 @@ macro_rules! one_capture_pass_method {
                     .record(ctx, params, storage, &[("capture", &self.capture)])?;
             Ok(recorded)
         }
-
-        fn capture_layout(&self) -> Option<&wgpu::BindGroupLayout> {
-            Some(&self.frame.layout)
-        }
-
-        fn begin_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<wgpu::BindGroup> {
-            let plan = self.plan(ctx)?;
-            self.frame.begin_capture(ctx, plan)
-        }
-
-        fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-            self.frame.end_capture(ctx)
-        }
     };
 }
 
@@ -624,8 +611,6 @@ pub struct KFrame {
     counters_init: wgpu::Buffer,
     counter_start: Option<u32>,
     counters: Option<wgpu::Buffer>,
-    /// Between `begin_capture` and `end_capture`: the group and what the frame records.
-    external: Option<(wgpu::BindGroup, Recorded)>,
     memory_ordering: &'static str,
     /// Why this method cannot run on this adapter: its capture needs ordering the adapter lacks.
     unordered: Option<String>,
@@ -673,7 +658,6 @@ impl KFrame {
             }),
             counter_start: None,
             counters: None,
-            external: None,
             memory_ordering: "relaxed",
             unordered: None,
             temporal: temporal::TemporalState::new(gpu),
@@ -689,10 +673,10 @@ impl KFrame {
         scene: &SceneGpu,
         module: &CaptureModule,
         entry: &str,
-    ) -> GeometryStage {
+    ) -> Result<GeometryStage> {
         let label = format!("strata.{}.{entry}", self.id);
         if module.ordered_compute {
-            return crate::raster::compute_stage(
+            return Ok(crate::raster::compute_stage(
                 gpu,
                 scene,
                 &format!("{label}.compute"),
@@ -700,14 +684,17 @@ impl KFrame {
                 entry,
                 &[&scene.frame_layout, &self.layout],
                 true,
-            );
+            ));
         }
         crate::raster::storage_stage(
             gpu,
             scene,
             &label,
             &module.stage,
-            module.ordered.as_ref().unwrap_or(&module.wgsl),
+            (
+                module.ordered.as_ref().unwrap_or(&module.wgsl),
+                module.ordered.is_some(),
+            ),
             entry,
             &[&scene.frame_layout, &self.layout],
         )
@@ -869,35 +856,6 @@ impl KFrame {
         Ok((group, total))
     }
 
-    /// [`KFrame::begin`] for an application's capture pass; `plan` is the frame's parameters,
-    /// storage and record.
-    pub fn begin_capture(
-        &mut self,
-        ctx: &mut FrameContext<'_>,
-        (params, storage, mut recorded): (KParams, Storage, Recorded),
-    ) -> Result<wgpu::BindGroup> {
-        if orders(self.id) {
-            return Err(Error::unsupported(format!(
-                "{}'s capture takes a per-pixel lock or links lists concurrently, which needs acquire/release atomics, and an application's own capture shader runs WGSL's relaxed ones; capture with kb-ab-fixed, kb-ab-ll, abuffer-ll or abuffer-fixed",
-                self.id
-            )));
-        }
-        let (group, bytes) = self.begin(ctx, params, storage)?;
-        recorded.bytes_allocated = bytes;
-        self.external = Some((group.clone(), recorded));
-        Ok(group)
-    }
-
-    /// [`KFrame::end`] after an application's capture pass.
-    pub fn end_capture(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
-        let (group, recorded) = self
-            .external
-            .take()
-            .ok_or_else(|| Error::runtime("end_capture without begin_capture"))?;
-        self.end(ctx, &group);
-        Ok(recorded)
-    }
-
     /// Records the resolve and asks for the counters.
     pub fn end(&mut self, ctx: &mut FrameContext<'_>, group: &wgpu::BindGroup) {
         self.resolve(ctx, group);
@@ -939,7 +897,12 @@ pub struct SlotKBuffer {
 
 impl SlotKBuffer {
     /// The method `id` of `variant` for `scene`.
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, variant: Variant) -> SlotKBuffer {
+    pub fn new(
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        id: MethodId,
+        variant: Variant,
+    ) -> crate::error::Result<SlotKBuffer> {
         let layout = if variant == Variant::KplusSemiheap {
             Layout::Semiheap
         } else {
@@ -947,12 +910,12 @@ impl SlotKBuffer {
         };
         let mut frame = KFrame::new(gpu, scene, id, layout);
         let module = frame.capture_module(gpu, scene, SLOTS_ENTRIES_WGSL, layout, true);
-        SlotKBuffer {
+        Ok(SlotKBuffer {
             variant,
-            capture: frame.capture_pipeline(gpu, scene, &module, variant.entry()),
+            capture: frame.capture_pipeline(gpu, scene, &module, variant.entry())?,
             frame,
             measured_stride: 0,
-        }
+        })
     }
 
     /// The frame's k, storage and parameters.

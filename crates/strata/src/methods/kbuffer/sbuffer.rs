@@ -141,7 +141,12 @@ pub struct SBuffer {
 
 impl SBuffer {
     /// The method `id` for `scene`.
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, options: &RenderOptions) -> SBuffer {
+    pub fn new(
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        id: MethodId,
+        options: &RenderOptions,
+    ) -> crate::error::Result<SBuffer> {
         let kplus = id == MethodId::KplusSbuffer;
         let mut frame = KFrame::new(gpu, scene, id, layout(id));
         // The k+-buffer's spin lock wants acquire/release ordering where the adapter has it.
@@ -167,10 +172,10 @@ impl SBuffer {
                 &layouts,
             )
         };
-        SBuffer {
+        Ok(SBuffer {
             id,
-            count: frame.capture_pipeline(gpu, scene, &module, count),
-            store: frame.capture_pipeline(gpu, scene, &module, store),
+            count: frame.capture_pipeline(gpu, scene, &module, count)?,
+            store: frame.capture_pipeline(gpu, scene, &module, store)?,
             gather: compute("cs_gather"),
             scan_blocks: compute("cs_scan_blocks"),
             add_block_offsets: compute("cs_add_block_offsets"),
@@ -182,7 +187,7 @@ impl SBuffer {
             need_at_k: None,
             null_target: None,
             cache: ResourceCache::default(),
-        }
+        })
     }
 
     /// The scan's levels for this frame size: uniforms and bind groups, made once per size.

@@ -404,20 +404,28 @@ impl Bucket {
         let storage_stage = |label, stage: &Stage, entry, layout| {
             let module = stage.module(device);
             let layouts = [&scene.frame_layout, layout];
-            crate::raster::storage_stage(gpu, scene, label, stage, &module, entry, &layouts)
+            crate::raster::storage_stage(
+                gpu,
+                scene,
+                label,
+                stage,
+                (&module, false),
+                entry,
+                &layouts,
+            )
         };
         let histogram = storage_stage(
             "strata.bucket.histogram",
             &histogram_stage,
             "fs_histogram",
             &histogram_layout,
-        );
+        )?;
         let color = storage_stage(
             "strata.bucket.color",
             &color_stage,
             "fs_color",
             &color_layout,
-        );
+        )?;
         let resolve = compute_pipeline(
             gpu,
             "strata.bucket.resolve",

@@ -15,9 +15,9 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
         )));
     }
     Ok(match id {
-        MethodId::Dual => Box::new(super::Dual::new(gpu, scene)),
+        MethodId::Dual => Box::new(super::Dual::new(gpu, scene)?),
         MethodId::Bucket => Box::new(super::bucket::Bucket::new(gpu, scene)?),
-        _ => Box::new(super::FrontToBack::new(gpu, scene)),
+        _ => Box::new(super::FrontToBack::new(gpu, scene)?),
     })
 }
 
@@ -42,6 +42,7 @@ pub const DUAL: Descriptor = Descriptor {
     summary: "dual depth peeling: nearest and farthest layer per pass; exact with ties given 64-bit atomic min/max (else fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
     reads: &[MethodOption::Layers],
     compute_raster: Support::Yes,
+    app_shaders: Support::Yes,
     traffic: TrafficModel::PerPixelState {
         atomic_per_fragment: true,
     },

@@ -131,7 +131,7 @@ pub struct FrontToBack {
 
 impl FrontToBack {
     /// The peel and accumulate pipelines for `scene`.
-    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> FrontToBack {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> crate::error::Result<FrontToBack> {
         let device = &gpu.device;
         let samples = scene.samples;
         let multisampled = samples > 1;
@@ -193,17 +193,19 @@ impl FrontToBack {
         } else {
             (peel_pipeline("fs_peel_first"), peel_pipeline("fs_peel"))
         };
-        let account = multisampled.then(|| {
-            crate::raster::storage_stage(
-                gpu,
-                scene,
-                "strata.f2b.account",
-                &peel_stage,
-                &module,
-                "fs_account",
-                &[&scene.frame_layout, &peel_layout],
-            )
-        });
+        let account = multisampled
+            .then(|| {
+                crate::raster::storage_stage(
+                    gpu,
+                    scene,
+                    "strata.f2b.account",
+                    &peel_stage,
+                    (&module, false),
+                    "fs_account",
+                    &[&scene.frame_layout, &peel_layout],
+                )
+            })
+            .transpose()?;
         let module = Stage::new("strata.f2b.accumulate", include_str!("f2b_accumulate.wgsl"))
             .with(LIBRARY)
             .defs(&shader::target_samples(samples))
@@ -215,7 +217,7 @@ impl FrontToBack {
             ["cs_init", "cs_accumulate", "cs_finish"],
             &[&scene.frame_layout, &accumulate_layout],
         );
-        FrontToBack {
+        Ok(FrontToBack {
             init,
             accumulate,
             finish,
@@ -229,7 +231,7 @@ impl FrontToBack {
             measured: None,
             layers_fixed: false,
             cache: ResourceCache::default(),
-        }
+        })
     }
 }
 
@@ -426,7 +428,7 @@ pub fn has_wide_keys(gpu: &Gpu) -> bool {
 
 impl Dual {
     /// The peel and advance pipelines for `scene`.
-    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Dual {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> crate::error::Result<Dual> {
         let device = &gpu.device;
         let wide = has_wide_keys(gpu);
         let peel_layout = binding::layout(
@@ -445,12 +447,21 @@ impl Dual {
         let module = stage.module(device);
         let layouts = [&scene.frame_layout, &peel_layout];
         let geometry_stage = |label, entry| {
-            crate::raster::storage_stage(gpu, scene, label, &stage, &module, entry, &layouts)
+            crate::raster::storage_stage(
+                gpu,
+                scene,
+                label,
+                &stage,
+                (&module, false),
+                entry,
+                &layouts,
+            )
         };
-        let bounds = geometry_stage("strata.dual.bounds", "fs_bounds");
-        let peel = geometry_stage("strata.dual.peel", "fs_peel");
-        let account =
-            (scene.samples > 1).then(|| geometry_stage("strata.dual.account", "fs_account"));
+        let bounds = geometry_stage("strata.dual.bounds", "fs_bounds")?;
+        let peel = geometry_stage("strata.dual.peel", "fs_peel")?;
+        let account = (scene.samples > 1)
+            .then(|| geometry_stage("strata.dual.account", "fs_account"))
+            .transpose()?;
         let [init, advance, finish] = compute_pipelines(
             gpu,
             "strata.dual",
@@ -458,7 +469,7 @@ impl Dual {
             ["cs_init", "cs_advance", "cs_finish"],
             &[&scene.frame_layout, &advance_layout],
         );
-        Dual {
+        Ok(Dual {
             init,
             advance,
             finish,
@@ -472,7 +483,7 @@ impl Dual {
             layers_fixed: false,
             key_bytes: if wide { 8 } else { 4 },
             cache: ResourceCache::default(),
-        }
+        })
     }
 }
 

@@ -15,6 +15,9 @@ pub const TILED: Descriptor = Descriptor {
     memory: "20·I + 12·⌈W/8⌉·⌈H/8⌉ + 40·W·H + 164; I (triangle, 8×8 tile) items, sized from the last frame's need",
     summary: "exact OIT in compute: triangles binned into 8×8 tiles, each tile's pixels sorted and composited inside one workgroup in rounds of 16 nearest fragments; no per-pixel atomics or locks, deterministic",
     compute_raster: Support::Yes,
+    app_shaders: Support::No(
+        "it rasterizes and shades triangles in compute from strata's own vertex buffer, where an application's vertex and fragment stages cannot run",
+    ),
     draw_callback: Support::No("it rasterizes the scene's triangles itself, in compute"),
     msaa: Support::No("it samples pixel centers in compute, as the compute rasterizer does"),
     reads: &[MethodOption::K],
