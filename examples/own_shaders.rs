@@ -146,7 +146,12 @@ pub fn run(
 ) -> Result<(image::RgbaImage, strata::FrameStats), Box<dyn std::error::Error>> {
     // The application's resources.
     let (wall_rect, wall_depth, wall_color) = WALL;
-    let wall = quad(wall_rect, [wall_depth; 2], [wall_color[0], wall_color[1], wall_color[2], 1.0], 0);
+    let wall = quad(
+        wall_rect,
+        [wall_depth; 2],
+        [wall_color[0], wall_color[1], wall_color[2], 1.0],
+        0,
+    );
     let glass: Vec<Vertex> = QUADS
         .iter()
         .enumerate()
@@ -203,7 +208,11 @@ pub fn run(
         })
     };
     let attachment = wgpu::TextureUsages::RENDER_ATTACHMENT;
-    let color = texture("app.color", FORMAT, attachment | wgpu::TextureUsages::COPY_SRC);
+    let color = texture(
+        "app.color",
+        FORMAT,
+        attachment | wgpu::TextureUsages::COPY_SRC,
+    );
     // strata reads the opaque depth in its shaders: TEXTURE_BINDING.
     let depth = texture(
         "app.depth",
@@ -256,9 +265,13 @@ pub fn run(
     if method.descriptor().reads(strata::methods::MethodOption::K) {
         options.frame.k = Some(16);
     }
-    let shader = AppShader::new(format!("{SHADER}{TRANSPARENT_FRAGMENT}"), "vs_main", "fs_transparent")
-        .vertex_buffer(VertexLayout::new(stride, &attributes))
-        .bind_group_layout(&tint_layout);
+    let shader = AppShader::new(
+        format!("{SHADER}{TRANSPARENT_FRAGMENT}"),
+        "vs_main",
+        "fs_transparent",
+    )
+    .vertex_buffer(VertexLayout::new(stride, &attributes))
+    .bind_group_layout(&tint_layout);
     let mut oit = FrameRecorder::for_application(&gpu, method, &options, shader)?;
     // strata calls this once per geometry pass of the method, its pipeline and groups set.
     let draw = |pass: &mut wgpu::RenderPass<'_>| {
@@ -372,7 +385,12 @@ fn read_back(
 fn main() {
     let out = std::path::PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| ".".into()));
     let result = device().map_err(|e| e.into()).and_then(|(device, queue)| {
-        for method in [MethodId::AbufferLl, MethodId::KplusHeap, MethodId::KbKeys, MethodId::Dual] {
+        for method in [
+            MethodId::AbufferLl,
+            MethodId::KplusHeap,
+            MethodId::KbKeys,
+            MethodId::Dual,
+        ] {
             let (picture, stats) = run(&device, &queue, method)?;
             let path = out.join(format!("own_shaders-{method}.png"));
             picture.save(&path)?;

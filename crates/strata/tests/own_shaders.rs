@@ -1,0 +1,376 @@
+//! The own-shaders example (an application with its own vertex format, bind group, opaque pass
+//! and fragment stage) held to hand-computed pictures for every method that takes the
+//! application's shaders, and every misuse of the application path answered with one error.
+
+#[path = "../../../examples/own_shaders.rs"]
+mod app;
+
+use std::sync::OnceLock;
+
+use strata::frame::application::{AppShader, VertexLayout};
+use strata::frame::FrameTargets;
+use strata::gpu::Gpu;
+use strata::{FrameRecorder, MethodId, RenderOptions};
+
+fn device() -> &'static (wgpu::Device, wgpu::Queue) {
+    static DEVICE: OnceLock<(wgpu::Device, wgpu::Queue)> = OnceLock::new();
+    DEVICE.get_or_init(|| app::device().expect("an adapter (lavapipe in CI)"))
+}
+
+fn srgb(c: f64) -> u8 {
+    let c = c.clamp(0.0, 1.0);
+    let s = if c <= 0.0031308 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0).round() as u8
+}
+
+/// Pixel (x, y) worked out by hand: the quads covering its center in front of the opaque
+/// depth, nearest first, each adding α·c of what still shows, over the wall or the background.
+fn expected(x: u32, y: u32) -> [u8; 3] {
+    let half = app::SIZE as f64 / 2.0;
+    let cx = (x as f64 + 0.5) / half - 1.0;
+    let cy = 1.0 - (y as f64 + 0.5) / half;
+    let (rect, wall_depth, wall_color) = app::WALL;
+    let on_wall = cx > rect[0] as f64 && cx < rect[2] as f64;
+    let (opaque, behind) = match on_wall {
+        true => (wall_depth as f64, wall_color.map(f64::from)),
+        false => (1.0, app::BACKGROUND.map(f64::from)),
+    };
+    let mut layers: Vec<(f64, [f32; 4])> = app::QUADS
+        .iter()
+        .filter(|q| {
+            let [x0, y0, x1, y1] = q.rect.map(f64::from);
+            cx > x0 && cx < x1 && cy > y0 && cy < y1
+        })
+        .map(|q| {
+            let [z0, z1] = q.depth.map(f64::from);
+            (z0 + (z1 - z0) * (cx + 1.0) / 2.0, q.color)
+        })
+        .filter(|(z, _)| *z < opaque)
+        .collect();
+    layers.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut color = [0.0f64; 3];
+    let mut shows = 1.0f64;
+    for (_, c) in layers {
+        let a = c[3] as f64;
+        for i in 0..3 {
+            color[i] += shows * a * c[i] as f64;
+        }
+        shows *= 1.0 - a;
+    }
+    [0, 1, 2].map(|i| srgb(color[i] + shows * behind[i]))
+}
+
+/// Largest channel difference from the hand-computed picture, and where.
+fn worst(picture: &image::RgbaImage) -> (u8, (u32, u32)) {
+    let mut worst = (0, (0, 0));
+    for (x, y, p) in picture.enumerate_pixels() {
+        let e = expected(x, y);
+        let d = (0..3).map(|i| p[i].abs_diff(e[i])).max().unwrap_or(0);
+        if d > worst.0 {
+            worst = (d, (x, y));
+        }
+    }
+    worst
+}
+
+/// The largest difference each method may have from the exact picture: exact methods the
+/// 8-bit rounding of the application's wall and of the result (2/255); the packed cascades
+/// their colour precision (kb-mdt64: 8-bit linear RGBA; kb-mdt-pack: 6-bit sRGB-encoded RGBA).
+fn allowed(method: MethodId) -> u8 {
+    match method {
+        MethodId::KbMdt64 => 6,
+        MethodId::KbMdtPack => 12,
+        _ => 2,
+    }
+}
+
+/// Every method that takes the application's shaders draws the example's crossing and
+/// occluded quads as worked out by hand, in the first frame of a one-shot render: nothing of
+/// the blue quad shows through the wall, the tilted green quad crosses the red one.
+#[test]
+fn every_application_method_matches_the_hand_computed_picture() {
+    let (device, queue) = device();
+    let methods: Vec<MethodId> = MethodId::gpu_methods()
+        .filter(|m| m.descriptor().app_shaders.yes())
+        .collect();
+    assert!(methods.len() >= 21, "{methods:?}");
+    let mut failures = Vec::new();
+    for method in methods {
+        let (picture, stats) = match app::run(device, queue, method) {
+            Ok(r) => r,
+            Err(e) => {
+                failures.push(format!("{method}: {e}"));
+                continue;
+            }
+        };
+        let (d, at) = worst(&picture);
+        if d > allowed(method) {
+            let path = std::env::temp_dir().join(format!("own_shaders-{method}.png"));
+            let _ = picture.save(&path);
+            failures.push(format!(
+                "{method}: {d}/255 off at {at:?} (got {:?}, expected {:?}; {})",
+                picture.get_pixel(at.0, at.1),
+                expected(at.0, at.1),
+                path.display()
+            ));
+        }
+        // Three layers at most, k = 16: nothing is dropped, nothing fails a lock.
+        if stats.fragments_dropped != Some(0) || stats.lock_failures.unwrap_or(0) != 0 {
+            failures.push(format!(
+                "{method}: dropped {:?}, lock failures {:?}",
+                stats.fragments_dropped, stats.lock_failures
+            ));
+        }
+        if method.descriptor().exact && stats.exact != Some(true) {
+            failures.push(format!("{method}: the frame says exact {:?}", stats.exact));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// A minimal valid application shader and its layout, for the misuse tests.
+fn shader(source_tail: &str) -> AppShader {
+    let source = format!(
+        "
+struct Varying {{
+    @builtin(position) @invariant position: vec4<f32>,
+    @location(0) color: vec4<f32>,
+}}
+@vertex
+fn vs(@location(0) clip: vec4<f32>, @location(1) color: vec4<f32>) -> Varying {{
+    return Varying(clip, color);
+}}
+{source_tail}"
+    );
+    let attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4];
+    AppShader::new(source, "vs", "fs").vertex_buffer(VertexLayout::new(32, &attributes))
+}
+
+const FRAGMENT: &str = "
+@fragment
+fn fs(v: Varying, @builtin(front_facing) ff: bool, @builtin(sample_mask) mask: u32) -> StrataOut {
+    return strata_capture(v.position, v.color, 0u, ff, mask);
+}";
+
+fn gpu() -> Gpu {
+    let (device, queue) = device();
+    Gpu::from_device(device.clone(), queue.clone())
+}
+
+fn refusal(method: MethodId, options: &RenderOptions, shader: AppShader) -> String {
+    match FrameRecorder::for_application(&gpu(), method, options, shader) {
+        Ok(_) => panic!("{method}: accepted"),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn one_line(e: &str) {
+    assert!(!e.contains('\n'), "more than one line: {e}");
+}
+
+/// Shaders strata cannot compose with its capture are refused when the recorder is made, each
+/// in one line naming what is wrong.
+#[test]
+fn bad_application_shaders_are_refused_in_one_line() {
+    let options = RenderOptions::sized(16, 16);
+    let cases = [
+        (shader("fn fs( {"), "does not parse"),
+        (
+            AppShader {
+                fragment_entry: "fragment".into(),
+                ..shader(FRAGMENT)
+            },
+            "no Fragment entry point 'fragment'",
+        ),
+        (
+            shader(&FRAGMENT.replace(
+                "return strata_capture(v.position, v.color, 0u, ff, mask);",
+                "var o: StrataOut; return o;",
+            )),
+            "never calls strata_capture",
+        ),
+        (
+            AppShader {
+                vertex_entry: "vertex".into(),
+                ..shader(FRAGMENT)
+            },
+            "no Vertex entry point 'vertex'",
+        ),
+    ];
+    for (shader, says) in cases {
+        let e = refusal(MethodId::AbufferLl, &options, shader);
+        one_line(&e);
+        assert!(e.contains(says), "expected '{says}': {e}");
+    }
+    let mut s = shader(FRAGMENT);
+    s.source = s.source.replace("@invariant ", "");
+    let e = refusal(MethodId::AbufferLl, &options, s);
+    one_line(&e);
+    assert!(e.contains("@invariant"), "{e}");
+    // Too many bind groups for the device with strata's after them.
+    let layout = gpu()
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &[],
+        });
+    let mut s = shader(FRAGMENT);
+    for _ in 0..gpu().limits.max_bind_groups {
+        s = s.bind_group_layout(&layout);
+    }
+    let e = refusal(MethodId::AbufferLl, &options, s);
+    one_line(&e);
+    assert!(e.contains("max_bind_groups"), "{e}");
+}
+
+/// Methods and options that cannot take the application's shaders are refused naming why
+/// (and, for a method, which methods can).
+#[test]
+fn methods_and_options_without_an_application_path_are_refused() {
+    let options = RenderOptions::sized(16, 16);
+    for method in MethodId::gpu_methods().filter(|m| !m.descriptor().app_shaders.yes()) {
+        let e = refusal(method, &options, shader(FRAGMENT));
+        one_line(&e);
+        assert!(
+            e.contains("own shaders") && e.contains("abuffer-ll"),
+            "{method}: {e}"
+        );
+    }
+    let mut translucent = options.clone();
+    translucent.frame.effect = strata::Effect::Translucency;
+    let e = refusal(MethodId::AbufferLl, &translucent, shader(FRAGMENT));
+    assert!(e.contains("translucency"), "{e}");
+    let mut auto_k = options.clone();
+    auto_k.frame.k_auto = Some(0.95);
+    let e = refusal(MethodId::KbKeys, &auto_k, shader(FRAGMENT));
+    assert!(e.contains("--k auto"), "{e}");
+}
+
+/// A method whose feature the device lacks is refused in one line, not a panic.
+#[test]
+fn a_missing_feature_is_refused_in_one_line() {
+    let gpu = Gpu::new_without(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS).unwrap();
+    let e = FrameRecorder::for_application(
+        &gpu,
+        MethodId::KbKeys,
+        &RenderOptions::sized(16, 16),
+        shader(FRAGMENT),
+    )
+    .err()
+    .expect("kb-keys needs 64-bit atomics")
+    .to_string();
+    one_line(&e);
+    assert!(e.contains("SHADER_INT64_ATOMIC_ALL_OPS"), "{e}");
+}
+
+fn texture(size: u32, format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+    device().0.create_texture(&wgpu::TextureDescriptor {
+        label: None,
+        size: wgpu::Extent3d {
+            width: size,
+            height: size,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+/// Targets that do not fit the frame, and a frame without the application's draw, are errors
+/// returned by `record` before anything is recorded.
+#[test]
+fn misused_targets_are_errors_not_panics() {
+    let gpu = gpu();
+    let mut oit = FrameRecorder::for_application(
+        &gpu,
+        MethodId::AbufferLl,
+        &RenderOptions::sized(16, 16),
+        shader(FRAGMENT),
+    )
+    .unwrap();
+    let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
+    let bindable = attach | wgpu::TextureUsages::TEXTURE_BINDING;
+    let color = texture(16, app::FORMAT, attach);
+    let small = texture(8, app::FORMAT, attach);
+    let depth = texture(16, wgpu::TextureFormat::Depth32Float, bindable);
+    let unbindable = texture(16, wgpu::TextureFormat::Depth32Float, attach);
+    let not_depth = texture(16, wgpu::TextureFormat::R32Float, bindable);
+    let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+    let (color, small, depth, unbindable, not_depth) = (
+        view(&color),
+        view(&small),
+        view(&depth),
+        view(&unbindable),
+        view(&not_depth),
+    );
+    let draw = |_: &mut wgpu::RenderPass<'_>| {};
+    let cases: [(FrameTargets<'_>, &str); 5] = [
+        (
+            FrameTargets {
+                color: Some((&small, app::FORMAT)),
+                opaque_depth: Some(&depth),
+            },
+            "8x8 and the frame 16x16",
+        ),
+        (
+            FrameTargets {
+                color: Some((&color, app::FORMAT)),
+                opaque_depth: Some(&unbindable),
+            },
+            "TEXTURE_BINDING",
+        ),
+        (
+            FrameTargets {
+                color: Some((&color, app::FORMAT)),
+                opaque_depth: Some(&not_depth),
+            },
+            "has no depth",
+        ),
+        (
+            FrameTargets {
+                color: Some((&color, wgpu::TextureFormat::Bgra8UnormSrgb)),
+                opaque_depth: Some(&depth),
+            },
+            "format is given as",
+        ),
+        (
+            FrameTargets {
+                color: Some((&depth, wgpu::TextureFormat::Depth32Float)),
+                opaque_depth: None,
+            },
+            "not a blendable color format",
+        ),
+    ];
+    for (targets, says) in cases {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let e = oit
+            .record(&mut encoder, &targets, Some(&draw))
+            .err()
+            .unwrap_or_else(|| panic!("accepted ({says})"))
+            .to_string();
+        one_line(&e);
+        assert!(e.contains(says), "expected '{says}': {e}");
+    }
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    let targets = FrameTargets {
+        color: Some((&color, app::FORMAT)),
+        opaque_depth: Some(&depth),
+    };
+    let e = oit
+        .record(&mut encoder, &targets, None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("draw callback"), "{e}");
+    // The recorder still works after the refusals.
+    oit.record(&mut encoder, &targets, Some(&draw)).unwrap();
+    gpu.queue.submit([encoder.finish()]);
+    oit.wait_stats().unwrap();
+}
