@@ -41,8 +41,26 @@
 use std::borrow::Cow;
 
 use crate::error::{Error, Result};
-use crate::gpu::shader::{capture_entries, Defs, Stage};
+use crate::gpu::shader::{capture_entries, color_entries, Defs, Stage};
 use crate::gpu::Gpu;
+use crate::scene::{Camera, Projection};
+
+/// The camera an application's recorder starts with. strata never transforms the
+/// application's vertices; its camera only turns a window depth into a view distance, which the
+/// weighted methods' weights read (`--weight eq7..eq9`): orthographic from 0 to 1, the distance
+/// is the window depth itself. An application with a perspective projection gives its own
+/// near and far planes with [`crate::FrameRecorder::set_camera`] (a [`Camera`] whose
+/// `projection` is perspective: only `projection`, `near` and `far` are read).
+pub fn depth_camera() -> Camera {
+    Camera {
+        eye: glam::Vec3::Z,
+        target: glam::Vec3::ZERO,
+        up: glam::Vec3::Y,
+        projection: Projection::Orthographic { height: 2.0 },
+        near: 0.0,
+        far: 1.0,
+    }
+}
 
 /// The capture function strata defines for the application's fragment stage.
 pub const CAPTURE_FUNCTION: &str = "strata_capture";
@@ -138,34 +156,51 @@ impl AppShader {
     }
 }
 
-/// The stage that defines `strata_capture` for the capture step `{entry}_capture` of `stage`
-/// (a library module declaring it, as `crate::raster::capture_stage` reads it): the
-/// application's colour reaches the step through `shade` (`APP_SHADING` in scene.wgsl), its
-/// position and id through the varying the step reads.
+/// The stage that defines `strata_capture` for the fragment stage `entry` of `stage` (a library
+/// module declaring its step, as `crate::raster::capture_stage` reads it): a storage-only
+/// capture step `{entry}_capture`, or a colour step `{entry}_step` whose outputs
+/// `strata_capture` returns. The application's colour reaches the step through `shade`
+/// (`APP_SHADING` in scene.wgsl), its position and id through the varying the step reads.
 pub fn capture_stage(stage: &Stage, entry: &str) -> Result<Stage> {
-    let step = format!("{entry}_capture");
-    if !capture_entries(stage.source()).any(|e| e == entry) {
-        return Err(Error::unsupported(format!(
-            "{entry} declares no capture step ({step}) an application's shader can call"
-        )));
-    }
+    let storage = capture_entries(stage.source()).any(|e| e == entry);
+    let color = color_entries(stage.source()).find(|(e, _)| *e == entry);
+    let (step, out, storage_out) = match (storage, color) {
+        (true, _) => (
+            format!("{entry}_capture"),
+            "StrataStorageOut",
+            "// Nothing reaches the pass's target: the capture writes storage.\nstruct StrataStorageOut {\n    @location(0) unused: vec4<f32>,\n}\n",
+        ),
+        (false, Some((_, out))) => (format!("{entry}_step"), out, ""),
+        (false, None) => {
+            return Err(Error::unsupported(format!(
+                "{}: {entry} declares no step an application's shader can call",
+                stage.label
+            )))
+        }
+    };
     let module = stage.module_name().ok_or_else(|| {
         Error::unsupported(format!(
             "{}: the stage names no module to import {step} from",
             stage.label
         ))
     })?;
+    let (import, call) = match storage {
+        true => (
+            step.clone(),
+            format!("{step}(v, front_facing, sample_mask);\n    return {out}(vec4<f32>(0.0));"),
+        ),
+        false => (
+            format!("{step}, {out}"),
+            format!("return {step}(v, front_facing, sample_mask);"),
+        ),
+    };
     let bridge = format!(
         "#import strata::scene::{{SceneVarying, set_app_surface}}
-#import {module}::{step}
+#import {module}::{{{import}}}
 
-// What the application's fragment stage returns: nothing reaches the pass's target.
-struct {CAPTURE_OUTPUT} {{
-    @location(0) unused: vec4<f32>,
-}}
-
-// The application's fragment, handed to strata's capture for this pass.
-fn {CAPTURE_FUNCTION}(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_facing: bool, sample_mask: u32) -> {CAPTURE_OUTPUT} {{
+{storage_out}
+// The application's fragment, handed to strata's step for this pass.
+fn {CAPTURE_FUNCTION}(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, front_facing: bool, sample_mask: u32) -> {out} {{
     let a = premultiplied.a;
     set_app_surface(vec4<f32>(select(vec3<f32>(0.0), premultiplied.rgb / a, a > 0.0), a));
     var v: SceneVarying;
@@ -174,8 +209,7 @@ fn {CAPTURE_FUNCTION}(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, fr
     v.normal = vec3<f32>(0.0, 0.0, 1.0);
     v.prim = id;
     v.material = 0u;
-    {step}(v, front_facing, sample_mask);
-    return {CAPTURE_OUTPUT}(vec4<f32>(0.0));
+    {call}
 }}
 "
     );
@@ -200,6 +234,8 @@ pub struct PassPipeline<'a> {
     pub ordered: bool,
     /// The pass's colour targets.
     pub targets: &'a [Option<wgpu::ColorTargetState>],
+    /// The pass's depth attachment's state (peeling's and stochastic's depth tests).
+    pub depth: Option<wgpu::DepthStencilState>,
     /// Samples per pixel (`--msaa`).
     pub samples: u32,
 }
@@ -273,7 +309,7 @@ pub fn pipeline(
                 buffers: &buffers,
             },
             primitive: app.primitive,
-            depth_stencil: None,
+            depth_stencil: pass.depth.clone(),
             multisample: wgpu::MultisampleState {
                 count: pass.samples,
                 ..Default::default()
@@ -307,8 +343,14 @@ pub fn composed(app: &AppShader, capture: &Stage) -> Result<naga::Module> {
     let capture_wgsl =
         naga::back::wgsl::write_string(&strata, &info, naga::back::wgsl::WriterFlags::empty())
             .map_err(|e| Error::runtime(format!("{}: {e}", capture.label)))?;
+    let output = output_name(&capture_wgsl).ok_or_else(|| {
+        Error::runtime(format!(
+            "{}: the capture defines no {CAPTURE_FUNCTION} returning a struct",
+            capture.label
+        ))
+    })?;
     let source = format!(
-        "{}\n\n// strata's capture for this pass (appended by strata)\n{capture_wgsl}",
+        "{}\n\n// strata's capture for this pass (appended by strata)\n{capture_wgsl}\nalias {CAPTURE_OUTPUT} = {output};\n",
         app.source
     );
     let module = naga::front::wgsl::parse_str(&source).map_err(|e| {
@@ -329,6 +371,17 @@ pub fn composed(app: &AppShader, capture: &Stage) -> Result<naga::Module> {
     })?;
     check_entries(app, &module)?;
     Ok(module)
+}
+
+/// The name the written capture gives the struct `strata_capture` returns (the step's output,
+/// named as its module's decorated name).
+fn output_name(capture_wgsl: &str) -> Option<String> {
+    let module = naga::front::wgsl::parse_str(capture_wgsl).ok()?;
+    let (_, function) = module
+        .functions
+        .iter()
+        .find(|(_, f)| f.name.as_deref() == Some(CAPTURE_FUNCTION))?;
+    module.types[function.result.as_ref()?.ty].name.clone()
 }
 
 fn validator() -> naga::valid::Validator {

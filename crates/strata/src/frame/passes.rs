@@ -37,6 +37,46 @@ pub fn capture_pipeline(
     render_pipeline(gpu, label, vertex, fragment, layouts, targets, raster)
 }
 
+/// The render pipeline of a geometry pass whose fragment stage is `stage`'s `entry` (a colour
+/// step's made entry, [`crate::gpu::shader::color_entries`]): strata's vertex stage over the
+/// scene ([`capture_pipeline`]), or for an application's recorder its shader calling the step
+/// ([`crate::frame::application`]).
+#[allow(clippy::too_many_arguments)]
+pub fn geometry_pipeline(
+    gpu: &Gpu,
+    scene: &crate::frame::SceneGpu,
+    (stage, entry): (&crate::gpu::shader::Stage, &str),
+    layouts: &[&wgpu::BindGroupLayout],
+    targets: &[Option<wgpu::ColorTargetState>],
+    depth: Option<wgpu::DepthStencilState>,
+    samples: u32,
+) -> crate::error::Result<wgpu::RenderPipeline> {
+    let label = format!("{}.{entry}", stage.label);
+    match &scene.application {
+        Some(app) => {
+            let capture = crate::frame::application::capture_stage(stage, entry)?;
+            let pass = crate::frame::application::PassPipeline {
+                label: &label,
+                layouts,
+                ordered: false,
+                targets,
+                depth,
+                samples,
+            };
+            crate::frame::application::pipeline(gpu, app, &capture, &pass)
+        }
+        None => Ok(capture_pipeline(
+            gpu,
+            &label,
+            (&stage.module(&gpu.device), entry),
+            layouts,
+            targets,
+            depth,
+            samples,
+        )),
+    }
+}
+
 /// Records a geometry pass of `pipeline` with `groups` bound from index 0 into color `targets`,
 /// each cleared to its color first, drawing the frame's geometry.
 pub fn color_geometry_pass(

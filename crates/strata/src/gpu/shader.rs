@@ -90,6 +90,10 @@ pub fn target_samples(samples: u32) -> Defs {
 /// A capture step's signature after its name: `fn fs_x_capture(…) {` in a storage-only stage.
 const CAPTURE_STEP: &str = "_capture(v: SceneVarying, front_facing: bool, mask: u32) {";
 
+/// A colour step's parameters after its name: `fn fs_x_step(…) -> Out {` in a stage that
+/// writes colour targets, `Out` a struct of its outputs.
+const COLOR_STEP: &str = "_step(v: SceneVarying, front_facing: bool, mask: u32) -> ";
+
 /// A pixel step's signature after its name: `fn cs_x_pixel(…) {` in a per-pixel compute stage.
 const PIXEL_STEP: &str = "_pixel(pixel: vec2<u32>) {";
 
@@ -119,6 +123,33 @@ fn capture_fragment_stages(source: &str) -> String {
         .map(|entry| {
             format!(
                 "\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {{\n    {entry}_capture(v, front_facing, mask);\n}}\n"
+            )
+        })
+        .collect()
+}
+
+/// The fragment entry points whose colour steps `source` declares, with the struct each
+/// returns: `(fs_x, Out)` for each `fn fs_x_step(v: SceneVarying, front_facing: bool, mask:
+/// u32) -> Out {` at the start of a line (not inside an `#ifdef`).
+pub fn color_entries(source: &str) -> impl Iterator<Item = (&str, &str)> {
+    source.lines().filter_map(|line| {
+        let (name, rest) = line.strip_prefix("fn ")?.split_once(COLOR_STEP)?;
+        let out = rest.strip_suffix(" {")?;
+        let word =
+            |w: &str| !w.is_empty() && w.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        (word(name) && word(out)).then_some((name, out))
+    })
+}
+
+/// The fragment stages of `source`'s colour steps, made so that each step is written once:
+/// `@fragment fn fs_x` passes the rasterized fragment, its facing and its sample mask to
+/// `fs_x_step` and returns its outputs (an application's `strata_capture` calls the same step,
+/// `frame::application`).
+fn color_fragment_stages(source: &str) -> String {
+    color_entries(source)
+        .map(|(entry, out)| {
+            format!(
+                "\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) -> {out} {{\n    return {entry}_step(v, front_facing, mask);\n}}\n"
             )
         })
         .collect()
@@ -289,9 +320,10 @@ impl ModuleLibrary {
             self.add(&import.import, &known, &stage.label, &mut Vec::new())?;
         }
         let source = format!(
-            "{}{}{}",
+            "{}{}{}{}",
             stage.source,
             capture_fragment_stages(&stage.source),
+            color_fragment_stages(&stage.source),
             pixel_compute_stages(&stage.source)
         );
         self.composer

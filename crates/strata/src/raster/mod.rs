@@ -218,6 +218,7 @@ pub fn storage_stage(
             layouts,
             ordered,
             targets: &[NullTarget::target_state()],
+            depth: None,
             samples: scene.samples,
         };
         return crate::frame::application::pipeline(gpu, app, &capture, &pass)

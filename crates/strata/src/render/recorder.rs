@@ -213,6 +213,9 @@ impl FrameRecorder {
                 )
             }
         };
+        if application.is_some() {
+            scene_gpu.update(gpu, &crate::frame::application::depth_camera(), options);
+        }
         scene_gpu.application = application.map(std::sync::Arc::new);
         scene_gpu.raster_layout =
             (options.build.raster == Raster::Compute).then(|| crate::raster::raster_layout(gpu));

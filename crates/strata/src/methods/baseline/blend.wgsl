@@ -6,12 +6,15 @@
 
 @group(1) @binding(0) var<storage, read_write> counts: array<atomic<u32>>;
 
-@fragment
-fn fs_blend(v: SceneVarying) -> @location(0) vec4<f32> {
+struct BlendOut {
+    @location(0) color: vec4<f32>,
+}
+
+fn fs_blend_step(v: SceneVarying, front_facing: bool, mask: u32) -> BlendOut {
     if behind_opaque(v.position) {
         discard;
     }
     atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
     let c = shade(v.world, v.normal, v.material);
-    return vec4<f32>(c.rgb * c.a, c.a);
+    return BlendOut(vec4<f32>(c.rgb * c.a, c.a));
 }

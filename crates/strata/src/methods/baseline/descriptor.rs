@@ -9,7 +9,7 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
         gpu,
         scene,
         id == MethodId::Sorted,
-    )))
+    )?))
 }
 
 /// The baselines' blend modes.
@@ -21,6 +21,7 @@ pub const UNSORTED: Descriptor = Descriptor {
     memory: "(8·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
     summary: "alpha blending in submission order (no OIT)",
     blend_modes: HARDWARE_OVER,
+    app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Unsorted, "unsorted", Family::Baseline, create)
 };
 

@@ -14,7 +14,7 @@ pub mod descriptor;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    capture_pipeline, color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels,
+    color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels, geometry_pipeline,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -42,7 +42,7 @@ pub struct Blend {
 
 impl Blend {
     /// The blend pipelines; `sort` orders the triangles back to front by centroid every frame.
-    pub fn new(gpu: &Gpu, scene: &SceneGpu, sort: bool) -> Blend {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu, sort: bool) -> crate::error::Result<Blend> {
         let samples = scene.samples;
         let target = Slot::target(samples);
         let blend_layout = binding::layout(&gpu.device, "strata.blend.layout", &[Slot::StorageRw]);
@@ -51,11 +51,10 @@ impl Blend {
             "strata.blend.finish.layout",
             &[Slot::StorageRw, target, Slot::StorageRw],
         );
-        let module = blend_stage().module(&gpu.device);
-        let blend = capture_pipeline(
+        let blend = geometry_pipeline(
             gpu,
-            "strata.blend",
-            (&module, "fs_blend"),
+            scene,
+            (&blend_stage(), "fs_blend"),
             &[&scene.frame_layout, &blend_layout],
             &[Some(wgpu::ColorTargetState {
                 format: BLEND_FORMAT,
@@ -64,7 +63,7 @@ impl Blend {
             })],
             None,
             samples,
-        );
+        )?;
         let module = finish_stage(samples).module(&gpu.device);
         let finish = compute_pipeline(
             gpu,
@@ -72,7 +71,7 @@ impl Blend {
             (&module, "cs_finish"),
             &[&scene.frame_layout, &finish_layout],
         );
-        Blend {
+        Ok(Blend {
             sort,
             blend_layout,
             finish_layout,
@@ -81,7 +80,7 @@ impl Blend {
             order: None,
             cache: ResourceCache::default(),
             samples,
-        }
+        })
     }
 
     /// The vertex numbers of the triangles from farthest to nearest centroid along the view
@@ -111,8 +110,14 @@ pub fn finish_stage(samples: u32) -> Stage {
 
 /// The blended capture (its own stage: it writes a color).
 pub fn blend_stage() -> Stage {
-    Stage::new("strata.blend", include_str!("blend.wgsl"))
+    Stage::new("strata.blend", BLEND_WGSL).with(LIBRARY)
 }
+
+const BLEND_WGSL: &str = include_str!("blend.wgsl");
+
+/// The baselines' WGSL modules (`strata::baseline::…`): the blend stage, which an
+/// application's capture imports.
+pub const LIBRARY: crate::gpu::shader::Library = &[BLEND_WGSL];
 
 impl Method for Blend {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {

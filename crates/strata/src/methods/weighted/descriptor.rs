@@ -14,7 +14,7 @@ fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method
         MethodId::Mboit => Box::new(super::mboit::Mboit::new(gpu, scene)?),
         MethodId::Wavelet => Box::new(super::mboit::Mboit::wavelet(gpu, scene)?),
         MethodId::Stochastic => Box::new(super::stochastic::Stochastic::new(gpu, scene)?),
-        _ => Box::new(super::Wboit::new(gpu, scene)),
+        _ => Box::new(super::Wboit::new(gpu, scene)?),
     })
 }
 
@@ -25,6 +25,7 @@ pub const WBOIT: Descriptor = Descriptor {
     reads: &[MethodOption::Weight],
     blend_modes: SUMS_OF_OVER,
     downlevel: true,
+    app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Wboit, "wboit", Family::Weighted, create)
 };
 
@@ -35,6 +36,7 @@ pub const MBOIT: Descriptor = Descriptor {
     summary: "moment-based OIT (Münstermann et al. 2018): 4, 6 or 8 power moments of absorbance over log depth, or 2, 3 or 4 trigonometric moments of its angle on a circle with a wrapping zone of π/10 (--moments 4|6|8|trig2|trig3|trig4; 32-bit, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
     reads: &[MethodOption::Moments],
     blend_modes: SUMS_OF_OVER,
+    app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Mboit, "mboit", Family::Weighted, create)
 };
 
@@ -45,6 +47,7 @@ pub const WAVELET: Descriptor = Descriptor {
     summary: "wavelet OIT (after Aizenshtein, Smal & McGuire 2022): each pixel's absorbance over its own depth range (a min/max pass first) as 4 or 8 Haar coefficients (--coefficients; closed form per fragment, additive 32-bit targets), transmittance reconstructed per fragment as its depth bin's average less its own step; exact coverage",
     reads: &[MethodOption::Coefficients],
     blend_modes: SUMS_OF_OVER,
+    app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Wavelet, "wavelet", Family::Weighted, create)
 };
 

@@ -66,7 +66,7 @@ use bytemuck::Zeroable;
 use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
-use crate::frame::passes::{blend_add, capture_pipeline, color_geometry_pass, color_target};
+use crate::frame::passes::{blend_add, color_geometry_pass, color_target, geometry_pipeline};
 use crate::frame::{FrameContext, Moments, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
@@ -179,42 +179,42 @@ fn target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
 /// its shade pass, over the frame's, the moments' and the shade's bind group `layouts`.
 fn passes(
     gpu: &Gpu,
-    [frame_layout, moments_layout, shade_layout]: [&wgpu::BindGroupLayout; 3],
-    samples: u32,
+    scene: &SceneGpu,
+    [moments_layout, shade_layout]: [&wgpu::BindGroupLayout; 2],
     moments: Moments,
-) -> [wgpu::RenderPipeline; 2] {
+) -> Result<[wgpu::RenderPipeline; 2]> {
+    let samples = scene.samples;
     let reals = moments.reals();
     let mut targets = vec![target(B0_FORMAT), target(MOMENTS_FORMAT)];
     if reals > 4 {
         targets.push(target(high_format(reals).0));
     }
     let pass = |stage: Stage, entry, layout, targets: &[_]| {
-        let module = stage.module(&gpu.device);
-        let layouts = [frame_layout, layout];
-        capture_pipeline(
+        let layouts = [&scene.frame_layout, layout];
+        geometry_pipeline(
             gpu,
-            &stage.label,
-            (&module, entry),
+            scene,
+            (&stage, entry),
             &layouts,
             targets,
             None,
             samples,
         )
     };
-    [
+    Ok([
         pass(
             moments_stage(samples, moments),
             "fs_moments",
             moments_layout,
             &targets,
-        ),
+        )?,
         pass(
             shade_stage(samples, moments),
             "fs_shade",
             shade_layout,
             &[target(ACCUMULATION_FORMAT)],
-        ),
-    ]
+        )?,
+    ])
 }
 
 /// The definitions of `moments`' stages, reading multisampled targets with `--msaa`:
@@ -277,10 +277,10 @@ impl Mboit {
         );
         let [moments, shade] = passes(
             gpu,
-            [&scene.frame_layout, &moments_layout, &shade_layout],
-            samples,
+            scene,
+            [&moments_layout, &shade_layout],
             Moments::Power(4),
-        );
+        )?;
         let composite = super::Composite::new(gpu, scene, composite_stage(samples));
         Ok(Mboit {
             moments_layout,
@@ -309,16 +309,16 @@ impl Mboit {
             "strata.wavelet.coefficients.layout",
             &[Slot::Uniform, Slot::StorageRw, texture],
         );
-        let module = moments_stage(samples, Moments::Power(4)).module(&gpu.device);
+        let stage = moments_stage(samples, Moments::Power(4));
         let range = |operation| wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
             operation,
         };
-        let bounds = capture_pipeline(
+        let bounds = geometry_pipeline(
             gpu,
-            "strata.wavelet.bounds",
-            (&module, "fs_bounds"),
+            scene,
+            (&stage, "fs_bounds"),
             &[&scene.frame_layout],
             &[Some(wgpu::ColorTargetState {
                 format: BOUNDS_FORMAT,
@@ -330,7 +330,7 @@ impl Mboit {
             })],
             None,
             samples,
-        );
+        )?;
         Ok(Mboit {
             wavelet: Some(WaveletStage {
                 bounds,
@@ -341,12 +341,7 @@ impl Mboit {
     }
 
     /// The stages of `moments` (any but four power moments), made when first asked for.
-    fn high_stage(
-        &mut self,
-        gpu: &Gpu,
-        scene_layout: &wgpu::BindGroupLayout,
-        moments: Moments,
-    ) -> Result<()> {
+    fn high_stage(&mut self, gpu: &Gpu, scene: &SceneGpu, moments: Moments) -> Result<()> {
         if self.high.as_ref().is_some_and(|h| h.moments == moments) {
             return Ok(());
         }
@@ -369,8 +364,7 @@ impl Mboit {
             (Some(w), Moments::Haar(_)) => &w.coefficients_layout,
             _ => &self.moments_layout,
         };
-        let layouts = [scene_layout, moments_layout, &self.shade_layout];
-        let [pipeline, shade] = passes(gpu, layouts, self.samples, moments);
+        let [pipeline, shade] = passes(gpu, scene, [moments_layout, &self.shade_layout], moments)?;
         self.high = Some(HighStage {
             moments,
             pipeline,
@@ -401,7 +395,7 @@ impl Method for Mboit {
         ctx.check_budget(bytes)?;
         let high = moments != Moments::Power(4);
         if high {
-            self.high_stage(gpu, &ctx.scene.frame_layout, moments)?;
+            self.high_stage(gpu, ctx.scene, moments)?;
         }
         let (w, h) = ctx.size();
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;

@@ -11,23 +11,26 @@
 // MBOIT_HAAR > 0, power moments else; fs_bounds reads none of them.
 
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
+// wavelet: each sample's nearest (r) and farthest (a) warped depth, from fs_bounds (types
+// spelled out: a module an application's capture imports takes no alias).
 #ifdef MULTISAMPLED
-alias BoundsTexture = texture_multisampled_2d<f32>;
+@group(1) @binding(2) var bounds_target: texture_multisampled_2d<f32>;
 #else
-alias BoundsTexture = texture_2d<f32>;
+@group(1) @binding(2) var bounds_target: texture_2d<f32>;
 #endif
-// wavelet: each sample's nearest (r) and farthest (a) warped depth, from fs_bounds.
-@group(1) @binding(2) var bounds_target: BoundsTexture;
 
 // wavelet's first pass: the warped depth as the least (r, blended with MIN) and the greatest
 // (a, blended with MAX) of the samples the fragment covers.
-@fragment
-fn fs_bounds(v: SceneVarying) -> @location(0) vec4<f32> {
+struct BoundsOut {
+    @location(0) bounds: vec4<f32>,
+}
+
+fn fs_bounds_step(v: SceneVarying, front_facing: bool, mask: u32) -> BoundsOut {
     if behind_opaque(v.position) {
         discard;
     }
     let z = mboit_depth(v.position.z);
-    return vec4<f32>(z, 0.0, 0.0, z);
+    return BoundsOut(vec4<f32>(z, 0.0, 0.0, z));
 }
 
 // The pixel's depth range: the union of its samples' (a fragment's coefficients are the same in
@@ -83,7 +86,7 @@ fn fragment_haar_coefficients(v: SceneVarying) -> FragmentMoments {
 
 // The stage's targets: b0, the first four moments, and with 6 or 8 real values a third.
 struct MomentsOut {
-    @location(0) b0: vec4<f32>,
+    @location(0) total_absorbance: vec4<f32>,
     @location(1) moments: vec4<f32>,
 #if MBOIT_MOMENTS == 6
     @location(2) high: vec2<f32>,
@@ -92,8 +95,7 @@ struct MomentsOut {
 #endif
 }
 
-@fragment
-fn fs_moments(v: SceneVarying) -> MomentsOut {
+fn fs_moments_step(v: SceneVarying, front_facing: bool, mask: u32) -> MomentsOut {
     if behind_opaque(v.position) {
         discard;
     }

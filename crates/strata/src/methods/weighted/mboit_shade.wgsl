@@ -7,11 +7,6 @@ const MBOIT_MOMENTS: u32 = #{MBOIT_MOMENTS}u;
 const MBOIT_TRIG: u32 = #{MBOIT_TRIG}u;
 // wavelet: its Haar coefficients (MBOIT_MOMENTS too); 0 for moments.
 const MBOIT_HAAR: u32 = #{MBOIT_HAAR}u;
-#ifdef MULTISAMPLED
-alias TargetTexture = texture_multisampled_2d<f32>;
-#else
-alias TargetTexture = texture_2d<f32>;
-#endif
 
 // mboit pass 2: every fragment adds its color weighted by α and by the transmittance the moments
 // give in front of it, (T·α·c, T·α), into the accumulation target (additive blending). With
@@ -20,12 +15,20 @@ alias TargetTexture = texture_2d<f32>;
 // moments those past the fourth come from a third target. MBOIT_MOMENTS is the definition of the
 // method: each count compiles its own stage, so the generic solver's loops have constant bounds.
 
-@group(1) @binding(1) var b0_target: TargetTexture;
-@group(1) @binding(2) var moments_target: TargetTexture;
-// With four moments the moments target again (not read).
-@group(1) @binding(3) var moments_high: TargetTexture;
-// wavelet: the depth range of each sample (fs_bounds); mboit: b0 again (not read).
-@group(1) @binding(4) var bounds_target: TargetTexture;
+// The targets' types are spelled out: a module an application's capture imports takes no
+// alias. With four moments moments_high is the moments target again (not read); mboit's
+// bounds_target is b0 again (not read), wavelet's the depth range of each sample (fs_bounds).
+#ifdef MULTISAMPLED
+@group(1) @binding(1) var b0_target: texture_multisampled_2d<f32>;
+@group(1) @binding(2) var moments_target: texture_multisampled_2d<f32>;
+@group(1) @binding(3) var moments_high: texture_multisampled_2d<f32>;
+@group(1) @binding(4) var bounds_target: texture_multisampled_2d<f32>;
+#else
+@group(1) @binding(1) var b0_target: texture_2d<f32>;
+@group(1) @binding(2) var moments_target: texture_2d<f32>;
+@group(1) @binding(3) var moments_high: texture_2d<f32>;
+@group(1) @binding(4) var bounds_target: texture_2d<f32>;
+#endif
 
 // The pixel's depth range, the union of its samples' (as the coefficients pass took it).
 fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
@@ -81,10 +84,13 @@ fn shade_fragment(v: SceneVarying, mask: u32, high: bool) -> vec4<f32> {
     return vec4<f32>(c.rgb * alpha * t, alpha * t);
 }
 
-@fragment
-fn fs_shade(v: SceneVarying, @builtin(sample_mask) mask: u32) -> @location(0) vec4<f32> {
+struct ShadeOut {
+    @location(0) color: vec4<f32>,
+}
+
+fn fs_shade_step(v: SceneVarying, front_facing: bool, mask: u32) -> ShadeOut {
     if behind_opaque(v.position) {
         discard;
     }
-    return shade_fragment(v, mask, MBOIT_MOMENTS > 4u);
+    return ShadeOut(shade_fragment(v, mask, MBOIT_MOMENTS > 4u));
 }

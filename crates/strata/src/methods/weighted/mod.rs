@@ -31,7 +31,7 @@ use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::Result;
 use crate::frame::passes::{
-    capture_pipeline, color_geometry_pass, compute_pipeline, dispatch_pixels,
+    color_geometry_pass, compute_pipeline, dispatch_pixels, geometry_pipeline,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -102,7 +102,7 @@ pub struct Wboit {
 
 impl Wboit {
     /// The accumulate and composite pipelines for `scene`.
-    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Wboit {
+    pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Wboit> {
         let device = &gpu.device;
         let accumulate_layout = binding::layout(
             device,
@@ -110,12 +110,11 @@ impl Wboit {
             &[Slot::Uniform, Slot::StorageRw],
         );
         let samples = scene.samples;
-        let module = Stage::new(
+        let stage = Stage::new(
             "strata.wboit.accumulate",
             include_str!("wboit_accumulate.wgsl"),
         )
-        .with(LIBRARY)
-        .module(device);
+        .with(LIBRARY);
         let additive = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
             dst_factor: wgpu::BlendFactor::One,
@@ -126,10 +125,10 @@ impl Wboit {
             dst_factor: wgpu::BlendFactor::OneMinusSrc,
             operation: wgpu::BlendOperation::Add,
         };
-        let accumulate = capture_pipeline(
+        let accumulate = geometry_pipeline(
             gpu,
-            "strata.wboit.accumulate",
-            (&module, "fs_wboit"),
+            scene,
+            (&stage, "fs_wboit"),
             &[&scene.frame_layout, &accumulate_layout],
             &[
                 Some(wgpu::ColorTargetState {
@@ -151,14 +150,14 @@ impl Wboit {
             ],
             None,
             samples,
-        );
-        Wboit {
+        )?;
+        Ok(Wboit {
             accumulate_layout,
             accumulate,
             composite: Composite::new(gpu, scene, composite_stage(samples)),
             cache: ResourceCache::default(),
             samples,
-        }
+        })
     }
 }
 

@@ -25,8 +25,7 @@ struct WboitOut {
 }
 #endif
 
-@fragment
-fn fs_wboit(v: SceneVarying) -> WboitOut {
+fn fs_wboit_step(v: SceneVarying, front_facing: bool, mask: u32) -> WboitOut {
     if behind_opaque(v.position) {
         discard;
     }
