@@ -609,7 +609,11 @@ impl MethodArgs {
         };
         let bounded = picture.k.is_some() || self.budget_mb.is_some();
         let goal = goal.unwrap_or(if bounded { Goal::Bounded } else { Goal::Exact });
-        self.candidates = strata::methods::choice::candidates(&strata::gpu::Gpu::new()?, goal);
+        self.candidates = strata::methods::choice::candidates(
+            &strata::gpu::Gpu::new()?,
+            goal,
+            strata::methods::choice::Geometry::Scene,
+        );
         let first = &self.candidates[0];
         eprintln!("method auto: {} ({})", first.method, first.why);
         Ok(())

@@ -14,8 +14,8 @@
 //!    let [`methods::choice::choose`] pick the best one your adapter runs for a [`methods::choice::Goal`])
 //!    and [`RenderOptions`] (`build`: fixed for the recorder; `frame`: may change between frames
 //!    with [`FrameRecorder::set_frame_options`]).
-//! 4. **Every frame**, after your opaque pass has written your color target and a
-//!    `Depth32Float` depth (with `TEXTURE_BINDING` usage), call [`FrameRecorder::record`] with
+//! 4. **Every frame**, after your opaque pass has written your color target and a depth
+//!    texture (any depth format, with `TEXTURE_BINDING` usage), call [`FrameRecorder::record`] with
 //!    your encoder. strata tests its fragments against your depth and composites OVER your
 //!    color, premultiplied; it records into your encoder and never submits or waits.
 //! 5. **Read the statistics** with [`FrameRecorder::poll_stats`]: a frame or more later, each
@@ -29,7 +29,7 @@
 //!     device: &wgpu::Device,
 //!     queue: &wgpu::Queue,
 //!     color: &wgpu::TextureView, // your color target, already holding the opaque scene
-//!     depth: &wgpu::TextureView, // its Depth32Float depth, bindable
+//!     depth: &wgpu::TextureView, // its depth (TEXTURE_BINDING usage)
 //! ) -> strata::Result<()> {
 //!     let gpu = Gpu::from_device(device.clone(), queue.clone());
 //!     let scene = loaders::load_scene("builtin:spheres?layers=8")?;
@@ -48,13 +48,15 @@
 //! }
 //! ```
 //!
-//! **Your own shaders** can capture into strata instead of its draw:
-//! [`FrameRecorder::capture_wgsl`] gives the WGSL of `strata_capture(position, premultiplied,
-//! id, front_facing)` for your fragment shader (or [`methods::capture::add_to_composer`] adds it
-//! to your naga_oil composer), [`FrameRecorder::begin_capture`] the bind group your pass binds,
-//! and [`FrameRecorder::end_capture`] resolves. `examples/minimal.rs` and `examples/host.rs` in
-//! the repository are complete headless applications, checked against the reference in its
-//! tests.
+//! **Your own shaders and buffers** instead of a scene: [`FrameRecorder::for_application`]
+//! takes your WGSL ([`frame::application::AppShader`]: your vertex stage, and a fragment stage
+//! that calls `strata_capture`), builds every geometry pass of the method from it, and
+//! [`FrameRecorder::record`] calls your draw callback once per pass (see
+//! [`frame::application`]). 25 of the 31 methods take it; the capture tests your opaque depth
+//! itself, whatever depth state you would have set. `examples/own_shaders.rs`,
+//! `examples/minimal.rs` and `examples/host.rs` in the repository are complete headless
+//! applications, checked in its tests. For one picture in one call,
+//! [`FrameRecorder::render_once`] renders until a frame is complete.
 //!
 //! **Exact methods** equal the CPU reference (`strata::reference`, feature `reference`) in (depth, primitive) order;
 //! approximate ones (weighted, moment-based) publish their error. `ARCHITECTURE.md` in the
@@ -87,6 +89,8 @@ pub use frame::{
     BucketSplit, BuildOptions, Effect, FrameOptions, FrameStats, FrameTargets, Moments,
     RenderOptions, StorageLayout, Tail, Weight,
 };
+/// The math types strata's API names (camera, lights, meshes), at the version strata builds with.
+pub use glam;
 pub use methods::downlevel::DownlevelFrame;
 pub use methods::kbuffer::DEFAULT_MAX_TRIES;
 pub use methods::MethodId;

@@ -264,20 +264,29 @@ impl Failures {
         failures == 0
     }
 
-    /// A frame that matched the reference says what the catalogue says of its method
-    /// (`FrameStats::exact`: an exact method's frame is exact when nothing was dropped beyond
-    /// its k, no lock failed and no order broke).
+    /// A frame that matched the reference says what the catalogue says of its method: a
+    /// k-buffer run with a k that its k nearest are kept (`FrameStats::exact_k_nearest`), and
+    /// exact (`FrameStats::exact`) when it dropped nothing beyond them; any other method exact
+    /// as its catalogue entry is.
     pub fn frame_says_exact(&mut self, method: &str, stats: &crate::FrameStats) {
-        let catalogue = method
-            .parse::<crate::MethodId>()
-            .map(|m| m.descriptor().exact)
-            .ok();
-        let result = if stats.exact == catalogue {
+        let Ok(d) = method.parse::<crate::MethodId>().map(|m| m.descriptor()) else {
+            return self.check(method, Err(format!("{method} is not a method")));
+        };
+        let dropped = stats.fragments_dropped.unwrap_or(0);
+        let promise = d.exact && d.reads(crate::methods::MethodOption::K) && stats.k.is_some();
+        let says = (stats.exact, stats.exact_k_nearest);
+        let expected = match promise {
+            true => (Some(dropped == 0), Some(true)),
+            false => (
+                Some(d.exact || (d.exact_without_drops && dropped == 0)),
+                None,
+            ),
+        };
+        let result = if says == expected {
             Ok(())
         } else {
             Err(format!(
-                "the frame says exact: {:?}, the catalogue {catalogue:?}",
-                stats.exact
+                "the frame says (exact, exact_k_nearest) = {says:?}, the catalogue {expected:?}"
             ))
         };
         self.check(method, result);

@@ -72,12 +72,19 @@ pub struct FrameStats {
     pub effect: String,
     /// Passes over the scene's geometry this frame recorded (peeling: one per layer).
     pub geometry_passes: Option<u32>,
-    /// Whether this frame is exact: the method is exact by design (the catalogue's flag; a
-    /// k-buffer's exactness is that of its k nearest) and the frame kept to it — nothing
-    /// dropped beyond the k or layers asked for, no lock failure, no order violation (convex),
-    /// nothing culled by temporal culling, no overflow. Approximate methods (wboit, mboit,
-    /// unsorted, ...) say false: their error is measured against the reference, never hidden.
+    /// Whether this frame's picture equals the reference of the whole scene: the method is
+    /// exact by design (the catalogue's flag), or exact whenever it drops nothing
+    /// (abuffer-fixed, mlab, bucket), and the frame composited every fragment — nothing
+    /// dropped (beyond a k or a number of layers either), no lock failure, no order violation
+    /// (convex), nothing culled by temporal culling, no overflow. Approximate methods (wboit,
+    /// mboit, unsorted, ...) say false: their error is measured against the reference, never
+    /// hidden.
     pub exact: Option<bool>,
+    /// For the k-buffers that promise each pixel's k nearest (`strata reference --k N`, N the
+    /// frame's k): whether the frame kept that promise — no lock failure, no overflow, nothing
+    /// culled by temporal culling — whatever lay beyond k. `None` for methods without that
+    /// promise, or without a k.
+    pub exact_k_nearest: Option<bool>,
     /// GPU milliseconds per pass name (same-named passes added); `None` without timestamp queries.
     pub gpu_ms: Option<BTreeMap<String, f64>>,
     /// The sum of `gpu_ms`.
@@ -297,10 +304,12 @@ pub const RESOLVED_BYTES: u64 = std::mem::size_of::<Resolved>() as u64;
 /// 3t..3t+3, so a callback draws any ranges (culled subsets, chunks) of it.
 pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
 
-/// Where a frame goes: the application's color target (the resolve is blended OVER it; `None`
-/// leaves the result in [`crate::FrameRecorder::resolved`] only) and the depth of its opaque
-/// surfaces (Depth32Float, the frame's size, with TEXTURE_BINDING usage; fragments at or behind
-/// it are rejected; `None`: nothing opaque).
+/// Where a frame goes: the application's color target (the frame's size, RENDER_ATTACHMENT,
+/// a blendable single-sampled format; the resolve is blended OVER it; `None` leaves the result
+/// in [`crate::FrameRecorder::resolved`] only) and the depth of its opaque surfaces (any depth
+/// format, the frame's size, single-sampled, with TEXTURE_BINDING usage; fragments at or behind
+/// it are rejected; `None`: nothing opaque). `record` refuses targets that do not fit in one
+/// line before it records anything.
 #[derive(Clone, Copy, Default)]
 pub struct FrameTargets<'a> {
     /// The application's color target and its format; the frame is composited OVER it.

@@ -3,10 +3,13 @@
 //!
 //! | goal | candidates, best first |
 //! |---|---|
-//! | [`Goal::Exact`] | abuffer-ll (every fragment, sorted per pixel at resolve, in one geometry pass; its relaxed, lock-free capture needs no ordered atomics, and its pool follows the last frame's count); f2b |
-//! | [`Goal::Bounded`] (exact for each pixel's k nearest, memory fixed per pixel) | kb-keys where there are 64-bit atomics (lock-free); kplus-heap where captures get acquire/release atomics; f2b depth peeling (exact at any depth, 72 bytes per pixel, one geometry pass per layer) |
+//! | [`Goal::Exact`] | abuffer-ll (every fragment, sorted per pixel at resolve, in one geometry pass; its relaxed, lock-free capture needs no ordered atomics, and its pool follows the last frame's count); f2b; sbuffer |
+//! | [`Goal::Bounded`] (exact for each pixel's k nearest, memory fixed per pixel) | kb-keys where there are 64-bit atomics (lock-free); kplus-heap where captures get acquire/release atomics; f2b depth peeling (exact at any depth, 72 bytes per pixel, one geometry pass per layer); kb-mdt32 (a 32-bit cascade, relaxed) |
 //! | [`Goal::Approximate`] (fastest) | wboit (one geometry pass into two targets, no per-pixel storage); mboit |
 //! | on a downlevel device (no storage buffers or compute: WebGL2-class; [`crate::methods::downlevel`]) | exact and bounded: f2b, peeling through render targets; approximate: wboit in blended targets |
+//!
+//! With [`Geometry::Application`] (the application draws with its own shaders) only the
+//! methods that take them remain (f2b does not yet).
 //!
 //! [`candidates`] filters by the adapter's features; a device that still refuses one for a
 //! limit (a method's setup runs under `crate::gpu::validated`) moves to the next: `strata
@@ -30,6 +33,17 @@ pub enum Goal {
     Approximate,
 }
 
+/// How the application's transparent geometry reaches strata.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Geometry {
+    /// A [`crate::scene::Scene`] strata draws ([`crate::FrameRecorder::new`]).
+    #[default]
+    Scene,
+    /// The application's own buffers and shaders ([`crate::FrameRecorder::for_application`]):
+    /// only methods that take them (`app_shaders` in the catalogue).
+    Application,
+}
+
 /// The method chosen, and why.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Choice {
@@ -40,25 +54,43 @@ pub struct Choice {
     pub why: String,
 }
 
-/// The best method for `goal` on `gpu` (see the module docs).
+/// The best method for `goal` on `gpu` for geometry drawn as `geometry` says (see the module
+/// docs); an error where none serves (a downlevel device takes no application shaders).
 ///
 /// ```
-/// use strata::methods::choice::{choose, Goal};
+/// use strata::methods::choice::{choose, Geometry, Goal};
 ///
 /// let gpu = strata::gpu::Gpu::new()?; // or Gpu::from_device with your own
-/// let choice = choose(&gpu, Goal::Bounded);
-/// assert!(choice.method.descriptor().exact);
+/// let choice = choose(&gpu, Goal::Bounded, Geometry::Application)?;
+/// assert!(choice.method.descriptor().exact && choice.method.descriptor().app_shaders.yes());
 /// println!("{}: {}", choice.method, choice.why);
 /// # Ok::<(), strata::Error>(())
 /// ```
-pub fn choose(gpu: &Gpu, goal: Goal) -> Choice {
-    candidates(gpu, goal).remove(0)
+pub fn choose(gpu: &Gpu, goal: Goal, geometry: Geometry) -> crate::error::Result<Choice> {
+    candidates(gpu, goal, geometry)
+        .into_iter()
+        .next()
+        .ok_or_else(|| {
+            crate::error::Error::unsupported(format!(
+                "no method takes the application's own shaders on '{}', a downlevel device (no storage buffers or compute): draw through a scene",
+                gpu.info.name
+            ))
+        })
 }
 
-/// Every method that serves `goal` on `gpu`'s features, best first: the first is
-/// [`choose`]'s; where a device refuses it for a limit (`crate::gpu::validated`), the next
+/// Every method that serves `goal` on `gpu`'s features for `geometry`, best first: the first
+/// is [`choose`]'s; where a device refuses it for a limit (`crate::gpu::validated`), the next
 /// is the fallback.
-pub fn candidates(gpu: &Gpu, goal: Goal) -> Vec<Choice> {
+pub fn candidates(gpu: &Gpu, goal: Goal, geometry: Geometry) -> Vec<Choice> {
+    let mut list = scene_candidates(gpu, goal);
+    if geometry == Geometry::Application {
+        list.retain(|c| c.method.descriptor().app_shaders.yes());
+    }
+    list
+}
+
+/// [`candidates`] for strata's own geometry.
+fn scene_candidates(gpu: &Gpu, goal: Goal) -> Vec<Choice> {
     let adapter = &gpu.info.name;
     let choice = |method, why: String| Choice { method, why };
     if is_downlevel(gpu) {
@@ -88,6 +120,10 @@ pub fn candidates(gpu: &Gpu, goal: Goal) -> Vec<Choice> {
                 "exact at any depth complexity in one geometry pass, with a lock-free capture that needs no ordered atomics".into(),
             ),
             peeling(),
+            choice(
+                MethodId::Sbuffer,
+                "exact at any depth complexity in two geometry passes (a count, then every fragment in its pixel's region), lock-free".into(),
+            ),
         ],
         Goal::Bounded => {
             let mut list = Vec::new();
@@ -104,10 +140,17 @@ pub fn candidates(gpu: &Gpu, goal: Goal) -> Vec<Choice> {
                 ));
             }
             let mut last = peeling();
+            let mut cascade = choice(
+                MethodId::KbMdt32,
+                "the multi-depth test: each pixel's k nearest depths by a 32-bit atomicMax cascade, their colours in a second geometry pass; relaxed atomics".into(),
+            );
             if list.is_empty() {
-                last.why = format!("'{adapter}' has neither 64-bit storage atomics nor ordered atomics for a lock: {}", last.why);
+                let lacks = format!("'{adapter}' has neither 64-bit storage atomics nor ordered atomics for a lock");
+                last.why = format!("{lacks}: {}", last.why);
+                cascade.why = format!("{lacks}: {}", cascade.why);
             }
             list.push(last);
+            list.push(cascade);
             list
         }
         Goal::Approximate => vec![
@@ -149,10 +192,18 @@ mod tests {
     #[test]
     fn each_goal_picks_a_method_of_its_kind() {
         for goal in [Goal::Exact, Goal::Bounded, Goal::Approximate] {
-            let c = choose(gpu(), goal);
-            let d = c.method.descriptor();
-            assert_eq!(d.exact, goal != Goal::Approximate, "{goal:?}: {}", d.name);
-            assert!(!c.why.is_empty());
+            for geometry in [Geometry::Scene, Geometry::Application] {
+                let c = choose(gpu(), goal, geometry).unwrap();
+                let d = c.method.descriptor();
+                assert_eq!(d.exact, goal != Goal::Approximate, "{goal:?}: {}", d.name);
+                assert!(!c.why.is_empty());
+                if geometry == Geometry::Application {
+                    // Every candidate, not only the first, takes the application's shaders.
+                    for c in candidates(gpu(), goal, geometry) {
+                        assert!(c.method.descriptor().app_shaders.yes(), "{}", c.method);
+                    }
+                }
+            }
         }
     }
 
@@ -161,19 +212,21 @@ mod tests {
         let int64 = wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS;
         let ordered = wgpu::Features::PASSTHROUGH_SHADERS;
         let cases = [
-            (wgpu::Features::empty(), MethodId::KbKeys),
-            (int64, MethodId::KplusHeap),
-            (int64 | ordered, MethodId::F2b),
+            (wgpu::Features::empty(), MethodId::KbKeys, MethodId::KbKeys),
+            (int64, MethodId::KplusHeap, MethodId::KplusHeap),
+            (int64 | ordered, MethodId::F2b, MethodId::KbMdt32),
         ];
-        for (missing, expected) in cases {
+        for (missing, expected, application) in cases {
             let restricted = gpu_without(missing);
             if !missing.contains(int64) && !restricted.has(int64) {
                 // An adapter without them to begin with decides the first case by itself.
                 continue;
             }
-            let c = choose(&restricted, Goal::Bounded);
+            let c = choose(&restricted, Goal::Bounded, Geometry::Scene).unwrap();
             assert_eq!(c.method, expected, "without {missing:?}: {}", c.why);
             assert_matches_reference(&restricted, c.method, "builtin:spheres?layers=4&segments=8");
+            let c = choose(&restricted, Goal::Bounded, Geometry::Application).unwrap();
+            assert_eq!(c.method, application, "without {missing:?}: {}", c.why);
         }
     }
 }
@@ -245,9 +298,12 @@ mod restricted {
         let limits =
             wgpu::Limits::downlevel_webgl2_defaults().using_resolution(gpu().limits.clone());
         let webgl2 = Gpu::new_restricted(wgpu::Features::empty(), limits).expect("opens");
-        use super::{candidates, Goal};
+        use super::{candidates, choose, Geometry, Goal};
         for goal in [Goal::Exact, Goal::Bounded, Goal::Approximate] {
-            let list = candidates(&webgl2, goal);
+            assert!(candidates(&webgl2, goal, Geometry::Application).is_empty());
+            let e = choose(&webgl2, goal, Geometry::Application).unwrap_err();
+            assert!(e.to_string().contains("downlevel"), "{e}");
+            let list = candidates(&webgl2, goal, Geometry::Scene);
             assert_eq!(list.len(), 1, "{goal:?}");
             let expected = match goal {
                 Goal::Approximate => MethodId::Wboit,
@@ -272,8 +328,8 @@ mod restricted {
         let scene =
             crate::scene::loaders::load_scene("builtin:spheres?layers=4&segments=8").unwrap();
         let options = RenderOptions::sized(32, 32);
-        let list = super::candidates(&small, super::Goal::Bounded);
-        assert_eq!(list.last().map(|c| c.method), Some(MethodId::F2b));
+        let list = super::candidates(&small, super::Goal::Bounded, super::Geometry::Scene);
+        assert!(list.iter().any(|c| c.method == MethodId::F2b));
         let mut rendered = None;
         for c in &list {
             match Renderer::new(&small, &scene, &options)

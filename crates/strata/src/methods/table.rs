@@ -161,6 +161,9 @@ pub struct Descriptor {
     pub family: Family,
     /// Equal to the reference (in the sense its catalogue text states).
     pub exact: bool,
+    /// Not exact by design, but equal to the reference whenever it drops nothing (a fixed
+    /// array keeping the first k, mlab merging past k, bucket losing collisions).
+    pub exact_without_drops: bool,
     /// Geometry passes, N being the scene's depth complexity.
     pub geometry_passes: &'static str,
     /// Bytes the method allocates, W·H pixels, F fragments in the frame.
@@ -250,6 +253,7 @@ impl Descriptor {
             id,
             family,
             exact: false,
+            exact_without_drops: false,
             geometry_passes: "1",
             memory: "",
             summary: "",

@@ -381,7 +381,10 @@ pub fn render_lists(
         k: options.frame.k,
         effect: options.frame.effect.name().into(),
         geometry_passes: Some(0),
-        exact: Some(true),
+        // With --k N the picture is each pixel's N nearest: the whole scene's only when no pixel
+        // has more.
+        exact: Some(generated == stored),
+        exact_k_nearest: options.frame.k.map(|_| true),
         gpu_ms: None,
         gpu_ms_total: None,
         fragments_generated: Some(generated),

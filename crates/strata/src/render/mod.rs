@@ -554,6 +554,12 @@ fn merge_band(mut sum: FrameStats, band: FrameStats) -> FrameStats {
         (Some(a), Some(b)) => Some(merge_tiled(a, b)),
         (a, b) => a.or(b),
     };
+    let both = |a: Option<bool>, b: Option<bool>| match (a, b) {
+        (Some(a), Some(b)) => Some(a && b),
+        (a, b) => a.or(b),
+    };
+    sum.exact = both(sum.exact, band.exact);
+    sum.exact_k_nearest = both(sum.exact_k_nearest, band.exact_k_nearest);
     sum.submits += band.submits;
     sum.blocking_readbacks += band.blocking_readbacks;
     sum.bands = Some(sum.bands.unwrap_or(1) + 1);

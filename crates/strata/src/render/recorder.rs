@@ -893,6 +893,13 @@ impl FrameRecorder {
                 self.last_histogram = Some((p.frame, bins));
             }
         }
+        let exact = frame_exact(
+            p.method,
+            p.recorded.k,
+            totals.map_or(0, |t| t.dropped + ms.culled_temporal.unwrap_or(0)),
+            &ms,
+            compute_raster.as_ref().is_some_and(|r| r.overflow),
+        );
         let stats = FrameStats {
             frame: p.frame,
             method: p.method.as_str().to_string(),
@@ -902,13 +909,8 @@ impl FrameRecorder {
             k: p.recorded.k,
             effect: self.options.frame.effect.name().to_string(),
             geometry_passes: Some(p.recorded.geometry_passes),
-            exact: Some(frame_exact(
-                p.method,
-                p.recorded.k,
-                totals.map_or(0, |t| t.dropped),
-                &ms,
-                compute_raster.as_ref().is_some_and(|r| r.overflow),
-            )),
+            exact: Some(exact.0),
+            exact_k_nearest: exact.1,
             gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
             gpu_ms,
             fragments_generated: totals.map(|t| t.generated + ms.culled_temporal.unwrap_or(0)),
@@ -964,29 +966,28 @@ impl FrameRecorder {
     }
 }
 
-/// Whether a frame of `method` kept to the method's exactness (see `FrameStats::exact`), given
-/// the fragments it dropped and what the method read back.
+/// Whether a frame of `method` is exact (see `FrameStats::exact`), and whether it kept a
+/// k-buffer's promise of each pixel's k nearest (`FrameStats::exact_k_nearest`), given the
+/// fragments it dropped and what the method read back.
 fn frame_exact(
     method: MethodId,
     k: Option<u32>,
     dropped: u64,
     ms: &MethodStats,
     raster_overflow: bool,
-) -> bool {
+) -> (bool, Option<bool>) {
     let d = method.descriptor();
-    // Fragments beyond the k the frame ran with, or the layers asked for, are dropped by design.
-    let drops_by_design =
-        (d.reads(MethodOption::K) && k.is_some()) || d.reads(MethodOption::Layers);
-    d.exact
-        && (dropped == 0 || drops_by_design)
-        && ms.lock_failures.unwrap_or(0) == 0
+    let kept = ms.lock_failures.unwrap_or(0) == 0
         && ms.culled_temporal.unwrap_or(0) == 0
         && ms.overflow != Some(true)
         && !raster_overflow
         && ms
             .convex
             .as_ref()
-            .is_none_or(|c| c.order_violations.unwrap_or(0) == 0)
+            .is_none_or(|c| c.order_violations.unwrap_or(0) == 0);
+    let exact = (d.exact || d.exact_without_drops) && kept && dropped == 0;
+    let k_nearest = (d.exact && d.reads(MethodOption::K) && k.is_some()).then_some(kept);
+    (exact, k_nearest)
 }
 
 /// The submission order `options` ask for, made for `scene`'s triangles and attached to its

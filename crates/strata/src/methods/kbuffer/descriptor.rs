@@ -112,6 +112,7 @@ pub const KPEEL: Descriptor = Descriptor {
 
 /// The method table's entry for `abuffer-fixed`.
 pub const ABUFFER_FIXED: Descriptor = Descriptor {
+    exact_without_drops: true,
     memory: KB_MEMORY,
     summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
     capture_step: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
@@ -164,6 +165,7 @@ pub const KB_PS: Descriptor = Descriptor {
 
 /// The method table's entry for `mlab`.
 pub const MLAB: Descriptor = Descriptor {
+    exact_without_drops: true,
     memory: "16·(k+1)·W·H + 156",
     summary: "multi-layer alpha blending: k layers in depth order under a per-pixel spin lock, the two farthest merged when a fragment makes k + 1 (exact up to k fragments; merges vary with arrival order)",
     capture_step: Some("strata::kbuffer::kb_capture::capture_mlab(p, f)"),
