@@ -102,22 +102,23 @@ fn fs_transparent(v: Varying, @builtin(front_facing) front_facing: bool,
 }
 ";
 
-/// Two triangles of `rect` with depths at x = ±1, numbered from `first`.
-fn quad(rect: [f32; 4], depth: [f32; 2], color: [f32; 4], first: u32) -> Vec<Vertex> {
+/// Two triangles of `rect` with depths at x = ±1, both with `id` (they never overlap, so they
+/// may share the id that orders fragments at equal depth).
+fn quad(rect: [f32; 4], depth: [f32; 2], color: [f32; 4], id: u32) -> Vec<Vertex> {
     let [x0, y0, x1, y1] = rect;
     let z = |x: f32| depth[0] + (depth[1] - depth[0]) * (x + 1.0) / 2.0;
-    let v = |x: f32, y: f32, triangle| Vertex {
+    let v = |x: f32, y: f32| Vertex {
         clip: [x, y, z(x), 1.0],
         color,
-        triangle,
+        triangle: id,
     };
     vec![
-        v(x0, y0, first),
-        v(x1, y0, first),
-        v(x1, y1, first),
-        v(x0, y0, first + 1),
-        v(x1, y1, first + 1),
-        v(x0, y1, first + 1),
+        v(x0, y0),
+        v(x1, y0),
+        v(x1, y1),
+        v(x0, y0),
+        v(x1, y1),
+        v(x0, y1),
     ]
 }
 
@@ -138,11 +139,14 @@ pub fn device() -> Result<(wgpu::Device, wgpu::Queue), String> {
     .map_err(|e| format!("cannot open the device: {e}"))
 }
 
-/// Renders the scene with `method` (k = 16 where it reads k) and reads the picture back.
+/// Renders the scene with `method` (k = 16 where it reads k), strata's passes rasterizing
+/// `samples` samples per pixel (`--msaa`; the application's targets stay single-sampled), and
+/// reads the picture back.
 pub fn run(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     method: MethodId,
+    samples: u32,
 ) -> Result<(image::RgbaImage, strata::FrameStats), Box<dyn std::error::Error>> {
     // The application's resources.
     let (wall_rect, wall_depth, wall_color) = WALL;
@@ -155,7 +159,7 @@ pub fn run(
     let glass: Vec<Vertex> = QUADS
         .iter()
         .enumerate()
-        .flat_map(|(i, q)| quad(q.rect, q.depth, q.color, 2 * i as u32))
+        .flat_map(|(i, q)| quad(q.rect, q.depth, q.color, i as u32))
         .collect();
     let buffer = |label, vertices: &[Vertex]| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -262,6 +266,7 @@ pub fn run(
     // ---- strata: the transparent geometry through the application's own shader ----
     let gpu = Gpu::from_device(device.clone(), queue.clone());
     let mut options = RenderOptions::sized(SIZE, SIZE);
+    options.build.msaa = samples;
     if method.descriptor().reads(strata::methods::MethodOption::K) {
         options.frame.k = Some(16);
     }
@@ -391,7 +396,7 @@ fn main() {
             MethodId::KbKeys,
             MethodId::Dual,
         ] {
-            let (picture, stats) = run(&device, &queue, method)?;
+            let (picture, stats) = run(&device, &queue, method, 1)?;
             let path = out.join(format!("own_shaders-{method}.png"));
             picture.save(&path)?;
             eprintln!(

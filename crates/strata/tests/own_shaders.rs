@@ -28,8 +28,9 @@ fn srgb(c: f64) -> u8 {
 }
 
 /// The quads covering pixel (x, y)'s center in front of the opaque depth, in submission order
-/// (depth, straight-alpha colour), and what lies behind them (the wall or the background).
-fn layers(x: u32, y: u32) -> (Vec<(f64, [f64; 4])>, [f64; 3]) {
+/// (depth, straight-alpha colour, the quad's id), and what lies behind them (the wall or the
+/// background).
+fn layers(x: u32, y: u32) -> (Vec<(f64, [f64; 4], u32)>, [f64; 3]) {
     let half = app::SIZE as f64 / 2.0;
     let cx = (x as f64 + 0.5) / half - 1.0;
     let cy = 1.0 - (y as f64 + 0.5) / half;
@@ -39,26 +40,30 @@ fn layers(x: u32, y: u32) -> (Vec<(f64, [f64; 4])>, [f64; 3]) {
         true => (wall_depth as f64, wall_color.map(f64::from)),
         false => (1.0, app::BACKGROUND.map(f64::from)),
     };
-    let layers = app::QUADS
-        .iter()
-        .filter(|q| {
+    let layers = (0u32..)
+        .zip(app::QUADS.iter())
+        .filter(|(_, q)| {
             let [x0, y0, x1, y1] = q.rect.map(f64::from);
             cx > x0 && cx < x1 && cy > y0 && cy < y1
         })
-        .map(|q| {
+        .map(|(id, q)| {
             let [z0, z1] = q.depth.map(f64::from);
-            (z0 + (z1 - z0) * (cx + 1.0) / 2.0, q.color.map(f64::from))
+            (
+                z0 + (z1 - z0) * (cx + 1.0) / 2.0,
+                q.color.map(f64::from),
+                id,
+            )
         })
-        .filter(|(z, _)| *z < opaque)
+        .filter(|(z, _, _)| *z < opaque)
         .collect();
     (layers, behind)
 }
 
 /// Each layer in `order` adds α·c of what still shows (front to back), over `behind`.
-fn over(order: &[(f64, [f64; 4])], behind: [f64; 3]) -> [f64; 3] {
+fn over(order: &[(f64, [f64; 4], u32)], behind: [f64; 3]) -> [f64; 3] {
     let mut color = [0.0f64; 3];
     let mut shows = 1.0f64;
-    for (_, c) in order {
+    for (_, c, _) in order {
         for i in 0..3 {
             color[i] += shows * c[3] * c[i];
         }
@@ -70,23 +75,24 @@ fn over(order: &[(f64, [f64; 4])], behind: [f64; 3]) -> [f64; 3] {
 /// Pixel (x, y) of `method`, worked out from the layers by hand: exact methods composite them
 /// nearest first; `unsorted` blends them in submission order (the last submitted in front);
 /// the weighted methods follow their f64 closed forms (`strata::methods::weighted::cpu`), with
-/// the application's default camera (view distance = window depth).
+/// the application's default camera (view distance = window depth); stochastic's stipples hash
+/// the pixel and the quad's id, over 4 samples that every quad covers whole or not at all (its
+/// edges lie between pixels).
 fn expected(method: MethodId, x: u32, y: u32) -> [u8; 3] {
     use strata::methods::weighted::{cpu, mboit};
     let (mut layers, behind) = layers(x, y);
     let fragments = || -> Vec<strata::resolve::RefFragment> {
         layers
             .iter()
-            .enumerate()
-            .map(|(i, (z, c))| strata::resolve::RefFragment {
+            .map(|(z, c, id)| strata::resolve::RefFragment {
                 depth: *z,
-                prim: i as u32,
+                prim: *id,
                 front_facing: true,
                 color: [c[0], c[1], c[2]],
                 alpha: c[3],
                 absorption: 0.0,
                 distance: *z,
-                coverage: 1,
+                coverage: 0b1111,
                 blend: Default::default(),
             })
             .collect()
@@ -115,6 +121,7 @@ fn expected(method: MethodId, x: u32, y: u32) -> [u8; 3] {
             &camera,
             moments(strata::Moments::Haar(8)),
         ),
+        MethodId::Stochastic => cpu::stochastic(&fragments(), y * app::SIZE + x, (4, 1), behind),
         _ => {
             layers.sort_by(|a, b| a.0.total_cmp(&b.0));
             over(&layers, behind)
@@ -149,8 +156,9 @@ fn allowed(method: MethodId) -> u8 {
 
 /// Every method that takes the application's shaders draws the example's crossing and
 /// occluded quads as worked out by hand (or by its closed form), in the first frame of a
-/// one-shot render: nothing of the blue quad shows through the wall, the tilted green quad
-/// crosses the red one.
+/// one-shot render, single-sampled and with `--msaa 4` where it takes them (every quad edge
+/// lies between pixels, so the pictures are the same): nothing of the blue quad shows through
+/// the wall, the tilted green quad crosses the red one.
 #[test]
 fn every_application_method_matches_the_hand_computed_picture() {
     let (device, queue) = device();
@@ -159,20 +167,28 @@ fn every_application_method_matches_the_hand_computed_picture() {
         .collect();
     assert!(methods.len() >= 25, "{methods:?}");
     let mut failures = Vec::new();
-    for method in methods {
-        let (picture, stats) = match app::run(device, queue, method) {
+    let runs = methods.into_iter().flat_map(|m| {
+        let d = m.descriptor();
+        [1, 4]
+            .into_iter()
+            .filter(move |&s| s >= d.min_samples && (s == 1 || d.msaa.yes()))
+            .map(move |s| (m, s))
+    });
+    for (method, samples) in runs {
+        let (picture, stats) = match app::run(device, queue, method, samples) {
             Ok(r) => r,
             Err(e) => {
-                failures.push(format!("{method}: {e}"));
+                failures.push(format!("{method} x{samples}: {e}"));
                 continue;
             }
         };
+        let method_name = format!("{method} x{samples}");
         let (d, at) = worst(method, &picture);
         if d > allowed(method) {
-            let path = std::env::temp_dir().join(format!("own_shaders-{method}.png"));
+            let path = std::env::temp_dir().join(format!("own_shaders-{method}-x{samples}.png"));
             let _ = picture.save(&path);
             failures.push(format!(
-                "{method}: {d}/255 off at {at:?} (got {:?}, expected {:?}; {})",
+                "{method_name}: {d}/255 off at {at:?} (got {:?}, expected {:?}; {})",
                 picture.get_pixel(at.0, at.1),
                 expected(method, at.0, at.1),
                 path.display()
@@ -181,12 +197,15 @@ fn every_application_method_matches_the_hand_computed_picture() {
         // Three layers at most, k = 16: nothing is dropped, nothing fails a lock.
         if stats.fragments_dropped != Some(0) || stats.lock_failures.unwrap_or(0) != 0 {
             failures.push(format!(
-                "{method}: dropped {:?}, lock failures {:?}",
+                "{method_name}: dropped {:?}, lock failures {:?}",
                 stats.fragments_dropped, stats.lock_failures
             ));
         }
         if method.descriptor().exact && stats.exact != Some(true) {
-            failures.push(format!("{method}: the frame says exact {:?}", stats.exact));
+            failures.push(format!(
+                "{method_name}: the frame says exact {:?}",
+                stats.exact
+            ));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

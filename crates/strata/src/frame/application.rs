@@ -213,9 +213,18 @@ fn {CAPTURE_FUNCTION}(position: vec4<f32>, premultiplied: vec4<f32>, id: u32, fr
 }}
 "
     );
-    let bridge = Stage::new(format!("{}.application", stage.label), bridge)
+    let mut bridge = Stage::new(format!("{}.application", stage.label), bridge)
         .defs(stage.definitions())
         .defs(&Defs::default().flag("APP_SHADING"));
+    // A stage made at run time (bucket's sort, sized by its targets) is no library's module:
+    // the bridge registers it.
+    let in_library = stage
+        .libraries()
+        .iter()
+        .any(|library| library.contains(&stage.source()));
+    if !in_library {
+        bridge = bridge.with_module(stage.source().to_string());
+    }
     Ok(stage
         .libraries()
         .iter()

@@ -308,7 +308,7 @@ pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
 /// a blendable single-sampled format; the resolve is blended OVER it; `None` leaves the result
 /// in [`crate::FrameRecorder::resolved`] only) and the depth of its opaque surfaces (any depth
 /// format, the frame's size, single-sampled, with TEXTURE_BINDING usage; fragments at or behind
-/// it are rejected; `None`: nothing opaque). `record` refuses targets that do not fit in one
+/// it are rejected, with `--msaa` at their pixel center; `None`: nothing opaque). `record` refuses targets that do not fit in one
 /// line before it records anything.
 #[derive(Clone, Copy, Default)]
 pub struct FrameTargets<'a> {

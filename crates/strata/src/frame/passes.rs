@@ -86,13 +86,24 @@ pub fn color_geometry_pass(
     groups: &[&wgpu::BindGroup],
     targets: &[(&wgpu::TextureView, wgpu::Color)],
 ) {
+    let attachments: Vec<_> = targets
+        .iter()
+        .map(|(view, clear)| attachment(view, *clear))
+        .collect();
     let (scene, draw) = (ctx.scene, ctx.draw);
-    color_pass_drawing(ctx, name, pipeline, groups, targets, &|pass| {
-        scene.draw(pass, draw)
-    });
+    let first = scene.first_group();
+    render_pass(
+        ctx,
+        name,
+        (pipeline, groups, first),
+        &attachments,
+        None,
+        &|pass| scene.draw(pass, draw),
+    );
 }
 
-/// [`color_geometry_pass`] with the method's own draws (`draw` binds what it reads).
+/// [`color_geometry_pass`] with the method's own draws (`draw` binds what it reads; strata's
+/// groups from index 0: its own pipelines, not the application's).
 pub fn color_pass_drawing(
     ctx: &mut FrameContext<'_>,
     name: &'static str,
@@ -105,7 +116,7 @@ pub fn color_pass_drawing(
         .iter()
         .map(|(view, clear)| attachment(view, *clear))
         .collect();
-    render_pass(ctx, name, (pipeline, groups), &attachments, None, draw);
+    render_pass(ctx, name, (pipeline, groups, 0), &attachments, None, draw);
 }
 
 /// Records a timed geometry pass of `pipeline` with `groups` bound from index 0, drawing the
@@ -141,10 +152,11 @@ pub fn depth_geometry_pass(
         stencil_ops: None,
     };
     let (scene, draw) = (ctx.scene, ctx.draw);
+    let first = scene.first_group();
     render_pass(
         ctx,
         name,
-        (pipeline, groups),
+        (pipeline, groups, first),
         &attachments,
         Some(depth),
         &|pass| scene.draw(pass, draw),
@@ -154,7 +166,7 @@ pub fn depth_geometry_pass(
 fn render_pass(
     ctx: &mut FrameContext<'_>,
     name: &'static str,
-    (pipeline, groups): (&wgpu::RenderPipeline, &[&wgpu::BindGroup]),
+    (pipeline, groups, first): (&wgpu::RenderPipeline, &[&wgpu::BindGroup], u32),
     attachments: &[Option<wgpu::RenderPassColorAttachment<'_>>],
     depth: Option<wgpu::RenderPassDepthStencilAttachment<'_>>,
     draw: &dyn Fn(&mut wgpu::RenderPass<'_>),
@@ -169,8 +181,8 @@ fn render_pass(
         multiview_mask: None,
     });
     pass.set_pipeline(pipeline);
-    // An application's geometry passes bind its groups first (in its draw callback).
-    let first = ctx.scene.first_group();
+    // An application's geometry passes bind its groups first (in its draw callback): strata's
+    // start at `first`.
     for (i, group) in groups.iter().enumerate() {
         pass.set_bind_group(first + i as u32, Some(*group), &[]);
     }
@@ -266,7 +278,7 @@ pub fn storage_geometry_pass(
     render_pass(
         ctx,
         name,
-        (pipeline, groups),
+        (pipeline, groups, scene.first_group()),
         &[target.attachment()],
         None,
         &|pass| scene.draw(pass, draw),

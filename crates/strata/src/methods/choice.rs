@@ -9,7 +9,7 @@
 //! | on a downlevel device (no storage buffers or compute: WebGL2-class; [`crate::methods::downlevel`]) | exact and bounded: f2b, peeling through render targets; approximate: wboit in blended targets |
 //!
 //! With [`Geometry::Application`] (the application draws with its own shaders) only the
-//! methods that take them remain (f2b does not yet).
+//! methods that take them remain (every one listed here does).
 //!
 //! [`candidates`] filters by the adapter's features; a device that still refuses one for a
 //! limit (a method's setup runs under `crate::gpu::validated`) moves to the next: `strata
@@ -214,7 +214,7 @@ mod tests {
         let cases = [
             (wgpu::Features::empty(), MethodId::KbKeys, MethodId::KbKeys),
             (int64, MethodId::KplusHeap, MethodId::KplusHeap),
-            (int64 | ordered, MethodId::F2b, MethodId::KbMdt32),
+            (int64 | ordered, MethodId::F2b, MethodId::F2b),
         ];
         for (missing, expected, application) in cases {
             let restricted = gpu_without(missing);

@@ -343,8 +343,8 @@ impl<'g> Renderer<'g> {
                 r
             }
         };
-        // A pipeline draws the opaque objects and their depth itself; multisampled frames take
-        // no single-sampled opaque depth, so the cleared one is passed only when it was lent.
+        // A pipeline draws the opaque objects and their depth itself; a multisampled frame gets
+        // the cleared one only when it was lent (nothing to test against otherwise).
         let opaque_used = options.build.msaa <= 1 || self.opaque_lent.get();
         let targets = FrameTargets {
             color: None,

@@ -434,11 +434,6 @@ impl FrameRecorder {
                 "an application's recorder draws the application's geometry: pass its draw callback to record",
             ));
         }
-        if self.options.build.msaa > 1 && targets.opaque_depth.is_some() {
-            return Err(Error::unsupported(
-                "an opaque depth with --msaa: strata tests fragments against a single-sampled opaque depth only, yet",
-            ));
-        }
         let auto_k = self.choose_k()?;
         let lit_depth = match (&self.lit, targets.opaque_depth) {
             (Some(_), Some(_)) => {

@@ -55,7 +55,7 @@ use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    capture_pipeline, color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels,
+    color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels, geometry_pipeline,
     screen_pipeline, storage_geometry_pass, GeometryStage, NullTarget,
 };
 use crate::frame::{BucketSplit, FrameContext, Recorded, SceneGpu};
@@ -149,13 +149,13 @@ pub fn slots_of(k: Option<u32>, limits: &wgpu::Limits) -> Result<u32> {
 /// output struct and entry point (one member per layer).
 pub fn sort_stage(layers: u32) -> Stage {
     let members: Vec<String> = (0..layers)
-        .map(|i| format!("    @location({i}) layer{i}: vec4<f32>,"))
+        .map(|i| format!("    @location({i}) layer_{i}_range: vec4<f32>,"))
         .collect();
     let values: Vec<String> = (0..layers)
         .map(|i| format!("bucket_channels({i}u, b, z)"))
         .collect();
     let source = format!(
-        "#import strata::scene::{{SceneVarying, behind_opaque}}\n#import strata::peeling::bucket_sort::{{bucket_channels, fragment_bucket}}\n\nstruct BucketTargets {{\n{}\n}}\n\n@fragment\nfn fs_sort(v: SceneVarying) -> BucketTargets {{\n    if behind_opaque(v.position) {{\n        discard;\n    }}\n    let b = fragment_bucket(v);\n    let z = v.position.z;\n    return BucketTargets({});\n}}\n",
+        "#define_import_path strata::peeling::bucket_sort_targets\n#import strata::scene::{{SceneVarying, behind_opaque}}\n#import strata::peeling::bucket_sort::{{bucket_channels, fragment_bucket}}\n\nstruct BucketTargets {{\n{}\n}}\n\nfn fs_sort_step(v: SceneVarying, front_facing: bool, mask: u32) -> BucketTargets {{\n    if behind_opaque(v.position) {{\n        discard;\n    }}\n    let b = fragment_bucket(v);\n    let z = v.position.z;\n    return BucketTargets({});\n}}\n",
         members.join("\n"),
         values.join(", ")
     );
@@ -379,15 +379,15 @@ impl Bucket {
         );
         let [bounds_stage, reduce_stage, histogram_stage, color_stage, resolve_stage] =
             stages(samples);
-        let bounds = capture_pipeline(
+        let bounds = geometry_pipeline(
             gpu,
-            "strata.bucket.bounds",
-            (&bounds_stage.module(device), "fs_bounds"),
+            scene,
+            (&bounds_stage, "fs_bounds"),
             &[&scene.frame_layout, &bounds_layout],
             &[max_target(BOUNDS_FORMAT)],
             None,
             samples,
-        );
+        )?;
         let reduce = (samples > 1).then(|| {
             let module = reduce_stage.module(device);
             screen_pipeline(
@@ -453,22 +453,27 @@ impl Bucket {
     }
 
     /// The sort pipeline for `layers` target layers, built when the layer count changes.
-    fn sort_pipeline(&mut self, gpu: &Gpu, layers: u32) -> &wgpu::RenderPipeline {
+    fn sort_pipeline(
+        &mut self,
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        layers: u32,
+    ) -> Result<&wgpu::RenderPipeline> {
         if self.sort.as_ref().is_none_or(|(l, _)| *l != layers) {
-            let module = sort_stage(layers).module(&gpu.device);
+            let stage = sort_stage(layers);
             let targets: Vec<_> = (0..layers).map(|_| max_target(BUCKET_FORMAT)).collect();
-            let pipeline = capture_pipeline(
+            let pipeline = geometry_pipeline(
                 gpu,
-                "strata.bucket.sort",
-                (&module, "fs_sort"),
+                scene,
+                (&stage, "fs_sort"),
                 &[&self.frame_layout, &self.sort_layout],
                 &targets,
                 None,
                 self.samples,
-            );
+            )?;
             self.sort = Some((layers, pipeline));
         }
-        &self.sort.as_ref().expect("built above").1
+        Ok(&self.sort.as_ref().expect("built above").1)
     }
 }
 
@@ -650,7 +655,7 @@ impl Method for Bucket {
             );
         }
         let targets: Vec<_> = layer_views.iter().map(|v| (v, nothing)).collect();
-        let sort = self.sort_pipeline(gpu, layers);
+        let sort = self.sort_pipeline(gpu, ctx.scene, layers)?;
         color_geometry_pass(ctx, "sort", sort, &[frame_group, &sort_group], &targets);
         let null_target = self.null_target.as_ref().expect("made above");
         storage_geometry_pass(

@@ -8,12 +8,15 @@
 
 @group(1) @binding(1) var<storage, read_write> counts: array<atomic<u32>>;
 
-@fragment
-fn fs_bounds(v: SceneVarying) -> @location(0) vec4<f32> {
+struct BoundsOut {
+    @location(0) bounds: vec4<f32>,
+}
+
+fn fs_bounds_step(v: SceneVarying, front_facing: bool, mask: u32) -> BoundsOut {
     if behind_opaque(v.position) {
         discard;
     }
     atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
     let z = v.position.z;
-    return vec4<f32>(-z, z, NO_DEPTH, NO_DEPTH);
+    return BoundsOut(vec4<f32>(-z, z, NO_DEPTH, NO_DEPTH));
 }

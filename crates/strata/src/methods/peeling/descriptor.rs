@@ -31,6 +31,7 @@ pub const F2B: Descriptor = Descriptor {
     // Ties peel in draw order.
     takes_order: false,
     downlevel: true,
+    app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::F2b, "f2b", Family::Peeling, create)
 };
 
@@ -58,5 +59,6 @@ pub const BUCKET: Descriptor = Descriptor {
     reads: &[MethodOption::K, MethodOption::Buckets],
     past_k: Some("collided in buckets that already held two and were dropped; a larger even --k splits each pixel's depth range finer"),
     traffic: TrafficModel::Bucket,
+    app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Bucket, "bucket", Family::Peeling, create)
 };

@@ -35,15 +35,41 @@ struct PeelOut {
     @builtin(frag_depth) frag_depth: f32,
     @builtin(sample_mask) mask: u32,
 }
+#else
+struct PeelOut {
+    @location(0) color: vec4<f32>,
+    @location(1) tag: u32,
+    @location(2) depth: f32,
+}
+#endif
 
-@fragment
-fn fs_peel_samples(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) -> PeelOut {
+// The first peel pass; single-sampled it also counts each pixel's fragments (multisampled, the
+// account pass counts them).
+fn fs_peel_first_step(v: SceneVarying, front_facing: bool, mask: u32) -> PeelOut {
     if behind_opaque(v.position) {
         discard;
     }
+#ifndef MULTISAMPLED
+    atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
+#endif
+    return peel(v, front_facing, mask);
+}
+
+fn fs_peel_step(v: SceneVarying, front_facing: bool, mask: u32) -> PeelOut {
+    if behind_opaque(v.position) {
+        discard;
+    }
+    return peel(v, front_facing, mask);
+}
+
+// The fragment's layer, if some sample it covers (single-sampled: its pixel) still waits for
+// it; else it is discarded.
+fn peel(v: SceneVarying, front_facing: bool, mask: u32) -> PeelOut {
     let p = pixel_index(pixel_of(v.position));
     let tag = fragment_tag(v, front_facing);
     let z = v.position.z;
+    var out: PeelOut;
+#ifdef MULTISAMPLED
     var pending = 0u;
     for (var s = 0u; s < target_samples(); s++) {
         if ((mask >> s) & 1u) != 0u && waiting(p, s, z, tag) {
@@ -53,22 +79,26 @@ fn fs_peel_samples(v: SceneVarying, @builtin(front_facing) front_facing: bool, @
     if pending == 0u {
         discard;
     }
-    var out: PeelOut;
-    out.color = shade(v.world, v.normal, v.material);
     out.tag = f32(tag);
-    out.depth = z;
     out.frag_depth = z;
     out.mask = pending;
+#else
+    if !waiting(p, 0u, z, tag) {
+        discard;
+    }
+    out.tag = tag;
+#endif
+    out.color = shade(v.world, v.normal, v.material);
+    out.depth = z;
     return out;
 }
 
-// The account, a geometry pass after the last layer: each fragment once at its pixel, once at
-// each sample it covers (a sample's depth complexity, which sets the next frame's layers), and
-// as composited when some covered sample captured it.
-@fragment
-fn fs_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+// The account, a geometry pass after the last layer with --msaa: each fragment once at its
+// pixel, once at each sample it covers (a sample's depth complexity, which sets the next
+// frame's layers), and as composited when some covered sample captured it.
+fn fs_account_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
-        discard;
+        return;
     }
     let pixels = frame.size.x * frame.size.y;
     let p = pixel_index(pixel_of(v.position));
@@ -86,40 +116,3 @@ fn fs_account(v: SceneVarying, @builtin(front_facing) front_facing: bool, @built
         atomicAdd(&counts[pixels + p], 1u);
     }
 }
-#else
-struct PeelOut {
-    @location(0) color: vec4<f32>,
-    @location(1) tag: u32,
-    @location(2) depth: f32,
-}
-
-@fragment
-fn fs_peel_first(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOut {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
-    return peel(v, front_facing);
-}
-
-@fragment
-fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOut {
-    if behind_opaque(v.position) {
-        discard;
-    }
-    return peel(v, front_facing);
-}
-
-fn peel(v: SceneVarying, front_facing: bool) -> PeelOut {
-    let tag = fragment_tag(v, front_facing);
-    let z = v.position.z;
-    if !waiting(pixel_index(pixel_of(v.position)), 0u, z, tag) {
-        discard;
-    }
-    var out: PeelOut;
-    out.color = shade(v.world, v.normal, v.material);
-    out.tag = tag;
-    out.depth = z;
-    return out;
-}
-#endif

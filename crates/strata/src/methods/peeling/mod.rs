@@ -38,7 +38,7 @@ pub mod descriptor;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    attachment, capture_pipeline, color_target, compute_pipelines, dispatch_pixels, scratch_depth,
+    attachment, color_target, compute_pipelines, dispatch_pixels, geometry_pipeline, scratch_depth,
     storage_geometry_pass, GeometryStage, NullTarget,
 };
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
@@ -164,10 +164,10 @@ impl FrontToBack {
         let module = peel_stage.module(device);
         let target = |format| color_target(format, None);
         let peel_pipeline = |entry: &str| {
-            capture_pipeline(
+            geometry_pipeline(
                 gpu,
-                &format!("strata.f2b.{entry}"),
-                (&module, entry),
+                scene,
+                (&peel_stage, entry),
                 &[&scene.frame_layout, &peel_layout],
                 &[
                     target(COLOR_FORMAT),
@@ -185,14 +185,7 @@ impl FrontToBack {
             )
         };
         // Multisampled, the account pass counts instead of the first peel.
-        let (peel_first, peel) = if multisampled {
-            (
-                peel_pipeline("fs_peel_samples"),
-                peel_pipeline("fs_peel_samples"),
-            )
-        } else {
-            (peel_pipeline("fs_peel_first"), peel_pipeline("fs_peel"))
-        };
+        let (peel_first, peel) = (peel_pipeline("fs_peel_first")?, peel_pipeline("fs_peel")?);
         let account = multisampled
             .then(|| {
                 crate::raster::storage_stage(
@@ -342,8 +335,9 @@ impl Method for FrontToBack {
             } else {
                 &self.peel
             });
-            pass.set_bind_group(0, Some(frame_group), &[]);
-            pass.set_bind_group(1, Some(&peel_group), &[]);
+            let first = scene.first_group();
+            pass.set_bind_group(first, Some(frame_group), &[]);
+            pass.set_bind_group(first + 1, Some(&peel_group), &[]);
             scene.draw(&mut pass, draw);
             drop(pass);
             dispatch_pixels(

@@ -59,5 +59,6 @@ pub const STOCHASTIC: Descriptor = Descriptor {
     reads: &[MethodOption::Passes],
     min_samples: 4,
     blend_modes: SUMS_OF_OVER,
+    app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Stochastic, "stochastic", Family::Weighted, create)
 };

@@ -28,7 +28,7 @@ use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
-    blend_add, capture_pipeline, color_geometry_pass, color_target, depth_geometry_pass,
+    blend_add, color_geometry_pass, color_target, depth_geometry_pass, geometry_pipeline,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -96,15 +96,13 @@ impl Stochastic {
             "strata.stochastic.pass.layout",
             &[Slot::Uniform, Slot::StorageRw],
         );
-        let module = Stage::new("strata.stochastic", include_str!("stochastic.wgsl"))
-            .with(LIBRARY)
-            .module(device);
+        let stage = Stage::new("strata.stochastic", include_str!("stochastic.wgsl")).with(LIBRARY);
         let layouts = [&scene.frame_layout, &pass_layout];
         let pipeline = |entry: &str, targets: &[Option<wgpu::ColorTargetState>], depth| {
-            capture_pipeline(
+            geometry_pipeline(
                 gpu,
-                &format!("strata.stochastic.{entry}"),
-                (&module, entry),
+                scene,
+                (&stage, entry),
                 &layouts,
                 targets,
                 depth,
@@ -124,17 +122,17 @@ impl Stochastic {
             "fs_stochastic_depth",
             &[],
             Some(depth_test(wgpu::CompareFunction::Less, true)),
-        );
+        )?;
         let accumulate = pipeline(
             "fs_stochastic_accumulate",
             &[blended(ACCUMULATION_FORMAT, One, One)],
             Some(depth_test(wgpu::CompareFunction::LessEqual, false)),
-        );
+        )?;
         let total = pipeline(
             "fs_stochastic_total",
             &[blended(TOTAL_FORMAT, Zero, OneMinusSrc)],
             None,
-        );
+        )?;
         let composite_stage = Stage::new(
             "strata.stochastic.composite",
             include_str!("stochastic_composite.wgsl"),

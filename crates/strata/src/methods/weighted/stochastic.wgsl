@@ -66,8 +66,7 @@ struct StippleOut {
 // Both depth passes write and test the depth at the pixel center on every sample, as strata's
 // other multisampled methods order a pixel's fragments (and the reference does): each sample
 // then sees the fragments in the order the pixel's center does.
-@fragment
-fn fs_stochastic_depth(v: SceneVarying) -> StippleOut {
+fn fs_stochastic_depth_step(v: SceneVarying, front_facing: bool, mask: u32) -> StippleOut {
     if behind_opaque(v.position) {
         discard;
     }
@@ -80,8 +79,7 @@ struct AccumulateOut {
     @builtin(frag_depth) depth: f32,
 }
 
-@fragment
-fn fs_stochastic_accumulate(v: SceneVarying) -> AccumulateOut {
+fn fs_stochastic_accumulate_step(v: SceneVarying, front_facing: bool, mask: u32) -> AccumulateOut {
     if behind_opaque(v.position) {
         discard;
     }
@@ -89,11 +87,14 @@ fn fs_stochastic_accumulate(v: SceneVarying) -> AccumulateOut {
     return AccumulateOut(vec4<f32>(c.rgb * c.a, c.a), v.position.z);
 }
 
-@fragment
-fn fs_stochastic_total(v: SceneVarying) -> @location(0) vec4<f32> {
+struct TotalOut {
+    @location(0) opacity: vec4<f32>,
+}
+
+fn fs_stochastic_total_step(v: SceneVarying, front_facing: bool, mask: u32) -> TotalOut {
     if behind_opaque(v.position) {
         discard;
     }
     atomicAdd(&counts[pixel_index(pixel_of(v.position))], 1u);
-    return vec4<f32>(shade(v.world, v.normal, v.material).a);
+    return TotalOut(vec4<f32>(shade(v.world, v.normal, v.material).a));
 }
