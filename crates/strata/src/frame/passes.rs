@@ -77,8 +77,9 @@ pub fn geometry_pipeline(
     }
 }
 
-/// Records a geometry pass of `pipeline` with `groups` bound from index 0 into color `targets`,
-/// each cleared to its color first, drawing the frame's geometry.
+/// Records a geometry pass of `pipeline` with `groups` bound from index 0 (after an
+/// application's groups) into color `targets`, each cleared to its color first, drawing the
+/// frame's geometry.
 pub fn color_geometry_pass(
     ctx: &mut FrameContext<'_>,
     name: &'static str,
@@ -86,20 +87,11 @@ pub fn color_geometry_pass(
     groups: &[&wgpu::BindGroup],
     targets: &[(&wgpu::TextureView, wgpu::Color)],
 ) {
-    let attachments: Vec<_> = targets
-        .iter()
-        .map(|(view, clear)| attachment(view, *clear))
-        .collect();
     let (scene, draw) = (ctx.scene, ctx.draw);
     let first = scene.first_group();
-    render_pass(
-        ctx,
-        name,
-        (pipeline, groups, first),
-        &attachments,
-        None,
-        &|pass| scene.draw(pass, draw),
-    );
+    color_pass(ctx, name, (pipeline, groups, first), targets, &|pass| {
+        scene.draw(pass, draw)
+    });
 }
 
 /// [`color_geometry_pass`] with the method's own draws (`draw` binds what it reads; strata's
@@ -112,16 +104,27 @@ pub fn color_pass_drawing(
     targets: &[(&wgpu::TextureView, wgpu::Color)],
     draw: &dyn Fn(&mut wgpu::RenderPass<'_>),
 ) {
+    color_pass(ctx, name, (pipeline, groups, 0), targets, draw);
+}
+
+/// A timed pass into colour `targets`, each cleared first, strata's `groups` bound from `first`.
+fn color_pass(
+    ctx: &mut FrameContext<'_>,
+    name: &'static str,
+    bound: (&wgpu::RenderPipeline, &[&wgpu::BindGroup], u32),
+    targets: &[(&wgpu::TextureView, wgpu::Color)],
+    draw: &dyn Fn(&mut wgpu::RenderPass<'_>),
+) {
     let attachments: Vec<_> = targets
         .iter()
         .map(|(view, clear)| attachment(view, *clear))
         .collect();
-    render_pass(ctx, name, (pipeline, groups, 0), &attachments, None, draw);
+    render_pass(ctx, name, bound, &attachments, None, draw);
 }
 
-/// Records a timed geometry pass of `pipeline` with `groups` bound from index 0, drawing the
-/// frame's geometry into `colors` (each loaded or cleared as its operations say) and `depth`,
-/// a depth target loaded or cleared by its `LoadOp` and kept.
+/// Records a timed geometry pass of `pipeline` with `groups` bound from index 0 (after an
+/// application's groups), drawing the frame's geometry into `colors` (each loaded or cleared as
+/// its operations say) and `depth`, a depth target loaded or cleared by its `LoadOp` and kept.
 pub fn depth_geometry_pass(
     ctx: &mut FrameContext<'_>,
     name: &'static str,

@@ -238,6 +238,16 @@ pub struct Descriptor {
     pub create: Constructor,
 }
 
+/// The methods of the table for which `support` says yes, as a list for a refusal.
+fn supporting(support: impl Fn(&Descriptor) -> Support) -> String {
+    let names: Vec<&str> = super::TABLE
+        .iter()
+        .filter(|d| support(d).yes())
+        .map(|d| d.name)
+        .collect();
+    names.join(", ")
+}
+
 impl Descriptor {
     /// A descriptor with the commonest answers: hardware rasterizer only, `--msaa` with
     /// per-pixel storage, no temporal culling, relaxed atomics, no application capture,
@@ -305,18 +315,11 @@ impl Descriptor {
     /// the methods that can.
     pub fn check_raster(&self, raster: Raster) -> Result<()> {
         match (raster, self.compute_raster) {
-            (Raster::Compute, Support::No(why)) => {
-                let supported: Vec<&str> = super::TABLE
-                    .iter()
-                    .filter(|d| d.compute_raster.yes())
-                    .map(|d| d.name)
-                    .collect();
-                Err(Error::unsupported(format!(
-                    "--raster compute: {} is not supported: {why}; use --raster hw, or one of {}",
-                    self.name,
-                    supported.join(", ")
-                )))
-            }
+            (Raster::Compute, Support::No(why)) => Err(Error::unsupported(format!(
+                "--raster compute: {} is not supported: {why}; use --raster hw, or one of {}",
+                self.name,
+                supporting(|d| d.compute_raster)
+            ))),
             _ => Ok(()),
         }
     }
@@ -325,18 +328,11 @@ impl Descriptor {
     /// methods that can.
     pub fn check_app_shaders(&self) -> Result<()> {
         match self.app_shaders {
-            Support::No(why) => {
-                let supported: Vec<&str> = super::TABLE
-                    .iter()
-                    .filter(|d| d.app_shaders.yes())
-                    .map(|d| d.name)
-                    .collect();
-                Err(Error::unsupported(format!(
-                    "{} cannot take the application's own shaders: {why}; these can: {}",
-                    self.name,
-                    supported.join(", ")
-                )))
-            }
+            Support::No(why) => Err(Error::unsupported(format!(
+                "{} cannot take the application's own shaders: {why}; these can: {}",
+                self.name,
+                supporting(|d| d.app_shaders)
+            ))),
             Support::Yes => Ok(()),
         }
     }

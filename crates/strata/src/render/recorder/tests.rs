@@ -79,3 +79,30 @@ fn auto_k_follows_the_last_histogram() {
     assert_eq!(fourth.k, third.max_depth_complexity);
     assert!(fourth.k > second.k, "more balls, deeper pixels");
 }
+
+/// A one-shot render is complete in one call: where the first frame's pool overflows (deep
+/// pixels, abuffer-ll's first guess), `render_once` renders again, and its picture is the one a
+/// real-time recorder reaches a frame later.
+#[test]
+fn render_once_is_complete_in_one_call() {
+    let g = gpu();
+    let scene = loaders::load_scene("builtin:layers?n=48").unwrap();
+    let options = RenderOptions::sized(48, 48);
+    let mut once = FrameRecorder::new(g, &scene, MethodId::AbufferLl, &options).unwrap();
+    let stats = once.render_once(&Default::default(), None).unwrap();
+    assert_eq!(stats.fragments_dropped, Some(0));
+    assert_eq!(stats.exact, Some(true));
+    assert!(
+        stats.submits >= 2,
+        "the first frame fit: {} submits",
+        stats.submits
+    );
+    let size = options.pixels() * RESOLVED_BYTES;
+    let picture = crate::gpu::readback::read_buffer(g, once.resolved(), size).unwrap();
+    // Real time: the first frame overflows and says so; the next one is complete.
+    let mut live = FrameRecorder::new(g, &scene, MethodId::AbufferLl, &options).unwrap();
+    let first = resolved_after_one_frame(&mut live);
+    let second = resolved_after_one_frame(&mut live);
+    assert!(first != picture);
+    assert!(second == picture);
+}
