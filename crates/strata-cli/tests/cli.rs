@@ -198,6 +198,20 @@ fn methods_and_info_report_json() {
         serde_json::json!(["over", "add", "multiply"])
     );
     assert_eq!(field("wboit", "blend"), serde_json::json!(["over"]));
+    // The application's own shaders: most methods take them, the rest say why not.
+    let app = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|m| m["app_shaders"] == true)
+        .count();
+    assert!(app >= 25, "{app} methods take application shaders");
+    assert_eq!(field("kb-keys", "app_shaders"), true);
+    assert_eq!(field("tiled", "app_shaders"), false);
+    assert!(field("tiled", "app_shaders_why_not")
+        .as_str()
+        .unwrap()
+        .contains("compute"));
     for id in [
         "reference",
         "unsorted",
