@@ -390,11 +390,14 @@ fn read_back(
 fn main() {
     let out = std::path::PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| ".".into()));
     let result = device().map_err(|e| e.into()).and_then(|(device, queue)| {
+        // A single-pass list, a locking k+-buffer, two-pass kb-keys, depth peeling, and
+        // weighted blended OIT; every method with `app_shaders` in `strata methods` runs so.
         for method in [
             MethodId::AbufferLl,
             MethodId::KplusHeap,
             MethodId::KbKeys,
-            MethodId::Dual,
+            MethodId::F2b,
+            MethodId::Wboit,
         ] {
             let (picture, stats) = run(&device, &queue, method, 1)?;
             let path = out.join(format!("own_shaders-{method}.png"));
