@@ -327,6 +327,15 @@ fn methods_and_options_without_an_application_path_are_refused() {
     auto_k.frame.k_auto = Some(0.95);
     let e = refusal(MethodId::KbKeys, &auto_k, shader(FRAGMENT));
     assert!(e.contains("--k auto"), "{e}");
+    // The same options are refused between frames.
+    let mut oit =
+        FrameRecorder::for_application(&gpu(), MethodId::KbKeys, &options, shader(FRAGMENT))
+            .unwrap();
+    let e = oit
+        .set_frame_options(&auto_k.frame)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--k auto"), "{e}");
 }
 
 /// A method whose feature the device lacks is refused in one line, not a panic.

@@ -377,6 +377,9 @@ impl FrameRecorder {
             frame: frame.clone(),
         };
         options.validate()?;
+        if self.scene.application.is_some() {
+            check_application_options(&options)?;
+        }
         self.method
             .descriptor()
             .check_blend(&self.scene.blend_modes, frame.kbuffer.tail)?;
