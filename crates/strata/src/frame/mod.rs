@@ -78,7 +78,8 @@ pub struct FrameStats {
     /// dropped (beyond a k or a number of layers either), no lock failure, no order violation
     /// (convex), nothing culled by temporal culling, no overflow. Approximate methods (wboit,
     /// mboit, unsorted, ...) say false: their error is measured against the reference, never
-    /// hidden.
+    /// hidden. `None` only for a downlevel device's frame that could not tell (no occlusion
+    /// result yet).
     pub exact: Option<bool>,
     /// For the k-buffers that promise each pixel's k nearest (`strata reference --k N`, N the
     /// frame's k): whether the frame kept that promise — no lock failure, no overflow, nothing
@@ -90,8 +91,11 @@ pub struct FrameStats {
     /// The sum of `gpu_ms`.
     pub gpu_ms_total: Option<f64>,
     /// Fragments the capture saw (after the opaque depth test), summed over the frame's pixels.
+    /// This and the next three counts are known for every frame of a full device; `None` only
+    /// where nothing could count them: a downlevel device's real-time frames (no storage to
+    /// count in, [`crate::DownlevelFrame`]) or a statistics readback that failed.
     pub fragments_generated: Option<u64>,
-    /// Fragments the method kept in its storage.
+    /// Fragments the method kept in its storage (composited).
     pub fragments_stored: Option<u64>,
     /// Fragments the method could not keep (beyond k, a full pool, culled).
     pub fragments_dropped: Option<u64>,
