@@ -82,6 +82,10 @@ pub fn choose(gpu: &Gpu, goal: Goal, geometry: Geometry) -> crate::error::Result
 /// is [`choose`]'s; where a device refuses it for a limit (`crate::gpu::validated`), the next
 /// is the fallback.
 pub fn candidates(gpu: &Gpu, goal: Goal, geometry: Geometry) -> Vec<Choice> {
+    if geometry == Geometry::Application && is_downlevel(gpu) {
+        // A downlevel device's frames are strata's render-target passes over its own scene.
+        return Vec::new();
+    }
     let mut list = scene_candidates(gpu, goal);
     if geometry == Geometry::Application {
         list.retain(|c| c.method.descriptor().app_shaders.yes());
