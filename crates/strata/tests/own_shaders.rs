@@ -27,10 +27,13 @@ fn srgb(c: f64) -> u8 {
     (s * 255.0).round() as u8
 }
 
+/// A quad at a pixel: its depth there, straight-alpha colour and id.
+type Layer = (f64, [f64; 4], u32);
+
 /// The quads covering pixel (x, y)'s center in front of the opaque depth, in submission order
 /// (depth, straight-alpha colour, the quad's id), and what lies behind them (the wall or the
 /// background).
-fn layers(x: u32, y: u32) -> (Vec<(f64, [f64; 4], u32)>, [f64; 3]) {
+fn layers(x: u32, y: u32) -> (Vec<Layer>, [f64; 3]) {
     let half = app::SIZE as f64 / 2.0;
     let cx = (x as f64 + 0.5) / half - 1.0;
     let cy = 1.0 - (y as f64 + 0.5) / half;
@@ -60,7 +63,7 @@ fn layers(x: u32, y: u32) -> (Vec<(f64, [f64; 4], u32)>, [f64; 3]) {
 }
 
 /// Each layer in `order` adds α·c of what still shows (front to back), over `behind`.
-fn over(order: &[(f64, [f64; 4], u32)], behind: [f64; 3]) -> [f64; 3] {
+fn over(order: &[Layer], behind: [f64; 3]) -> [f64; 3] {
     let mut color = [0.0f64; 3];
     let mut shows = 1.0f64;
     for (_, c, _) in order {
