@@ -71,13 +71,19 @@ fn limits_from_env(adapter: &wgpu::Adapter) -> Result<wgpu::Limits> {
     }
 }
 
-/// Runs `make` (pipelines, layouts, buffers: setup) under a validation error scope, so that what
-/// this device cannot make — a limit or a format it lacks — comes back as one line naming `what`
-/// and the device's reason instead of wgpu's uncaptured-error panic.
+/// Runs `make` (pipelines, layouts, buffers: setup) under validation and internal error scopes,
+/// so that what this device cannot make — a limit or a format it lacks, a shader its backend
+/// cannot translate — comes back as one line naming `what` and the device's reason instead of
+/// wgpu's uncaptured-error panic.
 pub fn validated<T>(gpu: &Gpu, what: &str, make: impl FnOnce() -> Result<T>) -> Result<T> {
-    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    // Internal errors too: a backend's shader translation reports what it cannot express (GL's
+    // GLSL has no textureLoad from a depth texture) as one, not as a validation error.
+    let internal = gpu.device.push_error_scope(wgpu::ErrorFilter::Internal);
+    let validation = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let made = make();
-    match pollster::block_on(scope.pop()) {
+    let invalid = pollster::block_on(validation.pop());
+    let failed = pollster::block_on(internal.pop());
+    match invalid.or(failed) {
         None => made,
         Some(e) => {
             // wgpu's message is "Validation Error", "Caused by:" and the reason on later lines.
