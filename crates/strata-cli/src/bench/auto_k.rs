@@ -82,7 +82,7 @@ fn row(sequence: &'static str, step: u32, method: MethodId, budget_mb: f64, s: F
         achieved_robustness: auto.and_then(|a| a.achieved_robustness),
         max_depth_complexity: s.max_depth_complexity,
         fragments: s.fragments_generated,
-        bytes_allocated: s.bytes_allocated,
+        bytes_allocated: Some(s.bytes_allocated),
         overflow: s.overflow,
         gpu_ms: s.gpu_ms_total,
     }

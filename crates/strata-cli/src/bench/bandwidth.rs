@@ -115,14 +115,14 @@ pub fn run(gpu: &Gpu, size: Option<crate::Size>, frames: Option<u32>, dir: &Path
                     if let Some(s) = last {
                         row.fragments = s.fragments_generated;
                         row.fragments_stored = s.fragments_stored;
-                        row.geometry_passes = s.geometry_passes;
-                        row.bytes_allocated = s.bytes_allocated;
+                        row.geometry_passes = Some(s.geometry_passes);
+                        row.bytes_allocated = Some(s.bytes_allocated);
                         let counts = FrameCounts {
                             pixels: width as u64 * height as u64,
                             generated: s.fragments_generated.unwrap_or(0),
                             stored: s.fragments_stored.unwrap_or(0),
-                            geometry_passes: s.geometry_passes.unwrap_or(1) as u64,
-                            bytes_allocated: s.bytes_allocated.unwrap_or(0),
+                            geometry_passes: s.geometry_passes.max(1) as u64,
+                            bytes_allocated: s.bytes_allocated,
                         };
                         row.traffic = traffic::traffic(method, &counts);
                         if let Some(t) = &row.traffic {

@@ -214,11 +214,7 @@ fn run_case(gpu: &Gpu, case: &Case<'_>, bar: &indicatif::ProgressBar, rows: &mut
                 row.frames_with_stats = timed.len();
                 row.median_gpu_ms = result.median_gpu_ms;
                 row.median_wall_ms = result.median_wall_ms;
-                row.mean_passes = mean(
-                    timed
-                        .iter()
-                        .filter_map(|s| s.geometry_passes.map(f64::from)),
-                );
+                row.mean_passes = mean(timed.iter().map(|s| f64::from(s.geometry_passes)));
                 row.bytes_allocated = result.bytes_allocated;
                 row.bytes_per_pixel = result
                     .bytes_allocated

@@ -447,10 +447,10 @@ pub(crate) fn measure_views(
 }
 
 pub(crate) fn fill_counts(result: &mut MethodResult, stats: &FrameStats) {
-    result.geometry_passes = stats.geometry_passes;
+    result.geometry_passes = Some(stats.geometry_passes);
     result.fragments = stats.fragments_generated;
     result.fragments_dropped = stats.fragments_dropped;
     result.max_depth_complexity = stats.max_depth_complexity;
-    result.bytes_allocated = stats.bytes_allocated;
+    result.bytes_allocated = Some(stats.bytes_allocated);
     result.lock_failures = stats.lock_failures;
 }

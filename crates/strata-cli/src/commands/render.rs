@@ -51,7 +51,7 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
         stats.width,
         stats.height,
         stats.effect,
-        stats.geometry_passes.unwrap_or(0),
+        stats.geometry_passes,
         stats.fragments_generated.unwrap_or(0),
         stats.max_depth_complexity.unwrap_or(0),
         output.display()
@@ -113,7 +113,7 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
             (None, _) => eprintln!("warning: {dropped} fragments dropped"),
         }
     }
-    if stats.overflow == Some(true) && stats.geometry_passes > Some(1) && dropped == 0 {
+    if stats.overflow == Some(true) && stats.geometry_passes > 1 && dropped == 0 {
         // The statistics are the last render's: name what can overflow with this method.
         let what = match (&stats.tiled, &stats.compute_raster) {
             (Some(_), _) => "the compute rasterizer's work items",

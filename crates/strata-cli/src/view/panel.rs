@@ -569,7 +569,7 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
                     .map(|t| format!("{t:.3} ms"))
                     .unwrap_or_else(|| "untimed".into()),
             );
-            row("geometry passes", n(s.geometry_passes.map(u64::from)));
+            row("geometry passes", n(Some(u64::from(s.geometry_passes))));
             row("k", n(s.k.map(u64::from)));
             row("fragments", n(s.fragments_generated));
             row("stored", n(s.fragments_stored));
@@ -589,9 +589,7 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
             );
             row(
                 "memory",
-                s.bytes_allocated
-                    .map(|b| format!("{:.2} MiB", b as f64 / 1048576.0))
-                    .unwrap_or_else(|| "—".into()),
+                format!("{:.2} MiB", s.bytes_allocated as f64 / 1048576.0),
             );
             row(
                 "max depth complexity",

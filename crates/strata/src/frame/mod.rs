@@ -71,7 +71,7 @@ pub struct FrameStats {
     /// The effect rendered: "transparency", "translucency" or "complexity".
     pub effect: String,
     /// Passes over the scene's geometry this frame recorded (peeling: one per layer).
-    pub geometry_passes: Option<u32>,
+    pub geometry_passes: u32,
     /// Whether this frame's picture equals the reference of the whole scene: the method is
     /// exact by design (the catalogue's flag), or exact whenever it drops nothing
     /// (abuffer-fixed, mlab, bucket), and the frame composited every fragment — nothing
@@ -102,7 +102,7 @@ pub struct FrameStats {
     /// The largest fragment count of any pixel.
     pub max_depth_complexity: Option<u32>,
     /// Bytes of GPU memory the method allocated for this frame.
-    pub bytes_allocated: Option<u64>,
+    pub bytes_allocated: u64,
     /// The method's storage, or the compute rasterizer's work items, ran out: the fragment
     /// counts are then lower bounds (the frame is incomplete and exact mode renders it again).
     pub overflow: Option<bool>,

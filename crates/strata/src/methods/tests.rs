@@ -65,7 +65,7 @@ fn exact_failures(name: &str, scene: &Scene, opts: &RenderOptions, methods: &[&s
             truth,
             opts.frame.effect,
         );
-        assert!(stats.geometry_passes.unwrap() >= 1);
+        assert!(stats.geometry_passes >= 1);
     }
     failures
 }
@@ -490,7 +490,7 @@ fn pool_overflows_and_stays_exact(method: &str, passes: u32) -> (Scene, RenderOp
     opts.frame.kbuffer.initial_nodes = Some(16);
     let (actual, stats) = render_gpu(&s, &opts, method);
     assert_eq!(stats.overflow, Some(true), "{method}");
-    assert_eq!(stats.geometry_passes, Some(passes), "{method}");
+    assert_eq!(stats.geometry_passes, passes, "{method}");
     assert_eq!(stats.fragments_dropped, Some(0), "{method}");
     Expected::reference(&s, &opts).assert_exact(&format!("overflow-{method}"), &actual);
     (s, opts)
@@ -609,7 +609,7 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
     ] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(expected),
+            expected,
             "{method}"
         );
     }
@@ -617,7 +617,7 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
     opts.frame.kbuffer.initial_nodes = Some(5000);
     assert_eq!(
         render_gpu(&s, &opts, "abuffer-ll").1.bytes_allocated,
-        Some(20 * 5000 + 16 * px + 156)
+        20 * 5000 + 16 * px + 156
     );
     assert_eq!(std::mem::size_of::<crate::resolve::RefFragment>(), 64);
 }
@@ -993,7 +993,7 @@ fn every_method_keeps_within_the_budget() {
     for m in super::MethodId::gpu_methods() {
         let mut opts = runnable(m, &base);
         let (_, stats) = render_gpu(&s, &opts, m.as_str());
-        let bytes = stats.bytes_allocated.unwrap();
+        let bytes = stats.bytes_allocated;
         assert!(bytes > 0, "{m}: reports no allocation");
         for budget in [bytes, bytes - 1] {
             let mut tight = opts.clone();
@@ -1001,7 +1001,7 @@ fn every_method_keeps_within_the_budget() {
             let mut r = renderer(&s, &tight);
             match r.render(m.as_str()) {
                 Ok((_, st)) => {
-                    assert!(st.bytes_allocated.unwrap() <= budget, "{m}: over budget");
+                    assert!(st.bytes_allocated <= budget, "{m}: over budget");
                     assert!(
                         budget == bytes || pool_method(m),
                         "{m}: took {budget} < {bytes}"

@@ -557,7 +557,7 @@ fn multi_layer_peeling_matches_the_reference_on_both_paths() {
             let per_group = if cascade { 2 } else { 1 };
             assert_eq!(
                 steady.geometry_passes,
-                Some(per_group * 16u32.div_ceil(m)),
+                per_group * 16u32.div_ceil(m),
                 "M = {m}"
             );
             assert_eq!(steady.fragments_dropped, Some(0));

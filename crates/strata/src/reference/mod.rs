@@ -380,7 +380,7 @@ pub fn render_lists(
         height: h,
         k: options.frame.k,
         effect: options.frame.effect.name().into(),
-        geometry_passes: Some(0),
+        geometry_passes: 0,
         // With --k N the picture is each pixel's N nearest: the whole scene's only when no pixel
         // has more.
         exact: Some(generated == stored),
@@ -391,7 +391,7 @@ pub fn render_lists(
         fragments_stored: Some(stored),
         fragments_dropped: Some(generated - stored),
         max_depth_complexity: lists.iter().map(|l| l.len() as u32).max(),
-        bytes_allocated: Some(generated * std::mem::size_of::<RefFragment>() as u64),
+        bytes_allocated: generated * std::mem::size_of::<RefFragment>() as u64,
         overflow: None,
         lock_failures: None,
         memory_ordering: None,

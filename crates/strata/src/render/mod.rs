@@ -365,7 +365,7 @@ impl<'g> Renderer<'g> {
             submits += 1;
             let r = recorder.wait_stats()?;
             blocking += 1;
-            passes += r.stats.geometry_passes.unwrap_or(0);
+            passes += r.stats.geometry_passes;
             overflowed |= r.stats.overflow == Some(true) || r.incomplete;
             let incomplete = r.incomplete;
             if incomplete {
@@ -383,7 +383,7 @@ impl<'g> Renderer<'g> {
         if let Some(s) = stats.overflow.as_mut() {
             *s = overflowed;
         }
-        stats.geometry_passes = Some(passes);
+        stats.geometry_passes = passes;
         let bytes = readback::read_buffer(
             self.gpu,
             recorder.resolved(),
@@ -461,7 +461,7 @@ impl<'g> Renderer<'g> {
             gpu.queue.submit([encoder.finish()]);
             submits += 1;
             let stats = peeling.wait_stats(gpu)?;
-            passes += stats.geometry_passes.unwrap_or(0);
+            passes += stats.geometry_passes;
             // Only an incomplete f2b frame that will peel more layers renders again.
             let grows = method == MethodId::F2b && peeling.layers() > peeling.last_layers();
             if stats.exact != Some(false) || !grows {
@@ -479,7 +479,7 @@ impl<'g> Renderer<'g> {
             stats.fragments_dropped = Some(0);
             stats.max_depth_complexity = Some(deepest);
         }
-        stats.geometry_passes = Some(passes);
+        stats.geometry_passes = passes;
         stats.submits = submits + 1;
         stats.blocking_readbacks = submits + 1;
         Ok((over_background(&self.options, &resolved), stats))
@@ -535,8 +535,7 @@ fn merge_band(mut sum: FrameStats, band: FrameStats) -> FrameStats {
     sum.lock_failures = add(sum.lock_failures, band.lock_failures);
     sum.max_depth_complexity = sum.max_depth_complexity.max(band.max_depth_complexity);
     sum.bytes_allocated = sum.bytes_allocated.max(band.bytes_allocated);
-    sum.geometry_passes =
-        Some(sum.geometry_passes.unwrap_or(0) + band.geometry_passes.unwrap_or(0));
+    sum.geometry_passes += band.geometry_passes;
     sum.overflow = match (sum.overflow, band.overflow) {
         (Some(a), Some(b)) => Some(a || b),
         (a, b) => a.or(b),

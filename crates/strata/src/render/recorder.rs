@@ -906,7 +906,7 @@ impl FrameRecorder {
             height: self.options.frame.height,
             k: p.recorded.k,
             effect: self.options.frame.effect.name().to_string(),
-            geometry_passes: Some(p.recorded.geometry_passes),
+            geometry_passes: p.recorded.geometry_passes,
             exact: Some(exact.0),
             exact_k_nearest: exact.1,
             gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
@@ -917,12 +917,10 @@ impl FrameRecorder {
             culled_temporal: ms.culled_temporal,
             convex: ms.convex,
             max_depth_complexity: totals.map(|t| t.max_depth),
-            bytes_allocated: Some(
-                p.recorded.bytes_allocated
-                    + recorder_raster_bytes
-                    + p.order_words.map_or(0, |o| o.1)
-                    + self.scene.animation.as_ref().map_or(0, |a| a.bytes()),
-            ),
+            bytes_allocated: p.recorded.bytes_allocated
+                + recorder_raster_bytes
+                + p.order_words.map_or(0, |o| o.1)
+                + self.scene.animation.as_ref().map_or(0, |a| a.bytes()),
             // The compute rasterizer's work items overflowing leaves fragments that no counter
             // saw: the frame says it overflowed (and is incomplete), its counts are lower bounds.
             overflow: match compute_raster.as_ref().filter(|r| r.overflow) {

@@ -667,10 +667,10 @@ impl DownlevelFrame {
             width: w,
             height: h,
             effect: self.options.frame.effect.name().into(),
-            geometry_passes: Some(1),
+            geometry_passes: 1,
             // wboit approximates, by design.
             exact: Some(false),
-            bytes_allocated: Some(w as u64 * h as u64 * self.pixel_bytes()),
+            bytes_allocated: w as u64 * h as u64 * self.pixel_bytes(),
             raster: Raster::Hw.name().into(),
             adapter: Some(gpu.info.name.clone()),
             backend: Some(gpu.backend_name()),
@@ -680,7 +680,7 @@ impl DownlevelFrame {
             return stats;
         }
         let deeper = words.map(|w| w[0] != 0 || w[1] != 0);
-        stats.geometry_passes = Some(tag.layers + 1);
+        stats.geometry_passes = tag.layers + 1;
         stats.exact = deeper.map(|d| !d);
         let fixed = self.options.frame.peeling.layers.is_some();
         if deeper == Some(true) && !fixed {

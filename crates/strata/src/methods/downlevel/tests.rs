@@ -134,7 +134,7 @@ fn downlevel_frames_peel_more_until_nothing_lies_deeper() {
     assert_eq!(stats.max_depth_complexity, Some(20));
     assert_eq!(stats.exact, Some(true));
     // The count, then 20 layers and the probe.
-    assert_eq!(stats.geometry_passes, Some(1 + 21));
+    assert_eq!(stats.geometry_passes, 1 + 21);
     assert_exact("downlevel-deep", &s, &options, &image);
     let mut fixed = options.clone();
     fixed.frame.peeling.layers = Some(3);
@@ -142,7 +142,7 @@ fn downlevel_frames_peel_more_until_nothing_lies_deeper() {
     assert_eq!(stats.exact, Some(false));
     assert_eq!(stats.fragments_generated, None);
     assert_eq!(stats.fragments_stored, Some(3 * 24 * 24));
-    assert_eq!(stats.geometry_passes, Some(4));
+    assert_eq!(stats.geometry_passes, 4);
 }
 
 /// In real time the frame records into the application's encoder and presents over its
@@ -276,7 +276,7 @@ fn downlevel_wboit_equals_the_full_devices_wboit() {
         );
         assert_eq!(stats.method, "wboit");
         assert_eq!(stats.exact, Some(false), "{name}");
-        assert_eq!(stats.geometry_passes, Some(1), "{name}");
+        assert_eq!(stats.geometry_passes, 1, "{name}");
         assert_same_counts(name, &stats, &full_stats);
     }
     let e = Renderer::new(webgl2(), &blended_layers(), &RenderOptions::sized(16, 16))

@@ -338,14 +338,14 @@ fn memory_follows_the_catalogue_formula() {
     ] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(16 * (k + 1) * px + 116 + 40),
+            16 * (k + 1) * px + 116 + 40,
             "{method}"
         );
     }
     opts.frame.kbuffer.tail = Tail::Blend;
     assert_eq!(
         render_gpu(&s, &opts, "kplus-heap").1.bytes_allocated,
-        Some(16 * (k + 1) * px + 116 + 40 * px)
+        16 * (k + 1) * px + 116 + 40 * px
     );
     // --msaa 4: each sample's own slots, words and tail, and a fragment count per pixel.
     let four = {
@@ -355,17 +355,17 @@ fn memory_follows_the_catalogue_formula() {
     };
     assert_eq!(
         render_gpu(&s, &four, "kplus-heap").1.bytes_allocated,
-        Some(16 * (k + 1) * px * 4 + 4 * px + 116 + 40 * px * 4)
+        16 * (k + 1) * px * 4 + 4 * px + 116 + 40 * px * 4
     );
     opts.frame.kbuffer.tail = Tail::Drop;
     assert_eq!(
         render_gpu(&s, &opts, "kb-mdt32").1.bytes_allocated,
-        Some(20 * k * px + 16 * px + 156)
+        20 * k * px + 16 * px + 156
     );
     for method in ["kb-mdt64", "kb-mdt-pack"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(8 * k * px + 16 * px + 156),
+            8 * k * px + 16 * px + 156,
             "{method}"
         );
     }
@@ -373,7 +373,7 @@ fn memory_follows_the_catalogue_formula() {
     for method in ["kb-ab-ll", "kb-ll"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(20 * 3000 + 16 * px + 156),
+            20 * 3000 + 16 * px + 156,
             "{method}"
         );
     }
@@ -381,20 +381,20 @@ fn memory_follows_the_catalogue_formula() {
     for method in ["sbuffer", "kb-sbuffer"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
-            Some(16 * 3000 + 16 * px + 4 * 403 + 156),
+            16 * 3000 + 16 * px + 4 * 403 + 156,
             "{method}"
         );
     }
     // kplus-sbuffer: the region starts (4 per pixel) share the pool's buffer.
     assert_eq!(
         render_gpu(&s, &opts, "kplus-sbuffer").1.bytes_allocated,
-        Some(16 * 3000 + 20 * px + 4 * 403 + 156)
+        16 * 3000 + 20 * px + 4 * 403 + 156
     );
     opts.frame.kbuffer.initial_nodes = None;
     // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
     opts.frame.kbuffer.tail = Tail::Drop;
     let (_, stats) = render_gpu(&s, &opts, "kb-ab-fixed");
-    assert_eq!(stats.bytes_allocated, Some(16 * 7 * px + 116 + 40));
+    assert_eq!(stats.bytes_allocated, 16 * 7 * px + 116 + 40);
 }
 
 /// kplus-sbuffer's three store paths in one frame: pixels with f ≤ k append without the lock,
@@ -417,13 +417,13 @@ fn kplus_sbuffer_regions_hold_exactly_min_f_k() {
         // A pool too small at first: the next frame's is the measured need + 25%.
         opts.frame.kbuffer.initial_nodes = Some(16);
         let (_, stats) = render_gpu(&s, &opts, "kplus-sbuffer");
-        assert_eq!(stats.geometry_passes, Some(4));
+        assert_eq!(stats.geometry_passes, 4);
         let px = opts.pixels();
         let scan_words = super::sbuffer::scan_levels(px).1;
         let expected_pool = (need + need / 4).max(1024);
         assert_eq!(
             stats.bytes_allocated,
-            Some(16 * expected_pool + 20 * px + 4 * scan_words + 156),
+            16 * expected_pool + 20 * px + 4 * scan_words + 156,
             "k={k}"
         );
     }
@@ -438,7 +438,7 @@ fn kplus_sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
     opts.frame.kbuffer.initial_nodes = Some(64);
     let (_, stats) = render_gpu(&s, &opts, "kplus-sbuffer");
     assert_eq!(stats.overflow, Some(true));
-    assert_eq!(stats.geometry_passes, Some(4));
+    assert_eq!(stats.geometry_passes, 4);
     check_k(
         "layers-kplus-sbuffer-overflow",
         &s,
@@ -726,10 +726,7 @@ fn auto_k_reaches_the_robustness_the_budget_allows() {
             stats.fragments_stored.unwrap() as f64 / stats.fragments_generated.unwrap() as f64
         );
         if let Some(budget) = opts.budget_bytes() {
-            assert!(
-                stats.bytes_allocated.unwrap() <= budget,
-                "{label}: {stats:?}"
-            );
+            assert!(stats.bytes_allocated <= budget, "{label}: {stats:?}");
         }
         if k < auto.k_budget {
             assert!(
@@ -806,13 +803,13 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         let per_group = if cascade { 2 } else { 1 };
         assert_eq!(
             stats.geometry_passes,
-            Some(per_group * 24u32.div_ceil(k)),
+            per_group * 24u32.div_ceil(k),
             "k={k}"
         );
         let keys = if cascade { 8 * k as u64 * 48 * 48 } else { 0 };
         assert_eq!(
             stats.bytes_allocated,
-            Some((16 * (k as u64 + 1) + super::kpeel::PIXEL_STATE_BYTES) * 48 * 48 + 156 + keys)
+            (16 * (k as u64 + 1) + super::kpeel::PIXEL_STATE_BYTES) * 48 * 48 + 156 + keys
         );
         // Too few layers: what was not reached is reported as dropped.
         opts.frame.peeling.layers = Some(k);

@@ -158,7 +158,7 @@ fn multisampled_mboit_equals_its_closed_form() {
     });
     let (actual, stats) = render_gpu(&scene, &opts, "mboit");
     assert_exact("mboit-msaa4", &actual, &expected, Effect::Transparency);
-    assert_eq!(stats.bytes_allocated, Some(40 * 40 * (28 * 4 + 4)));
+    assert_eq!(stats.bytes_allocated, 40 * 40 * (28 * 4 + 4));
     // On flat layers (37 pixels: edges between sample positions) the same as single-sampled
     // where every fragment covers every sample, and anti-aliased at the edges.
     let layers = at_alpha(LAYERS, 0.4);
@@ -212,7 +212,7 @@ fn mboit_equals_its_closed_form() {
             2,
             0.001,
         );
-        assert_eq!(stats.geometry_passes, Some(2));
+        assert_eq!(stats.geometry_passes, 2);
         assert_eq!(stats.exact, Some(false));
         assert_eq!(stats.fragments_dropped, Some(0));
     }
@@ -232,7 +232,7 @@ fn mboit_against_closed_form(
     assert_exact(name, &actual, &expected, Effect::Transparency);
     assert_eq!(
         stats.bytes_allocated,
-        Some(40 * 40 * (28 + high_bytes + 4)),
+        40 * 40 * (28 + high_bytes + 4),
         "{name}"
     );
     crate::metrics::compare(
@@ -439,7 +439,7 @@ fn stochastic_equals_its_closed_form() {
                 Effect::Transparency,
             );
             assert_eq!(stats.fragments_dropped, Some(0));
-            assert_eq!(stats.geometry_passes, Some(2 * passes + 1));
+            assert_eq!(stats.geometry_passes, 2 * passes + 1);
         }
     }
 }
@@ -640,10 +640,10 @@ fn wavelet_equals_its_closed_form() {
             assert_exact(&name, &actual, &expected, Effect::Transparency);
             assert_eq!(
                 stats.bytes_allocated,
-                Some(40 * 40 * (28 + high_bytes + super::mboit::WAVELET_BOUNDS_BYTES + 4)),
+                40 * 40 * (28 + high_bytes + super::mboit::WAVELET_BOUNDS_BYTES + 4),
                 "{name}"
             );
-            assert_eq!(stats.geometry_passes, Some(3));
+            assert_eq!(stats.geometry_passes, 3);
             assert_eq!(stats.exact, Some(false));
             errors.push(
                 crate::metrics::compare(
@@ -686,6 +686,6 @@ fn multisampled_wavelet_equals_its_closed_form() {
     assert_exact("wavelet-msaa4", &actual, &expected, Effect::Transparency);
     assert_eq!(
         stats.bytes_allocated,
-        Some(40 * 40 * ((28 + 16 + super::mboit::WAVELET_BOUNDS_BYTES) * 4 + 4))
+        40 * 40 * ((28 + 16 + super::mboit::WAVELET_BOUNDS_BYTES) * 4 + 4)
     );
 }
