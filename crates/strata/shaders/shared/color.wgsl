@@ -20,14 +20,19 @@ fn resolved_over(premultiplied: vec4<f32>, count: u32) -> Resolved {
 }
 
 // A result as a downlevel frame's state targets hold it (crates/strata/src/methods/downlevel):
-// (color, count) and (transmittance, unused).
+// (color, count) and (transmittance, unused), the f32 values' bits in Rgba32Uint targets
+// (32-bit float targets are not renderable on WebGL2 without an extension, nor on wgpu's GL
+// backend; 32-bit integer ones are everywhere, and keep every bit).
 struct DownlevelState {
-    @location(0) color: vec4<f32>,
-    @location(1) transmittance: vec4<f32>,
+    @location(0) color: vec4<u32>,
+    @location(1) transmittance: vec4<u32>,
 }
 
 fn downlevel_state(r: Resolved) -> DownlevelState {
-    return DownlevelState(vec4<f32>(r.color, f32(r.count)), vec4<f32>(r.transmittance, 0.0));
+    return DownlevelState(
+        bitcast<vec4<u32>>(vec4<f32>(r.color, f32(r.count))),
+        bitcast<vec4<u32>>(vec4<f32>(r.transmittance, 0.0)),
+    );
 }
 
 // A multisampled pixel's per-sample results, summed for their mean.

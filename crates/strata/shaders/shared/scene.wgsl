@@ -81,13 +81,13 @@ const UNIFORM_MATERIALS: u32 = 256u;
 const UNIFORM_LIGHTS: u32 = 64u;
 @group(0) @binding(1) var<uniform> materials: array<Material, 256>;
 @group(0) @binding(2) var<uniform> lights: array<Light, 64>;
-@group(0) @binding(3) var opaque_depth: texture_depth_2d;
+@group(0) @binding(3) var opaque_depth: texture_2d<f32>;
 #else
 // Each triangle's index into `materials` (the vertices are a vertex buffer: see `vs_scene`).
 @group(0) @binding(1) var<storage, read> triangle_materials: array<u32>;
 @group(0) @binding(2) var<storage, read> materials: array<Material>;
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
-@group(0) @binding(4) var opaque_depth: texture_depth_2d;
+@group(0) @binding(4) var opaque_depth: texture_2d<f32>;
 // Frame totals every resolve adds its pixels to; cleared before each frame. Keep the TOTAL_
 // indices in sync with `Totals` in crates/strata/src/frame/mod.rs.
 @group(0) @binding(5) var<storage, read_write> totals: array<atomic<u32>>;
@@ -278,7 +278,7 @@ fn pixel_index(pixel: vec2<u32>) -> u32 {
 
 // True when an opaque surface in front hides this fragment.
 fn behind_opaque(position: vec4<f32>) -> bool {
-    return position.z >= textureLoad(opaque_depth, vec2<i32>(position.xy), 0);
+    return position.z >= textureLoad(opaque_depth, vec2<i32>(position.xy), 0).r;
 }
 
 fn background_at(pixel: vec2<u32>) -> vec3<f32> {

@@ -9,7 +9,7 @@
 @fragment
 fn fs_composite(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
-    let depth = textureLoad(gbuffer_depth, pixel, 0);
+    let depth = textureLoad(gbuffer_depth, pixel, 0).r;
     if depth >= 1.0 {
         discard;
     }

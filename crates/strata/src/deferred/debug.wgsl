@@ -18,7 +18,7 @@ fn display(c: vec3<f32>) -> vec4<f32> {
 @fragment
 fn fs_debug(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
-    let depth = textureLoad(gbuffer_depth, pixel, 0);
+    let depth = textureLoad(gbuffer_depth, pixel, 0).r;
     if depth >= 1.0 {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
@@ -46,7 +46,7 @@ fn fs_debug(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
             return vec4<f32>(textureLoad(light_diffuse, pixel, 0).rgb + textureLoad(light_specular, pixel, 0).rgb, 1.0);
         }
         case VIEW_NORMAL_ERROR: {
-            let exact = textureLoad(exact_normal, pixel, 0).xyz;
+            let exact = bitcast<vec3<f32>>(textureLoad(exact_normal, pixel, 0).xyz);
             // 2·asin(|a − b| / 2) keeps small angles accurate in f32, where acos(a·b) does not.
             let chord = length(normalize(exact) - decode_normal(n.xy));
             return vec4<f32>(degrees(2.0 * asin(clamp(chord * 0.5, 0.0, 1.0))), 0.0, 0.0, 1.0);

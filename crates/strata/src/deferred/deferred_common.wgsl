@@ -11,7 +11,7 @@
 @group(1) @binding(1) var gbuffer_albedo: texture_2d<f32>;
 // RGB10A2: the encoded view-space normal in RG, the specular exponent / 1023 in B.
 @group(1) @binding(2) var gbuffer_normal: texture_2d<f32>;
-@group(1) @binding(3) var gbuffer_depth: texture_depth_2d;
+@group(1) @binding(3) var gbuffer_depth: texture_2d<f32>;
 // Rgba16Float light buffers the light volumes add into.
 @group(1) @binding(4) var light_diffuse: texture_2d<f32>;
 @group(1) @binding(5) var light_specular: texture_2d<f32>;
@@ -24,7 +24,7 @@
 // The unit light-volume meshes as triangle lists (xyz, w unused).
 @group(1) @binding(9) var<storage, read> volume_vertices: array<vec4<f32>>;
 // Debug only: the view-space normal before encoding (Rgba32Float).
-@group(1) @binding(10) var exact_normal: texture_2d<f32>;
+@group(1) @binding(10) var exact_normal: texture_2d<u32>;
 // The lit frame (premultiplied, alpha = coverage) the tone map reads.
 @group(1) @binding(11) var hdr_color: texture_2d<f32>;
 

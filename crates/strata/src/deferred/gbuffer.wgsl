@@ -32,12 +32,13 @@ fn fs_gbuffer(v: SceneVarying) -> GbufferOut {
 struct GbufferExactOut {
     @location(0) albedo: vec4<f32>,
     @location(1) normal: vec4<f32>,
-    @location(2) exact: vec4<f32>,
+    @location(2) exact: vec4<u32>,
 }
 
-// The same, plus the normal before encoding (the normal-error debug view compares the two).
+// The same, plus the normal before encoding (the normal-error debug view compares the two), its
+// bits in an integer target: 32-bit float targets are not renderable on every backend (GL).
 @fragment
 fn fs_gbuffer_exact(v: SceneVarying) -> GbufferExactOut {
     let g = gbuffer_out(v);
-    return GbufferExactOut(g.albedo, g.normal, vec4<f32>(gbuffer_normal_of(v), 0.0));
+    return GbufferExactOut(g.albedo, g.normal, bitcast<vec4<u32>>(vec4<f32>(gbuffer_normal_of(v), 0.0)));
 }

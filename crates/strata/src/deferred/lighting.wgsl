@@ -54,8 +54,23 @@ struct LightOut {
 
 @fragment
 fn fs_light(v: LightVarying) -> LightOut {
+    return light(v);
+}
+
+// The same with the volumes' depth test in the shader, for devices that cannot test against a
+// depth attachment the pass also reads (wgpu's GL backend has no read-only depth attachment):
+// GREATER_EQUAL against the G-buffer depth, on the value the hardware test compares.
+@fragment
+fn fs_light_tested(v: LightVarying) -> LightOut {
+    if v.position.z < textureLoad(gbuffer_depth, vec2<i32>(v.position.xy), 0).r {
+        discard;
+    }
+    return light(v);
+}
+
+fn light(v: LightVarying) -> LightOut {
     let pixel = vec2<i32>(v.position.xy);
-    let depth = textureLoad(gbuffer_depth, pixel, 0);
+    let depth = textureLoad(gbuffer_depth, pixel, 0).r;
     if depth >= 1.0 {
         discard;
     }

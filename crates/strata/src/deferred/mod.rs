@@ -119,7 +119,9 @@ const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgb10a2Unorm;
-const EXACT_NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// The unencoded normal's f32 bits: integer targets render on every backend, 32-bit float ones
+/// not on GL.
+const EXACT_NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 const LIGHT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const AO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
@@ -150,7 +152,7 @@ const DEBUG_EXTRA: [(u32, Slot); 4] = [
     (4, Slot::TextureFloat),
     (5, Slot::TextureFloat),
     (6, Slot::TextureFloat),
-    (10, Slot::TextureFloat),
+    (10, Slot::TextureUint),
 ];
 
 /// The G-buffer's reads followed by a pass's own bindings.
@@ -220,6 +222,9 @@ struct Passes {
     sphere_lights: wgpu::RenderPipeline,
     cone_lights: wgpu::RenderPipeline,
     full_screen_lights: wgpu::RenderPipeline,
+    /// Whether the lighting pass tests the volumes against the G-buffer depth as its depth
+    /// attachment (else in the shader: `Gpu::reads_bound_depth_attachment`).
+    lights_depth_attachment: bool,
     composite: wgpu::RenderPipeline,
     debug: wgpu::RenderPipeline,
     tonemap_module: wgpu::ShaderModule,
@@ -293,16 +298,29 @@ impl Passes {
             color_target(ALBEDO_FORMAT, None),
             color_target(NORMAL_FORMAT, None),
         ];
+        // Where the G-buffer depth cannot be a depth attachment and a bound texture in one pass,
+        // the volumes test it in the shader and the lighting pass has no depth attachment.
+        let shader_tested = !gpu.reads_bound_depth_attachment();
+        let light_entry = if shader_tested {
+            "fs_light_tested"
+        } else {
+            "fs_light"
+        };
+        let light_depth = |compare| {
+            (!shader_tested)
+                .then(|| depth_state(false, compare))
+                .flatten()
+        };
         let volume = |label, entry| {
             screen_pipeline(
                 gpu,
                 label,
                 (&lighting_m, entry),
-                (&lighting_m, "fs_light"),
+                (&lighting_m, light_entry),
                 &[frame_layout, &layouts.lighting],
                 &light_targets,
                 Some(wgpu::Face::Front),
-                depth_state(false, wgpu::CompareFunction::GreaterEqual),
+                light_depth(wgpu::CompareFunction::GreaterEqual),
             )
         };
         let fullscreen = |label, module, entry, layout, format| {
@@ -379,8 +397,9 @@ impl Passes {
                 &[frame_layout, &layouts.lighting],
                 &light_targets,
                 None,
-                depth_state(false, wgpu::CompareFunction::Always),
+                light_depth(wgpu::CompareFunction::Always),
             ),
+            lights_depth_attachment: !shader_tested,
             composite: fullscreen(
                 "strata.deferred.composite",
                 &composite_m,
@@ -784,7 +803,11 @@ impl LitFrame {
                     passes::attachment(&diffuse, clear),
                     passes::attachment(&specular, clear),
                 ],
-                depth_stencil_attachment: depth_attachment(&depth, false),
+                depth_stencil_attachment: if self.passes.lights_depth_attachment {
+                    depth_attachment(&depth, false)
+                } else {
+                    None
+                },
                 timestamp_writes: timer.render_pass("deferred.lighting"),
                 occlusion_query_set: None,
                 multiview_mask: None,

@@ -25,7 +25,7 @@ fn kernel_sample(i: u32) -> vec3<f32> {
 @fragment
 fn fs_ssao(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(position.xy);
-    let depth = textureLoad(gbuffer_depth, pixel, 0);
+    let depth = textureLoad(gbuffer_depth, pixel, 0).r;
     if depth >= 1.0 {
         return vec4<f32>(1.0);
     }
@@ -54,7 +54,7 @@ fn fs_ssao(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
         if any(q < vec2<i32>(0)) || any(q >= vec2<i32>(frame.size)) || ndc.z >= 1.0 {
             continue;
         }
-        let scene = view_distance(textureLoad(gbuffer_depth, q, 0));
+        let scene = view_distance(textureLoad(gbuffer_depth, q, 0).r);
         let sample_distance = view_distance(clamp(ndc.z, 0.0, 1.0));
         if scene < sample_distance - bias {
             occlusion += smoothstep(0.0, 1.0, params.ssao_radius / max(abs(here - scene), 1e-6));

@@ -154,6 +154,12 @@ pub fn device_sample_counts(gpu: &Gpu) -> Vec<u32> {
 
 /// `--msaa` against the device.
 pub fn check_device(gpu: &Gpu, samples: u32) -> Result<()> {
+    if samples > 1 && !crate::gpu::shader::reads_sample_mask(gpu.info.backend) {
+        return Err(Error::unsupported(format!(
+            "--msaa {samples} on {}: a multisampled frame keeps each fragment's coverage from @builtin(sample_mask), which naga's GLSL output (wgpu 30) cannot read",
+            gpu.backend_name()
+        )));
+    }
     let counts = device_sample_counts(gpu);
     if counts.contains(&samples) {
         return Ok(());

@@ -16,7 +16,9 @@ pub enum Slot {
     TextureFloatMultisampled,
     /// `texture_2d<u32>` read with `textureLoad`.
     TextureUint,
-    /// `texture_depth_2d` read with `textureLoad`.
+    /// A depth texture read as `texture_2d<f32>` with `textureLoad` (its `.r` is the depth).
+    /// wgpu binds depth views as unfilterable float on every backend, and this form translates
+    /// everywhere: naga's GLSL output cannot load from a `texture_depth_2d`.
     TextureDepth,
 }
 
@@ -75,7 +77,7 @@ fn entry(binding: u32, slot: Slot) -> wgpu::BindGroupLayoutEntry {
         ),
         Slot::TextureDepth => (
             wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::COMPUTE,
-            texture(wgpu::TextureSampleType::Depth),
+            texture(wgpu::TextureSampleType::Float { filterable: false }),
         ),
     };
     wgpu::BindGroupLayoutEntry {

@@ -339,6 +339,19 @@ impl Gpu {
         self.features.contains(f)
     }
 
+    /// Whether a render pass may test against a depth attachment that it also reads as a
+    /// texture (a read-only depth attachment: wgpu's `READ_ONLY_DEPTH_STENCIL`, which its GL
+    /// backend lacks). An application's device without its adapter is judged by its backend.
+    pub fn reads_bound_depth_attachment(&self) -> bool {
+        match &self.adapter {
+            Some(adapter) => adapter
+                .get_downlevel_capabilities()
+                .flags
+                .contains(wgpu::DownlevelFlags::READ_ONLY_DEPTH_STENCIL),
+            None => self.info.backend != wgpu::Backend::Gl,
+        }
+    }
+
     /// The backend in lower case (vulkan, metal, dx12, gl).
     pub fn backend_name(&self) -> String {
         self.info.backend.to_string().to_lowercase()

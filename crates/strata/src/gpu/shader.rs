@@ -87,6 +87,21 @@ pub fn target_samples(samples: u32) -> Defs {
     Defs::default().flag_if("MULTISAMPLED", samples > 1)
 }
 
+/// What `backend`'s shader translation cannot express, as definitions the stages test.
+/// `NO_SAMPLE_MASK` on GL: naga's GLSL output (wgpu 30) declares `@builtin(sample_mask)` as a
+/// `uint` initialised from GLSL's `int[1]` `gl_SampleMaskIn`/`gl_SampleMask`, which the GLSL
+/// compiler rejects; made entries then pass the single-sampled mask, 1, and multisampled frames
+/// are refused on GL (`frame::msaa::check_device`).
+pub fn backend_defs(backend: wgpu::Backend) -> Defs {
+    Defs::default().flag_if("NO_SAMPLE_MASK", !reads_sample_mask(backend))
+}
+
+/// Whether shaders on `backend` can read and write `@builtin(sample_mask)` (see
+/// [`backend_defs`]).
+pub fn reads_sample_mask(backend: wgpu::Backend) -> bool {
+    backend != wgpu::Backend::Gl
+}
+
 /// A capture step's signature after its name: `fn fs_x_capture(…) {` in a storage-only stage.
 const CAPTURE_STEP: &str = "_capture(v: SceneVarying, front_facing: bool, mask: u32) {";
 
@@ -122,7 +137,7 @@ fn capture_fragment_stages(source: &str) -> String {
     capture_entries(source)
         .map(|entry| {
             format!(
-                "\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {{\n    {entry}_capture(v, front_facing, mask);\n}}\n"
+                "\n#ifdef NO_SAMPLE_MASK\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool) {{\n    {entry}_capture(v, front_facing, 1u);\n}}\n#else\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {{\n    {entry}_capture(v, front_facing, mask);\n}}\n#endif\n"
             )
         })
         .collect()
@@ -149,7 +164,7 @@ fn color_fragment_stages(source: &str) -> String {
     color_entries(source)
         .map(|(entry, out)| {
             format!(
-                "\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) -> {out} {{\n    return {entry}_step(v, front_facing, mask);\n}}\n"
+                "\n#ifdef NO_SAMPLE_MASK\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> {out} {{\n    return {entry}_step(v, front_facing, 1u);\n}}\n#else\n@fragment\nfn {entry}(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) -> {out} {{\n    return {entry}_step(v, front_facing, mask);\n}}\n#endif\n"
             )
         })
         .collect()
@@ -243,10 +258,13 @@ impl Stage {
         library.compose(self)
     }
 
-    /// The stage's shader module. strata's stages compose (tested), so a failure is a bug in
-    /// strata and panics with the composer's message.
+    /// The stage's shader module, composed with the definitions of `device`'s backend
+    /// ([`backend_defs`]). strata's stages compose (tested), so a failure is a bug in strata
+    /// and panics with the composer's message.
     pub fn module(&self, device: &wgpu::Device) -> wgpu::ShaderModule {
         let module = self
+            .clone()
+            .defs(&backend_defs(device.adapter_info().backend))
             .compose()
             .unwrap_or_else(|e| panic!("{}: {e}", self.label));
         device.create_shader_module(wgpu::ShaderModuleDescriptor {

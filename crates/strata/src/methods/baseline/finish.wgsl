@@ -23,7 +23,7 @@ fn cs_finish_pixel(pixel: vec2<u32>) {
     var color = vec4<f32>(0.0);
     // Single-sampled the index is the mip level, 0; multisampled it is the sample.
     for (var si = 0u; si < samples; si++) {
-        color += textureLoad(blended, vec2<i32>(pixel), si);
+        color += textureLoad(blended, vec2<i32>(pixel), i32(si));
     }
     output[i] = resolved_over(color / f32(samples), count);
     report_pixel(count, count);

@@ -67,24 +67,21 @@ fn capture(v: SceneVarying, front_facing: bool, mask: u32) {
     }
 }
 
-@fragment
-fn fs_whole(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+fn fs_whole_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if behind_opaque(v.position) {
         discard;
     }
     capture(v, front_facing, mask);
 }
 
-@fragment
-fn fs_front(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+fn fs_front_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if !front_facing || behind_opaque(v.position) {
         discard;
     }
     capture(v, front_facing, mask);
 }
 
-@fragment
-fn fs_back(v: SceneVarying, @builtin(front_facing) front_facing: bool, @builtin(sample_mask) mask: u32) {
+fn fs_back_capture(v: SceneVarying, front_facing: bool, mask: u32) {
     if front_facing || behind_opaque(v.position) {
         discard;
     }

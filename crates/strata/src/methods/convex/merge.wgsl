@@ -78,7 +78,10 @@ fn merge_pixel(i: u32) {
     for (var a = 0u; a < n; a++) {
         let x = slots[i * LAYERS + a];
         var b = a;
-        while b > 0u && fragment_before(x, f[b - 1u]) {
+        while b > 0u {
+            if !fragment_before(x, f[b - 1u]) {
+                break;
+            }
             f[b] = f[b - 1u];
             b--;
         }

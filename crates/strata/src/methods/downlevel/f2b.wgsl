@@ -15,26 +15,36 @@
 //   tells which pair is the later (`resolved_state`).
 // - after the last layer, one more peel counts in an occlusion query whether anything lies
 //   deeper: if so the frame is incomplete.
-// State targets: (color.rgb, count) and (transmittance.rgb, unused), Rgba32Float: 32 bytes per
-// pixel, a downlevel device's most per sample.
+// State targets: (color.rgb, count) and (transmittance.rgb, unused), their f32 bits in Rgba32Uint:
+// 32 bytes per pixel, a downlevel device's most per sample. Layer depths travel as their bits
+// in R32Uint likewise: 32-bit float targets do not render everywhere (`DownlevelState`).
 
 const EMPTY: u32 = 0xffffffffu;
 
 struct PeelOut {
     @location(0) color: vec4<f32>,
     @location(1) tag: u32,
-    @location(2) depth: f32,
+    @location(2) depth: u32,
 }
 
 // The previous layer (peels after the first).
 @group(1) @binding(0) var last_tag: texture_2d<u32>;
-@group(1) @binding(1) var last_depth: texture_2d<f32>;
+@group(1) @binding(1) var last_depth: texture_2d<u32>;
+
+// A depth as its texture holds it, and back.
+fn depth_bits(depth: f32) -> u32 {
+    return bitcast<u32>(depth);
+}
+
+fn depth_at(t: texture_2d<u32>, p: vec2<i32>) -> f32 {
+    return bitcast<f32>(textureLoad(t, p, 0).r);
+}
 
 fn peel(v: SceneVarying, front_facing: bool) -> PeelOut {
     var out: PeelOut;
     out.color = shade(v.world, v.normal, v.material);
     out.tag = uniform_scene_tag(v.prim, v.material, front_facing);
-    out.depth = v.position.z;
+    out.depth = depth_bits(v.position.z);
     return out;
 }
 
@@ -53,9 +63,10 @@ fn fs_peel(v: SceneVarying, @builtin(front_facing) front_facing: bool) -> PeelOu
     }
     let p = vec2<i32>(v.position.xy);
     let t = textureLoad(last_tag, p, 0).r;
-    let d = textureLoad(last_depth, p, 0).r;
+    let d = depth_at(last_depth, p);
+    let z = v.position.z;
     let out = peel(v, front_facing);
-    if t == EMPTY || !(out.depth > d || (out.depth == d && out.tag > t)) {
+    if t == EMPTY || !(z > d || (z == d && out.tag > t)) {
         discard;
     }
     return out;
@@ -73,11 +84,11 @@ fn fs_count(v: SceneVarying) -> @location(0) vec4<f32> {
 }
 
 // Group 1 of the accumulate pass (its vertex stage: `vs_fullscreen`).
-@group(1) @binding(2) var state_color: texture_2d<f32>;
-@group(1) @binding(3) var state_transmittance: texture_2d<f32>;
+@group(1) @binding(2) var state_color: texture_2d<u32>;
+@group(1) @binding(3) var state_transmittance: texture_2d<u32>;
 @group(1) @binding(4) var layer_color: texture_2d<f32>;
 @group(1) @binding(5) var layer_tag: texture_2d<u32>;
-@group(1) @binding(6) var layer_depth: texture_2d<f32>;
+@group(1) @binding(6) var layer_depth: texture_2d<u32>;
 
 @fragment
 fn fs_accumulate(@builtin(position) position: vec4<f32>) -> DownlevelState {
@@ -86,18 +97,18 @@ fn fs_accumulate(@builtin(position) position: vec4<f32>) -> DownlevelState {
     if tag == EMPTY {
         discard;
     }
-    let held = textureLoad(state_color, p, 0);
+    let held = bitcast<vec4<f32>>(textureLoad(state_color, p, 0));
     var s = composite_new();
     s.color = held.rgb;
     s.count = u32(held.a);
-    s.transmittance = textureLoad(state_transmittance, p, 0).rgb;
+    s.transmittance = bitcast<vec4<f32>>(textureLoad(state_transmittance, p, 0)).rgb;
     if s.count > 0u {
         s.last_tag = textureLoad(last_tag, p, 0).r;
-        s.last_depth = textureLoad(last_depth, p, 0).r;
+        s.last_depth = depth_at(last_depth, p);
         s.last_distance = view_distance(s.last_depth);
     }
     let c = textureLoad(layer_color, p, 0);
-    let f = Fragment(textureLoad(layer_depth, p, 0).r, tag, pack2x16float(c.rg), pack2x16float(c.ba));
+    let f = Fragment(depth_at(layer_depth, p), tag, pack2x16float(c.rg), pack2x16float(c.ba));
     composite_front(&s, f);
     return downlevel_state(composite_finish(s));
 }

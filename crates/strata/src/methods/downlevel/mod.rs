@@ -7,7 +7,7 @@
 //! composed with `UNIFORM_SCENE`: materials and lights in uniform arrays ([`UNIFORM_MATERIALS`],
 //! [`UNIFORM_LIGHTS`]), each vertex carrying its triangle's material, and the material inside
 //! each fragment's tag. Both end in the same pair of state targets per pixel — (color, count)
-//! and (transmittance, unused), Rgba32Float: 32 bytes, a downlevel device's most per sample —
+//! and (transmittance, unused), their f32 bits in Rgba32Uint: 32 bytes, a downlevel device's most per sample —
 //! which the present and [`DownlevelFrame::read_resolved`] read.
 //!
 //! **f2b** (passes in `f2b.wgsl`): for L layers, L + 1 geometry passes (the last only asks an
@@ -65,8 +65,10 @@ pub const WBOIT_PIXEL_BYTES: u64 = 76;
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const TAG_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
-const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
-const STATE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Depths and states as their f32 bits: 32-bit integer targets render on every device, 32-bit
+/// float ones not on WebGL2 without EXT_color_buffer_float, nor on wgpu's GL backend.
+const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+const STATE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 /// wboit's fragment count: f16 counts exactly up to 2048.
 const COUNT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
@@ -261,7 +263,7 @@ impl DownlevelFrame {
                     Slot::TextureDepth,
                 ],
             );
-            let layer_slots = [Slot::TextureUint, Slot::TextureFloat];
+            let layer_slots = [Slot::TextureUint, Slot::TextureUint];
             let layer_layout =
                 binding::layout(device, "strata.f2b_downlevel.peel.layout", &layer_slots);
             let accumulate_layout = binding::layout(
@@ -269,18 +271,18 @@ impl DownlevelFrame {
                 "strata.f2b_downlevel.accumulate.layout",
                 &[
                     Slot::TextureUint,
-                    Slot::TextureFloat,
-                    Slot::TextureFloat,
-                    Slot::TextureFloat,
-                    Slot::TextureFloat,
+                    Slot::TextureUint,
+                    Slot::TextureUint,
                     Slot::TextureUint,
                     Slot::TextureFloat,
+                    Slot::TextureUint,
+                    Slot::TextureUint,
                 ],
             );
             let present_layout = binding::layout(
                 device,
                 "strata.f2b_downlevel.present.layout",
-                &[Slot::TextureFloat; 4],
+                &[Slot::TextureUint; 4],
             );
             let [vertex_stage, stage, present_stage, wboit_accumulate, wboit_composite] = stages();
             let vertex_module = vertex_stage.module(device);
@@ -525,13 +527,21 @@ impl DownlevelFrame {
             .or(own_opaque.as_ref())
             .expect("one of them");
         let frame_group = self.frame_group(gpu, opaque);
-        // Both pairs start as an empty composite: no color, count 0, transmittance 1.
+        // Both pairs start as an empty composite: no color, count 0, transmittance 1 (the
+        // targets hold f32 bits, and an integer target is cleared to the clear value's integer).
+        let one = f64::from(1.0f32.to_bits());
+        let transmittance_one = wgpu::Color {
+            r: one,
+            g: one,
+            b: one,
+            a: 0.0,
+        };
         for pair in &state_views {
             encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("strata.f2b_downlevel.init"),
                 color_attachments: &[
                     attachment(&pair[0], wgpu::Color::TRANSPARENT),
-                    attachment(&pair[1], wgpu::Color::WHITE),
+                    attachment(&pair[1], transmittance_one),
                 ],
                 ..Default::default()
             });

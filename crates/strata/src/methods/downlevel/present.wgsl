@@ -7,19 +7,24 @@ struct StateOut {
     @location(1) transmittance: vec4<f32>,
 }
 
-@group(0) @binding(0) var color_a: texture_2d<f32>;
-@group(0) @binding(1) var transmittance_a: texture_2d<f32>;
-@group(0) @binding(2) var color_b: texture_2d<f32>;
-@group(0) @binding(3) var transmittance_b: texture_2d<f32>;
+// The state targets hold f32 bits (`strata::color::DownlevelState`).
+@group(0) @binding(0) var color_a: texture_2d<u32>;
+@group(0) @binding(1) var transmittance_a: texture_2d<u32>;
+@group(0) @binding(2) var color_b: texture_2d<u32>;
+@group(0) @binding(3) var transmittance_b: texture_2d<u32>;
+
+fn state_at(t: texture_2d<u32>, p: vec2<i32>) -> vec4<f32> {
+    return bitcast<vec4<f32>>(textureLoad(t, p, 0));
+}
 
 // The pixel's final state: the pair holding more layers.
 fn resolved_state(p: vec2<i32>) -> StateOut {
-    let a = textureLoad(color_a, p, 0);
-    let b = textureLoad(color_b, p, 0);
+    let a = state_at(color_a, p);
+    let b = state_at(color_b, p);
     if b.a > a.a {
-        return StateOut(b, textureLoad(transmittance_b, p, 0));
+        return StateOut(b, state_at(transmittance_b, p));
     }
-    return StateOut(a, textureLoad(transmittance_a, p, 0));
+    return StateOut(a, state_at(transmittance_a, p));
 }
 
 // Present, first draw: the application's target times the transmittance (blend: zero, source).

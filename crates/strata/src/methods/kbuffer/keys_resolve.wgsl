@@ -8,7 +8,10 @@
 
 fn stored_count(p: u32) -> u32 {
     var n = 0u;
-    while n < kp.k && atomicLoad(&fragment_keys[key_word(p, n)]) != u64(0u) {
+    while n < kp.k {
+        if atomicLoad(&fragment_keys[key_word(p, n)]) == u64(0u) {
+            break;
+        }
         n += 1u;
     }
     return n;

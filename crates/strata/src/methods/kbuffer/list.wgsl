@@ -93,7 +93,13 @@ fn capture_sorted_list(p: u32, f: Fragment) {
         var prev = 0u;
         var cur = acquire_head(p);
         var position = 0u;
-        while cur != 0u && position < kp.k && fragment_before(node_fragment(cur), f) {
+        while cur != 0u {
+            if position >= kp.k {
+                break;
+            }
+            if !fragment_before(node_fragment(cur), f) {
+                break;
+            }
             prev = cur;
             cur = acquire_next(cur);
             position += 1u;

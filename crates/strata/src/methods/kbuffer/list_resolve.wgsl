@@ -18,7 +18,10 @@ fn stored_count(p: u32) -> u32 {
     var n = 0u;
     var at = atomicLoad(&pixels[pixel_word(p, HEAD)]);
     let limit = min(atomicLoad(&pixels[pixel_word(p, SEEN)]), pool_nodes());
-    while at != 0u && n < limit {
+    while at != 0u {
+        if n >= limit {
+            break;
+        }
         n += 1u;
         at = node_next(at);
     }
@@ -89,18 +92,33 @@ fn sort_in_place(p: u32, n: u32) -> bool {
     var complete = true;
     var width = 1u;
     var merges = 0u;
-    for (; merges < 32u && width < n; merges++) {
+    for (; merges < 32u; merges++) {
+        if width >= n {
+            break;
+        }
         var rest = atomicLoad(&pixels[pixel_word(p, HEAD)]);
         var head = 0u;
         var tail = 0u;
         var visited = 0u;
         // Each round merges the run of `width` nodes at `rest` with the run after it.
         var round = 0u;
-        for (; round < n && rest != 0u && visited < n; round++) {
+        for (; round < n; round++) {
+            if rest == 0u {
+                break;
+            }
+            if visited >= n {
+                break;
+            }
             var a = rest;
             var b = rest;
             var count_a = 0u;
-            for (; count_a < width && b != 0u && visited + count_a < n; count_a++) {
+            for (; count_a < width; count_a++) {
+                if b == 0u {
+                    break;
+                }
+                if visited + count_a >= n {
+                    break;
+                }
                 b = node_next(b);
             }
             complete = complete && (count_a == width || b == 0u || visited + count_a == n);

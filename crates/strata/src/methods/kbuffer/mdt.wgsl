@@ -48,7 +48,10 @@ fn cascade(array: u32, p: u32, key_in: u32) -> u32 {
 // Filled slots form a prefix: count up to the first empty one.
 fn key_count(p: u32) -> u32 {
     var n = 0u;
-    while n < kp.k && atomicLoad(&fragment_words[key_slot(p, n)]) != 0u {
+    while n < kp.k {
+        if atomicLoad(&fragment_words[key_slot(p, n)]) == 0u {
+            break;
+        }
         n += 1u;
     }
     return n;

@@ -55,7 +55,10 @@ fn fs_mdt64_capture(v: SceneVarying, front_facing: bool, mask: u32) {
 
 fn stored_count(p: u32) -> u32 {
     var n = 0u;
-    while n < kp.k && atomicLoad(&fragment_keys[pixel_item(p, n, kp.k)]) != u64(0u) {
+    while n < kp.k {
+        if atomicLoad(&fragment_keys[pixel_item(p, n, kp.k)]) == u64(0u) {
+            break;
+        }
         n += 1u;
     }
     return n;

@@ -54,7 +54,10 @@ fn sort_local(a: ptr<function, array<Fragment, LOCAL_CAPACITY>>, n: u32) {
         for (var i = 1u; i < n; i++) {
             let f = (*a)[i];
             var j = i;
-            while j > 0u && fragment_before(f, (*a)[j - 1u]) {
+            while j > 0u {
+                if !fragment_before(f, (*a)[j - 1u]) {
+                    break;
+                }
                 (*a)[j] = (*a)[j - 1u];
                 j -= 1u;
             }
@@ -228,7 +231,10 @@ fn composite_in_order(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function
     var last = Composited(Fragment(0.0, 0u, 0u, 0u), 0u);
     var done = 0u;
     var i = 0u;
-    for (; i < n && (done < limit || kp.tail_blend != 0u); i++) {
+    for (; i < n; i++) {
+        if (done >= limit) & (kp.tail_blend == 0u) {
+            break;
+        }
         let f = stored_fragment(p, i);
         if (fragment_coverage(f) & coverage) != 0u {
             if done < limit {

@@ -41,28 +41,28 @@
 fn bucket_pair(layer: u32, pixel: vec2<u32>, s: u32) -> vec4<f32> {
     switch layer {
         case 0u: {
-            return textureLoad(layer0, pixel, s);
+            return textureLoad(layer0, pixel, i32(s));
         }
         case 1u: {
-            return textureLoad(layer1, pixel, s);
+            return textureLoad(layer1, pixel, i32(s));
         }
         case 2u: {
-            return textureLoad(layer2, pixel, s);
+            return textureLoad(layer2, pixel, i32(s));
         }
         case 3u: {
-            return textureLoad(layer3, pixel, s);
+            return textureLoad(layer3, pixel, i32(s));
         }
         case 4u: {
-            return textureLoad(layer4, pixel, s);
+            return textureLoad(layer4, pixel, i32(s));
         }
         case 5u: {
-            return textureLoad(layer5, pixel, s);
+            return textureLoad(layer5, pixel, i32(s));
         }
         case 6u: {
-            return textureLoad(layer6, pixel, s);
+            return textureLoad(layer6, pixel, i32(s));
         }
         default: {
-            return textureLoad(layer7, pixel, s);
+            return textureLoad(layer7, pixel, i32(s));
         }
     }
 }

@@ -19,7 +19,7 @@ fn fs_reduce(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<u32>(position.xy);
     var range = vec2<f32>(NO_DEPTH);
     for (var s = 0u; s < samples_per_pixel(); s++) {
-        range = max(range, textureLoad(bounds_samples, pixel, s).xy);
+        range = max(range, textureLoad(bounds_samples, pixel, i32(s)).xy);
     }
     return vec4<f32>(range, NO_DEPTH, NO_DEPTH);
 }

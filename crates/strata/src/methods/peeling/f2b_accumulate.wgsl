@@ -11,19 +11,28 @@
 
 #ifdef MULTISAMPLED
 alias LayerTexture = texture_multisampled_2d<f32>;
-// The tag travels as an exact float (32-bit integer targets cannot be multisampled).
+// The tag travels as an exact float (32-bit integer targets cannot be multisampled), the
+// depth as itself.
 alias TagTexture = texture_multisampled_2d<f32>;
 const NO_TAG: f32 = -1.0;
+fn depth_of(texel: f32) -> f32 {
+    return texel;
+}
 #else
+// Tag and depth travel as 32-bit integers (the depth's bits): 32-bit float targets are not
+// renderable on every backend.
 alias LayerTexture = texture_2d<f32>;
 alias TagTexture = texture_2d<u32>;
 const NO_TAG: u32 = 0xffffffffu;
+fn depth_of(texel: u32) -> f32 {
+    return bitcast<f32>(texel);
+}
 #endif
 
 @group(1) @binding(0) var<storage, read_write> state: array<Composite>;
 @group(1) @binding(1) var layer_color: LayerTexture;
 @group(1) @binding(2) var layer_tag: TagTexture;
-@group(1) @binding(3) var layer_depth: LayerTexture;
+@group(1) @binding(3) var layer_depth: TagTexture;
 @group(1) @binding(4) var<storage, read_write> counts: array<u32>;
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 
@@ -36,7 +45,7 @@ fn layer_fragment(xy: vec2<i32>, s: u32, f: ptr<function, Fragment>) -> bool {
     let tag = u32(t);
     let front_facing = (tag & 1u) == 1u;
     let c = textureLoad(layer_color, xy, i32(s));
-    *f = fragment_new(textureLoad(layer_depth, xy, i32(s)).r, tag >> 1u, front_facing, c);
+    *f = fragment_new(depth_of(textureLoad(layer_depth, xy, i32(s)).r), tag >> 1u, front_facing, c);
 #ifdef MULTISAMPLED
     // The multisampled tag (sample s's bit), which the resolve reads the primitive of.
     (*f).tag = covering_tag(tag >> 1u, front_facing, 1u << s);

@@ -36,10 +36,12 @@ struct PeelOut {
     @builtin(sample_mask) mask: u32,
 }
 #else
+// The depth travels as its bits, as the tag does: 32-bit float targets are not renderable on
+// every backend (GL), 32-bit integer ones are.
 struct PeelOut {
     @location(0) color: vec4<f32>,
     @location(1) tag: u32,
-    @location(2) depth: f32,
+    @location(2) depth: u32,
 }
 #endif
 
@@ -82,14 +84,15 @@ fn peel(v: SceneVarying, front_facing: bool, mask: u32) -> PeelOut {
     out.tag = f32(tag);
     out.frag_depth = z;
     out.mask = pending;
+    out.depth = z;
 #else
     if !waiting(p, 0u, z, tag) {
         discard;
     }
     out.tag = tag;
+    out.depth = bitcast<u32>(z);
 #endif
     out.color = shade(v.world, v.normal, v.material);
-    out.depth = z;
     return out;
 }
 

@@ -108,7 +108,6 @@ fn f2b_pixel_bytes(samples: u32) -> u64 {
 
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const TAG_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
-const DEPTH_COPY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
 /// `f2b`: one geometry pass per layer, each peeling the nearest fragment behind the last.
 pub struct FrontToBack {
@@ -153,7 +152,7 @@ impl FrontToBack {
                 Slot::StorageRw,
                 layer_texture,
                 tag_texture,
-                layer_texture,
+                tag_texture,
                 Slot::StorageRw,
                 Slot::StorageRw,
             ],
@@ -172,7 +171,7 @@ impl FrontToBack {
                 &[
                     target(COLOR_FORMAT),
                     target(tag_format(samples)),
-                    target(DEPTH_COPY_FORMAT),
+                    target(tag_format(samples)),
                 ],
                 Some(wgpu::DepthStencilState {
                     format: wgpu::TextureFormat::Depth32Float,
@@ -228,8 +227,9 @@ impl FrontToBack {
     }
 }
 
-/// The layer's tag target: the tag itself, or with `--msaa` the tag as an exact float (32-bit
-/// integer formats cannot be multisampled in WebGPU; primitives stay below 2^23).
+/// The layer's tag and depth targets: the tag itself and the depth's bits (32-bit float targets
+/// are not renderable on GL), or with `--msaa` the tag as an exact float and the depth itself
+/// (32-bit integer formats cannot be multisampled in WebGPU; primitives stay below 2^23).
 fn tag_format(samples: u32) -> wgpu::TextureFormat {
     if samples > 1 {
         wgpu::TextureFormat::R32Float
@@ -268,7 +268,7 @@ impl Method for FrontToBack {
         };
         let color = view("strata.f2b.layer.color", COLOR_FORMAT, usage);
         let tag = view("strata.f2b.layer.tag", tag_format(samples), usage);
-        let depth_copy = view("strata.f2b.layer.depth", DEPTH_COPY_FORMAT, usage);
+        let depth_copy = view("strata.f2b.layer.depth", tag_format(samples), usage);
         let depth = view(
             "strata.f2b.depth",
             wgpu::TextureFormat::Depth32Float,

@@ -36,7 +36,10 @@ var<workgroup> working_mask: vec2<u32>;
 // the caller checked lies behind `f`).
 fn keep(kept: ptr<function, array<Fragment, KEEP>>, count: ptr<function, u32>, f: Fragment) {
     var at = min(*count, KEEP - 1u);
-    while at > 0u && fragment_before(f, (*kept)[at - 1u]) {
+    while at > 0u {
+        if !fragment_before(f, (*kept)[at - 1u]) {
+            break;
+        }
         (*kept)[at] = (*kept)[at - 1u];
         at -= 1u;
     }

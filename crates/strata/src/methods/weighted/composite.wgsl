@@ -38,15 +38,15 @@ alias TargetTexture = texture_2d<f32>;
 // Sample `si`'s premultiplied color and coverage (single-sampled `si` is the mip level, 0).
 fn sample_color(pixel: vec2<i32>, si: u32) -> vec4<f32> {
 #ifdef MOMENTS
-    let coverage = 1.0 - exp(-textureLoad(b0_target, pixel, si).r);
-    let sum = textureLoad(accumulation, pixel, si);
+    let coverage = 1.0 - exp(-textureLoad(b0_target, pixel, i32(si)).r);
+    let sum = textureLoad(accumulation, pixel, i32(si));
     if sum.a > 0.0 {
         return vec4<f32>(sum.rgb / sum.a * coverage, coverage);
     }
     return vec4<f32>(0.0);
 #else
-    let sum = textureLoad(accumulation, pixel, si);
-    let coverage = 1.0 - textureLoad(revealage, pixel, si).r;
+    let sum = textureLoad(accumulation, pixel, i32(si));
+    let coverage = 1.0 - textureLoad(revealage, pixel, i32(si)).r;
     // The paper clamps the weight sum away from 0 and from f16 overflow.
     let average = sum.rgb / clamp(sum.a, 1e-4, 5e4);
     return vec4<f32>(average * coverage, coverage);
@@ -57,7 +57,10 @@ fn sample_color(pixel: vec2<i32>, si: u32) -> vec4<f32> {
 fn pixel_resolved(pixel: vec2<i32>, count: u32) -> Resolved {
     let samples = samples_per_pixel();
     var color = vec4<f32>(0.0);
-    for (var si = 0u; si < samples && count > 0u; si++) {
+    for (var si = 0u; si < samples; si++) {
+        if count == 0u {
+            break;
+        }
         color += sample_color(pixel, si);
     }
     return resolved_over(color / f32(samples), count);

@@ -161,7 +161,10 @@ fn mboit_roots(c: array<f32, 5>, n: u32) -> array<f32, 4> {
             nf++;
         }
         var used = 0u;
-        for (var guard = 0u; guard < 4u && nf < degree; guard++) {
+        for (var guard = 0u; guard < 4u; guard++) {
+            if nf >= degree {
+                break;
+            }
             var best = 0u;
             var best_value = -1.0;
             for (var i = 0u; i < count; i++) {
@@ -179,7 +182,10 @@ fn mboit_roots(c: array<f32, 5>, n: u32) -> array<f32, 4> {
         for (var i = 1u; i < degree; i++) {
             let x = found[i];
             var k = i;
-            while k > 0u && found[k - 1u] > x {
+            while k > 0u {
+                if !(found[k - 1u] > x) {
+                    break;
+                }
                 found[k] = found[k - 1u];
                 k--;
             }

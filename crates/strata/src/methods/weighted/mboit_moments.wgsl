@@ -38,7 +38,7 @@ fn fs_bounds_step(v: SceneVarying, front_facing: bool, mask: u32) -> BoundsOut {
 fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
     var bounds = vec2<f32>(2.0, -2.0);
     for (var si = 0; si < i32(samples_per_pixel()); si++) {
-        let b = textureLoad(bounds_target, pixel, si);
+        let b = textureLoad(bounds_target, pixel, i32(si));
         bounds = vec2<f32>(min(bounds.x, b.r), max(bounds.y, b.a));
     }
     return bounds;

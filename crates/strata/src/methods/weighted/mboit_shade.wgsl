@@ -34,7 +34,7 @@ const MBOIT_HAAR: u32 = #{MBOIT_HAAR}u;
 fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
     var bounds = vec2<f32>(2.0, -2.0);
     for (var si = 0u; si < samples_per_pixel(); si++) {
-        let b = textureLoad(bounds_target, pixel, si);
+        let b = textureLoad(bounds_target, pixel, i32(si));
         bounds = vec2<f32>(min(bounds.x, b.r), max(bounds.y, b.a));
     }
     return bounds;
@@ -43,14 +43,14 @@ fn pixel_bounds(pixel: vec2<i32>) -> vec2<f32> {
 // The transmittance at warped depth z of sample si (the mip level, 0, single-sampled).
 // `own` is the fragment's own absorbance, which wavelet takes out of its bin's average.
 fn sample_transmittance(pixel: vec2<i32>, si: u32, z: f32, high: bool, own: f32) -> f32 {
-    let b0 = textureLoad(b0_target, pixel, si).r;
-    let low = textureLoad(moments_target, pixel, si);
+    let b0 = textureLoad(b0_target, pixel, i32(si)).r;
+    let low = textureLoad(moments_target, pixel, i32(si));
     if !high && MBOIT_TRIG == 0u && MBOIT_HAAR == 0u {
         return mboit_transmittance(b0, low, z);
     }
     var up = vec4<f32>(0.0);
     if high {
-        up = textureLoad(moments_high, pixel, si);
+        up = textureLoad(moments_high, pixel, i32(si));
     }
     let b = array<f32, 8>(low.x, low.y, low.z, low.w, up.x, up.y, up.z, up.w);
     if MBOIT_TRIG > 0u {

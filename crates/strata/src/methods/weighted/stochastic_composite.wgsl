@@ -20,8 +20,8 @@ fn cs_composite_pixel(pixel: vec2<u32>) {
     var sum = vec4<f32>(0.0);
     var transmittance = 0.0;
     for (var s = 0u; s < samples; s++) {
-        sum += textureLoad(accumulation, texel, s);
-        transmittance += textureLoad(total, texel, s).r;
+        sum += textureLoad(accumulation, texel, i32(s));
+        transmittance += textureLoad(total, texel, i32(s)).r;
     }
     let coverage = 1.0 - transmittance / f32(samples);
     var color = vec3<f32>(0.0);
