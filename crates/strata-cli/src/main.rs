@@ -53,11 +53,17 @@ enum Command {
     Reference(ReferenceArgs),
     /// Compare two PNG images: RMSE, PSNR, max abs diff, FLIP mean, % pixels over 2/255.
     Compare(CompareArgs),
-    /// List every method with its family, exactness, geometry passes and memory.
+    /// List every method with its family, exactness, geometry passes and memory; with
+    /// --backend, whether each runs on that wgpu backend and what it lacks where it does not.
     Methods {
         /// Print the catalogue as JSON.
         #[arg(long)]
         json: bool,
+        /// vulkan | gl | metal | dx12 | webgpu: the support table of one backend, measured on
+        /// this machine's adapter of it where there is one, else from wgpu's documentation;
+        /// all: every backend from wgpu's documentation, as the README's Markdown table.
+        #[arg(long)]
+        backend: Option<String>,
     },
     /// Report the GPU adapter, backend, driver, features and limits.
     Info {
@@ -197,7 +203,10 @@ fn run(mut command: Command) -> Result<()> {
         Command::Render(a) => render(a),
         Command::Reference(a) => reference(a),
         Command::Compare(a) => compare(a),
-        Command::Methods { json } => list_methods(json),
+        Command::Methods { json, backend } => match backend {
+            Some(backend) => commands::methods::backend_table(&backend, json),
+            None => list_methods(json),
+        },
         Command::Info { json } => info(json),
         Command::Histogram(a) => histogram(a),
         Command::Convex(a) => convex(a),

@@ -34,6 +34,63 @@ pub fn blend_modes(m: &methods::Descriptor) -> &'static str {
     }
 }
 
+/// `strata methods --backend NAME`: whether each method runs on that backend.
+pub fn backend_table(name: &str, json: bool) -> Result<()> {
+    use strata::methods::backends::{self, Backend};
+    if name == "all" {
+        print!("{}", backends::markdown_table());
+        return Ok(());
+    }
+    let backend = Backend::parse(name)?;
+    let offer = backends::offer_here(backend);
+    let rows: Vec<(&methods::Descriptor, backends::Verdict)> = methods::catalogue()
+        .map(|d| (d, backends::verdict(d, &offer)))
+        .collect();
+    let source = match &offer.adapter {
+        Some(adapter) => format!("measured on this machine's adapter '{adapter}'"),
+        None => "from wgpu 30's documented features (no adapter of it on this machine)".into(),
+    };
+    if json {
+        let entries: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|(d, v)| {
+                serde_json::json!({
+                    "id": d.name,
+                    "runs": v.runs(),
+                    "verdict": v.to_string(),
+                })
+            })
+            .collect();
+        let doc = serde_json::json!({
+            "backend": backend.name(),
+            "source": source,
+            "measured": offer.measured(),
+            "msaa": offer.sample_mask,
+            "methods": entries,
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&doc).map_err(|e| Error::runtime(e.to_string()))?
+        );
+        return Ok(());
+    }
+    let runs = rows.iter().filter(|(_, v)| v.runs()).count();
+    println!(
+        "{backend}: {runs} of {} methods run ({source}){}",
+        rows.len(),
+        if offer.sample_mask {
+            ""
+        } else {
+            "; no --msaa here (naga's GLSL output cannot read @builtin(sample_mask))"
+        }
+    );
+    let wi = rows.iter().map(|(d, _)| d.name.len()).max().unwrap_or(0);
+    for (d, v) in &rows {
+        println!("{:<wi$}  {v}", d.name);
+    }
+    Ok(())
+}
+
 pub fn list_methods(json: bool) -> Result<()> {
     let all: Vec<&methods::Descriptor> = methods::catalogue().collect();
     if json {

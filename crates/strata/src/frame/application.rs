@@ -25,7 +25,9 @@
 //! - `premultiplied`: its linear colour with premultiplied alpha;
 //! - `id`: orders fragments at exactly equal depth in one pixel (give each triangle its own,
 //!   such as its index; with `--msaa S` it must stay below 2^(31 − S));
-//! - `front_facing`, `sample_mask`: the fragment's builtins.
+//! - `front_facing`, `sample_mask`: the fragment's builtins. On wgpu's GL backend naga's GLSL
+//!   output cannot read `@builtin(sample_mask)` (wgpu 30): declare no such parameter there and
+//!   pass `1u`, the single-sampled mask (GL takes no `--msaa`; `strata methods --backend gl`).
 //!
 //! The capture tests the opaque depth ([`crate::frame::FrameTargets::opaque_depth`]) itself,
 //! so the picture is right whatever depth state the application would have chosen: strata's

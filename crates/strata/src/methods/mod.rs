@@ -8,6 +8,7 @@
 //! is applied to the next frame. Pipelines are built once when the method is created; per-pixel
 //! buffers are (re)allocated when a frame needs more.
 
+pub mod backends;
 pub mod baseline;
 pub mod choice;
 pub mod convex;
@@ -227,6 +228,7 @@ pub fn create(
     options: &RenderOptions,
 ) -> Result<Box<dyn Method>> {
     let descriptor = id.descriptor();
+    descriptor.check_features(gpu)?;
     descriptor.check_raster(options.build.raster)?;
     descriptor.check_msaa(options.build.msaa, scene.triangle_count as u64)?;
     descriptor.check_blend(&scene.blend_modes, options.frame.kbuffer.tail)?;

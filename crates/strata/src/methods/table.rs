@@ -187,6 +187,10 @@ pub struct Descriptor {
     /// Whether it takes `--temporal on` (the slot k-buffers that choose at capture time).
     #[cfg_attr(feature = "serde", serde(skip))]
     pub temporal: bool,
+    /// The device features it cannot run without (`methods::create` refuses a device that
+    /// lacks one; the per-backend table, [`super::backends`], reads them).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub needs: wgpu::Features,
     /// The memory ordering its capture needs.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub ordering: Ordering,
@@ -274,6 +278,7 @@ impl Descriptor {
             min_samples: 1,
             per_sample_storage: false,
             temporal: false,
+            needs: wgpu::Features::empty(),
             ordering: Ordering::Relaxed,
             capture_step: None,
             app_shaders: Support::No(
@@ -376,6 +381,37 @@ impl Descriptor {
             )));
         }
         Ok(())
+    }
+
+    /// Refuses a device without a feature the method needs, naming the methods of its family
+    /// that run there.
+    pub fn check_features(&self, gpu: &Gpu) -> Result<()> {
+        let missing = self.needs - gpu.features;
+        if missing.is_empty() {
+            return Ok(());
+        }
+        let offer = super::backends::Offer::of_gpu(gpu);
+        let instead: Vec<&str> = super::TABLE
+            .iter()
+            .filter(|d| {
+                d.family == self.family
+                    && d.id != self.id
+                    && super::backends::verdict(d, &offer).runs()
+            })
+            .map(|d| d.name)
+            .collect();
+        let instead = if instead.is_empty() {
+            String::new()
+        } else {
+            format!("; of its family, {} run here", instead.join(", "))
+        };
+        Err(Error::unsupported(format!(
+            "{} needs {}, which '{}' ({}) lacks{instead}",
+            self.name,
+            super::backends::feature_names(missing),
+            gpu.info.name,
+            gpu.backend_name()
+        )))
     }
 
     /// Refuses `--msaa 4|8` where it cannot take it, and scenes too large for the samples' tags.

@@ -127,6 +127,7 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-keys`.
 pub const KB_KEYS: Descriptor = Descriptor {
+    needs: wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS,
     exact: true,
     geometry_passes: "2",
     memory: KB_MEMORY,
@@ -286,6 +287,7 @@ const KEYS_WITHOUT_PRIMITIVE: Support = Support::No(
 
 /// The method table's entry for `kb-mdt64`.
 pub const KB_MDT64: Descriptor = Descriptor {
+    needs: wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS,
     memory: "8·k·W·H + 16·W·H + 116 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
     msaa: EIGHT_BYTE_KEYS,

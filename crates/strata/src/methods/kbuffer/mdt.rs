@@ -98,20 +98,9 @@ pub struct MdtKBuffer {
 }
 
 impl MdtKBuffer {
-    /// The method `id` of `mdt` for `scene`, refusing an adapter without the atomics it needs.
+    /// The method `id` of `mdt` for `scene` (kb-mdt64 and kb-keys on a device with 64-bit
+    /// atomics: their descriptors' `needs`, which `methods::create` checks).
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, mdt: Mdt) -> Result<MdtKBuffer> {
-        if matches!(mdt, Mdt::Mdt64 | Mdt::Keys)
-            && !gpu.has(wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS)
-        {
-            let instead = match mdt {
-                Mdt::Keys => "kplus-heap or kb-ab-ll",
-                _ => "kb-mdt32 or kb-mdt-pack",
-            };
-            return Err(Error::unsupported(format!(
-                "{id} needs 64-bit storage atomics (SHADER_INT64_ATOMIC_ALL_OPS), which '{}' lacks; use {instead}",
-                gpu.info.name
-            )));
-        }
         let mut frame = KFrame::new(gpu, scene, id, mdt.layout());
         // No lock and no publication: the cascades need no ordering beyond atomicity.
         let module = frame.capture_module(gpu, scene, mdt.capture_source(), mdt.layout(), false);

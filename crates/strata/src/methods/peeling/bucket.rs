@@ -320,14 +320,9 @@ fn max_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
 }
 
 impl Bucket {
-    /// Makes the pipelines for `scene`, refusing a device without FLOAT32_BLENDABLE.
+    /// Makes the pipelines for `scene` (on a device with FLOAT32_BLENDABLE: its descriptor's
+    /// `needs`, which `methods::create` checks).
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Bucket> {
-        if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
-            return Err(Error::unsupported(format!(
-                "bucket max-blends 32-bit float depths, and '{}' lacks FLOAT32_BLENDABLE; use dual (the same min/max through storage atomics)",
-                gpu.info.name
-            )));
-        }
         let device = &gpu.device;
         let samples = scene.samples;
         let layer_slot = Slot::target(samples);

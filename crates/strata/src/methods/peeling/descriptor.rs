@@ -52,12 +52,14 @@ pub const DUAL: Descriptor = Descriptor {
 
 /// `bucket`.
 pub const BUCKET: Descriptor = Descriptor {
+    needs: wgpu::Features::FLOAT32_BLENDABLE,
     exact_without_drops: true,
     geometry_passes: "3 (4 with --buckets adaptive)",
     memory: "(16·k + 16·ceil(k/4) + 16)·W·H + 16, +128·W·H with --buckets adaptive; with --msaa S: (S·(16·k + 16·ceil(k/4) + 4) + 8·S + 16)·W·H + 16; k even, at most 32 and 4 × the color targets the device blends at once",
     summary: "bucket depth peeling (Liu et al. 2009): each pixel's depth range split into k/2 buckets (uniform, or adaptive: shared among the occupied parts of a 1024-part histogram), every bucket's nearest and farthest depth kept by MAX blending into ceil(k/4) RGBA32F targets in one geometry pass, colors claimed in a second; a third fragment in a bucket collides and is counted as dropped",
     reads: &[MethodOption::K, MethodOption::Buckets],
     past_k: Some("collided in buckets that already held two and were dropped; a larger even --k splits each pixel's depth range finer"),
+    max_k: super::bucket::MAX_SLOTS,
     traffic: TrafficModel::Bucket,
     app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Bucket, "bucket", Family::Peeling, create)

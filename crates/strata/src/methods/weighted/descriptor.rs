@@ -31,6 +31,7 @@ pub const WBOIT: Descriptor = Descriptor {
 
 /// `mboit`.
 pub const MBOIT: Descriptor = Descriptor {
+    needs: wgpu::Features::FLOAT32_BLENDABLE,
     geometry_passes: "2",
     memory: "(28·S + 4)·W·H, +8·S with --moments 6 or trig3, +16·S with 8 or trig4; S samples per pixel (--msaa, else 1)",
     summary: "moment-based OIT (Münstermann et al. 2018): 4, 6 or 8 power moments of absorbance over log depth, or 2, 3 or 4 trigonometric moments of its angle on a circle with a wrapping zone of π/10 (--moments 4|6|8|trig2|trig3|trig4; 32-bit, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
@@ -42,6 +43,7 @@ pub const MBOIT: Descriptor = Descriptor {
 
 /// `wavelet`.
 pub const WAVELET: Descriptor = Descriptor {
+    needs: wgpu::Features::FLOAT32_BLENDABLE,
     geometry_passes: "3",
     memory: "(44·S + 4)·W·H with --coefficients 4, +16·S with 8 (the default); S samples per pixel (--msaa, else 1)",
     summary: "wavelet OIT (after Aizenshtein, Smal & McGuire 2022): each pixel's absorbance over its own depth range (a min/max pass first) as 4 or 8 Haar coefficients (--coefficients; closed form per fragment, additive 32-bit targets), transmittance reconstructed per fragment as its depth bin's average less its own step; exact coverage",

@@ -255,13 +255,9 @@ pub fn composite_stage(samples: u32) -> Stage {
 }
 
 impl Mboit {
-    /// The pipelines for `scene`, refusing a device without FLOAT32_BLENDABLE.
+    /// The pipelines for `scene` (on a device with FLOAT32_BLENDABLE: its descriptor's
+    /// `needs`, which `methods::create` checks).
     pub fn new(gpu: &Gpu, scene: &SceneGpu) -> Result<Mboit> {
-        if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
-            return Err(Error::unsupported(
-                "mboit blends 32-bit float moments, and this adapter lacks FLOAT32_BLENDABLE",
-            ));
-        }
         let device = &gpu.device;
         let samples = scene.samples;
         let texture = Slot::target(samples);
@@ -297,11 +293,6 @@ impl Mboit {
 
     /// `wavelet`'s pipelines: mboit's passes over Haar coefficients.
     pub fn wavelet(gpu: &Gpu, scene: &SceneGpu) -> Result<Mboit> {
-        if !gpu.has(wgpu::Features::FLOAT32_BLENDABLE) {
-            return Err(Error::unsupported(
-                "wavelet blends 32-bit float coefficients, and this adapter lacks FLOAT32_BLENDABLE",
-            ));
-        }
         let samples = scene.samples;
         let texture = Slot::target(samples);
         let coefficients_layout = binding::layout(
