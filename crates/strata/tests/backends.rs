@@ -163,6 +163,24 @@ fn gl_renders_its_methods_equal_to_the_reference_or_to_vulkan() {
 }
 
 #[test]
+fn method_auto_renders_every_goal_on_gl() {
+    use strata::methods::choice::{candidates, Geometry, Goal};
+    let gl = open(wgpu::Backends::GL, None);
+    let scene = scene();
+    for goal in [Goal::Exact, Goal::Bounded, Goal::Approximate] {
+        let list = candidates(&gl, goal, Geometry::Scene);
+        assert!(!list.is_empty(), "{goal:?}: no candidate on GL");
+        for choice in list {
+            match run(&gl, &scene, choice.method) {
+                Outcome::Rendered(..) => {}
+                Outcome::Refused(e) => panic!("{goal:?} offers {} on GL: {e}", choice.method),
+                Outcome::Panicked => panic!("{goal:?}: {} panicked on GL", choice.method),
+            }
+        }
+    }
+}
+
+#[test]
 fn the_downlevel_path_renders_on_gl() {
     let scene = scene();
     let gl = open(

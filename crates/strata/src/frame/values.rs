@@ -52,6 +52,22 @@ pub struct TiledStats {
     pub longest_list: u32,
     /// Bytes of the per-tile lists, their starts, counts and rounds, and the pixels' state.
     pub list_bytes: u64,
+    /// Triangle setups in all: the bin's, one per listed item in the scatter, and one per
+    /// chunk triangle covering a working pixel in each round.
+    pub triangle_setups: u64,
+    /// Fragment evaluations (barycentrics and depth at a covered pixel center) in the rounds:
+    /// every round evaluates again each fragment behind its pixel's bound.
+    pub fragment_evaluations: u64,
+    /// Fragments shaded in the rounds: before it is known whether a fragment stays among its
+    /// pixel's nearest, so some are shaded and displaced.
+    pub shadings: u64,
+    /// Listed (triangle, tile) items that cover a pixel center of their tile.
+    pub items_kept: u64,
+    /// Listed items that cover none (their tile meets the triangle's bounds only).
+    pub items_empty: u64,
+    /// Lane occupancy of the rounds' evaluation loop: evaluations over 32 × the steps of its
+    /// two 32-lane warps per tile (a warp with no pixel left skips the loop).
+    pub evaluation_occupancy: f64,
 }
 
 /// `--temporal on` and its settings.

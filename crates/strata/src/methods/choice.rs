@@ -90,6 +90,9 @@ pub fn candidates(gpu: &Gpu, goal: Goal, geometry: Geometry) -> Vec<Choice> {
     if geometry == Geometry::Application {
         list.retain(|c| c.method.descriptor().app_shaders.yes());
     }
+    // What the device's backend cannot run (mboit on GL) is no candidate.
+    let offer = super::backends::Offer::of_gpu(gpu);
+    list.retain(|c| super::backends::verdict(c.method.descriptor(), &offer).runs());
     list
 }
 

@@ -318,6 +318,9 @@ pub struct ComputeRaster {
     cache: ResourceCache,
     /// Work items the next frame's buffer holds.
     capacity: u64,
+    /// The most bytes any buffer of one entry per item takes (the items', or a method's own
+    /// per-item lists: [`ComputeRaster::with_item_bytes`]), which bounds the capacity.
+    item_bytes: u64,
     frame: Option<FrameBinding>,
 }
 
@@ -374,19 +377,29 @@ impl ComputeRaster {
                 .unwrap_or_else(|| raster_layout(gpu)),
             cache: ResourceCache::default(),
             capacity: 2 * scene.triangle_count as u64 + 4 * tiles,
+            item_bytes: ITEM_BYTES,
             frame: None,
         }
     }
 
-    /// The most work items one buffer binds.
-    fn limit(gpu: &Gpu) -> u64 {
-        (gpu.max_storage_binding() / ITEM_BYTES).min(1 << 31)
+    /// The rasterizer for a method that keeps `bytes` per work item in one buffer of its own
+    /// (tiled's lists): the capacity stays within what that buffer can bind too, so a frame
+    /// needing more items is refused in one line (`RasterReport::cannot_complete`) instead of
+    /// failing when the method makes its buffer.
+    pub fn with_item_bytes(mut self, bytes: u64) -> ComputeRaster {
+        self.item_bytes = self.item_bytes.max(bytes);
+        self
+    }
+
+    /// The most work items one buffer of `item_bytes` per item binds.
+    fn limit(&self, gpu: &Gpu) -> u64 {
+        (gpu.max_storage_binding() / self.item_bytes).min(1 << 31)
     }
 
     /// Allocates this frame's buffers (binning is recorded by the first geometry pass).
     pub fn prepare(&mut self, gpu: &Gpu, options: &RenderOptions, scene: &SceneGpu) -> Result<()> {
         let triangles = scene.triangle_count;
-        let capacity = self.capacity.clamp(1, Self::limit(gpu));
+        let capacity = self.capacity.clamp(1, self.limit(gpu));
         let params = RasterParams {
             triangles,
             capacity: capacity as u32,
@@ -494,7 +507,7 @@ impl ComputeRaster {
         if overflow || self.capacity > 2 * fitted {
             self.capacity = fitted;
         }
-        let limit = Self::limit(gpu);
+        let limit = self.limit(gpu);
         RasterReport {
             stats: ComputeRasterStats {
                 triangles_set_up: crate::frame::wide(words, COUNTER_TRIANGLES),
@@ -506,8 +519,9 @@ impl ComputeRaster {
             incomplete: overflow,
             cannot_complete: (needed > limit).then(|| crate::frame::Shortfall {
                 why: format!(
-                    "--raster compute: the frame needs {needed} tile items ({:.1} MiB), more than the device's largest storage buffer holds ({limit})",
-                    (needed * ITEM_BYTES) as f64 / 1048576.0
+                    "--raster compute: the frame needs {needed} tile items ({:.1} MiB at {} bytes each), more than the device's largest storage buffer holds ({limit})",
+                    (needed * self.item_bytes) as f64 / 1048576.0,
+                    self.item_bytes
                 ),
                 binding: Some((needed, limit)),
             }),

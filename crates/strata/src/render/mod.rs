@@ -581,6 +581,22 @@ fn merge_tiled(
         unfinished_pixels: a.unfinished_pixels + b.unfinished_pixels,
         longest_list: a.longest_list.max(b.longest_list),
         list_bytes: a.list_bytes.max(b.list_bytes),
+        triangle_setups: a.triangle_setups + b.triangle_setups,
+        fragment_evaluations: a.fragment_evaluations + b.fragment_evaluations,
+        shadings: a.shadings + b.shadings,
+        items_kept: a.items_kept + b.items_kept,
+        items_empty: a.items_empty + b.items_empty,
+        // Weighted by each band's evaluations, as the whole frame's would be.
+        evaluation_occupancy: {
+            let (ea, eb) = (a.fragment_evaluations as f64, b.fragment_evaluations as f64);
+            let steps = |e: f64, o: f64| if o > 0.0 { e / o } else { 0.0 };
+            let total = steps(ea, a.evaluation_occupancy) + steps(eb, b.evaluation_occupancy);
+            if total > 0.0 {
+                (ea + eb) / total
+            } else {
+                0.0
+            }
+        },
     }
 }
 

@@ -12,7 +12,7 @@ fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>
 pub const TILED: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 (binning), then R = ⌈N/16⌉ rounds over the tile lists (N: the last frame's depth complexity), each run only by tiles with fragments left",
-    memory: "20·I + 12·⌈W/8⌉·⌈H/8⌉ + 40·W·H + 164; I (triangle, 8×8 tile) items, sized from the last frame's need",
+    memory: "20·I + 12·⌈W/8⌉·⌈H/8⌉ + 40·W·H + 204; I (triangle, 8×8 tile) items, sized from the last frame's need",
     summary: "exact OIT in compute: triangles binned into 8×8 tiles, each tile's pixels sorted and composited inside one workgroup in rounds of 16 nearest fragments; no per-pixel atomics or locks, deterministic",
     compute_raster: Support::Yes,
     app_shaders: Support::No(

@@ -82,6 +82,18 @@ fn fragments_left(progress: u32) -> u32 {
     return select(0u, progress - PROGRESS_LEFT, progress >= PROGRESS_LEFT);
 }
 
+// Adds `n` to the 64-bit work counter at words (at, at + 1): the low word carries into the
+// high one, so counts of a large frame never wrap.
+fn work_add(at: u32, n: u32) {
+    if n == 0u {
+        return;
+    }
+    let old = atomicAdd(&tiled_counters[at], n);
+    if old > 0xffffffffu - n {
+        atomicAdd(&tiled_counters[at + 1u], 1u);
+    }
+}
+
 fn tile_of(tile: vec2<i32>) -> u32 {
     return u32(tile.y) * tp.tiles_x + u32(tile.x);
 }

@@ -18,6 +18,11 @@
 //!   frame incomplete (counted as dropped; exact mode renders again with enough rounds).
 //! - **finish**: each pixel's result from its state, the frame's totals and the rounds per tile.
 //!
+//! Work counters (`TiledStats`): triangle setups, fragment evaluations and shadings, listed items
+//! that cover a pixel center of their tile and those that cover none, and the lane occupancy of
+//! the rounds' evaluation loop — what a CPU device can count of the work a GPU does, for a cost
+//! model of the frame. Each is added once per thread and pass, not per fragment.
+//!
 //! Coverage, depth and attributes are the compute rasterizer's (`strata::raster::setup`), so its
 //! pictures equal the other compute-rasterized exact methods' bit for bit. Deterministic: a
 //! pixel's fragments are composited in (depth, primitive) order whatever order the scatter filled
@@ -25,7 +30,7 @@
 //! nearest and counts the rest as dropped.
 //!
 //! Memory: the rasterizer's 8 bytes per item and 48 of constants, 12 bytes per item for the tile
-//! lists (code and mask), 12 per tile (count, start, rounds), 40 per pixel (state), 84 of counters and 32 of
+//! lists (code and mask), 12 per tile (count, start, rounds), 40 per pixel (state), 124 of counters and 32 of
 //! parameters. Limits: triangles < 2²⁹ (a list code holds the primitive and 3 bits of fan
 //! triangle); `--msaa`, temporal culling, `--order` and an application's draw callback are not
 //! supported (it reads the scene's triangles itself). On lavapipe, whose invocations stop
@@ -70,6 +75,11 @@ const CONSTANTS_WGSL: &str = wgsl_constants!(
     COUNTER_LONGEST_LIST = COUNTER_LONGEST_LIST,
     COUNTER_CUT_SHORT = COUNTER_CUT_SHORT,
     COUNTER_ROUNDS_RECORDED = COUNTER_ROUNDS_RECORDED,
+    COUNTER_SETUPS = COUNTER_SETUPS,
+    COUNTER_EVALUATIONS = COUNTER_EVALUATIONS,
+    COUNTER_SHADINGS = COUNTER_SHADINGS,
+    COUNTER_EMPTY_ITEMS = COUNTER_EMPTY_ITEMS,
+    COUNTER_WARP_STEPS = COUNTER_WARP_STEPS,
 );
 const LISTS_WGSL: &str = include_str!("lists.wgsl");
 const SORT_WGSL: &str = include_str!("sort.wgsl");
@@ -84,7 +94,7 @@ pub const TILE_BYTES: u64 = 12;
 /// Bytes per pixel of compositing state between rounds.
 pub const STATE_BYTES: u64 = 40;
 /// Counter words.
-pub const COUNTER_WORDS: u64 = 21;
+pub const COUNTER_WORDS: u64 = 31;
 /// Tiles by the rounds they ran: bin r for r rounds, the last bin for ROUND_BINS − 1 or more.
 const COUNTER_ROUNDS: usize = 0;
 const ROUND_BINS: usize = 16;
@@ -98,6 +108,20 @@ const COUNTER_LONGEST_LIST: usize = 18;
 const COUNTER_CUT_SHORT: usize = 19;
 /// The rounds the frame recorded.
 const COUNTER_ROUNDS_RECORDED: usize = 20;
+// The work, each a 64-bit count in two words (low first), so that the cost of the frame can be
+// modelled from what a CPU device counts (issue 64):
+/// Triangle setups after the bin's: one per item in the scatter, one per chunk triangle that
+/// covers a working pixel in each round.
+const COUNTER_SETUPS: usize = 21;
+/// Fragment evaluations (barycentrics and depth at a covered pixel center) in the rounds.
+const COUNTER_EVALUATIONS: usize = 23;
+/// Fragments shaded (attributes and lighting) in the rounds, kept or later displaced.
+const COUNTER_SHADINGS: usize = 25;
+/// Items whose triangle covers no pixel center of their tile (listed, but never evaluated).
+const COUNTER_EMPTY_ITEMS: usize = 27;
+/// Steps of the rounds' evaluation loop summed over 32-lane warps (two per tile), so that
+/// evaluations / (32 · steps) is the loop's lane occupancy.
+const COUNTER_WARP_STEPS: usize = 29;
 /// Rounds of a first frame, before any depth complexity was measured.
 pub const FIRST_ROUNDS: u32 = 2;
 /// The most triangles a list code can name.
@@ -197,7 +221,7 @@ impl Tiled {
             |label, module, entry| compute_pipeline(gpu, label, (module, entry), &layouts);
         Ok(Tiled {
             gpu: gpu.clone(),
-            raster: ComputeRaster::new(gpu, scene, options),
+            raster: ComputeRaster::new(gpu, scene, options).with_item_bytes(CODE_BYTES),
             count: pipeline("strata.tiled.count", &sort, "cs_count"),
             scan: pipeline("strata.tiled.scan", &sort, "cs_scan"),
             scatter: pipeline("strata.tiled.scatter", &sort, "cs_scatter"),
@@ -343,11 +367,26 @@ impl Method for Tiled {
                 binding: None,
             })
         });
+        let work = |at: usize| crate::frame::wide(counters, at);
+        let warp_steps = work(COUNTER_WARP_STEPS);
+        let evaluations = work(COUNTER_EVALUATIONS);
         MethodStats {
             overflow: Some(report.stats.overflow),
             incomplete: report.incomplete || unfinished > 0 || cut_short > 0,
             cannot_complete,
             tiled: Some(TiledStats {
+                triangle_setups: report.stats.triangles_set_up + work(COUNTER_SETUPS),
+                fragment_evaluations: evaluations,
+                shadings: work(COUNTER_SHADINGS),
+                items_kept: report
+                    .stats
+                    .tile_items
+                    .saturating_sub(work(COUNTER_EMPTY_ITEMS)),
+                items_empty: work(COUNTER_EMPTY_ITEMS),
+                evaluation_occupancy: match warp_steps {
+                    0 => 0.0,
+                    steps => evaluations as f64 / (32 * steps) as f64,
+                },
                 rounds: counters[COUNTER_ROUNDS_RECORDED],
                 tile_rounds,
                 deepest_pixel: deepest,

@@ -1,8 +1,8 @@
 #define_import_path strata::tiled::sort
 #import strata::raster::items::{Item, item_at, item_thread, items_written, rp}
 #import strata::raster::setup::{clipped_triangle, fan_triangle, tile_coverage}
-#import strata::tiled::constants::{CODE_WORDS}
-#import strata::tiled::lists::{tile_codes, tile_counts, tile_of, tile_starts, tp}
+#import strata::tiled::constants::{CODE_WORDS, COUNTER_EMPTY_ITEMS, COUNTER_SETUPS}
+#import strata::tiled::lists::{tile_codes, tile_counts, tile_of, tile_starts, tp, work_add}
 
 // Sorts the rasterizer's work items into one list per tile: a count per tile, an exclusive
 // prefix sum over the tiles, a scatter that stores each item's code with the 64-bit mask of the
@@ -84,6 +84,10 @@ fn cs_scatter(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
         return;
     }
     let mask = tile_coverage(fan_triangle(clipped_triangle(item.prim, rp.guard), item.fan), item.tile);
+    work_add(COUNTER_SETUPS, 1u);
+    if all(mask == vec2<u32>(0u)) {
+        work_add(COUNTER_EMPTY_ITEMS, 1u);
+    }
     let at = slot * CODE_WORDS;
     tile_codes[at] = (item.prim << 3u) | item.fan;
     tile_codes[at + 1u] = mask.x;

@@ -72,6 +72,42 @@ fn equals_abuffer_ll_on_the_compute_rasterizer_bit_for_bit() {
     }
 }
 
+/// The work counters: where every pixel finishes in its first round (at most 16 fragments), each
+/// fragment is evaluated and shaded exactly once; every listed item is kept or empty; setups
+/// are at least one per triangle. Deeper, each round evaluates again what lies behind the
+/// bound, and shades before it knows what it keeps (issue 64's redundant work, made visible).
+#[test]
+fn work_counters_count_each_evaluation_and_shading() {
+    let shallow = scene("builtin:nvpro?objects=8&subdiv=5&seed=3");
+    let frames_of = |s: &Scene| {
+        frames(s, &options(64, Effect::Transparency), 3)
+            .pop()
+            .unwrap()
+    };
+    let report = frames_of(&shallow);
+    let stats = &report.stats;
+    let tiled = stats.tiled.clone().unwrap();
+    let raster = stats.compute_raster.clone().unwrap();
+    assert!(tiled.deepest_pixel <= KEEP, "{tiled:?}");
+    let fragments = stats.fragments_generated.unwrap();
+    assert_eq!(tiled.fragment_evaluations, fragments, "{tiled:?}");
+    assert_eq!(tiled.shadings, fragments, "{tiled:?}");
+    assert_eq!(tiled.items_kept + tiled.items_empty, raster.tile_items);
+    assert!(
+        tiled.items_empty > 0,
+        "bounds meet tiles no pixel center of which is covered"
+    );
+    assert!(tiled.triangle_setups >= raster.triangles_set_up + raster.tile_items);
+    assert!(tiled.evaluation_occupancy > 0.0 && tiled.evaluation_occupancy <= 1.0);
+    let deep = scene("builtin:layers?n=40&coverage=0.9&order=random&seed=4");
+    let report = frames_of(&deep);
+    let tiled = report.stats.tiled.clone().unwrap();
+    let fragments = report.stats.fragments_generated.unwrap();
+    assert!(tiled.rounds >= 3, "{tiled:?}");
+    assert!(tiled.fragment_evaluations > 2 * fragments, "{tiled:?}");
+    assert!(tiled.shadings > fragments && tiled.shadings < tiled.fragment_evaluations);
+}
+
 /// Pixels deeper than a round's 16 fragments take more rounds and stay exact, with layers in
 /// random order and four coincident faces (told apart by their primitive, none lost).
 #[test]
@@ -222,6 +258,36 @@ fn vertices_beyond_one_storage_binding_are_refused_in_one_line() {
     let message = e.to_string();
     assert!(
         message.contains("one storage binding") && !message.contains('\n'),
+        "{message}"
+    );
+}
+
+/// Where the rasterizer's items (8 bytes each) would fit one storage binding but tiled's lists of
+/// them (12 bytes each) would not, the frame is refused in one line naming the items it needs,
+/// not by the failure to make the list buffer.
+#[test]
+fn items_beyond_the_lists_binding_are_refused_in_one_line() {
+    // Many items for few pixels, so that the pixels' buffers fit where the lists do not.
+    let s = scene("builtin:layers?n=200&coverage=1");
+    let opts = options(64, Effect::Transparency);
+    let needed = frames(&s, &opts, 2)[1]
+        .stats
+        .compute_raster
+        .clone()
+        .unwrap()
+        .tile_items;
+    let mut limits = gpu().limits.clone();
+    // Room for the items at 8 bytes, not for their list entries at 12.
+    limits.max_storage_buffer_binding_size = needed * 10;
+    let small = Gpu::new_restricted(wgpu::Features::empty(), limits).unwrap();
+    let e = crate::Renderer::new(&small, &s, &opts)
+        .and_then(|mut r| r.render_method(MethodId::Tiled, None))
+        .expect_err("refused");
+    let message = e.to_string();
+    assert!(
+        message.contains(&format!("needs {needed} tile items"))
+            && message.contains("12 bytes each")
+            && !message.contains('\n'),
         "{message}"
     );
 }

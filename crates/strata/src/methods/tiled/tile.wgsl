@@ -4,8 +4,8 @@
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::items::{rp}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
-#import strata::tiled::constants::{CODE_WORDS, COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_UNFINISHED, KEEP, ROUND_BINS}
-#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp}
+#import strata::tiled::constants::{CODE_WORDS, COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
+#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp, work_add}
 
 // One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
 // thread per pixel (thread lid owns bit lid of the coverage masks), no atomics on pixel data.
@@ -110,6 +110,9 @@ fn cs_round(invocation: TileThread) {
     if lid == 0u {
         tile_rounds[tile] += 1u;
         atomicMax(&tiled_counters[COUNTER_LONGEST_LIST], n);
+        // Each of the tile's 32-lane warps with a pixel left steps through the whole list.
+        let warps = select(0u, 1u, lanes.x != 0u) + select(0u, 1u, lanes.y != 0u);
+        work_add(COUNTER_WARP_STEPS, warps * n);
     }
     let start = tile_starts[tile];
     let bounded = composite.count > 0u;
@@ -118,6 +121,9 @@ fn cs_round(invocation: TileThread) {
     var count = 0u;
     var candidates = 0u;
     var walked = 0u;
+    var setups = 0u;
+    var evaluations = 0u;
+    var shadings = 0u;
     for (var base = 0u; base < n; base += CHUNK) {
         // Everyone is done with the previous chunk before it is overwritten.
         workgroupBarrier();
@@ -135,6 +141,7 @@ fn cs_round(invocation: TileThread) {
             // A triangle that covers none of those pixels needs no setup.
             if any(mask != vec2<u32>(0u)) {
                 chunk[lid] = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
+                setups += 1u;
             }
         }
         workgroupBarrier();
@@ -150,6 +157,7 @@ fn cs_round(invocation: TileThread) {
                 let prim = chunk_prims[j];
                 // The depth first: the attributes and shading only for a fragment that is kept.
                 let b = barycentrics_at(t, pixel);
+                evaluations += 1u;
                 // The GPU path clips at the far plane and tests the opaque depth with LESS.
                 if b.depth > 1.0 || behind_opaque(window_position(pixel, b.depth)) {
                     continue;
@@ -163,13 +171,18 @@ fn cs_round(invocation: TileThread) {
                 if count == KEEP && !fragment_before(key, kept[KEEP - 1u]) {
                     continue;
                 }
+                shadings += 1u;
                 keep(&kept, &count, scene_fragment(varying_from(t, prim, pixel, b), front_facing));
             }
         }
     }
+    // One add per thread and round, not per fragment.
+    work_add(COUNTER_SETUPS, setups);
     if !working {
         return;
     }
+    work_add(COUNTER_EVALUATIONS, evaluations);
+    work_add(COUNTER_SHADINGS, shadings);
     if walked != n {
         atomicAdd(&tiled_counters[COUNTER_CUT_SHORT], 1u);
     }
