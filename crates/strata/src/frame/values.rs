@@ -42,7 +42,8 @@ pub struct TiledStats {
     /// Rounds of the tile pass the frame recorded (from the last frame's deepest pixel).
     pub rounds: u32,
     /// Tiles by the rounds they ran: entry r counts the tiles that ran r rounds (0: no triangle
-    /// met the tile), the last entry those that ran that many or more.
+    /// met the tile, or the one-pass kernel took all of it), the last entry those that ran that
+    /// many or more.
     pub tile_rounds: Vec<u64>,
     /// The most fragments one pixel had.
     pub deepest_pixel: u32,
@@ -65,8 +66,12 @@ pub struct TiledStats {
     pub items_kept: u64,
     /// Listed items that cover none (their tile meets the triangle's bounds only).
     pub items_empty: u64,
-    /// Lane occupancy of the rounds' evaluation loop: evaluations over 32 × the steps of its
-    /// two 32-lane warps per tile (a warp with no pixel left skips the loop).
+    /// 4×4 quarters of tiles left to the rounds: the tile's covered pixel centers outgrew the
+    /// one-pass kernel's workgroup memory, and so did the quarter's (a tile that fits whole
+    /// counts none).
+    pub tiles_past_capacity: u64,
+    /// Lane occupancy of the evaluation loops: evaluations over 32 × the steps of the 32-lane
+    /// warps that ran them (a warp with no pixel left skips a round's loop).
     pub evaluation_occupancy: f64,
 }
 

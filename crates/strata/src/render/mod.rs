@@ -586,6 +586,7 @@ fn merge_tiled(
         shadings: a.shadings + b.shadings,
         items_kept: a.items_kept + b.items_kept,
         items_empty: a.items_empty + b.items_empty,
+        tiles_past_capacity: a.tiles_past_capacity + b.tiles_past_capacity,
         // Weighted by each band's evaluations, as the whole frame's would be.
         evaluation_occupancy: {
             let (ea, eb) = (a.fragment_evaluations as f64, b.fragment_evaluations as f64);

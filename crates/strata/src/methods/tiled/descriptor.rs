@@ -11,9 +11,9 @@ fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>
 /// `tiled`.
 pub const TILED: Descriptor = Descriptor {
     exact: true,
-    geometry_passes: "1 (binning), then R = ⌈N/16⌉ rounds over the tile lists (N: the last frame's depth complexity), each run only by tiles with fragments left",
+    geometry_passes: "1 (binning), then one pass over each tile's list whose fragments fit the workgroup's memory (whole, or by 4×4 quarters), and R = ⌈N/16⌉ rounds for the tiles that do not (N: their deepest pixel last frame)",
     memory: "20·I + 12·⌈W/8⌉·⌈H/8⌉ + 40·W·H + 204; I (triangle, 8×8 tile) items, sized from the last frame's need",
-    summary: "exact OIT in compute: triangles binned into 8×8 tiles, each tile's pixels sorted and composited inside one workgroup in rounds of 16 nearest fragments; no per-pixel atomics or locks, deterministic",
+    summary: "exact OIT in compute: triangles binned into 8×8 tiles; a tile's workgroup evaluates and shades its fragments once, one thread per fragment, sorts each pixel's and composites them (tiles past its memory: rounds of each pixel's 16 nearest); no per-pixel global atomics or locks, deterministic",
     compute_raster: Support::Yes,
     app_shaders: Support::No(
         "it rasterizes and shades triangles in compute from strata's own vertex buffer, where an application's vertex and fragment stages cannot run",

@@ -9,13 +9,22 @@
 //! - **count**, **scan**, **scatter**: the items are counted per tile, the counts scanned (one
 //!   workgroup) into list starts, and each item's (primitive, fan triangle) code is scattered
 //!   into its tile's list with the 64-bit mask of the tile's pixel centers it covers.
-//! - **round** × R (one workgroup of 64 threads per tile, a thread per pixel): the tile's list is
+//! - **fast** (`fast.wgsl`, four workgroups of 64 threads per tile): where the tile's list
+//!   covers at most `fast_fragments` pixel centers (what the device's workgroup memory holds:
+//!   1152 on lavapipe, 2048 at most), the first workgroup takes the whole tile, else each takes
+//!   a 4×4 quarter: its items are set up once per chunk, its fragments spread one per thread
+//!   (a prefix sum over the items' coverage), each evaluated and shaded once into workgroup
+//!   memory, then gathered per pixel, sorted by (depth, primitive) by the pixel's thread and
+//!   composited into its state. A quarter past the store is left to the rounds and counted.
+//! - **round** × R, for the pixels the fast pass left (one workgroup of 64 threads per tile, a
+//!   thread per pixel): the tile's list is
 //!   walked in chunks of 64 triangles, set up once per chunk in workgroup memory; each thread
 //!   tests its bit of each triangle's mask and keeps its pixel's 16 nearest fragments behind its bound (the last fragment it composited)
 //!   in registers, sorted by (depth, primitive), and composites them front to back onto its
-//!   state. Tiles whose pixels have nothing left skip the round. R is the last frame's deepest
-//!   pixel's ⌈f/16⌉ (2 for a first frame); pixels with fragments left after R rounds make the
-//!   frame incomplete (counted as dropped; exact mode renders again with enough rounds).
+//!   state. Tiles whose pixels have nothing left skip the round. R is ⌈f/16⌉ of the deepest pixel
+//!   last frame's rounds ran on (2 for a first frame, at least 1); pixels with fragments left
+//!   after R rounds make the frame incomplete (counted as dropped; exact mode renders again with
+//!   enough rounds).
 //! - **finish**: each pixel's result from its state, the frame's totals and the rounds per tile.
 //!
 //! Work counters (`TiledStats`): triangle setups, fragment evaluations and shadings, listed items
@@ -29,7 +38,8 @@
 //! a list in, so a frame gives the same bytes every run. `--k N` composites each pixel's N
 //! nearest and counts the rest as dropped.
 //!
-//! Memory: the rasterizer's 8 bytes per item and 48 of constants, 12 bytes per item for the tile
+//! Memory: the fast pass's store is workgroup memory (24 bytes a fragment); in buffers, the
+//! rasterizer's 8 bytes per item and 48 of constants, 12 bytes per item for the tile
 //! lists (code and mask), 12 per tile (count, start, rounds), 40 per pixel (state), 124 of counters and 32 of
 //! parameters. Limits: triangles < 2²⁹ (a list code holds the primitive and 3 bits of fan
 //! triangle); `--msaa`, temporal culling, `--order` and an application's draw callback are not
@@ -59,6 +69,7 @@ pub const LIBRARY: Library = &[
     LISTS_WGSL,
     SORT_WGSL,
     TILE_WGSL,
+    FAST_WGSL,
 ];
 const PARAMS_WGSL: &str = wgsl_module!("strata::tiled::params", TiledParams);
 /// `strata::tiled::constants`: the sizes and counter words below, for the shaders.
@@ -80,10 +91,13 @@ const CONSTANTS_WGSL: &str = wgsl_constants!(
     COUNTER_SHADINGS = COUNTER_SHADINGS,
     COUNTER_EMPTY_ITEMS = COUNTER_EMPTY_ITEMS,
     COUNTER_WARP_STEPS = COUNTER_WARP_STEPS,
+    COUNTER_PAST_CAPACITY = COUNTER_PAST_CAPACITY,
+    COUNTER_DEEPEST_IN_ROUNDS = COUNTER_DEEPEST_IN_ROUNDS,
 );
 const LISTS_WGSL: &str = include_str!("lists.wgsl");
 const SORT_WGSL: &str = include_str!("sort.wgsl");
 const TILE_WGSL: &str = include_str!("tile.wgsl");
+const FAST_WGSL: &str = include_str!("fast.wgsl");
 
 /// Fragments a pixel keeps per round.
 pub const KEEP: u32 = 16;
@@ -94,7 +108,7 @@ pub const TILE_BYTES: u64 = 12;
 /// Bytes per pixel of compositing state between rounds.
 pub const STATE_BYTES: u64 = 40;
 /// Counter words.
-pub const COUNTER_WORDS: u64 = 31;
+pub const COUNTER_WORDS: u64 = 33;
 /// Tiles by the rounds they ran: bin r for r rounds, the last bin for ROUND_BINS − 1 or more.
 const COUNTER_ROUNDS: usize = 0;
 const ROUND_BINS: usize = 16;
@@ -122,6 +136,25 @@ const COUNTER_EMPTY_ITEMS: usize = 27;
 /// Steps of the rounds' evaluation loop summed over 32-lane warps (two per tile), so that
 /// evaluations / (32 · steps) is the loop's lane occupancy.
 const COUNTER_WARP_STEPS: usize = 29;
+/// 4×4 quarters of tiles that the one-pass kernel left to the rounds: their covered pixel
+/// centers outgrew its store, as the whole tile's did.
+const COUNTER_PAST_CAPACITY: usize = 31;
+/// The most fragments one pixel of a tile some round ran in had (the next frame's rounds).
+const COUNTER_DEEPEST_IN_ROUNDS: usize = 32;
+/// Bytes of workgroup memory the one-pass kernel keeps besides its fragment store: the chunk
+/// of 16 set-up triangles (176 bytes each), their primitives, masks and prefix sums, and the
+/// per-pixel counts and starts.
+const FAST_FIXED_BYTES: u32 = 16 * (176 + 4 + 8 + 4) + 64 * 8 + 16;
+/// Bytes of workgroup memory per stored fragment: the fragment, its pixel, its place in the
+/// pixels' runs.
+const FAST_FRAGMENT_BYTES: u32 = 16 + 4 + 4;
+
+/// Fragments the one-pass kernel's store holds on `gpu`: what its workgroup memory takes, at
+/// most 2048 (32 a pixel) and at least 64.
+pub fn fast_fragments(gpu: &Gpu) -> u32 {
+    let memory = gpu.limits.max_compute_workgroup_storage_size;
+    (memory.saturating_sub(FAST_FIXED_BYTES) / FAST_FRAGMENT_BYTES).clamp(64, 2048) / 64 * 64
+}
 /// Rounds of a first frame, before any depth complexity was measured.
 pub const FIRST_ROUNDS: u32 = 2;
 /// The most triangles a list code can name.
@@ -170,6 +203,11 @@ pub fn tile_stage() -> Stage {
     stage("strata.tiled.tile", TILE_WGSL)
 }
 
+/// The one-pass kernel's stage (entry `cs_fast`), its store of `fragments`.
+pub fn fast_stage(fragments: u32) -> Stage {
+    stage("strata.tiled.fast", FAST_WGSL).defs(&Defs::default().value("FAST_FRAGMENTS", fragments))
+}
+
 /// `tiled`'s pipelines, its rasterizer and its buffers.
 pub struct Tiled {
     gpu: Gpu,
@@ -179,6 +217,7 @@ pub struct Tiled {
     scan: wgpu::ComputePipeline,
     scatter: wgpu::ComputePipeline,
     round: wgpu::ComputePipeline,
+    fast: wgpu::ComputePipeline,
     finish: wgpu::ComputePipeline,
     cache: ResourceCache,
     /// Rounds the next frame records: from the last frame's deepest pixel.
@@ -217,6 +256,7 @@ impl Tiled {
         let layouts = [&scene.frame_layout, &layout, &raster_layout];
         let sort = sort_stage().module(&gpu.device);
         let tile = tile_stage().module(&gpu.device);
+        let fast = fast_stage(fast_fragments(gpu)).module(&gpu.device);
         let pipeline =
             |label, module, entry| compute_pipeline(gpu, label, (module, entry), &layouts);
         Ok(Tiled {
@@ -226,6 +266,7 @@ impl Tiled {
             scan: pipeline("strata.tiled.scan", &sort, "cs_scan"),
             scatter: pipeline("strata.tiled.scatter", &sort, "cs_scatter"),
             round: pipeline("strata.tiled.round", &tile, "cs_round"),
+            fast: pipeline("strata.tiled.fast", &fast, "cs_fast"),
             finish: pipeline("strata.tiled.finish", &tile, "cs_finish"),
             layout,
             cache: ResourceCache::default(),
@@ -319,6 +360,8 @@ impl Method for Tiled {
         self.raster
             .capture(ctx, "scatter", &self.scatter, &[frame_group, &group]);
         let groups = [frame_group, &group, &raster_group];
+        // Four workgroups a tile: the whole tile in the first, or a 4×4 quarter in each.
+        dispatch(ctx, "fast", &self.fast, &groups, (4 * tiles_x, tiles_y));
         for _ in 0..rounds {
             dispatch(ctx, "round", &self.round, &groups, (tiles_x, tiles_y));
         }
@@ -350,13 +393,15 @@ impl Method for Tiled {
             .map(|&n| n as u64)
             .sum();
         let deepest = counters[COUNTER_DEEPEST];
+        let deepest_in_rounds = counters[COUNTER_DEEPEST_IN_ROUNDS];
         let unfinished = counters[COUNTER_UNFINISHED] as u64;
         let longest_list = counters[COUNTER_LONGEST_LIST];
-        // Enough rounds for the deepest pixel next frame; after an item overflow the deepest
-        // pixel seen is only a lower bound.
+        // Enough rounds next frame for the deepest pixel the one-pass kernel left to them (at
+        // least one: a tile past its capacity must run one to be counted); after an item
+        // overflow the deepest pixel seen is only a lower bound.
         self.rounds = match report.stats.overflow {
             true => self.rounds.max(rounds_for(deepest)),
-            false => rounds_for(deepest),
+            false => rounds_for(deepest_in_rounds),
         };
         let cut_short = counters[COUNTER_CUT_SHORT];
         let cannot_complete = report.cannot_complete.or_else(|| {
@@ -383,6 +428,7 @@ impl Method for Tiled {
                     .tile_items
                     .saturating_sub(work(COUNTER_EMPTY_ITEMS)),
                 items_empty: work(COUNTER_EMPTY_ITEMS),
+                tiles_past_capacity: counters[COUNTER_PAST_CAPACITY] as u64,
                 evaluation_occupancy: match warp_steps {
                     0 => 0.0,
                     steps => evaluations as f64 / (32 * steps) as f64,

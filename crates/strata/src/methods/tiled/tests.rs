@@ -34,15 +34,44 @@ fn frames(
     opts: &crate::frame::RenderOptions,
     n: usize,
 ) -> Vec<crate::render::recorder::FrameReport> {
-    let mut rec = crate::FrameRecorder::new(gpu(), scene, MethodId::Tiled, opts).unwrap();
+    frames_on(gpu(), scene, opts, n)
+}
+
+fn frames_on(
+    gpu: &Gpu,
+    scene: &Scene,
+    opts: &crate::frame::RenderOptions,
+    n: usize,
+) -> Vec<crate::render::recorder::FrameReport> {
+    let mut rec = crate::FrameRecorder::new(gpu, scene, MethodId::Tiled, opts).unwrap();
     (0..n)
         .map(|_| {
-            let mut encoder = gpu().device.create_command_encoder(&Default::default());
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
             rec.record(&mut encoder, &Default::default(), None).unwrap();
-            gpu().queue.submit([encoder.finish()]);
+            gpu.queue.submit([encoder.finish()]);
             rec.wait_stats().unwrap()
         })
         .collect()
+}
+
+/// The device again with 8 KiB of workgroup memory: the one-pass kernel's store then holds 128
+/// fragments, and deep tiles go to the rounds, which these tests exercise.
+fn rounds_gpu() -> Gpu {
+    let mut limits = gpu().limits.clone();
+    limits.max_compute_workgroup_storage_size = 8192;
+    let small = Gpu::new_restricted(wgpu::Features::empty(), limits).unwrap();
+    assert_eq!(fast_fragments(&small), 128);
+    small
+}
+
+fn render_on(
+    gpu: &Gpu,
+    s: &Scene,
+    opts: &crate::frame::RenderOptions,
+) -> (crate::render::LinearImage, crate::FrameStats) {
+    crate::Renderer::new(gpu, s, opts)
+        .and_then(|mut r| r.render_method(MethodId::Tiled, None))
+        .unwrap()
 }
 
 #[test]
@@ -99,13 +128,72 @@ fn work_counters_count_each_evaluation_and_shading() {
     );
     assert!(tiled.triangle_setups >= raster.triangles_set_up + raster.tile_items);
     assert!(tiled.evaluation_occupancy > 0.0 && tiled.evaluation_occupancy <= 1.0);
+    assert_eq!(tiled.tiles_past_capacity, 0, "every tile in one pass");
+    // 40 fragments a pixel: whole tiles outgrow the store, their quarters do not.
     let deep = scene("builtin:layers?n=40&coverage=0.9&order=random&seed=4");
     let report = frames_of(&deep);
     let tiled = report.stats.tiled.clone().unwrap();
     let fragments = report.stats.fragments_generated.unwrap();
+    assert_eq!(tiled.tiles_past_capacity, 0, "{tiled:?}");
+    assert_eq!(tiled.fragment_evaluations, fragments, "{tiled:?}");
+    assert_eq!(tiled.shadings, fragments, "{tiled:?}");
+    // In rounds (a device with less workgroup memory), each round evaluates again what lies
+    // behind its pixels' bounds.
+    let report = frames_on(&rounds_gpu(), &deep, &options(64, Effect::Transparency), 3)
+        .pop()
+        .unwrap();
+    let tiled = report.stats.tiled.clone().unwrap();
+    assert!(tiled.tiles_past_capacity > 0, "{tiled:?}");
     assert!(tiled.rounds >= 3, "{tiled:?}");
     assert!(tiled.fragment_evaluations > 2 * fragments, "{tiled:?}");
     assert!(tiled.shadings > fragments && tiled.shadings < tiled.fragment_evaluations);
+}
+
+/// The one-pass kernel's workgroup memory is what `fast_fragments` budgets: its fixed part and
+/// its bytes per stored fragment, as naga lays the composed stage out.
+#[test]
+fn the_one_pass_kernels_workgroup_memory_is_as_budgeted() {
+    let bytes = |fragments: u32| {
+        let module = fast_stage(fragments).compose().unwrap();
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        module
+            .global_variables
+            .iter()
+            .filter(|(_, g)| g.space == naga::AddressSpace::WorkGroup)
+            .map(|(_, g)| layouter[g.ty].size)
+            .sum::<u32>()
+    };
+    let (small, large) = (bytes(64), bytes(128));
+    assert_eq!((large - small) / 64, FAST_FRAGMENT_BYTES);
+    assert!(
+        small - 64 * FAST_FRAGMENT_BYTES <= FAST_FIXED_BYTES,
+        "{small}"
+    );
+    let fragments = fast_fragments(gpu());
+    assert!(bytes(fragments) <= gpu().limits.max_compute_workgroup_storage_size);
+}
+
+/// Tiles past the one-pass kernel's store go to the rounds: a device with less workgroup
+/// memory sends more tiles there, and the bytes of the picture do not change.
+#[test]
+fn the_one_pass_kernel_and_the_rounds_give_the_same_bytes() {
+    let s = scene("builtin:nvpro?objects=64&subdiv=8&seed=2");
+    let opts = options(64, Effect::Transparency);
+    let mut limits = gpu().limits.clone();
+    limits.max_compute_workgroup_storage_size = 8192;
+    let small = Gpu::new_restricted(wgpu::Features::empty(), limits).unwrap();
+    let render = |gpu: &Gpu| {
+        crate::Renderer::new(gpu, &s, &opts)
+            .and_then(|mut r| r.render_method(MethodId::Tiled, None))
+            .unwrap()
+    };
+    let (full, full_stats) = render(gpu());
+    let (rounds, round_stats) = render(&small);
+    let past = |s: &crate::FrameStats| s.tiled.as_ref().unwrap().tiles_past_capacity;
+    assert!(past(&round_stats) > past(&full_stats), "{round_stats:?}");
+    assert!(full == rounds, "the one-pass kernel changed the picture");
+    assert_eq!(full_stats.exact, Some(true));
 }
 
 /// Pixels deeper than a round's 16 fragments take more rounds and stay exact, with layers in
@@ -116,9 +204,10 @@ fn deep_pixels_take_more_rounds_and_stay_exact() {
     for i in 1..4 {
         s.objects[i].mesh.positions = s.objects[0].mesh.positions.clone();
     }
+    let rounds = rounds_gpu();
     for effect in [Effect::Transparency, Effect::Complexity] {
         let opts = options(48, effect);
-        let (actual, stats) = render_gpu(&s, &opts, "tiled");
+        let (actual, stats) = render_on(&rounds, &s, &opts);
         let expected = render_reference(&s, &opts);
         let name = format!("tiled-deep-{}", effect.name());
         assert_exact(&name, &actual, &expected, effect);
@@ -210,8 +299,8 @@ fn long_lists_over_many_rounds_lose_nothing() {
 #[test]
 fn rounds_follow_the_last_frames_deepest_pixel() {
     let s = scene("builtin:layers?n=40&coverage=1&order=random&seed=5");
-    // One tile, whose items fit the rasterizer's first buffer.
-    let reports = frames(&s, &options(8, Effect::Transparency), 2);
+    // One tile, whose items fit the rasterizer's first buffer, and past the one-pass store.
+    let reports = frames_on(&rounds_gpu(), &s, &options(8, Effect::Transparency), 2);
     assert!(!reports[0].stats.compute_raster.as_ref().unwrap().overflow);
     let first = reports[0].stats.tiled.clone().unwrap();
     assert_eq!((first.rounds, first.deepest_pixel), (FIRST_ROUNDS, 40));

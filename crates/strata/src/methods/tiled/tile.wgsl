@@ -4,7 +4,7 @@
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::items::{rp}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
-#import strata::tiled::constants::{CODE_WORDS, COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
+#import strata::tiled::constants::{CODE_WORDS, COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_DEEPEST_IN_ROUNDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
 #import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp, work_add}
 
 // One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
@@ -199,8 +199,9 @@ fn cs_round(invocation: TileThread) {
 @compute @workgroup_size(8, 8)
 fn cs_finish(invocation: TileThread) {
     let tile = thread_tile(invocation);
+    let rounds = tile_rounds[tile];
     if invocation.lid == 0u {
-        atomicAdd(&tiled_counters[COUNTER_ROUNDS + min(tile_rounds[tile], ROUND_BINS - 1u)], 1u);
+        atomicAdd(&tiled_counters[COUNTER_ROUNDS + min(rounds, ROUND_BINS - 1u)], 1u);
         if tile == 0u {
             atomicStore(&tiled_counters[COUNTER_ROUNDS_RECORDED], tp.rounds);
         }
@@ -217,6 +218,10 @@ fn cs_finish(invocation: TileThread) {
         atomicAdd(&tiled_counters[COUNTER_UNFINISHED], 1u);
     }
     atomicMax(&tiled_counters[COUNTER_DEEPEST], total);
+    // A tile some round ran in (the one-pass kernel took the others whole).
+    if rounds > 0u {
+        atomicMax(&tiled_counters[COUNTER_DEEPEST_IN_ROUNDS], total);
+    }
     output[p] = composite_finish(state.s);
     report_pixel(total, state.s.count);
 }

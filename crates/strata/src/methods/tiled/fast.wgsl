@@ -1,0 +1,281 @@
+#define_import_path strata::tiled::fast
+#import strata::scene::{behind_opaque, frame, pixel_index, scene_fragment}
+#import strata::fragment::{Fragment, fragment_before}
+#import strata::composite::{composite_front, composite_new}
+#import strata::raster::items::{rp}
+#import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
+#import strata::tiled::constants::{CODE_WORDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_PAST_CAPACITY, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_WARP_STEPS}
+#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, store_state, tile_codes, tile_counts, tile_starts, tiled_counters, tp, work_add}
+
+// The one-pass tile kernel, before any round: four workgroups per 8×8-pixel tile, one thread
+// per fragment. Where the tile's list covers at most FAST_FRAGMENTS pixel centers (the
+// workgroup memory the device gives), the first workgroup takes the whole tile and the others
+// leave; else each takes one 4×4 quarter, so that a deep tile's work is split four ways
+// (balance: a hot tile does not set the frame's critical path alone). A quarter past the
+// store too is left to the rounds (`tile.wgsl`), counted in COUNTER_PAST_CAPACITY: the
+// rounds take every pixel whose state is still fresh.
+// - The list is read FAST_CHUNK items at a time: one thread per item sets its triangle up
+//   once into workgroup memory, and the chunk's covered pixel centers (the bits of the items'
+//   masks) are numbered by a prefix sum.
+// - Each thread takes fragments number lid, lid + 64, …: finds its item (a binary search of
+//   the prefix sums) and pixel (the item mask's r-th set bit), evaluates the depth, the opaque
+//   and far tests, and shades the fragment once, into the tile's fragment store.
+// - Each pixel's fragments are gathered by a counting sort, and the pixel's thread sorts them
+//   by (depth, primitive) and composites them front to back into the pixel's state, which the
+//   rounds then skip and `cs_finish` resolves. With --k it composites the k nearest and leaves
+//   the rest counted, as a round does.
+// The store's order depends on the threads' timing; nothing else does: a pixel's fragments are
+// composited in (depth, primitive) order, so the frame's bytes equal the rounds' and every run's.
+
+const LANES: u32 = 64u;
+const FAST_CHUNK: u32 = 16u;
+// Fragments the store holds: sized to the device's workgroup memory (`fast_fragments`).
+const FAST_FRAGMENTS: u32 = #{FAST_FRAGMENTS}u;
+
+var<workgroup> covered: atomic<u32>;
+var<workgroup> stored: atomic<u32>;
+var<workgroup> list_length: u32;
+var<workgroup> chunk: array<SetupTriangle, FAST_CHUNK>;
+var<workgroup> chunk_prims: array<u32, FAST_CHUNK>;
+var<workgroup> chunk_masks: array<vec2<u32>, FAST_CHUNK>;
+// Inclusive prefix sums of the chunk's items' covered pixel centers.
+var<workgroup> chunk_ends: array<u32, FAST_CHUNK>;
+var<workgroup> fragments: array<Fragment, FAST_FRAGMENTS>;
+var<workgroup> fragment_lanes: array<u32, FAST_FRAGMENTS>;
+// Fragment indices grouped by pixel (the counting sort's output), then sorted per pixel.
+var<workgroup> by_pixel: array<u32, FAST_FRAGMENTS>;
+var<workgroup> pixel_counts: array<atomic<u32>, LANES>;
+var<workgroup> pixel_starts: array<u32, LANES>;
+
+fn bits(mask: vec2<u32>) -> u32 {
+    return countOneBits(mask.x) + countOneBits(mask.y);
+}
+
+// The lane (bit index, 0..63) of the r-th set bit of `mask`, r < bits(mask).
+fn nth_bit(mask: vec2<u32>, r: u32) -> u32 {
+    var word = mask.x;
+    var base = 0u;
+    var rank = r;
+    let low = countOneBits(mask.x);
+    if rank >= low {
+        word = mask.y;
+        base = 32u;
+        rank -= low;
+    }
+    // Clear the lowest set bit `rank` times; then the lowest set bit is the one.
+    for (var i = 0u; i < 32u; i++) {
+        if i >= rank {
+            break;
+        }
+        word &= word - 1u;
+    }
+    return base + firstTrailingBit(word);
+}
+
+// The chunk item whose covered centers hold the chunk's fragment number `f`.
+fn item_of(f: u32, items: u32) -> u32 {
+    var lo = 0u;
+    var hi = items - 1u;
+    for (var step = 0u; step < 5u; step++) {
+        if lo >= hi {
+            break;
+        }
+        let mid = (lo + hi) / 2u;
+        if chunk_ends[mid] > f {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+struct TileThread {
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+}
+
+// The bits (lane y·8 + x) of quarter q's 4×4 pixels: left or right half of the rows of the low
+// (rows 0–3) or high (rows 4–7) word.
+fn quarter_mask(q: u32) -> vec2<u32> {
+    let half = select(0x0f0f0f0fu, 0xf0f0f0f0u, (q & 1u) == 1u);
+    return select(vec2<u32>(half, 0u), vec2<u32>(0u, half), q >= 2u);
+}
+
+// The covered pixel centers of `region` in the tile's list (every thread's share, summed).
+fn covered_in(start: u32, n: u32, lid: u32, region: vec2<u32>) -> u32 {
+    var mine = 0u;
+    for (var i = lid; i < n; i += LANES) {
+        let at = (start + i) * CODE_WORDS;
+        if (tile_codes[at] >> 3u) < rp.triangles {
+            mine += bits(vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]) & region);
+        }
+    }
+    return mine;
+}
+
+@compute @workgroup_size(8, 8)
+fn cs_fast(invocation: TileThread) {
+    let lid = invocation.lid;
+    // Four workgroups per tile along x: the tile's column times four plus the quarter.
+    let quarter = invocation.group.x % 4u;
+    let tile_xy = vec2<u32>(invocation.group.x / 4u, invocation.group.y);
+    let tile = tile_xy.y * tp.tiles_x + tile_xy.x;
+    let corner = vec2<i32>(tile_xy * 8u);
+    if lid == 0u {
+        atomicStore(&covered, 0u);
+        atomicStore(&stored, 0u);
+        list_length = atomicLoad(&tile_counts[tile]);
+    }
+    atomicStore(&pixel_counts[lid], 0u);
+    workgroupBarrier();
+    let n = workgroupUniformLoad(&list_length);
+    if n == 0u {
+        return;
+    }
+    let start = tile_starts[tile];
+    // The covered pixel centers of the whole list: an upper bound of its fragments.
+    atomicAdd(&covered, covered_in(start, n, lid, vec2<u32>(0xffffffffu)));
+    workgroupBarrier();
+    if lid == 0u {
+        list_length = atomicLoad(&covered);
+    }
+    let whole = workgroupUniformLoad(&list_length);
+    var region = vec2<u32>(0xffffffffu);
+    var total = whole;
+    if whole > FAST_FRAGMENTS {
+        region = quarter_mask(quarter);
+        workgroupBarrier();
+        if lid == 0u {
+            atomicStore(&covered, 0u);
+        }
+        workgroupBarrier();
+        atomicAdd(&covered, covered_in(start, n, lid, region));
+        workgroupBarrier();
+        if lid == 0u {
+            list_length = atomicLoad(&covered);
+        }
+        total = workgroupUniformLoad(&list_length);
+    } else if quarter != 0u {
+        // The first workgroup takes the whole tile.
+        return;
+    }
+    if total > FAST_FRAGMENTS {
+        // Left to the rounds.
+        if lid == 0u {
+            atomicAdd(&tiled_counters[COUNTER_PAST_CAPACITY], 1u);
+        }
+        return;
+    }
+    var setups = 0u;
+    var evaluations = 0u;
+    var shadings = 0u;
+    for (var base = 0u; base < n; base += FAST_CHUNK) {
+        let items = min(FAST_CHUNK, n - base);
+        // Everyone is done with the previous chunk before it is overwritten.
+        workgroupBarrier();
+        if lid < items {
+            let at = (start + base + lid) * CODE_WORDS;
+            let code = tile_codes[at];
+            let prim = code >> 3u;
+            var mask = vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]) & region;
+            if prim >= rp.triangles {
+                mask = vec2<u32>(0u);
+            }
+            chunk_prims[lid] = prim;
+            chunk_masks[lid] = mask;
+            if any(mask != vec2<u32>(0u)) {
+                chunk[lid] = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
+                setups += 1u;
+            }
+        }
+        workgroupBarrier();
+        if lid < items {
+            var end = 0u;
+            for (var j = 0u; j <= lid; j++) {
+                end += bits(chunk_masks[j]);
+            }
+            chunk_ends[lid] = end;
+        }
+        workgroupBarrier();
+        let chunk_fragments = chunk_ends[items - 1u];
+        for (var f = lid; f < chunk_fragments; f += LANES) {
+            let j = item_of(f, items);
+            let first = select(0u, chunk_ends[j - 1u], j > 0u);
+            let lane = nth_bit(chunk_masks[j], f - first);
+            let pixel = corner + vec2<i32>(vec2<u32>(lane % 8u, lane / 8u));
+            let t = chunk[j];
+            let prim = chunk_prims[j];
+            let b = barycentrics_at(t, pixel);
+            evaluations += 1u;
+            // The GPU path clips at the far plane and tests the opaque depth with LESS.
+            if b.depth > 1.0 || behind_opaque(window_position(pixel, b.depth)) {
+                continue;
+            }
+            let front_facing = wide_negative(t.doubled_area);
+            shadings += 1u;
+            let slot = atomicAdd(&stored, 1u);
+            fragments[slot] = scene_fragment(varying_from(t, prim, pixel, b), front_facing);
+            fragment_lanes[slot] = lane;
+            atomicAdd(&pixel_counts[lane], 1u);
+        }
+    }
+    workgroupBarrier();
+    // The counting sort: each pixel's start, then every fragment's index in its pixel's run.
+    let count = atomicLoad(&pixel_counts[lid]);
+    var begin = 0u;
+    for (var j = 0u; j < lid; j++) {
+        begin += atomicLoad(&pixel_counts[j]);
+    }
+    pixel_starts[lid] = begin;
+    workgroupBarrier();
+    atomicStore(&pixel_counts[lid], 0u);
+    workgroupBarrier();
+    let kept = atomicLoad(&stored);
+    for (var f = lid; f < kept; f += LANES) {
+        let lane = fragment_lanes[f];
+        by_pixel[pixel_starts[lane] + atomicAdd(&pixel_counts[lane], 1u)] = f;
+    }
+    workgroupBarrier();
+    if lid == 0u {
+        atomicMax(&tiled_counters[COUNTER_LONGEST_LIST], n);
+    }
+    // Each warp steps through its lanes' share of every chunk's fragments.
+    if lid % 32u == 0u {
+        work_add(COUNTER_WARP_STEPS, (total + LANES - 1u) / LANES);
+    }
+    work_add(COUNTER_SETUPS, setups);
+    work_add(COUNTER_EVALUATIONS, evaluations);
+    work_add(COUNTER_SHADINGS, shadings);
+    let pixel = corner + vec2<i32>(invocation.local.xy);
+    // Only the region's pixels: another quarter's, or the rounds', are not this one's to write.
+    let in_region = ((region[lid / 32u] >> (lid % 32u)) & 1u) == 1u;
+    if !in_region || any(vec2<u32>(pixel) >= frame.size) {
+        return;
+    }
+    // The pixel's fragments in (depth, primitive) order: an insertion sort of its run.
+    for (var i = 1u; i < count; i++) {
+        var j = i;
+        while j > 0u {
+            let a = by_pixel[begin + j - 1u];
+            let b = by_pixel[begin + j];
+            if !fragment_before(fragments[b], fragments[a]) {
+                break;
+            }
+            by_pixel[begin + j - 1u] = b;
+            by_pixel[begin + j] = a;
+            j -= 1u;
+        }
+    }
+    var limit = count;
+    if tp.k != 0u {
+        limit = min(count, tp.k);
+    }
+    var composite = composite_new();
+    for (var i = 0u; i < limit; i++) {
+        composite_front(&composite, fragments[by_pixel[begin + i]]);
+    }
+    let left = select(PROGRESS_DONE, PROGRESS_LEFT + count - limit, count > limit);
+    store_state(pixel_index(vec2<u32>(pixel)), PixelState(composite, left));
+}
