@@ -579,6 +579,10 @@ fn limits_json(l: &wgpu::Limits) -> std::collections::BTreeMap<&'static str, u64
             l.max_storage_textures_per_shader_stage as u64,
         ),
         ("max_bind_groups", l.max_bind_groups as u64),
+        (
+            "max_compute_workgroup_storage_size",
+            l.max_compute_workgroup_storage_size as u64,
+        ),
         ("max_color_attachments", l.max_color_attachments as u64),
         (
             "max_color_attachment_bytes_per_sample",

@@ -46,6 +46,9 @@ var<workgroup> fragment_lanes: array<u32, FAST_FRAGMENTS>;
 var<workgroup> by_pixel: array<u32, FAST_FRAGMENTS>;
 var<workgroup> pixel_counts: array<atomic<u32>, LANES>;
 var<workgroup> pixel_starts: array<u32, LANES>;
+// The workgroup's setups, evaluations and shadings, summed here first so that the frame's
+// counters take one atomic per workgroup each, not one per thread.
+var<workgroup> work_sums: array<atomic<u32>, 3>;
 
 fn bits(mask: vec2<u32>) -> u32 {
     return countOneBits(mask.x) + countOneBits(mask.y);
@@ -127,6 +130,9 @@ fn cs_fast(invocation: TileThread) {
         atomicStore(&covered, 0u);
         atomicStore(&stored, 0u);
         list_length = atomicLoad(&tile_counts[tile]);
+    }
+    if lid < 3u {
+        atomicStore(&work_sums[lid], 0u);
     }
     atomicStore(&pixel_counts[lid], 0u);
     workgroupBarrier();
@@ -237,17 +243,18 @@ fn cs_fast(invocation: TileThread) {
         let lane = fragment_lanes[f];
         by_pixel[pixel_starts[lane] + atomicAdd(&pixel_counts[lane], 1u)] = f;
     }
+    atomicAdd(&work_sums[0], setups);
+    atomicAdd(&work_sums[1], evaluations);
+    atomicAdd(&work_sums[2], shadings);
     workgroupBarrier();
     if lid == 0u {
         atomicMax(&tiled_counters[COUNTER_LONGEST_LIST], n);
+        // Each of the two warps steps through its lanes' share of the fragments.
+        work_add(COUNTER_WARP_STEPS, 2u * ((total + LANES - 1u) / LANES));
+        work_add(COUNTER_SETUPS, atomicLoad(&work_sums[0]));
+        work_add(COUNTER_EVALUATIONS, atomicLoad(&work_sums[1]));
+        work_add(COUNTER_SHADINGS, atomicLoad(&work_sums[2]));
     }
-    // Each warp steps through its lanes' share of every chunk's fragments.
-    if lid % 32u == 0u {
-        work_add(COUNTER_WARP_STEPS, (total + LANES - 1u) / LANES);
-    }
-    work_add(COUNTER_SETUPS, setups);
-    work_add(COUNTER_EVALUATIONS, evaluations);
-    work_add(COUNTER_SHADINGS, shadings);
     let pixel = corner + vec2<i32>(invocation.local.xy);
     // Only the region's pixels: another quarter's, or the rounds', are not this one's to write.
     let in_region = ((region[lid / 32u] >> (lid % 32u)) & 1u) == 1u;

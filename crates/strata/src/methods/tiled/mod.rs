@@ -142,9 +142,9 @@ const COUNTER_PAST_CAPACITY: usize = 31;
 /// The most fragments one pixel of a tile some round ran in had (the next frame's rounds).
 const COUNTER_DEEPEST_IN_ROUNDS: usize = 32;
 /// Bytes of workgroup memory the one-pass kernel keeps besides its fragment store: the chunk
-/// of 16 set-up triangles (176 bytes each), their primitives, masks and prefix sums, and the
-/// per-pixel counts and starts.
-const FAST_FIXED_BYTES: u32 = 16 * (176 + 4 + 8 + 4) + 64 * 8 + 16;
+/// of 16 set-up triangles (176 bytes each), their primitives, masks and prefix sums, the
+/// per-pixel counts and starts, and a few counts.
+const FAST_FIXED_BYTES: u32 = 16 * (176 + 4 + 8 + 4) + 64 * 8 + 32;
 /// Bytes of workgroup memory per stored fragment: the fragment, its pixel, its place in the
 /// pixels' runs.
 const FAST_FRAGMENT_BYTES: u32 = 16 + 4 + 4;

@@ -31,6 +31,9 @@ var<workgroup> list_length: u32;
 // The lanes (pixels) with fragments left: a triangle none of them covers needs no setup.
 var<workgroup> working_bits: array<atomic<u32>, 2>;
 var<workgroup> working_mask: vec2<u32>;
+// The round's setups, evaluations and shadings, summed here first: one atomic per workgroup
+// and counter on the frame's counters.
+var<workgroup> work_sums: array<atomic<u32>, 3>;
 
 // Inserts `f` into the `kept` fragments, nearest first; a full array drops its farthest (which
 // the caller checked lies behind `f`).
@@ -93,6 +96,9 @@ fn cs_round(invocation: TileThread) {
         atomicStore(&working_bits[0], 0u);
         atomicStore(&working_bits[1], 0u);
         list_length = atomicLoad(&tile_counts[tile]);
+    }
+    if lid < 3u {
+        atomicStore(&work_sums[lid], 0u);
     }
     workgroupBarrier();
     if working {
@@ -176,13 +182,18 @@ fn cs_round(invocation: TileThread) {
             }
         }
     }
-    // One add per thread and round, not per fragment.
-    work_add(COUNTER_SETUPS, setups);
+    atomicAdd(&work_sums[0], setups);
+    atomicAdd(&work_sums[1], evaluations);
+    atomicAdd(&work_sums[2], shadings);
+    workgroupBarrier();
+    if lid == 0u {
+        work_add(COUNTER_SETUPS, atomicLoad(&work_sums[0]));
+        work_add(COUNTER_EVALUATIONS, atomicLoad(&work_sums[1]));
+        work_add(COUNTER_SHADINGS, atomicLoad(&work_sums[2]));
+    }
     if !working {
         return;
     }
-    work_add(COUNTER_EVALUATIONS, evaluations);
-    work_add(COUNTER_SHADINGS, shadings);
     if walked != n {
         atomicAdd(&tiled_counters[COUNTER_CUT_SHORT], 1u);
     }
