@@ -31,6 +31,10 @@ const LANES: u32 = 64u;
 const FAST_CHUNK: u32 = 16u;
 // Fragments the store holds: sized to the device's workgroup memory (`fast_fragments`).
 const FAST_FRAGMENTS: u32 = #{FAST_FRAGMENTS}u;
+// The most fragments a pixel's thread sorts here (an insertion sort: at most 8128 steps, within
+// lavapipe's 65535 loop iterations an invocation and short on a GPU); a deeper pixel keeps its
+// fresh state and the rounds take it.
+const PIXEL_MAX: u32 = 128u;
 
 var<workgroup> covered: atomic<u32>;
 var<workgroup> stored: atomic<u32>;
@@ -258,7 +262,7 @@ fn cs_fast(invocation: TileThread) {
     let pixel = corner + vec2<i32>(invocation.local.xy);
     // Only the region's pixels: another quarter's, or the rounds', are not this one's to write.
     let in_region = ((region[lid / 32u] >> (lid % 32u)) & 1u) == 1u;
-    if !in_region || any(vec2<u32>(pixel) >= frame.size) {
+    if !in_region || any(vec2<u32>(pixel) >= frame.size) || count > PIXEL_MAX {
         return;
     }
     // The pixel's fragments in (depth, primitive) order: an insertion sort of its run.

@@ -15,7 +15,9 @@
 //!   a 4×4 quarter: its items are set up once per chunk, its fragments spread one per thread
 //!   (a prefix sum over the items' coverage), each evaluated and shaded once into workgroup
 //!   memory, then gathered per pixel, sorted by (depth, primitive) by the pixel's thread and
-//!   composited into its state. A quarter past the store is left to the rounds and counted.
+//!   composited into its state. A quarter past the store is left to the rounds and counted, and
+//!   so is a pixel of more than 128 fragments (its thread's insertion sort stays within 8128
+//!   steps).
 //! - **round** × R, for the pixels the fast pass left (one workgroup of 64 threads per tile, a
 //!   thread per pixel): the tile's list is
 //!   walked in chunks of 64 triangles, set up once per chunk in workgroup memory; each thread

@@ -196,6 +196,25 @@ fn the_one_pass_kernel_and_the_rounds_give_the_same_bytes() {
     assert_eq!(full_stats.exact, Some(true));
 }
 
+/// A pixel deeper than the one-pass kernel sorts (128 fragments) in a quarter that fits its
+/// store is left to the rounds, and the frame stays exact: 8 pixels of 200 fragments.
+#[test]
+fn pixels_too_deep_for_the_one_pass_sort_go_to_the_rounds() {
+    let s = scene("builtin:layers?n=200&coverage=0.1");
+    let opts = options(8, Effect::Transparency);
+    let (actual, stats) = render_gpu(&s, &opts, "tiled");
+    assert_exact(
+        "tiled-deep-pixels",
+        &actual,
+        &render_reference(&s, &opts),
+        opts.frame.effect,
+    );
+    let tiled = stats.tiled.unwrap();
+    assert_eq!((tiled.deepest_pixel, tiled.tiles_past_capacity), (200, 0));
+    assert_eq!(tiled.rounds, rounds_for(200), "{tiled:?}");
+    assert_eq!(stats.fragments_dropped, Some(0));
+}
+
 /// Pixels deeper than a round's 16 fragments take more rounds and stay exact, with layers in
 /// random order and four coincident faces (told apart by their primitive, none lost).
 #[test]
