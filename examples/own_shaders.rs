@@ -102,6 +102,16 @@ fn fs_transparent(v: Varying, @builtin(front_facing) front_facing: bool,
 }
 ";
 
+/// The same on wgpu's GL backend, whose GLSL cannot read `@builtin(sample_mask)` (naga, wgpu
+/// 30): a single-sampled frame's mask is 1, and GL takes no `--msaa`.
+const TRANSPARENT_FRAGMENT_GL: &str = "
+@fragment
+fn fs_transparent(v: Varying, @builtin(front_facing) front_facing: bool) -> StrataOut {
+    let premultiplied = vec4<f32>(v.color.rgb * v.color.a, v.color.a);
+    return strata_capture(v.position, premultiplied, v.triangle, front_facing, 1u);
+}
+";
+
 /// Two triangles of `rect` with depths at x = ±1, both with `id` (they never overlap, so they
 /// may share the id that orders fragments at equal depth).
 fn quad(rect: [f32; 4], depth: [f32; 2], color: [f32; 4], id: u32) -> Vec<Vertex> {
@@ -271,7 +281,10 @@ pub fn run(
         options.frame.k = Some(16);
     }
     let shader = AppShader::new(
-        format!("{SHADER}{TRANSPARENT_FRAGMENT}"),
+        match device.adapter_info().backend {
+            wgpu::Backend::Gl => format!("{SHADER}{TRANSPARENT_FRAGMENT_GL}"),
+            _ => format!("{SHADER}{TRANSPARENT_FRAGMENT}"),
+        },
         "vs_main",
         "fs_transparent",
     )
@@ -390,6 +403,11 @@ fn read_back(
 fn main() {
     let out = std::path::PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| ".".into()));
     let result = device().map_err(|e| e.into()).and_then(|(device, queue)| {
+        // What this device's backend runs (`strata methods --backend NAME`).
+        let offer = strata::methods::backends::Offer::of_gpu(&strata::gpu::Gpu::from_device(
+            device.clone(),
+            queue.clone(),
+        ));
         // A single-pass list, a locking k+-buffer, two-pass kb-keys, depth peeling, and
         // weighted blended OIT; every method with `app_shaders` in `strata methods` runs so.
         for method in [
@@ -399,6 +417,11 @@ fn main() {
             MethodId::F2b,
             MethodId::Wboit,
         ] {
+            let verdict = strata::methods::backends::verdict(method.descriptor(), &offer);
+            if !verdict.runs() {
+                eprintln!("{method}: not on this device: {verdict}");
+                continue;
+            }
             let (picture, stats) = run(&device, &queue, method, 1)?;
             let path = out.join(format!("own_shaders-{method}.png"));
             picture.save(&path)?;

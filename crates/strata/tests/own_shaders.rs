@@ -163,7 +163,6 @@ fn every_application_method_matches_the_hand_computed_picture() {
         .filter(|m| m.descriptor().app_shaders.yes())
         .collect();
     assert!(methods.len() >= 25, "{methods:?}");
-    let mut failures = Vec::new();
     let runs = methods.into_iter().flat_map(|m| {
         let d = m.descriptor();
         [1, 4]
@@ -171,6 +170,47 @@ fn every_application_method_matches_the_hand_computed_picture() {
             .filter(move |&s| s >= d.min_samples && (s == 1 || d.msaa.yes()))
             .map(move |s| (m, s))
     });
+    let failures = check(device, queue, runs);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// On wgpu's GL backend (Mesa llvmpipe through EGL), every application method the backend runs
+/// (`strata methods --backend gl`), single-sampled: the example's GL shader passes mask 1.
+#[test]
+fn the_application_methods_gl_runs_match_the_hand_computed_picture() {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::GL,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapter = pollster::block_on(instance.request_adapter(&Default::default()))
+        .expect("a GL adapter (Mesa's llvmpipe: scripts/test installs it)");
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("own_shaders.gl"),
+        required_features: adapter.features() & strata::gpu::wanted_features(),
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }))
+    .expect("a GL device");
+    let offer =
+        strata::methods::backends::Offer::of_gpu(&Gpu::from_device(device.clone(), queue.clone()));
+    let methods: Vec<MethodId> = MethodId::gpu_methods()
+        .filter(|m| {
+            let d = m.descriptor();
+            d.app_shaders.yes() && strata::methods::backends::verdict(d, &offer).runs()
+        })
+        .collect();
+    assert!(methods.len() >= 13, "{methods:?}");
+    let failures = check(&device, &queue, methods.into_iter().map(|m| (m, 1)));
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Each run of the example against the hand-computed picture: what failed, one line each.
+fn check(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    runs: impl Iterator<Item = (MethodId, u32)>,
+) -> Vec<String> {
+    let mut failures = Vec::new();
     for (method, samples) in runs {
         let (picture, stats) = match app::run(device, queue, method, samples) {
             Ok(r) => r,
@@ -205,7 +245,7 @@ fn every_application_method_matches_the_hand_computed_picture() {
             ));
         }
     }
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    failures
 }
 
 /// A minimal valid application shader and its layout, for the misuse tests.

@@ -205,6 +205,10 @@ pub(crate) struct MethodResult {
     pub(crate) error_vs_reference_k: Option<strata::metrics::Comparison>,
     /// Why the run could not be measured (an unsupported feature, say); null when it was.
     pub(crate) skipped: Option<String>,
+    /// `tiled`'s statistics of the last measured frame: its work counters (setups,
+    /// evaluations, shadings, items, occupancy) and rounds, for a cost model of the frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) tiled: Option<strata::frame::TiledStats>,
 }
 
 #[derive(Serialize)]
@@ -311,6 +315,7 @@ impl MethodResult {
             error_vs_reference: None,
             error_vs_reference_k: None,
             skipped: None,
+            tiled: None,
         }
     }
 }
@@ -453,4 +458,5 @@ pub(crate) fn fill_counts(result: &mut MethodResult, stats: &FrameStats) {
     result.max_depth_complexity = stats.max_depth_complexity;
     result.bytes_allocated = Some(stats.bytes_allocated);
     result.lock_failures = stats.lock_failures;
+    result.tiled = stats.tiled.clone();
 }
