@@ -4,8 +4,8 @@
 #import strata::composite::{composite_front, composite_new}
 #import strata::raster::items::{rp}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
-#import strata::tiled::constants::{CODE_WORDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_PAST_CAPACITY, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_WARP_STEPS}
-#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, store_state, tile_codes, tile_counts, tile_starts, tiled_counters, tp, work_add}
+#import strata::tiled::constants::{COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_PAST_CAPACITY, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_WARP_STEPS}
+#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, list_entry, store_state, tile_counts, tile_starts, tiled_counters, tp, work_add}
 
 // The one-pass tile kernel, before any round: four workgroups per 8×8-pixel tile, one thread
 // per fragment. Where the tile's list covers at most FAST_FRAGMENTS pixel centers (the
@@ -114,10 +114,7 @@ fn quarter_mask(q: u32) -> vec2<u32> {
 fn covered_in(start: u32, n: u32, lid: u32, region: vec2<u32>) -> u32 {
     var mine = 0u;
     for (var i = lid; i < n; i += LANES) {
-        let at = (start + i) * CODE_WORDS;
-        if (tile_codes[at] >> 3u) < rp.triangles {
-            mine += bits(vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]) & region);
-        }
+        mine += bits(list_entry(start + i, region).mask);
     }
     return mine;
 }
@@ -186,17 +183,11 @@ fn cs_fast(invocation: TileThread) {
         // Everyone is done with the previous chunk before it is overwritten.
         workgroupBarrier();
         if lid < items {
-            let at = (start + base + lid) * CODE_WORDS;
-            let code = tile_codes[at];
-            let prim = code >> 3u;
-            var mask = vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]) & region;
-            if prim >= rp.triangles {
-                mask = vec2<u32>(0u);
-            }
-            chunk_prims[lid] = prim;
-            chunk_masks[lid] = mask;
-            if any(mask != vec2<u32>(0u)) {
-                chunk[lid] = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
+            let entry = list_entry(start + base + lid, region);
+            chunk_prims[lid] = entry.prim;
+            chunk_masks[lid] = entry.mask;
+            if any(entry.mask != vec2<u32>(0u)) {
+                chunk[lid] = fan_triangle(clipped_triangle(entry.prim, rp.guard), entry.fan);
                 setups += 1u;
             }
         }

@@ -1,5 +1,6 @@
 #define_import_path strata::tiled::lists
-#import strata::tiled::constants::{STATE_WORDS}
+#import strata::tiled::constants::{CODE_WORDS, STATE_WORDS}
+#import strata::raster::items::{rp}
 #import strata::tiled::params::{TiledParams}
 #import strata::color::{Resolved}
 #import strata::composite::{Composite, composite_new, view_distance}
@@ -92,6 +93,25 @@ fn work_add(at: u32, n: u32) {
     if old > 0xffffffffu - n {
         atomicAdd(&tiled_counters[at + 1u], 1u);
     }
+}
+
+// A list entry: its triangle's primitive and fan triangle, and the tile's pixel centers it
+// covers within `region` (none where the code names no triangle: poisoned or stale memory).
+struct ListEntry {
+    prim: u32,
+    fan: u32,
+    mask: vec2<u32>,
+}
+
+fn list_entry(index: u32, region: vec2<u32>) -> ListEntry {
+    let at = index * CODE_WORDS;
+    let code = tile_codes[at];
+    let prim = code >> 3u;
+    var mask = vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]) & region;
+    if prim >= rp.triangles {
+        mask = vec2<u32>(0u);
+    }
+    return ListEntry(prim, code & 7u, mask);
 }
 
 fn tile_of(tile: vec2<i32>) -> u32 {

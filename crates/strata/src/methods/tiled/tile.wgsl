@@ -4,8 +4,8 @@
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::items::{rp}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
-#import strata::tiled::constants::{CODE_WORDS, COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_DEEPEST_IN_ROUNDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
-#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, fragments_left, load_state, output, store_state, tile_codes, tile_counts, tile_rounds, tile_starts, tiled_counters, tp, work_add}
+#import strata::tiled::constants::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_DEEPEST_IN_ROUNDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
+#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, fragments_left, list_entry, load_state, output, store_state, tile_counts, tile_rounds, tile_starts, tiled_counters, tp, work_add}
 
 // One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
 // thread per pixel (thread lid owns bit lid of the coverage masks), no atomics on pixel data.
@@ -134,19 +134,13 @@ fn cs_round(invocation: TileThread) {
         // Everyone is done with the previous chunk before it is overwritten.
         workgroupBarrier();
         if base + lid < n {
-            let at = (start + base + lid) * CODE_WORDS;
-            let code = tile_codes[at];
-            let prim = code >> 3u;
             // Only the bits of pixels with fragments left.
-            var mask = vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]) & lanes;
-            if prim >= rp.triangles {
-                mask = vec2<u32>(0u);
-            }
-            chunk_prims[lid] = prim;
-            chunk_masks[lid] = mask;
+            let entry = list_entry(start + base + lid, lanes);
+            chunk_prims[lid] = entry.prim;
+            chunk_masks[lid] = entry.mask;
             // A triangle that covers none of those pixels needs no setup.
-            if any(mask != vec2<u32>(0u)) {
-                chunk[lid] = fan_triangle(clipped_triangle(prim, rp.guard), code & 7u);
+            if any(entry.mask != vec2<u32>(0u)) {
+                chunk[lid] = fan_triangle(clipped_triangle(entry.prim, rp.guard), entry.fan);
                 setups += 1u;
             }
         }
