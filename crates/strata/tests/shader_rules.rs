@@ -24,6 +24,24 @@ fn wgsl_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+/// Every line of strata's WGSL sources, with its place (`path:line`, relative to the crate).
+fn wgsl_lines() -> Vec<(String, String)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    wgsl_files(&root.join("src"), &mut files);
+    wgsl_files(&root.join("shaders"), &mut files);
+    assert!(files.len() > 50, "found only {} WGSL files", files.len());
+    let mut lines = Vec::new();
+    for file in &files {
+        let text = std::fs::read_to_string(file).unwrap();
+        let name = file.strip_prefix(root).unwrap().display().to_string();
+        for (i, line) in text.lines().enumerate() {
+            lines.push((format!("{name}:{}", i + 1), line.to_string()));
+        }
+    }
+    lines
+}
+
 /// The condition of a loop that starts on `line` (`while c {`, `for (init; c; step) {`).
 fn loop_condition(line: &str) -> Option<&str> {
     let line = line.trim_start();
@@ -38,30 +56,17 @@ fn loop_condition(line: &str) -> Option<&str> {
 
 #[test]
 fn no_loop_condition_short_circuits() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files = Vec::new();
-    wgsl_files(&root.join("src"), &mut files);
-    wgsl_files(&root.join("shaders"), &mut files);
-    assert!(files.len() > 50, "found only {} WGSL files", files.len());
     let mut found = Vec::new();
-    for file in &files {
-        let text = std::fs::read_to_string(file).unwrap();
-        for (i, line) in text.lines().enumerate() {
-            if let Some(condition) = loop_condition(line) {
-                // The per-pixel lock loops end at their condition on purpose (kbuffer's
-                // `lock_winners_leave_their_loop_only_through_its_condition`: a GPU's SIMD
-                // group must not let a lock winner leave from inside the lock's `if`); their
-                // methods need ordered atomics, which only Vulkan's SPIR-V passthrough gives,
-                // so they never pass through GLSL.
-                let lock_loop = condition.trim_end().ends_with("&& waiting");
-                if !lock_loop && (condition.contains("&&") || condition.contains("||")) {
-                    found.push(format!(
-                        "{}:{}: {}",
-                        file.strip_prefix(root).unwrap().display(),
-                        i + 1,
-                        line.trim()
-                    ));
-                }
+    for (place, line) in wgsl_lines() {
+        if let Some(condition) = loop_condition(&line) {
+            // The per-pixel lock loops end at their condition on purpose (kbuffer's
+            // `lock_winners_leave_their_loop_only_through_its_condition`: a GPU's SIMD group
+            // must not let a lock winner leave from inside the lock's `if`); their methods need
+            // ordered atomics, which only Vulkan's SPIR-V passthrough gives, so they never pass
+            // through GLSL.
+            let lock_loop = condition.trim_end().ends_with("&& waiting");
+            if !lock_loop && (condition.contains("&&") || condition.contains("||")) {
+                found.push(format!("{place}: {}", line.trim()));
             }
         }
     }
@@ -106,21 +111,10 @@ fn unsigned_load_indices(line: &str) -> Vec<&str> {
 
 #[test]
 fn texture_load_indices_are_signed() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files = Vec::new();
-    wgsl_files(&root.join("src"), &mut files);
-    wgsl_files(&root.join("shaders"), &mut files);
     let mut found = Vec::new();
-    for file in &files {
-        let text = std::fs::read_to_string(file).unwrap();
-        for (i, line) in text.lines().enumerate() {
-            for index in unsigned_load_indices(line) {
-                found.push(format!(
-                    "{}:{}: {index}",
-                    file.strip_prefix(root).unwrap().display(),
-                    i + 1
-                ));
-            }
+    for (place, line) in wgsl_lines() {
+        for index in unsigned_load_indices(&line) {
+            found.push(format!("{place}: {index}"));
         }
     }
     assert!(
