@@ -225,6 +225,9 @@ pub struct Recorded {
     pub bytes_allocated: u64,
     /// The size this frame ran with where it is fed back (pool nodes, array stride, layers).
     pub capacity: u64,
+    /// The compute rasterizer's setup records this frame held, where its method keeps them
+    /// (tiled), fed back with its item capacity.
+    pub setup_capacity: u64,
     /// How the capture's atomics are ordered (k-buffer methods).
     pub memory_ordering: Option<&'static str>,
     /// The frame ran with temporal culling.

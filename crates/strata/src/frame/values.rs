@@ -53,9 +53,13 @@ pub struct TiledStats {
     pub longest_list: u32,
     /// Bytes of the per-tile lists, their starts, counts and rounds, and the pixels' state.
     pub list_bytes: u64,
-    /// Triangle setups in all: the bin's, one per listed item in the scatter, and one per
-    /// chunk triangle covering a working pixel in each round.
+    /// Triangle setups (transform, clip, snap): the bin's, one per fan triangle it sets up and
+    /// stores as a record for the passes after it.
     pub triangle_setups: u64,
+    /// Setup records loaded into workgroup memory: by the one-pass kernel once per list entry
+    /// that covers a pixel of its region, and by each round once per list entry that covers a
+    /// pixel with fragments left.
+    pub record_loads: u64,
     /// Fragment evaluations (barycentrics and depth at a covered pixel center) in the rounds:
     /// every round evaluates again each fragment behind its pixel's bound.
     pub fragment_evaluations: u64,

@@ -30,7 +30,8 @@
 //!   and the claim word (8) written and read once per pixel, each stored record written and
 //!   read once, one atomic per fragment (its count) and one per stored fragment (its claim);
 //! - `tiled`: each pixel's state ([`STATE_BYTES`]) written and read once, and at least one list
-//!   entry (the rasterizer's item, [`ITEM_BYTES`], and its code and mask, [`CODE_BYTES`]) written
+//!   entry (the rasterizer's item with its record and mask, [`RECORD_ITEM_BYTES`], and its index in
+//!   the tile's list, [`LIST_ENTRY_BYTES`]) written
 //!   and read per 64 stored fragments (an entry serves at most a tile's 64 pixels), with two
 //!   atomics on its tile's count (count and scatter) — a loose floor: the lists' real length is not
 //!   in the frame's counters.
@@ -47,9 +48,9 @@ use crate::frame::RESOLVED_BYTES;
 use crate::gpu::bandwidth::DeviceRates;
 use crate::methods::kbuffer::{kpeel::KEY_BYTES, list::NODE_BYTES, sbuffer::FRAGMENT_BYTES};
 use crate::methods::kbuffer::{PIXEL_BYTES, SLOT_BYTES};
-use crate::methods::tiled::{CODE_BYTES, STATE_BYTES};
+use crate::methods::tiled::{LIST_ENTRY_BYTES, STATE_BYTES};
 use crate::methods::MethodId;
-use crate::raster::ITEM_BYTES;
+use crate::raster::RECORD_ITEM_BYTES;
 
 /// What one frame of a method did, from its [`crate::frame::FrameStats`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -152,7 +153,7 @@ pub fn traffic(id: MethodId, c: &FrameCounts) -> Option<Traffic> {
         TrafficModel::Tiled => {
             let entries = c.stored.div_ceil(64);
             (
-                2 * STATE_BYTES * c.pixels + 2 * (ITEM_BYTES + CODE_BYTES) * entries,
+                2 * STATE_BYTES * c.pixels + 2 * (RECORD_ITEM_BYTES + LIST_ENTRY_BYTES) * entries,
                 2 * entries,
                 0,
             )

@@ -2,14 +2,22 @@
 #import strata::raster::params::{RasterParams}
 
 // The work items the bin stage wrote, as every stage after it reads them: the rasterizer's
-// bindings at group RASTER_GROUP (the scene's vertices, binding 3, are setup.wgsl's) and an
-// item's decoding.
+// bindings at group RASTER_GROUP (the scene's vertices, binding 3, are setup.wgsl's; the setup
+// records, binding 4, records.wgsl's) and an item's decoding.
 
 @group(#{RASTER_GROUP}) @binding(0) var<uniform> rp: RasterParams;
+#ifdef SETUP_RECORDS
+// Writable: a pass after the bin stores each item's coverage in its last two words.
+@group(#{RASTER_GROUP}) @binding(1) var<storage, read_write> items: array<u32>;
+#else
 @group(#{RASTER_GROUP}) @binding(1) var<storage, read> items: array<u32>;
+#endif
 @group(#{RASTER_GROUP}) @binding(2) var<storage, read> raster_counters: array<u32>;
 
-// A fan triangle of a primitive's clipped polygon, and one 8×8-pixel tile its bounds meet.
+const ITEM_WORDS: u32 = #{ITEM_WORDS}u;
+
+// A fan triangle of a primitive's clipped polygon (with SETUP_RECORDS: its setup record, `prim`
+// naming the record), and one 8×8-pixel tile its bounds meet.
 struct Item {
     prim: u32,
     fan: u32,
@@ -26,8 +34,8 @@ fn items_written() -> u32 {
 }
 
 fn item_at(index: u32) -> Item {
-    let code = items[2u * index + 1u];
-    return Item(items[2u * index], code & 7u, vec2<i32>(vec2<u32>((code >> 3u) & 0x3fffu, code >> 17u)));
+    let code = items[ITEM_WORDS * index + 1u];
+    return Item(items[ITEM_WORDS * index], code & 7u, vec2<i32>(vec2<u32>((code >> 3u) & 0x3fffu, code >> 17u)));
 }
 
 // The item a thread of an indirect dispatch over the items owns (64-wide workgroups in a

@@ -11,7 +11,11 @@
 //!   triangle over its whole bounding box; that serializes a large triangle over thousands of
 //!   pixels, so large triangles are split here into tiles, and no thread walks more than 64
 //!   pixel centers. A triangle larger than the screen costs its binning thread one store per
-//!   tile of the screen.
+//!   tile of the screen. With [`Binning::SetupRecords`] (tiled) each set-up fan triangle is
+//!   also stored as a record (its primitive and, per corner, window position, depth, 1/w and
+//!   weights: 88 bytes, from which `triangle_of` derives the snapped corners, area and bounds
+//!   exactly), and the items name records and leave room for their tile's coverage mask
+//!   (16 bytes each), so that the passes after the bin never set a triangle up again.
 //! - **args** (one thread): the item count becomes an indirect dispatch.
 //! - **capture** (one thread per item, each of the method's geometry passes): the item's
 //!   triangle is set up again (recomputing beats storing ~100 bytes of setup per triangle), its
@@ -27,8 +31,9 @@
 //! and NVIDIA's `subPixelPrecisionBits`). Depth and attributes are computed in f32 from the same
 //! inputs as the GPU's, so they agree to rounding, not bit for bit.
 //!
-//! Memory: 8 bytes per work item (the primitive and a packed fan-triangle and tile index), 16
-//! of counters, 16 of dispatch arguments. The item buffer starts at twice the triangle count plus four
+//! Memory: 8 bytes per work item (the primitive and a packed fan-triangle and tile index; with
+//! setup records 16, and 88 per record, sized like the items), 16 of counters, 16 of dispatch
+//! arguments. The item buffer starts at twice the triangle count plus four
 //! items per screen tile, grows to the measured need + 25% after a frame that overflowed (that
 //! frame reports itself incomplete, and exact mode renders it again), shrinks when more than
 //! twice too large, and is bounded by the device's largest storage binding.
@@ -58,8 +63,6 @@
 
 pub mod wide;
 
-use bytemuck::Zeroable;
-
 use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
@@ -81,6 +84,7 @@ pub const LIBRARY: Library = &[
     BIN_WGSL,
     ARGS_WGSL,
     RASTER_WGSL,
+    RECORDS_WGSL,
 ];
 /// `strata::raster::params`: [`RasterParams`] for the stages that bind them.
 const PARAMS_WGSL: &str = wgsl_module!("strata::raster::params", RasterParams);
@@ -89,11 +93,46 @@ const ITEMS_WGSL: &str = include_str!("items.wgsl");
 const BIN_WGSL: &str = include_str!("bin.wgsl");
 const ARGS_WGSL: &str = include_str!("args.wgsl");
 const RASTER_WGSL: &str = include_str!("raster.wgsl");
+const RECORDS_WGSL: &str = include_str!("records.wgsl");
 
 /// Pixels per side of a bin tile (TILE in setup.wgsl).
 pub const TILE: u32 = 8;
 /// Bytes of one (triangle, tile) work item.
 pub const ITEM_BYTES: u64 = 8;
+/// Bytes of one work item with setup records ([`Binning::SetupRecords`]): the record, the
+/// packed fan triangle and tile, and the tile's covered pixel centers (64 bits).
+pub const RECORD_ITEM_BYTES: u64 = 16;
+/// Bytes of one setup record (SETUP_RECORD_WORDS in setup.wgsl): the primitive, and per corner
+/// the window position, depth, 1/w and weights.
+pub const SETUP_RECORD_BYTES: u64 = 22 * 4;
+
+/// What the bin stage leaves for the passes after it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binning {
+    /// Items naming (primitive, fan triangle): each later pass sets its triangle up again.
+    Items,
+    /// A setup record per set-up fan triangle, and items naming records with room for their
+    /// coverage (tiled): the triangle is set up once.
+    SetupRecords,
+}
+
+impl Binning {
+    /// Bytes of one work item.
+    pub fn item_bytes(self) -> u64 {
+        match self {
+            Binning::Items => ITEM_BYTES,
+            Binning::SetupRecords => RECORD_ITEM_BYTES,
+        }
+    }
+
+    /// The definitions of the stages that read the items: their words and, with records,
+    /// the records' binding.
+    pub fn defs(self) -> Defs {
+        Defs::default()
+            .value("ITEM_WORDS", (self.item_bytes() / 4) as u32)
+            .flag_if("SETUP_RECORDS", self == Binning::SetupRecords)
+    }
+}
 /// Counter words (COUNTER_ in bin.wgsl): work items (64-bit), fan triangles set up (64-bit).
 pub const COUNTER_WORDS: u64 = 4;
 const COUNTER_ITEMS: usize = 0;
@@ -113,7 +152,8 @@ gpu_struct! {
         /// Clipping guard band: |x|, |y| ≤ guard·w keeps window coordinates inside the edge
         /// functions' range.
         pub guard: f32,
-        pad_a: u32,
+        /// Setup records the record buffer holds ([`Binning::SetupRecords`]; else 0).
+        pub setup_capacity: u32,
     }
 }
 
@@ -124,10 +164,11 @@ pub fn guard_band(width: u32, height: u32) -> f32 {
 }
 
 /// The bin stage: setup's raster bindings are its group 1.
-pub fn bin_stage() -> Stage {
+pub fn bin_stage(binning: Binning) -> Stage {
     Stage::new("strata.raster.bin", BIN_WGSL)
         .with(LIBRARY)
         .defs(&Defs::default().value("RASTER_GROUP", 1))
+        .defs(&binning.defs())
 }
 
 /// The args stage (no scene bindings).
@@ -138,11 +179,23 @@ pub fn args_stage() -> Stage {
 /// The layout of the raster stage's bindings (params, items, counters, the scene's vertices), which every method's
 /// compute capture places after its own groups.
 pub fn raster_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
-    binding::layout(
-        &gpu.device,
-        "strata.raster.layout",
-        &[Slot::Uniform, Slot::Storage, Slot::Storage, Slot::Storage],
-    )
+    binding_layout(gpu, Binning::Items)
+}
+
+/// The raster bindings' layout for `binning`: with setup records the items are writable (a
+/// later pass stores their coverage) and the records follow the scene's vertices.
+fn binding_layout(gpu: &Gpu, binning: Binning) -> wgpu::BindGroupLayout {
+    let slots: &[Slot] = match binning {
+        Binning::Items => &[Slot::Uniform, Slot::Storage, Slot::Storage, Slot::Storage],
+        Binning::SetupRecords => &[
+            Slot::Uniform,
+            Slot::StorageRw,
+            Slot::Storage,
+            Slot::Storage,
+            Slot::Storage,
+        ],
+    };
+    binding::layout(&gpu.device, "strata.raster.layout", slots)
 }
 
 /// The compute capture of a method's storage-only fragment stage `entry`: its `stage` (a
@@ -189,7 +242,8 @@ fn raster_capture(v: SceneVarying, front_facing: bool) {{
             &Defs::default()
                 .value("RASTER_GROUP", raster_group as u32)
                 .value("RASTER_WORKGROUP", workgroup),
-        );
+        )
+        .defs(&Binning::Items.defs());
     Ok(stage
         .libraries()
         .iter()
@@ -305,6 +359,7 @@ struct FrameBinding {
     counters: wgpu::Buffer,
     args: wgpu::Buffer,
     capacity: u64,
+    setup_capacity: u64,
     binned: bool,
 }
 
@@ -316,11 +371,11 @@ pub struct ComputeRaster {
     args_layout: wgpu::BindGroupLayout,
     raster_layout: wgpu::BindGroupLayout,
     cache: ResourceCache,
+    binning: Binning,
     /// Work items the next frame's buffer holds.
     capacity: u64,
-    /// The most bytes any buffer of one entry per item takes (the items', or a method's own
-    /// per-item lists: [`ComputeRaster::with_item_bytes`]), which bounds the capacity.
-    item_bytes: u64,
+    /// Setup records the next frame's buffer holds ([`Binning::SetupRecords`]).
+    setup_capacity: u64,
     frame: Option<FrameBinding>,
 }
 
@@ -339,16 +394,27 @@ impl crate::frame::ComputeCapture for ComputeRaster {
 impl ComputeRaster {
     /// The rasterizer's pipelines for `scene`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, options: &RenderOptions) -> ComputeRaster {
-        let bin_layout = binding::layout(
-            &gpu.device,
-            "strata.raster.bin.layout",
-            &[
-                Slot::Uniform,
-                Slot::StorageRw,
-                Slot::StorageRw,
-                Slot::Storage,
-            ],
-        );
+        Self::with_binning(gpu, scene, options, Binning::Items)
+    }
+
+    /// The rasterizer whose bin stage leaves `binning` (setup records: the method binds
+    /// [`ComputeRaster::layout`], whose items it fills in).
+    pub fn with_binning(
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        options: &RenderOptions,
+        binning: Binning,
+    ) -> ComputeRaster {
+        let mut bin_slots = vec![
+            Slot::Uniform,
+            Slot::StorageRw,
+            Slot::StorageRw,
+            Slot::Storage,
+        ];
+        if binning == Binning::SetupRecords {
+            bin_slots.push(Slot::StorageRw);
+        }
+        let bin_layout = binding::layout(&gpu.device, "strata.raster.bin.layout", &bin_slots);
         let args_layout = binding::layout(
             &gpu.device,
             "strata.raster.args.layout",
@@ -360,7 +426,7 @@ impl ComputeRaster {
             bin: compute(
                 gpu,
                 "strata.raster.bin",
-                (&bin_stage().module(&gpu.device), "cs_bin"),
+                (&bin_stage(binning).module(&gpu.device), "cs_bin"),
                 &[&scene.frame_layout, &bin_layout],
             ),
             args: compute(
@@ -371,44 +437,71 @@ impl ComputeRaster {
             ),
             bin_layout,
             args_layout,
-            raster_layout: scene
-                .raster_layout
-                .clone()
-                .unwrap_or_else(|| raster_layout(gpu)),
+            raster_layout: match (binning, &scene.raster_layout) {
+                (Binning::Items, Some(layout)) => layout.clone(),
+                _ => binding_layout(gpu, binning),
+            },
             cache: ResourceCache::default(),
+            binning,
             capacity: 2 * scene.triangle_count as u64 + 4 * tiles,
-            item_bytes: ITEM_BYTES,
+            // Most triangles set up as one fan triangle; a clipped one takes a few.
+            setup_capacity: scene.triangle_count as u64 + scene.triangle_count as u64 / 8 + 64,
             frame: None,
         }
     }
 
-    /// The rasterizer for a method that keeps `bytes` per work item in one buffer of its own
-    /// (tiled's lists): the capacity stays within what that buffer can bind too, so a frame
-    /// needing more items is refused in one line (`RasterReport::cannot_complete`) instead of
-    /// failing when the method makes its buffer.
-    pub fn with_item_bytes(mut self, bytes: u64) -> ComputeRaster {
-        self.item_bytes = self.item_bytes.max(bytes);
-        self
+    /// The most work items one buffer binds.
+    fn limit(&self, gpu: &Gpu) -> u64 {
+        (gpu.max_storage_binding() / self.binning.item_bytes()).min(1 << 31)
     }
 
-    /// The most work items one buffer of `item_bytes` per item binds.
-    fn limit(&self, gpu: &Gpu) -> u64 {
-        (gpu.max_storage_binding() / self.item_bytes).min(1 << 31)
+    /// The most setup records one buffer binds.
+    fn setup_limit(gpu: &Gpu) -> u64 {
+        (gpu.max_storage_binding() / SETUP_RECORD_BYTES).min(1 << 31)
+    }
+
+    /// Bytes of the item and record buffers for `capacity` items and `setup_capacity` records.
+    fn buffer_bytes(&self, capacity: u64, setup_capacity: u64) -> u64 {
+        capacity * self.binning.item_bytes() + setup_capacity * SETUP_RECORD_BYTES + CONSTANT_BYTES
+    }
+
+    /// The layout of this rasterizer's bindings, which a method's passes after the bin take
+    /// as their last group ([`ComputeRaster::frame_group`]).
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.raster_layout
+    }
+
+    /// What the bin stage leaves.
+    pub fn binning(&self) -> Binning {
+        self.binning
     }
 
     /// Allocates this frame's buffers (binning is recorded by the first geometry pass).
     pub fn prepare(&mut self, gpu: &Gpu, options: &RenderOptions, scene: &SceneGpu) -> Result<()> {
         let triangles = scene.triangle_count;
         let capacity = self.capacity.clamp(1, self.limit(gpu));
+        let setup_capacity = match self.binning {
+            Binning::Items => 0,
+            Binning::SetupRecords => self.setup_capacity.clamp(1, Self::setup_limit(gpu)),
+        };
         let params = RasterParams {
             triangles,
             capacity: capacity as u32,
             guard: guard_band(options.frame.width, options.frame.height),
-            ..Zeroable::zeroed()
+            setup_capacity: setup_capacity as u32,
         };
+        let item_bytes = self.binning.item_bytes();
         let cache = &mut self.cache;
         let params_buffer = cache.uniform(gpu, "strata.raster.params", bytemuck::bytes_of(&params));
-        let items = cache.storage(gpu, "strata.raster.items", capacity * ITEM_BYTES)?;
+        let items = cache.storage(gpu, "strata.raster.items", capacity * item_bytes)?;
+        let records = match self.binning {
+            Binning::Items => None,
+            Binning::SetupRecords => Some(cache.storage(
+                gpu,
+                "strata.raster.records",
+                setup_capacity * SETUP_RECORD_BYTES,
+            )?),
+        };
         let counters = cache.readable(gpu, "strata.raster.counters", COUNTER_WORDS * 4)?;
         let args =
             cache.storage_with(gpu, "strata.raster.args", 16, wgpu::BufferUsages::INDIRECT)?;
@@ -416,25 +509,20 @@ impl ComputeRaster {
             let resources: Vec<_> = buffers.iter().map(|b| b.as_entire_binding()).collect();
             binding::group(&gpu.device, label, layout, &resources)
         };
+        let mut buffers = vec![&params_buffer, &items, &counters, &scene.vertices];
+        buffers.extend(records.as_ref());
         self.frame = Some(FrameBinding {
-            bin_group: group(
-                "strata.raster.bin.group",
-                &self.bin_layout,
-                &[&params_buffer, &items, &counters, &scene.vertices],
-            ),
+            bin_group: group("strata.raster.bin.group", &self.bin_layout, &buffers),
             args_group: group(
                 "strata.raster.args.group",
                 &self.args_layout,
                 &[&params_buffer, &counters, &args],
             ),
-            raster_group: group(
-                "strata.raster.group",
-                &self.raster_layout,
-                &[&params_buffer, &items, &counters, &scene.vertices],
-            ),
+            raster_group: group("strata.raster.group", &self.raster_layout, &buffers),
             counters,
             args,
             capacity,
+            setup_capacity,
             binned: false,
         });
         Ok(())
@@ -444,7 +532,7 @@ impl ComputeRaster {
     pub fn bytes(&self) -> u64 {
         self.frame
             .as_ref()
-            .map_or(0, |f| f.capacity * ITEM_BYTES + CONSTANT_BYTES)
+            .map_or(0, |f| self.buffer_bytes(f.capacity, f.setup_capacity))
     }
 
     /// Records one of the method's geometry passes through `pipeline` (a compute capture made by
@@ -497,34 +585,57 @@ impl ComputeRaster {
         }
     }
 
-    /// Feedback from a frame's counters, recorded with `capacity` items: grows the item buffer
-    /// after an overflow, shrinks one more than twice too large.
-    pub fn feedback(&mut self, gpu: &Gpu, words: &[u32], capacity: u64) -> RasterReport {
+    /// Feedback from a frame's counters, recorded with `capacity` items (and, with setup
+    /// records, `setup_capacity` records): grows a buffer after an overflow, shrinks one more
+    /// than twice too large.
+    pub fn feedback(
+        &mut self,
+        gpu: &Gpu,
+        words: &[u32],
+        capacity: u64,
+        setup_capacity: u64,
+    ) -> RasterReport {
         let needed = crate::frame::wide(words, COUNTER_ITEMS);
-        let overflow = needed > capacity;
-        let fitted = (needed + needed / 4).max(1024);
+        let set_up = crate::frame::wide(words, COUNTER_TRIANGLES);
+        let fit = |n: u64| (n + n / 4).max(1024);
+        let items_overflow = needed > capacity;
         // Grow after an overflow; shrink when more than twice too large.
-        if overflow || self.capacity > 2 * fitted {
-            self.capacity = fitted;
+        if items_overflow || self.capacity > 2 * fit(needed) {
+            self.capacity = fit(needed);
         }
-        let limit = self.limit(gpu);
+        let records = self.binning == Binning::SetupRecords;
+        let records_overflow = records && set_up > setup_capacity;
+        if records && (records_overflow || self.setup_capacity > 2 * fit(set_up)) {
+            self.setup_capacity = fit(set_up);
+        }
+        let overflow = items_overflow || records_overflow;
+        let (limit, setup_limit) = (self.limit(gpu), Self::setup_limit(gpu));
+        let mib = |n: u64, bytes: u64| (n * bytes) as f64 / 1048576.0;
+        let items_shortfall = (needed > limit).then(|| crate::frame::Shortfall {
+            why: format!(
+                "--raster compute: the frame needs {needed} tile items ({:.1} MiB at {} bytes each), more than the device's largest storage buffer holds ({limit})",
+                mib(needed, self.binning.item_bytes()),
+                self.binning.item_bytes()
+            ),
+            binding: Some((needed, limit)),
+        });
+        let records_shortfall = (records && set_up > setup_limit).then(|| crate::frame::Shortfall {
+            why: format!(
+                "--raster compute: the frame sets up {set_up} triangles ({:.1} MiB of setup records at {SETUP_RECORD_BYTES} bytes each), more than the device's largest storage buffer holds ({setup_limit})",
+                mib(set_up, SETUP_RECORD_BYTES)
+            ),
+            binding: Some((set_up, setup_limit)),
+        });
         RasterReport {
             stats: ComputeRasterStats {
-                triangles_set_up: crate::frame::wide(words, COUNTER_TRIANGLES),
+                triangles_set_up: set_up,
                 tile_items: needed,
                 item_capacity: capacity,
                 overflow,
-                bytes_allocated: capacity * ITEM_BYTES + CONSTANT_BYTES,
+                bytes_allocated: self.buffer_bytes(capacity, setup_capacity),
             },
             incomplete: overflow,
-            cannot_complete: (needed > limit).then(|| crate::frame::Shortfall {
-                why: format!(
-                    "--raster compute: the frame needs {needed} tile items ({:.1} MiB at {} bytes each), more than the device's largest storage buffer holds ({limit})",
-                    (needed * self.item_bytes) as f64 / 1048576.0,
-                    self.item_bytes
-                ),
-                binding: Some((needed, limit)),
-            }),
+            cannot_complete: items_shortfall.or(records_shortfall),
         }
     }
 
@@ -537,6 +648,11 @@ impl ComputeRaster {
     /// Work items this frame's buffer holds.
     pub fn frame_capacity(&self) -> u64 {
         self.frame.as_ref().map_or(0, |f| f.capacity)
+    }
+
+    /// Setup records this frame's buffer holds (0 without [`Binning::SetupRecords`]).
+    pub fn frame_setup_capacity(&self) -> u64 {
+        self.frame.as_ref().map_or(0, |f| f.setup_capacity)
     }
 
     /// The rasterizer's buffers.

@@ -155,8 +155,12 @@ fn to_window(c: Corner) -> WindowCorner {
     let inv_w = 1.0 / c.clip.w;
     let size = vec2<f32>(frame.size);
     let window = vec2<f32>((c.clip.x * inv_w + 1.0) * 0.5 * size.x, (1.0 - c.clip.y * inv_w) * 0.5 * size.y);
-    let snapped = vec2<i32>(floor(window * SUBPIXEL + 0.5));
-    return WindowCorner(snapped, window, c.clip.z * inv_w, inv_w, c.weights);
+    return WindowCorner(snapped(window), window, c.clip.z * inv_w, inv_w, c.weights);
+}
+
+// A window position snapped to the subpixel grid.
+fn snapped(window: vec2<f32>) -> vec2<i32> {
+    return vec2<i32>(floor(window * SUBPIXEL + 0.5));
 }
 
 // One triangle of a clipped polygon's fan, ready to rasterize.
@@ -174,13 +178,24 @@ struct SetupTriangle {
 // The fan triangle (0, j + 1, j + 2) of `polygon`.
 fn fan_triangle(polygon: Polygon, j: u32) -> SetupTriangle {
     var corners = polygon.corners;
+    var t = triangle_of(
+        to_window(corners[0]),
+        to_window(corners[min(j + 1u, MAX_CORNERS - 1u)]),
+        to_window(corners[min(j + 2u, MAX_CORNERS - 1u)]),
+    );
+    t.valid = t.valid && j + 2u < polygon.count;
+    return t;
+}
+
+// The triangle of three window corners: its doubled area and candidate pixels from the snapped
+// positions; valid when it has area, lies in front of the eye and meets a pixel center's
+// bounds in the viewport.
+fn triangle_of(c0: WindowCorner, c1: WindowCorner, c2: WindowCorner) -> SetupTriangle {
     var t: SetupTriangle;
-    t.corners[0] = to_window(corners[0]);
-    t.corners[1] = to_window(corners[min(j + 1u, MAX_CORNERS - 1u)]);
-    t.corners[2] = to_window(corners[min(j + 2u, MAX_CORNERS - 1u)]);
-    let a = t.corners[0].snapped;
-    let b = t.corners[1].snapped;
-    let c = t.corners[2].snapped;
+    t.corners = array<WindowCorner, 3>(c0, c1, c2);
+    let a = c0.snapped;
+    let b = c1.snapped;
+    let c = c2.snapped;
     t.doubled_area = wide_add(wide_mul(b.x - a.x, c.y - a.y), wide_negate(wide_mul(c.x - a.x, b.y - a.y)));
     let lo = min(a, min(b, c));
     let hi = max(a, max(b, c));
@@ -189,9 +204,47 @@ fn fan_triangle(polygon: Polygon, j: u32) -> SetupTriangle {
     let last = (hi - vec2<i32>(HALF_SUBPIXEL)) >> vec2<u32>(8u);
     t.min = max(first, vec2<i32>(0));
     t.max = min(last, vec2<i32>(frame.size) - vec2<i32>(1));
-    let positive_w = t.corners[0].inv_w > 0.0 && t.corners[1].inv_w > 0.0 && t.corners[2].inv_w > 0.0;
-    t.valid = j + 2u < polygon.count && !wide_zero(t.doubled_area) && positive_w && all(t.min <= t.max);
+    let positive_w = c0.inv_w > 0.0 && c1.inv_w > 0.0 && c2.inv_w > 0.0;
+    t.valid = !wide_zero(t.doubled_area) && positive_w && all(t.min <= t.max);
     return t;
+}
+
+// A set-up triangle as the bin stage stores it for later passes (tiled's): its primitive, then
+// per corner the unsnapped window position, depth, 1/w and weights — SETUP_RECORD_WORDS words.
+// The snapped positions, area and bounds are what `triangle_of` derives from those exactly, so
+// a pass reading the record gets the bin's triangle bit for bit without clipping it again.
+const SETUP_RECORD_WORDS: u32 = 22u;
+
+fn setup_record(prim: u32, t: SetupTriangle) -> array<u32, SETUP_RECORD_WORDS> {
+    var words: array<u32, SETUP_RECORD_WORDS>;
+    var corners = t.corners;
+    words[0] = prim;
+    for (var i = 0u; i < 3u; i++) {
+        let c = corners[i];
+        let at = 1u + 7u * i;
+        words[at] = bitcast<u32>(c.window.x);
+        words[at + 1u] = bitcast<u32>(c.window.y);
+        words[at + 2u] = bitcast<u32>(c.z);
+        words[at + 3u] = bitcast<u32>(c.inv_w);
+        words[at + 4u] = bitcast<u32>(c.weights.x);
+        words[at + 5u] = bitcast<u32>(c.weights.y);
+        words[at + 6u] = bitcast<u32>(c.weights.z);
+    }
+    return words;
+}
+
+// Corner `i` of a stored record.
+fn record_corner(words: array<u32, SETUP_RECORD_WORDS>, i: u32) -> WindowCorner {
+    var w = words;
+    let at = 1u + 7u * i;
+    let window = vec2<f32>(bitcast<f32>(w[at]), bitcast<f32>(w[at + 1u]));
+    let weights = vec3<f32>(bitcast<f32>(w[at + 4u]), bitcast<f32>(w[at + 5u]), bitcast<f32>(w[at + 6u]));
+    return WindowCorner(snapped(window), window, bitcast<f32>(w[at + 2u]), bitcast<f32>(w[at + 3u]), weights);
+}
+
+// The triangle a record holds.
+fn record_triangle(words: array<u32, SETUP_RECORD_WORDS>) -> SetupTriangle {
+    return triangle_of(record_corner(words, 0u), record_corner(words, 1u), record_corner(words, 2u));
 }
 
 // The edges of a set-up triangle, oriented so that its interior is where all three edge

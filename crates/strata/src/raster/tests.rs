@@ -48,7 +48,8 @@ fn every_compute_capture_validates() {
     use crate::gpu::shader::Stage;
     use crate::methods::kbuffer::{self, definitions, kpeel, list, mdt, sbuffer, Layout};
     use crate::methods::peeling;
-    validate(&bin_stage());
+    validate(&bin_stage(Binning::Items));
+    validate(&bin_stage(Binning::SetupRecords));
     validate(&args_stage());
     let kbuffer = |source: &'static str, layout: Layout| {
         Stage::new("capture", source)

@@ -582,6 +582,7 @@ fn merge_tiled(
         longest_list: a.longest_list.max(b.longest_list),
         list_bytes: a.list_bytes.max(b.list_bytes),
         triangle_setups: a.triangle_setups + b.triangle_setups,
+        record_loads: a.record_loads + b.record_loads,
         fragment_evaluations: a.fragment_evaluations + b.fragment_evaluations,
         shadings: a.shadings + b.shadings,
         items_kept: a.items_kept + b.items_kept,

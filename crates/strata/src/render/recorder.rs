@@ -848,7 +848,7 @@ impl FrameRecorder {
             (Some(w), Some((start, capacity)), Some(raster)) => {
                 let start = start as usize;
                 let words = &w[start..start + crate::raster::COUNTER_WORDS as usize];
-                let report = raster.feedback(&self.gpu, words, capacity);
+                let report = raster.feedback(&self.gpu, words, capacity, 0);
                 incomplete |= report.incomplete;
                 cannot_complete = cannot_complete.or(report.cannot_complete);
                 Some(report.stats)

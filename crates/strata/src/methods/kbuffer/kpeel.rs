@@ -269,6 +269,7 @@ impl Method for KPeel {
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
             convex: None,
+            setup_capacity: 0,
         })
     }
 

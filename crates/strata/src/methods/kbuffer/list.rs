@@ -92,6 +92,7 @@ impl ListKBuffer {
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
             convex: None,
+            setup_capacity: 0,
         };
         let params = KParams {
             sample_slots,

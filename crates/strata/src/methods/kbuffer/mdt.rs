@@ -155,6 +155,7 @@ impl Method for MdtKBuffer {
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
             convex: None,
+            setup_capacity: 0,
         })
     }
 

@@ -942,6 +942,7 @@ impl SlotKBuffer {
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
             convex: None,
+            setup_capacity: 0,
         };
         let mut params = params_for(ctx, k, stride, self.variant.fixed());
         params.sample_slots = sample_slots;

@@ -304,6 +304,7 @@ impl Method for SBuffer {
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
             convex: None,
+            setup_capacity: 0,
         })
     }
 

@@ -2,9 +2,9 @@
 #import strata::scene::{behind_opaque, frame, pixel_index, scene_fragment}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{composite_front, composite_new}
-#import strata::raster::items::{rp}
-#import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
-#import strata::tiled::constants::{COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_PAST_CAPACITY, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_WARP_STEPS}
+#import strata::raster::records::{recorded_triangle}
+#import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative, window_position}
+#import strata::tiled::constants::{COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_PAST_CAPACITY, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_WARP_STEPS}
 #import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, list_entry, store_state, tile_counts, tile_starts, tiled_counters, tp, work_add}
 
 // The one-pass tile kernel, before any round: four workgroups per 8×8-pixel tile, one thread
@@ -14,9 +14,9 @@
 // (balance: a hot tile does not set the frame's critical path alone). A quarter past the
 // store too is left to the rounds (`tile.wgsl`), counted in COUNTER_PAST_CAPACITY: the
 // rounds take every pixel whose state is still fresh.
-// - The list is read FAST_CHUNK items at a time: one thread per item sets its triangle up
-//   once into workgroup memory, and the chunk's covered pixel centers (the bits of the items'
-//   masks) are numbered by a prefix sum.
+// - The list is read FAST_CHUNK items at a time: one thread per item loads its triangle's
+//   setup record (the bin's) into workgroup memory, and the chunk's covered pixel centers (the
+//   bits of the items' masks) are numbered by a prefix sum.
 // - Each thread takes fragments number lid, lid + 64, …: finds its item (a binary search of
 //   the prefix sums) and pixel (the item mask's r-th set bit), evaluates the depth, the opaque
 //   and far tests, and shades the fragment once, into the tile's fragment store.
@@ -50,7 +50,7 @@ var<workgroup> fragment_lanes: array<u32, FAST_FRAGMENTS>;
 var<workgroup> by_pixel: array<u32, FAST_FRAGMENTS>;
 var<workgroup> pixel_counts: array<atomic<u32>, LANES>;
 var<workgroup> pixel_starts: array<u32, LANES>;
-// The workgroup's setups, evaluations and shadings, summed here first so that the frame's
+// The workgroup's record loads, evaluations and shadings, summed here first so that the frame's
 // counters take one atomic per workgroup each, not one per thread.
 var<workgroup> work_sums: array<atomic<u32>, 3>;
 
@@ -175,7 +175,7 @@ fn cs_fast(invocation: TileThread) {
         }
         return;
     }
-    var setups = 0u;
+    var loads = 0u;
     var evaluations = 0u;
     var shadings = 0u;
     for (var base = 0u; base < n; base += FAST_CHUNK) {
@@ -184,11 +184,12 @@ fn cs_fast(invocation: TileThread) {
         workgroupBarrier();
         if lid < items {
             let entry = list_entry(start + base + lid, region);
-            chunk_prims[lid] = entry.prim;
             chunk_masks[lid] = entry.mask;
             if any(entry.mask != vec2<u32>(0u)) {
-                chunk[lid] = fan_triangle(clipped_triangle(entry.prim, rp.guard), entry.fan);
-                setups += 1u;
+                let recorded = recorded_triangle(entry.setup);
+                chunk[lid] = recorded.t;
+                chunk_prims[lid] = recorded.prim;
+                loads += 1u;
             }
         }
         workgroupBarrier();
@@ -238,7 +239,7 @@ fn cs_fast(invocation: TileThread) {
         let lane = fragment_lanes[f];
         by_pixel[pixel_starts[lane] + atomicAdd(&pixel_counts[lane], 1u)] = f;
     }
-    atomicAdd(&work_sums[0], setups);
+    atomicAdd(&work_sums[0], loads);
     atomicAdd(&work_sums[1], evaluations);
     atomicAdd(&work_sums[2], shadings);
     workgroupBarrier();
@@ -246,7 +247,7 @@ fn cs_fast(invocation: TileThread) {
         atomicMax(&tiled_counters[COUNTER_LONGEST_LIST], n);
         // Each of the two warps steps through its lanes' share of the fragments.
         work_add(COUNTER_WARP_STEPS, 2u * ((total + LANES - 1u) / LANES));
-        work_add(COUNTER_SETUPS, atomicLoad(&work_sums[0]));
+        work_add(COUNTER_RECORD_LOADS, atomicLoad(&work_sums[0]));
         work_add(COUNTER_EVALUATIONS, atomicLoad(&work_sums[1]));
         work_add(COUNTER_SHADINGS, atomicLoad(&work_sums[2]));
     }

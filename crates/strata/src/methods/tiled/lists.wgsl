@@ -1,6 +1,7 @@
 #define_import_path strata::tiled::lists
-#import strata::tiled::constants::{CODE_WORDS, STATE_WORDS}
-#import strata::raster::items::{rp}
+#import strata::tiled::constants::{STATE_WORDS}
+#import strata::raster::items::{ITEM_WORDS, items}
+#import strata::raster::records::{records_written}
 #import strata::tiled::params::{TiledParams}
 #import strata::color::{Resolved}
 #import strata::composite::{Composite, composite_new, view_distance}
@@ -15,8 +16,8 @@
 @group(1) @binding(1) var<storage, read_write> tile_counts: array<atomic<u32>>;
 // Where each tile's list starts in `tile_codes`.
 @group(1) @binding(2) var<storage, read_write> tile_starts: array<u32>;
-// Per item, grouped by tile: primitive << 3 | fan triangle, then the 64-bit mask of the tile's
-// pixel centers it covers (bit y·8 + x, low word first).
+// The items that cover a pixel center of their tile, grouped by tile: each item's index in the
+// rasterizer's items (which hold its setup record and its coverage).
 @group(1) @binding(3) var<storage, read_write> tile_codes: array<u32>;
 // Counter words at the COUNTER_ indices (strata::tiled::constants).
 @group(1) @binding(4) var<storage, read_write> tiled_counters: array<atomic<u32>>;
@@ -95,23 +96,31 @@ fn work_add(at: u32, n: u32) {
     }
 }
 
-// A list entry: its triangle's primitive and fan triangle, and the tile's pixel centers it
-// covers within `region` (none where the code names no triangle: poisoned or stale memory).
+// The pixel centers of its tile that item `item` covers (the count pass's mask: bit y·8 + x,
+// low word first).
+fn item_mask(item: u32) -> vec2<u32> {
+    let at = ITEM_WORDS * item;
+    return vec2<u32>(items[at + 2u], items[at + 3u]);
+}
+
+// A list entry: its triangle's setup record, and the tile's pixel centers it covers within
+// `region` (none where the entry names no item or record: poisoned or stale memory).
 struct ListEntry {
-    prim: u32,
-    fan: u32,
+    setup: u32,
     mask: vec2<u32>,
 }
 
 fn list_entry(index: u32, region: vec2<u32>) -> ListEntry {
-    let at = index * CODE_WORDS;
-    let code = tile_codes[at];
-    let prim = code >> 3u;
-    var mask = vec2<u32>(tile_codes[at + 1u], tile_codes[at + 2u]) & region;
-    if prim >= rp.triangles {
+    let item = tile_codes[index];
+    if item >= tp.capacity {
+        return ListEntry(0u, vec2<u32>(0u));
+    }
+    let setup = items[ITEM_WORDS * item];
+    var mask = item_mask(item) & region;
+    if setup >= records_written() {
         mask = vec2<u32>(0u);
     }
-    return ListEntry(prim, code & 7u, mask);
+    return ListEntry(setup, mask);
 }
 
 fn tile_of(tile: vec2<i32>) -> u32 {

@@ -2,52 +2,58 @@
 //! workgroup, with no per-pixel global atomics and no locks — race-free by construction.
 //!
 //! Passes (all compute; the scene's triangles are read from its vertex buffer):
-//! - **bin** (the compute rasterizer's, [`crate::raster`]): each triangle is transformed,
-//!   clipped and snapped; every (fan triangle, 8×8 tile its bounds meet) pair becomes a work
-//!   item. The item buffer is sized from the last frame's need; after an overflow it grows, the
-//!   frame reports itself incomplete and exact mode renders it again.
-//! - **count**, **scan**, **scatter**: the items are counted per tile, the counts scanned (one
-//!   workgroup) into list starts, and each item's (primitive, fan triangle) code is scattered
-//!   into its tile's list with the 64-bit mask of the tile's pixel centers it covers.
+//! - **bin** (the compute rasterizer's, [`crate::raster`], with [`Binning::SetupRecords`]):
+//!   each triangle is transformed, clipped and snapped once; each fan triangle of its clipped
+//!   polygon is stored as a setup record (88 bytes), and every (record, 8×8 tile its bounds
+//!   meet) pair becomes a work item. The item and record buffers are sized from the last
+//!   frame's need; after an overflow they grow, the frame reports itself incomplete and exact
+//!   mode renders it again.
+//! - **count**, **scan**, **scatter**: each item's coverage — the 64-bit mask of its tile's
+//!   pixel centers inside the record's triangle — is computed once and stored in the item; the
+//!   items that cover a center are counted per tile (the others are dropped here), the counts
+//!   scanned (one workgroup) into list starts, and each kept item's index scattered into its
+//!   tile's list.
 //! - **fast** (`fast.wgsl`, four workgroups of 64 threads per tile): where the tile's list
 //!   covers at most `fast_fragments` pixel centers (what the device's workgroup memory holds:
 //!   1152 on lavapipe, 2048 at most), the first workgroup takes the whole tile, else each takes
-//!   a 4×4 quarter: its items are set up once per chunk, its fragments spread one per thread
-//!   (a prefix sum over the items' coverage), each evaluated and shaded once into workgroup
-//!   memory, then gathered per pixel, sorted by (depth, primitive) by the pixel's thread and
-//!   composited into its state. A quarter past the store is left to the rounds and counted, and
-//!   so is a pixel of more than 128 fragments (its thread's insertion sort stays within 8128
-//!   steps).
+//!   a 4×4 quarter: its items' records are loaded once per chunk, its fragments spread one per
+//!   thread (a prefix sum over the items' coverage), each evaluated and shaded once into
+//!   workgroup memory, then gathered per pixel, sorted by (depth, primitive) by the pixel's
+//!   thread and composited into its state. A quarter past the store is left to the rounds and
+//!   counted, and so is a pixel of more than 128 fragments (its thread's insertion sort stays
+//!   within 8128 steps).
 //! - **round** × R, for the pixels the fast pass left (one workgroup of 64 threads per tile, a
-//!   thread per pixel): the tile's list is
-//!   walked in chunks of 64 triangles, set up once per chunk in workgroup memory; each thread
-//!   tests its bit of each triangle's mask and keeps its pixel's 16 nearest fragments behind its bound (the last fragment it composited)
-//!   in registers, sorted by (depth, primitive), and composites them front to back onto its
-//!   state. Tiles whose pixels have nothing left skip the round. R is ⌈f/16⌉ of the deepest pixel
-//!   last frame's rounds ran on (2 for a first frame, at least 1); pixels with fragments left
-//!   after R rounds make the frame incomplete (counted as dropped; exact mode renders again with
-//!   enough rounds).
+//!   thread per pixel): the tile's list is walked in chunks of 64 triangles, their records
+//!   loaded once per chunk into workgroup memory; each thread tests its bit of each triangle's
+//!   mask and keeps its pixel's 16 nearest fragments behind its bound (the last fragment it
+//!   composited) in registers, sorted by (depth, primitive), and composites them front to back
+//!   onto its state. Tiles whose pixels have nothing left skip the round. R is ⌈f/16⌉ of the
+//!   deepest pixel last frame's rounds ran on (2 for a first frame, at least 1); pixels with
+//!   fragments left after R rounds make the frame incomplete (counted as dropped; exact mode
+//!   renders again with enough rounds).
 //! - **finish**: each pixel's result from its state, the frame's totals and the rounds per tile.
 //!
-//! Work counters (`TiledStats`): triangle setups, fragment evaluations and shadings, listed items
-//! that cover a pixel center of their tile and those that cover none, and the lane occupancy of
-//! the rounds' evaluation loop — what a CPU device can count of the work a GPU does, for a cost
-//! model of the frame. Each is added once per thread and pass, not per fragment.
+//! Work counters (`TiledStats`): triangle setups (the bin's), setup records loaded, fragment
+//! evaluations and shadings, items kept and dropped as empty, quarters past the store, and the
+//! lane occupancy of the evaluation loops — what a CPU device can count of the work a GPU does,
+//! for a cost model of the frame. Each is summed per workgroup and added once per workgroup.
 //!
-//! Coverage, depth and attributes are the compute rasterizer's (`strata::raster::setup`), so its
-//! pictures equal the other compute-rasterized exact methods' bit for bit. Deterministic: a
-//! pixel's fragments are composited in (depth, primitive) order whatever order the scatter filled
-//! a list in, so a frame gives the same bytes every run. `--k N` composites each pixel's N
-//! nearest and counts the rest as dropped.
+//! Coverage, depth and attributes are the compute rasterizer's (`strata::raster::setup`; a
+//! record holds exactly the values its setup computed), so its pictures equal the other
+//! compute-rasterized exact methods' bit for bit. Deterministic: a pixel's fragments are
+//! composited in (depth, primitive) order whatever order the scatter filled a list in, so a
+//! frame gives the same bytes every run. `--k N` composites each pixel's N nearest and counts
+//! the rest as dropped.
 //!
 //! Memory: the fast pass's store is workgroup memory (24 bytes a fragment); in buffers, the
-//! rasterizer's 8 bytes per item and 48 of constants, 12 bytes per item for the tile
-//! lists (code and mask), 12 per tile (count, start, rounds), 40 per pixel (state), 124 of counters and 32 of
-//! parameters. Limits: triangles < 2²⁹ (a list code holds the primitive and 3 bits of fan
-//! triangle); `--msaa`, temporal culling, `--order` and an application's draw callback are not
-//! supported (it reads the scene's triangles itself). On lavapipe, whose invocations stop
-//! looping after 65535 iterations in all, a round can walk a list of a few thousand chunks of
-//! triangles at most; a walk cut short is counted and the frame refused with the reason.
+//! rasterizer's 16 bytes per item (record, tile, coverage), 88 per set-up fan triangle and 48
+//! of constants, 4 bytes per listed item, 12 per tile (count, start, rounds), 40 per pixel
+//! (state), 132 of counters and 32 of parameters. Limits: the scene's vertices in one storage
+//! binding; `--msaa`, temporal culling, `--order` and an
+//! application's draw callback are not supported (it reads the scene's triangles itself). On
+//! lavapipe, whose invocations stop looping after 65535 iterations in all, a round can walk a
+//! list of a few thousand chunks of triangles at most; a walk cut short is counted and the
+//! frame refused with the reason.
 
 pub mod descriptor;
 
@@ -62,7 +68,7 @@ use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Library, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::Method;
-use crate::raster::{ComputeRaster, TILE};
+use crate::raster::{Binning, ComputeRaster, TILE};
 
 /// tiled's WGSL modules (`strata::tiled::…`): its bindings, the list sort and the tile pass.
 pub const LIBRARY: Library = &[
@@ -78,7 +84,6 @@ const PARAMS_WGSL: &str = wgsl_module!("strata::tiled::params", TiledParams);
 const CONSTANTS_WGSL: &str = wgsl_constants!(
     "strata::tiled::constants",
     KEEP = KEEP,
-    CODE_WORDS = CODE_BYTES / 4,
     STATE_WORDS = STATE_BYTES / 4,
     COUNTER_WORDS = COUNTER_WORDS,
     COUNTER_ROUNDS = COUNTER_ROUNDS,
@@ -88,7 +93,7 @@ const CONSTANTS_WGSL: &str = wgsl_constants!(
     COUNTER_LONGEST_LIST = COUNTER_LONGEST_LIST,
     COUNTER_CUT_SHORT = COUNTER_CUT_SHORT,
     COUNTER_ROUNDS_RECORDED = COUNTER_ROUNDS_RECORDED,
-    COUNTER_SETUPS = COUNTER_SETUPS,
+    COUNTER_RECORD_LOADS = COUNTER_RECORD_LOADS,
     COUNTER_EVALUATIONS = COUNTER_EVALUATIONS,
     COUNTER_SHADINGS = COUNTER_SHADINGS,
     COUNTER_EMPTY_ITEMS = COUNTER_EMPTY_ITEMS,
@@ -103,8 +108,9 @@ const FAST_WGSL: &str = include_str!("fast.wgsl");
 
 /// Fragments a pixel keeps per round.
 pub const KEEP: u32 = 16;
-/// Bytes of one list entry: the code and the 64-bit coverage mask.
-pub const CODE_BYTES: u64 = 12;
+/// Bytes of one list entry: the index of a rasterizer item (which holds its setup record and
+/// coverage mask, [`crate::raster::RECORD_ITEM_BYTES`]).
+pub const LIST_ENTRY_BYTES: u64 = 4;
 /// Bytes per tile: its item count, its list's start and its rounds.
 pub const TILE_BYTES: u64 = 12;
 /// Bytes per pixel of compositing state between rounds.
@@ -126,9 +132,9 @@ const COUNTER_CUT_SHORT: usize = 19;
 const COUNTER_ROUNDS_RECORDED: usize = 20;
 // The work, each a 64-bit count in two words (low first), so that the cost of the frame can be
 // modelled from what a CPU device counts (issue 64):
-/// Triangle setups after the bin's: one per item in the scatter, one per chunk triangle that
-/// covers a working pixel in each round.
-const COUNTER_SETUPS: usize = 21;
+/// Setup records loaded into workgroup memory: one per list entry covering a pixel of the
+/// one-pass kernel's region, one per chunk entry covering a working pixel in each round.
+const COUNTER_RECORD_LOADS: usize = 21;
 /// Fragment evaluations (barycentrics and depth at a covered pixel center) in the rounds.
 const COUNTER_EVALUATIONS: usize = 23;
 /// Fragments shaded (attributes and lighting) in the rounds, kept or later displaced.
@@ -159,8 +165,6 @@ pub fn fast_fragments(gpu: &Gpu) -> u32 {
 }
 /// Rounds of a first frame, before any depth complexity was measured.
 pub const FIRST_ROUNDS: u32 = 2;
-/// The most triangles a list code can name.
-pub const MAX_TRIANGLES: u32 = 1 << 29;
 
 gpu_struct! {
     /// tiled's uniforms (`strata::tiled::params`).
@@ -188,6 +192,7 @@ pub fn stage(label: &str, source: &'static str) -> Stage {
         .with(crate::raster::LIBRARY)
         .with(LIBRARY)
         .defs(&Defs::default().value("RASTER_GROUP", 2))
+        .defs(&Binning::SetupRecords.defs())
 }
 
 /// Rounds that composite `fragments` per pixel (at least one).
@@ -233,12 +238,6 @@ impl Tiled {
         scene: &SceneGpu,
         options: &crate::frame::RenderOptions,
     ) -> Result<Tiled> {
-        if scene.triangle_count >= MAX_TRIANGLES {
-            return Err(Error::unsupported(format!(
-                "tiled takes fewer than {MAX_TRIANGLES} triangles (a tile list's code holds the primitive in 29 bits); the scene has {}",
-                scene.triangle_count
-            )));
-        }
         let (vertex_bytes, binding) = (scene.vertices.size(), gpu.max_storage_binding());
         if vertex_bytes > binding {
             let mib = |b: u64| b as f64 / 1048576.0;
@@ -254,7 +253,8 @@ impl Tiled {
             .chain([Slot::StorageRw; 7])
             .collect();
         let layout = binding::layout(&gpu.device, "strata.tiled.layout", &slots);
-        let raster_layout = crate::raster::raster_layout(gpu);
+        let raster = ComputeRaster::with_binning(gpu, scene, options, Binning::SetupRecords);
+        let raster_layout = raster.layout().clone();
         let layouts = [&scene.frame_layout, &layout, &raster_layout];
         let sort = sort_stage().module(&gpu.device);
         let tile = tile_stage().module(&gpu.device);
@@ -263,7 +263,7 @@ impl Tiled {
             |label, module, entry| compute_pipeline(gpu, label, (module, entry), &layouts);
         Ok(Tiled {
             gpu: gpu.clone(),
-            raster: ComputeRaster::new(gpu, scene, options).with_item_bytes(CODE_BYTES),
+            raster,
             count: pipeline("strata.tiled.count", &sort, "cs_count"),
             scan: pipeline("strata.tiled.scan", &sort, "cs_scan"),
             scatter: pipeline("strata.tiled.scatter", &sort, "cs_scatter"),
@@ -289,7 +289,7 @@ impl Tiled {
 /// Bytes of the lists, the tile words and the pixels' state for `capacity` items, `tiles` tiles
 /// and `pixels` pixels.
 fn list_bytes(capacity: u64, tiles: u64, pixels: u64) -> u64 {
-    capacity * CODE_BYTES + tiles * TILE_BYTES + pixels * STATE_BYTES
+    capacity * LIST_ENTRY_BYTES + tiles * TILE_BYTES + pixels * STATE_BYTES
 }
 
 impl Method for Tiled {
@@ -324,7 +324,7 @@ impl Method for Tiled {
         let params = cache.uniform(gpu, "strata.tiled.params", bytemuck::bytes_of(&params));
         let counts = cache.storage(gpu, "strata.tiled.counts", tiles * 4)?;
         let starts = cache.storage(gpu, "strata.tiled.starts", tiles * 4)?;
-        let codes = cache.storage(gpu, "strata.tiled.codes", capacity * CODE_BYTES)?;
+        let codes = cache.storage(gpu, "strata.tiled.codes", capacity * LIST_ENTRY_BYTES)?;
         let state = cache.storage(gpu, "strata.tiled.state", pixels * STATE_BYTES)?;
         let tile_rounds = cache.storage(gpu, "strata.tiled.rounds", tiles * 4)?;
         let counters = cache.readable(gpu, "strata.tiled.counters", COUNTER_WORDS * 4)?;
@@ -372,6 +372,7 @@ impl Method for Tiled {
         ctx.readback.words(&counters, 0, COUNTER_WORDS);
         Ok(Recorded {
             capacity,
+            setup_capacity: self.raster.frame_setup_capacity(),
             k: (k > 0).then_some(k),
             ..Recorded::passes(1, bytes)
         })
@@ -379,9 +380,12 @@ impl Method for Tiled {
 
     fn stats(&mut self, recorded: &Recorded, _: &Totals, words: &[u32]) -> MethodStats {
         let raster_words = crate::raster::COUNTER_WORDS as usize;
-        let report = self
-            .raster
-            .feedback(&self.gpu, &words[..raster_words], recorded.capacity);
+        let report = self.raster.feedback(
+            &self.gpu,
+            &words[..raster_words],
+            recorded.capacity,
+            recorded.setup_capacity,
+        );
         let counters = &words[raster_words..raster_words + COUNTER_WORDS as usize];
         let mut tile_rounds: Vec<u64> = counters[COUNTER_ROUNDS..ROUND_BINS]
             .iter()
@@ -422,7 +426,8 @@ impl Method for Tiled {
             incomplete: report.incomplete || unfinished > 0 || cut_short > 0,
             cannot_complete,
             tiled: Some(TiledStats {
-                triangle_setups: report.stats.triangles_set_up + work(COUNTER_SETUPS),
+                triangle_setups: report.stats.triangles_set_up,
+                record_loads: work(COUNTER_RECORD_LOADS),
                 fragment_evaluations: evaluations,
                 shadings: work(COUNTER_SHADINGS),
                 items_kept: report

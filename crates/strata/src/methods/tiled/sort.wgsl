@@ -1,14 +1,17 @@
 #define_import_path strata::tiled::sort
-#import strata::raster::items::{Item, item_at, item_thread, items_written, rp}
-#import strata::raster::setup::{clipped_triangle, fan_triangle, tile_coverage}
-#import strata::tiled::constants::{CODE_WORDS, COUNTER_EMPTY_ITEMS, COUNTER_SETUPS}
-#import strata::tiled::lists::{tile_codes, tile_counts, tile_of, tile_starts, tp, work_add}
+#import strata::raster::items::{ITEM_WORDS, Item, item_at, item_thread, items, items_written, rp}
+#import strata::raster::records::{recorded_triangle, records_written}
+#import strata::raster::setup::{tile_coverage}
+#import strata::tiled::constants::{COUNTER_EMPTY_ITEMS}
+#import strata::tiled::lists::{item_mask, tile_codes, tile_counts, tile_of, tile_starts, tp, work_add}
 
-// Sorts the rasterizer's work items into one list per tile: a count per tile, an exclusive
-// prefix sum over the tiles, a scatter that stores each item's code with the 64-bit mask of the
-// tile's pixel centers its triangle covers (the raster stage's rule, evaluated once here so
-// that the tile pass tests a bit per pixel). The order inside a list is the scatter's arrival order;
-// nothing depends on it, as the tile pass orders each pixel's fragments by (depth, primitive).
+// Sorts the rasterizer's work items into one list per tile: the count pass computes each
+// item's coverage once — the 64-bit mask of the tile's pixel centers its set-up triangle (the
+// bin's record) covers, by the raster stage's rule — stores it in the item and counts the items
+// that cover a center per tile; an exclusive prefix sum over the tiles; the scatter lists
+// those items' indices. An item that covers no center is dropped before it is counted. The
+// order inside a list is the scatter's arrival order; nothing depends on it, as the tile pass
+// orders each pixel's fragments by (depth, primitive).
 
 // The work item a thread of the count and scatter passes owns, and its tile's index; `valid`
 // is false past the items written or for an item no tile list takes.
@@ -25,14 +28,41 @@ fn listed_item(id: vec3<u32>, groups: vec3<u32>) -> ListedItem {
     }
     let item = item_at(index);
     let tile = tile_of(item.tile);
-    return ListedItem(item, tile, tile < tp.tiles && item.prim < rp.triangles);
+    // `prim` names the item's setup record.
+    return ListedItem(item, tile, tile < tp.tiles && item.prim < records_written());
 }
 
+// Covered pixel centers summed per workgroup: one atomic per workgroup on the frame's counter.
+var<workgroup> empty_items: atomic<u32>;
+
 @compute @workgroup_size(64)
-fn cs_count(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+fn cs_count(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    if lid == 0u {
+        atomicStore(&empty_items, 0u);
+    }
+    workgroupBarrier();
     let listed = listed_item(id, groups);
+    var mask = vec2<u32>(0u);
     if listed.valid {
-        atomicAdd(&tile_counts[listed.tile], 1u);
+        mask = tile_coverage(recorded_triangle(listed.item.prim).t, listed.item.tile);
+        if any(mask != vec2<u32>(0u)) {
+            atomicAdd(&tile_counts[listed.tile], 1u);
+        } else {
+            atomicAdd(&empty_items, 1u);
+        }
+    }
+    if item_thread(id, groups) < items_written() {
+        let at = ITEM_WORDS * item_thread(id, groups);
+        items[at + 2u] = mask.x;
+        items[at + 3u] = mask.y;
+    }
+    workgroupBarrier();
+    if lid == 0u {
+        work_add(COUNTER_EMPTY_ITEMS, atomicLoad(&empty_items));
     }
 }
 
@@ -73,23 +103,16 @@ fn cs_scan(@builtin(local_invocation_index) lid: u32) {
 @compute @workgroup_size(64)
 fn cs_scatter(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let listed = listed_item(id, groups);
-    if !listed.valid {
+    let index = item_thread(id, groups);
+    // Only the items the count pass counted: valid, and covering a pixel center.
+    if !listed.valid || all(item_mask(index) == vec2<u32>(0u)) {
         return;
     }
-    let item = listed.item;
     let tile = listed.tile;
     // The count pass saw this item, so the tile's list has room for it.
     let slot = tile_starts[tile] + atomicAdd(&tile_counts[tile], 1u);
     if slot >= tp.capacity {
         return;
     }
-    let mask = tile_coverage(fan_triangle(clipped_triangle(item.prim, rp.guard), item.fan), item.tile);
-    work_add(COUNTER_SETUPS, 1u);
-    if all(mask == vec2<u32>(0u)) {
-        work_add(COUNTER_EMPTY_ITEMS, 1u);
-    }
-    let at = slot * CODE_WORDS;
-    tile_codes[at] = (item.prim << 3u) | item.fan;
-    tile_codes[at + 1u] = mask.x;
-    tile_codes[at + 2u] = mask.y;
+    tile_codes[slot] = index;
 }

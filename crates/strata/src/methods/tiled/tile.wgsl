@@ -2,16 +2,16 @@
 #import strata::scene::{behind_opaque, frame, pixel_index, report_pixel, scene_fragment}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{composite_finish, composite_front, composite_new}
-#import strata::raster::items::{rp}
-#import strata::raster::setup::{SetupTriangle, barycentrics_at, clipped_triangle, fan_triangle, varying_from, wide_negative, window_position}
-#import strata::tiled::constants::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_DEEPEST_IN_ROUNDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_SETUPS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
+#import strata::raster::records::{recorded_triangle}
+#import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative, window_position}
+#import strata::tiled::constants::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_DEEPEST_IN_ROUNDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
 #import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, fragments_left, list_entry, load_state, output, store_state, tile_counts, tile_rounds, tile_starts, tiled_counters, tp, work_add}
 
 // One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
 // thread per pixel (thread lid owns bit lid of the coverage masks), no atomics on pixel data.
-// The tile's list is walked in chunks of CHUNK triangles: the threads set one triangle each up
-// into workgroup memory, then every thread tests its pixel's bit of each triangle's coverage
-// mask (made by the scatter) and keeps the KEEP nearest fragments strictly behind its
+// The tile's list is walked in chunks of CHUNK triangles: the threads load one triangle's setup
+// record (the bin's) each into workgroup memory, then every thread tests its pixel's bit of each triangle's coverage
+// mask (made by the count pass) and keeps the KEEP nearest fragments strictly behind its
 // bound — the last fragment it composited — sorted by (depth, primitive) in its registers. At the
 // end of the round it composites them front to back after what earlier rounds composited. Only
 // tiles with a pixel that has fragments left run a round, fragments at equal depths are told
@@ -31,7 +31,7 @@ var<workgroup> list_length: u32;
 // The lanes (pixels) with fragments left: a triangle none of them covers needs no setup.
 var<workgroup> working_bits: array<atomic<u32>, 2>;
 var<workgroup> working_mask: vec2<u32>;
-// The round's setups, evaluations and shadings, summed here first: one atomic per workgroup
+// The round's record loads, evaluations and shadings, summed here first: one atomic per workgroup
 // and counter on the frame's counters.
 var<workgroup> work_sums: array<atomic<u32>, 3>;
 
@@ -127,7 +127,7 @@ fn cs_round(invocation: TileThread) {
     var count = 0u;
     var candidates = 0u;
     var walked = 0u;
-    var setups = 0u;
+    var loads = 0u;
     var evaluations = 0u;
     var shadings = 0u;
     for (var base = 0u; base < n; base += CHUNK) {
@@ -136,12 +136,13 @@ fn cs_round(invocation: TileThread) {
         if base + lid < n {
             // Only the bits of pixels with fragments left.
             let entry = list_entry(start + base + lid, lanes);
-            chunk_prims[lid] = entry.prim;
             chunk_masks[lid] = entry.mask;
-            // A triangle that covers none of those pixels needs no setup.
+            // A triangle that covers none of those pixels needs no record.
             if any(entry.mask != vec2<u32>(0u)) {
-                chunk[lid] = fan_triangle(clipped_triangle(entry.prim, rp.guard), entry.fan);
-                setups += 1u;
+                let recorded = recorded_triangle(entry.setup);
+                chunk[lid] = recorded.t;
+                chunk_prims[lid] = recorded.prim;
+                loads += 1u;
             }
         }
         workgroupBarrier();
@@ -176,12 +177,12 @@ fn cs_round(invocation: TileThread) {
             }
         }
     }
-    atomicAdd(&work_sums[0], setups);
+    atomicAdd(&work_sums[0], loads);
     atomicAdd(&work_sums[1], evaluations);
     atomicAdd(&work_sums[2], shadings);
     workgroupBarrier();
     if lid == 0u {
-        work_add(COUNTER_SETUPS, atomicLoad(&work_sums[0]));
+        work_add(COUNTER_RECORD_LOADS, atomicLoad(&work_sums[0]));
         work_add(COUNTER_EVALUATIONS, atomicLoad(&work_sums[1]));
         work_add(COUNTER_SHADINGS, atomicLoad(&work_sums[2]));
     }
