@@ -209,6 +209,11 @@ pub(crate) struct MethodResult {
     /// evaluations, shadings, items, occupancy) and rounds, for a cost model of the frame.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(crate) tiled: Option<strata::frame::TiledStats>,
+    /// `tiled`: what its cost model (`strata::methods::tiled::cost`, calibrated on the H100's
+    /// 2026-11-27 frame) predicts the frame's passes take on an H100, from these counters — on
+    /// an H100 the measured times beside it check the model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) tiled_h100_model_ms: Option<strata::methods::tiled::cost::PassTimes>,
 }
 
 #[derive(Serialize)]
@@ -316,6 +321,7 @@ impl MethodResult {
             error_vs_reference_k: None,
             skipped: None,
             tiled: None,
+            tiled_h100_model_ms: None,
         }
     }
 }
@@ -459,4 +465,12 @@ pub(crate) fn fill_counts(result: &mut MethodResult, stats: &FrameStats) {
     result.bytes_allocated = Some(stats.bytes_allocated);
     result.lock_failures = stats.lock_failures;
     result.tiled = stats.tiled.clone();
+    result.tiled_h100_model_ms = match (&stats.tiled, &stats.compute_raster) {
+        (Some(tiled), Some(raster)) => {
+            let pixels = stats.width as u64 * stats.height as u64;
+            let work = strata::methods::tiled::cost::Work::of_frame(tiled, raster, pixels);
+            Some(strata::methods::tiled::cost::Costs::h100().predict(&work))
+        }
+        _ => None,
+    };
 }

@@ -121,6 +121,17 @@ fn report_pixel(generated: u32, stored: u32) {
     atomicMax(&totals[TOTAL_MAX_DEPTH], generated);
 }
 
+// The account of a group of pixels at once (a workgroup's, summed in workgroup memory first):
+// `generated` fragments reached them, `stored` were composited, `dropped` were not (summed per
+// pixel as `report_pixel` counts them), and the deepest had `deepest` — four atomics for the
+// group instead of four per pixel.
+fn report_pixels(generated: u32, stored: u32, dropped: u32, deepest: u32) {
+    total_add(TOTAL_GENERATED, generated);
+    total_add(TOTAL_STORED, stored);
+    total_add(TOTAL_DROPPED, dropped);
+    atomicMax(&totals[TOTAL_MAX_DEPTH], deepest);
+}
+
 // A resolve whose loops the adapter ended early (lavapipe's loop limit; see the k-buffer resolve):
 // the frame is refused with the reason.
 fn report_cut_short() {

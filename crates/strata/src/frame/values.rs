@@ -23,6 +23,8 @@ keyword_enum! {
 #[derive(Clone, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize))]
 pub struct ComputeRasterStats {
+    /// Triangles of the scene the bin read (one thread each).
+    pub triangles: u64,
     /// Triangles of the clipped polygons' fans that reached the viewport.
     pub triangles_set_up: u64,
     /// (Triangle, 8×8 tile) work items the frame needed.
@@ -60,6 +62,15 @@ pub struct TiledStats {
     /// that covers a pixel of its region, and by each round once per list entry that covers a
     /// pixel with fragments left.
     pub record_loads: u64,
+    /// Compares of the one-pass kernel's per-pixel insertion sorts, each 32-lane warp counted
+    /// as its longest (a warp waits for its last lane).
+    pub sort_steps: u64,
+    /// Pixels the one-pass kernel resolved, tiles no triangle meets included (the others are
+    /// the rounds').
+    pub one_pass_pixels: u64,
+    /// Steps of the 32-lane warps through the evaluation loops (the one-pass kernel's and the
+    /// rounds'): what [`TiledStats::evaluation_occupancy`] divides by.
+    pub warp_steps: u64,
     /// Fragment evaluations (barycentrics and depth at a covered pixel center) in the rounds:
     /// every round evaluates again each fragment behind its pixel's bound.
     pub fragment_evaluations: u64,

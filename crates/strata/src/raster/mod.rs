@@ -376,6 +376,8 @@ pub struct ComputeRaster {
     capacity: u64,
     /// Setup records the next frame's buffer holds ([`Binning::SetupRecords`]).
     setup_capacity: u64,
+    /// Triangles of the scene the last prepared frame bins.
+    triangles: u64,
     frame: Option<FrameBinding>,
 }
 
@@ -446,6 +448,7 @@ impl ComputeRaster {
             capacity: 2 * scene.triangle_count as u64 + 4 * tiles,
             // Most triangles set up as one fan triangle; a clipped one takes a few.
             setup_capacity: scene.triangle_count as u64 + scene.triangle_count as u64 / 8 + 64,
+            triangles: scene.triangle_count as u64,
             frame: None,
         }
     }
@@ -479,6 +482,7 @@ impl ComputeRaster {
     /// Allocates this frame's buffers (binning is recorded by the first geometry pass).
     pub fn prepare(&mut self, gpu: &Gpu, options: &RenderOptions, scene: &SceneGpu) -> Result<()> {
         let triangles = scene.triangle_count;
+        self.triangles = triangles as u64;
         let capacity = self.capacity.clamp(1, self.limit(gpu));
         let setup_capacity = match self.binning {
             Binning::Items => 0,
@@ -628,6 +632,7 @@ impl ComputeRaster {
         });
         RasterReport {
             stats: ComputeRasterStats {
+                triangles: self.triangles,
                 triangles_set_up: set_up,
                 tile_items: needed,
                 item_capacity: capacity,

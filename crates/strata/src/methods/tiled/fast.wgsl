@@ -1,11 +1,11 @@
 #define_import_path strata::tiled::fast
-#import strata::scene::{behind_opaque, frame, pixel_index, scene_fragment}
+#import strata::scene::{behind_opaque, frame, pixel_index, report_pixels, scene_fragment}
 #import strata::fragment::{Fragment, fragment_before}
-#import strata::composite::{composite_front, composite_new}
+#import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::records::{recorded_triangle}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative, window_position}
-#import strata::tiled::constants::{COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_PAST_CAPACITY, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_WARP_STEPS}
-#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, list_entry, store_state, tile_counts, tile_starts, tiled_counters, tp, work_add}
+#import strata::tiled::constants::{COUNTER_DEEPEST, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ONE_PASS_PIXELS, COUNTER_PAST_CAPACITY, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_SORT_STEPS, COUNTER_WARP_STEPS}
+#import strata::tiled::lists::{PROGRESS_RESOLVED, list_entry, output, set_progress, tile_counts, tile_starts, tiled_counters, tp, work_add}
 
 // The one-pass tile kernel, before any round: four workgroups per 8×8-pixel tile, one thread
 // per fragment. Where the tile's list covers at most FAST_FRAGMENTS pixel centers (the
@@ -21,9 +21,10 @@
 //   the prefix sums) and pixel (the item mask's r-th set bit), evaluates the depth, the opaque
 //   and far tests, and shades the fragment once, into the tile's fragment store.
 // - Each pixel's fragments are gathered by a counting sort, and the pixel's thread sorts them
-//   by (depth, primitive) and composites them front to back into the pixel's state, which the
-//   rounds then skip and `cs_finish` resolves. With --k it composites the k nearest and leaves
-//   the rest counted, as a round does.
+//   by (depth, primitive), composites them front to back and writes the pixel's result (the
+//   finish folded in: the rounds and `cs_finish` pass the pixel by, and the workgroup adds its
+//   pixels to the frame's totals with one atomic each). With --k it composites the k nearest
+//   and counts the rest as dropped.
 // The store's order depends on the threads' timing; nothing else does: a pixel's fragments are
 // composited in (depth, primitive) order, so the frame's bytes equal the rounds' and every run's.
 
@@ -53,6 +54,11 @@ var<workgroup> pixel_starts: array<u32, LANES>;
 // The workgroup's record loads, evaluations and shadings, summed here first so that the frame's
 // counters take one atomic per workgroup each, not one per thread.
 var<workgroup> work_sums: array<atomic<u32>, 3>;
+// The longest insertion sort of each 32-lane warp's pixels.
+var<workgroup> warp_sorts: array<atomic<u32>, 2>;
+// The resolved pixels' account: fragments generated, composited, dropped, the deepest, and
+// the pixels.
+var<workgroup> resolved: array<atomic<u32>, 5>;
 
 fn bits(mask: vec2<u32>) -> u32 {
     return countOneBits(mask.x) + countOneBits(mask.y);
@@ -135,10 +141,27 @@ fn cs_fast(invocation: TileThread) {
     if lid < 3u {
         atomicStore(&work_sums[lid], 0u);
     }
+    if lid < 2u {
+        atomicStore(&warp_sorts[lid], 0u);
+    }
+    if lid < 5u {
+        atomicStore(&resolved[lid], 0u);
+    }
     atomicStore(&pixel_counts[lid], 0u);
     workgroupBarrier();
     let n = workgroupUniformLoad(&list_length);
     if n == 0u {
+        // No triangle meets the tile: the first workgroup resolves its pixels as empty.
+        let pixel = vec2<u32>(corner) + invocation.local.xy;
+        if quarter == 0u && all(pixel < frame.size) {
+            let p = pixel_index(pixel);
+            output[p] = composite_finish(composite_new());
+            set_progress(p, PROGRESS_RESOLVED);
+        }
+        if quarter == 0u && lid == 0u {
+            let inside = min(vec2<u32>(8u), frame.size - vec2<u32>(corner));
+            atomicAdd(&tiled_counters[COUNTER_ONE_PASS_PIXELS], inside.x * inside.y);
+        }
         return;
     }
     let start = tile_starts[tile];
@@ -239,6 +262,18 @@ fn cs_fast(invocation: TileThread) {
         let lane = fragment_lanes[f];
         by_pixel[pixel_starts[lane] + atomicAdd(&pixel_counts[lane], 1u)] = f;
     }
+    // Every pixel's run is gathered before any is sorted.
+    workgroupBarrier();
+    let pixel = corner + vec2<i32>(invocation.local.xy);
+    // Only the region's pixels: another quarter's, or the rounds', are not this one's to write.
+    let in_region = ((region[lid / 32u] >> (lid % 32u)) & 1u) == 1u;
+    let resolves = in_region && all(vec2<u32>(pixel) < frame.size) && count <= PIXEL_MAX;
+    var sort_steps = 0u;
+    if resolves {
+        sort_steps = resolve_pixel(vec2<u32>(pixel), begin, count);
+    }
+    // Each 32-lane warp sorts as long as its longest sort.
+    atomicMax(&warp_sorts[lid / 32u], sort_steps);
     atomicAdd(&work_sums[0], loads);
     atomicAdd(&work_sums[1], evaluations);
     atomicAdd(&work_sums[2], shadings);
@@ -250,14 +285,19 @@ fn cs_fast(invocation: TileThread) {
         work_add(COUNTER_RECORD_LOADS, atomicLoad(&work_sums[0]));
         work_add(COUNTER_EVALUATIONS, atomicLoad(&work_sums[1]));
         work_add(COUNTER_SHADINGS, atomicLoad(&work_sums[2]));
+        work_add(COUNTER_SORT_STEPS, atomicLoad(&warp_sorts[0]) + atomicLoad(&warp_sorts[1]));
+        atomicMax(&tiled_counters[COUNTER_DEEPEST], atomicLoad(&resolved[3]));
+        atomicAdd(&tiled_counters[COUNTER_ONE_PASS_PIXELS], atomicLoad(&resolved[4]));
+        report_pixels(atomicLoad(&resolved[0]), atomicLoad(&resolved[1]), atomicLoad(&resolved[2]), atomicLoad(&resolved[3]));
     }
-    let pixel = corner + vec2<i32>(invocation.local.xy);
-    // Only the region's pixels: another quarter's, or the rounds', are not this one's to write.
-    let in_region = ((region[lid / 32u] >> (lid % 32u)) & 1u) == 1u;
-    if !in_region || any(vec2<u32>(pixel) >= frame.size) || count > PIXEL_MAX {
-        return;
-    }
-    // The pixel's fragments in (depth, primitive) order: an insertion sort of its run.
+}
+
+// Sorts pixel `pixel`'s `count` fragments, run `begin` of `by_pixel`, by (depth, primitive),
+// composites them front to back (with --k its k nearest; the rest are dropped, or with --tail
+// join the tail behind them) and writes its result: the rounds and `cs_finish` pass it by.
+// Adds the pixel to the workgroup's account; returns the insertion sort's steps.
+fn resolve_pixel(pixel: vec2<u32>, begin: u32, count: u32) -> u32 {
+    var steps = 0u;
     for (var i = 1u; i < count; i++) {
         var j = i;
         while j > 0u {
@@ -269,6 +309,7 @@ fn cs_fast(invocation: TileThread) {
             by_pixel[begin + j - 1u] = b;
             by_pixel[begin + j] = a;
             j -= 1u;
+            steps += 1u;
         }
     }
     var limit = count;
@@ -279,6 +320,13 @@ fn cs_fast(invocation: TileThread) {
     for (var i = 0u; i < limit; i++) {
         composite_front(&composite, fragments[by_pixel[begin + i]]);
     }
-    let left = select(PROGRESS_DONE, PROGRESS_LEFT + count - limit, count > limit);
-    store_state(pixel_index(vec2<u32>(pixel)), PixelState(composite, left));
+    let p = pixel_index(pixel);
+    output[p] = composite_finish(composite);
+    set_progress(p, PROGRESS_RESOLVED);
+    atomicAdd(&resolved[0], count);
+    atomicAdd(&resolved[1], limit);
+    atomicAdd(&resolved[2], count - limit);
+    atomicMax(&resolved[3], count);
+    atomicAdd(&resolved[4], 1u);
+    return steps + count;
 }

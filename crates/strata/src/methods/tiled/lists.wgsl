@@ -23,19 +23,23 @@
 @group(1) @binding(4) var<storage, read_write> tiled_counters: array<atomic<u32>>;
 // Each pixel's result.
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
-// Each pixel's compositing state, STATE_WORDS words; all zero (progress FRESH) before the
-// first round.
+// Each pixel's progress word (the first tp.pixels words; all zero, FRESH, before the one-pass
+// kernel), then its compositing state, STATE_WORDS − 1 words, valid where the progress says a
+// round or the kernel left fragments to composite (only the progress words are cleared).
 @group(1) @binding(6) var<storage, read_write> pixel_state: array<u32>;
 // Rounds each tile ran.
 @group(1) @binding(7) var<storage, read_write> tile_rounds: array<u32>;
 
-// A pixel's state, STATE_WORDS words: the front-to-back composite so far (color, RGB
-// transmittance, count, the last fragment's depth and tag: the bound of the next round; its
-// view distance is recomputed from the depth) and its progress.
-// Progress: no round yet, done, or 2 + the fragments left behind the last one composited.
+// A pixel's state: the front-to-back composite so far (color, RGB transmittance, count, the
+// last fragment's depth and tag: the bound of the next round; its view distance is recomputed
+// from the depth) and its progress.
+// Progress: nothing composited yet, done (its result is the state's, which `cs_finish`
+// resolves), resolved (the one-pass kernel wrote its result and accounted for it: the rounds
+// and `cs_finish` pass it by), or 3 + the fragments left behind the last one composited.
 const PROGRESS_FRESH: u32 = 0u;
 const PROGRESS_DONE: u32 = 1u;
-const PROGRESS_LEFT: u32 = 2u;
+const PROGRESS_RESOLVED: u32 = 2u;
+const PROGRESS_LEFT: u32 = 3u;
 
 struct PixelState {
     s: Composite,
@@ -46,12 +50,25 @@ fn state_float(w: u32) -> f32 {
     return bitcast<f32>(pixel_state[w]);
 }
 
+fn progress_of(p: u32) -> u32 {
+    return pixel_state[p];
+}
+
+fn set_progress(p: u32, progress: u32) {
+    pixel_state[p] = progress;
+}
+
+// Where pixel p's composite words start, after every pixel's progress word.
+fn state_at(p: u32) -> u32 {
+    return tp.pixels + p * (STATE_WORDS - 1u);
+}
+
 fn load_state(p: u32) -> PixelState {
-    let w = p * STATE_WORDS;
-    let progress = pixel_state[w + 9u];
-    if progress == PROGRESS_FRESH {
+    let progress = progress_of(p);
+    if progress == PROGRESS_FRESH || progress == PROGRESS_RESOLVED {
         return PixelState(composite_new(), progress);
     }
+    let w = state_at(p);
     let depth = state_float(w + 7u);
     let s = Composite(
         vec3<f32>(state_float(w), state_float(w + 1u), state_float(w + 2u)),
@@ -65,7 +82,7 @@ fn load_state(p: u32) -> PixelState {
 }
 
 fn store_state(p: u32, state: PixelState) {
-    let w = p * STATE_WORDS;
+    let w = state_at(p);
     let s = state.s;
     pixel_state[w] = bitcast<u32>(s.color.r);
     pixel_state[w + 1u] = bitcast<u32>(s.color.g);
@@ -76,7 +93,7 @@ fn store_state(p: u32, state: PixelState) {
     pixel_state[w + 6u] = s.count;
     pixel_state[w + 7u] = bitcast<u32>(s.last_depth);
     pixel_state[w + 8u] = s.last_tag;
-    pixel_state[w + 9u] = state.progress;
+    set_progress(p, state.progress);
 }
 
 // Fragments left behind the last one composited.

@@ -19,9 +19,10 @@
 //!   a 4×4 quarter: its items' records are loaded once per chunk, its fragments spread one per
 //!   thread (a prefix sum over the items' coverage), each evaluated and shaded once into
 //!   workgroup memory, then gathered per pixel, sorted by (depth, primitive) by the pixel's
-//!   thread and composited into its state. A quarter past the store is left to the rounds and
-//!   counted, and so is a pixel of more than 128 fragments (its thread's insertion sort stays
-//!   within 8128 steps).
+//!   thread, composited and resolved — the finish folded in: the pixel's result is written and
+//!   the workgroup adds its pixels to the frame's totals with one atomic per total. A quarter
+//!   past the store is left to the rounds and counted, and so is a pixel of more than 128
+//!   fragments (its thread's insertion sort stays within 8128 steps).
 //! - **round** × R, for the pixels the fast pass left (one workgroup of 64 threads per tile, a
 //!   thread per pixel): the tile's list is walked in chunks of 64 triangles, their records
 //!   loaded once per chunk into workgroup memory; each thread tests its bit of each triangle's
@@ -31,7 +32,8 @@
 //!   deepest pixel last frame's rounds ran on (2 for a first frame, at least 1); pixels with
 //!   fragments left after R rounds make the frame incomplete (counted as dropped; exact mode
 //!   renders again with enough rounds).
-//! - **finish**: each pixel's result from its state, the frame's totals and the rounds per tile.
+//! - **finish**: the result of each pixel the fast pass left, from its state (summed per
+//!   workgroup into the frame's totals), and the rounds per tile.
 //!
 //! Work counters (`TiledStats`): triangle setups (the bin's), setup records loaded, fragment
 //! evaluations and shadings, items kept and dropped as empty, quarters past the store, and the
@@ -48,13 +50,14 @@
 //! Memory: the fast pass's store is workgroup memory (24 bytes a fragment); in buffers, the
 //! rasterizer's 16 bytes per item (record, tile, coverage), 88 per set-up fan triangle and 48
 //! of constants, 4 bytes per listed item, 12 per tile (count, start, rounds), 40 per pixel
-//! (state), 132 of counters and 32 of parameters. Limits: the scene's vertices in one storage
+//! (state: its progress word, then its composite), 144 of counters and 32 of parameters. Limits: the scene's vertices in one storage
 //! binding; `--msaa`, temporal culling, `--order` and an
 //! application's draw callback are not supported (it reads the scene's triangles itself). On
 //! lavapipe, whose invocations stop looping after 65535 iterations in all, a round can walk a
 //! list of a few thousand chunks of triangles at most; a walk cut short is counted and the
 //! frame refused with the reason.
 
+pub mod cost;
 pub mod descriptor;
 
 use bytemuck::Zeroable;
@@ -100,6 +103,8 @@ const CONSTANTS_WGSL: &str = wgsl_constants!(
     COUNTER_WARP_STEPS = COUNTER_WARP_STEPS,
     COUNTER_PAST_CAPACITY = COUNTER_PAST_CAPACITY,
     COUNTER_DEEPEST_IN_ROUNDS = COUNTER_DEEPEST_IN_ROUNDS,
+    COUNTER_SORT_STEPS = COUNTER_SORT_STEPS,
+    COUNTER_ONE_PASS_PIXELS = COUNTER_ONE_PASS_PIXELS,
 );
 const LISTS_WGSL: &str = include_str!("lists.wgsl");
 const SORT_WGSL: &str = include_str!("sort.wgsl");
@@ -113,10 +118,10 @@ pub const KEEP: u32 = 16;
 pub const LIST_ENTRY_BYTES: u64 = 4;
 /// Bytes per tile: its item count, its list's start and its rounds.
 pub const TILE_BYTES: u64 = 12;
-/// Bytes per pixel of compositing state between rounds.
+/// Bytes per pixel of compositing state between rounds: its progress word and its composite.
 pub const STATE_BYTES: u64 = 40;
 /// Counter words.
-pub const COUNTER_WORDS: u64 = 33;
+pub const COUNTER_WORDS: u64 = 36;
 /// Tiles by the rounds they ran: bin r for r rounds, the last bin for ROUND_BINS − 1 or more.
 const COUNTER_ROUNDS: usize = 0;
 const ROUND_BINS: usize = 16;
@@ -149,10 +154,16 @@ const COUNTER_WARP_STEPS: usize = 29;
 const COUNTER_PAST_CAPACITY: usize = 31;
 /// The most fragments one pixel of a tile some round ran in had (the next frame's rounds).
 const COUNTER_DEEPEST_IN_ROUNDS: usize = 32;
+/// Steps of the one-pass kernel's per-pixel insertion sorts (compares), each 32-lane warp
+/// counted as its longest sort: the sort's time on a GPU, whose warp waits for its last lane.
+const COUNTER_SORT_STEPS: usize = 33;
+/// Pixels the one-pass kernel resolved, in tiles with a list or none (the rest: the rounds').
+const COUNTER_ONE_PASS_PIXELS: usize = 35;
 /// Bytes of workgroup memory the one-pass kernel keeps besides its fragment store: the chunk
 /// of 16 set-up triangles (176 bytes each), their primitives, masks and prefix sums, the
-/// per-pixel counts and starts, and a few counts.
-const FAST_FIXED_BYTES: u32 = 16 * (176 + 4 + 8 + 4) + 64 * 8 + 32;
+/// per-pixel counts and starts, and a few counts and sums (the work, the warps' sorts, the
+/// resolved pixels' account).
+const FAST_FIXED_BYTES: u32 = 16 * (176 + 4 + 8 + 4) + 64 * 8 + 64;
 /// Bytes of workgroup memory per stored fragment: the fragment, its pixel, its place in the
 /// pixels' runs.
 const FAST_FRAGMENT_BYTES: u32 = 16 + 4 + 4;
@@ -180,7 +191,8 @@ gpu_struct! {
         pub k: u32,
         /// Rounds recorded this frame.
         pub rounds: u32,
-        pad_a: u32,
+        /// Pixels of the frame (its band): the state buffer's progress words come first.
+        pub pixels: u32,
         pad_b: u32,
         pad_c: u32,
     }
@@ -318,6 +330,7 @@ impl Method for Tiled {
             capacity: capacity as u32,
             k,
             rounds,
+            pixels: pixels as u32,
             ..Zeroable::zeroed()
         };
         let cache = &mut self.cache;
@@ -344,7 +357,9 @@ impl Method for Tiled {
             ],
         );
         ctx.encoder.clear_buffer(&counts, 0, None);
-        ctx.encoder.clear_buffer(&state, 0, None);
+        // Only the progress words: a pixel's composite is read where its progress says it was
+        // written this frame.
+        ctx.encoder.clear_buffer(&state, 0, Some(pixels * 4));
         ctx.encoder.clear_buffer(&tile_rounds, 0, None);
         ctx.encoder.clear_buffer(&counters, 0, None);
         let frame_group = ctx.frame_group;
@@ -428,6 +443,9 @@ impl Method for Tiled {
             tiled: Some(TiledStats {
                 triangle_setups: report.stats.triangles_set_up,
                 record_loads: work(COUNTER_RECORD_LOADS),
+                sort_steps: work(COUNTER_SORT_STEPS),
+                one_pass_pixels: counters[COUNTER_ONE_PASS_PIXELS] as u64,
+                warp_steps,
                 fragment_evaluations: evaluations,
                 shadings: work(COUNTER_SHADINGS),
                 items_kept: report

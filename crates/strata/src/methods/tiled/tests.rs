@@ -131,6 +131,10 @@ fn work_counters_count_each_evaluation_and_shading() {
     assert_eq!(tiled.triangle_setups, raster.triangles_set_up);
     assert!(tiled.triangle_setups <= triangles, "{tiled:?}");
     assert_eq!(tiled.record_loads, tiled.items_kept, "{tiled:?}");
+    // A warp sorts at least as long as its pixels' average: one compare per fragment at least.
+    assert!(32 * tiled.sort_steps >= fragments, "{tiled:?}");
+    // Every pixel resolved in one pass (the finish passes them all by).
+    assert_eq!(tiled.one_pass_pixels, 64 * 64, "{tiled:?}");
     assert!(tiled.evaluation_occupancy > 0.0 && tiled.evaluation_occupancy <= 1.0);
     assert_eq!(tiled.tiles_past_capacity, 0, "every tile in one pass");
     // 40 fragments a pixel: whole tiles outgrow the store, their quarters do not.

@@ -1,11 +1,11 @@
 #define_import_path strata::tiled::tile
-#import strata::scene::{behind_opaque, frame, pixel_index, report_pixel, scene_fragment}
+#import strata::scene::{behind_opaque, frame, pixel_index, report_pixels, scene_fragment}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::records::{recorded_triangle}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative, window_position}
 #import strata::tiled::constants::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_DEEPEST_IN_ROUNDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
-#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_LEFT, PixelState, fragments_left, list_entry, load_state, output, store_state, tile_counts, tile_rounds, tile_starts, tiled_counters, tp, work_add}
+#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_FRESH, PROGRESS_LEFT, PROGRESS_RESOLVED, PixelState, fragments_left, list_entry, load_state, output, store_state, tile_counts, tile_rounds, tile_starts, tiled_counters, tp, work_add}
 
 // One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
 // thread per pixel (thread lid owns bit lid of the coverage masks), no atomics on pixel data.
@@ -91,7 +91,8 @@ fn cs_round(invocation: TileThread) {
         progress = state.progress;
     }
     let limit = round_limit(composite.count);
-    let working = progress != PROGRESS_DONE && limit > 0u;
+    // Fresh, or with fragments left: not done, nor resolved by the one-pass kernel.
+    let working = (progress == PROGRESS_FRESH || progress >= PROGRESS_LEFT) && limit > 0u;
     if lid == 0u {
         atomicStore(&working_bits[0], 0u);
         atomicStore(&working_bits[1], 0u);
@@ -201,33 +202,58 @@ fn cs_round(invocation: TileThread) {
 }
 
 // After the last round: each pixel's result, its fragments (those left behind the last round
-// are counted as generated and dropped), and the tile's rounds.
+// are counted as generated and dropped), and the tile's rounds — for the pixels the one-pass
+// kernel did not resolve. The workgroup sums its pixels' account first: one atomic per counter
+// and tile, not per pixel.
+var<workgroup> finished: array<atomic<u32>, 6>;
+
 @compute @workgroup_size(8, 8)
 fn cs_finish(invocation: TileThread) {
+    let lid = invocation.lid;
     let tile = thread_tile(invocation);
     let rounds = tile_rounds[tile];
-    if invocation.lid == 0u {
+    if lid < 6u {
+        atomicStore(&finished[lid], 0u);
+    }
+    workgroupBarrier();
+    let pixel = thread_pixel(invocation);
+    if all(pixel < frame.size) {
+        let p = pixel_index(pixel);
+        let state = load_state(p);
+        if state.progress != PROGRESS_RESOLVED {
+            let left = fragments_left(state.progress);
+            let total = state.s.count + left;
+            if left > 0u && (tp.k == 0u || state.s.count < tp.k) {
+                atomicAdd(&finished[4], 1u);
+            }
+            output[p] = composite_finish(state.s);
+            atomicAdd(&finished[0], total);
+            atomicAdd(&finished[1], state.s.count);
+            atomicAdd(&finished[2], total - min(state.s.count, total));
+            atomicMax(&finished[3], total);
+            // A tile some round ran in (the one-pass kernel resolved the others).
+            if rounds > 0u {
+                atomicMax(&finished[5], total);
+            }
+        }
+    }
+    workgroupBarrier();
+    if lid == 0u {
         atomicAdd(&tiled_counters[COUNTER_ROUNDS + min(rounds, ROUND_BINS - 1u)], 1u);
         if tile == 0u {
             atomicStore(&tiled_counters[COUNTER_ROUNDS_RECORDED], tp.rounds);
         }
+        let deepest = atomicLoad(&finished[3]);
+        if deepest > 0u {
+            atomicMax(&tiled_counters[COUNTER_DEEPEST], deepest);
+        }
+        if rounds > 0u {
+            atomicMax(&tiled_counters[COUNTER_DEEPEST_IN_ROUNDS], atomicLoad(&finished[5]));
+        }
+        let unfinished = atomicLoad(&finished[4]);
+        if unfinished > 0u {
+            atomicAdd(&tiled_counters[COUNTER_UNFINISHED], unfinished);
+        }
+        report_pixels(atomicLoad(&finished[0]), atomicLoad(&finished[1]), atomicLoad(&finished[2]), deepest);
     }
-    let pixel = thread_pixel(invocation);
-    if any(pixel >= frame.size) {
-        return;
-    }
-    let p = pixel_index(pixel);
-    let state = load_state(p);
-    let left = fragments_left(state.progress);
-    let total = state.s.count + left;
-    if left > 0u && (tp.k == 0u || state.s.count < tp.k) {
-        atomicAdd(&tiled_counters[COUNTER_UNFINISHED], 1u);
-    }
-    atomicMax(&tiled_counters[COUNTER_DEEPEST], total);
-    // A tile some round ran in (the one-pass kernel took the others whole).
-    if rounds > 0u {
-        atomicMax(&tiled_counters[COUNTER_DEEPEST_IN_ROUNDS], total);
-    }
-    output[p] = composite_finish(state.s);
-    report_pixel(total, state.s.count);
 }
