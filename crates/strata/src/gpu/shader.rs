@@ -34,6 +34,9 @@ pub const COMPOSITE: &str = include_str!("../../shaders/shared/composite.wgsl");
 pub const FULLSCREEN: &str = include_str!("../../shaders/shared/fullscreen.wgsl");
 /// `strata::weight`: weighted blended OIT's weight functions.
 pub const WEIGHT: &str = include_str!("../../shaders/shared/weight.wgsl");
+/// `strata::tail`: a pixel's tail beyond its k nearest (`--tail blend|weighted`), its sums and
+/// its composite, for the k-buffers and tiled.
+pub const TAIL: &str = include_str!("../../shaders/shared/tail.wgsl");
 /// `strata::dispatch`: a compute thread's number in a grid laid out in rows of workgroups.
 pub const DISPATCH: &str = include_str!("../../shaders/shared/dispatch.wgsl");
 
@@ -41,7 +44,7 @@ pub const DISPATCH: &str = include_str!("../../shaders/shared/dispatch.wgsl");
 /// (`strata::scene`), colors (`strata::color`), the fragment record (`strata::fragment`) and the
 /// compositing state machine (`strata::composite`), the weights of weighted blended OIT
 /// (`strata::weight`), and compute threads' numbers (`strata::dispatch`).
-pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT, DISPATCH];
+pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT, TAIL, DISPATCH];
 
 /// The shader definitions a stage is composed with.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]

@@ -4,7 +4,8 @@
 #import strata::composite::{composite_finish, composite_new}
 #import strata::kbuffer::storage::{kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, storage_slots}
 #import strata::kbuffer::words::{FILLED, SEEN}
-#import strata::kbuffer::resolve::{composite_stored, tail_empty}
+#import strata::kbuffer::resolve::{composite_stored}
+#import strata::tail::{tail_empty}
 #import strata::kbuffer::access::{stored_count}
 #import strata::kbuffer::kpeel_state::{kpeel_state, kpeel_store}
 

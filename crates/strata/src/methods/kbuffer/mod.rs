@@ -185,6 +185,35 @@ pub fn tail_depth(camera: &crate::scene::Camera, scale: f64) -> (f32, f32) {
     (p as f32, q as f32)
 }
 
+/// A frame's tail parameters (`TailParams` in `strata::tail`): `--tail`, the weight function
+/// with [`TAIL_ORTHOGRAPHIC`] for an orthographic view, and [`tail_depth`]'s p and q.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TailSettings {
+    /// [`crate::Tail::index`].
+    pub mode: u32,
+    /// [`crate::Weight::index`], with [`TAIL_ORTHOGRAPHIC`] for an orthographic view.
+    pub weight: u32,
+    /// p of [`tail_depth`].
+    pub depth_p: f32,
+    /// q of [`tail_depth`].
+    pub depth_q: f32,
+}
+
+/// The tail parameters of a frame with `options` of `scene`.
+pub fn tail_settings(options: &RenderOptions, scene: &crate::frame::SceneGpu) -> TailSettings {
+    let (depth_p, depth_q) = tail_depth(&scene.camera, options.frame.weighted.depth_scale);
+    TailSettings {
+        mode: options.frame.kbuffer.tail.index(),
+        weight: options.frame.weighted.weight.index()
+            | match scene.camera.projection {
+                crate::scene::Projection::Orthographic { .. } => TAIL_ORTHOGRAPHIC,
+                crate::scene::Projection::Perspective { .. } => 0,
+            },
+        depth_p,
+        depth_q,
+    }
+}
+
 /// Counter words (64-bit counters take two words).
 pub const COUNTERS: u64 = 8;
 /// 64-bit count of fragments that gave up on a lock.
@@ -425,8 +454,7 @@ pub fn group_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
 /// The frame's [`KParams`] for `k` and `stride`; `count_by_seen`: a fixed A-buffer's stored count is min(seen, stride).
 pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bool) -> KParams {
     let options = ctx.options;
-    let (tail_depth_p, tail_depth_q) =
-        tail_depth(&ctx.scene.camera, options.frame.weighted.depth_scale);
+    let tail = tail_settings(options, ctx.scene);
     KParams {
         k,
         stride,
@@ -437,18 +465,14 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
             .unwrap_or(DEFAULT_MAX_TRIES)
             .clamp(1, crate::frame::MAX_TRIES_LIMIT),
         culling: options.frame.kbuffer.culling as u32,
-        tail_blend: options.frame.kbuffer.tail.index(),
+        tail_blend: tail.mode,
         aux: count_by_seen as u32,
         width: options.frame.width,
         pixels: (ctx.pixels()).min(u32::MAX as u64) as u32,
         sample_slots: 1,
-        tail_weight: options.frame.weighted.weight.index()
-            | match ctx.scene.camera.projection {
-                crate::scene::Projection::Orthographic { .. } => TAIL_ORTHOGRAPHIC,
-                crate::scene::Projection::Perspective { .. } => 0,
-            },
-        tail_depth_p,
-        tail_depth_q,
+        tail_weight: tail.weight,
+        tail_depth_p: tail.depth_p,
+        tail_depth_q: tail.depth_q,
         storage_layout: options.frame.kbuffer.layout.index(),
     }
 }

@@ -4,7 +4,8 @@
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{Composite, composite_finish, composite_front, composite_new}
 #import strata::kbuffer::access::{sort_stored, stored_count, stored_fragment}
-#import strata::kbuffer::storage::{TAIL_WEIGHTED, TAIL_WEIGHTED_SCALE, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_share, tail_value, tail_word, wide_add}
+#import strata::kbuffer::storage::{kbuffer_tail, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_word}
+#import strata::tail::{Tail, composite_tail_of, tail_empty, tail_join}
 #import strata::kbuffer::words::{SEEN}
 
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
@@ -24,16 +25,6 @@ const CHUNK: u32 = 32u;
 // Rounds of the k-depth sort beyond which a storage that can sort itself in place does so.
 const SORTED_ROUNDS: u32 = 4u;
 
-// A pixel's (or sample's) tail: the five 64-bit fixed-point sums of `tail_share`, the captured
-// ones plus those of the stored fragments the resolve leaves past k, added as integers.
-struct Tail {
-    sums: array<vec2<u32>, 5>,
-}
-
-fn tail_empty() -> Tail {
-    return Tail(array<vec2<u32>, 5>());
-}
-
 fn tail_sums(p: u32) -> Tail {
     var t = tail_empty();
     for (var i = 0u; i < 5u; i++) {
@@ -42,11 +33,9 @@ fn tail_sums(p: u32) -> Tail {
     return t;
 }
 
+// `f`, a stored fragment past the pixel's limit, joins its local tail.
 fn tail_add_local(t: ptr<function, Tail>, f: Fragment) {
-    let share = tail_share(f);
-    for (var i = 0u; i < 5u; i++) {
-        (*t).sums[i] = wide_add((*t).sums[i], share[i]);
-    }
+    tail_join(t, kbuffer_tail(), f);
 }
 
 fn sort_local(a: ptr<function, array<Fragment, LOCAL_CAPACITY>>, n: u32) {
@@ -252,19 +241,9 @@ fn composite_in_order(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function
     return last;
 }
 
-// Composites the tail behind the sorted fragments: the weighted average color of the tail
-// fragments over the opacity 1 − exp(−Σ −ln(1 − α)) they have together.
+// Composites the tail behind the sorted fragments.
 fn composite_tail(s: ptr<function, Composite>, t: Tail) {
-    var sum = vec4<f32>(tail_value(t.sums[0]), tail_value(t.sums[1]), tail_value(t.sums[2]), tail_value(t.sums[3]));
-    if kp.tail_blend == TAIL_WEIGHTED {
-        sum /= TAIL_WEIGHTED_SCALE;
-    }
-    if sum.w <= 0.0 {
-        return;
-    }
-    let opacity = 1.0 - exp(-tail_value(t.sums[4]));
-    (*s).color += (*s).transmittance * opacity * sum.rgb / sum.w;
-    (*s).transmittance *= 1.0 - opacity;
+    composite_tail_of(s, t, kbuffer_tail());
 }
 
 // Composites the `limit` nearest of the pixel's `n` stored fragments onto `s`, in order; with

@@ -5,7 +5,7 @@
 #import strata::kbuffer::words::{BOUND, LOCK, PIXEL_WORDS, SEEN, TAIL_WORDS}
 #import strata::kbuffer::params::{KParams}
 #import strata::kbuffer::temporal::{culling_interface, note_outside}
-#import strata::weight::{oit_weight}
+#import strata::tail::{TailParams, tail_share_of}
 
 // k-buffer family storage, shared by its capture and resolve stages.
 // Keep the COUNTER_ indices in sync with `Counters` in kbuffer/mod.rs.
@@ -42,16 +42,6 @@
 @group(#{KBUFFER_GROUP}) @binding(5) var<storage, read_write> output: array<Resolved>;
 
 
-// Fixed-point scale of the tail sums (64-bit: a pixel would need about 2^42 tail fragments to
-// wrap them).
-const TAIL_SCALE: f32 = 65536.0;
-// KParams::tail_blend: 1 blends the tail by α, 2 by α·w(z) (--tail weighted).
-const TAIL_WEIGHTED: u32 = 2u;
-// The weighted tail's color and weight sums carry this many times TAIL_SCALE: its weights span
-// 10⁻²·α to 3·10³, so the small ones keep their precision (the sums go in as 64-bit values; a
-// pixel would need about 2^21 tail fragments of the largest weight to wrap them).
-const TAIL_WEIGHTED_SCALE: f32 = 256.0;
-const TAIL_ORTHOGRAPHIC: u32 = 0x100u;
 
 // KParams::storage_layout (StorageLayout::index): each pixel's items together (0, pixel-major),
 // or item i of every storage pixel together (1, slot-major).
@@ -157,64 +147,17 @@ fn counter_add(at: u32, n: u32) {
     }
 }
 
-// How much a tail fragment of opacity `a` counts in the tail's color: α, or with --tail weighted
-// α·w(z) of weighted blended OIT, nearer fragments counting more.
-fn tail_weight_of(f: Fragment, a: f32) -> f32 {
-    if kp.tail_blend == TAIL_WEIGHTED {
-        return oit_weight(kp.tail_weight & 0xffu, 1.0, a, tail_distance(f.depth), f.depth);
-    }
-    return a;
+// The frame's tail parameters, from the k-buffer's uniforms.
+fn kbuffer_tail() -> TailParams {
+    return TailParams(kp.tail_blend, kp.tail_weight, kp.tail_depth_p, kp.tail_depth_q);
 }
 
-// The view distance of window depth `depth`, times --depth-scale: p / (q − depth) in a
-// perspective view, p + q·depth in an orthographic one (see `TailDepth` in kbuffer/mod.rs).
-fn tail_distance(depth: f32) -> f32 {
-    if (kp.tail_weight & TAIL_ORTHOGRAPHIC) != 0u {
-        return kp.tail_depth_p + kp.tail_depth_q * depth;
-    }
-    return kp.tail_depth_p / (kp.tail_depth_q - depth);
-}
-
-// A 64-bit fixed-point tail sum (low word, high word) as a number.
-fn tail_value(sum: vec2<u32>) -> f32 {
-    return (f32(sum.x) + f32(sum.y) * 4294967296.0) / TAIL_SCALE;
-}
-
-// v ≥ 0 (under 2^56) as a 64-bit value (low word, high word).
-fn wide_of(v: f32) -> vec2<u32> {
-    let high = u32(v / 4294967296.0);
-    return vec2<u32>(u32(v - f32(high) * 4294967296.0), high);
-}
-
-// One fragment's share of its pixel's tail sums: (α or the weight)·r, ·g, ·b, the α or weight,
-// and −ln(1 − α), each a 64-bit fixed-point value of the stored color. It is the same share
-// whichever way the fragment reaches the tail — evicted from a slot or culled at capture
-// (`tail_add`), or left past k in the resolve (resolve.wgsl's local tail) — and the sums are
-// integers, so a pixel's tail cannot depend on the order its fragments arrived in.
+// One fragment's share of its pixel's tail sums (`tail_share_of`): the same share whichever way
+// the fragment reaches the tail — evicted from a slot or culled at capture (`tail_add`), or left
+// past k in the resolve (resolve.wgsl's local tail) — so a pixel's tail cannot depend on the
+// order its fragments arrived in.
 fn tail_share(f: Fragment) -> array<vec2<u32>, 5> {
-    let c = stored_color(f);
-    let a = clamp(c.a, 0.0, 0.999);
-    var share: array<vec2<u32>, 5>;
-    if kp.tail_blend == TAIL_WEIGHTED {
-        let weight = tail_weight_of(f, a) * (TAIL_SCALE * TAIL_WEIGHTED_SCALE);
-        share[0] = wide_of(weight * clamp(c.r, 0.0, 64.0));
-        share[1] = wide_of(weight * clamp(c.g, 0.0, 64.0));
-        share[2] = wide_of(weight * clamp(c.b, 0.0, 64.0));
-        share[3] = wide_of(weight);
-    } else {
-        share[0] = vec2<u32>(u32(a * clamp(c.r, 0.0, 64.0) * TAIL_SCALE), 0u);
-        share[1] = vec2<u32>(u32(a * clamp(c.g, 0.0, 64.0) * TAIL_SCALE), 0u);
-        share[2] = vec2<u32>(u32(a * clamp(c.b, 0.0, 64.0) * TAIL_SCALE), 0u);
-        share[3] = vec2<u32>(u32(a * TAIL_SCALE), 0u);
-    }
-    share[4] = vec2<u32>(u32(-log(1.0 - a) * TAIL_SCALE), 0u);
-    return share;
-}
-
-// The sum (low, high) plus `add`, carrying out of the low word.
-fn wide_add(sum: vec2<u32>, add: vec2<u32>) -> vec2<u32> {
-    let low = sum.x + add.x;
-    return vec2<u32>(low, sum.y + add.y + select(0u, 1u, low < add.x));
+    return tail_share_of(kbuffer_tail(), f);
 }
 
 // Word `word` of pixel p's tail sums (sum i: low word 2i, high word 2i + 1).

@@ -5,7 +5,8 @@
 #import strata::raster::records::{recorded_triangle}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative, window_position}
 #import strata::tiled::constants::{COUNTER_DEEPEST, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ONE_PASS_PIXELS, COUNTER_PAST_CAPACITY, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_SORT_STEPS, COUNTER_WARP_STEPS}
-#import strata::tiled::lists::{PROGRESS_RESOLVED, list_entry, output, set_progress, tile_counts, tile_starts, tiled_counters, tp, work_add}
+#import strata::tiled::lists::{PROGRESS_RESOLVED, list_entry, output, set_progress, tile_counts, tile_starts, tiled_counters, tiled_tail, tp, work_add}
+#import strata::tail::{composite_tail_of, tail_empty, tail_join}
 
 // The one-pass tile kernel, before any round: four workgroups per 8×8-pixel tile, one thread
 // per fragment. Where the tile's list covers at most FAST_FRAGMENTS pixel centers (the
@@ -294,7 +295,7 @@ fn cs_fast(invocation: TileThread) {
 
 // Sorts pixel `pixel`'s `count` fragments, run `begin` of `by_pixel`, by (depth, primitive),
 // composites them front to back (with --k its k nearest; the rest are dropped, or with --tail
-// join the tail behind them) and writes its result: the rounds and `cs_finish` pass it by.
+// composited behind them as one term) and writes its result: the rounds and `cs_finish` pass it by.
 // Adds the pixel to the workgroup's account; returns the insertion sort's steps.
 fn resolve_pixel(pixel: vec2<u32>, begin: u32, count: u32) -> u32 {
     var steps = 0u;
@@ -319,6 +320,14 @@ fn resolve_pixel(pixel: vec2<u32>, begin: u32, count: u32) -> u32 {
     var composite = composite_new();
     for (var i = 0u; i < limit; i++) {
         composite_front(&composite, fragments[by_pixel[begin + i]]);
+    }
+    let tail_params = tiled_tail();
+    if tail_params.mode != 0u && count > limit {
+        var tail = tail_empty();
+        for (var i = limit; i < count; i++) {
+            tail_join(&tail, tail_params, fragments[by_pixel[begin + i]]);
+        }
+        composite_tail_of(&composite, tail, tail_params);
     }
     let p = pixel_index(pixel);
     output[p] = composite_finish(composite);

@@ -5,6 +5,7 @@
 #import strata::tiled::params::{TiledParams}
 #import strata::color::{Resolved}
 #import strata::composite::{Composite, composite_new, view_distance}
+#import strata::tail::{TailParams}
 
 // tiled's bindings (group 1): each 8×8-pixel tile's list of (primitive, fan triangle) codes,
 // each pixel's compositing state between rounds, the counters the frame reads back, and the
@@ -138,6 +139,11 @@ fn list_entry(index: u32, region: vec2<u32>) -> ListEntry {
         mask = vec2<u32>(0u);
     }
     return ListEntry(setup, mask);
+}
+
+// The frame's tail parameters (--tail with --k; mode 0 without).
+fn tiled_tail() -> TailParams {
+    return TailParams(tp.tail_mode, tp.tail_weight, tp.tail_depth_p, tp.tail_depth_q);
 }
 
 fn tile_of(tile: vec2<i32>) -> u32 {

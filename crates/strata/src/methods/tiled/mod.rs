@@ -45,17 +45,21 @@
 //! compute-rasterized exact methods' bit for bit. Deterministic: a pixel's fragments are
 //! composited in (depth, primitive) order whatever order the scatter filled a list in, so a
 //! frame gives the same bytes every run. `--k N` composites each pixel's N nearest and counts
-//! the rest as dropped.
+//! the rest as dropped; with `--tail blend|weighted` the rest are composited behind them as one
+//! term (`strata::tail`, the k-buffers' tail): by the one-pass kernel from its sorted run, by
+//! the round that reaches k from every fragment behind its bound (each joins the tail as it is
+//! shaded, and the ones composited leave it: integer sums, so no per-pixel atomics and no
+//! dependence on order).
 //!
 //! Memory: the fast pass's store is workgroup memory (24 bytes a fragment); in buffers, the
 //! rasterizer's 16 bytes per item (record, tile, coverage), 88 per set-up fan triangle and 48
 //! of constants, 4 bytes per listed item, 12 per tile (count, start, rounds), 40 per pixel
-//! (state: its progress word, then its composite), 144 of counters and 32 of parameters. Limits: the scene's vertices in one storage
-//! binding; `--msaa`, temporal culling, `--order` and an
-//! application's draw callback are not supported (it reads the scene's triangles itself). On
-//! lavapipe, whose invocations stop looping after 65535 iterations in all, a round can walk a
-//! list of a few thousand chunks of triangles at most; a walk cut short is counted and the
-//! frame refused with the reason.
+//! (state: its progress word, then its composite), 144 of counters and 48 of parameters.
+//! Limits: the scene's vertices in one storage binding; `--msaa`, temporal culling, `--order`
+//! and an application's draw callback are not supported (it reads the scene's triangles
+//! itself). On lavapipe, whose invocations stop looping after 65535 iterations in all, a round
+//! can walk a list of a few thousand chunks of triangles at most; a walk cut short is counted
+//! and the frame refused with the reason.
 
 pub mod cost;
 pub mod descriptor;
@@ -193,8 +197,17 @@ gpu_struct! {
         pub rounds: u32,
         /// Pixels of the frame (its band): the state buffer's progress words come first.
         pub pixels: u32,
+        /// `--tail` with `--k` (`TailParams::mode` of `strata::tail`): what becomes of a
+        /// pixel's fragments past its k nearest.
+        pub tail_mode: u32,
+        /// `TailParams::weight`: `--weight`, and the view's projection.
+        pub tail_weight: u32,
+        /// `TailParams::depth_p`.
+        pub tail_depth_p: f32,
+        /// `TailParams::depth_q`.
+        pub tail_depth_q: f32,
+        pad_a: u32,
         pad_b: u32,
-        pad_c: u32,
     }
 }
 
@@ -324,6 +337,14 @@ impl Method for Tiled {
             0 => self.rounds,
             k => self.rounds.min(rounds_for(k)),
         };
+        // The tail matters only where --k leaves fragments past the k nearest.
+        let tail = match k {
+            0 => crate::methods::kbuffer::TailSettings {
+                mode: 0,
+                ..crate::methods::kbuffer::tail_settings(ctx.options, ctx.scene)
+            },
+            _ => crate::methods::kbuffer::tail_settings(ctx.options, ctx.scene),
+        };
         let params = TiledParams {
             tiles_x,
             tiles: tiles as u32,
@@ -331,6 +352,10 @@ impl Method for Tiled {
             k,
             rounds,
             pixels: pixels as u32,
+            tail_mode: tail.mode,
+            tail_weight: tail.weight,
+            tail_depth_p: tail.depth_p,
+            tail_depth_q: tail.depth_q,
             ..Zeroable::zeroed()
         };
         let cache = &mut self.cache;

@@ -288,7 +288,10 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
     let tiled = reports[1].stats.tiled.clone().unwrap();
     assert_eq!(
         bytes,
-        raster.bytes_allocated + tiled.list_bytes + COUNTER_WORDS * 4 + 32,
+        raster.bytes_allocated
+            + tiled.list_bytes
+            + COUNTER_WORDS * 4
+            + std::mem::size_of::<TiledParams>() as u64,
         "the catalogue's formula"
     );
 }
@@ -297,7 +300,11 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
 #[test]
 fn poisoned_buffers_change_nothing() {
     let s = scene("builtin:nvpro?objects=32&subdiv=10&seed=2");
-    let opts = options(40, Effect::Transparency);
+    let mut opts = options(40, Effect::Transparency);
+    assert_poison_changes_nothing(&s, &opts, MethodId::Tiled);
+    // With the k nearest and a tail: the state words and the tail sums start from nothing.
+    opts.frame.k = Some(6);
+    opts.frame.kbuffer.tail = crate::Tail::Blend;
     assert_poison_changes_nothing(&s, &opts, MethodId::Tiled);
 }
 
@@ -363,6 +370,34 @@ fn k_composites_the_k_nearest() {
         );
         assert!(stats.fragments_dropped.unwrap() > 0, "k = {k}");
         assert_eq!(stats.tiled.unwrap().rounds, rounds_for(k));
+    }
+}
+
+/// `--k N --tail drop|blend|weighted` composites each pixel's N nearest and the rest as the
+/// k-buffers do: equal bit for bit to `kb-ab-fixed` on the same compute rasterizer (whose tails
+/// are held to their closed forms in kbuffer's tests), in the one-pass kernel and in rounds (a
+/// device with less workgroup memory), with k within the first round and past it.
+#[test]
+fn k_nearest_with_each_tail_equals_the_fixed_k_buffer() {
+    let s = scene("builtin:layers?n=40&coverage=0.9&order=random&seed=6");
+    let small = rounds_gpu();
+    for tail in [crate::Tail::Drop, crate::Tail::Blend, crate::Tail::Weighted] {
+        for k in [5, 21] {
+            let mut opts = options(32, Effect::Transparency);
+            opts.frame.k = Some(k);
+            opts.frame.kbuffer.tail = tail;
+            let mut compute = opts.clone();
+            compute.build.raster = Raster::Compute;
+            let (expected, kb) = render_gpu(&s, &compute, "kb-ab-fixed");
+            let what = format!("k = {k}, --tail {tail:?}");
+            let (one_pass, stats) = render_gpu(&s, &opts, "tiled");
+            assert!(one_pass == expected, "{what}: the one-pass kernel");
+            assert_eq!(stats.fragments_dropped, kb.fragments_dropped, "{what}");
+            let (rounds, stats) = render_on(&small, &s, &opts);
+            let tiled = stats.tiled.unwrap();
+            assert!(tiled.tile_rounds.len() > 1, "{what}: no round ran");
+            assert!(rounds == expected, "{what}: the rounds");
+        }
     }
 }
 

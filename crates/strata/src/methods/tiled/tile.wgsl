@@ -5,7 +5,8 @@
 #import strata::raster::records::{recorded_triangle}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative, window_position}
 #import strata::tiled::constants::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_DEEPEST_IN_ROUNDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
-#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_FRESH, PROGRESS_LEFT, PROGRESS_RESOLVED, PixelState, fragments_left, list_entry, load_state, output, store_state, tile_counts, tile_rounds, tile_starts, tiled_counters, tp, work_add}
+#import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_FRESH, PROGRESS_LEFT, PROGRESS_RESOLVED, PixelState, fragments_left, list_entry, load_state, output, store_state, tile_counts, tile_rounds, tile_starts, tiled_counters, tiled_tail, tp, work_add}
+#import strata::tail::{composite_tail_of, tail_empty, tail_join, tail_leave}
 
 // One round of the tile pass (recorded once per round): one workgroup per 8×8-pixel tile, one
 // thread per pixel (thread lid owns bit lid of the coverage masks), no atomics on pixel data.
@@ -131,6 +132,11 @@ fn cs_round(invocation: TileThread) {
     var loads = 0u;
     var evaluations = 0u;
     var shadings = 0u;
+    // The round that reaches k with --tail: every fragment behind the bound joins the tail as it
+    // is shaded, and the ones composited leave it again at the end.
+    let tail_params = tiled_tail();
+    let tail_round = tail_params.mode != 0u && tp.k - min(composite.count, tp.k) <= KEEP;
+    var tail = tail_empty();
     for (var base = 0u; base < n; base += CHUNK) {
         // Everyone is done with the previous chunk before it is overwritten.
         workgroupBarrier();
@@ -170,11 +176,18 @@ fn cs_round(invocation: TileThread) {
                     continue;
                 }
                 candidates += 1u;
-                if count == KEEP && !fragment_before(key, kept[KEEP - 1u]) {
+                let nearer = count < KEEP || fragment_before(key, kept[KEEP - 1u]);
+                if !nearer && !tail_round {
                     continue;
                 }
                 shadings += 1u;
-                keep(&kept, &count, scene_fragment(varying_from(t, prim, pixel, b), front_facing));
+                let f = scene_fragment(varying_from(t, prim, pixel, b), front_facing);
+                if tail_round {
+                    tail_join(&tail, tail_params, f);
+                }
+                if nearer {
+                    keep(&kept, &count, f);
+                }
             }
         }
     }
@@ -196,6 +209,12 @@ fn cs_round(invocation: TileThread) {
     let composited = min(count, limit);
     for (var i = 0u; i < composited; i++) {
         composite_front(&composite, kept[i]);
+    }
+    if tail_round && candidates > composited {
+        for (var i = 0u; i < composited; i++) {
+            tail_leave(&tail, tail_params, kept[i]);
+        }
+        composite_tail_of(&composite, tail, tail_params);
     }
     let left = select(PROGRESS_DONE, PROGRESS_LEFT + candidates - composited, candidates > composited);
     store_state(p, PixelState(composite, left));
