@@ -298,20 +298,23 @@ fn cs_fast(invocation: TileThread) {
 // composited behind them as one term) and writes its result: the rounds and `cs_finish` pass it by.
 // Adds the pixel to the workgroup's account; returns the insertion sort's steps.
 fn resolve_pixel(pixel: vec2<u32>, begin: u32, count: u32) -> u32 {
+    // An insertion sort that holds the fragment it inserts: each step loads one index and one
+    // fragment and stores one index.
     var steps = 0u;
     for (var i = 1u; i < count; i++) {
+        let moving = by_pixel[begin + i];
+        let key = fragments[moving];
         var j = i;
         while j > 0u {
-            let a = by_pixel[begin + j - 1u];
-            let b = by_pixel[begin + j];
-            if !fragment_before(fragments[b], fragments[a]) {
+            let before = by_pixel[begin + j - 1u];
+            if !fragment_before(key, fragments[before]) {
                 break;
             }
-            by_pixel[begin + j - 1u] = b;
-            by_pixel[begin + j] = a;
+            by_pixel[begin + j] = before;
             j -= 1u;
             steps += 1u;
         }
+        by_pixel[begin + j] = moving;
     }
     var limit = count;
     if tp.k != 0u {
