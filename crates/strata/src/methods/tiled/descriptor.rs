@@ -12,7 +12,7 @@ fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>
 pub const TILED: Descriptor = Descriptor {
     exact: true,
     geometry_passes: "1 (binning), then one pass over each tile's list whose fragments fit the workgroup's memory (whole, or by 4×4 quarters), and R = ⌈N/16⌉ rounds for the tiles that do not (N: their deepest pixel last frame)",
-    memory: "20·I + 88·T + 12·⌈W/8⌉·⌈H/8⌉ + 40·W·H + 240; I (triangle, 8×8 tile) items and T set-up triangles, each sized from the last frame's need",
+    memory: "20·I + 88·T + 20·⌈W/8⌉·⌈H/8⌉ + 40·W·H + 240; I (triangle, 8×8 tile) items and T set-up triangles, each sized from the last frame's need",
     summary: "exact OIT in compute: triangles binned into 8×8 tiles; a tile's workgroup evaluates and shades its fragments once, one thread per fragment, sorts each pixel's and composites them (tiles past its memory: rounds of each pixel's 16 nearest); no per-pixel global atomics or locks, deterministic",
     compute_raster: Support::Yes,
     app_shaders: Support::No(

@@ -5,7 +5,7 @@
 #import strata::raster::records::{recorded_triangle}
 #import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative, window_position}
 #import strata::tiled::constants::{COUNTER_DEEPEST, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ONE_PASS_PIXELS, COUNTER_PAST_CAPACITY, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_SORT_STEPS, COUNTER_WARP_STEPS}
-#import strata::tiled::lists::{PROGRESS_RESOLVED, list_entry, output, set_progress, tile_counts, tile_starts, tiled_counters, tiled_tail, tp, work_add}
+#import strata::tiled::lists::{PROGRESS_RESOLVED, list_entry, tile_in_order, output, set_progress, tile_counts, tile_starts, tiled_counters, tiled_tail, tp, work_add}
 #import strata::tail::{composite_tail_of, tail_empty, tail_join}
 
 // The one-pass tile kernel, before any round: four workgroups per 8×8-pixel tile, one thread
@@ -129,10 +129,10 @@ fn covered_in(start: u32, n: u32, lid: u32, region: vec2<u32>) -> u32 {
 @compute @workgroup_size(8, 8)
 fn cs_fast(invocation: TileThread) {
     let lid = invocation.lid;
-    // Four workgroups per tile along x: the tile's column times four plus the quarter.
+    // Four workgroups per tile along x, in the scan's order of the tiles (most work first).
     let quarter = invocation.group.x % 4u;
-    let tile_xy = vec2<u32>(invocation.group.x / 4u, invocation.group.y);
-    let tile = tile_xy.y * tp.tiles_x + tile_xy.x;
+    let tile = tile_in_order(invocation.group.y * tp.tiles_x + invocation.group.x / 4u);
+    let tile_xy = vec2<u32>(tile % tp.tiles_x, tile / tp.tiles_x);
     let corner = vec2<i32>(tile_xy * 8u);
     if lid == 0u {
         atomicStore(&covered, 0u);

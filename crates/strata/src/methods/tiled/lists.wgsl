@@ -13,9 +13,11 @@
 
 @group(1) @binding(0) var<uniform> tp: TiledParams;
 // Items per tile: counted, then (after the scan set them to zero) counted again as the scatter
-// fills each list, ending equal to the count.
+// fills each list, ending equal to the count. After the tiles' counts (at tp.tiles + tile):
+// each tile's work, the pixel centers its items cover (`tile_work`).
 @group(1) @binding(1) var<storage, read_write> tile_counts: array<atomic<u32>>;
-// Where each tile's list starts in `tile_codes`.
+// Where each tile's list starts in `tile_codes`; after the starts (at tp.tiles + i), the order
+// the one-pass kernel's workgroups take the tiles in, most work first (`tile_in_order`).
 @group(1) @binding(2) var<storage, read_write> tile_starts: array<u32>;
 // The items that cover a pixel center of their tile, grouped by tile: each item's index in the
 // rasterizer's items (which hold its setup record and its coverage).
@@ -144,6 +146,24 @@ fn list_entry(index: u32, region: vec2<u32>) -> ListEntry {
 // The frame's tail parameters (--tail with --k; mode 0 without).
 fn tiled_tail() -> TailParams {
     return TailParams(tp.tail_mode, tp.tail_weight, tp.tail_depth_p, tp.tail_depth_q);
+}
+
+// Adds `centers` covered pixel centers to tile `tile`'s work.
+fn add_tile_work(tile: u32, centers: u32) {
+    atomicAdd(&tile_counts[tp.tiles + tile], centers);
+}
+
+fn tile_work(tile: u32) -> u32 {
+    return atomicLoad(&tile_counts[tp.tiles + tile]);
+}
+
+// The tile the i-th workgroup of the one-pass kernel takes.
+fn tile_in_order(i: u32) -> u32 {
+    return tile_starts[tp.tiles + i];
+}
+
+fn set_tile_order(i: u32, tile: u32) {
+    tile_starts[tp.tiles + i] = tile;
 }
 
 fn tile_of(tile: vec2<i32>) -> u32 {

@@ -10,10 +10,12 @@
 //!   mode renders it again.
 //! - **count**, **scan**, **scatter**: each item's coverage — the 64-bit mask of its tile's
 //!   pixel centers inside the record's triangle — is computed once and stored in the item; the
-//!   items that cover a center are counted per tile (the others are dropped here), the counts
-//!   scanned (one workgroup) into list starts, and each kept item's index scattered into its
-//!   tile's list.
-//! - **fast** (`fast.wgsl`, four workgroups of 64 threads per tile): where the tile's list
+//!   items that cover a center are counted per tile with the centers they cover (the others are
+//!   dropped here), the counts scanned (one workgroup) into list starts and the tiles ordered by
+//!   their covered centers, most first (a counting sort by power of two), and each kept item's
+//!   index scattered into its tile's list.
+//! - **fast** (`fast.wgsl`, four workgroups of 64 threads per tile, taking the tiles in the
+//!   scan's order so that the heaviest start first): where the tile's list
 //!   covers at most `fast_fragments` pixel centers (what the device's workgroup memory holds:
 //!   1152 on lavapipe, 2048 at most), the first workgroup takes the whole tile, else each takes
 //!   a 4×4 quarter: its items' records are loaded once per chunk, its fragments spread one per
@@ -53,7 +55,7 @@
 //!
 //! Memory: the fast pass's store is workgroup memory (24 bytes a fragment); in buffers, the
 //! rasterizer's 16 bytes per item (record, tile, coverage), 88 per set-up fan triangle and 48
-//! of constants, 4 bytes per listed item, 12 per tile (count, start, rounds), 40 per pixel
+//! of constants, 4 bytes per listed item, 20 per tile (count, work, start, order, rounds), 40 per pixel
 //! (state: its progress word, then its composite), 144 of counters and 48 of parameters.
 //! Limits: the scene's vertices in one storage binding; `--msaa`, temporal culling, `--order`
 //! and an application's draw callback are not supported (it reads the scene's triangles
@@ -120,8 +122,9 @@ pub const KEEP: u32 = 16;
 /// Bytes of one list entry: the index of a rasterizer item (which holds its setup record and
 /// coverage mask, [`crate::raster::RECORD_ITEM_BYTES`]).
 pub const LIST_ENTRY_BYTES: u64 = 4;
-/// Bytes per tile: its item count, its list's start and its rounds.
-pub const TILE_BYTES: u64 = 12;
+/// Bytes per tile: its item count, its work, its list's start, its place in the one-pass
+/// kernel's order and its rounds.
+pub const TILE_BYTES: u64 = 20;
 /// Bytes per pixel of compositing state between rounds: its progress word and its composite.
 pub const STATE_BYTES: u64 = 40;
 /// Counter words.
@@ -360,8 +363,9 @@ impl Method for Tiled {
         };
         let cache = &mut self.cache;
         let params = cache.uniform(gpu, "strata.tiled.params", bytemuck::bytes_of(&params));
-        let counts = cache.storage(gpu, "strata.tiled.counts", tiles * 4)?;
-        let starts = cache.storage(gpu, "strata.tiled.starts", tiles * 4)?;
+        // Counts then work, starts then the order.
+        let counts = cache.storage(gpu, "strata.tiled.counts", tiles * 8)?;
+        let starts = cache.storage(gpu, "strata.tiled.starts", tiles * 8)?;
         let codes = cache.storage(gpu, "strata.tiled.codes", capacity * LIST_ENTRY_BYTES)?;
         let state = cache.storage(gpu, "strata.tiled.state", pixels * STATE_BYTES)?;
         let tile_rounds = cache.storage(gpu, "strata.tiled.rounds", tiles * 4)?;

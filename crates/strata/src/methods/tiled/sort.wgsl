@@ -3,7 +3,7 @@
 #import strata::raster::records::{recorded_triangle, records_written}
 #import strata::raster::setup::{tile_coverage}
 #import strata::tiled::constants::{COUNTER_EMPTY_ITEMS}
-#import strata::tiled::lists::{item_mask, tile_codes, tile_counts, tile_of, tile_starts, tp, work_add}
+#import strata::tiled::lists::{add_tile_work, item_mask, set_tile_order, tile_codes, tile_counts, tile_of, tile_starts, tile_work, tp, work_add}
 
 // Sorts the rasterizer's work items into one list per tile: the count pass computes each
 // item's coverage once — the 64-bit mask of the tile's pixel centers its set-up triangle (the
@@ -51,6 +51,7 @@ fn cs_count(
         mask = tile_coverage(recorded_triangle(listed.item.prim).t, listed.item.tile);
         if any(mask != vec2<u32>(0u)) {
             atomicAdd(&tile_counts[listed.tile], 1u);
+            add_tile_work(listed.tile, countOneBits(mask.x) + countOneBits(mask.y));
         } else {
             atomicAdd(&empty_items, 1u);
         }
@@ -68,17 +69,35 @@ fn cs_count(
 
 const SCAN_THREADS: u32 = 256u;
 var<workgroup> partial: array<u32, SCAN_THREADS>;
+// Tiles by their work's power of two (class c: work in [2^(c−1), 2^c), class 0: none), and where
+// each class starts in the order, most work first.
+const WORK_CLASSES: u32 = 16u;
+var<workgroup> class_counts: array<atomic<u32>, WORK_CLASSES>;
+var<workgroup> class_starts: array<u32, WORK_CLASSES>;
+
+fn work_class(work: u32) -> u32 {
+    return min(WORK_CLASSES - 1u, select(0u, firstLeadingBit(work) + 1u, work > 0u));
+}
 
 // One workgroup: each thread sums a run of consecutive tiles, the runs' sums are scanned in
-// workgroup memory, and each thread writes its run's starts and zeroes its counts.
+// workgroup memory, and each thread writes its run's starts and zeroes its counts. Then the
+// tiles are ordered by work, largest first (a counting sort by power of two; within a class in
+// any order): the one-pass kernel's workgroups take them in that order, so that the heaviest
+// tiles start first instead of setting the frame's end. Which workgroup takes which tile
+// changes no byte of the frame.
 @compute @workgroup_size(256)
 fn cs_scan(@builtin(local_invocation_index) lid: u32) {
+    if lid < WORK_CLASSES {
+        atomicStore(&class_counts[lid], 0u);
+    }
+    workgroupBarrier();
     let run = (tp.tiles + SCAN_THREADS - 1u) / SCAN_THREADS;
     let first = lid * run;
     let last = min(first + run, tp.tiles);
     var sum = 0u;
     for (var t = first; t < last; t++) {
         sum += atomicLoad(&tile_counts[t]);
+        atomicAdd(&class_counts[work_class(tile_work(t))], 1u);
     }
     partial[lid] = sum;
     workgroupBarrier();
@@ -97,6 +116,19 @@ fn cs_scan(@builtin(local_invocation_index) lid: u32) {
         tile_starts[t] = at;
         at += count;
         atomicStore(&tile_counts[t], 0u);
+    }
+    if lid == 0u {
+        var start = 0u;
+        for (var c = WORK_CLASSES; c > 0u; c--) {
+            class_starts[c - 1u] = start;
+            start += atomicLoad(&class_counts[c - 1u]);
+            atomicStore(&class_counts[c - 1u], 0u);
+        }
+    }
+    workgroupBarrier();
+    for (var t = first; t < last; t++) {
+        let c = work_class(tile_work(t));
+        set_tile_order(class_starts[c] + atomicAdd(&class_counts[c], 1u), t);
     }
 }
 
