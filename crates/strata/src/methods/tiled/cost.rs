@@ -16,7 +16,9 @@
 //!   items;
 //! - an **item's coverage** (64 pixel centers against 3 edges, and its list entry written): the
 //!   old scatter's time over its items, less the setup it did for each;
-//! - a **tile scanned**: the scan's time over the tiles;
+//! - a **scan step** (one workgroup's threads each loading a tile's words, or one step of its
+//!   prefix sum): the scan's time over its steps, 2·⌈tiles / threads⌉ + log₂ threads (256
+//!   threads then, the H100's 1024 since);
 //! - a **warp step** of the evaluation loops (a 32-lane warp evaluating and shading what its
 //!   lanes cover of one list entry, or one fragment a lane): the old rounds' time, less their
 //!   setups, over their warp steps (evaluations over 32 × lane occupancy);
@@ -43,6 +45,17 @@ pub const ASSUMED_BANDWIDTH: f64 = 2.0e12;
 /// A sort step's cost as a share of a warp step's: a compare-and-swap is about 16 instructions
 /// on workgroup memory, an evaluation and shading with the scene's lights about 250.
 pub const SORT_STEP_SHARE: f64 = 16.0 / 250.0;
+/// Threads of the scan's workgroup in the calibration frame, and on an H100 today
+/// (`tiled::scan_threads`: its 1024 invocations per workgroup).
+const CALIBRATION_SCAN_THREADS: u64 = 256;
+const H100_SCAN_THREADS: u64 = 1024;
+
+/// Steps of the scan's one workgroup of `threads` over `tiles`: each thread's two walks of its run
+/// of tiles, one after another, and the prefix sum's steps.
+fn scan_steps(tiles: u64, threads: u64) -> u64 {
+    2 * tiles.div_ceil(threads) + threads.ilog2() as u64
+}
+
 /// Bytes of a setup record.
 const RECORD_BYTES: f64 = crate::raster::SETUP_RECORD_BYTES as f64;
 
@@ -171,8 +184,8 @@ pub struct Costs {
     pub item_counted: f64,
     /// An item's coverage.
     pub coverage: f64,
-    /// A tile scanned.
-    pub tile_scanned: f64,
+    /// A step of the scan's one workgroup.
+    pub scan_step: f64,
     /// A warp step of the evaluation loops.
     pub warp_step: f64,
     /// A pixel finished from its state.
@@ -200,7 +213,10 @@ impl Costs {
             binned,
             item_counted: per(measured.count, work.items),
             coverage: (ns(measured.scatter) - setup * scatter_setups as f64) / work.items as f64,
-            tile_scanned: per(measured.scan, work.tiles),
+            scan_step: per(
+                measured.scan,
+                scan_steps(work.tiles, CALIBRATION_SCAN_THREADS),
+            ),
             warp_step: (ns(measured.tile_passes) - setup * round_setups as f64)
                 / work.warp_steps as f64,
             pixel_finished: per(measured.finish, work.pixels),
@@ -224,7 +240,7 @@ impl Costs {
             bin: ms(self.binned * n(work.triangles)),
             args: self.args_ms,
             count: ms(self.item_counted * n(work.items)),
-            scan: ms(self.tile_scanned * n(work.tiles)),
+            scan: ms(self.scan_step * n(scan_steps(work.tiles, CALIBRATION_SCAN_THREADS))),
             scatter: ms((self.setup + self.coverage) * n(work.items)),
             tile_passes: ms(self.setup * n(round_setups) + self.warp_step * n(work.warp_steps)),
             finish: ms(self.pixel_finished * n(work.pixels)),
@@ -245,7 +261,7 @@ impl Costs {
             bin: ms(self.binned * n(work.triangles)),
             args: self.args_ms,
             count: ms((self.coverage + self.item_counted) * n(work.items)),
-            scan: ms(self.tile_scanned * n(work.tiles)),
+            scan: ms(self.scan_step * n(scan_steps(work.tiles, H100_SCAN_THREADS))),
             scatter: ms(self.item_counted * n(work.items)),
             tile_passes: ms(record_load * n(work.record_loads)
                 + self.warp_step * n(work.warp_steps)

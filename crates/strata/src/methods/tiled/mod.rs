@@ -11,7 +11,7 @@
 //! - **count**, **scan**, **scatter**: each item's coverage — the 64-bit mask of its tile's
 //!   pixel centers inside the record's triangle — is computed once and stored in the item; the
 //!   items that cover a center are counted per tile with the centers they cover (the others are
-//!   dropped here), the counts scanned (one workgroup) into list starts and the tiles ordered by
+//!   dropped here), the counts scanned (one workgroup of up to 1024 threads) into list starts and the tiles ordered by
 //!   their covered centers, most first (a counting sort by power of two), and each kept item's
 //!   index scattered into its tile's list.
 //! - **fast** (`fast.wgsl`, four workgroups of 64 threads per tile, taking the tiles in the
@@ -228,9 +228,21 @@ pub fn rounds_for(fragments: u32) -> u32 {
     fragments.div_ceil(KEEP).max(1)
 }
 
-/// The list sort's stage (entries `cs_count`, `cs_scan`, `cs_scatter`).
-pub fn sort_stage() -> Stage {
-    stage("strata.tiled.sort", SORT_WGSL)
+/// The list sort's stage (entries `cs_count`, `cs_scan`, `cs_scatter`), its scan of
+/// `scan_threads` threads.
+pub fn sort_stage(scan_threads: u32) -> Stage {
+    stage("strata.tiled.sort", SORT_WGSL).defs(&Defs::default().value("SCAN_THREADS", scan_threads))
+}
+
+/// Threads of the scan's one workgroup on `gpu`: as many as it runs in a workgroup, at most
+/// 1024, a power of two (each thread walks ⌈tiles / threads⌉ tiles twice, one after another).
+pub fn scan_threads(gpu: &Gpu) -> u32 {
+    let limits = &gpu.limits;
+    let most = limits
+        .max_compute_invocations_per_workgroup
+        .min(limits.max_compute_workgroup_size_x)
+        .clamp(64, 1024);
+    1 << most.ilog2()
 }
 
 /// The tile pass's stage (entries `cs_round`, `cs_finish`).
@@ -284,7 +296,7 @@ impl Tiled {
         let raster = ComputeRaster::with_binning(gpu, scene, options, Binning::SetupRecords);
         let raster_layout = raster.layout().clone();
         let layouts = [&scene.frame_layout, &layout, &raster_layout];
-        let sort = sort_stage().module(&gpu.device);
+        let sort = sort_stage(scan_threads(gpu)).module(&gpu.device);
         let tile = tile_stage().module(&gpu.device);
         let fast = fast_stage(fast_fragments(gpu)).module(&gpu.device);
         let pipeline =

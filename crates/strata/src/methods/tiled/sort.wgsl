@@ -67,7 +67,9 @@ fn cs_count(
     }
 }
 
-const SCAN_THREADS: u32 = 256u;
+// The scan's one workgroup: as many threads as the device runs in one (at most 1024: the
+// serial loops over each thread's run of tiles set its time), a power of two.
+const SCAN_THREADS: u32 = #{SCAN_THREADS}u;
 var<workgroup> partial: array<u32, SCAN_THREADS>;
 // Tiles by their work's power of two (class c: work in [2^(c−1), 2^c), class 0: none), and where
 // each class starts in the order, most work first.
@@ -79,13 +81,13 @@ fn work_class(work: u32) -> u32 {
     return min(WORK_CLASSES - 1u, select(0u, firstLeadingBit(work) + 1u, work > 0u));
 }
 
-// One workgroup: each thread sums a run of consecutive tiles, the runs' sums are scanned in
-// workgroup memory, and each thread writes its run's starts and zeroes its counts. Then the
-// tiles are ordered by work, largest first (a counting sort by power of two; within a class in
-// any order): the one-pass kernel's workgroups take them in that order, so that the heaviest
-// tiles start first instead of setting the frame's end. Which workgroup takes which tile
-// changes no byte of the frame.
-@compute @workgroup_size(256)
+// One workgroup: each thread sums a run of consecutive tiles and counts them by work class, the
+// runs' sums are scanned in workgroup memory (the classes' starts meanwhile, most work first),
+// and each thread writes its run's starts, zeroes its counts and places its tiles in the order
+// the one-pass kernel's workgroups take them (within a class in any order): the heaviest tiles
+// start first instead of setting the frame's end. Which workgroup takes which tile changes no
+// byte of the frame. Two passes over the tiles in all.
+@compute @workgroup_size(#{SCAN_THREADS})
 fn cs_scan(@builtin(local_invocation_index) lid: u32) {
     if lid < WORK_CLASSES {
         atomicStore(&class_counts[lid], 0u);
@@ -101,6 +103,14 @@ fn cs_scan(@builtin(local_invocation_index) lid: u32) {
     }
     partial[lid] = sum;
     workgroupBarrier();
+    if lid == 0u {
+        var start = 0u;
+        for (var c = WORK_CLASSES; c > 0u; c--) {
+            class_starts[c - 1u] = start;
+            start += atomicLoad(&class_counts[c - 1u]);
+            atomicStore(&class_counts[c - 1u], 0u);
+        }
+    }
     for (var step = 1u; step < SCAN_THREADS; step <<= 1u) {
         var before = 0u;
         if lid >= step {
@@ -116,17 +126,6 @@ fn cs_scan(@builtin(local_invocation_index) lid: u32) {
         tile_starts[t] = at;
         at += count;
         atomicStore(&tile_counts[t], 0u);
-    }
-    if lid == 0u {
-        var start = 0u;
-        for (var c = WORK_CLASSES; c > 0u; c--) {
-            class_starts[c - 1u] = start;
-            start += atomicLoad(&class_counts[c - 1u]);
-            atomicStore(&class_counts[c - 1u], 0u);
-        }
-    }
-    workgroupBarrier();
-    for (var t = first; t < last; t++) {
         let c = work_class(tile_work(t));
         set_tile_order(class_starts[c] + atomicAdd(&class_counts[c], 1u), t);
     }

@@ -76,7 +76,8 @@ fn render_on(
 
 #[test]
 fn stages_validate() {
-    crate::gpu::shader::validate(&sort_stage());
+    crate::gpu::shader::validate(&sort_stage(scan_threads(gpu())));
+    crate::gpu::shader::validate(&sort_stage(64));
     crate::gpu::shader::validate(&tile_stage());
 }
 
