@@ -129,9 +129,13 @@ fn covered_in(start: u32, n: u32, lid: u32, region: vec2<u32>) -> u32 {
 @compute @workgroup_size(8, 8)
 fn cs_fast(invocation: TileThread) {
     let lid = invocation.lid;
-    // Four workgroups per tile along x, in the scan's order of the tiles (most work first).
+    // Four workgroups per tile along x, in the scan's order of the tiles (most work first) or in
+    // raster order (`orders_tiles_by_work`).
     let quarter = invocation.group.x % 4u;
-    let tile = tile_in_order(invocation.group.y * tp.tiles_x + invocation.group.x / 4u);
+    var tile = invocation.group.y * tp.tiles_x + invocation.group.x / 4u;
+    if tp.order_by_work != 0u {
+        tile = tile_in_order(tile);
+    }
     let tile_xy = vec2<u32>(tile % tp.tiles_x, tile / tp.tiles_x);
     let corner = vec2<i32>(tile_xy * 8u);
     if lid == 0u {
