@@ -366,13 +366,10 @@ impl Method for Tiled {
             k => self.rounds.min(rounds_for(k)),
         };
         // The tail matters only where --k leaves fragments past the k nearest.
-        let tail = match k {
-            0 => crate::methods::kbuffer::TailSettings {
-                mode: 0,
-                ..crate::methods::kbuffer::tail_settings(ctx.options, ctx.scene)
-            },
-            _ => crate::methods::kbuffer::tail_settings(ctx.options, ctx.scene),
-        };
+        let mut tail = crate::methods::kbuffer::tail_settings(ctx.options, ctx.scene);
+        if k == 0 {
+            tail.mode = 0;
+        }
         let params = TiledParams {
             tiles_x,
             tiles: tiles as u32,
