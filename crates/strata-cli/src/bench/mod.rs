@@ -216,7 +216,7 @@ const EXPERIMENTS: &[Experiment] = &[
     },
     Experiment {
         name: "msaa",
-        description: "issue 13: every family that takes --msaa at 1, 4 and 8 samples per pixel (8 where the device rasterizes it): time, memory, fragments stored (a pixel on a mesh edge stores one per primitive touching it), abuffer-fixed's drops at k = 16 (edges overflowing per-pixel arrays), kplus-heap's and kb-mdt32's per-sample storage (each sample its own k: S times the memory, nothing lost at edges), and peeling and convex per sample (f2b, kpeel: one more geometry pass, the account)",
+        description: "issue 13: every family that takes --msaa at 1, 4 and 8 samples per pixel (8 where the device rasterizes it): time, memory, fragments stored (a pixel on a mesh edge stores one per primitive touching it), abuffer-fixed's drops at k = 16 (edges overflowing per-pixel arrays), kplus-heap's and kb-mdt32's per-sample storage (each sample its own k: S times the memory, nothing lost at edges), peeling and convex per sample (f2b, kpeel: one more geometry pass, the account), and tiled's samples found in compute (8 on any device)",
         scenes: &["builtin:dragon", "builtin:spheres", "builtin:nvpro?objects=1024&subdiv=16&seed=0"],
         size_gpu: Size::new(1024, 1024),
         size_cpu: Size::new(160, 160),
@@ -225,6 +225,7 @@ const EXPERIMENTS: &[Experiment] = &[
         runs: || {
             let base = [
                 Run::plain("abuffer-ll"),
+                Run::plain("tiled"),
                 Run::plain("sbuffer"),
                 Run::with_k("kb-ab-ll", 8, true),
                 Run::with_k("kb-ab-fixed", 8, true),

@@ -37,6 +37,9 @@
 //!   samples it covers), one routing per pixel (a reduce pass joins the samples' bounds, so a
 //!   fragment has one bucket at all its samples), and claims and records per sample entry; the
 //!   resolve counts a fragment kept at several samples once, at the lowest.
+//! - **In compute** (`tiled`): no multisampled target at all; it tests each fragment's samples on
+//!   the snapped edges itself, so it takes 4 or 8 samples on any device and backend (its module
+//!   has how it keeps them).
 //! - **Blended targets** (`wboit`, `mboit`, `unsorted`, `sorted`): multisampled targets; the
 //!   hardware writes each fragment into the samples it covers and the composite averages the
 //!   samples' results; mboit weights a fragment by the mean of its covered samples'

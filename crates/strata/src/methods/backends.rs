@@ -11,7 +11,8 @@
 //! ([`Offer::documented`]), which says where a feature can exist, not that a device has it.
 //!
 //! What the GL backend cannot do, as wgpu 30 translates to GLSL: read or write
-//! `@builtin(sample_mask)` (naga declares it `uint` from GLSL's `int[]`), so no `--msaa` there;
+//! `@builtin(sample_mask)` (naga declares it `uint` from GLSL's `int[]`), so no `--msaa` there
+//! but in `tiled`, which finds its samples in compute;
 //! no 64-bit atomics, no FLOAT32_BLENDABLE, no passthrough. A WebGL2 context (no compute, no
 //! storage buffers) runs f2b and wboit only, through [`super::downlevel::DownlevelFrame`].
 

@@ -232,7 +232,9 @@ pub fn create(
     descriptor.check_raster(options.build.raster)?;
     descriptor.check_msaa(options.build.msaa, scene.triangle_count as u64)?;
     descriptor.check_blend(&scene.blend_modes, options.frame.kbuffer.tail)?;
-    crate::frame::msaa::check_device(gpu, options.build.msaa)?;
+    if !descriptor.samples_in_compute {
+        crate::frame::msaa::check_device(gpu, options.build.msaa)?;
+    }
     crate::gpu::validated(gpu, id.as_str(), || {
         (descriptor.create)(
             id,

@@ -180,6 +180,10 @@ pub struct Descriptor {
     /// CLI raises `--msaa 1` to it.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub min_samples: u32,
+    /// With `--msaa`, it finds each fragment's samples itself, in compute (tiled): any sample
+    /// count strata takes, on any backend, whatever the device's render targets support.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub samples_in_compute: bool,
     /// With `--msaa`, each sample keeps its own storage (capture-time k-buffers choose what to
     /// keep per sample); else fragments are stored per pixel with their coverage masks.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -276,6 +280,7 @@ impl Descriptor {
             ),
             msaa: Support::Yes,
             min_samples: 1,
+            samples_in_compute: false,
             per_sample_storage: false,
             temporal: false,
             needs: wgpu::Features::empty(),

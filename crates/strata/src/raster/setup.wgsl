@@ -199,9 +199,15 @@ fn triangle_of(c0: WindowCorner, c1: WindowCorner, c2: WindowCorner) -> SetupTri
     t.doubled_area = wide_add(wide_mul(b.x - a.x, c.y - a.y), wide_negate(wide_mul(c.x - a.x, b.y - a.y)));
     let lo = min(a, min(b, c));
     let hi = max(a, max(b, c));
-    // Pixel p is a candidate when its center p + 1/2 lies in [lo, hi] (arithmetic shifts floor).
-    let first = (lo - vec2<i32>(HALF_SUBPIXEL) + vec2<i32>(255)) >> vec2<u32>(8u);
-    let last = (hi - vec2<i32>(HALF_SUBPIXEL)) >> vec2<u32>(8u);
+    // Pixel p is a candidate when its center p + 1/2 lies in [lo, hi] (arithmetic shifts floor);
+    // with --msaa (only tiled takes it here) when its square [p, p + 1) meets [lo, hi], which
+    // holds every sample position.
+    var first = (lo - vec2<i32>(HALF_SUBPIXEL) + vec2<i32>(255)) >> vec2<u32>(8u);
+    var last = (hi - vec2<i32>(HALF_SUBPIXEL)) >> vec2<u32>(8u);
+    if frame.coverage_bits != 0u {
+        first = lo >> vec2<u32>(8u);
+        last = hi >> vec2<u32>(8u);
+    }
     t.min = max(first, vec2<i32>(0));
     t.max = min(last, vec2<i32>(frame.size) - vec2<i32>(1));
     let positive_w = c0.inv_w > 0.0 && c1.inv_w > 0.0 && c2.inv_w > 0.0;
@@ -284,9 +290,15 @@ fn edge_value(e: Edges, i: u32, s: vec2<i32>) -> vec2<u32> {
 }
 
 // The pixel centers of the 8×8 tile `tile` inside `t`, as a 64-bit mask (bit (y − 8·tile.y)·8
-// + x − 8·tile.x, low word first): the edge functions evaluated exactly at the first center
-// and stepped by whole pixels.
+// + x − 8·tile.x, low word first).
 fn tile_coverage(t: SetupTriangle, tile: vec2<i32>) -> vec2<u32> {
+    return tile_coverage_at(t, tile, vec2<i32>(HALF_SUBPIXEL));
+}
+
+// The pixels of the 8×8 tile `tile` whose point at `offset` (subpixels from the pixel's
+// corner: a sample position) lies inside `t`, as `tile_coverage`'s mask: the edge functions
+// evaluated exactly at the first pixel's point and stepped by whole pixels.
+fn tile_coverage_at(t: SetupTriangle, tile: vec2<i32>, offset: vec2<i32>) -> vec2<u32> {
     var mask = vec2<u32>(0u);
     let corner = tile * TILE;
     let lo = max(t.min, corner);
@@ -300,7 +312,7 @@ fn tile_coverage(t: SetupTriangle, tile: vec2<i32>) -> vec2<u32> {
     var edge: array<vec2<u32>, 3>;
     var step_x: array<vec2<u32>, 3>;
     var step_y: array<vec2<u32>, 3>;
-    let start = lo * 256 + vec2<i32>(HALF_SUBPIXEL);
+    let start = lo * 256 + offset;
     for (var i = 0u; i < 3u; i++) {
         edge[i] = edge_value(edges, i, start);
         step_x[i] = wide_mul(-delta[i].y, 256);
@@ -341,12 +353,17 @@ struct Barycentrics {
 }
 
 fn barycentrics_at(t: SetupTriangle, pixel: vec2<i32>) -> Barycentrics {
+    return barycentrics_at_point(t, vec2<f32>(f32(pixel.x) + 0.5, f32(pixel.y) + 0.5));
+}
+
+// `barycentrics_at` of the window point `point` (pixels): a sample position with --msaa.
+fn barycentrics_at_point(t: SetupTriangle, point: vec2<f32>) -> Barycentrics {
     var corners = t.corners;
     let w0 = corners[0].window;
     let e1 = corners[1].window - w0;
     let e2 = corners[2].window - w0;
     let area = e1.x * e2.y - e2.x * e1.y;
-    let p = vec2<f32>(f32(pixel.x) + 0.5, f32(pixel.y) + 0.5) - w0;
+    let p = point - w0;
     let l1 = (p.x * e2.y - e2.x * p.y) / area;
     let l2 = (e1.x * p.y - p.x * e1.y) / area;
     let l = vec3<f32>(1.0 - l1 - l2, l1, l2);

@@ -1,9 +1,11 @@
 #define_import_path strata::tiled::fast
-#import strata::scene::{behind_opaque, frame, pixel_index, report_pixels, scene_fragment}
+#import strata::scene::{fragment_coverage, frame, pixel_index, report_pixels, scene_fragment_covering}
+#import strata::color::{resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::records::{recorded_triangle}
-#import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative, window_position}
+#import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative}
+#import strata::tiled::samples::{fragment_samples}
 #import strata::tiled::constants::{COUNTER_DEEPEST, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ONE_PASS_PIXELS, COUNTER_PAST_CAPACITY, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_SORT_STEPS, COUNTER_WARP_STEPS}
 #import strata::tiled::lists::{PROGRESS_RESOLVED, list_entry, tile_in_order, output, set_progress, tile_counts, tile_starts, tiled_counters, tiled_tail, tp, work_add}
 #import strata::tail::{composite_tail_of, tail_empty, tail_join}
@@ -239,14 +241,14 @@ fn cs_fast(invocation: TileThread) {
             let prim = chunk_prims[j];
             let b = barycentrics_at(t, pixel);
             evaluations += 1u;
-            // The GPU path clips at the far plane and tests the opaque depth with LESS.
-            if b.depth > 1.0 || behind_opaque(window_position(pixel, b.depth)) {
+            let covered = fragment_samples(t, pixel, b.depth);
+            if covered == 0u {
                 continue;
             }
             let front_facing = wide_negative(t.doubled_area);
             shadings += 1u;
             let slot = atomicAdd(&stored, 1u);
-            fragments[slot] = scene_fragment(varying_from(t, prim, pixel, b), front_facing);
+            fragments[slot] = scene_fragment_covering(varying_from(t, prim, pixel, b), front_facing, covered);
             fragment_lanes[slot] = lane;
             atomicAdd(&pixel_counts[lane], 1u);
         }
@@ -320,6 +322,10 @@ fn resolve_pixel(pixel: vec2<u32>, begin: u32, count: u32) -> u32 {
         }
         by_pixel[begin + j] = moving;
     }
+#ifdef MULTISAMPLED
+    composite_samples(pixel, begin, count);
+    return steps + count;
+#else
     var limit = count;
     if tp.k != 0u {
         limit = min(count, tp.k);
@@ -345,4 +351,50 @@ fn resolve_pixel(pixel: vec2<u32>, begin: u32, count: u32) -> u32 {
     atomicMax(&resolved[3], count);
     atomicAdd(&resolved[4], 1u);
     return steps + count;
+#endif
 }
+
+#ifdef MULTISAMPLED
+// --msaa: each sample composites the sorted run's fragments that cover it — with --k its k
+// nearest, the rest dropped or joined to its tail — and the pixel is the samples' mean. A
+// fragment counts as composited once, however many samples composited it.
+fn composite_samples(pixel: vec2<u32>, begin: u32, count: u32) {
+    let tail_params = tiled_tail();
+    var sum = resolved_sum_new();
+    // Bit i % 32 of word i / 32: the run's fragment i was composited by some sample.
+    var used: array<u32, 4>;
+    for (var s = 0u; s < frame.coverage_bits; s++) {
+        var composite = composite_new();
+        var tail = tail_empty();
+        var past = 0u;
+        for (var i = 0u; i < count; i++) {
+            let f = fragments[by_pixel[begin + i]];
+            if (fragment_coverage(f) & (1u << s)) == 0u {
+                continue;
+            }
+            if tp.k == 0u || composite.count < tp.k {
+                composite_front(&composite, f);
+                used[i / 32u] |= 1u << (i % 32u);
+            } else if tail_params.mode != 0u {
+                tail_join(&tail, tail_params, f);
+                past += 1u;
+            } else {
+                break;
+            }
+        }
+        if past > 0u {
+            composite_tail_of(&composite, tail, tail_params);
+        }
+        resolved_sum_add(&sum, composite_finish(composite));
+    }
+    let kept = countOneBits(used[0]) + countOneBits(used[1]) + countOneBits(used[2]) + countOneBits(used[3]);
+    let p = pixel_index(pixel);
+    output[p] = resolved_mean(sum, frame.coverage_bits, kept);
+    set_progress(p, PROGRESS_RESOLVED);
+    atomicAdd(&resolved[0], count);
+    atomicAdd(&resolved[1], kept);
+    atomicAdd(&resolved[2], count - kept);
+    atomicMax(&resolved[3], count);
+    atomicAdd(&resolved[4], 1u);
+}
+#endif

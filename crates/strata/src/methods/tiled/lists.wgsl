@@ -1,5 +1,4 @@
 #define_import_path strata::tiled::lists
-#import strata::tiled::constants::{STATE_WORDS}
 #import strata::raster::items::{ITEM_WORDS, items}
 #import strata::raster::records::{records_written}
 #import strata::tiled::params::{TiledParams}
@@ -27,8 +26,10 @@
 // Each pixel's result.
 @group(1) @binding(5) var<storage, read_write> output: array<Resolved>;
 // Each pixel's progress word (the first tp.pixels words; all zero, FRESH, before the one-pass
-// kernel), then its compositing state, STATE_WORDS − 1 words, valid where the progress says a
-// round or the kernel left fragments to composite (only the progress words are cleared).
+// kernel), then its compositing state, tp.state_words words, valid where the progress says a
+// round left fragments to composite (only the progress words are cleared). Single-sampled the
+// state is one composite; multisampled (`samples.wgsl`) the bound and account of the pixel's
+// rounds and a composite per sample.
 @group(1) @binding(6) var<storage, read_write> pixel_state: array<u32>;
 // Rounds each tile ran.
 @group(1) @binding(7) var<storage, read_write> tile_rounds: array<u32>;
@@ -61,19 +62,18 @@ fn set_progress(p: u32, progress: u32) {
     pixel_state[p] = progress;
 }
 
-// Where pixel p's composite words start, after every pixel's progress word.
+// Where pixel p's state words start, after every pixel's progress word.
 fn state_at(p: u32) -> u32 {
-    return tp.pixels + p * (STATE_WORDS - 1u);
+    return tp.pixels + p * tp.state_words;
 }
 
-fn load_state(p: u32) -> PixelState {
-    let progress = progress_of(p);
-    if progress == PROGRESS_FRESH || progress == PROGRESS_RESOLVED {
-        return PixelState(composite_new(), progress);
-    }
-    let w = state_at(p);
+// Words of a composite in the state.
+const COMPOSITE_WORDS: u32 = 9u;
+
+// The composite stored at word w of the state (its view distance recomputed from its depth).
+fn load_composite(w: u32) -> Composite {
     let depth = state_float(w + 7u);
-    let s = Composite(
+    return Composite(
         vec3<f32>(state_float(w), state_float(w + 1u), state_float(w + 2u)),
         pixel_state[w + 6u],
         vec3<f32>(state_float(w + 3u), state_float(w + 4u), state_float(w + 5u)),
@@ -81,12 +81,9 @@ fn load_state(p: u32) -> PixelState {
         depth,
         view_distance(depth),
     );
-    return PixelState(s, progress);
 }
 
-fn store_state(p: u32, state: PixelState) {
-    let w = state_at(p);
-    let s = state.s;
+fn store_composite(w: u32, s: Composite) {
     pixel_state[w] = bitcast<u32>(s.color.r);
     pixel_state[w + 1u] = bitcast<u32>(s.color.g);
     pixel_state[w + 2u] = bitcast<u32>(s.color.b);
@@ -96,6 +93,18 @@ fn store_state(p: u32, state: PixelState) {
     pixel_state[w + 6u] = s.count;
     pixel_state[w + 7u] = bitcast<u32>(s.last_depth);
     pixel_state[w + 8u] = s.last_tag;
+}
+
+fn load_state(p: u32) -> PixelState {
+    let progress = progress_of(p);
+    if progress == PROGRESS_FRESH || progress == PROGRESS_RESOLVED {
+        return PixelState(composite_new(), progress);
+    }
+    return PixelState(load_composite(state_at(p)), progress);
+}
+
+fn store_state(p: u32, state: PixelState) {
+    store_composite(state_at(p), state.s);
     set_progress(p, state.progress);
 }
 

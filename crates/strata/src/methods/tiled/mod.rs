@@ -54,11 +54,26 @@
 //! shaded, and the ones composited leave it: integer sums, so no per-pixel atomics and no
 //! dependence on order).
 //!
+//! `--msaa 4|8` (`samples.wgsl`), as the reference samples: the bin's bounds take every pixel
+//! whose square meets the triangle, an item's coverage is the tile's pixels with a sample inside
+//! (the exact top-left rule at each standard position, [`sample_grid`]), and a fragment — one
+//! per (fan triangle, pixel) — is evaluated and shaded at the pixel center once, its tag
+//! carrying the samples it covers (those in front of the far plane). The one-pass kernel
+//! composites each sample's fragments from the pixel's sorted run (its own k nearest and tail)
+//! and writes the samples' mean. The rounds take the pixel's KEEP nearest in its (depth, tag)
+//! order — which, restricted to a sample, is the sample's order — and composite each into the
+//! samples it covers that have room, keeping a composite per sample; a sample that may fill in
+//! a round joins every fragment behind the bound that covers it to its own tail. A fragment
+//! counts once however many samples composited it. It needs no multisampled target, so it runs
+//! 8× on devices whose targets take 4 (lavapipe) and on GL, whose shaders cannot read the
+//! sample mask.
+//!
 //! Memory: the fast pass's store is workgroup memory (24 bytes a fragment); in buffers, the
 //! rasterizer's 16 bytes per item (record, tile, coverage), 88 per set-up fan triangle and 48
 //! of constants, 4 bytes per listed item, 20 per tile (count, work, start, order, rounds), 40 per pixel
-//! (state: its progress word, then its composite), 144 of counters and 48 of parameters.
-//! Limits: the scene's vertices in one storage binding; `--msaa`, temporal culling, `--order`
+//! (state: its progress word, then its composite; with `--msaa S`, [`state_bytes`]: 20 + 36·S),
+//! 144 of counters and 64 of parameters.
+//! Limits: the scene's vertices in one storage binding; temporal culling, `--order`
 //! and an application's draw callback are not supported (it reads the scene's triangles
 //! itself). On lavapipe, whose invocations stop looping after 65535 iterations in all, a round
 //! can walk a list of a few thousand chunks of triangles at most; a walk cut short is counted
@@ -86,6 +101,7 @@ pub const LIBRARY: Library = &[
     CONSTANTS_WGSL,
     LISTS_WGSL,
     SORT_WGSL,
+    SAMPLES_WGSL,
     TILE_WGSL,
     FAST_WGSL,
 ];
@@ -94,7 +110,6 @@ const PARAMS_WGSL: &str = wgsl_module!("strata::tiled::params", TiledParams);
 const CONSTANTS_WGSL: &str = wgsl_constants!(
     "strata::tiled::constants",
     KEEP = KEEP,
-    STATE_WORDS = STATE_BYTES / 4,
     COUNTER_WORDS = COUNTER_WORDS,
     COUNTER_ROUNDS = COUNTER_ROUNDS,
     ROUND_BINS = ROUND_BINS,
@@ -115,6 +130,7 @@ const CONSTANTS_WGSL: &str = wgsl_constants!(
 );
 const LISTS_WGSL: &str = include_str!("lists.wgsl");
 const SORT_WGSL: &str = include_str!("sort.wgsl");
+const SAMPLES_WGSL: &str = include_str!("samples.wgsl");
 const TILE_WGSL: &str = include_str!("tile.wgsl");
 const FAST_WGSL: &str = include_str!("fast.wgsl");
 
@@ -126,8 +142,41 @@ pub const LIST_ENTRY_BYTES: u64 = 4;
 /// Bytes per tile: its item count, its work, its list's start, its place in the one-pass
 /// kernel's order and its rounds.
 pub const TILE_BYTES: u64 = 20;
-/// Bytes per pixel of compositing state between rounds: its progress word and its composite.
+/// Bytes per pixel of compositing state between rounds, single-sampled: its progress word and
+/// its composite ([`state_bytes`]).
 pub const STATE_BYTES: u64 = 40;
+/// Bytes of one composite in a pixel's state: color, transmittance, count, the last fragment's
+/// depth and tag.
+const COMPOSITE_BYTES: u64 = 36;
+/// Bytes of a multisampled pixel's state besides its samples' composites: its progress word,
+/// the last fragment a round took (depth and tag: the next round's bound), the fragments the
+/// rounds took and those some sample composited.
+const SAMPLES_STATE_BYTES: u64 = 20;
+
+/// Bytes per pixel of compositing state between rounds at `samples` per pixel: single-sampled
+/// the progress word and one composite, with `--msaa` a composite per sample besides
+/// the pixel's bound and account.
+pub fn state_bytes(samples: u32) -> u64 {
+    match samples {
+        0 | 1 => STATE_BYTES,
+        s => SAMPLES_STATE_BYTES + s as u64 * COMPOSITE_BYTES,
+    }
+}
+
+/// `--msaa`'s sample positions ([`crate::frame::msaa::positions`]) for the shaders: sample s's
+/// position in sixteenths of a pixel in byte s % 4 of word s / 4, x in its low four bits and y
+/// in its high four (every standard position lies on that grid, strictly inside the pixel).
+pub fn sample_grid(samples: u32) -> [u32; 2] {
+    let mut grid = [0u32; 2];
+    if samples <= 1 {
+        return grid;
+    }
+    for (s, p) in crate::frame::msaa::positions(samples).iter().enumerate() {
+        let [x, y] = p.map(|c| (c * 16.0) as u32);
+        grid[s / 4] |= (x | y << 4) << (8 * (s % 4));
+    }
+    grid
+}
 /// Counter words.
 pub const COUNTER_WORDS: u64 = 36;
 /// Tiles by the rounds they ran: bin r for r rounds, the last bin for ROUND_BINS − 1 or more.
@@ -223,17 +272,25 @@ gpu_struct! {
         /// 1: the one-pass kernel's workgroups take the tiles most work first (the scan's
         /// order); 0: in raster order ([`orders_tiles_by_work`]).
         pub order_by_work: u32,
-        pad_b: u32,
+        /// Words of a pixel's state after its progress word ([`state_bytes`]).
+        pub state_words: u32,
+        /// With `--msaa`, the sample positions ([`sample_grid`]).
+        pub sample_grid: [u32; 2],
+        pad_b: [u32; 2],
     }
 }
 
-/// The stages, with the rasterizer's bindings in group 2 (after the frame's and tiled's).
-pub fn stage(label: &str, source: &'static str) -> Stage {
+/// The stages at `samples` per pixel, with the rasterizer's bindings in group 2 (after the
+/// frame's and tiled's). Multisampled, they are composed with `MULTISAMPLED`, which compiles the
+/// samples' paths (`samples.wgsl`) in: a single-sampled frame's kernels carry none of their
+/// registers.
+pub fn stage(label: &str, source: &'static str, samples: u32) -> Stage {
     Stage::new(label, source)
         .with(crate::raster::LIBRARY)
         .with(LIBRARY)
         .defs(&Defs::default().value("RASTER_GROUP", 2))
         .defs(&Binning::SetupRecords.defs())
+        .defs(&crate::gpu::shader::target_samples(samples))
 }
 
 /// Rounds that composite `fragments` per pixel (at least one).
@@ -243,8 +300,9 @@ pub fn rounds_for(fragments: u32) -> u32 {
 
 /// The list sort's stage (entries `cs_count`, `cs_scan`, `cs_scatter`), its scan of
 /// `scan_threads` threads.
-pub fn sort_stage(scan_threads: u32) -> Stage {
-    stage("strata.tiled.sort", SORT_WGSL).defs(&Defs::default().value("SCAN_THREADS", scan_threads))
+pub fn sort_stage(scan_threads: u32, samples: u32) -> Stage {
+    stage("strata.tiled.sort", SORT_WGSL, samples)
+        .defs(&Defs::default().value("SCAN_THREADS", scan_threads))
 }
 
 /// Threads of the scan's one workgroup on `gpu`: as many as it runs in a workgroup, at most
@@ -258,14 +316,15 @@ pub fn scan_threads(gpu: &Gpu) -> u32 {
     1 << most.ilog2()
 }
 
-/// The tile pass's stage (entries `cs_round`, `cs_finish`).
-pub fn tile_stage() -> Stage {
-    stage("strata.tiled.tile", TILE_WGSL)
+/// The tile pass's stage (entries `cs_round`, `cs_round_samples`, `cs_finish`).
+pub fn tile_stage(samples: u32) -> Stage {
+    stage("strata.tiled.tile", TILE_WGSL, samples)
 }
 
 /// The one-pass kernel's stage (entry `cs_fast`), its store of `fragments`.
-pub fn fast_stage(fragments: u32) -> Stage {
-    stage("strata.tiled.fast", FAST_WGSL).defs(&Defs::default().value("FAST_FRAGMENTS", fragments))
+pub fn fast_stage(fragments: u32, samples: u32) -> Stage {
+    stage("strata.tiled.fast", FAST_WGSL, samples)
+        .defs(&Defs::default().value("FAST_FRAGMENTS", fragments))
 }
 
 /// `tiled`'s pipelines, its rasterizer and its buffers.
@@ -282,6 +341,8 @@ pub struct Tiled {
     cache: ResourceCache,
     /// Rounds the next frame records: from the last frame's deepest pixel.
     rounds: u32,
+    /// Samples per pixel (`--msaa`; 1 single-sampled).
+    samples: u32,
 }
 
 impl Tiled {
@@ -309,9 +370,10 @@ impl Tiled {
         let raster = ComputeRaster::with_binning(gpu, scene, options, Binning::SetupRecords);
         let raster_layout = raster.layout().clone();
         let layouts = [&scene.frame_layout, &layout, &raster_layout];
-        let sort = sort_stage(scan_threads(gpu)).module(&gpu.device);
-        let tile = tile_stage().module(&gpu.device);
-        let fast = fast_stage(fast_fragments(gpu)).module(&gpu.device);
+        let samples = options.build.msaa.max(1);
+        let sort = sort_stage(scan_threads(gpu), samples).module(&gpu.device);
+        let tile = tile_stage(samples).module(&gpu.device);
+        let fast = fast_stage(fast_fragments(gpu), samples).module(&gpu.device);
         let pipeline =
             |label, module, entry| compute_pipeline(gpu, label, (module, entry), &layouts);
         Ok(Tiled {
@@ -320,12 +382,17 @@ impl Tiled {
             count: pipeline("strata.tiled.count", &sort, "cs_count"),
             scan: pipeline("strata.tiled.scan", &sort, "cs_scan"),
             scatter: pipeline("strata.tiled.scatter", &sort, "cs_scatter"),
-            round: pipeline("strata.tiled.round", &tile, "cs_round"),
+            // Multisampled, the rounds keep a composite per sample.
+            round: match samples > 1 {
+                false => pipeline("strata.tiled.round", &tile, "cs_round"),
+                true => pipeline("strata.tiled.round", &tile, "cs_round_samples"),
+            },
             fast: pipeline("strata.tiled.fast", &fast, "cs_fast"),
             finish: pipeline("strata.tiled.finish", &tile, "cs_finish"),
             layout,
             cache: ResourceCache::default(),
             rounds: FIRST_ROUNDS,
+            samples,
         })
     }
 }
@@ -335,14 +402,14 @@ impl Tiled {
     fn state_pixels(&self) -> u64 {
         self.cache
             .get("strata.tiled.state")
-            .map_or(0, |b| b.size() / STATE_BYTES)
+            .map_or(0, |b| b.size() / state_bytes(self.samples))
     }
 }
 
 /// Bytes of the lists, the tile words and the pixels' state for `capacity` items, `tiles` tiles
-/// and `pixels` pixels.
-fn list_bytes(capacity: u64, tiles: u64, pixels: u64) -> u64 {
-    capacity * LIST_ENTRY_BYTES + tiles * TILE_BYTES + pixels * STATE_BYTES
+/// and `pixels` pixels of `samples` each.
+fn list_bytes(capacity: u64, tiles: u64, pixels: u64, samples: u32) -> u64 {
+    capacity * LIST_ENTRY_BYTES + tiles * TILE_BYTES + pixels * state_bytes(samples)
 }
 
 impl Method for Tiled {
@@ -355,14 +422,16 @@ impl Method for Tiled {
         let capacity = self.raster.frame_capacity();
         let pixels = ctx.pixels();
         let bytes = self.raster.bytes()
-            + list_bytes(capacity, tiles, pixels)
+            + list_bytes(capacity, tiles, pixels, self.samples)
             + COUNTER_WORDS * 4
             + std::mem::size_of::<TiledParams>() as u64;
         ctx.check_budget(bytes)?;
         let k = ctx.k.unwrap_or(0);
-        // With --k the rounds need not go past the k nearest.
+        // With --k the rounds need not go past the k nearest; multisampled they take a pixel's
+        // fragments in its order, and a sample may reach its k nearest only later.
         let rounds = match k {
             0 => self.rounds,
+            _ if self.samples > 1 => self.rounds,
             k => self.rounds.min(rounds_for(k)),
         };
         // The tail matters only where --k leaves fragments past the k nearest.
@@ -382,6 +451,8 @@ impl Method for Tiled {
             tail_depth_p: tail.depth_p,
             tail_depth_q: tail.depth_q,
             order_by_work: orders_tiles_by_work(gpu) as u32,
+            state_words: ((state_bytes(self.samples) - 4) / 4) as u32,
+            sample_grid: sample_grid(self.samples),
             ..Zeroable::zeroed()
         };
         let cache = &mut self.cache;
@@ -390,7 +461,11 @@ impl Method for Tiled {
         let counts = cache.storage(gpu, "strata.tiled.counts", tiles * 8)?;
         let starts = cache.storage(gpu, "strata.tiled.starts", tiles * 8)?;
         let codes = cache.storage(gpu, "strata.tiled.codes", capacity * LIST_ENTRY_BYTES)?;
-        let state = cache.storage(gpu, "strata.tiled.state", pixels * STATE_BYTES)?;
+        let state = cache.storage(
+            gpu,
+            "strata.tiled.state",
+            pixels * state_bytes(self.samples),
+        )?;
         let tile_rounds = cache.storage(gpu, "strata.tiled.rounds", tiles * 4)?;
         let counters = cache.readable(gpu, "strata.tiled.counters", COUNTER_WORDS * 4)?;
         let group = binding::group(
@@ -515,7 +590,7 @@ impl Method for Tiled {
                 deepest_pixel: deepest,
                 unfinished_pixels: unfinished,
                 longest_list,
-                list_bytes: list_bytes(recorded.capacity, tiles, self.state_pixels()),
+                list_bytes: list_bytes(recorded.capacity, tiles, self.state_pixels(), self.samples),
             }),
             compute_raster: Some(report.stats),
             ..Default::default()

@@ -1,7 +1,7 @@
 #define_import_path strata::tiled::sort
 #import strata::raster::items::{ITEM_WORDS, Item, item_at, item_thread, items, items_written, rp}
 #import strata::raster::records::{recorded_triangle, records_written}
-#import strata::raster::setup::{tile_coverage}
+#import strata::tiled::samples::{tile_samples_coverage}
 #import strata::tiled::constants::{COUNTER_EMPTY_ITEMS}
 #import strata::tiled::lists::{add_tile_work, item_mask, set_tile_order, tile_codes, tile_counts, tile_of, tile_starts, tile_work, tp, work_add}
 
@@ -48,7 +48,7 @@ fn cs_count(
     let listed = listed_item(id, groups);
     var mask = vec2<u32>(0u);
     if listed.valid {
-        mask = tile_coverage(recorded_triangle(listed.item.prim).t, listed.item.tile);
+        mask = tile_samples_coverage(recorded_triangle(listed.item.prim).t, listed.item.tile);
         if any(mask != vec2<u32>(0u)) {
             atomicAdd(&tile_counts[listed.tile], 1u);
             add_tile_work(listed.tile, countOneBits(mask.x) + countOneBits(mask.y));
