@@ -9,7 +9,10 @@
 //! regression fixture in `crates/strata/tests/fixtures/regressions/`, whose every file is run
 //! here too.
 //!
-//! In the test suite a fixed seed runs a bounded number of cases (a few seconds).
+//! The inputs come from `strata-fuzz`'s generator, which fuzzes the same parsers in process a
+//! million inputs at a time; this harness holds the CLI around them to its contract (status,
+//! one error line, no partial output). In the test suite a fixed seed runs a bounded number of
+//! cases (a few seconds).
 //! `scripts/fuzz [minutes]` runs the same generator for as long as asked with a fresh seed
 //! (`STRATA_FUZZ_SECONDS`, `STRATA_FUZZ_SEED`).
 
@@ -19,6 +22,8 @@ use std::time::{Duration, Instant};
 
 mod common;
 
+use strata_fuzz::generate::{builtin_spec, mutate, Rng};
+
 /// Address space a `strata` process may use (`prlimit --as`): inputs are small, so anything
 /// near this is a blow-up.
 const MEMORY_BOUND: u64 = 4 << 30;
@@ -27,24 +32,6 @@ const TIME_BOUND: Duration = Duration::from_secs(60);
 /// Cases per run in the test suite: one in eight exercises options, one builtin specs, the rest
 /// mutated files.
 const CASES_IN_TESTS: usize = 48;
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-    fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
-        &items[self.below(items.len())]
-    }
-}
 
 fn fixtures_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../strata/tests/fixtures")
@@ -68,115 +55,6 @@ fn corpus() -> Vec<PathBuf> {
         .collect();
     files.sort();
     files
-}
-
-/// Tokens that have broken parsers: huge, negative and non-finite numbers, deep nesting,
-/// references to devices, counts past any limit.
-const TOKENS: &[&str] = &[
-    "-1",
-    "0",
-    "nan",
-    "inf",
-    "1e39",
-    "-1e39",
-    "4294967295",
-    "4294967296",
-    "99999999999999999999999",
-    "[[[[[[[[[[[[[[[[",
-    "{{{{{{{{",
-    "\n",
-    "\0",
-    "\u{ff}",
-    "end_header\n",
-    "element face 2147483647\n",
-    "element vertex 4000000000\n",
-    "f 1 2 99999999\n",
-    "f -9 -8 -7\n",
-    "mtllib /dev/zero\n",
-    "\"uri\": \"/dev/zero\"",
-    "\"uri\": \"data:application/octet-stream;base64,@@@\"",
-    "\"byteLength\": 4294967295",
-    "\"count\": 4294967295",
-    "mesh = \"/dev/zero.obj\"",
-    "mesh = \"builtin:sphere?segments=1024\"",
-    "segments=99999",
-    "[[object]]\n",
-];
-
-fn mutate(rng: &mut Rng, input: &[u8]) -> Vec<u8> {
-    let mut out = input.to_vec();
-    for _ in 0..1 + rng.below(3) {
-        let at = rng.below(out.len() + 1);
-        match rng.below(6) {
-            0 => {
-                for _ in 0..1 + rng.below(8) {
-                    if !out.is_empty() {
-                        let i = rng.below(out.len());
-                        out[i] ^= 1 << rng.below(8);
-                    }
-                }
-            }
-            1 => out.truncate(at),
-            2 => {
-                let token = rng.pick(TOKENS).as_bytes();
-                out.splice(at..at, token.iter().copied());
-            }
-            3 => {
-                // Replace the number that starts after `at` with a token.
-                let start = out[at..]
-                    .iter()
-                    .position(u8::is_ascii_digit)
-                    .map(|i| at + i);
-                if let Some(start) = start {
-                    let len = out[start..]
-                        .iter()
-                        .take_while(|b| b.is_ascii_digit() || **b == b'.')
-                        .count();
-                    let token = rng.pick(TOKENS).as_bytes();
-                    out.splice(start..start + len, token.iter().copied());
-                }
-            }
-            4 => {
-                let len = rng.below(out.len().saturating_sub(at).min(256) + 1);
-                let copy: Vec<u8> = out[at..at + len].to_vec();
-                for _ in 0..1 + rng.below(4) {
-                    out.splice(at..at, copy.iter().copied());
-                }
-            }
-            _ => {
-                // Delete a line.
-                let start = out[..at]
-                    .iter()
-                    .rposition(|&b| b == b'\n')
-                    .map_or(0, |i| i + 1);
-                let end = out[at..]
-                    .iter()
-                    .position(|&b| b == b'\n')
-                    .map_or(out.len(), |i| at + i + 1);
-                out.drain(start..end);
-            }
-        }
-    }
-    out
-}
-
-/// A `builtin:` spec with parameters from sensible to absurd.
-fn builtin_spec(rng: &mut Rng) -> String {
-    // No valid combination of these makes more than about 2M triangles: larger valid scenes
-    // take their time legitimately and are costed by their estimate, not fuzzed.
-    let numbers = [
-        "-1", "0", "1", "2", "3", "16", "257", "513", "100001", "1e9", "x", "nan",
-    ];
-    let kind = rng.below(5);
-    let mut n = || *rng.pick(&numbers);
-    let spec = match kind {
-        0 => format!("nvpro?objects={}&subdiv={}", n(), n()),
-        1 => format!("spheres?layers={}&segments={}", n(), n()),
-        2 => format!("layers?n={}&coverage={}", n(), n()),
-        3 => format!("balls?count={}&frame={}", n(), n()),
-        _ => format!("layers?n={}&n={}", n(), n()),
-    };
-    format!("builtin:{spec}")
 }
 
 /// Options from sensible to absurd, for `strata render`.
@@ -367,7 +245,7 @@ fn fuzz(seed: u64, cases: usize, deadline: Option<Instant>) -> (usize, Vec<Strin
                 }
             }
             1 => {
-                let spec = builtin_spec(&mut rng);
+                let spec = builtin_spec(&mut rng, false);
                 let mut args = vec!["render".to_string(), spec];
                 args.extend(picture);
                 Case {

@@ -24,14 +24,23 @@ pub enum Error {
 /// (a smaller picture, band or k needs less): [`crate::Renderer`] then renders in bands.
 pub const OVER_BINDING: &str = "more than the device binds";
 
-/// A piece of the input as an error message quotes it: at most 60 characters, cut with "…", so a
-/// long or binary value cannot flood the one line.
+/// A piece of the input as an error message quotes it: at most 60 characters, cut with "…", its
+/// control characters escaped (`\n`, `\u{1b}`), so a long or binary value can neither flood
+/// the one line nor break it.
 pub fn quoted(input: &str) -> String {
     const MAX: usize = 60;
-    match input.char_indices().nth(MAX) {
-        None => input.to_string(),
-        Some((cut, _)) => format!("{}…", &input[..cut]),
+    let mut out = String::with_capacity(input.len().min(4 * MAX));
+    for (i, c) in input.chars().enumerate() {
+        if i == MAX {
+            out.push('…');
+            break;
+        }
+        match c.is_control() {
+            true => out.extend(c.escape_default()),
+            false => out.push(c),
+        }
     }
+    out
 }
 
 impl Error {

@@ -345,9 +345,9 @@ impl FromStr for Moments {
             None => s.parse().ok().map(Moments::Power),
         };
         parsed.filter(|m| m.supported()).ok_or_else(|| {
-            let shown: String = s.chars().take(16).collect();
             Error::input(format!(
-                "--moments '{shown}' is not 4, 6, 8 (power moments) or trig2, trig3, trig4 (trigonometric)"
+                "--moments '{}' is not 4, 6, 8 (power moments) or trig2, trig3, trig4 (trigonometric)",
+                crate::error::quoted(s)
             ))
         })
     }

@@ -215,7 +215,8 @@ pub fn catalogue() -> impl Iterator<Item = &'static Descriptor> {
 pub fn unknown_method(id: &str) -> Error {
     let ids: Vec<_> = catalogue().map(|m| m.name).collect();
     Error::input(format!(
-        "unknown method '{id}' (available: {})",
+        "unknown method '{}' (available: {})",
+        crate::error::quoted(id),
         ids.join(", ")
     ))
 }

@@ -403,7 +403,8 @@ impl std::str::FromStr for Background {
         });
         parsed.map(Background::Color).ok_or_else(|| {
             Error::input(format!(
-                "background '{s}' is neither 'checker' nor a color '#rrggbb'"
+                "background '{}' is neither 'checker' nor a color '#rrggbb'",
+                crate::error::quoted(s)
             ))
         })
     }

@@ -49,10 +49,6 @@ const MAX_DEPTH: usize = 256;
 /// The largest external buffer file read.
 pub const MAX_BUFFER_BYTES: u64 = 4 << 30;
 
-pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Part>> {
-    Ok(load_scene(path, warnings)?.parts)
-}
-
 /// What a glTF file holds besides its meshes, for a scene.
 pub(super) struct GltfScene {
     pub parts: Vec<Part>,
@@ -118,13 +114,6 @@ impl GltfScene {
             })
             .collect()
     }
-}
-
-/// Loads a glTF file as a scene: its parts, camera, lights and picture defaults.
-pub(super) fn load_scene(path: &Path, warnings: &mut Vec<String>) -> Result<GltfScene> {
-    let bytes = super::read_file(path)?;
-    let base = path.parent().unwrap_or(Path::new(""));
-    parse(&bytes, base, &path.display().to_string(), warnings)
 }
 
 /// Parses `.gltf` or `.glb` bytes; external buffers are looked up under `base`.
@@ -341,7 +330,10 @@ fn load_buffers(
                     let path = uri.strip_prefix("file://").or(uri.strip_prefix("file:"));
                     let relative = path.is_none();
                     let decoded = urlencoding::decode(path.unwrap_or(uri)).map_err(|_| {
-                        err(format!("URI '{uri}' is not valid percent-encoded UTF-8"))
+                        err(format!(
+                            "URI '{}' is not valid percent-encoded UTF-8",
+                            crate::error::quoted(uri)
+                        ))
                     })?;
                     let file = if relative {
                         base.join(&*decoded)
@@ -502,7 +494,7 @@ impl Ctx<'_> {
                 } else {
                     format!("{mesh_name}[{p}]")
                 };
-                let what = format!("{}: mesh '{name}'", self.what);
+                let what = format!("{}: mesh '{}'", self.what, crate::error::quoted(&name));
                 let local_mesh = self.read_primitive(&prim, &what)?;
                 // Untransformed meshes keep their normals bit for bit (an exported scene).
                 let mut m = if world == Mat4::IDENTITY {
@@ -779,7 +771,7 @@ fn convert_material(m: &::gltf::Material, what: &str) -> Result<Option<Material>
     if let Some(ior) = m.ior().filter(|&ior| ior >= 1.0) {
         material.ior = ior;
     }
-    let element = format!("material '{}'", material.name);
+    let element = format!("material '{}'", crate::error::quoted(&material.name));
     if let Some(v) = strata_extras(m.extras(), what, &element)? {
         let e: MaterialExtras = serde_json::from_value(v).map_err(|e| {
             Error::input(format!("{what}: {element} extras.strata: {}", one_line(e)))

@@ -17,23 +17,37 @@ use crate::scene::{builtin, Material, Mesh, Object, Scene};
 /// coordinates) and the material the file gives it, if any.
 pub type Part = (String, Mesh, Option<Material>);
 
+/// The formats of scene and model files strata reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Kind {
+pub enum FileFormat {
+    /// A TOML scene file (`.toml`).
     Toml,
+    /// A Wavefront OBJ model (`.obj`), with its `.mtl` libraries.
     Obj,
+    /// A PLY model (`.ply`), ASCII or binary.
     Ply,
+    /// A glTF 2.0 model or scene (`.gltf`, or `.glb`: the two are told apart by their bytes).
     Gltf,
 }
 
+impl FileFormat {
+    /// The format `path`'s extension names, if strata reads it.
+    pub fn of_path(path: &Path) -> Option<FileFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "toml" => FileFormat::Toml,
+            "obj" => FileFormat::Obj,
+            "ply" => FileFormat::Ply,
+            "gltf" | "glb" => FileFormat::Gltf,
+            _ => return None,
+        })
+    }
+}
+
+use FileFormat as Kind;
+
 fn kind_of(path: &Path) -> Option<Kind> {
-    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
-    Some(match ext.as_str() {
-        "toml" => Kind::Toml,
-        "obj" => Kind::Obj,
-        "ply" => Kind::Ply,
-        "gltf" | "glb" => Kind::Gltf,
-        _ => return None,
-    })
+    FileFormat::of_path(path)
 }
 
 /// Loads a scene from `spec`: a `.toml` scene file, a model file (`.obj`, `.ply`, `.gltf`,
@@ -54,23 +68,37 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
         ))
     })?;
     check_file(path, "scene file")?;
-    let scene = match kind {
+    let bytes = read_file(path)?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut warnings = Vec::new();
+    let scene = load_scene_bytes(kind, &bytes, spec, dir, &mut warnings);
+    print_warnings(&warnings);
+    scene
+}
+
+/// Loads a scene from the bytes of a file in `format` (what [`load_scene`] does once it has
+/// read the file): `name` names it in errors and warnings (a model's stem names its parts),
+/// and the files it refers to — a TOML scene's meshes, an OBJ's `.mtl` libraries, a glTF's
+/// external buffers — are looked up under `dir`. Warnings (a missing `.mtl`, skipped glTF
+/// primitives) are pushed onto `warnings`. The result has passed [`Scene::validate`]; every
+/// error is one line.
+pub fn load_scene_bytes(
+    format: FileFormat,
+    bytes: &[u8],
+    name: &str,
+    dir: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<Scene> {
+    let scene = match format {
         Kind::Toml => {
-            let mut warnings = Vec::new();
-            let scene = toml::load(path, &mut warnings);
-            print_warnings(&warnings);
-            scene?
+            let text = std::str::from_utf8(bytes)
+                .map_err(|_| Error::input(format!("{name}: not UTF-8 text")))?;
+            toml::parse(text, name, dir, warnings)?
         }
         Kind::Gltf => {
-            let mut warnings = Vec::new();
-            let loaded = gltf::load_scene(path, &mut warnings);
-            print_warnings(&warnings);
-            let mut loaded = loaded?;
+            let mut loaded = gltf::parse(bytes, dir, name, warnings)?;
             if loaded.parts.is_empty() {
-                return Err(Error::input(format!(
-                    "{}: no triangles found",
-                    path.display()
-                )));
+                return Err(Error::input(format!("{name}: no triangles found")));
             }
             let mut scene = scene_from_parts(std::mem::take(&mut loaded.parts));
             let (lo, hi) = scene.bounds();
@@ -79,12 +107,42 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
             scene.defaults = loaded.defaults;
             scene
         }
-        _ => scene_from_parts(load_model(path)?),
+        model => scene_from_parts(model_from_bytes(model, bytes, name, dir, warnings)?),
     };
     scene
         .validate()
-        .map_err(|e| Error::input(format!("{spec}: {e}")))?;
+        .map_err(|e| Error::input(format!("{name}: {e}")))?;
     Ok(scene)
+}
+
+/// The parts of a model file's bytes (`name` its path as errors name it, `dir` where its
+/// references are looked up); fails when it holds no triangles.
+fn model_from_bytes(
+    format: FileFormat,
+    bytes: &[u8],
+    name: &str,
+    dir: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Part>> {
+    let parts = match format {
+        Kind::Obj => obj::parse_bytes(bytes, name, dir, warnings)?,
+        Kind::Ply => {
+            let stem = Path::new(name)
+                .file_stem()
+                .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
+            ply::parse(bytes, name, &stem)?
+        }
+        Kind::Gltf => gltf::parse(bytes, dir, name, warnings)?.parts,
+        Kind::Toml => {
+            return Err(Error::input(format!(
+                "model '{name}': a TOML scene is not a model (expected .obj, .ply, .gltf or .glb)"
+            )))
+        }
+    };
+    if parts.is_empty() {
+        return Err(Error::input(format!("{name}: no triangles found")));
+    }
+    Ok(parts)
 }
 
 /// Loads the meshes (and materials) of a model file: `.obj` (with its `.mtl`), `.ply`, `.gltf`
@@ -114,19 +172,9 @@ pub(crate) fn load_model_with_warnings(
         ))
     })?;
     check_file(path, "model file")?;
-    let parts = match kind {
-        Kind::Obj => obj::load(path, warnings)?,
-        Kind::Ply => ply::load(path)?,
-        Kind::Gltf => gltf::load(path, warnings)?,
-        Kind::Toml => unreachable!(),
-    };
-    if parts.is_empty() {
-        return Err(Error::input(format!(
-            "{}: no triangles found",
-            path.display()
-        )));
-    }
-    Ok(parts)
+    let bytes = read_file(path)?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    model_from_bytes(kind, &bytes, &path.display().to_string(), dir, warnings)
 }
 
 /// A scene of the parts, identical materials shared, the default material for parts without

@@ -25,12 +25,14 @@ pub(crate) enum MtlLookup {
     Skip,
 }
 
-/// Loads an OBJ file; `.mtl` libraries are looked up next to it.
-pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Part>> {
-    let bytes = super::read_file(path)?;
-    let text = String::from_utf8_lossy(&bytes);
-    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-    let what = path.display().to_string();
+/// Parses an OBJ file's bytes (`what` names it); `.mtl` libraries are looked up under `dir`.
+pub(super) fn parse_bytes(
+    bytes: &[u8],
+    what: &str,
+    dir: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Part>> {
+    let text = String::from_utf8_lossy(bytes);
     let lookup = |lib: &Path| {
         let full = dir.join(lib);
         match super::read_capped(&full, super::MAX_MTL_BYTES) {
@@ -41,7 +43,7 @@ pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Part>>
             Err(why) => MtlLookup::Missing(format!("'{}' {why}", full.display())),
         }
     };
-    parse_obj_text(&text, &what, &lookup, warnings)
+    parse_obj_text(&text, what, &lookup, warnings)
 }
 
 /// Parses OBJ text; `what` names it in errors and warnings. Parts have normals and are valid.

@@ -8,7 +8,6 @@
 //! the part has no material of its own. The whole file is one part named after the file stem.
 
 use std::io::BufRead;
-use std::path::Path;
 
 use ply_rs::parser::Parser;
 use ply_rs::ply::{
@@ -301,16 +300,6 @@ fn property_list(def: &ElementDef) -> String {
         })
         .collect::<Vec<_>>()
         .join(" ")
-}
-
-pub(super) fn load(path: &Path) -> Result<Vec<Part>> {
-    let bytes = super::read_file(path)?;
-    let what = path.display().to_string();
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| what.clone());
-    parse(&bytes, &what, &stem)
 }
 
 pub(super) fn parse(bytes: &[u8], what: &str, name: &str) -> Result<Vec<Part>> {

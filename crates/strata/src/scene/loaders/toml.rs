@@ -292,16 +292,6 @@ fn finite3(v: [f32; 3]) -> bool {
     v.iter().all(|c| c.is_finite())
 }
 
-/// Loads a TOML scene file (the path is known to exist).
-pub(super) fn load(path: &Path, warnings: &mut Vec<String>) -> Result<Scene> {
-    let file = path.display().to_string();
-    let bytes = super::read_file(path)?;
-    let text =
-        String::from_utf8(bytes).map_err(|_| Error::input(format!("{file}: not UTF-8 text")))?;
-    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-    parse(&text, &file, &dir, warnings)
-}
-
 /// Parses scene text; `file` names it in errors, `dir` resolves mesh paths.
 pub(crate) fn parse(
     text: &str,
@@ -390,7 +380,13 @@ pub(crate) fn parse(
     let mut named: HashMap<String, usize> = HashMap::new();
     for (m, label) in def.material.into_iter().zip(material_labels) {
         if named.contains_key(&m.name) {
-            return Err(ctx.err(&label, format!("material '{}' is defined twice", m.name)));
+            return Err(ctx.err(
+                &label,
+                format!(
+                    "material '{}' is defined twice",
+                    crate::error::quoted(&m.name)
+                ),
+            ));
         }
         let base = Material {
             name: m.name.clone(),
@@ -440,11 +436,9 @@ pub(crate) fn parse(
         };
         let base_named = match &o.material {
             None => None,
-            Some(name) => Some(
-                *named
-                    .get(name)
-                    .ok_or_else(|| err(format!("unknown material '{name}'")))?,
-            ),
+            Some(name) => Some(*named.get(name).ok_or_else(|| {
+                err(format!("unknown material '{}'", crate::error::quoted(name)))
+            })?),
         };
         let transform = transform(&o).map_err(err)?;
         let flip = transform.determinant() < 0.0;
