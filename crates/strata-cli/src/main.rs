@@ -160,7 +160,7 @@ fn main() -> ExitCode {
             eprintln!("error: {e}");
             match e {
                 Error::Input(_) | Error::Unsupported(_) => ExitCode::from(2),
-                Error::Runtime(_) => ExitCode::from(1),
+                Error::Runtime(_) | Error::DeviceLost(_) => ExitCode::from(1),
             }
         }
     }
@@ -235,5 +235,6 @@ pub fn with_context(e: Error, note: &str) -> Error {
         Error::Input(m) => Error::Input(format!("{m} ({note})")),
         Error::Unsupported(m) => Error::Unsupported(format!("{m} ({note})")),
         Error::Runtime(m) => Error::Runtime(format!("{m} ({note})")),
+        Error::DeviceLost(m) => Error::DeviceLost(format!("{m} ({note})")),
     }
 }

@@ -18,6 +18,10 @@ pub enum Error {
     /// Something failed on the GPU or in I/O while rendering.
     #[error("{0}")]
     Runtime(String),
+    /// The device is lost (destroyed, reset by the driver, removed): nothing can be recorded on
+    /// it again. Open a new device and make new recorders on it.
+    #[error("{0}")]
+    DeviceLost(String),
 }
 
 /// The phrase every error about a buffer over the device's largest storage binding contains

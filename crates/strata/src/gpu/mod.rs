@@ -55,6 +55,10 @@ pub struct Gpu {
     scene_vertex: std::sync::OnceLock<wgpu::ShaderModule>,
     /// `vs_fullscreen`, composed once per device.
     fullscreen_vertex: std::sync::OnceLock<wgpu::ShaderModule>,
+    /// Why the device was lost, once it is: set by the device-lost callback strata installs on
+    /// the devices it opens, or by the application through [`Gpu::device_lost`]. Shared by
+    /// every clone.
+    lost: std::sync::Arc<std::sync::OnceLock<String>>,
 }
 
 /// The limits a device of `adapter` opens with: the adapter's, or those `STRATA_LIMITS` names.
@@ -76,6 +80,7 @@ fn limits_from_env(adapter: &wgpu::Adapter) -> Result<wgpu::Limits> {
 /// cannot translate — comes back as one line naming `what` and the device's reason instead of
 /// wgpu's uncaptured-error panic.
 pub fn validated<T>(gpu: &Gpu, what: &str, make: impl FnOnce() -> Result<T>) -> Result<T> {
+    gpu.check_device()?;
     // Internal errors too: a backend's shader translation reports what it cannot express (GL's
     // GLSL has no textureLoad from a depth texture) as one, not as a validation error.
     let internal = gpu.device.push_error_scope(wgpu::ErrorFilter::Internal);
@@ -85,21 +90,24 @@ pub fn validated<T>(gpu: &Gpu, what: &str, make: impl FnOnce() -> Result<T>) -> 
     let failed = pollster::block_on(internal.pop());
     match invalid.or(failed) {
         None => made,
-        Some(e) => {
-            // wgpu's message is "Validation Error", "Caused by:" and the reason on later lines.
-            let text = e.to_string();
-            let reason: Vec<&str> = text
-                .lines()
-                .map(str::trim)
-                .filter(|l| !l.is_empty() && *l != "Validation Error" && *l != "Caused by:")
-                .collect();
-            Err(Error::unsupported(format!(
-                "{what} cannot run on '{}': {}",
-                gpu.info.name,
-                reason.join(": ")
-            )))
-        }
+        Some(e) => Err(Error::unsupported(format!(
+            "{what} cannot run on '{}': {}",
+            gpu.info.name,
+            one_line_wgpu(&e)
+        ))),
     }
+}
+
+/// A wgpu error in one line: its message is "Validation Error", "Caused by:" and the reason on
+/// later lines.
+fn one_line_wgpu(e: &wgpu::Error) -> String {
+    let text = e.to_string();
+    let reason: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "Validation Error" && *l != "Caused by:")
+        .collect();
+    reason.join(": ")
 }
 
 /// What `strata info` reports.
@@ -237,7 +245,7 @@ impl Gpu {
             .map_err(|e| {
                 Error::unsupported(format!("cannot open device on '{}': {e}", info.name))
             })?;
-        Ok(Gpu {
+        let gpu = Gpu {
             adapter: Some(adapter),
             device,
             queue,
@@ -246,7 +254,15 @@ impl Gpu {
             limits,
             scene_vertex: Default::default(),
             fullscreen_vertex: Default::default(),
-        })
+            lost: Default::default(),
+        };
+        // strata's own device: its loss is noted here (an application's device keeps the
+        // application's callback; it tells strata through `device_lost`).
+        let lost = gpu.lost.clone();
+        gpu.device.set_device_lost_callback(move |reason, message| {
+            let _ = lost.set(format!("{reason:?}: {}", message.replace('\n', " ")));
+        });
+        Ok(gpu)
     }
 
     /// Wraps the application's device and queue. Methods use the features and limits the
@@ -263,6 +279,7 @@ impl Gpu {
             queue,
             scene_vertex: Default::default(),
             fullscreen_vertex: Default::default(),
+            lost: Default::default(),
         }
     }
 
@@ -355,6 +372,66 @@ impl Gpu {
     /// The backend in lower case (vulkan, metal, dx12, gl).
     pub fn backend_name(&self) -> String {
         self.info.backend.to_string().to_lowercase()
+    }
+
+    /// Records that the device is lost and why: strata's own devices are told by their
+    /// device-lost callback; an application that gave strata its device
+    /// ([`Gpu::from_device`]) calls this from its own callback, which strata does not replace.
+    /// From then on every strata call on this device returns [`Error::DeviceLost`].
+    pub fn device_lost(&self, why: &str) {
+        let _ = self.lost.set(why.replace('\n', " "));
+    }
+
+    /// [`Error::DeviceLost`] naming why, once the device is lost.
+    pub fn check_device(&self) -> Result<()> {
+        match self.lost.get() {
+            None => Ok(()),
+            Some(why) => Err(Error::DeviceLost(format!(
+                "the GPU device '{}' was lost ({why}); nothing can be recorded on it again: open a new device and make a new recorder",
+                self.info.name
+            ))),
+        }
+    }
+
+    /// Runs `work` (a frame's recording, a wait for its statistics) under the validation,
+    /// internal and out-of-memory error scopes: what wgpu reports on its way — a device lost
+    /// meanwhile invalidates everything recorded on it, an allocation the device cannot make —
+    /// comes back as an error naming `what`, never as wgpu's uncaptured-error panic.
+    pub fn guarded<T>(&self, what: &str, work: impl FnOnce() -> Result<T>) -> Result<T> {
+        // A non-blocking poll: a device destroyed since the last one calls its lost callback
+        // there.
+        let _ = self.device.poll(wgpu::PollType::Poll);
+        self.check_device()?;
+        let memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let internal = self.device.push_error_scope(wgpu::ErrorFilter::Internal);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let done = work();
+        let invalid = pollster::block_on(validation.pop());
+        let failed = pollster::block_on(internal.pop());
+        let out_of_memory = pollster::block_on(memory.pop());
+        // A device lost meanwhile is the cause of whatever failed.
+        self.check_device()?;
+        match (out_of_memory, invalid.or(failed)) {
+            (Some(e), _) => Err(Error::runtime(format!(
+                "{what}: the device '{}' is out of memory: {}",
+                self.info.name,
+                one_line_wgpu(&e)
+            ))),
+            (None, Some(e)) => Err(Error::runtime(format!(
+                "{what}: wgpu reported: {}",
+                one_line_wgpu(&e)
+            ))),
+            (None, None) => done,
+        }
+    }
+
+    /// Blocks until all submitted work is done; whether the queue is then empty (everything
+    /// submitted has completed and its mapping callbacks have run).
+    pub fn wait_idle(&self) -> Result<bool> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|status| status.is_queue_empty())
+            .map_err(|e| Error::runtime(format!("GPU wait failed: {e}")))
     }
 
     /// Blocks until all submitted work is done.

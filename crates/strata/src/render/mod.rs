@@ -518,7 +518,7 @@ fn over_background(options: &RenderOptions, resolved: &[Resolved]) -> LinearImag
 fn outgrew_binding(e: &Error) -> bool {
     match e {
         Error::Unsupported(why) | Error::Input(why) => why.contains(crate::error::OVER_BINDING),
-        Error::Runtime(_) => false,
+        Error::Runtime(_) | Error::DeviceLost(_) => false,
     }
 }
 

@@ -67,6 +67,9 @@ use targets::{
 
 /// How long `wait_stats` waits for mapping callbacks once the GPU is idle.
 const STATS_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
+/// How long [`FrameRecorder::wait_stats`] waits for a mapping once the queue is idle (another
+/// thread polling the device may still be running the callbacks).
+const STATS_IDLE_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(1);
 
 /// A frame waiting for its statistics.
 struct Pending {
@@ -282,6 +285,11 @@ impl FrameRecorder {
     /// rebuilt (pipelines are kept either way). Materials and lights stay those of the first
     /// scene when the count is unchanged.
     pub fn set_geometry(&mut self, scene: &Scene) -> Result<()> {
+        let gpu = self.gpu.clone();
+        gpu.guarded("replacing the geometry", || self.replace_geometry(scene))
+    }
+
+    fn replace_geometry(&mut self, scene: &Scene) -> Result<()> {
         let split;
         let scene = match &mut self.lit {
             None => scene,
@@ -355,6 +363,11 @@ impl FrameRecorder {
 
     /// Changes the frame size; pipelines are kept and per-pixel buffers follow on the next frame.
     pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
+        let gpu = self.gpu.clone();
+        gpu.guarded("resizing the frame", || self.resized(width, height))
+    }
+
+    fn resized(&mut self, width: u32, height: u32) -> Result<()> {
         let mut options = self.options.clone();
         options.frame.width = width;
         options.frame.height = height;
@@ -372,6 +385,13 @@ impl FrameRecorder {
     /// temporal culling. What the recorder was made with ([`crate::frame::BuildOptions`]) stays;
     /// another rasterizer, sample count or pipeline needs another recorder.
     pub fn set_frame_options(&mut self, frame: &FrameOptions) -> Result<()> {
+        let gpu = self.gpu.clone();
+        gpu.guarded("changing the frame's options", || {
+            self.take_frame_options(frame)
+        })
+    }
+
+    fn take_frame_options(&mut self, frame: &FrameOptions) -> Result<()> {
         let options = RenderOptions {
             build: self.options.build.clone(),
             frame: frame.clone(),
@@ -385,7 +405,7 @@ impl FrameRecorder {
             .check_blend(&self.scene.blend_modes, frame.kbuffer.tail)?;
         let old = &self.options.frame;
         if (frame.width, frame.height) != (old.width, old.height) {
-            self.resize(frame.width, frame.height)?;
+            self.resized(frame.width, frame.height)?;
         }
         let old = &self.options.frame;
         if (frame.order, frame.order_seed) != (old.order, old.order_seed) {
@@ -424,8 +444,22 @@ impl FrameRecorder {
         }
     }
 
-    /// Records one frame into `encoder`; returns its frame number.
+    /// Records one frame into `encoder`; returns its frame number. On a lost device, or when
+    /// wgpu reports an error on the way (an allocation the device cannot make), the error names
+    /// it ([`Error::DeviceLost`], [`Gpu::guarded`]) and the encoder should be dropped.
     pub fn record(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        targets: &FrameTargets<'_>,
+        draw: Option<&DrawCallback<'_>>,
+    ) -> Result<u64> {
+        let gpu = self.gpu.clone();
+        gpu.guarded("recording a frame", || {
+            self.record_frame(encoder, targets, draw)
+        })
+    }
+
+    fn record_frame(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         targets: &FrameTargets<'_>,
@@ -774,12 +808,20 @@ impl FrameRecorder {
     /// Waits for every submitted frame's statistics and returns the last one (exact mode and
     /// tests; the wait is a blocking readback).
     pub fn wait_stats(&mut self) -> Result<FrameReport> {
+        let gpu = self.gpu.clone();
+        gpu.guarded("waiting for a frame's statistics", || self.wait_for_stats())
+    }
+
+    fn wait_for_stats(&mut self) -> Result<FrameReport> {
         // Another thread polling the same device may be running the mapping callbacks when the
         // wait returns: give them a bounded time to land.
         let deadline = std::time::Instant::now() + STATS_TIMEOUT;
+        let mut idle_since = None;
         let mut last = None;
         loop {
-            self.gpu.wait()?;
+            // A lost device completes nothing: its mappings never land.
+            self.gpu.check_device()?;
+            let idle = self.gpu.wait_idle()?;
             let done = self.ring.poll(&self.gpu);
             if let Some(r) = self.decode(done).pop() {
                 last = Some(r);
@@ -787,7 +829,19 @@ impl FrameRecorder {
             if !self.ring.pending() {
                 break;
             }
-            if std::time::Instant::now() > deadline {
+            // The queue did all its work and a mapping is still pending: its copy was never
+            // submitted, or the device is lost (strata not told, on an application's device).
+            let now = std::time::Instant::now();
+            let idle_for = match idle {
+                true => now - *idle_since.get_or_insert(now),
+                false => std::time::Duration::ZERO,
+            };
+            if idle_for > STATS_IDLE_TIMEOUT {
+                return Err(Error::runtime(
+                    "the frame's statistics never arrived though the GPU queue is idle: the frame was not submitted, or the device was lost (an application tells strata with Gpu::device_lost)",
+                ));
+            }
+            if now > deadline {
                 return Err(Error::runtime(format!(
                     "the frame's statistics did not arrive within {} s",
                     STATS_TIMEOUT.as_secs()

@@ -4,7 +4,10 @@ use crate::scene::loaders;
 use crate::testing::gpu;
 
 fn resolved_after_one_frame(rec: &mut FrameRecorder) -> Vec<u8> {
-    let g = gpu();
+    resolved_after_one_frame_on(gpu(), rec)
+}
+
+fn resolved_after_one_frame_on(g: &crate::gpu::Gpu, rec: &mut FrameRecorder) -> Vec<u8> {
     let mut enc = g.device.create_command_encoder(&Default::default());
     rec.record(&mut enc, &Default::default(), None).unwrap();
     g.queue.submit([enc.finish()]);
@@ -105,4 +108,139 @@ fn render_once_is_complete_in_one_call() {
     let second = resolved_after_one_frame(&mut live);
     assert!(first != picture);
     assert!(second == picture);
+}
+
+/// Issue 65: the device lost mid-session (destroyed here, as a driver reset or a removed GPU
+/// loses it) — every recorder call then returns `Error::DeviceLost` in one line naming the
+/// loss, none panics and no statistics wait hangs; a new recorder on a new device renders the
+/// same frame as before.
+#[test]
+fn a_lost_device_fails_every_call_in_one_line_and_a_new_device_works() {
+    let scene = loaders::load_scene("builtin:layers?n=4&coverage=0.8").unwrap();
+    let opts = crate::methods::tests::options(32, crate::Effect::Transparency);
+    let frame = |gpu: &crate::gpu::Gpu, rec: &mut FrameRecorder| -> crate::Result<FrameReport> {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        rec.record(&mut encoder, &Default::default(), None)?;
+        gpu.queue.submit([encoder.finish()]);
+        rec.wait_stats()
+    };
+    let lost = crate::gpu::Gpu::new().unwrap();
+    let mut rec = FrameRecorder::new(&lost, &scene, crate::MethodId::AbufferLl, &opts).unwrap();
+    let before = frame(&lost, &mut rec).unwrap();
+    let picture = resolved_after_one_frame_on(&lost, &mut rec);
+    // An encoder the application made before the loss.
+    let mut encoder = lost.device.create_command_encoder(&Default::default());
+    lost.device.destroy();
+    let is_loss = |what: &str, r: crate::Result<()>| {
+        let e = r.expect_err(what);
+        assert!(matches!(e, Error::DeviceLost(_)), "{what}: {e:?}");
+        let text = e.to_string();
+        assert!(
+            text.contains("was lost") && !text.contains('\n'),
+            "{what}: {text}"
+        );
+    };
+    is_loss(
+        "record",
+        rec.record(&mut encoder, &Default::default(), None)
+            .map(drop),
+    );
+    let started = std::time::Instant::now();
+    is_loss("wait_stats", rec.wait_stats().map(drop));
+    assert!(started.elapsed() < std::time::Duration::from_secs(5));
+    is_loss("resize", rec.resize(16, 16));
+    is_loss("set_method", rec.set_method(crate::MethodId::KbAbLl));
+    is_loss("set_geometry", rec.set_geometry(&scene));
+    is_loss(
+        "a new recorder",
+        FrameRecorder::new(&lost, &scene, crate::MethodId::AbufferLl, &opts).map(drop),
+    );
+    assert!(rec.poll_stats().is_empty());
+    drop(encoder);
+    // An application's device (`Gpu::from_device`): strata keeps the application's lost
+    // callback, so until the application tells it, what fails says what wgpu reported — an
+    // error, not a panic — and once told, every call names the loss.
+    let opened = crate::gpu::Gpu::new().unwrap();
+    let app = crate::gpu::Gpu::from_device(opened.device.clone(), opened.queue.clone());
+    let mut rec = FrameRecorder::new(&app, &scene, crate::MethodId::AbufferLl, &opts).unwrap();
+    frame(&app, &mut rec).unwrap();
+    let mut encoder = app.device.create_command_encoder(&Default::default());
+    app.device.destroy();
+    let untold = rec
+        .record(&mut encoder, &Default::default(), None)
+        .and_then(|_| rec.wait_stats().map(drop));
+    assert!(untold.is_err(), "the lost device's frame completed");
+    app.device_lost("the application's device-lost callback: destroyed");
+    is_loss(
+        "record, told",
+        rec.record(&mut encoder, &Default::default(), None)
+            .map(drop),
+    );
+    is_loss("wait_stats, told", rec.wait_stats().map(drop));
+    drop(encoder);
+    let fresh = crate::gpu::Gpu::new().unwrap();
+    let mut rec = FrameRecorder::new(&fresh, &scene, crate::MethodId::AbufferLl, &opts).unwrap();
+    let after = frame(&fresh, &mut rec).unwrap();
+    assert_eq!(
+        after.stats.fragments_generated,
+        before.stats.fragments_generated
+    );
+    assert_eq!(resolved_after_one_frame_on(&fresh, &mut rec), picture);
+}
+
+/// Issue 65: an allocation past what the device allows (restricted limits stand in for a
+/// smaller device) is an error naming the buffer, its size and the limit — when the recorder
+/// is made, when it is resized, and when a frame's pool outgrows it — and the recorder goes on
+/// at a size that fits.
+#[test]
+fn an_allocation_past_the_devices_limit_names_its_size_and_the_recorder_goes_on() {
+    let mut limits = gpu().limits.clone();
+    limits.max_storage_buffer_binding_size = 1 << 20;
+    limits.max_buffer_size = 1 << 20;
+    let small = crate::gpu::Gpu::new_restricted(wgpu::Features::empty(), limits).unwrap();
+    let scene = loaders::load_scene("builtin:layers?n=8&coverage=0.9").unwrap();
+    let names_size = |what: &str, e: Error| {
+        let text = e.to_string();
+        // Either the size check's phrasing (what the pixels need, what one buffer binds) or
+        // the allocation's (the buffer, its size, more than the device binds).
+        let named = text.contains("MiB")
+            && (text.contains(crate::error::OVER_BINDING) || text.contains("binds 1 MiB"));
+        assert!(named, "{what}: {text}");
+        assert!(!text.contains('\n'), "{what}: {text}");
+    };
+    let big = crate::methods::tests::options(512, crate::Effect::Transparency);
+    let e = FrameRecorder::new(&small, &scene, crate::MethodId::AbufferLl, &big).err();
+    names_size("made at 512²", e.expect("512² fits in 1 MiB buffers"));
+    let fits = crate::methods::tests::options(32, crate::Effect::Transparency);
+    let mut rec = FrameRecorder::new(&small, &scene, crate::MethodId::AbufferLl, &fits).unwrap();
+    let frame = |rec: &mut FrameRecorder| -> crate::Result<FrameReport> {
+        let mut encoder = small.device.create_command_encoder(&Default::default());
+        rec.record(&mut encoder, &Default::default(), None)?;
+        small.queue.submit([encoder.finish()]);
+        rec.wait_stats()
+    };
+    let first = frame(&mut rec).unwrap();
+    names_size("resized to 512²", rec.resize(512, 512).unwrap_err());
+    assert_eq!(
+        rec.options().frame.width,
+        32,
+        "a refused resize changed the size"
+    );
+    // 160² fits the per-pixel buffers; the fragments' pool (8 layers) does not: the frame that
+    // would need it is refused naming it, not cut short silently.
+    rec.resize(160, 160).unwrap();
+    let pool = frame(&mut rec).and_then(|_| frame(&mut rec));
+    match pool {
+        Err(e) => names_size("a pool past the limit", e),
+        Ok(report) => {
+            let why = report.cannot_complete.map(|s| s.why).unwrap_or_default();
+            assert!(why.contains(crate::error::OVER_BINDING), "{why}");
+        }
+    }
+    rec.resize(32, 32).unwrap();
+    let again = frame(&mut rec).unwrap();
+    assert_eq!(
+        again.stats.fragments_generated,
+        first.stats.fragments_generated
+    );
 }
