@@ -252,6 +252,37 @@ fn bench_writes_json_and_csv() {
     assert!(dir.join("adhoc.csv").exists());
 }
 
+/// Issue 65's soak, short: a session switching method, k, size, scene and --msaa every few
+/// frames ends flat (host and GPU memory from its first half to its second), every frame's statistics its
+/// own and the exact methods equal to the reference at each checkpoint.
+#[test]
+fn a_short_soak_is_flat_and_hands_every_frame_its_own_statistics() {
+    let dir = workdir("soak");
+    strata_ok(&[
+        "bench",
+        "soak",
+        "--frames",
+        "400",
+        "--size",
+        "16x16",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    let v = read_json(&dir.join("soak.json"));
+    assert_eq!(v["mismatched_stats"], 0, "{v}");
+    assert_eq!(v["flat"], true, "{v}");
+    assert_eq!(v["reference_failures"], 0, "{v}");
+    assert!(v["matched_stats"].as_u64().unwrap() >= 400, "{v}");
+    assert!(v["recorders"].as_u64().unwrap() >= 8, "{v}");
+    let checkpoints = v["checkpoints"].as_array().unwrap();
+    assert!(checkpoints.len() >= 30, "{}", checkpoints.len());
+    for c in checkpoints {
+        assert!(c["host_rss_bytes"].as_u64().unwrap() > 0, "{c}");
+        assert!(c["gpu_bytes_live"].as_i64().unwrap() > 0, "{c}");
+        assert!(c["frame"].as_u64().is_some(), "{c}");
+    }
+}
+
 /// Bad input: exit status 2, one line naming the problem, no panic, no output file.
 fn assert_bad_input(args: &[&str], expect_in_message: &str) {
     let dir = workdir(&format!(

@@ -18,6 +18,7 @@ mod measure;
 pub(crate) mod online_culling;
 pub(crate) mod peers;
 pub(crate) mod scale;
+pub(crate) mod soak;
 pub(crate) mod suite;
 mod table;
 
@@ -451,7 +452,7 @@ pub(crate) struct Standalone {
 }
 
 /// The experiments that report their own tables, in the order `bench all` runs them.
-const STANDALONE: [Standalone; 8] = [
+const STANDALONE: [Standalone; 9] = [
     crate::bench::auto_k::EXPERIMENT,
     crate::bench::deferred_lights::EXPERIMENT,
     crate::bench::cuda_renderer::EXPERIMENT,
@@ -460,6 +461,7 @@ const STANDALONE: [Standalone; 8] = [
     crate::bench::convex_experiment::EXPERIMENT,
     crate::bench::peers::EXPERIMENT,
     crate::bench::bandwidth::EXPERIMENT,
+    crate::bench::soak::EXPERIMENT,
 ];
 
 /// Size, frame count and whether figures are CPU figures for a standalone experiment: `--size`

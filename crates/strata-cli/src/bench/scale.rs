@@ -72,7 +72,8 @@ fn scene_of(millions: u64) -> String {
 }
 
 /// VmRSS and VmHWM of this process in MiB (Linux's /proc; `None` elsewhere).
-fn host_memory() -> (Option<f64>, Option<f64>) {
+/// The process's resident and peak resident memory in MiB (Linux's /proc/self/status).
+pub(crate) fn host_memory() -> (Option<f64>, Option<f64>) {
     let Ok(status) = std::fs::read_to_string("/proc/self/status") else {
         return (None, None);
     };

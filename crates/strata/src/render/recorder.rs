@@ -85,6 +85,10 @@ struct Pending {
     /// With `--order`: where its Kendall pair counts are in the readback, and its bytes.
     order_words: Option<(u64, u64)>,
     auto_k: Option<AutoKStats>,
+    /// The frame options it was recorded with: its statistics report these, whatever the
+    /// recorder's options are when they are read back (found by `bench soak`: a resize between
+    /// a frame and its readback gave the frame the new size).
+    options: crate::frame::FrameOptions,
 }
 
 /// Statistics of one frame, with whether exact mode must render it again.
@@ -423,6 +427,17 @@ impl FrameRecorder {
         &self.output
     }
 
+    /// The last submitted frame's picture over the options' background, read back (a blocking
+    /// readback: screenshots and checks, not the real-time loop).
+    pub fn picture(&self) -> Result<crate::LinearImage> {
+        self.gpu.guarded("reading the frame back", || {
+            let bytes = self.options.pixels() * crate::frame::RESOLVED_BYTES;
+            let raw = crate::gpu::readback::read_buffer(&self.gpu, &self.output, bytes)?;
+            let resolved: Vec<crate::frame::Resolved> = bytemuck::pod_collect_to_vec(&raw);
+            Ok(super::over_background(&self.options, &resolved))
+        })
+    }
+
     /// The buffers the current method keeps between frames (for tests that poison them).
     pub fn method_resources(&self) -> Vec<&crate::gpu::ResourceCache> {
         self.methods[&self.method].resources()
@@ -684,6 +699,7 @@ impl FrameRecorder {
                 raster_words,
                 order_words,
                 auto_k,
+                options: self.options.frame.clone(),
             },
         );
         frame
@@ -956,10 +972,10 @@ impl FrameRecorder {
             frame: p.frame,
             method: p.method.as_str().to_string(),
             method_choice: None,
-            width: self.options.frame.width,
-            height: self.options.frame.height,
+            width: p.options.width,
+            height: p.options.height,
             k: p.recorded.k,
-            effect: self.options.frame.effect.name().to_string(),
+            effect: p.options.effect.name().to_string(),
             geometry_passes: p.recorded.geometry_passes,
             exact: Some(exact.0),
             exact_k_nearest: exact.1,
@@ -996,7 +1012,7 @@ impl FrameRecorder {
             .to_string(),
             compute_raster,
             tiled: ms.tiled.clone(),
-            order: self.options.frame.order.map(|o| o.name().to_string()),
+            order: p.options.order.map(|o| o.name().to_string()),
             kendall_tau: match (&words, p.order_words) {
                 (Some(w), Some((start, _))) => Some(crate::order::kendall_tau(
                     &w[start as usize..start as usize + 2],
