@@ -391,7 +391,21 @@ fn run(gpu: &Gpu, size: Option<Size>, frames: Option<u32>, dir: &Path) -> Result
         session.switch(frame)?;
         session.frame()?;
         if (frame + 1) % every == 0 {
-            checkpoints.push(checkpoint(&mut session, frame + 1)?);
+            let c = checkpoint(&mut session, frame + 1)?;
+            // A long session's curve so far, should it be cut short.
+            bar.println(format!(
+                "soak: frame {} host {:.1} MiB, GPU {:.3} MiB live, {} buffers, {} bind groups, {} pipelines, statistics matched {} mismatched {}, reference {:?}",
+                c.frame,
+                c.host_rss_bytes as f64 / 1048576.0,
+                c.gpu_bytes_live as f64 / 1048576.0,
+                c.buffers,
+                c.bind_groups,
+                c.pipelines,
+                session.matched,
+                session.mismatched,
+                c.equals_reference
+            ));
+            checkpoints.push(c);
         }
         bar.inc(1);
     }
