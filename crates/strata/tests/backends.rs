@@ -222,3 +222,35 @@ fn the_downlevel_path_renders_on_gl() {
         _ => panic!("abuffer-ll on a downlevel GL device"),
     }
 }
+
+/// tiled finds its samples in compute, so `--msaa 4` renders on GL — where every method whose
+/// fragment stage keeps coverage from `@builtin(sample_mask)` is refused — equal to
+/// `reference --msaa 4` (8 samples take the same path: the lib's tests run them on Vulkan).
+#[test]
+fn tiled_renders_msaa_on_gl_equal_to_the_reference() {
+    let gl = open(wgpu::Backends::GL, None);
+    let scene =
+        strata::scene::loaders::load_scene("builtin:nvpro?objects=48&subdiv=8&seed=3").unwrap();
+    let samples = 4;
+    let mut options = RenderOptions::sized(48, 48);
+    options.build.msaa = samples;
+    let (picture, stats) = Renderer::new(&gl, &scene, &options)
+        .and_then(|mut r| r.render_method(MethodId::Tiled, None))
+        .unwrap_or_else(|e| panic!("tiled --msaa {samples} on GL: {e}"));
+    let (expected, reference) = strata::reference::render(&scene, &options).unwrap();
+    assert_eq!(stats.fragments_generated, reference.fragments_generated);
+    if let Err(m) = strata::metrics::testing::check_image(
+        &format!("gl-tiled-msaa{samples}"),
+        &picture.to_rgba8(Effect::Transparency),
+        &expected.to_rgba8(Effect::Transparency),
+        2,
+        0.001,
+    ) {
+        panic!("{m}");
+    }
+    let refused = Renderer::new(&gl, &scene, &options)
+        .and_then(|mut r| r.render_method(MethodId::AbufferLl, None))
+        .map(drop)
+        .expect_err("abuffer-ll --msaa 4 on GL");
+    assert!(refused.to_string().contains("sample_mask"), "{refused}");
+}
