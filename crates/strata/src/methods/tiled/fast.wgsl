@@ -1,6 +1,6 @@
 #define_import_path strata::tiled::fast
 #import strata::scene::{fragment_coverage, frame, pixel_index, report_pixels, scene_fragment_covering}
-#import strata::color::{resolved_mean, resolved_sum_add, resolved_sum_new}
+#import strata::color::{Resolved, resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::records::{recorded_triangle}
@@ -299,6 +299,19 @@ fn cs_fast(invocation: TileThread) {
     }
 }
 
+// Writes pixel `pixel`'s result, marks it resolved (the rounds and `cs_finish` pass it by) and
+// adds it to the workgroup's account: `count` fragments, `kept` of them composited.
+fn write_resolved(pixel: vec2<u32>, result: Resolved, count: u32, kept: u32) {
+    let p = pixel_index(pixel);
+    output[p] = result;
+    set_progress(p, PROGRESS_RESOLVED);
+    atomicAdd(&resolved[0], count);
+    atomicAdd(&resolved[1], kept);
+    atomicAdd(&resolved[2], count - kept);
+    atomicMax(&resolved[3], count);
+    atomicAdd(&resolved[4], 1u);
+}
+
 // Sorts pixel `pixel`'s `count` fragments, run `begin` of `by_pixel`, by (depth, primitive),
 // composites them front to back (with --k its k nearest; the rest are dropped, or with --tail
 // composited behind them as one term) and writes its result: the rounds and `cs_finish` pass it by.
@@ -342,14 +355,7 @@ fn resolve_pixel(pixel: vec2<u32>, begin: u32, count: u32) -> u32 {
         }
         composite_tail_of(&composite, tail, tail_params);
     }
-    let p = pixel_index(pixel);
-    output[p] = composite_finish(composite);
-    set_progress(p, PROGRESS_RESOLVED);
-    atomicAdd(&resolved[0], count);
-    atomicAdd(&resolved[1], limit);
-    atomicAdd(&resolved[2], count - limit);
-    atomicMax(&resolved[3], count);
-    atomicAdd(&resolved[4], 1u);
+    write_resolved(pixel, composite_finish(composite), count, limit);
     return steps + count;
 #endif
 }
@@ -388,13 +394,6 @@ fn composite_samples(pixel: vec2<u32>, begin: u32, count: u32) {
         resolved_sum_add(&sum, composite_finish(composite));
     }
     let kept = countOneBits(used[0]) + countOneBits(used[1]) + countOneBits(used[2]) + countOneBits(used[3]);
-    let p = pixel_index(pixel);
-    output[p] = resolved_mean(sum, frame.coverage_bits, kept);
-    set_progress(p, PROGRESS_RESOLVED);
-    atomicAdd(&resolved[0], count);
-    atomicAdd(&resolved[1], kept);
-    atomicAdd(&resolved[2], count - kept);
-    atomicMax(&resolved[3], count);
-    atomicAdd(&resolved[4], 1u);
+    write_resolved(pixel, resolved_mean(sum, frame.coverage_bits, kept), count, kept);
 }
 #endif

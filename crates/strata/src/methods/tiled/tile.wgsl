@@ -1,10 +1,10 @@
 #define_import_path strata::tiled::tile
-#import strata::scene::{covering_tag, fragment_coverage, frame, pixel_index, report_pixels, scene_fragment, scene_fragment_covering}
+#import strata::scene::{covering_tag, fragment_coverage, frame, pixel_index, report_pixels, scene_fragment_covering}
 #import strata::color::{resolved_mean, resolved_sum_add, resolved_sum_new}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::composite::{composite_finish, composite_front, composite_new}
 #import strata::raster::records::{recorded_triangle}
-#import strata::raster::setup::{SetupTriangle, barycentrics_at, varying_from, wide_negative}
+#import strata::raster::setup::{Barycentrics, SetupTriangle, barycentrics_at, varying_from, wide_negative}
 #import strata::tiled::constants::{COUNTER_CUT_SHORT, COUNTER_DEEPEST, COUNTER_DEEPEST_IN_ROUNDS, COUNTER_EVALUATIONS, COUNTER_LONGEST_LIST, COUNTER_ROUNDS, COUNTER_ROUNDS_RECORDED, COUNTER_RECORD_LOADS, COUNTER_SHADINGS, COUNTER_UNFINISHED, COUNTER_WARP_STEPS, KEEP, ROUND_BINS}
 #import strata::tiled::lists::{PROGRESS_DONE, PROGRESS_FRESH, PROGRESS_LEFT, PROGRESS_RESOLVED, PixelState, fragments_left, list_entry, load_state, output, progress_of, set_progress, store_state, tile_counts, tile_rounds, tile_starts, tiled_counters, tiled_tail, tp, work_add}
 #import strata::tiled::samples::{SamplesAccount, fragment_samples, load_account, load_sample, sample_count, store_account, store_sample}
@@ -146,6 +146,33 @@ fn chunk_covers(j: u32, lid: u32) -> bool {
     return ((chunk_masks[j][lid / 32u] >> (lid % 32u)) & 1u) == 1u;
 }
 
+// Chunk entry j's fragment at `pixel`, evaluated but not shaded (the attributes and shading
+// only for a fragment that is kept): its depth, the samples it covers (none where it is
+// clipped or behind the opaque depth; single-sampled 1) and its key (depth, tag).
+struct RoundCandidate {
+    t: SetupTriangle,
+    prim: u32,
+    b: Barycentrics,
+    covered: u32,
+    front_facing: bool,
+    key: Fragment,
+}
+
+fn round_candidate(j: u32, pixel: vec2<i32>) -> RoundCandidate {
+    let t = chunk[j];
+    let prim = chunk_prims[j];
+    let b = barycentrics_at(t, pixel);
+    let covered = fragment_samples(t, pixel, b.depth);
+    let front_facing = wide_negative(t.doubled_area);
+    let key = Fragment(b.depth, covering_tag(prim, front_facing, covered), 0u, 0u);
+    return RoundCandidate(t, prim, b, covered, front_facing, key);
+}
+
+// The candidate shaded: the fragment a round keeps or joins to a tail.
+fn shade_candidate(c: RoundCandidate, pixel: vec2<i32>) -> Fragment {
+    return scene_fragment_covering(varying_from(c.t, c.prim, pixel, c.b), c.front_facing, c.covered);
+}
+
 // Ends a round's walk: the workgroup's record loads, evaluations and shadings added to the
 // frame's counters, one atomic each.
 fn walk_end(lid: u32, loads: u32, evaluations: u32, shadings: u32) {
@@ -207,26 +234,18 @@ fn cs_round(invocation: TileThread) {
                 if !chunk_covers(j, lid) {
                     continue;
                 }
-                let t = chunk[j];
-                let prim = chunk_prims[j];
-                // The depth first: the attributes and shading only for a fragment that is kept.
-                let b = barycentrics_at(t, pixel);
+                let c = round_candidate(j, pixel);
                 evaluations += 1u;
-                if fragment_samples(t, pixel, b.depth) == 0u {
-                    continue;
-                }
-                let front_facing = wide_negative(t.doubled_area);
-                let key = Fragment(b.depth, (prim << 1u) | select(0u, 1u, front_facing), 0u, 0u);
-                if bounded && !fragment_before(bound, key) {
+                if c.covered == 0u || (bounded && !fragment_before(bound, c.key)) {
                     continue;
                 }
                 candidates += 1u;
-                let nearer = count < KEEP || fragment_before(key, kept[KEEP - 1u]);
+                let nearer = count < KEEP || fragment_before(c.key, kept[KEEP - 1u]);
                 if !nearer && !tail_round {
                     continue;
                 }
                 shadings += 1u;
-                let f = scene_fragment(varying_from(t, prim, pixel, b), front_facing);
+                let f = shade_candidate(c, pixel);
                 if tail_round {
                     tail_join(&tail, tail_params, f);
                 }
@@ -331,27 +350,19 @@ fn cs_round_samples(invocation: TileThread) {
                 if !chunk_covers(j, lid) {
                     continue;
                 }
-                let t = chunk[j];
-                let prim = chunk_prims[j];
-                let b = barycentrics_at(t, pixel);
+                let c = round_candidate(j, pixel);
                 evaluations += 1u;
-                let covered = fragment_samples(t, pixel, b.depth);
-                if covered == 0u {
-                    continue;
-                }
-                let front_facing = wide_negative(t.doubled_area);
-                let key = Fragment(b.depth, covering_tag(prim, front_facing, covered), 0u, 0u);
-                if bounded && !fragment_before(bound, key) {
+                if c.covered == 0u || (bounded && !fragment_before(bound, c.key)) {
                     continue;
                 }
                 candidates += 1u;
-                let nearer = count < KEEP || fragment_before(key, kept[KEEP - 1u]);
-                let joins = covered & filling;
+                let nearer = count < KEEP || fragment_before(c.key, kept[KEEP - 1u]);
+                let joins = c.covered & filling;
                 if !nearer && joins == 0u {
                     continue;
                 }
                 shadings += 1u;
-                let f = scene_fragment_covering(varying_from(t, prim, pixel, b), front_facing, covered);
+                let f = shade_candidate(c, pixel);
                 for (var s = 0u; s < samples; s++) {
                     if ((joins >> s) & 1u) == 1u {
                         // Through a copy: naga 30's SPIR-V output panics on a pointer to an
