@@ -305,7 +305,8 @@ pub struct MethodArgs {
     /// k-buffers cull fragments behind a full pixel's farthest before taking the lock.
     #[arg(long, value_enum, default_value = "on")]
     pub culling: Toggle,
-    /// Spin-lock tries per fragment for the locking k-buffers (default 65536, at most 1048576).
+    /// Lock tries per shader invocation for the locking k-buffers and kb-ll (default 65536, at
+    /// most 1048576): per fragment, shared by an invocation's fragments under --raster compute.
     #[arg(long)]
     pub max_tries: Option<u32>,
     /// The k-buffers' and A-buffers' per-pixel arrays: pixel (each pixel's items together, as

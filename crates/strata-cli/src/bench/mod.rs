@@ -19,6 +19,7 @@ pub(crate) mod online_culling;
 pub(crate) mod peers;
 pub(crate) mod scale;
 pub(crate) mod soak;
+mod soak_app;
 pub(crate) mod suite;
 mod table;
 

@@ -2,7 +2,9 @@
 //! every few frames — the method (every method that blends add and multiply materials and takes
 //! `--msaa`), k, the size, the scene (another triangle count: the scene buffers are rebuilt) and
 //! the sample count (a new recorder: the old one dropped) — recording each frame into an encoder
-//! and polling the statistics ring without waiting, as an application does.
+//! and polling the statistics ring without waiting, as an application does. Every other frame
+//! an application with its own shaders and buffers records its frame into the same encoder
+//! through its own long-lived recorder (`soak_app`).
 //!
 //! It checks three things. **Nothing grows**: at checkpoints, the process's resident memory and
 //! wgpu's live resources on the device (buffers, textures, bind groups, pipelines and their
@@ -13,7 +15,8 @@
 //! by its frame number, to what was recorded then (method, k, size); a report of another frame's
 //! settings, or for no frame recorded, counts in `mismatched_stats`. **Exact methods stay exact**:
 //! at checkpoints the current exact method renders a complete frame on the long-lived recorder,
-//! held to the CPU reference at the exact methods' bar.
+//! held to the CPU reference at the exact methods' bar, and the application's long-lived
+//! recorder renders a complete frame equal to a fresh recorder's.
 //!
 //! By default 2000 frames at 16² on a CPU device and 20,000 at 64² on a GPU; the long
 //! session is `--frames 100000` (about 50 minutes on lavapipe). Writes `soak.json` (`checkpoints` with `frame`, `host_rss_bytes`, `gpu_bytes_live`, the live
@@ -29,6 +32,7 @@ use strata::gpu::Gpu;
 use strata::scene::{loaders, Blend, Scene};
 use strata::{Effect, FrameRecorder, MethodId, RenderOptions};
 
+use super::soak_app::App;
 use crate::bench::{csv_of, opt, print_rows, standalone_setup, Column};
 use crate::Size;
 
@@ -57,6 +61,8 @@ const METHOD_EVERY: u64 = 5;
 const K_EVERY: u64 = 7;
 const SIZE_EVERY: u64 = 11;
 const SCENE_EVERY: u64 = 13;
+/// Frames between the application's frames.
+const APP_EVERY: u64 = 2;
 
 /// Checkpoints over the session.
 const CHECKPOINTS: u64 = 40;
@@ -78,6 +84,8 @@ struct Checkpoint {
     /// The exact method's complete frame against the reference: `None` for a method not exact
     /// at this k, else whether it met the exact bar.
     equals_reference: Option<bool>,
+    /// The application's complete frame on its long-lived recorder equals a fresh recorder's.
+    app_equals_fresh: bool,
 }
 
 #[derive(Serialize)]
@@ -100,8 +108,13 @@ struct Report {
     /// each, as a fraction.
     host_growth: f64,
     gpu_growth: f64,
-    /// Checkpoints whose exact frame missed the reference.
+    /// Checkpoints whose exact frame missed the reference, or whose application frame differed
+    /// from a fresh recorder's.
     reference_failures: u64,
+    app_failures: u64,
+    /// The application's reports matched to its frames, and those that were not.
+    app_matched_stats: u64,
+    app_mismatched_stats: u64,
     flat: bool,
 }
 
@@ -148,6 +161,8 @@ struct Session<'g> {
     /// Frames between --msaa switches: an eighth of the session, so that each half has seen
     /// both sample counts, twice.
     samples_every: u64,
+    /// The application's capture path, recorded into the same encoders every APP_EVERY frames.
+    app: App,
 }
 
 impl<'g> Session<'g> {
@@ -177,6 +192,7 @@ impl<'g> Session<'g> {
             skipped_before: 0,
             recorders: 1,
             samples_every: (frames / 8).max(1),
+            app: App::new(gpu, base)?,
         })
     }
 
@@ -224,16 +240,21 @@ impl<'g> Session<'g> {
         }
     }
 
-    /// Records frame `frame` and submits it; matches whatever statistics came back.
-    fn frame(&mut self) -> Result<()> {
+    /// Records a frame, and with `with_app` the application's frame after it into the same
+    /// encoder, and submits them; matches whatever statistics came back.
+    fn frame(&mut self, with_app: bool) -> Result<()> {
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         let n = self
             .recorder
             .record(&mut encoder, &Default::default(), None)?;
+        if with_app {
+            self.app.record(&mut encoder)?;
+        }
         self.gpu.queue.submit([encoder.finish()]);
         self.recorded.insert(n, self.now());
         let done = self.recorder.poll_stats();
         self.check(done);
+        self.app.poll();
         Ok(())
     }
 
@@ -257,6 +278,7 @@ impl<'g> Session<'g> {
         self.gpu.wait()?;
         let done = self.recorder.poll_stats();
         self.check(done);
+        self.app.poll();
         Ok(())
     }
 
@@ -313,9 +335,10 @@ impl Session<'_> {
         }
         for m in METHODS {
             self.recorder.set_method(m)?;
-            self.frame()?;
-            self.frame()?;
+            self.frame(false)?;
+            self.frame(false)?;
         }
+        self.app.tour()?;
         self.drain()?;
         let live = self.gpu.device.get_internal_counters().hal;
         if scene != 0 {
@@ -330,6 +353,7 @@ impl Session<'_> {
 
 fn checkpoint(session: &mut Session<'_>, frame: u64) -> Result<Checkpoint> {
     let equals_reference = session.reference_check()?;
+    let app_equals_fresh = session.app.equals_fresh()?;
     let c = session.tour()?;
     Ok(Checkpoint {
         frame,
@@ -342,6 +366,7 @@ fn checkpoint(session: &mut Session<'_>, frame: u64) -> Result<Checkpoint> {
         method: session.recorder.method().as_str(),
         samples: session.samples,
         equals_reference,
+        app_equals_fresh,
     })
 }
 
@@ -389,7 +414,7 @@ fn run(gpu: &Gpu, size: Option<Size>, frames: Option<u32>, dir: &Path) -> Result
     let mut checkpoints = Vec::new();
     for frame in 0..frames {
         session.switch(frame)?;
-        session.frame()?;
+        session.frame(frame.is_multiple_of(APP_EVERY))?;
         if (frame + 1) % every == 0 {
             let c = checkpoint(&mut session, frame + 1)?;
             // A long session's curve so far, should it be cut short.
@@ -427,6 +452,7 @@ fn run(gpu: &Gpu, size: Option<Size>, frames: Option<u32>, dir: &Path) -> Result
         .iter()
         .filter(|c| c.equals_reference == Some(false))
         .count() as u64;
+    let app_failures = checkpoints.iter().filter(|c| !c.app_equals_fresh).count() as u64;
     let report = Report {
         header: crate::bench::Header::new("soak", gpu, cpu_figures, base),
         frames,
@@ -438,6 +464,9 @@ fn run(gpu: &Gpu, size: Option<Size>, frames: Option<u32>, dir: &Path) -> Result
         host_growth,
         gpu_growth,
         reference_failures,
+        app_failures,
+        app_matched_stats: session.app.matched,
+        app_mismatched_stats: session.app.mismatched,
         flat: host_growth <= FLAT_BOUND && gpu_growth <= FLAT_BOUND,
         checkpoints,
     };
@@ -458,26 +487,30 @@ fn run(gpu: &Gpu, size: Option<Size>, frames: Option<u32>, dir: &Path) -> Result
         C::csv("method", |c| c.method.to_string()).shown("method", 14),
         C::csv("samples", |c| c.samples.to_string()).shown("msaa", 4),
         C::csv("reference", |c| opt(c.equals_reference)).shown("exact", 6),
+        C::csv("app_equals_fresh", |c| c.app_equals_fresh.to_string()).shown("app", 5),
     ];
     print_rows(&columns, &report.checkpoints, |_| None);
     println!(
-        "soak: {frames} frames at {}x{}, {} recorders; statistics matched {} mismatched {} skipped {}; host memory grew {:.1}%, GPU memory {:.1}% from the first half to the second ({}); {} reference checks failed",
+        "soak: {frames} frames at {}x{}, {} recorders; statistics matched {} mismatched {} skipped {}; the application's matched {} mismatched {}; host memory grew {:.1}%, GPU memory {:.1}% from the first half to the second ({}); {} reference checks failed, {} application checks",
         base.0,
         base.1,
         report.recorders,
         report.matched_stats,
         report.mismatched_stats,
         report.skipped_stats,
+        report.app_matched_stats,
+        report.app_mismatched_stats,
         host_growth * 100.0,
         gpu_growth * 100.0,
         if report.flat { "flat" } else { "NOT flat" },
-        reference_failures
+        reference_failures,
+        app_failures
     );
     crate::write_results(dir, "soak", &report, csv_of(&columns, &report.checkpoints))?;
-    if report.mismatched_stats > 0 || reference_failures > 0 || !report.flat {
+    let mismatched = report.mismatched_stats + report.app_mismatched_stats;
+    if mismatched > 0 || reference_failures > 0 || app_failures > 0 || !report.flat {
         return Err(Error::runtime(format!(
-            "soak failed: {} mismatched statistics, {reference_failures} reference checks failed, memory {}",
-            report.mismatched_stats,
+            "soak failed: {mismatched} mismatched statistics, {reference_failures} reference checks and {app_failures} application checks failed, memory {}",
             if report.flat { "flat" } else { "grew" }
         )));
     }

@@ -245,7 +245,9 @@ pub struct KBufferOptions {
     pub tail: Tail,
     /// Cull fragments behind a full pixel's maximum before taking the lock.
     pub culling: bool,
-    /// Spin-lock tries per fragment (default 65536, at most [`MAX_TRIES_LIMIT`]).
+    /// Lock and compare-exchange tries per shader invocation (default 65536, at most
+    /// [`MAX_TRIES_LIMIT`]): per fragment under the GPU's rasterizer, shared by the up to 64
+    /// fragments an invocation of the compute rasterizer captures (each gets at least one try).
     pub max_tries: Option<u32>,
     /// How the per-pixel arrays are laid out.
     pub layout: StorageLayout,
@@ -469,7 +471,7 @@ impl FrameOptions {
             }
             if tries > limit {
                 return Err(Error::input(format!(
-                    "--max-tries {tries} is over {limit}: a fragment spinning that long on a starved lock could outlast the GPU's watchdog"
+                    "--max-tries {tries} is over {limit}: an invocation spinning that long on a starved lock could outlast the GPU's watchdog"
                 )));
             }
         }

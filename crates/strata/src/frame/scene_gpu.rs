@@ -106,6 +106,25 @@ pub struct SceneGpu {
     /// What the CPU needs to follow the animation's centroids (for `sorted`), and whether
     /// `centroids` lag its time.
     motion: Option<CpuMotion>,
+    /// The most triangles one draw call of [`SceneGpu::draw`] holds ([`MAX_TRIANGLES_PER_DRAW`];
+    /// smaller in tests).
+    triangles_per_draw: u32,
+}
+
+/// The most triangles in one draw call strata issues (docs/watchdog.md, S1): about 40 ms of
+/// an H100's vertex work, so that a driver which preempts or times jobs at draw boundaries sees
+/// no draw near a display watchdog's limit even at [`crate::scene::MAX_SCENE_TRIANGLES`] (four
+/// draws).
+/// The ranges go in order, so a method that depends on the draw order sees the same order.
+pub const MAX_TRIANGLES_PER_DRAW: u32 = 1 << 23;
+
+/// The vertex (or index) ranges of `triangles` triangles in draws of at most `per_draw`.
+pub fn draw_ranges(triangles: u32, per_draw: u32) -> impl Iterator<Item = std::ops::Range<u32>> {
+    let per_draw = per_draw.max(1);
+    (0..triangles.div_ceil(per_draw)).map(move |i| {
+        let first = i * per_draw;
+        first * 3..(first + per_draw).min(triangles) * 3
+    })
 }
 
 /// The CPU's view of an animated scene: enough to place every triangle's centroid at a time.
@@ -193,6 +212,7 @@ impl SceneGpu {
             application: None,
             animation: None,
             motion: None,
+            triangles_per_draw: MAX_TRIANGLES_PER_DRAW,
         };
         scene_gpu.animate(gpu, scene)?;
         Ok(scene_gpu)
@@ -312,14 +332,22 @@ impl SceneGpu {
             return;
         }
         self.bind(pass);
+        let ranges = draw_ranges(self.triangle_count, self.triangles_per_draw);
         match (draw, &self.draw_indices) {
             (Some(draw), _) => draw(pass),
             (None, Some(indices)) => {
                 pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..self.triangle_count * 3, 0, 0..1);
+                ranges.for_each(|range| pass.draw_indexed(range, 0, 0..1));
             }
-            (None, None) => pass.draw(0..self.triangle_count * 3, 0..1),
+            (None, None) => ranges.for_each(|range| pass.draw(range, 0..1)),
         }
+    }
+
+    /// Splits [`SceneGpu::draw`] into draws of at most `triangles` (tests show that the split
+    /// leaves every picture as it was).
+    #[cfg(test)]
+    pub(crate) fn set_triangles_per_draw(&mut self, triangles: u32) {
+        self.triangles_per_draw = triangles;
     }
 
     /// The bind group index of strata's first group in a geometry pass: 0, or after an

@@ -1,5 +1,5 @@
 #define_import_path strata::kbuffer::kb_capture
-#import strata::kbuffer::storage::{count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, tail_add, try_lock, unlock}
+#import strata::kbuffer::storage::{count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, spend_tries, tail_add, try_budget, try_lock, unlock}
 #import strata::kbuffer::words::{FILLED}
 #import strata::fragment::{Fragment, fragment_before, fragment_color}
 #import strata::kbuffer::slot_access::{load_slot, store_slot}
@@ -85,13 +85,16 @@ fn merge_layers(front: Fragment, back: Fragment) -> Fragment {
 fn capture_mlab(p: u32, f: Fragment) {
     count_seen(p);
     var waiting = true;
-    for (var t = 0u; t < kp.max_tries && waiting; t++) {
+    let budget = try_budget();
+    var t = 0u;
+    for (; t < budget && waiting; t++) {
         if try_lock(p) {
             mlab_insert(p, f);
             unlock(p);
             waiting = false;
         }
     }
+    spend_tries(t);
     if waiting {
         lock_failed(p, f);
     }
@@ -114,7 +117,9 @@ fn capture_sorted_unlocked(p: u32, f: Fragment) {
 fn capture_sorted_locked(p: u32, f: Fragment) {
     count_seen(p);
     var waiting = true;
-    for (var t = 0u; t < kp.max_tries && waiting; t++) {
+    let budget = try_budget();
+    var t = 0u;
+    for (; t < budget && waiting; t++) {
         if culled(p, f) {
             tail_add(p, f);
             waiting = false;
@@ -124,6 +129,7 @@ fn capture_sorted_locked(p: u32, f: Fragment) {
             waiting = false;
         }
     }
+    spend_tries(t);
     if waiting {
         lock_failed(p, f);
     }

@@ -1,5 +1,5 @@
 #define_import_path strata::kbuffer::kplus_capture
-#import strata::kbuffer::storage::{acquire_published, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, release_published, tail_add, try_lock, unlock}
+#import strata::kbuffer::storage::{acquire_published, count_seen, culled, kp, lock_failed, pixel_word, pixels, publish_bound, release_published, spend_tries, tail_add, try_budget, try_lock, unlock}
 #import strata::kbuffer::words::{BOUND, FILLED}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::kbuffer::slot_access::{load_key, load_slot, store_slot}
@@ -142,7 +142,9 @@ fn capture_locked(p: u32, f: Fragment, variant: u32) {
 // waited is behind the k nearest for good and goes to the tail without the lock.
 fn insert_locked(p: u32, f: Fragment, variant: u32) {
     var waiting = true;
-    for (var t = 0u; t < kp.max_tries && waiting; t++) {
+    let budget = try_budget();
+    var t = 0u;
+    for (; t < budget && waiting; t++) {
         if culled(p, f) {
             tail_add(p, f);
             waiting = false;
@@ -157,6 +159,7 @@ fn insert_locked(p: u32, f: Fragment, variant: u32) {
             waiting = false;
         }
     }
+    spend_tries(t);
     if waiting {
         lock_failed(p, f);
     }
@@ -176,7 +179,9 @@ fn capture_array_r(p: u32, f: Fragment) {
         release_published(pixel_word(p, FILLED), 1u);
     }
     var waiting = !fast;
-    for (var t = 0u; t < kp.max_tries && waiting; t++) {
+    let budget = try_budget();
+    var t = 0u;
+    for (; t < budget && waiting; t++) {
         if culled(p, f) {
             tail_add(p, f);
             waiting = false;
@@ -193,6 +198,7 @@ fn capture_array_r(p: u32, f: Fragment) {
             waiting = false;
         }
     }
+    spend_tries(t);
     if waiting {
         lock_failed(p, f);
     }

@@ -1,6 +1,6 @@
 #define_import_path strata::kbuffer::list
 #import strata::kbuffer::counters::{COUNTER_ALLOCATED, COUNTER_LOST, COUNTER_OVERFLOWED}
-#import strata::kbuffer::storage::{count_seen, counter_add, counters, fragment_words, kp, pixel_word, pixels, tail_add}
+#import strata::kbuffer::storage::{count_seen, counter_add, counters, fragment_words, kp, pixel_word, pixels, spend_tries, tail_add, try_budget}
 #import strata::fragment::{Fragment, fragment_before}
 
 // Per-pixel linked lists for the k-buffer family: nodes of 5 atomic words (depth bits, tag, rg,
@@ -13,9 +13,10 @@
 // abuffer-ll, kb-ab-ll: the A-buffer's unsorted push, the k nearest (abuffer-ll: all) selected in
 //   resolve.
 // kb-ll: sorted insertion — walk to the fragment's place, link it with a compare-exchange on the
-//   predecessor's link, retry from the head when another fragment got there first; after
-//   `max_tries` failed exchanges the fragment is lost and counted. A place beyond the k-th node
-//   means the fragment is not among the k nearest: it is culled without taking a node.
+//   predecessor's link, walk on from the predecessor when another fragment got there first;
+//   when the invocation's tries (`try_budget`) are spent the fragment is lost and counted. A
+//   place beyond the k-th node means the fragment is not among the k nearest: it is culled
+//   without taking a node.
 
 const HEAD: u32 = 1u;
 
@@ -84,15 +85,23 @@ fn capture_list(p: u32, f: Fragment) {
     atomicStore(&fragment_words[node_word(link) + 4u], atomicExchange(&pixels[pixel_word(p, HEAD)], link));
 }
 
-// kb-ll's capture step.
+// kb-ll's capture step. A failed exchange resumes the walk from `prev`, not from the head:
+// nodes are never unlinked, so `prev` is still a predecessor of f and every node inserted since
+// lies after it. The walk then takes at most k steps in all plus one re-read per try, where a
+// restart from the head took up to k per try (docs/watchdog.md, C1). `position` undercounts the
+// nodes linked before `prev` meanwhile, so a fragment may take a node past the k-th: the resolve
+// selects the k nearest of every node it finds, so such a node costs pool, not exactness.
 fn capture_sorted_list(p: u32, f: Fragment) {
     count_seen(p);
     var link = 0u;
-    for (var t = 0u; t < kp.max_tries; t++) {
-        // Walk to the first node not before f; `prev` is the predecessor's link (0: the head).
-        var prev = 0u;
-        var cur = acquire_head(p);
-        var position = 0u;
+    // `prev` is the predecessor's link (0: the head); `cur` the first node not yet passed.
+    var prev = 0u;
+    var cur = acquire_head(p);
+    var position = 0u;
+    let budget = try_budget();
+    var t = 0u;
+    for (; t < budget; t++) {
+        // Walk on to the first node not before f.
         while cur != 0u {
             if position >= kp.k {
                 break;
@@ -107,12 +116,14 @@ fn capture_sorted_list(p: u32, f: Fragment) {
         if position >= kp.k {
             // A node taken before a lost exchange stays unlinked: it is pool this frame used,
             // so it counts in the measured need that sizes the next frame's pool.
+            spend_tries(t);
             tail_add(p, f);
             return;
         }
         if link == 0u {
             link = new_node(f);
             if link == 0u {
+                spend_tries(t);
                 return;
             }
         }
@@ -124,9 +135,17 @@ fn capture_sorted_list(p: u32, f: Fragment) {
             swapped = release_link_after(prev, cur, link);
         }
         if swapped {
+            spend_tries(t);
             return;
         }
+        // Another fragment linked after `prev` first: read its link again.
+        if prev == 0u {
+            cur = acquire_head(p);
+        } else {
+            cur = acquire_next(prev);
+        }
     }
+    spend_tries(t);
     counter_add(COUNTER_LOST, 1u);
     tail_add(p, f);
 }

@@ -62,10 +62,13 @@
 //! application's own capture shader (relaxed WGSL) may call only the lock-free ones.
 //! `FrameStats.memory_ordering` reports which. The locking methods are exact when
 //! `lock_failures` is 0. Every walk is bounded: list walks by min(seen, pool), kb-ll's
-//! insertion walk by k.
+//! insertion walk by k plus one re-read per try (a failed exchange walks on from the
+//! predecessor, not from the head).
 //!
 //! The lock is taken with a test-and-test-and-set inside a loop of at most `max_tries` tries
-//! (at most [`MAX_TRIES_LIMIT`]). The loop has no `return`, `break` or `continue`: the winner's
+//! (at most [`MAX_TRIES_LIMIT`]) per shader invocation, not per fragment: an invocation of the
+//! compute rasterizer captures up to 64 fragments, and its tries in all stay within the bound a
+//! display watchdog allows (`try_budget` in storage.wgsl; each fragment still gets one try). The loop has no `return`, `break` or `continue`: the winner's
 //! critical section sits inside the `if` that took the lock and the loop ends only at its own
 //! condition, so lanes of one SIMD group that failed the try wait at the `if`'s merge while the
 //! winner works. Before each try a waiter tests the culling bound again (it only falls: a
@@ -270,7 +273,8 @@ pub(crate) const WORDS_WGSL: &str = wgsl_constants!(
 
 /// `--k` when not given.
 pub const DEFAULT_K: u32 = 16;
-/// Spin-lock tries per fragment before it counts as a lock failure. A failed try is one load of
+/// Spin-lock tries per invocation (a fragment, under the GPU's rasterizer) before a fragment
+/// counts as a lock failure. A failed try is one load of
 /// the lock word, while a holder's critical section is tens of ordered atomics and up to 150
 /// fragments of a test pixel queue for it: 65536 tries leave room for that queue (4096 was
 /// chosen on lavapipe) and still bound the spin to milliseconds.

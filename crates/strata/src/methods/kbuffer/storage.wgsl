@@ -223,6 +223,22 @@ fn unlock(p: u32) {
     release_lock(pixel_word(p, LOCK));
 }
 
+// The tries an invocation may still spend on locks and exchanges. A fragment shader runs one
+// fragment an invocation; the compute rasterizer runs up to 64 an item, and several items an
+// invocation, so `max_tries` bounds the invocation's tries in all, not each fragment's
+// (docs/watchdog.md, C2): a spin that fails long enough to reach a display watchdog fails once,
+// not once per fragment. Once they are spent, each later fragment still gets one try.
+var<private> tries_spent: u32 = 0u;
+
+fn try_budget() -> u32 {
+    return max(kp.max_tries - min(tries_spent, kp.max_tries), 1u);
+}
+
+// `tries` is at most try_budget(): the sum stays below 2 max_tries + 2^12 fragments, no wrap.
+fn spend_tries(tries: u32) {
+    tries_spent += tries;
+}
+
 fn lock_failed(p: u32, f: Fragment) {
     counter_add(COUNTER_LOCK_FAILURES, 1u);
     tail_add(p, f);

@@ -951,6 +951,11 @@ fn lock_winners_leave_their_loop_only_through_its_condition() {
                 head.contains("&& waiting"),
                 "{file}: the lock loop does not end at its condition: {head}"
             );
+            // The invocation's budget, not each fragment's max_tries (docs/watchdog.md, C2).
+            assert!(
+                head.contains("t < budget") && !body.contains("max_tries"),
+                "{file}: the lock loop does not spend the invocation's try budget: {head}"
+            );
             loops += 1;
         }
     }

@@ -34,7 +34,8 @@
 //!   onto its state. Tiles whose pixels have nothing left skip the round. R is ⌈f/16⌉ of the
 //!   deepest pixel last frame's rounds ran on (2 for a first frame, at least 1); pixels with
 //!   fragments left after R rounds make the frame incomplete (counted as dropped; exact mode
-//!   renders again with enough rounds).
+//!   renders again with enough rounds). R is at most `MAX_ROUNDS` (4096, 65,536 fragments a
+//!   pixel): a frame is one submission, and a deeper pixel says the frame cannot complete.
 //! - **finish**: the result of each pixel the fast pass left, from its state (summed per
 //!   workgroup into the frame's totals), and the rounds per tile.
 //!
@@ -298,6 +299,23 @@ pub fn rounds_for(fragments: u32) -> u32 {
     fragments.div_ceil(KEEP).max(1)
 }
 
+/// The most round dispatches one frame records (docs/watchdog.md, T1): 65,536 fragments in a
+/// pixel. A frame is one submission, which a driver may time as one job: past this the rounds
+/// would be thousands of dispatches each walking whole tile lists. Pixels deeper than this are
+/// left unfinished and the frame says it cannot complete.
+pub const MAX_ROUNDS: u32 = 4096;
+
+/// The rounds the next frame needs (before [`MAX_ROUNDS`]): enough for the deepest pixel the
+/// one-pass kernel left to the rounds (at least one: a tile past its capacity must run one to
+/// be counted); after an item overflow the deepest pixel seen is only a lower bound, so the
+/// rounds do not shrink.
+fn next_rounds(rounds: u32, overflow: bool, deepest: u32, deepest_in_rounds: u32) -> u32 {
+    match overflow {
+        true => rounds.max(rounds_for(deepest)),
+        false => rounds_for(deepest_in_rounds),
+    }
+}
+
 /// The list sort's stage (entries `cs_count`, `cs_scan`, `cs_scatter`), its scan of
 /// `scan_threads` threads.
 pub fn sort_stage(scan_threads: u32, samples: u32) -> Stage {
@@ -544,18 +562,27 @@ impl Method for Tiled {
         let deepest_in_rounds = counters[COUNTER_DEEPEST_IN_ROUNDS];
         let unfinished = counters[COUNTER_UNFINISHED] as u64;
         let longest_list = counters[COUNTER_LONGEST_LIST];
-        // Enough rounds next frame for the deepest pixel the one-pass kernel left to them (at
-        // least one: a tile past its capacity must run one to be counted); after an item
-        // overflow the deepest pixel seen is only a lower bound.
-        self.rounds = match report.stats.overflow {
-            true => self.rounds.max(rounds_for(deepest)),
-            false => rounds_for(deepest_in_rounds),
-        };
+        let needed = next_rounds(
+            self.rounds,
+            report.stats.overflow,
+            deepest,
+            deepest_in_rounds,
+        );
+        self.rounds = needed.min(MAX_ROUNDS);
         let cut_short = counters[COUNTER_CUT_SHORT];
         let cannot_complete = report.cannot_complete.or_else(|| {
-            (cut_short > 0).then(|| crate::frame::Shortfall {
+            if cut_short > 0 {
+                return Some(crate::frame::Shortfall {
+                    why: format!(
+                        "tiled: the adapter ended {cut_short} pixels' walks of their tile lists early (the longest list holds {longest_list} triangles); lavapipe stops a shader invocation's loops after 65535 iterations in all, which a GPU does not: render smaller or use another exact method here"
+                    ),
+                    binding: None,
+                });
+            }
+            (unfinished > 0 && needed > MAX_ROUNDS).then(|| crate::frame::Shortfall {
                 why: format!(
-                    "tiled: the adapter ended {cut_short} pixels' walks of their tile lists early (the longest list holds {longest_list} triangles); lavapipe stops a shader invocation's loops after 65535 iterations in all, which a GPU does not: render smaller or use another exact method here"
+                    "tiled: a pixel holds {deepest} fragments, more than the {MAX_ROUNDS} rounds a frame records composite ({}): a frame of more rounds risks a display watchdog; use another exact method here",
+                    MAX_ROUNDS * KEEP
                 ),
                 binding: None,
             })

@@ -608,3 +608,16 @@ fn the_deferred_pipelines_transparent_part_is_abuffer_lls() {
     assert!(stats.lighting.is_some());
     assert_eq!(stats.fragments_generated, reference.fragments_generated);
 }
+
+/// The rounds follow the deepest pixel left to them, keep growing after an item overflow (the
+/// deepest seen is then a lower bound), and a frame records at most MAX_ROUNDS of them
+/// (docs/watchdog.md, T1): 65,536 fragments a pixel.
+#[test]
+fn the_rounds_follow_the_deepest_pixel_up_to_their_cap() {
+    assert_eq!(next_rounds(9, false, 500, 0), 1);
+    assert_eq!(next_rounds(9, false, 500, 33), 3);
+    assert_eq!(next_rounds(9, true, 33, 0), 9);
+    assert_eq!(next_rounds(2, true, 33, 0), 3);
+    assert_eq!(MAX_ROUNDS * KEEP, 65_536);
+    assert!(next_rounds(2, false, 0, 65_537) > MAX_ROUNDS);
+}

@@ -244,3 +244,44 @@ fn an_allocation_past_the_devices_limit_names_its_size_and_the_recorder_goes_on(
         first.stats.fragments_generated
     );
 }
+
+/// Draws split by triangle range (docs/watchdog.md, S1) leave every picture as it was: the
+/// ranges go in the scene's order (unsorted blends, f2b's peels), in `--order`'s index order
+/// (kb-ll under `--order back`), and in the sorted method's, and order-independent captures
+/// see the same fragments. 7 triangles a draw turns the scene into dozens of draws.
+#[test]
+fn draws_split_by_triangle_range_leave_the_picture_as_it_was() {
+    let scene = loaders::load_scene("builtin:spheres?layers=4&segments=12").unwrap();
+    let mut back = RenderOptions::sized(40, 40);
+    back.frame.order = Some(crate::order::Order::Back);
+    for (method, options) in [
+        (MethodId::Unsorted, RenderOptions::sized(40, 40)),
+        (MethodId::Sorted, RenderOptions::sized(40, 40)),
+        (MethodId::F2b, RenderOptions::sized(40, 40)),
+        (MethodId::AbufferLl, RenderOptions::sized(40, 40)),
+        (MethodId::KbLl, back),
+    ] {
+        let mut whole = FrameRecorder::new(gpu(), &scene, method, &options).unwrap();
+        let mut split = FrameRecorder::new(gpu(), &scene, method, &options).unwrap();
+        split.scene.set_triangles_per_draw(7);
+        assert!(scene.triangle_count() > 7 * 8, "several draws");
+        assert!(
+            resolved_after_one_frame(&mut whole) == resolved_after_one_frame(&mut split),
+            "{method:?}: the split draws changed the picture"
+        );
+    }
+}
+
+#[test]
+fn draw_ranges_cover_every_triangle_once_in_order() {
+    use crate::frame::scene_gpu::draw_ranges;
+    let ranges: Vec<_> = draw_ranges(17, 7).collect();
+    assert_eq!(ranges, [0..21, 21..42, 42..51]);
+    assert_eq!(draw_ranges(14, 7).collect::<Vec<_>>(), [0..21, 21..42]);
+    assert_eq!(draw_ranges(0, 7).count(), 0);
+    let limit = crate::scene::MAX_SCENE_TRIANGLES as u32;
+    let per_draw = crate::frame::scene_gpu::MAX_TRIANGLES_PER_DRAW;
+    let at_limit: Vec<_> = draw_ranges(limit, per_draw).collect();
+    assert_eq!(at_limit.len(), 4);
+    assert_eq!(at_limit.last().unwrap().end, limit * 3);
+}
