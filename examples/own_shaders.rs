@@ -291,7 +291,8 @@ pub fn run(
     .vertex_buffer(VertexLayout::new(stride, &attributes))
     .bind_group_layout(&tint_layout);
     let mut oit = FrameRecorder::for_application(&gpu, method, &options, shader)?;
-    // strata calls this once per geometry pass of the method, its pipeline and groups set.
+    // strata calls this in each geometry pass of the method, its pipeline and groups set (once
+    // per band of rows, under its scissor, when a frame is heavy): draw the same every time.
     let draw = |pass: &mut wgpu::RenderPass<'_>| {
         pass.set_bind_group(0, Some(&tint_group), &[]);
         pass.set_vertex_buffer(0, glass_buffer.slice(..));

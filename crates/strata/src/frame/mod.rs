@@ -308,7 +308,9 @@ pub const RESOLVED_BYTES: u64 = std::mem::size_of::<Resolved>() as u64;
 
 /// Issues draw calls into a geometry pass whose pipeline and bind groups the method has set and
 /// whose vertex-buffer slot 0 holds the scene's triangle list: triangle `t` is vertices
-/// 3t..3t+3, so a callback draws any ranges (culled subsets, chunks) of it.
+/// 3t..3t+3, so a callback draws any ranges (culled subsets, chunks) of it. A heavy frame's
+/// geometry pass calls it once per band of rows, each under a scissor strata sets
+/// (docs/watchdog.md, S2): it draws the same each time and sets no scissor of its own.
 pub type DrawCallback<'a> = dyn Fn(&mut wgpu::RenderPass<'_>) + 'a;
 
 /// Where a frame goes: the application's color target (the frame's size, RENDER_ATTACHMENT,

@@ -109,6 +109,16 @@ pub struct SceneGpu {
     /// The most triangles one draw call of [`SceneGpu::draw`] holds ([`MAX_TRIANGLES_PER_DRAW`];
     /// smaller in tests).
     triangles_per_draw: u32,
+    /// The bands of rows [`SceneGpu::draw`] draws the geometry in, each under a scissor of its
+    /// rows ([`SceneGpu::set_draw_bands`]): the frame's width and height, and the bands.
+    draw_bands: (u32, u32, u32),
+    /// The fragments the latest frame that came back generated ([`SceneGpu::note_fragments`]).
+    last_fragments: u64,
+    /// Bands whatever the frames generate (tests).
+    forced_bands: Option<u32>,
+    /// A CPU device: no display watchdog, so no bands (and lavapipe's multisampled scissor
+    /// lets the row above the rectangle through: the geometry would be drawn twice there).
+    cpu_device: bool,
 }
 
 /// The most triangles in one draw call strata issues (docs/watchdog.md, S1): about 40 ms of
@@ -117,6 +127,31 @@ pub struct SceneGpu {
 /// draws).
 /// The ranges go in order, so a method that depends on the draw order sees the same order.
 pub const MAX_TRIANGLES_PER_DRAW: u32 = 1 << 23;
+
+/// The most fragments one draw is meant to hold (docs/watchdog.md, S2): about 64 ms of the
+/// costliest capture measured on an H100 (kb-keys at k = 16, 3.8 ns a fragment), 35 ms of a
+/// lock k-buffer's. A frame whose last frame generated more draws its geometry once per band of
+/// rows, each band under a scissor, so that each draw rasterizes all triangles but shades only
+/// its rows' fragments. The bands partition the pixels and each draws in the same order, so every
+/// pixel sees the same fragments in the same order: pictures do not change.
+pub const MAX_FRAGMENTS_PER_DRAW: u64 = 1 << 24;
+
+/// The bands of rows a frame of `height` rows draws in when its last frame generated
+/// `fragments`: at least one, at most one per row.
+pub fn draw_bands_for(fragments: u64, height: u32) -> u32 {
+    fragments
+        .div_ceil(MAX_FRAGMENTS_PER_DRAW)
+        .clamp(1, height.max(1) as u64) as u32
+}
+
+/// Row `band` of `bands` bands' top edge over `height` rows, on a multiple of 8 rows but the
+/// last (GPUs shade the pixels of a tile together).
+fn band_edge(height: u32, band: u32, bands: u32) -> u32 {
+    match band >= bands {
+        true => height,
+        false => (height * band / bands) & !7,
+    }
+}
 
 /// The vertex (or index) ranges of `triangles` triangles in draws of at most `per_draw`.
 pub fn draw_ranges(triangles: u32, per_draw: u32) -> impl Iterator<Item = std::ops::Range<u32>> {
@@ -213,6 +248,10 @@ impl SceneGpu {
             animation: None,
             motion: None,
             triangles_per_draw: MAX_TRIANGLES_PER_DRAW,
+            draw_bands: (1, 1, 1),
+            last_fragments: 0,
+            forced_bands: None,
+            cpu_device: gpu.info.device_type == wgpu::DeviceType::Cpu,
         };
         scene_gpu.animate(gpu, scene)?;
         Ok(scene_gpu)
@@ -320,9 +359,47 @@ impl SceneGpu {
         pass.set_vertex_buffer(0, self.vertices.slice(..));
     }
 
+    /// The fragments a frame generated (its statistics, when they come back): the next frames'
+    /// draws are split by them ([`SceneGpu::set_draw_bands`]).
+    pub fn note_fragments(&mut self, generated: u64) {
+        self.last_fragments = generated;
+    }
+
+    /// Splits the frame about to be recorded, `width` × `height`, into bands of rows by what the
+    /// latest frame generated ([`MAX_FRAGMENTS_PER_DRAW`]).
+    pub fn set_draw_bands(&mut self, width: u32, height: u32) {
+        let bands = match (self.forced_bands, self.cpu_device) {
+            (Some(bands), _) => bands,
+            (None, true) => 1,
+            (None, false) => draw_bands_for(self.last_fragments, height),
+        };
+        self.draw_bands = (width, height, bands);
+    }
+
+    /// Draws the geometry once per band of rows ([`SceneGpu::set_draw_bands`]; one band: no
+    /// scissor), each through [`SceneGpu::draw_once`], and leaves the scissor on the whole frame.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, draw: Option<&DrawCallback<'_>>) {
+        let (width, height, bands) = self.draw_bands;
+        if bands <= 1 {
+            self.draw_once(pass, draw);
+            return;
+        }
+        for band in 0..bands {
+            let (top, bottom) = (
+                band_edge(height, band, bands),
+                band_edge(height, band + 1, bands),
+            );
+            if bottom > top {
+                pass.set_scissor_rect(0, top, width, bottom - top);
+                self.draw_once(pass, draw);
+            }
+        }
+        pass.set_scissor_rect(0, 0, width, height);
+    }
+
     /// Binds the vertex buffer and draws the geometry: through `draw` (an application's
     /// callback), or every triangle — in the frame's `--order` when one is set.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, draw: Option<&DrawCallback<'_>>) {
+    fn draw_once(&self, pass: &mut wgpu::RenderPass<'_>, draw: Option<&DrawCallback<'_>>) {
         if self.application.is_some() {
             // The application binds its own vertex buffers; the recorder refuses a frame of
             // an application's recorder without its draw callback.
@@ -348,6 +425,12 @@ impl SceneGpu {
     #[cfg(test)]
     pub(crate) fn set_triangles_per_draw(&mut self, triangles: u32) {
         self.triangles_per_draw = triangles;
+    }
+
+    /// Draws in `bands` bands of rows whatever the last frame generated (tests).
+    #[cfg(test)]
+    pub(crate) fn force_draw_bands(&mut self, bands: u32) {
+        self.forced_bands = Some(bands);
     }
 
     /// The bind group index of strata's first group in a geometry pass: 0, or after an

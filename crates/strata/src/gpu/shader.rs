@@ -39,12 +39,17 @@ pub const WEIGHT: &str = include_str!("../../shaders/shared/weight.wgsl");
 pub const TAIL: &str = include_str!("../../shaders/shared/tail.wgsl");
 /// `strata::dispatch`: a compute thread's number in a grid laid out in rows of workgroups.
 pub const DISPATCH: &str = include_str!("../../shaders/shared/dispatch.wgsl");
+/// `strata::steps`: an invocation's budget of data-bounded loop steps (docs/watchdog.md).
+pub const STEPS: &str = include_str!("../../shaders/shared/steps.wgsl");
 
 /// What every stage may import: scene bindings (group 0), the vertex stage and shading
 /// (`strata::scene`), colors (`strata::color`), the fragment record (`strata::fragment`) and the
 /// compositing state machine (`strata::composite`), the weights of weighted blended OIT
-/// (`strata::weight`), and compute threads' numbers (`strata::dispatch`).
-pub const SHARED: Library = &[SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT, TAIL, DISPATCH];
+/// (`strata::weight`), compute threads' numbers (`strata::dispatch`) and the loop-step budget
+/// (`strata::steps`).
+pub const SHARED: Library = &[
+    SCENE, COLOR, FRAGMENT, COMPOSITE, WEIGHT, TAIL, DISPATCH, STEPS,
+];
 
 /// The shader definitions a stage is composed with.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -265,8 +270,16 @@ impl Stage {
     /// ([`backend_defs`]). strata's stages compose (tested), so a failure is a bug in strata
     /// and panics with the composer's message.
     pub fn module(&self, device: &wgpu::Device) -> wgpu::ShaderModule {
-        let module = self
-            .clone()
+        #[cfg(test)]
+        let stage = match TEST_STEP_LIMIT.get() {
+            Some(limit) => self
+                .clone()
+                .defs(&Defs::default().value("STEP_LIMIT", limit)),
+            None => self.clone(),
+        };
+        #[cfg(not(test))]
+        let stage = self.clone();
+        let module = stage
             .defs(&backend_defs(device.adapter_info().backend))
             .compose()
             .unwrap_or_else(|e| panic!("{}: {e}", self.label));
@@ -286,6 +299,13 @@ impl Stage {
         naga::back::wgsl::write_string(&module, &info, naga::back::wgsl::WriterFlags::empty())
             .map_err(|e| format!("{}: {e}", self.label))
     }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// A smaller `strata::steps` budget for the stages this test thread makes (lavapipe's own
+    /// loop limit otherwise ends the loops first, and the budget would go untested there).
+    pub(crate) static TEST_STEP_LIMIT: std::cell::Cell<Option<u32>> = const { std::cell::Cell::new(None) };
 }
 
 fn validator() -> naga::valid::Validator {

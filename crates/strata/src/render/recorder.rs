@@ -514,6 +514,8 @@ impl FrameRecorder {
             )));
         }
         let frame = self.start_frame(encoder, lit_depth.as_ref().or(targets.opaque_depth))?;
+        let (width, height) = (self.options.frame.width, self.options.frame.height);
+        self.scene.set_draw_bands(width, height);
         if let Some(animation) = &mut self.scene.animation {
             animation.record(&self.gpu, encoder, &mut self.timer);
         }
@@ -902,13 +904,17 @@ impl FrameRecorder {
                 ..Default::default()
             },
         };
+        if let Some(t) = totals {
+            // The next frames' draws are split by it (docs/watchdog.md, S2).
+            self.scene.note_fragments(t.generated);
+        }
         let mut incomplete = ms.incomplete;
         let mut cannot_complete = ms.cannot_complete.clone();
         if let Some(t) = totals.filter(|t| t.cut_short > 0) {
             incomplete = true;
             cannot_complete = cannot_complete.or(Some(crate::frame::Shortfall {
                 why: format!(
-                    "{}: the adapter ended {} pixels' resolves early (the deepest pixel has {} fragments); lavapipe stops a shader invocation's loops after 65535 iterations in all, which a GPU does not: render fewer layers per pixel here, or on a GPU",
+                    "{}: {} pixels' resolves ended early (the deepest pixel has {} fragments): a resolve takes at most 65535 data-bound loop steps a pixel, so that no dispatch nears a display watchdog, and lavapipe ends an invocation's loops after 65535 iterations in all, counting more of them: render fewer layers per pixel here, or use tiled",
                     p.method, t.cut_short, t.max_depth
                 ),
                 binding: None,

@@ -23,6 +23,8 @@ pub const CONVEX: Descriptor = Descriptor {
         "it draws its own groups pass by pass in visibility order",
     ),
     traffic: TrafficModel::Convex,
+    // It submits its groups in visibility order itself.
+    takes_order: false,
     compute_raster: Support::No(
         "it draws each pass's groups through their own index ranges, in an order made per frame",
     ),

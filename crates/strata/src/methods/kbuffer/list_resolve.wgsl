@@ -3,6 +3,7 @@
 #import strata::kbuffer::words::{SEEN}
 #import strata::fragment::{Fragment, fragment_before}
 #import strata::kbuffer::list::{HEAD, node_fragment, node_next, node_word, pool_nodes}
+#import strata::steps::{step}
 
 // Resolve access to the linked lists: sequential reads follow a cursor, so visiting a list in
 // order costs one step per fragment. A pixel's list holds at most the fragments it saw, each in
@@ -19,7 +20,7 @@ fn stored_count(p: u32) -> u32 {
     var at = atomicLoad(&pixels[pixel_word(p, HEAD)]);
     let limit = min(atomicLoad(&pixels[pixel_word(p, SEEN)]), pool_nodes());
     while at != 0u {
-        if n >= limit {
+        if n >= limit || !step() {
             break;
         }
         n += 1u;
@@ -34,6 +35,9 @@ fn stored_fragment(p: u32, i: u32) -> Fragment {
     } else {
         cursor_link = atomicLoad(&pixels[pixel_word(p, HEAD)]);
         for (var j = 0u; j < i; j++) {
+            if !step() {
+                break;
+            }
             cursor_link = node_next(cursor_link);
         }
     }
@@ -62,6 +66,9 @@ fn list_in_order(p: u32, n: u32) -> bool {
     var previous = node_key(at);
     var i = 1u;
     for (; i < n; i++) {
+        if !step() {
+            break;
+        }
         at = node_next(at);
         if at == 0u {
             return false;
@@ -103,7 +110,7 @@ fn sort_in_place(p: u32, n: u32) -> bool {
         // Each round merges the run of `width` nodes at `rest` with the run after it.
         var round = 0u;
         for (; round < n; round++) {
-            if rest == 0u {
+            if rest == 0u || !step() {
                 break;
             }
             if visited >= n {
@@ -113,7 +120,7 @@ fn sort_in_place(p: u32, n: u32) -> bool {
             var b = rest;
             var count_a = 0u;
             for (; count_a < width; count_a++) {
-                if b == 0u {
+                if b == 0u || !step() {
                     break;
                 }
                 if visited + count_a >= n {
@@ -126,6 +133,9 @@ fn sort_in_place(p: u32, n: u32) -> bool {
             var steps = 0u;
             let total = count_a + count_b;
             for (; steps < total; steps++) {
+                if !step() {
+                    break;
+                }
                 var take_b = count_a == 0u;
                 if count_a != 0u && count_b != 0u && b != 0u {
                     // Strictly before: equal keys keep the earlier run's node first.

@@ -7,6 +7,7 @@
 #import strata::kbuffer::storage::{kbuffer_tail, kp, kpixel_index, output, pixel_fragments_word, pixel_word, pixels, sample_pixel, tail, tail_word}
 #import strata::tail::{Tail, composite_tail_of, tail_empty, tail_join}
 #import strata::kbuffer::words::{SEEN}
+#import strata::steps::{step, steps_spent}
 
 // k-buffer resolve: composites a pixel's k nearest stored fragments in (depth, primitive) order.
 // The multisampled paths are compiled only with MULTISAMPLED (--msaa): they double the shader,
@@ -134,6 +135,9 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
         if n <= LOCAL_CAPACITY {
             // Few enough to hold them all: one round, every covered fragment sorted.
             for (; i < n; i++) {
+                if !step() {
+                    break;
+                }
                 let f = stored_fragment(p, i);
                 if (fragment_coverage(f) & coverage) != 0u {
                     chunk[m] = f;
@@ -144,6 +148,9 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
             // Select the CHUNK nearest fragments after the bound with a max-array (max in
             // slot 0).
             for (; i < n; i++) {
+                if !step() {
+                    break;
+                }
                 let f = stored_fragment(p, i);
                 if (fragment_coverage(f) & coverage) == 0u {
                     continue;
@@ -208,7 +215,7 @@ fn k_depth_sort(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function, Comp
         }
     }
     if cut_short || !finished {
-        report_cut_short();
+        pixel_cut_short = true;
     }
     return last;
 }
@@ -221,7 +228,7 @@ fn composite_in_order(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function
     var done = 0u;
     var i = 0u;
     for (; i < n; i++) {
-        if (done >= limit) & (kp.tail_blend == 0u) {
+        if ((done >= limit) & (kp.tail_blend == 0u)) || !step() {
             break;
         }
         let f = stored_fragment(p, i);
@@ -236,7 +243,7 @@ fn composite_in_order(p: u32, n: u32, limit: u32, coverage: u32, s: ptr<function
         }
     }
     if i < n && (done < limit || kp.tail_blend != 0u) {
-        report_cut_short();
+        pixel_cut_short = true;
     }
     return last;
 }
@@ -327,6 +334,9 @@ fn resolve_samples(p: u32, n: u32, limit: u32, captured: Tail) -> u32 {
             resolved_sum_add(&sum, composite_finish(s));
         }
         for (var i = 0u; i < n; i++) {
+            if !step() {
+                break;
+            }
             let f = stored_fragment(p, i);
             let coverage = fragment_coverage(f);
             for (var si = 0u; si < samples; si++) {
@@ -398,9 +408,19 @@ fn resolve_sample_storage(p: u32) {
 
 #endif
 
+// A loop of this invocation's resolve ended early: by lavapipe's loop limit (the loop's own
+// counter says so) or by the step budget (`strata::steps`). The pixel is reported once.
+var<private> pixel_cut_short: bool = false;
+
 // cs_resolve's pixel step: its made compute stage calls it for each pixel of the frame.
 fn cs_resolve_pixel(pixel: vec2<u32>) {
-    let p = kpixel_index(pixel);
+    resolve_pixel(kpixel_index(pixel));
+    if pixel_cut_short || steps_spent() {
+        report_cut_short();
+    }
+}
+
+fn resolve_pixel(p: u32) {
 #ifdef MULTISAMPLED
     if kp.sample_slots > 1u {
         resolve_sample_storage(p);

@@ -6,6 +6,7 @@
 #else
 #import strata::kbuffer::slots::{slot_word}
 #endif
+#import strata::steps::{step}
 
 // Slot accessors over the fragment storage and a `slot_word(p, i)` (the word of slot i of pixel p) of the
 // storage layout: fixed arrays (slots.wgsl) or, with STORAGE_KPLUS_SBUFFER, S-buffer regions
@@ -47,6 +48,9 @@ fn swap_slots(p: u32, i: u32, j: u32) {
 fn slots_in_order(p: u32, n: u32) -> bool {
     var i = 1u;
     for (; i < n; i++) {
+        if !step() {
+            break;
+        }
         if fragment_before(load_key(p, i), load_key(p, i - 1u)) {
             return false;
         }
@@ -59,6 +63,9 @@ fn slots_in_order(p: u32, n: u32) -> bool {
 fn sift_down(p: u32, root_at: u32, size: u32) -> bool {
     var root = root_at;
     for (var depth = 0u; depth < 32u; depth++) {
+        if !step() {
+            return false;
+        }
         let left = 2u * root + 1u;
         if left >= size {
             return true;
@@ -90,10 +97,16 @@ fn sort_slots(p: u32, n: u32) -> bool {
     var complete = true;
     var built = 0u;
     for (; built < n / 2u; built++) {
+        if !step() {
+            break;
+        }
         complete = sift_down(p, n / 2u - 1u - built, n) && complete;
     }
     var end = n;
     for (; end > 1u; end--) {
+        if !step() {
+            break;
+        }
         swap_slots(p, 0u, end - 1u);
         complete = sift_down(p, 0u, end - 1u) && complete;
     }

@@ -1788,7 +1788,8 @@ fn raw_pixel_words(renderer: &crate::Renderer) -> Vec<u32> {
 /// k-depth sort of 800 fragments a pixel runs past that there, which composited a partial
 /// selection before (abuffer-ll, before its lists sorted themselves: 9/255 off the reference at
 /// opacity 0.004, and "output exact"). The frame is now refused with the reason; on a GPU,
-/// which ends no loop early, it equals the reference. The S-buffer's regions are still read
+/// whose resolve counts only its data-bound steps (26 passes over 800, within the budget of
+/// `strata::steps`), it equals the reference. The S-buffer's regions are still read
 /// that way (lists and slot arrays sort themselves in place).
 #[test]
 fn a_resolve_the_adapter_cuts_short_is_refused() {
@@ -1800,7 +1801,8 @@ fn a_resolve_the_adapter_cuts_short_is_refused() {
         Err(e) => {
             let message = e.to_string();
             assert!(
-                cpu && message.contains("resolves early") && message.contains("800 fragments"),
+                cpu && message.contains("resolves ended early")
+                    && message.contains("800 fragments"),
                 "{message}"
             );
         }
@@ -1814,6 +1816,51 @@ fn a_resolve_the_adapter_cuts_short_is_refused() {
             );
         }
     }
+}
+
+/// The resolve's step budget (`strata::steps`, docs/watchdog.md): a pixel whose resolve needs
+/// more data-bound loop steps than the budget ends its loops there and the frame is refused
+/// with the reason, never composited from a partial sort. Lavapipe's own loop limit comes first
+/// at the real budget, so this test gives the stages it makes a budget of 1500 steps: 300
+/// fragments a pixel in a list (a merge sort of about 1.5·n·log₂ n steps) and in fixed arrays
+/// (a heap sort, abuffer-fixed at k 512) are refused, and 60 (a sort within the budget) still equal the reference.
+#[test]
+fn a_resolve_past_its_step_budget_is_refused() {
+    crate::gpu::shader::TEST_STEP_LIMIT.set(Some(1500));
+    for method in ["abuffer-ll", "abuffer-fixed"] {
+        for (n, refused) in [(300, true), (60, false)] {
+            let mut s = scene(&format!(
+                "builtin:layers?n={n}&coverage=1&order=random&seed=3"
+            ));
+            s.override_alpha(0.01);
+            // abuffer-fixed keeps k slots a pixel: all of them.
+            let opts = match method {
+                "abuffer-fixed" => options(8, 512),
+                _ => all_fragments(8),
+            };
+            match renderer(&s, &opts).render(method) {
+                Err(e) => {
+                    let message = e.to_string();
+                    assert!(
+                        refused
+                            && message.contains("resolves ended early")
+                            && message.contains(&format!("{n} fragments")),
+                        "{method} at {n}: {message}"
+                    );
+                }
+                Ok((actual, _)) => {
+                    assert!(!refused, "{method} at {n}: composited past its budget");
+                    assert_exact(
+                        &format!("step-budget-{method}-{n}"),
+                        &actual,
+                        &render_reference(&s, &opts),
+                        opts.frame.effect,
+                    );
+                }
+            }
+        }
+    }
+    crate::gpu::shader::TEST_STEP_LIMIT.set(None);
 }
 
 /// A list longer than the resolve's local array is sorted in place (a merge sort of its links,

@@ -574,7 +574,7 @@ impl Method for Tiled {
             if cut_short > 0 {
                 return Some(crate::frame::Shortfall {
                     why: format!(
-                        "tiled: the adapter ended {cut_short} pixels' walks of their tile lists early (the longest list holds {longest_list} triangles); lavapipe stops a shader invocation's loops after 65535 iterations in all, which a GPU does not: render smaller or use another exact method here"
+                        "tiled: {cut_short} pixels' walks of their tile lists ended early (the longest list holds {longest_list} triangles): a round walks at most 1048576 entries (a display watchdog), and lavapipe stops a shader invocation's loops after 65535 iterations in all: render smaller or use another exact method here"
                     ),
                     binding: None,
                 });

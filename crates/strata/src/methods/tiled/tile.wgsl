@@ -26,6 +26,11 @@
 // deep tile exceeded (lanes count what they walked, and a walk cut short is reported).
 
 const CHUNK: u32 = 64u;
+// The most list entries a round walks (docs/watchdog.md, T1): about 20 ms of a thread's walk on
+// a GPU, whose rounds have no loop limit of their own. A tile whose list is longer (over a
+// million triangles meeting one 8×8 tile) is walked this far and reported cut short: the frame
+// says it cannot complete, as lavapipe's frames do far sooner.
+const ROUND_WALK_LIMIT: u32 = 1048576u;
 
 var<workgroup> chunk: array<SetupTriangle, CHUNK>;
 var<workgroup> chunk_prims: array<u32, CHUNK>;
@@ -208,7 +213,8 @@ fn cs_round(invocation: TileThread) {
     if walk_empty(walk) {
         return;
     }
-    let n = walk.n;
+    // A list past ROUND_WALK_LIMIT is walked that far and reported cut short.
+    let n = min(walk.n, ROUND_WALK_LIMIT);
     let start = tile_starts[tile];
     let bounded = composite.count > 0u;
     let bound = Fragment(composite.last_depth, composite.last_tag, 0u, 0u);
@@ -259,7 +265,7 @@ fn cs_round(invocation: TileThread) {
     if !working {
         return;
     }
-    if walked != n {
+    if walked != walk.n {
         atomicAdd(&tiled_counters[COUNTER_CUT_SHORT], 1u);
     }
     let composited = min(count, limit);
@@ -328,7 +334,8 @@ fn cs_round_samples(invocation: TileThread) {
     if walk_empty(walk) {
         return;
     }
-    let n = walk.n;
+    // A list past ROUND_WALK_LIMIT is walked that far and reported cut short.
+    let n = min(walk.n, ROUND_WALK_LIMIT);
     let start = tile_starts[tile];
     let bounded = !fresh;
     let bound = Fragment(account.bound_depth, account.bound_tag, 0u, 0u);
@@ -383,7 +390,7 @@ fn cs_round_samples(invocation: TileThread) {
     if !working {
         return;
     }
-    if walked != n {
+    if walked != walk.n {
         atomicAdd(&tiled_counters[COUNTER_CUT_SHORT], 1u);
     }
     // Bit i: taken fragment i was composited by some sample.
