@@ -255,10 +255,11 @@ pub struct MethodArgs {
     /// What `auto` chose and why, then its fallbacks (set by [`MethodArgs::resolve`]).
     #[arg(skip)]
     pub candidates: Vec<strata::methods::choice::Choice>,
-    /// hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for
-    /// the lock-free storage methods (abuffer-fixed, kb-ab-fixed, kb-mdt*, abuffer-ll, kb-ab-ll,
-    /// sbuffer, kb-sbuffer, dual, kb, kpeel).
-    #[arg(long, value_enum, default_value = "hw")]
+    // The methods each help lists come from the method table (`methods_where`).
+    #[arg(long, value_enum, default_value = "hw", help = format!(
+        "hw: the GPU's rasterizer; compute: strata's compute-shader rasterizer (seed 002), for {}",
+        methods_where(|d| d.compute_raster.yes())
+    ))]
     pub raster: strata::frame::Raster,
     /// kpeel: layers captured per geometry pass (seed 002's multi-layer peeling: ⌈N/M⌉ passes;
     /// 1 is depth peeling). The same as --k for kpeel.
@@ -314,9 +315,10 @@ pub struct MethodArgs {
     /// pixels of a GPU warp share memory transactions; see `strata bench kbuffer-layout`).
     #[arg(long, value_enum, default_value = "pixel")]
     pub storage_layout: strata::StorageLayout,
-    /// Depth peeling (f2b, dual): peel this many layers (default: the scene's depth complexity,
-    /// measured by the frame itself).
-    #[arg(long)]
+    #[arg(long, help = format!(
+        "Depth peeling ({}): peel this many layers (default: the scene's depth complexity, measured by the frame itself)",
+        methods_where(|d| d.reads(strata::methods::MethodOption::Layers))
+    ))]
     pub layers: Option<u32>,
     /// --pipeline deferred: screen-space ambient occlusion on the ambient term.
     #[arg(long)]
@@ -335,12 +337,11 @@ pub struct MethodArgs {
     /// --order random: the seed its per-frame permutations draw from.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Reverse-reprojection culling (seed 000; kplus-array, kplus-heap, kplus-array-r,
-    /// kplus-semiheap, kb-ps, kb): each frame culls, before any
-    /// lock, fragments that lay behind last frame's (k+1)-th nearest depth. Approximate: the
-    /// first frame culls nothing, moving objects can be culled wrongly until their tile
-    /// refreshes.
-    #[arg(long, value_enum, default_value = "off")]
+    // Reverse-reprojection culling; its methods from the table.
+    #[arg(long, value_enum, default_value = "off", help = format!(
+        "Reverse-reprojection culling (seed 000; {}): each frame culls, before any lock, fragments that lay behind last frame's (k+1)-th nearest depth. Approximate: the first frame culls nothing, moving objects can be culled wrongly until their tile refreshes",
+        methods_where(|d| d.temporal)
+    ))]
     pub temporal: Toggle,
     /// --temporal on: frames between refreshes of each 16x16 tile, which then skips culling (0:
     /// never).
@@ -707,4 +708,14 @@ pub struct ViewArgs {
     /// With --screenshot: frames to render before saving.
     #[arg(long, requires = "screenshot", default_value_t = 3)]
     pub frames: u32,
+}
+
+/// The methods of the table for which `keep` holds, in the table's order, for a flag's help.
+fn methods_where(keep: impl Fn(&strata::methods::table::Descriptor) -> bool) -> String {
+    strata::methods::TABLE
+        .iter()
+        .filter(|d| keep(d))
+        .map(|d| d.name)
+        .collect::<Vec<_>>()
+        .join(", ")
 }

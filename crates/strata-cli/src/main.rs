@@ -24,7 +24,7 @@ pub use commands::convex::{convex, ConvexArgs, ConvexReport};
 pub use commands::export::{export, ExportArgs};
 pub use commands::histogram::{gpu_histogram, histogram, HistogramArgs};
 pub use commands::info::info;
-pub use commands::methods::{list_methods, msaa_counts, rasters};
+pub use commands::methods::list_methods;
 pub use commands::reference::{reference, ReferenceArgs};
 pub use commands::render::{
     frame_path, parse_frames, render, render_sequence, spinner, summary, RenderArgs, MAX_FRAMES,
@@ -64,6 +64,9 @@ enum Command {
         /// all: every backend from wgpu's documentation, as the README's Markdown table.
         #[arg(long)]
         backend: Option<String>,
+        /// Print the catalogue as the README's Markdown table.
+        #[arg(long, conflicts_with_all = ["json", "backend"])]
+        markdown: bool,
     },
     /// Report the GPU adapter, backend, driver, features and limits.
     Info {
@@ -203,9 +206,13 @@ fn run(mut command: Command) -> Result<()> {
         Command::Render(a) => render(a),
         Command::Reference(a) => reference(a),
         Command::Compare(a) => compare(a),
-        Command::Methods { json, backend } => match backend {
+        Command::Methods {
+            json,
+            backend,
+            markdown,
+        } => match backend {
             Some(backend) => commands::methods::backend_table(&backend, json),
-            None => list_methods(json),
+            None => list_methods(json, markdown),
         },
         Command::Info { json } => info(json),
         Command::Histogram(a) => histogram(a),

@@ -1,38 +1,7 @@
 //! `strata methods`: the method table as a catalogue.
 
 use strata::error::{Error, Result};
-use strata::methods::{self, MethodId};
-
-/// The rasterizers a method runs on (`--raster`).
-pub fn rasters(m: &methods::Descriptor) -> &'static str {
-    match (m.id, m.compute_raster) {
-        (MethodId::Reference, _) => "cpu",
-        (_, methods::Support::Yes) => "hw,compute",
-        _ => "hw",
-    }
-}
-
-/// The `--msaa` sample counts a method takes (8 only where the device rasterizes it; none
-/// below the method's fewest, which `--msaa 1` is raised to).
-pub fn msaa_counts(m: &methods::Descriptor) -> Vec<u32> {
-    if m.msaa.yes() {
-        strata::frame::msaa::SAMPLE_COUNTS
-            .into_iter()
-            .filter(|&n| n >= m.min_samples)
-            .collect()
-    } else {
-        vec![1]
-    }
-}
-
-/// The blend modes a method composites (`blend` in scene files).
-pub fn blend_modes(m: &methods::Descriptor) -> &'static str {
-    if m.blend_modes.yes() {
-        "all"
-    } else {
-        "over"
-    }
-}
+use strata::methods;
 
 /// `strata methods --backend NAME`: whether each method runs on that backend.
 pub fn backend_table(name: &str, json: bool) -> Result<()> {
@@ -91,15 +60,20 @@ pub fn backend_table(name: &str, json: bool) -> Result<()> {
     Ok(())
 }
 
-pub fn list_methods(json: bool) -> Result<()> {
+/// `strata methods`: the catalogue as columns, as JSON, or (`markdown`) as the README's table.
+pub fn list_methods(json: bool, markdown: bool) -> Result<()> {
+    if markdown {
+        print!("{}", methods::markdown_table());
+        return Ok(());
+    }
     let all: Vec<&methods::Descriptor> = methods::catalogue().collect();
     if json {
         let entries: Vec<serde_json::Value> = all
             .iter()
             .map(|m| {
                 let mut v = serde_json::to_value(m).unwrap_or_default();
-                v["raster"] = rasters(m).split(',').collect::<Vec<_>>().into();
-                v["msaa"] = msaa_counts(m).into();
+                v["raster"] = m.rasters().split(',').collect::<Vec<_>>().into();
+                v["msaa"] = m.msaa_counts().into();
                 v["app_shaders"] = m.app_shaders.yes().into();
                 if let methods::Support::No(why) = m.app_shaders {
                     v["app_shaders_why_not"] = why.into();
@@ -130,15 +104,15 @@ pub fn list_methods(json: bool) -> Result<()> {
         "id", "family", "raster", "msaa", "geometry passes", "memory (bytes)"
     );
     for m in &all {
-        let msaa: Vec<String> = msaa_counts(m).iter().map(u32::to_string).collect();
+        let msaa: Vec<String> = m.msaa_counts().iter().map(u32::to_string).collect();
         println!(
             "{:<wi$}  {:<wf$}  {:<5}  {:<10}  {:<5}  {:<5}  {:<11}  {:<wp$}  {:<wm$}  {}",
             m.name,
             m.family.name(),
             if m.exact { "yes" } else { "no" },
-            rasters(m),
+            m.rasters(),
             msaa.join(","),
-            blend_modes(m),
+            m.blend_names(),
             if m.app_shaders.yes() { "yes" } else { "no" },
             m.geometry_passes,
             m.memory,

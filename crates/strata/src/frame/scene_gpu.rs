@@ -377,7 +377,8 @@ impl SceneGpu {
     }
 
     /// Draws the geometry once per band of rows ([`SceneGpu::set_draw_bands`]; one band: no
-    /// scissor), each through [`SceneGpu::draw_once`], and leaves the scissor on the whole frame.
+    /// scissor), each drawing every triangle (or calling the application's `draw`), and leaves the
+    /// scissor on the whole frame.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, draw: Option<&DrawCallback<'_>>) {
         let (width, height, bands) = self.draw_bands;
         if bands <= 1 {

@@ -307,6 +307,33 @@ pub fn verdict(method: &Descriptor, offer: &Offer) -> Verdict {
     }
 }
 
+/// Refuses a device without a feature the method needs, naming the methods of its family
+/// that run there.
+pub fn check_features(method: &Descriptor, gpu: &Gpu) -> crate::error::Result<()> {
+    let missing = method.needs - gpu.features;
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let offer = Offer::of_gpu(gpu);
+    let instead: Vec<&str> = super::TABLE
+        .iter()
+        .filter(|d| d.family == method.family && d.id != method.id && verdict(d, &offer).runs())
+        .map(|d| d.name)
+        .collect();
+    let instead = if instead.is_empty() {
+        String::new()
+    } else {
+        format!("; of its family, {} run here", instead.join(", "))
+    };
+    Err(crate::error::Error::unsupported(format!(
+        "{} needs {}, which '{}' ({}) lacks{instead}",
+        method.name,
+        feature_names(missing),
+        gpu.info.name,
+        gpu.backend_name()
+    )))
+}
+
 /// The README's table: every GPU method on every backend, from wgpu 30's documented features
 /// (`strata methods --backend all`).
 pub fn markdown_table() -> String {

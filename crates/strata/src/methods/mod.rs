@@ -211,6 +211,36 @@ pub fn catalogue() -> impl Iterator<Item = &'static Descriptor> {
     TABLE.iter().copied()
 }
 
+/// The method table as Markdown, one row per method in the catalogue's order: what `strata
+/// methods --markdown` prints and the README carries (a test holds them equal).
+pub fn markdown_table() -> String {
+    let yes = |b: bool| if b { "yes" } else { "no" };
+    let mut out = String::from(
+        "| id | family | exact | raster | msaa | blend | app shaders | k ≤ | geometry passes | memory (bytes) | what it is |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for d in catalogue() {
+        let msaa: Vec<String> = d.msaa_counts().iter().map(u32::to_string).collect();
+        out.push_str(&format!(
+            "| `{}` | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            d.name,
+            d.family.name(),
+            yes(d.exact),
+            d.rasters(),
+            msaa.join(","),
+            d.blend_names(),
+            yes(d.app_shaders.yes()),
+            match d.reads(MethodOption::K) {
+                true => d.max_k.to_string(),
+                false => "—".to_string(),
+            },
+            d.geometry_passes,
+            d.memory,
+            d.summary.replace('|', "\\|"),
+        ));
+    }
+    out
+}
+
 /// The error for an id that names no method, listing the ones that exist.
 pub fn unknown_method(id: &str) -> Error {
     let ids: Vec<_> = catalogue().map(|m| m.name).collect();
@@ -229,7 +259,7 @@ pub fn create(
     options: &RenderOptions,
 ) -> Result<Box<dyn Method>> {
     let descriptor = id.descriptor();
-    descriptor.check_features(gpu)?;
+    backends::check_features(descriptor, gpu)?;
     descriptor.check_raster(options.build.raster)?;
     descriptor.check_msaa(options.build.msaa, scene.triangle_count as u64)?;
     descriptor.check_blend(&scene.blend_modes, options.frame.kbuffer.tail)?;

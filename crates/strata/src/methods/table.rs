@@ -305,6 +305,36 @@ impl Descriptor {
         }
     }
 
+    /// The rasterizers it runs on (`--raster`): `cpu`, `hw` or `hw,compute`.
+    pub fn rasters(&self) -> &'static str {
+        match (self.id, self.compute_raster) {
+            (MethodId::Reference, _) => "cpu",
+            (_, Support::Yes) => "hw,compute",
+            _ => "hw",
+        }
+    }
+
+    /// The `--msaa` sample counts it takes (none below its fewest, which `--msaa 1` is raised
+    /// to).
+    pub fn msaa_counts(&self) -> Vec<u32> {
+        if self.msaa.yes() {
+            crate::frame::msaa::SAMPLE_COUNTS
+                .into_iter()
+                .filter(|&n| n >= self.min_samples)
+                .collect()
+        } else {
+            vec![1]
+        }
+    }
+
+    /// The blend modes it composites (`blend` in scene files): `all`, or `over` alone.
+    pub fn blend_names(&self) -> &'static str {
+        match self.blend_modes.yes() {
+            true => "all",
+            false => "over",
+        }
+    }
+
     /// Whether it reads `option`.
     pub fn reads(&self, option: MethodOption) -> bool {
         self.reads.contains(&option)
@@ -386,37 +416,6 @@ impl Descriptor {
             )));
         }
         Ok(())
-    }
-
-    /// Refuses a device without a feature the method needs, naming the methods of its family
-    /// that run there.
-    pub fn check_features(&self, gpu: &Gpu) -> Result<()> {
-        let missing = self.needs - gpu.features;
-        if missing.is_empty() {
-            return Ok(());
-        }
-        let offer = super::backends::Offer::of_gpu(gpu);
-        let instead: Vec<&str> = super::TABLE
-            .iter()
-            .filter(|d| {
-                d.family == self.family
-                    && d.id != self.id
-                    && super::backends::verdict(d, &offer).runs()
-            })
-            .map(|d| d.name)
-            .collect();
-        let instead = if instead.is_empty() {
-            String::new()
-        } else {
-            format!("; of its family, {} run here", instead.join(", "))
-        };
-        Err(Error::unsupported(format!(
-            "{} needs {}, which '{}' ({}) lacks{instead}",
-            self.name,
-            super::backends::feature_names(missing),
-            gpu.info.name,
-            gpu.backend_name()
-        )))
     }
 
     /// Refuses `--msaa 4|8` where it cannot take it, and scenes too large for the samples' tags.

@@ -1042,3 +1042,69 @@ fn pool_method(m: super::MethodId) -> bool {
         AbufferLl | KbAbLl | KbLl | Sbuffer | KbSbuffer | KplusSbuffer
     )
 }
+
+/// Each descriptor builds its own method (issue 66): a family's descriptor file has no `_ =>`
+/// arm (one made a forgotten method silently another: a new list k-buffer became abuffer-ll and
+/// passed its exactness test), every entry in the table builds on this device, and a builder an
+/// entry inherits from another (`..KPLUS_ARRAY`) refuses it rather than build the other method.
+#[test]
+fn each_descriptor_builds_its_own_method() {
+    use super::{table, MethodId, TABLE};
+    for (file, source) in [
+        ("baseline", include_str!("baseline/descriptor.rs")),
+        ("weighted", include_str!("weighted/descriptor.rs")),
+        ("peeling", include_str!("peeling/descriptor.rs")),
+        ("kbuffer", include_str!("kbuffer/descriptor.rs")),
+        ("convex", include_str!("convex/descriptor.rs")),
+        ("tiled", include_str!("tiled/descriptor.rs")),
+    ] {
+        assert!(
+            !source.contains("_ =>"),
+            "{file}/descriptor.rs has a fallthrough arm"
+        );
+    }
+    let gpu = crate::testing::gpu();
+    let scene = scene("builtin:layers?n=3");
+    let options = RenderOptions::sized(8, 8);
+    let mut scene_gpu = crate::frame::SceneGpu::new(gpu, &scene, &options).unwrap();
+    for d in TABLE.iter().filter(|d| d.id != MethodId::Reference) {
+        let mut options = options.clone();
+        options.build.msaa = d.min_samples;
+        scene_gpu.samples = d.min_samples;
+        let made = (d.create)(
+            d.id,
+            &table::Setup {
+                gpu,
+                scene: &scene_gpu,
+                options: &options,
+            },
+        );
+        assert!(made.is_ok(), "{}: {:?}", d.name, made.err());
+    }
+    scene_gpu.samples = 1;
+    let inherited = crate::methods::kbuffer::descriptor::KPLUS_ARRAY.create;
+    let setup = table::Setup {
+        gpu,
+        scene: &scene_gpu,
+        options: &options,
+    };
+    let e = inherited(MethodId::KplusHeap, &setup)
+        .err()
+        .expect("kplus-array's builder refuses kplus-heap")
+        .to_string();
+    assert!(e.contains("kplus-heap") && e.contains("kplus-array"), "{e}");
+}
+
+/// The README's methods table is `strata methods --markdown`, from the method table: a method
+/// added, or a fact of one changed, without the README following fails here.
+#[test]
+fn the_readme_carries_the_methods_table() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md"))
+        .expect("the workspace README");
+    let table = super::markdown_table();
+    assert!(
+        readme.contains(&table),
+        "README.md's methods table differs from `strata methods --markdown`:\n{table}"
+    );
+    assert_eq!(table.lines().count(), super::TABLE.len() + 2);
+}

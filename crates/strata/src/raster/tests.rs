@@ -83,12 +83,15 @@ fn every_compute_capture_validates() {
             &["fs_ab_ll", "fs_sorted_ll"],
         ),
         (
-            kbuffer(sbuffer::capture_source(MethodId::Sbuffer), Layout::Sbuffer),
+            kbuffer(
+                sbuffer::RegionKind::Abuffer.capture_source(),
+                Layout::Sbuffer,
+            ),
             &["fs_sbuffer_count", "fs_sbuffer_store"],
         ),
         (
             kbuffer(
-                sbuffer::capture_source(MethodId::KplusSbuffer),
+                sbuffer::RegionKind::Kplus.capture_source(),
                 Layout::KplusSbuffer,
             ),
             &["fs_kplus_sbuffer_count", "fs_kplus_sbuffer_store"],

@@ -5,49 +5,120 @@ use crate::methods::table::{Descriptor, Family, MethodOption, Ordering, Setup, S
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
-use super::list::ListKBuffer;
+use super::list::{ListKBuffer, ListKind};
 use super::mdt::{Mdt, MdtKBuffer};
+use super::sbuffer::{RegionKind, SBuffer};
 use super::{SlotKBuffer, Variant};
 
-fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
-    let (gpu, scene, options) = (made.gpu, made.scene, made.options);
-    if let Some(variant) = Variant::of(id) {
-        return Ok(Box::new(SlotKBuffer::new(gpu, scene, id, variant)?));
-    }
-    if let Some(mdt) = Mdt::of(id) {
-        return Ok(Box::new(MdtKBuffer::new(gpu, scene, id, mdt)?));
-    }
-    Ok(match id {
-        MethodId::Sbuffer | MethodId::KbSbuffer | MethodId::KplusSbuffer => {
-            Box::new(super::sbuffer::SBuffer::new(gpu, scene, id, options)?)
+type Made = crate::error::Result<Box<dyn Method>>;
+
+/// A builder of this family's storage kind `$kind` (a typed value whose `id()` names its one
+/// method): each entry names its own builder, so no id falls through to another method. A
+/// builder an entry inherited from another (`..KPLUS_ARRAY`) refuses the entry's id.
+macro_rules! builders {
+    ($($name:ident => $storage:ident($kind:expr);)*) => {$(
+        fn $name(id: MethodId, made: &Setup<'_>) -> Made {
+            $storage(id, made, $kind)
         }
-        MethodId::Kpeel => Box::new(super::kpeel::KPeel::new(gpu, scene)?),
-        _ => Box::new(ListKBuffer::new(gpu, scene, id, options)?),
-    })
+    )*};
+}
+
+builders! {
+    kplus_array => slots(Variant::KplusArray);
+    kplus_array_r => slots(Variant::KplusArrayR);
+    kplus_heap => slots(Variant::KplusHeap);
+    kplus_semiheap => slots(Variant::KplusSemiheap);
+    kb => slots(Variant::Kb);
+    kb_ps => slots(Variant::KbPs);
+    mlab => slots(Variant::Mlab);
+    abuffer_fixed => slots(Variant::AbufferFixed);
+    kb_ab_fixed => slots(Variant::KbAbFixed);
+    kb_mdt32 => cascade(Mdt::Mdt32);
+    kb_mdt64 => cascade(Mdt::Mdt64);
+    kb_mdt_pack => cascade(Mdt::Pack);
+    kb_keys => cascade(Mdt::Keys);
+    abuffer_ll => list(ListKind::Abuffer);
+    kb_ab_ll => list(ListKind::KNearest);
+    kb_ll => list(ListKind::Sorted);
+    sbuffer => regions(RegionKind::Abuffer);
+    kb_sbuffer => regions(RegionKind::KNearest);
+    kplus_sbuffer => regions(RegionKind::Kplus);
+}
+
+/// Refuses an entry wired to a builder of another method.
+fn check_builder(id: MethodId, builds: MethodId) -> crate::error::Result<()> {
+    match id == builds {
+        true => Ok(()),
+        false => Err(crate::error::Error::unsupported(format!(
+            "strata's method table wires {id} to the builder of {builds}"
+        ))),
+    }
+}
+
+fn slots(id: MethodId, made: &Setup<'_>, variant: Variant) -> Made {
+    check_builder(id, variant.id())?;
+    Ok(Box::new(SlotKBuffer::new(
+        made.gpu, made.scene, id, variant,
+    )?))
+}
+
+fn cascade(id: MethodId, made: &Setup<'_>, mdt: Mdt) -> Made {
+    check_builder(id, mdt.id())?;
+    Ok(Box::new(MdtKBuffer::new(made.gpu, made.scene, id, mdt)?))
+}
+
+fn list(id: MethodId, made: &Setup<'_>, kind: ListKind) -> Made {
+    check_builder(id, kind.id())?;
+    let method = ListKBuffer::new(made.gpu, made.scene, kind, made.options)?;
+    Ok(Box::new(method))
+}
+
+fn regions(id: MethodId, made: &Setup<'_>, kind: RegionKind) -> Made {
+    check_builder(id, kind.id())?;
+    Ok(Box::new(SBuffer::new(
+        made.gpu,
+        made.scene,
+        kind,
+        made.options,
+    )?))
+}
+
+fn kpeel(_: MethodId, made: &Setup<'_>) -> Made {
+    Ok(Box::new(super::kpeel::KPeel::new(made.gpu, made.scene)?))
 }
 
 /// Memory of the k-slot methods; `SLOT_BYTES` etc. keep it true.
 const KB_MEMORY: &str = "16·(k+1)·W·H + 116 + 40·(W·H with --tail blend, else 1)";
 
-/// An entry of this family: made by `create`, on either rasterizer.
-const fn entry(id: MethodId, name: &'static str, family: Family) -> Descriptor {
+/// An entry of this family, made by `build`, on either rasterizer.
+const fn entry(
+    id: MethodId,
+    name: &'static str,
+    family: Family,
+    build: crate::methods::table::Constructor,
+) -> Descriptor {
     Descriptor {
         compute_raster: Support::Yes,
         app_shaders: Support::Yes,
-        ..Descriptor::new(id, name, family, create)
+        ..Descriptor::new(id, name, family, build)
     }
 }
 
 /// An entry whose capture takes a per-pixel spin lock: acquire/release atomics needed (on
 /// either rasterizer; refused where the adapter has none), per-sample storage, `--max-tries`
 /// read, k up to 256.
-const fn locked(id: MethodId, name: &'static str, family: Family) -> Descriptor {
+const fn locked(
+    id: MethodId,
+    name: &'static str,
+    family: Family,
+    build: crate::methods::table::Constructor,
+) -> Descriptor {
     Descriptor {
         per_sample_storage: true,
         ordering: Ordering::Locks,
         reads: K_LOCKED,
         max_k: 256,
-        ..entry(id, name, family)
+        ..entry(id, name, family, build)
     }
 }
 
@@ -77,7 +148,7 @@ pub const ABUFFER_LL: Descriptor = Descriptor {
     capture_step: Some("strata::kbuffer::list::capture_list(p, f)"),
     traffic: TrafficModel::Lists,
     reads: &[MethodOption::StorageLayout],
-    ..entry(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer)
+    ..entry(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer, abuffer_ll)
 };
 
 /// The method table's entry for `sbuffer`.
@@ -88,7 +159,7 @@ pub const SBUFFER: Descriptor = Descriptor {
     summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
     traffic: TrafficModel::Sbuffers,
     reads: &[MethodOption::StorageLayout],
-    ..entry(MethodId::Sbuffer, "sbuffer", Family::Abuffer)
+    ..entry(MethodId::Sbuffer, "sbuffer", Family::Abuffer, sbuffer)
 };
 
 /// The method table's entry for `kpeel`.
@@ -107,7 +178,7 @@ pub const KPEEL: Descriptor = Descriptor {
     ],
     max_k: 1024,
     traffic: TrafficModel::Kpeel,
-    ..entry(MethodId::Kpeel, "kpeel", Family::Peeling)
+    ..entry(MethodId::Kpeel, "kpeel", Family::Peeling, kpeel)
 };
 
 /// The method table's entry for `abuffer-fixed`.
@@ -122,7 +193,7 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
         MethodOption::StorageLayout,
     ],
     traffic: TrafficModel::Slots { atomics: true },
-    ..entry(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer)
+    ..entry(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer, abuffer_fixed)
 };
 
 /// The method table's entry for `kb-keys`.
@@ -137,7 +208,7 @@ pub const KB_KEYS: Descriptor = Descriptor {
     max_k: 512,
     // Keys cleared and cascaded, payloads written once and read by the resolve.
     traffic: TrafficModel::Keys { bytes: 16 },
-    ..entry(MethodId::KbKeys, "kb-keys", Family::Kbuffer)
+    ..entry(MethodId::KbKeys, "kb-keys", Family::Kbuffer, kb_keys)
 };
 
 /// The method table's entry for `kb`.
@@ -150,7 +221,7 @@ pub const KB: Descriptor = Descriptor {
     reads: K,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: false },
-    ..entry(MethodId::Kb, "kb", Family::Kbuffer)
+    ..entry(MethodId::Kb, "kb", Family::Kbuffer, kb)
 };
 
 /// The method table's entry for `kb-ps`.
@@ -161,7 +232,7 @@ pub const KB_PS: Descriptor = Descriptor {
     temporal: true,
     capture_step: Some("strata::kbuffer::kb_capture::capture_sorted_locked(p, f)"),
     traffic: TrafficModel::Slots { atomics: true },
-    ..locked(MethodId::KbPs, "kb-ps", Family::Kbuffer)
+    ..locked(MethodId::KbPs, "kb-ps", Family::Kbuffer, kb_ps)
 };
 
 /// The method table's entry for `mlab`.
@@ -180,7 +251,7 @@ pub const MLAB: Descriptor = Descriptor {
     default_k: 4,
     traffic: TrafficModel::Slots { atomics: true },
     blend_modes: Support::No("its merge of the two farthest layers is the over operator's"),
-    ..locked(MethodId::Mlab, "mlab", Family::Kbuffer)
+    ..locked(MethodId::Mlab, "mlab", Family::Kbuffer, mlab)
 };
 
 /// The method table's entry for `kb-ab-fixed`.
@@ -193,7 +264,12 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
     capture_step: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
     reads: K,
     traffic: TrafficModel::Slots { atomics: true },
-    ..entry(MethodId::KbAbFixed, "kb-ab-fixed", Family::Kbuffer)
+    ..entry(
+        MethodId::KbAbFixed,
+        "kb-ab-fixed",
+        Family::Kbuffer,
+        kb_ab_fixed,
+    )
 };
 
 /// The method table's entry for `kplus-array`.
@@ -205,7 +281,7 @@ pub const KPLUS_ARRAY: Descriptor = Descriptor {
     temporal: true,
     capture_step: Some("strata::kbuffer::kplus_capture::capture_locked(p, f, strata::kbuffer::kplus_capture::VARIANT_ARRAY)"),
     traffic: TrafficModel::Slots { atomics: true },
-    ..locked(MethodId::KplusArray, "kplus-array", Family::Kplus)
+    ..locked(MethodId::KplusArray, "kplus-array", Family::Kplus, kplus_array)
 };
 
 /// The method table's entry for `kplus-array-r`.
@@ -215,6 +291,7 @@ pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
     ..Descriptor {
         id: MethodId::KplusArrayR,
         name: "kplus-array-r",
+        create: kplus_array_r,
         ..KPLUS_ARRAY
     }
 };
@@ -228,6 +305,7 @@ pub const KPLUS_HEAP: Descriptor = Descriptor {
     ..Descriptor {
         id: MethodId::KplusHeap,
         name: "kplus-heap",
+        create: kplus_heap,
         ..KPLUS_ARRAY
     }
 };
@@ -240,7 +318,7 @@ pub const KPLUS_SBUFFER: Descriptor = Descriptor {
     summary: "memory-aware k+-buffer: a count pass, a GPU prefix sum giving each pixel exactly min(f, k) slots, then lock-free appends (f ≤ k) or a max-array (k ≤ 16) / max-heap under a spin lock",
     max_k: 1024,
     traffic: TrafficModel::Sbuffers,
-    ..locked(MethodId::KplusSbuffer, "kplus-sbuffer", Family::Kplus)
+    ..locked(MethodId::KplusSbuffer, "kplus-sbuffer", Family::Kplus, kplus_sbuffer)
 };
 
 /// The method table's entry for `kplus-semiheap`.
@@ -258,6 +336,7 @@ pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
     ..Descriptor {
         id: MethodId::KplusSemiheap,
         name: "kplus-semiheap",
+        create: kplus_semiheap,
         ..KPLUS_ARRAY
     }
 };
@@ -272,7 +351,7 @@ pub const KB_MDT32: Descriptor = Descriptor {
     reads: K,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 4 + 16 },
-    ..entry(MethodId::KbMdt32, "kb-mdt32", Family::Kbuffer)
+    ..entry(MethodId::KbMdt32, "kb-mdt32", Family::Kbuffer, kb_mdt32)
 };
 
 /// Why the multi-depth tests with 8-byte keys refuse `--msaa`.
@@ -295,7 +374,7 @@ pub const KB_MDT64: Descriptor = Descriptor {
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 8 },
     blend_modes: KEYS_WITHOUT_PRIMITIVE,
-    ..entry(MethodId::KbMdt64, "kb-mdt64", Family::Kbuffer)
+    ..entry(MethodId::KbMdt64, "kb-mdt64", Family::Kbuffer, kb_mdt64)
 };
 
 /// The method table's entry for `kb-mdt-pack`.
@@ -308,7 +387,12 @@ pub const KB_MDT_PACK: Descriptor = Descriptor {
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 8 },
     blend_modes: KEYS_WITHOUT_PRIMITIVE,
-    ..entry(MethodId::KbMdtPack, "kb-mdt-pack", Family::Kbuffer)
+    ..entry(
+        MethodId::KbMdtPack,
+        "kb-mdt-pack",
+        Family::Kbuffer,
+        kb_mdt_pack,
+    )
 };
 
 /// The method table's entry for `kb-ab-ll`.
@@ -320,7 +404,7 @@ pub const KB_AB_LL: Descriptor = Descriptor {
     capture_step: Some("strata::kbuffer::list::capture_list(p, f)"),
     reads: K,
     traffic: TrafficModel::Lists,
-    ..entry(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer)
+    ..entry(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer, kb_ab_ll)
 };
 
 /// The method table's entry for `kb-sbuffer`.
@@ -331,7 +415,12 @@ pub const KB_SBUFFER: Descriptor = Descriptor {
     summary: "every fragment in S-buffer regions, the k nearest selected in resolve",
     reads: K,
     traffic: TrafficModel::Sbuffers,
-    ..entry(MethodId::KbSbuffer, "kb-sbuffer", Family::Kbuffer)
+    ..entry(
+        MethodId::KbSbuffer,
+        "kb-sbuffer",
+        Family::Kbuffer,
+        kb_sbuffer,
+    )
 };
 
 /// The method table's entry for `kb-ll`.
@@ -341,5 +430,5 @@ pub const KB_LL: Descriptor = Descriptor {
     summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",
     capture_step: Some("strata::kbuffer::list::capture_sorted_list(p, f)"),
     traffic: TrafficModel::Lists,
-    ..locked(MethodId::KbLl, "kb-ll", Family::Kbuffer)
+    ..locked(MethodId::KbLl, "kb-ll", Family::Kbuffer, kb_ll)
 };

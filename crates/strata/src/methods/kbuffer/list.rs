@@ -26,9 +26,40 @@ pub const NODE_BYTES: u64 = 20;
 /// The list methods' capture entry points (list_entries.wgsl).
 pub const ENTRIES_WGSL: &str = include_str!("list_entries.wgsl");
 
+/// What a list method keeps and how it links a fragment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ListKind {
+    /// `abuffer-ll`: every fragment pushed at its list's head, all composited (no k).
+    Abuffer,
+    /// `kb-ab-ll`: every fragment pushed, the k nearest selected in the resolve.
+    KNearest,
+    /// `kb-ll`: sorted insertion by compare-exchange, culled past the k-th node; losses counted.
+    Sorted,
+}
+
+impl ListKind {
+    /// The method this kind is.
+    pub fn id(self) -> MethodId {
+        match self {
+            ListKind::Abuffer => MethodId::AbufferLl,
+            ListKind::KNearest => MethodId::KbAbLl,
+            ListKind::Sorted => MethodId::KbLl,
+        }
+    }
+
+    /// The capture's fragment entry point (list_entries.wgsl).
+    fn entry(self) -> &'static str {
+        match self {
+            ListKind::Abuffer | ListKind::KNearest => "fs_ab_ll",
+            ListKind::Sorted => "fs_sorted_ll",
+        }
+    }
+}
+
 /// The linked-list methods (`abuffer-ll`, `kb-ab-ll`, `kb-ll`): a node pool sized from the last frame's need.
 pub struct ListKBuffer {
     id: MethodId,
+    kind: ListKind,
     frame: KFrame,
     capture: GeometryStage,
     /// The node pool, sized from measured need.
@@ -36,23 +67,20 @@ pub struct ListKBuffer {
 }
 
 impl ListKBuffer {
-    /// The method `id` for `scene`.
+    /// The list method `kind` for `scene`.
     pub fn new(
         gpu: &Gpu,
         scene: &SceneGpu,
-        id: MethodId,
+        kind: ListKind,
         options: &RenderOptions,
     ) -> crate::error::Result<ListKBuffer> {
+        let id = kind.id();
         let mut frame = KFrame::new(gpu, scene, id, Layout::List);
         let module = frame.capture_module(gpu, scene, ENTRIES_WGSL, Layout::List, true);
-        let entry = if id == MethodId::KbLl {
-            "fs_sorted_ll"
-        } else {
-            "fs_ab_ll"
-        };
         Ok(ListKBuffer {
             id,
-            capture: frame.capture_pipeline(gpu, scene, &module, entry)?,
+            kind,
+            capture: frame.capture_pipeline(gpu, scene, &module, kind.entry())?,
             frame,
             pool: Pool::new(options, NODE_BYTES),
         })
@@ -63,7 +91,7 @@ impl ListKBuffer {
     /// The frame's k, pool and parameters.
     fn plan(&mut self, ctx: &FrameContext<'_>) -> Result<(KParams, Storage, Recorded)> {
         // abuffer-ll composites every fragment: its k is unbounded.
-        let k = if self.id == MethodId::AbufferLl {
+        let k = if self.kind == ListKind::Abuffer {
             u32::MAX
         } else {
             k_of(ctx.k, self.id)?
@@ -86,7 +114,7 @@ impl ListKBuffer {
         };
         let recorded = Recorded {
             geometry_passes: 1,
-            k: (self.id != MethodId::AbufferLl).then_some(k),
+            k: (self.kind != ListKind::Abuffer).then_some(k),
             bytes_allocated: 0,
             capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
@@ -114,7 +142,7 @@ impl Method for ListKBuffer {
             overflowed > 0,
             recorded.capacity,
         );
-        if self.id == MethodId::KbLl {
+        if self.kind == ListKind::Sorted {
             stats.lock_failures = Some(wide(words, COUNTER_LOST) + lock_failures(words));
         }
         stats

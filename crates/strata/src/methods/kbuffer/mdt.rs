@@ -47,15 +47,14 @@ pub enum Mdt {
 }
 
 impl Mdt {
-    /// The multi-depth test of a method, if it is one.
-    pub fn of(id: MethodId) -> Option<Mdt> {
-        Some(match id {
-            MethodId::KbMdt32 => Mdt::Mdt32,
-            MethodId::KbMdt64 => Mdt::Mdt64,
-            MethodId::KbMdtPack => Mdt::Pack,
-            MethodId::KbKeys => Mdt::Keys,
-            _ => return None,
-        })
+    /// The method this multi-depth test is.
+    pub fn id(self) -> MethodId {
+        match self {
+            Mdt::Mdt32 => MethodId::KbMdt32,
+            Mdt::Mdt64 => MethodId::KbMdt64,
+            Mdt::Pack => MethodId::KbMdtPack,
+            Mdt::Keys => MethodId::KbKeys,
+        }
     }
 
     /// Bytes per slot.

@@ -323,20 +323,19 @@ impl Variant {
         matches!(self, Variant::AbufferFixed | Variant::KbAbFixed)
     }
 
-    /// The variant of `id`, if it is a slot-array method.
-    pub fn of(id: MethodId) -> Option<Variant> {
-        Some(match id {
-            MethodId::KplusArray => Variant::KplusArray,
-            MethodId::KplusHeap => Variant::KplusHeap,
-            MethodId::KplusArrayR => Variant::KplusArrayR,
-            MethodId::Kb => Variant::Kb,
-            MethodId::KbPs => Variant::KbPs,
-            MethodId::AbufferFixed => Variant::AbufferFixed,
-            MethodId::KbAbFixed => Variant::KbAbFixed,
-            MethodId::KplusSemiheap => Variant::KplusSemiheap,
-            MethodId::Mlab => Variant::Mlab,
-            _ => return None,
-        })
+    /// The method this variant is.
+    pub fn id(self) -> MethodId {
+        match self {
+            Variant::KplusArray => MethodId::KplusArray,
+            Variant::KplusHeap => MethodId::KplusHeap,
+            Variant::KplusArrayR => MethodId::KplusArrayR,
+            Variant::Kb => MethodId::Kb,
+            Variant::KbPs => MethodId::KbPs,
+            Variant::AbufferFixed => MethodId::AbufferFixed,
+            Variant::KbAbFixed => MethodId::KbAbFixed,
+            Variant::KplusSemiheap => MethodId::KplusSemiheap,
+            Variant::Mlab => MethodId::Mlab,
+        }
     }
 }
 

@@ -90,22 +90,42 @@ pub fn scan_levels(n: u64) -> (Vec<ScanLevel>, u64) {
     }
 }
 
-/// The storage layout of `id`: S-buffer regions of pooled fragments, or k+-buffer slots in
-/// regions.
-pub fn layout(id: MethodId) -> Layout {
-    if id == MethodId::KplusSbuffer {
-        Layout::KplusSbuffer
-    } else {
-        Layout::Sbuffer
-    }
+/// What an S-buffer method keeps in each pixel's region.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RegionKind {
+    /// `sbuffer`: every fragment, all composited (no k).
+    Abuffer,
+    /// `kb-sbuffer`: every fragment, the k nearest selected in the resolve.
+    KNearest,
+    /// `kplus-sbuffer`: min(f, k) slots a pixel, a k+-buffer in them.
+    Kplus,
 }
 
-/// The capture stage's source of `id` (its count and store entry points).
-pub fn capture_source(id: MethodId) -> &'static str {
-    if id == MethodId::KplusSbuffer {
-        include_str!("kplus_sbuffer_entries.wgsl")
-    } else {
-        SBUFFER_WGSL
+impl RegionKind {
+    /// The method this kind is.
+    pub fn id(self) -> MethodId {
+        match self {
+            RegionKind::Abuffer => MethodId::Sbuffer,
+            RegionKind::KNearest => MethodId::KbSbuffer,
+            RegionKind::Kplus => MethodId::KplusSbuffer,
+        }
+    }
+
+    /// The storage layout: S-buffer regions of pooled fragments, or k+-buffer slots in
+    /// regions.
+    pub fn layout(self) -> Layout {
+        match self {
+            RegionKind::Kplus => Layout::KplusSbuffer,
+            RegionKind::Abuffer | RegionKind::KNearest => Layout::Sbuffer,
+        }
+    }
+
+    /// The capture stage's source (its count and store entry points).
+    pub fn capture_source(self) -> &'static str {
+        match self {
+            RegionKind::Kplus => include_str!("kplus_sbuffer_entries.wgsl"),
+            RegionKind::Abuffer | RegionKind::KNearest => SBUFFER_WGSL,
+        }
     }
 }
 
@@ -121,6 +141,7 @@ struct ScanPlan {
 /// The S-buffer methods (`sbuffer`, `kb-sbuffer`, `kplus-sbuffer`): count, prefix sum, store, resolve.
 pub struct SBuffer {
     id: MethodId,
+    kind: RegionKind,
     frame: KFrame,
     count: GeometryStage,
     store: GeometryStage,
@@ -140,19 +161,20 @@ pub struct SBuffer {
 }
 
 impl SBuffer {
-    /// The method `id` for `scene`.
+    /// The S-buffer method `kind` for `scene`.
     pub fn new(
         gpu: &Gpu,
         scene: &SceneGpu,
-        id: MethodId,
+        kind: RegionKind,
         options: &RenderOptions,
     ) -> crate::error::Result<SBuffer> {
-        let kplus = id == MethodId::KplusSbuffer;
-        let mut frame = KFrame::new(gpu, scene, id, layout(id));
+        let (id, layout) = (kind.id(), kind.layout());
+        let kplus = kind == RegionKind::Kplus;
+        let mut frame = KFrame::new(gpu, scene, id, layout);
         // The k+-buffer's spin lock wants acquire/release ordering where the adapter has it.
-        let module = frame.capture_module(gpu, scene, capture_source(id), layout(id), kplus);
-        let scan = super::stage(gpu, format!("strata.{id}.scan"), SCAN_WGSL, layout(id))
-            .module(&gpu.device);
+        let module = frame.capture_module(gpu, scene, kind.capture_source(), layout, kplus);
+        let scan =
+            super::stage(gpu, format!("strata.{id}.scan"), SCAN_WGSL, layout).module(&gpu.device);
         let (count, store) = if kplus {
             ("fs_kplus_sbuffer_count", "fs_kplus_sbuffer_store")
         } else {
@@ -174,6 +196,7 @@ impl SBuffer {
         };
         Ok(SBuffer {
             id,
+            kind,
             count: frame.capture_pipeline(gpu, scene, &module, count)?,
             store: frame.capture_pipeline(gpu, scene, &module, store)?,
             gather: compute("cs_gather"),
@@ -230,7 +253,7 @@ impl SBuffer {
 impl Method for SBuffer {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         // sbuffer composites every fragment: its k is unbounded.
-        let k = if self.id == MethodId::Sbuffer {
+        let k = if self.kind == RegionKind::Abuffer {
             u32::MAX
         } else {
             k_of(ctx.k, self.id)?
@@ -242,7 +265,7 @@ impl Method for SBuffer {
         let regions = pixels * sample_slots as u64;
         let (levels, scan_words) = self.scan_levels(gpu, regions)?;
         // kplus-sbuffer's region starts share the pool's buffer.
-        let header = if self.id == MethodId::KplusSbuffer {
+        let header = if self.kind == RegionKind::Kplus {
             regions * 4
         } else {
             0
@@ -298,7 +321,7 @@ impl Method for SBuffer {
         ctx.readback.words(&scan.buffer, (scan_words - 1) * 4, 1);
         Ok(Recorded {
             geometry_passes: 2,
-            k: (self.id != MethodId::Sbuffer).then_some(k),
+            k: (self.kind != RegionKind::Abuffer).then_some(k),
             bytes_allocated: bytes + scan_words * 4,
             capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
@@ -318,7 +341,7 @@ impl Method for SBuffer {
         let mut stats = self
             .pool
             .feedback(self.id, needed, overflowed, recorded.capacity);
-        if self.id == MethodId::KplusSbuffer {
+        if self.kind == RegionKind::Kplus {
             self.need_at_k = recorded.k.map(|k| (k, needed));
             stats.lock_failures = Some(super::lock_failures(words));
         }

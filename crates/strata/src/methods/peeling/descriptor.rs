@@ -4,21 +4,28 @@ use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
-fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
+type Made = crate::error::Result<Box<dyn Method>>;
+
+// Each entry's builder makes its own method.
+fn f2b(_: MethodId, made: &Setup<'_>) -> Made {
     let (gpu, scene, options) = (made.gpu, made.scene, made.options);
     let triangles = scene.triangle_count as u64;
-    if id == MethodId::F2b && options.build.msaa > 1 && triangles > super::F2B_MSAA_MAX_TRIANGLES {
+    if options.build.msaa > 1 && triangles > super::F2B_MSAA_MAX_TRIANGLES {
         return Err(crate::error::Error::unsupported(format!(
             "f2b --msaa {} takes at most {} triangles (its layer's tag travels as an exact float, as 32-bit integer targets cannot be multisampled); the scene has {triangles}",
             options.build.msaa,
             super::F2B_MSAA_MAX_TRIANGLES
         )));
     }
-    Ok(match id {
-        MethodId::Dual => Box::new(super::Dual::new(gpu, scene)?),
-        MethodId::Bucket => Box::new(super::bucket::Bucket::new(gpu, scene)?),
-        _ => Box::new(super::FrontToBack::new(gpu, scene)?),
-    })
+    Ok(Box::new(super::FrontToBack::new(gpu, scene)?))
+}
+
+fn dual(_: MethodId, made: &Setup<'_>) -> Made {
+    Ok(Box::new(super::Dual::new(made.gpu, made.scene)?))
+}
+
+fn bucket(_: MethodId, made: &Setup<'_>) -> Made {
+    Ok(Box::new(super::bucket::Bucket::new(made.gpu, made.scene)?))
 }
 
 /// `f2b`.
@@ -32,7 +39,7 @@ pub const F2B: Descriptor = Descriptor {
     takes_order: false,
     downlevel: true,
     app_shaders: Support::Yes,
-    ..Descriptor::new(MethodId::F2b, "f2b", Family::Peeling, create)
+    ..Descriptor::new(MethodId::F2b, "f2b", Family::Peeling, f2b)
 };
 
 /// `dual`.
@@ -47,7 +54,7 @@ pub const DUAL: Descriptor = Descriptor {
     traffic: TrafficModel::PerPixelState {
         atomic_per_fragment: true,
     },
-    ..Descriptor::new(MethodId::Dual, "dual", Family::Peeling, create)
+    ..Descriptor::new(MethodId::Dual, "dual", Family::Peeling, dual)
 };
 
 /// `bucket`.
@@ -62,5 +69,5 @@ pub const BUCKET: Descriptor = Descriptor {
     max_k: super::bucket::MAX_SLOTS,
     traffic: TrafficModel::Bucket,
     app_shaders: Support::Yes,
-    ..Descriptor::new(MethodId::Bucket, "bucket", Family::Peeling, create)
+    ..Descriptor::new(MethodId::Bucket, "bucket", Family::Peeling, bucket)
 };

@@ -8,14 +8,26 @@ const SUMS_OF_OVER: Support = Support::No(
 );
 use crate::methods::{Method, MethodId};
 
-fn create(id: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
-    let Setup { gpu, scene, .. } = *made;
-    Ok(match id {
-        MethodId::Mboit => Box::new(super::mboit::Mboit::new(gpu, scene)?),
-        MethodId::Wavelet => Box::new(super::mboit::Mboit::wavelet(gpu, scene)?),
-        MethodId::Stochastic => Box::new(super::stochastic::Stochastic::new(gpu, scene)?),
-        _ => Box::new(super::Wboit::new(gpu, scene)?),
-    })
+type Made = crate::error::Result<Box<dyn Method>>;
+
+// Each entry's builder makes its own method.
+fn wboit(_: MethodId, made: &Setup<'_>) -> Made {
+    Ok(Box::new(super::Wboit::new(made.gpu, made.scene)?))
+}
+
+fn mboit(_: MethodId, made: &Setup<'_>) -> Made {
+    Ok(Box::new(super::mboit::Mboit::new(made.gpu, made.scene)?))
+}
+
+fn wavelet(_: MethodId, made: &Setup<'_>) -> Made {
+    Ok(Box::new(super::mboit::Mboit::wavelet(
+        made.gpu, made.scene,
+    )?))
+}
+
+fn stochastic(_: MethodId, made: &Setup<'_>) -> Made {
+    let method = super::stochastic::Stochastic::new(made.gpu, made.scene)?;
+    Ok(Box::new(method))
 }
 
 /// `wboit`.
@@ -26,7 +38,7 @@ pub const WBOIT: Descriptor = Descriptor {
     blend_modes: SUMS_OF_OVER,
     downlevel: true,
     app_shaders: Support::Yes,
-    ..Descriptor::new(MethodId::Wboit, "wboit", Family::Weighted, create)
+    ..Descriptor::new(MethodId::Wboit, "wboit", Family::Weighted, wboit)
 };
 
 /// `mboit`.
@@ -38,7 +50,7 @@ pub const MBOIT: Descriptor = Descriptor {
     reads: &[MethodOption::Moments],
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
-    ..Descriptor::new(MethodId::Mboit, "mboit", Family::Weighted, create)
+    ..Descriptor::new(MethodId::Mboit, "mboit", Family::Weighted, mboit)
 };
 
 /// `wavelet`.
@@ -50,7 +62,7 @@ pub const WAVELET: Descriptor = Descriptor {
     reads: &[MethodOption::Coefficients],
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
-    ..Descriptor::new(MethodId::Wavelet, "wavelet", Family::Weighted, create)
+    ..Descriptor::new(MethodId::Wavelet, "wavelet", Family::Weighted, wavelet)
 };
 
 /// `stochastic`.
@@ -59,8 +71,8 @@ pub const STOCHASTIC: Descriptor = Descriptor {
     memory: "(14·S + 4)·W·H + 256·P; S samples per pixel (--msaa 4|8, required)",
     summary: "stochastic transparency (Enderton et al. 2011) with stratified masks: each fragment stipples about α·S of a pixel's samples with its depth, is accumulated where no stipple lies in front, and the alpha-corrected average is composited; noisy, unbiased, reproducible (--passes for more samples)",
     reads: &[MethodOption::Passes],
-    min_samples: 4,
+    min_samples: super::stochastic::MIN_SAMPLES,
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
-    ..Descriptor::new(MethodId::Stochastic, "stochastic", Family::Weighted, create)
+    ..Descriptor::new(MethodId::Stochastic, "stochastic", Family::Weighted, stochastic)
 };

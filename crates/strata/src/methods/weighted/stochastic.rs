@@ -75,9 +75,12 @@ pub struct Stochastic {
     samples: u32,
 }
 
+/// The fewest samples a pixel's stipples take (`--msaa 4`).
+pub const MIN_SAMPLES: u32 = 4;
+
 /// Refuses a frame that is not multisampled: the stipples are a pixel's samples.
 pub fn check_samples(samples: u32) -> Result<()> {
-    if samples < super::descriptor::STOCHASTIC.min_samples {
+    if samples < MIN_SAMPLES {
         return Err(Error::input(
             "stochastic needs --msaa 4 or 8: its stipples are the samples of a pixel",
         ));
