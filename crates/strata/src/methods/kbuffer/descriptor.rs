@@ -88,7 +88,7 @@ fn kpeel(_: MethodId, made: &Setup<'_>) -> Made {
 }
 
 /// Memory of the k-slot methods; `SLOT_BYTES` etc. keep it true.
-const KB_MEMORY: &str = "16·(k+1)·W·H + 116 + 40·(W·H with --tail blend, else 1)";
+pub(crate) const KB_MEMORY: &str = "16·(k+1)·W·H + 116 + 40·(W·H with --tail blend, else 1)";
 
 /// An entry of this family, made by `build`, on either rasterizer.
 const fn entry(

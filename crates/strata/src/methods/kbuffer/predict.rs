@@ -64,6 +64,7 @@ pub fn frame_bytes(
         | MethodId::Kb
         | MethodId::KbPs
         | MethodId::Mlab
+        | MethodId::KplusSemiheap
         | MethodId::AbufferFixed => per_pixel(SLOT_BYTES),
         MethodId::KbMdt32 => per_pixel(Mdt::Mdt32.slot_bytes()),
         MethodId::KbMdt64 => per_pixel(Mdt::Mdt64.slot_bytes()),

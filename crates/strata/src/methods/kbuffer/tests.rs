@@ -324,26 +324,34 @@ fn tail_weighted_weighs_the_rest_by_depth() {
     }
 }
 
+/// Every method whose catalogue memory is the k-slot formula allocates it, and `--k auto`'s
+/// prediction (`predict::frame_bytes`, every pixel k deep) is that too; every k-buffer and
+/// k+-buffer has a prediction, so `--k auto` takes it (kplus-semiheap had none: it was refused).
 #[test]
 fn memory_follows_the_catalogue_formula() {
+    use crate::methods::table::{Family, MethodOption};
     let s = scene("builtin:layers?n=6");
     let k = 5u64;
     let mut opts = options(20, k as u32);
     let px = 400u64;
-    for method in [
-        "kb-keys",
-        "kplus-array",
-        "kplus-heap",
-        "kplus-array-r",
-        "kb",
-        "kb-ps",
-        "abuffer-fixed",
-    ] {
-        assert_eq!(
-            render_gpu(&s, &opts, method).1.bytes_allocated,
-            16 * (k + 1) * px + 116 + 40,
-            "{method}"
-        );
+    let slot_methods: Vec<&str> = crate::methods::TABLE
+        .iter()
+        .filter(|d| d.memory == super::descriptor::KB_MEMORY)
+        .map(|d| d.name)
+        .collect();
+    assert!(slot_methods.len() >= 8, "{slot_methods:?}");
+    for method in slot_methods {
+        let allocated = render_gpu(&s, &opts, method).1.bytes_allocated;
+        assert_eq!(allocated, 16 * (k + 1) * px + 116 + 40, "{method}");
+        let id: crate::methods::MethodId = method.parse().unwrap();
+        let predicted = super::predict::frame_bytes(id, k as u32, None, &opts);
+        assert_eq!(predicted, Some(allocated), "{method}: --k auto's prediction");
+    }
+    for d in crate::methods::TABLE.iter() {
+        if matches!(d.family, Family::Kbuffer | Family::Kplus) && d.reads(MethodOption::K) {
+            let predicted = super::predict::frame_bytes(d.id, 4, None, &opts);
+            assert!(predicted.is_some(), "{}: no --k auto prediction", d.name);
+        }
     }
     opts.frame.kbuffer.tail = Tail::Blend;
     assert_eq!(
