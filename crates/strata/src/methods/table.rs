@@ -305,6 +305,16 @@ impl Descriptor {
         }
     }
 
+    /// What a frame of this method is, the one place strata decides it: (exact — the whole
+    /// scene's picture, `FrameStats::exact`; its k nearest kept — `exact_k_nearest`, for an exact
+    /// method run with a k). `kept`: nothing was lost on the way (no lock failure, temporal cull,
+    /// pool or rasterizer overflow, convex order violation); `dropped`: fragments not composited.
+    pub fn exactness(&self, k: Option<u32>, dropped: u64, kept: bool) -> (bool, Option<bool>) {
+        let exact = (self.exact || self.exact_without_drops) && kept && dropped == 0;
+        let k_nearest = (self.exact && self.reads(MethodOption::K) && k.is_some()).then_some(kept);
+        (exact, k_nearest)
+    }
+
     /// The rasterizers it runs on (`--raster`): `cpu`, `hw` or `hw,compute`.
     pub fn rasters(&self) -> &'static str {
         match (self.id, self.compute_raster) {

@@ -472,8 +472,10 @@ impl<'g> Renderer<'g> {
         let stored: u64 = resolved.iter().map(|r| r.count as u64).sum();
         let deepest = resolved.iter().map(|r| r.count).max().unwrap_or(0);
         stats.fragments_stored = Some(stored);
-        // f2b's complete frame and wboit's every frame composited every fragment.
-        let complete = stats.exact == Some(true) || method == MethodId::Wboit;
+        // An exact frame (f2b's complete one) and every frame of a weighted method (wboit's
+        // sums take every fragment) composited every fragment.
+        let weighted = method.descriptor().family == crate::methods::Family::Weighted;
+        let complete = stats.exact == Some(true) || weighted;
         if complete {
             stats.fragments_generated = Some(stored);
             stats.fragments_dropped = Some(0);

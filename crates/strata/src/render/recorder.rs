@@ -51,7 +51,7 @@ use crate::frame::{
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::methods::kbuffer::{predict, DEFAULT_K};
-use crate::methods::{self, Method, MethodId, MethodOption};
+use crate::methods::{self, Method, MethodId};
 use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
 use crate::order::TriangleOrder;
 use crate::raster::{ComputeRaster, Raster};
@@ -1048,7 +1048,6 @@ fn frame_exact(
     ms: &MethodStats,
     raster_overflow: bool,
 ) -> (bool, Option<bool>) {
-    let d = method.descriptor();
     let kept = ms.lock_failures.unwrap_or(0) == 0
         && ms.culled_temporal.unwrap_or(0) == 0
         && ms.overflow != Some(true)
@@ -1057,9 +1056,7 @@ fn frame_exact(
             .convex
             .as_ref()
             .is_none_or(|c| c.order_violations.unwrap_or(0) == 0);
-    let exact = (d.exact || d.exact_without_drops) && kept && dropped == 0;
-    let k_nearest = (d.exact && d.reads(MethodOption::K) && k.is_some()).then_some(kept);
-    (exact, k_nearest)
+    method.descriptor().exactness(k, dropped, kept)
 }
 
 /// The submission order `options` ask for, made for `scene`'s triangles and attached to its

@@ -345,7 +345,11 @@ fn memory_follows_the_catalogue_formula() {
         assert_eq!(allocated, 16 * (k + 1) * px + 116 + 40, "{method}");
         let id: crate::methods::MethodId = method.parse().unwrap();
         let predicted = super::predict::frame_bytes(id, k as u32, None, &opts);
-        assert_eq!(predicted, Some(allocated), "{method}: --k auto's prediction");
+        assert_eq!(
+            predicted,
+            Some(allocated),
+            "{method}: --k auto's prediction"
+        );
     }
     for d in crate::methods::TABLE.iter() {
         if matches!(d.family, Family::Kbuffer | Family::Kplus) && d.reads(MethodOption::K) {
