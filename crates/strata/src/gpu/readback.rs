@@ -132,3 +132,49 @@ impl ReadbackList {
         self.entries.iter().map(|e| e.2).sum()
     }
 }
+
+/// A frame's readback as segments, one per stage that reads words back: each stage appends its
+/// [`ReadbackList`] and keeps the [`Segment`] it got, which finds its words again when they
+/// come back; no stage knows where another's lie.
+#[derive(Default)]
+pub struct Segments {
+    entries: Vec<(wgpu::Buffer, u64, u64)>,
+    words: u64,
+}
+
+/// Where one stage's words lie in its frame's readback.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Segment {
+    start: u64,
+    words: u64,
+}
+
+impl Segments {
+    /// Appends `list`'s ranges as one segment.
+    pub fn push(&mut self, list: ReadbackList) -> Segment {
+        let segment = Segment {
+            start: self.words,
+            words: list.total_words(),
+        };
+        self.words += segment.words;
+        self.entries.extend(list.entries);
+        segment
+    }
+
+    /// The ranges to copy, in order.
+    pub fn entries(&self) -> &[(wgpu::Buffer, u64, u64)] {
+        &self.entries
+    }
+}
+
+impl Segment {
+    /// This segment's words in a frame's readback.
+    pub fn of<'w>(&self, words: &'w [u32]) -> &'w [u32] {
+        &words[self.start as usize..(self.start + self.words) as usize]
+    }
+
+    /// Whether the stage read nothing back.
+    pub fn is_empty(&self) -> bool {
+        self.words == 0
+    }
+}

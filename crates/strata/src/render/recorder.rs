@@ -48,15 +48,17 @@ use crate::frame::{
     AutoKStats, DrawCallback, Effect, FrameContext, FrameOptions, FrameStats, FrameTargets,
     MethodStats, ReadbackList, Recorded, RenderOptions, SceneGpu, Totals, TOTAL_WORDS,
 };
+use crate::gpu::readback::{Segment, Segments};
 use crate::gpu::timing::Timer;
 use crate::gpu::Gpu;
 use crate::methods::kbuffer::{predict, DEFAULT_K};
 use crate::methods::{self, Method, MethodId};
-use crate::metrics::gpu_histogram::{self, GpuHistogram, HISTOGRAM_BINS};
+use crate::metrics::gpu_histogram::{self, GpuHistogram};
 use crate::order::TriangleOrder;
 use crate::raster::{ComputeRaster, Raster};
 use crate::scene::{Camera, CameraPath, Scene};
 
+mod report;
 mod targets;
 pub use crate::gpu::passes::clear_depth_pass;
 pub(crate) use targets::max_resolved_pixels;
@@ -76,14 +78,16 @@ struct Pending {
     frame: u64,
     method: MethodId,
     recorded: Recorded,
-    timestamps: Option<(u64, Vec<&'static str>)>,
-    method_words: (u64, u64),
-    histogram_words: Option<(u64, u64)>,
-    /// With `--raster compute`: where its counters are in the readback, and the item capacity
-    /// the frame ran with.
-    raster_words: Option<(u64, u64)>,
-    /// With `--order`: where its Kendall pair counts are in the readback, and its bytes.
-    order_words: Option<(u64, u64)>,
+    /// Each stage's words in the frame's readback: the totals, the timer's timestamps (and the
+    /// passes they time), the method's words, the histogram's bins.
+    totals: Segment,
+    timestamps: Option<(Segment, Vec<&'static str>)>,
+    method_words: Segment,
+    histogram_words: Option<Segment>,
+    /// With `--raster compute`: its counters, and the item capacity the frame ran with.
+    raster_words: Option<(Segment, u64)>,
+    /// With `--order`: its Kendall pair counts, and its bytes.
+    order_words: Option<(Segment, u64)>,
     auto_k: Option<AutoKStats>,
     /// The frame options it was recorded with: its statistics report these, whatever the
     /// recorder's options are when they are read back (found by `bench soak`: a resize between
@@ -542,7 +546,7 @@ impl FrameRecorder {
             ctx.check_budget(recorded.bytes_allocated)?;
             Ok(recorded)
         })?;
-        let histogram = self.record_histogram(encoder, &frame, &mut readback, draw)?;
+        let histogram = self.record_histogram(encoder, &frame, draw)?;
         Ok(self.finish_frame(
             encoder,
             targets.color,
@@ -587,15 +591,15 @@ impl FrameRecorder {
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         frame: &OpenFrame,
-        readback: &mut ReadbackList,
         draw: Option<&DrawCallback<'_>>,
-    ) -> Result<bool> {
+    ) -> Result<Option<ReadbackList>> {
         let Some(histogram) = self.histogram.as_mut() else {
-            return Ok(false);
+            return Ok(None);
         };
-        let mut ctx = frame_context!(self, "histogram", encoder, frame, draw, readback, None);
+        let mut readback = ReadbackList::default();
+        let mut ctx = frame_context!(self, "histogram", encoder, frame, draw, &mut readback, None);
         histogram.record(&mut ctx)?;
-        Ok(true)
+        Ok(Some(readback))
     }
 
     /// Clears the totals, starts the timer and binds group 0 for a frame.
@@ -645,56 +649,50 @@ impl FrameRecorder {
         f(method.as_mut(), &mut ctx)
     }
 
-    /// Records the present pass and the statistics readback; returns the frame number.
+    /// Records the present pass and the statistics readback, each stage's words a segment of
+    /// it; returns the frame number.
     fn finish_frame(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
         color: Option<(&wgpu::TextureView, wgpu::TextureFormat)>,
         (recorded, auto_k): (Recorded, Option<AutoKStats>),
         readback: ReadbackList,
-        histogram_ran: bool,
+        histogram: Option<ReadbackList>,
     ) -> u64 {
         self.present_into(encoder, color, recorded.k, true);
-        let mut sources = vec![(self.scene.totals.clone(), 0, TOTAL_WORDS)];
-        let mut at = TOTAL_WORDS;
-        let timestamps = self.timer.resolve(encoder).map(|(range, names)| {
-            let start = at;
-            at += range.2;
-            sources.push(range);
-            (start, names)
+        let mut segments = Segments::default();
+        let mut totals = ReadbackList::default();
+        totals.words(&self.scene.totals, 0, TOTAL_WORDS);
+        let totals = segments.push(totals);
+        let timestamps = self.timer.resolve(encoder).map(|((buffer, at, n), names)| {
+            let mut list = ReadbackList::default();
+            list.words(&buffer, at, n);
+            (segments.push(list), names)
         });
         let raster_words = self.raster.as_ref().and_then(|raster| {
             let mut list = ReadbackList::default();
-            raster.read_counters(&mut list).then(|| {
-                let start = at;
-                at += list.total_words();
-                sources.extend(list.entries);
-                (start, raster.frame_capacity())
-            })
+            raster
+                .read_counters(&mut list)
+                .then(|| (segments.push(list), raster.frame_capacity()))
         });
         let order_words = self.order.as_ref().map(|order| {
             let mut list = ReadbackList::default();
             order.read_counters(&mut list);
-            let start = at;
-            at += list.total_words();
-            sources.extend(list.entries);
-            (start, order.bytes())
+            (segments.push(list), order.bytes())
         });
-        // The histogram's bins, when it ran, are the last words of the readback.
-        let histogram_bins = if histogram_ran { HISTOGRAM_BINS } else { 0 };
-        let method_words = (at, readback.total_words() - histogram_bins);
-        let histogram_words = (histogram_bins > 0).then(|| (at + method_words.1, histogram_bins));
-        sources.extend(readback.entries);
+        let method_words = segments.push(readback);
+        let histogram_words = histogram.map(|list| segments.push(list));
         let frame = self.frame;
         self.frame += 1;
         self.ring.record(
             &self.gpu,
             encoder,
-            &sources,
+            segments.entries(),
             Pending {
                 frame,
                 method: self.method,
                 recorded,
+                totals,
                 timestamps,
                 method_words,
                 histogram_words,
@@ -869,194 +867,6 @@ impl FrameRecorder {
         }
         last.ok_or_else(|| Error::runtime("the frame recorded no statistics"))
     }
-
-    fn decode(&mut self, mut done: Vec<(Pending, Option<Vec<u32>>)>) -> Vec<FrameReport> {
-        done.sort_by_key(|(p, _)| p.frame);
-        done.into_iter()
-            .map(|(pending, words)| self.report(pending, words))
-            .collect()
-    }
-
-    fn report(&mut self, p: Pending, words: Option<Vec<u32>>) -> FrameReport {
-        let totals = words.as_ref().map(|w| Totals::from_words(w));
-        let gpu_ms = match (&words, &p.timestamps) {
-            (Some(w), Some((start, names))) => {
-                let n = names.len() * 4;
-                Some(
-                    self.timer
-                        .decode(names, &w[*start as usize..*start as usize + n]),
-                )
-            }
-            _ => None,
-        };
-        let method_words = words.as_ref().map(|w| {
-            let (start, n) = p.method_words;
-            &w[start as usize..(start + n) as usize]
-        });
-        let histogram = match (&words, p.histogram_words) {
-            (Some(w), Some((start, n))) => Some(w[start as usize..(start + n) as usize].to_vec()),
-            _ => None,
-        };
-        let ms: MethodStats = match (self.methods.get_mut(&p.method), method_words) {
-            (Some(m), Some(words)) => m.stats(&p.recorded, &totals.unwrap_or_default(), words),
-            _ => MethodStats {
-                convex: p.recorded.convex.clone(),
-                ..Default::default()
-            },
-        };
-        if let Some(t) = totals {
-            // The next frames' draws are split by it (docs/watchdog.md, S2).
-            self.scene.note_fragments(t.generated);
-        }
-        let mut incomplete = ms.incomplete;
-        let mut cannot_complete = ms.cannot_complete.clone();
-        if let Some(t) = totals.filter(|t| t.cut_short > 0) {
-            incomplete = true;
-            cannot_complete = cannot_complete.or(Some(crate::frame::Shortfall {
-                why: format!(
-                    "{}: {} pixels' resolves ended early (the deepest pixel has {} fragments): a resolve takes at most 65535 data-bound loop steps a pixel, so that no dispatch nears a display watchdog, and lavapipe ends an invocation's loops after 65535 iterations in all, counting more of them: render fewer layers per pixel here, or use tiled",
-                    p.method, t.cut_short, t.max_depth
-                ),
-                binding: None,
-            }));
-        }
-        let compute_raster = match (&words, p.raster_words, &mut self.raster) {
-            (Some(w), Some((start, capacity)), Some(raster)) => {
-                let start = start as usize;
-                let words = &w[start..start + crate::raster::COUNTER_WORDS as usize];
-                let report = raster.feedback(&self.gpu, words, capacity, 0);
-                incomplete |= report.incomplete;
-                cannot_complete = cannot_complete.or(report.cannot_complete);
-                Some(report.stats)
-            }
-            _ => None,
-        };
-        // The frame's own rasterizer's memory is the recorder's to add; a method's own
-        // rasterizer (tiled) counts in the method's bytes.
-        let recorder_raster_bytes = compute_raster.as_ref().map_or(0, |r| r.bytes_allocated);
-        let compute_raster = compute_raster.or_else(|| ms.compute_raster.clone());
-        let mut auto_k = p.auto_k.map(|mut a| {
-            a.achieved_robustness = totals.map(|t| match t.generated {
-                0 => 1.0,
-                n => t.stored as f64 / n as f64,
-            });
-            a
-        });
-        if let Some(bins) = &histogram {
-            let bins = gpu_histogram::trim(bins);
-            if let Some(a) = &mut auto_k {
-                // Exact mode renders again when the frame's own histogram picks another k; a
-                // guess it confirms gets its prediction from it.
-                let again = predict::choose_k(
-                    p.method,
-                    Some(&bins),
-                    a.robustness_target,
-                    DEFAULT_K,
-                    &self.options,
-                );
-                match again {
-                    Ok(c) if Some(c.k) != p.recorded.k => incomplete = true,
-                    Ok(c) if a.predicted_robustness.is_none() => {
-                        a.predicted_robustness = Some(c.predicted_robustness);
-                        a.histogram_frame = Some(p.frame);
-                    }
-                    _ => {}
-                }
-            }
-            if self.last_histogram.as_ref().is_none_or(|h| h.0 < p.frame) {
-                self.last_histogram = Some((p.frame, bins));
-            }
-        }
-        let exact = frame_exact(
-            p.method,
-            p.recorded.k,
-            totals.map_or(0, |t| t.dropped + ms.culled_temporal.unwrap_or(0)),
-            &ms,
-            compute_raster.as_ref().is_some_and(|r| r.overflow),
-        );
-        let stats = FrameStats {
-            frame: p.frame,
-            method: p.method.as_str().to_string(),
-            method_choice: None,
-            width: p.options.width,
-            height: p.options.height,
-            k: p.recorded.k,
-            effect: p.options.effect.name().to_string(),
-            geometry_passes: p.recorded.geometry_passes,
-            exact: Some(exact.0),
-            exact_k_nearest: exact.1,
-            gpu_ms_total: gpu_ms.as_ref().map(|m| m.values().sum()),
-            gpu_ms,
-            fragments_generated: totals.map(|t| t.generated + ms.culled_temporal.unwrap_or(0)),
-            fragments_stored: totals.map(|t| t.stored),
-            fragments_dropped: totals.map(|t| t.dropped + ms.culled_temporal.unwrap_or(0)),
-            culled_temporal: ms.culled_temporal,
-            convex: ms.convex,
-            max_depth_complexity: totals.map(|t| t.max_depth),
-            bytes_allocated: p.recorded.bytes_allocated
-                + recorder_raster_bytes
-                + p.order_words.map_or(0, |o| o.1)
-                + self.scene.animation.as_ref().map_or(0, |a| a.bytes()),
-            // The compute rasterizer's work items overflowing leaves fragments that no counter
-            // saw: the frame says it overflowed (and is incomplete), its counts are lower bounds.
-            overflow: match compute_raster.as_ref().filter(|r| r.overflow) {
-                Some(_) => Some(true),
-                None => ms.overflow,
-            },
-            lock_failures: ms.lock_failures,
-            memory_ordering: p.recorded.memory_ordering.map(String::from),
-            bands: None,
-            depth_histogram: histogram.as_deref().map(gpu_histogram::trim),
-            depth_histogram_clipped: histogram.map(|h| h[h.len() - 1] as u64),
-            k_auto: auto_k,
-            lighting: self.lit.as_ref().map(LitFrame::stats),
-            raster: match ms.compute_raster {
-                Some(_) => Raster::Compute,
-                None => self.options.build.raster,
-            }
-            .name()
-            .to_string(),
-            compute_raster,
-            tiled: ms.tiled.clone(),
-            order: p.options.order.map(|o| o.name().to_string()),
-            kendall_tau: match (&words, p.order_words) {
-                (Some(w), Some((start, _))) => Some(crate::order::kendall_tau(
-                    &w[start as usize..start as usize + 2],
-                )),
-                _ => None,
-            },
-            blocking_readbacks: 0,
-            submits: 0,
-            adapter: Some(self.gpu.info.name.clone()),
-            backend: Some(self.gpu.backend_name()),
-        };
-        FrameReport {
-            stats,
-            incomplete,
-            cannot_complete,
-        }
-    }
-}
-
-/// Whether a frame of `method` is exact (see `FrameStats::exact`), and whether it kept a
-/// k-buffer's promise of each pixel's k nearest (`FrameStats::exact_k_nearest`), given the
-/// fragments it dropped and what the method read back.
-fn frame_exact(
-    method: MethodId,
-    k: Option<u32>,
-    dropped: u64,
-    ms: &MethodStats,
-    raster_overflow: bool,
-) -> (bool, Option<bool>) {
-    let kept = ms.lock_failures.unwrap_or(0) == 0
-        && ms.culled_temporal.unwrap_or(0) == 0
-        && ms.overflow != Some(true)
-        && !raster_overflow
-        && ms
-            .convex
-            .as_ref()
-            .is_none_or(|c| c.order_violations.unwrap_or(0) == 0);
-    method.descriptor().exactness(k, dropped, kept)
 }
 
 /// The submission order `options` ask for, made for `scene`'s triangles and attached to its
