@@ -58,10 +58,11 @@ pub struct PictureArgs {
     pub tonemap: strata::frame::Tonemap,
     #[command(flatten)]
     pub camera: CameraArgs,
-    /// Samples per pixel: 1, or 4 and 8 for multisample anti-aliasing at the standard sample
-    /// positions (fragments shaded once per pixel, composited per sample; every method but
-    /// kb-mdt64 and kb-mdt-pack, and the reference). 8 where the device has it (lavapipe: 4).
-    #[arg(long, default_value_t = 1)]
+    // Samples per pixel; the methods that take no --msaa from the table.
+    #[arg(long, default_value_t = 1, help = format!(
+        "Samples per pixel: 1, or 4 and 8 for multisample anti-aliasing at the standard sample positions (fragments shaded once per pixel, composited per sample; every method but {}). 8 where the device has it (lavapipe: 4; tiled finds its samples in compute, so 8 there too)",
+        methods_where(|d| !d.msaa.yes())
+    ))]
     pub msaa: u32,
 }
 
