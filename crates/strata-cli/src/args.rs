@@ -668,7 +668,11 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
             refresh: a.temporal_refresh,
             epsilon: a.temporal_epsilon,
         });
-    strata::methods::kbuffer::temporal::check(a.id(), options.frame.temporal)?;
+    // Refused here, before any device: the recorder admits it again (Descriptor::admit).
+    a.id()
+        .descriptor()
+        .check_temporal(options.frame.temporal.is_some())?;
+    options.frame.validate()?;
     options.build.cache_dir = a.cache_dir.as_deref().map(cache_dir).transpose()?;
     if let Some(m) = a.layers_per_pass {
         let d = a.id().descriptor();

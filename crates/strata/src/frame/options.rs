@@ -464,6 +464,15 @@ impl FrameOptions {
 
     /// The values that are wrong whatever the recorder.
     pub fn validate(&self) -> Result<()> {
+        if let Some(t) = self
+            .temporal
+            .filter(|t| !(t.epsilon.is_finite() && t.epsilon >= 0.0))
+        {
+            return Err(Error::input(format!(
+                "--temporal-epsilon {} must be a non-negative number",
+                t.epsilon
+            )));
+        }
         if let Some(tries) = self.kbuffer.max_tries {
             let limit = MAX_TRIES_LIMIT;
             if tries == 0 {

@@ -260,9 +260,7 @@ pub fn create(
 ) -> Result<Box<dyn Method>> {
     let descriptor = id.descriptor();
     backends::check_features(descriptor, gpu)?;
-    descriptor.check_raster(options.build.raster)?;
-    descriptor.check_msaa(options.build.msaa, scene.triangle_count as u64)?;
-    descriptor.check_blend(&scene.blend_modes, options.frame.kbuffer.tail)?;
+    descriptor.admit(options, &scene.blend_modes, scene.triangle_count as u64)?;
     if !descriptor.samples_in_compute {
         crate::frame::msaa::check_device(gpu, options.build.msaa)?;
     }

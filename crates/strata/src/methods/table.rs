@@ -361,6 +361,38 @@ impl Descriptor {
         self.ordering == Ordering::Locks
     }
 
+    /// Whether it takes frames of `options` for a scene of `triangles` with `blend_modes`: the
+    /// one admission check of the rasterizer, the samples, the blend modes and temporal culling,
+    /// made when the method or the options change (not every frame).
+    pub fn admit(
+        &self,
+        options: &RenderOptions,
+        blend_modes: &[Blend],
+        triangles: u64,
+    ) -> Result<()> {
+        self.check_raster(options.build.raster)?;
+        self.check_msaa(options.build.msaa, triangles)?;
+        self.check_blend(blend_modes, options.frame.kbuffer.tail)?;
+        self.check_temporal(options.frame.temporal.is_some())
+    }
+
+    /// Refuses `--temporal on` where its capture cannot cull, naming the methods that can.
+    pub fn check_temporal(&self, temporal: bool) -> Result<()> {
+        if !temporal || self.temporal {
+            return Ok(());
+        }
+        let takers: Vec<&str> = super::TABLE
+            .iter()
+            .filter(|d| d.temporal)
+            .map(|d| d.name)
+            .collect();
+        Err(Error::unsupported(format!(
+            "--temporal on applies to {}, not {}",
+            takers.join(", "),
+            self.name
+        )))
+    }
+
     /// Refuses `--raster compute` where it cannot capture on the compute rasterizer, naming
     /// the methods that can.
     pub fn check_raster(&self, raster: Raster) -> Result<()> {

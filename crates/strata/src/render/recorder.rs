@@ -274,7 +274,10 @@ impl FrameRecorder {
 
     /// Switches method; its pipelines are built on first use and kept.
     pub fn set_method(&mut self, method: MethodId) -> Result<()> {
-        crate::methods::kbuffer::temporal::check(method, self.options.frame.temporal)?;
+        let triangles = self.scene.triangle_count as u64;
+        method
+            .descriptor()
+            .admit(&self.options, &self.scene.blend_modes, triangles)?;
         if self.scene.application.is_some() {
             method.descriptor().check_app_shaders()?;
         }
@@ -408,9 +411,10 @@ impl FrameRecorder {
         if self.scene.application.is_some() {
             check_application_options(&options)?;
         }
+        let triangles = self.scene.triangle_count as u64;
         self.method
             .descriptor()
-            .check_blend(&self.scene.blend_modes, frame.kbuffer.tail)?;
+            .admit(&options, &self.scene.blend_modes, triangles)?;
         let old = &self.options.frame;
         if (frame.width, frame.height) != (old.width, old.height) {
             self.resized(frame.width, frame.height)?;

@@ -976,7 +976,6 @@ impl SlotKBuffer {
         if self.variant == Variant::KplusSemiheap {
             params.aux = heap_size(ctx.options, k)?;
         }
-        temporal::check(self.frame.id, ctx.options.frame.temporal)?;
         let recorded = Recorded {
             temporal: ctx.options.frame.temporal.is_some(),
             ..recorded

@@ -32,11 +32,10 @@ use glam::Mat4;
 
 use crate::gpu::twin::{gpu_struct, wgsl_module};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 pub use crate::frame::values::{TemporalCulling, DEFAULT_EPSILON, DEFAULT_REFRESH};
 use crate::frame::FrameContext;
 use crate::gpu::Gpu;
-use crate::methods::MethodId;
 
 gpu_struct! {
     /// Temporal culling's parameters (`strata::kbuffer::temporal_params`), bound as `temporal`
@@ -67,32 +66,6 @@ gpu_struct! {
 /// `strata::kbuffer::temporal_params`: [`TemporalParams`] for temporal.wgsl.
 pub(crate) const PARAMS_WGSL: &str =
     wgsl_module!("strata::kbuffer::temporal_params", TemporalParams);
-
-/// Whether `method`'s capture takes temporal culling.
-pub fn takes(method: MethodId) -> bool {
-    method.descriptor().temporal
-}
-
-/// Refuses `--temporal on` where it cannot apply.
-pub fn check(method: MethodId, temporal: Option<TemporalCulling>) -> Result<()> {
-    match temporal {
-        Some(_) if !takes(method) => {
-            let takers: Vec<&str> = MethodId::all()
-                .filter(|&m| takes(m))
-                .map(MethodId::as_str)
-                .collect();
-            Err(Error::unsupported(format!(
-                "--temporal on applies to {}, not {method}",
-                takers.join(", ")
-            )))
-        }
-        Some(t) if !(t.epsilon.is_finite() && t.epsilon >= 0.0) => Err(Error::input(format!(
-            "--temporal-epsilon {} must be a non-negative number",
-            t.epsilon
-        ))),
-        _ => Ok(()),
-    }
-}
 
 /// The interface buffers, the parameters, and what last frame recorded.
 pub struct TemporalState {
@@ -255,6 +228,7 @@ mod tests {
     use super::*;
     use crate::frame::FrameOptions;
     use crate::frame::{RenderOptions, Tail};
+    use crate::methods::MethodId;
     use crate::scene::loaders;
     use crate::testing::{assert_close, gpu, render_reference};
     use crate::Renderer;
@@ -437,17 +411,28 @@ mod tests {
 
     #[test]
     fn only_captures_that_choose_at_capture_time_take_it() {
+        let takes = |m: MethodId| m.descriptor().check_temporal(true).is_ok();
         assert!(takes(MethodId::KplusSemiheap) && takes(MethodId::KplusHeap));
         assert!(!takes(MethodId::AbufferFixed) && !takes(MethodId::KbMdt32));
-        let e = check(MethodId::AbufferLl, Some(TemporalCulling::default()))
+        let e = MethodId::AbufferLl
+            .descriptor()
+            .check_temporal(true)
             .unwrap_err()
             .to_string();
         assert!(e.contains("not abuffer-ll"), "{e}");
-        let bad = TemporalCulling {
-            epsilon: f32::NAN,
+        let mut bad = crate::frame::FrameOptions {
+            temporal: Some(TemporalCulling {
+                epsilon: f32::NAN,
+                ..Default::default()
+            }),
             ..Default::default()
         };
-        assert!(check(MethodId::KplusHeap, Some(bad)).is_err());
-        assert!(check(MethodId::AbufferLl, None).is_ok());
+        assert!(bad.validate().is_err());
+        bad.temporal = None;
+        assert!(bad.validate().is_ok());
+        assert!(MethodId::AbufferLl
+            .descriptor()
+            .check_temporal(false)
+            .is_ok());
     }
 }
