@@ -172,9 +172,4 @@ impl Segment {
     pub fn of<'w>(&self, words: &'w [u32]) -> &'w [u32] {
         &words[self.start as usize..(self.start + self.words) as usize]
     }
-
-    /// Whether the stage read nothing back.
-    pub fn is_empty(&self) -> bool {
-        self.words == 0
-    }
 }
