@@ -143,7 +143,10 @@ fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
 }
 
 fn convex_figures(timed: &[FrameStats]) -> Option<ConvexFigures> {
-    let stats: Vec<_> = timed.iter().filter_map(|s| s.convex.as_ref()).collect();
+    let stats: Vec<_> = timed
+        .iter()
+        .filter_map(|s| s.family::<strata::methods::convex::ConvexStats>())
+        .collect();
     let first = stats.first()?;
     Some(ConvexFigures {
         parts: first.parts,

@@ -208,7 +208,7 @@ pub(crate) struct MethodResult {
     /// `tiled`'s statistics of the last measured frame: its work counters (setups,
     /// evaluations, shadings, items, occupancy) and rounds, for a cost model of the frame.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub(crate) tiled: Option<strata::frame::TiledStats>,
+    pub(crate) tiled: Option<strata::methods::tiled::TiledStats>,
     /// `tiled`: what its cost model (`strata::methods::tiled::cost`, calibrated on the H100's
     /// 2026-11-27 frame) predicts the frame's passes take on an H100, from these counters — on
     /// an H100 the measured times beside it check the model.
@@ -464,8 +464,13 @@ pub(crate) fn fill_counts(result: &mut MethodResult, stats: &FrameStats) {
     result.max_depth_complexity = stats.max_depth_complexity;
     result.bytes_allocated = Some(stats.bytes_allocated);
     result.lock_failures = stats.lock_failures;
-    result.tiled = stats.tiled.clone();
-    result.tiled_h100_model_ms = match (&stats.tiled, &stats.compute_raster) {
+    result.tiled = stats
+        .family::<strata::methods::tiled::TiledStats>()
+        .cloned();
+    result.tiled_h100_model_ms = match (
+        stats.family::<strata::methods::tiled::TiledStats>(),
+        &stats.compute_raster,
+    ) {
         (Some(tiled), Some(raster)) => {
             let pixels = stats.width as u64 * stats.height as u64;
             let work = strata::methods::tiled::cost::Work::of_frame(tiled, raster, pixels);

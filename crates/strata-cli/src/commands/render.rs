@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use strata::error::{Error, Result};
 use strata::frame::{FrameStats, Tail};
 use strata::gpu::Gpu;
+use strata::methods::tiled::TiledStats;
 use strata::methods::MethodId;
 use strata::output::Outputs;
 use strata::render::{save_png, Renderer};
@@ -115,7 +116,7 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
     }
     if stats.overflow == Some(true) && stats.geometry_passes > 1 && dropped == 0 {
         // The statistics are the last render's: name what can overflow with this method.
-        let what = match (&stats.tiled, &stats.compute_raster) {
+        let what = match (stats.family::<TiledStats>(), &stats.compute_raster) {
             (Some(_), _) => "the compute rasterizer's work items",
             (None, Some(_)) => "the fragment pool or the compute rasterizer's work items",
             (None, None) => "the fragment pool",

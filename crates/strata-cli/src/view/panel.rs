@@ -595,13 +595,13 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
                 "max depth complexity",
                 n(s.max_depth_complexity.map(u64::from)),
             );
-            if let Some(t) = &s.tiled {
+            if let Some(t) = s.family::<strata::methods::tiled::TiledStats>() {
                 row("tiled rounds", t.rounds.to_string());
                 row("unfinished pixels", t.unfinished_pixels.to_string());
                 row("longest tile list", t.longest_list.to_string());
             }
         });
-    if let Some(t) = &s.tiled {
+    if let Some(t) = s.family::<strata::methods::tiled::TiledStats>() {
         egui::CollapsingHeader::new("tiles by rounds run (log)")
             .default_open(true)
             .show(ui, |ui| {

@@ -18,6 +18,7 @@
 
 pub mod application;
 pub mod colormap;
+pub mod family;
 pub mod msaa;
 pub mod options;
 pub mod passes;
@@ -39,6 +40,7 @@ use crate::gpu::Gpu;
 pub use crate::scene::{Pipeline, MAX_SIDE};
 
 pub use crate::gpu::readback::ReadbackList;
+pub use family::{FamilyStat, FamilyStats};
 pub use options::{
     Band, BucketSplit, BuildOptions, Effect, FrameOptions, KBufferOptions, Lighting, Moments,
     PeelingOptions, RenderOptions, StorageLayout, Tail, Weight, WeightedOptions, BAND_ALIGN,
@@ -46,8 +48,8 @@ pub use options::{
 };
 pub use scene_gpu::SceneGpu;
 pub use values::{
-    ComputeRasterStats, ConvexStats, GbufferView, LightingStats, NormalEncoding, Raster,
-    TemporalCulling, TiledStats, Tonemap, MAX_TRIES_LIMIT,
+    ComputeRasterStats, GbufferView, LightingStats, NormalEncoding, Raster, TemporalCulling,
+    Tonemap, MAX_TRIES_LIMIT,
 };
 
 /// How a pixel's depth-ordered fragments become a color.
@@ -133,9 +135,6 @@ pub struct FrameStats {
     /// With `--raster compute`, or a method with its own compute rasterizer (`tiled`): its
     /// work items, capacity and overflow.
     pub compute_raster: Option<ComputeRasterStats>,
-    /// `tiled`: its rounds per tile and lists.
-    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
-    pub tiled: Option<TiledStats>,
     /// With `--temporal on`: fragments culled before any lock by last frame's interface
     /// (included in `fragments_generated` and `fragments_dropped`).
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
@@ -147,10 +146,12 @@ pub struct FrameStats {
     /// order and front-to-back depth order (0: front to back, 1: back to front).
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub kendall_tau: Option<f64>,
-    /// `convex`: groups, passes, draws, pairs ordered without a plane, and `order_violations`
-    /// (pixel-passes where the order failed).
-    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
-    pub convex: Option<ConvexStats>,
+    /// What the method's family reports beyond the fields above (`tiled`: its rounds, lists and
+    /// work, `crate::methods::tiled::TiledStats`; `convex`: its order,
+    /// `crate::methods::convex::ConvexStats`): read by type with [`FrameStats::family`]; in
+    /// the JSON, under the family's key.
+    #[cfg_attr(feature = "serde", serde(flatten))]
+    pub family: Option<FamilyStats>,
     /// Times strata blocked the CPU on the GPU for this picture (0 in real-time frames).
     pub blocking_readbacks: u32,
     /// Command buffers strata submitted itself for this picture (0 in real-time frames: the
@@ -160,6 +161,14 @@ pub struct FrameStats {
     pub adapter: Option<String>,
     /// The backend (Vulkan, Metal, DX12, GL).
     pub backend: Option<String>,
+}
+
+impl FrameStats {
+    /// The family's statistics of type `T`, when the frame's method reports them
+    /// (`stats.family::<TiledStats>()`).
+    pub fn family<T: FamilyStat>(&self) -> Option<&T> {
+        self.family.as_ref().and_then(FamilyStats::get)
+    }
 }
 
 /// How `--k auto` chose a frame's k.
@@ -206,12 +215,10 @@ pub struct MethodStats {
     /// With `--temporal on`: fragments culled by last frame's interface (never counted by the
     /// resolve: the frame's totals add them as generated and dropped).
     pub culled_temporal: Option<u64>,
-    /// `convex`: the frame's order and its violations.
-    pub convex: Option<ConvexStats>,
     /// A method with its own compute rasterizer (`tiled`): its work items.
     pub compute_raster: Option<ComputeRasterStats>,
-    /// `tiled`: its rounds per tile and lists.
-    pub tiled: Option<TiledStats>,
+    /// What the method's family reports beyond these ([`FrameStats::family`]).
+    pub family: Option<FamilyStats>,
 }
 
 /// What a method recorded: known on the CPU when the frame is recorded.
@@ -232,8 +239,9 @@ pub struct Recorded {
     pub memory_ordering: Option<&'static str>,
     /// The frame ran with temporal culling.
     pub temporal: bool,
-    /// `convex`: its order for this frame (violations come back with the statistics).
-    pub convex: Option<ConvexStats>,
+    /// What the family knows of the frame when it records it (`convex`: its order; the
+    /// violations come back with the statistics), which its [`MethodStats::family`] completes.
+    pub family: Option<FamilyStats>,
 }
 
 impl Recorded {

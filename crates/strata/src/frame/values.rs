@@ -1,5 +1,5 @@
 //! Value types the layers above share: the rasterizer a frame uses, and what the compute
-//! rasterizer, temporal culling and `convex` put into a frame's statistics. They live here,
+//! rasterizer and temporal culling put into a frame's statistics. They live here,
 //! below the code that produces them, so that options and statistics need nothing above `frame`.
 
 #[cfg(feature = "serde")]
@@ -37,59 +37,6 @@ pub struct ComputeRasterStats {
     pub bytes_allocated: u64,
 }
 
-/// What `tiled` reports about a frame.
-#[derive(Clone, Debug, Default, PartialEq)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-pub struct TiledStats {
-    /// Rounds of the tile pass the frame recorded (from the last frame's deepest pixel).
-    pub rounds: u32,
-    /// Tiles by the rounds they ran: entry r counts the tiles that ran r rounds (0: no triangle
-    /// met the tile, or the one-pass kernel took all of it), the last entry those that ran that
-    /// many or more.
-    pub tile_rounds: Vec<u64>,
-    /// The most fragments one pixel had.
-    pub deepest_pixel: u32,
-    /// Pixels with fragments left after the last round (the frame is incomplete).
-    pub unfinished_pixels: u64,
-    /// The longest tile list (items).
-    pub longest_list: u32,
-    /// Bytes of the per-tile lists, their starts, counts and rounds, and the pixels' state.
-    pub list_bytes: u64,
-    /// Triangle setups (transform, clip, snap): the bin's, one per fan triangle it sets up and
-    /// stores as a record for the passes after it.
-    pub triangle_setups: u64,
-    /// Setup records loaded into workgroup memory: by the one-pass kernel once per list entry
-    /// that covers a pixel of its region, and by each round once per list entry that covers a
-    /// pixel with fragments left.
-    pub record_loads: u64,
-    /// Compares of the one-pass kernel's per-pixel insertion sorts, each 32-lane warp counted
-    /// as its longest (a warp waits for its last lane).
-    pub sort_steps: u64,
-    /// Pixels the one-pass kernel resolved, tiles no triangle meets included (the others are
-    /// the rounds').
-    pub one_pass_pixels: u64,
-    /// Steps of the 32-lane warps through the evaluation loops (the one-pass kernel's and the
-    /// rounds'): what [`TiledStats::evaluation_occupancy`] divides by.
-    pub warp_steps: u64,
-    /// Fragment evaluations (barycentrics and depth at a covered pixel center) in the rounds:
-    /// every round evaluates again each fragment behind its pixel's bound.
-    pub fragment_evaluations: u64,
-    /// Fragments shaded in the rounds: before it is known whether a fragment stays among its
-    /// pixel's nearest, so some are shaded and displaced.
-    pub shadings: u64,
-    /// Listed (triangle, tile) items that cover a pixel center of their tile.
-    pub items_kept: u64,
-    /// Listed items that cover none (their tile meets the triangle's bounds only).
-    pub items_empty: u64,
-    /// 4×4 quarters of tiles left to the rounds: the tile's covered pixel centers outgrew the
-    /// one-pass kernel's workgroup memory, and so did the quarter's (a tile that fits whole
-    /// counts none).
-    pub tiles_past_capacity: u64,
-    /// Lane occupancy of the evaluation loops: evaluations over 32 × the steps of the 32-lane
-    /// warps that ran them (a warp with no pixel left skips a round's loop).
-    pub evaluation_occupancy: f64,
-}
-
 /// `--temporal on` and its settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TemporalCulling {
@@ -113,40 +60,6 @@ pub const DEFAULT_REFRESH: u32 = 8;
 
 /// Default depth margin of the culling test (`--temporal-epsilon`).
 pub const DEFAULT_EPSILON: f32 = 1e-5;
-
-/// What `convex` reports about a frame (`FrameStats::convex`).
-#[derive(Clone, Debug, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize))]
-pub struct ConvexStats {
-    /// Convex parts, and the groups they were drawn as.
-    pub parts: u32,
-    /// Groups the parts were drawn as.
-    pub groups: u32,
-    /// Groups outside the view this frame.
-    pub culled: u32,
-    /// Capture passes this frame (each followed by a merge).
-    pub passes: u32,
-    /// Draw calls over all passes.
-    pub draws: u32,
-    /// Pairs of groups whose screen rectangles overlap, and those of them ordered by centroid
-    /// for want of a plane.
-    pub overlapping_pairs: u64,
-    /// Overlapping pairs ordered by centroid, without a separating plane.
-    pub unseparated_pairs: u64,
-    /// Cycles the sort broke.
-    pub cycles_broken: u32,
-    /// Fragments per pixel and pass the capture keeps (2 per convex part of a group).
-    pub layers: u32,
-    /// CPU milliseconds of this frame's order (0 when the view did not change).
-    pub order_ms: f64,
-    /// CPU milliseconds the convex decomposition took when it was made (a cached one keeps that time).
-    pub preprocess_ms: f64,
-    /// Pixel-passes whose nearest fragment lay in front of what was already merged (the order
-    /// failed there).
-    pub order_violations: Option<u64>,
-    /// Pixel-passes that received more fragments than `layers` (the excess is dropped).
-    pub overflowing_pixels: Option<u64>,
-}
 
 /// The most tries `--max-tries` accepts: every waiting fragment spins at most this long, a bound
 /// that keeps a starving pixel within a frame's time instead of the driver's reset.

@@ -551,8 +551,8 @@ fn merge_band(mut sum: FrameStats, band: FrameStats) -> FrameStats {
             *total.entry(pass).or_default() += ms;
         }
     }
-    sum.tiled = match (sum.tiled.take(), band.tiled) {
-        (Some(a), Some(b)) => Some(merge_tiled(a, b)),
+    sum.family = match (sum.family.take(), band.family) {
+        (Some(a), Some(b)) => Some(a.stat().with_band(&b).unwrap_or(a)),
         (a, b) => a.or(b),
     };
     let both = |a: Option<bool>, b: Option<bool>| match (a, b) {
@@ -565,46 +565,6 @@ fn merge_band(mut sum: FrameStats, band: FrameStats) -> FrameStats {
     sum.blocking_readbacks += band.blocking_readbacks;
     sum.bands = Some(sum.bands.unwrap_or(1) + 1);
     sum
-}
-
-/// `tiled`'s statistics of two bands: tiles and pixels add up, the rest is the larger.
-fn merge_tiled(
-    a: crate::frame::TiledStats,
-    b: crate::frame::TiledStats,
-) -> crate::frame::TiledStats {
-    let bins = a.tile_rounds.len().max(b.tile_rounds.len());
-    let at = |v: &[u64], i: usize| v.get(i).copied().unwrap_or(0);
-    crate::frame::TiledStats {
-        rounds: a.rounds.max(b.rounds),
-        tile_rounds: (0..bins)
-            .map(|i| at(&a.tile_rounds, i) + at(&b.tile_rounds, i))
-            .collect(),
-        deepest_pixel: a.deepest_pixel.max(b.deepest_pixel),
-        unfinished_pixels: a.unfinished_pixels + b.unfinished_pixels,
-        longest_list: a.longest_list.max(b.longest_list),
-        list_bytes: a.list_bytes.max(b.list_bytes),
-        triangle_setups: a.triangle_setups + b.triangle_setups,
-        record_loads: a.record_loads + b.record_loads,
-        sort_steps: a.sort_steps + b.sort_steps,
-        one_pass_pixels: a.one_pass_pixels + b.one_pass_pixels,
-        warp_steps: a.warp_steps + b.warp_steps,
-        fragment_evaluations: a.fragment_evaluations + b.fragment_evaluations,
-        shadings: a.shadings + b.shadings,
-        items_kept: a.items_kept + b.items_kept,
-        items_empty: a.items_empty + b.items_empty,
-        tiles_past_capacity: a.tiles_past_capacity + b.tiles_past_capacity,
-        // Weighted by each band's evaluations, as the whole frame's would be.
-        evaluation_occupancy: {
-            let (ea, eb) = (a.fragment_evaluations as f64, b.fragment_evaluations as f64);
-            let steps = |e: f64, o: f64| if o > 0.0 { e / o } else { 0.0 };
-            let total = steps(ea, a.evaluation_occupancy) + steps(eb, b.evaluation_occupancy);
-            if total > 0.0 {
-                (ea + eb) / total
-            } else {
-                0.0
-            }
-        },
-    }
 }
 
 /// The picture of a lit frame from its HDR image (the method presented over the opaque

@@ -64,6 +64,7 @@ pub mod cache;
 pub mod decompose;
 pub mod descriptor;
 pub mod order;
+pub mod stats;
 
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -72,7 +73,6 @@ use glam::Vec3;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{capture_pipeline, compute_pipelines, dispatch_pixels, NullTarget};
-pub use crate::frame::ConvexStats;
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Stage};
@@ -81,6 +81,7 @@ use crate::methods::Method;
 use crate::scene::GpuVertex;
 use decompose::Decomposition;
 use order::{Cap, FramePlan};
+pub use stats::ConvexStats;
 
 /// Per pass, the cap drawn and its range of the plan's index buffer.
 type PassDraws = Vec<Vec<(Cap, std::ops::Range<u32>)>>;
@@ -538,7 +539,7 @@ impl Method for Convex {
             geometry_passes: plan.passes.len() as u32,
             bytes_allocated: bytes,
             capacity: layers,
-            convex: Some(ConvexStats {
+            family: Some(crate::frame::FamilyStats::new(ConvexStats {
                 parts: d.parts,
                 groups: d.groups,
                 culled: plan.culled,
@@ -552,19 +553,25 @@ impl Method for Convex {
                 preprocess_ms: d.preprocess_ms,
                 order_violations: None,
                 overflowing_pixels: None,
-            }),
+            })),
             ..Default::default()
         })
     }
 
     fn stats(&mut self, recorded: &Recorded, _totals: &Totals, words: &[u32]) -> MethodStats {
-        let convex = recorded.convex.clone().map(|mut c| {
-            c.order_violations = Some(crate::frame::wide(words, 0));
-            c.overflowing_pixels = Some(crate::frame::wide(words, 2));
-            c
-        });
+        let family = recorded
+            .family
+            .as_ref()
+            .and_then(|f| f.get::<ConvexStats>())
+            .map(|c| {
+                crate::frame::FamilyStats::new(ConvexStats {
+                    order_violations: Some(crate::frame::wide(words, 0)),
+                    overflowing_pixels: Some(crate::frame::wide(words, 2)),
+                    ..c.clone()
+                })
+            });
         MethodStats {
-            convex,
+            family,
             ..Default::default()
         }
     }

@@ -8,7 +8,7 @@ use super::decompose::{
     containment_twins, convex_parts, extent, extent_unless_overlapping, grow_parts_plainly,
     is_convex_part, overlapping_pairs, Decomposition, Group, Relation,
 };
-use super::triangles_of;
+use super::{triangles_of, ConvexStats};
 use crate::frame::{Effect, RenderOptions};
 use crate::methods::tests::options;
 use crate::scene::{loaders, Scene};
@@ -313,7 +313,10 @@ fn check_exact(name: &str, scene: &Scene, opts: &RenderOptions) {
         2,
         0.001,
     );
-    let c = stats.convex.expect("convex stats");
+    let c = stats
+        .family::<ConvexStats>()
+        .cloned()
+        .expect("convex stats");
     assert_eq!(c.order_violations, Some(0), "{name}: {c:?}");
     assert_eq!(c.unseparated_pairs, 0, "{name}: {c:?}");
     assert_eq!(stats.fragments_dropped, Some(0), "{name}");
@@ -418,7 +421,10 @@ fn convex_counts_where_multisampled_silhouettes_leave_the_center_depth_order() {
         };
         let expected = render_reference(&s, &opts);
         let (actual, stats) = render_gpu(&s, &opts, "convex");
-        let c = stats.convex.clone().expect("convex stats");
+        let c = stats
+            .family::<ConvexStats>()
+            .cloned()
+            .expect("convex stats");
         let violations = c.order_violations.expect("violations read back");
         let (a, e) = (actual.to_rgba8(effect), expected.to_rgba8(effect));
         let over = a
@@ -465,7 +471,10 @@ fn convex_on_meshes_counts_its_violations_and_stays_close() {
         let opts = options(size, Effect::Transparency);
         let expected = render_reference(&s, &opts);
         let (actual, stats) = render_gpu(&s, &opts, "convex");
-        let c = stats.convex.clone().expect("convex stats");
+        let c = stats
+            .family::<ConvexStats>()
+            .cloned()
+            .expect("convex stats");
         let violations = c.order_violations.expect("violations read back");
         let a = actual.to_rgba8(Effect::Transparency);
         let e = expected.to_rgba8(Effect::Transparency);

@@ -268,7 +268,7 @@ impl Method for KPeel {
             capacity: passes as u64 * k as u64,
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
-            convex: None,
+            family: None,
             setup_capacity: 0,
         })
     }

@@ -119,7 +119,7 @@ impl ListKBuffer {
             capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
-            convex: None,
+            family: None,
             setup_capacity: 0,
         };
         let params = KParams {

@@ -153,7 +153,7 @@ impl Method for MdtKBuffer {
             capacity: k as u64,
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
-            convex: None,
+            family: None,
             setup_capacity: 0,
         })
     }

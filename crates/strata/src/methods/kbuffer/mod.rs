@@ -925,7 +925,7 @@ impl SlotKBuffer {
             capacity: stride as u64,
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
-            convex: None,
+            family: None,
             setup_capacity: 0,
         };
         let mut params = params_for(ctx, k, stride, self.variant.fixed());

@@ -326,7 +326,7 @@ impl Method for SBuffer {
             capacity: self.pool.capacity,
             memory_ordering: Some(self.frame.memory_ordering()),
             temporal: false,
-            convex: None,
+            family: None,
             setup_capacity: 0,
         })
     }

@@ -37,7 +37,8 @@
 //! holds 1152 fragments where an H100's holds 1856, so counters from lavapipe leave more tiles
 //! to the rounds than the H100 would, and the prediction errs high.
 
-use crate::frame::{ComputeRasterStats, TiledStats};
+use super::TiledStats;
+use crate::frame::ComputeRasterStats;
 
 /// Bytes per second a record load and a resolved pixel's words are priced at: an H100's HBM3,
 /// conservatively (it streams about 3 TB/s; L2 hits are faster).

@@ -82,6 +82,7 @@
 
 pub mod cost;
 pub mod descriptor;
+pub mod stats;
 
 use bytemuck::Zeroable;
 
@@ -89,12 +90,13 @@ use crate::gpu::twin::{gpu_struct, wgsl_constants, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{compute_pipeline, dispatch};
-use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, TiledStats, Totals};
+use crate::frame::{FamilyStats, FrameContext, MethodStats, Recorded, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Library, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::Method;
 use crate::raster::{Binning, ComputeRaster, TILE};
+pub use stats::TiledStats;
 
 /// tiled's WGSL modules (`strata::tiled::…`): its bindings, the list sort and the tile pass.
 pub const LIBRARY: Library = &[
@@ -594,7 +596,7 @@ impl Method for Tiled {
             overflow: Some(report.stats.overflow),
             incomplete: report.incomplete || unfinished > 0 || cut_short > 0,
             cannot_complete,
-            tiled: Some(TiledStats {
+            family: Some(FamilyStats::new(TiledStats {
                 triangle_setups: report.stats.triangles_set_up,
                 record_loads: work(COUNTER_RECORD_LOADS),
                 sort_steps: work(COUNTER_SORT_STEPS),
@@ -618,7 +620,7 @@ impl Method for Tiled {
                 unfinished_pixels: unfinished,
                 longest_list,
                 list_bytes: list_bytes(recorded.capacity, tiles, self.state_pixels(), self.samples),
-            }),
+            })),
             compute_raster: Some(report.stats),
             ..Default::default()
         }

@@ -120,7 +120,7 @@ fn work_counters_count_each_evaluation_and_shading() {
     };
     let report = frames_of(&shallow);
     let stats = &report.stats;
-    let tiled = stats.tiled.clone().unwrap();
+    let tiled = stats.family::<TiledStats>().cloned().unwrap();
     let raster = stats.compute_raster.clone().unwrap();
     assert!(tiled.deepest_pixel <= KEEP, "{tiled:?}");
     let fragments = stats.fragments_generated.unwrap();
@@ -144,7 +144,7 @@ fn work_counters_count_each_evaluation_and_shading() {
     // 40 fragments a pixel: whole tiles outgrow the store, their quarters do not.
     let deep = scene("builtin:layers?n=40&coverage=0.9&order=random&seed=4");
     let report = frames_of(&deep);
-    let tiled = report.stats.tiled.clone().unwrap();
+    let tiled = report.stats.family::<TiledStats>().cloned().unwrap();
     let fragments = report.stats.fragments_generated.unwrap();
     assert_eq!(tiled.tiles_past_capacity, 0, "{tiled:?}");
     assert_eq!(tiled.fragment_evaluations, fragments, "{tiled:?}");
@@ -158,7 +158,7 @@ fn work_counters_count_each_evaluation_and_shading() {
     let report = frames_on(&rounds_gpu(), &deep, &options(64, Effect::Transparency), 3)
         .pop()
         .unwrap();
-    let tiled = report.stats.tiled.clone().unwrap();
+    let tiled = report.stats.family::<TiledStats>().cloned().unwrap();
     assert!(tiled.tiles_past_capacity > 0, "{tiled:?}");
     assert!(tiled.rounds >= 3, "{tiled:?}");
     assert!(tiled.fragment_evaluations > 2 * fragments, "{tiled:?}");
@@ -206,7 +206,7 @@ fn the_one_pass_kernel_and_the_rounds_give_the_same_bytes() {
     };
     let (full, full_stats) = render(gpu());
     let (rounds, round_stats) = render(&small);
-    let past = |s: &crate::FrameStats| s.tiled.as_ref().unwrap().tiles_past_capacity;
+    let past = |s: &crate::FrameStats| s.family::<TiledStats>().unwrap().tiles_past_capacity;
     assert!(past(&round_stats) > past(&full_stats), "{round_stats:?}");
     assert!(full == rounds, "the one-pass kernel changed the picture");
     assert_eq!(full_stats.exact, Some(true));
@@ -225,7 +225,7 @@ fn pixels_too_deep_for_the_one_pass_sort_go_to_the_rounds() {
         &render_reference(&s, &opts),
         opts.frame.effect,
     );
-    let tiled = stats.tiled.unwrap();
+    let tiled = stats.family::<TiledStats>().cloned().unwrap();
     assert_eq!((tiled.deepest_pixel, tiled.tiles_past_capacity), (200, 0));
     assert_eq!(tiled.rounds, rounds_for(200), "{tiled:?}");
     assert_eq!(stats.fragments_dropped, Some(0));
@@ -248,7 +248,7 @@ fn deep_pixels_take_more_rounds_and_stay_exact() {
         assert_exact(&name, &actual, &expected, effect);
         assert_eq!(stats.fragments_dropped, Some(0));
         assert_eq!(stats.max_depth_complexity, Some(40));
-        let tiled = stats.tiled.unwrap();
+        let tiled = stats.family::<TiledStats>().cloned().unwrap();
         assert_eq!(tiled.deepest_pixel, 40);
         // 40 fragments: rounds of 16, 16 and 8 (exact mode rendered again after a first frame of
         // two rounds left fragments).
@@ -289,7 +289,7 @@ fn an_item_overflow_is_reported_and_grown_out_of() {
     assert_eq!(reports[1].stats.fragments_generated, Some(24 * 64 * 64));
     assert_eq!(reports[1].stats.exact, Some(true));
     let bytes = reports[1].stats.bytes_allocated;
-    let tiled = reports[1].stats.tiled.clone().unwrap();
+    let tiled = reports[1].stats.family::<TiledStats>().cloned().unwrap();
     assert_eq!(
         bytes,
         raster.bytes_allocated
@@ -322,7 +322,7 @@ fn poisoned_buffers_change_nothing() {
         let mut r = crate::Renderer::new(&small, &deep, &opts).unwrap();
         let (clean, a) = r.render_method(MethodId::Tiled, None).unwrap();
         assert!(
-            a.tiled.as_ref().unwrap().tile_rounds.len() > 1,
+            a.family::<TiledStats>().unwrap().tile_rounds.len() > 1,
             "no round ran"
         );
         r.recorder().unwrap().poison();
@@ -354,7 +354,7 @@ fn partial_tiles_and_near_clipping_match_the_reference() {
 fn long_lists_over_many_rounds_lose_nothing() {
     let s = scene("builtin:layers?n=300&coverage=1&order=random&seed=2");
     let stats = equal_to_compute_lists(&s, &options(16, Effect::Transparency), "300 layers");
-    let t = stats.tiled.unwrap();
+    let t = stats.family::<TiledStats>().cloned().unwrap();
     // Each layer's quad puts one triangle on each tile's pixel centers; its other triangle
     // meets the tiles' bounds only, and the count pass drops it.
     assert_eq!((t.rounds, t.deepest_pixel, t.longest_list), (19, 300, 300));
@@ -369,13 +369,13 @@ fn rounds_follow_the_last_frames_deepest_pixel() {
     // One tile, whose items fit the rasterizer's first buffer, and past the one-pass store.
     let reports = frames_on(&rounds_gpu(), &s, &options(8, Effect::Transparency), 2);
     assert!(!reports[0].stats.compute_raster.as_ref().unwrap().overflow);
-    let first = reports[0].stats.tiled.clone().unwrap();
+    let first = reports[0].stats.family::<TiledStats>().cloned().unwrap();
     assert_eq!((first.rounds, first.deepest_pixel), (FIRST_ROUNDS, 40));
     assert_eq!(first.unfinished_pixels, 64);
     assert!(reports[0].incomplete);
     assert_eq!(reports[0].stats.fragments_dropped, Some(8 * 64));
     assert_eq!(reports[0].stats.exact, Some(false));
-    let second = reports[1].stats.tiled.clone().unwrap();
+    let second = reports[1].stats.family::<TiledStats>().cloned().unwrap();
     assert_eq!((second.rounds, second.unfinished_pixels), (3, 0));
     assert!(!reports[1].incomplete);
     assert_eq!(reports[1].stats.fragments_dropped, Some(0));
@@ -396,7 +396,10 @@ fn k_composites_the_k_nearest() {
             stats.fragments_generated.unwrap() - stats.fragments_dropped.unwrap()
         );
         assert!(stats.fragments_dropped.unwrap() > 0, "k = {k}");
-        assert_eq!(stats.tiled.unwrap().rounds, rounds_for(k));
+        assert_eq!(
+            stats.family::<TiledStats>().cloned().unwrap().rounds,
+            rounds_for(k)
+        );
     }
 }
 
@@ -421,7 +424,7 @@ fn k_nearest_with_each_tail_equals_the_fixed_k_buffer() {
             assert!(one_pass == expected, "{what}: the one-pass kernel");
             assert_eq!(stats.fragments_dropped, kb.fragments_dropped, "{what}");
             let (rounds, stats) = render_on(&small, &s, &opts);
-            let tiled = stats.tiled.unwrap();
+            let tiled = stats.family::<TiledStats>().cloned().unwrap();
             assert!(tiled.tile_rounds.len() > 1, "{what}: no round ran");
             assert!(rounds == expected, "{what}: the rounds");
         }
@@ -471,7 +474,7 @@ fn multisampled_frames_equal_the_multisampled_reference() {
                 };
                 assert_eq!(counts(&stats), counts(&truth), "{what}");
                 let (rounds, round_stats) = render_on(&small, &s, &opts);
-                let tiled = round_stats.tiled.clone().unwrap();
+                let tiled = round_stats.family::<TiledStats>().cloned().unwrap();
                 if spec.contains("spheres") {
                     assert!(tiled.tile_rounds.len() > 1, "{what}: no round ran");
                 }
@@ -503,7 +506,12 @@ fn multisampled_tails_are_the_same_in_one_pass_and_in_rounds() {
             let (one_pass, stats) = render_gpu(&s, &opts, "tiled");
             let (rounds, round_stats) = render_on(&small, &s, &opts);
             assert!(
-                round_stats.tiled.as_ref().unwrap().tile_rounds.len() > 1,
+                round_stats
+                    .family::<TiledStats>()
+                    .unwrap()
+                    .tile_rounds
+                    .len()
+                    > 1,
                 "{what}: no round ran"
             );
             assert!(rounds == one_pass, "{what}: the rounds differ");
@@ -587,7 +595,10 @@ fn bands_add_up_to_the_whole_frame() {
     assert_eq!(stats.bands, Some(2));
     assert!(banded == whole, "bands changed the picture");
     assert_eq!(stats.fragments_generated, one.fragments_generated);
-    let (a, b) = (stats.tiled.unwrap(), one.tiled.unwrap());
+    let (a, b) = (
+        stats.family::<TiledStats>().cloned().unwrap(),
+        one.family::<TiledStats>().cloned().unwrap(),
+    );
     assert_eq!(a.tile_rounds.iter().sum::<u64>(), 64);
     assert_eq!(
         (a.deepest_pixel, a.tile_rounds),

@@ -30,7 +30,7 @@ impl FrameRecorder {
         let ms: MethodStats = match (self.methods.get_mut(&p.method), method_words) {
             (Some(m), Some(words)) => m.stats(&p.recorded, &totals.unwrap_or_default(), words),
             _ => MethodStats {
-                convex: p.recorded.convex.clone(),
+                family: p.recorded.family.clone(),
                 ..Default::default()
             },
         };
@@ -119,7 +119,6 @@ impl FrameRecorder {
             fragments_stored: totals.map(|t| t.stored),
             fragments_dropped: totals.map(|t| t.dropped + ms.culled_temporal.unwrap_or(0)),
             culled_temporal: ms.culled_temporal,
-            convex: ms.convex,
             max_depth_complexity: totals.map(|t| t.max_depth),
             bytes_allocated: p.recorded.bytes_allocated
                 + recorder_raster_bytes
@@ -145,7 +144,7 @@ impl FrameRecorder {
             .name()
             .to_string(),
             compute_raster,
-            tiled: ms.tiled.clone(),
+            family: ms.family.clone(),
             order: p.options.order.map(|o| o.name().to_string()),
             kendall_tau: match (&words, p.order_words) {
                 (Some(w), Some((segment, _))) => Some(crate::order::kendall_tau(segment.of(w))),
@@ -178,9 +177,6 @@ fn frame_exact(
         && ms.culled_temporal.unwrap_or(0) == 0
         && ms.overflow != Some(true)
         && !raster_overflow
-        && ms
-            .convex
-            .as_ref()
-            .is_none_or(|c| c.order_violations.unwrap_or(0) == 0);
+        && ms.family.as_ref().is_none_or(|f| f.stat().kept_promise());
     method.descriptor().exactness(k, dropped, kept)
 }
