@@ -134,6 +134,11 @@ pub enum MethodOption {
     CacheDir,
 }
 
+/// A method's bytes at a k, its memory formula as code (`Descriptor::memory` is its text), for
+/// `--k auto`'s budget bound: (the method, k, the frame's depth-complexity histogram — `None`:
+/// every pixel as deep as k — and the options).
+pub type KMemory = fn(MethodId, u32, Option<&[u64]>, &RenderOptions) -> u64;
+
 /// Builds a method's GPU state for a scene.
 pub type Constructor = fn(MethodId, &Setup<'_>) -> Result<Box<dyn Method>>;
 
@@ -241,6 +246,9 @@ pub struct Descriptor {
     /// The largest `--k` it accepts (a pixel's fragments serialize on its lock or cascade).
     #[cfg_attr(feature = "serde", serde(skip))]
     pub max_k: u32,
+    /// Its bytes at a k, where `--k auto` may choose its k (`None`: it may not).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub k_memory: Option<KMemory>,
     /// Makes the method's GPU state for a scene.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub create: Constructor,
@@ -298,6 +306,7 @@ impl Descriptor {
             past_k: None,
             default_k: crate::methods::kbuffer::DEFAULT_K,
             max_k: 4096,
+            k_memory: None,
             traffic: TrafficModel::PerPixelState {
                 atomic_per_fragment: false,
             },

@@ -8,7 +8,7 @@ use crate::methods::{Method, MethodId};
 use super::list::{ListKBuffer, ListKind};
 use super::mdt::{Mdt, MdtKBuffer};
 use super::sbuffer::{RegionKind, SBuffer};
-use super::{SlotKBuffer, Variant};
+use super::{predict, SlotKBuffer, Variant};
 
 type Made = crate::error::Result<Box<dyn Method>>;
 
@@ -183,6 +183,7 @@ pub const KPEEL: Descriptor = Descriptor {
 
 /// The method table's entry for `abuffer-fixed`.
 pub const ABUFFER_FIXED: Descriptor = Descriptor {
+    k_memory: Some(predict::slot_array),
     exact_without_drops: true,
     memory: KB_MEMORY,
     summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
@@ -198,6 +199,7 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-keys`.
 pub const KB_KEYS: Descriptor = Descriptor {
+    k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Keys.slot_bytes())),
     needs: wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS,
     exact: true,
     geometry_passes: "2",
@@ -213,6 +215,7 @@ pub const KB_KEYS: Descriptor = Descriptor {
 
 /// The method table's entry for `kb`.
 pub const KB: Descriptor = Descriptor {
+    k_memory: Some(predict::slot_array),
     memory: KB_MEMORY,
     summary: "original k-buffer: sorted insertion with no lock (read-modify-write hazards between fragments of a pixel)",
     per_sample_storage: true,
@@ -226,6 +229,7 @@ pub const KB: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ps`.
 pub const KB_PS: Descriptor = Descriptor {
+    k_memory: Some(predict::slot_array),
     exact: true,
     memory: KB_MEMORY,
     summary: "k-buffer with sorted insertion inside a per-pixel spin lock (pixel synchronisation emulated)",
@@ -237,6 +241,7 @@ pub const KB_PS: Descriptor = Descriptor {
 
 /// The method table's entry for `mlab`.
 pub const MLAB: Descriptor = Descriptor {
+    k_memory: Some(predict::slot_array),
     exact_without_drops: true,
     memory: "16·(k+1)·W·H + 156",
     summary: "multi-layer alpha blending: k layers in depth order under a per-pixel spin lock, the two farthest merged when a fragment makes k + 1 (exact up to k fragments; merges vary with arrival order)",
@@ -256,6 +261,7 @@ pub const MLAB: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ab-fixed`.
 pub const KB_AB_FIXED: Descriptor = Descriptor {
+    k_memory: Some(predict::every_fragment),
     exact: true,
     geometry_passes: "1 (+1 when the array overflows)",
     memory: "16·(n+1)·W·H + 116 + 40·(W·H with --tail blend, else 1); n: max depth complexity",
@@ -274,6 +280,7 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
 
 /// The method table's entry for `kplus-array`.
 pub const KPLUS_ARRAY: Descriptor = Descriptor {
+    k_memory: Some(predict::slot_array),
     exact: true,
     memory: KB_MEMORY,
     summary:
@@ -312,6 +319,7 @@ pub const KPLUS_HEAP: Descriptor = Descriptor {
 
 /// The method table's entry for `kplus-sbuffer`.
 pub const KPLUS_SBUFFER: Descriptor = Descriptor {
+    k_memory: Some(predict::pooled_regions),
     exact: true,
     geometry_passes: "2 (+2 when the pool overflows)",
     memory: "16·Σmin(f,k) + 20·W·H + 4·(W·H + W·H/256 + …) + 116 + 40·(W·H with --tail blend, else 1); f: a pixel's fragments",
@@ -343,6 +351,7 @@ pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-mdt32`.
 pub const KB_MDT32: Descriptor = Descriptor {
+    k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Mdt32.slot_bytes())),
     exact: true,
     geometry_passes: "2",
     memory: "20·k·W·H + 16·W·H + 116 + 40·(W·H with --tail blend, else 1)",
@@ -366,6 +375,7 @@ const KEYS_WITHOUT_PRIMITIVE: Support = Support::No(
 
 /// The method table's entry for `kb-mdt64`.
 pub const KB_MDT64: Descriptor = Descriptor {
+    k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Mdt64.slot_bytes())),
     needs: wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS,
     memory: "8·k·W·H + 16·W·H + 116 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
@@ -379,6 +389,7 @@ pub const KB_MDT64: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-mdt-pack`.
 pub const KB_MDT_PACK: Descriptor = Descriptor {
+    k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Pack.slot_bytes())),
     memory: "8·k·W·H + 16·W·H + 156",
     summary:
         "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
@@ -397,6 +408,7 @@ pub const KB_MDT_PACK: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ab-ll`.
 pub const KB_AB_LL: Descriptor = Descriptor {
+    k_memory: Some(predict::every_fragment),
     exact: true,
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 116 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
@@ -409,6 +421,7 @@ pub const KB_AB_LL: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-sbuffer`.
 pub const KB_SBUFFER: Descriptor = Descriptor {
+    k_memory: Some(predict::every_fragment),
     exact: true,
     geometry_passes: "2 (+2 when the pool overflows)",
     memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 116 + 40·(W·H with --tail blend, else 1)",
@@ -425,6 +438,7 @@ pub const KB_SBUFFER: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ll`.
 pub const KB_LL: Descriptor = Descriptor {
+    k_memory: Some(predict::every_fragment),
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 116 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
     summary: "sorted linked-list insertion by compare-exchange, bounded retries, losses counted",

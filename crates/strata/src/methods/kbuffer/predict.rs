@@ -2,8 +2,9 @@
 //! budget and a robustness ratio.
 //!
 //! The budget bounds k first: k_b is the largest k whose frame fits in `--budget-mb`, by the
-//! method's own memory formula ([`frame_bytes`]: x·k bytes per pixel plus its fixed part for the
-//! slot arrays and the MDT cascades; Σ min(f(p), k) pooled slots for `kplus-sbuffer`). Then k is
+//! method's own memory formula (its descriptor's `k_memory`, [`frame_bytes`]: x·k bytes per pixel
+//! plus its fixed part for the slot arrays and the MDT cascades; Σ min(f(p), k) pooled slots for
+//! `kplus-sbuffer`). Then k is
 //! the smallest k ≤ k_b whose captured fragments Σ min(f(p), k) reach the fraction R of all
 //! fragments Σ f(p). When even k_b falls short of R, k = k_b and the predicted robustness says by
 //! how much. Methods that store every fragment (`kb-ab-*`, `kb-sbuffer`, `kb-ll`) have no k in
@@ -14,8 +15,7 @@
 //! is not).
 
 use super::{
-    max_k, mdt::Mdt, sample_frame_bytes_besides_storage, sample_storage, sbuffer::scan_levels,
-    SLOT_BYTES,
+    max_k, sample_frame_bytes_besides_storage, sample_storage, sbuffer::scan_levels, SLOT_BYTES,
 };
 use crate::error::{Error, Result};
 use crate::frame::RenderOptions;
@@ -45,45 +45,60 @@ pub fn captured(histogram: &[u64], k: u32) -> u64 {
 }
 
 /// The bytes `id` allocates at `k` for a frame whose depth complexity is `histogram` (`None`:
-/// every pixel as deep as k), or `None` for methods without a k.
+/// every pixel as deep as k), by its descriptor's formula (`Descriptor::k_memory`), or `None` for
+/// methods without one.
 pub fn frame_bytes(
     id: MethodId,
     k: u32,
     histogram: Option<&[u64]>,
     options: &RenderOptions,
 ) -> Option<u64> {
+    let bytes = id.descriptor().k_memory?;
+    Some(bytes(id, k, histogram, options))
+}
+
+/// What a k-buffer frame of `id` allocates besides its fragment storage, and its storage pixels
+/// (per sample with `--msaa` where the method keeps its storage per sample).
+fn fixed_part(id: MethodId, options: &RenderOptions) -> (u64, u64) {
     let px = options.pixels();
     let samples = sample_storage(id, options.build.msaa);
-    let fixed = sample_frame_bytes_besides_storage(px, samples, options.frame.kbuffer.tail.kept());
-    let k = k as u64;
-    let per_pixel = |bytes: u64| Some(fixed + bytes * k * px * samples as u64);
-    match id {
-        MethodId::KplusArray
-        | MethodId::KplusArrayR
-        | MethodId::KplusHeap
-        | MethodId::Kb
-        | MethodId::KbPs
-        | MethodId::Mlab
-        | MethodId::KplusSemiheap
-        | MethodId::AbufferFixed => per_pixel(SLOT_BYTES),
-        MethodId::KbMdt32 => per_pixel(Mdt::Mdt32.slot_bytes()),
-        MethodId::KbMdt64 => per_pixel(Mdt::Mdt64.slot_bytes()),
-        MethodId::KbMdtPack => per_pixel(Mdt::Pack.slot_bytes()),
-        MethodId::KbKeys => per_pixel(Mdt::Keys.slot_bytes()),
-        MethodId::KplusSbuffer => {
-            // --msaa: a region per sample pixel, each as deep as its pixel at most.
-            let regions = px * samples as u64;
-            let slots = match histogram {
-                Some(h) => captured(h, k as u32) * samples as u64,
-                None => k * regions,
-            };
-            Some(fixed + 4 * regions + 4 * scan_levels(regions).1 + SLOT_BYTES * slots)
-        }
-        MethodId::KbAbFixed | MethodId::KbAbLl | MethodId::KbSbuffer | MethodId::KbLl => {
-            Some(fixed)
-        }
-        _ => None,
-    }
+    let tail = options.frame.kbuffer.tail.kept();
+    let fixed = sample_frame_bytes_besides_storage(px, samples, tail);
+    (fixed, px * samples as u64)
+}
+
+/// k slots of `slot_bytes` per storage pixel, besides the fixed part (slot arrays, cascades).
+pub(crate) fn k_slots(id: MethodId, k: u32, options: &RenderOptions, slot_bytes: u64) -> u64 {
+    let (fixed, pixels) = fixed_part(id, options);
+    fixed + slot_bytes * k as u64 * pixels
+}
+
+/// [`k_slots`] of [`SLOT_BYTES`]: the slot k-buffers' formula.
+pub(crate) fn slot_array(id: MethodId, k: u32, _: Option<&[u64]>, o: &RenderOptions) -> u64 {
+    k_slots(id, k, o, SLOT_BYTES)
+}
+
+/// min(f, k) slots a pixel from a prefix sum over the regions (`kplus-sbuffer`; with `--msaa`
+/// a region per sample pixel, each as deep as its pixel at most).
+pub(crate) fn pooled_regions(
+    id: MethodId,
+    k: u32,
+    histogram: Option<&[u64]>,
+    options: &RenderOptions,
+) -> u64 {
+    let (fixed, regions) = fixed_part(id, options);
+    let samples = regions / options.pixels().max(1);
+    let slots = match histogram {
+        Some(h) => captured(h, k) * samples,
+        None => k as u64 * regions,
+    };
+    fixed + 4 * regions + 4 * scan_levels(regions).1 + SLOT_BYTES * slots
+}
+
+/// A method that stores every fragment: k is not in its memory, only its fixed part (its pool
+/// answers to the budget itself).
+pub(crate) fn every_fragment(id: MethodId, _: u32, _: Option<&[u64]>, o: &RenderOptions) -> u64 {
+    fixed_part(id, o).0
 }
 
 /// Chooses k for `id` from `histogram` (see the module docs); without a histogram (a first
