@@ -52,7 +52,7 @@
 //! takes your WGSL ([`frame::application::AppShader`]: your vertex stage, and a fragment stage
 //! that calls `strata_capture`), builds every geometry pass of the method from it, and
 //! [`FrameRecorder::record`] calls your draw callback once per pass (see
-//! [`frame::application`]). 28 of the 31 methods take it; the capture tests your opaque depth
+//! [`frame::application`]). Every method but `sorted`, `convex` and `tiled` takes it; the capture tests your opaque depth
 //! itself, whatever depth state you would have set. `examples/own_shaders.rs`,
 //! `examples/minimal.rs` and `examples/host.rs` in the repository are complete headless
 //! applications, checked in its tests. For one picture in one call,

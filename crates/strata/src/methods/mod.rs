@@ -60,6 +60,8 @@ pub enum MethodId {
     KplusArray,
     /// k+-buffer with the revised max-array: the first k fragments stored without the lock.
     KplusArrayR,
+    /// k+-buffer max-array whose resolve sorts by the bitonic network at every k.
+    KplusBitonic,
     /// k+-buffer with a max-heap: O(log k) replacement.
     KplusHeap,
     /// Multi-depth test: an atomicMax cascade of 32-bit depths, colors in a second pass.
@@ -128,6 +130,7 @@ pub static TABLE: &[&Descriptor] = &[
     &kbuffer::descriptor::KB_AB_FIXED,
     &kbuffer::descriptor::KPLUS_ARRAY,
     &kbuffer::descriptor::KPLUS_ARRAY_R,
+    &kbuffer::descriptor::KPLUS_BITONIC,
     &kbuffer::descriptor::KPLUS_HEAP,
     &kbuffer::descriptor::KPLUS_SBUFFER,
     &kbuffer::descriptor::KPLUS_SEMIHEAP,

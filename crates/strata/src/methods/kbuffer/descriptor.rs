@@ -25,6 +25,7 @@ macro_rules! builders {
 
 builders! {
     kplus_array => slots(Variant::KplusArray);
+    kplus_bitonic => slots(Variant::KplusBitonic);
     kplus_array_r => slots(Variant::KplusArrayR);
     kplus_heap => slots(Variant::KplusHeap);
     kplus_semiheap => slots(Variant::KplusSemiheap);
@@ -299,6 +300,17 @@ pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
         id: MethodId::KplusArrayR,
         name: "kplus-array-r",
         create: kplus_array_r,
+        ..KPLUS_ARRAY
+    }
+};
+
+/// The method table's entry for `kplus-bitonic`.
+pub const KPLUS_BITONIC: Descriptor = Descriptor {
+    summary: "k+-buffer max-array whose resolve sorts by the bitonic network at every k (the others sort up to 16 fragments by insertion)",
+    ..Descriptor {
+        id: MethodId::KplusBitonic,
+        name: "kplus-bitonic",
+        create: kplus_bitonic,
         ..KPLUS_ARRAY
     }
 };

@@ -6,6 +6,9 @@
 //!   spin lock, the farthest kept in slot 0 (max-array, O(k) re-scan on replace) or at the root
 //!   of a binary max-heap (O(log k)); a fragment not before the maximum of a full pixel is culled
 //!   before taking the lock, and the test is repeated inside it.
+//! - `kplus-bitonic`: `kplus-array`'s capture with a resolve that sorts every list by the bitonic
+//!   network (the others sort up to 16 fragments by insertion): the resolve's sort compared at
+//!   small k, where insertion sort's data-dependent loop and the network's fixed one differ most.
 //! - `kplus-array-r`: the revised max-array — the first k fragments take slots from a counter
 //!   without the lock.
 //! - `kplus-semiheap`: the semi-heap (seed 000) — a max-heap of the h farthest (`--heap-size`,
@@ -123,7 +126,7 @@ use crate::frame::passes::{
 };
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
-use crate::gpu::shader::Stage;
+use crate::gpu::shader::{Defs, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 pub use stages::{definitions, stage, Layout, LIBRARY, RESOLVE_WGSL, SLOTS_ENTRIES_WGSL};
@@ -259,13 +262,15 @@ pub enum Variant {
     KplusSemiheap,
     /// `mlab`.
     Mlab,
+    /// `kplus-bitonic`.
+    KplusBitonic,
 }
 
 impl Variant {
     /// The fragment entry point of the built-in capture.
     fn entry(self) -> &'static str {
         match self {
-            Variant::KplusArray => "fs_kplus_array",
+            Variant::KplusArray | Variant::KplusBitonic => "fs_kplus_array",
             Variant::KplusHeap => "fs_kplus_heap",
             Variant::KplusArrayR => "fs_kplus_array_r",
             Variant::Kb => "fs_kb",
@@ -292,6 +297,16 @@ impl Variant {
             Variant::KbAbFixed => MethodId::KbAbFixed,
             Variant::KplusSemiheap => MethodId::KplusSemiheap,
             Variant::Mlab => MethodId::Mlab,
+            Variant::KplusBitonic => MethodId::KplusBitonic,
+        }
+    }
+
+    /// Its resolve's choices (resolve.wgsl): `kplus-bitonic` sorts by the bitonic network at
+    /// every list length.
+    fn resolve_defs(self) -> Defs {
+        match self {
+            Variant::KplusBitonic => Defs::default().flag("BITONIC_RESOLVE"),
+            _ => Defs::default(),
         }
     }
 }
@@ -606,8 +621,20 @@ pub struct KFrame {
 impl KFrame {
     /// A frame with the family's resolve (resolve.wgsl) over the method's storage `layout`.
     pub fn new(gpu: &Gpu, scene: &SceneGpu, id: MethodId, layout: Layout) -> KFrame {
+        Self::with_resolve_defs(gpu, scene, id, layout, &Defs::default())
+    }
+
+    /// A frame with the family's resolve made with the method's `defs` (its sort).
+    pub fn with_resolve_defs(
+        gpu: &Gpu,
+        scene: &SceneGpu,
+        id: MethodId,
+        layout: Layout,
+        defs: &Defs,
+    ) -> KFrame {
         let stage = stage(gpu, format!("strata.{id}.resolve"), RESOLVE_WGSL, layout)
-            .defs(&crate::gpu::shader::target_samples(scene.samples));
+            .defs(&crate::gpu::shader::target_samples(scene.samples))
+            .defs(defs);
         Self::with_resolve(gpu, scene, id, &stage, "cs_resolve")
     }
 
@@ -892,7 +919,7 @@ impl SlotKBuffer {
         } else {
             Layout::Slots
         };
-        let mut frame = KFrame::new(gpu, scene, id, layout);
+        let mut frame = KFrame::with_resolve_defs(gpu, scene, id, layout, &variant.resolve_defs());
         let module = frame.capture_module(gpu, scene, SLOTS_ENTRIES_WGSL, layout, true);
         Ok(SlotKBuffer {
             variant,

@@ -13,7 +13,7 @@
 // The multisampled paths are compiled only with MULTISAMPLED (--msaa): they double the shader,
 // and a software rasterizer's compile time with it.
 // Up to LOCAL_CAPACITY stored fragments are copied to a local array and sorted — insertion sort
-// up to 16, bitonic sort above; longer lists use the k-depth sort (seed 003, Algorithm 4): chunks
+// up to 16, bitonic sort above (with BITONIC_RESOLVE, bitonic at every length); longer lists use the k-depth sort (seed 003, Algorithm 4): chunks
 // of CHUNK nearest fragments selected with a max-array, sorted and composited, the last one
 // composited bounding the next selection. Where that would take more than SORTED_ROUNDS rounds,
 // a storage that can sort itself in place (lists, slot arrays: `sort_stored`) does, and is read
@@ -40,6 +40,13 @@ fn tail_add_local(t: ptr<function, Tail>, f: Fragment) {
 }
 
 fn sort_local(a: ptr<function, array<Fragment, LOCAL_CAPACITY>>, n: u32) {
+#ifdef BITONIC_RESOLVE
+    // kplus-bitonic: the network at every length, over the smallest power of two that holds n.
+    var size = 2u;
+    while size < min(n, LOCAL_CAPACITY) {
+        size <<= 1u;
+    }
+#else
     if n <= 16u {
         for (var i = 1u; i < n; i++) {
             let f = (*a)[i];
@@ -62,6 +69,7 @@ fn sort_local(a: ptr<function, array<Fragment, LOCAL_CAPACITY>>, n: u32) {
     if n > 32u {
         size = LOCAL_CAPACITY;
     }
+#endif
     for (var i = n; i < size; i++) {
         (*a)[i] = Fragment(bitcast<f32>(0x7f800000u), 0xffffffffu, 0u, 0u);
     }

@@ -527,6 +527,30 @@ fn kbuffer_stages_validate() {
     }
 }
 
+/// kplus-bitonic's resolve (the bitonic network at every length) composes and validates, and is
+/// another shader than the resolve of the other slot k-buffers.
+#[test]
+fn the_bitonic_resolve_is_a_shader_of_its_own() {
+    use super::*;
+    use crate::gpu::shader::{target_samples, validate, Stage};
+    let resolve = |variant: Variant, samples: u32| {
+        Stage::new(
+            format!("resolve {variant:?} samples={samples}"),
+            RESOLVE_WGSL,
+        )
+        .with(LIBRARY)
+        .defs(&definitions(Layout::Slots, 1, false))
+        .defs(&target_samples(samples))
+        .defs(&variant.resolve_defs())
+    };
+    for samples in [1, 4] {
+        let bitonic = resolve(Variant::KplusBitonic, samples);
+        validate(&bitonic);
+        let insertion = resolve(Variant::KplusArray, samples);
+        assert_ne!(bitonic.wgsl().unwrap(), insertion.wgsl().unwrap());
+    }
+}
+
 #[test]
 fn mdt32_keeps_the_k_nearest() {
     let s = scene("builtin:nvpro?objects=160&subdiv=10&seed=3");
