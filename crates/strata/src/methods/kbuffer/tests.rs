@@ -163,7 +163,12 @@ fn large_k_uses_the_k_depth_sort_and_stays_exact() {
         "layers150",
         &s,
         &options(16, 96),
-        &["kplus-heap", "kb-ab-fixed", "kplus-sbuffer"],
+        &[
+            "kplus-heap",
+            "kplus-bitonic",
+            "kb-ab-fixed",
+            "kplus-sbuffer",
+        ],
     );
     check_k("layers150", &s, &options(16, 20), &["kb-ab-fixed"]);
 }
