@@ -217,6 +217,10 @@ pub struct Descriptor {
     /// and if not, why: it draws the scene's triangles itself.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub draw_callback: Support,
+    /// It is one of the k-buffers the k+-buffer paper compares (seed 003, Table 1), which
+    /// `strata bench`'s k-buffer experiments run.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub in_k_comparison: bool,
     /// It sorts the scene's triangles by centroid each frame: the recorder refreshes the
     /// centroids (of an animated scene) before it records.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -298,6 +302,7 @@ impl Descriptor {
                 "its geometry passes write colour targets through blending or a depth test, which strata does not compose with an application's shader yet",
             ),
             draw_callback: Support::Yes,
+            in_k_comparison: false,
             sorts_centroids: false,
             takes_order: true,
             blend_modes: Support::Yes,

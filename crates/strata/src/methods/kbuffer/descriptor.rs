@@ -184,6 +184,7 @@ pub const KPEEL: Descriptor = Descriptor {
 
 /// The method table's entry for `abuffer-fixed`.
 pub const ABUFFER_FIXED: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(predict::slot_array),
     exact_without_drops: true,
     memory: KB_MEMORY,
@@ -200,6 +201,7 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-keys`.
 pub const KB_KEYS: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Keys.slot_bytes())),
     needs: wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS,
     exact: true,
@@ -216,6 +218,7 @@ pub const KB_KEYS: Descriptor = Descriptor {
 
 /// The method table's entry for `kb`.
 pub const KB: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(predict::slot_array),
     memory: KB_MEMORY,
     summary: "original k-buffer: sorted insertion with no lock (read-modify-write hazards between fragments of a pixel)",
@@ -230,6 +233,7 @@ pub const KB: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ps`.
 pub const KB_PS: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(predict::slot_array),
     exact: true,
     memory: KB_MEMORY,
@@ -262,6 +266,7 @@ pub const MLAB: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ab-fixed`.
 pub const KB_AB_FIXED: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(predict::every_fragment),
     exact: true,
     geometry_passes: "1 (+1 when the array overflows)",
@@ -281,6 +286,7 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
 
 /// The method table's entry for `kplus-array`.
 pub const KPLUS_ARRAY: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(predict::slot_array),
     exact: true,
     memory: KB_MEMORY,
@@ -306,6 +312,7 @@ pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
 
 /// The method table's entry for `kplus-bitonic`.
 pub const KPLUS_BITONIC: Descriptor = Descriptor {
+    in_k_comparison: false,
     summary: "k+-buffer max-array whose resolve sorts by the bitonic network at every k (the others sort up to 16 fragments by insertion)",
     ..Descriptor {
         id: MethodId::KplusBitonic,
@@ -343,6 +350,7 @@ pub const KPLUS_SBUFFER: Descriptor = Descriptor {
 
 /// The method table's entry for `kplus-semiheap`.
 pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
+    in_k_comparison: false,
     summary: "semi-heap k-buffer (seed 000): a max-heap of the h farthest (--heap-size, default 1) and an unordered rest; the first k - h fragments stored without the lock, culling against the heap top",
     capture_step: Some("strata::kbuffer::semiheap_capture::capture_semiheap(p, f)"),
     reads: &[
@@ -363,6 +371,7 @@ pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-mdt32`.
 pub const KB_MDT32: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Mdt32.slot_bytes())),
     exact: true,
     geometry_passes: "2",
@@ -387,6 +396,7 @@ const KEYS_WITHOUT_PRIMITIVE: Support = Support::No(
 
 /// The method table's entry for `kb-mdt64`.
 pub const KB_MDT64: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Mdt64.slot_bytes())),
     needs: wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS,
     memory: "8·k·W·H + 16·W·H + 116 + 40·(W·H with --tail blend, else 1)",
@@ -401,6 +411,7 @@ pub const KB_MDT64: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-mdt-pack`.
 pub const KB_MDT_PACK: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Pack.slot_bytes())),
     memory: "8·k·W·H + 16·W·H + 156",
     summary:
@@ -420,6 +431,7 @@ pub const KB_MDT_PACK: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ab-ll`.
 pub const KB_AB_LL: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(predict::every_fragment),
     exact: true,
     geometry_passes: "1 (+1 when the node pool overflows)",
@@ -450,6 +462,7 @@ pub const KB_SBUFFER: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ll`.
 pub const KB_LL: Descriptor = Descriptor {
+    in_k_comparison: true,
     k_memory: Some(predict::every_fragment),
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 116 + 40·(W·H with --tail blend, else 1); nodes ≤ F",
