@@ -574,6 +574,29 @@ pub fn cache_dir(dir: &Path) -> Result<PathBuf> {
 }
 
 impl MethodArgs {
+    /// The families' options these arguments give (`--tail`, `--layers`, `--weight`, …).
+    pub fn set_family_options(&self, frame: &mut strata::frame::FrameOptions) {
+        frame.kbuffer = KBufferOptions {
+            tail: self.tail,
+            culling: self.culling == Toggle::On,
+            max_tries: self.max_tries,
+            heap_size: self.heap_size,
+            layout: self.storage_layout,
+            ..Default::default()
+        };
+        frame.peeling = PeelingOptions {
+            layers: self.layers,
+            buckets: self.buckets,
+        };
+        frame.weighted = WeightedOptions {
+            weight: self.weight,
+            depth_scale: self.depth_scale,
+            moments: self.moments,
+            passes: self.passes,
+            coefficients: self.coefficients,
+        };
+    }
+
     /// The method: `--method`'s id, or the one `auto` chose.
     pub fn id(&self) -> MethodId {
         match (self.method, self.candidates.first()) {
@@ -634,28 +657,10 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
         options.frame.k_auto = Some(r);
     }
     options.frame.budget_mb = a.budget_mb;
-    options.frame.kbuffer = KBufferOptions {
-        tail: a.tail,
-        culling: a.culling == Toggle::On,
-        max_tries: a.max_tries,
-        heap_size: a.heap_size,
-        layout: a.storage_layout,
-        ..Default::default()
-    };
-    options.frame.peeling = PeelingOptions {
-        layers: a.layers,
-        buckets: a.buckets,
-    };
+    a.set_family_options(&mut options.frame);
     // A method that needs samples (stochastic's stipples) takes its fewest unless --msaa says
     // more.
     options.build.msaa = options.build.msaa.max(a.id().descriptor().min_samples);
-    options.frame.weighted = WeightedOptions {
-        weight: a.weight,
-        depth_scale: a.depth_scale,
-        moments: a.moments,
-        passes: a.passes,
-        coefficients: a.coefficients,
-    };
     let lighting = &mut options.build.lighting;
     lighting.ssao = a.ssao;
     lighting.normal_encoding = a.normal_encoding;
@@ -675,14 +680,8 @@ pub fn prepare_render(a: &MethodArgs, picture: &PictureArgs) -> Result<(Scene, R
     options.frame.validate()?;
     options.build.cache_dir = a.cache_dir.as_deref().map(cache_dir).transpose()?;
     if let Some(m) = a.layers_per_pass {
-        let d = a.id().descriptor();
-        if !d.reads(strata::methods::MethodOption::LayersPerPass) {
-            return Err(Error::input(format!(
-                "--layers-per-pass applies to kpeel (multi-layer peeling), not {}",
-                a.id()
-            )));
-        }
-        let max = d.max_k;
+        // A method that does not read it was refused by `check_given`.
+        let max = a.id().descriptor().max_k;
         if !(1..=max).contains(&m) {
             return Err(Error::input(format!(
                 "--layers-per-pass {m} is outside 1..{max}"

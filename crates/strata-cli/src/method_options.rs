@@ -44,7 +44,6 @@ impl Opt {
     pub const MOMENTS: Opt = Opt::Method(MethodOption::Moments);
     pub const PASSES: Opt = Opt::Method(MethodOption::Passes);
     pub const COEFFICIENTS: Opt = Opt::Method(MethodOption::Coefficients);
-    pub const CACHE_DIR: Opt = Opt::Method(MethodOption::CacheDir);
 }
 
 /// Whether `method` (with `pipeline`) reads option `opt`.
@@ -61,26 +60,6 @@ pub fn applies(opt: Opt, method: MethodId, pipeline: Option<PipelineArg>) -> boo
         Opt::Msaa => d.msaa.yes(),
     }
 }
-
-/// The options of `render` that only some methods read, with the option each belongs to:
-/// (clap id, flag, option).
-const METHOD_FLAGS: [(&str, &str, Opt); 15] = [
-    ("k", "--k", Opt::K),
-    ("tail", "--tail", Opt::TAIL),
-    ("culling", "--culling", Opt::CULLING),
-    ("max_tries", "--max-tries", Opt::MAX_TRIES),
-    ("storage_layout", "--storage-layout", Opt::STORAGE_LAYOUT),
-    ("layers", "--layers", Opt::LAYERS),
-    ("heap_size", "--heap-size", Opt::HEAP_SIZE),
-    ("buckets", "--buckets", Opt::BUCKETS),
-    ("weight", "--weight", Opt::WEIGHT),
-    ("depth_scale", "--depth-scale", Opt::WEIGHT),
-    ("moments", "--moments", Opt::MOMENTS),
-    ("passes", "--passes", Opt::PASSES),
-    ("coefficients", "--coefficients", Opt::COEFFICIENTS),
-    ("budget_mb", "--budget-mb", Opt::Budget),
-    ("cache_dir", "--cache-dir", Opt::CACHE_DIR),
-];
 
 /// Refuses an option given on the command line (`a.given`) that the method does not read,
 /// naming the methods that do.
@@ -105,12 +84,16 @@ pub fn check_given(a: &MethodArgs, picture: &PictureArgs) -> Result<()> {
     // A weighted tail weighs by --weight and --depth-scale.
     let weighted_tail =
         a.tail == strata::Tail::Weighted && applies(Opt::TAIL, a.id(), picture.pipeline);
-    for (id, flag, opt) in METHOD_FLAGS {
-        if given(id)
+    // Each method option's flags come from its spec (`strata::methods::options`).
+    let method_flags = strata::methods::options::specs()
+        .flat_map(|spec| spec.flags.iter().map(|f| (f, Opt::Method(spec.option))));
+    let budget = strata::methods::options::flag("budget_mb", "--budget-mb");
+    for (f, opt) in method_flags.chain([(&budget, Opt::Budget)]) {
+        if given(f.id)
             && !applies(opt, a.id(), picture.pipeline)
             && !(opt == Opt::WEIGHT && weighted_tail)
         {
-            return refuse(flag, opt);
+            return refuse(f.flag, opt);
         }
     }
     if given("seed") && a.order != Some(strata::order::Order::Random) {
@@ -125,4 +108,27 @@ pub fn check_given(a: &MethodArgs, picture: &PictureArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    /// Every flag a method option's spec names is an argument of `render` and of `view` under
+    /// the same clap id, so the refusal and the viewer's command line name real flags.
+    #[test]
+    fn every_spec_flag_is_an_argument_of_render_and_view() {
+        let command = crate::command();
+        for sub in ["render", "view"] {
+            let sub = command.find_subcommand(sub).expect("the subcommand");
+            for spec in strata::methods::options::specs() {
+                for f in spec.flags {
+                    let arg = sub.get_arguments().find(|a| a.get_id() == f.id);
+                    let arg = arg.unwrap_or_else(|| panic!("{} has no {}", sub.get_name(), f.id));
+                    assert_eq!(
+                        arg.get_long().map(|l| format!("--{l}")).as_deref(),
+                        Some(f.flag)
+                    );
+                }
+            }
+        }
+    }
 }

@@ -920,7 +920,7 @@ fn compute_raster_renders_the_gpu_paths_picture() {
     );
     assert_bad_input(
         &["render", "--layers-per-pass", "2", "--method", "f2b"],
-        "--layers-per-pass applies to kpeel",
+        "--layers-per-pass does not apply to f2b; it applies to kpeel",
     );
     assert_bad_input(
         &[

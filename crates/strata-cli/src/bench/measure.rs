@@ -10,26 +10,15 @@ pub struct Run {
     pub(crate) label: String,
     pub(crate) method: String,
     pub(crate) k: Option<u32>,
-    pub(crate) culling: bool,
-    /// How the k-buffer family lays out its per-pixel arrays.
-    pub(crate) layout: strata::StorageLayout,
-    /// What a k-buffer does with the fragments past k.
-    pub(crate) tail: strata::Tail,
-    /// wboit's weight function and depth scale.
-    pub(crate) weight: strata::Weight,
-    pub(crate) depth_scale: f64,
     /// Samples per pixel (`--msaa`).
     pub(crate) msaa: u32,
-    /// mboit's moments.
-    pub(crate) moments: strata::Moments,
-    /// stochastic's passes.
-    pub(crate) passes: u32,
-    /// wavelet's Haar coefficients.
-    pub(crate) coefficients: u32,
-    /// bucket's split of the depth range.
-    pub(crate) buckets: strata::BucketSplit,
     /// The rasterizer of the storage geometry passes (`--raster`).
     pub(crate) raster: strata::frame::Raster,
+    /// The families' options, as the library holds them (a family's new option needs nothing
+    /// here).
+    pub(crate) kbuffer: strata::frame::KBufferOptions,
+    pub(crate) peeling: strata::frame::PeelingOptions,
+    pub(crate) weighted: strata::frame::WeightedOptions,
 }
 
 impl Run {
@@ -42,17 +31,11 @@ impl Run {
             label: method.into(),
             method: method.into(),
             k: None,
-            culling: true,
-            layout: strata::StorageLayout::default(),
-            tail: strata::Tail::Drop,
-            weight: strata::Weight::default(),
-            depth_scale: 1.0,
             msaa,
-            moments: strata::Moments::Power(4),
-            passes: 1,
-            coefficients: 8,
-            buckets: strata::BucketSplit::Uniform,
             raster: strata::frame::Raster::Hw,
+            kbuffer: Default::default(),
+            peeling: Default::default(),
+            weighted: Default::default(),
         }
     }
 
@@ -61,7 +44,10 @@ impl Run {
     pub(crate) fn with_tail(method: &str, k: u32, tail: strata::Tail) -> Run {
         Run {
             label: format!("{method} k={k} tail={}", tail.name()),
-            tail,
+            kbuffer: strata::frame::KBufferOptions {
+                tail,
+                ..Default::default()
+            },
             ..Run::with_k(method, k, true)
         }
     }
@@ -71,7 +57,10 @@ impl Run {
         Run {
             label: format!("stochastic msaa={msaa} passes={passes}"),
             msaa,
-            passes,
+            weighted: strata::frame::WeightedOptions {
+                passes,
+                ..Default::default()
+            },
             ..Run::plain("stochastic")
         }
     }
@@ -80,7 +69,10 @@ impl Run {
     pub(crate) fn wavelet(coefficients: u32) -> Run {
         Run {
             label: format!("wavelet coefficients={coefficients}"),
-            coefficients,
+            weighted: strata::frame::WeightedOptions {
+                coefficients,
+                ..Default::default()
+            },
             ..Run::plain("wavelet")
         }
     }
@@ -89,17 +81,11 @@ impl Run {
     pub(crate) fn options(&self, base: &strata::RenderOptions) -> strata::RenderOptions {
         let mut options = base.clone();
         options.frame.k = self.k;
-        options.frame.kbuffer.culling = self.culling;
-        options.frame.kbuffer.layout = self.layout;
-        options.frame.kbuffer.tail = self.tail;
-        options.frame.weighted.weight = self.weight;
-        options.frame.weighted.depth_scale = self.depth_scale;
         options.build.msaa = self.msaa;
         options.build.raster = self.raster;
-        options.frame.weighted.moments = self.moments;
-        options.frame.weighted.passes = self.passes;
-        options.frame.weighted.coefficients = self.coefficients;
-        options.frame.peeling.buckets = self.buckets;
+        options.frame.kbuffer = self.kbuffer;
+        options.frame.peeling = self.peeling;
+        options.frame.weighted = self.weighted;
         options
     }
 
@@ -107,7 +93,10 @@ impl Run {
     pub(crate) fn laid_out(self, layout: strata::StorageLayout) -> Run {
         Run {
             label: format!("{} layout={}", self.label, layout.name()),
-            layout,
+            kbuffer: strata::frame::KBufferOptions {
+                layout,
+                ..self.kbuffer
+            },
             ..self
         }
     }
@@ -126,7 +115,10 @@ impl Run {
         Run {
             label: format!("bucket {} k={k}", split.name()),
             k: Some(k),
-            buckets: split,
+            peeling: strata::frame::PeelingOptions {
+                buckets: split,
+                ..Default::default()
+            },
             ..Run::plain("bucket")
         }
     }
@@ -134,7 +126,10 @@ impl Run {
     pub(crate) fn mboit(moments: strata::Moments) -> Run {
         Run {
             label: format!("mboit moments={moments}"),
-            moments,
+            weighted: strata::frame::WeightedOptions {
+                moments,
+                ..Default::default()
+            },
             ..Run::plain("mboit")
         }
     }
@@ -151,8 +146,11 @@ impl Run {
     pub(crate) fn wboit(weight: strata::Weight, depth_scale: f64) -> Run {
         Run {
             label: format!("wboit {} scale={depth_scale}", weight.name()),
-            weight,
-            depth_scale,
+            weighted: strata::frame::WeightedOptions {
+                weight,
+                depth_scale,
+                ..Default::default()
+            },
             ..Run::plain("wboit")
         }
     }
@@ -161,7 +159,10 @@ impl Run {
         Run {
             label: format!("{method} k={k}{}", if culling { "" } else { " no-culling" }),
             k: Some(k),
-            culling,
+            kbuffer: strata::frame::KBufferOptions {
+                culling,
+                ..Default::default()
+            },
             ..Run::plain(method)
         }
     }
@@ -300,8 +301,8 @@ impl MethodResult {
             label: run.label.clone(),
             method: run.method.clone(),
             k: run.k,
-            culling: run.culling,
-            storage_layout: run.layout.name(),
+            culling: run.kbuffer.culling,
+            storage_layout: run.kbuffer.layout.name(),
             msaa: run.msaa,
             frames,
             median_gpu_ms: None,

@@ -277,47 +277,18 @@ impl ViewState {
         if let Some(r) = m.robustness {
             push("robustness", r.to_string());
         }
-        if let Some(h) = m
-            .heap_size
-            .filter(|_| applies(Opt::HEAP_SIZE, id, p.pipeline))
-        {
-            push("heap-size", h.to_string());
-        }
-        if applies(Opt::BUCKETS, id, p.pipeline) && m.buckets != strata::BucketSplit::Uniform {
-            push("buckets", value_name(&m.buckets));
-        }
-        if applies(Opt::WEIGHT, id, p.pipeline) {
-            push("weight", value_name(&m.weight));
-            push("depth-scale", m.depth_scale.to_string());
-        }
-        if applies(Opt::MOMENTS, id, p.pipeline) && m.moments != strata::Moments::Power(4) {
-            push("moments", m.moments.to_string());
-        }
-        if applies(Opt::PASSES, id, p.pipeline) && m.passes != 1 {
-            push("passes", m.passes.to_string());
-        }
-        if applies(Opt::COEFFICIENTS, id, p.pipeline) && m.coefficients != 8 {
-            push("coefficients", m.coefficients.to_string());
-        }
-        if applies(Opt::TAIL, id, p.pipeline) {
-            push("tail", value_name(&m.tail));
-        }
-        if applies(Opt::CULLING, id, p.pipeline) {
-            push("culling", value_name(&m.culling));
-        }
-        if let Some(t) = m
-            .max_tries
-            .filter(|_| applies(Opt::MAX_TRIES, id, p.pipeline))
-        {
-            push("max-tries", t.to_string());
-        }
-        if applies(Opt::STORAGE_LAYOUT, id, p.pipeline)
-            && m.storage_layout != strata::StorageLayout::default()
-        {
-            push("storage-layout", value_name(&m.storage_layout));
-        }
-        if let Some(l) = m.layers.filter(|_| applies(Opt::LAYERS, id, p.pipeline)) {
-            push("layers", l.to_string());
+        // The method's options, each written as its spec says where the method reads it (a
+        // weighted tail weighs by --weight and --depth-scale too).
+        let mut options = strata::RenderOptions::default();
+        m.set_family_options(&mut options.frame);
+        let weighted_tail = m.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, p.pipeline);
+        for spec in strata::methods::options::specs() {
+            let opt = Opt::Method(spec.option);
+            if applies(opt, id, p.pipeline) || (opt == Opt::WEIGHT && weighted_tail) {
+                for (name, value) in (spec.written)(&options) {
+                    push(name, value);
+                }
+            }
         }
         if applies(Opt::Temporal, id, p.pipeline) && m.temporal == Toggle::On {
             push("temporal", "on".into());
@@ -535,6 +506,64 @@ mod tests {
         assert_eq!(scene.camera_or_framing(), s.camera());
         assert_eq!(options, view_options);
         assert_eq!(scene.time, 12.5);
+    }
+
+    /// Each family's options come back from the command line as they were set (their specs
+    /// write them: `strata::methods::options`).
+    #[test]
+    fn command_line_keeps_every_family_option() {
+        for args in [
+            &[
+                "--method",
+                "kplus-semiheap",
+                "--heap-size",
+                "3",
+                "--tail",
+                "weighted",
+            ][..],
+            &[
+                "--method",
+                "kplus-array",
+                "--tail",
+                "weighted",
+                "--weight",
+                "eq9",
+            ],
+            &[
+                "--method",
+                "kb-ps",
+                "--culling",
+                "off",
+                "--max-tries",
+                "100",
+            ],
+            &["--method", "abuffer-ll", "--storage-layout", "slot"],
+            &[
+                "--method",
+                "wboit",
+                "--weight",
+                "eq8",
+                "--depth-scale",
+                "2.5",
+            ],
+            &["--method", "mboit", "--moments", "trig3"],
+            &["--method", "wavelet", "--coefficients", "4"],
+            &["--method", "stochastic", "--passes", "2"],
+            &["--method", "bucket", "--buckets", "adaptive"],
+            &["--method", "f2b", "--layers", "5"],
+        ] {
+            let mut words = vec!["builtin:spheres"];
+            words.extend_from_slice(args);
+            let s = state(&words);
+            let line = s.command_line();
+            let cli = crate::Cli::try_parse_from(shell_words(&line)).expect("the line parses");
+            let crate::Command::Render(r) = cli.command else {
+                panic!("not a render command: {line}")
+            };
+            let (_, options) = crate::prepare_render(&r.method, &r.picture).unwrap();
+            let (_, view_options) = crate::prepare_render(&s.method, &s.picture).unwrap();
+            assert_eq!(options, view_options, "{args:?}: {line}");
+        }
     }
 
     #[test]

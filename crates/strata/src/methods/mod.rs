@@ -14,6 +14,7 @@ pub mod choice;
 pub mod convex;
 pub mod downlevel;
 pub mod kbuffer;
+pub mod options;
 pub mod peeling;
 pub mod table;
 pub mod tiled;

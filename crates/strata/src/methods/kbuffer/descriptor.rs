@@ -1,6 +1,8 @@
 //! The entries in the method table of everything built on the k-buffer machinery (storage.wgsl):
 //! the A-buffers, the k-buffers, the k+-buffers and kpeel.
 
+use crate::frame::{StorageLayout, Tail};
+use crate::methods::options::{flag, unless_default, OptionSpec};
 use crate::methods::table::{Descriptor, Family, MethodOption, Ordering, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
@@ -471,3 +473,44 @@ pub const KB_LL: Descriptor = Descriptor {
     traffic: TrafficModel::Lists,
     ..locked(MethodId::KbLl, "kb-ll", Family::Kbuffer, kb_ll)
 };
+
+/// The k-buffer family's options (`--k` is every k method's: `methods::options`).
+pub const OPTIONS: &[OptionSpec] = &[
+    OptionSpec {
+        option: MethodOption::Tail,
+        flags: &[flag("tail", "--tail")],
+        written: |o| unless_default("tail", o.frame.kbuffer.tail.name(), Tail::Drop.name()),
+    },
+    OptionSpec {
+        option: MethodOption::Culling,
+        flags: &[flag("culling", "--culling")],
+        written: |o| match o.frame.kbuffer.culling {
+            true => Vec::new(),
+            false => vec![("culling", "off".to_string())],
+        },
+    },
+    OptionSpec {
+        option: MethodOption::MaxTries,
+        flags: &[flag("max_tries", "--max-tries")],
+        written: |o| {
+            let tries = o.frame.kbuffer.max_tries;
+            tries.map_or(Vec::new(), |t| vec![("max-tries", t.to_string())])
+        },
+    },
+    OptionSpec {
+        option: MethodOption::StorageLayout,
+        flags: &[flag("storage_layout", "--storage-layout")],
+        written: |o| {
+            let layout = o.frame.kbuffer.layout.name();
+            unless_default("storage-layout", layout, StorageLayout::Pixel.name())
+        },
+    },
+    OptionSpec {
+        option: MethodOption::HeapSize,
+        flags: &[flag("heap_size", "--heap-size")],
+        written: |o| {
+            let h = o.frame.kbuffer.heap_size;
+            h.map_or(Vec::new(), |h| vec![("heap-size", h.to_string())])
+        },
+    },
+];

@@ -1,5 +1,7 @@
 //! The peeling methods' entries in the method table (kpeel's is in `kbuffer`, with its code).
 
+use crate::frame::BucketSplit;
+use crate::methods::options::{flag, unless_default, OptionSpec};
 use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
@@ -71,3 +73,23 @@ pub const BUCKET: Descriptor = Descriptor {
     app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Bucket, "bucket", Family::Peeling, bucket)
 };
+
+/// The peeling family's options.
+pub const OPTIONS: &[OptionSpec] = &[
+    OptionSpec {
+        option: MethodOption::Layers,
+        flags: &[flag("layers", "--layers")],
+        written: |o| {
+            let layers = o.frame.peeling.layers;
+            layers.map_or(Vec::new(), |n| vec![("layers", n.to_string())])
+        },
+    },
+    OptionSpec {
+        option: MethodOption::Buckets,
+        flags: &[flag("buckets", "--buckets")],
+        written: |o| {
+            let split = o.frame.peeling.buckets.name();
+            unless_default("buckets", split, BucketSplit::Uniform.name())
+        },
+    },
+];

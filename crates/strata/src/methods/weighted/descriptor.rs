@@ -1,5 +1,7 @@
 //! The weighted methods' entries in the method table.
 
+use crate::frame::WeightedOptions;
+use crate::methods::options::{flag, unless_default, OptionSpec};
 use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 
 /// The weighted methods' blend modes.
@@ -76,3 +78,49 @@ pub const STOCHASTIC: Descriptor = Descriptor {
     app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Stochastic, "stochastic", Family::Weighted, stochastic)
 };
+
+/// The weighted family's options (`--weight` and `--depth-scale` also weigh a k-buffer's
+/// `--tail weighted`).
+pub const OPTIONS: &[OptionSpec] = &[
+    OptionSpec {
+        option: MethodOption::Weight,
+        flags: &[
+            flag("weight", "--weight"),
+            flag("depth_scale", "--depth-scale"),
+        ],
+        written: |o| {
+            let (w, default) = (&o.frame.weighted, WeightedOptions::default());
+            let mut flags = unless_default("weight", w.weight.name(), default.weight.name());
+            flags.extend(unless_default(
+                "depth-scale",
+                w.depth_scale,
+                default.depth_scale,
+            ));
+            flags
+        },
+    },
+    OptionSpec {
+        option: MethodOption::Moments,
+        flags: &[flag("moments", "--moments")],
+        written: |o| {
+            let default = WeightedOptions::default().moments;
+            unless_default("moments", o.frame.weighted.moments, default)
+        },
+    },
+    OptionSpec {
+        option: MethodOption::Passes,
+        flags: &[flag("passes", "--passes")],
+        written: |o| {
+            let default = WeightedOptions::default().passes;
+            unless_default("passes", o.frame.weighted.passes, default)
+        },
+    },
+    OptionSpec {
+        option: MethodOption::Coefficients,
+        flags: &[flag("coefficients", "--coefficients")],
+        written: |o| {
+            let default = WeightedOptions::default().coefficients;
+            unless_default("coefficients", o.frame.weighted.coefficients, default)
+        },
+    },
+];
