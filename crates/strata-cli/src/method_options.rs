@@ -85,7 +85,7 @@ pub fn check_given(a: &MethodArgs, picture: &PictureArgs) -> Result<()> {
     let weighted_tail =
         a.tail == strata::Tail::Weighted && applies(Opt::TAIL, a.id(), picture.pipeline);
     // Each method option's flags come from its spec (`strata::methods::options`).
-    let method_flags = strata::methods::options::specs()
+    let method_flags = strata::methods::option_specs()
         .flat_map(|spec| spec.flags.iter().map(|f| (f, Opt::Method(spec.option))));
     let budget = strata::methods::options::flag("budget_mb", "--budget-mb");
     for (f, opt) in method_flags.chain([(&budget, Opt::Budget)]) {
@@ -119,7 +119,7 @@ mod tests {
         let command = crate::command();
         for sub in ["render", "view"] {
             let sub = command.find_subcommand(sub).expect("the subcommand");
-            for spec in strata::methods::options::specs() {
+            for spec in strata::methods::option_specs() {
                 for f in spec.flags {
                     let arg = sub.get_arguments().find(|a| a.get_id() == f.id);
                     let arg = arg.unwrap_or_else(|| panic!("{} has no {}", sub.get_name(), f.id));

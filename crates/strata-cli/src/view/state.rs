@@ -282,7 +282,7 @@ impl ViewState {
         let mut options = strata::RenderOptions::default();
         m.set_family_options(&mut options.frame);
         let weighted_tail = m.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, p.pipeline);
-        for spec in strata::methods::options::specs() {
+        for spec in strata::methods::option_specs() {
             let opt = Opt::Method(spec.option);
             if applies(opt, id, p.pipeline) || (opt == Opt::WEIGHT && weighted_tail) {
                 for (name, value) in (spec.written)(&options) {

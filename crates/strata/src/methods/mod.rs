@@ -105,6 +105,20 @@ pub enum MethodId {
     Wavelet,
 }
 
+/// Every method option's spec ([`options::OptionSpec`]), family by family: each family's
+/// folder declares its own (`OPTIONS` beside its descriptors), this list registers them.
+pub fn option_specs() -> impl Iterator<Item = &'static options::OptionSpec> {
+    [
+        options::SHARED,
+        kbuffer::descriptor::OPTIONS,
+        peeling::descriptor::OPTIONS,
+        weighted::descriptor::OPTIONS,
+        convex::descriptor::OPTIONS,
+    ]
+    .into_iter()
+    .flatten()
+}
+
 /// The method table in catalogue order (the order of `strata methods`): each family's folder
 /// defines its descriptors, this list registers them.
 pub static TABLE: &[&Descriptor] = &[

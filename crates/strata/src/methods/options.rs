@@ -1,6 +1,7 @@
 //! One spec per method option: the flags that set it on a `strata render` line and how a
 //! frame's value of it is written back as flags. Each family declares its own options' specs
-//! beside its descriptors (`OPTIONS` in its `descriptor.rs`); the option values live in the
+//! beside its descriptors (`OPTIONS` in its `descriptor.rs`; [`super::option_specs`] lists
+//! them all); the option values live in the
 //! family's part of [`crate::frame::FrameOptions`]. The CLI's refusal of an option the method
 //! does not read and the viewer's command line are made from these.
 
@@ -34,23 +35,10 @@ pub struct OptionSpec {
     pub written: fn(&RenderOptions) -> Vec<(&'static str, String)>,
 }
 
-/// Every method option's spec, family by family.
-pub fn specs() -> impl Iterator<Item = &'static OptionSpec> {
-    [
-        SHARED,
-        super::kbuffer::descriptor::OPTIONS,
-        super::peeling::descriptor::OPTIONS,
-        super::weighted::descriptor::OPTIONS,
-        super::convex::descriptor::OPTIONS,
-    ]
-    .into_iter()
-    .flatten()
-}
-
 impl MethodOption {
     /// The option's spec.
     pub fn spec(self) -> &'static OptionSpec {
-        specs()
+        super::option_specs()
             .find(|s| s.option == self)
             .expect("every method option has a spec (each_method_option_has_one_spec)")
     }
@@ -58,7 +46,7 @@ impl MethodOption {
 
 /// The options every family with a k shares: `--k` (written with the picture's options, which
 /// take `auto` too) and kpeel's other name for it.
-const SHARED: &[OptionSpec] = &[
+pub(super) const SHARED: &[OptionSpec] = &[
     OptionSpec {
         option: MethodOption::K,
         flags: &[flag("k", "--k")],
@@ -91,7 +79,7 @@ mod tests {
     fn each_method_option_has_one_spec() {
         use std::collections::BTreeSet;
         let mut seen = BTreeSet::new();
-        for spec in specs() {
+        for spec in super::super::option_specs() {
             assert!(
                 seen.insert(format!("{:?}", spec.option)),
                 "{:?} twice",
@@ -112,7 +100,7 @@ mod tests {
     #[test]
     fn default_options_write_no_flags() {
         let options = RenderOptions::default();
-        for spec in specs() {
+        for spec in super::super::option_specs() {
             assert_eq!((spec.written)(&options), Vec::new(), "{:?}", spec.option);
         }
     }
