@@ -4,10 +4,7 @@
 use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
 use strata::error::{Error, Result};
-use strata::frame::{
-    BuildOptions, Effect, FrameOptions, KBufferOptions, Lighting, PeelingOptions, RenderOptions,
-    Tail, WeightedOptions,
-};
+use strata::frame::{BuildOptions, Effect, FrameOptions, Lighting, RenderOptions};
 use strata::methods::choice::Goal;
 use strata::methods::MethodId;
 use strata::scene::{loaders, Background, CameraPath, Scene, Shading};
@@ -202,11 +199,6 @@ pub fn parse_vec3(s: &str) -> std::result::Result<[f32; 3], String> {
     }
 }
 
-/// Parses `--moments`.
-pub fn parse_moments(s: &str) -> std::result::Result<strata::Moments, String> {
-    s.parse().map_err(|e: Error| e.to_string())
-}
-
 /// `--method`: a method id, or `auto` with an optional goal.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MethodArg {
@@ -273,54 +265,9 @@ pub struct MethodArgs {
     /// k is the smallest that does within --budget-mb.
     #[arg(long)]
     pub robustness: Option<f64>,
-    /// kplus-semiheap: slots of its max-heap (default 1, the paper's); the other k - h are
-    /// unordered.
-    #[arg(long)]
-    pub heap_size: Option<u32>,
-    /// bucket: split each pixel's depth range into k/2 equal buckets (uniform, the paper's
-    /// method) or share the buckets among the occupied parts of a 1024-part histogram
-    /// (adaptive, one more geometry pass).
-    #[arg(long, value_enum, default_value = "uniform")]
-    pub buckets: strata::BucketSplit,
-    /// wboit: the weight function (McGuire & Bavoil 2013, equations 7-10).
-    #[arg(long, value_enum, default_value = "eq7")]
-    pub weight: strata::Weight,
-    /// wboit: multiplies view-space distances before the weight function (its constants assume
-    /// distances of 0.1 to 500 units).
-    #[arg(long, default_value_t = 1.0)]
-    pub depth_scale: f64,
-    /// mboit: power moments, 4, 6 or 8 (more follow more layers, at more memory and work), or
-    /// trigonometric moments, trig2, trig3 or trig4 (as many real values as 4, 6, 8).
-    #[arg(long, value_parser = parse_moments, default_value = "4")]
-    pub moments: strata::Moments,
-    /// stochastic: passes of S samples each (more passes, less noise; 2·passes + 1 geometry
-    /// passes).
-    #[arg(long, default_value_t = 1)]
-    pub passes: u32,
-    /// wavelet: Haar coefficients of each pixel's absorbance over depth, 4 or 8 (its depth range
-    /// in 4 or 8 bins).
-    #[arg(long, default_value_t = 8)]
-    pub coefficients: u32,
-    /// Fragments beyond k (k-buffer methods).
-    #[arg(long, value_enum, default_value = "drop")]
-    pub tail: Tail,
-    /// k-buffers cull fragments behind a full pixel's farthest before taking the lock.
-    #[arg(long, value_enum, default_value = "on")]
-    pub culling: Toggle,
-    /// Lock tries per shader invocation for the locking k-buffers and kb-ll (default 65536, at
-    /// most 1048576): per fragment, shared by an invocation's fragments under --raster compute.
-    #[arg(long)]
-    pub max_tries: Option<u32>,
-    /// The k-buffers' and A-buffers' per-pixel arrays: pixel (each pixel's items together, as
-    /// the papers draw them) or slot (item i of every pixel together, so that the neighbouring
-    /// pixels of a GPU warp share memory transactions; see `strata bench kbuffer-layout`).
-    #[arg(long, value_enum, default_value = "pixel")]
-    pub storage_layout: strata::StorageLayout,
-    #[arg(long, help = format!(
-        "Depth peeling ({}): peel this many layers (default: the scene's depth complexity, measured by the frame itself)",
-        methods_where(|d| d.reads(strata::methods::MethodOption::Layers))
-    ))]
-    pub layers: Option<u32>,
+    /// The families' options (`--tail`, `--layers`, `--weight`, …), made from their specs.
+    #[command(flatten)]
+    pub family: crate::family_args::FamilyArgs,
     /// --pipeline deferred: screen-space ambient occlusion on the ambient term.
     #[arg(long)]
     pub ssao: bool,
@@ -576,25 +523,7 @@ pub fn cache_dir(dir: &Path) -> Result<PathBuf> {
 impl MethodArgs {
     /// The families' options these arguments give (`--tail`, `--layers`, `--weight`, …).
     pub fn set_family_options(&self, frame: &mut strata::frame::FrameOptions) {
-        frame.kbuffer = KBufferOptions {
-            tail: self.tail,
-            culling: self.culling == Toggle::On,
-            max_tries: self.max_tries,
-            heap_size: self.heap_size,
-            layout: self.storage_layout,
-            ..Default::default()
-        };
-        frame.peeling = PeelingOptions {
-            layers: self.layers,
-            buckets: self.buckets,
-        };
-        frame.weighted = WeightedOptions {
-            weight: self.weight,
-            depth_scale: self.depth_scale,
-            moments: self.moments,
-            passes: self.passes,
-            coefficients: self.coefficients,
-        };
+        self.family.apply(frame);
     }
 
     /// The method: `--method`'s id, or the one `auto` chose.

@@ -4,6 +4,7 @@ mod args;
 mod bench;
 mod claims;
 mod commands;
+mod family_args;
 mod files;
 mod method_options;
 mod report;

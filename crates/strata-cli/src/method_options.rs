@@ -33,17 +33,8 @@ pub enum Opt {
 impl Opt {
     pub const K: Opt = Opt::Method(MethodOption::K);
     pub const TAIL: Opt = Opt::Method(MethodOption::Tail);
-    pub const CULLING: Opt = Opt::Method(MethodOption::Culling);
-    pub const MAX_TRIES: Opt = Opt::Method(MethodOption::MaxTries);
-    pub const STORAGE_LAYOUT: Opt = Opt::Method(MethodOption::StorageLayout);
-    pub const LAYERS: Opt = Opt::Method(MethodOption::Layers);
     pub const LAYERS_PER_PASS: Opt = Opt::Method(MethodOption::LayersPerPass);
-    pub const HEAP_SIZE: Opt = Opt::Method(MethodOption::HeapSize);
-    pub const BUCKETS: Opt = Opt::Method(MethodOption::Buckets);
     pub const WEIGHT: Opt = Opt::Method(MethodOption::Weight);
-    pub const MOMENTS: Opt = Opt::Method(MethodOption::Moments);
-    pub const PASSES: Opt = Opt::Method(MethodOption::Passes);
-    pub const COEFFICIENTS: Opt = Opt::Method(MethodOption::Coefficients);
 }
 
 /// Whether `method` (with `pipeline`) reads option `opt`.
@@ -82,18 +73,17 @@ pub fn check_given(a: &MethodArgs, picture: &PictureArgs) -> Result<()> {
         )))
     };
     // A weighted tail weighs by --weight and --depth-scale.
-    let weighted_tail =
-        a.tail == strata::Tail::Weighted && applies(Opt::TAIL, a.id(), picture.pipeline);
+    let weighted_tail = a.family.frame.kbuffer.tail == strata::Tail::Weighted
+        && applies(Opt::TAIL, a.id(), picture.pipeline);
     // Each method option's flags come from its spec (`strata::methods::options`).
-    let method_flags = strata::methods::option_specs()
-        .flat_map(|spec| spec.flags.iter().map(|f| (f, Opt::Method(spec.option))));
-    let budget = strata::methods::options::flag("budget_mb", "--budget-mb");
-    for (f, opt) in method_flags.chain([(&budget, Opt::Budget)]) {
-        if given(f.id)
+    let method_flags =
+        strata::methods::options::flags().map(|(f, option)| (f.id, f.flag, Opt::Method(option)));
+    for (id, flag, opt) in method_flags.chain([("budget_mb", "--budget-mb", Opt::Budget)]) {
+        if given(id)
             && !applies(opt, a.id(), picture.pipeline)
             && !(opt == Opt::WEIGHT && weighted_tail)
         {
-            return refuse(f.flag, opt);
+            return refuse(flag, opt);
         }
     }
     if given("seed") && a.order != Some(strata::order::Order::Random) {

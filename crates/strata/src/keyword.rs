@@ -58,6 +58,9 @@ macro_rules! keyword_enum {
             /// Every value, in declaration order.
             pub const ALL: &'static [$name] = &[$($name::$value),+];
 
+            /// Every value's word, in declaration order.
+            pub const NAMES: &'static [&'static str] = &[$($word),+];
+
             /// The value's word on the command line, in scene files and in statistics.
             pub fn name(self) -> &'static str {
                 match self {

@@ -253,6 +253,64 @@ fn optional<T: egui::emath::Numeric>(
     });
 }
 
+/// A family option's widget, as its spec describes its values.
+fn option_widget(
+    ui: &mut egui::Ui,
+    flag: &strata::methods::options::Flag,
+    value: strata::methods::options::FlagValue,
+    frame: &mut strata::frame::FrameOptions,
+) {
+    use strata::methods::options::ValueKind;
+    let label = flag.name().replace('-', " ");
+    let current = (value.get)(frame);
+    // A value the spec offers always sets; the refusal of one is a bug the spec's tests catch.
+    let mut set = |text: Option<String>| {
+        if text != current {
+            let _ = (value.set)(frame, text.as_deref());
+        }
+    };
+    match value.kind {
+        ValueKind::Choice(words) => {
+            let mut chosen = current.clone().unwrap_or_default();
+            egui::ComboBox::from_label(label)
+                .selected_text(chosen.clone())
+                .show_ui(ui, |ui| {
+                    for w in words {
+                        ui.selectable_value(&mut chosen, w.to_string(), *w);
+                    }
+                });
+            set(Some(chosen));
+        }
+        ValueKind::Count { min, max } => {
+            let mut n: u32 = current
+                .as_deref()
+                .and_then(|t| t.parse().ok())
+                .unwrap_or(min);
+            ui.horizontal(|ui| {
+                ui.label(label);
+                ui.add(egui::DragValue::new(&mut n).range(min..=max));
+            });
+            set(Some(n.to_string()));
+        }
+        ValueKind::Optional { min, max, start } => {
+            let mut n = current.as_deref().and_then(|t| t.parse().ok());
+            optional(ui, &label, &mut n, start, min..=max);
+            set(n.map(|n: u32| n.to_string()));
+        }
+        ValueKind::Number { min, max } => {
+            let mut x: f64 = current
+                .as_deref()
+                .and_then(|t| t.parse().ok())
+                .unwrap_or(min);
+            ui.horizontal(|ui| {
+                ui.label(label);
+                ui.add(egui::DragValue::new(&mut x).range(min..=max));
+            });
+            set(Some(x.to_string()));
+        }
+    }
+}
+
 fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
     let m = &mut state.method;
     let pipeline = state.picture.pipeline;
@@ -327,69 +385,18 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             optional(ui, "robustness", &mut m.robustness, 0.95, 0.01..=1.0);
         }
     });
-    ui.add_enabled_ui(applies(Opt::TAIL, id, pipeline), |ui| {
-        choice(ui, "tail", &mut m.tail);
-    });
-    ui.add_enabled_ui(applies(Opt::CULLING, id, pipeline), |ui| {
-        let mut culling = m.culling == Toggle::On;
-        ui.checkbox(&mut culling, "culling");
-        m.culling = if culling { Toggle::On } else { Toggle::Off };
-    });
-    ui.add_enabled_ui(applies(Opt::MAX_TRIES, id, pipeline), |ui| {
-        optional(
-            ui,
-            "max tries",
-            &mut m.max_tries,
-            strata::DEFAULT_MAX_TRIES,
-            1..=1 << 24,
-        );
-    });
-    ui.add_enabled_ui(applies(Opt::STORAGE_LAYOUT, id, pipeline), |ui| {
-        choice(ui, "storage layout", &mut m.storage_layout);
-    });
-    ui.add_enabled_ui(applies(Opt::LAYERS, id, pipeline), |ui| {
-        optional(ui, "layers", &mut m.layers, 8, 1..=1024);
-    });
-    ui.add_enabled_ui(applies(Opt::HEAP_SIZE, id, pipeline), |ui| {
-        optional(ui, "heap size", &mut m.heap_size, 1, 1..=256);
-    });
-    ui.add_enabled_ui(applies(Opt::BUCKETS, id, pipeline), |ui| {
-        choice(ui, "buckets", &mut m.buckets);
-    });
-    // A weighted tail weighs by --weight and --depth-scale too.
-    let weighted_tail = m.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, pipeline);
-    ui.add_enabled_ui(applies(Opt::WEIGHT, id, pipeline) || weighted_tail, |ui| {
-        choice(ui, "weight", &mut m.weight);
-        ui.horizontal(|ui| {
-            ui.label("depth scale");
-            ui.add(egui::DragValue::new(&mut m.depth_scale).range(1e-4..=1e4));
-        });
-    });
-    ui.add_enabled_ui(applies(Opt::MOMENTS, id, pipeline), |ui| {
-        egui::ComboBox::from_label("moments")
-            .selected_text(m.moments.to_string())
-            .show_ui(ui, |ui| {
-                for v in strata::Moments::ALL {
-                    ui.selectable_value(&mut m.moments, v, v.to_string());
-                }
-            });
-    });
-    ui.add_enabled_ui(applies(Opt::COEFFICIENTS, id, pipeline), |ui| {
-        egui::ComboBox::from_label("coefficients")
-            .selected_text(m.coefficients.to_string())
-            .show_ui(ui, |ui| {
-                for v in strata::frame::options::WAVELET_COEFFICIENTS {
-                    ui.selectable_value(&mut m.coefficients, v, v.to_string());
-                }
-            });
-    });
-    ui.add_enabled_ui(applies(Opt::PASSES, id, pipeline), |ui| {
-        ui.horizontal(|ui| {
-            ui.label("passes");
-            let max = strata::frame::options::MAX_STOCHASTIC_PASSES;
-            ui.add(egui::DragValue::new(&mut m.passes).range(1..=max));
-        });
-    });
+    // Each family option's widget from its spec (`strata::methods::options`); a weighted tail
+    // weighs by --weight and --depth-scale too.
+    let family = &mut m.family.frame;
+    let weighted_tail =
+        family.kbuffer.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, pipeline);
+    for (flag, option) in strata::methods::options::flags() {
+        let opt = Opt::Method(option);
+        let enabled = applies(opt, id, pipeline) || (opt == Opt::WEIGHT && weighted_tail);
+        if let Some(value) = flag.value {
+            ui.add_enabled_ui(enabled, |ui| option_widget(ui, flag, value, family));
+        }
+    }
     ui.add_enabled_ui(applies(Opt::Temporal, id, pipeline), |ui| {
         ui.horizontal(|ui| {
             let mut on = m.temporal == Toggle::On;

@@ -279,13 +279,13 @@ impl ViewState {
         }
         // The method's options, each written as its spec says where the method reads it (a
         // weighted tail weighs by --weight and --depth-scale too).
-        let mut options = strata::RenderOptions::default();
-        m.set_family_options(&mut options.frame);
-        let weighted_tail = m.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, p.pipeline);
+        let family = &m.family.frame;
+        let weighted_tail =
+            family.kbuffer.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, p.pipeline);
         for spec in strata::methods::option_specs() {
             let opt = Opt::Method(spec.option);
             if applies(opt, id, p.pipeline) || (opt == Opt::WEIGHT && weighted_tail) {
-                for (name, value) in (spec.written)(&options) {
+                for (name, value) in spec.written(family) {
                     push(name, value);
                 }
             }
@@ -357,15 +357,7 @@ fn options_key(s: &ViewState) -> impl PartialEq {
     let (p, m) = (&s.picture, &s.method);
     (
         (p.size, p.effect, p.background, p.k),
-        (
-            m.tail,
-            m.culling,
-            m.max_tries,
-            m.heap_size,
-            m.storage_layout,
-        ),
-        (m.layers, m.layers_per_pass, m.buckets),
-        (m.weight, m.depth_scale, m.moments, m.passes, m.coefficients),
+        (m.family.clone(), m.layers_per_pass),
         (m.budget_mb, m.robustness, m.order, m.seed),
         (m.temporal, m.temporal_refresh, m.temporal_epsilon),
     )
@@ -392,17 +384,48 @@ mod tests {
         assert!(applies(Opt::K, KplusHeap, None));
         assert!(applies(Opt::K, Kpeel, None));
         assert!(!applies(Opt::K, AbufferLl, None));
-        assert!(applies(Opt::K, Bucket, None) && applies(Opt::BUCKETS, Bucket, None));
-        assert!(!applies(Opt::TAIL, Wboit, None));
-        assert!(applies(Opt::MAX_TRIES, KplusArray, None));
-        assert!(!applies(Opt::MAX_TRIES, KbMdt32, None), "MDT takes no lock");
-        assert!(applies(Opt::LAYERS, Dual, None));
         assert!(
-            applies(Opt::LAYERS, Kpeel, None),
+            applies(Opt::K, Bucket, None)
+                && applies(
+                    Opt::Method(strata::methods::MethodOption::Buckets),
+                    Bucket,
+                    None
+                )
+        );
+        assert!(!applies(Opt::TAIL, Wboit, None));
+        assert!(applies(
+            Opt::Method(strata::methods::MethodOption::MaxTries),
+            KplusArray,
+            None
+        ));
+        assert!(
+            !applies(
+                Opt::Method(strata::methods::MethodOption::MaxTries),
+                KbMdt32,
+                None
+            ),
+            "MDT takes no lock"
+        );
+        assert!(applies(
+            Opt::Method(strata::methods::MethodOption::Layers),
+            Dual,
+            None
+        ));
+        assert!(
+            applies(
+                Opt::Method(strata::methods::MethodOption::Layers),
+                Kpeel,
+                None
+            ),
             "kpeel's passes: ⌈layers / k⌉"
         );
         assert!(
-            applies(Opt::TAIL, AbufferFixed, None) && !applies(Opt::CULLING, AbufferFixed, None)
+            applies(Opt::TAIL, AbufferFixed, None)
+                && !applies(
+                    Opt::Method(strata::methods::MethodOption::Culling),
+                    AbufferFixed,
+                    None
+                )
         );
         assert!(applies(Opt::WEIGHT, Wboit, None));
         assert!(!applies(Opt::WEIGHT, Mboit, None));

@@ -1,38 +1,160 @@
-//! One spec per method option: the flags that set it on a `strata render` line and how a
-//! frame's value of it is written back as flags. Each family declares its own options' specs
-//! beside its descriptors (`OPTIONS` in its `descriptor.rs`; [`super::option_specs`] lists
-//! them all); the option values live in the
-//! family's part of [`crate::frame::FrameOptions`]. The CLI's refusal of an option the method
-//! does not read and the viewer's command line are made from these.
+//! One spec per method option: the flags that set it, each with its help, the values it takes
+//! (which the viewer's widget offers), how it is read from and written into a frame's options,
+//! and so how a frame's value of it is written back on a `strata render` line. Each family
+//! declares its own options' specs beside its descriptors (`OPTIONS` in its `descriptor.rs`;
+//! [`super::option_specs`] lists them all); the values live in the family's part of
+//! [`FrameOptions`] (`kbuffer`, `peeling`, `weighted`), whose `validate` checks their ranges.
+//! The CLI's arguments, its refusal of an option the method does not read, the viewer's
+//! widgets and its command line are made from these.
 
-use crate::frame::RenderOptions;
+use std::str::FromStr;
+
+use crate::error::{Error, Result};
+use crate::frame::FrameOptions;
 
 use super::table::MethodOption;
 
-/// A command-line flag and the id clap gives its argument.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Flag {
-    /// clap's id of the argument (the field's name: `heap_size`).
-    pub id: &'static str,
-    /// The flag (`--heap-size`).
-    pub flag: &'static str,
-}
-
-/// The flag `--name` whose clap id is `name` with dashes as underscores.
-pub const fn flag(id: &'static str, flag: &'static str) -> Flag {
-    Flag { id, flag }
-}
-
-/// One method option.
+/// One method option: the flags that set it.
 #[derive(Clone, Copy, Debug)]
 pub struct OptionSpec {
     /// The option, as descriptors list it in `reads`.
     pub option: MethodOption,
     /// The flags that set it.
     pub flags: &'static [Flag],
-    /// The flags (without their dashes) and values that give `options`' value of it on a
-    /// `strata render` line: none where it has its default.
-    pub written: fn(&RenderOptions) -> Vec<(&'static str, String)>,
+}
+
+/// A command-line flag of a method option.
+#[derive(Clone, Copy, Debug)]
+pub struct Flag {
+    /// clap's id of its argument (`heap_size`).
+    pub id: &'static str,
+    /// The flag (`--heap-size`).
+    pub flag: &'static str,
+    /// Its help line.
+    pub help: &'static str,
+    /// Its values, and how they are read and set; `None` where the CLI keeps the flag itself
+    /// (`--k`, which takes `auto`; `--layers-per-pass`, kpeel's other name for k; `--cache-dir`,
+    /// a path made absolute).
+    pub value: Option<FlagValue>,
+}
+
+/// What a flag takes and where its value lives in a frame's options.
+#[derive(Clone, Copy, Debug)]
+pub struct FlagValue {
+    /// The values it takes.
+    pub kind: ValueKind,
+    /// Its value in `frame`, as the command line writes it (`None`: unset, the method's own
+    /// choice).
+    pub get: fn(&FrameOptions) -> Option<String>,
+    /// Sets it in `frame` from the command line's text (`None`: unset); an error names the flag.
+    pub set: fn(&mut FrameOptions, Option<&str>) -> Result<()>,
+}
+
+/// The values a flag takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ValueKind {
+    /// One of these words.
+    Choice(&'static [&'static str]),
+    /// A whole number in `min..=max`.
+    Count {
+        /// The least.
+        min: u32,
+        /// The most.
+        max: u32,
+    },
+    /// A whole number in `min..=max`, or unset (the method decides).
+    Optional {
+        /// The least.
+        min: u32,
+        /// The most.
+        max: u32,
+        /// What the viewer offers when it is set.
+        start: u32,
+    },
+    /// A number in `min..=max`.
+    Number {
+        /// The least.
+        min: f64,
+        /// The most.
+        max: f64,
+    },
+}
+
+/// A flag the CLI keeps itself (see [`Flag::value`]).
+pub const fn kept_flag(id: &'static str, flag: &'static str, help: &'static str) -> Flag {
+    Flag {
+        id,
+        flag,
+        help,
+        value: None,
+    }
+}
+
+/// A flag whose value the spec reads and sets.
+pub const fn flag(
+    id: &'static str,
+    flag: &'static str,
+    help: &'static str,
+    kind: ValueKind,
+    get: fn(&FrameOptions) -> Option<String>,
+    set: fn(&mut FrameOptions, Option<&str>) -> Result<()>,
+) -> Flag {
+    Flag {
+        id,
+        flag,
+        help,
+        value: Some(FlagValue { kind, get, set }),
+    }
+}
+
+/// `text` parsed as a `T` for `flag`, or one line naming the flag and the text (the type's own
+/// refusal where it names the flag: a keyword's lists its words).
+pub fn parse<T: FromStr>(flag: &str, text: Option<&str>) -> Result<T>
+where
+    T::Err: std::fmt::Display,
+{
+    let text = text.ok_or_else(|| Error::input(format!("{flag} takes a value")))?;
+    text.trim().parse().map_err(|e: T::Err| {
+        let why = e.to_string();
+        match why.contains(flag) {
+            true => Error::input(why),
+            false => Error::input(format!(
+                "{flag} '{}' is not a valid value ({why})",
+                crate::error::quoted(text)
+            )),
+        }
+    })
+}
+
+/// `text` parsed as a `T` for `flag`, or unset when there is none.
+pub fn parse_optional<T: FromStr>(flag: &str, text: Option<&str>) -> Result<Option<T>>
+where
+    T::Err: std::fmt::Display,
+{
+    text.map(|t| parse(flag, Some(t))).transpose()
+}
+
+impl Flag {
+    /// The flag's name without its dashes (`heap-size`).
+    pub fn name(&self) -> &'static str {
+        self.flag.trim_start_matches('-')
+    }
+}
+
+impl OptionSpec {
+    /// The flags (without their dashes) and values that give `frame`'s value of this option on
+    /// a `strata render` line: none where it has its default.
+    pub fn written(&self, frame: &FrameOptions) -> Vec<(&'static str, String)> {
+        let default = FrameOptions::default();
+        self.flags
+            .iter()
+            .filter_map(|f| {
+                let v = f.value?;
+                let value = (v.get)(frame)?;
+                ((v.get)(&default).as_ref() != Some(&value)).then_some((f.name(), value))
+            })
+            .collect()
+    }
 }
 
 impl MethodOption {
@@ -44,32 +166,27 @@ impl MethodOption {
     }
 }
 
-/// The options every family with a k shares: `--k` (written with the picture's options, which
-/// take `auto` too) and kpeel's other name for it.
+/// Every flag of every method option, with its option.
+pub fn flags() -> impl Iterator<Item = (&'static Flag, MethodOption)> {
+    super::option_specs().flat_map(|s| s.flags.iter().map(move |f| (f, s.option)))
+}
+
+/// The options every family with a k shares: `--k` and kpeel's other name for it (both kept by
+/// the CLI: `--k` takes `auto`, and the picture's options write it).
 pub(super) const SHARED: &[OptionSpec] = &[
     OptionSpec {
         option: MethodOption::K,
-        flags: &[flag("k", "--k")],
-        written: |_| Vec::new(),
+        flags: &[kept_flag("k", "--k", "fragments kept per pixel")],
     },
     OptionSpec {
         option: MethodOption::LayersPerPass,
-        flags: &[flag("layers_per_pass", "--layers-per-pass")],
-        written: |_| Vec::new(),
+        flags: &[kept_flag(
+            "layers_per_pass",
+            "--layers-per-pass",
+            "kpeel: layers captured per geometry pass",
+        )],
     },
 ];
-
-/// `(name, value)` when `value` differs from `default`.
-pub fn unless_default<T: PartialEq + ToString>(
-    name: &'static str,
-    value: T,
-    default: T,
-) -> Vec<(&'static str, String)> {
-    match value == default {
-        true => Vec::new(),
-        false => vec![(name, value.to_string())],
-    }
-}
 
 #[cfg(test)]
 mod tests {
@@ -87,6 +204,7 @@ mod tests {
             );
             for f in spec.flags {
                 assert_eq!(f.flag, format!("--{}", f.id.replace('_', "-")), "{f:?}");
+                assert!(!f.help.is_empty(), "{f:?}");
             }
         }
         for d in super::super::TABLE {
@@ -99,9 +217,47 @@ mod tests {
     /// Default options write nothing: a command line names only what was changed.
     #[test]
     fn default_options_write_no_flags() {
-        let options = RenderOptions::default();
+        let frame = FrameOptions::default();
         for spec in super::super::option_specs() {
-            assert_eq!((spec.written)(&options), Vec::new(), "{:?}", spec.option);
+            assert_eq!(spec.written(&frame), Vec::new(), "{:?}", spec.option);
+        }
+    }
+
+    /// Every value a flag offers sets, reads back as itself and validates; unset, where it
+    /// may be, reads back unset; text that is not a value is refused naming the flag.
+    #[test]
+    fn each_flag_sets_what_it_reads() {
+        for (f, _) in flags() {
+            let Some(v) = f.value else { continue };
+            let values: Vec<String> = match v.kind {
+                ValueKind::Choice(words) => words.iter().map(|w| w.to_string()).collect(),
+                ValueKind::Count { min, max } | ValueKind::Optional { min, max, .. } => {
+                    vec![min.to_string(), max.to_string()]
+                }
+                ValueKind::Number { min, max } => vec![min.to_string(), max.to_string()],
+            };
+            for value in values {
+                let mut frame = FrameOptions::default();
+                (v.set)(&mut frame, Some(&value)).unwrap_or_else(|e| panic!("{f:?} {value}: {e}"));
+                assert_eq!(
+                    (v.get)(&frame).as_deref(),
+                    Some(value.as_str()),
+                    "{}",
+                    f.flag
+                );
+                frame
+                    .validate()
+                    .unwrap_or_else(|e| panic!("{} {value}: {e}", f.flag));
+            }
+            if let ValueKind::Optional { .. } = v.kind {
+                let mut frame = FrameOptions::default();
+                (v.set)(&mut frame, Some("3")).unwrap();
+                (v.set)(&mut frame, None).unwrap();
+                assert_eq!((v.get)(&frame), None, "{}", f.flag);
+            }
+            let mut frame = FrameOptions::default();
+            let e = (v.set)(&mut frame, Some("bogus")).unwrap_err().to_string();
+            assert!(e.contains(f.flag) && e.contains("bogus"), "{e}");
         }
     }
 }

@@ -1,6 +1,6 @@
 //! convex's entry in the method table.
 
-use crate::methods::options::{flag, OptionSpec};
+use crate::methods::options::{kept_flag, OptionSpec};
 use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
@@ -32,12 +32,13 @@ pub const CONVEX: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::Convex, "convex", Family::Convex, create)
 };
 
-/// `convex`'s option: where its decompositions are kept between runs.
+/// `convex`'s option: where its decompositions are kept between runs (a path the CLI makes
+/// absolute).
 pub const OPTIONS: &[OptionSpec] = &[OptionSpec {
     option: MethodOption::CacheDir,
-    flags: &[flag("cache_dir", "--cache-dir")],
-    written: |o| match &o.build.cache_dir {
-        Some(dir) => vec![("cache-dir", dir.display().to_string())],
-        None => Vec::new(),
-    },
+    flags: &[kept_flag(
+        "cache_dir",
+        "--cache-dir",
+        "convex: the folder its decompositions are kept in between runs",
+    )],
 }];

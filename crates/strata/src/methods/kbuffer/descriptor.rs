@@ -2,7 +2,7 @@
 //! the A-buffers, the k-buffers, the k+-buffers and kpeel.
 
 use crate::frame::{StorageLayout, Tail};
-use crate::methods::options::{flag, unless_default, OptionSpec};
+use crate::methods::options::{flag, parse, parse_optional, OptionSpec, ValueKind};
 use crate::methods::table::{Descriptor, Family, MethodOption, Ordering, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
@@ -478,39 +478,92 @@ pub const KB_LL: Descriptor = Descriptor {
 pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
         option: MethodOption::Tail,
-        flags: &[flag("tail", "--tail")],
-        written: |o| unless_default("tail", o.frame.kbuffer.tail.name(), Tail::Drop.name()),
+        flags: &[flag(
+            "tail",
+            "--tail",
+            "fragments beyond k (k-buffer methods): dropped, blended into one term behind the k nearest, or weighted as wboit weighs them (--weight, --depth-scale)",
+            ValueKind::Choice(Tail::NAMES),
+            |f| Some(f.kbuffer.tail.name().to_string()),
+            |f, v| {
+ f.kbuffer.tail = parse::<Tail>("--tail", v)?;
+ Ok(())
+ },
+        )],
     },
     OptionSpec {
         option: MethodOption::Culling,
-        flags: &[flag("culling", "--culling")],
-        written: |o| match o.frame.kbuffer.culling {
-            true => Vec::new(),
-            false => vec![("culling", "off".to_string())],
-        },
+        flags: &[flag(
+            "culling",
+            "--culling",
+            "k-buffers cull fragments behind a full pixel's farthest before taking the lock",
+            ValueKind::Choice(&["on", "off"]),
+            |f| Some(if f.kbuffer.culling { "on" } else { "off" }.to_string()),
+            |f, v| {
+                f.kbuffer.culling = match v {
+                    Some("on") => true,
+                    Some("off") => false,
+                    _ => return Err(not_on_or_off("--culling", v)),
+                };
+                Ok(())
+            },
+        )],
     },
     OptionSpec {
         option: MethodOption::MaxTries,
-        flags: &[flag("max_tries", "--max-tries")],
-        written: |o| {
-            let tries = o.frame.kbuffer.max_tries;
-            tries.map_or(Vec::new(), |t| vec![("max-tries", t.to_string())])
-        },
+        flags: &[flag(
+            "max_tries",
+            "--max-tries",
+            "lock tries per shader invocation for the locking k-buffers and kb-ll (default 65536, at most 1048576): per fragment, shared by an invocation's fragments under --raster compute",
+            ValueKind::Optional {
+                min: 1,
+                max: crate::frame::MAX_TRIES_LIMIT,
+                start: super::DEFAULT_MAX_TRIES,
+            },
+            |f| f.kbuffer.max_tries.map(|t| t.to_string()),
+            |f, v| {
+ f.kbuffer.max_tries = parse_optional("--max-tries", v)?;
+ Ok(())
+ },
+        )],
     },
     OptionSpec {
         option: MethodOption::StorageLayout,
-        flags: &[flag("storage_layout", "--storage-layout")],
-        written: |o| {
-            let layout = o.frame.kbuffer.layout.name();
-            unless_default("storage-layout", layout, StorageLayout::Pixel.name())
-        },
+        flags: &[flag(
+            "storage_layout",
+            "--storage-layout",
+            "the k-buffers' and A-buffers' per-pixel arrays: pixel (each pixel's items together, as the papers draw them) or slot (item i of every pixel together, so that the neighbouring pixels of a GPU warp share memory transactions; see `strata bench kbuffer-layout`)",
+            ValueKind::Choice(StorageLayout::NAMES),
+            |f| Some(f.kbuffer.layout.name().to_string()),
+            |f, v| {
+ f.kbuffer.layout = parse::<StorageLayout>("--storage-layout", v)?;
+ Ok(())
+ },
+        )],
     },
     OptionSpec {
         option: MethodOption::HeapSize,
-        flags: &[flag("heap_size", "--heap-size")],
-        written: |o| {
-            let h = o.frame.kbuffer.heap_size;
-            h.map_or(Vec::new(), |h| vec![("heap-size", h.to_string())])
-        },
+        flags: &[flag(
+            "heap_size",
+            "--heap-size",
+            "kplus-semiheap: slots of its max-heap (default 1, the paper's); the other k - h are unordered",
+            ValueKind::Optional {
+                min: 1,
+                max: 1024,
+                start: 1,
+            },
+            |f| f.kbuffer.heap_size.map(|h| h.to_string()),
+            |f, v| {
+ f.kbuffer.heap_size = parse_optional("--heap-size", v)?;
+ Ok(())
+ },
+        )],
     },
 ];
+
+/// One line refusing `text` for an on/off flag.
+fn not_on_or_off(flag: &str, text: Option<&str>) -> crate::error::Error {
+    crate::error::Error::input(format!(
+        "{flag} '{}' is neither on nor off",
+        crate::error::quoted(text.unwrap_or(""))
+    ))
+}

@@ -1,7 +1,7 @@
 //! The peeling methods' entries in the method table (kpeel's is in `kbuffer`, with its code).
 
 use crate::frame::BucketSplit;
-use crate::methods::options::{flag, unless_default, OptionSpec};
+use crate::methods::options::{flag, parse, parse_optional, OptionSpec, ValueKind};
 use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
@@ -78,18 +78,34 @@ pub const BUCKET: Descriptor = Descriptor {
 pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
         option: MethodOption::Layers,
-        flags: &[flag("layers", "--layers")],
-        written: |o| {
-            let layers = o.frame.peeling.layers;
-            layers.map_or(Vec::new(), |n| vec![("layers", n.to_string())])
-        },
+        flags: &[flag(
+            "layers",
+            "--layers",
+            "depth peeling: peel this many layers (default: the scene's depth complexity, measured by the frame itself)",
+            ValueKind::Optional {
+                min: 1,
+                max: crate::frame::MAX_LAYERS,
+                start: 8,
+            },
+            |f| f.peeling.layers.map(|n| n.to_string()),
+            |f, v| {
+ f.peeling.layers = parse_optional("--layers", v)?;
+ Ok(())
+ },
+        )],
     },
     OptionSpec {
         option: MethodOption::Buckets,
-        flags: &[flag("buckets", "--buckets")],
-        written: |o| {
-            let split = o.frame.peeling.buckets.name();
-            unless_default("buckets", split, BucketSplit::Uniform.name())
-        },
+        flags: &[flag(
+            "buckets",
+            "--buckets",
+            "bucket: split each pixel's depth range into k/2 equal buckets (uniform, the paper's method) or share the buckets among the occupied parts of a 1024-part histogram (adaptive, one more geometry pass)",
+            ValueKind::Choice(BucketSplit::NAMES),
+            |f| Some(f.peeling.buckets.name().to_string()),
+            |f, v| {
+ f.peeling.buckets = parse::<BucketSplit>("--buckets", v)?;
+ Ok(())
+ },
+        )],
     },
 ];

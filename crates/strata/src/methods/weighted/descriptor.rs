@@ -1,7 +1,8 @@
 //! The weighted methods' entries in the method table.
 
-use crate::frame::WeightedOptions;
-use crate::methods::options::{flag, unless_default, OptionSpec};
+use crate::frame::options::MAX_STOCHASTIC_PASSES;
+use crate::frame::{Moments, Weight};
+use crate::methods::options::{flag, parse, OptionSpec, ValueKind};
 use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
 
 /// The weighted methods' blend modes.
@@ -85,42 +86,76 @@ pub const OPTIONS: &[OptionSpec] = &[
     OptionSpec {
         option: MethodOption::Weight,
         flags: &[
-            flag("weight", "--weight"),
-            flag("depth_scale", "--depth-scale"),
+            flag(
+                "weight",
+                "--weight",
+                "wboit (and --tail weighted): the weight function (McGuire & Bavoil 2013, equations 7-10)",
+                ValueKind::Choice(Weight::NAMES),
+                |f| Some(f.weighted.weight.name().to_string()),
+                |f, v| {
+ f.weighted.weight = parse::<Weight>("--weight", v)?;
+ Ok(())
+ },
+            ),
+            flag(
+                "depth_scale",
+                "--depth-scale",
+                "wboit (and --tail weighted): multiplies view-space distances before the weight function (its constants assume distances of 0.1 to 500 units)",
+                ValueKind::Number {
+                    min: 1e-4,
+                    max: 1e4,
+                },
+                |f| Some(f.weighted.depth_scale.to_string()),
+                |f, v| {
+ f.weighted.depth_scale = parse("--depth-scale", v)?;
+ Ok(())
+ },
+            ),
         ],
-        written: |o| {
-            let (w, default) = (&o.frame.weighted, WeightedOptions::default());
-            let mut flags = unless_default("weight", w.weight.name(), default.weight.name());
-            flags.extend(unless_default(
-                "depth-scale",
-                w.depth_scale,
-                default.depth_scale,
-            ));
-            flags
-        },
     },
     OptionSpec {
         option: MethodOption::Moments,
-        flags: &[flag("moments", "--moments")],
-        written: |o| {
-            let default = WeightedOptions::default().moments;
-            unless_default("moments", o.frame.weighted.moments, default)
-        },
+        flags: &[flag(
+            "moments",
+            "--moments",
+            "mboit: power moments, 4, 6 or 8 (more follow more layers, at more memory and work), or trigonometric moments, trig2, trig3 or trig4 (as many real values as 4, 6, 8)",
+            ValueKind::Choice(&["4", "6", "8", "trig2", "trig3", "trig4"]),
+            |f| Some(f.weighted.moments.to_string()),
+            |f, v| {
+ f.weighted.moments = v.unwrap_or_default().parse::<Moments>()?;
+ Ok(())
+ },
+        )],
     },
     OptionSpec {
         option: MethodOption::Passes,
-        flags: &[flag("passes", "--passes")],
-        written: |o| {
-            let default = WeightedOptions::default().passes;
-            unless_default("passes", o.frame.weighted.passes, default)
-        },
+        flags: &[flag(
+            "passes",
+            "--passes",
+            "stochastic: passes of S samples each (more passes, less noise; 2·passes + 1 geometry passes)",
+            ValueKind::Count {
+                min: 1,
+                max: MAX_STOCHASTIC_PASSES,
+            },
+            |f| Some(f.weighted.passes.to_string()),
+            |f, v| {
+ f.weighted.passes = parse("--passes", v)?;
+ Ok(())
+ },
+        )],
     },
     OptionSpec {
         option: MethodOption::Coefficients,
-        flags: &[flag("coefficients", "--coefficients")],
-        written: |o| {
-            let default = WeightedOptions::default().coefficients;
-            unless_default("coefficients", o.frame.weighted.coefficients, default)
-        },
+        flags: &[flag(
+            "coefficients",
+            "--coefficients",
+            "wavelet: Haar coefficients of each pixel's absorbance over depth, 4 or 8 (its depth range in 4 or 8 bins)",
+            ValueKind::Choice(&["4", "8"]),
+            |f| Some(f.weighted.coefficients.to_string()),
+            |f, v| {
+ f.weighted.coefficients = parse("--coefficients", v)?;
+ Ok(())
+ },
+        )],
     },
 ];
