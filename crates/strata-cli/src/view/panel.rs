@@ -755,3 +755,65 @@ fn compare_controls(ui: &mut egui::Ui, panel: &mut Panel, actions: &mut Vec<Acti
         _ => {}
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Drawing the method controls with no input changes no option: each family option's widget,
+    /// made from its spec, shows the value it was given and sets nothing.
+    #[test]
+    fn the_method_controls_leave_every_option_as_given() {
+        for args in [
+            &[
+                "--method",
+                "kplus-semiheap",
+                "--heap-size",
+                "3",
+                "--max-tries",
+                "100",
+            ][..],
+            &[
+                "--method",
+                "kplus-array",
+                "--tail",
+                "weighted",
+                "--weight",
+                "eq9",
+            ],
+            &[
+                "--method",
+                "kb-ps",
+                "--culling",
+                "off",
+                "--storage-layout",
+                "slot",
+            ],
+            &[
+                "--method",
+                "wboit",
+                "--weight",
+                "eq8",
+                "--depth-scale",
+                "2.5",
+            ],
+            &["--method", "mboit", "--moments", "trig3"],
+            &["--method", "wavelet", "--coefficients", "4"],
+            &["--method", "stochastic", "--passes", "3"],
+            &["--method", "bucket", "--buckets", "adaptive"],
+            &["--method", "f2b", "--layers", "5"],
+            &["--method", "abuffer-ll"],
+        ] {
+            let mut words = vec!["builtin:spheres"];
+            words.extend_from_slice(args);
+            let mut state = crate::view::state::tests::state(&words);
+            let given = state.method.family.clone();
+            let ctx = egui::Context::default();
+            let output = ctx.run_ui(egui::RawInput::default(), |ui| {
+                method_controls(ui, &mut state);
+            });
+            output.drop_without_applying_deltas();
+            assert_eq!(state.method.family, given, "{args:?}");
+        }
+    }
+}

@@ -364,11 +364,12 @@ fn options_key(s: &ViewState) -> impl PartialEq {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use clap::Parser;
 
-    fn state(args: &[&str]) -> ViewState {
+    /// The view state of `strata view` with `args`.
+    pub(crate) fn state(args: &[&str]) -> ViewState {
         let cli = crate::Cli::try_parse_from(["strata", "view"].iter().chain(args).copied())
             .expect("valid command line");
         let crate::Command::View(v) = cli.command else {
