@@ -117,67 +117,20 @@ fn exact_methods_match_reference_on_scenes() {
     failures.finish("exact methods on scenes");
 }
 
-/// Every stage's composed WGSL validates with naga, so a shader error fails without a GPU.
+/// Every stage's composed WGSL validates with naga, so a shader error fails without a GPU: each
+/// family lists its own stages (`stages()` in its folder; the k-buffers', tiled's and bucket's
+/// are validated by their own tests).
 #[test]
 fn every_stage_validates() {
-    use super::{baseline, peeling, weighted};
-    use crate::gpu::shader::{validate, Stage};
-    let mut stages = vec![baseline::blend_stage()];
-    for samples in [1, 4] {
-        stages.push(baseline::finish_stage(samples));
-        stages.push(weighted::composite_stage(samples));
-        stages.push(weighted::mboit::composite_stage(samples));
-        use crate::frame::Moments;
-        for moments in [4, 6, 8].map(Moments::Power) {
-            stages.push(weighted::mboit::moments_stage(samples, moments));
-            stages.push(weighted::mboit::shade_stage(samples, moments));
-        }
-        for moments in [2, 3, 4].map(Moments::Trigonometric) {
-            stages.push(weighted::mboit::moments_stage(samples, moments));
-            stages.push(weighted::mboit::shade_stage(samples, moments));
-        }
-        for moments in [4, 8].map(Moments::Haar) {
-            stages.push(weighted::mboit::moments_stage(samples, moments));
-            stages.push(weighted::mboit::shade_stage(samples, moments));
-        }
-    }
-    stages.extend(super::downlevel::stages());
-    stages.push(
-        Stage::new(
-            "wboit.accumulate",
-            include_str!("weighted/wboit_accumulate.wgsl"),
-        )
-        .with(weighted::LIBRARY),
-    );
-    for samples in [1, 4] {
-        for (label, source) in [
-            ("f2b.peel", include_str!("peeling/f2b_peel.wgsl")),
-            (
-                "f2b.accumulate",
-                include_str!("peeling/f2b_accumulate.wgsl"),
-            ),
-        ] {
-            stages.push(
-                Stage::new(label, source)
-                    .with(peeling::LIBRARY)
-                    .defs(&crate::gpu::shader::target_samples(samples)),
-            );
-        }
-    }
-    for wide in [false, true] {
-        stages.push(peeling::dual_stage(
-            "dual.peel",
-            peeling::DUAL_PEEL_WGSL,
-            wide,
-        ));
-        stages.push(peeling::dual_stage(
-            "dual.advance",
-            peeling::DUAL_ADVANCE_WGSL,
-            wide,
-        ));
-    }
-    for stage in &stages {
-        validate(stage);
+    use super::{baseline, downlevel, peeling, weighted};
+    let families = [
+        baseline::stages(),
+        weighted::stages(),
+        peeling::stages(),
+        downlevel::stages().to_vec(),
+    ];
+    for stage in families.iter().flatten() {
+        crate::gpu::shader::validate(stage);
     }
 }
 

@@ -206,3 +206,11 @@ impl Method for Blend {
         vec![&self.cache]
     }
 }
+
+/// The family's stages as its methods build them, for the test that validates every stage.
+#[cfg(test)]
+pub(crate) fn stages() -> Vec<Stage> {
+    let mut stages = vec![blend_stage()];
+    stages.extend([1, 4].map(finish_stage));
+    stages
+}

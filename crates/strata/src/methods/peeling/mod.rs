@@ -609,3 +609,27 @@ impl Method for Dual {
         vec![&self.cache]
     }
 }
+
+/// The family's f2b and dual stages as its methods build them, for the test that validates
+/// every stage (bucket's are validated by its own tests).
+#[cfg(test)]
+pub(crate) fn stages() -> Vec<Stage> {
+    let mut stages = Vec::new();
+    for samples in [1, 4] {
+        for (label, source) in [
+            ("f2b.peel", include_str!("f2b_peel.wgsl")),
+            ("f2b.accumulate", include_str!("f2b_accumulate.wgsl")),
+        ] {
+            stages.push(
+                Stage::new(label, source)
+                    .with(LIBRARY)
+                    .defs(&crate::gpu::shader::target_samples(samples)),
+            );
+        }
+    }
+    for wide in [false, true] {
+        stages.push(dual_stage("dual.peel", DUAL_PEEL_WGSL, wide));
+        stages.push(dual_stage("dual.advance", DUAL_ADVANCE_WGSL, wide));
+    }
+    stages
+}

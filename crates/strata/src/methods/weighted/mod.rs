@@ -275,5 +275,26 @@ impl Method for Wboit {
     }
 }
 
+/// The family's stages as its methods build them (every moment set, single- and
+/// multisampled), for the test that validates every stage.
+#[cfg(test)]
+pub(crate) fn stages() -> Vec<Stage> {
+    use crate::frame::Moments;
+    let mut stages =
+        vec![Stage::new("wboit.accumulate", include_str!("wboit_accumulate.wgsl")).with(LIBRARY)];
+    for samples in [1, 4] {
+        stages.push(composite_stage(samples));
+        stages.push(mboit::composite_stage(samples));
+        let power = [4, 6, 8].map(Moments::Power);
+        let trigonometric = [2, 3, 4].map(Moments::Trigonometric);
+        let haar = [4, 8].map(Moments::Haar);
+        for moments in power.into_iter().chain(trigonometric).chain(haar) {
+            stages.push(mboit::moments_stage(samples, moments));
+            stages.push(mboit::shade_stage(samples, moments));
+        }
+    }
+    stages
+}
+
 #[cfg(test)]
 mod tests;
