@@ -107,6 +107,7 @@ mod tests {
         }
         assert_eq!(Fruit::default(), Fruit::Apple);
         assert_eq!(Fruit::Quince.index(), 2);
+        assert_eq!(Fruit::NAMES, ["apple", "pear", "quince"]);
         let e = "plum".parse::<Fruit>().unwrap_err().to_string();
         assert_eq!(e, "unknown --fruit 'plum' (expected apple, pear or quince)");
         let long = "x".repeat(500);

@@ -174,3 +174,39 @@ fn the_check_sees_grouped_and_plain_paths_and_skips_tests() {
     let text = "a\n#[cfg(test)]\nmod tests {\n crate::render::x();\n}\nb";
     assert_eq!(without_tests(text), "a\n\n\n\n\nb");
 }
+
+/// Every non-test source file of the workspace's crates (files named `tests.rs` or `testing.rs`
+/// and folders named `tests` are test code), with its line count.
+fn source_files(dir: &Path, found: &mut Vec<(std::path::PathBuf, usize)>) {
+    for entry in std::fs::read_dir(dir).unwrap().flatten() {
+        let path = entry.path();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if path.is_dir() {
+            if name != "tests" && name != "target" {
+                source_files(&path, found);
+            }
+        } else if name.ends_with(".rs") && name != "tests.rs" && name != "testing.rs" {
+            let lines = std::fs::read_to_string(&path).unwrap().lines().count();
+            found.push((path, lines));
+        }
+    }
+}
+
+/// A source file past 1000 lines holds more than one idea: split it.
+#[test]
+fn no_source_file_is_over_1000_lines() {
+    let crates = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = Vec::new();
+    source_files(&crates, &mut files);
+    assert!(files.len() > 100, "found only {} source files", files.len());
+    let long: Vec<String> = files
+        .iter()
+        .filter(|(_, lines)| *lines > 1000)
+        .map(|(path, lines)| format!("{}: {lines} lines", path.display()))
+        .collect();
+    assert!(
+        long.is_empty(),
+        "source files over 1000 lines:\n{}",
+        long.join("\n")
+    );
+}

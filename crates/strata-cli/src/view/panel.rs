@@ -764,46 +764,7 @@ mod tests {
     /// made from its spec, shows the value it was given and sets nothing.
     #[test]
     fn the_method_controls_leave_every_option_as_given() {
-        for args in [
-            &[
-                "--method",
-                "kplus-semiheap",
-                "--heap-size",
-                "3",
-                "--max-tries",
-                "100",
-            ][..],
-            &[
-                "--method",
-                "kplus-array",
-                "--tail",
-                "weighted",
-                "--weight",
-                "eq9",
-            ],
-            &[
-                "--method",
-                "kb-ps",
-                "--culling",
-                "off",
-                "--storage-layout",
-                "slot",
-            ],
-            &[
-                "--method",
-                "wboit",
-                "--weight",
-                "eq8",
-                "--depth-scale",
-                "2.5",
-            ],
-            &["--method", "mboit", "--moments", "trig3"],
-            &["--method", "wavelet", "--coefficients", "4"],
-            &["--method", "stochastic", "--passes", "3"],
-            &["--method", "bucket", "--buckets", "adaptive"],
-            &["--method", "f2b", "--layers", "5"],
-            &["--method", "abuffer-ll"],
-        ] {
+        for args in crate::view::state::tests::FAMILY_OPTIONS {
             let mut words = vec!["builtin:spheres"];
             words.extend_from_slice(args);
             let mut state = crate::view::state::tests::state(&words);

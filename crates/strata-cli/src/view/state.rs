@@ -532,50 +532,53 @@ pub(crate) mod tests {
         assert_eq!(scene.time, 12.5);
     }
 
+    /// Arguments that set every family option away from its default.
+    pub(crate) const FAMILY_OPTIONS: [&[&str]; 10] = [
+        &[
+            "--method",
+            "kplus-semiheap",
+            "--heap-size",
+            "3",
+            "--max-tries",
+            "100",
+        ],
+        &[
+            "--method",
+            "kplus-array",
+            "--tail",
+            "weighted",
+            "--weight",
+            "eq9",
+        ],
+        &[
+            "--method",
+            "kb-ps",
+            "--culling",
+            "off",
+            "--storage-layout",
+            "slot",
+        ],
+        &[
+            "--method",
+            "wboit",
+            "--weight",
+            "eq8",
+            "--depth-scale",
+            "2.5",
+        ],
+        &["--method", "mboit", "--moments", "trig3"],
+        &["--method", "wavelet", "--coefficients", "4"],
+        &["--method", "stochastic", "--passes", "2"],
+        &["--method", "bucket", "--buckets", "adaptive"],
+        &["--method", "f2b", "--layers", "5"],
+        &["--method", "abuffer-ll"],
+    ];
+
     /// Each family's options come back from the command line as they were set (their specs
     /// write them: `strata::methods::options`).
     #[test]
     fn command_line_keeps_every_family_option() {
-        for args in [
-            &[
-                "--method",
-                "kplus-semiheap",
-                "--heap-size",
-                "3",
-                "--tail",
-                "weighted",
-            ][..],
-            &[
-                "--method",
-                "kplus-array",
-                "--tail",
-                "weighted",
-                "--weight",
-                "eq9",
-            ],
-            &[
-                "--method",
-                "kb-ps",
-                "--culling",
-                "off",
-                "--max-tries",
-                "100",
-            ],
-            &["--method", "abuffer-ll", "--storage-layout", "slot"],
-            &[
-                "--method",
-                "wboit",
-                "--weight",
-                "eq8",
-                "--depth-scale",
-                "2.5",
-            ],
-            &["--method", "mboit", "--moments", "trig3"],
-            &["--method", "wavelet", "--coefficients", "4"],
-            &["--method", "stochastic", "--passes", "2"],
-            &["--method", "bucket", "--buckets", "adaptive"],
-            &["--method", "f2b", "--layers", "5"],
-        ] {
+        for args in FAMILY_OPTIONS {
             let mut words = vec!["builtin:spheres"];
             words.extend_from_slice(args);
             let s = state(&words);

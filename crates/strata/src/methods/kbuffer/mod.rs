@@ -115,6 +115,7 @@ pub mod sbuffer;
 pub mod stages;
 pub mod tail;
 pub mod temporal;
+pub mod variant;
 
 pub mod cpu;
 
@@ -131,6 +132,7 @@ use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
 pub use stages::{definitions, stage, Layout, LIBRARY, RESOLVE_WGSL, SLOTS_ENTRIES_WGSL};
 pub use tail::{tail_depth, tail_settings, TailSettings, TAIL_ORTHOGRAPHIC};
+pub use variant::Variant;
 
 gpu_struct! {
     /// The k-buffer family's uniforms (`strata::kbuffer::params`), bound as `kp` by storage.wgsl.
@@ -240,76 +242,6 @@ pub const DEFAULT_K: u32 = 16;
 /// chosen on lavapipe) and still bound the spin to milliseconds.
 pub const DEFAULT_MAX_TRIES: u32 = 1 << 16;
 pub use crate::frame::MAX_TRIES_LIMIT;
-
-/// The slot-array methods, which share one capture and resolve.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Variant {
-    /// `kplus-array`.
-    KplusArray,
-    /// `kplus-heap`.
-    KplusHeap,
-    /// `kplus-array-r`.
-    KplusArrayR,
-    /// `kb`.
-    Kb,
-    /// `kb-ps`.
-    KbPs,
-    /// `abuffer-fixed`.
-    AbufferFixed,
-    /// `kb-ab-fixed`.
-    KbAbFixed,
-    /// `kplus-semiheap`.
-    KplusSemiheap,
-    /// `mlab`.
-    Mlab,
-    /// `kplus-bitonic`.
-    KplusBitonic,
-}
-
-impl Variant {
-    /// The fragment entry point of the built-in capture.
-    fn entry(self) -> &'static str {
-        match self {
-            Variant::KplusArray | Variant::KplusBitonic => "fs_kplus_array",
-            Variant::KplusHeap => "fs_kplus_heap",
-            Variant::KplusArrayR => "fs_kplus_array_r",
-            Variant::Kb => "fs_kb",
-            Variant::KbPs => "fs_kb_ps",
-            Variant::AbufferFixed | Variant::KbAbFixed => "fs_fixed",
-            Variant::KplusSemiheap => "fs_kplus_semiheap",
-            Variant::Mlab => "fs_mlab",
-        }
-    }
-
-    fn fixed(self) -> bool {
-        matches!(self, Variant::AbufferFixed | Variant::KbAbFixed)
-    }
-
-    /// The method this variant is.
-    pub fn id(self) -> MethodId {
-        match self {
-            Variant::KplusArray => MethodId::KplusArray,
-            Variant::KplusHeap => MethodId::KplusHeap,
-            Variant::KplusArrayR => MethodId::KplusArrayR,
-            Variant::Kb => MethodId::Kb,
-            Variant::KbPs => MethodId::KbPs,
-            Variant::AbufferFixed => MethodId::AbufferFixed,
-            Variant::KbAbFixed => MethodId::KbAbFixed,
-            Variant::KplusSemiheap => MethodId::KplusSemiheap,
-            Variant::Mlab => MethodId::Mlab,
-            Variant::KplusBitonic => MethodId::KplusBitonic,
-        }
-    }
-
-    /// Its resolve's choices (resolve.wgsl): `kplus-bitonic` sorts by the bitonic network at
-    /// every list length.
-    fn resolve_defs(self) -> Defs {
-        match self {
-            Variant::KplusBitonic => Defs::default().flag("BITONIC_RESOLVE"),
-            _ => Defs::default(),
-        }
-    }
-}
 
 /// The largest k a method accepts (see the module docs).
 pub fn max_k(id: MethodId) -> u32 {
