@@ -72,19 +72,16 @@ pub fn check_given(a: &MethodArgs, picture: &PictureArgs) -> Result<()> {
             readers.join(", ")
         )))
     };
-    // A weighted tail weighs by --weight and --depth-scale.
-    let weighted_tail = a.family.frame.kbuffer.tail == strata::Tail::Weighted
-        && applies(Opt::TAIL, a.id(), picture.pipeline);
-    // Each method option's flags come from its spec (`strata::methods::options`).
-    let method_flags =
-        strata::methods::options::flags().map(|(f, option)| (f.id, f.flag, Opt::Method(option)));
-    for (id, flag, opt) in method_flags.chain([("budget_mb", "--budget-mb", Opt::Budget)]) {
-        if given(id)
-            && !applies(opt, a.id(), picture.pipeline)
-            && !(opt == Opt::WEIGHT && weighted_tail)
-        {
-            return refuse(flag, opt);
+    // Each method option's flags come from its spec (`strata::methods::options`); whether the
+    // method reads it, from its descriptor.
+    let d = a.id().descriptor();
+    for (f, option) in strata::methods::options::flags() {
+        if given(f.id) && !d.reads_with(option, &a.family.frame) {
+            return refuse(f.flag, Opt::Method(option));
         }
+    }
+    if given("budget_mb") && !applies(Opt::Budget, a.id(), picture.pipeline) {
+        return refuse("--budget-mb", Opt::Budget);
     }
     if given("seed") && a.order != Some(strata::order::Order::Random) {
         return Err(Error::input("--seed applies to --order random"));

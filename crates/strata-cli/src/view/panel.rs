@@ -385,14 +385,11 @@ fn method_controls(ui: &mut egui::Ui, state: &mut ViewState) {
             optional(ui, "robustness", &mut m.robustness, 0.95, 0.01..=1.0);
         }
     });
-    // Each family option's widget from its spec (`strata::methods::options`); a weighted tail
-    // weighs by --weight and --depth-scale too.
+    // Each family option's widget from its spec (`strata::methods::options`), enabled where
+    // the method reads it with these options (`Descriptor::reads_with`).
     let family = &mut m.family.frame;
-    let weighted_tail =
-        family.kbuffer.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, pipeline);
     for (flag, option) in strata::methods::options::flags() {
-        let opt = Opt::Method(option);
-        let enabled = applies(opt, id, pipeline) || (opt == Opt::WEIGHT && weighted_tail);
+        let enabled = id.descriptor().reads_with(option, family);
         if let Some(value) = flag.value {
             ui.add_enabled_ui(enabled, |ui| option_widget(ui, flag, value, family));
         }

@@ -277,14 +277,11 @@ impl ViewState {
         if let Some(r) = m.robustness {
             push("robustness", r.to_string());
         }
-        // The method's options, each written as its spec says where the method reads it (a
-        // weighted tail weighs by --weight and --depth-scale too).
+        // The method's options, each written as its spec says where the method reads it with
+        // these options (`Descriptor::reads_with`).
         let family = &m.family.frame;
-        let weighted_tail =
-            family.kbuffer.tail == strata::Tail::Weighted && applies(Opt::TAIL, id, p.pipeline);
         for spec in strata::methods::option_specs() {
-            let opt = Opt::Method(spec.option);
-            if applies(opt, id, p.pipeline) || (opt == Opt::WEIGHT && weighted_tail) {
+            if id.descriptor().reads_with(spec.option, family) {
                 for (name, value) in spec.written(family) {
                     push(name, value);
                 }

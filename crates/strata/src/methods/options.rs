@@ -260,4 +260,22 @@ mod tests {
             assert!(e.contains(f.flag) && e.contains("bogus"), "{e}");
         }
     }
+
+    /// `--weight` is read by the weighted methods, and by a k-buffer whose tail is weighted.
+    #[test]
+    fn a_weighted_tail_reads_the_weight() {
+        use crate::methods::MethodId;
+        let mut frame = FrameOptions::default();
+        let reads = |id: MethodId, frame: &FrameOptions| {
+            id.descriptor().reads_with(MethodOption::Weight, frame)
+        };
+        assert!(reads(MethodId::Wboit, &frame));
+        assert!(!reads(MethodId::KplusArray, &frame));
+        frame.kbuffer.tail = crate::frame::Tail::Weighted;
+        assert!(reads(MethodId::KplusArray, &frame));
+        assert!(
+            !reads(MethodId::AbufferLl, &frame),
+            "abuffer-ll keeps no tail"
+        );
+    }
 }

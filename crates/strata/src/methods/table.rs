@@ -12,7 +12,7 @@
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::frame::{Raster, RenderOptions, SceneGpu, Tail};
+use crate::frame::{FrameOptions, Raster, RenderOptions, SceneGpu, Tail};
 use crate::gpu::Gpu;
 use crate::scene::Blend;
 
@@ -362,6 +362,16 @@ impl Descriptor {
     /// Whether it reads `option`.
     pub fn reads(&self, option: MethodOption) -> bool {
         self.reads.contains(&option)
+    }
+
+    /// Whether a frame of this method with `frame`'s options reads `option`: what it always
+    /// reads, and `--weight` (with `--depth-scale`) where its fragments past k are weighted as
+    /// wboit weighs them (`--tail weighted`).
+    pub fn reads_with(&self, option: MethodOption, frame: &FrameOptions) -> bool {
+        self.reads(option)
+            || (option == MethodOption::Weight
+                && self.reads(MethodOption::Tail)
+                && frame.kbuffer.tail == Tail::Weighted)
     }
 
     /// Whether its capture needs acquire/release atomics (a lock, list links, or kpeel's

@@ -502,7 +502,7 @@ pub const OPTIONS: &[OptionSpec] = &[
                 f.kbuffer.culling = match v {
                     Some("on") => true,
                     Some("off") => false,
-                    _ => return Err(not_on_or_off("--culling", v)),
+                    other => return Err(not_on_or_off("--culling", other)),
                 };
                 Ok(())
             },
