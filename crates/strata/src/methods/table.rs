@@ -209,6 +209,11 @@ pub struct Descriptor {
     /// no import list; `None` where there is no such step.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub capture_step: Option<&'static str>,
+    /// The contention harness drives its capture (`kbuffer::contention`): a capture of its own
+    /// whose kept fragments the harness predicts (not a fixed array's first arrivals, mlab's
+    /// merges, or a capture another subject already drives).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub contended: bool,
     /// Whether it takes the application's own geometry and shaders
     /// ([`crate::FrameRecorder::for_application`]), and if not, why.
     #[cfg_attr(feature = "serde", serde(skip))]
@@ -303,6 +308,7 @@ impl Descriptor {
             ),
             draw_callback: Support::Yes,
             in_k_comparison: false,
+            contended: false,
             sorts_centroids: false,
             takes_order: true,
             blend_modes: Support::Yes,

@@ -25,8 +25,7 @@
 use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use super::{
-    definitions, group_layout, KParams, Layout, COUNTERS, COUNTER_LOCK_FAILURES, COUNTER_LOST,
-    LIBRARY,
+    definitions, group_layout, KParams, COUNTERS, COUNTER_LOCK_FAILURES, COUNTER_LOST, LIBRARY,
 };
 use crate::error::{Error, Result};
 use crate::frame::passes::compute_pipeline;
@@ -111,20 +110,13 @@ impl Case {
     }
 }
 
-/// The methods the harness drives, with their capture passes.
-pub fn subjects() -> [MethodId; 9] {
-    use MethodId::*;
-    [
-        KbKeys,
-        KplusArray,
-        KplusHeap,
-        KplusArrayR,
-        KplusSemiheap,
-        KbPs,
-        KbLl,
-        AbufferLl,
-        Kb,
-    ]
+/// The methods the harness drives (`Descriptor::contended`), in catalogue order.
+pub fn subjects() -> Vec<MethodId> {
+    crate::methods::TABLE
+        .iter()
+        .filter(|d| d.contended)
+        .map(|d| d.id)
+        .collect()
 }
 
 /// The harness stage of `method` on a storage of its layout, `coherent` where the adapter
@@ -133,21 +125,13 @@ pub fn subjects() -> [MethodId; 9] {
 /// many capture passes it takes.
 pub fn stage(method: MethodId, coherent: bool) -> Result<(Stage, u32)> {
     use MethodId::*;
-    let (layout, passes) = match method {
-        KplusArray | KplusHeap | KplusArrayR | KbPs | Kb => (Layout::Slots, 1),
-        KplusSemiheap => (Layout::Semiheap, 1),
-        KbLl | AbufferLl => (Layout::List, 1),
-        KbKeys => (Layout::Keys, 2),
-        _ => {
-            return Err(Error::unsupported(format!(
-                "the contention harness does not drive {method}"
-            )))
-        }
-    };
-    // Two passes: the keys' cascade, then the payloads of the keys that stayed.
-    let step = match (method, method.descriptor().capture_step) {
-        (KbKeys, _) => "if capture_pass == 0u {\n        strata::kbuffer::keys::cascade_key(p, f);\n    } else if !strata::kbuffer::keys::store_payload(p, f) {\n        strata::kbuffer::storage::tail_add(p, f);\n    }".to_owned(),
-        (_, Some(step)) => format!("{step};"),
+    let layout = super::descriptor::layout_of(method).ok_or_else(|| {
+        Error::unsupported(format!("the contention harness does not drive {method}"))
+    })?;
+    // Two passes for kb-keys: the keys' cascade, then the payloads of the keys that stayed.
+    let (step, passes) = match (method, method.descriptor().capture_step) {
+        (KbKeys, _) => ("if capture_pass == 0u {\n        strata::kbuffer::keys::cascade_key(p, f);\n    } else if !strata::kbuffer::keys::store_payload(p, f) {\n        strata::kbuffer::storage::tail_add(p, f);\n    }".to_owned(), 2),
+        (_, Some(step)) => (format!("{step};"), 1),
         (_, None) => {
             return Err(Error::unsupported(format!(
                 "{method} declares no capture step for the contention harness"

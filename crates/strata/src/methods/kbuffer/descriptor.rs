@@ -18,11 +18,24 @@ type Made = crate::error::Result<Box<dyn Method>>;
 /// method): each entry names its own builder, so no id falls through to another method. A
 /// builder an entry inherited from another (`..KPLUS_ARRAY`) refuses the entry's id.
 macro_rules! builders {
-    ($($name:ident => $storage:ident($kind:expr);)*) => {$(
-        fn $name(id: MethodId, made: &Setup<'_>) -> Made {
-            $storage(id, made, $kind)
+    ($($name:ident => $storage:ident($kind:expr);)*) => {
+        $(
+            fn $name(id: MethodId, made: &Setup<'_>) -> Made {
+                $storage(id, made, $kind)
+            }
+        )*
+
+        /// The storage layout of the method `id` of this family's typed data (what the
+        /// contention harness lays out for it), `None` for a method not built over one.
+        pub(crate) fn layout_of(id: MethodId) -> Option<super::Layout> {
+            $(
+                if $kind.id() == id {
+                    return Some($kind.layout());
+                }
+            )*
+            None
         }
-    )*};
+    };
 }
 
 builders! {
@@ -144,6 +157,7 @@ const K_LOCKED: &[MethodOption] = &[
 
 /// The method table's entry for `abuffer-ll`.
 pub const ABUFFER_LL: Descriptor = Descriptor {
+    contended: true,
     exact: true,
     geometry_passes: "1 (+1 when the node pool overflows)",
     memory: "20·nodes + 16·W·H + 156 (nodes ≥ F)",
@@ -203,6 +217,7 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-keys`.
 pub const KB_KEYS: Descriptor = Descriptor {
+    contended: true,
     in_k_comparison: true,
     k_memory: Some(|id, k, _, o| predict::k_slots(id, k, o, Mdt::Keys.slot_bytes())),
     needs: wgpu::Features::SHADER_INT64_ATOMIC_ALL_OPS,
@@ -220,6 +235,7 @@ pub const KB_KEYS: Descriptor = Descriptor {
 
 /// The method table's entry for `kb`.
 pub const KB: Descriptor = Descriptor {
+    contended: true,
     in_k_comparison: true,
     k_memory: Some(predict::slot_array),
     memory: KB_MEMORY,
@@ -235,6 +251,7 @@ pub const KB: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ps`.
 pub const KB_PS: Descriptor = Descriptor {
+    contended: true,
     in_k_comparison: true,
     k_memory: Some(predict::slot_array),
     exact: true,
@@ -288,6 +305,7 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
 
 /// The method table's entry for `kplus-array`.
 pub const KPLUS_ARRAY: Descriptor = Descriptor {
+    contended: true,
     in_k_comparison: true,
     k_memory: Some(predict::slot_array),
     exact: true,
@@ -314,6 +332,7 @@ pub const KPLUS_ARRAY_R: Descriptor = Descriptor {
 
 /// The method table's entry for `kplus-bitonic`.
 pub const KPLUS_BITONIC: Descriptor = Descriptor {
+    contended: false,
     in_k_comparison: false,
     summary: "k+-buffer max-array whose resolve sorts by the bitonic network at every k (the others sort up to 16 fragments by insertion)",
     ..Descriptor {
@@ -464,6 +483,7 @@ pub const KB_SBUFFER: Descriptor = Descriptor {
 
 /// The method table's entry for `kb-ll`.
 pub const KB_LL: Descriptor = Descriptor {
+    contended: true,
     in_k_comparison: true,
     k_memory: Some(predict::every_fragment),
     geometry_passes: "1 (+1 when the node pool overflows)",

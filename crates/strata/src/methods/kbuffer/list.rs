@@ -38,6 +38,11 @@ pub enum ListKind {
 }
 
 impl ListKind {
+    /// Its storage layout: per-pixel lists.
+    pub fn layout(self) -> Layout {
+        Layout::List
+    }
+
     /// The method this kind is.
     pub fn id(self) -> MethodId {
         match self {

@@ -846,11 +846,7 @@ impl SlotKBuffer {
         id: MethodId,
         variant: Variant,
     ) -> crate::error::Result<SlotKBuffer> {
-        let layout = if variant == Variant::KplusSemiheap {
-            Layout::Semiheap
-        } else {
-            Layout::Slots
-        };
+        let layout = variant.layout();
         let mut frame = KFrame::with_resolve_defs(gpu, scene, id, layout, &variant.resolve_defs());
         let module = frame.capture_module(gpu, scene, SLOTS_ENTRIES_WGSL, layout, true);
         Ok(SlotKBuffer {

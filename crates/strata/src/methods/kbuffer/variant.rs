@@ -1,6 +1,7 @@
 //! The slot k-buffers (`SlotKBuffer`): which method each is, its capture's entry point and its
 //! resolve's choices.
 
+use super::Layout;
 use crate::gpu::shader::Defs;
 use crate::methods::MethodId;
 
@@ -61,6 +62,14 @@ impl Variant {
             Variant::KplusSemiheap => MethodId::KplusSemiheap,
             Variant::Mlab => MethodId::Mlab,
             Variant::KplusBitonic => MethodId::KplusBitonic,
+        }
+    }
+
+    /// Its storage layout: the semi-heap's words, or plain slots.
+    pub fn layout(self) -> Layout {
+        match self {
+            Variant::KplusSemiheap => Layout::Semiheap,
+            _ => Layout::Slots,
         }
     }
 

@@ -188,3 +188,29 @@ fn harness_params_layout_matches_wgsl() {
         crate::gpu::shader::validate(&stage(method, true).unwrap().0);
     }
 }
+
+/// The harness drives each distinct capture whose kept set it predicts, from the table
+/// (`Descriptor::contended`), each on its own family's layout.
+#[test]
+fn the_harness_drives_each_distinct_capture() {
+    use MethodId::*;
+    let mut subjects = subjects();
+    subjects.sort();
+    let mut expected = vec![
+        KbKeys,
+        KplusArray,
+        KplusHeap,
+        KplusArrayR,
+        KplusSemiheap,
+        KbPs,
+        KbLl,
+        AbufferLl,
+        Kb,
+    ];
+    expected.sort();
+    assert_eq!(subjects, expected);
+    let e = stage(Mlab, false).err().map(|e| e.to_string());
+    assert!(e.is_none(), "mlab has a layout and a capture step: {e:?}");
+    let e = stage(Tiled, false).err().unwrap().to_string();
+    assert!(e.contains("does not drive tiled"), "{e}");
+}
