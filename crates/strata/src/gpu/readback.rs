@@ -161,6 +161,13 @@ impl Segments {
         segment
     }
 
+    /// The segment of the ranges `read` asks for (a stage appending its words).
+    pub fn read(&mut self, read: impl FnOnce(&mut ReadbackList)) -> Segment {
+        let mut list = ReadbackList::default();
+        read(&mut list);
+        self.push(list)
+    }
+
     /// The ranges to copy, in order.
     pub fn entries(&self) -> &[(wgpu::Buffer, u64, u64)] {
         &self.entries

@@ -77,14 +77,11 @@ impl FrameRecorder {
         histogram: Option<ReadbackList>,
     ) -> (Segments, StageWords) {
         let mut segments = Segments::default();
-        let mut list = ReadbackList::default();
-        list.words(&self.scene.totals, 0, TOTAL_WORDS);
-        let totals = segments.push(list);
+        let totals = segments.read(|list| list.words(&self.scene.totals, 0, TOTAL_WORDS));
         let timestamps = self.timer.resolve(encoder).map(|((buffer, at, n), names)| {
-            let mut list = ReadbackList::default();
-            list.words(&buffer, at, n);
-            (segments.push(list), names)
+            (segments.read(|list| list.words(&buffer, at, n)), names)
         });
+        // The rasterizer has counters only once it has binned this frame.
         let raster = self.raster.as_ref().and_then(|raster| {
             let mut list = ReadbackList::default();
             raster
@@ -92,9 +89,10 @@ impl FrameRecorder {
                 .then(|| (segments.push(list), raster.frame_capacity()))
         });
         let order = self.order.as_ref().map(|order| {
-            let mut list = ReadbackList::default();
-            order.read_counters(&mut list);
-            (segments.push(list), order.bytes())
+            (
+                segments.read(|list| order.read_counters(list)),
+                order.bytes(),
+            )
         });
         let method = segments.push(method);
         let histogram = histogram.map(|list| segments.push(list));
