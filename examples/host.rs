@@ -137,7 +137,7 @@ pub fn run(method: MethodId, size: u32, frames: u32) -> strata::Result<HostRun> 
         Background::Color(BACKGROUND_SRGB.map(|c| strata::scene::srgb_to_linear(c as f32 / 255.0)));
     let mut options = RenderOptions::sized(size, size);
     options.frame.background = background;
-    if method.descriptor().reads(strata::methods::MethodOption::K) {
+    if method.descriptor().reads(strata::methods::options::K) {
         options.frame.k = Some(16);
     }
 

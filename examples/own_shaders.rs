@@ -277,7 +277,7 @@ pub fn run(
     let gpu = Gpu::from_device(device.clone(), queue.clone());
     let mut options = RenderOptions::sized(SIZE, SIZE);
     options.build.msaa = samples;
-    if method.descriptor().reads(strata::methods::MethodOption::K) {
+    if method.descriptor().reads(strata::methods::options::K) {
         options.frame.k = Some(16);
     }
     let shader = AppShader::new(

@@ -8,7 +8,7 @@ use strata::methods::options::{flags, Flag, ValueKind};
 use strata::methods::MethodOption;
 
 /// The family options given (the rest at their defaults), in the frame options' family parts
-/// (`kbuffer`, `peeling`, `weighted`).
+/// (`FrameOptions::families`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FamilyArgs {
     pub frame: FrameOptions,
@@ -17,9 +17,7 @@ pub struct FamilyArgs {
 impl FamilyArgs {
     /// Sets `frame`'s family parts to these.
     pub fn apply(&self, frame: &mut FrameOptions) {
-        frame.kbuffer = self.frame.kbuffer;
-        frame.peeling = self.frame.peeling;
-        frame.weighted = self.frame.weighted;
+        frame.families = self.frame.families.clone();
     }
 }
 

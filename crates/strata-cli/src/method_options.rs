@@ -31,10 +31,10 @@ pub enum Opt {
 
 #[cfg_attr(not(feature = "view"), allow(dead_code))]
 impl Opt {
-    pub const K: Opt = Opt::Method(MethodOption::K);
-    pub const TAIL: Opt = Opt::Method(MethodOption::Tail);
-    pub const LAYERS_PER_PASS: Opt = Opt::Method(MethodOption::LayersPerPass);
-    pub const WEIGHT: Opt = Opt::Method(MethodOption::Weight);
+    pub const K: Opt = Opt::Method(strata::methods::options::K);
+    pub const TAIL: Opt = Opt::Method(strata::methods::kbuffer::options::TAIL);
+    pub const LAYERS_PER_PASS: Opt = Opt::Method(strata::methods::options::LAYERS_PER_PASS);
+    pub const WEIGHT: Opt = Opt::Method(strata::methods::weighted::options::WEIGHT);
 }
 
 /// Whether `method` (with `pipeline`) reads option `opt`.

@@ -4,6 +4,9 @@
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
+use strata::KBufferOptions;
+use strata::PeelingOptions;
+use strata::WeightedOptions;
 
 use strata::scene::loaders::{load_scene, load_scene_bytes, FileFormat};
 
@@ -315,10 +318,10 @@ fn run_options(case: &OptionCase) -> Outcome {
                 }
             }
             "--effect" => options.frame.effect = parsed(w)?,
-            "--tail" => options.frame.kbuffer.tail = parsed(w)?,
-            "--weight" => options.frame.weighted.weight = parsed(w)?,
-            "--buckets" => options.frame.peeling.buckets = parsed(w)?,
-            "--storage-layout" => options.frame.kbuffer.layout = parsed(w)?,
+            "--tail" => options.frame.family_mut::<KBufferOptions>().tail = parsed(w)?,
+            "--weight" => options.frame.family_mut::<WeightedOptions>().weight = parsed(w)?,
+            "--buckets" => options.frame.family_mut::<PeelingOptions>().buckets = parsed(w)?,
+            "--storage-layout" => options.frame.family_mut::<KBufferOptions>().layout = parsed(w)?,
             "--raster" => options.build.raster = parsed::<Raster>(w)?,
             "--order" => options.frame.order = Some(parsed(w)?),
             "--pipeline" => options.build.lighting.pipeline = Some(parsed(w)?),
@@ -326,7 +329,7 @@ fn run_options(case: &OptionCase) -> Outcome {
             "--normal-encoding" => {
                 options.build.lighting.normal_encoding = parsed::<NormalEncoding>(w)?
             }
-            "--moments" => options.frame.weighted.moments = parsed(w)?,
+            "--moments" => options.frame.family_mut::<WeightedOptions>().moments = parsed(w)?,
             "--background" => options.frame.background = parsed(w)?,
             other => unreachable!("no parser for {other}"),
         }
@@ -338,15 +341,15 @@ fn run_options(case: &OptionCase) -> Outcome {
     options.frame.budget_mb = case.budget_mb;
     options.build.msaa = case.msaa;
     let [max_tries, heap_size, layers, passes, coefficients] = case.counts;
-    options.frame.kbuffer.max_tries = max_tries;
-    options.frame.kbuffer.heap_size = heap_size;
-    options.frame.peeling.layers = layers;
+    options.frame.family_mut::<KBufferOptions>().max_tries = max_tries;
+    options.frame.family_mut::<KBufferOptions>().heap_size = heap_size;
+    options.frame.family_mut::<PeelingOptions>().layers = layers;
     if let Some(p) = passes {
-        options.frame.weighted.passes = p;
+        options.frame.family_mut::<WeightedOptions>().passes = p;
     }
     if let Some(c) = coefficients {
-        options.frame.weighted.coefficients = c;
+        options.frame.family_mut::<WeightedOptions>().coefficients = c;
     }
-    options.frame.weighted.depth_scale = case.depth_scale;
+    options.frame.family_mut::<WeightedOptions>().depth_scale = case.depth_scale;
     options.validate().map_err(|e| e.to_string())
 }

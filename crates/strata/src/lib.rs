@@ -85,13 +85,12 @@ pub mod scene;
 pub(crate) mod testing;
 
 pub use error::{Error, Result};
-pub use frame::{
-    BucketSplit, BuildOptions, Effect, FrameOptions, FrameStats, FrameTargets, Moments,
-    RenderOptions, StorageLayout, Tail, Weight,
-};
+pub use frame::{BuildOptions, Effect, FrameOptions, FrameStats, FrameTargets, RenderOptions};
 /// The math types strata's API names (camera, lights, meshes), at the version strata builds with.
 pub use glam;
 pub use methods::downlevel::DownlevelFrame;
-pub use methods::kbuffer::DEFAULT_MAX_TRIES;
+pub use methods::kbuffer::{KBufferOptions, StorageLayout, Tail, DEFAULT_MAX_TRIES};
+pub use methods::peeling::{BucketSplit, PeelingOptions};
+pub use methods::weighted::{Moments, Weight, WeightedOptions};
 pub use methods::MethodId;
 pub use render::{FrameRecorder, LinearImage, Renderer};

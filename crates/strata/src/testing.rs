@@ -273,7 +273,7 @@ impl Failures {
             return self.check(method, Err(format!("{method} is not a method")));
         };
         let dropped = stats.fragments_dropped.unwrap_or(0);
-        let promise = d.exact && d.reads(crate::methods::MethodOption::K) && stats.k.is_some();
+        let promise = d.exact && d.reads(crate::methods::options::K) && stats.k.is_some();
         let says = (stats.exact, stats.exact_k_nearest);
         let expected = match promise {
             true => (Some(dropped == 0), Some(true)),

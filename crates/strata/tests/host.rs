@@ -36,7 +36,7 @@ fn host_example_matches_the_reference() {
                 background: run.background,
                 k: method
                     .descriptor()
-                    .reads(strata::methods::MethodOption::K)
+                    .reads(strata::methods::options::K)
                     .then_some(16),
                 ..Default::default()
             },

@@ -16,9 +16,7 @@ pub struct Run {
     pub(crate) raster: strata::frame::Raster,
     /// The families' options, as the library holds them (a family's new option needs nothing
     /// here).
-    pub(crate) kbuffer: strata::frame::KBufferOptions,
-    pub(crate) peeling: strata::frame::PeelingOptions,
-    pub(crate) weighted: strata::frame::WeightedOptions,
+    pub(crate) families: strata::frame::FamilyOptions,
 }
 
 impl Run {
@@ -33,10 +31,19 @@ impl Run {
             k: None,
             msaa,
             raster: strata::frame::Raster::Hw,
-            kbuffer: Default::default(),
-            peeling: Default::default(),
-            weighted: Default::default(),
+            families: Default::default(),
         }
+    }
+
+    /// `self` with a family's options set to `options`.
+    fn with<T: strata::frame::FamilyOption>(mut self, options: T) -> Run {
+        self.families.set(options);
+        self
+    }
+
+    /// The k-buffer family's options of this run.
+    pub(crate) fn kbuffer(&self) -> strata::KBufferOptions {
+        self.families.get()
     }
 
     /// `method` at `k` with the fragments past k blended into a tail (`--tail blend|weighted`:
@@ -44,12 +51,12 @@ impl Run {
     pub(crate) fn with_tail(method: &str, k: u32, tail: strata::Tail) -> Run {
         Run {
             label: format!("{method} k={k} tail={}", tail.name()),
-            kbuffer: strata::frame::KBufferOptions {
-                tail,
-                ..Default::default()
-            },
             ..Run::with_k(method, k, true)
         }
+        .with(strata::KBufferOptions {
+            tail,
+            ..Default::default()
+        })
     }
 
     /// stochastic with `msaa` samples per pixel and `passes` passes.
@@ -57,24 +64,24 @@ impl Run {
         Run {
             label: format!("stochastic msaa={msaa} passes={passes}"),
             msaa,
-            weighted: strata::frame::WeightedOptions {
-                passes,
-                ..Default::default()
-            },
             ..Run::plain("stochastic")
         }
+        .with(strata::WeightedOptions {
+            passes,
+            ..Default::default()
+        })
     }
 
     /// wavelet with `coefficients` Haar coefficients.
     pub(crate) fn wavelet(coefficients: u32) -> Run {
         Run {
             label: format!("wavelet coefficients={coefficients}"),
-            weighted: strata::frame::WeightedOptions {
-                coefficients,
-                ..Default::default()
-            },
             ..Run::plain("wavelet")
         }
+        .with(strata::WeightedOptions {
+            coefficients,
+            ..Default::default()
+        })
     }
 
     /// `base` with this run's method options.
@@ -83,22 +90,18 @@ impl Run {
         options.frame.k = self.k;
         options.build.msaa = self.msaa;
         options.build.raster = self.raster;
-        options.frame.kbuffer = self.kbuffer;
-        options.frame.peeling = self.peeling;
-        options.frame.weighted = self.weighted;
+        options.frame.families = self.families.clone();
         options
     }
 
     /// `self` with its per-pixel arrays laid out by `layout` (`--storage-layout`).
     pub(crate) fn laid_out(self, layout: strata::StorageLayout) -> Run {
+        let kbuffer = self.kbuffer();
         Run {
             label: format!("{} layout={}", self.label, layout.name()),
-            kbuffer: strata::frame::KBufferOptions {
-                layout,
-                ..self.kbuffer
-            },
             ..self
         }
+        .with(strata::KBufferOptions { layout, ..kbuffer })
     }
 
     /// `self` on the compute rasterizer (`--raster compute`).
@@ -115,23 +118,23 @@ impl Run {
         Run {
             label: format!("bucket {} k={k}", split.name()),
             k: Some(k),
-            peeling: strata::frame::PeelingOptions {
-                buckets: split,
-                ..Default::default()
-            },
             ..Run::plain("bucket")
         }
+        .with(strata::PeelingOptions {
+            buckets: split,
+            ..Default::default()
+        })
     }
 
     pub(crate) fn mboit(moments: strata::Moments) -> Run {
         Run {
             label: format!("mboit moments={moments}"),
-            weighted: strata::frame::WeightedOptions {
-                moments,
-                ..Default::default()
-            },
             ..Run::plain("mboit")
         }
+        .with(strata::WeightedOptions {
+            moments,
+            ..Default::default()
+        })
     }
 
     /// `self` at `msaa` samples per pixel.
@@ -146,25 +149,25 @@ impl Run {
     pub(crate) fn wboit(weight: strata::Weight, depth_scale: f64) -> Run {
         Run {
             label: format!("wboit {} scale={depth_scale}", weight.name()),
-            weighted: strata::frame::WeightedOptions {
-                weight,
-                depth_scale,
-                ..Default::default()
-            },
             ..Run::plain("wboit")
         }
+        .with(strata::WeightedOptions {
+            weight,
+            depth_scale,
+            ..Default::default()
+        })
     }
 
     pub(crate) fn with_k(method: &str, k: u32, culling: bool) -> Run {
         Run {
             label: format!("{method} k={k}{}", if culling { "" } else { " no-culling" }),
             k: Some(k),
-            kbuffer: strata::frame::KBufferOptions {
-                culling,
-                ..Default::default()
-            },
             ..Run::plain(method)
         }
+        .with(strata::KBufferOptions {
+            culling,
+            ..Default::default()
+        })
     }
 }
 
@@ -301,8 +304,8 @@ impl MethodResult {
             label: run.label.clone(),
             method: run.method.clone(),
             k: run.k,
-            culling: run.kbuffer.culling,
-            storage_layout: run.kbuffer.layout.name(),
+            culling: run.kbuffer().culling,
+            storage_layout: run.kbuffer().layout.name(),
             msaa: run.msaa,
             frames,
             median_gpu_ms: None,

@@ -23,7 +23,8 @@
 
 use crate::bench::{csv_of, fixed, opt, Column};
 use std::path::Path;
-use strata::frame::{FrameOptions, KBufferOptions};
+use strata::frame::FrameOptions;
+use strata::methods::kbuffer::KBufferOptions;
 
 use serde::Serialize;
 use strata::error::Result;
@@ -171,10 +172,6 @@ fn options(
             width: size.0,
             height: size.1,
             k: Some(K),
-            kbuffer: KBufferOptions {
-                culling: config.culling,
-                ..Default::default()
-            },
             order: Some(order),
             order_seed: seed,
             temporal: config.temporal.then_some(TemporalCulling {
@@ -182,7 +179,11 @@ fn options(
                 ..Default::default()
             }),
             ..Default::default()
-        },
+        }
+        .with_family(KBufferOptions {
+            culling: config.culling,
+            ..Default::default()
+        }),
         ..Default::default()
     }
 }

@@ -23,6 +23,7 @@
 use crate::bench::{csv_of, fixed, opt, print_rows, scene_column, Column};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use strata::KBufferOptions;
 
 use serde::Serialize;
 use strata::error::{Error, Result};
@@ -307,7 +308,7 @@ fn run_scenes(
                 bar.set_message(format!("{short}: strata {label}"));
                 let mut options = options.clone();
                 options.frame.k = k;
-                options.frame.kbuffer.tail = tail;
+                options.frame.family_mut::<KBufferOptions>().tail = tail;
                 let run = match k {
                     Some(k) => Run::with_k(method, k, true),
                     None => Run::plain(method),

@@ -4,12 +4,14 @@ use crate::{check_outputs, prepare_render, with_context, write_outputs, MethodAr
 use clap::Args;
 use std::path::{Path, PathBuf};
 use strata::error::{Error, Result};
-use strata::frame::{FrameStats, Tail};
+use strata::frame::FrameStats;
 use strata::gpu::Gpu;
+use strata::methods::kbuffer::Tail;
 use strata::methods::tiled::TiledStats;
 use strata::methods::MethodId;
 use strata::output::Outputs;
 use strata::render::{save_png, Renderer};
+use strata::KBufferOptions;
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -37,7 +39,7 @@ pub fn finish_picture(
     stats_path: Option<&Path>,
 ) -> Result<()> {
     write_outputs(image, stats, options.frame.effect, output, stats_path)?;
-    summary(stats, output, options.frame.kbuffer.tail);
+    summary(stats, output, options.frame.family::<KBufferOptions>().tail);
     Ok(())
 }
 
@@ -333,7 +335,7 @@ pub fn render_sequence(a: RenderArgs, range: &str) -> Result<()> {
             stats.method_choice = a.method.choice();
             lines += &serde_json::to_string(&stats).map_err(|e| Error::runtime(e.to_string()))?;
             lines.push('\n');
-            last = Some((stats, path, options.frame.kbuffer.tail));
+            last = Some((stats, path, options.frame.family::<KBufferOptions>().tail));
             bar.inc(1);
         }
         if let Some(path) = &a.stats {

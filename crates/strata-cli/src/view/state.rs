@@ -385,33 +385,33 @@ pub(crate) mod tests {
         assert!(
             applies(Opt::K, Bucket, None)
                 && applies(
-                    Opt::Method(strata::methods::MethodOption::Buckets),
+                    Opt::Method(strata::methods::peeling::options::BUCKETS),
                     Bucket,
                     None
                 )
         );
         assert!(!applies(Opt::TAIL, Wboit, None));
         assert!(applies(
-            Opt::Method(strata::methods::MethodOption::MaxTries),
+            Opt::Method(strata::methods::kbuffer::options::MAX_TRIES),
             KplusArray,
             None
         ));
         assert!(
             !applies(
-                Opt::Method(strata::methods::MethodOption::MaxTries),
+                Opt::Method(strata::methods::kbuffer::options::MAX_TRIES),
                 KbMdt32,
                 None
             ),
             "MDT takes no lock"
         );
         assert!(applies(
-            Opt::Method(strata::methods::MethodOption::Layers),
+            Opt::Method(strata::methods::peeling::options::LAYERS),
             Dual,
             None
         ));
         assert!(
             applies(
-                Opt::Method(strata::methods::MethodOption::Layers),
+                Opt::Method(strata::methods::peeling::options::LAYERS),
                 Kpeel,
                 None
             ),
@@ -420,7 +420,7 @@ pub(crate) mod tests {
         assert!(
             applies(Opt::TAIL, AbufferFixed, None)
                 && !applies(
-                    Opt::Method(strata::methods::MethodOption::Culling),
+                    Opt::Method(strata::methods::kbuffer::options::CULLING),
                     AbufferFixed,
                     None
                 )

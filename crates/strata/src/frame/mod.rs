@@ -40,16 +40,12 @@ use crate::gpu::Gpu;
 pub use crate::scene::{Pipeline, MAX_SIDE};
 
 pub use crate::gpu::readback::ReadbackList;
-pub use family::{FamilyStat, FamilyStats};
-pub use options::{
-    Band, BucketSplit, BuildOptions, Effect, FrameOptions, KBufferOptions, Lighting, Moments,
-    PeelingOptions, RenderOptions, StorageLayout, Tail, Weight, WeightedOptions, BAND_ALIGN,
-    MAX_LAYERS,
-};
+pub use family::{FamilyOption, FamilyOptions, FamilyStat, FamilyStats};
+pub use options::{Band, BuildOptions, Effect, FrameOptions, Lighting, RenderOptions, BAND_ALIGN};
 pub use scene_gpu::SceneGpu;
 pub use values::{
     ComputeRasterStats, GbufferView, LightingStats, NormalEncoding, Raster, TemporalCulling,
-    Tonemap, MAX_TRIES_LIMIT,
+    Tonemap,
 };
 
 /// How a pixel's depth-ordered fragments become a color.

@@ -384,7 +384,10 @@ mod gpu_tests {
         assert!(selected.fragments_dropped.unwrap() > 0);
         let layers = {
             let mut options = two.clone();
-            options.frame.peeling.layers = Some(2);
+            options
+                .frame
+                .family_mut::<crate::methods::peeling::PeelingOptions>()
+                .layers = Some(2);
             options.frame.k = Some(1);
             options
         };

@@ -61,10 +61,6 @@ pub const DEFAULT_REFRESH: u32 = 8;
 /// Default depth margin of the culling test (`--temporal-epsilon`).
 pub const DEFAULT_EPSILON: f32 = 1e-5;
 
-/// The most tries `--max-tries` accepts: every waiting fragment spins at most this long, a bound
-/// that keeps a starving pixel within a frame's time instead of the driver's reset.
-pub const MAX_TRIES_LIMIT: u32 = 1 << 20;
-
 keyword_enum! {
     /// The display transform of the lit pipelines (`--tonemap`).
     #[derive(Default)]

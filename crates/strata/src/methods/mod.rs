@@ -30,7 +30,8 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::{Gpu, ResourceCache};
-pub use table::{Descriptor, Family, MethodOption, Ordering, Support};
+pub use options::MethodOption;
+pub use table::{Descriptor, Family, Ordering, Support};
 
 /// Every method id of the catalogue (with the `clap` feature, a `clap::ValueEnum` whose names
 /// are the ids).
@@ -106,13 +107,14 @@ pub enum MethodId {
 }
 
 /// Every method option's spec ([`options::OptionSpec`]), family by family: each family's
-/// folder declares its own (`OPTIONS` beside its descriptors), this list registers them.
+/// folder declares its own (`OPTIONS` in its `options.rs`, convex's beside its descriptor),
+/// this list registers them.
 pub fn option_specs() -> impl Iterator<Item = &'static options::OptionSpec> {
     [
         options::SHARED,
-        kbuffer::descriptor::OPTIONS,
-        peeling::descriptor::OPTIONS,
-        weighted::descriptor::OPTIONS,
+        kbuffer::options::OPTIONS,
+        peeling::options::OPTIONS,
+        weighted::options::OPTIONS,
         convex::descriptor::OPTIONS,
     ]
     .into_iter()
@@ -247,7 +249,7 @@ pub fn markdown_table() -> String {
             msaa.join(","),
             d.blend_names(),
             yes(d.app_shaders.yes()),
-            match d.reads(MethodOption::K) {
+            match d.reads(crate::methods::options::K) {
                 true => d.max_k.to_string(),
                 false => "—".to_string(),
             },

@@ -2,8 +2,9 @@
 //! (which the viewer's widget offers), how it is read from and written into a frame's options,
 //! and so how a frame's value of it is written back on a `strata render` line. Each family
 //! declares its own options' specs beside its descriptors (`OPTIONS` in its `descriptor.rs`;
-//! [`super::option_specs`] lists them all); the values live in the family's part of
-//! [`FrameOptions`] (`kbuffer`, `peeling`, `weighted`), whose `validate` checks their ranges.
+//! [`super::option_specs`] lists them all); the values live in the family's options struct
+//! (`KBufferOptions`, `PeelingOptions`, `WeightedOptions`, each in its folder's `options.rs`,
+//! which checks their ranges), carried by [`FrameOptions::families`].
 //! The CLI's arguments, its refusal of an option the method does not read, the viewer's
 //! widgets and its command line are made from these.
 
@@ -12,7 +13,35 @@ use std::str::FromStr;
 use crate::error::{Error, Result};
 use crate::frame::FrameOptions;
 
-use super::table::MethodOption;
+/// A parameter that only some methods read (`Descriptor::reads`), known by its name: each family
+/// declares its own beside its options (`kbuffer::options::TAIL`), the ones several families
+/// share are here ([`K`], [`LAYERS_PER_PASS`]).
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+pub struct MethodOption(&'static str);
+
+impl MethodOption {
+    /// The option called `name` (its main flag without the dashes).
+    pub const fn named(name: &'static str) -> MethodOption {
+        MethodOption(name)
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        self.0
+    }
+}
+
+impl std::fmt::Debug for MethodOption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "--{}", self.0)
+    }
+}
+
+/// `--k`: how many fragments a pixel keeps.
+pub const K: MethodOption = MethodOption::named("k");
+
+/// `--layers-per-pass`: kpeel's other name for k.
+pub const LAYERS_PER_PASS: MethodOption = MethodOption::named("layers-per-pass");
 
 /// One method option: the flags that set it.
 #[derive(Clone, Copy, Debug)]
@@ -175,11 +204,11 @@ pub fn flags() -> impl Iterator<Item = (&'static Flag, MethodOption)> {
 /// the CLI: `--k` takes `auto`, and the picture's options write it).
 pub(super) const SHARED: &[OptionSpec] = &[
     OptionSpec {
-        option: MethodOption::K,
+        option: K,
         flags: &[kept_flag("k", "--k", "fragments kept per pixel")],
     },
     OptionSpec {
-        option: MethodOption::LayersPerPass,
+        option: LAYERS_PER_PASS,
         flags: &[kept_flag(
             "layers_per_pass",
             "--layers-per-pass",
@@ -201,6 +230,11 @@ mod tests {
                 seen.insert(format!("{:?}", spec.option)),
                 "{:?} twice",
                 spec.option
+            );
+            assert_eq!(
+                spec.flags.first().map(|f| f.name()),
+                Some(spec.option.name()),
+                "an option is named as its first flag"
             );
             for f in spec.flags {
                 assert_eq!(f.flag, format!("--{}", f.id.replace('_', "-")), "{f:?}");
@@ -267,11 +301,14 @@ mod tests {
         use crate::methods::MethodId;
         let mut frame = FrameOptions::default();
         let reads = |id: MethodId, frame: &FrameOptions| {
-            id.descriptor().reads_with(MethodOption::Weight, frame)
+            id.descriptor()
+                .reads_with(crate::methods::weighted::options::WEIGHT, frame)
         };
         assert!(reads(MethodId::Wboit, &frame));
         assert!(!reads(MethodId::KplusArray, &frame));
-        frame.kbuffer.tail = crate::frame::Tail::Weighted;
+        frame
+            .family_mut::<crate::methods::kbuffer::KBufferOptions>()
+            .tail = crate::methods::kbuffer::Tail::Weighted;
         assert!(reads(MethodId::KplusArray, &frame));
         assert!(
             !reads(MethodId::AbufferLl, &frame),

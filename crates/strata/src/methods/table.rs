@@ -12,8 +12,10 @@
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::frame::{FrameOptions, Raster, RenderOptions, SceneGpu, Tail};
+use crate::frame::{FrameOptions, Raster, RenderOptions, SceneGpu};
 use crate::gpu::Gpu;
+use crate::methods::kbuffer::{KBufferOptions, Tail};
+use crate::methods::options::MethodOption;
 use crate::scene::Blend;
 
 use super::traffic::TrafficModel;
@@ -99,39 +101,6 @@ pub enum Ordering {
     /// kpeel: its lock-free key cascade needs none, its fallback capture (the k+-buffer's, under
     /// a lock, for `--msaa` or without 64-bit atomics) does.
     LockedFallback,
-}
-
-/// A method parameter that only some methods read (`Descriptor::reads`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MethodOption {
-    /// `--k`: how many fragments a pixel keeps.
-    K,
-    /// `--tail`: what becomes of the fragments past k.
-    Tail,
-    /// `--culling`: the test against a full pixel's farthest kept fragment.
-    Culling,
-    /// `--max-tries`: the bound on a lock's or a link's retries.
-    MaxTries,
-    /// `--storage-layout`: slot-major or pixel-major per-pixel arrays.
-    StorageLayout,
-    /// `--layers`: the peeling passes.
-    Layers,
-    /// `--layers-per-pass`.
-    LayersPerPass,
-    /// `--heap-size`: kplus-semiheap's heap.
-    HeapSize,
-    /// `--buckets`: bucket's split.
-    Buckets,
-    /// `--weight` and `--depth-scale`.
-    Weight,
-    /// `--moments`.
-    Moments,
-    /// `--passes`: stochastic's passes.
-    Passes,
-    /// `--coefficients`: wavelet's Haar coefficients.
-    Coefficients,
-    /// `--cache-dir`: the preprocesses kept between runs.
-    CacheDir,
 }
 
 /// A method's bytes at a k, its memory formula as code (`Descriptor::memory` is its text), for
@@ -331,7 +300,8 @@ impl Descriptor {
     /// pool or rasterizer overflow, convex order violation); `dropped`: fragments not composited.
     pub fn exactness(&self, k: Option<u32>, dropped: u64, kept: bool) -> (bool, Option<bool>) {
         let exact = (self.exact || self.exact_without_drops) && kept && dropped == 0;
-        let k_nearest = (self.exact && self.reads(MethodOption::K) && k.is_some()).then_some(kept);
+        let k_nearest =
+            (self.exact && self.reads(super::options::K) && k.is_some()).then_some(kept);
         (exact, k_nearest)
     }
 
@@ -375,9 +345,9 @@ impl Descriptor {
     /// wboit weighs them (`--tail weighted`).
     pub fn reads_with(&self, option: MethodOption, frame: &FrameOptions) -> bool {
         self.reads(option)
-            || (option == MethodOption::Weight
-                && self.reads(MethodOption::Tail)
-                && frame.kbuffer.tail == Tail::Weighted)
+            || (option == crate::methods::weighted::options::WEIGHT
+                && self.reads(crate::methods::kbuffer::options::TAIL)
+                && frame.family::<KBufferOptions>().tail == Tail::Weighted)
     }
 
     /// Whether its capture needs acquire/release atomics (a lock, list links, or kpeel's
@@ -402,7 +372,7 @@ impl Descriptor {
     ) -> Result<()> {
         self.check_raster(options.build.raster)?;
         self.check_msaa(options.build.msaa, triangles)?;
-        self.check_blend(blend_modes, options.frame.kbuffer.tail)?;
+        self.check_blend(blend_modes, options.frame.family::<KBufferOptions>().tail)?;
         self.check_temporal(options.frame.temporal.is_some())
     }
 
@@ -479,7 +449,7 @@ impl Descriptor {
                 honouring.join(", ")
             )));
         }
-        if tail != Tail::Drop && self.reads(MethodOption::Tail) {
+        if tail != Tail::Drop && self.reads(crate::methods::kbuffer::options::TAIL) {
             return Err(Error::unsupported(format!(
                 "{} --tail {}: the tail blends the fragments past k over one another, which '{}' materials do not; use --tail drop or a larger --k",
                 self.name,
@@ -518,7 +488,7 @@ pub const REFERENCE: Descriptor = Descriptor {
     memory: "host: 64·F",
     summary:
         "CPU exact renderer: every fragment, sorted by depth then primitive, composited in f64",
-    reads: &[MethodOption::K],
+    reads: &[super::options::K],
     traffic: TrafficModel::None,
     ..Descriptor::new(
         MethodId::Reference,

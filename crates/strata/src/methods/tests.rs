@@ -7,6 +7,7 @@
 //! also differ by f32 shading and f16 fragment storage, which stays far below 2/255.
 
 use crate::frame::{Effect, RenderOptions};
+use crate::methods::kbuffer::KBufferOptions;
 use crate::scene::{loaders, Blend, Scene};
 use crate::testing::{
     assert_exact, assert_input_error, assert_unsupported, differing_pixels, render_gpu,
@@ -390,7 +391,7 @@ fn methods_that_only_blend_over_refuse_add_and_multiply_in_one_line() {
         );
     }
     // A k-buffer's tail blends over: refused with such materials.
-    opts.frame.kbuffer.tail = crate::frame::Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().tail = crate::methods::kbuffer::Tail::Blend;
     let e = crate::Renderer::new(crate::testing::gpu(), &s, &opts)
         .and_then(|mut r| r.render("kplus-heap"))
         .expect_err("a blended tail refused")
@@ -454,7 +455,7 @@ fn exact_methods_are_deterministic() {
 fn pool_overflows_and_stays_exact(method: &str, passes: u32) -> (Scene, RenderOptions) {
     let s = scene("builtin:spheres?layers=12");
     let mut opts = options(64, Effect::Transparency);
-    opts.frame.kbuffer.initial_nodes = Some(16);
+    opts.frame.family_mut::<KBufferOptions>().initial_nodes = Some(16);
     let (actual, stats) = render_gpu(&s, &opts, method);
     assert_eq!(stats.overflow, Some(true), "{method}");
     assert_eq!(stats.geometry_passes, passes, "{method}");
@@ -467,7 +468,7 @@ fn pool_overflows_and_stays_exact(method: &str, passes: u32) -> (Scene, RenderOp
 fn abuffer_pool_overflow_is_detected_and_the_image_stays_exact() {
     let (s, mut opts) = pool_overflows_and_stays_exact("abuffer-ll", 2);
     // A pool that fits reports no overflow.
-    opts.frame.kbuffer.initial_nodes = None;
+    opts.frame.family_mut::<KBufferOptions>().initial_nodes = None;
     assert_eq!(render_gpu(&s, &opts, "abuffer-ll").1.overflow, Some(false));
 }
 
@@ -476,7 +477,7 @@ fn abuffer_budget_too_small_is_a_clear_error() {
     let s = scene("builtin:spheres?layers=12");
     let mut opts = options(64, Effect::Transparency);
     opts.frame.budget_mb = Some(0.02);
-    opts.frame.kbuffer.initial_nodes = Some(16);
+    opts.frame.family_mut::<KBufferOptions>().initial_nodes = Some(16);
     let e = renderer(&s, &opts).render("abuffer-ll").unwrap_err();
     assert_input_error("abuffer-ll", &e, "--budget-mb");
 }
@@ -581,7 +582,7 @@ fn bytes_allocated_follow_the_catalogue_formulas() {
         );
     }
     let mut opts = opts;
-    opts.frame.kbuffer.initial_nodes = Some(5000);
+    opts.frame.family_mut::<KBufferOptions>().initial_nodes = Some(5000);
     assert_eq!(
         render_gpu(&s, &opts, "abuffer-ll").1.bytes_allocated,
         20 * 5000 + 16 * px + 156
@@ -740,7 +741,7 @@ pub(crate) fn check_poisoned(opts: &RenderOptions, methods: impl Iterator<Item =
 fn poisoned_storage_changes_nothing() {
     let mut opts = options(40, Effect::Translucency);
     opts.frame.k = Some(6);
-    opts.frame.kbuffer.tail = crate::Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().tail = crate::Tail::Blend;
     // kb-mdt64 and kb-mdt-pack refuse translucency (and kb-mdt-pack a blended tail).
     let methods = frame_test_methods()
         .filter(|m| !matches!(m, super::MethodId::KbMdt64 | super::MethodId::KbMdtPack));
@@ -754,8 +755,8 @@ fn poisoned_storage_changes_nothing() {
 fn poisoned_storage_changes_nothing_without_culling() {
     let mut opts = options(40, Effect::Translucency);
     opts.frame.k = Some(6);
-    opts.frame.kbuffer.tail = crate::Tail::Blend;
-    opts.frame.kbuffer.culling = false;
+    opts.frame.family_mut::<KBufferOptions>().tail = crate::Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().culling = false;
     check_poisoned(&opts, super::kbuffer::ordered_methods());
 }
 
@@ -772,7 +773,7 @@ fn poisoned_storage_changes_nothing_with_the_tail_dropped() {
 fn poisoned_storage_changes_nothing_multisampled() {
     let mut opts = options(32, Effect::Translucency);
     opts.frame.k = Some(6);
-    opts.frame.kbuffer.tail = crate::Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().tail = crate::Tail::Blend;
     opts.build.msaa = 4;
     check_poisoned(
         &opts,
@@ -848,7 +849,9 @@ fn allocation_counters_saturate_instead_of_wrapping() {
     let s = scene("builtin:spheres?layers=6");
     let mut opts = options(32, Effect::Transparency);
     opts.frame.k = Some(4);
-    opts.frame.kbuffer.allocation_counter_start = u32::MAX - 8;
+    opts.frame
+        .family_mut::<KBufferOptions>()
+        .allocation_counter_start = u32::MAX - 8;
     let gpu = crate::testing::gpu();
     for m in [
         super::MethodId::AbufferLl,

@@ -1,5 +1,6 @@
 use super::*;
 use crate::frame::{BuildOptions, FrameOptions};
+use crate::methods::kbuffer::KBufferOptions;
 use crate::methods::MethodId;
 use proptest::prelude::*;
 
@@ -179,7 +180,8 @@ fn may_starve(method: MethodId) -> bool {
 fn patient(method: MethodId, opts: &RenderOptions) -> RenderOptions {
     let mut opts = opts.clone();
     if may_starve(method) {
-        opts.frame.kbuffer.max_tries = Some(crate::frame::MAX_TRIES_LIMIT);
+        opts.frame.family_mut::<KBufferOptions>().max_tries =
+            Some(crate::methods::kbuffer::MAX_TRIES_LIMIT);
     }
     opts
 }

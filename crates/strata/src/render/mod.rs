@@ -15,10 +15,12 @@ use crate::frame::GbufferView;
 use crate::frame::{Band, DrawCallback, FrameStats, FrameTargets, Resolved, BAND_ALIGN};
 use crate::gpu::{readback, Gpu};
 use crate::methods::downlevel::{is_downlevel, DownlevelFrame};
+use crate::methods::peeling::PeelingOptions;
 use crate::methods::MethodId;
 use crate::scene::{srgb_to_linear, Scene};
 
-pub use crate::frame::{Effect, RenderOptions, Tail};
+pub use crate::frame::{Effect, RenderOptions};
+pub use crate::methods::kbuffer::Tail;
 
 /// Exact mode gives up after this many frames of one picture (each one grows what overflowed,
 /// so two suffice unless the scene changed in between).
@@ -443,7 +445,14 @@ impl<'g> Renderer<'g> {
             opaque_depth: Some(&opaque),
         };
         let (mut submits, mut passes) = (0, 0);
-        if method == MethodId::F2b && self.options.frame.peeling.layers.is_none() {
+        if method == MethodId::F2b
+            && self
+                .options
+                .frame
+                .family::<PeelingOptions>()
+                .layers
+                .is_none()
+        {
             // One counting pass tells the layers, where growing from the probe would take
             // several frames.
             let deepest = peeling.count_layers(gpu, &opaque)?;

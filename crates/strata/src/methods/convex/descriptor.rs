@@ -1,7 +1,7 @@
 //! convex's entry in the method table.
 
-use crate::methods::options::{kept_flag, OptionSpec};
-use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
+use crate::methods::options::{kept_flag, MethodOption, OptionSpec};
+use crate::methods::table::{Descriptor, Family, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
@@ -16,7 +16,7 @@ pub const CONVEX: Descriptor = Descriptor {
     geometry_passes: "1 read of the geometry, split over P passes (P: groups in the deepest chain of groups whose screen footprints meet)",
     memory: "(16·L + 60)·W·H + 12·triangles + 64; L = 2, or 4 with paired groups",
     summary: "convex polyhedra (seed 001): convex parts by region growing, ordered per frame by separating planes and nesting; each pass captures groups that cannot share a pixel (2 layers per part) and merges them front to back; exact when the order holds, order_violations counted",
-    reads: &[MethodOption::CacheDir],
+    reads: &[CACHE_DIR],
     app_shaders: Support::No(
         "it decomposes the scene's meshes into convex parts on the CPU and draws them in visibility order, and an application's buffers give it no meshes",
     ),
@@ -32,10 +32,13 @@ pub const CONVEX: Descriptor = Descriptor {
     ..Descriptor::new(MethodId::Convex, "convex", Family::Convex, create)
 };
 
+/// `--cache-dir`.
+pub const CACHE_DIR: MethodOption = MethodOption::named("cache-dir");
+
 /// `convex`'s option: where its decompositions are kept between runs (a path the CLI makes
 /// absolute).
 pub const OPTIONS: &[OptionSpec] = &[OptionSpec {
-    option: MethodOption::CacheDir,
+    option: CACHE_DIR,
     flags: &[kept_flag(
         "cache_dir",
         "--cache-dir",

@@ -32,6 +32,8 @@
 //! the CPU from the pixels' counts. No `--msaa`, `--raster compute`, `--order`, `--pipeline` or
 //! `--temporal` here; the complexity effect is read back but not presented.
 
+use crate::methods::kbuffer::KBufferOptions;
+use crate::methods::peeling::PeelingOptions;
 use bytemuck::Zeroable;
 
 use crate::error::{Error, Result};
@@ -41,10 +43,11 @@ use crate::frame::passes::{
 };
 use crate::frame::stats::StatsRing;
 use crate::frame::uniforms::{self, GpuLight, GpuMaterial, LightingSetup};
-use crate::frame::{Effect, FrameStats, FrameTargets, Raster, RenderOptions, Resolved, MAX_LAYERS};
+use crate::frame::{Effect, FrameStats, FrameTargets, Raster, RenderOptions, Resolved};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Stage};
 use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::peeling::MAX_LAYERS;
 use crate::scene::{Camera, GpuVertex, Scene};
 
 use super::peeling::FIRST_GUESS_LAYERS;
@@ -200,9 +203,10 @@ impl DownlevelFrame {
             return Err(refusal(gpu, method));
         }
         check_options(options)?;
-        method
-            .descriptor()
-            .check_blend(&scene.blend_modes(), options.frame.kbuffer.tail)?;
+        method.descriptor().check_blend(
+            &scene.blend_modes(),
+            options.frame.family::<KBufferOptions>().tail,
+        )?;
         let device = &gpu.device;
         if scene.materials.len() > UNIFORM_MATERIALS {
             return Err(Error::unsupported(format!(
@@ -428,7 +432,7 @@ impl DownlevelFrame {
     pub fn layers(&self) -> u32 {
         self.options
             .frame
-            .peeling
+            .family::<PeelingOptions>()
             .layers
             .unwrap_or(self.next_layers)
             .clamp(1, MAX_LAYERS)
@@ -692,7 +696,12 @@ impl DownlevelFrame {
         let deeper = words.map(|w| w[0] != 0 || w[1] != 0);
         stats.geometry_passes = tag.layers + 1;
         stats.exact = deeper.map(|d| !d);
-        let fixed = self.options.frame.peeling.layers.is_some();
+        let fixed = self
+            .options
+            .frame
+            .family::<PeelingOptions>()
+            .layers
+            .is_some();
         if deeper == Some(true) && !fixed {
             self.next_layers = self
                 .next_layers

@@ -1,5 +1,6 @@
 use super::*;
 use crate::frame::FrameTargets;
+use crate::methods::peeling::PeelingOptions;
 use crate::methods::MethodId;
 use crate::metrics::LinearImage;
 use crate::scene::{Background, Blend};
@@ -137,7 +138,7 @@ fn downlevel_frames_peel_more_until_nothing_lies_deeper() {
     assert_eq!(stats.geometry_passes, 1 + 21);
     assert_exact("downlevel-deep", &s, &options, &image);
     let mut fixed = options.clone();
-    fixed.frame.peeling.layers = Some(3);
+    fixed.frame.family_mut::<PeelingOptions>().layers = Some(3);
     let (_, stats) = render(webgl2(), &s, &fixed);
     assert_eq!(stats.exact, Some(false));
     assert_eq!(stats.fragments_generated, None);

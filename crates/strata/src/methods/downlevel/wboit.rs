@@ -8,6 +8,7 @@ use crate::frame::passes::{
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::Stage;
 use crate::gpu::Gpu;
+use crate::methods::weighted::WeightedOptions;
 use crate::methods::weighted::{WboitParams, ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
 
 use super::{DownlevelFrame, COUNT_FORMAT, STATE_FORMAT};
@@ -104,7 +105,7 @@ impl DownlevelFrame {
         let accumulation = view("strata.wboit_downlevel.accumulation", ACCUMULATION_FORMAT);
         let revealage = view("strata.wboit_downlevel.revealage", REVEALAGE_FORMAT);
         let count = view("strata.wboit_downlevel.count", COUNT_FORMAT);
-        let params = WboitParams::new(&self.options.frame.weighted);
+        let params = WboitParams::new(&self.options.frame.family::<WeightedOptions>());
         let params = self.cache.uniform(
             gpu,
             "strata.wboit_downlevel.params",

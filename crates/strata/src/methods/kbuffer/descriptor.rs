@@ -1,14 +1,15 @@
 //! The entries in the method table of everything built on the k-buffer machinery (storage.wgsl):
 //! the A-buffers, the k-buffers, the k+-buffers and kpeel.
 
-use crate::frame::{StorageLayout, Tail};
-use crate::methods::options::{flag, parse, parse_optional, OptionSpec, ValueKind};
-use crate::methods::table::{Descriptor, Family, MethodOption, Ordering, Setup, Support};
+use crate::methods::options::{MethodOption, K, LAYERS_PER_PASS};
+use crate::methods::peeling::options::LAYERS;
+use crate::methods::table::{Descriptor, Family, Ordering, Setup, Support};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
 use super::list::{ListKBuffer, ListKind};
 use super::mdt::{Mdt, MdtKBuffer};
+use super::options::{CULLING, HEAP_SIZE, MAX_TRIES, STORAGE_LAYOUT, TAIL};
 use super::sbuffer::{RegionKind, SBuffer};
 use super::{predict, SlotKBuffer, Variant};
 
@@ -132,7 +133,7 @@ const fn locked(
     Descriptor {
         per_sample_storage: true,
         ordering: Ordering::Locks,
-        reads: K_LOCKED,
+        reads: K_LOCKED_READS,
         max_k: 256,
         ..entry(id, name, family, build)
     }
@@ -141,19 +142,8 @@ const fn locked(
 /// A k-buffer proper: reads `--k`, `--tail`, `--culling` and `--storage-layout`; a locking one
 /// `--max-tries` too. Every method of this family lays out its per-pixel arrays by
 /// `--storage-layout`.
-const K: &[MethodOption] = &[
-    MethodOption::K,
-    MethodOption::Tail,
-    MethodOption::Culling,
-    MethodOption::StorageLayout,
-];
-const K_LOCKED: &[MethodOption] = &[
-    MethodOption::K,
-    MethodOption::Tail,
-    MethodOption::Culling,
-    MethodOption::MaxTries,
-    MethodOption::StorageLayout,
-];
+const K_READS: &[MethodOption] = &[K, TAIL, CULLING, STORAGE_LAYOUT];
+const K_LOCKED_READS: &[MethodOption] = &[K, TAIL, CULLING, MAX_TRIES, STORAGE_LAYOUT];
 
 /// The method table's entry for `abuffer-ll`.
 pub const ABUFFER_LL: Descriptor = Descriptor {
@@ -164,7 +154,7 @@ pub const ABUFFER_LL: Descriptor = Descriptor {
     summary: "A-buffer of per-pixel linked lists; a pool that overflowed grows for the next frame (exact mode re-renders)",
     capture_step: Some("strata::kbuffer::list::capture_list(p, f)"),
     traffic: TrafficModel::Lists,
-    reads: &[MethodOption::StorageLayout],
+    reads: &[STORAGE_LAYOUT],
     ..entry(MethodId::AbufferLl, "abuffer-ll", Family::Abuffer, abuffer_ll)
 };
 
@@ -175,7 +165,7 @@ pub const SBUFFER: Descriptor = Descriptor {
     memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 156",
     summary: "S-buffer: a count pass, a GPU prefix sum over the pixels, every pixel's fragments stored in one contiguous region (no per-pixel slack)",
     traffic: TrafficModel::Sbuffers,
-    reads: &[MethodOption::StorageLayout],
+    reads: &[STORAGE_LAYOUT],
     ..entry(MethodId::Sbuffer, "sbuffer", Family::Abuffer, sbuffer)
 };
 
@@ -188,10 +178,10 @@ pub const KPEEL: Descriptor = Descriptor {
     per_sample_storage: true,
     ordering: Ordering::LockedFallback,
     reads: &[
-        MethodOption::K,
-        MethodOption::Layers,
-        MethodOption::LayersPerPass,
-        MethodOption::StorageLayout,
+        K,
+        LAYERS,
+        LAYERS_PER_PASS,
+        STORAGE_LAYOUT,
     ],
     max_k: 1024,
     traffic: TrafficModel::Kpeel,
@@ -207,9 +197,9 @@ pub const ABUFFER_FIXED: Descriptor = Descriptor {
     summary: "A-buffer of fixed per-pixel arrays of k slots (FABS); fragments past k are counted as dropped",
     capture_step: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
     reads: &[
-        MethodOption::K,
-        MethodOption::Tail,
-        MethodOption::StorageLayout,
+        K,
+        TAIL,
+        STORAGE_LAYOUT,
     ],
     traffic: TrafficModel::Slots { atomics: true },
     ..entry(MethodId::AbufferFixed, "abuffer-fixed", Family::Abuffer, abuffer_fixed)
@@ -226,7 +216,7 @@ pub const KB_KEYS: Descriptor = Descriptor {
     memory: KB_MEMORY,
     summary: "lock-free exact k-buffer: an atomicMax cascade of 64-bit (depth, primitive) keys keeps the k nearest sorted, payloads stored by tag in a second geometry pass; nothing spins or fails (SHADER_INT64_ATOMIC_ALL_OPS)",
     per_sample_storage: true,
-    reads: K,
+    reads: K_READS,
     max_k: 512,
     // Keys cleared and cascaded, payloads written once and read by the resolve.
     traffic: TrafficModel::Keys { bytes: 16 },
@@ -243,7 +233,7 @@ pub const KB: Descriptor = Descriptor {
     per_sample_storage: true,
     temporal: true,
     capture_step: Some("strata::kbuffer::kb_capture::capture_sorted_unlocked(p, f)"),
-    reads: K,
+    reads: K_READS,
     max_k: 256,
     traffic: TrafficModel::Slots { atomics: false },
     ..entry(MethodId::Kb, "kb", Family::Kbuffer, kb)
@@ -271,9 +261,9 @@ pub const MLAB: Descriptor = Descriptor {
     summary: "multi-layer alpha blending: k layers in depth order under a per-pixel spin lock, the two farthest merged when a fragment makes k + 1 (exact up to k fragments; merges vary with arrival order)",
     capture_step: Some("strata::kbuffer::kb_capture::capture_mlab(p, f)"),
     reads: &[
-        MethodOption::K,
-        MethodOption::MaxTries,
-        MethodOption::StorageLayout,
+        K,
+        MAX_TRIES,
+        STORAGE_LAYOUT,
     ],
     past_k: Some("beyond k were merged into the farthest layers (approximate where a pixel has more than k + 1)"),
     // MLAB-4, the published comparison's; the critical section is kb-ps's, so is the limit.
@@ -293,7 +283,7 @@ pub const KB_AB_FIXED: Descriptor = Descriptor {
     summary:
         "every fragment in fixed arrays sized from measured need, the k nearest selected in resolve",
     capture_step: Some("strata::kbuffer::fixed_capture::capture_fixed(p, f)"),
-    reads: K,
+    reads: K_READS,
     traffic: TrafficModel::Slots { atomics: true },
     ..entry(
         MethodId::KbAbFixed,
@@ -375,12 +365,12 @@ pub const KPLUS_SEMIHEAP: Descriptor = Descriptor {
     summary: "semi-heap k-buffer (seed 000): a max-heap of the h farthest (--heap-size, default 1) and an unordered rest; the first k - h fragments stored without the lock, culling against the heap top",
     capture_step: Some("strata::kbuffer::semiheap_capture::capture_semiheap(p, f)"),
     reads: &[
-        MethodOption::K,
-        MethodOption::Tail,
-        MethodOption::Culling,
-        MethodOption::MaxTries,
-        MethodOption::HeapSize,
-        MethodOption::StorageLayout,
+        K,
+        TAIL,
+        CULLING,
+        MAX_TRIES,
+        HEAP_SIZE,
+        STORAGE_LAYOUT,
     ],
     ..Descriptor {
         id: MethodId::KplusSemiheap,
@@ -399,7 +389,7 @@ pub const KB_MDT32: Descriptor = Descriptor {
     memory: "20·k·W·H + 16·W·H + 116 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test: atomicMax cascade of depth keys, colors fetched in a second geometry pass (ties beyond k share keys)",
     per_sample_storage: true,
-    reads: K,
+    reads: K_READS,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 4 + 16 },
     ..entry(MethodId::KbMdt32, "kb-mdt32", Family::Kbuffer, kb_mdt32)
@@ -423,7 +413,7 @@ pub const KB_MDT64: Descriptor = Descriptor {
     memory: "8·k·W·H + 16·W·H + 116 + 40·(W·H with --tail blend, else 1)",
     summary: "multi-depth test on 64-bit keys: depth and 8-bit sRGB color in one cascade (SHADER_INT64_ATOMIC_ALL_OPS)",
     msaa: EIGHT_BYTE_KEYS,
-    reads: K,
+    reads: K_READS,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 8 },
     blend_modes: KEYS_WITHOUT_PRIMITIVE,
@@ -438,7 +428,7 @@ pub const KB_MDT_PACK: Descriptor = Descriptor {
     summary:
         "multi-depth test packing: 20 depth bits + 12 color bits in two 32-bit cascades (seed 002)",
     msaa: EIGHT_BYTE_KEYS,
-    reads: K,
+    reads: K_READS,
     max_k: 512,
     traffic: TrafficModel::Keys { bytes: 8 },
     blend_modes: KEYS_WITHOUT_PRIMITIVE,
@@ -459,7 +449,7 @@ pub const KB_AB_LL: Descriptor = Descriptor {
     memory: "20·nodes + 16·W·H + 116 + 40·(W·H with --tail blend, else 1); nodes ≥ F",
     summary: "A-buffer linked lists, the k nearest selected in resolve",
     capture_step: Some("strata::kbuffer::list::capture_list(p, f)"),
-    reads: K,
+    reads: K_READS,
     traffic: TrafficModel::Lists,
     ..entry(MethodId::KbAbLl, "kb-ab-ll", Family::Kbuffer, kb_ab_ll)
 };
@@ -471,7 +461,7 @@ pub const KB_SBUFFER: Descriptor = Descriptor {
     geometry_passes: "2 (+2 when the pool overflows)",
     memory: "16·F + 16·W·H + 4·(W·H + W·H/256 + …) + 116 + 40·(W·H with --tail blend, else 1)",
     summary: "every fragment in S-buffer regions, the k nearest selected in resolve",
-    reads: K,
+    reads: K_READS,
     traffic: TrafficModel::Sbuffers,
     ..entry(
         MethodId::KbSbuffer,
@@ -493,97 +483,3 @@ pub const KB_LL: Descriptor = Descriptor {
     traffic: TrafficModel::Lists,
     ..locked(MethodId::KbLl, "kb-ll", Family::Kbuffer, kb_ll)
 };
-
-/// The k-buffer family's options (`--k` is every k method's: `methods::options`).
-pub const OPTIONS: &[OptionSpec] = &[
-    OptionSpec {
-        option: MethodOption::Tail,
-        flags: &[flag(
-            "tail",
-            "--tail",
-            "fragments beyond k (k-buffer methods): dropped, blended into one term behind the k nearest, or weighted as wboit weighs them (--weight, --depth-scale)",
-            ValueKind::Choice(Tail::NAMES),
-            |f| Some(f.kbuffer.tail.name().to_string()),
-            |f, v| {
- f.kbuffer.tail = parse::<Tail>("--tail", v)?;
- Ok(())
- },
-        )],
-    },
-    OptionSpec {
-        option: MethodOption::Culling,
-        flags: &[flag(
-            "culling",
-            "--culling",
-            "k-buffers cull fragments behind a full pixel's farthest before taking the lock",
-            ValueKind::Choice(&["on", "off"]),
-            |f| Some(if f.kbuffer.culling { "on" } else { "off" }.to_string()),
-            |f, v| {
-                f.kbuffer.culling = match v {
-                    Some("on") => true,
-                    Some("off") => false,
-                    other => return Err(not_on_or_off("--culling", other)),
-                };
-                Ok(())
-            },
-        )],
-    },
-    OptionSpec {
-        option: MethodOption::MaxTries,
-        flags: &[flag(
-            "max_tries",
-            "--max-tries",
-            "lock tries per shader invocation for the locking k-buffers and kb-ll (default 65536, at most 1048576): per fragment, shared by an invocation's fragments under --raster compute",
-            ValueKind::Optional {
-                min: 1,
-                max: crate::frame::MAX_TRIES_LIMIT,
-                start: super::DEFAULT_MAX_TRIES,
-            },
-            |f| f.kbuffer.max_tries.map(|t| t.to_string()),
-            |f, v| {
- f.kbuffer.max_tries = parse_optional("--max-tries", v)?;
- Ok(())
- },
-        )],
-    },
-    OptionSpec {
-        option: MethodOption::StorageLayout,
-        flags: &[flag(
-            "storage_layout",
-            "--storage-layout",
-            "the k-buffers' and A-buffers' per-pixel arrays: pixel (each pixel's items together, as the papers draw them) or slot (item i of every pixel together, so that the neighbouring pixels of a GPU warp share memory transactions; see `strata bench kbuffer-layout`)",
-            ValueKind::Choice(StorageLayout::NAMES),
-            |f| Some(f.kbuffer.layout.name().to_string()),
-            |f, v| {
- f.kbuffer.layout = parse::<StorageLayout>("--storage-layout", v)?;
- Ok(())
- },
-        )],
-    },
-    OptionSpec {
-        option: MethodOption::HeapSize,
-        flags: &[flag(
-            "heap_size",
-            "--heap-size",
-            "kplus-semiheap: slots of its max-heap (default 1, the paper's); the other k - h are unordered",
-            ValueKind::Optional {
-                min: 1,
-                max: 1024,
-                start: 1,
-            },
-            |f| f.kbuffer.heap_size.map(|h| h.to_string()),
-            |f, v| {
- f.kbuffer.heap_size = parse_optional("--heap-size", v)?;
- Ok(())
- },
-        )],
-    },
-];
-
-/// One line refusing `text` for an on/off flag.
-fn not_on_or_off(flag: &str, text: Option<&str>) -> crate::error::Error {
-    crate::error::Error::input(format!(
-        "{flag} '{}' is neither on nor off",
-        crate::error::quoted(text.unwrap_or(""))
-    ))
-}

@@ -18,6 +18,7 @@ use crate::error::Result;
 use crate::frame::passes::GeometryStage;
 use crate::frame::{wide, FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::kbuffer::KBufferOptions;
 use crate::methods::{Method, MethodId};
 
 /// Bytes of one list node: a fragment and the next node's index.
@@ -108,7 +109,7 @@ impl ListKBuffer {
             super::sample_frame_bytes_besides_storage(
                 ctx.pixels(),
                 sample_slots,
-                ctx.options.frame.kbuffer.tail.kept(),
+                ctx.options.frame.family::<KBufferOptions>().tail.kept(),
             ),
             0,
         )?;

@@ -31,6 +31,7 @@ use crate::error::{Error, Result};
 use crate::frame::passes::GeometryStage;
 use crate::frame::{Effect, FrameContext, MethodStats, Recorded, SceneGpu, Totals};
 use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::kbuffer::KBufferOptions;
 use crate::methods::{Method, MethodId};
 
 /// Which multi-depth test.
@@ -130,7 +131,7 @@ impl Method for MdtKBuffer {
                 self.frame.id
             )));
         }
-        if self.mdt == Mdt::Pack && ctx.options.frame.kbuffer.tail.kept() {
+        if self.mdt == Mdt::Pack && ctx.options.frame.family::<KBufferOptions>().tail.kept() {
             return Err(Error::unsupported("kb-mdt-pack cannot blend a tail: a displaced key carries half a color; use --tail drop"));
         }
         let k = k_of(ctx.k, self.frame.id)?;

@@ -110,6 +110,7 @@ pub mod descriptor;
 pub mod kpeel;
 pub mod list;
 pub mod mdt;
+pub mod options;
 pub mod predict;
 pub mod sbuffer;
 pub mod stages;
@@ -130,6 +131,7 @@ use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::{Method, MethodId};
+pub use options::{KBufferOptions, StorageLayout, Tail, MAX_TRIES_LIMIT};
 pub use stages::{definitions, stage, Layout, LIBRARY, RESOLVE_WGSL, SLOTS_ENTRIES_WGSL};
 pub use tail::{tail_depth, tail_settings, TailSettings, TAIL_ORTHOGRAPHIC};
 pub use variant::Variant;
@@ -241,7 +243,6 @@ pub const DEFAULT_K: u32 = 16;
 /// fragments of a test pixel queue for it: 65536 tries leave room for that queue (4096 was
 /// chosen on lavapipe) and still bound the spin to milliseconds.
 pub const DEFAULT_MAX_TRIES: u32 = 1 << 16;
-pub use crate::frame::MAX_TRIES_LIMIT;
 
 /// The largest k a method accepts (see the module docs).
 pub fn max_k(id: MethodId) -> u32 {
@@ -305,7 +306,11 @@ pub fn sample_storage(id: MethodId, msaa: u32) -> u32 {
 
 /// kplus-semiheap's |H|: `--heap-size`, default 1 (the paper's), at most k.
 pub fn heap_size(options: &RenderOptions, k: u32) -> Result<u32> {
-    let h = options.frame.kbuffer.heap_size.unwrap_or(1);
+    let h = options
+        .frame
+        .family::<KBufferOptions>()
+        .heap_size
+        .unwrap_or(1);
     if h == 0 || h > k {
         return Err(Error::input(format!(
             "--heap-size {h} is outside 1..{k} (k)"
@@ -367,11 +372,11 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
         stride,
         max_tries: options
             .frame
-            .kbuffer
+            .family::<KBufferOptions>()
             .max_tries
             .unwrap_or(DEFAULT_MAX_TRIES)
-            .clamp(1, crate::frame::MAX_TRIES_LIMIT),
-        culling: options.frame.kbuffer.culling as u32,
+            .clamp(1, crate::methods::kbuffer::MAX_TRIES_LIMIT),
+        culling: options.frame.family::<KBufferOptions>().culling as u32,
         tail_blend: tail.mode,
         aux: count_by_seen as u32,
         width: options.frame.width,
@@ -380,7 +385,7 @@ pub fn params_for(ctx: &FrameContext<'_>, k: u32, stride: u32, count_by_seen: bo
         tail_weight: tail.weight,
         tail_depth_p: tail.depth_p,
         tail_depth_q: tail.depth_q,
-        storage_layout: options.frame.kbuffer.layout.index(),
+        storage_layout: options.frame.family::<KBufferOptions>().layout.index(),
     }
 }
 
@@ -411,7 +416,7 @@ impl Pool {
         Pool {
             capacity: options
                 .frame
-                .kbuffer
+                .family::<KBufferOptions>()
                 .initial_nodes
                 .unwrap_or(options.pixels() * Self::FIRST_GUESS_PER_PIXEL)
                 .max(1),
@@ -758,7 +763,11 @@ impl KFrame {
         )?;
         let counters = cache.readable(gpu, "strata.kbuffer.counters", COUNTERS * 4)?;
         let counters_init = &self.counters_init;
-        let start = ctx.options.frame.kbuffer.allocation_counter_start;
+        let start = ctx
+            .options
+            .frame
+            .family::<KBufferOptions>()
+            .allocation_counter_start;
         if self.counter_start != Some(start) {
             let mut init = [0u32; COUNTERS as usize];
             init[COUNTER_ALLOCATED] = start;

@@ -19,6 +19,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::frame::RenderOptions;
+use crate::methods::kbuffer::KBufferOptions;
 use crate::methods::MethodId;
 
 /// `--robustness` when `--k auto` is given alone (the paper's figures use 95%).
@@ -62,7 +63,7 @@ pub fn frame_bytes(
 fn fixed_part(id: MethodId, options: &RenderOptions) -> (u64, u64) {
     let px = options.pixels();
     let samples = sample_storage(id, options.build.msaa);
-    let tail = options.frame.kbuffer.tail.kept();
+    let tail = options.frame.family::<KBufferOptions>().tail.kept();
     let fixed = sample_frame_bytes_besides_storage(px, samples, tail);
     (fixed, px * samples as u64)
 }

@@ -24,6 +24,7 @@
 //! `kb-sbuffer` keep one region per pixel whose fragments carry their coverage masks.
 
 use crate::gpu::twin::{gpu_struct, wgsl_module};
+use crate::methods::kbuffer::KBufferOptions;
 
 use super::{k_of, params_for, KFrame, Layout, Pool, Storage, COUNTERS, COUNTER_OVERFLOWED};
 use crate::error::Result;
@@ -273,7 +274,7 @@ impl Method for SBuffer {
         let fixed = super::sample_frame_bytes_besides_storage(
             pixels,
             sample_slots,
-            ctx.options.frame.kbuffer.tail.kept(),
+            ctx.options.frame.family::<KBufferOptions>().tail.kept(),
         ) + header
             + scan_words * 4;
         // A larger k than the need was measured at (--k auto following the scene) needs at most

@@ -2,6 +2,8 @@
 //! parameters its capture reads, from the frame's options and camera.
 
 use crate::frame::RenderOptions;
+use crate::methods::kbuffer::KBufferOptions;
+use crate::methods::weighted::WeightedOptions;
 
 /// `KParams::tail_weight`'s flag for an orthographic view.
 pub const TAIL_ORTHOGRAPHIC: u32 = 0x100;
@@ -35,10 +37,13 @@ pub struct TailSettings {
 
 /// The tail parameters of a frame with `options` of `scene`.
 pub fn tail_settings(options: &RenderOptions, scene: &crate::frame::SceneGpu) -> TailSettings {
-    let (depth_p, depth_q) = tail_depth(&scene.camera, options.frame.weighted.depth_scale);
+    let (depth_p, depth_q) = tail_depth(
+        &scene.camera,
+        options.frame.family::<WeightedOptions>().depth_scale,
+    );
     TailSettings {
-        mode: options.frame.kbuffer.tail.index(),
-        weight: options.frame.weighted.weight.index()
+        mode: options.frame.family::<KBufferOptions>().tail.index(),
+        weight: options.frame.family::<WeightedOptions>().weight.index()
             | match scene.camera.projection {
                 crate::scene::Projection::Orthographic { .. } => TAIL_ORTHOGRAPHIC,
                 crate::scene::Projection::Perspective { .. } => 0,

@@ -227,7 +227,8 @@ pub fn culled(words: &[u32]) -> u64 {
 mod tests {
     use super::*;
     use crate::frame::FrameOptions;
-    use crate::frame::{RenderOptions, Tail};
+    use crate::frame::RenderOptions;
+    use crate::methods::kbuffer::Tail;
     use crate::methods::MethodId;
     use crate::scene::loaders;
     use crate::testing::{assert_close, gpu, render_reference};
@@ -386,7 +387,10 @@ mod tests {
         let scene = loaders::load_scene("builtin:nvpro?objects=24&subdiv=8&seed=4").unwrap();
         let options = {
             let mut options = temporal_options(0);
-            options.frame.kbuffer.tail = Tail::Blend;
+            options
+                .frame
+                .family_mut::<crate::methods::kbuffer::KBufferOptions>()
+                .tail = Tail::Blend;
             options
         };
         let mut r = Renderer::new(gpu(), &scene, &options).unwrap();

@@ -14,8 +14,12 @@
 
 mod mlab;
 
-use crate::frame::{Effect, RenderOptions, Tail};
+use crate::frame::{Effect, RenderOptions};
+use crate::methods::kbuffer::KBufferOptions;
+use crate::methods::kbuffer::Tail;
+use crate::methods::peeling::PeelingOptions;
 use crate::methods::tests::covering_layers;
+use crate::methods::weighted::WeightedOptions;
 use crate::scene::{loaders, Scene};
 use crate::testing::{
     assert_exact, differing_pixels, render_gpu, render_reference, renderer, Failures,
@@ -25,10 +29,10 @@ use crate::testing::{
 /// The exact k-buffers and k+-buffers, from the method table: a new one is held to the
 /// reference by every test that takes this list, with nothing to add here.
 fn exact_k_methods() -> Vec<&'static str> {
-    use crate::methods::table::{Family, MethodOption};
+    use crate::methods::table::Family;
     crate::methods::TABLE
         .iter()
-        .filter(|d| d.exact && d.reads(MethodOption::K))
+        .filter(|d| d.exact && d.reads(crate::methods::options::K))
         .filter(|d| matches!(d.family, Family::Kbuffer | Family::Kplus))
         .map(|d| d.name)
         .collect()
@@ -178,7 +182,7 @@ fn culling_off_gives_the_same_picture() {
     let s = scene("builtin:nvpro?objects=96&subdiv=10&seed=8");
     let mut opts = options(48, 8);
     let expected = render_reference(&s, &opts);
-    opts.frame.kbuffer.culling = false;
+    opts.frame.family_mut::<KBufferOptions>().culling = false;
     for method in [
         "kplus-array",
         "kplus-heap",
@@ -205,7 +209,7 @@ fn tail_blend_composites_the_rest_as_one_term() {
     let s = covering_layers(n, 4);
     let mut opts = options(16, k as u32);
     opts.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
-    opts.frame.kbuffer.tail = Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().tail = Tail::Blend;
     let layers = crate::scene::builtin::layer_colors(n);
     let mut color = [0.0f64; 3];
     let mut t = 1.0f64;
@@ -265,9 +269,9 @@ fn tail_weighted_weighs_the_rest_by_depth() {
     let s = scene("builtin:layers?n=10&coverage=1&order=random&seed=4");
     let mut opts = options(16, k as u32);
     opts.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
-    opts.frame.kbuffer.tail = Tail::Weighted;
+    opts.frame.family_mut::<KBufferOptions>().tail = Tail::Weighted;
     for weight in [crate::Weight::Eq7, crate::Weight::Eq10] {
-        opts.frame.weighted.weight = weight;
+        opts.frame.family_mut::<WeightedOptions>().weight = weight;
         let mut lists = crate::reference::fragments(&s, &opts).unwrap();
         let expected: Vec<[f64; 3]> = lists
             .iter_mut()
@@ -287,7 +291,7 @@ fn tail_weighted_weighs_the_rest_by_depth() {
                         f.alpha,
                         f.distance,
                         f.depth,
-                        opts.frame.weighted.depth_scale,
+                        opts.frame.family::<WeightedOptions>().depth_scale,
                     );
                     for (s, fc) in sum.iter_mut().zip(f.color) {
                         *s += w * fc;
@@ -306,7 +310,7 @@ fn tail_weighted_weighs_the_rest_by_depth() {
             .collect();
         // The weights differ enough over the layers' depths that this is not `--tail blend`.
         let mut blend = opts.clone();
-        blend.frame.kbuffer.tail = Tail::Blend;
+        blend.frame.family_mut::<KBufferOptions>().tail = Tail::Blend;
         let (blended, _) = render_gpu(&s, &blend, "kplus-heap");
         let mut differs = false;
         for method in ["kplus-heap", "kb-ps", "kb-ab-fixed", "kplus-sbuffer"] {
@@ -334,7 +338,7 @@ fn tail_weighted_weighs_the_rest_by_depth() {
 /// k+-buffer has a prediction, so `--k auto` takes it (kplus-semiheap had none: it was refused).
 #[test]
 fn memory_follows_the_catalogue_formula() {
-    use crate::methods::table::{Family, MethodOption};
+    use crate::methods::table::Family;
     let s = scene("builtin:layers?n=6");
     let k = 5u64;
     let mut opts = options(20, k as u32);
@@ -357,12 +361,14 @@ fn memory_follows_the_catalogue_formula() {
         );
     }
     for d in crate::methods::TABLE.iter() {
-        if matches!(d.family, Family::Kbuffer | Family::Kplus) && d.reads(MethodOption::K) {
+        if matches!(d.family, Family::Kbuffer | Family::Kplus)
+            && d.reads(crate::methods::options::K)
+        {
             let predicted = super::predict::frame_bytes(d.id, 4, None, &opts);
             assert!(predicted.is_some(), "{}: no --k auto prediction", d.name);
         }
     }
-    opts.frame.kbuffer.tail = Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().tail = Tail::Blend;
     assert_eq!(
         render_gpu(&s, &opts, "kplus-heap").1.bytes_allocated,
         16 * (k + 1) * px + 116 + 40 * px
@@ -377,7 +383,7 @@ fn memory_follows_the_catalogue_formula() {
         render_gpu(&s, &four, "kplus-heap").1.bytes_allocated,
         16 * (k + 1) * px * 4 + 4 * px + 116 + 40 * px * 4
     );
-    opts.frame.kbuffer.tail = Tail::Drop;
+    opts.frame.family_mut::<KBufferOptions>().tail = Tail::Drop;
     assert_eq!(
         render_gpu(&s, &opts, "kb-mdt32").1.bytes_allocated,
         20 * k * px + 16 * px + 156
@@ -389,7 +395,7 @@ fn memory_follows_the_catalogue_formula() {
             "{method}"
         );
     }
-    opts.frame.kbuffer.initial_nodes = Some(3000);
+    opts.frame.family_mut::<KBufferOptions>().initial_nodes = Some(3000);
     for method in ["kb-ab-ll", "kb-ll"] {
         assert_eq!(
             render_gpu(&s, &opts, method).1.bytes_allocated,
@@ -410,9 +416,9 @@ fn memory_follows_the_catalogue_formula() {
         render_gpu(&s, &opts, "kplus-sbuffer").1.bytes_allocated,
         16 * 3000 + 20 * px + 4 * 403 + 156
     );
-    opts.frame.kbuffer.initial_nodes = None;
+    opts.frame.family_mut::<KBufferOptions>().initial_nodes = None;
     // kb-ab-fixed: n = 6 slots per pixel (max depth complexity), measured.
-    opts.frame.kbuffer.tail = Tail::Drop;
+    opts.frame.family_mut::<KBufferOptions>().tail = Tail::Drop;
     let (_, stats) = render_gpu(&s, &opts, "kb-ab-fixed");
     assert_eq!(stats.bytes_allocated, 16 * 7 * px + 116 + 40);
 }
@@ -435,7 +441,7 @@ fn kplus_sbuffer_regions_hold_exactly_min_f_k() {
         let need: u64 = counts.iter().map(|&f| f.min(k) as u64).sum();
         assert!(counts.iter().any(|&f| f > 0 && f <= k) && counts.iter().any(|&f| f > k));
         // A pool too small at first: the next frame's is the measured need + 25%.
-        opts.frame.kbuffer.initial_nodes = Some(16);
+        opts.frame.family_mut::<KBufferOptions>().initial_nodes = Some(16);
         let (_, stats) = render_gpu(&s, &opts, "kplus-sbuffer");
         assert_eq!(stats.geometry_passes, 4);
         let px = opts.pixels();
@@ -455,7 +461,7 @@ fn kplus_sbuffer_regions_hold_exactly_min_f_k() {
 fn kplus_sbuffer_pool_overflow_is_reported_and_the_image_stays_exact() {
     let s = scene("builtin:layers?n=12&coverage=0.75&order=random&seed=5");
     let mut opts = options(48, 8);
-    opts.frame.kbuffer.initial_nodes = Some(64);
+    opts.frame.family_mut::<KBufferOptions>().initial_nodes = Some(64);
     let (_, stats) = render_gpu(&s, &opts, "kplus-sbuffer");
     assert_eq!(stats.overflow, Some(true));
     assert_eq!(stats.geometry_passes, 4);
@@ -671,7 +677,7 @@ fn bright_tails_do_not_wrap_their_sums() {
     }
     let mut opts = options(4, 1);
     opts.frame.background = crate::scene::Background::Color([0.0, 0.0, 0.0]);
-    opts.frame.kbuffer.tail = Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().tail = Tail::Blend;
     for method in ["kplus-heap", "kplus-array", "abuffer-fixed"] {
         let (img, stats) = render_gpu(&s, &opts, method);
         assert_eq!(
@@ -834,7 +840,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
         assert_eq!(stats.max_depth_complexity, Some(24));
         assert_eq!(stats.lock_failures, Some(0));
         // --layers fixes the passes: ⌈24/k⌉ in one frame.
-        opts.frame.peeling.layers = Some(24);
+        opts.frame.family_mut::<PeelingOptions>().layers = Some(24);
         let (_, stats) = render_gpu(&s, &opts, "kpeel");
         // With 64-bit atomics the capture is the lock-free key cascade: a keys and a colors
         // pass per layer group, and 8 bytes of key per slot.
@@ -851,7 +857,7 @@ fn kpeel_equals_the_full_reference_for_every_k() {
             (16 * (k as u64 + 1) + super::kpeel::PIXEL_STATE_BYTES) * 48 * 48 + 156 + keys
         );
         // Too few layers: what was not reached is reported as dropped.
-        opts.frame.peeling.layers = Some(k);
+        opts.frame.family_mut::<PeelingOptions>().layers = Some(k);
         let mut r = renderer(&s, &opts);
         let (_, stats) = r.render("kpeel").unwrap();
         if k < 24 {
@@ -923,7 +929,7 @@ fn semiheap_keeps_the_k_nearest_for_every_heap_size() {
     ] {
         for (k, h) in [(4, 1), (4, 4), (16, 1), (16, 5)] {
             let mut opts = options(size, k);
-            opts.frame.kbuffer.heap_size = Some(h);
+            opts.frame.family_mut::<KBufferOptions>().heap_size = Some(h);
             check_k(
                 &format!("{name}-semiheap-h{h}"),
                 s,
@@ -933,7 +939,7 @@ fn semiheap_keeps_the_k_nearest_for_every_heap_size() {
         }
     }
     let mut opts = options(16, 4);
-    opts.frame.kbuffer.heap_size = Some(5);
+    opts.frame.family_mut::<KBufferOptions>().heap_size = Some(5);
     let mut r = renderer(&layers, &opts);
     let e = r.render("kplus-semiheap").unwrap_err();
     assert!(e.to_string().contains("--heap-size 5"), "{e}");
@@ -1087,7 +1093,7 @@ pub(crate) fn device_fragments(s: &Scene, opts: &RenderOptions) -> Vec<DeviceFra
         &pixel_words,
         super::PIXEL_WORDS as usize,
         count,
-        opts.frame.kbuffer.layout,
+        opts.frame.family::<KBufferOptions>().layout,
     );
     let node_words = read_u32s(gpu, nodes, nodes.size() / 4).unwrap();
     (0..count)
@@ -1455,7 +1461,7 @@ fn per_pixel(
 /// (pixels, tail).
 fn frame_words(renderer: &crate::Renderer, opts: &RenderOptions) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
     let pixels = (opts.frame.width * opts.frame.height) as usize;
-    let layout = opts.frame.kbuffer.layout;
+    let layout = opts.frame.family::<KBufferOptions>().layout;
     let recorder = renderer.recorder().unwrap();
     let read = |label: &str| {
         let buffer = recorder
@@ -1493,7 +1499,7 @@ fn a_blended_tail_is_the_same_every_frame() {
     let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
     let mut opts = options(40, 6);
     opts.frame.effect = Effect::Translucency;
-    opts.frame.kbuffer.tail = Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().tail = Tail::Blend;
     let mut failures = Failures::default();
     // mlab merges past k in arrival order by design (and keeps no tail).
     let methods = super::ordered_methods()
@@ -1693,8 +1699,8 @@ fn a_blended_tail_does_not_depend_on_arrival_order() {
     let mut failures = Failures::default();
     for tail in [Tail::Blend, Tail::Weighted] {
         let mut opts = options(24, 4);
-        opts.frame.kbuffer.tail = tail;
-        opts.frame.kbuffer.culling = true;
+        opts.frame.family_mut::<KBufferOptions>().tail = tail;
+        opts.frame.family_mut::<KBufferOptions>().culling = true;
         for method in ["kb-ll", "kb-ab-ll", "kplus-array", "kb-ps"] {
             let mut pictures = Vec::new();
             for order in [crate::order::Order::Front, crate::order::Order::Back] {
@@ -1725,20 +1731,20 @@ fn a_blended_tail_does_not_depend_on_arrival_order() {
 #[test]
 fn slot_major_storage_gives_the_pixel_major_frame() {
     use crate::methods::tests::room_for_every_fragment;
-    use crate::methods::{MethodId, MethodOption};
+    use crate::methods::MethodId;
     use crate::StorageLayout;
     let s = scene("builtin:nvpro?objects=48&subdiv=10&seed=4");
     let mut failures = Failures::default();
     for msaa in [1, 4] {
         let mut opts = options(32, 6);
         opts.frame.effect = Effect::Translucency;
-        opts.frame.kbuffer.tail = Tail::Blend;
+        opts.frame.family_mut::<KBufferOptions>().tail = Tail::Blend;
         opts.build.msaa = msaa;
         // kb races by design and mlab merges in arrival order: on a GPU two frames of either
         // may differ whatever the layout. kb-mdt64 and kb-mdt-pack refuse translucency.
         let methods = MethodId::gpu_methods().filter(|m| {
             let d = m.descriptor();
-            d.reads(MethodOption::StorageLayout)
+            d.reads(crate::methods::kbuffer::options::STORAGE_LAYOUT)
                 && (msaa == 1 || (d.msaa.yes() && d.per_sample_storage))
                 && !matches!(
                     m,
@@ -1749,7 +1755,7 @@ fn slot_major_storage_gives_the_pixel_major_frame() {
             let name = format!("{m} --msaa {msaa}");
             let pixel_major = room_for_every_fragment(m, &opts);
             let mut slot_major = pixel_major.clone();
-            slot_major.frame.kbuffer.layout = StorageLayout::Slot;
+            slot_major.frame.family_mut::<KBufferOptions>().layout = StorageLayout::Slot;
             let mut by_pixel = renderer(&s, &pixel_major);
             let (expected, a) = by_pixel.render_method(m, None).unwrap();
             let mut by_slot = renderer(&s, &slot_major);

@@ -52,17 +52,19 @@
 //! FLOAT32_BLENDABLE. `--raster compute` and `--temporal` are refused.
 
 use crate::gpu::twin::{gpu_struct, wgsl_module};
+use crate::methods::peeling::PeelingOptions;
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
     color_geometry_pass, color_pass_drawing, compute_pipeline, dispatch_pixels, geometry_pipeline,
     screen_pipeline, storage_geometry_pass, GeometryStage, NullTarget,
 };
-use crate::frame::{BucketSplit, FrameContext, Recorded, SceneGpu};
+use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::kbuffer::DEFAULT_K;
+use crate::methods::peeling::BucketSplit;
 use crate::methods::Method;
 
 /// The most slots a pixel has: two per bucket, one claim bit each.
@@ -478,7 +480,7 @@ impl Method for Bucket {
         let slots = slots_of(ctx.k, &gpu.limits)?;
         let layers = target_layers(slots);
         let px = ctx.pixels();
-        let split = ctx.options.frame.peeling.buckets;
+        let split = ctx.options.frame.family::<PeelingOptions>().buckets;
         let adaptive = split == BucketSplit::Adaptive;
         let samples = self.samples;
         let bytes = frame_bytes(px, slots, split, samples);

@@ -1,8 +1,9 @@
 //! The peeling methods' entries in the method table (kpeel's is in `kbuffer`, with its code).
 
-use crate::frame::BucketSplit;
-use crate::methods::options::{flag, parse, parse_optional, OptionSpec, ValueKind};
-use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
+use crate::methods::options::K;
+use crate::methods::table::{Descriptor, Family, Setup, Support};
+
+use super::options::{BUCKETS, LAYERS};
 use crate::methods::traffic::TrafficModel;
 use crate::methods::{Method, MethodId};
 
@@ -36,7 +37,7 @@ pub const F2B: Descriptor = Descriptor {
     geometry_passes: "N (the last frame's depth complexity, or --layers)",
     memory: "72·W·H",
     summary: "front-to-back depth peeling, one layer per geometry pass",
-    reads: &[MethodOption::Layers],
+    reads: &[LAYERS],
     // Ties peel in draw order.
     takes_order: false,
     downlevel: true,
@@ -50,7 +51,7 @@ pub const DUAL: Descriptor = Descriptor {
     geometry_passes: "ceil(N/2)+1 (N: the last frame's depth complexity, or --layers)",
     memory: "172·W·H with 64-bit atomics, else 156·W·H",
     summary: "dual depth peeling: nearest and farthest layer per pass; exact with ties given 64-bit atomic min/max (else fragments at exactly equal depth in one pixel collapse and are counted as dropped)",
-    reads: &[MethodOption::Layers],
+    reads: &[LAYERS],
     compute_raster: Support::Yes,
     app_shaders: Support::Yes,
     traffic: TrafficModel::PerPixelState {
@@ -66,46 +67,10 @@ pub const BUCKET: Descriptor = Descriptor {
     geometry_passes: "3 (4 with --buckets adaptive)",
     memory: "(16·k + 16·ceil(k/4) + 16)·W·H + 16, +128·W·H with --buckets adaptive; with --msaa S: (S·(16·k + 16·ceil(k/4) + 4) + 8·S + 16)·W·H + 16; k even, at most 32 and 4 × the color targets the device blends at once",
     summary: "bucket depth peeling (Liu et al. 2009): each pixel's depth range split into k/2 buckets (uniform, or adaptive: shared among the occupied parts of a 1024-part histogram), every bucket's nearest and farthest depth kept by MAX blending into ceil(k/4) RGBA32F targets in one geometry pass, colors claimed in a second; a third fragment in a bucket collides and is counted as dropped",
-    reads: &[MethodOption::K, MethodOption::Buckets],
+    reads: &[K, BUCKETS],
     past_k: Some("collided in buckets that already held two and were dropped; a larger even --k splits each pixel's depth range finer"),
     max_k: super::bucket::MAX_SLOTS,
     traffic: TrafficModel::Bucket,
     app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Bucket, "bucket", Family::Peeling, bucket)
 };
-
-/// The peeling family's options.
-pub const OPTIONS: &[OptionSpec] = &[
-    OptionSpec {
-        option: MethodOption::Layers,
-        flags: &[flag(
-            "layers",
-            "--layers",
-            "depth peeling: peel this many layers (default: the scene's depth complexity, measured by the frame itself)",
-            ValueKind::Optional {
-                min: 1,
-                max: crate::frame::MAX_LAYERS,
-                start: 8,
-            },
-            |f| f.peeling.layers.map(|n| n.to_string()),
-            |f, v| {
- f.peeling.layers = parse_optional("--layers", v)?;
- Ok(())
- },
-        )],
-    },
-    OptionSpec {
-        option: MethodOption::Buckets,
-        flags: &[flag(
-            "buckets",
-            "--buckets",
-            "bucket: split each pixel's depth range into k/2 equal buckets (uniform, the paper's method) or share the buckets among the occupied parts of a 1024-part histogram (adaptive, one more geometry pass)",
-            ValueKind::Choice(BucketSplit::NAMES),
-            |f| Some(f.peeling.buckets.name().to_string()),
-            |f, v| {
- f.peeling.buckets = parse::<BucketSplit>("--buckets", v)?;
- Ok(())
- },
-        )],
-    },
-];

@@ -35,13 +35,16 @@
 
 pub mod bucket;
 pub mod descriptor;
+pub mod options;
+
+pub use options::{BucketSplit, PeelingOptions, MAX_LAYERS};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{
     attachment, color_target, compute_pipelines, dispatch_pixels, geometry_pipeline, scratch_depth,
     storage_geometry_pass, GeometryStage, NullTarget,
 };
-use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals, MAX_LAYERS};
+use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Defs, Library, Stage};
 use crate::gpu::{Gpu, ResourceCache};
@@ -73,7 +76,7 @@ pub const FIRST_GUESS_LAYERS: u32 = 8;
 pub(crate) fn layers_for(ctx: &FrameContext<'_>, measured: Option<u32>) -> u32 {
     ctx.options
         .frame
-        .peeling
+        .family::<PeelingOptions>()
         .layers
         .or(measured)
         .unwrap_or(FIRST_GUESS_LAYERS)
@@ -257,7 +260,12 @@ impl Method for FrontToBack {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
-        self.layers_fixed = ctx.options.frame.peeling.layers.is_some();
+        self.layers_fixed = ctx
+            .options
+            .frame
+            .family::<PeelingOptions>()
+            .layers
+            .is_some();
         let samples = self.samples;
         ctx.check_budget(ctx.pixels() * f2b_pixel_bytes(samples))?;
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
@@ -485,7 +493,12 @@ impl Method for Dual {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let layers = layers_for(ctx, self.measured);
-        self.layers_fixed = ctx.options.frame.peeling.layers.is_some();
+        self.layers_fixed = ctx
+            .options
+            .frame
+            .family::<PeelingOptions>()
+            .layers
+            .is_some();
         let samples = ctx.scene.samples;
         if samples > 1 && self.key_bytes < 8 {
             return Err(Error::unsupported(format!(

@@ -1,6 +1,8 @@
 //! `tiled`'s entry in the method table.
 
-use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
+use crate::methods::kbuffer::options::TAIL;
+use crate::methods::options::K;
+use crate::methods::table::{Descriptor, Family, Setup, Support};
 use crate::methods::{Method, MethodId};
 
 fn create(_: MethodId, made: &Setup<'_>) -> crate::error::Result<Box<dyn Method>> {
@@ -20,7 +22,7 @@ pub const TILED: Descriptor = Descriptor {
     ),
     draw_callback: Support::No("it rasterizes the scene's triangles itself, in compute"),
     samples_in_compute: true,
-    reads: &[MethodOption::K, MethodOption::Tail],
+    reads: &[K, TAIL],
     traffic: crate::methods::traffic::TrafficModel::Tiled,
     // Its fragments are ordered by (depth, primitive) inside each tile, whatever the list order.
     takes_order: false,

@@ -1,5 +1,6 @@
 use super::*;
 use crate::frame::{Effect, Raster};
+use crate::methods::kbuffer::KBufferOptions;
 use crate::methods::tests::options;
 use crate::methods::MethodId;
 use crate::scene::{loaders, Scene};
@@ -308,7 +309,7 @@ fn poisoned_buffers_change_nothing() {
     assert_poison_changes_nothing(&s, &opts, MethodId::Tiled);
     // With the k nearest and a tail: the state words and the tail sums start from nothing.
     opts.frame.k = Some(6);
-    opts.frame.kbuffer.tail = crate::Tail::Blend;
+    opts.frame.family_mut::<KBufferOptions>().tail = crate::Tail::Blend;
     assert_poison_changes_nothing(&s, &opts, MethodId::Tiled);
     // Multisampled in rounds (a device with less workgroup memory): each sample's composite,
     // the pixel's bound and account start from nothing too.
@@ -318,7 +319,7 @@ fn poisoned_buffers_change_nothing() {
         let mut opts = options(32, Effect::Transparency);
         opts.build.msaa = 4;
         opts.frame.k = k;
-        opts.frame.kbuffer.tail = crate::Tail::Blend;
+        opts.frame.family_mut::<KBufferOptions>().tail = crate::Tail::Blend;
         let mut r = crate::Renderer::new(&small, &deep, &opts).unwrap();
         let (clean, a) = r.render_method(MethodId::Tiled, None).unwrap();
         assert!(
@@ -415,7 +416,7 @@ fn k_nearest_with_each_tail_equals_the_fixed_k_buffer() {
         for k in [5, 21] {
             let mut opts = options(32, Effect::Transparency);
             opts.frame.k = Some(k);
-            opts.frame.kbuffer.tail = tail;
+            opts.frame.family_mut::<KBufferOptions>().tail = tail;
             let mut compute = opts.clone();
             compute.build.raster = Raster::Compute;
             let (expected, kb) = render_gpu(&s, &compute, "kb-ab-fixed");
@@ -501,7 +502,7 @@ fn multisampled_tails_are_the_same_in_one_pass_and_in_rounds() {
         for tail in [crate::Tail::Drop, crate::Tail::Blend, crate::Tail::Weighted] {
             let mut opts = all.clone();
             opts.frame.k = Some(k);
-            opts.frame.kbuffer.tail = tail;
+            opts.frame.family_mut::<KBufferOptions>().tail = tail;
             let what = format!("k = {k}, --tail {tail:?}");
             let (one_pass, stats) = render_gpu(&s, &opts, "tiled");
             let (rounds, round_stats) = render_on(&small, &s, &opts);

@@ -4,7 +4,10 @@
 //! its f32 moments and f16 accumulation, and stochastic transparency (Enderton et al. 2011) with
 //! the same stipples as `stochastic`, up to its f16 accumulation.
 
-use crate::frame::{Moments, RenderOptions, Weight};
+use crate::frame::RenderOptions;
+use crate::methods::weighted::Moments;
+use crate::methods::weighted::Weight;
+use crate::methods::weighted::WeightedOptions;
 use crate::resolve::RefFragment;
 use crate::scene::{Camera, Projection};
 
@@ -27,11 +30,11 @@ pub fn wboit(fragments: &[RefFragment], background: [f64; 3], options: &RenderOp
     let (mut sum, mut weights, mut revealage) = ([0.0f64; 3], 0.0f64, 1.0f64);
     for f in fragments {
         let w = weight(
-            options.frame.weighted.weight,
+            options.frame.family::<WeightedOptions>().weight,
             f.alpha,
             f.distance,
             f.depth,
-            options.frame.weighted.depth_scale,
+            options.frame.family::<WeightedOptions>().depth_scale,
         );
         for (s, c) in sum.iter_mut().zip(f.color) {
             *s += c * f.alpha * w;

@@ -1,9 +1,8 @@
 //! The weighted methods' entries in the method table.
 
-use crate::frame::options::MAX_STOCHASTIC_PASSES;
-use crate::frame::{Moments, Weight};
-use crate::methods::options::{flag, parse, OptionSpec, ValueKind};
-use crate::methods::table::{Descriptor, Family, MethodOption, Setup, Support};
+use crate::methods::table::{Descriptor, Family, Setup, Support};
+
+use super::options::{COEFFICIENTS, MOMENTS, PASSES, WEIGHT};
 
 /// The weighted methods' blend modes.
 const SUMS_OF_OVER: Support = Support::No(
@@ -37,7 +36,7 @@ fn stochastic(_: MethodId, made: &Setup<'_>) -> Made {
 pub const WBOIT: Descriptor = Descriptor {
     memory: "(10·S + 4)·W·H; S samples per pixel (--msaa, else 1)",
     summary: "weighted blended OIT (McGuire & Bavoil 2013): weighted average color over exact coverage, weights of eqs. 7-10 (--weight, --depth-scale); what engines ship",
-    reads: &[MethodOption::Weight],
+    reads: &[WEIGHT],
     blend_modes: SUMS_OF_OVER,
     downlevel: true,
     app_shaders: Support::Yes,
@@ -50,7 +49,7 @@ pub const MBOIT: Descriptor = Descriptor {
     geometry_passes: "2",
     memory: "(28·S + 4)·W·H, +8·S with --moments 6 or trig3, +16·S with 8 or trig4; S samples per pixel (--msaa, else 1)",
     summary: "moment-based OIT (Münstermann et al. 2018): 4, 6 or 8 power moments of absorbance over log depth, or 2, 3 or 4 trigonometric moments of its angle on a circle with a wrapping zone of π/10 (--moments 4|6|8|trig2|trig3|trig4; 32-bit, overestimation 0.25), transmittance reconstructed per fragment; exact coverage",
-    reads: &[MethodOption::Moments],
+    reads: &[MOMENTS],
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Mboit, "mboit", Family::Weighted, mboit)
@@ -62,7 +61,7 @@ pub const WAVELET: Descriptor = Descriptor {
     geometry_passes: "3",
     memory: "(44·S + 4)·W·H with --coefficients 4, +16·S with 8 (the default); S samples per pixel (--msaa, else 1)",
     summary: "wavelet OIT (after Aizenshtein, Smal & McGuire 2022): each pixel's absorbance over its own depth range (a min/max pass first) as 4 or 8 Haar coefficients (--coefficients; closed form per fragment, additive 32-bit targets), transmittance reconstructed per fragment as its depth bin's average less its own step; exact coverage",
-    reads: &[MethodOption::Coefficients],
+    reads: &[COEFFICIENTS],
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Wavelet, "wavelet", Family::Weighted, wavelet)
@@ -73,89 +72,9 @@ pub const STOCHASTIC: Descriptor = Descriptor {
     geometry_passes: "2·P + 1 (P: --passes)",
     memory: "(14·S + 4)·W·H + 256·P; S samples per pixel (--msaa 4|8, required)",
     summary: "stochastic transparency (Enderton et al. 2011) with stratified masks: each fragment stipples about α·S of a pixel's samples with its depth, is accumulated where no stipple lies in front, and the alpha-corrected average is composited; noisy, unbiased, reproducible (--passes for more samples)",
-    reads: &[MethodOption::Passes],
+    reads: &[PASSES],
     min_samples: super::stochastic::MIN_SAMPLES,
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
     ..Descriptor::new(MethodId::Stochastic, "stochastic", Family::Weighted, stochastic)
 };
-
-/// The weighted family's options (`--weight` and `--depth-scale` also weigh a k-buffer's
-/// `--tail weighted`).
-pub const OPTIONS: &[OptionSpec] = &[
-    OptionSpec {
-        option: MethodOption::Weight,
-        flags: &[
-            flag(
-                "weight",
-                "--weight",
-                "wboit (and --tail weighted): the weight function (McGuire & Bavoil 2013, equations 7-10)",
-                ValueKind::Choice(Weight::NAMES),
-                |f| Some(f.weighted.weight.name().to_string()),
-                |f, v| {
- f.weighted.weight = parse::<Weight>("--weight", v)?;
- Ok(())
- },
-            ),
-            flag(
-                "depth_scale",
-                "--depth-scale",
-                "wboit (and --tail weighted): multiplies view-space distances before the weight function (its constants assume distances of 0.1 to 500 units)",
-                ValueKind::Number {
-                    min: 1e-4,
-                    max: 1e4,
-                },
-                |f| Some(f.weighted.depth_scale.to_string()),
-                |f, v| {
- f.weighted.depth_scale = parse("--depth-scale", v)?;
- Ok(())
- },
-            ),
-        ],
-    },
-    OptionSpec {
-        option: MethodOption::Moments,
-        flags: &[flag(
-            "moments",
-            "--moments",
-            "mboit: power moments, 4, 6 or 8 (more follow more layers, at more memory and work), or trigonometric moments, trig2, trig3 or trig4 (as many real values as 4, 6, 8)",
-            ValueKind::Choice(&["4", "6", "8", "trig2", "trig3", "trig4"]),
-            |f| Some(f.weighted.moments.to_string()),
-            |f, v| {
- f.weighted.moments = v.unwrap_or_default().parse::<Moments>()?;
- Ok(())
- },
-        )],
-    },
-    OptionSpec {
-        option: MethodOption::Passes,
-        flags: &[flag(
-            "passes",
-            "--passes",
-            "stochastic: passes of S samples each (more passes, less noise; 2·passes + 1 geometry passes)",
-            ValueKind::Count {
-                min: 1,
-                max: MAX_STOCHASTIC_PASSES,
-            },
-            |f| Some(f.weighted.passes.to_string()),
-            |f, v| {
- f.weighted.passes = parse("--passes", v)?;
- Ok(())
- },
-        )],
-    },
-    OptionSpec {
-        option: MethodOption::Coefficients,
-        flags: &[flag(
-            "coefficients",
-            "--coefficients",
-            "wavelet: Haar coefficients of each pixel's absorbance over depth, 4 or 8 (its depth range in 4 or 8 bins)",
-            ValueKind::Choice(&["4", "8"]),
-            |f| Some(f.weighted.coefficients.to_string()),
-            |f, v| {
- f.weighted.coefficients = parse("--coefficients", v)?;
- Ok(())
- },
-        )],
-    },
-];

@@ -61,16 +61,18 @@
 //! variants are not built. Translucency gets Fresnel opacity but no
 //! absorption between surfaces.
 
+use crate::methods::weighted::WeightedOptions;
 use bytemuck::Zeroable;
 
 use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::{Error, Result};
 use crate::frame::passes::{blend_add, color_geometry_pass, color_target, geometry_pipeline};
-use crate::frame::{FrameContext, Moments, Recorded, SceneGpu};
+use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
 use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::weighted::Moments;
 use crate::methods::Method;
 
 const B0_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
@@ -368,7 +370,7 @@ impl Mboit {
 impl Method for Mboit {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let weighted = &ctx.options.frame.weighted;
+        let weighted = &ctx.options.frame.family::<WeightedOptions>();
         let moments = if self.wavelet.is_some() {
             Moments::Haar(weighted.coefficients)
         } else {

@@ -23,7 +23,10 @@
 pub mod cpu;
 pub mod descriptor;
 pub mod mboit;
+pub mod options;
 pub mod stochastic;
+
+pub use options::{Moments, Weight, WeightedOptions};
 
 use bytemuck::Zeroable;
 
@@ -78,7 +81,7 @@ gpu_struct! {
 
 impl WboitParams {
     /// The accumulate pass's uniforms for `weighted`.
-    pub(crate) fn new(weighted: &crate::frame::WeightedOptions) -> WboitParams {
+    pub(crate) fn new(weighted: &crate::methods::weighted::WeightedOptions) -> WboitParams {
         WboitParams {
             weight: weighted.weight.index(),
             depth_scale: weighted.depth_scale as f32,
@@ -244,7 +247,7 @@ impl Method for Wboit {
         let accumulation = view("strata.wboit.accumulation", ACCUMULATION_FORMAT);
         let revealage = view("strata.wboit.revealage", REVEALAGE_FORMAT);
         let counts = pixel_counts(ctx, &mut self.cache, "strata.wboit.counts")?;
-        let params = WboitParams::new(&ctx.options.frame.weighted);
+        let params = WboitParams::new(&ctx.options.frame.family::<WeightedOptions>());
         let params = self
             .cache
             .uniform(gpu, "strata.wboit.params", bytemuck::bytes_of(&params));
@@ -279,7 +282,7 @@ impl Method for Wboit {
 /// multisampled), for the test that validates every stage.
 #[cfg(test)]
 pub(crate) fn stages() -> Vec<Stage> {
-    use crate::frame::Moments;
+    use crate::methods::weighted::Moments;
     let mut stages =
         vec![Stage::new("wboit.accumulate", include_str!("wboit_accumulate.wgsl")).with(LIBRARY)];
     for samples in [1, 4] {

@@ -22,6 +22,7 @@
 //! and stipples in f64) is tested; its error against the reference is measured (`strata bench
 //! approx-quality`). Translucency gets Fresnel opacity but no absorption between surfaces.
 
+use crate::methods::weighted::WeightedOptions;
 use bytemuck::Zeroable;
 
 use crate::gpu::twin::{gpu_struct, wgsl_module};
@@ -45,7 +46,7 @@ const TOTAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 pub const STOCHASTIC_SAMPLE_BYTES: u64 = 4 + 8 + 2;
 /// Bytes per pixel of the fragment count.
 pub const STOCHASTIC_COUNT_BYTES: u64 = 4;
-pub use crate::frame::options::MAX_STOCHASTIC_PASSES;
+pub use crate::methods::weighted::options::MAX_STOCHASTIC_PASSES;
 
 gpu_struct! {
     /// A pass's uniforms (`strata::weighted::stochastic_params`).
@@ -157,7 +158,7 @@ impl Stochastic {
 impl Method for Stochastic {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let passes = ctx.options.frame.weighted.passes;
+        let passes = ctx.options.frame.family::<WeightedOptions>().passes;
         let stride = gpu.limits.min_uniform_buffer_offset_alignment as u64;
         let bytes = ctx.pixels()
             * (STOCHASTIC_SAMPLE_BYTES * self.samples as u64 + STOCHASTIC_COUNT_BYTES)

@@ -4,8 +4,10 @@
 //! so on the ≤ 6 layers used here the weighted average moves by under 6·2⁻¹¹ ≈ 0.3%, below 1/255.
 
 use super::cpu;
-use crate::frame::WeightedOptions;
-use crate::frame::{Effect, Moments, RenderOptions, Weight};
+use crate::frame::{Effect, RenderOptions};
+use crate::methods::weighted::Moments;
+use crate::methods::weighted::Weight;
+use crate::methods::weighted::WeightedOptions;
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, assert_exact, per_pixel, render_gpu, scene_name};
@@ -26,11 +28,11 @@ fn over_black(size: u32) -> RenderOptions {
 
 /// `options` with wboit's `weight` and `depth_scale`.
 fn weighted(mut options: RenderOptions, weight: Weight, depth_scale: f64) -> RenderOptions {
-    options.frame.weighted = WeightedOptions {
+    options.frame.families.set(WeightedOptions {
         weight,
         depth_scale,
         ..Default::default()
-    };
+    });
     options
 }
 
@@ -141,7 +143,12 @@ fn settings(moments: Moments) -> cpu::MboitSettings {
 fn mboit_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
     let camera = scene.camera_or_framing();
     per_pixel(scene, options, |_, l, bg| {
-        cpu::mboit(l, bg, &camera, settings(options.frame.weighted.moments))
+        cpu::mboit(
+            l,
+            bg,
+            &camera,
+            settings(options.frame.family::<WeightedOptions>().moments),
+        )
     })
 }
 
@@ -255,7 +262,7 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
     for (moments, high_bytes) in [(4, 0), (6, 8), (8, 16)] {
         let opts = {
             let mut options = base.clone();
-            options.frame.weighted.moments = Moments::Power(moments);
+            options.frame.family_mut::<WeightedOptions>().moments = Moments::Power(moments);
             options
         };
         let name = format!("mboit{moments}-nvpro");
@@ -272,7 +279,7 @@ fn mboit_with_six_and_eight_moments_equals_its_closed_form() {
         for moments in [6, 8] {
             let opts = {
                 let mut options = base.clone();
-                options.frame.weighted.moments = Moments::Power(moments);
+                options.frame.family_mut::<WeightedOptions>().moments = Moments::Power(moments);
                 options
             };
             let expected = mboit_closed_form(&scene, &opts);
@@ -409,7 +416,10 @@ fn mboit_params_layout_matches_wgsl() {
 /// stochastic's closed form: each pixel's reference fragments (with their sample coverage)
 /// through `cpu::stochastic`, the same stipples in f64.
 fn stochastic_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage {
-    let samples = (options.build.msaa, options.frame.weighted.passes);
+    let samples = (
+        options.build.msaa,
+        options.frame.family::<WeightedOptions>().passes,
+    );
     per_pixel(scene, options, |i, l, bg| {
         cpu::stochastic(l, i, samples, bg)
     })
@@ -417,7 +427,7 @@ fn stochastic_closed_form(scene: &Scene, options: &RenderOptions) -> LinearImage
 
 fn stochastic_options(size: u32, passes: u32) -> RenderOptions {
     let mut options = over_black(size);
-    options.frame.weighted.passes = passes;
+    options.frame.family_mut::<WeightedOptions>().passes = passes;
     options.build.msaa = 4;
     options
 }
@@ -537,7 +547,7 @@ fn mboit_with_trigonometric_moments_equals_its_closed_form() {
         let exact = crate::testing::render_reference(&scene, &base);
         for (n, high_bytes) in [(2, 0), (3, 8), (4, 16)] {
             let mut opts = base.clone();
-            opts.frame.weighted.moments = Moments::Trigonometric(n);
+            opts.frame.family_mut::<WeightedOptions>().moments = Moments::Trigonometric(n);
             let name = format!("mboit-trig{n}-{}", spec.trim_start_matches("builtin:"));
             let rmse = mboit_against_closed_form(&scene, &opts, &name, high_bytes, &exact);
             errors.push((name, rmse));
@@ -595,7 +605,7 @@ fn moments_parse_as_the_command_line_writes_them() {
 /// bin (width 2^−levels): what `wavelet` reconstructs.
 #[test]
 fn haar_coefficients_of_a_step_give_its_bin_average() {
-    for n in crate::frame::options::WAVELET_COEFFICIENTS {
+    for n in crate::methods::weighted::options::WAVELET_COEFFICIENTS {
         let bins = f64::from(n);
         for s in [0.0, 0.03, 0.125, 0.3, 0.5, 0.61, 0.874, 0.99] {
             for x in [0.0, 0.05, 0.124, 0.2, 0.45, 0.5, 0.7, 0.9, 0.999] {
@@ -616,7 +626,7 @@ fn haar_coefficients_of_a_step_give_its_bin_average() {
 
 fn wavelet_options(coefficients: u32) -> RenderOptions {
     let mut options = over_black(40);
-    options.frame.weighted.coefficients = coefficients;
+    options.frame.family_mut::<WeightedOptions>().coefficients = coefficients;
     options
 }
 

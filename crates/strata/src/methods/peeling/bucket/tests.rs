@@ -1,9 +1,11 @@
 //! `bucket` against its CPU twin and the reference, on lavapipe; the twin's properties.
 
+use crate::methods::peeling::PeelingOptions;
 use proptest::prelude::*;
 
 use super::*;
-use crate::frame::{BucketSplit, Effect, RenderOptions};
+use crate::frame::{Effect, RenderOptions};
+use crate::methods::peeling::BucketSplit;
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
 use crate::testing::{
@@ -39,7 +41,7 @@ fn twin_picture(scene: &Scene, opts: &RenderOptions, slots: u32) -> (LinearImage
                 &coverage,
                 samples,
                 slots,
-                opts.frame.peeling.buckets,
+                opts.frame.family::<PeelingOptions>().buckets,
             );
             let bg = opts.frame.background.at(x, y).map(|c| c as f64);
             let mut sum = [0.0f64; 3];
@@ -158,7 +160,7 @@ fn bucket_keeps_what_its_cpu_twin_keeps() {
     ] {
         let s = scene(spec);
         let mut opts = options(size, k);
-        opts.frame.peeling.buckets = split;
+        opts.frame.family_mut::<PeelingOptions>().buckets = split;
         let stats = bucket_against_its_twin(&format!("bucket-twin-k{k}"), &s, &opts);
         assert!(
             stats.fragments_dropped.unwrap() > 0,
@@ -186,7 +188,7 @@ fn multisampled_bucket_keeps_what_its_cpu_twin_keeps() {
         let s = scene(spec);
         let mut opts = options(48, k);
         opts.build.msaa = 4;
-        opts.frame.peeling.buckets = split;
+        opts.frame.family_mut::<PeelingOptions>().buckets = split;
         let name = format!("bucket-msaa-{}-k{k}", split.name());
         let stats = bucket_against_its_twin(&name, &s, &opts);
         assert_eq!(stats.bytes_allocated, frame_bytes(48 * 48, k, split, 4));
@@ -213,7 +215,7 @@ fn the_adaptive_split_keeps_what_uniform_buckets_lose() {
     let mut opts = options(64, 8);
     let (_, uniform) = render_gpu(&s, &opts, "bucket");
     assert!(uniform.fragments_dropped.unwrap() > 0);
-    opts.frame.peeling.buckets = BucketSplit::Adaptive;
+    opts.frame.family_mut::<PeelingOptions>().buckets = BucketSplit::Adaptive;
     let adaptive = bucket_against_the_reference("bucket-adaptive", &s, &opts);
     assert_eq!(adaptive.fragments_dropped, Some(0));
     assert_eq!(adaptive.geometry_passes, 4);
@@ -228,7 +230,7 @@ fn the_adaptive_split_keeps_what_uniform_buckets_lose() {
 fn poisoned_storage_changes_nothing_with_the_adaptive_split() {
     let mut opts = crate::methods::tests::options(40, Effect::Translucency);
     opts.frame.k = Some(6);
-    opts.frame.peeling.buckets = BucketSplit::Adaptive;
+    opts.frame.family_mut::<PeelingOptions>().buckets = BucketSplit::Adaptive;
     crate::methods::tests::check_poisoned(&opts, [crate::MethodId::Bucket].into_iter());
 }
 
