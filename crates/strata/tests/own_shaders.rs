@@ -77,55 +77,44 @@ fn over(order: &[Layer], behind: [f64; 3]) -> [f64; 3] {
 
 /// Pixel (x, y) of `method`, worked out from the layers by hand: exact methods composite them
 /// nearest first; `unsorted` blends them in submission order (the last submitted in front);
-/// the weighted methods follow their f64 closed forms (`strata::methods::weighted::cpu`), with
-/// the application's default camera (view distance = window depth); stochastic's stipples hash
-/// the pixel and the quad's id, over 4 samples that every quad covers whole or not at all (its
-/// edges lie between pixels).
+/// the approximate methods follow their f64 closed forms (`Descriptor::closed_form`), with the
+/// application's default camera (view distance = window depth) and the fewest samples they run
+/// with (stochastic's 4, which every quad covers whole or not at all: its edges lie between
+/// pixels).
 fn expected(method: MethodId, x: u32, y: u32) -> [u8; 3] {
-    use strata::methods::weighted::{cpu, mboit};
     let (mut layers, behind) = layers(x, y);
-    let fragments = || -> Vec<strata::resolve::RefFragment> {
-        layers
-            .iter()
-            .map(|(z, c, id)| strata::resolve::RefFragment {
-                depth: *z,
-                prim: *id,
-                front_facing: true,
-                color: [c[0], c[1], c[2]],
-                alpha: c[3],
-                absorption: 0.0,
-                distance: *z,
-                coverage: 0b1111,
-                blend: Default::default(),
-            })
-            .collect()
-    };
-    let camera = strata::frame::application::depth_camera();
-    let moments = |moments| cpu::MboitSettings {
-        bias: mboit::moment_bias(moments) as f64,
-        overestimation: mboit::OVERESTIMATION as f64,
-        moments,
-    };
-    let linear = match method {
-        MethodId::Unsorted => {
+    let d = method.descriptor();
+    let linear = match (method, d.closed_form) {
+        (MethodId::Unsorted, _) => {
             layers.reverse();
             over(&layers, behind)
         }
-        MethodId::Wboit => cpu::wboit(&fragments(), behind, &RenderOptions::default()),
-        MethodId::Mboit => cpu::mboit(
-            &fragments(),
-            behind,
-            &camera,
-            moments(strata::Moments::Power(4)),
-        ),
-        MethodId::Wavelet => cpu::mboit(
-            &fragments(),
-            behind,
-            &camera,
-            moments(strata::Moments::Haar(8)),
-        ),
-        MethodId::Stochastic => cpu::stochastic(&fragments(), y * app::SIZE + x, (4, 1), behind),
-        _ => {
+        (_, Some(closed_form)) => {
+            let fragments: Vec<strata::resolve::RefFragment> = layers
+                .iter()
+                .map(|(z, c, id)| strata::resolve::RefFragment {
+                    depth: *z,
+                    prim: *id,
+                    front_facing: true,
+                    color: [c[0], c[1], c[2]],
+                    alpha: c[3],
+                    absorption: 0.0,
+                    distance: *z,
+                    coverage: 0b1111,
+                    blend: Default::default(),
+                })
+                .collect();
+            let mut options = RenderOptions::default();
+            options.build.msaa = d.min_samples;
+            let site = strata::methods::PixelSite {
+                index: y * app::SIZE + x,
+                background: behind,
+                camera: &strata::frame::application::depth_camera(),
+                options: &options,
+            };
+            closed_form(&fragments, &site)
+        }
+        (_, None) => {
             layers.sort_by(|a, b| a.0.total_cmp(&b.0));
             over(&layers, behind)
         }

@@ -137,6 +137,18 @@ impl Run {
         })
     }
 
+    /// wavg with its pixels' opacity by `opacity`.
+    pub(crate) fn wavg(opacity: strata::methods::weighted::Opacity) -> Run {
+        Run {
+            label: format!("wavg opacity={}", opacity.name()),
+            ..Run::plain("wavg")
+        }
+        .with(strata::WeightedOptions {
+            opacity,
+            ..Default::default()
+        })
+    }
+
     /// `self` at `msaa` samples per pixel.
     pub(crate) fn multisampled(self, msaa: u32) -> Run {
         Run {

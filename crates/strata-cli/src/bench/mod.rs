@@ -160,7 +160,7 @@ const fn on_128_layers(
 const EXPERIMENTS: &[Experiment] = &[
     Experiment {
         name: "approx-quality",
-        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit (4, 6, 8 power and 2, 3, 4 trigonometric moments), wavelet (4, 8 Haar coefficients), mlab (k = 2, 4, 8), stochastic (4 samples, 1, 4 and 16 passes; against the reference at 4 samples), unsorted, sorted, kplus-heap k=8 and k=4 with its tail dropped, blended or weighted (hybrid transparency), bucket k=16 (uniform, adaptive) and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
+        description: "what engines ship against exact: wboit (eqs. 7-10, depth scales 1 and 50), mboit (4, 6, 8 power and 2, 3, 4 trigonometric moments), wavelet (4, 8 Haar coefficients), wavg (average and product opacity), mlab (k = 2, 4, 8), stochastic (4 samples, 1, 4 and 16 passes; against the reference at 4 samples), unsorted, sorted, kplus-heap k=8 and k=4 with its tail dropped, blended or weighted (hybrid transparency), bucket k=16 (uniform, adaptive) and the exact abuffer-ll and kpeel, on nvpro, the dragon, the demo and balls: error against the reference (RMSE, FLIP, % over 2/255, heatmaps), time, memory",
         scenes: &[
             "builtin:nvpro?objects=1024&subdiv=16&seed=0",
             "builtin:dragon",
@@ -186,6 +186,8 @@ const EXPERIMENTS: &[Experiment] = &[
                 Run::mboit(strata::Moments::Trigonometric(4)),
                 Run::wavelet(4),
                 Run::wavelet(8),
+                Run::wavg(strata::methods::weighted::Opacity::Average),
+                Run::wavg(strata::methods::weighted::Opacity::Product),
                 Run::with_k("mlab", 2, true),
                 Run::with_k("mlab", 4, true),
                 Run::with_k("mlab", 8, true),

@@ -31,7 +31,7 @@ use crate::error::{Error, Result};
 use crate::frame::{FrameContext, MethodStats, Recorded, RenderOptions, SceneGpu, Totals};
 use crate::gpu::{Gpu, ResourceCache};
 pub use options::MethodOption;
-pub use table::{Descriptor, Family, Ordering, Support};
+pub use table::{ClosedForm, Descriptor, Family, Ordering, PixelSite, Support};
 
 /// Every method id of the catalogue (with the `clap` feature, a `clap::ValueEnum` whose names
 /// are the ids).
@@ -104,6 +104,8 @@ pub enum MethodId {
     Stochastic,
     /// Wavelet OIT: Haar coefficients of each pixel's absorbance over depth.
     Wavelet,
+    /// Weighted average OIT: the opacity-weighted average color over the average opacity.
+    Wavg,
 }
 
 /// Every method option's spec ([`options::OptionSpec`]), family by family: each family's
@@ -130,6 +132,7 @@ pub static TABLE: &[&Descriptor] = &[
     &weighted::descriptor::WBOIT,
     &weighted::descriptor::MBOIT,
     &weighted::descriptor::WAVELET,
+    &weighted::descriptor::WAVG,
     &weighted::descriptor::STOCHASTIC,
     &peeling::descriptor::F2B,
     &peeling::descriptor::DUAL,

@@ -16,7 +16,8 @@ use crate::frame::{FrameOptions, Raster, RenderOptions, SceneGpu};
 use crate::gpu::Gpu;
 use crate::methods::kbuffer::{KBufferOptions, Tail};
 use crate::methods::options::MethodOption;
-use crate::scene::Blend;
+use crate::resolve::RefFragment;
+use crate::scene::{Blend, Camera};
 
 use super::traffic::TrafficModel;
 use super::{Method, MethodId};
@@ -107,6 +108,23 @@ pub enum Ordering {
 /// `--k auto`'s budget bound: (the method, k, the frame's depth-complexity histogram — `None`:
 /// every pixel as deep as k — and the options).
 pub type KMemory = fn(MethodId, u32, Option<&[u64]>, &RenderOptions) -> u64;
+
+/// Where an approximate method's closed form is worked out: the pixel and what its picture has.
+pub struct PixelSite<'a> {
+    /// The pixel's row-major index in the frame (stochastic's stipples hash it).
+    pub index: u32,
+    /// The linear color behind the fragments.
+    pub background: [f64; 3],
+    /// The frame's camera (mboit's depth warp).
+    pub camera: &'a Camera,
+    /// The frame's options: the samples per pixel and the family's options.
+    pub options: &'a RenderOptions,
+}
+
+/// An approximate method's pixel computed on the CPU in f64 from the pixel's fragments (in any
+/// order, with their sample coverage): what its pictures are held to, up to its targets'
+/// precision (`methods::weighted::cpu`).
+pub type ClosedForm = fn(&[RefFragment], &PixelSite<'_>) -> [f64; 3];
 
 /// Builds a method's GPU state for a scene.
 pub type Constructor = fn(MethodId, &Setup<'_>) -> Result<Box<dyn Method>>;
@@ -227,6 +245,10 @@ pub struct Descriptor {
     /// Its bytes at a k, where `--k auto` may choose its k (`None`: it may not).
     #[cfg_attr(feature = "serde", serde(skip))]
     pub k_memory: Option<KMemory>,
+    /// An approximate method's pixel worked out on the CPU (`None`: exact methods, held to the
+    /// reference, and the baselines).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub closed_form: Option<ClosedForm>,
     /// Makes the method's GPU state for a scene.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub create: Constructor,
@@ -287,6 +309,7 @@ impl Descriptor {
             default_k: crate::methods::kbuffer::DEFAULT_K,
             max_k: 4096,
             k_memory: None,
+            closed_form: None,
             traffic: TrafficModel::PerPixelState {
                 atomic_per_fragment: false,
             },

@@ -1,11 +1,12 @@
 //! The CPU closed forms of the approximate methods, in f64: weighted blended OIT (McGuire & Bavoil
-//! 2013, eq. 6 with the weights of eqs. 7–10), what `wboit` computes up to its f16 targets, and
+//! 2013, eq. 6 with the weights of eqs. 7–10), what `wboit` computes up to its f16 targets;
 //! moment-based OIT with four power moments (Münstermann et al. 2018), what `mboit` computes up to
-//! its f32 moments and f16 accumulation, and stochastic transparency (Enderton et al. 2011) with
-//! the same stipples as `stochastic`, up to its f16 accumulation.
+//! its f32 moments and f16 accumulation; stochastic transparency (Enderton et al. 2011) with the
+//! same stipples as `stochastic`, up to its f16 accumulation; and the weighted average (Bavoil &
+//! Myers 2008), what `wavg` computes up to its f16 targets.
 
 use crate::frame::RenderOptions;
-use crate::methods::weighted::Moments;
+use crate::methods::weighted::{Moments, Opacity};
 use crate::methods::weighted::Weight;
 use crate::methods::weighted::WeightedOptions;
 use crate::resolve::RefFragment;
@@ -44,6 +45,65 @@ pub fn wboit(fragments: &[RefFragment], background: [f64; 3], options: &RenderOp
     }
     let weights = weights.clamp(1e-4, 5e4);
     [0, 1, 2].map(|i| sum[i] / weights * (1.0 - revealage) + background[i] * revealage)
+}
+
+/// The average over a pixel's `samples` of `pixel` of the fragments covering each (all of
+/// them when single-sampled): how a composite of per-sample results averages them.
+pub fn per_sample(
+    fragments: &[RefFragment],
+    samples: u32,
+    pixel: impl Fn(&[RefFragment]) -> [f64; 3],
+) -> [f64; 3] {
+    if samples <= 1 {
+        return pixel(fragments);
+    }
+    let mut sum = [0.0; 3];
+    for sample in 0..samples {
+        let own: Vec<_> = fragments
+            .iter()
+            .filter(|f| f.coverage & (1 << sample) != 0)
+            .copied()
+            .collect();
+        let c = pixel(&own);
+        sum = std::array::from_fn(|i| sum[i] + c[i] / samples as f64);
+    }
+    sum
+}
+
+/// A pixel's sums for `wavg`: Σ α·c, Σ α, the count n and Π(1 − α).
+fn wavg_sums(fragments: &[RefFragment]) -> ([f64; 3], f64, f64, f64) {
+    let (mut sum, mut alpha, mut product) = ([0.0f64; 3], 0.0f64, 1.0f64);
+    for f in fragments {
+        for (s, c) in sum.iter_mut().zip(f.color) {
+            *s += c * f.alpha;
+        }
+        alpha += f.alpha;
+        product *= 1.0 - f.alpha;
+    }
+    (sum, alpha, fragments.len() as f64, product)
+}
+
+/// A pixel's transmittance by each of `wavg`'s opacities: (1 − ᾱ)ⁿ with ᾱ = Σα / n, and
+/// Π(1 − α); both 1 without fragments.
+pub fn wavg_transmittances(fragments: &[RefFragment]) -> (f64, f64) {
+    let (_, alpha, n, product) = wavg_sums(fragments);
+    match n > 0.0 {
+        true => ((1.0 - (alpha / n).clamp(0.0, 1.0)).powf(n), product),
+        false => (1.0, 1.0),
+    }
+}
+
+/// One pixel over `background` as `wavg` composites it (Bavoil & Myers 2008): the average color
+/// Σαc / Σα over the opacity 1 − T, T by `opacity` (see [`wavg_transmittances`]). The fragments
+/// may come in any order.
+pub fn wavg(fragments: &[RefFragment], background: [f64; 3], opacity: Opacity) -> [f64; 3] {
+    let (sum, alpha, _, _) = wavg_sums(fragments);
+    let (average, product) = wavg_transmittances(fragments);
+    let t = match opacity {
+        Opacity::Average => average,
+        Opacity::Product => product,
+    };
+    [0, 1, 2].map(|i| sum[i] / alpha.max(1e-4) * (1.0 - t) + background[i] * t)
 }
 
 /// The moment bias vector of four power moments.

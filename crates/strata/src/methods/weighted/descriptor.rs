@@ -1,8 +1,10 @@
 //! The weighted methods' entries in the method table.
 
-use crate::methods::table::{Descriptor, Family, Setup, Support};
+use crate::methods::table::{Descriptor, Family, PixelSite, Setup, Support};
+use crate::resolve::RefFragment;
 
-use super::options::{COEFFICIENTS, MOMENTS, PASSES, WEIGHT};
+use super::cpu;
+use super::options::{WeightedOptions, COEFFICIENTS, MOMENTS, OPACITY, PASSES, WEIGHT};
 
 /// The weighted methods' blend modes.
 const SUMS_OF_OVER: Support = Support::No(
@@ -27,9 +29,59 @@ fn wavelet(_: MethodId, made: &Setup<'_>) -> Made {
     )?))
 }
 
+fn wavg(_: MethodId, made: &Setup<'_>) -> Made {
+    Ok(Box::new(super::wavg::Wavg::new(made.gpu, made.scene)?))
+}
+
 fn stochastic(_: MethodId, made: &Setup<'_>) -> Made {
     let method = super::stochastic::Stochastic::new(made.gpu, made.scene)?;
     Ok(Box::new(method))
+}
+
+// Each entry's closed form (`cpu`): per sample where the composite averages samples.
+type Pixel = [f64; 3];
+
+fn wboit_pixel(f: &[RefFragment], at: &PixelSite<'_>) -> Pixel {
+    let samples = at.options.build.msaa;
+    cpu::per_sample(f, samples, |own| cpu::wboit(own, at.background, at.options))
+}
+
+fn mboit_settings(moments: super::Moments) -> cpu::MboitSettings {
+    cpu::MboitSettings {
+        bias: super::mboit::moment_bias(moments) as f64,
+        overestimation: super::mboit::OVERESTIMATION as f64,
+        moments,
+    }
+}
+
+fn moments_pixel(f: &[RefFragment], at: &PixelSite<'_>, moments: super::Moments) -> Pixel {
+    let (settings, samples) = (mboit_settings(moments), at.options.build.msaa);
+    match samples {
+        1 => cpu::mboit(f, at.background, at.camera, settings),
+        _ => cpu::mboit_multisampled(f, at.background, at.camera, settings, samples),
+    }
+}
+
+fn mboit_pixel(f: &[RefFragment], at: &PixelSite<'_>) -> Pixel {
+    let moments = at.options.frame.family::<WeightedOptions>().moments;
+    moments_pixel(f, at, moments)
+}
+
+fn wavelet_pixel(f: &[RefFragment], at: &PixelSite<'_>) -> Pixel {
+    let coefficients = at.options.frame.family::<WeightedOptions>().coefficients;
+    moments_pixel(f, at, super::Moments::Haar(coefficients))
+}
+
+fn stochastic_pixel(f: &[RefFragment], at: &PixelSite<'_>) -> Pixel {
+    let passes = at.options.frame.family::<WeightedOptions>().passes;
+    let samples = (at.options.build.msaa, passes);
+    cpu::stochastic(f, at.index, samples, at.background)
+}
+
+fn wavg_pixel(f: &[RefFragment], at: &PixelSite<'_>) -> Pixel {
+    let opacity = at.options.frame.family::<WeightedOptions>().opacity;
+    let samples = at.options.build.msaa;
+    cpu::per_sample(f, samples, |own| cpu::wavg(own, at.background, opacity))
 }
 
 /// `wboit`.
@@ -40,6 +92,7 @@ pub const WBOIT: Descriptor = Descriptor {
     blend_modes: SUMS_OF_OVER,
     downlevel: true,
     app_shaders: Support::Yes,
+    closed_form: Some(wboit_pixel),
     ..Descriptor::new(MethodId::Wboit, "wboit", Family::Weighted, wboit)
 };
 
@@ -52,6 +105,7 @@ pub const MBOIT: Descriptor = Descriptor {
     reads: &[MOMENTS],
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
+    closed_form: Some(mboit_pixel),
     ..Descriptor::new(MethodId::Mboit, "mboit", Family::Weighted, mboit)
 };
 
@@ -64,6 +118,7 @@ pub const WAVELET: Descriptor = Descriptor {
     reads: &[COEFFICIENTS],
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
+    closed_form: Some(wavelet_pixel),
     ..Descriptor::new(MethodId::Wavelet, "wavelet", Family::Weighted, wavelet)
 };
 
@@ -76,5 +131,17 @@ pub const STOCHASTIC: Descriptor = Descriptor {
     min_samples: super::stochastic::MIN_SAMPLES,
     blend_modes: SUMS_OF_OVER,
     app_shaders: Support::Yes,
+    closed_form: Some(stochastic_pixel),
     ..Descriptor::new(MethodId::Stochastic, "stochastic", Family::Weighted, stochastic)
+};
+
+/// `wavg`.
+pub const WAVG: Descriptor = Descriptor {
+    memory: "(12·S + 4)·W·H + 8; S samples per pixel (--msaa, else 1)",
+    summary: "weighted average OIT (Bavoil & Myers 2008): the opacity-weighted average color over the opacity of n fragments of their average opacity ᾱ, 1 − (1 − ᾱ)ⁿ, or the exact 1 − Π(1 − α) (--opacity average|product); every frame reports how far the two lay apart (\"wavg\" statistics)",
+    reads: &[OPACITY],
+    blend_modes: SUMS_OF_OVER,
+    app_shaders: Support::Yes,
+    closed_form: Some(wavg_pixel),
+    ..Descriptor::new(MethodId::Wavg, "wavg", Family::Weighted, wavg)
 };

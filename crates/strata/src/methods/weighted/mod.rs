@@ -1,6 +1,7 @@
 //! Approximate OIT as engines ship it: `wboit`, weighted blended order-independent transparency
 //! (McGuire & Bavoil 2013, JCGT 2(2)), here, `mboit`, moment-based OIT ([`mboit`]), and
-//! `stochastic`, stochastic transparency ([`stochastic`]).
+//! `stochastic`, stochastic transparency ([`stochastic`]), and `wavg`, the weighted average
+//! ([`wavg`]).
 //!
 //! Passes: accumulate (1 geometry pass into two targets: Rgba16Float Σ w·α·c and Σ w·α with
 //! additive blending, R16Float revealage Π(1 − α) by multiplicative blending, and an atomic
@@ -25,8 +26,9 @@ pub mod descriptor;
 pub mod mboit;
 pub mod options;
 pub mod stochastic;
+pub mod wavg;
 
-pub use options::{Moments, Weight, WeightedOptions};
+pub use options::{Moments, Opacity, Weight, WeightedOptions};
 
 use bytemuck::Zeroable;
 
@@ -56,6 +58,10 @@ pub const LIBRARY: Library = &[
     stochastic::PARAMS_WGSL,
     include_str!("stochastic.wgsl"),
     include_str!("stochastic_composite.wgsl"),
+    wavg::PARAMS_WGSL,
+    wavg::CONSTANTS_WGSL,
+    include_str!("wavg_accumulate.wgsl"),
+    include_str!("wavg_composite.wgsl"),
 ];
 use crate::methods::Method;
 
@@ -283,11 +289,14 @@ impl Method for Wboit {
 #[cfg(test)]
 pub(crate) fn stages() -> Vec<Stage> {
     use crate::methods::weighted::Moments;
-    let mut stages =
-        vec![Stage::new("wboit.accumulate", include_str!("wboit_accumulate.wgsl")).with(LIBRARY)];
+    let mut stages = vec![
+        Stage::new("wboit.accumulate", include_str!("wboit_accumulate.wgsl")).with(LIBRARY),
+        wavg::accumulate_stage(),
+    ];
     for samples in [1, 4] {
         stages.push(composite_stage(samples));
         stages.push(mboit::composite_stage(samples));
+        stages.push(wavg::composite_stage(samples));
         let power = [4, 6, 8].map(Moments::Power);
         let trigonometric = [2, 3, 4].map(Moments::Trigonometric);
         let haar = [4, 8].map(Moments::Haar);

@@ -1,5 +1,5 @@
 //! The weighted family's options (`--weight`, `--depth-scale`, `--moments`, `--passes`,
-//! `--coefficients`): the values a frame carries for it (`frame.family::<WeightedOptions>()`),
+//! `--coefficients`, `--opacity`): the values a frame carries for it (`frame.family::<WeightedOptions>()`),
 //! their defaults and ranges. Their flags' specs
 //! (`OPTIONS`) and names (`MethodOption`s, which descriptors list in `reads`) are here too.
 
@@ -23,6 +23,19 @@ keyword_enum! {
         Eq9 = "eq9",
         /// α·max(10⁻², 3·10³·(1 − d)³), d the window depth.
         Eq10 = "eq10",
+    }
+}
+
+keyword_enum! {
+    /// How `wavg` takes a pixel's opacity from its fragments (`--opacity`).
+    #[derive(Default)]
+    pub enum Opacity ("--opacity") {
+        /// From their average opacity ᾱ = Σα/n: 1 − (1 − ᾱ)ⁿ, as if all n fragments were as
+        /// opaque (Bavoil & Myers 2008, the weighted average's).
+        #[default]
+        Average = "average",
+        /// Exactly, 1 − Π(1 − α), by multiplicative blending (McGuire & Bavoil 2013's coverage).
+        Product = "product",
     }
 }
 
@@ -118,6 +131,8 @@ pub struct WeightedOptions {
     pub passes: u32,
     /// wavelet: Haar coefficients per sample, 4 or 8 (8 by default).
     pub coefficients: u32,
+    /// wavg: how a pixel's opacity comes from its fragments' (the paper's average by default).
+    pub opacity: Opacity,
 }
 
 impl Default for WeightedOptions {
@@ -128,6 +143,7 @@ impl Default for WeightedOptions {
             moments: Moments::Power(4),
             passes: 1,
             coefficients: 8,
+            opacity: Opacity::Average,
         }
     }
 }
@@ -170,6 +186,8 @@ pub const MOMENTS: MethodOption = MethodOption::named("moments");
 pub const PASSES: MethodOption = MethodOption::named("passes");
 /// `--coefficients`.
 pub const COEFFICIENTS: MethodOption = MethodOption::named("coefficients");
+/// `--opacity`.
+pub const OPACITY: MethodOption = MethodOption::named("opacity");
 
 /// The weighted family's options (`--weight` and `--depth-scale` also weigh a k-buffer's
 /// `--tail weighted`).
@@ -247,6 +265,20 @@ pub const OPTIONS: &[OptionSpec] = &[
  f.family_mut::<WeightedOptions>().coefficients = parse("--coefficients", v)?;
  Ok(())
  },
+        )],
+    },
+    OptionSpec {
+        option: OPACITY,
+        flags: &[flag(
+            "opacity",
+            "--opacity",
+            "wavg: a pixel's opacity from its fragments' average opacity, 1 - (1 - mean alpha)^n (average, the paper's), or their exact product 1 - prod(1 - alpha) (product)",
+            ValueKind::Choice(Opacity::NAMES),
+            |f| Some(f.family::<WeightedOptions>().opacity.name().to_string()),
+            |f, v| {
+                f.family_mut::<WeightedOptions>().opacity = parse::<Opacity>("--opacity", v)?;
+                Ok(())
+            },
         )],
     },
 ];

@@ -5,7 +5,7 @@
 
 use super::cpu;
 use crate::frame::{Effect, RenderOptions};
-use crate::methods::weighted::Moments;
+use crate::methods::weighted::{Moments, Opacity};
 use crate::methods::weighted::Weight;
 use crate::methods::weighted::WeightedOptions;
 use crate::render::LinearImage;
@@ -698,4 +698,141 @@ fn multisampled_wavelet_equals_its_closed_form() {
         stats.bytes_allocated,
         40 * 40 * ((28 + 16 + super::mboit::WAVELET_BOUNDS_BYTES) * 4 + 4)
     );
+}
+
+/// `options` with wavg's `opacity`.
+fn wavg_options(mut options: RenderOptions, opacity: Opacity) -> RenderOptions {
+    options.frame.family_mut::<WeightedOptions>().opacity = opacity;
+    options
+}
+
+/// wavg matches its closed form with either opacity, on layers of differing opacities (where
+/// the two differ: the test fails if `--opacity` were ignored) and on nvpro.
+#[test]
+fn wavg_equals_its_closed_form_for_each_opacity() {
+    for spec in [LAYERS, NVPRO_96] {
+        let scene = loaders::load_scene(spec).unwrap();
+        let mut pictures = Vec::new();
+        for opacity in [Opacity::Average, Opacity::Product] {
+            let opts = wavg_options(over_black(40), opacity);
+            let expected = per_pixel(&scene, &opts, |_, l, bg| cpu::wavg(l, bg, opacity));
+            let (actual, stats) = render_gpu(&scene, &opts, "wavg");
+            let name = format!("wavg-{}-{}", opacity.name(), scene_name(spec));
+            assert_exact(&name, &actual, &expected, Effect::Transparency);
+            assert_eq!(stats.fragments_dropped, Some(0));
+            pictures.push(actual);
+        }
+        assert!(pictures[0] != pictures[1], "{spec}: --opacity changed nothing");
+    }
+}
+
+/// With --msaa 4 each sample has its own sums, count and product: the picture is the average of
+/// the samples' closed forms.
+#[test]
+fn multisampled_wavg_averages_the_samples_closed_forms() {
+    let scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
+    for opacity in [Opacity::Average, Opacity::Product] {
+        let opts = wavg_options(multisampled(RenderOptions::sized(40, 40)), opacity);
+        let expected = per_pixel(&scene, &opts, |_, l, bg| {
+            let mut sum = [0.0; 3];
+            for sample in 0..4 {
+                let own: Vec<_> = l
+                    .iter()
+                    .filter(|f| f.coverage & (1 << sample) != 0)
+                    .copied()
+                    .collect();
+                let c = cpu::wavg(&own, bg, opacity);
+                sum = std::array::from_fn(|i| sum[i] + c[i] / 4.0);
+            }
+            sum
+        });
+        let (actual, _) = render_gpu(&scene, &opts, "wavg");
+        let name = format!("wavg-{}-msaa4", opacity.name());
+        assert_exact(&name, &actual, &expected, Effect::Transparency);
+    }
+}
+
+/// The frame's own statistics: the largest gap between the average's and the product's
+/// transmittance and the pixels past 1/255 are those of the fragments (to the f16 targets'
+/// rounding), whichever opacity the frame composited with; fragments of one opacity have none.
+#[test]
+fn wavg_reports_how_far_its_opacity_lay_from_the_exact_one() {
+    use super::wavg::WavgStats;
+    let scene = loaders::load_scene("builtin:demo").unwrap();
+    let opts = over_black(40);
+    let lists = crate::methods::kbuffer::tests::fragments_where_rasterizers_agree(&scene, &opts);
+    let gaps: Vec<f64> = lists
+        .iter()
+        .map(|l| {
+            let (average, product) = cpu::wavg_transmittances(l);
+            (average - product).abs()
+        })
+        .collect();
+    let largest = gaps.iter().copied().fold(0.0, f64::max);
+    let past = |threshold: f64| gaps.iter().filter(|&&g| g > threshold).count() as u64;
+    assert!(largest > 0.05 && past(1.0 / 255.0) > 20, "{largest} {}", past(1.0 / 255.0));
+    for opacity in [Opacity::Average, Opacity::Product] {
+        let (_, stats) = render_gpu(&scene, &wavg_options(opts.clone(), opacity), "wavg");
+        let own = *stats.family::<WavgStats>().expect("wavg's statistics");
+        assert!(
+            (own.opacity_gap_max as f64 - largest).abs() < 0.01,
+            "{own:?} against {largest}"
+        );
+        let pixels = own.opacity_gap_pixels;
+        assert!(
+            (past(1.0 / 255.0 + 0.005)..=past(1.0 / 255.0 - 0.003)).contains(&pixels),
+            "{pixels} pixels against {} past 1/255",
+            past(1.0 / 255.0)
+        );
+    }
+    // One opacity (0.5: exact in f16, as are its sums and powers): the average is the product.
+    let (_, stats) = render_gpu(&at_alpha(NVPRO_96, 0.5), &opts, "wavg");
+    let own = *stats.family::<WavgStats>().expect("wavg's statistics");
+    assert!(own.opacity_gap_pixels == 0 && own.opacity_gap_max < 1e-3, "{own:?}");
+}
+
+#[test]
+fn wavg_params_layout_matches_wgsl() {
+    crate::gpu::twin::assert_twin::<super::wavg::WavgParams>();
+}
+
+/// Every method that declares a closed form (`Descriptor::closed_form`) matches it at its
+/// defaults and fewest samples, taken from the table: a new approximate method is held to its
+/// closed form with no line added here.
+#[test]
+fn every_declared_closed_form_is_its_methods_picture() {
+    use crate::methods::PixelSite;
+    let scene = loaders::load_scene(LAYERS).unwrap();
+    let camera = scene.camera_or_framing();
+    let declared: Vec<_> = crate::methods::TABLE
+        .iter()
+        .filter_map(|d| Some((d, d.closed_form?)))
+        .collect();
+    assert!(declared.len() >= 5, "{}", declared.len());
+    for (d, closed_form) in declared {
+        let mut opts = over_black(40);
+        opts.build.msaa = d.min_samples;
+        let expected = per_pixel(&scene, &opts, |index, l, background| {
+            let site = PixelSite {
+                index,
+                background,
+                camera: &camera,
+                options: &opts,
+            };
+            closed_form(l, &site)
+        });
+        let (actual, _) = render_gpu(&scene, &opts, d.name);
+        let name = format!("closed-form-{}", d.name);
+        assert_exact(&name, &actual, &expected, Effect::Transparency);
+    }
+}
+
+/// The weighted family's methods are approximate and each declares its closed form.
+#[test]
+fn each_weighted_method_declares_its_closed_form() {
+    for d in crate::methods::TABLE {
+        if d.family == crate::methods::Family::Weighted {
+            assert!(!d.exact && d.closed_form.is_some(), "{}", d.name);
+        }
+    }
 }
