@@ -440,6 +440,55 @@ fn mlab_notes_its_merges_and_refuses_a_tail() {
     );
 }
 
+/// wavg's own option and statistics reach the command line from its folder: `--opacity` is
+/// taken (and refused for other methods), the statistics JSON has its "wavg" object, and the
+/// summary its line.
+#[test]
+fn wavg_takes_its_option_and_reports_its_statistics() {
+    let dir = workdir("wavg");
+    let stats = dir.join("stats.json");
+    let (o, s) = strata_to_with_stats(
+        &[
+            "render",
+            "builtin:demo",
+            "--method",
+            "wavg",
+            "--opacity",
+            "product",
+            "--size",
+            "48x48",
+        ],
+        &dir.join("wavg.png"),
+        &stats,
+    );
+    assert_contains(&stderr(&o), "note: wavg: the average opacity");
+    let gap = &s["wavg"];
+    assert!(gap["opacity_gap_max"].as_f64().unwrap() > 0.0, "{s}");
+    assert!(gap["opacity_gap_pixels"].as_u64().is_some(), "{s}");
+    assert_bad_input(
+        &[
+            "render",
+            "builtin:demo",
+            "--method",
+            "wboit",
+            "--opacity",
+            "product",
+        ],
+        "--opacity does not apply to wboit",
+    );
+    assert_bad_input(
+        &[
+            "render",
+            "builtin:demo",
+            "--method",
+            "wavg",
+            "--opacity",
+            "median",
+        ],
+        "--opacity",
+    );
+}
+
 #[test]
 fn k_buffer_render_matches_reference_k_and_reports_k() {
     let dir = workdir("kbuffer");

@@ -70,6 +70,9 @@ pub fn summary(stats: &FrameStats, output: &Path, tail: Tail) {
             "order: {order}, Kendall distance to front-to-back order {tau:.3} (0 front to back, 1 back to front)"
         );
     }
+    if let Some(note) = stats.family.as_ref().and_then(|f| f.stat().note()) {
+        eprintln!("note: {note}");
+    }
     if let Some(bands) = stats.bands {
         eprintln!(
             "note: rendered in {bands} bands of rows: the whole picture's per-pixel buffers outgrow this device's largest storage binding"

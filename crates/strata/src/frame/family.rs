@@ -139,6 +139,12 @@ pub trait FamilyStat: Any + std::fmt::Debug + Send + Sync {
     fn kept_promise(&self) -> bool {
         true
     }
+
+    /// What a render's summary says of them on the command line, one line (`None`: nothing
+    /// worth a line).
+    fn note(&self) -> Option<String> {
+        None
+    }
 }
 
 /// One family's statistics, shared cheaply between copies of a frame's statistics.

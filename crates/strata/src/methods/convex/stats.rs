@@ -54,4 +54,12 @@ impl FamilyStat for ConvexStats {
     fn kept_promise(&self) -> bool {
         self.order_violations.unwrap_or(0) == 0
     }
+
+    /// Said only where the order failed: the picture is then not exact.
+    fn note(&self) -> Option<String> {
+        let violations = self.order_violations.filter(|&v| v > 0)?;
+        Some(format!(
+            "convex: the parts' order failed in {violations} pixel-passes (a nearer fragment arrived after farther ones were merged); the picture is not exact there"
+        ))
+    }
 }

@@ -6,9 +6,9 @@
 //! Myers 2008), what `wavg` computes up to its f16 targets.
 
 use crate::frame::RenderOptions;
-use crate::methods::weighted::{Moments, Opacity};
 use crate::methods::weighted::Weight;
 use crate::methods::weighted::WeightedOptions;
+use crate::methods::weighted::{Moments, Opacity};
 use crate::resolve::RefFragment;
 use crate::scene::{Camera, Projection};
 

@@ -5,9 +5,9 @@
 
 use super::cpu;
 use crate::frame::{Effect, RenderOptions};
-use crate::methods::weighted::{Moments, Opacity};
 use crate::methods::weighted::Weight;
 use crate::methods::weighted::WeightedOptions;
+use crate::methods::weighted::{Moments, Opacity};
 use crate::render::LinearImage;
 use crate::scene::{loaders, Scene};
 use crate::testing::{assert_close, assert_exact, per_pixel, render_gpu, scene_name};
@@ -722,7 +722,10 @@ fn wavg_equals_its_closed_form_for_each_opacity() {
             assert_eq!(stats.fragments_dropped, Some(0));
             pictures.push(actual);
         }
-        assert!(pictures[0] != pictures[1], "{spec}: --opacity changed nothing");
+        assert!(
+            pictures[0] != pictures[1],
+            "{spec}: --opacity changed nothing"
+        );
     }
 }
 
@@ -770,7 +773,11 @@ fn wavg_reports_how_far_its_opacity_lay_from_the_exact_one() {
         .collect();
     let largest = gaps.iter().copied().fold(0.0, f64::max);
     let past = |threshold: f64| gaps.iter().filter(|&&g| g > threshold).count() as u64;
-    assert!(largest > 0.05 && past(1.0 / 255.0) > 20, "{largest} {}", past(1.0 / 255.0));
+    assert!(
+        largest > 0.05 && past(1.0 / 255.0) > 20,
+        "{largest} {}",
+        past(1.0 / 255.0)
+    );
     for opacity in [Opacity::Average, Opacity::Product] {
         let (_, stats) = render_gpu(&scene, &wavg_options(opts.clone(), opacity), "wavg");
         let own = *stats.family::<WavgStats>().expect("wavg's statistics");
@@ -788,7 +795,10 @@ fn wavg_reports_how_far_its_opacity_lay_from_the_exact_one() {
     // One opacity (0.5: exact in f16, as are its sums and powers): the average is the product.
     let (_, stats) = render_gpu(&at_alpha(NVPRO_96, 0.5), &opts, "wavg");
     let own = *stats.family::<WavgStats>().expect("wavg's statistics");
-    assert!(own.opacity_gap_pixels == 0 && own.opacity_gap_max < 1e-3, "{own:?}");
+    assert!(
+        own.opacity_gap_pixels == 0 && own.opacity_gap_max < 1e-3,
+        "{own:?}"
+    );
 }
 
 #[test]

@@ -18,8 +18,12 @@
 use bytemuck::Zeroable;
 
 use crate::error::Result;
-use crate::frame::passes::{color_geometry_pass, compute_pipeline, dispatch_pixels, geometry_pipeline};
-use crate::frame::{FamilyStat, FamilyStats, FrameContext, MethodStats, Recorded, SceneGpu, Totals};
+use crate::frame::passes::{
+    color_geometry_pass, compute_pipeline, dispatch_pixels, geometry_pipeline,
+};
+use crate::frame::{
+    FamilyStat, FamilyStats, FrameContext, MethodStats, Recorded, SceneGpu, Totals,
+};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
 use crate::gpu::twin::{gpu_struct, wgsl_constants, wgsl_module};
@@ -89,6 +93,13 @@ impl FamilyStat for WavgStats {
         serde_json::to_value(self).expect("plain numbers")
     }
 
+    fn note(&self) -> Option<String> {
+        Some(format!(
+            "wavg: the average opacity's transmittance lay up to {:.4} from the exact product's, {} pixels past 1/255 (--opacity product composites with the exact one)",
+            self.opacity_gap_max, self.opacity_gap_pixels
+        ))
+    }
+
     fn with_band(&self, next: &FamilyStats) -> Option<FamilyStats> {
         let next = next.get::<WavgStats>()?;
         Some(FamilyStats::new(WavgStats {
@@ -110,7 +121,11 @@ pub struct Wavg {
 
 /// The accumulate stage.
 pub fn accumulate_stage() -> Stage {
-    Stage::new("strata.wavg.accumulate", include_str!("wavg_accumulate.wgsl")).with(LIBRARY)
+    Stage::new(
+        "strata.wavg.accumulate",
+        include_str!("wavg_accumulate.wgsl"),
+    )
+    .with(LIBRARY)
 }
 
 /// The composite stage, reading multisampled targets with `--msaa`.
@@ -196,8 +211,8 @@ impl Wavg {
 impl Method for Wavg {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
-        let bytes = ctx.pixels() * (WAVG_SAMPLE_BYTES * self.samples as u64 + WAVG_COUNT_BYTES)
-            + GAP_BYTES;
+        let bytes =
+            ctx.pixels() * (WAVG_SAMPLE_BYTES * self.samples as u64 + WAVG_COUNT_BYTES) + GAP_BYTES;
         ctx.check_budget(bytes)?;
         let (w, h) = ctx.size();
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
@@ -210,7 +225,9 @@ impl Method for Wavg {
         let revealage = view("strata.wavg.revealage", REVEALAGE_FORMAT);
         let count = view("strata.wavg.count", COUNT_FORMAT);
         let counts = pixel_counts(ctx, &mut self.cache, "strata.wavg.counts")?;
-        let gap = self.cache.readable(gpu, "strata.wavg.opacity_gap", GAP_BYTES)?;
+        let gap = self
+            .cache
+            .readable(gpu, "strata.wavg.opacity_gap", GAP_BYTES)?;
         ctx.encoder.clear_buffer(&gap, 0, None);
         let opacity = ctx.options.frame.family::<WeightedOptions>().opacity;
         let params = WavgParams {
@@ -252,7 +269,12 @@ impl Method for Wavg {
                 gap.as_entire_binding(),
             ],
         );
-        dispatch_pixels(ctx, "composite", &self.composite, &[frame_group, &composite_group]);
+        dispatch_pixels(
+            ctx,
+            "composite",
+            &self.composite,
+            &[frame_group, &composite_group],
+        );
         ctx.readback.words(&gap, 0, GAP_BYTES / 4);
         Ok(Recorded::passes(1, bytes))
     }
