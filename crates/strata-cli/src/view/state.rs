@@ -530,7 +530,8 @@ pub(crate) mod tests {
     }
 
     /// Arguments that set every family option away from its default.
-    pub(crate) const FAMILY_OPTIONS: [&[&str]; 10] = [
+    pub(crate) const FAMILY_OPTIONS: [&[&str]; 11] = [
+        &["--method", "wavg", "--opacity", "product"],
         &[
             "--method",
             "kplus-semiheap",

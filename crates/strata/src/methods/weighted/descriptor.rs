@@ -56,9 +56,10 @@ fn mboit_settings(moments: super::Moments) -> cpu::MboitSettings {
 
 fn moments_pixel(f: &[RefFragment], at: &PixelSite<'_>, moments: super::Moments) -> Pixel {
     let (settings, samples) = (mboit_settings(moments), at.options.build.msaa);
-    match samples {
-        1 => cpu::mboit(f, at.background, at.camera, settings),
-        _ => cpu::mboit_multisampled(f, at.background, at.camera, settings, samples),
+    if samples > 1 {
+        cpu::mboit_multisampled(f, at.background, at.camera, settings, samples)
+    } else {
+        cpu::mboit(f, at.background, at.camera, settings)
     }
 }
 
