@@ -33,7 +33,6 @@
 //! `--temporal` here; the complexity effect is read back but not presented.
 
 use crate::methods::kbuffer::KBufferOptions;
-use crate::methods::peeling::PeelingOptions;
 use bytemuck::Zeroable;
 
 use crate::error::{Error, Result};
@@ -47,6 +46,7 @@ use crate::frame::{Effect, FrameStats, FrameTargets, Raster, RenderOptions, Reso
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{Defs, Stage};
 use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::peeling::PeelingOptions;
 use crate::methods::peeling::MAX_LAYERS;
 use crate::scene::{Camera, GpuVertex, Scene};
 

@@ -50,8 +50,7 @@ use crate::frame::passes::{
 use crate::frame::{FrameContext, MethodStats, Recorded, SceneGpu, Totals};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::{Gpu, ResourceCache};
-use crate::methods::peeling::PeelingOptions;
-use crate::methods::peeling::{layers_for, peel_feedback};
+use crate::methods::peeling::{layers_fixed, layers_for, peel_feedback};
 use crate::methods::{Method, MethodId};
 
 /// kpeel's capture stage (the k+-buffer's under a lock).
@@ -185,12 +184,7 @@ impl Method for KPeel {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let k = k_of(ctx.k, MethodId::Kpeel)?;
         let layers = layers_for(ctx, self.measured);
-        self.layers_fixed = ctx
-            .options
-            .frame
-            .family::<PeelingOptions>()
-            .layers
-            .is_some();
+        self.layers_fixed = layers_fixed(ctx);
         let passes = layers.div_ceil(k);
         // The slots, then the running composites' state (kpeel_state.wgsl).
         let samples = super::sample_storage(MethodId::Kpeel, ctx.options.build.msaa) as u64;

@@ -83,6 +83,15 @@ pub(crate) fn layers_for(ctx: &FrameContext<'_>, measured: Option<u32>) -> u32 {
         .clamp(1, MAX_LAYERS)
 }
 
+/// Whether the options fix the layers (`--layers`), so that a frame peeling them is complete.
+pub(crate) fn layers_fixed(ctx: &FrameContext<'_>) -> bool {
+    ctx.options
+        .frame
+        .family::<PeelingOptions>()
+        .layers
+        .is_some()
+}
+
 /// Feedback of a peeling frame: the depth complexity it measured, and whether it peeled enough
 /// (a frame that peeled the `--layers` asked for is complete: what lies deeper is counted as
 /// dropped, and peeling the same count again would not change it).
@@ -260,12 +269,7 @@ impl Method for FrontToBack {
         let gpu = ctx.gpu;
         let (w, h) = ctx.size();
         let layers = layers_for(ctx, self.measured);
-        self.layers_fixed = ctx
-            .options
-            .frame
-            .family::<PeelingOptions>()
-            .layers
-            .is_some();
+        self.layers_fixed = layers_fixed(ctx);
         let samples = self.samples;
         ctx.check_budget(ctx.pixels() * f2b_pixel_bytes(samples))?;
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
@@ -493,12 +497,7 @@ impl Method for Dual {
     fn record(&mut self, ctx: &mut FrameContext<'_>) -> Result<Recorded> {
         let gpu = ctx.gpu;
         let layers = layers_for(ctx, self.measured);
-        self.layers_fixed = ctx
-            .options
-            .frame
-            .family::<PeelingOptions>()
-            .layers
-            .is_some();
+        self.layers_fixed = layers_fixed(ctx);
         let samples = ctx.scene.samples;
         if samples > 1 && self.key_bytes < 8 {
             return Err(Error::unsupported(format!(

@@ -61,7 +61,6 @@
 //! variants are not built. Translucency gets Fresnel opacity but no
 //! absorption between surfaces.
 
-use crate::methods::weighted::WeightedOptions;
 use bytemuck::Zeroable;
 
 use crate::gpu::twin::{gpu_struct, wgsl_module};
@@ -73,6 +72,7 @@ use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::{self, Stage};
 use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::weighted::Moments;
+use crate::methods::weighted::WeightedOptions;
 use crate::methods::Method;
 
 const B0_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;

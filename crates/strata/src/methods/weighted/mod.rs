@@ -36,7 +36,8 @@ use crate::gpu::twin::{gpu_struct, wgsl_module};
 
 use crate::error::Result;
 use crate::frame::passes::{
-    color_geometry_pass, compute_pipeline, dispatch_pixels, geometry_pipeline,
+    blend_add, color_geometry_pass, color_target, compute_pipeline, dispatch_pixels,
+    geometry_pipeline,
 };
 use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
@@ -124,39 +125,12 @@ impl Wboit {
             include_str!("wboit_accumulate.wgsl"),
         )
         .with(LIBRARY);
-        let additive = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::One,
-            dst_factor: wgpu::BlendFactor::One,
-            operation: wgpu::BlendOperation::Add,
-        };
-        let reveal = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::Zero,
-            dst_factor: wgpu::BlendFactor::OneMinusSrc,
-            operation: wgpu::BlendOperation::Add,
-        };
         let accumulate = geometry_pipeline(
             gpu,
             scene,
             (&stage, "fs_wboit"),
             &[&scene.frame_layout, &accumulate_layout],
-            &[
-                Some(wgpu::ColorTargetState {
-                    format: ACCUMULATION_FORMAT,
-                    blend: Some(wgpu::BlendState {
-                        color: additive,
-                        alpha: additive,
-                    }),
-                    write_mask: wgpu::ColorWrites::ALL,
-                }),
-                Some(wgpu::ColorTargetState {
-                    format: REVEALAGE_FORMAT,
-                    blend: Some(wgpu::BlendState {
-                        color: reveal,
-                        alpha: reveal,
-                    }),
-                    write_mask: wgpu::ColorWrites::ALL,
-                }),
-            ],
+            &[sums(ACCUMULATION_FORMAT), revealage(REVEALAGE_FORMAT)],
             None,
             samples,
         )?;
@@ -175,6 +149,35 @@ pub fn composite_stage(samples: u32) -> Stage {
     Stage::new("strata.wboit.composite", COMPOSITE_WGSL)
         .with(LIBRARY)
         .defs(&shader::target_samples(samples))
+}
+
+/// A target that sums what each fragment writes (blend ONE, ONE).
+fn sums(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
+    use wgpu::BlendFactor::One;
+    color_target(format, Some(blend_add(One, One)))
+}
+
+/// A target that each fragment multiplies by 1 − its value (blend ZERO, ONE_MINUS_SRC): cleared
+/// to 1, it holds Π(1 − α).
+fn revealage(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
+    use wgpu::BlendFactor::{OneMinusSrc, Zero};
+    color_target(format, Some(blend_add(Zero, OneMinusSrc)))
+}
+
+/// Views of this frame's targets (label, format), `samples` per pixel, kept in `cache`:
+/// attachments the composite then reads.
+fn sample_views<const N: usize>(
+    ctx: &FrameContext<'_>,
+    cache: &mut ResourceCache,
+    samples: u32,
+    targets: [(&'static str, wgpu::TextureFormat); N],
+) -> [wgpu::TextureView; N] {
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+    targets.map(|(label, format)| {
+        cache
+            .texture_samples(ctx.gpu, label, ctx.size(), format, usage, samples)
+            .create_view(&Default::default())
+    })
 }
 
 /// The per-pixel fragment counts of this frame, zeroed: the geometry pass adds to them, the
@@ -243,15 +246,15 @@ impl Method for Wboit {
         let gpu = ctx.gpu;
         let bytes = ctx.pixels() * (WBOIT_SAMPLE_BYTES * self.samples as u64 + WBOIT_COUNT_BYTES);
         ctx.check_budget(bytes)?;
-        let (w, h) = ctx.size();
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let mut view = |label, format| {
-            self.cache
-                .texture_samples(gpu, label, (w, h), format, usage, self.samples)
-                .create_view(&Default::default())
-        };
-        let accumulation = view("strata.wboit.accumulation", ACCUMULATION_FORMAT);
-        let revealage = view("strata.wboit.revealage", REVEALAGE_FORMAT);
+        let [accumulation, revealage] = sample_views(
+            ctx,
+            &mut self.cache,
+            self.samples,
+            [
+                ("strata.wboit.accumulation", ACCUMULATION_FORMAT),
+                ("strata.wboit.revealage", REVEALAGE_FORMAT),
+            ],
+        );
         let counts = pixel_counts(ctx, &mut self.cache, "strata.wboit.counts")?;
         let params = WboitParams::new(&ctx.options.frame.family::<WeightedOptions>());
         let params = self

@@ -22,7 +22,6 @@
 //! and stipples in f64) is tested; its error against the reference is measured (`strata bench
 //! approx-quality`). Translucency gets Fresnel opacity but no absorption between surfaces.
 
-use crate::methods::weighted::WeightedOptions;
 use bytemuck::Zeroable;
 
 use crate::gpu::twin::{gpu_struct, wgsl_module};
@@ -35,6 +34,7 @@ use crate::frame::{FrameContext, Recorded, SceneGpu};
 use crate::gpu::binding::{self, Slot};
 use crate::gpu::shader::Stage;
 use crate::gpu::{Gpu, ResourceCache};
+use crate::methods::weighted::WeightedOptions;
 use crate::methods::Method;
 
 use super::LIBRARY;

@@ -78,17 +78,7 @@ fn multisampled_wboit_averages_the_samples_closed_forms() {
     let scene = loaders::load_scene("builtin:spheres?layers=4").unwrap();
     let opts = multisampled(RenderOptions::sized(40, 40));
     let expected = per_pixel(&scene, &opts, |_, l, bg| {
-        let mut sum = [0.0; 3];
-        for sample in 0..4 {
-            let own: Vec<_> = l
-                .iter()
-                .filter(|f| f.coverage & (1 << sample) != 0)
-                .copied()
-                .collect();
-            let c = cpu::wboit(&own, bg, &opts);
-            sum = std::array::from_fn(|i| sum[i] + c[i] / 4.0);
-        }
-        sum
+        cpu::per_sample(l, 4, |own| cpu::wboit(own, bg, &opts))
     });
     let (actual, _) = render_gpu(&scene, &opts, "wboit");
     assert_exact("wboit-msaa4", &actual, &expected, Effect::Transparency);
@@ -737,17 +727,7 @@ fn multisampled_wavg_averages_the_samples_closed_forms() {
     for opacity in [Opacity::Average, Opacity::Product] {
         let opts = wavg_options(multisampled(RenderOptions::sized(40, 40)), opacity);
         let expected = per_pixel(&scene, &opts, |_, l, bg| {
-            let mut sum = [0.0; 3];
-            for sample in 0..4 {
-                let own: Vec<_> = l
-                    .iter()
-                    .filter(|f| f.coverage & (1 << sample) != 0)
-                    .copied()
-                    .collect();
-                let c = cpu::wavg(&own, bg, opacity);
-                sum = std::array::from_fn(|i| sum[i] + c[i] / 4.0);
-            }
-            sum
+            cpu::per_sample(l, 4, |own| cpu::wavg(own, bg, opacity))
         });
         let (actual, _) = render_gpu(&scene, &opts, "wavg");
         let name = format!("wavg-{}-msaa4", opacity.name());

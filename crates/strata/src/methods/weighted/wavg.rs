@@ -31,7 +31,9 @@ use crate::gpu::{Gpu, ResourceCache};
 use crate::methods::Method;
 
 use super::options::{Opacity, WeightedOptions};
-use super::{pixel_counts, ACCUMULATION_FORMAT, LIBRARY, REVEALAGE_FORMAT};
+use super::{
+    pixel_counts, revealage, sample_views, sums, ACCUMULATION_FORMAT, LIBRARY, REVEALAGE_FORMAT,
+};
 
 /// The count target's format: whole numbers exact up to 2048.
 pub(crate) const COUNT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
@@ -142,35 +144,15 @@ impl Wavg {
         let samples = scene.samples;
         let accumulate_layout =
             binding::layout(device, "strata.wavg.accumulate.layout", &[Slot::StorageRw]);
-        let additive = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::One,
-            dst_factor: wgpu::BlendFactor::One,
-            operation: wgpu::BlendOperation::Add,
-        };
-        let reveal = wgpu::BlendComponent {
-            src_factor: wgpu::BlendFactor::Zero,
-            dst_factor: wgpu::BlendFactor::OneMinusSrc,
-            operation: wgpu::BlendOperation::Add,
-        };
-        let target = |format, component| {
-            Some(wgpu::ColorTargetState {
-                format,
-                blend: Some(wgpu::BlendState {
-                    color: component,
-                    alpha: component,
-                }),
-                write_mask: wgpu::ColorWrites::ALL,
-            })
-        };
         let accumulate = geometry_pipeline(
             gpu,
             scene,
             (&accumulate_stage(), "fs_wavg"),
             &[&scene.frame_layout, &accumulate_layout],
             &[
-                target(ACCUMULATION_FORMAT, additive),
-                target(REVEALAGE_FORMAT, reveal),
-                target(COUNT_FORMAT, additive),
+                sums(ACCUMULATION_FORMAT),
+                revealage(REVEALAGE_FORMAT),
+                sums(COUNT_FORMAT),
             ],
             None,
             samples,
@@ -214,16 +196,16 @@ impl Method for Wavg {
         let bytes =
             ctx.pixels() * (WAVG_SAMPLE_BYTES * self.samples as u64 + WAVG_COUNT_BYTES) + GAP_BYTES;
         ctx.check_budget(bytes)?;
-        let (w, h) = ctx.size();
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
-        let mut view = |label, format| {
-            self.cache
-                .texture_samples(gpu, label, (w, h), format, usage, self.samples)
-                .create_view(&Default::default())
-        };
-        let accumulation = view("strata.wavg.accumulation", ACCUMULATION_FORMAT);
-        let revealage = view("strata.wavg.revealage", REVEALAGE_FORMAT);
-        let count = view("strata.wavg.count", COUNT_FORMAT);
+        let [accumulation, revealage, count] = sample_views(
+            ctx,
+            &mut self.cache,
+            self.samples,
+            [
+                ("strata.wavg.accumulation", ACCUMULATION_FORMAT),
+                ("strata.wavg.revealage", REVEALAGE_FORMAT),
+                ("strata.wavg.count", COUNT_FORMAT),
+            ],
+        );
         let counts = pixel_counts(ctx, &mut self.cache, "strata.wavg.counts")?;
         let gap = self
             .cache
