@@ -599,10 +599,8 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
                 "max depth complexity",
                 n(s.max_depth_complexity.map(u64::from)),
             );
-            if let Some(t) = s.family::<strata::methods::tiled::TiledStats>() {
-                row("tiled rounds", t.rounds.to_string());
-                row("unfinished pixels", t.unfinished_pixels.to_string());
-                row("longest tile list", t.longest_list.to_string());
+            for (name, value) in family_rows(s) {
+                row(&name, value);
             }
         });
     if let Some(t) = s.family::<strata::methods::tiled::TiledStats>() {
@@ -633,6 +631,33 @@ fn statistics(ui: &mut egui::Ui, panel: &Panel, readouts: &Readouts<'_>) {
             .default_open(true)
             .show(ui, |ui| histogram_chart(ui, hist, "fragments", "pixels"));
     }
+}
+
+/// A family's own statistics as rows (`tiled rounds`, `wavg opacity gap max`): each plain
+/// field of its JSON, so that a family's new statistic shows with no line here (lists, such as
+/// tiled's rounds per tile, get their charts below).
+fn family_rows(s: &strata::FrameStats) -> Vec<(String, String)> {
+    use serde_json::Value;
+    let Some(stat) = s.family.as_ref().map(|f| f.stat()) else {
+        return Vec::new();
+    };
+    let Value::Object(fields) = stat.to_json() else {
+        return Vec::new();
+    };
+    fields
+        .into_iter()
+        .filter_map(|(name, value)| {
+            let text = match value {
+                Value::Number(n) if n.is_f64() => format!("{:.4}", n.as_f64()?),
+                Value::Number(n) => n.to_string(),
+                Value::Bool(b) => if b { "yes" } else { "no" }.to_string(),
+                Value::String(text) => text,
+                Value::Null => "—".to_string(),
+                Value::Array(_) | Value::Object(_) => return None,
+            };
+            Some((format!("{} {}", stat.key(), name.replace('_', " ")), text))
+        })
+        .collect()
 }
 
 fn series_color(i: usize) -> Color32 {
@@ -756,6 +781,28 @@ fn compare_controls(ui: &mut egui::Ui, panel: &mut Panel, actions: &mut Vec<Acti
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A family's statistics show as rows of their plain fields, whatever the family.
+    #[test]
+    fn family_statistics_show_as_rows() {
+        use strata::methods::weighted::wavg::WavgStats;
+        let stats = strata::FrameStats {
+            family: Some(strata::frame::FamilyStats::new(WavgStats {
+                opacity_gap_max: 0.25,
+                opacity_gap_pixels: 7,
+            })),
+            ..Default::default()
+        };
+        let rows = super::family_rows(&stats);
+        assert_eq!(
+            rows,
+            vec![
+                ("wavg opacity gap max".to_string(), "0.2500".to_string()),
+                ("wavg opacity gap pixels".to_string(), "7".to_string()),
+            ]
+        );
+        assert!(super::family_rows(&strata::FrameStats::default()).is_empty());
+    }
 
     /// Drawing the method controls with no input changes no option: each family option's widget,
     /// made from its spec, shows the value it was given and sets nothing.
