@@ -91,6 +91,6 @@ pub use glam;
 pub use methods::downlevel::DownlevelFrame;
 pub use methods::kbuffer::{KBufferOptions, StorageLayout, Tail, DEFAULT_MAX_TRIES};
 pub use methods::peeling::{BucketSplit, PeelingOptions};
-pub use methods::weighted::{Moments, Weight, WeightedOptions};
+pub use methods::weighted::{Moments, Opacity, Weight, WeightedOptions};
 pub use methods::MethodId;
 pub use render::{FrameRecorder, LinearImage, Renderer};
